@@ -1,0 +1,104 @@
+use std::path::PathBuf;
+
+/// An error reading or writing a pack, naming the file.
+#[derive(Debug, thiserror::Error)]
+pub enum PackError {
+    #[error("{}: {source}", path.display())]
+    Io {
+        path: PathBuf,
+        #[source]
+        source: std::io::Error,
+    },
+    #[error("{}: {}", path.display(), describe(*offset, problem))]
+    Invalid {
+        path: PathBuf,
+        /// Byte offset in the file where the problem was found, when there is one.
+        offset: Option<u64>,
+        problem: Problem,
+    },
+}
+
+fn describe(offset: Option<u64>, problem: &Problem) -> String {
+    match offset {
+        Some(o) => format!("at byte offset {o}: {problem}"),
+        None => problem.to_string(),
+    }
+}
+
+impl PackError {
+    pub fn problem(&self) -> Option<&Problem> {
+        match self {
+            PackError::Invalid { problem, .. } => Some(problem),
+            PackError::Io { .. } => None,
+        }
+    }
+
+    /// True for I/O failures of the operating system (as opposed to invalid content).
+    pub fn is_io(&self) -> bool {
+        matches!(self, PackError::Io { .. })
+    }
+}
+
+/// What is wrong with a pack's bytes.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum Problem {
+    #[error("file is {len} bytes, shorter than the {need}-byte header: truncated or not a pack")]
+    TooShort { len: u64, need: u64 },
+    #[error("bad magic {found:02x?}: not a stained-glass pack")]
+    BadMagic { found: [u8; 8] },
+    #[error(
+        "pack format version {found}, but this build reads version {expected}: re-cook the pack with this cooker"
+    )]
+    Version { found: u32, expected: u32 },
+    #[error("{what} checksum mismatch: stored {stored:#010x}, computed {computed:#010x}")]
+    Checksum { what: String, stored: u32, computed: u32 },
+    #[error("{what} is {found} but must be {expected}")]
+    Field { what: String, found: u64, expected: u64 },
+    #[error("{what} is {found} but at most {max} is allowed")]
+    Limit { what: String, found: u64, max: u64 },
+    #[error("file length is {actual} bytes but the header says {declared}")]
+    Length { declared: u64, actual: u64 },
+    #[error("trailing data after the last section")]
+    TrailingData,
+    #[error("unknown section kind {kind} in section {index}")]
+    UnknownSection { index: u32, kind: u32 },
+    #[error(
+        "section {index} spans bytes {start}..{end}, which is outside the valid range {min}..{max}"
+    )]
+    SectionBounds { index: u32, start: u64, end: u64, min: u64, max: u64 },
+    #[error("section {index} at offset {offset} is not aligned to {align}")]
+    Alignment { index: u32, offset: u64, align: u64 },
+    #[error("non-zero padding or reserved byte")]
+    NonZeroPadding,
+    #[error("table of contents could not be decoded: {0}")]
+    TocDecode(String),
+    #[error("table of contents is invalid: {0}")]
+    Toc(String),
+    #[error("unexpected end of stream while reading {what}")]
+    Truncated { what: String },
+}
+
+/// A failure inside the byte-level code, before a path is attached.
+#[derive(Debug, Clone)]
+pub struct Fail {
+    pub offset: Option<u64>,
+    pub problem: Problem,
+}
+
+impl Fail {
+    pub fn at(offset: u64, problem: Problem) -> Self {
+        Self { offset: Some(offset), problem }
+    }
+    pub fn toc(msg: impl Into<String>) -> Self {
+        Self { offset: None, problem: Problem::Toc(msg.into()) }
+    }
+    pub fn with_path(self, path: impl Into<PathBuf>) -> PackError {
+        PackError::Invalid { path: path.into(), offset: self.offset, problem: self.problem }
+    }
+}
+
+impl From<Problem> for Fail {
+    fn from(problem: Problem) -> Self {
+        Self { offset: None, problem }
+    }
+}

@@ -1,0 +1,33 @@
+//! The stained-glass pack format: one file holding a scene's cooked geometry and textures.
+//!
+//! Layout (all integers little endian; full description in `docs/pack-format.md`):
+//! a 64-byte header (magic, version, section count, file length, table CRC, header CRC), a
+//! table of 32-byte section entries (kind, alignment, offset, length, CRC-32), then the
+//! sections in streaming order: the bincode-encoded [`Toc`], geometry, then texture mips from
+//! the smallest to the largest. Padding and reserved bytes are zero, and every byte of the file
+//! is covered by a CRC-32 or a zero/structure check, so any single flipped bit is detected.
+
+mod error;
+pub mod format;
+mod reader;
+mod stream;
+pub mod toc;
+mod validate;
+mod writer;
+
+pub use error::{PackError, Problem};
+pub use format::{FORMAT_VERSION, SectionEntry, SectionKind};
+pub use reader::{AlignedBytes, Pack, validate_bytes};
+pub use stream::{StreamReader, StreamSection};
+pub use toc::*;
+pub use validate::{SectionRole, encode_toc};
+pub use writer::{MeshData, PackData, encode, write_atomic, write_pack};
+
+/// Raw error of [`validate_bytes`]; converts into a [`PackError`] with a path.
+pub use error::Fail as ByteError;
+
+impl ByteError {
+    pub fn into_error(self, path: impl Into<std::path::PathBuf>) -> PackError {
+        self.with_path(path)
+    }
+}

@@ -1,0 +1,162 @@
+//! Deterministic pack writer. The caller hands over the TOC and the bulk data; the writer assigns
+//! section indices in streaming order, so no caller can get the order wrong.
+
+use std::io::Write;
+use std::path::Path;
+
+use crate::error::PackError;
+use crate::format::{
+    FORMAT_VERSION, HEADER_SIZE, Header, SECTION_ENTRY_SIZE, SectionEntry, SectionKind, align_up,
+    crc32,
+};
+use crate::toc::Toc;
+use crate::validate::encode_toc;
+
+/// Bulk data of one mesh, raw little-endian bytes laid out as its `VertexLayout` says.
+#[derive(Clone, Debug, Default)]
+pub struct MeshData {
+    pub vertices: Vec<u8>,
+    pub indices: Vec<u8>,
+}
+
+/// Everything that goes into the bulk sections, parallel to `Toc::meshes` and `Toc::textures`.
+#[derive(Clone, Debug, Default)]
+pub struct PackData {
+    pub meshes: Vec<MeshData>,
+    /// Per texture, per mip level (level 0 first), tightly packed RGBA8 rows.
+    pub textures: Vec<Vec<Vec<u8>>>,
+}
+
+/// Encodes a pack in memory. Overwrites every section index in `toc`; validates the result with
+/// the reader's own checks, so an invalid pack is never produced.
+pub fn encode(mut toc: Toc, data: &PackData) -> Result<Vec<u8>, PackError> {
+    let memory = Path::new("<pack being written>");
+    if data.meshes.len() != toc.meshes.len() || data.textures.len() != toc.textures.len() {
+        return Err(crate::error::Fail::toc(format!(
+            "writer got data for {} meshes and {} textures, TOC has {} and {}",
+            data.meshes.len(),
+            data.textures.len(),
+            toc.meshes.len(),
+            toc.textures.len()
+        ))
+        .with_path(memory));
+    }
+    // Streaming order: TOC, geometry, then mips by size (smallest first), ties by texture and
+    // level so the order is total and deterministic.
+    let mut blobs: Vec<(SectionKind, &[u8])> = Vec::new();
+    for (mesh, d) in toc.meshes.iter_mut().zip(&data.meshes) {
+        mesh.vertex_section = blobs.len() as u32 + 1;
+        blobs.push((SectionKind::Vertices, &d.vertices));
+        mesh.index_section = blobs.len() as u32 + 1;
+        blobs.push((SectionKind::Indices, &d.indices));
+    }
+    let mut mips: Vec<(u64, usize, usize)> = Vec::new();
+    for (ti, levels) in data.textures.iter().enumerate() {
+        if levels.len() != toc.textures[ti].mips.len() {
+            return Err(crate::error::Fail::toc(format!(
+                "texture {ti}: {} mip levels of data, TOC lists {}",
+                levels.len(),
+                toc.textures[ti].mips.len()
+            ))
+            .with_path(memory));
+        }
+        for (level, bytes) in levels.iter().enumerate() {
+            mips.push((bytes.len() as u64, ti, level));
+        }
+    }
+    mips.sort_by(|a, b| a.0.cmp(&b.0).then(a.1.cmp(&b.1)).then(b.2.cmp(&a.2)));
+    for &(_, ti, level) in &mips {
+        toc.textures[ti].mips[level].section = blobs.len() as u32 + 1;
+        blobs.push((SectionKind::TextureMip, &data.textures[ti][level]));
+    }
+
+    let toc_bytes = encode_toc(&toc);
+    let mut sections: Vec<(SectionKind, &[u8])> = vec![(SectionKind::Toc, &toc_bytes)];
+    sections.extend(blobs);
+
+    let count = sections.len() as u64;
+    let mut entries = Vec::with_capacity(sections.len());
+    let mut cursor = HEADER_SIZE + count * SECTION_ENTRY_SIZE;
+    for &(kind, bytes) in &sections {
+        let offset = align_up(cursor, kind.alignment());
+        entries.push(SectionEntry {
+            kind,
+            align: kind.alignment(),
+            offset,
+            length: bytes.len() as u64,
+            crc: crc32(bytes),
+        });
+        cursor = offset + bytes.len() as u64;
+    }
+    let mut table = Vec::with_capacity((count * SECTION_ENTRY_SIZE) as usize);
+    for e in &entries {
+        e.encode(&mut table);
+    }
+    let header = Header {
+        version: FORMAT_VERSION,
+        section_count: count as u32,
+        file_length: cursor,
+        table_offset: HEADER_SIZE,
+        table_crc: crc32(&table),
+    };
+    let mut out = Vec::with_capacity(cursor as usize);
+    out.extend_from_slice(&header.encode());
+    out.extend_from_slice(&table);
+    for (e, &(_, bytes)) in entries.iter().zip(&sections) {
+        out.resize(e.offset as usize, 0);
+        out.extend_from_slice(bytes);
+    }
+    debug_assert_eq!(out.len() as u64, cursor);
+    crate::reader::validate_bytes(&out).map_err(|e| e.with_path(memory))?;
+    Ok(out)
+}
+
+/// Writes `bytes` to `path` atomically: a temp file in the same directory, fsync, then rename.
+/// A failure at any point leaves whatever was at `path` untouched.
+pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<(), PackError> {
+    let io = |source| PackError::Io { path: path.to_path_buf(), source };
+    let dir = match path.parent() {
+        Some(d) if !d.as_os_str().is_empty() => d,
+        _ => Path::new("."),
+    };
+    let name = path.file_name().ok_or_else(|| {
+        io(std::io::Error::new(std::io::ErrorKind::InvalidInput, "output path has no file name"))
+    })?;
+    // Unique per process and call, so concurrent cooks into the same directory never share a
+    // temp file.
+    static COUNTER: std::sync::atomic::AtomicU64 = std::sync::atomic::AtomicU64::new(0);
+    let n = COUNTER.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+    let tmp = dir.join(format!(
+        ".{}.tmp-{}-{n}",
+        name.to_string_lossy(),
+        std::process::id()
+    ));
+    let result = (|| {
+        let mut f = std::fs::OpenOptions::new().write(true).create_new(true).open(&tmp)?;
+        f.write_all(bytes)?;
+        f.sync_all()?;
+        drop(f);
+        std::fs::rename(&tmp, path)
+    })();
+    if let Err(e) = result {
+        let _ = std::fs::remove_file(&tmp);
+        return Err(io(e));
+    }
+    Ok(())
+}
+
+/// Encodes and writes a pack atomically.
+pub fn write_pack(path: &Path, toc: Toc, data: &PackData) -> Result<(), PackError> {
+    let bytes = encode(toc, data).map_err(|e| match e {
+        PackError::Invalid { offset, problem, .. } => {
+            PackError::Invalid { path: path.to_path_buf(), offset, problem }
+        }
+        other => other,
+    })?;
+    write_atomic(path, &bytes)
+}
+
+/// Current format version, for callers that key caches on it.
+pub const fn format_version() -> u32 {
+    FORMAT_VERSION
+}

@@ -1,0 +1,372 @@
+use std::path::{Path, PathBuf};
+
+use pack::*;
+use proptest::prelude::*;
+
+fn sample_texture(name: &str, role: TextureRole, w: u32, h: u32) -> (Texture, Vec<Vec<u8>>) {
+    let mut mips = Vec::new();
+    let mut data = Vec::new();
+    let (mut mw, mut mh) = (w, h);
+    loop {
+        mips.push(MipLevel { width: mw, height: mh, section: 0 });
+        data.push((0..mw * mh * 4).map(|i| (i * 7 + mw) as u8).collect());
+        if mw == 1 && mh == 1 {
+            break;
+        }
+        mw = (mw / 2).max(1);
+        mh = (mh / 2).max(1);
+    }
+    let colour_space = if role == TextureRole::Normal { ColourSpace::Linear } else { ColourSpace::Srgb };
+    (
+        Texture { name: name.into(), role, colour_space, format: TextureFormat::Rgba8, width: w, height: h, mips },
+        data,
+    )
+}
+
+fn material(name: &str, class: MaterialClass) -> Material {
+    Material {
+        name: name.into(),
+        class,
+        diffuse: [0.5, 0.4, 0.3],
+        specular: [0.1; 3],
+        shininess: 16.0,
+        emissive: [0.0; 3],
+        diffuse_texture: None,
+        normal_texture: None,
+        projector_texture: None,
+    }
+}
+
+/// A small pack exercising every TOC field; its bytes are the golden file.
+fn sample() -> (Toc, PackData) {
+    let v = |p: [f32; 3], uv: [f32; 2], m: u16| StandardVertex {
+        position: p,
+        normal: [0.0, 0.0, 1.0],
+        uv,
+        tangent: [1.0, 0.0, 0.0, 1.0],
+        material: [m, 0],
+    };
+    let verts = [
+        v([0.0, 0.0, 0.0], [0.0, 0.0], 0),
+        v([1.0, 0.0, 0.0], [1.0, 0.0], 0),
+        v([1.0, 1.0, 0.0], [1.0, 1.0], 0),
+        v([0.0, 1.0, 0.0], [0.0, 1.0], 1),
+        v([1.0, 0.0, 0.0], [1.0, 0.0], 1),
+        v([1.0, 1.0, 0.0], [1.0, 1.0], 1),
+    ];
+    let indices: [u16; 6] = [0, 1, 2, 3, 4, 5];
+    let mesh = Mesh {
+        name: "quad".into(),
+        layout: VertexLayout::standard(),
+        vertex_count: 6,
+        index_count: 6,
+        index_format: IndexFormat::U16,
+        vertex_section: 0,
+        index_section: 0,
+        bounds_min: [0.0; 3],
+        bounds_max: [1.0, 1.0, 0.0],
+        ranges: vec![
+            DrawRange { material: 0, first_index: 0, index_count: 3 },
+            DrawRange { material: 1, first_index: 3, index_count: 3 },
+        ],
+    };
+    let (colour, cdata) = sample_texture("rose.colour", TextureRole::Colour, 4, 2);
+    let (normal, ndata) = sample_texture("rose.normal", TextureRole::Normal, 3, 3);
+    let mut window = material("rose", MaterialClass::WindowUpper);
+    window.diffuse_texture = Some(0);
+    window.normal_texture = Some(1);
+    let toc = Toc {
+        meshes: vec![mesh],
+        materials: vec![material("floor", MaterialClass::Floor), window],
+        textures: vec![colour, normal],
+        windows: vec![Window {
+            material: 1,
+            origin: [0.0; 3],
+            u_axis: [1.0, 0.0, 0.0],
+            v_axis: [0.0, 1.0, 0.0],
+            normal: [0.0, 0.0, -1.0],
+        }],
+        light: Some(Light {
+            kind: LightKind::Directional { direction: [0.3, -0.5, -1.0], angular_size: 0.00925 },
+            colour: [1.0, 0.95, 0.9],
+            intensity: 3.0,
+        }),
+        cameras: vec![Camera {
+            name: "nave".into(),
+            position: [0.0, 1.7, 5.0],
+            target: [0.0, 1.7, 0.0],
+            up: [0.0, 1.0, 0.0],
+            fov_y: 60.0,
+            near: 0.05,
+            far: 200.0,
+        }],
+        background: Background { colour: [0.2, 0.3, 0.5], panorama: None },
+    };
+    let data = PackData {
+        meshes: vec![MeshData {
+            vertices: bytemuck::cast_slice(&verts).to_vec(),
+            indices: bytemuck::cast_slice(&indices).to_vec(),
+        }],
+        textures: vec![cdata, ndata],
+    };
+    (toc, data)
+}
+
+fn sample_bytes() -> Vec<u8> {
+    let (toc, data) = sample();
+    encode(toc, &data).expect("sample encodes")
+}
+
+fn golden_path() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("../../tests/data/golden")
+        .join(format!("sample-v{FORMAT_VERSION}.pack"))
+}
+
+#[test]
+fn golden_bytes_match_this_format_version() {
+    let bytes = sample_bytes();
+    let path = golden_path();
+    if std::env::var_os("BLESS").is_some() {
+        std::fs::create_dir_all(path.parent().unwrap()).unwrap();
+        std::fs::write(&path, &bytes).unwrap();
+    }
+    let golden = std::fs::read(&path).unwrap_or_else(|e| {
+        panic!("{}: {e}; run with BLESS=1 after a deliberate format change (and bump FORMAT_VERSION)", path.display())
+    });
+    assert!(
+        golden == bytes,
+        "the encoding changed without a FORMAT_VERSION bump: the bytes differ from {}",
+        path.display()
+    );
+    // And the committed file still reads.
+    Pack::from_bytes(&path, &golden).unwrap();
+}
+
+#[test]
+fn round_trip_mmap_and_stream() {
+    let bytes = sample_bytes();
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("s.pack");
+    let (toc, data) = sample();
+    write_pack(&path, toc, &data).unwrap();
+    assert_eq!(std::fs::read(&path).unwrap(), bytes, "file and memory encodings agree");
+    let pack = Pack::open(&path).unwrap();
+    let toc = pack.toc().clone();
+    assert_eq!(toc.meshes[0].vertex_count, 6);
+    assert_eq!(pack.indices(&toc.meshes[0]).as_ref(), &[0, 1, 2, 3, 4, 5]);
+    assert_eq!(pack.mip_bytes(0, 0), data.textures[0][0].as_slice());
+    assert_eq!(toc.triangles_per_material(), vec![1, 1]);
+
+    let mut stream = StreamReader::new(&path, std::io::Cursor::new(&bytes)).unwrap();
+    let mut roles = Vec::new();
+    while let Some(s) = stream.next_section().unwrap() {
+        assert_eq!(&*s.bytes, pack.section_bytes(s.index));
+        roles.push(s.role);
+    }
+    assert_eq!(stream.toc(), Some(&toc));
+    // Streaming order: TOC, geometry, then every texture's levels smallest first.
+    assert_eq!(roles[0], SectionRole::Toc);
+    assert!(matches!(roles[1], SectionRole::Vertices { .. }));
+    assert!(matches!(roles[2], SectionRole::Indices { .. }));
+    let sizes: Vec<u64> = roles[3..]
+        .iter()
+        .map(|r| match *r {
+            SectionRole::Mip { texture, level } => toc.textures[texture as usize].level_bytes(level as usize),
+            _ => panic!("geometry after mips"),
+        })
+        .collect();
+    assert!(sizes.windows(2).all(|w| w[0] <= w[1]), "mips smallest first: {sizes:?}");
+}
+
+fn read_all_stream(bytes: &[u8]) -> Result<(), PackError> {
+    let mut s = StreamReader::new("p", std::io::Cursor::new(bytes))?;
+    while s.next_section()?.is_some() {}
+    Ok(())
+}
+
+#[test]
+fn every_truncated_prefix_is_rejected() {
+    let bytes = sample_bytes();
+    for len in 0..bytes.len() {
+        let prefix = &bytes[..len];
+        assert!(Pack::from_bytes("p", prefix).is_err(), "prefix of {len} bytes accepted");
+        assert!(read_all_stream(prefix).is_err(), "stream prefix of {len} bytes accepted");
+    }
+}
+
+#[test]
+fn every_single_bit_flip_is_detected() {
+    let bytes = sample_bytes();
+    let mut flipped = bytes.clone();
+    for i in 0..bytes.len() {
+        for bit in 0..8 {
+            flipped[i] ^= 1 << bit;
+            assert!(Pack::from_bytes("p", &flipped).is_err(), "flip of bit {bit} in byte {i} accepted");
+            assert!(read_all_stream(&flipped).is_err(), "stream: flip of bit {bit} in byte {i} accepted");
+            flipped[i] ^= 1 << bit;
+        }
+    }
+}
+
+#[test]
+fn trailing_bytes_are_rejected() {
+    let mut bytes = sample_bytes();
+    bytes.push(0);
+    let e = Pack::from_bytes("p", &bytes).unwrap_err();
+    assert_eq!(e.problem(), Some(&Problem::TrailingData), "{e}");
+    let e = read_all_stream(&bytes).unwrap_err();
+    assert_eq!(e.problem(), Some(&Problem::TrailingData), "{e}");
+}
+
+/// Rewrites the header's CRC after an edit, so a test reaches the check behind it.
+fn fix_header_crc(bytes: &mut [u8]) {
+    let crc = crc32fast::hash(&bytes[0..60]);
+    bytes[60..64].copy_from_slice(&crc.to_le_bytes());
+}
+
+#[test]
+fn other_version_says_recook() {
+    let mut bytes = sample_bytes();
+    bytes[8..12].copy_from_slice(&(FORMAT_VERSION + 1).to_le_bytes());
+    fix_header_crc(&mut bytes);
+    let e = Pack::from_bytes("old.pack", &bytes).unwrap_err();
+    let msg = e.to_string();
+    assert!(msg.contains("old.pack") && msg.contains(&format!("version {}", FORMAT_VERSION + 1)) && msg.contains("re-cook"), "{msg}");
+}
+
+#[test]
+fn unknown_section_kind_is_rejected() {
+    let mut bytes = sample_bytes();
+    // Section 1's kind, with the table CRC fixed so the kind check itself must catch it.
+    bytes[64 + 32..64 + 36].copy_from_slice(&99u32.to_le_bytes());
+    let count = u32::from_le_bytes(bytes[16..20].try_into().unwrap()) as usize;
+    let table_crc = crc32fast::hash(&bytes[64..64 + 32 * count]);
+    bytes[40..44].copy_from_slice(&table_crc.to_le_bytes());
+    fix_header_crc(&mut bytes);
+    let e = Pack::from_bytes("p", &bytes).unwrap_err();
+    assert_eq!(e.problem(), Some(&Problem::UnknownSection { index: 1, kind: 99 }), "{e}");
+}
+
+#[test]
+fn writer_refuses_out_of_range_indices_and_material_ids() {
+    let (toc, mut data) = sample();
+    data.meshes[0].indices[10] = 6; // index 5 -> 6, past the 6 vertices
+    let e = encode(toc, &data).unwrap_err();
+    assert!(e.to_string().contains("index 5 is 6"), "{e}");
+
+    let (toc, mut data) = sample();
+    let stride = std::mem::size_of::<StandardVertex>();
+    data.meshes[0].vertices[stride * 2 + 48] = 7;
+    let e = encode(toc, &data).unwrap_err();
+    assert!(e.to_string().contains("material ID 7"), "{e}");
+}
+
+#[test]
+fn failed_write_leaves_old_file_untouched() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("out.pack");
+    std::fs::write(&path, b"old").unwrap();
+    let (toc, mut data) = sample();
+    data.meshes[0].indices[0] = 200;
+    assert!(write_pack(&path, toc, &data).is_err());
+    assert_eq!(std::fs::read(&path).unwrap(), b"old");
+    assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 1, "no temp file left behind");
+
+    let (toc, data) = sample();
+    let e = write_pack(&dir.path().join("missing/out.pack"), toc, &data).unwrap_err();
+    assert!(e.is_io() && e.to_string().contains("missing/out.pack"), "{e}");
+}
+
+#[test]
+fn huge_claimed_section_in_stream_does_not_allocate() {
+    // A header+table claiming a 1 TB file: the stream reader must fail on the missing data,
+    // not try to allocate it.
+    let bytes = sample_bytes();
+    let mut s = StreamReader::new("p", std::io::Cursor::new(&bytes[..200])).ok();
+    if let Some(s) = s.as_mut() {
+        while let Ok(Some(_)) = s.next_section() {}
+    }
+}
+
+fn arb_texture(name: String) -> impl Strategy<Value = (Texture, Vec<Vec<u8>>)> {
+    (1u32..40, 1u32..40, any::<bool>(), any::<u8>()).prop_map(move |(w, h, full, seed)| {
+        let (mut t, mut d) = sample_texture(&name, TextureRole::Projector, w, h);
+        if !full {
+            t.mips.truncate(1);
+            d.truncate(1);
+        }
+        for level in &mut d {
+            for (i, b) in level.iter_mut().enumerate() {
+                *b = (i as u8).wrapping_mul(seed);
+            }
+        }
+        (t, d)
+    })
+}
+
+fn arb_mesh() -> impl Strategy<Value = (Mesh, MeshData)> {
+    (1usize..50, 1usize..30, proptest::collection::vec(any::<u32>(), 90), -1e6f32..1e6).prop_map(
+        |(nv, ntri, picks, scale)| {
+            let verts: Vec<StandardVertex> = (0..nv)
+                .map(|i| StandardVertex {
+                    position: [i as f32 * scale, -(i as f32), 0.5],
+                    material: [(i % 2) as u16, 0],
+                    ..Default::default()
+                })
+                .collect();
+            let idx: Vec<u32> = picks[..ntri * 3].iter().map(|p| p % nv as u32).collect();
+            let mesh = Mesh {
+                name: format!("m{nv}"),
+                layout: VertexLayout::standard(),
+                vertex_count: nv as u32,
+                index_count: idx.len() as u32,
+                index_format: IndexFormat::U32,
+                vertex_section: 0,
+                index_section: 0,
+                bounds_min: [-1e9; 3],
+                bounds_max: [1e9; 3],
+                ranges: vec![DrawRange { material: 1, first_index: 0, index_count: idx.len() as u32 }],
+            };
+            (mesh, MeshData { vertices: bytemuck::cast_slice(&verts).to_vec(), indices: bytemuck::cast_slice(&idx).to_vec() })
+        },
+    )
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(64))]
+    #[test]
+    fn random_packs_round_trip(
+        meshes in proptest::collection::vec(arb_mesh(), 0..3),
+        t0 in arb_texture("a".into()),
+        t1 in arb_texture("b".into()),
+        ntex in 0usize..3,
+    ) {
+        let (mut toc, _) = sample();
+        let texs: Vec<_> = [t0, t1].into_iter().take(ntex).collect();
+        toc.meshes = meshes.iter().map(|m| m.0.clone()).collect();
+        toc.textures = texs.iter().map(|t| t.0.clone()).collect();
+        toc.materials[1].diffuse_texture = None;
+        toc.materials[1].normal_texture = None;
+        let data = PackData {
+            meshes: meshes.iter().map(|m| m.1.clone()).collect(),
+            textures: texs.iter().map(|t| t.1.clone()).collect(),
+        };
+        let bytes = encode(toc.clone(), &data).unwrap();
+        let pack = Pack::from_bytes("p", &bytes).unwrap();
+        let got = pack.toc();
+        prop_assert_eq!(got.meshes.len(), toc.meshes.len());
+        for (i, m) in got.meshes.iter().enumerate() {
+            prop_assert_eq!(pack.vertex_bytes(m), data.meshes[i].vertices.as_slice());
+            prop_assert_eq!(bytemuck::cast_slice::<u32, u8>(&pack.indices(m)), data.meshes[i].indices.as_slice());
+        }
+        for (ti, t) in got.textures.iter().enumerate() {
+            for level in 0..t.mips.len() {
+                prop_assert_eq!(pack.mip_bytes(ti, level), data.textures[ti][level].as_slice());
+            }
+        }
+        // Re-encoding the decoded TOC reproduces the same bytes: the format is canonical.
+        prop_assert_eq!(encode(got.clone(), &data).unwrap(), bytes.clone());
+        read_all_stream(&bytes).unwrap();
+    }
+}
