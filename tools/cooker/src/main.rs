@@ -1,1 +1,38 @@
-fn main() {}
+//! `cooker`: cooks scenes into packs, validates material tagging, inspects, diffs and extracts.
+//!
+//! Exit codes (every subcommand): 0 success; 1 the command ran and found problems; 2 bad usage;
+//! 3 invalid input (a malformed source file or pack); 4 an operating-system I/O error.
+//! A panic (101) is a bug.
+
+mod exit;
+mod info;
+
+use clap::{Parser, Subcommand};
+
+#[derive(Parser)]
+#[command(name = "cooker", version, about = "Stained-glass asset cooker")]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Subcommand)]
+enum Command {
+    /// Print what a pack holds: sections, materials, textures.
+    Info(info::Args),
+}
+
+fn main() {
+    let cli = match Cli::try_parse() {
+        Ok(cli) => cli,
+        Err(e) => {
+            let code = if e.use_stderr() { exit::USAGE } else { exit::OK };
+            let _ = e.print();
+            std::process::exit(code);
+        }
+    };
+    let result = match cli.command {
+        Command::Info(args) => info::run(args),
+    };
+    std::process::exit(exit::report(result));
+}

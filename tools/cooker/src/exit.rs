@@ -1,0 +1,45 @@
+//! Mapping of errors to the documented exit codes.
+
+pub const OK: i32 = 0;
+pub const FOUND_PROBLEMS: i32 = 1;
+pub const USAGE: i32 = 2;
+pub const INVALID_INPUT: i32 = 3;
+pub const IO: i32 = 4;
+
+/// A subcommand's outcome: `Ok(code)` for a run that completed (0 or 1), `Err` for a failure.
+pub type Outcome = anyhow::Result<i32>;
+
+/// Marks an error as bad usage (exit 2) rather than bad input.
+#[derive(Debug, thiserror::Error)]
+#[error("{0}")]
+pub struct UsageError(pub String);
+
+/// Exit code for an error: I/O errors of the operating system are 4, usage errors 2, and
+/// everything else (malformed files, invalid packs) is invalid input, 3.
+pub fn code_for(e: &anyhow::Error) -> i32 {
+    for cause in e.chain() {
+        if cause.downcast_ref::<UsageError>().is_some() {
+            return USAGE;
+        }
+        if let Some(p) = cause.downcast_ref::<pack::PackError>() {
+            return if p.is_io() { IO } else { INVALID_INPUT };
+        }
+        if let Some(c) = cause.downcast_ref::<cook::CookError>() {
+            return if c.is_io() { IO } else { INVALID_INPUT };
+        }
+        if cause.downcast_ref::<std::io::Error>().is_some() {
+            return IO;
+        }
+    }
+    INVALID_INPUT
+}
+
+pub fn report(result: Outcome) -> i32 {
+    match result {
+        Ok(code) => code,
+        Err(e) => {
+            eprintln!("error: {e:#}");
+            code_for(&e)
+        }
+    }
+}

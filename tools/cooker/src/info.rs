@@ -1,0 +1,185 @@
+//! `cooker info <pack> [--json]`
+
+use std::path::PathBuf;
+
+use pack::{Pack, SectionRole};
+use serde_json::json;
+
+use crate::exit::{OK, Outcome};
+
+#[derive(clap::Args)]
+pub struct Args {
+    /// The pack to describe.
+    pack: PathBuf,
+    /// Print one JSON object instead of text.
+    #[arg(long)]
+    json: bool,
+}
+
+fn role_name(pack: &Pack, role: SectionRole) -> String {
+    let toc = pack.toc();
+    match role {
+        SectionRole::Toc => "toc".into(),
+        SectionRole::Vertices { mesh } => format!("vertices of {:?}", toc.meshes[mesh as usize].name),
+        SectionRole::Indices { mesh } => format!("indices of {:?}", toc.meshes[mesh as usize].name),
+        SectionRole::Mip { texture, level } => {
+            format!("mip {level} of {:?}", toc.textures[texture as usize].name)
+        }
+    }
+}
+
+/// The JSON description of a pack; also what golden regression data is made of.
+pub fn describe(pack: &Pack) -> serde_json::Value {
+    let toc = pack.toc();
+    let tris = toc.triangles_per_material();
+    let sections: Vec<_> = pack
+        .sections()
+        .iter()
+        .zip(pack.roles())
+        .map(|(s, &r)| {
+            json!({
+                "kind": s.kind.name(),
+                "offset": s.offset,
+                "length": s.length,
+                "align": s.align,
+                "crc32": format!("{:08x}", s.crc),
+                "checksum_ok": true,
+                "holds": role_name(pack, r),
+            })
+        })
+        .collect();
+    let materials: Vec<_> = toc
+        .materials
+        .iter()
+        .zip(&tris)
+        .map(|(m, &t)| {
+            let tex = |i: Option<u32>| i.map(|i| toc.textures[i as usize].name.clone());
+            json!({
+                "name": m.name,
+                "class": m.class.name(),
+                "triangles": t,
+                "diffuse": m.diffuse,
+                "specular": m.specular,
+                "shininess": m.shininess,
+                "emissive": m.emissive,
+                "diffuse_texture": tex(m.diffuse_texture),
+                "normal_texture": tex(m.normal_texture),
+                "projector_texture": tex(m.projector_texture),
+            })
+        })
+        .collect();
+    let textures: Vec<_> = toc
+        .textures
+        .iter()
+        .map(|t| {
+            json!({
+                "name": t.name,
+                "role": t.role.name(),
+                "colour_space": t.colour_space.name(),
+                "width": t.width,
+                "height": t.height,
+                "mips": t.mips.len(),
+            })
+        })
+        .collect();
+    let meshes: Vec<_> = toc
+        .meshes
+        .iter()
+        .map(|m| {
+            json!({
+                "name": m.name,
+                "vertices": m.vertex_count,
+                "triangles": m.index_count / 3,
+                "stride": m.layout.stride,
+                "bounds_min": m.bounds_min,
+                "bounds_max": m.bounds_max,
+                "ranges": m.ranges.len(),
+            })
+        })
+        .collect();
+    let light = toc.light.as_ref().map(|l| match &l.kind {
+        pack::LightKind::Point { position, radius } => json!({
+            "type": "point", "position": position, "radius": radius,
+            "colour": l.colour, "intensity": l.intensity,
+        }),
+        pack::LightKind::Directional { direction, angular_size } => json!({
+            "type": "directional", "direction": direction, "angular_size": angular_size,
+            "colour": l.colour, "intensity": l.intensity,
+        }),
+    });
+    json!({
+        "format_version": pack.header().version,
+        "file_length": pack.header().file_length,
+        "sections": sections,
+        "meshes": meshes,
+        "triangles": tris.iter().sum::<u64>(),
+        "materials": materials,
+        "textures": textures,
+        "windows": toc.windows.len(),
+        "light": light,
+        "cameras": toc.cameras.iter().map(|c| c.name.clone()).collect::<Vec<_>>(),
+    })
+}
+
+pub fn run(args: Args) -> Outcome {
+    let pack = Pack::open(&args.pack)?;
+    if args.json {
+        println!("{}", serde_json::to_string_pretty(&describe(&pack))?);
+        return Ok(OK);
+    }
+    let toc = pack.toc();
+    println!("{}: pack format version {}, {} bytes", args.pack.display(), pack.header().version, pack.header().file_length);
+    println!("sections ({}), all checksums OK:", pack.sections().len());
+    println!("  {:>4}  {:<12} {:>12} {:>12}  {:<8}  holds", "#", "kind", "offset", "size", "crc32");
+    for (i, (s, &r)) in pack.sections().iter().zip(pack.roles()).enumerate() {
+        println!(
+            "  {i:>4}  {:<12} {:>12} {:>12}  {:08x}  {}",
+            s.kind.name(),
+            s.offset,
+            s.length,
+            s.crc,
+            role_name(&pack, r)
+        );
+    }
+    let tris = toc.triangles_per_material();
+    println!("meshes ({}):", toc.meshes.len());
+    for m in &toc.meshes {
+        println!(
+            "  {:<24} {:>9} vertices {:>9} triangles  stride {:>3}  {} ranges",
+            m.name,
+            m.vertex_count,
+            m.index_count / 3,
+            m.layout.stride,
+            m.ranges.len()
+        );
+    }
+    println!("materials ({}):", toc.materials.len());
+    for class in pack::MaterialClass::ALL {
+        let (n, t) = toc
+            .materials
+            .iter()
+            .zip(&tris)
+            .filter(|(m, _)| m.class == class)
+            .fold((0, 0), |(n, t), (_, &c)| (n + 1, t + c));
+        if n > 0 {
+            println!("  {:<13} {n:>4} materials {t:>10} triangles", class.name());
+        }
+    }
+    for (m, t) in toc.materials.iter().zip(&tris) {
+        println!("    {:<28} {:<13} {t:>10} triangles", m.name, m.class.name());
+    }
+    println!("textures ({}):", toc.textures.len());
+    for t in &toc.textures {
+        println!(
+            "  {:<32} {:<9} {:<6} {:>5}x{:<5} {:>2} mips",
+            t.name,
+            t.role.name(),
+            t.colour_space.name(),
+            t.width,
+            t.height,
+            t.mips.len()
+        );
+    }
+    println!("windows: {}, cameras: {}", toc.windows.len(), toc.cameras.iter().map(|c| c.name.as_str()).collect::<Vec<_>>().join(", "));
+    Ok(OK)
+}
