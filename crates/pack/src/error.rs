@@ -51,9 +51,17 @@ pub enum Problem {
     )]
     Version { found: u32, expected: u32 },
     #[error("{what} checksum mismatch: stored {stored:#010x}, computed {computed:#010x}")]
-    Checksum { what: String, stored: u32, computed: u32 },
+    Checksum {
+        what: String,
+        stored: u32,
+        computed: u32,
+    },
     #[error("{what} is {found} but must be {expected}")]
-    Field { what: String, found: u64, expected: u64 },
+    Field {
+        what: String,
+        found: u64,
+        expected: u64,
+    },
     #[error("{what} is {found} but at most {max} is allowed")]
     Limit { what: String, found: u64, max: u64 },
     #[error("file length is {actual} bytes but the header says {declared}")]
@@ -65,7 +73,13 @@ pub enum Problem {
     #[error(
         "section {index} spans bytes {start}..{end}, which is outside the valid range {min}..{max}"
     )]
-    SectionBounds { index: u32, start: u64, end: u64, min: u64, max: u64 },
+    SectionBounds {
+        index: u32,
+        start: u64,
+        end: u64,
+        min: u64,
+        max: u64,
+    },
     #[error("section {index} at offset {offset} is not aligned to {align}")]
     Alignment { index: u32, offset: u64, align: u64 },
     #[error("non-zero padding or reserved byte")]
@@ -87,18 +101,31 @@ pub struct Fail {
 
 impl Fail {
     pub fn at(offset: u64, problem: Problem) -> Self {
-        Self { offset: Some(offset), problem }
+        Self {
+            offset: Some(offset),
+            problem,
+        }
     }
     pub fn toc(msg: impl Into<String>) -> Self {
-        Self { offset: None, problem: Problem::Toc(msg.into()) }
+        Self {
+            offset: None,
+            problem: Problem::Toc(msg.into()),
+        }
     }
     pub fn with_path(self, path: impl Into<PathBuf>) -> PackError {
-        PackError::Invalid { path: path.into(), offset: self.offset, problem: self.problem }
+        PackError::Invalid {
+            path: path.into(),
+            offset: self.offset,
+            problem: self.problem,
+        }
     }
 }
 
 impl From<Problem> for Fail {
     fn from(problem: Problem) -> Self {
-        Self { offset: None, problem }
+        Self {
+            offset: None,
+            problem,
+        }
     }
 }

@@ -110,7 +110,11 @@ impl Header {
     /// `None` for a stream.
     pub fn decode(b: &[u8], available: Option<u64>) -> Result<Self, Fail> {
         if (b.len() as u64) < HEADER_SIZE {
-            return Err(Problem::TooShort { len: b.len() as u64, need: HEADER_SIZE }.into());
+            return Err(Problem::TooShort {
+                len: b.len() as u64,
+                need: HEADER_SIZE,
+            }
+            .into());
         }
         let magic: [u8; 8] = b[0..8].try_into().unwrap();
         if magic != MAGIC {
@@ -123,20 +127,34 @@ impl Header {
             // Only trust the version field when the header is intact; a bit flip there is
             // corruption, not an old pack.
             if stored == computed {
-                return Err(Fail::at(8, Problem::Version { found: version, expected: FORMAT_VERSION }));
+                return Err(Fail::at(
+                    8,
+                    Problem::Version {
+                        found: version,
+                        expected: FORMAT_VERSION,
+                    },
+                ));
             }
         }
         if stored != computed {
             return Err(Fail::at(
                 60,
-                Problem::Checksum { what: "header".into(), stored, computed },
+                Problem::Checksum {
+                    what: "header".into(),
+                    stored,
+                    computed,
+                },
             ));
         }
         let header_size = u32_at(b, 12) as u64;
         if header_size != HEADER_SIZE {
             return Err(Fail::at(
                 12,
-                Problem::Field { what: "header size".into(), found: header_size, expected: HEADER_SIZE },
+                Problem::Field {
+                    what: "header size".into(),
+                    found: header_size,
+                    expected: HEADER_SIZE,
+                },
             ));
         }
         if b[20..24].iter().chain(&b[44..60]).any(|&x| x != 0) {
@@ -146,7 +164,11 @@ impl Header {
         if section_count == 0 {
             return Err(Fail::at(
                 16,
-                Problem::Field { what: "section count".into(), found: 0, expected: 1 },
+                Problem::Field {
+                    what: "section count".into(),
+                    found: 0,
+                    expected: 1,
+                },
             ));
         }
         if section_count as u64 > MAX_SECTIONS {
@@ -163,7 +185,11 @@ impl Header {
         if file_length > MAX_FILE_BYTES {
             return Err(Fail::at(
                 24,
-                Problem::Limit { what: "file length".into(), found: file_length, max: MAX_FILE_BYTES },
+                Problem::Limit {
+                    what: "file length".into(),
+                    found: file_length,
+                    max: MAX_FILE_BYTES,
+                },
             ));
         }
         if let Some(actual) = available
@@ -172,24 +198,43 @@ impl Header {
             return Err(if actual > file_length {
                 Fail::at(file_length, Problem::TrailingData)
             } else {
-                Fail::at(24, Problem::Length { declared: file_length, actual })
+                Fail::at(
+                    24,
+                    Problem::Length {
+                        declared: file_length,
+                        actual,
+                    },
+                )
             });
         }
         let table_offset = u64_at(b, 32);
         if table_offset != HEADER_SIZE {
             return Err(Fail::at(
                 32,
-                Problem::Field { what: "table offset".into(), found: table_offset, expected: HEADER_SIZE },
+                Problem::Field {
+                    what: "table offset".into(),
+                    found: table_offset,
+                    expected: HEADER_SIZE,
+                },
             ));
         }
         let table_end = table_offset + section_count as u64 * SECTION_ENTRY_SIZE;
         if table_end > file_length {
             return Err(Fail::at(
                 16,
-                Problem::Length { declared: file_length, actual: table_end },
+                Problem::Length {
+                    declared: file_length,
+                    actual: table_end,
+                },
             ));
         }
-        Ok(Self { version, section_count, file_length, table_offset, table_crc: u32_at(b, 40) })
+        Ok(Self {
+            version,
+            section_count,
+            file_length,
+            table_offset,
+            table_crc: u32_at(b, 40),
+        })
     }
 
     pub fn table_len(&self) -> u64 {
@@ -227,7 +272,11 @@ pub fn decode_table(header: &Header, table: &[u8]) -> Result<Vec<SectionEntry>, 
     if computed != header.table_crc {
         return Err(Fail::at(
             header.table_offset,
-            Problem::Checksum { what: "section table".into(), stored: header.table_crc, computed },
+            Problem::Checksum {
+                what: "section table".into(),
+                stored: header.table_crc,
+                computed,
+            },
         ));
     }
     let mut entries = Vec::with_capacity(header.section_count as usize);
@@ -236,8 +285,15 @@ pub fn decode_table(header: &Header, table: &[u8]) -> Result<Vec<SectionEntry>, 
         let index = i as u32;
         let at = header.table_offset + i as u64 * SECTION_ENTRY_SIZE;
         let kind_raw = u32_at(chunk, 0);
-        let kind = SectionKind::from_u32(kind_raw)
-            .ok_or_else(|| Fail::at(at, Problem::UnknownSection { index, kind: kind_raw }))?;
+        let kind = SectionKind::from_u32(kind_raw).ok_or_else(|| {
+            Fail::at(
+                at,
+                Problem::UnknownSection {
+                    index,
+                    kind: kind_raw,
+                },
+            )
+        })?;
         let align = u32_at(chunk, 4) as u64;
         if align == 0 || !align.is_power_of_two() || align > MAX_SECTION_ALIGN {
             return Err(Fail::at(
@@ -266,7 +322,14 @@ pub fn decode_table(header: &Header, table: &[u8]) -> Result<Vec<SectionEntry>, 
             return Err(Fail::at(at + 28, Problem::NonZeroPadding));
         }
         if offset % align != 0 {
-            return Err(Fail::at(at + 8, Problem::Alignment { index, offset, align }));
+            return Err(Fail::at(
+                at + 8,
+                Problem::Alignment {
+                    index,
+                    offset,
+                    align,
+                },
+            ));
         }
         let expected_offset = align_up(cursor, align);
         let end = offset.checked_add(length).unwrap_or(u64::MAX);
@@ -283,7 +346,13 @@ pub fn decode_table(header: &Header, table: &[u8]) -> Result<Vec<SectionEntry>, 
             ));
         }
         cursor = end;
-        entries.push(SectionEntry { kind, align, offset, length, crc });
+        entries.push(SectionEntry {
+            kind,
+            align,
+            offset,
+            length,
+            crc,
+        });
     }
     if cursor != header.file_length {
         return Err(Fail::at(cursor, Problem::TrailingData));

@@ -17,7 +17,10 @@ pub struct AlignedBytes {
 
 impl AlignedBytes {
     pub fn zeroed(len: usize) -> Self {
-        Self { words: vec![0u128; len.div_ceil(16)], len }
+        Self {
+            words: vec![0u128; len.div_ceil(16)],
+            len,
+        }
     }
     pub fn from_slice(bytes: &[u8]) -> Self {
         let mut b = Self::zeroed(bytes.len());
@@ -50,6 +53,15 @@ enum Backing {
     Owned(AlignedBytes),
 }
 
+impl std::fmt::Debug for Pack {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("Pack")
+            .field("path", &self.path)
+            .field("sections", &self.sections.len())
+            .finish_non_exhaustive()
+    }
+}
+
 /// A validated pack.
 pub struct Pack {
     path: PathBuf,
@@ -76,19 +88,34 @@ fn parse(bytes: &[u8]) -> Result<Parsed, Fail> {
     let mut cursor = header.data_start() as usize;
     for (i, s) in sections.iter().enumerate() {
         if bytes[cursor..s.offset as usize].iter().any(|&b| b != 0) {
-            return Err(Fail::at(cursor as u64, crate::error::Problem::NonZeroPadding));
+            return Err(Fail::at(
+                cursor as u64,
+                crate::error::Problem::NonZeroPadding,
+            ));
         }
         check_section(i, s, &bytes[s.offset as usize..s.end() as usize])?;
         cursor = s.end() as usize;
     }
     let toc_entry = &sections[0];
-    let toc = decode_toc(&bytes[toc_entry.offset as usize..toc_entry.end() as usize], toc_entry.offset)?;
+    let toc = decode_toc(
+        &bytes[toc_entry.offset as usize..toc_entry.end() as usize],
+        toc_entry.offset,
+    )?;
     let roles = validate_toc(&toc, &sections)?;
     for (s, &role) in sections.iter().zip(&roles) {
-        validate_content(&toc, role, &bytes[s.offset as usize..s.end() as usize])
-            .map_err(|f| Fail { offset: f.offset.or(Some(s.offset)), problem: f.problem })?;
+        validate_content(&toc, role, &bytes[s.offset as usize..s.end() as usize]).map_err(|f| {
+            Fail {
+                offset: f.offset.or(Some(s.offset)),
+                problem: f.problem,
+            }
+        })?;
     }
-    Ok(Parsed { header, sections, roles, toc })
+    Ok(Parsed {
+        header,
+        sections,
+        roles,
+        toc,
+    })
 }
 
 /// Validates a whole pack held in memory; the entry point for fuzzing.
@@ -100,7 +127,10 @@ impl Pack {
     /// Maps and validates a pack file.
     pub fn open(path: impl AsRef<Path>) -> Result<Self, PackError> {
         let path = path.as_ref();
-        let io = |source| PackError::Io { path: path.to_path_buf(), source };
+        let io = |source| PackError::Io {
+            path: path.to_path_buf(),
+            source,
+        };
         let file = std::fs::File::open(path).map_err(io)?;
         let len = file.metadata().map_err(io)?.len();
         if len < HEADER_SIZE {
@@ -122,7 +152,11 @@ impl Pack {
     pub fn from_bytes(path: impl AsRef<Path>, bytes: &[u8]) -> Result<Self, PackError> {
         let path = path.as_ref();
         let p = parse(bytes).map_err(|f| f.with_path(path))?;
-        Ok(Self::from_parsed(path, Backing::Owned(AlignedBytes::from_slice(bytes)), p))
+        Ok(Self::from_parsed(
+            path,
+            Backing::Owned(AlignedBytes::from_slice(bytes)),
+            p,
+        ))
     }
 
     fn from_parsed(path: &Path, backing: Backing, p: Parsed) -> Self {
@@ -173,7 +207,10 @@ impl Pack {
         match mesh.index_format {
             IndexFormat::U32 => std::borrow::Cow::Borrowed(bytemuck::cast_slice(b)),
             IndexFormat::U16 => std::borrow::Cow::Owned(
-                bytemuck::cast_slice::<u8, u16>(b).iter().map(|&i| i as u32).collect(),
+                bytemuck::cast_slice::<u8, u16>(b)
+                    .iter()
+                    .map(|&i| i as u32)
+                    .collect(),
             ),
         }
     }

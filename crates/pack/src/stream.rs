@@ -37,7 +37,11 @@ fn read_exact_or<R: Read>(r: &mut R, buf: &mut [u8], what: &str) -> Result<(), R
     let mut filled = 0;
     while filled < buf.len() {
         match r.read(&mut buf[filled..]) {
-            Ok(0) => return Err(ReadFail::Bad(Problem::Truncated { what: what.into() }.into())),
+            Ok(0) => {
+                return Err(ReadFail::Bad(
+                    Problem::Truncated { what: what.into() }.into(),
+                ));
+            }
             Ok(n) => filled += n,
             Err(e) if e.kind() == std::io::ErrorKind::Interrupted => {}
             Err(e) => return Err(ReadFail::Io(e)),
@@ -62,7 +66,10 @@ impl<R: Read> StreamReader<R> {
     pub fn new(path: impl AsRef<Path>, mut source: R) -> Result<Self, PackError> {
         let path = path.as_ref().to_path_buf();
         let wrap = |e: ReadFail| match e {
-            ReadFail::Io(source) => PackError::Io { path: path.clone(), source },
+            ReadFail::Io(source) => PackError::Io {
+                path: path.clone(),
+                source,
+            },
             ReadFail::Bad(f) => f.with_path(&path),
         };
         let mut head = [0u8; HEADER_SIZE as usize];
@@ -155,7 +162,10 @@ impl<R: Read> StreamReader<R> {
             // A stream's length is unknown, so a huge declared section is only believed as far
             // as bytes actually arrive: memory grows with the data, not with the claim.
             let mut v = Vec::new();
-            (&mut self.source).take(entry.length).read_to_end(&mut v).map_err(ReadFail::Io)?;
+            (&mut self.source)
+                .take(entry.length)
+                .read_to_end(&mut v)
+                .map_err(ReadFail::Io)?;
             if (v.len() as u64) < entry.length {
                 return Err(Fail::from(Problem::Truncated { what }).into());
             }
@@ -171,11 +181,17 @@ impl<R: Read> StreamReader<R> {
         } else {
             let role = self.roles[index];
             let toc = self.toc.as_ref().expect("TOC is section 0");
-            validate_content(toc, role, &bytes)
-                .map_err(|f| Fail { offset: f.offset.or(Some(entry.offset)), problem: f.problem })?;
+            validate_content(toc, role, &bytes).map_err(|f| Fail {
+                offset: f.offset.or(Some(entry.offset)),
+                problem: f.problem,
+            })?;
             role
         };
         self.next += 1;
-        Ok(Some(StreamSection { index: index as u32, role, bytes }))
+        Ok(Some(StreamSection {
+            index: index as u32,
+            role,
+            bytes,
+        }))
     }
 }

@@ -267,7 +267,10 @@ pub enum LightKind {
     /// A light at `position` of physical `radius` (also the falloff clamp `1/max(d², r²)`).
     Point { position: [f32; 3], radius: f32 },
     /// The sun: light travels along `direction`; `angular_size` in radians.
-    Directional { direction: [f32; 3], angular_size: f32 },
+    Directional {
+        direction: [f32; 3],
+        angular_size: f32,
+    },
 }
 
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -318,7 +321,10 @@ impl Default for Toc {
             windows: Vec::new(),
             light: None,
             cameras: Vec::new(),
-            background: Background { colour: [0.0; 3], panorama: None },
+            background: Background {
+                colour: [0.0; 3],
+                panorama: None,
+            },
         }
     }
 }
@@ -338,7 +344,10 @@ impl Toc {
     }
 
     pub fn texture_by_name(&self, name: &str) -> Option<(usize, &Texture)> {
-        self.textures.iter().enumerate().find(|(_, t)| t.name == name)
+        self.textures
+            .iter()
+            .enumerate()
+            .find(|(_, t)| t.name == name)
     }
 }
 
@@ -357,7 +366,11 @@ pub struct StandardVertex {
 
 impl VertexLayout {
     pub fn standard() -> Self {
-        let a = |semantic, format, offset| VertexAttribute { semantic, format, offset };
+        let a = |semantic, format, offset| VertexAttribute {
+            semantic,
+            format,
+            offset,
+        };
         Self {
             stride: std::mem::size_of::<StandardVertex>() as u32,
             attributes: vec![

@@ -33,9 +33,7 @@ pub fn encode_toc(toc: &Toc) -> Vec<u8> {
 
 pub(crate) fn decode_toc(bytes: &[u8], offset: u64) -> Result<Toc, Fail> {
     let (toc, used): (Toc, usize) = bincode::serde::decode_from_slice(bytes, toc_config())
-        .map_err(|e| {
-            Fail::at(offset, crate::error::Problem::TocDecode(e.to_string()))
-        })?;
+        .map_err(|e| Fail::at(offset, crate::error::Problem::TocDecode(e.to_string())))?;
     if used != bytes.len() {
         return Err(Fail::at(
             offset + used as u64,
@@ -58,7 +56,10 @@ fn expect_section(
     what: &str,
 ) -> Result<(), Fail> {
     let entry = table.get(index as usize).ok_or_else(|| {
-        Fail::toc(format!("{what} refers to section {index}, but there are {}", table.len()))
+        Fail::toc(format!(
+            "{what} refers to section {index}, but there are {}",
+            table.len()
+        ))
     })?;
     if entry.kind != kind {
         return Err(Fail::toc(format!(
@@ -75,7 +76,9 @@ fn expect_section(
     }
     let slot = &mut roles[index as usize];
     if slot.is_some() {
-        return Err(Fail::toc(format!("section {index} is referenced twice ({what})")));
+        return Err(Fail::toc(format!(
+            "section {index} is referenced twice ({what})"
+        )));
     }
     *slot = Some(role);
     Ok(())
@@ -84,7 +87,10 @@ fn expect_section(
 fn validate_layout(mesh: &Mesh, what: &str) -> Result<(), Fail> {
     let l = &mesh.layout;
     if l.stride == 0 || l.stride > 256 || l.stride % 4 != 0 {
-        return Err(Fail::toc(format!("{what}: vertex stride {} is invalid (1..=256, multiple of 4)", l.stride)));
+        return Err(Fail::toc(format!(
+            "{what}: vertex stride {} is invalid (1..=256, multiple of 4)",
+            l.stride
+        )));
     }
     for (i, a) in l.attributes.iter().enumerate() {
         if a.offset % 4 != 0 || a.offset as u64 + a.format.size() as u64 > l.stride as u64 {
@@ -94,23 +100,37 @@ fn validate_layout(mesh: &Mesh, what: &str) -> Result<(), Fail> {
             )));
         }
         if l.attributes[..i].iter().any(|b| b.semantic == a.semantic) {
-            return Err(Fail::toc(format!("{what}: attribute {:?} appears twice", a.semantic)));
+            return Err(Fail::toc(format!(
+                "{what}: attribute {:?} appears twice",
+                a.semantic
+            )));
         }
     }
     let pos = l
         .attribute(Semantic::Position)
         .ok_or_else(|| Fail::toc(format!("{what}: no position attribute")))?;
-    if !matches!(pos.format, AttributeFormat::Float32x3 | AttributeFormat::Unorm16x4) {
-        return Err(Fail::toc(format!("{what}: position format {:?} is not supported", pos.format)));
+    if !matches!(
+        pos.format,
+        AttributeFormat::Float32x3 | AttributeFormat::Unorm16x4
+    ) {
+        return Err(Fail::toc(format!(
+            "{what}: position format {:?} is not supported",
+            pos.format
+        )));
     }
     let mat = l
         .attribute(Semantic::MaterialId)
         .ok_or_else(|| Fail::toc(format!("{what}: no material ID attribute")))?;
     if mat.format != AttributeFormat::Uint16x2 {
-        return Err(Fail::toc(format!("{what}: material ID format {:?} must be Uint16x2", mat.format)));
+        return Err(Fail::toc(format!(
+            "{what}: material ID format {:?} must be Uint16x2",
+            mat.format
+        )));
     }
     if !finite(&l.position_offset) || !finite(&l.position_scale) {
-        return Err(Fail::toc(format!("{what}: non-finite position dequantization")));
+        return Err(Fail::toc(format!(
+            "{what}: non-finite position dequantization"
+        )));
     }
     Ok(())
 }
@@ -152,13 +172,15 @@ pub fn validate_toc(toc: &Toc, table: &[SectionEntry]) -> Result<Vec<SectionRole
     let nmat = toc.materials.len();
     let ntex = toc.textures.len();
     if nmat > u16::MAX as usize + 1 {
-        return Err(Fail::toc(format!("{nmat} materials, at most 65536 allowed")));
+        return Err(Fail::toc(format!(
+            "{nmat} materials, at most 65536 allowed"
+        )));
     }
     let tex_ok = |t: Option<u32>, what: &str| -> Result<(), Fail> {
         match t {
-            Some(i) if i as usize >= ntex => {
-                Err(Fail::toc(format!("{what} refers to texture {i}, but there are {ntex}")))
-            }
+            Some(i) if i as usize >= ntex => Err(Fail::toc(format!(
+                "{what} refers to texture {i}, but there are {ntex}"
+            ))),
             _ => Ok(()),
         }
     };
@@ -167,7 +189,10 @@ pub fn validate_toc(toc: &Toc, table: &[SectionEntry]) -> Result<Vec<SectionRole
         let what = format!("mesh {mi} ({:?})", mesh.name);
         validate_layout(mesh, &what)?;
         if mesh.index_count % 3 != 0 {
-            return Err(Fail::toc(format!("{what}: index count {} is not a multiple of 3", mesh.index_count)));
+            return Err(Fail::toc(format!(
+                "{what}: index count {} is not a multiple of 3",
+                mesh.index_count
+            )));
         }
         if mesh.index_format == IndexFormat::U16 && mesh.vertex_count > u16::MAX as u32 + 1 {
             return Err(Fail::toc(format!(
@@ -228,7 +253,11 @@ pub fn validate_toc(toc: &Toc, table: &[SectionEntry]) -> Result<Vec<SectionRole
 
     for (i, m) in toc.materials.iter().enumerate() {
         let what = format!("material {i} ({:?})", m.name);
-        if !finite(&m.diffuse) || !finite(&m.specular) || !finite(&m.emissive) || !m.shininess.is_finite() {
+        if !finite(&m.diffuse)
+            || !finite(&m.specular)
+            || !finite(&m.emissive)
+            || !m.shininess.is_finite()
+        {
             return Err(Fail::toc(format!("{what}: non-finite shading parameter")));
         }
         tex_ok(m.diffuse_texture, &what)?;
@@ -248,7 +277,10 @@ pub fn validate_toc(toc: &Toc, table: &[SectionEntry]) -> Result<Vec<SectionRole
                 &mut roles,
                 m.section,
                 SectionKind::TextureMip,
-                SectionRole::Mip { texture: ti as u32, level: level as u32 },
+                SectionRole::Mip {
+                    texture: ti as u32,
+                    level: level as u32,
+                },
                 t.level_bytes(level),
                 &format!("{what} mip {level}"),
             )?;
@@ -257,7 +289,10 @@ pub fn validate_toc(toc: &Toc, table: &[SectionEntry]) -> Result<Vec<SectionRole
 
     for (i, w) in toc.windows.iter().enumerate() {
         if w.material as usize >= nmat {
-            return Err(Fail::toc(format!("window {i} uses material {} but there are {nmat}", w.material)));
+            return Err(Fail::toc(format!(
+                "window {i} uses material {} but there are {nmat}",
+                w.material
+            )));
         }
         if !finite(&w.origin) || !finite(&w.u_axis) || !finite(&w.v_axis) || !finite(&w.normal) {
             return Err(Fail::toc(format!("window {i}: non-finite frame")));
@@ -271,7 +306,10 @@ pub fn validate_toc(toc: &Toc, table: &[SectionEntry]) -> Result<Vec<SectionRole
                 crate::toc::LightKind::Point { position, radius } => {
                     finite(position) && radius.is_finite() && *radius > 0.0
                 }
-                crate::toc::LightKind::Directional { direction, angular_size } => {
+                crate::toc::LightKind::Directional {
+                    direction,
+                    angular_size,
+                } => {
                     finite(direction)
                         && direction.iter().any(|&d| d != 0.0)
                         && angular_size.is_finite()
@@ -279,7 +317,9 @@ pub fn validate_toc(toc: &Toc, table: &[SectionEntry]) -> Result<Vec<SectionRole
                 }
             };
         if !ok {
-            return Err(Fail::toc(format!("light has invalid parameters: {light:?}")));
+            return Err(Fail::toc(format!(
+                "light has invalid parameters: {light:?}"
+            )));
         }
     }
     for c in &toc.cameras {
@@ -289,7 +329,10 @@ pub fn validate_toc(toc: &Toc, table: &[SectionEntry]) -> Result<Vec<SectionRole
             || !(c.fov_y > 0.0 && c.fov_y < 180.0)
             || !(c.near > 0.0 && c.far > c.near && c.far.is_finite())
         {
-            return Err(Fail::toc(format!("camera {:?} has invalid parameters", c.name)));
+            return Err(Fail::toc(format!(
+                "camera {:?} has invalid parameters",
+                c.name
+            )));
         }
     }
     if !finite(&toc.background.colour) {
@@ -301,7 +344,11 @@ pub fn validate_toc(toc: &Toc, table: &[SectionEntry]) -> Result<Vec<SectionRole
     let mut seen_mip = false;
     for (i, r) in roles.iter().enumerate() {
         match r {
-            None => return Err(Fail::toc(format!("section {i} is not referenced by the TOC"))),
+            None => {
+                return Err(Fail::toc(format!(
+                    "section {i} is not referenced by the TOC"
+                )));
+            }
             Some(SectionRole::Mip { .. }) => seen_mip = true,
             Some(SectionRole::Vertices { .. } | SectionRole::Indices { .. }) if seen_mip => {
                 return Err(Fail::toc(format!(
@@ -326,8 +373,15 @@ pub fn validate_toc(toc: &Toc, table: &[SectionEntry]) -> Result<Vec<SectionRole
 pub fn validate_vertices(toc: &Toc, mesh: u32, bytes: &[u8]) -> Result<(), Fail> {
     let m = &toc.meshes[mesh as usize];
     let stride = m.layout.stride as usize;
-    let mat = m.layout.attribute(Semantic::MaterialId).expect("validated layout").offset as usize;
-    let pos = m.layout.attribute(Semantic::Position).expect("validated layout");
+    let mat = m
+        .layout
+        .attribute(Semantic::MaterialId)
+        .expect("validated layout")
+        .offset as usize;
+    let pos = m
+        .layout
+        .attribute(Semantic::Position)
+        .expect("validated layout");
     let nmat = toc.materials.len();
     for (v, chunk) in bytes.chunks_exact(stride).enumerate() {
         let id = u16::from_le_bytes([chunk[mat], chunk[mat + 1]]);
@@ -341,7 +395,9 @@ pub fn validate_vertices(toc: &Toc, mesh: u32, bytes: &[u8]) -> Result<(), Fail>
             for k in 0..3 {
                 let x = f32::from_le_bytes(chunk[o + 4 * k..o + 4 * k + 4].try_into().unwrap());
                 if !x.is_finite() {
-                    return Err(Fail::toc(format!("mesh {mesh} vertex {v} has a non-finite position")));
+                    return Err(Fail::toc(format!(
+                        "mesh {mesh} vertex {v} has a non-finite position"
+                    )));
                 }
             }
         }

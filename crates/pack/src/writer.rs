@@ -114,13 +114,19 @@ pub fn encode(mut toc: Toc, data: &PackData) -> Result<Vec<u8>, PackError> {
 /// Writes `bytes` to `path` atomically: a temp file in the same directory, fsync, then rename.
 /// A failure at any point leaves whatever was at `path` untouched.
 pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<(), PackError> {
-    let io = |source| PackError::Io { path: path.to_path_buf(), source };
+    let io = |source| PackError::Io {
+        path: path.to_path_buf(),
+        source,
+    };
     let dir = match path.parent() {
         Some(d) if !d.as_os_str().is_empty() => d,
         _ => Path::new("."),
     };
     let name = path.file_name().ok_or_else(|| {
-        io(std::io::Error::new(std::io::ErrorKind::InvalidInput, "output path has no file name"))
+        io(std::io::Error::new(
+            std::io::ErrorKind::InvalidInput,
+            "output path has no file name",
+        ))
     })?;
     // Unique per process and call, so concurrent cooks into the same directory never share a
     // temp file.
@@ -132,7 +138,10 @@ pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<(), PackError> {
         std::process::id()
     ));
     let result = (|| {
-        let mut f = std::fs::OpenOptions::new().write(true).create_new(true).open(&tmp)?;
+        let mut f = std::fs::OpenOptions::new()
+            .write(true)
+            .create_new(true)
+            .open(&tmp)?;
         f.write_all(bytes)?;
         f.sync_all()?;
         drop(f);
@@ -148,15 +157,14 @@ pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<(), PackError> {
 /// Encodes and writes a pack atomically.
 pub fn write_pack(path: &Path, toc: Toc, data: &PackData) -> Result<(), PackError> {
     let bytes = encode(toc, data).map_err(|e| match e {
-        PackError::Invalid { offset, problem, .. } => {
-            PackError::Invalid { path: path.to_path_buf(), offset, problem }
-        }
+        PackError::Invalid {
+            offset, problem, ..
+        } => PackError::Invalid {
+            path: path.to_path_buf(),
+            offset,
+            problem,
+        },
         other => other,
     })?;
     write_atomic(path, &bytes)
-}
-
-/// Current format version, for callers that key caches on it.
-pub const fn format_version() -> u32 {
-    FORMAT_VERSION
 }
