@@ -1,0 +1,63 @@
+use std::path::PathBuf;
+
+/// Everything that can go wrong while loading or cooking a texture. Each variant carries the
+/// file (where there is one) and the offending value, so a message is actionable on its own.
+#[derive(Debug, thiserror::Error)]
+pub enum TextureError {
+    #[error("{}: cannot read: {source}", path.display())]
+    Io {
+        path: PathBuf,
+        source: std::io::Error,
+    },
+    #[error("{}: cannot decode image: {source}", path.display())]
+    Decode {
+        path: PathBuf,
+        source: image::ImageError,
+    },
+    #[error(
+        "{}: image claims {width}x{height} texels, over the limit of {max}x{max}",
+        path.display()
+    )]
+    TooLarge {
+        path: PathBuf,
+        width: u32,
+        height: u32,
+        max: u32,
+    },
+    #[error("image is {width}x{height}; both sides must be at least 1 texel")]
+    Empty { width: u32, height: u32 },
+    #[error("blur sigma {sigma} texels is invalid: it must be finite and >= 0")]
+    InvalidSigma { sigma: f32 },
+    #[error("error budget {budget} LSB is invalid: it must be finite and >= 0")]
+    InvalidBudget { budget: f32 },
+}
+
+impl TextureError {
+    /// True when the operating system failed us (exit 4), false for bad input (exit 3).
+    pub fn is_io(&self) -> bool {
+        match self {
+            Self::Io { .. } => true,
+            // Decoders report a truncated file as an I/O error; that is bad input, not the OS.
+            Self::Decode {
+                source: image::ImageError::IoError(e),
+                ..
+            } => !matches!(
+                e.kind(),
+                std::io::ErrorKind::UnexpectedEof
+                    | std::io::ErrorKind::InvalidData
+                    | std::io::ErrorKind::InvalidInput
+            ),
+            _ => false,
+        }
+    }
+
+    /// The file the error is about, if it is about a file.
+    pub fn path(&self) -> Option<&std::path::Path> {
+        match self {
+            Self::Io { path, .. } | Self::Decode { path, .. } | Self::TooLarge { path, .. } => {
+                Some(path)
+            }
+            _ => None,
+        }
+    }
+}

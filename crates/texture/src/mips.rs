@@ -1,0 +1,161 @@
+//! Colour mip chains: filtered in linear light with alpha weighting, re-encoded once per level.
+
+use image::DynamicImage;
+use rayon::prelude::*;
+
+use crate::TextureError;
+use crate::pixels::{Texel, to_linear};
+use crate::real::{Real, clamp01};
+use crate::resample::{MipFilter, half, reduce};
+use crate::srgb::{encode8, unorm8};
+
+/// A texture's levels as stored in a pack: tightly packed RGBA8 rows, level 0 first, each level
+/// `max(1, previous / 2)` texels on each axis, down to 1x1 (the rule of `pack::Texture`).
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct MipChain {
+    pub width: u32,
+    pub height: u32,
+    pub levels: Vec<Vec<u8>>,
+}
+
+impl MipChain {
+    /// Size of a level.
+    pub fn level_size(&self, level: usize) -> (u32, u32) {
+        level_size(self.width, self.height, level)
+    }
+}
+
+/// Size of level `level` of a `width x height` texture.
+pub fn level_size(width: u32, height: u32, level: usize) -> (u32, u32) {
+    let (mut w, mut h) = (width, height);
+    for _ in 0..level {
+        (w, h) = (half(w), half(h));
+    }
+    (w, h)
+}
+
+/// Number of levels of a full chain down to 1x1.
+pub fn level_count(width: u32, height: u32) -> usize {
+    (32 - width.max(height).max(1).leading_zeros()) as usize
+}
+
+/// How a colour texture is cooked.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub struct ColourOptions {
+    /// Colour channels are sRGB-encoded (decoded to linear before filtering, re-encoded after).
+    /// When false they are filtered and stored as they are.
+    pub srgb: bool,
+    pub filter: MipFilter,
+}
+
+impl Default for ColourOptions {
+    fn default() -> Self {
+        Self {
+            srgb: true,
+            filter: MipFilter::Box,
+        }
+    }
+}
+
+/// Colour weight of a fully transparent texel, relative to an opaque one. Premultiplied filtering
+/// would weight it 0 and lose its colour; this keeps a fully transparent region's colour (so a
+/// constant image stays constant) while moving any partly opaque result by under 1e-5 of the
+/// colour difference.
+const TRANSPARENT_WEIGHT: f64 = 1.0 / 16_777_216.0;
+
+pub(crate) fn check_size(width: u32, height: u32) -> Result<(), TextureError> {
+    if width == 0 || height == 0 {
+        return Err(TextureError::Empty { width, height });
+    }
+    Ok(())
+}
+
+/// Straight linear colour and alpha → alpha-weighted form (colour·(a+δ), a+δ).
+#[inline]
+fn weighted<T: Real>(t: [T; 4]) -> [T; 4] {
+    let q = t[3] + T::of(TRANSPARENT_WEIGHT);
+    [t[0] * q, t[1] * q, t[2] * q, q]
+}
+
+/// Inverse of [`weighted`] after filtering, clamped to [0, 1] (windowed filters overshoot).
+#[inline]
+fn unweighted<T: Real>(t: [T; 4]) -> [T; 4] {
+    let d = T::of(TRANSPARENT_WEIGHT);
+    let q = t[3];
+    if q > d * T::of(0.5) {
+        [
+            clamp01(t[0] / q),
+            clamp01(t[1] / q),
+            clamp01(t[2] / q),
+            clamp01(q - d),
+        ]
+    } else {
+        // Negative lobes cancelled all coverage: nothing left to show.
+        [T::of(0.0); 4]
+    }
+}
+
+/// The whole chain in the working precision, straight linear RGBA per level.
+pub fn colour_levels<T: Real>(
+    level0: Vec<[T; 4]>,
+    w: u32,
+    h: u32,
+    filter: MipFilter,
+) -> Vec<Vec<[T; 4]>> {
+    let mut levels = vec![level0];
+    let (mut lw, mut lh) = (w, h);
+    while lw > 1 || lh > 1 {
+        let mut next = reduce(levels.last().unwrap(), lw, lh, filter, weighted);
+        next.par_iter_mut().for_each(|t| *t = unweighted(*t));
+        levels.push(next);
+        (lw, lh) = (half(lw), half(lh));
+    }
+    levels
+}
+
+/// Encodes straight linear RGBA to RGBA8 (sRGB or plain unorm colour, unorm alpha).
+pub fn encode_level(level: &[Texel], srgb: bool) -> Vec<u8> {
+    let mut out = vec![0u8; level.len() * 4];
+    out.par_chunks_mut(4 * 1024)
+        .zip(level.par_chunks(1024))
+        .for_each(|(o, l)| {
+            for (o, t) in o.chunks_exact_mut(4).zip(l) {
+                for c in 0..3 {
+                    o[c] = if srgb { encode8(t[c]) } else { unorm8(t[c]) };
+                }
+                o[3] = unorm8(t[3]);
+            }
+        });
+    out
+}
+
+/// Cooks a colour texture: level 0 at the source's resolution, then a full chain to 1x1,
+/// filtered in linear light (f32) with alpha-weighted (premultiplied) filtering and re-encoded
+/// once per level with correct rounding. An 8-bit sRGB source's level 0 is its own bytes.
+pub fn colour_mips(img: &DynamicImage, opts: &ColourOptions) -> Result<MipChain, TextureError> {
+    let (w, h) = (img.width(), img.height());
+    check_size(w, h)?;
+    let level0 = to_linear(img, opts.srgb);
+    let levels = colour_levels::<f32>(level0, w, h, opts.filter);
+    let levels = levels.iter().map(|l| encode_level(l, opts.srgb)).collect();
+    Ok(MipChain {
+        width: w,
+        height: h,
+        levels,
+    })
+}
+
+/// The same chain computed in f64 throughout and not rounded: the reference the f32 chain is
+/// measured against. Level `i` holds straight linear RGBA.
+pub fn colour_mips_reference(
+    img: &DynamicImage,
+    opts: &ColourOptions,
+) -> Result<Vec<Vec<[f64; 4]>>, TextureError> {
+    let (w, h) = (img.width(), img.height());
+    check_size(w, h)?;
+    let level0 = to_linear(img, opts.srgb)
+        .into_iter()
+        .map(|t| t.map(|v| v as f64))
+        .collect();
+    Ok(colour_levels::<f64>(level0, w, h, opts.filter))
+}

@@ -1,0 +1,255 @@
+//! Tangent-space normal maps: decoding supplied maps, filtering with renormalization, and
+//! deriving one from a window design.
+
+use image::DynamicImage;
+use rayon::prelude::*;
+
+use crate::TextureError;
+use crate::mips::{MipChain, check_size};
+use crate::pixels::{to_linear, to_unorm_rgb};
+use crate::resample::{MipFilter, half, reduce};
+use crate::srgb::{linear_to_srgb, unorm8};
+
+/// How a supplied normal map encodes the vector.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+pub enum NormalEncoding {
+    /// x, y, z in red, green, blue (`v = n·0.5 + 0.5`).
+    #[default]
+    Rgb,
+    /// x, y in red and green; z reconstructed as `sqrt(1 - x² - y²)` (blue ignored).
+    Rg,
+}
+
+/// Direction of the tangent-space y axis in the green channel.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+pub enum GreenAxis {
+    /// Green points up the texture (+v towards the image's top row): OpenGL, Blender.
+    #[default]
+    OpenGl,
+    /// Green points down: DirectX, Unreal. Flipped on import.
+    DirectX,
+}
+
+/// The vector used where filtering leaves no direction (opposite normals cancelled) or a texel
+/// encodes none: the unperturbed surface normal.
+pub const FALLBACK_NORMAL: [f32; 3] = [0.0, 0.0, 1.0];
+
+/// Vectors shorter than this before renormalization fall back to [`FALLBACK_NORMAL`].
+const MIN_LENGTH: f32 = 1e-6;
+
+#[inline]
+fn normalize(v: [f32; 4]) -> [f32; 4] {
+    let l2 = v[0] * v[0] + v[1] * v[1] + v[2] * v[2];
+    let l = l2.sqrt();
+    if l.is_finite() && l > MIN_LENGTH {
+        [v[0] / l, v[1] / l, v[2] / l, 0.0]
+    } else {
+        [
+            FALLBACK_NORMAL[0],
+            FALLBACK_NORMAL[1],
+            FALLBACK_NORMAL[2],
+            0.0,
+        ]
+    }
+}
+
+/// Decodes a supplied normal map to unit vectors in the OpenGL convention.
+pub fn decode_normals(
+    img: &DynamicImage,
+    encoding: NormalEncoding,
+    green: GreenAxis,
+) -> Vec<[f32; 4]> {
+    let flip = if green == GreenAxis::DirectX {
+        -1.0
+    } else {
+        1.0
+    };
+    to_unorm_rgb(img)
+        .into_par_iter()
+        .map(|v| {
+            let x = v[0] * 2.0 - 1.0;
+            let y = (v[1] * 2.0 - 1.0) * flip;
+            let z = match encoding {
+                NormalEncoding::Rgb => v[2] * 2.0 - 1.0,
+                NormalEncoding::Rg => (1.0 - x * x - y * y).max(0.0).sqrt(),
+            };
+            normalize([x, y, z, 0.0])
+        })
+        .collect()
+}
+
+/// Filters unit vectors down a full chain (box, polyphase for odd sizes) and renormalizes every
+/// level. Level `i` holds unit vectors (xyz; w unused) before quantization.
+pub fn normal_levels(level0: Vec<[f32; 4]>, w: u32, h: u32) -> Vec<Vec<[f32; 4]>> {
+    let mut levels = vec![level0];
+    let (mut lw, mut lh) = (w, h);
+    while lw > 1 || lh > 1 {
+        let mut next = reduce(levels.last().unwrap(), lw, lh, MipFilter::Box, |t| t);
+        next.par_iter_mut().for_each(|t| *t = normalize(*t));
+        levels.push(next);
+        (lw, lh) = (half(lw), half(lh));
+    }
+    levels
+}
+
+fn encode_normals(level: &[[f32; 4]]) -> Vec<u8> {
+    level
+        .par_iter()
+        .flat_map_iter(|n| {
+            [
+                unorm8(n[0] * 0.5 + 0.5),
+                unorm8(n[1] * 0.5 + 0.5),
+                unorm8(n[2] * 0.5 + 0.5),
+                255,
+            ]
+        })
+        .collect()
+}
+
+fn chain(level0: Vec<[f32; 4]>, w: u32, h: u32) -> MipChain {
+    let levels = normal_levels(level0, w, h)
+        .iter()
+        .map(|l| encode_normals(l))
+        .collect();
+    MipChain {
+        width: w,
+        height: h,
+        levels,
+    }
+}
+
+/// Cooks a supplied normal map. Stored linearly (sample through a non-sRGB view) as
+/// `rgb = n·0.5 + 0.5` with z in blue whatever the source encoding, OpenGL green convention,
+/// alpha 255.
+pub fn normal_mips(
+    img: &DynamicImage,
+    encoding: NormalEncoding,
+    green: GreenAxis,
+) -> Result<MipChain, TextureError> {
+    check_size(img.width(), img.height())?;
+    Ok(chain(
+        decode_normals(img, encoding, green),
+        img.width(),
+        img.height(),
+    ))
+}
+
+// ---- Deriving a normal map from a design ----
+
+/// splitmix64 finalizer: a well-mixed hash of the lattice point, so noise needs no state and
+/// no generator order (and so cannot depend on the thread count).
+fn hash(seed: u64, x: i64, y: i64) -> f32 {
+    let mut z = seed
+        ^ (x as u64).wrapping_mul(0x9E37_79B9_7F4A_7C15)
+        ^ (y as u64).wrapping_mul(0xC2B2_AE3D_27D4_EB4F);
+    z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+    z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+    z ^= z >> 31;
+    (z >> 40) as f32 / (1u64 << 23) as f32 - 1.0
+}
+
+/// Smooth value noise in [-1, 1] with lattice spacing `cell` texels.
+fn value_noise(seed: u64, x: f32, y: f32, cell: f32) -> f32 {
+    let (fx, fy) = (x / cell, y / cell);
+    let (ix, iy) = (fx.floor(), fy.floor());
+    let (tx, ty) = (fx - ix, fy - iy);
+    // Quintic fade: continuous slope, so the relief has no creases at cell borders.
+    let fade = |t: f32| t * t * t * (t * (t * 6.0 - 15.0) + 10.0);
+    let (sx, sy) = (fade(tx), fade(ty));
+    let (ix, iy) = (ix as i64, iy as i64);
+    let v00 = hash(seed, ix, iy);
+    let v10 = hash(seed, ix + 1, iy);
+    let v01 = hash(seed, ix, iy + 1);
+    let v11 = hash(seed, ix + 1, iy + 1);
+    let a = v00 + (v10 - v00) * sx;
+    let b = v01 + (v11 - v01) * sx;
+    a + (b - a) * sy
+}
+
+fn smoothstep(e0: f32, e1: f32, x: f32) -> f32 {
+    let t = ((x - e0) / (e1 - e0)).clamp(0.0, 1.0);
+    t * t * (3.0 - 2.0 * t)
+}
+
+/// How strongly a texel looks like lead came: dark and unsaturated (or transparent: no glass).
+fn lead_score(t: [f32; 4]) -> f32 {
+    let lum = 0.2126 * t[0] + 0.7152 * t[1] + 0.0722 * t[2];
+    let lightness = linear_to_srgb(lum as f64) as f32;
+    let enc = |v: f32| linear_to_srgb(v as f64) as f32;
+    let (r, g, b) = (enc(t[0]), enc(t[1]), enc(t[2]));
+    let max = r.max(g).max(b);
+    let min = r.min(g).min(b);
+    let saturation = if max > 1e-6 { (max - min) / max } else { 0.0 };
+    let lead = smoothstep(0.35, 0.15, lightness) * smoothstep(0.5, 0.25, saturation);
+    let no_glass = smoothstep(0.5, 0.1, t[3]);
+    lead.max(no_glass)
+}
+
+/// Height field of a design, in texels: lead came raised with a rounded profile, glass with a
+/// low hammered relief.
+pub fn design_height(design: &DynamicImage, seed: u64) -> Result<Vec<f32>, TextureError> {
+    let (w, h) = (design.width(), design.height());
+    check_size(w, h)?;
+    let lin = to_linear(design, true);
+    let mask: Vec<[f32; 4]> = lin
+        .par_iter()
+        .map(|&t| [lead_score(t), 0.0, 0.0, 0.0])
+        .collect();
+    let side = w.min(h) as f32;
+    // The came's rounded profile: the lead mask softened over about a texel of a 512² design.
+    let came_sigma = (side / 400.0).clamp(0.75, 4.0);
+    let came_height = 2.0 * came_sigma;
+    let soft = crate::blur::blur_linear(&mask, w, h, came_sigma, crate::BlurMethod::Auto)?;
+    // Hammer dimples a few percent of the window across; two octaves, slopes about 0.1.
+    let cell = (side / 24.0).clamp(3.0, 64.0);
+    let glass_amp = 0.05 * cell;
+    let wu = w as usize;
+    Ok((0..wu * h as usize)
+        .into_par_iter()
+        .map(|i| {
+            let (x, y) = ((i % wu) as f32, (i / wu) as f32);
+            let m = mask[i][0];
+            let relief =
+                value_noise(seed, x, y, cell) + 0.5 * value_noise(seed ^ 0x5EED, x, y, cell * 0.5);
+            // The blurred mask can exceed the hard mask's support; clamp keeps it a height.
+            came_height * soft[i][0].clamp(0.0, 1.0) + glass_amp * relief * (1.0 - m)
+        })
+        .collect())
+}
+
+/// Tangent-space normals (OpenGL convention) of a height field by central differences,
+/// one-sided at the edges.
+pub fn height_to_normals(height: &[f32], w: u32, h: u32) -> Vec<[f32; 4]> {
+    let (w, h) = (w as usize, h as usize);
+    (0..w * h)
+        .into_par_iter()
+        .map(|i| {
+            let (x, y) = (i % w, i / w);
+            let at = |x: usize, y: usize| height[y * w + x];
+            let (x0, x1) = (x.saturating_sub(1), (x + 1).min(w - 1));
+            let (y0, y1) = (y.saturating_sub(1), (y + 1).min(h - 1));
+            let dx = if x1 > x0 {
+                (at(x1, y) - at(x0, y)) / (x1 - x0) as f32
+            } else {
+                0.0
+            };
+            // Rows run down the image and +y of the tangent frame runs up it.
+            let dy_down = if y1 > y0 {
+                (at(x, y1) - at(x, y0)) / (y1 - y0) as f32
+            } else {
+                0.0
+            };
+            normalize([-dx, dy_down, 1.0, 0.0])
+        })
+        .collect()
+}
+
+/// Derives a glass normal map from a design: lead came (dark, low-saturation texels, and
+/// transparent ones) raised with a rounded profile, glass with a subtle hammered relief from
+/// seeded value noise. Deterministic for a given image and seed, on any number of threads.
+/// Stored like [`normal_mips`].
+pub fn derive_normal_map(design: &DynamicImage, seed: u64) -> Result<MipChain, TextureError> {
+    let (w, h) = (design.width(), design.height());
+    let height = design_height(design, seed)?;
+    Ok(chain(height_to_normals(&height, w, h), w, h))
+}

@@ -1,0 +1,82 @@
+//! Conversion of decoded images to straight (non-premultiplied) linear RGBA in f32.
+
+use image::DynamicImage;
+
+use crate::srgb::{decode8, decode16};
+
+/// One texel: linear red, green, blue (straight, not premultiplied) and alpha.
+pub type Texel = [f32; 4];
+
+/// Converts any decoded image to straight linear RGBA. `srgb` says whether the colour channels
+/// are sRGB-encoded (alpha never is). Grey expands to RGB; missing alpha is opaque. Float images
+/// (Radiance HDR) are linear already and are clamped to [0, 1].
+pub fn to_linear(img: &DynamicImage, srgb: bool) -> Vec<Texel> {
+    let (d8, d16) = if srgb {
+        (Some(decode8()), Some(decode16()))
+    } else {
+        (None, None)
+    };
+    let c8 = |v: u8| d8.map_or(v as f32 / 255.0, |t| t[v as usize]);
+    let c16 = |v: u16| d16.map_or(v as f32 / 65535.0, |t| t[v as usize]);
+    let a8 = |v: u8| v as f32 / 255.0;
+    let a16 = |v: u16| v as f32 / 65535.0;
+    let cf = |v: f32| if v > 0.0 { v.min(1.0) } else { 0.0 };
+    match img {
+        DynamicImage::ImageLuma8(i) => i.pixels().map(|p| grey(c8(p[0]), 1.0)).collect(),
+        DynamicImage::ImageLumaA8(i) => i.pixels().map(|p| grey(c8(p[0]), a8(p[1]))).collect(),
+        DynamicImage::ImageRgb8(i) => i
+            .pixels()
+            .map(|p| [c8(p[0]), c8(p[1]), c8(p[2]), 1.0])
+            .collect(),
+        DynamicImage::ImageRgba8(i) => i
+            .pixels()
+            .map(|p| [c8(p[0]), c8(p[1]), c8(p[2]), a8(p[3])])
+            .collect(),
+        DynamicImage::ImageLuma16(i) => i.pixels().map(|p| grey(c16(p[0]), 1.0)).collect(),
+        DynamicImage::ImageLumaA16(i) => i.pixels().map(|p| grey(c16(p[0]), a16(p[1]))).collect(),
+        DynamicImage::ImageRgb16(i) => i
+            .pixels()
+            .map(|p| [c16(p[0]), c16(p[1]), c16(p[2]), 1.0])
+            .collect(),
+        DynamicImage::ImageRgba16(i) => i
+            .pixels()
+            .map(|p| [c16(p[0]), c16(p[1]), c16(p[2]), a16(p[3])])
+            .collect(),
+        DynamicImage::ImageRgb32F(i) => i
+            .pixels()
+            .map(|p| [cf(p[0]), cf(p[1]), cf(p[2]), 1.0])
+            .collect(),
+        DynamicImage::ImageRgba32F(i) => i
+            .pixels()
+            .map(|p| [cf(p[0]), cf(p[1]), cf(p[2]), cf(p[3])])
+            .collect(),
+        // Formats added to `image` later: go through its own RGBA32F conversion.
+        other => other
+            .to_rgba32f()
+            .pixels()
+            .map(|p| {
+                let c = |v: f32| {
+                    if srgb {
+                        crate::srgb::srgb_to_linear(cf(v) as f64) as f32
+                    } else {
+                        cf(v)
+                    }
+                };
+                [c(p[0]), c(p[1]), c(p[2]), cf(p[3])]
+            })
+            .collect(),
+    }
+}
+
+fn grey(v: f32, a: f32) -> Texel {
+    [v, v, v, a]
+}
+
+/// Linear colour channels as unit-interval values without a transfer function, for normal maps
+/// (whose bytes are linear encodings of vectors). Alpha is dropped.
+pub fn to_unorm_rgb(img: &DynamicImage) -> Vec<[f32; 3]> {
+    to_linear(img, false)
+        .into_iter()
+        .map(|t| [t[0], t[1], t[2]])
+        .collect()
+}

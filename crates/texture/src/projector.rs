@@ -1,0 +1,230 @@
+//! Projector textures: the design blurred into the soft-edged light pattern a window throws.
+
+use image::DynamicImage;
+use rayon::prelude::*;
+
+use crate::TextureError;
+use crate::blur::{BlurMethod, blur_linear, check_sigma};
+use crate::mips::{MipChain, check_size, level_size};
+use crate::pixels::to_linear;
+use crate::real::clamp01;
+use crate::resample::{MipFilter, half, reduce};
+use crate::srgb::{decode8, encode8, linear_to_srgb_lsb, unorm8};
+
+/// How a projector texture is cooked.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ProjectorOptions {
+    /// Gaussian σ in texels of the design (see [`sigma_from_light`]).
+    pub sigma_texels: f32,
+    /// When set, the stored texture may start below the design's resolution (dropping leading
+    /// levels) as long as sampling it bilinearly stays within this many LSB of the full blur.
+    pub max_error_lsb: Option<f32>,
+    pub method: BlurMethod,
+}
+
+impl ProjectorOptions {
+    pub fn new(sigma_texels: f32) -> Self {
+        Self {
+            sigma_texels,
+            max_error_lsb: None,
+            method: BlurMethod::Auto,
+        }
+    }
+}
+
+/// What [`projector`] did, for `-v`.
+#[derive(Clone, Debug, PartialEq)]
+pub struct ProjectorReport {
+    pub sigma_texels: f32,
+    /// The method actually used (never `Auto`).
+    pub method: BlurMethod,
+    pub design_width: u32,
+    pub design_height: u32,
+    /// Size of the stored level 0.
+    pub width: u32,
+    pub height: u32,
+    /// Leading levels dropped because the blur left nothing they would show.
+    pub dropped_levels: u32,
+    /// With a budget: max error (LSB) of the stored texture, sampled bilinearly at the design's
+    /// resolution, against the unrounded full-resolution blur.
+    pub max_error_lsb: Option<f64>,
+}
+
+impl std::fmt::Display for ProjectorReport {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(
+            f,
+            "projector: sigma {:.2} texels ({}), {}x{}",
+            self.sigma_texels,
+            self.method.name(),
+            self.width,
+            self.height
+        )?;
+        if self.dropped_levels > 0 {
+            write!(
+                f,
+                " (stored below the design's {}x{}: {} level(s) dropped)",
+                self.design_width, self.design_height, self.dropped_levels
+            )?;
+        }
+        if let Some(e) = self.max_error_lsb {
+            write!(f, ", max error {e:.3} LSB")?;
+        }
+        Ok(())
+    }
+}
+
+/// σ in window texels of the penumbra a light casts: a light of angular size θ (the sun: about
+/// 0.53° = 0.00925 rad; a point light: its radius over its distance) through a window onto a
+/// floor `distance` behind it gives a penumbra θ·d wide, taken as 4σ. `texels_per_unit` is the
+/// design's resolution on the window (texels per scene unit). Invalid inputs give a non-finite
+/// or negative σ, which [`projector`] rejects.
+pub fn sigma_from_light(angular_size_rad: f32, distance: f32, texels_per_unit: f32) -> f32 {
+    angular_size_rad * distance / 4.0 * texels_per_unit
+}
+
+/// Cooks a projector texture: the design (sRGB, straight alpha) blurred with a Gaussian of σ
+/// texels in linear light with premultiplied alpha and a zero border (outside the window is
+/// opaque wall, which lets no light through).
+///
+/// Stored as RGBA8: colour is the sRGB encoding of the blurred *premultiplied* colour, i.e. the
+/// fraction of light the window lets through (multiply the light by it; no division by alpha),
+/// alpha is the blurred coverage, linear. Mips are box-filtered like colour mips.
+pub fn projector(
+    design: &DynamicImage,
+    opts: &ProjectorOptions,
+) -> Result<(MipChain, ProjectorReport), TextureError> {
+    let (w, h) = (design.width(), design.height());
+    check_size(w, h)?;
+    check_sigma(opts.sigma_texels)?;
+    if let Some(b) = opts.max_error_lsb {
+        if !(b.is_finite() && b >= 0.0) {
+            return Err(TextureError::InvalidBudget { budget: b });
+        }
+    }
+    let premul: Vec<[f32; 4]> = to_linear(design, true)
+        .into_par_iter()
+        .map(|t| [t[0] * t[3], t[1] * t[3], t[2] * t[3], t[3]])
+        .collect();
+    let blurred = blur_linear(&premul, w, h, opts.sigma_texels, opts.method)?;
+    drop(premul);
+    let levels = premultiplied_levels(blurred, w, h);
+    let encoded: Vec<Vec<u8>> = levels.iter().map(|l| encode_premultiplied(l)).collect();
+
+    let mut keep = 0;
+    let mut max_error = None;
+    if let Some(budget) = opts.max_error_lsb {
+        max_error = Some(upsampled_error(&encoded[0], w, h, &levels[0], w, h));
+        for k in 1..encoded.len() {
+            // A level coarser than σ cannot hold the blurred detail; don't spend a pass on it.
+            if (1u64 << k) as f32 > opts.sigma_texels {
+                break;
+            }
+            let (lw, lh) = level_size(w, h, k);
+            let e = upsampled_error(&encoded[k], lw, lh, &levels[0], w, h);
+            if e > budget as f64 {
+                break;
+            }
+            keep = k;
+            max_error = Some(e);
+        }
+    }
+    let (sw, sh) = level_size(w, h, keep);
+    let report = ProjectorReport {
+        sigma_texels: opts.sigma_texels,
+        method: opts.method.resolve(opts.sigma_texels),
+        design_width: w,
+        design_height: h,
+        width: sw,
+        height: sh,
+        dropped_levels: keep as u32,
+        max_error_lsb: max_error,
+    };
+    let chain = MipChain {
+        width: sw,
+        height: sh,
+        levels: encoded.into_iter().skip(keep).collect(),
+    };
+    Ok((chain, report))
+}
+
+/// Box mip chain of premultiplied linear RGBA (already alpha-weighted, so plain filtering).
+pub fn premultiplied_levels(level0: Vec<[f32; 4]>, w: u32, h: u32) -> Vec<Vec<[f32; 4]>> {
+    let mut levels = vec![level0];
+    let (mut lw, mut lh) = (w, h);
+    while lw > 1 || lh > 1 {
+        let mut next = reduce(levels.last().unwrap(), lw, lh, MipFilter::Box, |t| t);
+        next.par_iter_mut().for_each(|t| *t = t.map(clamp01));
+        levels.push(next);
+        (lw, lh) = (half(lw), half(lh));
+    }
+    levels
+}
+
+/// Premultiplied linear RGBA → RGBA8 (sRGB colour, linear alpha).
+pub fn encode_premultiplied(level: &[[f32; 4]]) -> Vec<u8> {
+    level
+        .par_iter()
+        .flat_map_iter(|t| [encode8(t[0]), encode8(t[1]), encode8(t[2]), unorm8(t[3])])
+        .collect()
+}
+
+/// Bilinear sample positions of a `from`-texel axis at the texel centres of a `to`-texel axis,
+/// as the GPU computes them (clamp to edge).
+fn bilinear_axis(from: u32, to: u32) -> Vec<(usize, usize, f32)> {
+    (0..to)
+        .map(|i| {
+            let u = (i as f64 + 0.5) / to as f64 * from as f64 - 0.5;
+            let u = u.clamp(0.0, from as f64 - 1.0);
+            let i0 = u.floor() as usize;
+            let i1 = (i0 + 1).min(from as usize - 1);
+            (i0, i1, (u - i0 as f64) as f32)
+        })
+        .collect()
+}
+
+/// Max error (LSB) of an RGBA8 level sampled bilinearly in linear light (as through an sRGB
+/// view) at every texel of a `w x h` reference, against that reference unrounded.
+pub fn upsampled_error(
+    bytes: &[u8],
+    lw: u32,
+    lh: u32,
+    reference: &[[f32; 4]],
+    w: u32,
+    h: u32,
+) -> f64 {
+    let lut = decode8();
+    let texel = |x: usize, y: usize| -> [f32; 4] {
+        let b = &bytes[(y * lw as usize + x) * 4..][..4];
+        [
+            lut[b[0] as usize],
+            lut[b[1] as usize],
+            lut[b[2] as usize],
+            b[3] as f32 / 255.0,
+        ]
+    };
+    let xs = bilinear_axis(lw, w);
+    let ys = bilinear_axis(lh, h);
+    reference
+        .par_chunks(w as usize)
+        .zip(ys.par_iter())
+        .map(|(row, &(y0, y1, fy))| {
+            let mut max = 0.0f64;
+            for (r, &(x0, x1, fx)) in row.iter().zip(&xs) {
+                let (a, b, c, d) = (texel(x0, y0), texel(x1, y0), texel(x0, y1), texel(x1, y1));
+                for ch in 0..4 {
+                    let top = a[ch] + (b[ch] - a[ch]) * fx;
+                    let bottom = c[ch] + (d[ch] - c[ch]) * fx;
+                    let v = (top + (bottom - top) * fy) as f64;
+                    let e = if ch < 3 {
+                        linear_to_srgb_lsb(v) - linear_to_srgb_lsb(r[ch] as f64)
+                    } else {
+                        (v - r[3].clamp(0.0, 1.0) as f64) * 255.0
+                    };
+                    max = max.max(e.abs());
+                }
+            }
+            max
+        })
+        .reduce(|| 0.0, f64::max)
+}
