@@ -1,8 +1,28 @@
 //! Cooks scene sources (OBJ, glTF, window images) into a pack.
+//!
+//! [`cook`] is the whole pipeline, top to bottom: import → tag → mesh → windows → textures →
+//! TOC. Each stage is a plain function over plain data, so `cooker validate` can run the
+//! first stages and inspect what they produced.
 
-use std::path::PathBuf;
+pub mod import;
+pub mod manifest;
+pub mod mesh;
+pub mod tag;
+mod textures;
+pub mod triangulate;
+pub mod validate;
+pub mod windows;
 
-/// An error while cooking, naming the file (and line or offset where there is one).
+use std::path::{Path, PathBuf};
+use std::time::{Duration, Instant};
+
+use rayon::prelude::*;
+
+pub use import::Warning;
+pub use manifest::Manifest;
+pub use mesh::{CacheMode, MeshSettings, MeshStats};
+
+/// An error while cooking, naming the file (and line where there is one).
 #[derive(Debug, thiserror::Error)]
 pub enum CookError {
     #[error("{}: {source}", path.display())]
@@ -13,6 +33,12 @@ pub enum CookError {
     },
     #[error(transparent)]
     Pack(#[from] pack::PackError),
+    /// The manifest is malformed: syntax, unknown key, wrong type, bad value, missing file.
+    #[error("{}{}: {message}", path.display(), line.map(|l| format!(":{l}")).unwrap_or_default())]
+    Manifest { path: PathBuf, line: Option<usize>, message: String },
+    /// A source file (mesh, material library, image) is malformed.
+    #[error("{}{}: {message}", path.display(), line.map(|l| format!(":{l}")).unwrap_or_default())]
+    Source { path: PathBuf, line: Option<usize>, message: String },
 }
 
 impl CookError {
@@ -22,6 +48,321 @@ impl CookError {
         match self {
             CookError::Io { .. } => true,
             CookError::Pack(p) => p.is_io(),
+            CookError::Manifest { .. } | CookError::Source { .. } => false,
+        }
+    }
+
+    /// The file the error is about.
+    pub fn path(&self) -> Option<&Path> {
+        match self {
+            CookError::Io { path, .. }
+            | CookError::Manifest { path, .. }
+            | CookError::Source { path, .. } => Some(path),
+            CookError::Pack(_) => None,
+        }
+    }
+}
+
+/// How to cook.
+#[derive(Clone, Debug)]
+pub struct Settings {
+    pub mesh: MeshSettings,
+    /// Quantize vertices (16-bit positions, octahedral normals, 16-bit UVs).
+    pub quantize: bool,
+    /// Cook textures; off for geometry-only checks such as `cooker validate`.
+    pub textures: bool,
+}
+
+impl Default for Settings {
+    fn default() -> Self {
+        Self { mesh: MeshSettings::default(), quantize: false, textures: true }
+    }
+}
+
+/// Numbers about one cooked mesh.
+#[derive(Clone, Debug)]
+pub struct MeshReport {
+    pub name: String,
+    pub source: PathBuf,
+    pub import_time: Duration,
+    /// n-gons split into triangles by the importer.
+    pub polygons: usize,
+    pub stats: MeshStats,
+    pub vertex_bytes: usize,
+    pub index_bytes: usize,
+    pub quantization: Option<QuantizationError>,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct QuantizationError {
+    pub position: f32,
+    pub normal_deg: f32,
+    pub uv: f32,
+}
+
+/// A tagging decision made by heuristics rather than a rule.
+#[derive(Clone, Debug, PartialEq)]
+pub struct HeuristicNote {
+    pub source: PathBuf,
+    pub names: String,
+    pub material: String,
+    pub class: pack::MaterialClass,
+    /// The keyword that decided, `None` when nothing matched (class `other`).
+    pub keyword: Option<&'static str>,
+    pub triangles: usize,
+}
+
+/// What happened while cooking, for the CLI.
+#[derive(Clone, Debug, Default)]
+pub struct Report {
+    pub warnings: Vec<Warning>,
+    pub meshes: Vec<MeshReport>,
+    pub heuristics: Vec<HeuristicNote>,
+    pub stages: Vec<(&'static str, Duration)>,
+}
+
+/// A cooked scene: write it with [`CookOutput::write`] (atomically).
+#[derive(Clone, Debug)]
+pub struct CookOutput {
+    pub toc: pack::Toc,
+    pub data: pack::PackData,
+    pub report: Report,
+}
+
+impl CookOutput {
+    pub fn write(&self, path: &Path) -> Result<(), CookError> {
+        Ok(pack::write_pack(path, self.toc.clone(), &self.data)?)
+    }
+}
+
+/// Imports every mesh source in parallel and applies its manifest transform.
+pub fn import_sources(manifest: &Manifest) -> Result<Vec<(import::Imported, Duration)>, CookError> {
+    let results: Vec<Result<(import::Imported, Duration), CookError>> = manifest
+        .meshes
+        .par_iter()
+        .map(|m| {
+            let start = Instant::now();
+            let mut imported = import::import(&m.source)?;
+            imported.transform(m.transform());
+            Ok((imported, start.elapsed()))
+        })
+        .collect();
+    // The first error in manifest order, so the message does not depend on thread timing.
+    results.into_iter().collect()
+}
+
+/// Which materials are windows and which need tangents.
+pub fn material_needs(tagging: &tag::Tagging) -> Vec<mesh::MaterialNeeds> {
+    tagging
+        .materials
+        .iter()
+        .map(|m| mesh::MaterialNeeds {
+            window: m.material.class.is_window(),
+            tangents: m.normal_texture.is_some(),
+        })
+        .collect()
+}
+
+fn tri_materials(src: &import::Imported, part_material: &[u16]) -> Vec<u16> {
+    src.tri_part.iter().map(|&p| part_material[p as usize]).collect()
+}
+
+/// Gathers each window material's triangles from the processed meshes.
+pub fn window_geometry(
+    tagging: &tag::Tagging,
+    processed: &[mesh::Processed],
+) -> Vec<(u16, windows::WindowGeometry)> {
+    let mut out = Vec::new();
+    for (mi, m) in tagging.materials.iter().enumerate() {
+        if !m.material.class.is_window() {
+            continue;
+        }
+        let mut g = windows::WindowGeometry::default();
+        for p in processed {
+            for r in p.ranges.iter().filter(|r| r.material as usize == mi) {
+                let span = &p.indices[r.first_index as usize..(r.first_index + r.index_count) as usize];
+                let mut local = std::collections::HashMap::new();
+                for t in span.chunks_exact(3) {
+                    let tri = [t[0], t[1], t[2]].map(|i| {
+                        *local.entry(i).or_insert_with(|| {
+                            let v = &p.vertices[i as usize];
+                            g.positions.push(v.position);
+                            g.uvs.push(v.uv);
+                            g.positions.len() as u32 - 1
+                        })
+                    });
+                    g.triangles.push(tri);
+                }
+            }
+        }
+        out.push((mi as u16, g));
+    }
+    out
+}
+
+/// The whole pipeline: sources in, a pack's TOC and data out.
+pub fn cook(manifest: &Manifest, settings: &Settings) -> Result<CookOutput, CookError> {
+    let mut report = Report::default();
+    let mut clock = Instant::now();
+    let mut lap = |report: &mut Report, name: &'static str| {
+        let now = Instant::now();
+        report.stages.push((name, now - clock));
+        clock = now;
+    };
+
+    // 1. Import: every source into a triangle soup, errors naming file and line.
+    let sources = import_sources(manifest)?;
+    if manifest.bare {
+        report.warnings.push(Warning::new(
+            &manifest.path,
+            None,
+            "cooking a bare mesh without a scene.toml: materials are tagged by name heuristics only",
+        ));
+    }
+    for (s, _) in &sources {
+        report.warnings.extend(s.warnings.iter().cloned());
+    }
+    lap(&mut report, "import");
+
+    // 2. Tag: source names to pack materials with a class.
+    let imported: Vec<import::Imported> = sources.iter().map(|(s, _)| s.clone()).collect();
+    let mut tagging = tag::tag(manifest, &imported)?;
+    note_heuristics(&imported, &tagging, &mut report);
+    let needs = material_needs(&tagging);
+    lap(&mut report, "tag");
+
+    // 3. Mesh processing, one source per task.
+    let processed: Vec<mesh::Processed> = imported
+        .par_iter()
+        .zip(&tagging.part_material)
+        .map(|(src, parts)| mesh::process(src, &tri_materials(src, parts), &needs, &settings.mesh))
+        .collect();
+    lap(&mut report, "mesh");
+
+    // 4. Windows: frames from the geometry, designs from the manifest.
+    let light = manifest.light.as_ref().map(|l| &l.kind);
+    let mut window_frames = Vec::new();
+    for (mi, g) in window_geometry(&tagging, &processed) {
+        let name = &tagging.materials[mi as usize].material.name;
+        match windows::analyze(mi, &g, light) {
+            Some(a) => window_frames.push(a.frame),
+            None if g.triangles.is_empty() => {}
+            None => report.warnings.push(Warning::new(
+                &manifest.path,
+                None,
+                format!("window material {name:?} has no area; no projector frame"),
+            )),
+        }
+    }
+    for w in &manifest.windows {
+        let found = tagging.materials.iter().find(|m| m.material.name == w.material);
+        match found {
+            None => report.warnings.push(Warning::new(
+                &manifest.path,
+                Some(w.line.0),
+                format!("[[window]] names material {:?}, which no triangle uses", w.material),
+            )),
+            Some(m) if !m.material.class.is_window() => report.warnings.push(Warning::new(
+                &manifest.path,
+                Some(w.line.0),
+                format!("[[window]] material {:?} is tagged {}, not a window class", w.material, m.material.class),
+            )),
+            Some(_) => {}
+        }
+    }
+    lap(&mut report, "windows");
+
+    // 5. Textures.
+    let (textures, texture_data) = textures::cook_textures(manifest, &mut tagging, settings, &mut report)?;
+    lap(&mut report, "textures");
+
+    // 6. Assemble the TOC and bulk data.
+    let mut toc = pack::Toc {
+        materials: tagging.materials.iter().map(|m| m.material.clone()).collect(),
+        textures,
+        windows: window_frames,
+        light: manifest.light.as_ref().map(|l| pack::Light { kind: l.kind.clone(), colour: l.colour, intensity: l.intensity }),
+        cameras: manifest.cameras.clone(),
+        background: pack::Background { colour: manifest.background.colour, panorama: None },
+        meshes: Vec::new(),
+    };
+    let mut data = pack::PackData { meshes: Vec::new(), textures: texture_data };
+    for ((p, (src, import_time)), m) in processed.into_iter().zip(sources).zip(&manifest.meshes) {
+        let mut mesh_report = MeshReport {
+            name: m.name.clone(),
+            source: m.source.clone(),
+            import_time,
+            polygons: src.polygons,
+            stats: p.stats.clone(),
+            vertex_bytes: 0,
+            index_bytes: 0,
+            quantization: None,
+        };
+        if p.indices.is_empty() {
+            report.warnings.push(Warning::new(&m.source, None, "no triangles left to cook; mesh skipped"));
+            report.meshes.push(mesh_report);
+            continue;
+        }
+        let (layout, vertices) = if settings.quantize {
+            let q = mesh::quantize(&p.vertices, p.bounds_min, p.bounds_max);
+            mesh_report.quantization = Some(QuantizationError {
+                position: q.max_position_error,
+                normal_deg: q.max_normal_error_deg,
+                uv: q.max_uv_error,
+            });
+            (q.layout, q.bytes)
+        } else {
+            (pack::VertexLayout::standard(), bytemuck::cast_slice(&p.vertices).to_vec())
+        };
+        let (index_format, indices) = if p.vertices.len() <= u16::MAX as usize + 1 {
+            let v: Vec<u16> = p.indices.iter().map(|&i| i as u16).collect();
+            (pack::IndexFormat::U16, bytemuck::cast_slice(&v).to_vec())
+        } else {
+            (pack::IndexFormat::U32, bytemuck::cast_slice(&p.indices).to_vec())
+        };
+        mesh_report.vertex_bytes = vertices.len();
+        mesh_report.index_bytes = indices.len();
+        toc.meshes.push(pack::Mesh {
+            name: m.name.clone(),
+            layout,
+            vertex_count: p.vertices.len() as u32,
+            index_count: p.indices.len() as u32,
+            index_format,
+            vertex_section: 0,
+            index_section: 0,
+            bounds_min: p.bounds_min,
+            bounds_max: p.bounds_max,
+            ranges: p.ranges,
+        });
+        data.meshes.push(pack::MeshData { vertices, indices });
+        report.meshes.push(mesh_report);
+    }
+    lap(&mut report, "assemble");
+    Ok(CookOutput { toc, data, report })
+}
+
+fn note_heuristics(sources: &[import::Imported], tagging: &tag::Tagging, report: &mut Report) {
+    for (si, src) in sources.iter().enumerate() {
+        let mut counts = vec![0usize; src.parts.len()];
+        for &p in &src.tri_part {
+            counts[p as usize] += 1;
+        }
+        for (pi, d) in tagging.decisions[si].iter().enumerate() {
+            if d.is_rule() || counts[pi] == 0 {
+                continue;
+            }
+            let m = &tagging.materials[tagging.part_material[si][pi] as usize].material;
+            report.heuristics.push(HeuristicNote {
+                source: src.path.clone(),
+                names: src.parts[pi].names.describe(),
+                material: m.name.clone(),
+                class: m.class,
+                keyword: match d {
+                    tag::Decision::Heuristic { keyword, .. } => Some(keyword),
+                    _ => None,
+                },
+                triangles: counts[pi],
+            });
         }
     }
 }

@@ -1,0 +1,521 @@
+//! glTF 2.0 import (`.gltf` and `.glb`).
+//!
+//! The document is read with `Gltf::open` and its buffers with `gltf::import_buffers`, so
+//! images are never decoded here (the texture stage decodes what materials use, once).
+//! Accessors are read by our own bounds-checked reader rather than gltf's: its reader slices
+//! buffers without checking every length, underflows on `count == 0`, hits `unreachable!()` on
+//! i8/i16 texture coordinates and reads quantized (KHR_mesh_quantization) data as floats.
+
+use std::collections::HashMap;
+use std::path::Path;
+use std::sync::Arc;
+
+use gltf::accessor::{DataType, Dimensions};
+use gltf::mesh::Mode;
+
+use super::{Corner, ImageRef, Imported, NONE, Names, Part, SourceMaterial, Warning};
+use crate::CookError;
+
+fn bad(path: &Path, message: impl Into<String>) -> CookError {
+    CookError::Source { path: path.to_path_buf(), line: None, message: message.into() }
+}
+
+pub fn import(path: &Path) -> Result<Imported, CookError> {
+    let gltf = gltf::Gltf::open(path).map_err(|e| match e {
+        gltf::Error::Io(source) => CookError::Io { path: path.to_path_buf(), source },
+        gltf::Error::Deserialize(j) => CookError::Source {
+            path: path.to_path_buf(),
+            line: (j.line() > 0).then_some(j.line()),
+            message: format!("invalid glTF JSON: {j}"),
+        },
+        other => bad(path, format!("invalid glTF: {other}")),
+    })?;
+    let base = path.parent().unwrap_or(Path::new(""));
+    let gltf::Gltf { document, blob } = gltf;
+    let buffers = gltf::import_buffers(&document, Some(base), blob)
+        .map_err(|e| bad(path, format!("cannot load buffers: {e}")))?;
+    let buffers: Vec<&[u8]> = buffers.iter().map(|b| &b.0[..]).collect();
+
+    let mut out = Imported { path: path.to_path_buf(), ..Default::default() };
+    let mut material_ids: HashMap<usize, u32> = HashMap::new();
+    let mut part_ids: HashMap<(Option<usize>, usize, usize), u32> = HashMap::new();
+    let mut skipped_modes: Vec<String> = Vec::new();
+
+    // Roots of the default scene, else of the first scene, else every node nobody parents.
+    let roots: Vec<gltf::Node> = match document.default_scene().or_else(|| document.scenes().next()) {
+        Some(scene) => scene.nodes().collect(),
+        None => {
+            let mut child = vec![false; document.nodes().len()];
+            for n in document.nodes() {
+                for c in n.children() {
+                    child[c.index()] = true;
+                }
+            }
+            document.nodes().filter(|n| !child[n.index()]).collect()
+        }
+    };
+    let mut stack: Vec<(gltf::Node, glam::Mat4, usize)> =
+        roots.into_iter().rev().map(|n| (n, glam::Mat4::IDENTITY, 0)).collect();
+    let mut visits = 0usize;
+    while let Some((node, parent, depth)) = stack.pop() {
+        visits += 1;
+        // Validation does not reject cycles in the node graph; bound the walk instead of
+        // overflowing the stack.
+        if depth > 256 || visits > 1_000_000 {
+            return Err(bad(path, "node hierarchy is cyclic or deeper than 256 levels"));
+        }
+        let local = glam::Mat4::from_cols_array_2d(&node.transform().matrix());
+        let world = parent * local;
+        if !world.is_finite() {
+            return Err(bad(path, format!("node {} has a non-finite transform", node.index())));
+        }
+        if let Some(mesh) = node.mesh() {
+            for prim in mesh.primitives() {
+                let ctx = Ctx { path, buffers: &buffers };
+                let mode = prim.mode();
+                if !matches!(mode, Mode::Triangles | Mode::TriangleStrip | Mode::TriangleFan) {
+                    let m = format!("{mode:?}");
+                    if !skipped_modes.contains(&m) {
+                        skipped_modes.push(m);
+                    }
+                    continue;
+                }
+                let material = prim.material();
+                let mat_id = match material.index() {
+                    Some(i) => Some(match material_ids.get(&i) {
+                        Some(&id) => id,
+                        None => {
+                            let id = out.materials.len() as u32;
+                            let sm = convert_material(&ctx, &material, &mut out.warnings)?;
+                            out.materials.push(sm);
+                            material_ids.insert(i, id);
+                            id
+                        }
+                    }),
+                    None => None,
+                };
+                let key = (material.index(), mesh.index(), node.index());
+                let part = match part_ids.get(&key) {
+                    Some(&p) => p,
+                    None => {
+                        let p = out.parts.len() as u32;
+                        out.parts.push(Part {
+                            names: Names {
+                                material: material.index().map(|i| {
+                                    material.name().map(str::to_string).unwrap_or_else(|| format!("material{i}"))
+                                }),
+                                group: None,
+                                object: None,
+                                mesh: Some(mesh.name().map(str::to_string).unwrap_or_else(|| format!("mesh{}", mesh.index()))),
+                                node: Some(node.name().map(str::to_string).unwrap_or_else(|| format!("node{}", node.index()))),
+                            },
+                            material: mat_id,
+                        });
+                        part_ids.insert(key, p);
+                        p
+                    }
+                };
+                add_primitive(&ctx, &prim, world, part, &mut out)?;
+            }
+        }
+        for c in node.children().collect::<Vec<_>>().into_iter().rev() {
+            stack.push((c, world, depth + 1));
+        }
+    }
+    if !skipped_modes.is_empty() {
+        out.warnings.push(Warning::new(
+            path,
+            None,
+            format!("primitives of mode {} ignored: only triangles are cooked", skipped_modes.join(", ")),
+        ));
+    }
+    if out.tri_part.is_empty() {
+        out.warnings.push(Warning::new(path, None, "no triangles in the scene: nothing to cook"));
+    }
+    Ok(out)
+}
+
+struct Ctx<'a> {
+    path: &'a Path,
+    buffers: &'a [&'a [u8]],
+}
+
+fn components(d: Dimensions) -> usize {
+    match d {
+        Dimensions::Scalar => 1,
+        Dimensions::Vec2 => 2,
+        Dimensions::Vec3 => 3,
+        Dimensions::Vec4 => 4,
+        Dimensions::Mat2 => 4,
+        Dimensions::Mat3 => 9,
+        Dimensions::Mat4 => 16,
+    }
+}
+
+fn type_size(t: DataType) -> usize {
+    match t {
+        DataType::I8 | DataType::U8 => 1,
+        DataType::I16 | DataType::U16 => 2,
+        DataType::U32 | DataType::F32 => 4,
+    }
+}
+
+fn component(bytes: &[u8], t: DataType, normalized: bool) -> f32 {
+    match t {
+        DataType::F32 => f32::from_le_bytes([bytes[0], bytes[1], bytes[2], bytes[3]]),
+        DataType::U32 => u32::from_le_bytes([bytes[0], bytes[1], bytes[2], bytes[3]]) as f32,
+        DataType::I8 => {
+            let v = bytes[0] as i8 as f32;
+            if normalized { (v / 127.0).max(-1.0) } else { v }
+        }
+        DataType::U8 => {
+            let v = bytes[0] as f32;
+            if normalized { v / 255.0 } else { v }
+        }
+        DataType::I16 => {
+            let v = i16::from_le_bytes([bytes[0], bytes[1]]) as f32;
+            if normalized { (v / 32767.0).max(-1.0) } else { v }
+        }
+        DataType::U16 => {
+            let v = u16::from_le_bytes([bytes[0], bytes[1]]) as f32;
+            if normalized { v / 65535.0 } else { v }
+        }
+    }
+}
+
+impl Ctx<'_> {
+    /// The bytes of `count` elements of `elem` bytes at `offset` into a view, every bound checked.
+    fn view_slice(
+        &self,
+        view: &gltf::buffer::View,
+        offset: usize,
+        count: usize,
+        elem: usize,
+        what: &str,
+    ) -> Result<(&[u8], usize), CookError> {
+        let buffer = self.buffers.get(view.buffer().index()).ok_or_else(|| {
+            bad(self.path, format!("{what}: buffer {} does not exist", view.buffer().index()))
+        })?;
+        let view_end = view.offset().checked_add(view.length());
+        let data = view_end.and_then(|end| buffer.get(view.offset()..end)).ok_or_else(|| {
+            bad(
+                self.path,
+                format!(
+                    "{what}: buffer view {} spans bytes {}..+{} of a {}-byte buffer",
+                    view.index(),
+                    view.offset(),
+                    view.length(),
+                    buffer.len()
+                ),
+            )
+        })?;
+        let stride = view.stride().unwrap_or(elem);
+        if stride < elem {
+            return Err(bad(self.path, format!("{what}: byte stride {stride} is smaller than the {elem}-byte element")));
+        }
+        if count == 0 {
+            return Ok((&[], stride));
+        }
+        let end = (count - 1)
+            .checked_mul(stride)
+            .and_then(|x| x.checked_add(elem))
+            .and_then(|x| x.checked_add(offset));
+        match end {
+            Some(end) if end <= data.len() => Ok((&data[offset..end], stride)),
+            _ => Err(bad(
+                self.path,
+                format!(
+                    "{what}: {count} elements of {elem} bytes (stride {stride}) at offset {offset} overrun buffer view {} of {} bytes",
+                    view.index(),
+                    data.len()
+                ),
+            )),
+        }
+    }
+
+    /// Reads an accessor as `N`-component floats, converting integer and normalized types.
+    fn floats<const N: usize>(&self, acc: &gltf::Accessor, what: &str) -> Result<Vec<[f32; N]>, CookError> {
+        let what = format!("{what} (accessor {})", acc.index());
+        let dims = components(acc.dimensions());
+        if dims != N {
+            return Err(bad(self.path, format!("{what} has {dims} components, expected {N}")));
+        }
+        let t = acc.data_type();
+        let size = type_size(t);
+        let elem = N * size;
+        let count = acc.count();
+        let mut out = vec![[0.0f32; N]; 0];
+        let decode = |bytes: &[u8]| -> [f32; N] {
+            std::array::from_fn(|k| component(&bytes[k * size..], t, acc.normalized()))
+        };
+        match acc.view() {
+            Some(view) => {
+                let (data, stride) = self.view_slice(&view, acc.offset(), count, elem, &what)?;
+                out.reserve_exact(count);
+                for i in 0..count {
+                    out.push(decode(&data[i * stride..]));
+                }
+            }
+            None => {
+                if acc.sparse().is_none() {
+                    return Err(bad(self.path, format!("{what} has neither a buffer view nor sparse data")));
+                }
+                if count > 1 << 28 {
+                    return Err(bad(self.path, format!("{what}: count {count} is too large")));
+                }
+                out = vec![[0.0; N]; count];
+            }
+        }
+        if let Some(sparse) = acc.sparse() {
+            let n = sparse.count();
+            let idx = sparse.indices();
+            let isize = match idx.index_type() {
+                gltf::accessor::sparse::IndexType::U8 => 1,
+                gltf::accessor::sparse::IndexType::U16 => 2,
+                gltf::accessor::sparse::IndexType::U32 => 4,
+            };
+            let (ibytes, istride) = self.view_slice(&idx.view(), idx.offset(), n, isize, &what)?;
+            let vals = sparse.values();
+            let (vbytes, vstride) = self.view_slice(&vals.view(), vals.offset(), n, elem, &what)?;
+            for k in 0..n {
+                let b = &ibytes[k * istride..];
+                let i = match isize {
+                    1 => b[0] as usize,
+                    2 => u16::from_le_bytes([b[0], b[1]]) as usize,
+                    _ => u32::from_le_bytes([b[0], b[1], b[2], b[3]]) as usize,
+                };
+                let slot = out.get_mut(i).ok_or_else(|| {
+                    bad(self.path, format!("{what}: sparse index {i} is out of range (count {count})"))
+                })?;
+                *slot = decode(&vbytes[k * vstride..]);
+            }
+        }
+        Ok(out)
+    }
+
+    fn indices(&self, acc: &gltf::Accessor) -> Result<Vec<u32>, CookError> {
+        let what = format!("indices (accessor {})", acc.index());
+        if acc.dimensions() != Dimensions::Scalar
+            || !matches!(acc.data_type(), DataType::U8 | DataType::U16 | DataType::U32)
+        {
+            return Err(bad(
+                self.path,
+                format!("{what} are {:?} {:?}, expected unsigned integer scalars", acc.data_type(), acc.dimensions()),
+            ));
+        }
+        if acc.sparse().is_some() || acc.view().is_none() {
+            // Exact for any count up to 2^24, which sparse index data never exceeds in practice.
+            let f = self.floats::<1>(acc, "indices")?;
+            return Ok(f.into_iter().map(|[v]| v as u32).collect());
+        }
+        let size = type_size(acc.data_type());
+        let view = acc.view().ok_or_else(|| bad(self.path, format!("{what} have no buffer view")))?;
+        let (data, stride) = self.view_slice(&view, acc.offset(), acc.count(), size, &what)?;
+        Ok((0..acc.count())
+            .map(|i| {
+                let b = &data[i * stride..];
+                match size {
+                    1 => b[0] as u32,
+                    2 => u16::from_le_bytes([b[0], b[1]]) as u32,
+                    _ => u32::from_le_bytes([b[0], b[1], b[2], b[3]]),
+                }
+            })
+            .collect())
+    }
+}
+
+fn add_primitive(
+    ctx: &Ctx,
+    prim: &gltf::Primitive,
+    world: glam::Mat4,
+    part: u32,
+    out: &mut Imported,
+) -> Result<(), CookError> {
+    let path = ctx.path;
+    let pos_acc = prim
+        .get(&gltf::Semantic::Positions)
+        .ok_or_else(|| bad(path, "a triangle primitive has no POSITION attribute"))?;
+    let positions = ctx.floats::<3>(&pos_acc, "POSITION")?;
+    if let Some(i) = positions.iter().position(|p| !p.iter().all(|c| c.is_finite())) {
+        return Err(bad(
+            path,
+            format!("POSITION accessor {} element {i} is {:?}: not finite", pos_acc.index(), positions[i]),
+        ));
+    }
+    let vcount = positions.len();
+    let normals = match prim.get(&gltf::Semantic::Normals) {
+        Some(a) => {
+            let n = ctx.floats::<3>(&a, "NORMAL")?;
+            if n.len() != vcount {
+                return Err(bad(path, format!("NORMAL has {} elements but POSITION has {vcount}", n.len())));
+            }
+            if n.iter().any(|v| !v.iter().all(|c| c.is_finite())) {
+                return Err(bad(path, format!("NORMAL accessor {} has non-finite values", a.index())));
+            }
+            Some(n)
+        }
+        None => None,
+    };
+    let set = prim
+        .material()
+        .pbr_metallic_roughness()
+        .base_color_texture()
+        .map(|t| t.tex_coord())
+        .unwrap_or(0);
+    let uvs = match prim.get(&gltf::Semantic::TexCoords(set)) {
+        Some(a) => {
+            let t = ctx.floats::<2>(&a, "TEXCOORD")?;
+            if t.len() != vcount {
+                return Err(bad(path, format!("TEXCOORD_{set} has {} elements but POSITION has {vcount}", t.len())));
+            }
+            if t.iter().any(|v| !v.iter().all(|c| c.is_finite())) {
+                return Err(bad(path, format!("TEXCOORD accessor {} has non-finite values", a.index())));
+            }
+            Some(t)
+        }
+        None => None,
+    };
+    let indices: Vec<u32> = match prim.indices() {
+        Some(a) => ctx.indices(&a)?,
+        None => (0..vcount as u32).collect(),
+    };
+    if let Some((k, &i)) = indices.iter().enumerate().find(|&(_, &i)| i as usize >= vcount) {
+        return Err(bad(
+            path,
+            format!("index {k} is {i}, out of range for a primitive of {vcount} vertices"),
+        ));
+    }
+    let tris: Vec<[u32; 3]> = match prim.mode() {
+        Mode::TriangleStrip => (2..indices.len())
+            .map(|i| {
+                if i % 2 == 0 {
+                    [indices[i - 2], indices[i - 1], indices[i]]
+                } else {
+                    [indices[i - 1], indices[i - 2], indices[i]]
+                }
+            })
+            .collect(),
+        Mode::TriangleFan => (2..indices.len()).map(|i| [indices[0], indices[i - 1], indices[i]]).collect(),
+        _ => {
+            if indices.len() % 3 != 0 {
+                out.warnings.push(Warning::new(
+                    path,
+                    None,
+                    format!("{} indices is not a multiple of 3; the last {} ignored", indices.len(), indices.len() % 3),
+                ));
+            }
+            indices.chunks_exact(3).map(|c| [c[0], c[1], c[2]]).collect()
+        }
+    };
+
+    let base_p = out.positions.len() as u32;
+    let base_n = out.normals.len() as u32;
+    let base_t = out.uvs.len() as u32;
+    if out.positions.len() + vcount >= NONE as usize {
+        return Err(bad(path, "more than 2^32 vertices"));
+    }
+    out.positions.extend(positions.iter().map(|&p| world.transform_point3(glam::Vec3::from(p)).to_array()));
+    if let Some(n) = &normals {
+        let nm = glam::Mat3::from_mat4(world).inverse().transpose();
+        out.normals.extend(n.iter().map(|&v| (nm * glam::Vec3::from(v)).normalize_or_zero().to_array()));
+    }
+    if let Some(t) = &uvs {
+        out.uvs.extend_from_slice(t);
+    }
+    let mirror = glam::Mat3::from_mat4(world).determinant() < 0.0;
+    for mut t in tris {
+        if mirror {
+            t.swap(1, 2);
+        }
+        for i in t {
+            out.corners.push(Corner {
+                p: base_p + i,
+                t: if uvs.is_some() { base_t + i } else { NONE },
+                n: if normals.is_some() { base_n + i } else { NONE },
+            });
+        }
+        out.tri_part.push(part);
+    }
+    Ok(())
+}
+
+fn percent_decode(s: &str) -> String {
+    let b = s.as_bytes();
+    let mut out = Vec::with_capacity(b.len());
+    let mut i = 0;
+    while i < b.len() {
+        if b[i] == b'%'
+            && i + 2 < b.len()
+            && let Ok(v) = u8::from_str_radix(std::str::from_utf8(&b[i + 1..i + 3]).unwrap_or("zz"), 16)
+        {
+            out.push(v);
+            i += 3;
+            continue;
+        }
+        out.push(b[i]);
+        i += 1;
+    }
+    String::from_utf8_lossy(&out).into_owned()
+}
+
+fn image_ref(ctx: &Ctx, image: gltf::Image, warnings: &mut Vec<Warning>) -> Option<ImageRef> {
+    let name = image.name().map(str::to_string).unwrap_or_else(|| format!("image{}", image.index()));
+    match image.source() {
+        gltf::image::Source::View { view, .. } => {
+            match ctx.view_slice(&view, 0, view.length(), 1, &format!("image {name}")) {
+                Ok((bytes, _)) => Some(ImageRef::Embedded {
+                    name: format!("{}#{name}", ctx.path.display()),
+                    bytes: Arc::new(bytes.to_vec()),
+                }),
+                Err(e) => {
+                    warnings.push(Warning::new(ctx.path, None, format!("{e}; texture ignored")));
+                    None
+                }
+            }
+        }
+        gltf::image::Source::Uri { uri, .. } => {
+            if uri.starts_with("data:") {
+                warnings.push(Warning::new(ctx.path, None, format!("image {name}: data URIs are not supported; texture ignored")));
+                return None;
+            }
+            let dir = ctx.path.parent().unwrap_or(Path::new(""));
+            let p = [dir.join(uri), dir.join(percent_decode(uri))].into_iter().find(|p| p.is_file());
+            match p {
+                Some(p) => Some(ImageRef::File(p)),
+                None => {
+                    warnings.push(Warning::new(ctx.path, None, format!("image {uri:?} not found; texture ignored")));
+                    None
+                }
+            }
+        }
+    }
+}
+
+fn convert_material(
+    ctx: &Ctx,
+    m: &gltf::Material,
+    warnings: &mut Vec<Warning>,
+) -> Result<SourceMaterial, CookError> {
+    let pbr = m.pbr_metallic_roughness();
+    let base = pbr.base_color_factor();
+    let metallic = pbr.metallic_factor().clamp(0.0, 1.0);
+    let rough = pbr.roughness_factor().clamp(0.02, 1.0);
+    let diffuse = [0, 1, 2].map(|k| base[k] * (1.0 - metallic));
+    let specular = [0, 1, 2].map(|k| 0.04 * (1.0 - metallic) + base[k] * metallic);
+    // Blinn-Phong exponent of the same lobe width as a GGX roughness (alpha = roughness²).
+    let a = rough * rough;
+    let shininess = (2.0 / (a * a) - 2.0).clamp(1.0, 2048.0);
+    let sm = SourceMaterial {
+        name: m.name().map(str::to_string).unwrap_or_else(|| format!("material{}", m.index().unwrap_or(0))),
+        diffuse,
+        specular,
+        shininess,
+        emissive: m.emissive_factor(),
+        diffuse_texture: pbr.base_color_texture().and_then(|t| image_ref(ctx, t.texture().source(), warnings)),
+        normal_texture: m.normal_texture().and_then(|t| image_ref(ctx, t.texture().source(), warnings)),
+    };
+    if !sm.diffuse.iter().chain(&sm.specular).chain(&sm.emissive).all(|v| v.is_finite()) {
+        return Err(bad(ctx.path, format!("material {:?} has non-finite factors", sm.name)));
+    }
+    Ok(sm)
+}

@@ -1,0 +1,188 @@
+//! Source importers. Each turns a file into an [`Imported`] triangle soup: attribute arrays,
+//! three [`Corner`]s per triangle, and per triangle the [`Part`] whose source names tagging
+//! looks at. Importers check every index and coordinate, so later stages (and meshopt) only
+//! ever see valid data.
+
+pub mod gltf;
+pub mod obj;
+
+use std::path::{Path, PathBuf};
+use std::sync::Arc;
+
+use crate::CookError;
+use crate::manifest::NameKind;
+
+/// Marks a missing attribute in a [`Corner`].
+pub const NONE: u32 = u32::MAX;
+
+/// One triangle corner: indices into the position, texture-coordinate and normal arrays.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub struct Corner {
+    pub p: u32,
+    pub t: u32,
+    pub n: u32,
+}
+
+/// The names a run of triangles carries in its source file.
+#[derive(Clone, Debug, Default, PartialEq, Eq, Hash, PartialOrd, Ord)]
+pub struct Names {
+    pub material: Option<String>,
+    pub group: Option<String>,
+    pub object: Option<String>,
+    pub mesh: Option<String>,
+    pub node: Option<String>,
+}
+
+impl Names {
+    pub fn get(&self, kind: NameKind) -> Option<&str> {
+        match kind {
+            NameKind::Material => self.material.as_deref(),
+            NameKind::Group => self.group.as_deref(),
+            NameKind::Object => self.object.as_deref(),
+            NameKind::Mesh => self.mesh.as_deref(),
+            NameKind::Node => self.node.as_deref(),
+        }
+    }
+
+    /// `kind name` pairs, for reports.
+    pub fn describe(&self) -> String {
+        let parts: Vec<String> = NameKind::ALL
+            .iter()
+            .filter_map(|&k| self.get(k).map(|n| format!("{} {n:?}", k.name())))
+            .collect();
+        if parts.is_empty() { "(unnamed)".into() } else { parts.join(", ") }
+    }
+}
+
+/// A run of triangles sharing source names and source material.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Part {
+    pub names: Names,
+    /// Index into [`Imported::materials`].
+    pub material: Option<u32>,
+}
+
+/// An image a material refers to.
+#[derive(Clone, Debug, PartialEq)]
+pub enum ImageRef {
+    File(PathBuf),
+    /// Bytes embedded in a glTF buffer or data URI; `name` identifies it in reports.
+    Embedded { name: String, bytes: Arc<Vec<u8>> },
+}
+
+impl ImageRef {
+    pub fn name(&self) -> String {
+        match self {
+            ImageRef::File(p) => p.display().to_string(),
+            ImageRef::Embedded { name, .. } => name.clone(),
+        }
+    }
+}
+
+/// Shading parameters as the source states them, in linear RGB.
+#[derive(Clone, Debug, PartialEq)]
+pub struct SourceMaterial {
+    pub name: String,
+    pub diffuse: [f32; 3],
+    pub specular: [f32; 3],
+    pub shininess: f32,
+    pub emissive: [f32; 3],
+    pub diffuse_texture: Option<ImageRef>,
+    pub normal_texture: Option<ImageRef>,
+}
+
+impl SourceMaterial {
+    pub fn plain(name: impl Into<String>) -> Self {
+        Self {
+            name: name.into(),
+            diffuse: [0.8; 3],
+            specular: [0.0; 3],
+            shininess: 1.0,
+            emissive: [0.0; 3],
+            diffuse_texture: None,
+            normal_texture: None,
+        }
+    }
+}
+
+/// Something a user can live with, reported and cooked anyway.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct Warning {
+    pub path: PathBuf,
+    pub line: Option<usize>,
+    pub message: String,
+}
+
+impl Warning {
+    pub fn new(path: &Path, line: Option<usize>, message: impl Into<String>) -> Self {
+        Self { path: path.to_path_buf(), line, message: message.into() }
+    }
+}
+
+impl std::fmt::Display for Warning {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self.line {
+            Some(l) => write!(f, "{}:{l}: {}", self.path.display(), self.message),
+            None => write!(f, "{}: {}", self.path.display(), self.message),
+        }
+    }
+}
+
+/// A source file as triangles.
+#[derive(Clone, Debug, Default)]
+pub struct Imported {
+    pub path: PathBuf,
+    pub positions: Vec<[f32; 3]>,
+    pub normals: Vec<[f32; 3]>,
+    pub uvs: Vec<[f32; 2]>,
+    /// Three per triangle.
+    pub corners: Vec<Corner>,
+    /// Per triangle: index into `parts`.
+    pub tri_part: Vec<u32>,
+    pub parts: Vec<Part>,
+    pub materials: Vec<SourceMaterial>,
+    pub warnings: Vec<Warning>,
+    /// Polygons with more than three corners that were triangulated.
+    pub polygons: usize,
+}
+
+impl Imported {
+    pub fn triangle_count(&self) -> usize {
+        self.tri_part.len()
+    }
+
+    /// Applies an affine transform to positions and normals; a mirroring transform also flips
+    /// the winding so front faces stay front faces.
+    pub fn transform(&mut self, m: glam::Mat4) {
+        if m == glam::Mat4::IDENTITY {
+            return;
+        }
+        for p in &mut self.positions {
+            *p = m.transform_point3(glam::Vec3::from(*p)).to_array();
+        }
+        let nm = glam::Mat3::from_mat4(m).inverse().transpose();
+        for n in &mut self.normals {
+            let v = nm * glam::Vec3::from(*n);
+            *n = v.normalize_or_zero().to_array();
+        }
+        if glam::Mat3::from_mat4(m).determinant() < 0.0 {
+            for t in self.corners.chunks_exact_mut(3) {
+                t.swap(1, 2);
+            }
+        }
+    }
+}
+
+/// Imports an OBJ, glTF or GLB file, by extension.
+pub fn import(path: &Path) -> Result<Imported, CookError> {
+    let ext = path.extension().map(|e| e.to_string_lossy().to_ascii_lowercase()).unwrap_or_default();
+    match ext.as_str() {
+        "obj" => obj::import(path),
+        "gltf" | "glb" => gltf::import(path),
+        _ => Err(CookError::Source {
+            path: path.to_path_buf(),
+            line: None,
+            message: format!("unsupported mesh format {ext:?}: expected .obj, .gltf or .glb"),
+        }),
+    }
+}

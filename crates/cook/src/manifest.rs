@@ -1,0 +1,662 @@
+//! The scene manifest (`scene.toml`), parsed exactly as `docs/scene-manifest.md` documents it.
+//!
+//! Every error names the manifest and the line: toml's spans locate syntax errors, unknown keys
+//! and wrong types; [`toml::Spanned`] keeps the position of each value that is checked after
+//! parsing (paths that must exist, enum-like strings, per-type light fields).
+
+use std::path::{Path, PathBuf};
+
+use serde::Deserialize;
+use toml::Spanned;
+
+use crate::CookError;
+
+/// A parsed, checked manifest. Paths are resolved against the manifest's directory and exist.
+#[derive(Clone, Debug)]
+pub struct Manifest {
+    /// The manifest file, or the bare mesh file for [`Manifest::from_mesh_file`].
+    pub path: PathBuf,
+    pub scene: SceneInfo,
+    pub textures: TextureSettings,
+    pub meshes: Vec<MeshSource>,
+    pub rules: Vec<Rule>,
+    pub windows: Vec<WindowDesign>,
+    pub light: Option<Light>,
+    pub cameras: Vec<Camera>,
+    pub background: Background,
+    /// True for a bare mesh cooked without a manifest: heuristics only.
+    pub bare: bool,
+}
+
+#[derive(Clone, Debug, Default)]
+pub struct SceneInfo {
+    pub name: Option<String>,
+    /// Error budget in 8-bit sRGB LSB for blur and mip method choices.
+    pub max_error: Option<f32>,
+}
+
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum MipFilter {
+    #[default]
+    Box,
+    Kaiser,
+    Lanczos3,
+}
+
+#[derive(Clone, Debug, Default)]
+pub struct TextureSettings {
+    pub mip_filter: MipFilter,
+}
+
+/// Where in the manifest a value came from, for errors found after parsing.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct Line(pub usize);
+
+#[derive(Clone, Debug)]
+pub struct MeshSource {
+    pub source: PathBuf,
+    pub name: String,
+    pub translate: [f32; 3],
+    pub rotate_deg: [f32; 3],
+    pub scale: [f32; 3],
+    pub line: Line,
+}
+
+impl MeshSource {
+    /// Scale, then rotate (XYZ Euler, degrees), then translate.
+    pub fn transform(&self) -> glam::Mat4 {
+        let r = self.rotate_deg.map(f32::to_radians);
+        glam::Mat4::from_scale_rotation_translation(
+            glam::Vec3::from(self.scale),
+            glam::Quat::from_euler(glam::EulerRot::XYZ, r[0], r[1], r[2]),
+            glam::Vec3::from(self.translate),
+        )
+    }
+}
+
+/// Which source names a rule looks at.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum NameKind {
+    Material,
+    Group,
+    Object,
+    Mesh,
+    Node,
+}
+
+impl NameKind {
+    pub const ALL: [NameKind; 5] =
+        [Self::Material, Self::Group, Self::Object, Self::Mesh, Self::Node];
+
+    pub fn name(self) -> &'static str {
+        match self {
+            Self::Material => "material",
+            Self::Group => "group",
+            Self::Object => "object",
+            Self::Mesh => "mesh",
+            Self::Node => "node",
+        }
+    }
+}
+
+#[derive(Clone, Debug)]
+pub struct Rule {
+    pub pattern: String,
+    pub on: Vec<NameKind>,
+    pub class: pack::MaterialClass,
+    pub material: Option<String>,
+    pub diffuse: Option<[f32; 3]>,
+    pub specular: Option<[f32; 3]>,
+    pub shininess: Option<f32>,
+    pub emissive: Option<[f32; 3]>,
+    pub texture: Option<PathBuf>,
+    pub normal_map: Option<PathBuf>,
+    pub line: Line,
+}
+
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum NormalEncoding {
+    #[default]
+    Rgb,
+    /// Two channels; z is reconstructed.
+    Rg,
+}
+
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum GreenAxis {
+    /// +Y up.
+    #[default]
+    OpenGl,
+    /// +Y down.
+    DirectX,
+}
+
+#[derive(Clone, Debug)]
+pub struct WindowDesign {
+    pub material: String,
+    pub design: PathBuf,
+    pub colour_space: pack::ColourSpace,
+    pub normal_map: Option<PathBuf>,
+    pub normal_encoding: NormalEncoding,
+    pub green: GreenAxis,
+    pub blur_sigma: Option<f32>,
+    pub line: Line,
+}
+
+#[derive(Clone, Debug, PartialEq)]
+pub struct Light {
+    pub kind: pack::LightKind,
+    pub colour: [f32; 3],
+    pub intensity: f32,
+}
+
+pub type Camera = pack::Camera;
+
+#[derive(Clone, Debug, Default)]
+pub struct Background {
+    pub colour: [f32; 3],
+    pub panorama: Option<PathBuf>,
+}
+
+// ---- the raw TOML shape -------------------------------------------------------------------
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawManifest {
+    scene: Option<RawScene>,
+    textures: Option<RawTextures>,
+    #[serde(default)]
+    mesh: Vec<Spanned<RawMesh>>,
+    #[serde(default)]
+    rule: Vec<Spanned<RawRule>>,
+    #[serde(default)]
+    window: Vec<Spanned<RawWindow>>,
+    light: Option<Spanned<RawLight>>,
+    #[serde(default)]
+    camera: Vec<RawCamera>,
+    background: Option<RawBackground>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawScene {
+    name: Option<String>,
+    max_error: Option<Spanned<f32>>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawTextures {
+    mip_filter: Option<Spanned<String>>,
+}
+
+#[derive(Deserialize)]
+#[serde(untagged)]
+enum RawScale {
+    Uniform(f32),
+    Axes([f32; 3]),
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawMesh {
+    source: Spanned<String>,
+    name: Option<String>,
+    translate: Option<[f32; 3]>,
+    rotate_deg: Option<[f32; 3]>,
+    scale: Option<Spanned<RawScale>>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawRule {
+    #[serde(rename = "match")]
+    pattern: Spanned<String>,
+    on: Option<Spanned<Vec<NameKind>>>,
+    class: Spanned<String>,
+    material: Option<String>,
+    diffuse: Option<[f32; 3]>,
+    specular: Option<[f32; 3]>,
+    shininess: Option<f32>,
+    emissive: Option<[f32; 3]>,
+    texture: Option<Spanned<String>>,
+    normal_map: Option<Spanned<String>>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawWindow {
+    material: String,
+    design: Spanned<String>,
+    colour_space: Option<Spanned<String>>,
+    normal_map: Option<Spanned<String>>,
+    normal_encoding: Option<Spanned<String>>,
+    green: Option<Spanned<String>>,
+    blur_sigma: Option<Spanned<f32>>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawLight {
+    #[serde(rename = "type")]
+    kind: Spanned<String>,
+    direction: Option<Spanned<[f32; 3]>>,
+    angular_size_deg: Option<Spanned<f32>>,
+    position: Option<Spanned<[f32; 3]>>,
+    radius: Option<Spanned<f32>>,
+    colour: Option<[f32; 3]>,
+    intensity: Option<Spanned<f32>>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawCamera {
+    name: String,
+    position: [f32; 3],
+    target: [f32; 3],
+    up: Option<[f32; 3]>,
+    fov_y_deg: Option<Spanned<f32>>,
+    near: Option<Spanned<f32>>,
+    far: Option<Spanned<f32>>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawBackground {
+    colour: Option<[f32; 3]>,
+    panorama: Option<Spanned<String>>,
+}
+
+/// Resolves byte offsets in the manifest to 1-based line numbers.
+struct Source<'a> {
+    path: &'a Path,
+    text: &'a str,
+}
+
+impl Source<'_> {
+    fn line(&self, offset: usize) -> Line {
+        let end = offset.min(self.text.len());
+        Line(self.text.as_bytes()[..end].iter().filter(|&&b| b == b'\n').count() + 1)
+    }
+
+    fn error(&self, offset: usize, message: impl Into<String>) -> CookError {
+        CookError::Manifest {
+            path: self.path.to_path_buf(),
+            line: Some(self.line(offset).0),
+            message: message.into(),
+        }
+    }
+
+    fn at_line(&self, line: Line, message: impl Into<String>) -> CookError {
+        CookError::Manifest { path: self.path.to_path_buf(), line: Some(line.0), message: message.into() }
+    }
+
+    fn err_at<T>(&self, span: &Spanned<T>, message: impl Into<String>) -> CookError {
+        self.error(span.span().start, message)
+    }
+
+    /// A path relative to the manifest that must name an existing file.
+    fn file(&self, value: &Spanned<String>, what: &str) -> Result<PathBuf, CookError> {
+        let dir = self.path.parent().unwrap_or(Path::new(""));
+        let path = dir.join(value.get_ref());
+        match std::fs::metadata(&path) {
+            Ok(m) if m.is_file() => Ok(path),
+            Ok(_) => Err(self.err_at(value, format!("{what} {:?} is not a file", value.get_ref()))),
+            Err(e) => Err(self.err_at(
+                value,
+                format!("{what} {:?} cannot be read ({}): {e}", value.get_ref(), path.display()),
+            )),
+        }
+    }
+
+    fn positive(&self, value: &Spanned<f32>, what: &str) -> Result<f32, CookError> {
+        let v = *value.get_ref();
+        if v.is_finite() && v > 0.0 {
+            Ok(v)
+        } else {
+            Err(self.err_at(value, format!("{what} is {v} but must be a positive number")))
+        }
+    }
+
+    fn choice<T: Copy>(
+        &self,
+        value: &Spanned<String>,
+        what: &str,
+        options: &[(&str, T)],
+    ) -> Result<T, CookError> {
+        options.iter().find(|(n, _)| *n == value.get_ref()).map(|&(_, v)| v).ok_or_else(|| {
+            let names: Vec<_> = options.iter().map(|(n, _)| format!("{n:?}")).collect();
+            self.err_at(
+                value,
+                format!("{what} is {:?} but must be one of {}", value.get_ref(), names.join(", ")),
+            )
+        })
+    }
+}
+
+fn finite3(v: [f32; 3]) -> bool {
+    v.iter().all(|x| x.is_finite())
+}
+
+impl Manifest {
+    /// Reads and checks a `scene.toml`.
+    pub fn load(path: &Path) -> Result<Manifest, CookError> {
+        let text = std::fs::read_to_string(path).map_err(|source| {
+            if source.kind() == std::io::ErrorKind::InvalidData {
+                CookError::Manifest {
+                    path: path.to_path_buf(),
+                    line: None,
+                    message: "not UTF-8 text".into(),
+                }
+            } else {
+                CookError::Io { path: path.to_path_buf(), source }
+            }
+        })?;
+        Self::parse(path, &text)
+    }
+
+    /// Parses manifest text; `path` resolves relative paths and names the manifest in errors.
+    pub fn parse(path: &Path, text: &str) -> Result<Manifest, CookError> {
+        let src = Source { path, text };
+        let raw: RawManifest = toml::from_str(text).map_err(|e| CookError::Manifest {
+            path: path.to_path_buf(),
+            line: e.span().map(|s| src.line(s.start).0),
+            message: e.message().trim().to_string(),
+        })?;
+
+        let scene = match raw.scene {
+            Some(s) => SceneInfo {
+                name: s.name,
+                max_error: s.max_error.map(|m| src.positive(&m, "max_error")).transpose()?,
+            },
+            None => SceneInfo::default(),
+        };
+        let textures = TextureSettings {
+            mip_filter: match raw.textures.and_then(|t| t.mip_filter) {
+                Some(f) => src.choice(
+                    &f,
+                    "mip_filter",
+                    &[
+                        ("box", MipFilter::Box),
+                        ("kaiser", MipFilter::Kaiser),
+                        ("lanczos3", MipFilter::Lanczos3),
+                    ],
+                )?,
+                None => MipFilter::Box,
+            },
+        };
+
+        let mut meshes = Vec::new();
+        for m in &raw.mesh {
+            let line = src.line(m.span().start);
+            let m = m.get_ref();
+            let source = src.file(&m.source, "mesh source")?;
+            let scale = match &m.scale {
+                None => [1.0; 3],
+                Some(s) => match s.get_ref() {
+                    RawScale::Uniform(k) => [*k; 3],
+                    RawScale::Axes(a) => *a,
+                },
+            };
+            if let Some(s) = &m.scale
+                && (!finite3(scale) || scale.contains(&0.0))
+            {
+                return Err(src.err_at(s, format!("scale {scale:?} must be finite and non-zero")));
+            }
+            let name = m.name.clone().unwrap_or_else(|| {
+                source.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_default()
+            });
+            meshes.push(MeshSource {
+                source,
+                name,
+                translate: m.translate.unwrap_or([0.0; 3]),
+                rotate_deg: m.rotate_deg.unwrap_or([0.0; 3]),
+                scale,
+                line,
+            });
+        }
+        if meshes.is_empty() {
+            return Err(CookError::Manifest {
+                path: path.to_path_buf(),
+                line: None,
+                message: "no [[mesh]] entries: a scene needs at least one mesh source".into(),
+            });
+        }
+
+        let mut rules = Vec::new();
+        for r in &raw.rule {
+            let line = src.line(r.span().start);
+            let r = r.get_ref();
+            if let Err(e) = globset::GlobBuilder::new(r.pattern.get_ref()).build() {
+                return Err(src.err_at(&r.pattern, format!("invalid glob: {e}")));
+            }
+            let class = pack::MaterialClass::from_name(r.class.get_ref()).ok_or_else(|| {
+                let names: Vec<_> =
+                    pack::MaterialClass::ALL.iter().map(|c| format!("{:?}", c.name())).collect();
+                src.err_at(
+                    &r.class,
+                    format!("class is {:?} but must be one of {}", r.class.get_ref(), names.join(", ")),
+                )
+            })?;
+            let on = match &r.on {
+                Some(on) if on.get_ref().is_empty() => {
+                    return Err(src.err_at(on, "`on` is empty: the rule could never match"));
+                }
+                Some(on) => on.get_ref().clone(),
+                None => NameKind::ALL.to_vec(),
+            };
+            for (v, what) in [(&r.diffuse, "diffuse"), (&r.specular, "specular"), (&r.emissive, "emissive")] {
+                if let Some(c) = v
+                    && !finite3(*c)
+                {
+                    return Err(src.at_line(line, format!("{what} {c:?} is not finite")));
+                }
+            }
+            rules.push(Rule {
+                pattern: r.pattern.get_ref().clone(),
+                on,
+                class,
+                material: r.material.clone(),
+                diffuse: r.diffuse,
+                specular: r.specular,
+                shininess: r.shininess,
+                emissive: r.emissive,
+                texture: r.texture.as_ref().map(|t| src.file(t, "texture")).transpose()?,
+                normal_map: r.normal_map.as_ref().map(|t| src.file(t, "normal_map")).transpose()?,
+                line,
+            });
+        }
+
+        let mut windows: Vec<WindowDesign> = Vec::new();
+        for w in &raw.window {
+            let line = src.line(w.span().start);
+            let w = w.get_ref();
+            if let Some(prev) = windows.iter().find(|p| p.material == w.material) {
+                return Err(src.at_line(
+                    line,
+                    format!("window material {:?} is already described at line {}", w.material, prev.line.0),
+                ));
+            }
+            windows.push(WindowDesign {
+                material: w.material.clone(),
+                design: src.file(&w.design, "window design")?,
+                colour_space: match &w.colour_space {
+                    Some(c) => src.choice(
+                        c,
+                        "colour_space",
+                        &[("srgb", pack::ColourSpace::Srgb), ("linear", pack::ColourSpace::Linear)],
+                    )?,
+                    None => pack::ColourSpace::Srgb,
+                },
+                normal_map: w.normal_map.as_ref().map(|t| src.file(t, "normal_map")).transpose()?,
+                normal_encoding: match &w.normal_encoding {
+                    Some(c) => src.choice(
+                        c,
+                        "normal_encoding",
+                        &[("rgb", NormalEncoding::Rgb), ("rg", NormalEncoding::Rg)],
+                    )?,
+                    None => NormalEncoding::Rgb,
+                },
+                green: match &w.green {
+                    Some(c) => src.choice(
+                        c,
+                        "green",
+                        &[("opengl", GreenAxis::OpenGl), ("directx", GreenAxis::DirectX)],
+                    )?,
+                    None => GreenAxis::OpenGl,
+                },
+                blur_sigma: w.blur_sigma.as_ref().map(|s| src.positive(s, "blur_sigma")).transpose()?,
+                line,
+            });
+        }
+
+        let light = raw.light.as_ref().map(|l| parse_light(&src, l)).transpose()?;
+
+        let mut cameras = Vec::new();
+        for c in raw.camera {
+            let fov_y = c.fov_y_deg.as_ref().map(|f| src.positive(f, "fov_y_deg")).transpose()?.unwrap_or(60.0);
+            if let Some(f) = &c.fov_y_deg
+                && fov_y >= 180.0
+            {
+                return Err(src.err_at(f, format!("fov_y_deg is {fov_y} but must be below 180")));
+            }
+            let near = c.near.as_ref().map(|f| src.positive(f, "near")).transpose()?.unwrap_or(0.05);
+            let far = c.far.as_ref().map(|f| src.positive(f, "far")).transpose()?.unwrap_or(500.0);
+            if far <= near {
+                let at = c.far.as_ref().or(c.near.as_ref()).map(|s| s.span().start).unwrap_or(0);
+                return Err(src.error(at, format!("camera {:?}: far {far} must exceed near {near}", c.name)));
+            }
+            let up = c.up.unwrap_or([0.0, 1.0, 0.0]);
+            if !finite3(c.position) || !finite3(c.target) || !finite3(up) || c.position == c.target {
+                return Err(CookError::Manifest {
+                    path: path.to_path_buf(),
+                    line: None,
+                    message: format!(
+                        "camera {:?}: position, target and up must be finite and position must differ from target",
+                        c.name
+                    ),
+                });
+            }
+            cameras.push(pack::Camera {
+                name: c.name,
+                position: c.position,
+                target: c.target,
+                up,
+                fov_y,
+                near,
+                far,
+            });
+        }
+
+        let background = match raw.background {
+            Some(b) => Background {
+                colour: b.colour.unwrap_or([0.0; 3]),
+                panorama: b.panorama.as_ref().map(|p| src.file(p, "panorama")).transpose()?,
+            },
+            None => Background::default(),
+        };
+
+        Ok(Manifest {
+            path: path.to_path_buf(),
+            scene,
+            textures,
+            meshes,
+            rules,
+            windows,
+            light,
+            cameras,
+            background,
+            bare: false,
+        })
+    }
+
+    /// A manifest for a bare OBJ/glTF file: no rules (tagging falls back to name heuristics),
+    /// no windows designs, no light or cameras.
+    pub fn from_mesh_file(path: &Path) -> Result<Manifest, CookError> {
+        std::fs::metadata(path).map_err(|source| CookError::Io { path: path.to_path_buf(), source })?;
+        let name = path.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_default();
+        Ok(Manifest {
+            path: path.to_path_buf(),
+            scene: SceneInfo { name: Some(name.clone()), max_error: None },
+            textures: TextureSettings::default(),
+            meshes: vec![MeshSource {
+                source: path.to_path_buf(),
+                name,
+                translate: [0.0; 3],
+                rotate_deg: [0.0; 3],
+                scale: [1.0; 3],
+                line: Line(0),
+            }],
+            rules: Vec::new(),
+            windows: Vec::new(),
+            light: None,
+            cameras: Vec::new(),
+            background: Background::default(),
+            bare: true,
+        })
+    }
+
+    /// A manifest for `path`: `.toml` files are manifests, anything else a bare mesh.
+    pub fn open(path: &Path) -> Result<Manifest, CookError> {
+        let is_toml = path.extension().is_some_and(|e| e.eq_ignore_ascii_case("toml"));
+        if is_toml { Self::load(path) } else { Self::from_mesh_file(path) }
+    }
+}
+
+fn parse_light(src: &Source<'_>, l: &Spanned<RawLight>) -> Result<Light, CookError> {
+    let raw = l.get_ref();
+    #[derive(Clone, Copy)]
+    enum Kind {
+        Point,
+        Directional,
+    }
+    let kind = src.choice(&raw.kind, "light type", &[("point", Kind::Point), ("directional", Kind::Directional)])?;
+    let missing = |what: &str, t: &str| src.err_at(l, format!("a {t} light needs `{what}`"));
+    let stray = |s: usize, what: &str, t: &str| src.error(s, format!("`{what}` does not apply to a {t} light"));
+    let kind = match kind {
+        Kind::Directional => {
+            if let Some(p) = &raw.position {
+                return Err(stray(p.span().start, "position", "directional"));
+            }
+            if let Some(p) = &raw.radius {
+                return Err(stray(p.span().start, "radius", "directional"));
+            }
+            let d = raw.direction.as_ref().ok_or_else(|| missing("direction", "directional"))?;
+            let v = glam::Vec3::from(*d.get_ref());
+            if !v.is_finite() || v.length() < 1e-6 {
+                return Err(src.err_at(d, format!("direction {:?} must be a finite non-zero vector", d.get_ref())));
+            }
+            let size = raw
+                .angular_size_deg
+                .as_ref()
+                .map(|a| src.positive(a, "angular_size_deg"))
+                .transpose()?
+                .unwrap_or(0.53);
+            pack::LightKind::Directional {
+                direction: v.normalize().to_array(),
+                angular_size: size.to_radians(),
+            }
+        }
+        Kind::Point => {
+            if let Some(p) = &raw.direction {
+                return Err(stray(p.span().start, "direction", "point"));
+            }
+            if let Some(p) = &raw.angular_size_deg {
+                return Err(stray(p.span().start, "angular_size_deg", "point"));
+            }
+            let p = raw.position.as_ref().ok_or_else(|| missing("position", "point"))?;
+            if !finite3(*p.get_ref()) {
+                return Err(src.err_at(p, "position must be finite"));
+            }
+            let radius = raw.radius.as_ref().ok_or_else(|| missing("radius", "point"))?;
+            pack::LightKind::Point { position: *p.get_ref(), radius: src.positive(radius, "radius")? }
+        }
+    };
+    let colour = raw.colour.unwrap_or([1.0; 3]);
+    if !finite3(colour) || colour.iter().any(|&c| c < 0.0) {
+        return Err(src.err_at(l, format!("light colour {colour:?} must be finite and non-negative")));
+    }
+    let intensity = raw.intensity.as_ref().map(|i| src.positive(i, "intensity")).transpose()?.unwrap_or(1.0);
+    Ok(Light { kind, colour, intensity })
+}

@@ -1,0 +1,613 @@
+//! Mesh processing: from a tagged triangle soup to GPU-ready, optimized vertex and index
+//! buffers with one draw range per material (window materials last, since they are blended).
+//!
+//! Order matters: indices are already validated by the importers (meshopt crashes the process
+//! on an out-of-range index), -0.0 is normalized before deduplication (meshopt compares raw
+//! bits), and vertices shared by two materials are split simply because the material ID is
+//! part of the vertex.
+
+use std::collections::HashMap;
+use std::time::{Duration, Instant};
+
+use pack::StandardVertex;
+
+use crate::import::{Imported, NONE};
+
+/// Vertex cache optimizer.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum CacheMode {
+    /// meshopt's full optimizer (Forsyth-like, best ACMR).
+    #[default]
+    Full,
+    /// meshopt's FIFO optimizer (cache of 16): about 3x faster, slightly worse.
+    Fifo,
+}
+
+#[derive(Clone, Debug)]
+pub struct MeshSettings {
+    pub cache: CacheMode,
+    /// Reorder opaque ranges to reduce overdraw (threshold 1.05).
+    pub overdraw: bool,
+    /// Faces meeting at a sharper angle than this keep separate generated normals.
+    pub crease_angle_deg: f32,
+}
+
+impl Default for MeshSettings {
+    fn default() -> Self {
+        Self { cache: CacheMode::Full, overdraw: false, crease_angle_deg: 60.0 }
+    }
+}
+
+/// What each material needs from mesh processing.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct MaterialNeeds {
+    /// Blended: drawn after every opaque range.
+    pub window: bool,
+    /// Has a normal map: MikkTSpace tangents are generated.
+    pub tangents: bool,
+}
+
+/// Per-stage numbers, for `cooker cook -v`.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct MeshStats {
+    pub triangles_in: usize,
+    pub degenerate_dropped: usize,
+    pub triangles_out: usize,
+    pub corners: usize,
+    pub vertices_out: usize,
+    pub normals_generated: usize,
+    pub tangent_triangles: usize,
+    /// ACMR with a FIFO cache of 16, before and after cache optimization.
+    pub acmr_in: f32,
+    pub acmr_out: f32,
+    pub overfetch: f32,
+    pub stages: Vec<(&'static str, Duration)>,
+}
+
+/// Processed geometry of one mesh.
+#[derive(Clone, Debug, Default)]
+pub struct Processed {
+    pub vertices: Vec<StandardVertex>,
+    pub indices: Vec<u32>,
+    pub ranges: Vec<pack::DrawRange>,
+    pub bounds_min: [f32; 3],
+    pub bounds_max: [f32; 3],
+    pub stats: MeshStats,
+}
+
+fn sub(a: [f32; 3], b: [f32; 3]) -> [f32; 3] {
+    [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
+}
+
+fn cross(a: [f32; 3], b: [f32; 3]) -> [f32; 3] {
+    [a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]]
+}
+
+fn dot(a: [f32; 3], b: [f32; 3]) -> f32 {
+    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
+}
+
+fn normalize(a: [f32; 3]) -> [f32; 3] {
+    let l = dot(a, a).sqrt();
+    if l > 0.0 && l.is_finite() { [a[0] / l, a[1] / l, a[2] / l] } else { [0.0; 3] }
+}
+
+/// True when the triangle has no area: repeated corners or collinear positions.
+pub fn is_degenerate(a: [f32; 3], b: [f32; 3], c: [f32; 3]) -> bool {
+    let n = cross(sub(b, a), sub(c, a));
+    !(dot(n, n) > 0.0)
+}
+
+fn plus_zero(v: f32) -> f32 {
+    // -0.0 == 0.0 compares equal but has different bits; adding +0.0 maps -0.0 to +0.0.
+    v + 0.0
+}
+
+/// Angle between the two edges at corner `a`.
+fn corner_angle(a: [f32; 3], b: [f32; 3], c: [f32; 3]) -> f32 {
+    let u = normalize(sub(b, a));
+    let v = normalize(sub(c, a));
+    dot(u, v).clamp(-1.0, 1.0).acos()
+}
+
+struct Timer {
+    last: Instant,
+    stages: Vec<(&'static str, Duration)>,
+}
+
+impl Timer {
+    fn new() -> Self {
+        Self { last: Instant::now(), stages: Vec::new() }
+    }
+    fn lap(&mut self, name: &'static str) {
+        let now = Instant::now();
+        self.stages.push((name, now - self.last));
+        self.last = now;
+    }
+}
+
+/// Angle-weighted vertex normals for the corners that have none, around welded positions;
+/// faces meeting at more than the crease angle do not smooth into each other.
+fn generate_normals(
+    positions: &[[f32; 3]],
+    tris: &[[u32; 3]],
+    face_normals: &[[f32; 3]],
+    need: &[bool],
+    crease_cos: f32,
+    out: &mut [[f32; 3]],
+) {
+    // Weld by value so unwelded sources (one position per glTF corner) still smooth.
+    let mut weld: HashMap<[u32; 3], u32> = HashMap::with_capacity(positions.len());
+    let canon: Vec<u32> = positions
+        .iter()
+        .map(|p| {
+            let key = p.map(|c| plus_zero(c).to_bits());
+            let next = weld.len() as u32;
+            *weld.entry(key).or_insert(next)
+        })
+        .collect();
+    let n = weld.len();
+    // Compressed adjacency: for each welded position, the (triangle, corner) pairs around it.
+    let mut start = vec![0u32; n + 1];
+    for t in tris {
+        for &p in t {
+            start[canon[p as usize] as usize + 1] += 1;
+        }
+    }
+    for i in 0..n {
+        start[i + 1] += start[i];
+    }
+    let mut fill = start.clone();
+    let mut adj = vec![0u32; tris.len() * 3];
+    for (ti, t) in tris.iter().enumerate() {
+        for (k, &p) in t.iter().enumerate() {
+            let c = canon[p as usize] as usize;
+            adj[fill[c] as usize] = (ti * 3 + k) as u32;
+            fill[c] += 1;
+        }
+    }
+    let weights: Vec<f32> = tris
+        .iter()
+        .flat_map(|t| {
+            let [a, b, c] = t.map(|i| positions[i as usize]);
+            [corner_angle(a, b, c), corner_angle(b, c, a), corner_angle(c, a, b)]
+        })
+        .collect();
+    for (ti, t) in tris.iter().enumerate() {
+        let fnrm = face_normals[ti];
+        for (k, &p) in t.iter().enumerate() {
+            let corner = ti * 3 + k;
+            if !need[corner] {
+                continue;
+            }
+            let c = canon[p as usize] as usize;
+            let mut sum = [0.0f32; 3];
+            for &other in &adj[start[c] as usize..start[c + 1] as usize] {
+                let on = face_normals[other as usize / 3];
+                if dot(on, fnrm) >= crease_cos {
+                    let w = weights[other as usize];
+                    sum = [sum[0] + on[0] * w, sum[1] + on[1] * w, sum[2] + on[2] * w];
+                }
+            }
+            let nrm = normalize(sum);
+            out[corner] = if dot(nrm, nrm) > 0.0 { nrm } else { fnrm };
+        }
+    }
+}
+
+struct Mikk<'a> {
+    verts: &'a mut [StandardVertex],
+    /// Triangles (corner offsets / 3) that need tangents.
+    faces: &'a [u32],
+}
+
+impl mikktspace::Geometry for Mikk<'_> {
+    fn num_faces(&self) -> usize {
+        self.faces.len()
+    }
+    fn num_vertices_of_face(&self, _: usize) -> usize {
+        3
+    }
+    fn position(&self, face: usize, vert: usize) -> [f32; 3] {
+        self.verts[self.faces[face] as usize * 3 + vert].position
+    }
+    fn normal(&self, face: usize, vert: usize) -> [f32; 3] {
+        self.verts[self.faces[face] as usize * 3 + vert].normal
+    }
+    fn tex_coord(&self, face: usize, vert: usize) -> [f32; 2] {
+        self.verts[self.faces[face] as usize * 3 + vert].uv
+    }
+    fn set_tangent_encoded(&mut self, tangent: [f32; 4], face: usize, vert: usize) {
+        self.verts[self.faces[face] as usize * 3 + vert].tangent = tangent;
+    }
+}
+
+/// Processes one imported source whose triangles carry pack material IDs (`tri_material`,
+/// parallel to `src.tri_part`).
+pub fn process(
+    src: &Imported,
+    tri_material: &[u16],
+    needs: &[MaterialNeeds],
+    settings: &MeshSettings,
+) -> Processed {
+    let mut timer = Timer::new();
+    let mut stats = MeshStats { triangles_in: src.triangle_count(), ..Default::default() };
+
+    // Drop degenerate triangles before anything divides by their area.
+    let mut keep: Vec<u32> = Vec::with_capacity(src.triangle_count());
+    for (ti, c) in src.corners.chunks_exact(3).enumerate() {
+        let [a, b, d] = [c[0], c[1], c[2]].map(|c| src.positions[c.p as usize]);
+        if c[0].p != c[1].p && c[1].p != c[2].p && c[0].p != c[2].p && !is_degenerate(a, b, d) {
+            keep.push(ti as u32);
+        }
+    }
+    stats.degenerate_dropped = src.triangle_count() - keep.len();
+    // Group by material, windows last; stable, so source order is kept within a material.
+    keep.sort_by_key(|&t| {
+        let m = tri_material[t as usize];
+        (needs[m as usize].window, m)
+    });
+    timer.lap("filter+group");
+
+    let tris: Vec<[u32; 3]> = keep
+        .iter()
+        .map(|&t| {
+            let c = &src.corners[t as usize * 3..t as usize * 3 + 3];
+            [c[0].p, c[1].p, c[2].p]
+        })
+        .collect();
+    let face_normals: Vec<[f32; 3]> = tris
+        .iter()
+        .map(|t| {
+            let [a, b, c] = t.map(|i| src.positions[i as usize]);
+            normalize(cross(sub(b, a), sub(c, a)))
+        })
+        .collect();
+    let mut normals = vec![[0.0f32; 3]; tris.len() * 3];
+    let mut need = vec![false; tris.len() * 3];
+    for (k, &t) in keep.iter().enumerate() {
+        for j in 0..3 {
+            let c = src.corners[t as usize * 3 + j];
+            let n = if c.n == NONE { [0.0; 3] } else { normalize(src.normals[c.n as usize]) };
+            if dot(n, n) > 0.0 {
+                normals[k * 3 + j] = n;
+            } else {
+                need[k * 3 + j] = true;
+            }
+        }
+    }
+    stats.normals_generated = need.iter().filter(|&&n| n).count();
+    if stats.normals_generated > 0 {
+        let crease = settings.crease_angle_deg.to_radians().cos();
+        generate_normals(&src.positions, &tris, &face_normals, &need, crease, &mut normals);
+    }
+    timer.lap("normals");
+
+    let mut corners: Vec<StandardVertex> = Vec::with_capacity(tris.len() * 3);
+    for (k, &t) in keep.iter().enumerate() {
+        let m = tri_material[t as usize];
+        for j in 0..3 {
+            let c = src.corners[t as usize * 3 + j];
+            corners.push(StandardVertex {
+                position: src.positions[c.p as usize],
+                normal: normals[k * 3 + j],
+                uv: if c.t == NONE { [0.0; 2] } else { src.uvs[c.t as usize] },
+                tangent: [0.0; 4],
+                material: [m, 0],
+            });
+        }
+    }
+    let tangent_faces: Vec<u32> = keep
+        .iter()
+        .enumerate()
+        .filter(|&(_, &t)| needs[tri_material[t as usize] as usize].tangents)
+        .map(|(k, _)| k as u32)
+        .collect();
+    stats.tangent_triangles = tangent_faces.len();
+    if !tangent_faces.is_empty() {
+        let mut g = Mikk { verts: &mut corners, faces: &tangent_faces };
+        mikktspace::generate_tangents(&mut g);
+        for &f in &tangent_faces {
+            for v in &mut corners[f as usize * 3..f as usize * 3 + 3] {
+                if !v.tangent.iter().all(|c| c.is_finite()) {
+                    v.tangent = [1.0, 0.0, 0.0, 1.0];
+                }
+            }
+        }
+    }
+    for v in &mut corners {
+        v.position = v.position.map(plus_zero);
+        v.normal = v.normal.map(plus_zero);
+        v.uv = v.uv.map(plus_zero);
+        v.tangent = v.tangent.map(plus_zero);
+    }
+    timer.lap("tangents");
+
+    stats.corners = corners.len();
+    let (unique, remap) = meshopt::generate_vertex_remap(&corners, None);
+    let mut indices = meshopt::remap_index_buffer(None, corners.len(), &remap);
+    let vertices: Vec<StandardVertex> = meshopt::remap_vertex_buffer(&corners, unique, &remap);
+    drop(corners);
+    timer.lap("dedupe");
+
+    let mut ranges: Vec<pack::DrawRange> = Vec::new();
+    for (k, &t) in keep.iter().enumerate() {
+        let m = tri_material[t as usize];
+        match ranges.last_mut() {
+            Some(r) if r.material == m => r.index_count += 3,
+            _ => ranges.push(pack::DrawRange { material: m, first_index: (k * 3) as u32, index_count: 3 }),
+        }
+    }
+    stats.acmr_in = if indices.is_empty() { 0.0 } else { meshopt::analyze_vertex_cache(&indices, vertices.len(), 16, 0, 0).acmr };
+    for r in &ranges {
+        let span = &mut indices[r.first_index as usize..(r.first_index + r.index_count) as usize];
+        match settings.cache {
+            CacheMode::Full => meshopt::optimize_vertex_cache_in_place(span, vertices.len()),
+            CacheMode::Fifo => meshopt::optimize_vertex_cache_fifo_in_place(span, vertices.len(), 16),
+        }
+    }
+    timer.lap("vertex cache");
+    if settings.overdraw {
+        let bytes: &[u8] = bytemuck::cast_slice(&vertices);
+        if let Ok(adapter) = meshopt::VertexDataAdapter::new(bytes, std::mem::size_of::<StandardVertex>(), 0) {
+            for r in ranges.iter().filter(|r| !needs[r.material as usize].window) {
+                let span = &mut indices[r.first_index as usize..(r.first_index + r.index_count) as usize];
+                meshopt::optimize_overdraw_in_place(span, &adapter, 1.05);
+            }
+        }
+        timer.lap("overdraw");
+    }
+    // Drops unreferenced vertices too; the returned buffer is exactly the used ones.
+    let vertices = meshopt::optimize_vertex_fetch(&mut indices, &vertices);
+    timer.lap("vertex fetch");
+
+    stats.triangles_out = indices.len() / 3;
+    stats.vertices_out = vertices.len();
+    if !indices.is_empty() {
+        stats.acmr_out = meshopt::analyze_vertex_cache(&indices, vertices.len(), 16, 0, 0).acmr;
+        stats.overfetch =
+            meshopt::analyze_vertex_fetch(&indices, vertices.len(), std::mem::size_of::<StandardVertex>()).overfetch;
+    }
+    let mut bounds_min = [f32::INFINITY; 3];
+    let mut bounds_max = [f32::NEG_INFINITY; 3];
+    for v in &vertices {
+        for k in 0..3 {
+            bounds_min[k] = bounds_min[k].min(v.position[k]);
+            bounds_max[k] = bounds_max[k].max(v.position[k]);
+        }
+    }
+    if vertices.is_empty() {
+        bounds_min = [0.0; 3];
+        bounds_max = [0.0; 3];
+    }
+    stats.stages = timer.stages;
+    Processed { vertices, indices, ranges, bounds_min, bounds_max, stats }
+}
+
+/// Quantized vertex encoding and the error it introduced.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Quantized {
+    pub layout: pack::VertexLayout,
+    pub bytes: Vec<u8>,
+    /// Largest position error in world units.
+    pub max_position_error: f32,
+    /// Largest normal error in degrees.
+    pub max_normal_error_deg: f32,
+    /// Largest texture-coordinate error (0 when UVs stay 32-bit floats).
+    pub max_uv_error: f32,
+}
+
+fn oct_encode(n: [f32; 3]) -> [f32; 2] {
+    let l1 = n[0].abs() + n[1].abs() + n[2].abs();
+    if l1 == 0.0 {
+        return [0.0, 0.0];
+    }
+    let (x, y) = (n[0] / l1, n[1] / l1);
+    if n[2] >= 0.0 {
+        [x, y]
+    } else {
+        [(1.0 - y.abs()) * x.signum(), (1.0 - x.abs()) * y.signum()]
+    }
+}
+
+fn oct_decode(e: [f32; 2]) -> [f32; 3] {
+    let z = 1.0 - e[0].abs() - e[1].abs();
+    let (x, y) = if z >= 0.0 {
+        (e[0], e[1])
+    } else {
+        ((1.0 - e[1].abs()) * e[0].signum(), (1.0 - e[0].abs()) * e[1].signum())
+    };
+    normalize([x, y, z])
+}
+
+fn snorm16(v: f32) -> i16 {
+    (v.clamp(-1.0, 1.0) * 32767.0).round() as i16
+}
+
+fn unorm16(v: f32) -> u16 {
+    (v.clamp(0.0, 1.0) * 65535.0).round() as u16
+}
+
+/// Encodes vertices compactly: positions as 16-bit unorm within the bounding box, normals and
+/// tangents octahedral in 16-bit snorm, UVs as 16-bit unorm when they lie in [0, 1] (else
+/// floats). Stride 28 bytes instead of 52.
+///
+/// Layout: position `Unorm16x4` at 0 (w unused), normal `Snorm16x2` at 8, tangent `Snorm16x4`
+/// at 12 (octahedral xy, handedness in z, w zero), UV at 20 (`Unorm16x2`, or `Float32x2` with a
+/// 32-byte stride), material `Uint16x2` last.
+pub fn quantize(vertices: &[StandardVertex], bounds_min: [f32; 3], bounds_max: [f32; 3]) -> Quantized {
+    use pack::{AttributeFormat as F, Semantic as S, VertexAttribute as A};
+    let uv_unorm = vertices.iter().all(|v| v.uv.iter().all(|&c| (0.0..=1.0).contains(&c)));
+    let (uv_format, uv_size) = if uv_unorm { (F::Unorm16x2, 4) } else { (F::Float32x2, 8) };
+    let stride = 20 + uv_size + 4;
+    // The GPU reads Unorm16 as q / 65535 in [0, 1], so the scale is the box's full extent.
+    let scale: [f32; 3] = std::array::from_fn(|k| {
+        let s = bounds_max[k] - bounds_min[k];
+        if s > 0.0 { s } else { 1.0 }
+    });
+    let layout = pack::VertexLayout {
+        stride,
+        attributes: vec![
+            A { semantic: S::Position, format: F::Unorm16x4, offset: 0 },
+            A { semantic: S::Normal, format: F::Snorm16x2, offset: 8 },
+            A { semantic: S::Tangent, format: F::Snorm16x4, offset: 12 },
+            A { semantic: S::TexCoord, format: uv_format, offset: 20 },
+            A { semantic: S::MaterialId, format: F::Uint16x2, offset: 20 + uv_size },
+        ],
+        position_offset: bounds_min,
+        position_scale: scale,
+    };
+    let mut bytes = Vec::with_capacity(vertices.len() * stride as usize);
+    let (mut perr, mut nerr, mut uverr) = (0.0f32, 0.0f32, 0.0f32);
+    for v in vertices {
+        let q: [u16; 3] = std::array::from_fn(|k| unorm16((v.position[k] - bounds_min[k]) / scale[k]));
+        for k in 0..3 {
+            let back = bounds_min[k] + scale[k] * (q[k] as f32 / 65535.0);
+            perr = perr.max((back - v.position[k]).abs());
+            bytes.extend_from_slice(&q[k].to_le_bytes());
+        }
+        bytes.extend_from_slice(&0u16.to_le_bytes());
+        let e = oct_encode(v.normal).map(snorm16);
+        let back = oct_decode(e.map(|c| c as f32 / 32767.0));
+        if dot(v.normal, v.normal) > 0.0 {
+            nerr = nerr.max(dot(back, v.normal).clamp(-1.0, 1.0).acos().to_degrees());
+        }
+        for c in e {
+            bytes.extend_from_slice(&c.to_le_bytes());
+        }
+        let t = oct_encode([v.tangent[0], v.tangent[1], v.tangent[2]]).map(snorm16);
+        for c in [t[0], t[1], snorm16(v.tangent[3]), 0] {
+            bytes.extend_from_slice(&c.to_le_bytes());
+        }
+        if uv_unorm {
+            for c in v.uv {
+                let q = unorm16(c);
+                uverr = uverr.max((q as f32 / 65535.0 - c).abs());
+                bytes.extend_from_slice(&q.to_le_bytes());
+            }
+        } else {
+            for c in v.uv {
+                bytes.extend_from_slice(&c.to_le_bytes());
+            }
+        }
+        bytes.extend_from_slice(&v.material[0].to_le_bytes());
+        bytes.extend_from_slice(&0u16.to_le_bytes());
+    }
+    Quantized { layout, bytes, max_position_error: perr, max_normal_error_deg: nerr, max_uv_error: uverr }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::import::{Corner, Part};
+    use proptest::prelude::*;
+
+    fn soup(positions: Vec<[f32; 3]>, tris: Vec<[u32; 3]>) -> Imported {
+        let n = tris.len();
+        Imported {
+            positions,
+            corners: tris.iter().flatten().map(|&p| Corner { p, t: NONE, n: NONE }).collect(),
+            tri_part: vec![0; n],
+            parts: vec![Part { names: Default::default(), material: None }],
+            ..Default::default()
+        }
+    }
+
+    const OPAQUE: MaterialNeeds = MaterialNeeds { window: false, tangents: false };
+    const WINDOW: MaterialNeeds = MaterialNeeds { window: true, tangents: false };
+
+    #[test]
+    fn shared_vertices_are_split_per_material_and_windows_come_last() {
+        // Two triangles sharing an edge, different materials; window material has the lower ID.
+        let s = soup(vec![[0., 0., 0.], [1., 0., 0.], [0., 1., 0.], [1., 1., 0.]], vec![[0, 1, 2], [2, 1, 3]]);
+        let p = process(&s, &[0, 1], &[WINDOW, OPAQUE], &MeshSettings::default());
+        assert_eq!(p.vertices.len(), 6, "the shared edge must be split");
+        assert_eq!(p.ranges.iter().map(|r| r.material).collect::<Vec<_>>(), vec![1, 0]);
+        for r in &p.ranges {
+            for &i in &p.indices[r.first_index as usize..(r.first_index + r.index_count) as usize] {
+                assert_eq!(p.vertices[i as usize].material[0], r.material);
+            }
+        }
+        // Generated normals of a flat quad are exactly +Z.
+        assert!(p.vertices.iter().all(|v| v.normal == [0.0, 0.0, 1.0]));
+    }
+
+    #[test]
+    fn negative_zero_is_deduplicated() {
+        let s = soup(
+            vec![[0., 0., 0.], [1., 0., 0.], [0., 1., 0.], [-0.0, 0., -0.0], [1., 1., 0.]],
+            vec![[0, 1, 2], [3, 4, 2]],
+        );
+        let p = process(&s, &[0, 0], &[OPAQUE], &MeshSettings::default());
+        assert_eq!(p.vertices.len(), 4);
+        assert!(p.vertices.iter().all(|v| v.position.iter().all(|c| c.to_bits() != (-0.0f32).to_bits())));
+    }
+
+    #[test]
+    fn crease_angle_keeps_box_edges_hard() {
+        // Two faces at 90 degrees sharing an edge: normals must stay per face.
+        let s = soup(
+            vec![[0., 0., 0.], [1., 0., 0.], [0., 1., 0.], [0., 0., 1.]],
+            vec![[0, 1, 2], [0, 3, 1]],
+        );
+        let p = process(&s, &[0, 0], &[OPAQUE], &MeshSettings::default());
+        assert_eq!(p.vertices.len(), 6);
+    }
+
+    #[test]
+    fn quantization_error_is_bounded() {
+        let s = soup(vec![[0., 0., 0.], [10., 0., 0.], [0., 3., 1.]], vec![[0, 1, 2]]);
+        let p = process(&s, &[0], &[OPAQUE], &MeshSettings::default());
+        let q = quantize(&p.vertices, p.bounds_min, p.bounds_max);
+        assert_eq!(q.bytes.len(), p.vertices.len() * q.layout.stride as usize);
+        assert!(q.max_position_error <= 10.0 / 65535.0 * 0.51, "{}", q.max_position_error);
+        assert!(q.max_normal_error_deg < 0.01, "{}", q.max_normal_error_deg);
+    }
+
+    proptest! {
+        /// Arbitrary (often degenerate) soups: every output triangle is non-degenerate, every
+        /// index is in range, ranges tile the index buffer and vertices agree with their range.
+        #[test]
+        fn arbitrary_soups_process_cleanly(
+            pts in prop::collection::vec(prop::array::uniform3(prop::sample::select(vec![-1.0f32, -0.0, 0.0, 0.5, 1.0, 2.0])), 1..12),
+            raw in prop::collection::vec((0u32..12, 0u32..12, 0u32..12, 0u16..3), 0..40),
+            fifo in any::<bool>(),
+        ) {
+            let n = pts.len() as u32;
+            let tris: Vec<[u32; 3]> = raw.iter().map(|&(a, b, c, _)| [a % n, b % n, c % n]).collect();
+            let mats: Vec<u16> = raw.iter().map(|r| r.3).collect();
+            let s = soup(pts.clone(), tris.clone());
+            let needs = [OPAQUE, WINDOW, MaterialNeeds { window: false, tangents: true }];
+            let settings = MeshSettings { cache: if fifo { CacheMode::Fifo } else { CacheMode::Full }, overdraw: true, ..Default::default() };
+            let p = process(&s, &mats, &needs, &settings);
+            let expected = tris.iter().filter(|t| {
+                let [a, b, c] = t.map(|i| pts[i as usize]);
+                t[0] != t[1] && t[1] != t[2] && t[0] != t[2] && !is_degenerate(a, b, c)
+            }).count();
+            prop_assert_eq!(p.indices.len(), expected * 3);
+            prop_assert!(p.indices.iter().all(|&i| (i as usize) < p.vertices.len()));
+            let mut next = 0;
+            let mut seen_window = false;
+            for r in &p.ranges {
+                prop_assert_eq!(r.first_index, next);
+                next += r.index_count;
+                let w = needs[r.material as usize].window;
+                prop_assert!(!seen_window || w, "opaque range after a window range");
+                seen_window |= w;
+                for &i in &p.indices[r.first_index as usize..(r.first_index + r.index_count) as usize] {
+                    prop_assert_eq!(p.vertices[i as usize].material[0], r.material);
+                }
+            }
+            prop_assert_eq!(next as usize, p.indices.len());
+            for t in p.indices.chunks_exact(3) {
+                let [a, b, c] = [t[0], t[1], t[2]].map(|i| p.vertices[i as usize].position);
+                prop_assert!(!is_degenerate(a, b, c));
+            }
+            for v in &p.vertices {
+                prop_assert!(v.normal.iter().chain(&v.tangent).all(|c| c.is_finite()));
+                let l = dot(v.normal, v.normal);
+                prop_assert!((l - 1.0).abs() < 1e-3, "normal {:?}", v.normal);
+            }
+        }
+    }
+}

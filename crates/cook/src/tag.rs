@@ -1,0 +1,307 @@
+//! Material tagging: source names → pack materials with a class.
+//!
+//! Ordered rules are the primary mechanism (real models name materials in any language); the
+//! first rule whose glob matches one of a part's names decides. Name heuristics apply only to
+//! parts no rule matched, and every such decision is reported.
+
+use std::collections::HashMap;
+
+use globset::{GlobBuilder, GlobMatcher};
+use pack::MaterialClass;
+
+use crate::CookError;
+use crate::import::{ImageRef, Imported, SourceMaterial};
+use crate::manifest::{Manifest, NameKind, Rule};
+
+/// How a part got its material.
+#[derive(Clone, Debug, PartialEq)]
+pub enum Decision {
+    /// Index into the manifest's rules.
+    Rule(usize),
+    /// No rule matched; `keyword` found in the `kind` name `name` chose the class.
+    Heuristic { keyword: &'static str, kind: NameKind, name: String },
+    /// Nothing matched at all: class `other`.
+    Unmatched,
+}
+
+impl Decision {
+    pub fn is_rule(&self) -> bool {
+        matches!(self, Decision::Rule(_))
+    }
+}
+
+/// A pack material and where its textures come from.
+#[derive(Clone, Debug, PartialEq)]
+pub struct MaterialPlan {
+    /// Texture references are filled in by the texture stage.
+    pub material: pack::Material,
+    pub diffuse_texture: Option<ImageRef>,
+    pub normal_texture: Option<ImageRef>,
+}
+
+/// A source name that more than one rule matches (the first wins).
+#[derive(Clone, Debug, PartialEq)]
+pub struct Ambiguity {
+    pub kind: NameKind,
+    pub name: String,
+    /// Manifest lines of the matching rules, in rule order.
+    pub rule_lines: Vec<usize>,
+}
+
+#[derive(Clone, Debug, Default)]
+pub struct Tagging {
+    pub materials: Vec<MaterialPlan>,
+    /// Per source, per part: the pack material.
+    pub part_material: Vec<Vec<u16>>,
+    /// Per source, per part: how it was decided.
+    pub decisions: Vec<Vec<Decision>>,
+    pub ambiguities: Vec<Ambiguity>,
+    /// Source materials (per source, by index) that no triangle uses.
+    pub unused_source_materials: Vec<(usize, String)>,
+}
+
+/// Keywords in several languages; matched against lower-cased names.
+const HEURISTICS: &[(&str, MaterialClass)] = &[
+    ("window", MaterialClass::WindowUpper),
+    ("glass", MaterialClass::WindowUpper),
+    ("vitra", MaterialClass::WindowUpper),
+    ("vitre", MaterialClass::WindowUpper),
+    ("fenster", MaterialClass::WindowUpper),
+    ("ventana", MaterialClass::WindowUpper),
+    ("lancet", MaterialClass::WindowUpper),
+    ("floor", MaterialClass::Floor),
+    ("ground", MaterialClass::Floor),
+    ("boden", MaterialClass::Floor),
+    ("suelo", MaterialClass::Floor),
+    ("pavimento", MaterialClass::Floor),
+    ("wall", MaterialClass::Wall),
+    ("wand", MaterialClass::Wall),
+    ("mur", MaterialClass::Wall),
+    ("pared", MaterialClass::Wall),
+    ("sky", MaterialClass::Background),
+    ("background", MaterialClass::Background),
+    ("backdrop", MaterialClass::Background),
+];
+
+/// The class the name heuristics give `names`, if any keyword occurs.
+pub fn heuristic(names: &crate::import::Names) -> Option<(&'static str, NameKind, String, MaterialClass)> {
+    for kind in NameKind::ALL {
+        let Some(name) = names.get(kind) else { continue };
+        let lower = name.to_lowercase();
+        for &(keyword, class) in HEURISTICS {
+            if lower.contains(keyword) {
+                let class = if class.is_window()
+                    && ["lower", "bottom", "unten", "bas"].iter().any(|k| lower.contains(k))
+                {
+                    MaterialClass::WindowLower
+                } else {
+                    class
+                };
+                return Some((keyword, kind, name.to_string(), class));
+            }
+        }
+    }
+    None
+}
+
+struct CompiledRule<'a> {
+    rule: &'a Rule,
+    glob: GlobMatcher,
+}
+
+fn compile(manifest: &Manifest) -> Result<Vec<CompiledRule<'_>>, CookError> {
+    manifest
+        .rules
+        .iter()
+        .map(|rule| {
+            let glob = GlobBuilder::new(&rule.pattern)
+                .build()
+                .map_err(|e| CookError::Manifest {
+                    path: manifest.path.clone(),
+                    line: Some(rule.line.0),
+                    message: format!("invalid glob {:?}: {e}", rule.pattern),
+                })?
+                .compile_matcher();
+            Ok(CompiledRule { rule, glob })
+        })
+        .collect()
+}
+
+impl CompiledRule<'_> {
+    fn matches(&self, names: &crate::import::Names) -> bool {
+        self.rule.on.iter().any(|&k| names.get(k).is_some_and(|n| self.glob.is_match(n)))
+    }
+}
+
+/// Tags every part of every source.
+pub fn tag(manifest: &Manifest, sources: &[Imported]) -> Result<Tagging, CookError> {
+    let rules = compile(manifest)?;
+    let mut out = Tagging::default();
+    // (pack name, class) → material index; names used with several classes get a suffix.
+    let mut index: HashMap<(String, MaterialClass), u16> = HashMap::new();
+    let mut seen_names: HashMap<(NameKind, String), ()> = HashMap::new();
+
+    for (si, src) in sources.iter().enumerate() {
+        let mut used = vec![false; src.materials.len()];
+        let mut part_counts = vec![0usize; src.parts.len()];
+        for &p in &src.tri_part {
+            part_counts[p as usize] += 1;
+        }
+        let mut mats = Vec::with_capacity(src.parts.len());
+        let mut decisions = Vec::with_capacity(src.parts.len());
+        for (pi, part) in src.parts.iter().enumerate() {
+            for kind in NameKind::ALL {
+                if let Some(n) = part.names.get(kind)
+                    && seen_names.insert((kind, n.to_string()), ()).is_none()
+                {
+                    let lines: Vec<usize> = rules
+                        .iter()
+                        .filter(|r| r.rule.on.contains(&kind) && r.glob.is_match(n))
+                        .map(|r| r.rule.line.0)
+                        .collect();
+                    if lines.len() > 1 {
+                        out.ambiguities.push(Ambiguity { kind, name: n.to_string(), rule_lines: lines });
+                    }
+                }
+            }
+            let source_material: Option<&SourceMaterial> =
+                part.material.and_then(|m| src.materials.get(m as usize));
+            if part_counts[pi] > 0
+                && let Some(m) = part.material
+            {
+                used[m as usize] = true;
+            }
+            let rule = rules.iter().position(|r| r.matches(&part.names));
+            let (decision, class) = match rule {
+                Some(r) => (Decision::Rule(r), rules[r].rule.class),
+                None => match heuristic(&part.names) {
+                    Some((keyword, kind, name, class)) => (Decision::Heuristic { keyword, kind, name }, class),
+                    None => (Decision::Unmatched, MaterialClass::Other),
+                },
+            };
+            let rule = rule.map(|r| rules[r].rule);
+            let base_name = rule
+                .and_then(|r| r.material.clone())
+                .or_else(|| part.names.material.clone())
+                .or_else(|| part.names.object.clone())
+                .or_else(|| part.names.group.clone())
+                .or_else(|| part.names.mesh.clone())
+                .unwrap_or_else(|| "default".to_string());
+            let key = (base_name.clone(), class);
+            let id = match index.get(&key) {
+                Some(&id) => id,
+                None => {
+                    if out.materials.len() > u16::MAX as usize {
+                        return Err(CookError::Source {
+                            path: src.path.clone(),
+                            line: None,
+                            message: "more than 65536 materials: material IDs are 16-bit".into(),
+                        });
+                    }
+                    let taken = out.materials.iter().any(|m| m.material.name == base_name);
+                    let name = if taken { format!("{base_name}.{}", class.name()) } else { base_name };
+                    let base = source_material.cloned().unwrap_or_else(|| SourceMaterial::plain(&name));
+                    let mut plan = MaterialPlan {
+                        material: pack::Material {
+                            name,
+                            class,
+                            diffuse: base.diffuse,
+                            specular: base.specular,
+                            shininess: base.shininess,
+                            emissive: base.emissive,
+                            diffuse_texture: None,
+                            normal_texture: None,
+                            projector_texture: None,
+                        },
+                        diffuse_texture: base.diffuse_texture,
+                        normal_texture: base.normal_texture,
+                    };
+                    if let Some(r) = rule {
+                        let m = &mut plan.material;
+                        m.diffuse = r.diffuse.unwrap_or(m.diffuse);
+                        m.specular = r.specular.unwrap_or(m.specular);
+                        m.shininess = r.shininess.unwrap_or(m.shininess);
+                        m.emissive = r.emissive.unwrap_or(m.emissive);
+                        if let Some(t) = &r.texture {
+                            plan.diffuse_texture = Some(ImageRef::File(t.clone()));
+                        }
+                        if let Some(t) = &r.normal_map {
+                            plan.normal_texture = Some(ImageRef::File(t.clone()));
+                        }
+                    }
+                    let id = out.materials.len() as u16;
+                    out.materials.push(plan);
+                    index.insert(key, id);
+                    id
+                }
+            };
+            mats.push(id);
+            decisions.push(decision);
+        }
+        for (mi, u) in used.iter().enumerate() {
+            if !u {
+                out.unused_source_materials.push((si, src.materials[mi].name.clone()));
+            }
+        }
+        out.part_material.push(mats);
+        out.decisions.push(decisions);
+    }
+    Ok(out)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::import::{Names, Part};
+    use std::path::Path;
+
+    fn source(names: &[(&str, Option<&str>)]) -> Imported {
+        let mut s = Imported { path: "t.obj".into(), ..Default::default() };
+        for (i, (mat, group)) in names.iter().enumerate() {
+            s.parts.push(Part {
+                names: Names { material: Some(mat.to_string()), group: group.map(str::to_string), ..Default::default() },
+                material: None,
+            });
+            s.tri_part.push(i as u32);
+        }
+        s
+    }
+
+    fn manifest(rules: &str) -> Manifest {
+        let dir = tempfile::tempdir().unwrap();
+        std::fs::write(dir.path().join("m.obj"), "").unwrap();
+        let text = format!("[[mesh]]\nsource = \"m.obj\"\n{rules}");
+        Manifest::parse(&dir.path().join("scene.toml"), &text).unwrap()
+    }
+
+    #[test]
+    fn explicit_rules_win_over_heuristics_and_first_rule_wins() {
+        let m = manifest(
+            "[[rule]]\nmatch = \"Boden*\"\nclass = \"wall\"\n[[rule]]\nmatch = \"*\"\non = [\"group\"]\nclass = \"floor\"\n[[rule]]\nmatch = \"Boden_1\"\nclass = \"other\"\n",
+        );
+        let s = source(&[("Boden_1", None), ("glass", Some("g")), ("window_lower", None)]);
+        let t = tag(&m, &[s]).unwrap();
+        let class = |p: usize| t.materials[t.part_material[0][p] as usize].material.class;
+        // "Boden" would be a floor by heuristics, but the rule says wall.
+        assert_eq!(class(0), MaterialClass::Wall);
+        assert_eq!(t.decisions[0][0], Decision::Rule(0));
+        // Group rule matches before the glass heuristic could apply.
+        assert_eq!(class(1), MaterialClass::Floor);
+        assert_eq!(class(2), MaterialClass::WindowLower);
+        assert!(matches!(t.decisions[0][2], Decision::Heuristic { keyword: "window", .. }));
+        assert_eq!(t.ambiguities.len(), 1);
+        assert_eq!(t.ambiguities[0].name, "Boden_1");
+        assert_eq!(t.ambiguities[0].rule_lines, vec![3, 10]);
+    }
+
+    #[test]
+    fn same_name_different_class_gets_distinct_materials() {
+        let m = Manifest::from_mesh_file(Path::new("Cargo.toml")).unwrap();
+        let mut s = source(&[("white", Some("floor")), ("white", Some("back_wall"))]);
+        s.parts[0].names.object = s.parts[0].names.group.take();
+        let t = tag(&m, &[s]).unwrap();
+        assert_eq!(t.materials.len(), 2);
+        assert_eq!(t.materials[0].material.name, "white");
+        assert_eq!(t.materials[1].material.name, "white.wall");
+    }
+}

@@ -1,0 +1,435 @@
+//! `cooker validate`: numbered findings with the values involved, and a table per material.
+//!
+//! A scene is checked at the source (tagging, degenerate and duplicate triangles as modelled)
+//! and after mesh processing (windows, material agreement); a pack is checked as it is.
+
+use std::collections::{HashMap, HashSet};
+
+use pack::{AttributeFormat, MaterialClass, Semantic};
+use serde_json::json;
+
+use crate::manifest::Manifest;
+use crate::{CookError, Settings, mesh, tag, windows};
+
+/// One problem. `code` is stable (scripts match on it); `message` carries the values.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Finding {
+    pub code: &'static str,
+    pub message: String,
+}
+
+#[derive(Clone, Debug, PartialEq)]
+pub struct MaterialRow {
+    pub name: String,
+    pub class: MaterialClass,
+    pub triangles: u64,
+    pub area: f64,
+    pub bounds_min: [f32; 3],
+    pub bounds_max: [f32; 3],
+}
+
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Validation {
+    pub findings: Vec<Finding>,
+    pub materials: Vec<MaterialRow>,
+}
+
+impl Validation {
+    pub fn is_clean(&self) -> bool {
+        self.findings.is_empty()
+    }
+
+    fn add(&mut self, code: &'static str, message: impl Into<String>) {
+        self.findings.push(Finding { code, message: message.into() });
+    }
+
+    pub fn to_json(&self) -> serde_json::Value {
+        json!({
+            "findings": self.findings.iter().map(|f| json!({"code": f.code, "message": f.message})).collect::<Vec<_>>(),
+            "materials": self.materials.iter().map(|m| json!({
+                "name": m.name,
+                "class": m.class.name(),
+                "triangles": m.triangles,
+                "area": m.area,
+                "bounds_min": m.bounds_min,
+                "bounds_max": m.bounds_max,
+            })).collect::<Vec<_>>(),
+        })
+    }
+
+    /// Numbered findings, then the material table.
+    pub fn to_text(&self) -> String {
+        use std::fmt::Write;
+        let mut s = String::new();
+        if self.findings.is_empty() {
+            s.push_str("no findings\n");
+        }
+        for (i, f) in self.findings.iter().enumerate() {
+            let _ = writeln!(s, "{:>3}. [{}] {}", i + 1, f.code, f.message);
+        }
+        let _ = writeln!(
+            s,
+            "\n{:<24} {:<13} {:>10} {:>12}  bounding box",
+            "material", "class", "triangles", "area"
+        );
+        for m in &self.materials {
+            let f = |v: [f32; 3]| format!("({:.3}, {:.3}, {:.3})", v[0], v[1], v[2]);
+            let _ = writeln!(
+                s,
+                "{:<24} {:<13} {:>10} {:>12.4}  {} .. {}",
+                m.name,
+                m.class.name(),
+                m.triangles,
+                m.area,
+                f(m.bounds_min),
+                f(m.bounds_max)
+            );
+        }
+        s
+    }
+}
+
+/// Geometry as the checks see it, decoded from processed meshes or from a pack.
+pub struct MeshView {
+    pub name: String,
+    pub positions: Vec<[f32; 3]>,
+    pub uvs: Vec<[f32; 2]>,
+    pub materials: Vec<u16>,
+    pub indices: Vec<u32>,
+    pub ranges: Vec<pack::DrawRange>,
+}
+
+fn tri_key(p: [[f32; 3]; 3]) -> [[u32; 3]; 3] {
+    let mut k = p.map(|v| v.map(|c| (c + 0.0).to_bits()));
+    k.sort_unstable();
+    k
+}
+
+/// Counts degenerate and duplicate triangles (same three positions, in any order).
+fn degenerate_and_duplicates(tris: impl Iterator<Item = [[f32; 3]; 3]>) -> (usize, usize) {
+    let mut seen = HashSet::new();
+    let (mut degenerate, mut duplicate) = (0, 0);
+    for t in tris {
+        if mesh::is_degenerate(t[0], t[1], t[2]) {
+            degenerate += 1;
+        } else if !seen.insert(tri_key(t)) {
+            duplicate += 1;
+        }
+    }
+    (degenerate, duplicate)
+}
+
+/// Checks a scene: imports and tags it, processes the geometry, and checks the result.
+pub fn validate_scene(manifest: &Manifest) -> Result<Validation, CookError> {
+    let mut v = Validation::default();
+    let sources: Vec<crate::import::Imported> =
+        crate::import_sources(manifest)?.into_iter().map(|(s, _)| s).collect();
+    let tagging = tag::tag(manifest, &sources)?;
+
+    // Tagging.
+    let mut untagged_tris = 0usize;
+    let mut untagged_names = Vec::new();
+    for (si, src) in sources.iter().enumerate() {
+        let mut counts = vec![0usize; src.parts.len()];
+        for &p in &src.tri_part {
+            counts[p as usize] += 1;
+        }
+        for (pi, d) in tagging.decisions[si].iter().enumerate() {
+            if d.is_rule() || counts[pi] == 0 {
+                continue;
+            }
+            untagged_tris += counts[pi];
+            let m = &tagging.materials[tagging.part_material[si][pi] as usize].material;
+            let how = match d {
+                tag::Decision::Heuristic { keyword, .. } => format!("heuristic {keyword:?} → {}", m.class),
+                _ => "no heuristic → other".into(),
+            };
+            untagged_names.push(format!("{} ({how})", src.parts[pi].names.describe()));
+        }
+    }
+    if untagged_tris > 0 {
+        v.add(
+            "untagged",
+            format!(
+                "{untagged_tris} triangles in {} source name sets matched no rule: {}",
+                untagged_names.len(),
+                untagged_names.iter().take(8).cloned().collect::<Vec<_>>().join("; ")
+                    + if untagged_names.len() > 8 { "; …" } else { "" }
+            ),
+        );
+    }
+    for a in &tagging.ambiguities {
+        v.add(
+            "ambiguous-name",
+            format!(
+                "{} name {:?} is matched by {} rules (manifest lines {}); the first wins",
+                a.kind.name(),
+                a.name,
+                a.rule_lines.len(),
+                a.rule_lines.iter().map(|l| l.to_string()).collect::<Vec<_>>().join(", ")
+            ),
+        );
+    }
+    let used_rules: HashSet<usize> = tagging
+        .decisions
+        .iter()
+        .flatten()
+        .filter_map(|d| match d {
+            tag::Decision::Rule(r) => Some(*r),
+            _ => None,
+        })
+        .collect();
+    for (i, r) in manifest.rules.iter().enumerate() {
+        if !used_rules.contains(&i) {
+            v.add("unused-rule", format!("rule {:?} at manifest line {} matches no triangle", r.pattern, r.line.0));
+        }
+    }
+    for (si, name) in &tagging.unused_source_materials {
+        v.add(
+            "unused-material",
+            format!("material {name:?} of {} is defined but no triangle uses it", sources[*si].path.display()),
+        );
+    }
+
+    // Degenerate and duplicate triangles as modelled (mesh processing drops degenerate ones).
+    for src in &sources {
+        let tris = src.corners.chunks_exact(3).map(|c| [c[0], c[1], c[2]].map(|c| src.positions[c.p as usize]));
+        let (degenerate, duplicate) = degenerate_and_duplicates(tris);
+        if degenerate > 0 {
+            v.add(
+                "degenerate-triangles",
+                format!("{}: {degenerate} of {} triangles have zero area (dropped when cooking)", src.path.display(), src.triangle_count()),
+            );
+        }
+        if duplicate > 0 {
+            v.add(
+                "duplicate-triangles",
+                format!("{}: {duplicate} triangles repeat the positions of an earlier triangle", src.path.display()),
+            );
+        }
+    }
+
+    // Window designs named in the manifest.
+    let materials: Vec<pack::Material> = tagging.materials.iter().map(|m| m.material.clone()).collect();
+    for w in &manifest.windows {
+        match materials.iter().find(|m| m.name == w.material) {
+            None => v.add(
+                "window-unknown-material",
+                format!("[[window]] at manifest line {} names material {:?}, which no triangle uses", w.line.0, w.material),
+            ),
+            Some(m) if !m.class.is_window() => v.add(
+                "window-not-window-class",
+                format!("[[window]] at manifest line {} names material {:?}, tagged {}", w.line.0, w.material, m.class),
+            ),
+            Some(_) => {}
+        }
+    }
+
+    // Processed geometry.
+    let needs = crate::material_needs(&tagging);
+    let settings = Settings { textures: false, ..Default::default() };
+    let views: Vec<MeshView> = sources
+        .iter()
+        .zip(&tagging.part_material)
+        .zip(&manifest.meshes)
+        .map(|((src, parts), m)| {
+            let tm: Vec<u16> = src.tri_part.iter().map(|&p| parts[p as usize]).collect();
+            let p = mesh::process(src, &tm, &needs, &settings.mesh);
+            MeshView {
+                name: m.name.clone(),
+                positions: p.vertices.iter().map(|v| v.position).collect(),
+                uvs: p.vertices.iter().map(|v| v.uv).collect(),
+                materials: p.vertices.iter().map(|v| v.material[0]).collect(),
+                indices: p.indices,
+                ranges: p.ranges,
+            }
+        })
+        .collect();
+    let has_design: Vec<bool> =
+        materials.iter().map(|m| manifest.windows.iter().any(|w| w.material == m.name)).collect();
+    check_geometry(&views, &materials, &has_design, manifest.light.as_ref().map(|l| &l.kind), false, &mut v);
+    Ok(v)
+}
+
+/// Checks a cooked pack.
+pub fn validate_pack(pack: &pack::Pack) -> Validation {
+    let mut v = Validation::default();
+    let toc = pack.toc();
+    let views: Vec<MeshView> = toc.meshes.iter().map(|m| decode(pack, m)).collect();
+    let has_design: Vec<bool> =
+        toc.materials.iter().map(|m| m.projector_texture.is_some() || m.diffuse_texture.is_some()).collect();
+    check_geometry(&views, &toc.materials, &has_design, toc.light.as_ref().map(|l| &l.kind), true, &mut v);
+    let mut used = vec![false; toc.textures.len()];
+    for m in &toc.materials {
+        for t in [m.diffuse_texture, m.normal_texture, m.projector_texture].into_iter().flatten() {
+            used[t as usize] = true;
+        }
+    }
+    if let Some(t) = toc.background.panorama {
+        used[t as usize] = true;
+    }
+    for (t, u) in toc.textures.iter().zip(used) {
+        if !u {
+            v.add("unused-texture", format!("texture {:?} ({}, {}x{}) is referenced by nothing", t.name, t.role, t.width, t.height));
+        }
+    }
+    v
+}
+
+fn read_f32(b: &[u8], o: usize) -> f32 {
+    f32::from_le_bytes([b[o], b[o + 1], b[o + 2], b[o + 3]])
+}
+
+fn read_u16(b: &[u8], o: usize) -> u16 {
+    u16::from_le_bytes([b[o], b[o + 1]])
+}
+
+fn decode(pack: &pack::Pack, m: &pack::Mesh) -> MeshView {
+    let bytes = pack.vertex_bytes(m);
+    let stride = m.layout.stride as usize;
+    let n = m.vertex_count as usize;
+    let attr = |s: Semantic| m.layout.attribute(s).map(|a| (a.format, a.offset as usize));
+    let mut positions = Vec::with_capacity(n);
+    let mut uvs = Vec::with_capacity(n);
+    let mut materials = Vec::with_capacity(n);
+    for i in 0..n {
+        let b = &bytes[i * stride..(i + 1) * stride];
+        positions.push(match attr(Semantic::Position) {
+            Some((AttributeFormat::Float32x3, o)) => [read_f32(b, o), read_f32(b, o + 4), read_f32(b, o + 8)],
+            Some((AttributeFormat::Unorm16x4, o)) => std::array::from_fn(|k| {
+                m.layout.position_offset[k] + m.layout.position_scale[k] * (read_u16(b, o + 2 * k) as f32 / 65535.0)
+            }),
+            _ => [0.0; 3],
+        });
+        uvs.push(match attr(Semantic::TexCoord) {
+            Some((AttributeFormat::Float32x2, o)) => [read_f32(b, o), read_f32(b, o + 4)],
+            Some((AttributeFormat::Unorm16x2, o)) => [read_u16(b, o) as f32 / 65535.0, read_u16(b, o + 2) as f32 / 65535.0],
+            _ => [0.0; 2],
+        });
+        materials.push(match attr(Semantic::MaterialId) {
+            Some((_, o)) => read_u16(b, o),
+            None => u16::MAX,
+        });
+    }
+    MeshView { name: m.name.clone(), positions, uvs, materials, indices: pack.indices(m).into_owned(), ranges: m.ranges.clone() }
+}
+
+/// Checks shared by scenes and packs: material agreement, windows, the material table (and, for
+/// packs, degenerate and duplicate triangles, which a scene reports at the source).
+pub fn check_geometry(
+    views: &[MeshView],
+    materials: &[pack::Material],
+    has_design: &[bool],
+    light: Option<&pack::LightKind>,
+    check_triangles: bool,
+    v: &mut Validation,
+) {
+    let mut rows: Vec<MaterialRow> = materials
+        .iter()
+        .map(|m| MaterialRow {
+            name: m.name.clone(),
+            class: m.class,
+            triangles: 0,
+            area: 0.0,
+            bounds_min: [f32::INFINITY; 3],
+            bounds_max: [f32::NEG_INFINITY; 3],
+        })
+        .collect();
+    let mut window_geo: HashMap<u16, windows::WindowGeometry> = HashMap::new();
+    for view in views {
+        let mut mismatched = 0usize;
+        let mut example = None;
+        for r in &view.ranges {
+            let span = &view.indices[r.first_index as usize..(r.first_index + r.index_count) as usize];
+            let row = &mut rows[r.material as usize];
+            let is_window = materials[r.material as usize].class.is_window();
+            let mut local = HashMap::new();
+            for t in span.chunks_exact(3) {
+                let t = [t[0], t[1], t[2]];
+                if t.iter().any(|&i| view.materials[i as usize] != r.material) {
+                    mismatched += 1;
+                    example.get_or_insert((r.material, t.map(|i| view.materials[i as usize])));
+                }
+                let p = t.map(|i| view.positions[i as usize]);
+                let g = glam::Vec3::from(p[1]) - glam::Vec3::from(p[0]);
+                let h = glam::Vec3::from(p[2]) - glam::Vec3::from(p[0]);
+                row.triangles += 1;
+                row.area += 0.5 * g.cross(h).length() as f64;
+                for q in p {
+                    for k in 0..3 {
+                        row.bounds_min[k] = row.bounds_min[k].min(q[k]);
+                        row.bounds_max[k] = row.bounds_max[k].max(q[k]);
+                    }
+                }
+                if is_window {
+                    let wg = window_geo.entry(r.material).or_default();
+                    let tri = t.map(|i| {
+                        *local.entry(i).or_insert_with(|| {
+                            wg.positions.push(view.positions[i as usize]);
+                            wg.uvs.push(view.uvs[i as usize]);
+                            wg.positions.len() as u32 - 1
+                        })
+                    });
+                    wg.triangles.push(tri);
+                }
+            }
+        }
+        if let Some((want, got)) = example {
+            v.add(
+                "material-mismatch",
+                format!("mesh {:?}: {mismatched} triangles have vertices whose material IDs disagree with their draw range (e.g. range material {want}, vertices {got:?})", view.name),
+            );
+        }
+        if check_triangles {
+            let tris = view.indices.chunks_exact(3).map(|t| [t[0], t[1], t[2]].map(|i| view.positions[i as usize]));
+            let (degenerate, duplicate) = degenerate_and_duplicates(tris);
+            if degenerate > 0 {
+                v.add("degenerate-triangles", format!("mesh {:?}: {degenerate} triangles have zero area", view.name));
+            }
+            if duplicate > 0 {
+                v.add("duplicate-triangles", format!("mesh {:?}: {duplicate} triangles repeat the positions of an earlier triangle", view.name));
+            }
+        }
+    }
+    for (mi, m) in materials.iter().enumerate() {
+        if rows[mi].triangles == 0 {
+            v.add("unused-material", format!("material {:?} ({}) has no triangles", m.name, m.class));
+            rows[mi].bounds_min = [0.0; 3];
+            rows[mi].bounds_max = [0.0; 3];
+            continue;
+        }
+        if !m.class.is_window() {
+            continue;
+        }
+        if !has_design[mi] {
+            v.add("window-no-design", format!("window material {:?} ({}) has no design image", m.name, m.class));
+        }
+        let Some(g) = window_geo.get(&(mi as u16)) else { continue };
+        match windows::analyze(mi as u16, g, light) {
+            None => v.add("window-no-area", format!("window material {:?} has no area", m.name)),
+            Some(a) => {
+                if a.max_plane_distance > a.plane_tolerance {
+                    v.add(
+                        "window-not-planar",
+                        format!(
+                            "window material {:?}: a vertex lies {:.6} from the window's plane, tolerance {:.6}",
+                            m.name, a.max_plane_distance, a.plane_tolerance
+                        ),
+                    );
+                }
+                if !a.has_uvs {
+                    v.add("window-no-uvs", format!("window material {:?} has no texture coordinates: its design cannot be placed", m.name));
+                } else if a.uv_min.iter().chain(&a.uv_max).any(|&c| !(-1e-4..=1.0 + 1e-4).contains(&c)) {
+                    v.add(
+                        "window-uv-range",
+                        format!(
+                            "window material {:?}: texture coordinates span [{:.4}, {:.4}] x [{:.4}, {:.4}], outside [0, 1]",
+                            m.name, a.uv_min[0], a.uv_max[0], a.uv_min[1], a.uv_max[1]
+                        ),
+                    );
+                }
+            }
+        }
+    }
+    v.materials = rows;
+}
