@@ -11,6 +11,8 @@ mod error;
 pub mod format;
 mod reader;
 mod stream;
+#[doc(hidden)]
+pub mod testing;
 pub mod toc;
 mod validate;
 mod writer;

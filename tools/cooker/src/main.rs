@@ -4,6 +4,7 @@
 //! 3 invalid input (a malformed source file or pack); 4 an operating-system I/O error.
 //! A panic (101) is a bug.
 
+mod diff;
 mod exit;
 mod info;
 
@@ -20,19 +21,26 @@ struct Cli {
 enum Command {
     /// Print what a pack holds: sections, materials, textures.
     Info(info::Args),
+    /// Compare two packs: per section, geometry, and per texture level error.
+    Diff(diff::Args),
 }
 
 fn main() {
     let cli = match Cli::try_parse() {
         Ok(cli) => cli,
         Err(e) => {
-            let code = if e.use_stderr() { exit::USAGE } else { exit::OK };
+            let code = if e.use_stderr() {
+                exit::USAGE
+            } else {
+                exit::OK
+            };
             let _ = e.print();
             std::process::exit(code);
         }
     };
     let result = match cli.command {
         Command::Info(args) => info::run(args),
+        Command::Diff(args) => diff::run(args),
     };
     std::process::exit(exit::report(result));
 }

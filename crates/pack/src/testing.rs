@@ -1,0 +1,142 @@
+//! Small packs for tests of this and other crates (not part of the stable API).
+
+use crate::*;
+
+pub fn sample_texture(name: &str, role: TextureRole, w: u32, h: u32) -> (Texture, Vec<Vec<u8>>) {
+    let mut mips = Vec::new();
+    let mut data = Vec::new();
+    let (mut mw, mut mh) = (w, h);
+    loop {
+        mips.push(MipLevel {
+            width: mw,
+            height: mh,
+            section: 0,
+        });
+        data.push((0..mw * mh * 4).map(|i| (i * 7 + mw) as u8).collect());
+        if mw == 1 && mh == 1 {
+            break;
+        }
+        mw = (mw / 2).max(1);
+        mh = (mh / 2).max(1);
+    }
+    let colour_space = if role == TextureRole::Normal {
+        ColourSpace::Linear
+    } else {
+        ColourSpace::Srgb
+    };
+    (
+        Texture {
+            name: name.into(),
+            role,
+            colour_space,
+            format: TextureFormat::Rgba8,
+            width: w,
+            height: h,
+            mips,
+        },
+        data,
+    )
+}
+
+pub fn material(name: &str, class: MaterialClass) -> Material {
+    Material {
+        name: name.into(),
+        class,
+        diffuse: [0.5, 0.4, 0.3],
+        specular: [0.1; 3],
+        shininess: 16.0,
+        emissive: [0.0; 3],
+        diffuse_texture: None,
+        normal_texture: None,
+        projector_texture: None,
+    }
+}
+
+/// A small pack exercising every TOC field; its bytes are the golden file.
+pub fn sample() -> (Toc, PackData) {
+    let v = |p: [f32; 3], uv: [f32; 2], m: u16| StandardVertex {
+        position: p,
+        normal: [0.0, 0.0, 1.0],
+        uv,
+        tangent: [1.0, 0.0, 0.0, 1.0],
+        material: [m, 0],
+    };
+    let verts = [
+        v([0.0, 0.0, 0.0], [0.0, 0.0], 0),
+        v([1.0, 0.0, 0.0], [1.0, 0.0], 0),
+        v([1.0, 1.0, 0.0], [1.0, 1.0], 0),
+        v([0.0, 1.0, 0.0], [0.0, 1.0], 1),
+        v([1.0, 0.0, 0.0], [1.0, 0.0], 1),
+        v([1.0, 1.0, 0.0], [1.0, 1.0], 1),
+    ];
+    let indices: [u16; 6] = [0, 1, 2, 3, 4, 5];
+    let mesh = Mesh {
+        name: "quad".into(),
+        layout: VertexLayout::standard(),
+        vertex_count: 6,
+        index_count: 6,
+        index_format: IndexFormat::U16,
+        vertex_section: 0,
+        index_section: 0,
+        bounds_min: [0.0; 3],
+        bounds_max: [1.0, 1.0, 0.0],
+        ranges: vec![
+            DrawRange {
+                material: 0,
+                first_index: 0,
+                index_count: 3,
+            },
+            DrawRange {
+                material: 1,
+                first_index: 3,
+                index_count: 3,
+            },
+        ],
+    };
+    let (colour, cdata) = sample_texture("rose.colour", TextureRole::Colour, 4, 2);
+    let (normal, ndata) = sample_texture("rose.normal", TextureRole::Normal, 3, 3);
+    let mut window = material("rose", MaterialClass::WindowUpper);
+    window.diffuse_texture = Some(0);
+    window.normal_texture = Some(1);
+    let toc = Toc {
+        meshes: vec![mesh],
+        materials: vec![material("floor", MaterialClass::Floor), window],
+        textures: vec![colour, normal],
+        windows: vec![Window {
+            material: 1,
+            origin: [0.0; 3],
+            u_axis: [1.0, 0.0, 0.0],
+            v_axis: [0.0, 1.0, 0.0],
+            normal: [0.0, 0.0, -1.0],
+        }],
+        light: Some(Light {
+            kind: LightKind::Directional {
+                direction: [0.3, -0.5, -1.0],
+                angular_size: 0.00925,
+            },
+            colour: [1.0, 0.95, 0.9],
+            intensity: 3.0,
+        }),
+        cameras: vec![Camera {
+            name: "nave".into(),
+            position: [0.0, 1.7, 5.0],
+            target: [0.0, 1.7, 0.0],
+            up: [0.0, 1.0, 0.0],
+            fov_y: 60.0,
+            near: 0.05,
+            far: 200.0,
+        }],
+        background: Background {
+            colour: [0.2, 0.3, 0.5],
+            panorama: None,
+        },
+    };
+    let data = PackData {
+        meshes: vec![MeshData {
+            vertices: bytemuck::cast_slice(&verts).to_vec(),
+            indices: bytemuck::cast_slice(&indices).to_vec(),
+        }],
+        textures: vec![cdata, ndata],
+    };
+    (toc, data)
+}

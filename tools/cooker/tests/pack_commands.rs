@@ -1,0 +1,148 @@
+//! `cooker info` and `cooker diff` on packs built in code.
+
+use std::path::Path;
+use std::process::{Command, Output};
+
+use pack::testing::sample;
+
+fn cooker(args: &[&dyn AsRef<std::ffi::OsStr>]) -> Output {
+    let mut c = Command::new(env!("CARGO_BIN_EXE_cooker"));
+    for a in args {
+        c.arg(a);
+    }
+    c.output().expect("cooker runs")
+}
+
+fn write_sample(path: &Path, edit: impl FnOnce(&mut pack::Toc, &mut pack::PackData)) {
+    let (mut toc, mut data) = sample();
+    edit(&mut toc, &mut data);
+    pack::write_pack(path, toc, &data).unwrap();
+}
+
+fn text(o: &Output) -> String {
+    format!(
+        "{}{}",
+        String::from_utf8_lossy(&o.stdout),
+        String::from_utf8_lossy(&o.stderr)
+    )
+}
+
+#[test]
+fn info_json_has_the_documented_fields() {
+    let dir = tempfile::tempdir().unwrap();
+    let p = dir.path().join("s.pack");
+    write_sample(&p, |_, _| {});
+    let o = cooker(&[&"info", &p, &"--json"]);
+    assert_eq!(o.status.code(), Some(0), "{}", text(&o));
+    let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    assert_eq!(v["format_version"], pack::FORMAT_VERSION);
+    assert_eq!(v["sections"][0]["kind"], "toc");
+    assert!(
+        v["sections"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .all(|s| s["offset"].is_u64() && s["length"].is_u64())
+    );
+    assert_eq!(v["materials"][0]["name"], "floor");
+    assert_eq!(v["materials"][0]["class"], "floor");
+    assert_eq!(v["materials"][1]["class"], "window-upper");
+    assert_eq!(v["materials"][1]["triangles"], 1);
+    assert_eq!(v["textures"][0]["role"], "colour");
+    assert_eq!(v["textures"][1]["role"], "normal");
+    assert_eq!(
+        (
+            v["textures"][0]["width"].as_u64(),
+            v["textures"][0]["height"].as_u64(),
+            v["textures"][0]["mips"].as_u64()
+        ),
+        (Some(4), Some(2), Some(3))
+    );
+
+    let o = cooker(&[&"info", &p]);
+    assert_eq!(o.status.code(), Some(0));
+    let out = text(&o);
+    assert!(
+        out.contains("window-upper")
+            && out.contains("rose.colour")
+            && out.contains("all checksums OK"),
+        "{out}"
+    );
+}
+
+#[test]
+fn info_exit_codes_for_bad_input_io_and_usage() {
+    let dir = tempfile::tempdir().unwrap();
+    let p = dir.path().join("bad.pack");
+    write_sample(&p, |_, _| {});
+    let mut bytes = std::fs::read(&p).unwrap();
+    let n = bytes.len();
+    bytes[n - 1] ^= 0x10;
+    std::fs::write(&p, &bytes).unwrap();
+    let o = cooker(&[&"info", &p]);
+    assert_eq!(o.status.code(), Some(3), "{}", text(&o));
+    assert!(
+        text(&o).contains("bad.pack") && text(&o).contains("checksum"),
+        "{}",
+        text(&o)
+    );
+
+    let o = cooker(&[&"info", &dir.path().join("missing.pack")]);
+    assert_eq!(o.status.code(), Some(4), "{}", text(&o));
+    assert!(text(&o).contains("missing.pack"));
+
+    let o = cooker(&[&"info"]);
+    assert_eq!(o.status.code(), Some(2), "{}", text(&o));
+    let o = cooker(&[&"frobnicate"]);
+    assert_eq!(o.status.code(), Some(2), "{}", text(&o));
+}
+
+#[test]
+fn diff_identical_changed_texel_and_material() {
+    let dir = tempfile::tempdir().unwrap();
+    let a = dir.path().join("a.pack");
+    let b = dir.path().join("b.pack");
+    let c = dir.path().join("c.pack");
+    write_sample(&a, |_, _| {});
+    write_sample(&b, |_, data| {
+        data.textures[0][0][5] = data.textures[0][0][5].wrapping_add(2)
+    });
+    // Vertex 2 moves from material 0 ("floor") to 1.
+    write_sample(&c, |_, data| data.meshes[0].vertices[52 * 2 + 48] = 1);
+
+    let o = cooker(&[&"diff", &a, &a]);
+    assert_eq!(o.status.code(), Some(0), "{}", text(&o));
+    assert!(text(&o).contains("identical"));
+
+    let o = cooker(&[&"diff", &a, &b, &"--json"]);
+    assert_eq!(o.status.code(), Some(1), "{}", text(&o));
+    let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    assert_eq!(v["within_thresholds"], false);
+    assert_eq!(v["textures"][0]["levels"][0]["max_error"], 2);
+    assert_eq!(v["textures"][0]["levels"][1]["max_error"], 0);
+    let changed: Vec<_> = v["sections"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .filter(|s| s["state"] != "equal")
+        .collect();
+    assert_eq!(changed.len(), 1, "only the edited mip differs: {changed:?}");
+    assert_eq!(changed[0]["section"], "mip/rose.colour/0");
+
+    let o = cooker(&[&"diff", &a, &b, &"--max-error", &"2"]);
+    assert_eq!(o.status.code(), Some(0), "{}", text(&o));
+    let o = cooker(&[&"diff", &a, &b, &"--max-error", &"1"]);
+    assert_eq!(o.status.code(), Some(1), "{}", text(&o));
+    assert!(text(&o).contains("max error 2 LSB"), "{}", text(&o));
+
+    let o = cooker(&[&"diff", &a, &c]);
+    assert_eq!(o.status.code(), Some(1), "{}", text(&o));
+    assert!(
+        text(&o).contains("1 vertices changed material"),
+        "{}",
+        text(&o)
+    );
+
+    let o = cooker(&[&"diff", &a, &b, &"--max-error", &"-1"]);
+    assert_eq!(o.status.code(), Some(2), "{}", text(&o));
+}
