@@ -1,1 +1,52 @@
+//! The four-pass stained-glass renderer (wgpu), fed from a pack.
+//!
+//! Passes: 0 background alone; 1 windows coloured, everything else black; 2 window normal maps;
+//! 3 the lit scene with projectors through the windows; then god rays (radial blur of pass 1)
+//! and 4 the composite (refraction, god rays, tone mapping). [`Scene`] holds the GPU copy of a
+//! pack and accepts sections as they stream in; [`Renderer`] owns the targets and the passes.
 
+mod gpu;
+pub mod passes;
+mod renderer;
+mod scene;
+pub mod shaders;
+pub mod uniforms;
+pub mod view;
+
+pub use gpu::Gpu;
+pub use renderer::{
+    FrameReport, PassId, PassTime, Renderer, Settings, TargetId, TimingMethod, f16_to_f32,
+    target_image,
+};
+pub use scene::{LoadStatus, SMALL_MIP_BYTES, Scene};
+pub use view::{GodRaySettings, LightGeometry, View};
+
+/// A renderer failure, with the values involved.
+#[derive(Debug, thiserror::Error)]
+pub enum RenderError {
+    #[error(
+        "no GPU adapter found ({0}); on a machine without a GPU install lavapipe (mesa-vulkan-drivers)"
+    )]
+    NoAdapter(String),
+    #[error("GPU device error: {0}")]
+    Device(String),
+    #[error("texture {name:?} is {width}x{height}, but this device allows at most {max}")]
+    TextureTooLarge {
+        name: String,
+        width: u32,
+        height: u32,
+        max: u32,
+    },
+    #[error("{found} distinct projector textures, but the lit pass binds at most {max}")]
+    TooManyProjectors { found: usize, max: usize },
+    #[error("{found} windows, but the lit pass handles at most {max}")]
+    TooManyWindows { found: usize, max: usize },
+    #[error("mesh {mesh:?}: {reason}")]
+    VertexLayout { mesh: String, reason: String },
+    #[error("render size {width}x{height} is invalid (1..={max} on each axis)")]
+    Size { width: u32, height: u32, max: u32 },
+    #[error("this renderer draws into a caller's view and has no image of its own to read")]
+    NoOutput,
+    #[error("reading back from the GPU failed: {0}")]
+    Readback(String),
+}

@@ -1,0 +1,1011 @@
+//! The frame graph: which passes run this frame, their targets, timing and capture.
+
+use glam::Vec3;
+
+use crate::passes::{
+    BackgroundPass, CompositePass, DEPTH, GodRayPass, HDR, LitPass, WindowMaskPass,
+    WindowNormalPass, frame_layout, geometry_layout,
+};
+use crate::uniforms::{self, MAX_PROJECTORS};
+use crate::view::{GodRaySettings, LightGeometry, View, god_ray_uniforms, window_projector};
+use crate::{Gpu, RenderError, Scene};
+
+/// The passes in recording order.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum PassId {
+    Background,
+    WindowMask,
+    WindowNormals,
+    Lit,
+    GodRays,
+    Composite,
+}
+
+impl PassId {
+    pub const ALL: [PassId; 6] = [
+        Self::Background,
+        Self::WindowMask,
+        Self::WindowNormals,
+        Self::Lit,
+        Self::GodRays,
+        Self::Composite,
+    ];
+
+    pub fn name(self) -> &'static str {
+        match self {
+            Self::Background => "0 background",
+            Self::WindowMask => "1 window mask",
+            Self::WindowNormals => "2 window normals",
+            Self::Lit => "3 lit scene",
+            Self::GodRays => "god rays",
+            Self::Composite => "4 composite",
+        }
+    }
+}
+
+/// Intermediate images that can be read back (and viewed by the interactive viewer).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum TargetId {
+    Background,
+    WindowMask,
+    WindowNormals,
+    Lit,
+    GodRays,
+}
+
+impl TargetId {
+    pub const ALL: [TargetId; 5] = [
+        Self::Background,
+        Self::WindowMask,
+        Self::WindowNormals,
+        Self::Lit,
+        Self::GodRays,
+    ];
+    pub fn file_stem(self) -> &'static str {
+        match self {
+            Self::Background => "pass0-background",
+            Self::WindowMask => "pass1-window-mask",
+            Self::WindowNormals => "pass2-window-normals",
+            Self::Lit => "pass3-lit",
+            Self::GodRays => "god-rays",
+        }
+    }
+}
+
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Settings {
+    pub god_rays: GodRaySettings,
+    /// Shift of the refracted image per unit of normal perturbation, in half screen heights.
+    pub refraction_strength: f32,
+    /// Scale applied before tone mapping.
+    pub exposure: f32,
+    /// Linear RGB ambient light.
+    pub ambient: [f32; 3],
+    /// Skip the god-ray pass when its fade is zero. Tests turn this off to check that the
+    /// shader itself outputs exactly zero then.
+    pub skip_invisible_god_rays: bool,
+}
+
+impl Default for Settings {
+    fn default() -> Self {
+        Self {
+            god_rays: GodRaySettings::default(),
+            refraction_strength: 0.04,
+            exposure: 1.0,
+            ambient: [0.04, 0.04, 0.045],
+            skip_invisible_god_rays: true,
+        }
+    }
+}
+
+/// How per-pass times were measured.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum TimingMethod {
+    /// GPU timestamp queries around each pass.
+    GpuTimestamps,
+    /// Each pass submitted alone and waited for: CPU wall time, including submission overhead.
+    CpuWallClock,
+    None,
+}
+
+#[derive(Clone, Debug, PartialEq)]
+pub struct PassTime {
+    pub pass: PassId,
+    /// Milliseconds, when recorded and measured.
+    pub ms: Option<f64>,
+    /// Why the pass was not recorded.
+    pub skipped: Option<&'static str>,
+}
+
+#[derive(Clone, Debug, PartialEq)]
+pub struct FrameReport {
+    pub method: TimingMethod,
+    pub passes: Vec<PassTime>,
+    /// The god rays' view fade (0 when not drawn).
+    pub god_ray_fade: f32,
+}
+
+struct Target {
+    texture: wgpu::Texture,
+    view: wgpu::TextureView,
+}
+
+fn target(
+    device: &wgpu::Device,
+    label: &str,
+    size: (u32, u32),
+    format: wgpu::TextureFormat,
+) -> Target {
+    let texture = device.create_texture(&wgpu::TextureDescriptor {
+        label: Some(label),
+        size: wgpu::Extent3d {
+            width: size.0,
+            height: size.1,
+            depth_or_array_layers: 1,
+        },
+        mip_level_count: 1,
+        sample_count: 1,
+        dimension: wgpu::TextureDimension::D2,
+        format,
+        usage: wgpu::TextureUsages::RENDER_ATTACHMENT
+            | wgpu::TextureUsages::TEXTURE_BINDING
+            | wgpu::TextureUsages::COPY_SRC,
+        view_formats: &[],
+    });
+    let view = texture.create_view(&Default::default());
+    Target { texture, view }
+}
+
+struct Targets {
+    size: (u32, u32),
+    rays_size: (u32, u32),
+    background: Target,
+    mask: Target,
+    normals: Target,
+    lit: Target,
+    rays: Target,
+    depth: Target,
+    output: Option<Target>,
+}
+
+impl Targets {
+    fn new(
+        device: &wgpu::Device,
+        size: (u32, u32),
+        rays_scale: f32,
+        output: Option<wgpu::TextureFormat>,
+    ) -> Self {
+        let scale = if rays_scale.is_finite() {
+            rays_scale.clamp(0.125, 1.0)
+        } else {
+            1.0
+        };
+        let rays_size = (
+            ((size.0 as f32 * scale).round() as u32).max(1),
+            ((size.1 as f32 * scale).round() as u32).max(1),
+        );
+        Self {
+            size,
+            rays_size,
+            background: target(device, "pass0 background", size, HDR),
+            mask: target(device, "pass1 window mask", size, HDR),
+            normals: target(device, "pass2 window normals", size, HDR),
+            lit: target(device, "pass3 lit", size, HDR),
+            rays: target(device, "god rays", rays_size, HDR),
+            depth: target(device, "depth", size, DEPTH),
+            output: output.map(|f| target(device, "output", size, f)),
+        }
+    }
+
+    fn get(&self, id: TargetId) -> &Target {
+        match id {
+            TargetId::Background => &self.background,
+            TargetId::WindowMask => &self.mask,
+            TargetId::WindowNormals => &self.normals,
+            TargetId::Lit => &self.lit,
+            TargetId::GodRays => &self.rays,
+        }
+    }
+}
+
+struct Timestamps {
+    queries: wgpu::QuerySet,
+    resolve: wgpu::Buffer,
+    readback: wgpu::Buffer,
+}
+
+/// What this frame records, decided from the scene and the view.
+struct Plan {
+    windows: bool,
+    refraction: bool,
+    god_rays: bool,
+    fade: f32,
+    passes: Vec<PassTime>,
+}
+
+pub struct Renderer {
+    settings: Settings,
+    output_format: wgpu::TextureFormat,
+    targets: Targets,
+    frame_layout: wgpu::BindGroupLayout,
+    frame_buffer: wgpu::Buffer,
+    windows_buffer: wgpu::Buffer,
+    frame_group: Option<(u64, wgpu::BindGroup)>,
+    linear_clamp: wgpu::Sampler,
+    nearest_clamp: wgpu::Sampler,
+    background: BackgroundPass,
+    mask: WindowMaskPass,
+    normals: WindowNormalPass,
+    lit: LitPass,
+    rays: GodRayPass,
+    composite: CompositePass,
+    timestamps: Option<Timestamps>,
+    frame_index: u32,
+}
+
+const HEADLESS_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba8UnormSrgb;
+
+impl Renderer {
+    /// A renderer writing into its own sRGB image of `width`×`height` (read it with
+    /// [`Renderer::read_output`]).
+    pub fn headless(
+        gpu: &Gpu,
+        scene: &Scene,
+        width: u32,
+        height: u32,
+        settings: Settings,
+    ) -> Result<Self, RenderError> {
+        Self::new(gpu, scene, width, height, HEADLESS_FORMAT, true, settings)
+    }
+
+    /// A renderer whose composite writes `output_format` (a surface's, say) into a view the
+    /// caller passes to [`Renderer::render_to`]. `own_output` also allocates a headless image.
+    pub fn new(
+        gpu: &Gpu,
+        scene: &Scene,
+        width: u32,
+        height: u32,
+        output_format: wgpu::TextureFormat,
+        own_output: bool,
+        settings: Settings,
+    ) -> Result<Self, RenderError> {
+        let max = gpu.device.limits().max_texture_dimension_2d;
+        if width == 0 || height == 0 || width > max || height > max {
+            return Err(RenderError::Size { width, height, max });
+        }
+        let device = &gpu.device;
+        let frame_layout = frame_layout(device);
+        let layout = geometry_layout(device, &frame_layout, &scene.material_layout);
+        let buffer = |label, size: usize| {
+            device.create_buffer(&wgpu::BufferDescriptor {
+                label: Some(label),
+                size: size as u64,
+                usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+                mapped_at_creation: false,
+            })
+        };
+        let clamp_sampler = |filter| {
+            device.create_sampler(&wgpu::SamplerDescriptor {
+                mag_filter: filter,
+                min_filter: filter,
+                mipmap_filter: wgpu::MipmapFilterMode::Linear,
+                ..Default::default()
+            })
+        };
+        let timestamps = gpu.timestamps.then(|| {
+            let count = 2 * PassId::ALL.len() as u32;
+            Timestamps {
+                queries: device.create_query_set(&wgpu::QuerySetDescriptor {
+                    label: Some("pass times"),
+                    ty: wgpu::QueryType::Timestamp,
+                    count,
+                }),
+                resolve: device.create_buffer(&wgpu::BufferDescriptor {
+                    label: Some("pass times"),
+                    size: count as u64 * 8,
+                    usage: wgpu::BufferUsages::QUERY_RESOLVE | wgpu::BufferUsages::COPY_SRC,
+                    mapped_at_creation: false,
+                }),
+                readback: device.create_buffer(&wgpu::BufferDescriptor {
+                    label: Some("pass times readback"),
+                    size: count as u64 * 8,
+                    usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
+                    mapped_at_creation: false,
+                }),
+            }
+        });
+        Ok(Self {
+            targets: Targets::new(
+                device,
+                (width, height),
+                settings.god_rays.resolution_scale,
+                own_output.then_some(output_format),
+            ),
+            settings,
+            output_format,
+            frame_buffer: buffer("frame", std::mem::size_of::<uniforms::Frame>()),
+            windows_buffer: buffer("windows", std::mem::size_of::<uniforms::Windows>()),
+            frame_layout,
+            frame_group: None,
+            linear_clamp: clamp_sampler(wgpu::FilterMode::Linear),
+            nearest_clamp: clamp_sampler(wgpu::FilterMode::Nearest),
+            background: BackgroundPass::new(device, &layout),
+            mask: WindowMaskPass::new(device, &layout),
+            normals: WindowNormalPass::new(device, &layout),
+            lit: LitPass::new(device, &layout),
+            rays: GodRayPass::new(device),
+            composite: CompositePass::new(device, output_format),
+            timestamps,
+            frame_index: 0,
+        })
+    }
+
+    pub fn settings(&self) -> &Settings {
+        &self.settings
+    }
+
+    /// Changes settings; targets are recreated when the god-ray resolution changes.
+    pub fn set_settings(&mut self, gpu: &Gpu, settings: Settings) {
+        let rescale = settings.god_rays.resolution_scale != self.settings.god_rays.resolution_scale;
+        self.settings = settings;
+        if rescale {
+            self.resize(gpu, self.targets.size.0, self.targets.size.1);
+        }
+    }
+
+    pub fn size(&self) -> (u32, u32) {
+        self.targets.size
+    }
+
+    /// Recreates the targets for a new output size (a window resize).
+    pub fn resize(&mut self, gpu: &Gpu, width: u32, height: u32) {
+        let own = self.targets.output.is_some().then_some(self.output_format);
+        self.targets = Targets::new(
+            &gpu.device,
+            (width.max(1), height.max(1)),
+            self.settings.god_rays.resolution_scale,
+            own,
+        );
+    }
+
+    /// The view for a pack camera at this renderer's aspect ratio.
+    pub fn view_for(&self, camera: &pack::Camera) -> View {
+        View::from_camera(
+            camera,
+            self.targets.size.0 as f32 / self.targets.size.1 as f32,
+        )
+    }
+
+    fn plan(&self, scene: &Scene, view: &View) -> (Plan, Option<uniforms::GodRays>) {
+        let windows = scene.has_windows();
+        let refraction =
+            windows && scene.has_window_normal_maps() && self.settings.refraction_strength != 0.0;
+        let light = scene.toc().light.as_ref();
+        let mut rays = None;
+        let mut fade = 0.0;
+        if let (true, Some(l)) = (windows, light) {
+            let geometry = LightGeometry::from_light(l);
+            let colour = Vec3::from(l.colour) * l.intensity;
+            let (u, f) = god_ray_uniforms(
+                &self.settings.god_rays,
+                view,
+                &geometry,
+                colour,
+                self.frame_index,
+            );
+            fade = f;
+            if f > 0.0 || !self.settings.skip_invisible_god_rays {
+                rays = Some(u);
+            }
+        }
+        let skip = |id, reason: Option<&'static str>| PassTime {
+            pass: id,
+            ms: None,
+            skipped: reason,
+        };
+        let passes = vec![
+            skip(PassId::Background, None),
+            skip(PassId::WindowMask, (!windows).then_some("no windows")),
+            skip(
+                PassId::WindowNormals,
+                if !windows {
+                    Some("no windows")
+                } else if !refraction {
+                    Some("no window normal maps")
+                } else {
+                    None
+                },
+            ),
+            skip(PassId::Lit, None),
+            skip(
+                PassId::GodRays,
+                if !windows {
+                    Some("no windows")
+                } else if light.is_none() {
+                    Some("no light")
+                } else if rays.is_none() {
+                    Some("light out of view")
+                } else {
+                    None
+                },
+            ),
+            skip(PassId::Composite, None),
+        ];
+        (
+            Plan {
+                windows,
+                refraction,
+                god_rays: rays.is_some(),
+                fade,
+                passes,
+            },
+            rays,
+        )
+    }
+
+    fn write_uniforms(
+        &mut self,
+        gpu: &Gpu,
+        scene: &Scene,
+        view: &View,
+        plan: &Plan,
+        rays: Option<uniforms::GodRays>,
+    ) {
+        let toc = scene.toc();
+        let light = toc.light.as_ref();
+        let geometry = light.map(LightGeometry::from_light);
+        let mut frame = uniforms::Frame {
+            view_proj: view.view_proj().to_cols_array_2d(),
+            view: view.view.to_cols_array_2d(),
+            camera_pos: view.position.extend(1.0).to_array(),
+            ambient: [
+                self.settings.ambient[0],
+                self.settings.ambient[1],
+                self.settings.ambient[2],
+                0.0,
+            ],
+            counts: [
+                toc.windows.len().min(uniforms::MAX_WINDOWS) as u32,
+                !toc.windows.is_empty() as u32,
+                0,
+                0,
+            ],
+            ..Default::default()
+        };
+        let mut windows = uniforms::Windows::default();
+        if let (Some(l), Some(g)) = (light, geometry) {
+            frame.light_pos = g.homogeneous().to_array();
+            let c = Vec3::from(l.colour) * l.intensity;
+            let radius = match g {
+                LightGeometry::Point { radius, .. } => radius,
+                LightGeometry::Directional { .. } => 0.0,
+            };
+            frame.light_colour = c.extend(radius).to_array();
+            for (slot, w) in windows.items.iter_mut().zip(&toc.windows) {
+                let mat = &toc.materials[w.material as usize];
+                let projector = window_projector(w, &g);
+                let tex_slot = scene.projector_slot(mat.projector_texture);
+                slot.projector = projector.unwrap_or(glam::Mat4::ZERO).to_cols_array_2d();
+                slot.origin = Vec3::from(w.origin).extend(0.0).to_array();
+                slot.normal = Vec3::from(w.normal)
+                    .normalize_or_zero()
+                    .extend(0.0)
+                    .to_array();
+                // A window without a projector texture lets no light through: the cooker
+                // always makes one, and guessing a colour would hide that it is missing.
+                slot.params = [
+                    tex_slot.unwrap_or(0),
+                    (projector.is_some() && tex_slot.is_some()) as u32,
+                    0,
+                    0,
+                ];
+            }
+        } else {
+            for (slot, w) in windows.items.iter_mut().zip(&toc.windows) {
+                slot.origin = Vec3::from(w.origin).extend(0.0).to_array();
+                slot.normal = Vec3::from(w.normal)
+                    .normalize_or_zero()
+                    .extend(0.0)
+                    .to_array();
+            }
+        }
+        gpu.queue
+            .write_buffer(&self.frame_buffer, 0, bytemuck::bytes_of(&frame));
+        gpu.queue
+            .write_buffer(&self.windows_buffer, 0, bytemuck::bytes_of(&windows));
+        if let Some(r) = rays {
+            gpu.queue
+                .write_buffer(&self.rays.uniforms, 0, bytemuck::bytes_of(&r));
+        }
+        let comp = uniforms::Composite {
+            params: [
+                self.settings.refraction_strength,
+                self.settings.exposure,
+                self.targets.size.0 as f32 / self.targets.size.1 as f32,
+                0.0,
+            ],
+            flags: [
+                plan.refraction as u32,
+                plan.god_rays as u32,
+                (!self.output_format.is_srgb()) as u32,
+                plan.windows as u32,
+            ],
+        };
+        gpu.queue
+            .write_buffer(&self.composite.uniforms, 0, bytemuck::bytes_of(&comp));
+        if self.frame_group.as_ref().map(|(g, _)| *g) != Some(scene.generation()) {
+            let views = scene.projector_views();
+            let mut entries = vec![
+                wgpu::BindGroupEntry {
+                    binding: 0,
+                    resource: self.frame_buffer.as_entire_binding(),
+                },
+                wgpu::BindGroupEntry {
+                    binding: 1,
+                    resource: self.windows_buffer.as_entire_binding(),
+                },
+            ];
+            for (s, v) in views.iter().enumerate() {
+                entries.push(wgpu::BindGroupEntry {
+                    binding: 2 + s as u32,
+                    resource: wgpu::BindingResource::TextureView(v),
+                });
+            }
+            entries.push(wgpu::BindGroupEntry {
+                binding: 2 + MAX_PROJECTORS as u32,
+                resource: wgpu::BindingResource::Sampler(&self.linear_clamp),
+            });
+            let group = gpu.device.create_bind_group(&wgpu::BindGroupDescriptor {
+                label: Some("frame"),
+                layout: &self.frame_layout,
+                entries: &entries,
+            });
+            self.frame_group = Some((scene.generation(), group));
+        }
+    }
+
+    fn timestamp_writes(&self, pass: PassId) -> Option<wgpu::RenderPassTimestampWrites<'_>> {
+        let i = PassId::ALL.iter().position(|&p| p == pass).unwrap_or(0) as u32;
+        self.timestamps
+            .as_ref()
+            .map(|t| wgpu::RenderPassTimestampWrites {
+                query_set: &t.queries,
+                beginning_of_pass_write_index: Some(2 * i),
+                end_of_pass_write_index: Some(2 * i + 1),
+            })
+    }
+
+    fn record(
+        &self,
+        pass: PassId,
+        encoder: &mut wgpu::CommandEncoder,
+        scene: &Scene,
+        plan: &Plan,
+        output: &wgpu::TextureView,
+        timed: bool,
+        gpu: &Gpu,
+    ) {
+        let background_colour = {
+            let c = scene.toc().background.colour;
+            wgpu::Color {
+                r: c[0] as f64,
+                g: c[1] as f64,
+                b: c[2] as f64,
+                a: 1.0,
+            }
+        };
+        let ts = if timed {
+            self.timestamp_writes(pass)
+        } else {
+            None
+        };
+        let frame_group = &self.frame_group.as_ref().expect("uniforms written").1;
+        let colour = |view, clear| {
+            [Some(wgpu::RenderPassColorAttachment {
+                view,
+                depth_slice: None,
+                resolve_target: None,
+                ops: wgpu::Operations {
+                    load: wgpu::LoadOp::Clear(clear),
+                    store: wgpu::StoreOp::Store,
+                },
+            })]
+        };
+        let depth = |clear: bool| {
+            Some(wgpu::RenderPassDepthStencilAttachment {
+                view: &self.targets.depth.view,
+                depth_ops: Some(wgpu::Operations {
+                    load: if clear {
+                        wgpu::LoadOp::Clear(1.0)
+                    } else {
+                        wgpu::LoadOp::Load
+                    },
+                    store: wgpu::StoreOp::Store,
+                }),
+                stencil_ops: None,
+            })
+        };
+        let geometry = |encoder: &mut wgpu::CommandEncoder,
+                        label,
+                        view,
+                        clear,
+                        clear_depth,
+                        pipeline: &wgpu::RenderPipeline,
+                        filter: &dyn Fn(pack::MaterialClass) -> bool| {
+            let attachments = colour(view, clear);
+            let mut rp = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
+                label: Some(label),
+                color_attachments: &attachments,
+                depth_stencil_attachment: depth(clear_depth),
+                timestamp_writes: ts.clone(),
+                occlusion_query_set: None,
+                multiview_mask: None,
+            });
+            rp.set_pipeline(pipeline);
+            rp.set_bind_group(0, frame_group, &[]);
+            scene.draw(&mut rp, filter);
+        };
+        match pass {
+            PassId::Background => geometry(
+                encoder,
+                "pass0 background",
+                &self.targets.background.view,
+                background_colour,
+                true,
+                &self.background.pipeline,
+                &|c| c == pack::MaterialClass::Background,
+            ),
+            PassId::WindowMask => geometry(
+                encoder,
+                "pass1 window mask",
+                &self.targets.mask.view,
+                wgpu::Color::TRANSPARENT,
+                true,
+                &self.mask.pipeline,
+                &|_| true,
+            ),
+            PassId::WindowNormals => geometry(
+                encoder,
+                "pass2 window normals",
+                &self.targets.normals.view,
+                wgpu::Color::TRANSPARENT,
+                false,
+                &self.normals.pipeline,
+                &|_| true,
+            ),
+            PassId::Lit => geometry(
+                encoder,
+                "pass3 lit",
+                &self.targets.lit.view,
+                background_colour,
+                !plan.windows,
+                &self.lit.pipeline,
+                &|_| true,
+            ),
+            PassId::GodRays => {
+                let group = gpu.device.create_bind_group(&wgpu::BindGroupDescriptor {
+                    label: Some("god rays"),
+                    layout: &self.rays.layout,
+                    entries: &[
+                        wgpu::BindGroupEntry {
+                            binding: 0,
+                            resource: self.rays.uniforms.as_entire_binding(),
+                        },
+                        wgpu::BindGroupEntry {
+                            binding: 1,
+                            resource: wgpu::BindingResource::TextureView(&self.targets.mask.view),
+                        },
+                        wgpu::BindGroupEntry {
+                            binding: 2,
+                            resource: wgpu::BindingResource::Sampler(&self.linear_clamp),
+                        },
+                    ],
+                });
+                let attachments = colour(&self.targets.rays.view, wgpu::Color::BLACK);
+                let mut rp = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
+                    label: Some("god rays"),
+                    color_attachments: &attachments,
+                    depth_stencil_attachment: None,
+                    timestamp_writes: ts,
+                    occlusion_query_set: None,
+                    multiview_mask: None,
+                });
+                rp.set_pipeline(&self.rays.pipeline);
+                rp.set_bind_group(0, &group, &[]);
+                rp.draw(0..3, 0..1);
+            }
+            PassId::Composite => {
+                let black = &scene.placeholders.black_hdr;
+                fn pick<'a>(
+                    used: bool,
+                    t: &'a Target,
+                    black: &'a wgpu::TextureView,
+                ) -> &'a wgpu::TextureView {
+                    if used { &t.view } else { black }
+                }
+                let tex = |binding, view| wgpu::BindGroupEntry {
+                    binding,
+                    resource: wgpu::BindingResource::TextureView(view),
+                };
+                let group = gpu.device.create_bind_group(&wgpu::BindGroupDescriptor {
+                    label: Some("composite"),
+                    layout: &self.composite.layout,
+                    entries: &[
+                        wgpu::BindGroupEntry {
+                            binding: 0,
+                            resource: self.composite.uniforms.as_entire_binding(),
+                        },
+                        tex(1, &self.targets.lit.view),
+                        tex(2, &self.targets.background.view),
+                        tex(3, pick(plan.windows, &self.targets.mask, black)),
+                        tex(4, pick(plan.refraction, &self.targets.normals, black)),
+                        tex(5, pick(plan.god_rays, &self.targets.rays, black)),
+                        wgpu::BindGroupEntry {
+                            binding: 6,
+                            resource: wgpu::BindingResource::Sampler(&self.nearest_clamp),
+                        },
+                        wgpu::BindGroupEntry {
+                            binding: 7,
+                            resource: wgpu::BindingResource::Sampler(&self.linear_clamp),
+                        },
+                    ],
+                });
+                let attachments = colour(output, wgpu::Color::BLACK);
+                let mut rp = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
+                    label: Some("composite"),
+                    color_attachments: &attachments,
+                    depth_stencil_attachment: None,
+                    timestamp_writes: ts,
+                    occlusion_query_set: None,
+                    multiview_mask: None,
+                });
+                rp.set_pipeline(&self.composite.pipeline);
+                rp.set_bind_group(0, &group, &[]);
+                rp.draw(0..3, 0..1);
+            }
+        }
+    }
+
+    /// Renders one frame into the renderer's own output image.
+    pub fn render(
+        &mut self,
+        gpu: &Gpu,
+        scene: &Scene,
+        view: &View,
+        timing: TimingMethod,
+    ) -> Result<FrameReport, RenderError> {
+        let output = self
+            .targets
+            .output
+            .as_ref()
+            .ok_or(RenderError::NoOutput)?
+            .view
+            .clone();
+        self.render_to(gpu, scene, view, &output, timing)
+    }
+
+    /// Renders one frame into `output` (a view of the renderer's output format and size).
+    /// `timing` asks for per-pass times: GPU timestamps where the device has them (else the
+    /// CPU wall clock is used and the report says so); `None` records one command buffer.
+    pub fn render_to(
+        &mut self,
+        gpu: &Gpu,
+        scene: &Scene,
+        view: &View,
+        output: &wgpu::TextureView,
+        timing: TimingMethod,
+    ) -> Result<FrameReport, RenderError> {
+        let (mut plan, rays) = self.plan(scene, view);
+        self.write_uniforms(gpu, scene, view, &plan, rays);
+        self.frame_index = self.frame_index.wrapping_add(1);
+        let recorded: Vec<PassId> = plan
+            .passes
+            .iter()
+            .filter(|p| p.skipped.is_none())
+            .map(|p| p.pass)
+            .collect();
+        let method = match timing {
+            TimingMethod::None => TimingMethod::None,
+            _ if self.timestamps.is_some() && timing == TimingMethod::GpuTimestamps => {
+                TimingMethod::GpuTimestamps
+            }
+            _ => TimingMethod::CpuWallClock,
+        };
+        match method {
+            TimingMethod::CpuWallClock => {
+                // Each pass alone, waited for: crude but available everywhere.
+                gpu.wait()?;
+                for &id in &recorded {
+                    let start = std::time::Instant::now();
+                    let mut encoder = gpu.device.create_command_encoder(&Default::default());
+                    self.record(id, &mut encoder, scene, &plan, output, false, gpu);
+                    gpu.queue.submit([encoder.finish()]);
+                    gpu.wait()?;
+                    let ms = start.elapsed().as_secs_f64() * 1e3;
+                    if let Some(p) = plan.passes.iter_mut().find(|p| p.pass == id) {
+                        p.ms = Some(ms);
+                    }
+                }
+            }
+            TimingMethod::GpuTimestamps | TimingMethod::None => {
+                let timed = method == TimingMethod::GpuTimestamps;
+                let mut encoder = gpu.device.create_command_encoder(&Default::default());
+                for &id in &recorded {
+                    self.record(id, &mut encoder, scene, &plan, output, timed, gpu);
+                }
+                if let (true, Some(t)) = (timed, &self.timestamps) {
+                    let count = 2 * PassId::ALL.len() as u32;
+                    encoder.resolve_query_set(&t.queries, 0..count, &t.resolve, 0);
+                    encoder.copy_buffer_to_buffer(&t.resolve, 0, &t.readback, 0, count as u64 * 8);
+                }
+                gpu.queue.submit([encoder.finish()]);
+                if let (true, Some(t)) = (timed, &self.timestamps) {
+                    let ticks = read_buffer(gpu, &t.readback)?;
+                    let ticks: &[u64] = bytemuck::cast_slice(&ticks);
+                    let period = gpu.queue.get_timestamp_period() as f64;
+                    for (i, id) in PassId::ALL.iter().enumerate() {
+                        if let Some(p) = plan
+                            .passes
+                            .iter_mut()
+                            .find(|p| p.pass == *id && p.skipped.is_none())
+                        {
+                            let d = ticks[2 * i + 1].saturating_sub(ticks[2 * i]);
+                            p.ms = Some(d as f64 * period / 1e6);
+                        }
+                    }
+                }
+            }
+        }
+        Ok(FrameReport {
+            method,
+            passes: plan.passes,
+            god_ray_fade: if plan.god_rays { plan.fade } else { 0.0 },
+        })
+    }
+
+    /// The final image (sRGB, RGBA8) of the last headless frame.
+    pub fn read_output(&self, gpu: &Gpu) -> Result<image::RgbaImage, RenderError> {
+        let t = self.targets.output.as_ref().ok_or(RenderError::NoOutput)?;
+        let (w, h) = self.targets.size;
+        let bytes = read_texture(gpu, &t.texture, w, h, 4)?;
+        image::RgbaImage::from_raw(w, h, bytes).ok_or(RenderError::Readback("output size".into()))
+    }
+
+    /// An intermediate target as linear RGBA f32, with its size.
+    pub fn read_target(
+        &self,
+        gpu: &Gpu,
+        id: TargetId,
+    ) -> Result<(u32, u32, Vec<[f32; 4]>), RenderError> {
+        let t = self.targets.get(id);
+        let (w, h) = if id == TargetId::GodRays {
+            self.targets.rays_size
+        } else {
+            self.targets.size
+        };
+        let bytes = read_texture(gpu, &t.texture, w, h, 8)?;
+        let halfs: &[u16] = bytemuck::cast_slice(&bytes);
+        let px = halfs
+            .chunks_exact(4)
+            .map(|c| [0, 1, 2, 3].map(|k| f16_to_f32(c[k])))
+            .collect();
+        Ok((w, h, px))
+    }
+}
+
+/// Image of an intermediate target for viewing: colour targets clamped and sRGB-encoded,
+/// normals mapped from [-1, 1] to [0, 1].
+pub fn target_image(id: TargetId, w: u32, h: u32, px: &[[f32; 4]]) -> image::RgbaImage {
+    let enc = |v: f32| {
+        let v = if v.is_finite() {
+            v.clamp(0.0, 1.0)
+        } else {
+            0.0
+        };
+        let s = if v <= 0.0031308 {
+            v * 12.92
+        } else {
+            1.055 * v.powf(1.0 / 2.4) - 0.055
+        };
+        (s * 255.0 + 0.5) as u8
+    };
+    let lin = |v: f32| {
+        ((if v.is_finite() {
+            v.clamp(0.0, 1.0)
+        } else {
+            0.0
+        }) * 255.0
+            + 0.5) as u8
+    };
+    let mut img = image::RgbaImage::new(w, h);
+    for (p, out) in px.iter().zip(img.pixels_mut()) {
+        *out = if id == TargetId::WindowNormals {
+            image::Rgba([
+                lin(p[0] * 0.5 + 0.5),
+                lin(p[1] * 0.5 + 0.5),
+                lin(p[2] * 0.5 + 0.5),
+                255,
+            ])
+        } else {
+            image::Rgba([enc(p[0]), enc(p[1]), enc(p[2]), 255])
+        };
+    }
+    img
+}
+
+/// IEEE half to single precision.
+pub fn f16_to_f32(h: u16) -> f32 {
+    let sign = if h & 0x8000 != 0 { -1.0 } else { 1.0 };
+    let exp = ((h >> 10) & 0x1f) as i32;
+    let frac = (h & 0x3ff) as f32;
+    match exp {
+        0 => sign * frac * 2f32.powi(-24),
+        31 => {
+            if frac == 0.0 {
+                sign * f32::INFINITY
+            } else {
+                f32::NAN
+            }
+        }
+        e => sign * (1.0 + frac / 1024.0) * 2f32.powi(e - 15),
+    }
+}
+
+fn read_buffer(gpu: &Gpu, buffer: &wgpu::Buffer) -> Result<Vec<u8>, RenderError> {
+    let (tx, rx) = std::sync::mpsc::channel();
+    buffer.map_async(wgpu::MapMode::Read, .., move |r| {
+        let _ = tx.send(r);
+    });
+    gpu.wait()?;
+    rx.recv()
+        .map_err(|e| RenderError::Readback(e.to_string()))?
+        .map_err(|e| RenderError::Readback(e.to_string()))?;
+    let data = buffer
+        .get_mapped_range(..)
+        .map_err(|e| RenderError::Readback(e.to_string()))?
+        .to_vec();
+    buffer.unmap();
+    Ok(data)
+}
+
+fn read_texture(
+    gpu: &Gpu,
+    texture: &wgpu::Texture,
+    w: u32,
+    h: u32,
+    bpp: u32,
+) -> Result<Vec<u8>, RenderError> {
+    let row = w * bpp;
+    let padded =
+        row.div_ceil(wgpu::COPY_BYTES_PER_ROW_ALIGNMENT) * wgpu::COPY_BYTES_PER_ROW_ALIGNMENT;
+    let buffer = gpu.device.create_buffer(&wgpu::BufferDescriptor {
+        label: Some("readback"),
+        size: padded as u64 * h as u64,
+        usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
+        mapped_at_creation: false,
+    });
+    let mut encoder = gpu.device.create_command_encoder(&Default::default());
+    encoder.copy_texture_to_buffer(
+        texture.as_image_copy(),
+        wgpu::TexelCopyBufferInfo {
+            buffer: &buffer,
+            layout: wgpu::TexelCopyBufferLayout {
+                offset: 0,
+                bytes_per_row: Some(padded),
+                rows_per_image: Some(h),
+            },
+        },
+        wgpu::Extent3d {
+            width: w,
+            height: h,
+            depth_or_array_layers: 1,
+        },
+    );
+    gpu.queue.submit([encoder.finish()]);
+    let data = read_buffer(gpu, &buffer)?;
+    let mut out = Vec::with_capacity((row * h) as usize);
+    for y in 0..h as usize {
+        out.extend_from_slice(&data[y * padded as usize..y * padded as usize + row as usize]);
+    }
+    Ok(out)
+}

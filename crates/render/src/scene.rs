@@ -1,0 +1,712 @@
+//! The scene on the GPU: geometry, textures and materials, filled section by section as a pack
+//! arrives. Textures exist at full size from the start; a texture's view covers the levels
+//! resident so far (they arrive smallest first), and a placeholder stands in until its first
+//! level is in.
+
+use pack::{
+    AttributeFormat, MaterialClass, SectionRole, Semantic, StandardVertex, Toc, VertexLayout,
+};
+
+use crate::uniforms::{self, MAX_PROJECTORS};
+use crate::{Gpu, RenderError};
+
+/// Mips up to this many bytes (64×64 RGBA8) count as "small": the first frame waits for them.
+pub const SMALL_MIP_BYTES: u64 = 64 * 64 * 4;
+
+pub(crate) struct Placeholders {
+    pub white_srgb: wgpu::TextureView,
+    pub flat_normal: wgpu::TextureView,
+    /// Black HDR stand-in for targets of passes that were not recorded.
+    pub black_hdr: wgpu::TextureView,
+}
+
+impl Placeholders {
+    fn new(gpu: &Gpu) -> Self {
+        let make = |format, texel: &[u8], label| {
+            let t = gpu.device.create_texture(&wgpu::TextureDescriptor {
+                label: Some(label),
+                size: wgpu::Extent3d {
+                    width: 1,
+                    height: 1,
+                    depth_or_array_layers: 1,
+                },
+                mip_level_count: 1,
+                sample_count: 1,
+                dimension: wgpu::TextureDimension::D2,
+                format,
+                usage: wgpu::TextureUsages::TEXTURE_BINDING | wgpu::TextureUsages::COPY_DST,
+                view_formats: &[],
+            });
+            gpu.queue.write_texture(
+                t.as_image_copy(),
+                texel,
+                wgpu::TexelCopyBufferLayout {
+                    offset: 0,
+                    bytes_per_row: Some(texel.len() as u32),
+                    rows_per_image: None,
+                },
+                wgpu::Extent3d {
+                    width: 1,
+                    height: 1,
+                    depth_or_array_layers: 1,
+                },
+            );
+            t.create_view(&Default::default())
+        };
+        Self {
+            white_srgb: make(
+                wgpu::TextureFormat::Rgba8UnormSrgb,
+                &[255, 255, 255, 255],
+                "placeholder white",
+            ),
+            flat_normal: make(
+                wgpu::TextureFormat::Rgba8Unorm,
+                &[128, 128, 255, 255],
+                "placeholder normal",
+            ),
+            black_hdr: make(
+                wgpu::TextureFormat::Rgba16Float,
+                &[0; 8],
+                "placeholder black",
+            ),
+        }
+    }
+}
+
+struct GpuTexture {
+    texture: wgpu::Texture,
+    loaded: Vec<bool>,
+    /// The smallest level index such that it and every smaller mip are resident.
+    resident_from: Option<u32>,
+    view: Option<wgpu::TextureView>,
+}
+
+struct GpuMesh {
+    vertices: Option<wgpu::Buffer>,
+    indices: Option<wgpu::Buffer>,
+    index_format: wgpu::IndexFormat,
+    ranges: Vec<pack::DrawRange>,
+}
+
+pub(crate) struct GpuMaterial {
+    pub class: MaterialClass,
+    buffer: wgpu::Buffer,
+    pub bind_group: wgpu::BindGroup,
+    diffuse: Option<u32>,
+    normal: Option<u32>,
+}
+
+/// Load progress of a streamed scene.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct LoadStatus {
+    pub geometry_sections: u32,
+    pub geometry_total: u32,
+    pub mips_loaded: u32,
+    pub mips_total: u32,
+    pub bytes_uploaded: u64,
+}
+
+pub struct Scene {
+    toc: Toc,
+    meshes: Vec<GpuMesh>,
+    textures: Vec<GpuTexture>,
+    pub(crate) materials: Vec<GpuMaterial>,
+    pub(crate) material_layout: wgpu::BindGroupLayout,
+    pub(crate) placeholders: Placeholders,
+    material_sampler: wgpu::Sampler,
+    /// Texture index of each projector slot.
+    projector_slots: Vec<u32>,
+    status: LoadStatus,
+    dirty: bool,
+    /// Bumped whenever a texture view changes, so frame bind groups can be rebuilt.
+    generation: u64,
+}
+
+pub(crate) fn material_layout(device: &wgpu::Device) -> wgpu::BindGroupLayout {
+    let tex = |binding| wgpu::BindGroupLayoutEntry {
+        binding,
+        visibility: wgpu::ShaderStages::FRAGMENT,
+        ty: wgpu::BindingType::Texture {
+            sample_type: wgpu::TextureSampleType::Float { filterable: true },
+            view_dimension: wgpu::TextureViewDimension::D2,
+            multisampled: false,
+        },
+        count: None,
+    };
+    device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+        label: Some("material"),
+        entries: &[
+            wgpu::BindGroupLayoutEntry {
+                binding: 0,
+                visibility: wgpu::ShaderStages::FRAGMENT,
+                ty: wgpu::BindingType::Buffer {
+                    ty: wgpu::BufferBindingType::Uniform,
+                    has_dynamic_offset: false,
+                    min_binding_size: wgpu::BufferSize::new(
+                        std::mem::size_of::<uniforms::Material>() as u64,
+                    ),
+                },
+                count: None,
+            },
+            tex(1),
+            tex(2),
+            wgpu::BindGroupLayoutEntry {
+                binding: 3,
+                visibility: wgpu::ShaderStages::FRAGMENT,
+                ty: wgpu::BindingType::Sampler(wgpu::SamplerBindingType::Filtering),
+                count: None,
+            },
+        ],
+    })
+}
+
+impl Scene {
+    /// Creates every GPU object the TOC describes, with no data yet. `toc` must come from a
+    /// validated pack (`Pack` or `StreamReader`), which guarantees every index used here.
+    pub fn new(gpu: &Gpu, toc: &Toc) -> Result<Self, RenderError> {
+        let device = &gpu.device;
+        let max = device.limits().max_texture_dimension_2d;
+        let mut textures = Vec::with_capacity(toc.textures.len());
+        for t in &toc.textures {
+            if t.width > max || t.height > max {
+                return Err(RenderError::TextureTooLarge {
+                    name: t.name.clone(),
+                    width: t.width,
+                    height: t.height,
+                    max,
+                });
+            }
+            let format = match t.colour_space {
+                pack::ColourSpace::Srgb => wgpu::TextureFormat::Rgba8UnormSrgb,
+                pack::ColourSpace::Linear => wgpu::TextureFormat::Rgba8Unorm,
+            };
+            let texture = device.create_texture(&wgpu::TextureDescriptor {
+                label: Some(&t.name),
+                size: wgpu::Extent3d {
+                    width: t.width,
+                    height: t.height,
+                    depth_or_array_layers: 1,
+                },
+                mip_level_count: t.mips.len() as u32,
+                sample_count: 1,
+                dimension: wgpu::TextureDimension::D2,
+                format,
+                usage: wgpu::TextureUsages::TEXTURE_BINDING | wgpu::TextureUsages::COPY_DST,
+                view_formats: &[],
+            });
+            textures.push(GpuTexture {
+                texture,
+                loaded: vec![false; t.mips.len()],
+                resident_from: None,
+                view: None,
+            });
+        }
+        let mut projector_slots: Vec<u32> = Vec::new();
+        for w in &toc.windows {
+            if let Some(p) = toc.materials[w.material as usize].projector_texture
+                && !projector_slots.contains(&p)
+            {
+                projector_slots.push(p);
+            }
+        }
+        if projector_slots.len() > MAX_PROJECTORS {
+            return Err(RenderError::TooManyProjectors {
+                found: projector_slots.len(),
+                max: MAX_PROJECTORS,
+            });
+        }
+        if toc.windows.len() > uniforms::MAX_WINDOWS {
+            return Err(RenderError::TooManyWindows {
+                found: toc.windows.len(),
+                max: uniforms::MAX_WINDOWS,
+            });
+        }
+        let material_layout = material_layout(device);
+        let material_sampler = device.create_sampler(&wgpu::SamplerDescriptor {
+            label: Some("material"),
+            address_mode_u: wgpu::AddressMode::Repeat,
+            address_mode_v: wgpu::AddressMode::Repeat,
+            mag_filter: wgpu::FilterMode::Linear,
+            min_filter: wgpu::FilterMode::Linear,
+            mipmap_filter: wgpu::MipmapFilterMode::Linear,
+            anisotropy_clamp: 4,
+            ..Default::default()
+        });
+        let placeholders = Placeholders::new(gpu);
+        let meshes = toc
+            .meshes
+            .iter()
+            .map(|m| GpuMesh {
+                vertices: None,
+                indices: None,
+                index_format: match m.index_format {
+                    pack::IndexFormat::U16 => wgpu::IndexFormat::Uint16,
+                    pack::IndexFormat::U32 => wgpu::IndexFormat::Uint32,
+                },
+                ranges: m.ranges.clone(),
+            })
+            .collect();
+        let mut scene = Self {
+            toc: toc.clone(),
+            meshes,
+            textures,
+            materials: Vec::new(),
+            material_layout,
+            placeholders,
+            material_sampler,
+            projector_slots,
+            status: LoadStatus {
+                geometry_total: toc.meshes.len() as u32 * 2,
+                mips_total: toc.textures.iter().map(|t| t.mips.len() as u32).sum(),
+                ..Default::default()
+            },
+            dirty: false,
+            generation: 0,
+        };
+        scene.materials = toc
+            .materials
+            .iter()
+            .map(|m| {
+                let u = uniforms::Material {
+                    diffuse: [
+                        m.diffuse[0],
+                        m.diffuse[1],
+                        m.diffuse[2],
+                        m.diffuse_texture.is_some() as u32 as f32,
+                    ],
+                    specular: [m.specular[0], m.specular[1], m.specular[2], m.shininess],
+                    emissive: [m.emissive[0], m.emissive[1], m.emissive[2], 0.0],
+                    flags: [
+                        uniforms::class_id(m.class),
+                        m.normal_texture.is_some() as u32,
+                        m.class.is_window() as u32,
+                        0,
+                    ],
+                };
+                let buffer = device.create_buffer(&wgpu::BufferDescriptor {
+                    label: Some(&m.name),
+                    size: std::mem::size_of::<uniforms::Material>() as u64,
+                    usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+                    mapped_at_creation: false,
+                });
+                gpu.queue.write_buffer(&buffer, 0, bytemuck::bytes_of(&u));
+                let bind_group =
+                    scene.material_bind_group(device, &buffer, m.diffuse_texture, m.normal_texture);
+                GpuMaterial {
+                    class: m.class,
+                    buffer,
+                    bind_group,
+                    diffuse: m.diffuse_texture,
+                    normal: m.normal_texture,
+                }
+            })
+            .collect();
+        Ok(scene)
+    }
+
+    /// Uploads a whole pack.
+    pub fn from_pack(gpu: &Gpu, pack: &pack::Pack) -> Result<Self, RenderError> {
+        let mut scene = Self::new(gpu, pack.toc())?;
+        for (i, role) in pack.roles().iter().enumerate().skip(1) {
+            scene.upload(gpu, *role, pack.section_bytes(i as u32))?;
+        }
+        scene.refresh(gpu);
+        Ok(scene)
+    }
+
+    fn texture_view(&self, index: Option<u32>, normal: bool) -> &wgpu::TextureView {
+        match index.and_then(|i| self.textures[i as usize].view.as_ref()) {
+            Some(v) => v,
+            None if normal => &self.placeholders.flat_normal,
+            None => &self.placeholders.white_srgb,
+        }
+    }
+
+    fn material_bind_group(
+        &self,
+        device: &wgpu::Device,
+        buffer: &wgpu::Buffer,
+        diffuse: Option<u32>,
+        normal: Option<u32>,
+    ) -> wgpu::BindGroup {
+        device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("material"),
+            layout: &self.material_layout,
+            entries: &[
+                wgpu::BindGroupEntry {
+                    binding: 0,
+                    resource: buffer.as_entire_binding(),
+                },
+                wgpu::BindGroupEntry {
+                    binding: 1,
+                    resource: wgpu::BindingResource::TextureView(self.texture_view(diffuse, false)),
+                },
+                wgpu::BindGroupEntry {
+                    binding: 2,
+                    resource: wgpu::BindingResource::TextureView(self.texture_view(normal, true)),
+                },
+                wgpu::BindGroupEntry {
+                    binding: 3,
+                    resource: wgpu::BindingResource::Sampler(&self.material_sampler),
+                },
+            ],
+        })
+    }
+
+    /// Uploads one streamed section (validated by the pack reader).
+    pub fn upload_section(
+        &mut self,
+        gpu: &Gpu,
+        section: &pack::StreamSection,
+    ) -> Result<(), RenderError> {
+        self.upload(gpu, section.role, &section.bytes)
+    }
+
+    /// Uploads the bytes of one section with the role the TOC gave it. Call [`Scene::refresh`]
+    /// before drawing to rebuild the views of textures that gained levels.
+    pub fn upload(
+        &mut self,
+        gpu: &Gpu,
+        role: SectionRole,
+        bytes: &[u8],
+    ) -> Result<(), RenderError> {
+        use wgpu::util::DeviceExt;
+        match role {
+            SectionRole::Toc => {}
+            SectionRole::Vertices { mesh } => {
+                let m = &self.toc.meshes[mesh as usize];
+                let converted = standard_vertices(&m.layout, bytes, m.vertex_count as usize)
+                    .map_err(|reason| RenderError::VertexLayout {
+                        mesh: m.name.clone(),
+                        reason,
+                    })?;
+                let data: &[u8] = converted
+                    .as_deref()
+                    .map(bytemuck::cast_slice)
+                    .unwrap_or(bytes);
+                let buffer = gpu
+                    .device
+                    .create_buffer_init(&wgpu::util::BufferInitDescriptor {
+                        label: Some(&m.name),
+                        contents: data,
+                        usage: wgpu::BufferUsages::VERTEX,
+                    });
+                self.meshes[mesh as usize].vertices = Some(buffer);
+                self.status.geometry_sections += 1;
+            }
+            SectionRole::Indices { mesh } => {
+                let m = &self.toc.meshes[mesh as usize];
+                // Buffers must be a multiple of 4 bytes; an odd count of u16 indices is padded.
+                let mut data = bytes.to_vec();
+                data.resize(bytes.len().div_ceil(4) * 4, 0);
+                let buffer = gpu
+                    .device
+                    .create_buffer_init(&wgpu::util::BufferInitDescriptor {
+                        label: Some(&m.name),
+                        contents: &data,
+                        usage: wgpu::BufferUsages::INDEX,
+                    });
+                self.meshes[mesh as usize].indices = Some(buffer);
+                self.status.geometry_sections += 1;
+            }
+            SectionRole::Mip { texture, level } => {
+                let t = &self.toc.textures[texture as usize];
+                let mip = &t.mips[level as usize];
+                gpu.queue.write_texture(
+                    wgpu::TexelCopyTextureInfo {
+                        texture: &self.textures[texture as usize].texture,
+                        mip_level: level,
+                        origin: wgpu::Origin3d::ZERO,
+                        aspect: wgpu::TextureAspect::All,
+                    },
+                    bytes,
+                    wgpu::TexelCopyBufferLayout {
+                        offset: 0,
+                        bytes_per_row: Some(mip.width * 4),
+                        rows_per_image: Some(mip.height),
+                    },
+                    wgpu::Extent3d {
+                        width: mip.width,
+                        height: mip.height,
+                        depth_or_array_layers: 1,
+                    },
+                );
+                let gt = &mut self.textures[texture as usize];
+                gt.loaded[level as usize] = true;
+                let resident = (0..gt.loaded.len())
+                    .rev()
+                    .take_while(|&l| gt.loaded[l])
+                    .last()
+                    .map(|l| l as u32);
+                if resident != gt.resident_from {
+                    gt.resident_from = resident;
+                    self.dirty = true;
+                }
+                self.status.mips_loaded += 1;
+            }
+        }
+        self.status.bytes_uploaded += bytes.len() as u64;
+        Ok(())
+    }
+
+    /// Rebuilds texture views and material bind groups after uploads. Cheap when nothing changed.
+    pub fn refresh(&mut self, gpu: &Gpu) {
+        if !self.dirty {
+            return;
+        }
+        self.dirty = false;
+        for t in &mut self.textures {
+            t.view = t.resident_from.map(|base| {
+                t.texture.create_view(&wgpu::TextureViewDescriptor {
+                    base_mip_level: base,
+                    mip_level_count: Some(t.loaded.len() as u32 - base),
+                    ..Default::default()
+                })
+            });
+        }
+        let groups: Vec<wgpu::BindGroup> = self
+            .materials
+            .iter()
+            .map(|m| self.material_bind_group(&gpu.device, &m.buffer, m.diffuse, m.normal))
+            .collect();
+        for (m, g) in self.materials.iter_mut().zip(groups) {
+            m.bind_group = g;
+        }
+        self.generation += 1;
+    }
+
+    pub fn toc(&self) -> &Toc {
+        &self.toc
+    }
+    pub fn status(&self) -> LoadStatus {
+        self.status
+    }
+    pub(crate) fn generation(&self) -> u64 {
+        self.generation
+    }
+
+    pub fn geometry_complete(&self) -> bool {
+        self.status.geometry_sections == self.status.geometry_total
+    }
+
+    /// Geometry and every small mip are in: enough for a first frame.
+    pub fn ready_for_first_frame(&self) -> bool {
+        self.geometry_complete()
+            && self.toc.textures.iter().zip(&self.textures).all(|(t, g)| {
+                (0..t.mips.len()).all(|l| g.loaded[l] || t.level_bytes(l) > SMALL_MIP_BYTES)
+            })
+    }
+
+    pub fn fully_loaded(&self) -> bool {
+        self.geometry_complete() && self.status.mips_loaded == self.status.mips_total
+    }
+
+    /// The view of each projector slot (placeholder where not resident yet).
+    pub(crate) fn projector_views(&self) -> Vec<&wgpu::TextureView> {
+        (0..MAX_PROJECTORS)
+            .map(|s| self.texture_view(self.projector_slots.get(s).copied(), false))
+            .collect()
+    }
+
+    pub(crate) fn projector_slot(&self, texture: Option<u32>) -> Option<u32> {
+        let t = texture?;
+        self.projector_slots
+            .iter()
+            .position(|&p| p == t)
+            .map(|s| s as u32)
+    }
+
+    /// True when some loaded range is drawn with a window material.
+    pub fn has_windows(&self) -> bool {
+        self.draws()
+            .any(|(_, _, m)| self.materials[m as usize].class.is_window())
+    }
+
+    /// True when a drawn window material has a normal map.
+    pub fn has_window_normal_maps(&self) -> bool {
+        self.draws().any(|(_, _, m)| {
+            let mat = &self.toc.materials[m as usize];
+            mat.class.is_window() && mat.normal_texture.is_some()
+        })
+    }
+
+    /// Loaded meshes' draw ranges: (mesh, range index, material).
+    fn draws(&self) -> impl Iterator<Item = (usize, usize, u16)> + '_ {
+        self.meshes
+            .iter()
+            .enumerate()
+            .filter(|(_, m)| m.vertices.is_some() && m.indices.is_some())
+            .flat_map(|(mi, m)| {
+                m.ranges
+                    .iter()
+                    .enumerate()
+                    .map(move |(ri, r)| (mi, ri, r.material))
+            })
+    }
+
+    /// Records the draws whose material passes `filter`; group 1 is the material.
+    pub(crate) fn draw(
+        &self,
+        pass: &mut wgpu::RenderPass<'_>,
+        filter: impl Fn(MaterialClass) -> bool,
+    ) {
+        for (mi, m) in self.meshes.iter().enumerate() {
+            let (Some(vb), Some(ib)) = (&m.vertices, &m.indices) else {
+                continue;
+            };
+            let mut bound = false;
+            for r in &m.ranges {
+                let mat = &self.materials[r.material as usize];
+                if !filter(mat.class) {
+                    continue;
+                }
+                if !bound {
+                    pass.set_vertex_buffer(0, vb.slice(..));
+                    pass.set_index_buffer(ib.slice(..), m.index_format);
+                    bound = true;
+                }
+                pass.set_bind_group(1, &mat.bind_group, &[]);
+                pass.draw_indexed(r.first_index..r.first_index + r.index_count, 0, 0..1);
+            }
+            let _ = mi;
+        }
+    }
+
+    /// Bounds of all meshes, for a default camera.
+    pub fn bounds(&self) -> (glam::Vec3, glam::Vec3) {
+        let mut lo = glam::Vec3::splat(f32::INFINITY);
+        let mut hi = glam::Vec3::splat(f32::NEG_INFINITY);
+        for m in &self.toc.meshes {
+            lo = lo.min(glam::Vec3::from(m.bounds_min));
+            hi = hi.max(glam::Vec3::from(m.bounds_max));
+        }
+        if lo.is_finite() && hi.is_finite() {
+            (lo, hi)
+        } else {
+            (glam::Vec3::splat(-1.0), glam::Vec3::ONE)
+        }
+    }
+}
+
+/// The vertex buffer layout of [`StandardVertex`], which every mesh is drawn with.
+pub(crate) const VERTEX_ATTRIBUTES: [wgpu::VertexAttribute; 4] = wgpu::vertex_attr_array![
+    0 => Float32x3,
+    1 => Float32x3,
+    2 => Float32x2,
+    3 => Float32x4,
+];
+
+pub(crate) fn vertex_layout() -> wgpu::VertexBufferLayout<'static> {
+    wgpu::VertexBufferLayout {
+        array_stride: std::mem::size_of::<StandardVertex>() as u64,
+        step_mode: wgpu::VertexStepMode::Vertex,
+        attributes: &VERTEX_ATTRIBUTES,
+    }
+}
+
+fn oct_decode(x: f32, y: f32) -> [f32; 3] {
+    let z = 1.0 - x.abs() - y.abs();
+    let (mut vx, mut vy) = (x, y);
+    if z < 0.0 {
+        vx = (1.0 - y.abs()) * x.signum();
+        vy = (1.0 - x.abs()) * y.signum();
+    }
+    let v = glam::Vec3::new(vx, vy, z).normalize_or_zero();
+    v.to_array()
+}
+
+/// Converts vertices of any layout the pack allows into [`StandardVertex`]; `None` when the
+/// layout already is the standard one (uploaded as is).
+fn standard_vertices(
+    layout: &VertexLayout,
+    bytes: &[u8],
+    count: usize,
+) -> Result<Option<Vec<StandardVertex>>, String> {
+    if *layout == VertexLayout::standard() {
+        return Ok(None);
+    }
+    let stride = layout.stride as usize;
+    if bytes.len() < stride * count {
+        return Err(format!(
+            "{} bytes for {count} vertices of stride {stride}",
+            bytes.len()
+        ));
+    }
+    let f32_at = |b: &[u8], o: usize| f32::from_le_bytes([b[o], b[o + 1], b[o + 2], b[o + 3]]);
+    let u16_at = |b: &[u8], o: usize| u16::from_le_bytes([b[o], b[o + 1]]);
+    let i16_at =
+        |b: &[u8], o: usize| (i16::from_le_bytes([b[o], b[o + 1]]) as f32 / 32767.0).max(-1.0);
+    let read = |v: &[u8], a: &pack::VertexAttribute| -> [f32; 4] {
+        let o = a.offset as usize;
+        match a.format {
+            AttributeFormat::Float32x2 => [f32_at(v, o), f32_at(v, o + 4), 0.0, 0.0],
+            AttributeFormat::Float32x3 => [f32_at(v, o), f32_at(v, o + 4), f32_at(v, o + 8), 0.0],
+            AttributeFormat::Float32x4 => [
+                f32_at(v, o),
+                f32_at(v, o + 4),
+                f32_at(v, o + 8),
+                f32_at(v, o + 12),
+            ],
+            AttributeFormat::Unorm16x2 => [
+                u16_at(v, o) as f32 / 65535.0,
+                u16_at(v, o + 2) as f32 / 65535.0,
+                0.0,
+                0.0,
+            ],
+            AttributeFormat::Unorm16x4 => [0, 2, 4, 6].map(|k| u16_at(v, o + k) as f32 / 65535.0),
+            AttributeFormat::Snorm16x2 => {
+                let d = oct_decode(i16_at(v, o), i16_at(v, o + 2));
+                [d[0], d[1], d[2], 0.0]
+            }
+            AttributeFormat::Snorm16x4 => {
+                let d = oct_decode(i16_at(v, o), i16_at(v, o + 2));
+                // The third component carries the tangent handedness.
+                [
+                    d[0],
+                    d[1],
+                    d[2],
+                    if i16_at(v, o + 4) < 0.0 { -1.0 } else { 1.0 },
+                ]
+            }
+            AttributeFormat::Uint16x2 => [u16_at(v, o) as f32, u16_at(v, o + 2) as f32, 0.0, 0.0],
+        }
+    };
+    let pos = layout.attribute(Semantic::Position);
+    let nrm = layout.attribute(Semantic::Normal);
+    let uv = layout.attribute(Semantic::TexCoord);
+    let tan = layout.attribute(Semantic::Tangent);
+    let (po, ps) = (
+        glam::Vec3::from(layout.position_offset),
+        glam::Vec3::from(layout.position_scale),
+    );
+    let out = bytes
+        .chunks_exact(stride)
+        .take(count)
+        .map(|v| {
+            let mut s = StandardVertex::default();
+            if let Some(a) = pos {
+                let p = read(v, a);
+                let p = glam::Vec3::new(p[0], p[1], p[2]);
+                let p = if a.format == AttributeFormat::Unorm16x4 {
+                    po + ps * p
+                } else {
+                    p
+                };
+                s.position = p.to_array();
+            }
+            if let Some(a) = nrm {
+                let n = read(v, a);
+                s.normal = [n[0], n[1], n[2]];
+            }
+            if let Some(a) = uv {
+                let t = read(v, a);
+                s.uv = [t[0], t[1]];
+            }
+            if let Some(a) = tan {
+                s.tangent = read(v, a);
+            }
+            s
+        })
+        .collect();
+    Ok(Some(out))
+}

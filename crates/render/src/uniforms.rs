@@ -1,0 +1,96 @@
+//! Uniform blocks shared with the WGSL structs of the same names. Layouts follow WGSL's
+//! uniform rules (vec4-aligned members only, so no hidden padding); `tests/shaders.rs` checks
+//! every size against naga's layout of the parsed shaders.
+
+use bytemuck::{Pod, Zeroable};
+use pack::MaterialClass;
+
+/// Windows the lit pass can project through; matches `MAX_WINDOWS` in `common.wgsl`.
+pub const MAX_WINDOWS: usize = 32;
+/// Distinct projector textures bound at once; matches the `projectorN` bindings.
+pub const MAX_PROJECTORS: usize = 8;
+
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, Pod, Zeroable)]
+pub struct Frame {
+    pub view_proj: [[f32; 4]; 4],
+    pub view: [[f32; 4]; 4],
+    pub camera_pos: [f32; 4],
+    pub light_pos: [f32; 4],
+    pub light_colour: [f32; 4],
+    pub ambient: [f32; 4],
+    pub counts: [u32; 4],
+}
+
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, Pod, Zeroable)]
+pub struct WindowProjector {
+    pub projector: [[f32; 4]; 4],
+    pub origin: [f32; 4],
+    pub normal: [f32; 4],
+    pub params: [u32; 4],
+}
+
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Pod, Zeroable)]
+pub struct Windows {
+    pub items: [WindowProjector; MAX_WINDOWS],
+}
+
+impl Default for Windows {
+    fn default() -> Self {
+        Self::zeroed()
+    }
+}
+
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, Pod, Zeroable)]
+pub struct Material {
+    pub diffuse: [f32; 4],
+    pub specular: [f32; 4],
+    pub emissive: [f32; 4],
+    pub flags: [u32; 4],
+}
+
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, Pod, Zeroable)]
+pub struct GodRays {
+    pub light: [f32; 4],
+    pub colour: [f32; 4],
+    pub params: [f32; 4],
+    pub screen: [f32; 4],
+    pub config: [u32; 4],
+}
+
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, Pod, Zeroable)]
+pub struct Composite {
+    pub params: [f32; 4],
+    pub flags: [u32; 4],
+}
+
+/// The class number the shaders compare against (`CLASS_*` in `common.wgsl`).
+pub fn class_id(class: MaterialClass) -> u32 {
+    match class {
+        MaterialClass::Floor => 0,
+        MaterialClass::Wall => 1,
+        MaterialClass::WindowUpper => 2,
+        MaterialClass::WindowLower => 3,
+        MaterialClass::Background => 4,
+        MaterialClass::Other => 5,
+    }
+}
+
+/// Rust name, WGSL name and Rust size of every uniform block, for the layout test.
+pub const LAYOUTS: &[(&str, &str, usize)] = &[
+    ("Frame", "Frame", std::mem::size_of::<Frame>()),
+    (
+        "WindowProjector",
+        "WindowProjector",
+        std::mem::size_of::<WindowProjector>(),
+    ),
+    ("Windows", "Windows", std::mem::size_of::<Windows>()),
+    ("Material", "Material", std::mem::size_of::<Material>()),
+    ("GodRays", "GodRays", std::mem::size_of::<GodRays>()),
+    ("Composite", "Composite", std::mem::size_of::<Composite>()),
+];

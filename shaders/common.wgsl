@@ -1,0 +1,145 @@
+// Shared by every geometry pass (0-3): the frame and material bindings and the vertex shader.
+// Struct layouts are mirrored by `render::uniforms`; a test checks the sizes with naga.
+
+const MAX_WINDOWS: u32 = 32u;
+
+struct Frame {
+    view_proj: mat4x4<f32>,
+    view: mat4x4<f32>,
+    camera_pos: vec4<f32>,
+    // xyz: position (point light) or the direction towards the light (directional); w: 1 or 0.
+    light_pos: vec4<f32>,
+    // rgb: colour times intensity; w: the point light's radius (falloff clamp).
+    light_colour: vec4<f32>,
+    ambient: vec4<f32>,
+    // x: window count, y: 1 when the scene has windows (interior lit only through them).
+    counts: vec4<u32>,
+}
+
+struct WindowProjector {
+    // Maps a world position to (u*w, v*w, 0, w) on the window's design.
+    projector: mat4x4<f32>,
+    // xyz: a point of the window plane, w unused.
+    origin: vec4<f32>,
+    // xyz: unit normal pointing into the building.
+    normal: vec4<f32>,
+    // x: projector texture slot, y: 1 when this window passes light.
+    params: vec4<u32>,
+}
+
+struct Windows {
+    items: array<WindowProjector, MAX_WINDOWS>,
+}
+
+struct Material {
+    // rgb: diffuse albedo (linear), w: 1 with a diffuse texture.
+    diffuse: vec4<f32>,
+    // rgb: specular colour, w: shininess.
+    specular: vec4<f32>,
+    // rgb: emission, w unused.
+    emissive: vec4<f32>,
+    // x: class (see `render::uniforms::class_id`), y: 1 with a normal map, z: 1 for windows.
+    flags: vec4<u32>,
+}
+
+const CLASS_FLOOR: u32 = 0u;
+const CLASS_WALL: u32 = 1u;
+const CLASS_WINDOW_UPPER: u32 = 2u;
+const CLASS_WINDOW_LOWER: u32 = 3u;
+const CLASS_BACKGROUND: u32 = 4u;
+const CLASS_OTHER: u32 = 5u;
+
+@group(0) @binding(0) var<uniform> frame: Frame;
+@group(0) @binding(1) var<uniform> windows: Windows;
+@group(0) @binding(2) var projector0: texture_2d<f32>;
+@group(0) @binding(3) var projector1: texture_2d<f32>;
+@group(0) @binding(4) var projector2: texture_2d<f32>;
+@group(0) @binding(5) var projector3: texture_2d<f32>;
+@group(0) @binding(6) var projector4: texture_2d<f32>;
+@group(0) @binding(7) var projector5: texture_2d<f32>;
+@group(0) @binding(8) var projector6: texture_2d<f32>;
+@group(0) @binding(9) var projector7: texture_2d<f32>;
+@group(0) @binding(10) var linear_clamp: sampler;
+
+@group(1) @binding(0) var<uniform> material: Material;
+@group(1) @binding(1) var diffuse_tex: texture_2d<f32>;
+@group(1) @binding(2) var normal_tex: texture_2d<f32>;
+@group(1) @binding(3) var material_sampler: sampler;
+
+struct VertexIn {
+    @location(0) position: vec3<f32>,
+    @location(1) normal: vec3<f32>,
+    @location(2) uv: vec2<f32>,
+    @location(3) tangent: vec4<f32>,
+}
+
+struct VertexOut {
+    @builtin(position) clip: vec4<f32>,
+    @location(0) world: vec3<f32>,
+    @location(1) normal: vec3<f32>,
+    @location(2) uv: vec2<f32>,
+    @location(3) tangent: vec4<f32>,
+}
+
+@vertex
+fn vs_main(v: VertexIn) -> VertexOut {
+    var out: VertexOut;
+    // `invariant`-like behaviour matters: passes 2 and 3 reuse pass 1's depth with an equal test,
+    // so every pass computes the clip position with this same expression.
+    out.clip = frame.view_proj * vec4<f32>(v.position, 1.0);
+    out.world = v.position;
+    out.normal = v.normal;
+    out.uv = v.uv;
+    out.tangent = v.tangent;
+    return out;
+}
+
+fn safe_normalize(v: vec3<f32>, fallback: vec3<f32>) -> vec3<f32> {
+    let l = length(v);
+    if (l > 1e-12) {
+        return v / l;
+    }
+    return fallback;
+}
+
+// The shading normal: the normal map (OpenGL convention, +Y up) in the tangent frame when the
+// material has one and the vertex carries a tangent, the geometric normal otherwise.
+fn shading_normal(in: VertexOut) -> vec3<f32> {
+    let n = safe_normalize(in.normal, vec3<f32>(0.0, 1.0, 0.0));
+    if (material.flags.y == 0u || dot(in.tangent.xyz, in.tangent.xyz) < 1e-12) {
+        return n;
+    }
+    let t = safe_normalize(in.tangent.xyz - n * dot(n, in.tangent.xyz), vec3<f32>(1.0, 0.0, 0.0));
+    let sign = select(1.0, -1.0, in.tangent.w < 0.0);
+    let b = cross(n, t) * sign;
+    let m = textureSample(normal_tex, material_sampler, in.uv).xyz * 2.0 - 1.0;
+    return safe_normalize(t * m.x + b * m.y + n * m.z, n);
+}
+
+fn base_colour(in: VertexOut) -> vec4<f32> {
+    var c = vec4<f32>(material.diffuse.rgb, 1.0);
+    if (material.diffuse.w > 0.5) {
+        c = c * textureSample(diffuse_tex, material_sampler, in.uv);
+    }
+    return c;
+}
+
+fn is_window() -> bool {
+    return material.flags.z != 0u;
+}
+
+// Background surfaces (sky, distant mountains) are a painted backdrop: shown unlit, as their
+// colour plus emission, identically in pass 0 and pass 3.
+fn background_radiance(in: VertexOut) -> vec3<f32> {
+    return base_colour(in).rgb + material.emissive.rgb;
+}
+
+// Surfaces are drawn from both sides; shade the side the camera sees, so light reaching a wall
+// from outside does not light its inner face.
+fn facing_camera(in: VertexOut) -> VertexOut {
+    var out = in;
+    if (dot(in.normal, frame.camera_pos.xyz - in.world) < 0.0) {
+        out.normal = -in.normal;
+    }
+    return out;
+}
