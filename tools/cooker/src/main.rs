@@ -5,8 +5,10 @@
 //! A panic (101) is a bug.
 
 mod diff;
+mod cook;
 mod exit;
 mod info;
+mod validate;
 
 use clap::{Parser, Subcommand};
 
@@ -21,6 +23,10 @@ struct Cli {
 enum Command {
     /// Print what a pack holds: sections, materials, textures.
     Info(info::Args),
+    /// Cook a scene (or a bare OBJ/glTF file) into a pack.
+    Cook(cook::Args),
+    /// Check material tagging and window geometry of a scene or a pack.
+    Validate(validate::Args),
     /// Compare two packs: per section, geometry, and per texture level error.
     Diff(diff::Args),
 }
@@ -40,6 +46,8 @@ fn main() {
     };
     let result = match cli.command {
         Command::Info(args) => info::run(args),
+        Command::Cook(args) => cook::run(args),
+        Command::Validate(args) => validate::run(args),
         Command::Diff(args) => diff::run(args),
     };
     std::process::exit(exit::report(result));

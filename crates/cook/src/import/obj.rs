@@ -289,10 +289,20 @@ fn resolve(
         return Err(bad(
             path,
             line,
-            format!("{what} index {i} is out of range: {count} {what}s are defined before this line"),
+            format!("{what} index {i} is out of range: {count} {} defined before this line", plural(what, count)),
         ));
     }
     Ok(resolved as u32)
+}
+
+fn plural(what: &str, n: usize) -> String {
+    let noun = match (what, n) {
+        ("vertex", 1) => "vertex is".to_string(),
+        ("vertex", _) => "vertices are".to_string(),
+        (w, 1) => format!("{w} is"),
+        (w, _) => format!("{w}s are"),
+    };
+    noun
 }
 
 fn parse_corner(path: &Path, line: usize, tok: &[u8], out: &Imported) -> Result<Corner, CookError> {

@@ -1,0 +1,154 @@
+//! `cooker cook <scene.toml|mesh file> -o <pack> [-v] [--fifo] [--overdraw] [--quantize]`
+
+use std::io::IsTerminal;
+use std::path::PathBuf;
+use std::time::{Duration, Instant};
+
+use anyhow::Context;
+use cook::{CacheMode, Manifest, Settings};
+
+use crate::exit::{OK, Outcome};
+
+#[derive(clap::Args)]
+pub struct Args {
+    /// A scene manifest (scene.toml), or a bare .obj/.gltf/.glb cooked with name heuristics.
+    input: PathBuf,
+    /// The pack to write (replaced atomically).
+    #[arg(short, long)]
+    output: PathBuf,
+    /// Print per-stage statistics: triangles, ACMR, overfetch, bytes per triangle, time.
+    #[arg(short, long)]
+    verbose: bool,
+    /// Fast mode: FIFO vertex cache optimization instead of the full optimizer.
+    #[arg(long)]
+    fifo: bool,
+    /// Also reorder opaque ranges to reduce overdraw.
+    #[arg(long)]
+    overdraw: bool,
+    /// Quantize vertices (16-bit positions and UVs, octahedral normals); reports the error.
+    #[arg(long)]
+    quantize: bool,
+}
+
+fn ms(d: Duration) -> String {
+    format!("{:.2} ms", d.as_secs_f64() * 1e3)
+}
+
+pub fn run(args: Args) -> Outcome {
+    let start = Instant::now();
+    let manifest = Manifest::open(&args.input)?;
+    let mut settings = Settings { quantize: args.quantize, ..Default::default() };
+    settings.mesh.cache = if args.fifo { CacheMode::Fifo } else { CacheMode::Full };
+    settings.mesh.overdraw = args.overdraw;
+
+    let spinner = std::io::stderr().is_terminal().then(|| {
+        let pb = indicatif::ProgressBar::new_spinner();
+        pb.set_message(format!("cooking {}", args.input.display()));
+        pb.enable_steady_tick(Duration::from_millis(100));
+        pb
+    });
+    let result = cook::cook(&manifest, &settings);
+    if let Some(pb) = &spinner {
+        pb.finish_and_clear();
+    }
+    let out = result?;
+    let report = &out.report;
+    for w in &report.warnings {
+        eprintln!("warning: {w}");
+    }
+    for h in &report.heuristics {
+        let why = match h.keyword {
+            Some(k) => format!("name heuristic {k:?}"),
+            None => "no rule or heuristic matched".to_string(),
+        };
+        eprintln!(
+            "note: {}: {} triangles with {} tagged {} as material {:?} ({why})",
+            h.source.display(),
+            h.triangles,
+            h.names,
+            h.class,
+            h.material
+        );
+    }
+
+    let write_start = Instant::now();
+    out.write(&args.output).with_context(|| format!("writing {}", args.output.display()))?;
+    let write_time = write_start.elapsed();
+
+    let triangles: u64 = out.toc.meshes.iter().map(|m| m.index_count as u64 / 3).sum();
+    if args.verbose {
+        print_stats(&out, write_time);
+    }
+    let bytes = std::fs::metadata(&args.output).map(|m| m.len()).unwrap_or(0);
+    println!(
+        "wrote {}: {} meshes, {triangles} triangles, {} materials, {} textures, {bytes} bytes in {}",
+        args.output.display(),
+        out.toc.meshes.len(),
+        out.toc.materials.len(),
+        out.toc.textures.len(),
+        ms(start.elapsed())
+    );
+    Ok(OK)
+}
+
+fn print_stats(out: &cook::CookOutput, write_time: Duration) {
+    let report = &out.report;
+    let (mut tri_in, mut tri_out, mut acmr_in, mut acmr_out, mut bytes) = (0usize, 0usize, 0f64, 0f64, 0usize);
+    for m in &report.meshes {
+        let s = &m.stats;
+        println!("mesh {:?} ({})", m.name, m.source.display());
+        println!(
+            "  {:<14} {:>9} -> {:>9} triangles  {:>10}  ({} n-gons split)",
+            "import",
+            s.triangles_in,
+            s.triangles_in,
+            ms(m.import_time),
+            m.polygons
+        );
+        let mut tris = s.triangles_in;
+        for (name, t) in &s.stages {
+            let after = if *name == "filter+group" { s.triangles_in - s.degenerate_dropped } else { tris };
+            let extra = match *name {
+                "filter+group" => format!("  ({} degenerate dropped)", s.degenerate_dropped),
+                "normals" => format!("  ({} of {} corners generated)", s.normals_generated, s.corners),
+                "tangents" => format!("  ({} triangles with tangents)", s.tangent_triangles),
+                "dedupe" => format!("  ({} corners -> {} vertices)", s.corners, s.vertices_out),
+                _ => String::new(),
+            };
+            println!("  {:<14} {:>9} -> {:>9} triangles  {:>10}{extra}", name, tris, after, ms(*t));
+            tris = after;
+        }
+        println!("  acmr_in={:.3} acmr_out={:.3}", s.acmr_in, s.acmr_out);
+        let mesh_bytes = m.vertex_bytes + m.index_bytes;
+        println!(
+            "  overfetch={:.3} vertices={} bytes/triangle={:.2} (vertices {} B, indices {} B)",
+            s.overfetch,
+            s.vertices_out,
+            mesh_bytes as f64 / s.triangles_out.max(1) as f64,
+            m.vertex_bytes,
+            m.index_bytes
+        );
+        if let Some(q) = m.quantization {
+            println!(
+                "  quantization error: position {:.3e} (world units), normal {:.4} deg, uv {:.3e}",
+                q.position, q.normal_deg, q.uv
+            );
+        }
+        tri_in += s.triangles_in;
+        tri_out += s.triangles_out;
+        acmr_in += s.acmr_in as f64 * s.triangles_out as f64;
+        acmr_out += s.acmr_out as f64 * s.triangles_out as f64;
+        bytes += mesh_bytes;
+    }
+    for (name, t) in &report.stages {
+        println!("stage {name:<10} {}", ms(*t));
+    }
+    println!("stage {:<10} {}", "write", ms(write_time));
+    let n = tri_out.max(1) as f64;
+    println!(
+        "total: triangles {tri_in} -> {tri_out} acmr_in={:.3} acmr_out={:.3} bytes/triangle={:.2}",
+        acmr_in / n,
+        acmr_out / n,
+        bytes as f64 / n
+    );
+}
