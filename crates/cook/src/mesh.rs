@@ -470,7 +470,9 @@ pub fn quantize(vertices: &[StandardVertex], bounds_min: [f32; 3], bounds_max: [
         let e = oct_encode(v.normal).map(snorm16);
         let back = oct_decode(e.map(|c| c as f32 / 32767.0));
         if dot(v.normal, v.normal) > 0.0 {
-            nerr = nerr.max(dot(back, v.normal).clamp(-1.0, 1.0).acos().to_degrees());
+            // atan2 of |cross| and dot stays accurate for tiny angles, where acos(dot) does not.
+            let c = cross(back, v.normal);
+            nerr = nerr.max(dot(c, c).sqrt().atan2(dot(back, v.normal)).to_degrees());
         }
         for c in e {
             bytes.extend_from_slice(&c.to_le_bytes());
