@@ -84,7 +84,9 @@ fn fs_main(vertex: VertexOut) -> @location(0) vec4<f32> {
     }
 
     let through = transmitted(in.world);
-    let light_filter = select(vec3<f32>(1.0), through, is_inside(in.world));
+    // Surfaces lying in a window's plane (the wall around it) are judged by the side they face:
+    // a small step along the camera-facing normal puts the outer face outside.
+    let light_filter = select(vec3<f32>(1.0), through, is_inside(in.world + geometric * 0.01));
     var colour = albedo * frame.ambient.rgb + material.emissive.rgb;
     let n_dot_l = dot(n, l);
     // The geometric test stops light reaching faces turned away from it through a normal map.

@@ -90,9 +90,9 @@ impl Default for Settings {
     fn default() -> Self {
         Self {
             god_rays: GodRaySettings::default(),
-            refraction_strength: 0.04,
+            refraction_strength: 0.08,
             exposure: 1.0,
-            ambient: [0.04, 0.04, 0.045],
+            ambient: [0.08, 0.08, 0.09],
             skip_invisible_god_rays: true,
         }
     }
@@ -385,7 +385,7 @@ impl Renderer {
         let mut fade = 0.0;
         if let (true, Some(l)) = (windows, light) {
             let geometry = LightGeometry::from_light(l);
-            let colour = Vec3::from(l.colour) * l.intensity;
+            let colour = Vec3::from(l.colour) * l.intensity * god_ray_falloff(scene.toc(), &geometry);
             let (u, f) = god_ray_uniforms(
                 &self.settings.god_rays,
                 view,
@@ -891,6 +891,26 @@ impl Renderer {
             .collect();
         Ok((w, h, px))
     }
+}
+
+/// A point light's inverse-square falloff where its light enters: averaged over the window
+/// centres, so god rays match the brightness of the light patches they lead to. 1 for the sun.
+fn god_ray_falloff(toc: &pack::Toc, light: &LightGeometry) -> f32 {
+    let LightGeometry::Point { position, radius } = *light else {
+        return 1.0;
+    };
+    if toc.windows.is_empty() {
+        return 1.0;
+    }
+    let sum: f32 = toc
+        .windows
+        .iter()
+        .map(|w| {
+            let centre = Vec3::from(w.origin) + (Vec3::from(w.u_axis) + Vec3::from(w.v_axis)) * 0.5;
+            1.0 / position.distance_squared(centre).max(radius * radius).max(1e-12)
+        })
+        .sum();
+    sum / toc.windows.len() as f32
 }
 
 /// Image of an intermediate target for viewing: colour targets clamped and sRGB-encoded,

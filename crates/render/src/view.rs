@@ -228,7 +228,7 @@ pub struct GodRaySettings {
 impl Default for GodRaySettings {
     fn default() -> Self {
         Self {
-            exposure: 0.6,
+            exposure: 0.35,
             decay: 0.25,
             density: 0.9,
             weight: 1.0,
