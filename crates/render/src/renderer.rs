@@ -357,6 +357,13 @@ impl Renderer {
         self.targets.size
     }
 
+    /// An intermediate target's view (HDR, `Rgba16Float`), for display. It holds the last
+    /// frame that recorded its pass; a pass the [`FrameReport`] lists as skipped left stale
+    /// contents. The god-ray target is smaller when its resolution scale is below 1.
+    pub fn target_view(&self, id: TargetId) -> &wgpu::TextureView {
+        &self.targets.get(id).view
+    }
+
     /// Recreates the targets for a new output size (a window resize).
     pub fn resize(&mut self, gpu: &Gpu, width: u32, height: u32) {
         let own = self.targets.output.is_some().then_some(self.output_format);

@@ -481,6 +481,33 @@ impl Scene {
     pub fn status(&self) -> LoadStatus {
         self.status
     }
+
+    /// Replaces the scene's light; the next frame's shading, projectors and god rays follow.
+    /// The interactive viewer tunes colour, intensity and falloff this way without a re-cook.
+    pub fn set_light(&mut self, light: Option<pack::Light>) {
+        self.toc.light = light;
+    }
+
+    /// Records every loaded draw range with the caller's pipeline: `bind` runs before each
+    /// range with its material index, so a viewer can draw its own debug views (material IDs,
+    /// say) from the scene's buffers. Vertex buffers hold [`pack::StandardVertex`]es.
+    pub fn draw_with(
+        &self,
+        pass: &mut wgpu::RenderPass<'_>,
+        mut bind: impl FnMut(&mut wgpu::RenderPass<'_>, u16),
+    ) {
+        for m in &self.meshes {
+            let (Some(vb), Some(ib)) = (&m.vertices, &m.indices) else {
+                continue;
+            };
+            pass.set_vertex_buffer(0, vb.slice(..));
+            pass.set_index_buffer(ib.slice(..), m.index_format);
+            for r in &m.ranges {
+                bind(pass, r.material);
+                pass.draw_indexed(r.first_index..r.first_index + r.index_count, 0, 0..1);
+            }
+        }
+    }
     pub(crate) fn generation(&self) -> u64 {
         self.generation
     }
