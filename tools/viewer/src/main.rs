@@ -1,1 +1,357 @@
-fn main() {}
+//! `viewer`: renders a cooked pack (or a `scene.toml`, cooked first) with the stained-glass
+//! renderer. Headless today: writes PNGs per camera, optionally every intermediate pass, and
+//! benchmarks per-pass GPU time. The interactive window (issue 7) plugs into the same
+//! `render::Renderer::render_to`.
+
+use std::io::Read;
+use std::path::{Path, PathBuf};
+use std::sync::mpsc;
+use std::time::{Duration, Instant};
+
+use anyhow::{Context, Result, bail};
+use clap::Parser;
+use render::{FrameReport, Gpu, PassId, Renderer, Scene, Settings, TargetId, TimingMethod, View};
+
+#[derive(Parser, Debug)]
+#[command(
+    version,
+    about = "View a stained-glass pack or scene.toml (headless: PNGs and per-pass timings)"
+)]
+struct Args {
+    /// A cooked `.pack`, or a `scene.toml` to cook first.
+    input: PathBuf,
+    /// Render to files instead of opening a window (the only mode without a display).
+    #[arg(long)]
+    headless: bool,
+    /// Directory for the images (created if needed).
+    #[arg(long, default_value = "viewer-out")]
+    out: PathBuf,
+    /// Image size, WxH.
+    #[arg(long, default_value = "1280x720", value_parser = parse_size)]
+    size: (u32, u32),
+    /// A camera name from the pack, or `all`.
+    #[arg(long, default_value = "all")]
+    camera: String,
+    /// Also write each intermediate pass.
+    #[arg(long)]
+    passes: bool,
+    /// Render N frames per camera and print the median time of each pass.
+    #[arg(long, value_name = "N")]
+    bench: Option<u32>,
+    /// God-ray samples.
+    #[arg(long, default_value_t = 64)]
+    samples: u32,
+    /// God rays at half resolution with per-pixel jitter.
+    #[arg(long)]
+    half_res_rays: bool,
+}
+
+fn parse_size(s: &str) -> Result<(u32, u32), String> {
+    let (w, h) = s
+        .split_once(['x', 'X'])
+        .ok_or_else(|| format!("size {s:?} is not WxH"))?;
+    let w: u32 = w
+        .parse()
+        .map_err(|_| format!("width {w:?} is not a number"))?;
+    let h: u32 = h
+        .parse()
+        .map_err(|_| format!("height {h:?} is not a number"))?;
+    if w == 0 || h == 0 || w > 16384 || h > 16384 {
+        return Err(format!("size {w}x{h} must be 1..=16384 on each axis"));
+    }
+    Ok((w, h))
+}
+
+enum Message {
+    Toc(pack::Toc),
+    Section(pack::StreamSection),
+    Done,
+    Failed(pack::PackError),
+}
+
+/// Reads sections on a thread so uploads and the first frame overlap the file read.
+fn stream(path: PathBuf, source: Box<dyn Read + Send>) -> mpsc::Receiver<Message> {
+    let (tx, rx) = mpsc::sync_channel(16);
+    std::thread::spawn(move || {
+        let result = (|| -> Result<(), pack::PackError> {
+            let mut reader = pack::StreamReader::new(&path, source)?;
+            while let Some(section) = reader.next_section()? {
+                if section.role == pack::SectionRole::Toc {
+                    let toc = reader.toc().cloned().expect("TOC decoded with section 0");
+                    if tx.send(Message::Toc(toc)).is_err() {
+                        return Ok(());
+                    }
+                } else if tx.send(Message::Section(section)).is_err() {
+                    return Ok(());
+                }
+            }
+            Ok(())
+        })();
+        let _ = tx.send(match result {
+            Ok(()) => Message::Done,
+            Err(e) => Message::Failed(e),
+        });
+    });
+    rx
+}
+
+fn open_source(path: &Path) -> Result<Box<dyn Read + Send>> {
+    let is_manifest = path
+        .extension()
+        .is_some_and(|e| e.eq_ignore_ascii_case("toml"));
+    if is_manifest {
+        let start = Instant::now();
+        let manifest =
+            cook::Manifest::load(path).with_context(|| format!("loading {}", path.display()))?;
+        let out = cook::cook(&manifest, &cook::Settings::default())
+            .with_context(|| format!("cooking {}", path.display()))?;
+        for w in &out.report.warnings {
+            eprintln!("warning: {w}");
+        }
+        let bytes = pack::encode(out.toc, &out.data).context("encoding the cooked pack")?;
+        println!(
+            "cooked {} in {:.0} ms ({} bytes)",
+            path.display(),
+            start.elapsed().as_secs_f64() * 1e3,
+            bytes.len()
+        );
+        Ok(Box::new(std::io::Cursor::new(bytes)))
+    } else {
+        let file =
+            std::fs::File::open(path).with_context(|| format!("opening {}", path.display()))?;
+        Ok(Box::new(std::io::BufReader::with_capacity(1 << 20, file)))
+    }
+}
+
+fn ms(d: Duration) -> f64 {
+    d.as_secs_f64() * 1e3
+}
+
+/// Streams the pack into a GPU scene, drawing a first frame as soon as the geometry and the
+/// small mips are in and reporting both times.
+fn load(gpu: &Gpu, args: &Args, settings: Settings) -> Result<(Scene, Renderer)> {
+    let start = Instant::now();
+    let rx = stream(args.input.clone(), open_source(&args.input)?);
+    let mut scene: Option<(Scene, Renderer, View)> = None;
+    let mut first_frame = false;
+    loop {
+        match rx.recv().context("pack reader thread ended unexpectedly")? {
+            Message::Toc(toc) => {
+                let s = Scene::new(gpu, &toc)?;
+                let r = Renderer::headless(gpu, &s, args.size.0, args.size.1, settings)?;
+                let view = match toc.cameras.first() {
+                    Some(c) => r.view_for(c),
+                    None => {
+                        let (lo, hi) = s.bounds();
+                        View::framing(lo, hi, args.size.0 as f32 / args.size.1 as f32)
+                    }
+                };
+                scene = Some((s, r, view));
+            }
+            Message::Section(section) => {
+                let (s, r, view) = scene.as_mut().context("section before the TOC")?;
+                s.upload_section(gpu, &section)?;
+                if !first_frame && s.ready_for_first_frame() {
+                    s.refresh(gpu);
+                    r.render(gpu, s, view, TimingMethod::None)?;
+                    gpu.wait()?;
+                    first_frame = true;
+                    let st = s.status();
+                    println!(
+                        "first frame after {:.1} ms (geometry + {}/{} mips, {} bytes uploaded)",
+                        ms(start.elapsed()),
+                        st.mips_loaded,
+                        st.mips_total,
+                        st.bytes_uploaded
+                    );
+                }
+            }
+            Message::Done => break,
+            Message::Failed(e) => {
+                return Err(e).with_context(|| format!("reading {}", args.input.display()));
+            }
+        }
+    }
+    let (mut s, mut r, view) = scene.context("empty pack")?;
+    s.refresh(gpu);
+    r.render(gpu, &s, &view, TimingMethod::None)?;
+    gpu.wait()?;
+    println!(
+        "full quality after {:.1} ms ({} bytes uploaded)",
+        ms(start.elapsed()),
+        s.status().bytes_uploaded
+    );
+    Ok((s, r))
+}
+
+fn file_name(camera: &str) -> String {
+    let s: String = camera
+        .chars()
+        .map(|c| {
+            if c.is_ascii_alphanumeric() || c == '-' || c == '_' {
+                c
+            } else {
+                '_'
+            }
+        })
+        .collect();
+    if s.is_empty() { "camera".into() } else { s }
+}
+
+fn print_report(
+    label: &str,
+    method: TimingMethod,
+    medians: &[(PassId, Option<f64>, Option<&'static str>)],
+) {
+    let how = match method {
+        TimingMethod::GpuTimestamps => "GPU timestamp queries",
+        TimingMethod::CpuWallClock => {
+            "CPU wall clock per pass (no timestamp queries on this device)"
+        }
+        TimingMethod::None => "not timed",
+    };
+    println!("{label}: median per-pass time ({how})");
+    let mut total = 0.0;
+    for (pass, ms, skipped) in medians {
+        match (ms, skipped) {
+            (_, Some(why)) => println!("  {:<18} skipped ({why})", pass.name()),
+            (Some(t), None) => {
+                total += t;
+                println!("  {:<18} {t:8.3} ms", pass.name());
+            }
+            (None, None) => println!("  {:<18} (no time)", pass.name()),
+        }
+    }
+    println!("  {:<18} {total:8.3} ms", "total");
+}
+
+fn bench(
+    gpu: &Gpu,
+    scene: &Scene,
+    r: &mut Renderer,
+    view: &View,
+    frames: u32,
+    label: &str,
+) -> Result<()> {
+    let mut reports: Vec<FrameReport> = Vec::new();
+    // One untimed frame first, so pipeline compilation is not measured.
+    r.render(gpu, scene, view, TimingMethod::None)?;
+    for _ in 0..frames.max(1) {
+        reports.push(r.render(gpu, scene, view, TimingMethod::GpuTimestamps)?);
+    }
+    let method = reports[0].method;
+    let medians: Vec<_> = PassId::ALL
+        .iter()
+        .map(|&id| {
+            let mut times: Vec<f64> = reports
+                .iter()
+                .filter_map(|rep| rep.passes.iter().find(|p| p.pass == id).and_then(|p| p.ms))
+                .collect();
+            times.sort_by(f64::total_cmp);
+            let skipped = reports[0]
+                .passes
+                .iter()
+                .find(|p| p.pass == id)
+                .and_then(|p| p.skipped);
+            (id, times.get(times.len() / 2).copied(), skipped)
+        })
+        .collect();
+    print_report(label, method, &medians);
+    Ok(())
+}
+
+fn main() -> Result<()> {
+    let args = Args::parse();
+    let has_display =
+        std::env::var_os("DISPLAY").is_some() || std::env::var_os("WAYLAND_DISPLAY").is_some();
+    if !args.headless {
+        if has_display {
+            println!("the interactive window is not available yet; rendering headless");
+        } else {
+            println!("no display found (DISPLAY/WAYLAND_DISPLAY unset): rendering headless");
+        }
+    }
+    let mut settings = Settings::default();
+    settings.god_rays.samples = args.samples;
+    if args.half_res_rays {
+        settings.god_rays.resolution_scale = 0.5;
+        settings.god_rays.jitter = true;
+    }
+    let gpu = Gpu::headless()?;
+    println!("adapter: {}", gpu.describe());
+    let (scene, mut renderer) = load(&gpu, &args, settings)?;
+
+    let toc = scene.toc();
+    let aspect = args.size.0 as f32 / args.size.1 as f32;
+    let mut views: Vec<(String, View)> = toc
+        .cameras
+        .iter()
+        .map(|c| (c.name.clone(), renderer.view_for(c)))
+        .collect();
+    if views.is_empty() {
+        let (lo, hi) = scene.bounds();
+        views.push(("default".into(), View::framing(lo, hi, aspect)));
+    }
+    if args.camera != "all" {
+        views.retain(|(n, _)| *n == args.camera);
+        if views.is_empty() {
+            let names: Vec<&str> = toc.cameras.iter().map(|c| c.name.as_str()).collect();
+            bail!(
+                "no camera named {:?} in {} (cameras: {})",
+                args.camera,
+                args.input.display(),
+                names.join(", ")
+            );
+        }
+    }
+    std::fs::create_dir_all(&args.out)
+        .with_context(|| format!("creating {}", args.out.display()))?;
+    for (name, view) in &views {
+        let report = renderer.render(&gpu, &scene, view, TimingMethod::None)?;
+        let stem = file_name(name);
+        let path = args.out.join(format!("{stem}.png"));
+        renderer
+            .read_output(&gpu)?
+            .save(&path)
+            .with_context(|| format!("writing {}", path.display()))?;
+        println!("wrote {}", path.display());
+        if args.passes {
+            for id in TargetId::ALL {
+                let pass = match id {
+                    TargetId::Background => PassId::Background,
+                    TargetId::WindowMask => PassId::WindowMask,
+                    TargetId::WindowNormals => PassId::WindowNormals,
+                    TargetId::Lit => PassId::Lit,
+                    TargetId::GodRays => PassId::GodRays,
+                };
+                if let Some(why) = report
+                    .passes
+                    .iter()
+                    .find(|p| p.pass == pass)
+                    .and_then(|p| p.skipped)
+                {
+                    println!("  {} not drawn ({why})", id.file_stem());
+                    continue;
+                }
+                let (w, h, px) = renderer.read_target(&gpu, id)?;
+                let path = args.out.join(format!("{stem}-{}.png", id.file_stem()));
+                render::target_image(id, w, h, &px)
+                    .save(&path)
+                    .with_context(|| format!("writing {}", path.display()))?;
+                println!("wrote {}", path.display());
+            }
+        }
+        if let Some(n) = args.bench {
+            bench(
+                &gpu,
+                &scene,
+                &mut renderer,
+                view,
+                n,
+                &format!("camera {name:?} at {}x{}", args.size.0, args.size.1),
+            )?;
+        }
+    }
+    println!("images are in {}", args.out.display());
+    Ok(())
+}
