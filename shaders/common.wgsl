@@ -1,7 +1,7 @@
 // Shared by every geometry pass (0-3): the frame and material bindings and the vertex shader.
 // Struct layouts are mirrored by `render::uniforms`; a test checks the sizes with naga.
 
-const MAX_WINDOWS: u32 = 32u;
+const MAX_WINDOWS: u32 = 64u;
 
 struct Frame {
     view_proj: mat4x4<f32>,
@@ -23,7 +23,7 @@ struct WindowProjector {
     origin: vec4<f32>,
     // xyz: unit normal pointing into the building.
     normal: vec4<f32>,
-    // x: projector texture slot, y: 1 when this window passes light.
+    // x: projector array layer, y: 1 when this window passes light.
     params: vec4<u32>,
 }
 
@@ -51,15 +51,9 @@ const CLASS_OTHER: u32 = 5u;
 
 @group(0) @binding(0) var<uniform> frame: Frame;
 @group(0) @binding(1) var<uniform> windows: Windows;
-@group(0) @binding(2) var projector0: texture_2d<f32>;
-@group(0) @binding(3) var projector1: texture_2d<f32>;
-@group(0) @binding(4) var projector2: texture_2d<f32>;
-@group(0) @binding(5) var projector3: texture_2d<f32>;
-@group(0) @binding(6) var projector4: texture_2d<f32>;
-@group(0) @binding(7) var projector5: texture_2d<f32>;
-@group(0) @binding(8) var projector6: texture_2d<f32>;
-@group(0) @binding(9) var projector7: texture_2d<f32>;
-@group(0) @binding(10) var linear_clamp: sampler;
+// One layer per distinct projector texture; the window's params.x picks it.
+@group(0) @binding(2) var projectors: texture_2d_array<f32>;
+@group(0) @binding(3) var linear_clamp: sampler;
 
 @group(1) @binding(0) var<uniform> material: Material;
 @group(1) @binding(1) var diffuse_tex: texture_2d<f32>;

@@ -2,20 +2,6 @@
 // Pass 3: the lit scene with the windows black. Phong shading; inside the building light only
 // arrives through the windows, coloured by each window's pre-blurred projector texture.
 
-fn sample_projector(slot: u32, uv: vec2<f32>, ddx: vec2<f32>, ddy: vec2<f32>) -> vec3<f32> {
-    // Separate bindings cannot be indexed dynamically; a switch over the fixed slots can.
-    switch slot {
-        case 0u: { return textureSampleGrad(projector0, linear_clamp, uv, ddx, ddy).rgb; }
-        case 1u: { return textureSampleGrad(projector1, linear_clamp, uv, ddx, ddy).rgb; }
-        case 2u: { return textureSampleGrad(projector2, linear_clamp, uv, ddx, ddy).rgb; }
-        case 3u: { return textureSampleGrad(projector3, linear_clamp, uv, ddx, ddy).rgb; }
-        case 4u: { return textureSampleGrad(projector4, linear_clamp, uv, ddx, ddy).rgb; }
-        case 5u: { return textureSampleGrad(projector5, linear_clamp, uv, ddx, ddy).rgb; }
-        case 6u: { return textureSampleGrad(projector6, linear_clamp, uv, ddx, ddy).rgb; }
-        default: { return textureSampleGrad(projector7, linear_clamp, uv, ddx, ddy).rgb; }
-    }
-}
-
 // True when `p` lies on the inner side of every window plane: such points see the light only
 // through the windows.
 fn is_inside(p: vec3<f32>) -> bool {
@@ -50,7 +36,7 @@ fn transmitted(p: vec3<f32>) -> vec3<f32> {
         let past_glass = dot(p - w.origin.xyz, w.normal.xyz) > 0.0;
         let in_bounds = uv.x >= 0.0 && uv.x <= 1.0 && uv.y >= 0.0 && uv.y <= 1.0;
         if (enabled && in_front && past_glass && in_bounds) {
-            total = total + sample_projector(w.params.x, uv, ddx, ddy);
+            total = total + textureSampleGrad(projectors, linear_clamp, uv, w.params.x, ddx, ddy).rgb;
         }
     }
     return total;

@@ -20,7 +20,7 @@ fn uniform_entry(binding: u32, size: usize) -> wgpu::BindGroupLayoutEntry {
     }
 }
 
-fn texture_entry(binding: u32) -> wgpu::BindGroupLayoutEntry {
+pub(crate) fn texture_entry(binding: u32) -> wgpu::BindGroupLayoutEntry {
     wgpu::BindGroupLayoutEntry {
         binding,
         visibility: wgpu::ShaderStages::FRAGMENT,
@@ -33,7 +33,7 @@ fn texture_entry(binding: u32) -> wgpu::BindGroupLayoutEntry {
     }
 }
 
-fn sampler_entry(binding: u32) -> wgpu::BindGroupLayoutEntry {
+pub(crate) fn sampler_entry(binding: u32) -> wgpu::BindGroupLayoutEntry {
     wgpu::BindGroupLayoutEntry {
         binding,
         visibility: wgpu::ShaderStages::FRAGMENT,
@@ -42,16 +42,23 @@ fn sampler_entry(binding: u32) -> wgpu::BindGroupLayoutEntry {
     }
 }
 
-/// Group 0 of the geometry passes: frame and window uniforms, projector slots, a sampler.
+/// Group 0 of the geometry passes: frame and window uniforms, the projector array, a sampler.
 pub(crate) fn frame_layout(device: &wgpu::Device) -> wgpu::BindGroupLayout {
     let mut entries = vec![
         uniform_entry(0, std::mem::size_of::<crate::uniforms::Frame>()),
         uniform_entry(1, std::mem::size_of::<crate::uniforms::Windows>()),
     ];
-    for s in 0..crate::uniforms::MAX_PROJECTORS as u32 {
-        entries.push(texture_entry(2 + s));
-    }
-    entries.push(sampler_entry(2 + crate::uniforms::MAX_PROJECTORS as u32));
+    entries.push(wgpu::BindGroupLayoutEntry {
+        binding: 2,
+        visibility: wgpu::ShaderStages::FRAGMENT,
+        ty: wgpu::BindingType::Texture {
+            sample_type: wgpu::TextureSampleType::Float { filterable: true },
+            view_dimension: wgpu::TextureViewDimension::D2Array,
+            multisampled: false,
+        },
+        count: None,
+    });
+    entries.push(sampler_entry(3));
     device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
         label: Some("frame"),
         entries: &entries,
@@ -100,7 +107,7 @@ fn geometry_pipeline(
     })
 }
 
-fn fullscreen_pipeline(
+pub(crate) fn fullscreen_pipeline(
     device: &wgpu::Device,
     layout: &wgpu::BindGroupLayout,
     shader: &'static str,

@@ -6,7 +6,7 @@ use crate::passes::{
     BackgroundPass, CompositePass, DEPTH, GodRayPass, HDR, LitPass, WindowMaskPass,
     WindowNormalPass, frame_layout, geometry_layout,
 };
-use crate::uniforms::{self, MAX_PROJECTORS};
+use crate::uniforms;
 use crate::view::{GodRaySettings, LightGeometry, View, god_ray_uniforms, window_projector};
 use crate::{Gpu, RenderError, Scene};
 
@@ -392,7 +392,8 @@ impl Renderer {
         let mut fade = 0.0;
         if let (true, Some(l)) = (windows, light) {
             let geometry = LightGeometry::from_light(l);
-            let colour = Vec3::from(l.colour) * l.intensity * god_ray_falloff(scene.toc(), &geometry);
+            let colour =
+                Vec3::from(l.colour) * l.intensity * god_ray_falloff(scene.toc(), &geometry);
             let (u, f) = god_ray_uniforms(
                 &self.settings.god_rays,
                 view,
@@ -541,8 +542,7 @@ impl Renderer {
         gpu.queue
             .write_buffer(&self.composite.uniforms, 0, bytemuck::bytes_of(&comp));
         if self.frame_group.as_ref().map(|(g, _)| *g) != Some(scene.generation()) {
-            let views = scene.projector_views();
-            let mut entries = vec![
+            let entries = [
                 wgpu::BindGroupEntry {
                     binding: 0,
                     resource: self.frame_buffer.as_entire_binding(),
@@ -551,17 +551,15 @@ impl Renderer {
                     binding: 1,
                     resource: self.windows_buffer.as_entire_binding(),
                 },
+                wgpu::BindGroupEntry {
+                    binding: 2,
+                    resource: wgpu::BindingResource::TextureView(scene.projector_array()),
+                },
+                wgpu::BindGroupEntry {
+                    binding: 3,
+                    resource: wgpu::BindingResource::Sampler(&self.linear_clamp),
+                },
             ];
-            for (s, v) in views.iter().enumerate() {
-                entries.push(wgpu::BindGroupEntry {
-                    binding: 2 + s as u32,
-                    resource: wgpu::BindingResource::TextureView(v),
-                });
-            }
-            entries.push(wgpu::BindGroupEntry {
-                binding: 2 + MAX_PROJECTORS as u32,
-                resource: wgpu::BindingResource::Sampler(&self.linear_clamp),
-            });
             let group = gpu.device.create_bind_group(&wgpu::BindGroupDescriptor {
                 label: Some("frame"),
                 layout: &self.frame_layout,
@@ -914,7 +912,10 @@ fn god_ray_falloff(toc: &pack::Toc, light: &LightGeometry) -> f32 {
         .iter()
         .map(|w| {
             let centre = Vec3::from(w.origin) + (Vec3::from(w.u_axis) + Vec3::from(w.v_axis)) * 0.5;
-            1.0 / position.distance_squared(centre).max(radius * radius).max(1e-12)
+            1.0 / position
+                .distance_squared(centre)
+                .max(radius * radius)
+                .max(1e-12)
         })
         .sum();
     sum / toc.windows.len() as f32

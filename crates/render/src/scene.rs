@@ -7,7 +7,7 @@ use pack::{
     AttributeFormat, MaterialClass, SectionRole, Semantic, StandardVertex, Toc, VertexLayout,
 };
 
-use crate::uniforms::{self, MAX_PROJECTORS};
+use crate::uniforms;
 use crate::{Gpu, RenderError};
 
 /// Mips up to this many bytes (64×64 RGBA8) count as "small": the first frame waits for them.
@@ -114,8 +114,9 @@ pub struct Scene {
     pub(crate) material_layout: wgpu::BindGroupLayout,
     pub(crate) placeholders: Placeholders,
     material_sampler: wgpu::Sampler,
-    /// Texture index of each projector slot.
+    /// Texture index of each projector array layer.
     projector_slots: Vec<u32>,
+    projectors: Projectors,
     status: LoadStatus,
     dirty: bool,
     /// Bumped whenever a texture view changes, so frame bind groups can be rebuilt.
@@ -209,10 +210,11 @@ impl Scene {
                 projector_slots.push(p);
             }
         }
-        if projector_slots.len() > MAX_PROJECTORS {
+        let max_layers = device.limits().max_texture_array_layers as usize;
+        if projector_slots.len() > max_layers {
             return Err(RenderError::TooManyProjectors {
                 found: projector_slots.len(),
-                max: MAX_PROJECTORS,
+                max: max_layers,
             });
         }
         if toc.windows.len() > uniforms::MAX_WINDOWS {
@@ -254,6 +256,7 @@ impl Scene {
             material_layout,
             placeholders,
             material_sampler,
+            projectors: Projectors::new(gpu, toc, &projector_slots),
             projector_slots,
             status: LoadStatus {
                 geometry_total: toc.meshes.len() as u32 * 2,
@@ -472,6 +475,15 @@ impl Scene {
         for (m, g) in self.materials.iter_mut().zip(groups) {
             m.bind_group = g;
         }
+        let sources: Vec<Option<(u32, &wgpu::TextureView)>> = self
+            .projector_slots
+            .iter()
+            .map(|&t| {
+                let t = &self.textures[t as usize];
+                t.resident_from.zip(t.view.as_ref())
+            })
+            .collect();
+        self.projectors.update(gpu, &sources);
         self.generation += 1;
     }
 
@@ -528,11 +540,9 @@ impl Scene {
         self.geometry_complete() && self.status.mips_loaded == self.status.mips_total
     }
 
-    /// The view of each projector slot (placeholder where not resident yet).
-    pub(crate) fn projector_views(&self) -> Vec<&wgpu::TextureView> {
-        (0..MAX_PROJECTORS)
-            .map(|s| self.texture_view(self.projector_slots.get(s).copied(), false))
-            .collect()
+    /// Every window's projector texture, one layer each (white where not resident yet).
+    pub(crate) fn projector_array(&self) -> &wgpu::TextureView {
+        &self.projectors.view
     }
 
     pub(crate) fn projector_slot(&self, texture: Option<u32>) -> Option<u32> {
@@ -736,4 +746,159 @@ fn standard_vertices(
         })
         .collect();
     Ok(Some(out))
+}
+
+/// Projector textures gathered into one array, so the lit pass can reach any window's design
+/// with a single binding however many windows a scene has. Each layer is a resampled copy of
+/// the levels resident so far, refreshed as larger ones stream in.
+struct Projectors {
+    texture: wgpu::Texture,
+    view: wgpu::TextureView,
+    pipeline: wgpu::RenderPipeline,
+    layout: wgpu::BindGroupLayout,
+    sampler: wgpu::Sampler,
+    /// The resident base level each layer was last copied from.
+    copied: Vec<Option<u32>>,
+}
+
+/// Layers are square; projectors are pre-blurred, so this size loses no visible detail.
+const MAX_PROJECTOR_SIZE: u32 = 1024;
+
+impl Projectors {
+    fn new(gpu: &Gpu, toc: &Toc, slots: &[u32]) -> Self {
+        let device = &gpu.device;
+        let size = slots
+            .iter()
+            .map(|&t| {
+                toc.textures[t as usize]
+                    .width
+                    .max(toc.textures[t as usize].height)
+            })
+            .max()
+            .unwrap_or(1)
+            .min(MAX_PROJECTOR_SIZE);
+        let layers = slots.len().max(1) as u32;
+        let texture = device.create_texture(&wgpu::TextureDescriptor {
+            label: Some("projectors"),
+            size: wgpu::Extent3d {
+                width: size,
+                height: size,
+                depth_or_array_layers: layers,
+            },
+            mip_level_count: 1,
+            sample_count: 1,
+            dimension: wgpu::TextureDimension::D2,
+            format: wgpu::TextureFormat::Rgba8UnormSrgb,
+            usage: wgpu::TextureUsages::TEXTURE_BINDING | wgpu::TextureUsages::RENDER_ATTACHMENT,
+            view_formats: &[],
+        });
+        let view = texture.create_view(&wgpu::TextureViewDescriptor {
+            dimension: Some(wgpu::TextureViewDimension::D2Array),
+            ..Default::default()
+        });
+        let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+            label: Some("projector copy"),
+            entries: &[
+                crate::passes::texture_entry(0),
+                crate::passes::sampler_entry(1),
+            ],
+        });
+        let pipeline = crate::passes::fullscreen_pipeline(
+            device,
+            &layout,
+            "blit.wgsl",
+            wgpu::TextureFormat::Rgba8UnormSrgb,
+        );
+        let sampler = device.create_sampler(&wgpu::SamplerDescriptor {
+            mag_filter: wgpu::FilterMode::Linear,
+            min_filter: wgpu::FilterMode::Linear,
+            mipmap_filter: wgpu::MipmapFilterMode::Linear,
+            ..Default::default()
+        });
+        let mut p = Self {
+            texture,
+            view,
+            pipeline,
+            layout,
+            sampler,
+            copied: vec![None; layers as usize],
+        };
+        // Until a projector's first level arrives its layer is white: unfiltered light.
+        let mut encoder = device.create_command_encoder(&Default::default());
+        for layer in 0..layers {
+            p.layer_pass(&mut encoder, layer, true);
+        }
+        gpu.queue.submit([encoder.finish()]);
+        p
+    }
+
+    fn layer_pass<'e>(
+        &self,
+        encoder: &'e mut wgpu::CommandEncoder,
+        layer: u32,
+        clear_white: bool,
+    ) -> wgpu::RenderPass<'e> {
+        let view = self.texture.create_view(&wgpu::TextureViewDescriptor {
+            dimension: Some(wgpu::TextureViewDimension::D2),
+            base_array_layer: layer,
+            array_layer_count: Some(1),
+            ..Default::default()
+        });
+        encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
+            label: Some("projector copy"),
+            color_attachments: &[Some(wgpu::RenderPassColorAttachment {
+                view: &view,
+                depth_slice: None,
+                resolve_target: None,
+                ops: wgpu::Operations {
+                    load: wgpu::LoadOp::Clear(if clear_white {
+                        wgpu::Color::WHITE
+                    } else {
+                        wgpu::Color::BLACK
+                    }),
+                    store: wgpu::StoreOp::Store,
+                },
+            })],
+            depth_stencil_attachment: None,
+            timestamp_writes: None,
+            occlusion_query_set: None,
+            multiview_mask: None,
+        })
+    }
+
+    /// Copies each layer whose source gained levels since its last copy.
+    fn update(&mut self, gpu: &Gpu, sources: &[Option<(u32, &wgpu::TextureView)>]) {
+        let mut encoder = gpu.device.create_command_encoder(&Default::default());
+        let mut any = false;
+        for (layer, source) in sources.iter().enumerate() {
+            let Some((base, view)) = source else { continue };
+            if self.copied[layer] == Some(*base) {
+                continue;
+            }
+            let group = gpu.device.create_bind_group(&wgpu::BindGroupDescriptor {
+                label: Some("projector copy"),
+                layout: &self.layout,
+                entries: &[
+                    wgpu::BindGroupEntry {
+                        binding: 0,
+                        resource: wgpu::BindingResource::TextureView(view),
+                    },
+                    wgpu::BindGroupEntry {
+                        binding: 1,
+                        resource: wgpu::BindingResource::Sampler(&self.sampler),
+                    },
+                ],
+            });
+            let mut pass = self.layer_pass(&mut encoder, layer as u32, false);
+            pass.set_pipeline(&self.pipeline);
+            pass.set_bind_group(0, &group, &[]);
+            pass.draw(0..3, 0..1);
+            drop(pass);
+            self.copied[layer] = Some(*base);
+            any = true;
+        }
+        if any {
+            gpu.queue.submit([encoder.finish()]);
+        }
+    }
 }

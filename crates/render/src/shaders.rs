@@ -32,6 +32,7 @@ pub const FILES: &[(&str, &str)] = &[
         "composite.wgsl",
         include_str!("../../../shaders/composite.wgsl"),
     ),
+    ("blit.wgsl", include_str!("../../../shaders/blit.wgsl")),
 ];
 
 /// The pass entry files; each composes into one shader module.
@@ -42,6 +43,7 @@ pub const PASSES: &[&str] = &[
     "lit.wgsl",
     "godrays.wgsl",
     "composite.wgsl",
+    "blit.wgsl",
 ];
 
 const INCLUDE: &str = "//#include ";

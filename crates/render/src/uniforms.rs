@@ -6,9 +6,7 @@ use bytemuck::{Pod, Zeroable};
 use pack::MaterialClass;
 
 /// Windows the lit pass can project through; matches `MAX_WINDOWS` in `common.wgsl`.
-pub const MAX_WINDOWS: usize = 32;
-/// Distinct projector textures bound at once; matches the `projectorN` bindings.
-pub const MAX_PROJECTORS: usize = 8;
+pub const MAX_WINDOWS: usize = 64;
 
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, Pod, Zeroable)]
