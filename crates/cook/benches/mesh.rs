@@ -1,0 +1,83 @@
+//! OBJ → pack, end to end (parse, tag, normals, dedupe, vertex cache and fetch optimization,
+//! encode, atomic write), reported as triangles per second. Also the OBJ parser alone against
+//! tobj's, since parsing was measured as the largest single cost.
+//!
+//! `cargo bench -p cook --bench mesh`; the ACMR of each cooked mesh is printed once per input.
+
+use std::path::{Path, PathBuf};
+
+use criterion::{BenchmarkId, Criterion, Throughput, criterion_group, criterion_main};
+
+fn bunny() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("../../tests/data/third_party/classic/stanford-bunny.obj")
+}
+
+/// A wavy height field of `n` x `n` quads split into triangles, as OBJ text.
+fn generated_obj(n: usize) -> String {
+    use std::fmt::Write;
+    let mut s = String::with_capacity(n * n * 60);
+    s.push_str("o terrain\nusemtl ground\n");
+    for j in 0..=n {
+        for i in 0..=n {
+            let (x, z) = (i as f32 / n as f32, j as f32 / n as f32);
+            let y = 0.05 * (x * 37.0).sin() * (z * 23.0).cos();
+            let _ = writeln!(s, "v {x:.6} {y:.6} {z:.6}");
+        }
+    }
+    for j in 0..n {
+        for i in 0..n {
+            let a = j * (n + 1) + i + 1;
+            let (b, c, d) = (a + 1, a + n + 1, a + n + 2);
+            let _ = writeln!(s, "f {a} {c} {b}\nf {b} {c} {d}");
+        }
+    }
+    s
+}
+
+fn cook_and_write(input: &Path, out: &Path, settings: &cook::Settings) -> cook::CookOutput {
+    let manifest = cook::Manifest::open(input).unwrap();
+    let cooked = cook::cook(&manifest, settings).unwrap();
+    cooked.write(out).unwrap();
+    cooked
+}
+
+fn end_to_end(c: &mut Criterion) {
+    let dir = tempfile::tempdir().unwrap();
+    let big = dir.path().join("grid-1m.obj");
+    std::fs::write(&big, generated_obj(707)).unwrap();
+    let inputs = [("stanford bunny", bunny()), ("generated 1M-triangle grid", big)];
+    let out = dir.path().join("out.pack");
+
+    let mut group = c.benchmark_group("obj to pack");
+    for (name, path) in &inputs {
+        for (mode, cache) in [("full", cook::CacheMode::Full), ("fifo", cook::CacheMode::Fifo)] {
+            let mut settings = cook::Settings::default();
+            settings.mesh.cache = cache;
+            let cooked = cook_and_write(path, &out, &settings);
+            let s = &cooked.report.meshes[0].stats;
+            eprintln!(
+                "{name} ({mode}): {} triangles, acmr_in={:.3} acmr_out={:.3} overfetch={:.3}",
+                s.triangles_out, s.acmr_in, s.acmr_out, s.overfetch
+            );
+            group.throughput(Throughput::Elements(s.triangles_in as u64));
+            group.bench_with_input(BenchmarkId::new(format!("{name}, {mode} cache"), s.triangles_in), path, |b, p| {
+                b.iter(|| cook_and_write(p, &out, &settings))
+            });
+        }
+    }
+    group.finish();
+
+    let mut group = c.benchmark_group("obj parse");
+    let bytes = std::fs::read(bunny()).unwrap();
+    group.throughput(Throughput::Bytes(bytes.len() as u64));
+    group.bench_function("cook::import::obj (stanford bunny)", |b| {
+        b.iter(|| cook::import::obj::parse(&bunny(), &bytes).unwrap())
+    });
+    group.bench_function("tobj GPU_LOAD_OPTIONS (stanford bunny)", |b| {
+        b.iter(|| tobj::load_obj(bunny(), &tobj::GPU_LOAD_OPTIONS).unwrap())
+    });
+    group.finish();
+}
+
+criterion_group!(benches, end_to_end);
+criterion_main!(benches);
