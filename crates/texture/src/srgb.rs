@@ -51,7 +51,8 @@ pub fn decode16() -> &'static [f32] {
 
 const BUCKETS: usize = 4096;
 
-struct Encoder {
+/// Correctly rounded linear → 8-bit sRGB encoder (fetch once with [`encoder`], reuse in loops).
+pub struct Encoder {
     /// Linear value at which the rounded code steps from k to k + 1 (code k + 0.5 decoded).
     thresholds32: [f32; 255],
     thresholds64: [f64; 255],
@@ -59,7 +60,7 @@ struct Encoder {
     start: [u8; BUCKETS + 1],
 }
 
-fn encoder() -> &'static Encoder {
+pub fn encoder() -> &'static Encoder {
     static E: OnceLock<Box<Encoder>> = OnceLock::new();
     E.get_or_init(|| {
         let mut e = Box::new(Encoder {
@@ -80,22 +81,29 @@ fn encoder() -> &'static Encoder {
     })
 }
 
+impl Encoder {
+    /// Correctly rounded 8-bit sRGB code of a linear value (clamped to [0, 1]; NaN gives 0).
+    #[inline]
+    pub fn encode(&self, l: f32) -> u8 {
+        // `!(l > 0)` also catches NaN.
+        if !(l > 0.0) {
+            return 0;
+        }
+        if l >= 1.0 {
+            return 255;
+        }
+        let mut k = self.start[(l * BUCKETS as f32) as usize] as usize;
+        while k < 255 && l >= self.thresholds32[k] {
+            k += 1;
+        }
+        k as u8
+    }
+}
+
 /// Correctly rounded 8-bit sRGB code of a linear value (clamped to [0, 1]; NaN gives 0).
 #[inline]
 pub fn encode8(l: f32) -> u8 {
-    let e = encoder();
-    // `!(l > 0)` also catches NaN.
-    if !(l > 0.0) {
-        return 0;
-    }
-    if l >= 1.0 {
-        return 255;
-    }
-    let mut k = e.start[(l * BUCKETS as f32) as usize] as usize;
-    while k < 255 && l >= e.thresholds32[k] {
-        k += 1;
-    }
-    k as u8
+    encoder().encode(l)
 }
 
 /// [`encode8`] for f64 input (reference paths).

@@ -1,0 +1,55 @@
+//! Deterministic test images.
+#![allow(dead_code)]
+
+/// xorshift64*: reproducible pseudo-random bytes without a dependency.
+pub struct Rng(pub u64);
+
+impl Rng {
+    pub fn next(&mut self) -> u64 {
+        self.0 ^= self.0 >> 12;
+        self.0 ^= self.0 << 25;
+        self.0 ^= self.0 >> 27;
+        self.0.wrapping_mul(0x2545_F491_4F6C_DD1D)
+    }
+    pub fn byte(&mut self) -> u8 {
+        (self.next() >> 56) as u8
+    }
+}
+
+/// A stained-glass-like RGBA8 test image: flat panes of random colour (some very dark, some
+/// saturated), black lead lines, a few translucent panes, and a little noise: hard edges and
+/// dark regions, where a blur's errors show most in sRGB.
+pub fn design(w: usize, h: usize, seed: u64) -> Vec<u8> {
+    let mut rng = Rng(seed | 1);
+    let cell = 7 + (seed % 5) as usize;
+    let panes: Vec<[u8; 4]> = (0..64)
+        .map(|i| match i % 4 {
+            0 => [rng.byte() / 16, rng.byte() / 16, rng.byte() / 16, 255],
+            1 => [rng.byte(), rng.byte(), rng.byte(), 255],
+            2 => [rng.byte(), rng.byte() / 4, rng.byte() / 8, 128 + rng.byte() / 2],
+            _ => [255, 250, rng.byte(), 255],
+        })
+        .collect();
+    let mut out = vec![0u8; w * h * 4];
+    for y in 0..h {
+        for x in 0..w {
+            let lead = x % cell == 0 || y % (cell + 2) == 0;
+            let p = if lead {
+                [8, 8, 10, 255]
+            } else {
+                panes[((x / cell) * 7 + (y / (cell + 2)) * 3) % 64]
+            };
+            let noise = rng.byte() % 3;
+            let o = &mut out[(y * w + x) * 4..][..4];
+            for c in 0..3 {
+                o[c] = p[c].saturating_add(noise);
+            }
+            o[3] = p[3];
+        }
+    }
+    out
+}
+
+pub fn rgba_image(w: usize, h: usize, bytes: Vec<u8>) -> image::DynamicImage {
+    image::DynamicImage::ImageRgba8(image::RgbaImage::from_raw(w as u32, h as u32, bytes).unwrap())
+}
