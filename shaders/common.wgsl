@@ -23,6 +23,9 @@ struct WindowProjector {
     origin: vec4<f32>,
     // xyz: unit normal pointing into the building.
     normal: vec4<f32>,
+    // rgb: colour the light is multiplied by (the glass colour for a window without a
+    // projector texture, white otherwise).
+    tint: vec4<f32>,
     // x: projector array layer, y: 1 when this window passes light.
     params: vec4<u32>,
 }

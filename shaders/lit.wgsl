@@ -36,7 +36,7 @@ fn transmitted(p: vec3<f32>) -> vec3<f32> {
         let past_glass = dot(p - w.origin.xyz, w.normal.xyz) > 0.0;
         let in_bounds = uv.x >= 0.0 && uv.x <= 1.0 && uv.y >= 0.0 && uv.y <= 1.0;
         if (enabled && in_front && past_glass && in_bounds) {
-            total = total + textureSampleGrad(projectors, linear_clamp, uv, w.params.x, ddx, ddy).rgb;
+            total = total + textureSampleGrad(projectors, linear_clamp, uv, w.params.x, ddx, ddy).rgb * w.tint.rgb;
         }
     }
     return total;

@@ -507,6 +507,8 @@ fn sample_count_changes_accuracy_not_look() {
 fn streamed_pack_draws_early_and_ends_identical() {
     let gpu = gpu();
     let bytes = scene(Some(LightSetup::Sun), true, true);
+    // Kept for trying the viewer on: `viewer target/tmp/render/synthetic-sun.pack --headless`.
+    std::fs::write(out_dir().join("synthetic-sun.pack"), &bytes).unwrap();
     let mut reader = pack::StreamReader::new("<stream>", std::io::Cursor::new(bytes.clone())).unwrap();
     let first = reader.next_section().unwrap().expect("TOC");
     assert_eq!(first.role, pack::SectionRole::Toc);

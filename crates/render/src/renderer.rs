@@ -214,6 +214,16 @@ struct Timestamps {
     readback: wgpu::Buffer,
 }
 
+/// Everything one pass's recording reads.
+#[derive(Clone, Copy)]
+struct Recording<'a> {
+    gpu: &'a Gpu,
+    scene: &'a Scene,
+    plan: &'a Plan,
+    output: &'a wgpu::TextureView,
+    timed: bool,
+}
+
 /// What this frame records, decided from the scene and the view.
 struct Plan {
     windows: bool,
@@ -499,14 +509,17 @@ impl Renderer {
                     .normalize_or_zero()
                     .extend(0.0)
                     .to_array();
-                // A window without a projector texture lets no light through: the cooker
-                // always makes one, and guessing a colour would hide that it is missing.
-                slot.params = [
-                    tex_slot.unwrap_or(0),
-                    (projector.is_some() && tex_slot.is_some()) as u32,
-                    0,
-                    0,
-                ];
+                // A window without a projector texture (a pack cooked without textures) still
+                // passes light, tinted by its glass colour through the array's white layer.
+                let (layer, tint) = match tex_slot {
+                    Some(l) => (l, [1.0; 4]),
+                    None => {
+                        let d = mat.diffuse;
+                        (scene.white_projector_layer(), [d[0], d[1], d[2], 1.0])
+                    }
+                };
+                slot.tint = tint;
+                slot.params = [layer, projector.is_some() as u32, 0, 0];
             }
         } else {
             for (slot, w) in windows.items.iter_mut().zip(&toc.windows) {
@@ -580,16 +593,14 @@ impl Renderer {
             })
     }
 
-    fn record(
-        &self,
-        pass: PassId,
-        encoder: &mut wgpu::CommandEncoder,
-        scene: &Scene,
-        plan: &Plan,
-        output: &wgpu::TextureView,
-        timed: bool,
-        gpu: &Gpu,
-    ) {
+    fn record(&self, pass: PassId, encoder: &mut wgpu::CommandEncoder, rec: &Recording<'_>) {
+        let Recording {
+            gpu,
+            scene,
+            plan,
+            output,
+            timed,
+        } = *rec;
         let background_colour = {
             let c = scene.toc().background.colour;
             wgpu::Color {
@@ -823,7 +834,14 @@ impl Renderer {
                 for &id in &recorded {
                     let start = std::time::Instant::now();
                     let mut encoder = gpu.device.create_command_encoder(&Default::default());
-                    self.record(id, &mut encoder, scene, &plan, output, false, gpu);
+                    let rec = Recording {
+                        gpu,
+                        scene,
+                        plan: &plan,
+                        output,
+                        timed: false,
+                    };
+                    self.record(id, &mut encoder, &rec);
                     gpu.queue.submit([encoder.finish()]);
                     gpu.wait()?;
                     let ms = start.elapsed().as_secs_f64() * 1e3;
@@ -836,7 +854,17 @@ impl Renderer {
                 let timed = method == TimingMethod::GpuTimestamps;
                 let mut encoder = gpu.device.create_command_encoder(&Default::default());
                 for &id in &recorded {
-                    self.record(id, &mut encoder, scene, &plan, output, timed, gpu);
+                    self.record(
+                        id,
+                        &mut encoder,
+                        &Recording {
+                            gpu,
+                            scene,
+                            plan: &plan,
+                            output,
+                            timed,
+                        },
+                    );
                 }
                 if let (true, Some(t)) = (timed, &self.timestamps) {
                     let count = 2 * PassId::ALL.len() as u32;

@@ -545,6 +545,11 @@ impl Scene {
         &self.projectors.view
     }
 
+    /// The projector layer that stays white.
+    pub(crate) fn white_projector_layer(&self) -> u32 {
+        self.projector_slots.len() as u32
+    }
+
     pub(crate) fn projector_slot(&self, texture: Option<u32>) -> Option<u32> {
         let t = texture?;
         self.projector_slots
@@ -777,7 +782,8 @@ impl Projectors {
             .max()
             .unwrap_or(1)
             .min(MAX_PROJECTOR_SIZE);
-        let layers = slots.len().max(1) as u32;
+        // One layer per projector plus a white one for windows without a projector texture.
+        let layers = slots.len() as u32 + 1;
         let texture = device.create_texture(&wgpu::TextureDescriptor {
             label: Some("projectors"),
             size: wgpu::Extent3d {
@@ -815,7 +821,7 @@ impl Projectors {
             mipmap_filter: wgpu::MipmapFilterMode::Linear,
             ..Default::default()
         });
-        let mut p = Self {
+        let p = Self {
             texture,
             view,
             pipeline,

@@ -26,6 +26,7 @@ pub struct WindowProjector {
     pub projector: [[f32; 4]; 4],
     pub origin: [f32; 4],
     pub normal: [f32; 4],
+    pub tint: [f32; 4],
     pub params: [u32; 4],
 }
 

@@ -175,7 +175,7 @@ pub fn window_projector(w: &pack::Window, light: &LightGeometry) -> Option<Mat4>
     let rows: [Vec4; 4] = match *light {
         LightGeometry::Point { position: lp, .. } => {
             let a = (o - lp).dot(n);
-            if !(a > 1e-6) {
+            if a.is_nan() || a <= 1e-6 {
                 return None;
             }
             // w = n·(P − Lp)/a is 1 on the window plane; w·(X − o) = w·(Lp − o) + (P − Lp)
@@ -189,7 +189,7 @@ pub fn window_projector(w: &pack::Window, light: &LightGeometry) -> Option<Mat4>
         LightGeometry::Directional { towards } => {
             let travel = -towards;
             let k = travel.dot(n);
-            if !(k > 1e-6) {
+            if k.is_nan() || k <= 1e-6 {
                 return None;
             }
             // X = P − travel·(n·(P − o))/k; u = du·(X − o).
@@ -248,7 +248,7 @@ pub fn god_ray_fade(view: &View, light: &LightGeometry) -> f32 {
         return 0.0;
     };
     let cos = view.forward.dot(to_light);
-    if !(cos > 0.0) {
+    if cos.is_nan() || cos <= 0.0 {
         return 0.0;
     }
     let half_h = (view.fov_y * 0.5).tan();
@@ -269,7 +269,7 @@ pub fn god_ray_uniforms(
 ) -> (crate::uniforms::GodRays, f32) {
     let clip = view.view_proj() * light.homogeneous();
     let mut fade = god_ray_fade(view, light);
-    if !(clip.w > 0.0) || !clip.is_finite() {
+    if !clip.is_finite() || clip.w <= 0.0 {
         fade = 0.0;
     }
     let light = if fade > 0.0 {
@@ -336,7 +336,7 @@ pub fn god_rays_reference(
 ) -> Vec<Vec3> {
     let mut out = vec![Vec3::ZERO; out_w * out_h];
     let l = Vec4::from(u.light);
-    if !(l.w > 0.0) {
+    if l.w.is_nan() || l.w <= 0.0 {
         return out;
     }
     let aspect = u.screen[0];
