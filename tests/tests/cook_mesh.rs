@@ -7,7 +7,9 @@ use cook::{CookError, Manifest, Settings};
 use pack::{MaterialClass, Pack};
 
 fn data(rel: &str) -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("data/third_party").join(rel)
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("data/third_party")
+        .join(rel)
 }
 
 fn cook_to_pack(manifest: &Manifest) -> (cook::CookOutput, Pack) {
@@ -22,20 +24,32 @@ fn cook_file(rel: &str) -> (cook::CookOutput, Pack) {
 }
 
 fn triangles(pack: &Pack) -> u64 {
-    pack.toc().meshes.iter().map(|m| m.index_count as u64 / 3).sum()
+    pack.toc()
+        .meshes
+        .iter()
+        .map(|m| m.index_count as u64 / 3)
+        .sum()
 }
 
 /// Every triangle's three vertices carry its draw range's material; windows come last.
 fn check_material_ids(pack: &Pack) {
     let toc = pack.toc();
     for m in &toc.meshes {
-        let mat = m.layout.attribute(pack::Semantic::MaterialId).unwrap().offset as usize;
+        let mat = m
+            .layout
+            .attribute(pack::Semantic::MaterialId)
+            .unwrap()
+            .offset as usize;
         let bytes = pack.vertex_bytes(m);
         let indices = pack.indices(m);
         let mut seen_window = false;
         for r in &m.ranges {
             let w = toc.materials[r.material as usize].class.is_window();
-            assert!(!seen_window || w, "opaque range after a window range in {:?}", m.name);
+            assert!(
+                !seen_window || w,
+                "opaque range after a window range in {:?}",
+                m.name
+            );
             seen_window |= w;
             for &i in &indices[r.first_index as usize..(r.first_index + r.index_count) as usize] {
                 let o = i as usize * m.layout.stride as usize + mat;
@@ -47,7 +61,11 @@ fn check_material_ids(pack: &Pack) {
 
 fn class_triangles(pack: &Pack) -> Vec<(String, MaterialClass, u64)> {
     let toc = pack.toc();
-    toc.materials.iter().zip(toc.triangles_per_material()).map(|(m, t)| (m.name.clone(), m.class, t)).collect()
+    toc.materials
+        .iter()
+        .zip(toc.triangles_per_material())
+        .map(|(m, t)| (m.name.clone(), m.class, t))
+        .collect()
 }
 
 fn scene(dir: &Path, body: &str) -> Manifest {
@@ -128,7 +146,10 @@ colour = [0.1, 0.2, 0.3]
     assert_eq!(red.diffuse, [1.0, 0.0, 0.0], "shading comes from the MTL");
     let blocks = toc.materials.iter().find(|m| m.name == "blocks").unwrap();
     assert_eq!(blocks.diffuse, [0.5, 0.5, 0.5], "rules override shading");
-    assert!(out.report.heuristics.is_empty(), "every part matched a rule");
+    assert!(
+        out.report.heuristics.is_empty(),
+        "every part matched a rule"
+    );
     // The light quad at y = 548.8 is the window: its frame lies in that plane, normal along the light.
     assert_eq!(toc.windows.len(), 1);
     let w = &toc.windows[0];
@@ -137,18 +158,30 @@ colour = [0.1, 0.2, 0.3]
     assert!((w.normal[1] + 1.0).abs() < 1e-4, "{w:?}");
     assert_eq!(toc.cameras.len(), 1);
     assert_eq!(toc.background.colour, [0.1, 0.2, 0.3]);
-    assert!(matches!(toc.light.as_ref().unwrap().kind, pack::LightKind::Directional { .. }));
+    assert!(matches!(
+        toc.light.as_ref().unwrap().kind,
+        pack::LightKind::Directional { .. }
+    ));
 
     // The light quad has neither UVs nor a design; MTL "blue" is used by no face.
     let v = cook::validate::validate_scene(&m).unwrap();
     let mut codes: Vec<&str> = v.findings.iter().map(|f| f.code).collect();
     codes.sort();
-    assert_eq!(codes, vec!["unused-material", "window-no-design", "window-no-uvs"], "{:#?}", v.findings);
+    assert_eq!(
+        codes,
+        vec!["unused-material", "window-no-design", "window-no-uvs"],
+        "{:#?}",
+        v.findings
+    );
     assert!(v.findings.iter().any(|f| f.message.contains("\"blue\"")));
     let floor = v.materials.iter().find(|r| r.name == "floor").unwrap();
     assert_eq!(floor.triangles, 6);
     assert!(floor.area > 0.0);
-    assert_eq!((floor.bounds_min[1], floor.bounds_max[1]), (0.0, 0.0), "the floor lies in y = 0");
+    assert_eq!(
+        (floor.bounds_min[1], floor.bounds_max[1]),
+        (0.0, 0.0),
+        "the floor lies in y = 0"
+    );
 }
 
 #[test]
@@ -156,14 +189,43 @@ fn bare_cornell_box_uses_heuristics_and_says_so() {
     let (out, pack) = cook_file("cornell_box/cornell_box.obj");
     assert_eq!(triangles(&pack), 36);
     check_material_ids(&pack);
-    assert!(out.report.warnings.iter().any(|w| w.message.contains("heuristics only")));
-    let floor: u64 = class_triangles(&pack).iter().filter(|c| c.1 == MaterialClass::Floor).map(|c| c.2).sum();
-    let wall: u64 = class_triangles(&pack).iter().filter(|c| c.1 == MaterialClass::Wall).map(|c| c.2).sum();
+    assert!(
+        out.report
+            .warnings
+            .iter()
+            .any(|w| w.message.contains("heuristics only"))
+    );
+    let floor: u64 = class_triangles(&pack)
+        .iter()
+        .filter(|c| c.1 == MaterialClass::Floor)
+        .map(|c| c.2)
+        .sum();
+    let wall: u64 = class_triangles(&pack)
+        .iter()
+        .filter(|c| c.1 == MaterialClass::Wall)
+        .map(|c| c.2)
+        .sum();
     assert_eq!((floor, wall), (6, 6));
-    assert!(out.report.heuristics.iter().any(|h| h.keyword == Some("floor") && h.triangles == 6));
-    let v = cook::validate::validate_scene(&Manifest::open(&data("cornell_box/cornell_box.obj")).unwrap()).unwrap();
-    let untagged = v.findings.iter().find(|f| f.code == "untagged").expect("untagged finding");
-    assert!(untagged.message.starts_with("36 triangles"), "{}", untagged.message);
+    assert!(
+        out.report
+            .heuristics
+            .iter()
+            .any(|h| h.keyword == Some("floor") && h.triangles == 6)
+    );
+    let v = cook::validate::validate_scene(
+        &Manifest::open(&data("cornell_box/cornell_box.obj")).unwrap(),
+    )
+    .unwrap();
+    let untagged = v
+        .findings
+        .iter()
+        .find(|f| f.code == "untagged")
+        .expect("untagged finding");
+    assert!(
+        untagged.message.starts_with("36 triangles"),
+        "{}",
+        untagged.message
+    );
     // The cooked pack itself is consistent.
     assert!(cook::validate::validate_pack(&pack).is_clean());
 }
@@ -175,7 +237,11 @@ fn stanford_bunny() {
     check_material_ids(&pack);
     let m = &pack.toc().meshes[0];
     // 35947 positions in the file, some unreferenced: dedupe must not add any.
-    assert!(m.vertex_count <= 35947 && m.vertex_count > 35000, "{}", m.vertex_count);
+    assert!(
+        m.vertex_count <= 35947 && m.vertex_count > 35000,
+        "{}",
+        m.vertex_count
+    );
     let s = &out.report.meshes[0].stats;
     assert!(s.acmr_out <= 0.70, "acmr_out {}", s.acmr_out);
     assert!(s.acmr_out < s.acmr_in);
@@ -190,9 +256,17 @@ fn spot_keeps_its_uvs() {
     let m = &pack.toc().meshes[0];
     let verts: &[pack::StandardVertex] = bytemuck::cast_slice(pack.vertex_bytes(m));
     // Spot's UVs slightly exceed [0, 1] in the file (v up to 1.00065); they are kept as they are.
-    assert!(verts.iter().all(|v| v.uv.iter().all(|c| (-0.06..=1.001).contains(c))));
+    assert!(
+        verts
+            .iter()
+            .all(|v| v.uv.iter().all(|c| (-0.06..=1.001).contains(c)))
+    );
     assert!(verts.iter().any(|v| v.uv != [0.0, 0.0]));
-    assert!(verts.iter().all(|v| (glam::Vec3::from(v.normal).length() - 1.0).abs() < 1e-3));
+    assert!(
+        verts
+            .iter()
+            .all(|v| (glam::Vec3::from(v.normal).length() - 1.0).abs() < 1e-3)
+    );
     assert!(out.report.meshes[0].stats.acmr_out <= 0.75);
 }
 
@@ -203,9 +277,21 @@ fn gltf_samples() {
         ("gltf/Box/Box.glb", 12, 1),
         ("gltf/BoxTextured/BoxTextured.gltf", 12, 1),
         ("gltf/BoxTextured/BoxTextured.glb", 12, 1),
-        ("gltf/BoxTexturedNonPowerOfTwo/BoxTexturedNonPowerOfTwo.gltf", 12, 1),
-        ("gltf/TextureCoordinateTest/TextureCoordinateTest.gltf", 10, 5),
-        ("gltf/TriangleWithoutIndices/TriangleWithoutIndices.gltf", 1, 1),
+        (
+            "gltf/BoxTexturedNonPowerOfTwo/BoxTexturedNonPowerOfTwo.gltf",
+            12,
+            1,
+        ),
+        (
+            "gltf/TextureCoordinateTest/TextureCoordinateTest.gltf",
+            10,
+            5,
+        ),
+        (
+            "gltf/TriangleWithoutIndices/TriangleWithoutIndices.gltf",
+            1,
+            1,
+        ),
     ] {
         let (_, pack) = cook_file(file);
         assert_eq!(triangles(&pack), tris, "{file}");
@@ -221,7 +307,12 @@ fn gltf_samples() {
     let (_, pack) = cook_file("gltf/Box/Box.gltf");
     let m = &pack.toc().meshes[0];
     for k in 0..3 {
-        assert!((m.bounds_max[k] - m.bounds_min[k] - 1.0).abs() < 1e-5, "{:?}..{:?}", m.bounds_min, m.bounds_max);
+        assert!(
+            (m.bounds_max[k] - m.bounds_min[k] - 1.0).abs() < 1e-5,
+            "{:?}..{:?}",
+            m.bounds_min,
+            m.bounds_max
+        );
     }
 }
 
@@ -230,7 +321,9 @@ fn source_error(rel: &str) -> (Option<usize>, String) {
     match cook::cook(&m, &Settings::default()) {
         Err(e @ CookError::Source { .. }) => {
             assert!(!e.is_io());
-            let CookError::Source { line, ref path, .. } = e else { unreachable!() };
+            let CookError::Source { line, ref path, .. } = e else {
+                unreachable!()
+            };
             assert!(path.ends_with(Path::new(rel).file_name().unwrap()), "{e}");
             (line, e.to_string())
         }
@@ -243,10 +336,26 @@ fn source_error(rel: &str) -> (Option<usize>, String) {
 fn bad_obj_files_fail_with_file_and_line() {
     for (file, line, text) in [
         ("bad/obj/tinyobjloader/test-nan.obj", 12, "not finite"),
-        ("bad/obj/tinyobjloader/issue-140-zero-face-idx.obj", 16, "index 0"),
-        ("bad/obj/tinyobjloader/invalid-relative-vertex-index.obj", 1, "index -4 is out of range"),
-        ("bad/obj/tinyobjloader/catmark_torus_creases0.obj", 62, "normal index 1 is out of range"),
-        ("bad/obj/tobj/invalid_index.obj", 12, "vertex index 7 is out of range"),
+        (
+            "bad/obj/tinyobjloader/issue-140-zero-face-idx.obj",
+            16,
+            "index 0",
+        ),
+        (
+            "bad/obj/tinyobjloader/invalid-relative-vertex-index.obj",
+            1,
+            "index -4 is out of range",
+        ),
+        (
+            "bad/obj/tinyobjloader/catmark_torus_creases0.obj",
+            62,
+            "normal index 1 is out of range",
+        ),
+        (
+            "bad/obj/tobj/invalid_index.obj",
+            12,
+            "vertex index 7 is out of range",
+        ),
     ] {
         let (l, msg) = source_error(file);
         assert_eq!(l, Some(line), "{msg}");
@@ -277,17 +386,40 @@ fn oddities_cook_with_warnings() {
     // Unknown materials (the file's mtllib is commented out): names still tag, shading falls back.
     let (out, pack) = cook_file("bad/obj/tinyobjloader/missing_material_file.obj");
     assert_eq!(triangles(&pack), 36);
-    assert!(out.report.warnings.iter().any(|w| w.message.contains("not defined in any mtllib")), "{:?}", out.report.warnings);
+    assert!(
+        out.report
+            .warnings
+            .iter()
+            .any(|w| w.message.contains("not defined in any mtllib")),
+        "{:?}",
+        out.report.warnings
+    );
     // Lines and points only: nothing to draw, but a valid (empty) pack and a warning.
-    for f in ["bad/obj/tinyobjloader/line-prim.obj", "bad/obj/tinyobjloader/points-prim.obj", "bad/obj/tobj/lines.obj"] {
+    for f in [
+        "bad/obj/tinyobjloader/line-prim.obj",
+        "bad/obj/tinyobjloader/points-prim.obj",
+        "bad/obj/tobj/lines.obj",
+    ] {
         let (out, pack) = cook_file(f);
         assert_eq!(triangles(&pack), 0, "{f}");
-        assert!(out.report.warnings.iter().any(|w| w.message.contains("ignored")), "{f}: {:?}", out.report.warnings);
+        assert!(
+            out.report
+                .warnings
+                .iter()
+                .any(|w| w.message.contains("ignored")),
+            "{f}: {:?}",
+            out.report.warnings
+        );
     }
     // Faces with fewer than three corners are skipped (here: all of them).
     let (out, pack) = cook_file("bad/obj/tinyobjloader/invalid-face-definition.obj");
     assert_eq!(triangles(&pack), 0);
-    assert!(out.report.warnings.iter().any(|w| w.message.contains("fewer than 3")));
+    assert!(
+        out.report
+            .warnings
+            .iter()
+            .any(|w| w.message.contains("fewer than 3"))
+    );
     // Sparse accessors are applied.
     let (_, pack) = cook_file("bad/gltf/gltf-rs/box_sparse.gltf");
     assert_eq!(triangles(&pack), 12);
@@ -299,12 +431,19 @@ fn oddities_cook_with_warnings() {
 #[test]
 fn ngons_are_triangulated_without_losing_area() {
     // issue-295: quads and n-gons; ear clipping must cover each polygon exactly once.
-    let m = Manifest::open(&data("bad/obj/tinyobjloader/issue-295-trianguation-failure.obj")).unwrap();
+    let m = Manifest::open(&data(
+        "bad/obj/tinyobjloader/issue-295-trianguation-failure.obj",
+    ))
+    .unwrap();
     let src = cook::import::import(&m.meshes[0].source).unwrap();
     assert!(src.polygons > 0);
     let (_, pack) = cook_to_pack(&m);
     let v = cook::validate::validate_pack(&pack);
-    assert!(v.findings.iter().all(|f| f.code != "degenerate-triangles"), "{:?}", v.findings);
+    assert!(
+        v.findings.iter().all(|f| f.code != "degenerate-triangles"),
+        "{:?}",
+        v.findings
+    );
     let area: f64 = v.materials.iter().map(|r| r.area).sum();
     // Every polygon of the file lies on an axis-aligned unit grid: 6 faces of a 1x1x3 box.
     assert!((area - 14.0).abs() < 1e-3, "area {area}");
@@ -315,13 +454,19 @@ fn cooking_is_deterministic() {
     let m = Manifest::open(&data("classic/spot.obj")).unwrap();
     let a = cook::cook(&m, &Settings::default()).unwrap();
     let b = cook::cook(&m, &Settings::default()).unwrap();
-    assert_eq!(pack::encode(a.toc, &a.data).unwrap(), pack::encode(b.toc, &b.data).unwrap());
+    assert_eq!(
+        pack::encode(a.toc, &a.data).unwrap(),
+        pack::encode(b.toc, &b.data).unwrap()
+    );
 }
 
 #[test]
 fn fifo_and_quantized_cooks_are_valid() {
     let m = Manifest::open(&data("classic/spot.obj")).unwrap();
-    let mut s = Settings { quantize: true, ..Default::default() };
+    let mut s = Settings {
+        quantize: true,
+        ..Default::default()
+    };
     s.mesh.cache = cook::CacheMode::Fifo;
     let out = cook::cook(&m, &s).unwrap();
     let bytes = pack::encode(out.toc.clone(), &out.data).unwrap();
@@ -329,11 +474,23 @@ fn fifo_and_quantized_cooks_are_valid() {
     check_material_ids(&pack);
     let q = out.report.meshes[0].quantization.unwrap();
     let m0 = &pack.toc().meshes[0];
-    let extent = (0..3).map(|k| m0.bounds_max[k] - m0.bounds_min[k]).fold(0.0f32, f32::max);
-    assert!(q.position <= extent / 65535.0, "position error {} for extent {extent}", q.position);
+    let extent = (0..3)
+        .map(|k| m0.bounds_max[k] - m0.bounds_min[k])
+        .fold(0.0f32, f32::max);
+    assert!(
+        q.position <= extent / 65535.0,
+        "position error {} for extent {extent}",
+        q.position
+    );
     assert!(q.normal_deg < 0.01 && q.uv <= 0.5 / 65535.0 + 1e-7, "{q:?}");
     // Spot's UVs leave [0, 1], so they stay 32-bit floats: 20 + 8 + 4 bytes.
     assert_eq!(m0.layout.stride, 32);
-    assert_eq!(m0.layout.attribute(pack::Semantic::TexCoord).unwrap().format, pack::AttributeFormat::Float32x2);
+    assert_eq!(
+        m0.layout
+            .attribute(pack::Semantic::TexCoord)
+            .unwrap()
+            .format,
+        pack::AttributeFormat::Float32x2
+    );
     assert!(out.report.meshes[0].stats.acmr_out < 0.8);
 }

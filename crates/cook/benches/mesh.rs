@@ -9,7 +9,8 @@ use std::path::{Path, PathBuf};
 use criterion::{BenchmarkId, Criterion, Throughput, criterion_group, criterion_main};
 
 fn bunny() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("../../tests/data/third_party/classic/stanford-bunny.obj")
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("../../tests/data/third_party/classic/stanford-bunny.obj")
 }
 
 /// A wavy height field of `n` x `n` quads split into triangles, as OBJ text.
@@ -45,12 +46,18 @@ fn end_to_end(c: &mut Criterion) {
     let dir = tempfile::tempdir().unwrap();
     let big = dir.path().join("grid-1m.obj");
     std::fs::write(&big, generated_obj(707)).unwrap();
-    let inputs = [("stanford bunny", bunny()), ("generated 1M-triangle grid", big)];
+    let inputs = [
+        ("stanford bunny", bunny()),
+        ("generated 1M-triangle grid", big),
+    ];
     let out = dir.path().join("out.pack");
 
     let mut group = c.benchmark_group("obj to pack");
     for (name, path) in &inputs {
-        for (mode, cache) in [("full", cook::CacheMode::Full), ("fifo", cook::CacheMode::Fifo)] {
+        for (mode, cache) in [
+            ("full", cook::CacheMode::Full),
+            ("fifo", cook::CacheMode::Fifo),
+        ] {
             let mut settings = cook::Settings::default();
             settings.mesh.cache = cache;
             let cooked = cook_and_write(path, &out, &settings);
@@ -60,9 +67,11 @@ fn end_to_end(c: &mut Criterion) {
                 s.triangles_out, s.acmr_in, s.acmr_out, s.overfetch
             );
             group.throughput(Throughput::Elements(s.triangles_in as u64));
-            group.bench_with_input(BenchmarkId::new(format!("{name}, {mode} cache"), s.triangles_in), path, |b, p| {
-                b.iter(|| cook_and_write(p, &out, &settings))
-            });
+            group.bench_with_input(
+                BenchmarkId::new(format!("{name}, {mode} cache"), s.triangles_in),
+                path,
+                |b, p| b.iter(|| cook_and_write(p, &out, &settings)),
+            );
         }
     }
     group.finish();

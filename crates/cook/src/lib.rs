@@ -34,12 +34,23 @@ pub enum CookError {
     },
     #[error(transparent)]
     Pack(#[from] pack::PackError),
+    /// An image could not be read or cooked; the message names the file.
+    #[error(transparent)]
+    Texture(#[from] texture::TextureError),
     /// The manifest is malformed: syntax, unknown key, wrong type, bad value, missing file.
     #[error("{}{}: {message}", path.display(), line.map(|l| format!(":{l}")).unwrap_or_default())]
-    Manifest { path: PathBuf, line: Option<usize>, message: String },
+    Manifest {
+        path: PathBuf,
+        line: Option<usize>,
+        message: String,
+    },
     /// A source file (mesh, material library, image) is malformed.
     #[error("{}{}: {message}", path.display(), line.map(|l| format!(":{l}")).unwrap_or_default())]
-    Source { path: PathBuf, line: Option<usize>, message: String },
+    Source {
+        path: PathBuf,
+        line: Option<usize>,
+        message: String,
+    },
 }
 
 impl CookError {
@@ -49,6 +60,7 @@ impl CookError {
         match self {
             CookError::Io { .. } => true,
             CookError::Pack(p) => p.is_io(),
+            CookError::Texture(t) => t.is_io(),
             CookError::Manifest { .. } | CookError::Source { .. } => false,
         }
     }
@@ -59,6 +71,7 @@ impl CookError {
             CookError::Io { path, .. }
             | CookError::Manifest { path, .. }
             | CookError::Source { path, .. } => Some(path),
+            CookError::Texture(t) => t.path(),
             CookError::Pack(_) => None,
         }
     }
@@ -76,7 +89,11 @@ pub struct Settings {
 
 impl Default for Settings {
     fn default() -> Self {
-        Self { mesh: MeshSettings::default(), quantize: false, textures: true }
+        Self {
+            mesh: MeshSettings::default(),
+            quantize: false,
+            textures: true,
+        }
     }
 }
 
@@ -165,7 +182,10 @@ pub fn material_needs(tagging: &tag::Tagging) -> Vec<mesh::MaterialNeeds> {
 }
 
 fn tri_materials(src: &import::Imported, part_material: &[u16]) -> Vec<u16> {
-    src.tri_part.iter().map(|&p| part_material[p as usize]).collect()
+    src.tri_part
+        .iter()
+        .map(|&p| part_material[p as usize])
+        .collect()
 }
 
 /// Gathers each window material's triangles from the processed meshes.
@@ -181,7 +201,8 @@ pub fn window_geometry(
         let mut g = windows::WindowGeometry::default();
         for p in processed {
             for r in p.ranges.iter().filter(|r| r.material as usize == mi) {
-                let span = &p.indices[r.first_index as usize..(r.first_index + r.index_count) as usize];
+                let span =
+                    &p.indices[r.first_index as usize..(r.first_index + r.index_count) as usize];
                 let mut local = std::collections::HashMap::new();
                 for t in span.chunks_exact(3) {
                     let tri = [t[0], t[1], t[2]].map(|i| {
@@ -256,38 +277,69 @@ pub fn cook(manifest: &Manifest, settings: &Settings) -> Result<CookOutput, Cook
         }
     }
     for w in &manifest.windows {
-        let found = tagging.materials.iter().find(|m| m.material.name == w.material);
+        let found = tagging
+            .materials
+            .iter()
+            .find(|m| m.material.name == w.material);
         match found {
             None => report.warnings.push(Warning::new(
                 &manifest.path,
                 Some(w.line.0),
-                format!("[[window]] names material {:?}, which no triangle uses", w.material),
+                format!(
+                    "[[window]] names material {:?}, which no triangle uses",
+                    w.material
+                ),
             )),
             Some(m) if !m.material.class.is_window() => report.warnings.push(Warning::new(
                 &manifest.path,
                 Some(w.line.0),
-                format!("[[window]] material {:?} is tagged {}, not a window class", w.material, m.material.class),
+                format!(
+                    "[[window]] material {:?} is tagged {}, not a window class",
+                    w.material, m.material.class
+                ),
             )),
             Some(_) => {}
         }
     }
     lap(&mut report, "windows");
 
-    // 5. Textures.
-    let (textures, texture_data) = textures::cook_textures(manifest, &mut tagging, settings, &mut report)?;
+    // 5. Textures: material maps, window designs, normal maps and projectors, background.
+    let floor_y = processed_floor(&tagging, &processed);
+    let (textures, texture_data, panorama) = textures::cook_textures(
+        manifest,
+        &mut tagging,
+        &window_frames,
+        floor_y,
+        settings,
+        &mut report,
+    )?;
     lap(&mut report, "textures");
 
     // 6. Assemble the TOC and bulk data.
     let mut toc = pack::Toc {
-        materials: tagging.materials.iter().map(|m| m.material.clone()).collect(),
+        materials: tagging
+            .materials
+            .iter()
+            .map(|m| m.material.clone())
+            .collect(),
         textures,
         windows: window_frames,
-        light: manifest.light.as_ref().map(|l| pack::Light { kind: l.kind.clone(), colour: l.colour, intensity: l.intensity }),
+        light: manifest.light.as_ref().map(|l| pack::Light {
+            kind: l.kind.clone(),
+            colour: l.colour,
+            intensity: l.intensity,
+        }),
         cameras: manifest.cameras.clone(),
-        background: pack::Background { colour: manifest.background.colour, panorama: None },
+        background: pack::Background {
+            colour: manifest.background.colour,
+            panorama,
+        },
         meshes: Vec::new(),
     };
-    let mut data = pack::PackData { meshes: Vec::new(), textures: texture_data };
+    let mut data = pack::PackData {
+        meshes: Vec::new(),
+        textures: texture_data,
+    };
     for ((p, (src, import_time)), m) in processed.into_iter().zip(sources).zip(&manifest.meshes) {
         let mut mesh_report = MeshReport {
             name: m.name.clone(),
@@ -300,7 +352,11 @@ pub fn cook(manifest: &Manifest, settings: &Settings) -> Result<CookOutput, Cook
             quantization: None,
         };
         if p.indices.is_empty() {
-            report.warnings.push(Warning::new(&m.source, None, "no triangles left to cook; mesh skipped"));
+            report.warnings.push(Warning::new(
+                &m.source,
+                None,
+                "no triangles left to cook; mesh skipped",
+            ));
             report.meshes.push(mesh_report);
             continue;
         }
@@ -313,13 +369,19 @@ pub fn cook(manifest: &Manifest, settings: &Settings) -> Result<CookOutput, Cook
             });
             (q.layout, q.bytes)
         } else {
-            (pack::VertexLayout::standard(), bytemuck::cast_slice(&p.vertices).to_vec())
+            (
+                pack::VertexLayout::standard(),
+                bytemuck::cast_slice(&p.vertices).to_vec(),
+            )
         };
         let (index_format, indices) = if p.vertices.len() <= u16::MAX as usize + 1 {
             let v: Vec<u16> = p.indices.iter().map(|&i| i as u16).collect();
             (pack::IndexFormat::U16, bytemuck::cast_slice(&v).to_vec())
         } else {
-            (pack::IndexFormat::U32, bytemuck::cast_slice(&p.indices).to_vec())
+            (
+                pack::IndexFormat::U32,
+                bytemuck::cast_slice(&p.indices).to_vec(),
+            )
         };
         mesh_report.vertex_bytes = vertices.len();
         mesh_report.index_bytes = indices.len();
@@ -340,6 +402,22 @@ pub fn cook(manifest: &Manifest, settings: &Settings) -> Result<CookOutput, Cook
     }
     lap(&mut report, "assemble");
     Ok(CookOutput { toc, data, report })
+}
+
+/// The height of the floor: the lowest point of any floor-class triangle.
+fn processed_floor(tagging: &tag::Tagging, processed: &[mesh::Processed]) -> Option<f32> {
+    let mut y: Option<f32> = None;
+    for p in processed {
+        for r in p.ranges.iter().filter(|r| {
+            tagging.materials[r.material as usize].material.class == pack::MaterialClass::Floor
+        }) {
+            for &i in &p.indices[r.first_index as usize..(r.first_index + r.index_count) as usize] {
+                let v = p.vertices[i as usize].position[1];
+                y = Some(y.map_or(v, |m: f32| m.min(v)));
+            }
+        }
+    }
+    y
 }
 
 fn note_heuristics(sources: &[import::Imported], tagging: &tag::Tagging, report: &mut Report) {

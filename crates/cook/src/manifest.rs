@@ -86,8 +86,13 @@ pub enum NameKind {
 }
 
 impl NameKind {
-    pub const ALL: [NameKind; 5] =
-        [Self::Material, Self::Group, Self::Object, Self::Mesh, Self::Node];
+    pub const ALL: [NameKind; 5] = [
+        Self::Material,
+        Self::Group,
+        Self::Object,
+        Self::Mesh,
+        Self::Node,
+    ];
 
     pub fn name(self) -> &'static str {
         match self {
@@ -277,7 +282,13 @@ struct Source<'a> {
 impl Source<'_> {
     fn line(&self, offset: usize) -> Line {
         let end = offset.min(self.text.len());
-        Line(self.text.as_bytes()[..end].iter().filter(|&&b| b == b'\n').count() + 1)
+        Line(
+            self.text.as_bytes()[..end]
+                .iter()
+                .filter(|&&b| b == b'\n')
+                .count()
+                + 1,
+        )
     }
 
     fn error(&self, offset: usize, message: impl Into<String>) -> CookError {
@@ -289,7 +300,11 @@ impl Source<'_> {
     }
 
     fn at_line(&self, line: Line, message: impl Into<String>) -> CookError {
-        CookError::Manifest { path: self.path.to_path_buf(), line: Some(line.0), message: message.into() }
+        CookError::Manifest {
+            path: self.path.to_path_buf(),
+            line: Some(line.0),
+            message: message.into(),
+        }
     }
 
     fn err_at<T>(&self, span: &Spanned<T>, message: impl Into<String>) -> CookError {
@@ -305,7 +320,11 @@ impl Source<'_> {
             Ok(_) => Err(self.err_at(value, format!("{what} {:?} is not a file", value.get_ref()))),
             Err(e) => Err(self.err_at(
                 value,
-                format!("{what} {:?} cannot be read ({}): {e}", value.get_ref(), path.display()),
+                format!(
+                    "{what} {:?} cannot be read ({}): {e}",
+                    value.get_ref(),
+                    path.display()
+                ),
             )),
         }
     }
@@ -315,7 +334,10 @@ impl Source<'_> {
         if v.is_finite() && v > 0.0 {
             Ok(v)
         } else {
-            Err(self.err_at(value, format!("{what} is {v} but must be a positive number")))
+            Err(self.err_at(
+                value,
+                format!("{what} is {v} but must be a positive number"),
+            ))
         }
     }
 
@@ -325,13 +347,21 @@ impl Source<'_> {
         what: &str,
         options: &[(&str, T)],
     ) -> Result<T, CookError> {
-        options.iter().find(|(n, _)| *n == value.get_ref()).map(|&(_, v)| v).ok_or_else(|| {
-            let names: Vec<_> = options.iter().map(|(n, _)| format!("{n:?}")).collect();
-            self.err_at(
-                value,
-                format!("{what} is {:?} but must be one of {}", value.get_ref(), names.join(", ")),
-            )
-        })
+        options
+            .iter()
+            .find(|(n, _)| *n == value.get_ref())
+            .map(|&(_, v)| v)
+            .ok_or_else(|| {
+                let names: Vec<_> = options.iter().map(|(n, _)| format!("{n:?}")).collect();
+                self.err_at(
+                    value,
+                    format!(
+                        "{what} is {:?} but must be one of {}",
+                        value.get_ref(),
+                        names.join(", ")
+                    ),
+                )
+            })
     }
 }
 
@@ -350,7 +380,10 @@ impl Manifest {
                     message: "not UTF-8 text".into(),
                 }
             } else {
-                CookError::Io { path: path.to_path_buf(), source }
+                CookError::Io {
+                    path: path.to_path_buf(),
+                    source,
+                }
             }
         })?;
         Self::parse(path, &text)
@@ -368,7 +401,10 @@ impl Manifest {
         let scene = match raw.scene {
             Some(s) => SceneInfo {
                 name: s.name,
-                max_error: s.max_error.map(|m| src.positive(&m, "max_error")).transpose()?,
+                max_error: s
+                    .max_error
+                    .map(|m| src.positive(&m, "max_error"))
+                    .transpose()?,
             },
             None => SceneInfo::default(),
         };
@@ -405,7 +441,10 @@ impl Manifest {
                 return Err(src.err_at(s, format!("scale {scale:?} must be finite and non-zero")));
             }
             let name = m.name.clone().unwrap_or_else(|| {
-                source.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_default()
+                source
+                    .file_stem()
+                    .map(|s| s.to_string_lossy().into_owned())
+                    .unwrap_or_default()
             });
             meshes.push(MeshSource {
                 source,
@@ -432,11 +471,17 @@ impl Manifest {
                 return Err(src.err_at(&r.pattern, format!("invalid glob: {e}")));
             }
             let class = pack::MaterialClass::from_name(r.class.get_ref()).ok_or_else(|| {
-                let names: Vec<_> =
-                    pack::MaterialClass::ALL.iter().map(|c| format!("{:?}", c.name())).collect();
+                let names: Vec<_> = pack::MaterialClass::ALL
+                    .iter()
+                    .map(|c| format!("{:?}", c.name()))
+                    .collect();
                 src.err_at(
                     &r.class,
-                    format!("class is {:?} but must be one of {}", r.class.get_ref(), names.join(", ")),
+                    format!(
+                        "class is {:?} but must be one of {}",
+                        r.class.get_ref(),
+                        names.join(", ")
+                    ),
                 )
             })?;
             let on = match &r.on {
@@ -446,7 +491,11 @@ impl Manifest {
                 Some(on) => on.get_ref().clone(),
                 None => NameKind::ALL.to_vec(),
             };
-            for (v, what) in [(&r.diffuse, "diffuse"), (&r.specular, "specular"), (&r.emissive, "emissive")] {
+            for (v, what) in [
+                (&r.diffuse, "diffuse"),
+                (&r.specular, "specular"),
+                (&r.emissive, "emissive"),
+            ] {
                 if let Some(c) = v
                     && !finite3(*c)
                 {
@@ -462,8 +511,16 @@ impl Manifest {
                 specular: r.specular,
                 shininess: r.shininess,
                 emissive: r.emissive,
-                texture: r.texture.as_ref().map(|t| src.file(t, "texture")).transpose()?,
-                normal_map: r.normal_map.as_ref().map(|t| src.file(t, "normal_map")).transpose()?,
+                texture: r
+                    .texture
+                    .as_ref()
+                    .map(|t| src.file(t, "texture"))
+                    .transpose()?,
+                normal_map: r
+                    .normal_map
+                    .as_ref()
+                    .map(|t| src.file(t, "normal_map"))
+                    .transpose()?,
                 line,
             });
         }
@@ -475,7 +532,10 @@ impl Manifest {
             if let Some(prev) = windows.iter().find(|p| p.material == w.material) {
                 return Err(src.at_line(
                     line,
-                    format!("window material {:?} is already described at line {}", w.material, prev.line.0),
+                    format!(
+                        "window material {:?} is already described at line {}",
+                        w.material, prev.line.0
+                    ),
                 ));
             }
             windows.push(WindowDesign {
@@ -485,11 +545,18 @@ impl Manifest {
                     Some(c) => src.choice(
                         c,
                         "colour_space",
-                        &[("srgb", pack::ColourSpace::Srgb), ("linear", pack::ColourSpace::Linear)],
+                        &[
+                            ("srgb", pack::ColourSpace::Srgb),
+                            ("linear", pack::ColourSpace::Linear),
+                        ],
                     )?,
                     None => pack::ColourSpace::Srgb,
                 },
-                normal_map: w.normal_map.as_ref().map(|t| src.file(t, "normal_map")).transpose()?,
+                normal_map: w
+                    .normal_map
+                    .as_ref()
+                    .map(|t| src.file(t, "normal_map"))
+                    .transpose()?,
                 normal_encoding: match &w.normal_encoding {
                     Some(c) => src.choice(
                         c,
@@ -502,33 +569,68 @@ impl Manifest {
                     Some(c) => src.choice(
                         c,
                         "green",
-                        &[("opengl", GreenAxis::OpenGl), ("directx", GreenAxis::DirectX)],
+                        &[
+                            ("opengl", GreenAxis::OpenGl),
+                            ("directx", GreenAxis::DirectX),
+                        ],
                     )?,
                     None => GreenAxis::OpenGl,
                 },
-                blur_sigma: w.blur_sigma.as_ref().map(|s| src.positive(s, "blur_sigma")).transpose()?,
+                blur_sigma: w
+                    .blur_sigma
+                    .as_ref()
+                    .map(|s| src.positive(s, "blur_sigma"))
+                    .transpose()?,
                 line,
             });
         }
 
-        let light = raw.light.as_ref().map(|l| parse_light(&src, l)).transpose()?;
+        let light = raw
+            .light
+            .as_ref()
+            .map(|l| parse_light(&src, l))
+            .transpose()?;
 
         let mut cameras = Vec::new();
         for c in raw.camera {
-            let fov_y = c.fov_y_deg.as_ref().map(|f| src.positive(f, "fov_y_deg")).transpose()?.unwrap_or(60.0);
+            let fov_y = c
+                .fov_y_deg
+                .as_ref()
+                .map(|f| src.positive(f, "fov_y_deg"))
+                .transpose()?
+                .unwrap_or(60.0);
             if let Some(f) = &c.fov_y_deg
                 && fov_y >= 180.0
             {
                 return Err(src.err_at(f, format!("fov_y_deg is {fov_y} but must be below 180")));
             }
-            let near = c.near.as_ref().map(|f| src.positive(f, "near")).transpose()?.unwrap_or(0.05);
-            let far = c.far.as_ref().map(|f| src.positive(f, "far")).transpose()?.unwrap_or(500.0);
+            let near = c
+                .near
+                .as_ref()
+                .map(|f| src.positive(f, "near"))
+                .transpose()?
+                .unwrap_or(0.05);
+            let far = c
+                .far
+                .as_ref()
+                .map(|f| src.positive(f, "far"))
+                .transpose()?
+                .unwrap_or(500.0);
             if far <= near {
-                let at = c.far.as_ref().or(c.near.as_ref()).map(|s| s.span().start).unwrap_or(0);
-                return Err(src.error(at, format!("camera {:?}: far {far} must exceed near {near}", c.name)));
+                let at = c
+                    .far
+                    .as_ref()
+                    .or(c.near.as_ref())
+                    .map(|s| s.span().start)
+                    .unwrap_or(0);
+                return Err(src.error(
+                    at,
+                    format!("camera {:?}: far {far} must exceed near {near}", c.name),
+                ));
             }
             let up = c.up.unwrap_or([0.0, 1.0, 0.0]);
-            if !finite3(c.position) || !finite3(c.target) || !finite3(up) || c.position == c.target {
+            if !finite3(c.position) || !finite3(c.target) || !finite3(up) || c.position == c.target
+            {
                 return Err(CookError::Manifest {
                     path: path.to_path_buf(),
                     line: None,
@@ -552,7 +654,11 @@ impl Manifest {
         let background = match raw.background {
             Some(b) => Background {
                 colour: b.colour.unwrap_or([0.0; 3]),
-                panorama: b.panorama.as_ref().map(|p| src.file(p, "panorama")).transpose()?,
+                panorama: b
+                    .panorama
+                    .as_ref()
+                    .map(|p| src.file(p, "panorama"))
+                    .transpose()?,
             },
             None => Background::default(),
         };
@@ -574,11 +680,20 @@ impl Manifest {
     /// A manifest for a bare OBJ/glTF file: no rules (tagging falls back to name heuristics),
     /// no windows designs, no light or cameras.
     pub fn from_mesh_file(path: &Path) -> Result<Manifest, CookError> {
-        std::fs::metadata(path).map_err(|source| CookError::Io { path: path.to_path_buf(), source })?;
-        let name = path.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_default();
+        std::fs::metadata(path).map_err(|source| CookError::Io {
+            path: path.to_path_buf(),
+            source,
+        })?;
+        let name = path
+            .file_stem()
+            .map(|s| s.to_string_lossy().into_owned())
+            .unwrap_or_default();
         Ok(Manifest {
             path: path.to_path_buf(),
-            scene: SceneInfo { name: Some(name.clone()), max_error: None },
+            scene: SceneInfo {
+                name: Some(name.clone()),
+                max_error: None,
+            },
             textures: TextureSettings::default(),
             meshes: vec![MeshSource {
                 source: path.to_path_buf(),
@@ -599,8 +714,14 @@ impl Manifest {
 
     /// A manifest for `path`: `.toml` files are manifests, anything else a bare mesh.
     pub fn open(path: &Path) -> Result<Manifest, CookError> {
-        let is_toml = path.extension().is_some_and(|e| e.eq_ignore_ascii_case("toml"));
-        if is_toml { Self::load(path) } else { Self::from_mesh_file(path) }
+        let is_toml = path
+            .extension()
+            .is_some_and(|e| e.eq_ignore_ascii_case("toml"));
+        if is_toml {
+            Self::load(path)
+        } else {
+            Self::from_mesh_file(path)
+        }
     }
 }
 
@@ -611,9 +732,15 @@ fn parse_light(src: &Source<'_>, l: &Spanned<RawLight>) -> Result<Light, CookErr
         Point,
         Directional,
     }
-    let kind = src.choice(&raw.kind, "light type", &[("point", Kind::Point), ("directional", Kind::Directional)])?;
+    let kind = src.choice(
+        &raw.kind,
+        "light type",
+        &[("point", Kind::Point), ("directional", Kind::Directional)],
+    )?;
     let missing = |what: &str, t: &str| src.err_at(l, format!("a {t} light needs `{what}`"));
-    let stray = |s: usize, what: &str, t: &str| src.error(s, format!("`{what}` does not apply to a {t} light"));
+    let stray = |s: usize, what: &str, t: &str| {
+        src.error(s, format!("`{what}` does not apply to a {t} light"))
+    };
     let kind = match kind {
         Kind::Directional => {
             if let Some(p) = &raw.position {
@@ -622,10 +749,19 @@ fn parse_light(src: &Source<'_>, l: &Spanned<RawLight>) -> Result<Light, CookErr
             if let Some(p) = &raw.radius {
                 return Err(stray(p.span().start, "radius", "directional"));
             }
-            let d = raw.direction.as_ref().ok_or_else(|| missing("direction", "directional"))?;
+            let d = raw
+                .direction
+                .as_ref()
+                .ok_or_else(|| missing("direction", "directional"))?;
             let v = glam::Vec3::from(*d.get_ref());
             if !v.is_finite() || v.length() < 1e-6 {
-                return Err(src.err_at(d, format!("direction {:?} must be a finite non-zero vector", d.get_ref())));
+                return Err(src.err_at(
+                    d,
+                    format!(
+                        "direction {:?} must be a finite non-zero vector",
+                        d.get_ref()
+                    ),
+                ));
             }
             let size = raw
                 .angular_size_deg
@@ -645,18 +781,218 @@ fn parse_light(src: &Source<'_>, l: &Spanned<RawLight>) -> Result<Light, CookErr
             if let Some(p) = &raw.angular_size_deg {
                 return Err(stray(p.span().start, "angular_size_deg", "point"));
             }
-            let p = raw.position.as_ref().ok_or_else(|| missing("position", "point"))?;
+            let p = raw
+                .position
+                .as_ref()
+                .ok_or_else(|| missing("position", "point"))?;
             if !finite3(*p.get_ref()) {
                 return Err(src.err_at(p, "position must be finite"));
             }
-            let radius = raw.radius.as_ref().ok_or_else(|| missing("radius", "point"))?;
-            pack::LightKind::Point { position: *p.get_ref(), radius: src.positive(radius, "radius")? }
+            let radius = raw
+                .radius
+                .as_ref()
+                .ok_or_else(|| missing("radius", "point"))?;
+            pack::LightKind::Point {
+                position: *p.get_ref(),
+                radius: src.positive(radius, "radius")?,
+            }
         }
     };
     let colour = raw.colour.unwrap_or([1.0; 3]);
     if !finite3(colour) || colour.iter().any(|&c| c < 0.0) {
-        return Err(src.err_at(l, format!("light colour {colour:?} must be finite and non-negative")));
+        return Err(src.err_at(
+            l,
+            format!("light colour {colour:?} must be finite and non-negative"),
+        ));
     }
-    let intensity = raw.intensity.as_ref().map(|i| src.positive(i, "intensity")).transpose()?.unwrap_or(1.0);
-    Ok(Light { kind, colour, intensity })
+    let intensity = raw
+        .intensity
+        .as_ref()
+        .map(|i| src.positive(i, "intensity"))
+        .transpose()?
+        .unwrap_or(1.0);
+    Ok(Light {
+        kind,
+        colour,
+        intensity,
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A directory with the files the examples refer to.
+    fn dir() -> tempfile::TempDir {
+        let d = tempfile::tempdir().unwrap();
+        for f in ["corridor.obj", "lancet.png", "hammered.png"] {
+            std::fs::write(d.path().join(f), b"").unwrap();
+        }
+        d
+    }
+
+    fn parse(d: &tempfile::TempDir, text: &str) -> Result<Manifest, CookError> {
+        Manifest::parse(&d.path().join("scene.toml"), text)
+    }
+
+    fn line_of(e: CookError) -> (Option<usize>, String) {
+        match e {
+            CookError::Manifest { line, message, .. } => (line, message),
+            other => panic!("not a manifest error: {other}"),
+        }
+    }
+
+    #[test]
+    fn documented_example_parses() {
+        // The example of docs/scene-manifest.md with its file names.
+        let d = dir();
+        let text = r#"
+[scene]
+name = "corridor"
+max_error = 0.55
+
+[textures]
+mip_filter = "lanczos3"
+
+[[mesh]]
+source = "corridor.obj"
+name = "corridor"
+translate = [0.0, 1.0, 0.0]
+rotate_deg = [0.0, 90.0, 0.0]
+scale = [2.0, 2.0, 2.0]
+
+[[rule]]
+match = "Floor*"
+on = ["material"]
+class = "floor"
+material = "floor"
+diffuse = [0.6, 0.55, 0.5]
+specular = [0.05, 0.05, 0.05]
+shininess = 16.0
+emissive = [0.0, 0.0, 0.0]
+
+[[window]]
+material = "lancet_1"
+design = "lancet.png"
+colour_space = "srgb"
+normal_map = "hammered.png"
+normal_encoding = "rg"
+green = "directx"
+blur_sigma = 6.0
+
+[light]
+type = "point"
+position = [10.0, 8.0, 0.0]
+radius = 0.25
+colour = [1.0, 0.95, 0.85]
+intensity = 4.0
+
+[[camera]]
+name = "nave"
+position = [0.0, 1.7, 18.0]
+target = [0.0, 2.5, 0.0]
+
+[background]
+colour = [0.35, 0.5, 0.8]
+"#;
+        let m = parse(&d, text).unwrap();
+        assert_eq!(m.scene.name.as_deref(), Some("corridor"));
+        assert_eq!(m.textures.mip_filter, MipFilter::Lanczos3);
+        assert_eq!(m.meshes[0].scale, [2.0; 3]);
+        assert_eq!(m.meshes[0].line, Line(9));
+        let t = m.meshes[0].transform();
+        let p = t.transform_point3(glam::Vec3::X);
+        assert!((p - glam::Vec3::new(0.0, 1.0, -2.0)).length() < 1e-5, "{p}");
+        assert_eq!(m.rules[0].class, pack::MaterialClass::Floor);
+        assert_eq!(m.rules[0].on, vec![NameKind::Material]);
+        assert_eq!(m.windows[0].normal_encoding, NormalEncoding::Rg);
+        assert_eq!(m.windows[0].green, GreenAxis::DirectX);
+        assert_eq!(
+            m.light.as_ref().unwrap().kind,
+            pack::LightKind::Point {
+                position: [10.0, 8.0, 0.0],
+                radius: 0.25
+            }
+        );
+        assert_eq!(m.cameras[0].fov_y, 60.0);
+        assert_eq!(m.cameras[0].up, [0.0, 1.0, 0.0]);
+    }
+
+    #[test]
+    fn errors_name_the_line() {
+        let d = dir();
+        let mesh = "[[mesh]]\nsource = \"corridor.obj\"\n";
+        let cases = [
+            (format!("{mesh}bogus = 1\n"), 3, "unknown field"),
+            (format!("{mesh}scale = \"x\"\n"), 3, ""),
+            (
+                format!("{mesh}\n[[rule]]\nmatch = \"a\"\nclass = \"ceiling\"\n"),
+                6,
+                "ceiling",
+            ),
+            (
+                format!("{mesh}\n[[rule]]\nmatch = \"a[\"\nclass = \"wall\"\n"),
+                5,
+                "glob",
+            ),
+            (
+                format!("{mesh}\n[[rule]]\nmatch = \"a\"\non = [\"texture\"]\nclass = \"wall\"\n"),
+                6,
+                "texture",
+            ),
+            (
+                "[[mesh]]\nsource = \"missing.obj\"\n".to_string(),
+                2,
+                "missing.obj",
+            ),
+            (
+                format!("{mesh}[[window]]\nmaterial = \"w\"\ndesign = \"nope.png\"\n"),
+                5,
+                "nope.png",
+            ),
+            (
+                format!("{mesh}[light]\ntype = \"directional\"\ndirection = [0.0, 0.0, 0.0]\n"),
+                5,
+                "non-zero",
+            ),
+            (
+                format!(
+                    "{mesh}[light]\ntype = \"directional\"\ndirection = [0.0, -1.0, 0.0]\nradius = 1.0\n"
+                ),
+                6,
+                "radius",
+            ),
+            (format!("{mesh}[light]\ntype = \"sun\"\n"), 4, "light type"),
+            (
+                format!(
+                    "{mesh}[[camera]]\nname = \"c\"\nposition = [0.0, 0.0, 0.0]\ntarget = [0.0, 0.0, 1.0]\nfov_y_deg = -5.0\n"
+                ),
+                7,
+                "fov_y_deg",
+            ),
+            (
+                format!("{mesh}[textures]\nmip_filter = \"cubic\"\n"),
+                4,
+                "cubic",
+            ),
+            (format!("{mesh}[scene\n"), 3, ""),
+        ];
+        for (text, line, word) in cases {
+            let (l, msg) = line_of(parse(&d, &text).unwrap_err());
+            assert_eq!(l, Some(line), "{text}\n→ {msg}");
+            assert!(msg.contains(word), "{text}\n→ {msg}");
+        }
+        let (l, msg) = line_of(parse(&d, "[scene]\nname = \"x\"\n").unwrap_err());
+        assert_eq!(l, None);
+        assert!(msg.contains("[[mesh]]"));
+    }
+
+    #[test]
+    fn manifest_errors_display_path_and_line() {
+        let d = dir();
+        let e = parse(&d, "[[mesh]]\nsource = \"corridor.obj\"\nextra = 1\n").unwrap_err();
+        assert!(!e.is_io());
+        let s = e.to_string();
+        assert!(s.contains("scene.toml:3: "), "{s}");
+    }
 }

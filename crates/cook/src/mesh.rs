@@ -34,7 +34,11 @@ pub struct MeshSettings {
 
 impl Default for MeshSettings {
     fn default() -> Self {
-        Self { cache: CacheMode::Full, overdraw: false, crease_angle_deg: 60.0 }
+        Self {
+            cache: CacheMode::Full,
+            overdraw: false,
+            crease_angle_deg: 60.0,
+        }
     }
 }
 
@@ -80,7 +84,11 @@ fn sub(a: [f32; 3], b: [f32; 3]) -> [f32; 3] {
 }
 
 fn cross(a: [f32; 3], b: [f32; 3]) -> [f32; 3] {
-    [a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]]
+    [
+        a[1] * b[2] - a[2] * b[1],
+        a[2] * b[0] - a[0] * b[2],
+        a[0] * b[1] - a[1] * b[0],
+    ]
 }
 
 fn dot(a: [f32; 3], b: [f32; 3]) -> f32 {
@@ -89,7 +97,11 @@ fn dot(a: [f32; 3], b: [f32; 3]) -> f32 {
 
 fn normalize(a: [f32; 3]) -> [f32; 3] {
     let l = dot(a, a).sqrt();
-    if l > 0.0 && l.is_finite() { [a[0] / l, a[1] / l, a[2] / l] } else { [0.0; 3] }
+    if l > 0.0 && l.is_finite() {
+        [a[0] / l, a[1] / l, a[2] / l]
+    } else {
+        [0.0; 3]
+    }
 }
 
 /// True when the triangle has no area: repeated corners or collinear positions.
@@ -117,7 +129,10 @@ struct Timer {
 
 impl Timer {
     fn new() -> Self {
-        Self { last: Instant::now(), stages: Vec::new() }
+        Self {
+            last: Instant::now(),
+            stages: Vec::new(),
+        }
     }
     fn lap(&mut self, name: &'static str) {
         let now = Instant::now();
@@ -125,6 +140,33 @@ impl Timer {
         self.last = now;
     }
 }
+
+/// FxHash (rustc's hasher): the weld map hashes millions of small fixed-size keys, where
+/// SipHash's DoS resistance buys nothing.
+#[derive(Default, Clone, Copy)]
+struct FxHasher(u64);
+
+impl std::hash::Hasher for FxHasher {
+    fn write(&mut self, bytes: &[u8]) {
+        for b in bytes {
+            self.write_u64(*b as u64);
+        }
+    }
+    fn write_u32(&mut self, v: u32) {
+        self.write_u64(v as u64);
+    }
+    fn write_u64(&mut self, v: u64) {
+        self.0 = (self.0.rotate_left(5) ^ v).wrapping_mul(0x51_7c_c1_b7_27_22_0a_95);
+    }
+    fn write_usize(&mut self, v: usize) {
+        self.write_u64(v as u64);
+    }
+    fn finish(&self) -> u64 {
+        self.0
+    }
+}
+
+type FxBuild = std::hash::BuildHasherDefault<FxHasher>;
 
 /// Angle-weighted vertex normals for the corners that have none, around welded positions;
 /// faces meeting at more than the crease angle do not smooth into each other.
@@ -136,8 +178,10 @@ fn generate_normals(
     crease_cos: f32,
     out: &mut [[f32; 3]],
 ) {
+    use rayon::prelude::*;
     // Weld by value so unwelded sources (one position per glTF corner) still smooth.
-    let mut weld: HashMap<[u32; 3], u32> = HashMap::with_capacity(positions.len());
+    let mut weld: HashMap<[u32; 3], u32, FxBuild> =
+        HashMap::with_capacity_and_hasher(positions.len(), FxBuild::default());
     let canon: Vec<u32> = positions
         .iter()
         .map(|p| {
@@ -147,7 +191,8 @@ fn generate_normals(
         })
         .collect();
     let n = weld.len();
-    // Compressed adjacency: for each welded position, the (triangle, corner) pairs around it.
+    drop(weld);
+    // Compressed adjacency: for each welded position, the corners (3 * triangle + k) around it.
     let mut start = vec![0u32; n + 1];
     for t in tris {
         for &p in t {
@@ -166,33 +211,42 @@ fn generate_normals(
             fill[c] += 1;
         }
     }
-    let weights: Vec<f32> = tris
-        .iter()
-        .flat_map(|t| {
+    drop(fill);
+    let weights: Vec<[f32; 3]> = tris
+        .par_iter()
+        .map(|t| {
             let [a, b, c] = t.map(|i| positions[i as usize]);
-            [corner_angle(a, b, c), corner_angle(b, c, a), corner_angle(c, a, b)]
+            [
+                corner_angle(a, b, c),
+                corner_angle(b, c, a),
+                corner_angle(c, a, b),
+            ]
         })
         .collect();
-    for (ti, t) in tris.iter().enumerate() {
-        let fnrm = face_normals[ti];
-        for (k, &p) in t.iter().enumerate() {
-            let corner = ti * 3 + k;
-            if !need[corner] {
-                continue;
-            }
-            let c = canon[p as usize] as usize;
-            let mut sum = [0.0f32; 3];
-            for &other in &adj[start[c] as usize..start[c + 1] as usize] {
-                let on = face_normals[other as usize / 3];
-                if dot(on, fnrm) >= crease_cos {
-                    let w = weights[other as usize];
-                    sum = [sum[0] + on[0] * w, sum[1] + on[1] * w, sum[2] + on[2] * w];
+    // Each corner sums the faces around it independently, in adjacency order: the result does
+    // not depend on how the work is split between threads.
+    out.par_chunks_mut(3)
+        .zip(need.par_chunks(3))
+        .enumerate()
+        .for_each(|(ti, (out, need))| {
+            let fnrm = face_normals[ti];
+            for k in 0..3 {
+                if !need[k] {
+                    continue;
                 }
+                let c = canon[tris[ti][k] as usize] as usize;
+                let mut sum = [0.0f32; 3];
+                for &other in &adj[start[c] as usize..start[c + 1] as usize] {
+                    let on = face_normals[other as usize / 3];
+                    if dot(on, fnrm) >= crease_cos {
+                        let w = weights[other as usize / 3][other as usize % 3];
+                        sum = [sum[0] + on[0] * w, sum[1] + on[1] * w, sum[2] + on[2] * w];
+                    }
+                }
+                let nrm = normalize(sum);
+                out[k] = if dot(nrm, nrm) > 0.0 { nrm } else { fnrm };
             }
-            let nrm = normalize(sum);
-            out[corner] = if dot(nrm, nrm) > 0.0 { nrm } else { fnrm };
-        }
-    }
+        });
 }
 
 struct Mikk<'a> {
@@ -231,7 +285,10 @@ pub fn process(
     settings: &MeshSettings,
 ) -> Processed {
     let mut timer = Timer::new();
-    let mut stats = MeshStats { triangles_in: src.triangle_count(), ..Default::default() };
+    let mut stats = MeshStats {
+        triangles_in: src.triangle_count(),
+        ..Default::default()
+    };
 
     // Drop degenerate triangles before anything divides by their area.
     let mut keep: Vec<u32> = Vec::with_capacity(src.triangle_count());
@@ -268,7 +325,11 @@ pub fn process(
     for (k, &t) in keep.iter().enumerate() {
         for j in 0..3 {
             let c = src.corners[t as usize * 3 + j];
-            let n = if c.n == NONE { [0.0; 3] } else { normalize(src.normals[c.n as usize]) };
+            let n = if c.n == NONE {
+                [0.0; 3]
+            } else {
+                normalize(src.normals[c.n as usize])
+            };
             if dot(n, n) > 0.0 {
                 normals[k * 3 + j] = n;
             } else {
@@ -279,47 +340,62 @@ pub fn process(
     stats.normals_generated = need.iter().filter(|&&n| n).count();
     if stats.normals_generated > 0 {
         let crease = settings.crease_angle_deg.to_radians().cos();
-        generate_normals(&src.positions, &tris, &face_normals, &need, crease, &mut normals);
+        generate_normals(
+            &src.positions,
+            &tris,
+            &face_normals,
+            &need,
+            crease,
+            &mut normals,
+        );
     }
     timer.lap("normals");
 
-    let mut corners: Vec<StandardVertex> = Vec::with_capacity(tris.len() * 3);
-    for (k, &t) in keep.iter().enumerate() {
-        let m = tri_material[t as usize];
-        for j in 0..3 {
-            let c = src.corners[t as usize * 3 + j];
-            corners.push(StandardVertex {
-                position: src.positions[c.p as usize],
-                normal: normals[k * 3 + j],
-                uv: if c.t == NONE { [0.0; 2] } else { src.uvs[c.t as usize] },
+    // -0.0 becomes +0.0 here, before deduplication compares raw bits.
+    let mut corners: Vec<StandardVertex> = keep
+        .iter()
+        .enumerate()
+        .flat_map(|(k, &t)| {
+            let m = tri_material[t as usize];
+            let c = &src.corners[t as usize * 3..t as usize * 3 + 3];
+            let normals = &normals[k * 3..k * 3 + 3];
+            (0..3).map(move |j| StandardVertex {
+                position: src.positions[c[j].p as usize].map(plus_zero),
+                normal: normals[j].map(plus_zero),
+                uv: if c[j].t == NONE {
+                    [0.0; 2]
+                } else {
+                    src.uvs[c[j].t as usize].map(plus_zero)
+                },
                 tangent: [0.0; 4],
                 material: [m, 0],
-            });
-        }
-    }
+            })
+        })
+        .collect();
+    timer.lap("vertices");
+    let any_tangents = needs.iter().any(|n| n.tangents);
     let tangent_faces: Vec<u32> = keep
         .iter()
+        .filter(|_| any_tangents)
         .enumerate()
         .filter(|&(_, &t)| needs[tri_material[t as usize] as usize].tangents)
         .map(|(k, _)| k as u32)
         .collect();
     stats.tangent_triangles = tangent_faces.len();
     if !tangent_faces.is_empty() {
-        let mut g = Mikk { verts: &mut corners, faces: &tangent_faces };
+        let mut g = Mikk {
+            verts: &mut corners,
+            faces: &tangent_faces,
+        };
         mikktspace::generate_tangents(&mut g);
         for &f in &tangent_faces {
             for v in &mut corners[f as usize * 3..f as usize * 3 + 3] {
                 if !v.tangent.iter().all(|c| c.is_finite()) {
                     v.tangent = [1.0, 0.0, 0.0, 1.0];
                 }
+                v.tangent = v.tangent.map(plus_zero);
             }
         }
-    }
-    for v in &mut corners {
-        v.position = v.position.map(plus_zero);
-        v.normal = v.normal.map(plus_zero);
-        v.uv = v.uv.map(plus_zero);
-        v.tangent = v.tangent.map(plus_zero);
     }
     timer.lap("tangents");
 
@@ -335,23 +411,36 @@ pub fn process(
         let m = tri_material[t as usize];
         match ranges.last_mut() {
             Some(r) if r.material == m => r.index_count += 3,
-            _ => ranges.push(pack::DrawRange { material: m, first_index: (k * 3) as u32, index_count: 3 }),
+            _ => ranges.push(pack::DrawRange {
+                material: m,
+                first_index: (k * 3) as u32,
+                index_count: 3,
+            }),
         }
     }
-    stats.acmr_in = if indices.is_empty() { 0.0 } else { meshopt::analyze_vertex_cache(&indices, vertices.len(), 16, 0, 0).acmr };
+    stats.acmr_in = if indices.is_empty() {
+        0.0
+    } else {
+        meshopt::analyze_vertex_cache(&indices, vertices.len(), 16, 0, 0).acmr
+    };
     for r in &ranges {
         let span = &mut indices[r.first_index as usize..(r.first_index + r.index_count) as usize];
         match settings.cache {
             CacheMode::Full => meshopt::optimize_vertex_cache_in_place(span, vertices.len()),
-            CacheMode::Fifo => meshopt::optimize_vertex_cache_fifo_in_place(span, vertices.len(), 16),
+            CacheMode::Fifo => {
+                meshopt::optimize_vertex_cache_fifo_in_place(span, vertices.len(), 16)
+            }
         }
     }
     timer.lap("vertex cache");
     if settings.overdraw {
         let bytes: &[u8] = bytemuck::cast_slice(&vertices);
-        if let Ok(adapter) = meshopt::VertexDataAdapter::new(bytes, std::mem::size_of::<StandardVertex>(), 0) {
+        if let Ok(adapter) =
+            meshopt::VertexDataAdapter::new(bytes, std::mem::size_of::<StandardVertex>(), 0)
+        {
             for r in ranges.iter().filter(|r| !needs[r.material as usize].window) {
-                let span = &mut indices[r.first_index as usize..(r.first_index + r.index_count) as usize];
+                let span =
+                    &mut indices[r.first_index as usize..(r.first_index + r.index_count) as usize];
                 meshopt::optimize_overdraw_in_place(span, &adapter, 1.05);
             }
         }
@@ -365,8 +454,12 @@ pub fn process(
     stats.vertices_out = vertices.len();
     if !indices.is_empty() {
         stats.acmr_out = meshopt::analyze_vertex_cache(&indices, vertices.len(), 16, 0, 0).acmr;
-        stats.overfetch =
-            meshopt::analyze_vertex_fetch(&indices, vertices.len(), std::mem::size_of::<StandardVertex>()).overfetch;
+        stats.overfetch = meshopt::analyze_vertex_fetch(
+            &indices,
+            vertices.len(),
+            std::mem::size_of::<StandardVertex>(),
+        )
+        .overfetch;
     }
     let mut bounds_min = [f32::INFINITY; 3];
     let mut bounds_max = [f32::NEG_INFINITY; 3];
@@ -381,7 +474,14 @@ pub fn process(
         bounds_max = [0.0; 3];
     }
     stats.stages = timer.stages;
-    Processed { vertices, indices, ranges, bounds_min, bounds_max, stats }
+    Processed {
+        vertices,
+        indices,
+        ranges,
+        bounds_min,
+        bounds_max,
+        stats,
+    }
 }
 
 /// Quantized vertex encoding and the error it introduced.
@@ -415,7 +515,10 @@ fn oct_decode(e: [f32; 2]) -> [f32; 3] {
     let (x, y) = if z >= 0.0 {
         (e[0], e[1])
     } else {
-        ((1.0 - e[1].abs()) * e[0].signum(), (1.0 - e[0].abs()) * e[1].signum())
+        (
+            (1.0 - e[1].abs()) * e[0].signum(),
+            (1.0 - e[0].abs()) * e[1].signum(),
+        )
     };
     normalize([x, y, z])
 }
@@ -435,10 +538,20 @@ fn unorm16(v: f32) -> u16 {
 /// Layout: position `Unorm16x4` at 0 (w unused), normal `Snorm16x2` at 8, tangent `Snorm16x4`
 /// at 12 (octahedral xy, handedness in z, w zero), UV at 20 (`Unorm16x2`, or `Float32x2` with a
 /// 32-byte stride), material `Uint16x2` last.
-pub fn quantize(vertices: &[StandardVertex], bounds_min: [f32; 3], bounds_max: [f32; 3]) -> Quantized {
+pub fn quantize(
+    vertices: &[StandardVertex],
+    bounds_min: [f32; 3],
+    bounds_max: [f32; 3],
+) -> Quantized {
     use pack::{AttributeFormat as F, Semantic as S, VertexAttribute as A};
-    let uv_unorm = vertices.iter().all(|v| v.uv.iter().all(|&c| (0.0..=1.0).contains(&c)));
-    let (uv_format, uv_size) = if uv_unorm { (F::Unorm16x2, 4) } else { (F::Float32x2, 8) };
+    let uv_unorm = vertices
+        .iter()
+        .all(|v| v.uv.iter().all(|&c| (0.0..=1.0).contains(&c)));
+    let (uv_format, uv_size) = if uv_unorm {
+        (F::Unorm16x2, 4)
+    } else {
+        (F::Float32x2, 8)
+    };
     let stride = 20 + uv_size + 4;
     // The GPU reads Unorm16 as q / 65535 in [0, 1], so the scale is the box's full extent.
     let scale: [f32; 3] = std::array::from_fn(|k| {
@@ -448,11 +561,31 @@ pub fn quantize(vertices: &[StandardVertex], bounds_min: [f32; 3], bounds_max: [
     let layout = pack::VertexLayout {
         stride,
         attributes: vec![
-            A { semantic: S::Position, format: F::Unorm16x4, offset: 0 },
-            A { semantic: S::Normal, format: F::Snorm16x2, offset: 8 },
-            A { semantic: S::Tangent, format: F::Snorm16x4, offset: 12 },
-            A { semantic: S::TexCoord, format: uv_format, offset: 20 },
-            A { semantic: S::MaterialId, format: F::Uint16x2, offset: 20 + uv_size },
+            A {
+                semantic: S::Position,
+                format: F::Unorm16x4,
+                offset: 0,
+            },
+            A {
+                semantic: S::Normal,
+                format: F::Snorm16x2,
+                offset: 8,
+            },
+            A {
+                semantic: S::Tangent,
+                format: F::Snorm16x4,
+                offset: 12,
+            },
+            A {
+                semantic: S::TexCoord,
+                format: uv_format,
+                offset: 20,
+            },
+            A {
+                semantic: S::MaterialId,
+                format: F::Uint16x2,
+                offset: 20 + uv_size,
+            },
         ],
         position_offset: bounds_min,
         position_scale: scale,
@@ -460,7 +593,8 @@ pub fn quantize(vertices: &[StandardVertex], bounds_min: [f32; 3], bounds_max: [
     let mut bytes = Vec::with_capacity(vertices.len() * stride as usize);
     let (mut perr, mut nerr, mut uverr) = (0.0f32, 0.0f32, 0.0f32);
     for v in vertices {
-        let q: [u16; 3] = std::array::from_fn(|k| unorm16((v.position[k] - bounds_min[k]) / scale[k]));
+        let q: [u16; 3] =
+            std::array::from_fn(|k| unorm16((v.position[k] - bounds_min[k]) / scale[k]));
         for k in 0..3 {
             let back = bounds_min[k] + scale[k] * (q[k] as f32 / 65535.0);
             perr = perr.max((back - v.position[k]).abs());
@@ -495,7 +629,13 @@ pub fn quantize(vertices: &[StandardVertex], bounds_min: [f32; 3], bounds_max: [
         bytes.extend_from_slice(&v.material[0].to_le_bytes());
         bytes.extend_from_slice(&0u16.to_le_bytes());
     }
-    Quantized { layout, bytes, max_position_error: perr, max_normal_error_deg: nerr, max_uv_error: uverr }
+    Quantized {
+        layout,
+        bytes,
+        max_position_error: perr,
+        max_normal_error_deg: nerr,
+        max_uv_error: uverr,
+    }
 }
 
 #[cfg(test)]
@@ -508,23 +648,46 @@ mod tests {
         let n = tris.len();
         Imported {
             positions,
-            corners: tris.iter().flatten().map(|&p| Corner { p, t: NONE, n: NONE }).collect(),
+            corners: tris
+                .iter()
+                .flatten()
+                .map(|&p| Corner {
+                    p,
+                    t: NONE,
+                    n: NONE,
+                })
+                .collect(),
             tri_part: vec![0; n],
-            parts: vec![Part { names: Default::default(), material: None }],
+            parts: vec![Part {
+                names: Default::default(),
+                material: None,
+            }],
             ..Default::default()
         }
     }
 
-    const OPAQUE: MaterialNeeds = MaterialNeeds { window: false, tangents: false };
-    const WINDOW: MaterialNeeds = MaterialNeeds { window: true, tangents: false };
+    const OPAQUE: MaterialNeeds = MaterialNeeds {
+        window: false,
+        tangents: false,
+    };
+    const WINDOW: MaterialNeeds = MaterialNeeds {
+        window: true,
+        tangents: false,
+    };
 
     #[test]
     fn shared_vertices_are_split_per_material_and_windows_come_last() {
         // Two triangles sharing an edge, different materials; window material has the lower ID.
-        let s = soup(vec![[0., 0., 0.], [1., 0., 0.], [0., 1., 0.], [1., 1., 0.]], vec![[0, 1, 2], [2, 1, 3]]);
+        let s = soup(
+            vec![[0., 0., 0.], [1., 0., 0.], [0., 1., 0.], [1., 1., 0.]],
+            vec![[0, 1, 2], [2, 1, 3]],
+        );
         let p = process(&s, &[0, 1], &[WINDOW, OPAQUE], &MeshSettings::default());
         assert_eq!(p.vertices.len(), 6, "the shared edge must be split");
-        assert_eq!(p.ranges.iter().map(|r| r.material).collect::<Vec<_>>(), vec![1, 0]);
+        assert_eq!(
+            p.ranges.iter().map(|r| r.material).collect::<Vec<_>>(),
+            vec![1, 0]
+        );
         for r in &p.ranges {
             for &i in &p.indices[r.first_index as usize..(r.first_index + r.index_count) as usize] {
                 assert_eq!(p.vertices[i as usize].material[0], r.material);
@@ -537,12 +700,22 @@ mod tests {
     #[test]
     fn negative_zero_is_deduplicated() {
         let s = soup(
-            vec![[0., 0., 0.], [1., 0., 0.], [0., 1., 0.], [-0.0, 0., -0.0], [1., 1., 0.]],
+            vec![
+                [0., 0., 0.],
+                [1., 0., 0.],
+                [0., 1., 0.],
+                [-0.0, 0., -0.0],
+                [1., 1., 0.],
+            ],
             vec![[0, 1, 2], [3, 4, 2]],
         );
         let p = process(&s, &[0, 0], &[OPAQUE], &MeshSettings::default());
         assert_eq!(p.vertices.len(), 4);
-        assert!(p.vertices.iter().all(|v| v.position.iter().all(|c| c.to_bits() != (-0.0f32).to_bits())));
+        assert!(p.vertices.iter().all(|v| {
+            v.position
+                .iter()
+                .all(|c| c.to_bits() != (-0.0f32).to_bits())
+        }));
     }
 
     #[test]
@@ -558,11 +731,18 @@ mod tests {
 
     #[test]
     fn quantization_error_is_bounded() {
-        let s = soup(vec![[0., 0., 0.], [10., 0., 0.], [0., 3., 1.]], vec![[0, 1, 2]]);
+        let s = soup(
+            vec![[0., 0., 0.], [10., 0., 0.], [0., 3., 1.]],
+            vec![[0, 1, 2]],
+        );
         let p = process(&s, &[0], &[OPAQUE], &MeshSettings::default());
         let q = quantize(&p.vertices, p.bounds_min, p.bounds_max);
         assert_eq!(q.bytes.len(), p.vertices.len() * q.layout.stride as usize);
-        assert!(q.max_position_error <= 10.0 / 65535.0 * 0.51, "{}", q.max_position_error);
+        assert!(
+            q.max_position_error <= 10.0 / 65535.0 * 0.51,
+            "{}",
+            q.max_position_error
+        );
         assert!(q.max_normal_error_deg < 0.01, "{}", q.max_normal_error_deg);
     }
 

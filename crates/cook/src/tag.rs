@@ -19,7 +19,11 @@ pub enum Decision {
     /// Index into the manifest's rules.
     Rule(usize),
     /// No rule matched; `keyword` found in the `kind` name `name` chose the class.
-    Heuristic { keyword: &'static str, kind: NameKind, name: String },
+    Heuristic {
+        keyword: &'static str,
+        kind: NameKind,
+        name: String,
+    },
     /// Nothing matched at all: class `other`.
     Unmatched,
 }
@@ -84,14 +88,20 @@ const HEURISTICS: &[(&str, MaterialClass)] = &[
 ];
 
 /// The class the name heuristics give `names`, if any keyword occurs.
-pub fn heuristic(names: &crate::import::Names) -> Option<(&'static str, NameKind, String, MaterialClass)> {
+pub fn heuristic(
+    names: &crate::import::Names,
+) -> Option<(&'static str, NameKind, String, MaterialClass)> {
     for kind in NameKind::ALL {
-        let Some(name) = names.get(kind) else { continue };
+        let Some(name) = names.get(kind) else {
+            continue;
+        };
         let lower = name.to_lowercase();
         for &(keyword, class) in HEURISTICS {
             if lower.contains(keyword) {
                 let class = if class.is_window()
-                    && ["lower", "bottom", "unten", "bas"].iter().any(|k| lower.contains(k))
+                    && ["lower", "bottom", "unten", "bas"]
+                        .iter()
+                        .any(|k| lower.contains(k))
                 {
                     MaterialClass::WindowLower
                 } else {
@@ -129,7 +139,10 @@ fn compile(manifest: &Manifest) -> Result<Vec<CompiledRule<'_>>, CookError> {
 
 impl CompiledRule<'_> {
     fn matches(&self, names: &crate::import::Names) -> bool {
-        self.rule.on.iter().any(|&k| names.get(k).is_some_and(|n| self.glob.is_match(n)))
+        self.rule
+            .on
+            .iter()
+            .any(|&k| names.get(k).is_some_and(|n| self.glob.is_match(n)))
     }
 }
 
@@ -160,7 +173,11 @@ pub fn tag(manifest: &Manifest, sources: &[Imported]) -> Result<Tagging, CookErr
                         .map(|r| r.rule.line.0)
                         .collect();
                     if lines.len() > 1 {
-                        out.ambiguities.push(Ambiguity { kind, name: n.to_string(), rule_lines: lines });
+                        out.ambiguities.push(Ambiguity {
+                            kind,
+                            name: n.to_string(),
+                            rule_lines: lines,
+                        });
                     }
                 }
             }
@@ -175,7 +192,14 @@ pub fn tag(manifest: &Manifest, sources: &[Imported]) -> Result<Tagging, CookErr
             let (decision, class) = match rule {
                 Some(r) => (Decision::Rule(r), rules[r].rule.class),
                 None => match heuristic(&part.names) {
-                    Some((keyword, kind, name, class)) => (Decision::Heuristic { keyword, kind, name }, class),
+                    Some((keyword, kind, name, class)) => (
+                        Decision::Heuristic {
+                            keyword,
+                            kind,
+                            name,
+                        },
+                        class,
+                    ),
                     None => (Decision::Unmatched, MaterialClass::Other),
                 },
             };
@@ -199,8 +223,14 @@ pub fn tag(manifest: &Manifest, sources: &[Imported]) -> Result<Tagging, CookErr
                         });
                     }
                     let taken = out.materials.iter().any(|m| m.material.name == base_name);
-                    let name = if taken { format!("{base_name}.{}", class.name()) } else { base_name };
-                    let base = source_material.cloned().unwrap_or_else(|| SourceMaterial::plain(&name));
+                    let name = if taken {
+                        format!("{base_name}.{}", class.name())
+                    } else {
+                        base_name
+                    };
+                    let base = source_material
+                        .cloned()
+                        .unwrap_or_else(|| SourceMaterial::plain(&name));
                     let mut plan = MaterialPlan {
                         material: pack::Material {
                             name,
@@ -240,7 +270,8 @@ pub fn tag(manifest: &Manifest, sources: &[Imported]) -> Result<Tagging, CookErr
         }
         for (mi, u) in used.iter().enumerate() {
             if !u {
-                out.unused_source_materials.push((si, src.materials[mi].name.clone()));
+                out.unused_source_materials
+                    .push((si, src.materials[mi].name.clone()));
             }
         }
         out.part_material.push(mats);
@@ -256,10 +287,17 @@ mod tests {
     use std::path::Path;
 
     fn source(names: &[(&str, Option<&str>)]) -> Imported {
-        let mut s = Imported { path: "t.obj".into(), ..Default::default() };
+        let mut s = Imported {
+            path: "t.obj".into(),
+            ..Default::default()
+        };
         for (i, (mat, group)) in names.iter().enumerate() {
             s.parts.push(Part {
-                names: Names { material: Some(mat.to_string()), group: group.map(str::to_string), ..Default::default() },
+                names: Names {
+                    material: Some(mat.to_string()),
+                    group: group.map(str::to_string),
+                    ..Default::default()
+                },
                 material: None,
             });
             s.tri_part.push(i as u32);
@@ -279,7 +317,11 @@ mod tests {
         let m = manifest(
             "[[rule]]\nmatch = \"Boden*\"\nclass = \"wall\"\n[[rule]]\nmatch = \"*\"\non = [\"group\"]\nclass = \"floor\"\n[[rule]]\nmatch = \"Boden_1\"\nclass = \"other\"\n",
         );
-        let s = source(&[("Boden_1", None), ("glass", Some("g")), ("window_lower", None)]);
+        let s = source(&[
+            ("Boden_1", None),
+            ("glass", Some("g")),
+            ("window_lower", None),
+        ]);
         let t = tag(&m, &[s]).unwrap();
         let class = |p: usize| t.materials[t.part_material[0][p] as usize].material.class;
         // "Boden" would be a floor by heuristics, but the rule says wall.
@@ -288,7 +330,13 @@ mod tests {
         // Group rule matches before the glass heuristic could apply.
         assert_eq!(class(1), MaterialClass::Floor);
         assert_eq!(class(2), MaterialClass::WindowLower);
-        assert!(matches!(t.decisions[0][2], Decision::Heuristic { keyword: "window", .. }));
+        assert!(matches!(
+            t.decisions[0][2],
+            Decision::Heuristic {
+                keyword: "window",
+                ..
+            }
+        ));
         assert_eq!(t.ambiguities.len(), 1);
         assert_eq!(t.ambiguities[0].name, "Boden_1");
         assert_eq!(t.ambiguities[0].rule_lines, vec![3, 10]);

@@ -1,28 +1,370 @@
-//! The texture stage: decodes the images materials and windows refer to and cooks their mip
-//! chains into pack textures.
+//! The texture stage: decodes the images materials, windows and the background refer to, once
+//! each, and cooks them with the `texture` crate: colour mip chains (sRGB-correct), normal maps
+//! (supplied, or derived from a window's design), and each window's blurred projector.
 
-use crate::{CookError, Report, Settings, Warning, manifest::Manifest, tag::Tagging};
+use std::collections::HashMap;
+use std::path::{Path, PathBuf};
 
-/// Cooks every texture the materials use; returns the pack's texture table and mip data, and
-/// fills each material's texture references.
+use rayon::prelude::*;
+
+use crate::import::ImageRef;
+use crate::manifest::{GreenAxis, Manifest, MipFilter, NormalEncoding, WindowDesign};
+use crate::tag::Tagging;
+use crate::{CookError, Report, Settings, Warning};
+
+/// One texture to cook.
+#[derive(Clone, Debug, PartialEq)]
+enum Job {
+    Colour {
+        image: ImageRef,
+        srgb: bool,
+    },
+    Normal {
+        image: ImageRef,
+        encoding: NormalEncoding,
+        green: GreenAxis,
+    },
+    DerivedNormal {
+        design: PathBuf,
+    },
+    Projector {
+        design: PathBuf,
+        sigma: f32,
+    },
+}
+
+impl Job {
+    fn image_name(&self) -> String {
+        match self {
+            Job::Colour { image, .. } | Job::Normal { image, .. } => image.name(),
+            Job::DerivedNormal { design } | Job::Projector { design, .. } => {
+                design.display().to_string()
+            }
+        }
+    }
+
+    fn role(&self) -> (pack::TextureRole, pack::ColourSpace) {
+        match self {
+            Job::Colour { srgb, .. } => (
+                pack::TextureRole::Colour,
+                if *srgb {
+                    pack::ColourSpace::Srgb
+                } else {
+                    pack::ColourSpace::Linear
+                },
+            ),
+            Job::Normal { .. } | Job::DerivedNormal { .. } => {
+                (pack::TextureRole::Normal, pack::ColourSpace::Linear)
+            }
+            Job::Projector { .. } => (pack::TextureRole::Projector, pack::ColourSpace::Srgb),
+        }
+    }
+
+    /// A unique, readable texture name: the image's file stem and what was made of it.
+    fn base_name(&self) -> String {
+        let stem = match self {
+            Job::Colour {
+                image: ImageRef::File(p),
+                ..
+            }
+            | Job::Normal {
+                image: ImageRef::File(p),
+                ..
+            } => p
+                .file_stem()
+                .map(|s| s.to_string_lossy().into_owned())
+                .unwrap_or_default(),
+            Job::Colour {
+                image: ImageRef::Embedded { name, .. },
+                ..
+            }
+            | Job::Normal {
+                image: ImageRef::Embedded { name, .. },
+                ..
+            } => name.rsplit(['/', '#']).next().unwrap_or(name).to_string(),
+            Job::DerivedNormal { design } | Job::Projector { design, .. } => design
+                .file_stem()
+                .map(|s| s.to_string_lossy().into_owned())
+                .unwrap_or_default(),
+        };
+        let suffix = match self {
+            Job::Colour { .. } => "",
+            Job::Normal { .. } => ".normal",
+            Job::DerivedNormal { .. } => ".derived-normal",
+            Job::Projector { .. } => ".projector",
+        };
+        format!("{stem}{suffix}")
+    }
+}
+
+fn texture_error(path: &Path, e: texture::TextureError) -> CookError {
+    if e.path().is_some() {
+        CookError::Texture(e)
+    } else {
+        CookError::Source {
+            path: path.to_path_buf(),
+            line: None,
+            message: e.to_string(),
+        }
+    }
+}
+
+fn decode(image: &ImageRef) -> Result<image::DynamicImage, CookError> {
+    match image {
+        ImageRef::File(p) => texture::load_image(p).map_err(|e| texture_error(p, e)),
+        ImageRef::Embedded { name, bytes } => {
+            image::load_from_memory(bytes).map_err(|e| CookError::Source {
+                path: PathBuf::from(name),
+                line: None,
+                message: format!("cannot decode embedded image: {e}"),
+            })
+        }
+    }
+}
+
+fn filter(f: MipFilter) -> texture::MipFilter {
+    match f {
+        MipFilter::Box => texture::MipFilter::Box,
+        MipFilter::Kaiser => texture::MipFilter::Kaiser,
+        MipFilter::Lanczos3 => texture::MipFilter::Lanczos3,
+    }
+}
+
+/// Deterministic per-design seed for the derived normal map's hammered-glass noise.
+fn seed(path: &Path) -> u64 {
+    let mut h: u64 = 0xcbf2_9ce4_8422_2325;
+    for b in path
+        .file_name()
+        .map(|n| n.to_string_lossy().into_owned())
+        .unwrap_or_default()
+        .bytes()
+    {
+        h = (h ^ b as u64).wrapping_mul(0x100_0000_01b3);
+    }
+    h
+}
+
+fn run(
+    job: &Job,
+    mip_filter: MipFilter,
+    max_error: Option<f32>,
+) -> Result<(texture::MipChain, Option<String>), CookError> {
+    match job {
+        Job::Colour { image, srgb } => {
+            let img = decode(image)?;
+            let opts = texture::ColourOptions {
+                srgb: *srgb,
+                filter: filter(mip_filter),
+            };
+            let chain = texture::colour_mips(&img, &opts)
+                .map_err(|e| texture_error(Path::new(&image.name()), e))?;
+            Ok((chain, None))
+        }
+        Job::Normal {
+            image,
+            encoding,
+            green,
+        } => {
+            let img = decode(image)?;
+            let enc = match encoding {
+                NormalEncoding::Rgb => texture::NormalEncoding::Rgb,
+                NormalEncoding::Rg => texture::NormalEncoding::Rg,
+            };
+            let g = match green {
+                GreenAxis::OpenGl => texture::GreenAxis::OpenGl,
+                GreenAxis::DirectX => texture::GreenAxis::DirectX,
+            };
+            let chain = texture::normal_mips(&img, enc, g)
+                .map_err(|e| texture_error(Path::new(&image.name()), e))?;
+            Ok((chain, None))
+        }
+        Job::DerivedNormal { design } => {
+            let img = decode(&ImageRef::File(design.clone()))?;
+            let chain = texture::derive_normal_map(&img, seed(design))
+                .map_err(|e| texture_error(design, e))?;
+            Ok((chain, None))
+        }
+        Job::Projector { design, sigma } => {
+            let img = decode(&ImageRef::File(design.clone()))?;
+            let mut opts = texture::ProjectorOptions::new(*sigma);
+            opts.max_error_lsb = max_error;
+            let (chain, report) =
+                texture::projector(&img, &opts).map_err(|e| texture_error(design, e))?;
+            Ok((chain, Some(report.to_string())))
+        }
+    }
+}
+
+/// Projector blur σ in design texels: the manifest's, or the light's penumbra on the floor.
+fn projector_sigma(
+    w: &WindowDesign,
+    frame: Option<&pack::Window>,
+    light: Option<&pack::LightKind>,
+    floor_y: Option<f32>,
+    design_width: Option<u32>,
+) -> f32 {
+    if let Some(s) = w.blur_sigma {
+        return s;
+    }
+    let (Some(frame), Some(light), Some(width)) = (frame, light, design_width) else {
+        return 0.0;
+    };
+    let u = glam::Vec3::from(frame.u_axis);
+    let v = glam::Vec3::from(frame.v_axis);
+    let centre = glam::Vec3::from(frame.origin) + 0.5 * (u + v);
+    let floor = floor_y.unwrap_or(centre.y - v.length().max(u.length()));
+    let (dir, angular) = match *light {
+        pack::LightKind::Directional {
+            direction,
+            angular_size,
+        } => (glam::Vec3::from(direction), angular_size),
+        pack::LightKind::Point { position, radius } => {
+            let d = centre - glam::Vec3::from(position);
+            (d, (radius / d.length().max(1e-6)).atan() * 2.0)
+        }
+    };
+    let dir = dir.normalize_or_zero();
+    // Distance from the window along the light to the floor plane; straight down otherwise.
+    let drop = (centre.y - floor).max(0.0);
+    let distance = if dir.y < -1e-3 { drop / -dir.y } else { drop };
+    let texels_per_unit = width as f32 / u.length().max(1e-6);
+    let sigma = texture::sigma_from_light(angular, distance, texels_per_unit);
+    if sigma.is_finite() && sigma >= 0.0 {
+        sigma
+    } else {
+        0.0
+    }
+}
+
+/// Cooks every texture the materials, windows and background use; fills each material's
+/// texture references and returns the pack's texture table and mip data.
 pub fn cook_textures(
     manifest: &Manifest,
     tagging: &mut Tagging,
+    windows: &[pack::Window],
+    floor_y: Option<f32>,
     settings: &Settings,
     report: &mut Report,
-) -> Result<(Vec<pack::Texture>, Vec<Vec<Vec<u8>>>), CookError> {
-    let referenced = tagging
-        .materials
-        .iter()
-        .map(|m| m.diffuse_texture.is_some() as usize + m.normal_texture.is_some() as usize)
-        .sum::<usize>()
-        + manifest.windows.len();
-    if settings.textures && referenced > 0 {
-        report.warnings.push(Warning::new(
-            &manifest.path,
-            None,
-            format!("{referenced} texture references not cooked: texture cooking is not built in yet"),
-        ));
+) -> Result<(Vec<pack::Texture>, Vec<Vec<Vec<u8>>>, Option<u32>), CookError> {
+    if !settings.textures {
+        return Ok((Vec::new(), Vec::new(), None));
     }
-    Ok((Vec::new(), Vec::new()))
+    let mut jobs: Vec<Job> = Vec::new();
+    let mut add = |job: Job| -> u32 {
+        match jobs.iter().position(|j| *j == job) {
+            Some(i) => i as u32,
+            None => {
+                jobs.push(job);
+                jobs.len() as u32 - 1
+            }
+        }
+    };
+    // Job indices per material: (diffuse, normal, projector).
+    let mut refs: Vec<(Option<u32>, Option<u32>, Option<u32>)> = Vec::new();
+    let light = manifest.light.as_ref().map(|l| &l.kind);
+    for (mi, plan) in tagging.materials.iter().enumerate() {
+        let design = manifest
+            .windows
+            .iter()
+            .find(|w| w.material == plan.material.name && plan.material.class.is_window());
+        let mut r = (None, None, None);
+        match design {
+            Some(w) => {
+                r.0 = Some(add(Job::Colour {
+                    image: ImageRef::File(w.design.clone()),
+                    srgb: w.colour_space == pack::ColourSpace::Srgb,
+                }));
+                r.1 = Some(add(match &w.normal_map {
+                    Some(n) => Job::Normal {
+                        image: ImageRef::File(n.clone()),
+                        encoding: w.normal_encoding,
+                        green: w.green,
+                    },
+                    None => Job::DerivedNormal {
+                        design: w.design.clone(),
+                    },
+                }));
+                let frame = windows.iter().find(|f| f.material as usize == mi);
+                let width = image::image_dimensions(&w.design).ok().map(|d| d.0);
+                let sigma = projector_sigma(w, frame, light, floor_y, width);
+                r.2 = Some(add(Job::Projector {
+                    design: w.design.clone(),
+                    sigma,
+                }));
+            }
+            None => {
+                r.0 = plan
+                    .diffuse_texture
+                    .clone()
+                    .map(|image| add(Job::Colour { image, srgb: true }));
+                r.1 = plan.normal_texture.clone().map(|image| {
+                    add(Job::Normal {
+                        image,
+                        encoding: NormalEncoding::Rgb,
+                        green: GreenAxis::OpenGl,
+                    })
+                });
+            }
+        }
+        refs.push(r);
+    }
+    let panorama = manifest.background.panorama.clone().map(|p| {
+        add(Job::Colour {
+            image: ImageRef::File(p),
+            srgb: true,
+        })
+    });
+
+    let results: Vec<Result<(texture::MipChain, Option<String>), CookError>> = jobs
+        .par_iter()
+        .map(|j| run(j, manifest.textures.mip_filter, manifest.scene.max_error))
+        .collect();
+    let mut textures = Vec::with_capacity(jobs.len());
+    let mut data = Vec::with_capacity(jobs.len());
+    let mut names: HashMap<String, usize> = HashMap::new();
+    for (job, result) in jobs.iter().zip(results) {
+        let (chain, note) = result?;
+        if let Some(n) = note {
+            report.warnings.push(Warning::new(
+                &manifest.path,
+                None,
+                format!("note: {}: {n}", job.image_name()),
+            ));
+        }
+        let (role, colour_space) = job.role();
+        let base = job.base_name();
+        let count = names.entry(base.clone()).or_insert(0);
+        *count += 1;
+        let name = if *count == 1 {
+            base
+        } else {
+            format!("{base}.{count}")
+        };
+        let mips = (0..chain.levels.len())
+            .map(|k| {
+                let (width, height) = texture::level_size(chain.width, chain.height, k);
+                pack::MipLevel {
+                    width,
+                    height,
+                    section: 0,
+                }
+            })
+            .collect();
+        textures.push(pack::Texture {
+            name,
+            role,
+            colour_space,
+            format: pack::TextureFormat::Rgba8,
+            width: chain.width,
+            height: chain.height,
+            mips,
+        });
+        data.push(chain.levels);
+    }
+    for (plan, r) in tagging.materials.iter_mut().zip(refs) {
+        plan.material.diffuse_texture = r.0;
+        plan.material.normal_texture = r.1;
+        plan.material.projector_texture = r.2;
+    }
+    Ok((textures, data, panorama))
 }

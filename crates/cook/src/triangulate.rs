@@ -77,7 +77,13 @@ fn ear_clip(p: &[[f64; 2]], out: &mut Vec<[u32; 3]>) {
                 continue; // reflex or flat: not an ear
             }
             let blocked = ring.iter().any(|&j| {
-                j != ia && j != ib && j != ic && p[j] != a && p[j] != b && p[j] != c && inside(p[j], a, b, c)
+                j != ia
+                    && j != ib
+                    && j != ic
+                    && p[j] != a
+                    && p[j] != b
+                    && p[j] != c
+                    && inside(p[j], a, b, c)
             });
             if !blocked {
                 best = Some(i);
@@ -89,12 +95,18 @@ fn ear_clip(p: &[[f64; 2]], out: &mut Vec<[u32; 3]>) {
         let i = best.unwrap_or_else(|| {
             (0..m)
                 .max_by(|&x, &y| {
-                    let t = |i: usize| cross(p[ring[(i + m - 1) % m]], p[ring[i]], p[ring[(i + 1) % m]]);
+                    let t = |i: usize| {
+                        cross(p[ring[(i + m - 1) % m]], p[ring[i]], p[ring[(i + 1) % m]])
+                    };
                     t(x).total_cmp(&t(y))
                 })
                 .unwrap_or(0)
         });
-        out.push([ring[(i + m - 1) % m] as u32, ring[i] as u32, ring[(i + 1) % m] as u32]);
+        out.push([
+            ring[(i + m - 1) % m] as u32,
+            ring[i] as u32,
+            ring[(i + 1) % m] as u32,
+        ]);
         ring.remove(i);
     }
     out.push([ring[0] as u32, ring[1] as u32, ring[2] as u32]);
@@ -110,18 +122,28 @@ mod tests {
     }
 
     fn polygon_area2(p: &[[f64; 2]]) -> f64 {
-        (0..p.len()).map(|i| cross([0.0, 0.0], p[i], p[(i + 1) % p.len()])).sum()
+        (0..p.len())
+            .map(|i| cross([0.0, 0.0], p[i], p[(i + 1) % p.len()]))
+            .sum()
     }
 
     #[test]
     fn concave_quad_is_split_at_the_reflex_vertex() {
         // An arrowhead: vertex 2 is reflex, so the fan diagonal 0-2 would run outside.
-        let q = [[0.0, 0.0, 0.0], [2.0, 1.0, 0.0], [0.5, 0.5, 0.0], [1.0, 2.0, 0.0]];
+        let q = [
+            [0.0, 0.0, 0.0],
+            [2.0, 1.0, 0.0],
+            [0.5, 0.5, 0.0],
+            [1.0, 2.0, 0.0],
+        ];
         let mut out = Vec::new();
         triangulate(&q, &mut out);
         assert_eq!(out.len(), 2);
         for t in &out {
-            assert!(t.contains(&2), "diagonal must touch the reflex vertex: {out:?}");
+            assert!(
+                t.contains(&2),
+                "diagonal must touch the reflex vertex: {out:?}"
+            );
             let tri = t.map(|i| [q[i as usize][0] as f64, q[i as usize][1] as f64]);
             assert!(area2(tri) > 0.0, "triangle {t:?} has the wrong winding");
         }
@@ -129,7 +151,13 @@ mod tests {
 
     #[test]
     fn clockwise_polygon_keeps_its_winding() {
-        let q = [[0.0, 0.0, 0.0], [0.0, 1.0, 0.0], [1.0, 1.0, 0.0], [1.0, 0.0, 0.0], [0.5, 0.2, 0.0]];
+        let q = [
+            [0.0, 0.0, 0.0],
+            [0.0, 1.0, 0.0],
+            [1.0, 1.0, 0.0],
+            [1.0, 0.0, 0.0],
+            [0.5, 0.2, 0.0],
+        ];
         let mut out = Vec::new();
         triangulate(&q, &mut out);
         assert_eq!(out.len(), 3);

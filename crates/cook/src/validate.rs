@@ -40,7 +40,10 @@ impl Validation {
     }
 
     fn add(&mut self, code: &'static str, message: impl Into<String>) {
-        self.findings.push(Finding { code, message: message.into() });
+        self.findings.push(Finding {
+            code,
+            message: message.into(),
+        });
     }
 
     pub fn to_json(&self) -> serde_json::Value {
@@ -122,8 +125,10 @@ fn degenerate_and_duplicates(tris: impl Iterator<Item = [[f32; 3]; 3]>) -> (usiz
 /// Checks a scene: imports and tags it, processes the geometry, and checks the result.
 pub fn validate_scene(manifest: &Manifest) -> Result<Validation, CookError> {
     let mut v = Validation::default();
-    let sources: Vec<crate::import::Imported> =
-        crate::import_sources(manifest)?.into_iter().map(|(s, _)| s).collect();
+    let sources: Vec<crate::import::Imported> = crate::import_sources(manifest)?
+        .into_iter()
+        .map(|(s, _)| s)
+        .collect();
     let tagging = tag::tag(manifest, &sources)?;
 
     // Tagging.
@@ -141,7 +146,9 @@ pub fn validate_scene(manifest: &Manifest) -> Result<Validation, CookError> {
             untagged_tris += counts[pi];
             let m = &tagging.materials[tagging.part_material[si][pi] as usize].material;
             let how = match d {
-                tag::Decision::Heuristic { keyword, .. } => format!("heuristic {keyword:?} → {}", m.class),
+                tag::Decision::Heuristic { keyword, .. } => {
+                    format!("heuristic {keyword:?} → {}", m.class)
+                }
                 _ => "no heuristic → other".into(),
             };
             untagged_names.push(format!("{} ({how})", src.parts[pi].names.describe()));
@@ -153,8 +160,17 @@ pub fn validate_scene(manifest: &Manifest) -> Result<Validation, CookError> {
             format!(
                 "{untagged_tris} triangles in {} source name sets matched no rule: {}",
                 untagged_names.len(),
-                untagged_names.iter().take(8).cloned().collect::<Vec<_>>().join("; ")
-                    + if untagged_names.len() > 8 { "; …" } else { "" }
+                untagged_names
+                    .iter()
+                    .take(8)
+                    .cloned()
+                    .collect::<Vec<_>>()
+                    .join("; ")
+                    + if untagged_names.len() > 8 {
+                        "; …"
+                    } else {
+                        ""
+                    }
             ),
         );
     }
@@ -166,7 +182,11 @@ pub fn validate_scene(manifest: &Manifest) -> Result<Validation, CookError> {
                 a.kind.name(),
                 a.name,
                 a.rule_lines.len(),
-                a.rule_lines.iter().map(|l| l.to_string()).collect::<Vec<_>>().join(", ")
+                a.rule_lines
+                    .iter()
+                    .map(|l| l.to_string())
+                    .collect::<Vec<_>>()
+                    .join(", ")
             ),
         );
     }
@@ -181,45 +201,74 @@ pub fn validate_scene(manifest: &Manifest) -> Result<Validation, CookError> {
         .collect();
     for (i, r) in manifest.rules.iter().enumerate() {
         if !used_rules.contains(&i) {
-            v.add("unused-rule", format!("rule {:?} at manifest line {} matches no triangle", r.pattern, r.line.0));
+            v.add(
+                "unused-rule",
+                format!(
+                    "rule {:?} at manifest line {} matches no triangle",
+                    r.pattern, r.line.0
+                ),
+            );
         }
     }
     for (si, name) in &tagging.unused_source_materials {
         v.add(
             "unused-material",
-            format!("material {name:?} of {} is defined but no triangle uses it", sources[*si].path.display()),
+            format!(
+                "material {name:?} of {} is defined but no triangle uses it",
+                sources[*si].path.display()
+            ),
         );
     }
 
     // Degenerate and duplicate triangles as modelled (mesh processing drops degenerate ones).
     for src in &sources {
-        let tris = src.corners.chunks_exact(3).map(|c| [c[0], c[1], c[2]].map(|c| src.positions[c.p as usize]));
+        let tris = src
+            .corners
+            .chunks_exact(3)
+            .map(|c| [c[0], c[1], c[2]].map(|c| src.positions[c.p as usize]));
         let (degenerate, duplicate) = degenerate_and_duplicates(tris);
         if degenerate > 0 {
             v.add(
                 "degenerate-triangles",
-                format!("{}: {degenerate} of {} triangles have zero area (dropped when cooking)", src.path.display(), src.triangle_count()),
+                format!(
+                    "{}: {degenerate} of {} triangles have zero area (dropped when cooking)",
+                    src.path.display(),
+                    src.triangle_count()
+                ),
             );
         }
         if duplicate > 0 {
             v.add(
                 "duplicate-triangles",
-                format!("{}: {duplicate} triangles repeat the positions of an earlier triangle", src.path.display()),
+                format!(
+                    "{}: {duplicate} triangles repeat the positions of an earlier triangle",
+                    src.path.display()
+                ),
             );
         }
     }
 
     // Window designs named in the manifest.
-    let materials: Vec<pack::Material> = tagging.materials.iter().map(|m| m.material.clone()).collect();
+    let materials: Vec<pack::Material> = tagging
+        .materials
+        .iter()
+        .map(|m| m.material.clone())
+        .collect();
     for w in &manifest.windows {
         match materials.iter().find(|m| m.name == w.material) {
             None => v.add(
                 "window-unknown-material",
-                format!("[[window]] at manifest line {} names material {:?}, which no triangle uses", w.line.0, w.material),
+                format!(
+                    "[[window]] at manifest line {} names material {:?}, which no triangle uses",
+                    w.line.0, w.material
+                ),
             ),
             Some(m) if !m.class.is_window() => v.add(
                 "window-not-window-class",
-                format!("[[window]] at manifest line {} names material {:?}, tagged {}", w.line.0, w.material, m.class),
+                format!(
+                    "[[window]] at manifest line {} names material {:?}, tagged {}",
+                    w.line.0, w.material, m.class
+                ),
             ),
             Some(_) => {}
         }
@@ -227,7 +276,10 @@ pub fn validate_scene(manifest: &Manifest) -> Result<Validation, CookError> {
 
     // Processed geometry.
     let needs = crate::material_needs(&tagging);
-    let settings = Settings { textures: false, ..Default::default() };
+    let settings = Settings {
+        textures: false,
+        ..Default::default()
+    };
     let views: Vec<MeshView> = sources
         .iter()
         .zip(&tagging.part_material)
@@ -245,9 +297,18 @@ pub fn validate_scene(manifest: &Manifest) -> Result<Validation, CookError> {
             }
         })
         .collect();
-    let has_design: Vec<bool> =
-        materials.iter().map(|m| manifest.windows.iter().any(|w| w.material == m.name)).collect();
-    check_geometry(&views, &materials, &has_design, manifest.light.as_ref().map(|l| &l.kind), false, &mut v);
+    let has_design: Vec<bool> = materials
+        .iter()
+        .map(|m| manifest.windows.iter().any(|w| w.material == m.name))
+        .collect();
+    check_geometry(
+        &views,
+        &materials,
+        &has_design,
+        manifest.light.as_ref().map(|l| &l.kind),
+        false,
+        &mut v,
+    );
     Ok(v)
 }
 
@@ -256,12 +317,25 @@ pub fn validate_pack(pack: &pack::Pack) -> Validation {
     let mut v = Validation::default();
     let toc = pack.toc();
     let views: Vec<MeshView> = toc.meshes.iter().map(|m| decode(pack, m)).collect();
-    let has_design: Vec<bool> =
-        toc.materials.iter().map(|m| m.projector_texture.is_some() || m.diffuse_texture.is_some()).collect();
-    check_geometry(&views, &toc.materials, &has_design, toc.light.as_ref().map(|l| &l.kind), true, &mut v);
+    let has_design: Vec<bool> = toc
+        .materials
+        .iter()
+        .map(|m| m.projector_texture.is_some() || m.diffuse_texture.is_some())
+        .collect();
+    check_geometry(
+        &views,
+        &toc.materials,
+        &has_design,
+        toc.light.as_ref().map(|l| &l.kind),
+        true,
+        &mut v,
+    );
     let mut used = vec![false; toc.textures.len()];
     for m in &toc.materials {
-        for t in [m.diffuse_texture, m.normal_texture, m.projector_texture].into_iter().flatten() {
+        for t in [m.diffuse_texture, m.normal_texture, m.projector_texture]
+            .into_iter()
+            .flatten()
+        {
             used[t as usize] = true;
         }
     }
@@ -270,7 +344,13 @@ pub fn validate_pack(pack: &pack::Pack) -> Validation {
     }
     for (t, u) in toc.textures.iter().zip(used) {
         if !u {
-            v.add("unused-texture", format!("texture {:?} ({}, {}x{}) is referenced by nothing", t.name, t.role, t.width, t.height));
+            v.add(
+                "unused-texture",
+                format!(
+                    "texture {:?} ({}, {}x{}) is referenced by nothing",
+                    t.name, t.role, t.width, t.height
+                ),
+            );
         }
     }
     v
@@ -295,15 +375,21 @@ fn decode(pack: &pack::Pack, m: &pack::Mesh) -> MeshView {
     for i in 0..n {
         let b = &bytes[i * stride..(i + 1) * stride];
         positions.push(match attr(Semantic::Position) {
-            Some((AttributeFormat::Float32x3, o)) => [read_f32(b, o), read_f32(b, o + 4), read_f32(b, o + 8)],
+            Some((AttributeFormat::Float32x3, o)) => {
+                [read_f32(b, o), read_f32(b, o + 4), read_f32(b, o + 8)]
+            }
             Some((AttributeFormat::Unorm16x4, o)) => std::array::from_fn(|k| {
-                m.layout.position_offset[k] + m.layout.position_scale[k] * (read_u16(b, o + 2 * k) as f32 / 65535.0)
+                m.layout.position_offset[k]
+                    + m.layout.position_scale[k] * (read_u16(b, o + 2 * k) as f32 / 65535.0)
             }),
             _ => [0.0; 3],
         });
         uvs.push(match attr(Semantic::TexCoord) {
             Some((AttributeFormat::Float32x2, o)) => [read_f32(b, o), read_f32(b, o + 4)],
-            Some((AttributeFormat::Unorm16x2, o)) => [read_u16(b, o) as f32 / 65535.0, read_u16(b, o + 2) as f32 / 65535.0],
+            Some((AttributeFormat::Unorm16x2, o)) => [
+                read_u16(b, o) as f32 / 65535.0,
+                read_u16(b, o + 2) as f32 / 65535.0,
+            ],
             _ => [0.0; 2],
         });
         materials.push(match attr(Semantic::MaterialId) {
@@ -311,7 +397,14 @@ fn decode(pack: &pack::Pack, m: &pack::Mesh) -> MeshView {
             None => u16::MAX,
         });
     }
-    MeshView { name: m.name.clone(), positions, uvs, materials, indices: pack.indices(m).into_owned(), ranges: m.ranges.clone() }
+    MeshView {
+        name: m.name.clone(),
+        positions,
+        uvs,
+        materials,
+        indices: pack.indices(m).into_owned(),
+        ranges: m.ranges.clone(),
+    }
 }
 
 /// Checks shared by scenes and packs: material agreement, windows, the material table (and, for
@@ -340,7 +433,8 @@ pub fn check_geometry(
         let mut mismatched = 0usize;
         let mut example = None;
         for r in &view.ranges {
-            let span = &view.indices[r.first_index as usize..(r.first_index + r.index_count) as usize];
+            let span =
+                &view.indices[r.first_index as usize..(r.first_index + r.index_count) as usize];
             let row = &mut rows[r.material as usize];
             let is_window = materials[r.material as usize].class.is_window();
             let mut local = HashMap::new();
@@ -381,10 +475,19 @@ pub fn check_geometry(
             );
         }
         if check_triangles {
-            let tris = view.indices.chunks_exact(3).map(|t| [t[0], t[1], t[2]].map(|i| view.positions[i as usize]));
+            let tris = view
+                .indices
+                .chunks_exact(3)
+                .map(|t| [t[0], t[1], t[2]].map(|i| view.positions[i as usize]));
             let (degenerate, duplicate) = degenerate_and_duplicates(tris);
             if degenerate > 0 {
-                v.add("degenerate-triangles", format!("mesh {:?}: {degenerate} triangles have zero area", view.name));
+                v.add(
+                    "degenerate-triangles",
+                    format!(
+                        "mesh {:?}: {degenerate} triangles have zero area",
+                        view.name
+                    ),
+                );
             }
             if duplicate > 0 {
                 v.add("duplicate-triangles", format!("mesh {:?}: {duplicate} triangles repeat the positions of an earlier triangle", view.name));
@@ -393,7 +496,10 @@ pub fn check_geometry(
     }
     for (mi, m) in materials.iter().enumerate() {
         if rows[mi].triangles == 0 {
-            v.add("unused-material", format!("material {:?} ({}) has no triangles", m.name, m.class));
+            v.add(
+                "unused-material",
+                format!("material {:?} ({}) has no triangles", m.name, m.class),
+            );
             rows[mi].bounds_min = [0.0; 3];
             rows[mi].bounds_max = [0.0; 3];
             continue;
@@ -402,11 +508,22 @@ pub fn check_geometry(
             continue;
         }
         if !has_design[mi] {
-            v.add("window-no-design", format!("window material {:?} ({}) has no design image", m.name, m.class));
+            v.add(
+                "window-no-design",
+                format!(
+                    "window material {:?} ({}) has no design image",
+                    m.name, m.class
+                ),
+            );
         }
-        let Some(g) = window_geo.get(&(mi as u16)) else { continue };
+        let Some(g) = window_geo.get(&(mi as u16)) else {
+            continue;
+        };
         match windows::analyze(mi as u16, g, light) {
-            None => v.add("window-no-area", format!("window material {:?} has no area", m.name)),
+            None => v.add(
+                "window-no-area",
+                format!("window material {:?} has no area", m.name),
+            ),
             Some(a) => {
                 if a.max_plane_distance > a.plane_tolerance {
                     v.add(
@@ -419,7 +536,12 @@ pub fn check_geometry(
                 }
                 if !a.has_uvs {
                     v.add("window-no-uvs", format!("window material {:?} has no texture coordinates: its design cannot be placed", m.name));
-                } else if a.uv_min.iter().chain(&a.uv_max).any(|&c| !(-1e-4..=1.0 + 1e-4).contains(&c)) {
+                } else if a
+                    .uv_min
+                    .iter()
+                    .chain(&a.uv_max)
+                    .any(|&c| !(-1e-4..=1.0 + 1e-4).contains(&c))
+                {
                     v.add(
                         "window-uv-range",
                         format!(

@@ -37,7 +37,11 @@ fn f3(v: glam::DVec3) -> [f32; 3] {
 /// Fits `world = origin + u * u_axis + v * v_axis` to the window's vertices and orients the
 /// normal into the building: along the direction a directional light travels, or away from a
 /// point light. Returns `None` for a window with no area.
-pub fn analyze(material: u16, g: &WindowGeometry, light: Option<&LightKind>) -> Option<WindowAnalysis> {
+pub fn analyze(
+    material: u16,
+    g: &WindowGeometry,
+    light: Option<&LightKind>,
+) -> Option<WindowAnalysis> {
     let mut area_normal = glam::DVec3::ZERO;
     let mut centroid = glam::DVec3::ZERO;
     let mut area = 0.0;
@@ -145,10 +149,19 @@ fn planar_frame(
     n: glam::DVec3,
     centroid: glam::DVec3,
 ) -> (glam::DVec3, glam::DVec3, glam::DVec3) {
-    let up = if n.y.abs() < 0.99 { glam::DVec3::Y } else { glam::DVec3::Z };
+    let up = if n.y.abs() < 0.99 {
+        glam::DVec3::Y
+    } else {
+        glam::DVec3::Z
+    };
     let v_dir = (up - n * up.dot(n)).normalize();
     let u_dir = v_dir.cross(n);
-    let (mut s0, mut s1, mut t0, mut t1) = (f64::INFINITY, f64::NEG_INFINITY, f64::INFINITY, f64::NEG_INFINITY);
+    let (mut s0, mut s1, mut t0, mut t1) = (
+        f64::INFINITY,
+        f64::NEG_INFINITY,
+        f64::INFINITY,
+        f64::NEG_INFINITY,
+    );
     for &i in used {
         let d = v3(g.positions[i as usize]) - centroid;
         let (s, t) = (d.dot(u_dir), d.dot(v_dir));
@@ -174,7 +187,10 @@ mod tests {
             uvs: vec![[0., 0.], [1., 0.], [1., 1.], [0., 1.]],
             triangles: vec![[0, 2, 1], [0, 3, 2]],
         };
-        let light = LightKind::Directional { direction: [0.0, -0.5, -1.0], angular_size: 0.01 };
+        let light = LightKind::Directional {
+            direction: [0.0, -0.5, -1.0],
+            angular_size: 0.01,
+        };
         let a = analyze(7, &g, Some(&light)).unwrap();
         assert!(a.from_uvs && a.has_uvs);
         let close = |x: [f32; 3], y: [f32; 3]| x.iter().zip(&y).all(|(a, b)| (a - b).abs() < 1e-5);

@@ -37,8 +37,15 @@ fn ms(d: Duration) -> String {
 pub fn run(args: Args) -> Outcome {
     let start = Instant::now();
     let manifest = Manifest::open(&args.input)?;
-    let mut settings = Settings { quantize: args.quantize, ..Default::default() };
-    settings.mesh.cache = if args.fifo { CacheMode::Fifo } else { CacheMode::Full };
+    let mut settings = Settings {
+        quantize: args.quantize,
+        ..Default::default()
+    };
+    settings.mesh.cache = if args.fifo {
+        CacheMode::Fifo
+    } else {
+        CacheMode::Full
+    };
     settings.mesh.overdraw = args.overdraw;
 
     let spinner = std::io::stderr().is_terminal().then(|| {
@@ -72,14 +79,22 @@ pub fn run(args: Args) -> Outcome {
     }
 
     let write_start = Instant::now();
-    out.write(&args.output).with_context(|| format!("writing {}", args.output.display()))?;
+    out.write(&args.output)
+        .with_context(|| format!("writing {}", args.output.display()))?;
     let write_time = write_start.elapsed();
 
-    let triangles: u64 = out.toc.meshes.iter().map(|m| m.index_count as u64 / 3).sum();
+    let triangles: u64 = out
+        .toc
+        .meshes
+        .iter()
+        .map(|m| m.index_count as u64 / 3)
+        .sum();
     if args.verbose {
         print_stats(&out, write_time);
     }
-    let bytes = std::fs::metadata(&args.output).map(|m| m.len()).unwrap_or(0);
+    let bytes = std::fs::metadata(&args.output)
+        .map(|m| m.len())
+        .unwrap_or(0);
     println!(
         "wrote {}: {} meshes, {triangles} triangles, {} materials, {} textures, {bytes} bytes in {}",
         args.output.display(),
@@ -93,7 +108,8 @@ pub fn run(args: Args) -> Outcome {
 
 fn print_stats(out: &cook::CookOutput, write_time: Duration) {
     let report = &out.report;
-    let (mut tri_in, mut tri_out, mut acmr_in, mut acmr_out, mut bytes) = (0usize, 0usize, 0f64, 0f64, 0usize);
+    let (mut tri_in, mut tri_out, mut acmr_in, mut acmr_out, mut bytes) =
+        (0usize, 0usize, 0f64, 0f64, 0usize);
     for m in &report.meshes {
         let s = &m.stats;
         println!("mesh {:?} ({})", m.name, m.source.display());
@@ -107,15 +123,28 @@ fn print_stats(out: &cook::CookOutput, write_time: Duration) {
         );
         let mut tris = s.triangles_in;
         for (name, t) in &s.stages {
-            let after = if *name == "filter+group" { s.triangles_in - s.degenerate_dropped } else { tris };
+            let after = if *name == "filter+group" {
+                s.triangles_in - s.degenerate_dropped
+            } else {
+                tris
+            };
             let extra = match *name {
                 "filter+group" => format!("  ({} degenerate dropped)", s.degenerate_dropped),
-                "normals" => format!("  ({} of {} corners generated)", s.normals_generated, s.corners),
+                "normals" => format!(
+                    "  ({} of {} corners generated)",
+                    s.normals_generated, s.corners
+                ),
                 "tangents" => format!("  ({} triangles with tangents)", s.tangent_triangles),
                 "dedupe" => format!("  ({} corners -> {} vertices)", s.corners, s.vertices_out),
                 _ => String::new(),
             };
-            println!("  {:<14} {:>9} -> {:>9} triangles  {:>10}{extra}", name, tris, after, ms(*t));
+            println!(
+                "  {:<14} {:>9} -> {:>9} triangles  {:>10}{extra}",
+                name,
+                tris,
+                after,
+                ms(*t)
+            );
             tris = after;
         }
         println!("  acmr_in={:.3} acmr_out={:.3}", s.acmr_in, s.acmr_out);

@@ -16,7 +16,11 @@ pub struct Args {
 }
 
 pub fn run(args: Args) -> Outcome {
-    let ext = args.input.extension().map(|e| e.to_string_lossy().to_ascii_lowercase()).unwrap_or_default();
+    let ext = args
+        .input
+        .extension()
+        .map(|e| e.to_string_lossy().to_ascii_lowercase())
+        .unwrap_or_default();
     let validation = if matches!(ext.as_str(), "toml" | "obj" | "gltf" | "glb") {
         cook::validate::validate_scene(&Manifest::open(&args.input)?)?
     } else {
@@ -27,5 +31,9 @@ pub fn run(args: Args) -> Outcome {
     } else {
         print!("{}", validation.to_text());
     }
-    Ok(if validation.is_clean() { OK } else { FOUND_PROBLEMS })
+    Ok(if validation.is_clean() {
+        OK
+    } else {
+        FOUND_PROBLEMS
+    })
 }

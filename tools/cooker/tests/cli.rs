@@ -4,7 +4,10 @@ use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 
 fn cooker(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_cooker")).args(args).output().expect("cooker runs")
+    Command::new(env!("CARGO_BIN_EXE_cooker"))
+        .args(args)
+        .output()
+        .expect("cooker runs")
 }
 
 fn data(rel: &str) -> String {
@@ -31,15 +34,39 @@ fn text(b: &[u8]) -> String {
 fn cook_verbose_reports_stages_and_acmr() {
     let dir = scratch("verbose");
     let out = dir.join("bunny.pack");
-    let o = cooker(&["cook", &data("classic/stanford-bunny.obj"), "-o", out.to_str().unwrap(), "-v"]);
+    let o = cooker(&[
+        "cook",
+        &data("classic/stanford-bunny.obj"),
+        "-o",
+        out.to_str().unwrap(),
+        "-v",
+    ]);
     assert_eq!(o.status.code(), Some(0), "{}", text(&o.stderr));
     let stdout = text(&o.stdout);
-    let acmr = stdout.lines().find(|l| l.trim_start().starts_with("acmr_in=")).expect("acmr line");
-    let out_value: f32 = acmr.split("acmr_out=").nth(1).unwrap().trim().parse().unwrap();
+    let acmr = stdout
+        .lines()
+        .find(|l| l.trim_start().starts_with("acmr_in="))
+        .expect("acmr line");
+    let out_value: f32 = acmr
+        .split("acmr_out=")
+        .nth(1)
+        .unwrap()
+        .trim()
+        .parse()
+        .unwrap();
     assert!(out_value <= 0.70, "{acmr}");
-    assert!(stdout.contains("total: triangles 69451 -> 69451"), "{stdout}");
-    assert!(stdout.contains("overfetch=") && stdout.contains("bytes/triangle="), "{stdout}");
-    assert!(text(&o.stderr).contains("heuristics only"), "a bare mesh warns");
+    assert!(
+        stdout.contains("total: triangles 69451 -> 69451"),
+        "{stdout}"
+    );
+    assert!(
+        stdout.contains("overfetch=") && stdout.contains("bytes/triangle="),
+        "{stdout}"
+    );
+    assert!(
+        text(&o.stderr).contains("heuristics only"),
+        "a bare mesh warns"
+    );
     // The pack it wrote validates clean.
     let v = cooker(&["validate", out.to_str().unwrap()]);
     assert_eq!(v.status.code(), Some(0), "{}", text(&v.stdout));
@@ -49,17 +76,31 @@ fn cook_verbose_reports_stages_and_acmr() {
 #[test]
 fn validate_json_lists_findings_and_materials() {
     let o = cooker(&["validate", &data("cornell_box/cornell_box.obj"), "--json"]);
-    assert_eq!(o.status.code(), Some(1), "findings exit 1: {}", text(&o.stderr));
+    assert_eq!(
+        o.status.code(),
+        Some(1),
+        "findings exit 1: {}",
+        text(&o.stderr)
+    );
     let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
     let findings = v["findings"].as_array().unwrap();
     assert!(findings.iter().any(|f| f["code"] == "untagged"));
-    assert!(findings.iter().any(|f| f["code"] == "unused-material" && f["message"].as_str().unwrap().contains("blue")));
+    assert!(
+        findings
+            .iter()
+            .any(|f| f["code"] == "unused-material"
+                && f["message"].as_str().unwrap().contains("blue"))
+    );
     let materials = v["materials"].as_array().unwrap();
     let floor = materials.iter().find(|m| m["class"] == "floor").unwrap();
     assert_eq!(floor["triangles"], 6);
     // Text output numbers its findings.
     let o = cooker(&["validate", &data("cornell_box/cornell_box.obj")]);
-    assert!(text(&o.stdout).contains("  1. [untagged]"), "{}", text(&o.stdout));
+    assert!(
+        text(&o.stdout).contains("  1. [untagged]"),
+        "{}",
+        text(&o.stdout)
+    );
 }
 
 #[test]
@@ -70,15 +111,24 @@ fn bad_input_exits_3_with_file_and_line_and_keeps_the_old_pack() {
     for (file, at) in [
         ("bad/obj/tinyobjloader/test-nan.obj", "test-nan.obj:12:"),
         ("bad/obj/tobj/invalid_index.obj", "invalid_index.obj:12:"),
-        ("bad/gltf/tinygltf/integer-out-of-bounds.gltf", "integer-out-of-bounds.gltf:34:"),
-        ("bad/gltf/tinygltf/invalid-primitive-indices.gltf", "invalid-primitive-indices.gltf:"),
+        (
+            "bad/gltf/tinygltf/integer-out-of-bounds.gltf",
+            "integer-out-of-bounds.gltf:34:",
+        ),
+        (
+            "bad/gltf/tinygltf/invalid-primitive-indices.gltf",
+            "invalid-primitive-indices.gltf:",
+        ),
     ] {
         let o = cooker(&["cook", &data(file), "-o", out.to_str().unwrap()]);
         assert_eq!(o.status.code(), Some(3), "{file}: {}", text(&o.stderr));
         assert!(text(&o.stderr).contains(at), "{file}: {}", text(&o.stderr));
         assert_eq!(std::fs::read(&out).unwrap(), b"previous pack");
     }
-    let leftovers: Vec<_> = std::fs::read_dir(&dir).unwrap().map(|e| e.unwrap().file_name()).collect();
+    let leftovers: Vec<_> = std::fs::read_dir(&dir)
+        .unwrap()
+        .map(|e| e.unwrap().file_name())
+        .collect();
     assert_eq!(leftovers.len(), 1, "temp files left behind: {leftovers:?}");
     let _ = std::fs::remove_dir_all(&dir);
 }
@@ -88,19 +138,49 @@ fn manifest_errors_name_the_line() {
     let dir = scratch("manifest");
     let obj = data("cornell_box/cornell_box.obj");
     let cases = [
-        (format!("[[mesh]]\nsource = {obj:?}\ncolour = 1\n"), ":3:", "unknown field"),
-        (format!("[[mesh]]\nsource = {obj:?}\n\n[[rule]]\nmatch = \"x\"\nclass = \"roof\"\n"), ":6:", "roof"),
-        ("[[mesh]]\nsource = \"nowhere.obj\"\n".to_string(), ":2:", "nowhere.obj"),
-        (format!("[[mesh]]\nsource = {obj:?}\nscale = \"big\"\n"), ":3:", ""),
-        (format!("[[mesh]]\nsource = {obj:?}\n[light]\ntype = \"point\"\nposition = [0.0, 1.0, 0.0]\n"), ":3:", "radius"),
+        (
+            format!("[[mesh]]\nsource = {obj:?}\ncolour = 1\n"),
+            ":3:",
+            "unknown field",
+        ),
+        (
+            format!("[[mesh]]\nsource = {obj:?}\n\n[[rule]]\nmatch = \"x\"\nclass = \"roof\"\n"),
+            ":6:",
+            "roof",
+        ),
+        (
+            "[[mesh]]\nsource = \"nowhere.obj\"\n".to_string(),
+            ":2:",
+            "nowhere.obj",
+        ),
+        (
+            format!("[[mesh]]\nsource = {obj:?}\nscale = \"big\"\n"),
+            ":3:",
+            "",
+        ),
+        (
+            format!(
+                "[[mesh]]\nsource = {obj:?}\n[light]\ntype = \"point\"\nposition = [0.0, 1.0, 0.0]\n"
+            ),
+            ":3:",
+            "radius",
+        ),
     ];
     for (i, (body, line, word)) in cases.iter().enumerate() {
         let manifest = dir.join(format!("scene{i}.toml"));
         std::fs::write(&manifest, body).unwrap();
-        let o = cooker(&["cook", manifest.to_str().unwrap(), "-o", dir.join("x.pack").to_str().unwrap()]);
+        let o = cooker(&[
+            "cook",
+            manifest.to_str().unwrap(),
+            "-o",
+            dir.join("x.pack").to_str().unwrap(),
+        ]);
         let err = text(&o.stderr);
         assert_eq!(o.status.code(), Some(3), "case {i}: {err}");
-        assert!(err.contains(&format!("scene{i}.toml{line}")), "case {i}: {err}");
+        assert!(
+            err.contains(&format!("scene{i}.toml{line}")),
+            "case {i}: {err}"
+        );
         assert!(err.contains(word), "case {i}: {err}");
         assert!(!dir.join("x.pack").exists());
     }
@@ -111,16 +191,30 @@ fn manifest_errors_name_the_line() {
 fn oddities_cook_with_warnings_and_exit_0() {
     let dir = scratch("odd");
     let out = dir.join("lines.pack");
-    let o = cooker(&["cook", &data("bad/obj/tinyobjloader/line-prim.obj"), "-o", out.to_str().unwrap()]);
+    let o = cooker(&[
+        "cook",
+        &data("bad/obj/tinyobjloader/line-prim.obj"),
+        "-o",
+        out.to_str().unwrap(),
+    ]);
     assert_eq!(o.status.code(), Some(0), "{}", text(&o.stderr));
-    assert!(text(&o.stderr).contains("line-prim.obj:15: 2 line and 0 point elements ignored"), "{}", text(&o.stderr));
+    assert!(
+        text(&o.stderr).contains("line-prim.obj:15: 2 line and 0 point elements ignored"),
+        "{}",
+        text(&o.stderr)
+    );
     assert!(out.exists());
     let _ = std::fs::remove_dir_all(&dir);
 }
 
 #[test]
 fn missing_input_is_an_io_error() {
-    let o = cooker(&["cook", "/nonexistent/dir/scene.obj", "-o", "/tmp/never.pack"]);
+    let o = cooker(&[
+        "cook",
+        "/nonexistent/dir/scene.obj",
+        "-o",
+        "/tmp/never.pack",
+    ]);
     assert_eq!(o.status.code(), Some(4), "{}", text(&o.stderr));
     let o = cooker(&["cook", "scene.obj"]);
     assert_eq!(o.status.code(), Some(2), "missing -o is bad usage");

@@ -17,12 +17,19 @@ use super::{Corner, ImageRef, Imported, NONE, Names, Part, SourceMaterial, Warni
 use crate::CookError;
 
 fn bad(path: &Path, message: impl Into<String>) -> CookError {
-    CookError::Source { path: path.to_path_buf(), line: None, message: message.into() }
+    CookError::Source {
+        path: path.to_path_buf(),
+        line: None,
+        message: message.into(),
+    }
 }
 
 pub fn import(path: &Path) -> Result<Imported, CookError> {
     let gltf = gltf::Gltf::open(path).map_err(|e| match e {
-        gltf::Error::Io(source) => CookError::Io { path: path.to_path_buf(), source },
+        gltf::Error::Io(source) => CookError::Io {
+            path: path.to_path_buf(),
+            source,
+        },
         gltf::Error::Deserialize(j) => CookError::Source {
             path: path.to_path_buf(),
             line: (j.line() > 0).then_some(j.line()),
@@ -36,13 +43,19 @@ pub fn import(path: &Path) -> Result<Imported, CookError> {
         .map_err(|e| bad(path, format!("cannot load buffers: {e}")))?;
     let buffers: Vec<&[u8]> = buffers.iter().map(|b| &b.0[..]).collect();
 
-    let mut out = Imported { path: path.to_path_buf(), ..Default::default() };
+    let mut out = Imported {
+        path: path.to_path_buf(),
+        ..Default::default()
+    };
     let mut material_ids: HashMap<usize, u32> = HashMap::new();
     let mut part_ids: HashMap<(Option<usize>, usize, usize), u32> = HashMap::new();
     let mut skipped_modes: Vec<String> = Vec::new();
 
     // Roots of the default scene, else of the first scene, else every node nobody parents.
-    let roots: Vec<gltf::Node> = match document.default_scene().or_else(|| document.scenes().next()) {
+    let roots: Vec<gltf::Node> = match document
+        .default_scene()
+        .or_else(|| document.scenes().next())
+    {
         Some(scene) => scene.nodes().collect(),
         None => {
             let mut child = vec![false; document.nodes().len()];
@@ -54,26 +67,41 @@ pub fn import(path: &Path) -> Result<Imported, CookError> {
             document.nodes().filter(|n| !child[n.index()]).collect()
         }
     };
-    let mut stack: Vec<(gltf::Node, glam::Mat4, usize)> =
-        roots.into_iter().rev().map(|n| (n, glam::Mat4::IDENTITY, 0)).collect();
+    let mut stack: Vec<(gltf::Node, glam::Mat4, usize)> = roots
+        .into_iter()
+        .rev()
+        .map(|n| (n, glam::Mat4::IDENTITY, 0))
+        .collect();
     let mut visits = 0usize;
     while let Some((node, parent, depth)) = stack.pop() {
         visits += 1;
         // Validation does not reject cycles in the node graph; bound the walk instead of
         // overflowing the stack.
         if depth > 256 || visits > 1_000_000 {
-            return Err(bad(path, "node hierarchy is cyclic or deeper than 256 levels"));
+            return Err(bad(
+                path,
+                "node hierarchy is cyclic or deeper than 256 levels",
+            ));
         }
         let local = glam::Mat4::from_cols_array_2d(&node.transform().matrix());
         let world = parent * local;
         if !world.is_finite() {
-            return Err(bad(path, format!("node {} has a non-finite transform", node.index())));
+            return Err(bad(
+                path,
+                format!("node {} has a non-finite transform", node.index()),
+            ));
         }
         if let Some(mesh) = node.mesh() {
             for prim in mesh.primitives() {
-                let ctx = Ctx { path, buffers: &buffers };
+                let ctx = Ctx {
+                    path,
+                    buffers: &buffers,
+                };
                 let mode = prim.mode();
-                if !matches!(mode, Mode::Triangles | Mode::TriangleStrip | Mode::TriangleFan) {
+                if !matches!(
+                    mode,
+                    Mode::Triangles | Mode::TriangleStrip | Mode::TriangleFan
+                ) {
                     let m = format!("{mode:?}");
                     if !skipped_modes.contains(&m) {
                         skipped_modes.push(m);
@@ -102,12 +130,23 @@ pub fn import(path: &Path) -> Result<Imported, CookError> {
                         out.parts.push(Part {
                             names: Names {
                                 material: material.index().map(|i| {
-                                    material.name().map(str::to_string).unwrap_or_else(|| format!("material{i}"))
+                                    material
+                                        .name()
+                                        .map(str::to_string)
+                                        .unwrap_or_else(|| format!("material{i}"))
                                 }),
                                 group: None,
                                 object: None,
-                                mesh: Some(mesh.name().map(str::to_string).unwrap_or_else(|| format!("mesh{}", mesh.index()))),
-                                node: Some(node.name().map(str::to_string).unwrap_or_else(|| format!("node{}", node.index()))),
+                                mesh: Some(
+                                    mesh.name()
+                                        .map(str::to_string)
+                                        .unwrap_or_else(|| format!("mesh{}", mesh.index())),
+                                ),
+                                node: Some(
+                                    node.name()
+                                        .map(str::to_string)
+                                        .unwrap_or_else(|| format!("node{}", node.index())),
+                                ),
                             },
                             material: mat_id,
                         });
@@ -126,11 +165,18 @@ pub fn import(path: &Path) -> Result<Imported, CookError> {
         out.warnings.push(Warning::new(
             path,
             None,
-            format!("primitives of mode {} ignored: only triangles are cooked", skipped_modes.join(", ")),
+            format!(
+                "primitives of mode {} ignored: only triangles are cooked",
+                skipped_modes.join(", ")
+            ),
         ));
     }
     if out.tri_part.is_empty() {
-        out.warnings.push(Warning::new(path, None, "no triangles in the scene: nothing to cook"));
+        out.warnings.push(Warning::new(
+            path,
+            None,
+            "no triangles in the scene: nothing to cook",
+        ));
     }
     Ok(out)
 }
@@ -174,7 +220,11 @@ fn component(bytes: &[u8], t: DataType, normalized: bool) -> f32 {
         }
         DataType::I16 => {
             let v = i16::from_le_bytes([bytes[0], bytes[1]]) as f32;
-            if normalized { (v / 32767.0).max(-1.0) } else { v }
+            if normalized {
+                (v / 32767.0).max(-1.0)
+            } else {
+                v
+            }
         }
         DataType::U16 => {
             let v = u16::from_le_bytes([bytes[0], bytes[1]]) as f32;
@@ -194,24 +244,32 @@ impl Ctx<'_> {
         what: &str,
     ) -> Result<(&[u8], usize), CookError> {
         let buffer = self.buffers.get(view.buffer().index()).ok_or_else(|| {
-            bad(self.path, format!("{what}: buffer {} does not exist", view.buffer().index()))
-        })?;
-        let view_end = view.offset().checked_add(view.length());
-        let data = view_end.and_then(|end| buffer.get(view.offset()..end)).ok_or_else(|| {
             bad(
                 self.path,
-                format!(
-                    "{what}: buffer view {} spans bytes {}..+{} of a {}-byte buffer",
-                    view.index(),
-                    view.offset(),
-                    view.length(),
-                    buffer.len()
-                ),
+                format!("{what}: buffer {} does not exist", view.buffer().index()),
             )
         })?;
+        let view_end = view.offset().checked_add(view.length());
+        let data = view_end
+            .and_then(|end| buffer.get(view.offset()..end))
+            .ok_or_else(|| {
+                bad(
+                    self.path,
+                    format!(
+                        "{what}: buffer view {} spans bytes {}..+{} of a {}-byte buffer",
+                        view.index(),
+                        view.offset(),
+                        view.length(),
+                        buffer.len()
+                    ),
+                )
+            })?;
         let stride = view.stride().unwrap_or(elem);
         if stride < elem {
-            return Err(bad(self.path, format!("{what}: byte stride {stride} is smaller than the {elem}-byte element")));
+            return Err(bad(
+                self.path,
+                format!("{what}: byte stride {stride} is smaller than the {elem}-byte element"),
+            ));
         }
         if count == 0 {
             return Ok((&[], stride));
@@ -234,11 +292,18 @@ impl Ctx<'_> {
     }
 
     /// Reads an accessor as `N`-component floats, converting integer and normalized types.
-    fn floats<const N: usize>(&self, acc: &gltf::Accessor, what: &str) -> Result<Vec<[f32; N]>, CookError> {
+    fn floats<const N: usize>(
+        &self,
+        acc: &gltf::Accessor,
+        what: &str,
+    ) -> Result<Vec<[f32; N]>, CookError> {
         let what = format!("{what} (accessor {})", acc.index());
         let dims = components(acc.dimensions());
         if dims != N {
-            return Err(bad(self.path, format!("{what} has {dims} components, expected {N}")));
+            return Err(bad(
+                self.path,
+                format!("{what} has {dims} components, expected {N}"),
+            ));
         }
         let t = acc.data_type();
         let size = type_size(t);
@@ -258,10 +323,16 @@ impl Ctx<'_> {
             }
             None => {
                 if acc.sparse().is_none() {
-                    return Err(bad(self.path, format!("{what} has neither a buffer view nor sparse data")));
+                    return Err(bad(
+                        self.path,
+                        format!("{what} has neither a buffer view nor sparse data"),
+                    ));
                 }
                 if count > 1 << 28 {
-                    return Err(bad(self.path, format!("{what}: count {count} is too large")));
+                    return Err(bad(
+                        self.path,
+                        format!("{what}: count {count} is too large"),
+                    ));
                 }
                 out = vec![[0.0; N]; count];
             }
@@ -285,7 +356,10 @@ impl Ctx<'_> {
                     _ => u32::from_le_bytes([b[0], b[1], b[2], b[3]]) as usize,
                 };
                 let slot = out.get_mut(i).ok_or_else(|| {
-                    bad(self.path, format!("{what}: sparse index {i} is out of range (count {count})"))
+                    bad(
+                        self.path,
+                        format!("{what}: sparse index {i} is out of range (count {count})"),
+                    )
                 })?;
                 *slot = decode(&vbytes[k * vstride..]);
             }
@@ -296,11 +370,18 @@ impl Ctx<'_> {
     fn indices(&self, acc: &gltf::Accessor) -> Result<Vec<u32>, CookError> {
         let what = format!("indices (accessor {})", acc.index());
         if acc.dimensions() != Dimensions::Scalar
-            || !matches!(acc.data_type(), DataType::U8 | DataType::U16 | DataType::U32)
+            || !matches!(
+                acc.data_type(),
+                DataType::U8 | DataType::U16 | DataType::U32
+            )
         {
             return Err(bad(
                 self.path,
-                format!("{what} are {:?} {:?}, expected unsigned integer scalars", acc.data_type(), acc.dimensions()),
+                format!(
+                    "{what} are {:?} {:?}, expected unsigned integer scalars",
+                    acc.data_type(),
+                    acc.dimensions()
+                ),
             ));
         }
         if acc.sparse().is_some() || acc.view().is_none() {
@@ -309,7 +390,9 @@ impl Ctx<'_> {
             return Ok(f.into_iter().map(|[v]| v as u32).collect());
         }
         let size = type_size(acc.data_type());
-        let view = acc.view().ok_or_else(|| bad(self.path, format!("{what} have no buffer view")))?;
+        let view = acc
+            .view()
+            .ok_or_else(|| bad(self.path, format!("{what} have no buffer view")))?;
         let (data, stride) = self.view_slice(&view, acc.offset(), acc.count(), size, &what)?;
         Ok((0..acc.count())
             .map(|i| {
@@ -336,10 +419,17 @@ fn add_primitive(
         .get(&gltf::Semantic::Positions)
         .ok_or_else(|| bad(path, "a triangle primitive has no POSITION attribute"))?;
     let positions = ctx.floats::<3>(&pos_acc, "POSITION")?;
-    if let Some(i) = positions.iter().position(|p| !p.iter().all(|c| c.is_finite())) {
+    if let Some(i) = positions
+        .iter()
+        .position(|p| !p.iter().all(|c| c.is_finite()))
+    {
         return Err(bad(
             path,
-            format!("POSITION accessor {} element {i} is {:?}: not finite", pos_acc.index(), positions[i]),
+            format!(
+                "POSITION accessor {} element {i} is {:?}: not finite",
+                pos_acc.index(),
+                positions[i]
+            ),
         ));
     }
     let vcount = positions.len();
@@ -347,10 +437,16 @@ fn add_primitive(
         Some(a) => {
             let n = ctx.floats::<3>(&a, "NORMAL")?;
             if n.len() != vcount {
-                return Err(bad(path, format!("NORMAL has {} elements but POSITION has {vcount}", n.len())));
+                return Err(bad(
+                    path,
+                    format!("NORMAL has {} elements but POSITION has {vcount}", n.len()),
+                ));
             }
             if n.iter().any(|v| !v.iter().all(|c| c.is_finite())) {
-                return Err(bad(path, format!("NORMAL accessor {} has non-finite values", a.index())));
+                return Err(bad(
+                    path,
+                    format!("NORMAL accessor {} has non-finite values", a.index()),
+                ));
             }
             Some(n)
         }
@@ -366,10 +462,19 @@ fn add_primitive(
         Some(a) => {
             let t = ctx.floats::<2>(&a, "TEXCOORD")?;
             if t.len() != vcount {
-                return Err(bad(path, format!("TEXCOORD_{set} has {} elements but POSITION has {vcount}", t.len())));
+                return Err(bad(
+                    path,
+                    format!(
+                        "TEXCOORD_{set} has {} elements but POSITION has {vcount}",
+                        t.len()
+                    ),
+                ));
             }
             if t.iter().any(|v| !v.iter().all(|c| c.is_finite())) {
-                return Err(bad(path, format!("TEXCOORD accessor {} has non-finite values", a.index())));
+                return Err(bad(
+                    path,
+                    format!("TEXCOORD accessor {} has non-finite values", a.index()),
+                ));
             }
             Some(t)
         }
@@ -379,7 +484,11 @@ fn add_primitive(
         Some(a) => ctx.indices(&a)?,
         None => (0..vcount as u32).collect(),
     };
-    if let Some((k, &i)) = indices.iter().enumerate().find(|&(_, &i)| i as usize >= vcount) {
+    if let Some((k, &i)) = indices
+        .iter()
+        .enumerate()
+        .find(|&(_, &i)| i as usize >= vcount)
+    {
         return Err(bad(
             path,
             format!("index {k} is {i}, out of range for a primitive of {vcount} vertices"),
@@ -395,16 +504,25 @@ fn add_primitive(
                 }
             })
             .collect(),
-        Mode::TriangleFan => (2..indices.len()).map(|i| [indices[0], indices[i - 1], indices[i]]).collect(),
+        Mode::TriangleFan => (2..indices.len())
+            .map(|i| [indices[0], indices[i - 1], indices[i]])
+            .collect(),
         _ => {
             if indices.len() % 3 != 0 {
                 out.warnings.push(Warning::new(
                     path,
                     None,
-                    format!("{} indices is not a multiple of 3; the last {} ignored", indices.len(), indices.len() % 3),
+                    format!(
+                        "{} indices is not a multiple of 3; the last {} ignored",
+                        indices.len(),
+                        indices.len() % 3
+                    ),
                 ));
             }
-            indices.chunks_exact(3).map(|c| [c[0], c[1], c[2]]).collect()
+            indices
+                .chunks_exact(3)
+                .map(|c| [c[0], c[1], c[2]])
+                .collect()
         }
     };
 
@@ -414,10 +532,17 @@ fn add_primitive(
     if out.positions.len() + vcount >= NONE as usize {
         return Err(bad(path, "more than 2^32 vertices"));
     }
-    out.positions.extend(positions.iter().map(|&p| world.transform_point3(glam::Vec3::from(p)).to_array()));
+    out.positions.extend(
+        positions
+            .iter()
+            .map(|&p| world.transform_point3(glam::Vec3::from(p)).to_array()),
+    );
     if let Some(n) = &normals {
         let nm = glam::Mat3::from_mat4(world).inverse().transpose();
-        out.normals.extend(n.iter().map(|&v| (nm * glam::Vec3::from(v)).normalize_or_zero().to_array()));
+        out.normals.extend(
+            n.iter()
+                .map(|&v| (nm * glam::Vec3::from(v)).normalize_or_zero().to_array()),
+        );
     }
     if let Some(t) = &uvs {
         out.uvs.extend_from_slice(t);
@@ -446,7 +571,8 @@ fn percent_decode(s: &str) -> String {
     while i < b.len() {
         if b[i] == b'%'
             && i + 2 < b.len()
-            && let Ok(v) = u8::from_str_radix(std::str::from_utf8(&b[i + 1..i + 3]).unwrap_or("zz"), 16)
+            && let Ok(v) =
+                u8::from_str_radix(std::str::from_utf8(&b[i + 1..i + 3]).unwrap_or("zz"), 16)
         {
             out.push(v);
             i += 3;
@@ -459,7 +585,10 @@ fn percent_decode(s: &str) -> String {
 }
 
 fn image_ref(ctx: &Ctx, image: gltf::Image, warnings: &mut Vec<Warning>) -> Option<ImageRef> {
-    let name = image.name().map(str::to_string).unwrap_or_else(|| format!("image{}", image.index()));
+    let name = image
+        .name()
+        .map(str::to_string)
+        .unwrap_or_else(|| format!("image{}", image.index()));
     match image.source() {
         gltf::image::Source::View { view, .. } => {
             match ctx.view_slice(&view, 0, view.length(), 1, &format!("image {name}")) {
@@ -468,22 +597,36 @@ fn image_ref(ctx: &Ctx, image: gltf::Image, warnings: &mut Vec<Warning>) -> Opti
                     bytes: Arc::new(bytes.to_vec()),
                 }),
                 Err(e) => {
-                    warnings.push(Warning::new(ctx.path, None, format!("{e}; texture ignored")));
+                    warnings.push(Warning::new(
+                        ctx.path,
+                        None,
+                        format!("{e}; texture ignored"),
+                    ));
                     None
                 }
             }
         }
         gltf::image::Source::Uri { uri, .. } => {
             if uri.starts_with("data:") {
-                warnings.push(Warning::new(ctx.path, None, format!("image {name}: data URIs are not supported; texture ignored")));
+                warnings.push(Warning::new(
+                    ctx.path,
+                    None,
+                    format!("image {name}: data URIs are not supported; texture ignored"),
+                ));
                 return None;
             }
             let dir = ctx.path.parent().unwrap_or(Path::new(""));
-            let p = [dir.join(uri), dir.join(percent_decode(uri))].into_iter().find(|p| p.is_file());
+            let p = [dir.join(uri), dir.join(percent_decode(uri))]
+                .into_iter()
+                .find(|p| p.is_file());
             match p {
                 Some(p) => Some(ImageRef::File(p)),
                 None => {
-                    warnings.push(Warning::new(ctx.path, None, format!("image {uri:?} not found; texture ignored")));
+                    warnings.push(Warning::new(
+                        ctx.path,
+                        None,
+                        format!("image {uri:?} not found; texture ignored"),
+                    ));
                     None
                 }
             }
@@ -506,16 +649,32 @@ fn convert_material(
     let a = rough * rough;
     let shininess = (2.0 / (a * a) - 2.0).clamp(1.0, 2048.0);
     let sm = SourceMaterial {
-        name: m.name().map(str::to_string).unwrap_or_else(|| format!("material{}", m.index().unwrap_or(0))),
+        name: m
+            .name()
+            .map(str::to_string)
+            .unwrap_or_else(|| format!("material{}", m.index().unwrap_or(0))),
         diffuse,
         specular,
         shininess,
         emissive: m.emissive_factor(),
-        diffuse_texture: pbr.base_color_texture().and_then(|t| image_ref(ctx, t.texture().source(), warnings)),
-        normal_texture: m.normal_texture().and_then(|t| image_ref(ctx, t.texture().source(), warnings)),
+        diffuse_texture: pbr
+            .base_color_texture()
+            .and_then(|t| image_ref(ctx, t.texture().source(), warnings)),
+        normal_texture: m
+            .normal_texture()
+            .and_then(|t| image_ref(ctx, t.texture().source(), warnings)),
     };
-    if !sm.diffuse.iter().chain(&sm.specular).chain(&sm.emissive).all(|v| v.is_finite()) {
-        return Err(bad(ctx.path, format!("material {:?} has non-finite factors", sm.name)));
+    if !sm
+        .diffuse
+        .iter()
+        .chain(&sm.specular)
+        .chain(&sm.emissive)
+        .all(|v| v.is_finite())
+    {
+        return Err(bad(
+            ctx.path,
+            format!("material {:?} has non-finite factors", sm.name),
+        ));
     }
     Ok(sm)
 }

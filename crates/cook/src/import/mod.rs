@@ -50,7 +50,11 @@ impl Names {
             .iter()
             .filter_map(|&k| self.get(k).map(|n| format!("{} {n:?}", k.name())))
             .collect();
-        if parts.is_empty() { "(unnamed)".into() } else { parts.join(", ") }
+        if parts.is_empty() {
+            "(unnamed)".into()
+        } else {
+            parts.join(", ")
+        }
     }
 }
 
@@ -67,7 +71,10 @@ pub struct Part {
 pub enum ImageRef {
     File(PathBuf),
     /// Bytes embedded in a glTF buffer or data URI; `name` identifies it in reports.
-    Embedded { name: String, bytes: Arc<Vec<u8>> },
+    Embedded {
+        name: String,
+        bytes: Arc<Vec<u8>>,
+    },
 }
 
 impl ImageRef {
@@ -115,7 +122,11 @@ pub struct Warning {
 
 impl Warning {
     pub fn new(path: &Path, line: Option<usize>, message: impl Into<String>) -> Self {
-        Self { path: path.to_path_buf(), line, message: message.into() }
+        Self {
+            path: path.to_path_buf(),
+            line,
+            message: message.into(),
+        }
     }
 }
 
@@ -175,7 +186,10 @@ impl Imported {
 
 /// Imports an OBJ, glTF or GLB file, by extension.
 pub fn import(path: &Path) -> Result<Imported, CookError> {
-    let ext = path.extension().map(|e| e.to_string_lossy().to_ascii_lowercase()).unwrap_or_default();
+    let ext = path
+        .extension()
+        .map(|e| e.to_string_lossy().to_ascii_lowercase())
+        .unwrap_or_default();
     match ext.as_str() {
         "obj" => obj::import(path),
         "gltf" | "glb" => gltf::import(path),

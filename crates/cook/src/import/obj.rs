@@ -14,17 +14,24 @@ use crate::CookError;
 use crate::triangulate::triangulate;
 
 pub fn import(path: &Path) -> Result<Imported, CookError> {
-    let bytes =
-        std::fs::read(path).map_err(|source| CookError::Io { path: path.to_path_buf(), source })?;
+    let bytes = std::fs::read(path).map_err(|source| CookError::Io {
+        path: path.to_path_buf(),
+        source,
+    })?;
     parse(path, &bytes)
 }
 
 fn bad(path: &Path, line: usize, message: impl Into<String>) -> CookError {
-    CookError::Source { path: path.to_path_buf(), line: Some(line), message: message.into() }
+    CookError::Source {
+        path: path.to_path_buf(),
+        line: Some(line),
+        message: message.into(),
+    }
 }
 
 fn tokens(line: &[u8]) -> impl Iterator<Item = &[u8]> {
-    line.split(|b| b.is_ascii_whitespace()).filter(|t| !t.is_empty())
+    line.split(|b| b.is_ascii_whitespace())
+        .filter(|t| !t.is_empty())
 }
 
 fn text(t: &[u8]) -> String {
@@ -41,10 +48,18 @@ fn parse_i64(t: &[u8]) -> Option<i64> {
 
 fn trim(mut s: &[u8]) -> &[u8] {
     while let [first, rest @ ..] = s {
-        if first.is_ascii_whitespace() { s = rest } else { break }
+        if first.is_ascii_whitespace() {
+            s = rest
+        } else {
+            break;
+        }
     }
     while let [rest @ .., last] = s {
-        if last.is_ascii_whitespace() { s = rest } else { break }
+        if last.is_ascii_whitespace() {
+            s = rest
+        } else {
+            break;
+        }
     }
     s
 }
@@ -61,7 +76,10 @@ struct State {
 
 /// Parses OBJ text. `path` names the file in errors and locates `mtllib` files.
 pub fn parse(path: &Path, bytes: &[u8]) -> Result<Imported, CookError> {
-    let mut out = Imported { path: path.to_path_buf(), ..Default::default() };
+    let mut out = Imported {
+        path: path.to_path_buf(),
+        ..Default::default()
+    };
     let mut state = State::default();
     let mut material_ids: HashMap<String, u32> = HashMap::new();
     let mut unknown_materials: Vec<(String, usize)> = Vec::new();
@@ -88,13 +106,25 @@ pub fn parse(path: &Path, bytes: &[u8]) -> Result<Imported, CookError> {
                 let mut p = [0.0f32; 3];
                 for (k, c) in p.iter_mut().enumerate() {
                     let t = it.next().ok_or_else(|| {
-                        bad(path, line_no, format!("vertex has {k} coordinates, needs 3"))
+                        bad(
+                            path,
+                            line_no,
+                            format!("vertex has {k} coordinates, needs 3"),
+                        )
                     })?;
                     *c = parse_f32(t).ok_or_else(|| {
-                        bad(path, line_no, format!("vertex coordinate {:?} is not a number", text(t)))
+                        bad(
+                            path,
+                            line_no,
+                            format!("vertex coordinate {:?} is not a number", text(t)),
+                        )
                     })?;
                     if !c.is_finite() {
-                        return Err(bad(path, line_no, format!("vertex coordinate {:?} is not finite", text(t))));
+                        return Err(bad(
+                            path,
+                            line_no,
+                            format!("vertex coordinate {:?} is not finite", text(t)),
+                        ));
                     }
                 }
                 out.positions.push(p);
@@ -105,10 +135,19 @@ pub fn parse(path: &Path, bytes: &[u8]) -> Result<Imported, CookError> {
                     match it.next() {
                         Some(t) => {
                             *c = parse_f32(t).filter(|v| v.is_finite()).ok_or_else(|| {
-                                bad(path, line_no, format!("texture coordinate {:?} is not a finite number", text(t)))
+                                bad(
+                                    path,
+                                    line_no,
+                                    format!(
+                                        "texture coordinate {:?} is not a finite number",
+                                        text(t)
+                                    ),
+                                )
                             })?
                         }
-                        None if k == 0 => return Err(bad(path, line_no, "texture coordinate has no values")),
+                        None if k == 0 => {
+                            return Err(bad(path, line_no, "texture coordinate has no values"));
+                        }
                         None => {}
                     }
                 }
@@ -121,7 +160,11 @@ pub fn parse(path: &Path, bytes: &[u8]) -> Result<Imported, CookError> {
                         bad(path, line_no, format!("normal has {k} components, needs 3"))
                     })?;
                     *c = parse_f32(t).filter(|v| v.is_finite()).ok_or_else(|| {
-                        bad(path, line_no, format!("normal component {:?} is not a finite number", text(t)))
+                        bad(
+                            path,
+                            line_no,
+                            format!("normal component {:?} is not a finite number", text(t)),
+                        )
                     })?;
                 }
                 out.normals.push(n);
@@ -158,7 +201,11 @@ pub fn parse(path: &Path, bytes: &[u8]) -> Result<Imported, CookError> {
                 if skipped_lines.0 + skipped_lines.1 == 0 {
                     skipped_lines.2 = line_no;
                 }
-                if keyword == b"l" { skipped_lines.0 += 1 } else { skipped_lines.1 += 1 }
+                if keyword == b"l" {
+                    skipped_lines.0 += 1
+                } else {
+                    skipped_lines.1 += 1
+                }
             }
             b"g" => {
                 if let Some((name, 0)) = group_faces.take() {
@@ -187,10 +234,10 @@ pub fn parse(path: &Path, bytes: &[u8]) -> Result<Imported, CookError> {
             b"mtllib" => load_mtllib(path, line_no, rest, &mut out, &mut material_ids)?,
             // Smoothing groups, free-form geometry and display attributes: normals are
             // generated with a crease angle instead, and the rest has no meaning here.
-            b"s" | b"vp" | b"cstype" | b"deg" | b"bmat" | b"step" | b"curv" | b"curv2" | b"surf"
-            | b"parm" | b"trim" | b"hole" | b"scrv" | b"sp" | b"end" | b"con" | b"mg" | b"lod"
-            | b"bevel" | b"c_interp" | b"d_interp" | b"usemap" | b"maplib" | b"shadow_obj"
-            | b"trace_obj" | b"ctech" | b"stech" => {}
+            b"s" | b"vp" | b"cstype" | b"deg" | b"bmat" | b"step" | b"curv" | b"curv2"
+            | b"surf" | b"parm" | b"trim" | b"hole" | b"scrv" | b"sp" | b"end" | b"con" | b"mg"
+            | b"lod" | b"bevel" | b"c_interp" | b"d_interp" | b"usemap" | b"maplib"
+            | b"shadow_obj" | b"trace_obj" | b"ctech" | b"stech" => {}
             other => {
                 let k = text(other);
                 if !unknown_keywords.iter().any(|(n, _)| *n == k) {
@@ -226,7 +273,10 @@ pub fn parse(path: &Path, bytes: &[u8]) -> Result<Imported, CookError> {
         out.warnings.push(Warning::new(
             path,
             Some(first),
-            format!("{} faces with fewer than 3 vertices ignored", short_faces.len()),
+            format!(
+                "{} faces with fewer than 3 vertices ignored",
+                short_faces.len()
+            ),
         ));
     }
     if !empty_groups.is_empty() {
@@ -237,10 +287,15 @@ pub fn parse(path: &Path, bytes: &[u8]) -> Result<Imported, CookError> {
         ));
     }
     for (k, line) in unknown_keywords {
-        out.warnings.push(Warning::new(path, Some(line), format!("unknown statement {k:?} ignored")));
+        out.warnings.push(Warning::new(
+            path,
+            Some(line),
+            format!("unknown statement {k:?} ignored"),
+        ));
     }
     if out.tri_part.is_empty() {
-        out.warnings.push(Warning::new(path, None, "no faces: nothing to cook"));
+        out.warnings
+            .push(Warning::new(path, None, "no faces: nothing to cook"));
     }
     Ok(out)
 }
@@ -249,7 +304,11 @@ fn current_part(state: &mut State, out: &mut Imported, material_ids: &HashMap<St
     if let Some(p) = state.part {
         return p;
     }
-    let key = (state.material.clone(), state.group.clone(), state.object.clone());
+    let key = (
+        state.material.clone(),
+        state.group.clone(),
+        state.object.clone(),
+    );
     let next = out.parts.len() as u32;
     let id = *state.parts.entry(key).or_insert_with(|| {
         out.parts.push(Part {
@@ -260,7 +319,10 @@ fn current_part(state: &mut State, out: &mut Imported, material_ids: &HashMap<St
                 mesh: None,
                 node: None,
             },
-            material: state.material.as_ref().and_then(|m| material_ids.get(m).copied()),
+            material: state
+                .material
+                .as_ref()
+                .and_then(|m| material_ids.get(m).copied()),
         });
         next
     });
@@ -276,20 +338,31 @@ fn resolve(
     what: &str,
 ) -> Result<u32, CookError> {
     let i = parse_i64(raw).ok_or_else(|| {
-        bad(path, line, format!("{what} index {:?} is not an integer", text(raw)))
+        bad(
+            path,
+            line,
+            format!("{what} index {:?} is not an integer", text(raw)),
+        )
     })?;
     let resolved = if i > 0 {
         i - 1
     } else if i < 0 {
         count as i64 + i
     } else {
-        return Err(bad(path, line, format!("{what} index 0 is invalid: OBJ indices start at 1")));
+        return Err(bad(
+            path,
+            line,
+            format!("{what} index 0 is invalid: OBJ indices start at 1"),
+        ));
     };
     if resolved < 0 || resolved >= count as i64 || resolved >= NONE as i64 {
         return Err(bad(
             path,
             line,
-            format!("{what} index {i} is out of range: {count} {} defined before this line", plural(what, count)),
+            format!(
+                "{what} index {i} is out of range: {count} {} defined before this line",
+                plural(what, count)
+            ),
         ));
     }
     Ok(resolved as u32)
@@ -318,7 +391,11 @@ fn parse_corner(path: &Path, line: usize, tok: &[u8], out: &Imported) -> Result<
         _ => NONE,
     };
     if fields.next().is_some() {
-        return Err(bad(path, line, format!("face corner {:?} has more than 3 fields", text(tok))));
+        return Err(bad(
+            path,
+            line,
+            format!("face corner {:?} has more than 3 fields", text(tok)),
+        ));
     }
     Ok(Corner { p, t, n })
 }
@@ -335,7 +412,11 @@ fn find_file(dir: &Path, rest: &[u8]) -> (Vec<PathBuf>, Vec<String>) {
     let mut missing = Vec::new();
     for w in tokens(rest) {
         let p = dir.join(text(w));
-        if p.is_file() { found.push(p) } else { missing.push(text(w)) }
+        if p.is_file() {
+            found.push(p)
+        } else {
+            missing.push(text(w))
+        }
     }
     (found, missing)
 }
@@ -384,14 +465,20 @@ fn load_mtllib(
                         out.warnings.push(Warning::new(
                             &mtl,
                             None,
-                            format!("{what} {name:?} of material {:?} not found; ignored", m.name),
+                            format!(
+                                "{what} {name:?} of material {:?} not found; ignored",
+                                m.name
+                            ),
                         ));
                         None
                     }
                 }
             };
             let diffuse_texture = texture(&m.diffuse_texture, "diffuse texture");
-            let normal_name = m.normal_texture.clone().or_else(|| m.unknown_param.get("norm").cloned());
+            let normal_name = m
+                .normal_texture
+                .clone()
+                .or_else(|| m.unknown_param.get("norm").cloned());
             let normal_texture = texture(&normal_name, "normal map");
             let sm = SourceMaterial {
                 name: m.name.clone(),
@@ -402,7 +489,12 @@ fn load_mtllib(
                 diffuse_texture,
                 normal_texture,
             };
-            let finite = sm.diffuse.iter().chain(&sm.specular).chain(&sm.emissive).all(|v| v.is_finite())
+            let finite = sm
+                .diffuse
+                .iter()
+                .chain(&sm.specular)
+                .chain(&sm.emissive)
+                .all(|v| v.is_finite())
                 && sm.shininess.is_finite();
             if !finite {
                 return Err(CookError::Source {
@@ -424,7 +516,11 @@ fn load_mtllib(
     // Parts created before this mtllib could not resolve their material.
     for part in &mut out.parts {
         if part.material.is_none() {
-            part.material = part.names.material.as_ref().and_then(|n| ids.get(n).copied());
+            part.material = part
+                .names
+                .material
+                .as_ref()
+                .and_then(|n| ids.get(n).copied());
         }
     }
     Ok(())
@@ -448,20 +544,34 @@ mod tests {
         assert_eq!(m.polygons, 1);
         assert_eq!(m.parts.len(), 1);
         let n = &m.parts[0].names;
-        assert_eq!((n.object.as_deref(), n.group.as_deref(), n.material.as_deref()), (Some("box"), Some("front"), Some("red")));
+        assert_eq!(
+            (
+                n.object.as_deref(),
+                n.group.as_deref(),
+                n.material.as_deref()
+            ),
+            (Some("box"), Some("front"), Some("red"))
+        );
         assert_eq!(m.warnings.len(), 1, "{:?}", m.warnings); // red is not defined
     }
 
     #[test]
     fn errors_name_the_line() {
         let e = parse_str("v 0 0 0\nv 1 0 0\n\nf 1 2 3\n").unwrap_err();
-        assert!(e.to_string().starts_with("test.obj:4: vertex index 3 is out of range"), "{e}");
+        assert!(
+            e.to_string()
+                .starts_with("test.obj:4: vertex index 3 is out of range"),
+            "{e}"
+        );
         let e = parse_str("v 0 0 0\nv nan 0 0\n").unwrap_err();
         assert!(e.to_string().starts_with("test.obj:2:"), "{e}");
         let e = parse_str("v 0 0 inf\n").unwrap_err();
         assert!(e.to_string().contains("not finite"), "{e}");
         let e = parse_str("v 0 0 0\nf 0 1 1\n").unwrap_err();
-        assert!(e.to_string().starts_with("test.obj:2: vertex index 0"), "{e}");
+        assert!(
+            e.to_string().starts_with("test.obj:2: vertex index 0"),
+            "{e}"
+        );
     }
 
     #[test]
