@@ -207,8 +207,33 @@ of it with this one, so a change to the generator must be committed together wit
 run the generator, then commit both. Files in this folder that the generator does not write
 make that test fail too; keep your own files elsewhere (see below).
 
+PNGs are compared byte for byte, so an update of the `image` or `png` crates that changes
+their compressed output also calls for a regeneration (the test says so when only the bytes,
+not the pixels, differ).
+
 The generator also checks the scene before writing it: it traces the sun through sample points
 of every window and fails if any of that light would miss the floor and walls.
+
+To look at the scene without a GPU, a small CPU ray tracer renders any camera preset with
+sunlight coloured by the glass it passes through:
+
+```sh
+cargo run -p assetgen --release --example preview -- nave /tmp/nave.png 640x360
+```
+
+## The scene
+
+Metres, Y up. The corridor runs from its entrance at z = 0 to the end wall at z = {len:.0},
+between the shaded wall at x = -{hw:.0} and the sunny wall at x = +{hw:.0}, in {bays} bays
+of {bay:.0} m with piers and transverse ribs between them. The walls rise to y = {wh:.1} and
+a pointed vault closes them at y = {apex:.2}. In each bay the sunny wall has a lower lancet
+(`window_lower_N`, N = 1 at the entrance) and a clerestory window (`window_upper_N`); the rose
+(`rose`) is in the end wall. The sun travels along {sun}: through the side
+windows onto the floor and the shaded wall, and through the rose onto the shaded wall.
+
+Camera presets:
+
+{cams}
 
 ## Swapping in your own window design
 
@@ -235,6 +260,19 @@ To change the default scene itself, edit the designs in `tools/assetgen/src/glas
 a function from a point on the window, in metres, to a pane of glass; the leads are drawn
 wherever neighbouring panes differ) and regenerate.
 "#,
+        len = -l.length(),
+        hw = l.half_width,
+        bays = l.bays,
+        bay = l.bay,
+        wh = l.wall_height,
+        apex = l.vault_apex(),
+        sun = v3(l.sun, 3),
+        cams = cx
+            .cameras
+            .iter()
+            .map(|c| format!("- `{}`: {}", c.name, c.note))
+            .collect::<Vec<_>>()
+            .join("\n"),
         lw = l.lower.width,
         lh = l.lower.height(),
         lpx = px(l.lower.width, l.lower.height()),

@@ -34,7 +34,23 @@ fn committed_assets_are_what_the_generator_writes() {
         for f in &fresh {
             match committed.iter().find(|c| c.path == f.path) {
                 None => report.push(format!("{} is not committed", f.path)),
-                Some(c) if c.bytes != f.bytes => report.push(format!("{} differs", f.path)),
+                Some(c) if c.bytes != f.bytes => {
+                    // Same pixels in different bytes means the PNG encoder changed (an `image`
+                    // or `png` update), not the generator; regenerating is still the fix.
+                    let pixels = |b: &[u8]| {
+                        image::load_from_memory(b)
+                            .ok()
+                            .map(|i| i.to_rgba8().into_raw())
+                    };
+                    let same_pixels = f.path.ends_with(".png")
+                        && pixels(&c.bytes).is_some_and(|p| Some(p) == pixels(&f.bytes));
+                    let why = if same_pixels {
+                        " (same pixels: the PNG encoder changed)"
+                    } else {
+                        ""
+                    };
+                    report.push(format!("{} differs{why}", f.path))
+                }
                 Some(_) => {}
             }
         }
