@@ -494,3 +494,124 @@ fn fifo_and_quantized_cooks_are_valid() {
     );
     assert!(out.report.meshes[0].stats.acmr_out < 0.8);
 }
+
+#[test]
+fn window_scene_cooks_design_normal_map_and_projector() {
+    let dir = tempfile::tempdir().unwrap();
+    // A 4 x 4 floor at y = 0 and a 1 x 2 lancet in the plane z = 0, u to the right, v down.
+    std::fs::write(
+        dir.path().join("room.obj"),
+        "v 0 0 0\nv 4 0 0\nv 4 0 4\nv 0 0 4\nv 1 3 0\nv 2 3 0\nv 2 1 0\nv 1 1 0\n\
+         vt 0 0\nvt 1 0\nvt 1 1\nvt 0 1\n\
+         o floor\nusemtl stone\nf 1 4 3 2\no lancet\nusemtl glass_1\nf 5/1 8/4 7/3 6/2\n",
+    )
+    .unwrap();
+    let design = image::RgbaImage::from_fn(16, 32, |x, y| {
+        image::Rgba([(x * 16) as u8, (y * 8) as u8, 200, 255])
+    });
+    design.save(dir.path().join("design.png")).unwrap();
+    let m = scene(
+        dir.path(),
+        r#"
+[[mesh]]
+source = "room.obj"
+
+[[rule]]
+match = "stone"
+class = "floor"
+
+[[rule]]
+match = "glass_*"
+on = ["material"]
+class = "window-upper"
+
+[[window]]
+material = "glass_1"
+design = "design.png"
+
+[light]
+type = "directional"
+direction = [0.0, -0.5, 1.0]
+"#,
+    );
+    let (out, pack) = cook_to_pack(&m);
+    check_material_ids(&pack);
+    let toc = pack.toc();
+    assert_eq!(triangles(&pack), 4);
+    let glass = toc.materials.iter().find(|m| m.name == "glass_1").unwrap();
+    let role = |t: Option<u32>| toc.textures[t.expect("texture set") as usize].role;
+    assert_eq!(role(glass.diffuse_texture), pack::TextureRole::Colour);
+    assert_eq!(role(glass.normal_texture), pack::TextureRole::Normal);
+    assert_eq!(role(glass.projector_texture), pack::TextureRole::Projector);
+    let colour = &toc.textures[glass.diffuse_texture.unwrap() as usize];
+    assert_eq!(
+        (colour.width, colour.height, colour.mips.len()),
+        (16, 32, 6)
+    );
+    assert_eq!(colour.colour_space, pack::ColourSpace::Srgb);
+    assert_eq!(
+        toc.textures[glass.normal_texture.unwrap() as usize].colour_space,
+        pack::ColourSpace::Linear
+    );
+    // Level 0 of the design keeps its bytes.
+    assert_eq!(
+        pack.mip_bytes(glass.diffuse_texture.unwrap() as usize, 0),
+        design.as_raw().as_slice()
+    );
+    // The frame reproduces the UV mapping; the normal points along the light, into the room.
+    let w = &toc.windows[0];
+    let close = |a: [f32; 3], b: [f32; 3]| a.iter().zip(&b).all(|(x, y)| (x - y).abs() < 1e-4);
+    assert!(
+        close(w.origin, [1.0, 3.0, 0.0]) && close(w.u_axis, [1.0, 0.0, 0.0]),
+        "{w:?}"
+    );
+    assert!(
+        close(w.v_axis, [0.0, -2.0, 0.0]) && close(w.normal, [0.0, 0.0, 1.0]),
+        "{w:?}"
+    );
+    // Windows are drawn last.
+    let ranges = &toc.meshes[0].ranges;
+    assert_eq!(
+        toc.materials[ranges.last().unwrap().material as usize].name,
+        "glass_1"
+    );
+    assert!(out.report.heuristics.is_empty());
+    let v = cook::validate::validate_scene(&m).unwrap();
+    assert!(v.is_clean(), "{:#?}", v.findings);
+    assert!(cook::validate::validate_pack(&pack).is_clean());
+}
+
+#[test]
+fn window_problems_are_found() {
+    let dir = tempfile::tempdir().unwrap();
+    // A bent window (one corner 0.5 out of plane) with UVs up to 2, and no [[window]] design.
+    std::fs::write(
+        dir.path().join("w.obj"),
+        "v 0 0 0\nv 1 0 0\nv 1 1 0.5\nv 0 1 0\nvt 0 0\nvt 2 0\nvt 2 1\nvt 0 1\n\
+         usemtl window_lower_a\nf 1/1 2/2 3/3 4/4\nf 1/1 2/2 3/3\nf 3/3 1/1 2/2\n",
+    )
+    .unwrap();
+    let m = Manifest::open(&dir.path().join("w.obj")).unwrap();
+    let v = cook::validate::validate_scene(&m).unwrap();
+    let codes: Vec<&str> = v.findings.iter().map(|f| f.code).collect();
+    for code in [
+        "untagged",
+        "duplicate-triangles",
+        "window-no-design",
+        "window-not-planar",
+        "window-uv-range",
+    ] {
+        assert!(
+            codes.contains(&code),
+            "{code} missing from {:#?}",
+            v.findings
+        );
+    }
+    let planar = v
+        .findings
+        .iter()
+        .find(|f| f.code == "window-not-planar")
+        .unwrap();
+    assert!(planar.message.contains("tolerance"), "{}", planar.message);
+    assert_eq!(v.materials[0].class, MaterialClass::WindowLower);
+}
