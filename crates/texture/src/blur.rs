@@ -147,39 +147,60 @@ pub fn reference_blur(src: &[[f64; 4]], w: usize, h: usize, sigma: f64) -> Vec<[
 
 type Px = [f32; 4];
 
+/// Output floats kept in registers while the terms stream past (eight 256-bit registers).
+const CHUNK: usize = 64;
+
 #[inline(always)]
-fn axpy_plain(out: &mut [f32], k: f32, src: &[f32]) {
-    for (o, v) in out.iter_mut().zip(src) {
-        *o += k * v;
+fn wsum_plain(out: &mut [f32], terms: &[(f32, &[f32])]) {
+    let n = out.len();
+    let mut i = 0;
+    while i + CHUNK <= n {
+        let mut acc = [0.0f32; CHUNK];
+        for &(w, s) in terms {
+            let s = &s[i..i + CHUNK];
+            for j in 0..CHUNK {
+                acc[j] += w * s[j];
+            }
+        }
+        out[i..i + CHUNK].copy_from_slice(&acc);
+        i += CHUNK;
+    }
+    for (j, o) in out.iter_mut().enumerate().skip(i) {
+        let mut acc = 0.0f32;
+        for &(w, s) in terms {
+            acc += w * s[j];
+        }
+        *o = acc;
     }
 }
 
-/// The same loop compiled for 256-bit vectors. Rust never fuses `k * v + o` into an FMA, so
+/// The same loop compiled for 256-bit vectors. Rust never fuses `w * s + acc` into an FMA, so
 /// this gives the same bits as the plain loop: results do not depend on the CPU.
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx")]
-unsafe fn axpy_avx(out: &mut [f32], k: f32, src: &[f32]) {
-    axpy_plain(out, k, src)
+unsafe fn wsum_avx(out: &mut [f32], terms: &[(f32, &[f32])]) {
+    wsum_plain(out, terms)
 }
 
-/// `out += k · src` over texels. Every pass of the blur is made of these: long, contiguous,
-/// independent multiply-adds, which run at the machine's vector throughput.
-#[inline]
-fn axpy(out: &mut [Px], k: f32, src: &[Px]) {
-    let n = out.len() * 4;
-    let (out, src) = (out.as_flattened_mut(), &src.as_flattened()[..n]);
+/// `out = Σ w · src` over texels, summed in the order of `terms` (so one output's value never
+/// depends on how the work is split). Every pass of the blur is one of these: long, contiguous,
+/// independent multiply-adds with the partial sums held in registers.
+fn wsum(out: &mut [Px], terms: &[(f32, &[Px])]) {
+    let n = out.len();
+    let flat: Vec<(f32, &[f32])> = terms.iter().map(|&(w, s)| (w, &s.as_flattened()[..n * 4])).collect();
+    let out = out.as_flattened_mut();
     #[cfg(target_arch = "x86_64")]
     if std::is_x86_feature_detected!("avx") {
         // SAFETY: the CPU supports AVX, checked just above.
-        unsafe { axpy_avx(out, k, src) };
+        unsafe { wsum_avx(out, &flat) };
         return;
     }
-    axpy_plain(out, k, src)
+    wsum_plain(out, &flat)
 }
 
 /// A row filter with decimation: `out[m] = Σ_t taps[t] · x[m·k + t - pad]`, with `x` zero
 /// outside the row. Computed polyphase: the padded row is split into its k phases
-/// `X_s[i] = x[k·i + s - pad]`, so each tap is one axpy of a contiguous slice onto `out`.
+/// `X_s[i] = x[k·i + s - pad]`, so each tap is a contiguous slice in one weighted sum.
 struct RowFir {
     k: usize,
     pad: usize,
@@ -203,11 +224,13 @@ impl RowFir {
                 *v = if j >= 0 && (j as usize) < row.len() { row[j as usize] } else { [0.0; 4] };
             }
         }
-        out.fill([0.0; 4]);
-        for (t, &w) in self.taps.iter().enumerate() {
-            let (q, s) = (t / self.k, t % self.k);
-            axpy(out, w, &phases[s][q..q + n]);
-        }
+        let terms: Vec<(f32, &[Px])> = self
+            .taps
+            .iter()
+            .enumerate()
+            .map(|(t, &w)| (w, &phases[t % self.k][t / self.k..t / self.k + n]))
+            .collect();
+        wsum(out, &terms);
     }
 }
 
@@ -289,12 +312,11 @@ fn direct<I: Io>(io: &I, w: usize, h: usize, sigma: f64, out: &mut [I::Out]) {
     out.par_chunks_mut(w * I::PER_TEXEL).enumerate().for_each_init(
         || vec![[0.0f32; 4]; w],
         |acc, (y, o)| {
-            acc.fill([0.0; 4]);
             let lo = y.saturating_sub(ry);
             let hi = (y + ry).min(h - 1);
-            for sy in lo..=hi {
-                axpy(acc, ky[sy + ry - y], &mid[sy * w..(sy + 1) * w]);
-            }
+            let terms: Vec<(f32, &[Px])> =
+                (lo..=hi).map(|sy| (ky[sy + ry - y], &mid[sy * w..(sy + 1) * w])).collect();
+            wsum(acc, &terms);
             io.emit(acc, o);
         },
     );
@@ -348,16 +370,15 @@ impl Axis {
     }
 
     /// Stage 2 along a row: fine texels from coarse samples `c`, one phase at a time so each
-    /// weight is an axpy of a contiguous slice; `tmp` holds one phase's outputs.
+    /// weight applies to a contiguous slice; `tmp` holds one phase's outputs.
     fn interp_row(&self, c: &[Px], tmp: &mut [Px], out: &mut [Px]) {
         for r in 0..self.k.min(self.n) {
             let (m0, ws) = self.interp(r);
             let len = (self.n - r).div_ceil(self.k);
             let tmp = &mut tmp[..len];
-            tmp.fill([0.0; 4]);
-            for (t, &w) in ws.iter().enumerate() {
-                axpy(tmp, w, &c[m0 + t..m0 + t + len]);
-            }
+            let terms: Vec<(f32, &[Px])> =
+                ws.iter().enumerate().map(|(t, &w)| (w, &c[m0 + t..m0 + t + len])).collect();
+            wsum(tmp, &terms);
             for (q, v) in tmp.iter().enumerate() {
                 out[q * self.k + r] = *v;
             }
@@ -388,24 +409,28 @@ fn decimated<I: Io>(io: &I, w: usize, h: usize, sigma: f64, out: &mut [I::Out]) 
     let mut b = vec![[0.0f32; 4]; mx * my];
     b.par_chunks_mut(mx).enumerate().for_each(|(m, o)| {
         let p = (m * k) as i64 - ay.rt as i64;
-        for (t, &g) in g1.iter().enumerate() {
-            let y = p - r1 as i64 + t as i64;
-            if y >= 0 && (y as usize) < h {
-                let y = y as usize;
-                axpy(o, g, &a[y * mx..(y + 1) * mx]);
-            }
-        }
+        let terms: Vec<(f32, &[Px])> = g1
+            .iter()
+            .enumerate()
+            .filter_map(|(t, &g)| {
+                let y = usize::try_from(p - r1 as i64 + t as i64).ok().filter(|&y| y < h)?;
+                Some((g, &a[y * mx..(y + 1) * mx]))
+            })
+            .collect();
+        wsum(o, &terms);
     });
     drop(a);
     // Stage 2: interpolate y back to fine rows, then x to fine columns.
     out.par_chunks_mut(w * I::PER_TEXEL).enumerate().for_each_init(
         || (vec![[0.0f32; 4]; mx], vec![[0.0f32; 4]; w], vec![[0.0f32; 4]; w.div_ceil(k)]),
         |(c, row, tmp), (y, o)| {
-            c.fill([0.0; 4]);
             let (m0, ws) = ay.interp(y);
-            for (i, &t) in ws.iter().enumerate() {
-                axpy(c, t, &b[(m0 + i) * mx..(m0 + i + 1) * mx]);
-            }
+            let terms: Vec<(f32, &[Px])> = ws
+                .iter()
+                .enumerate()
+                .map(|(i, &t)| (t, &b[(m0 + i) * mx..(m0 + i + 1) * mx]))
+                .collect();
+            wsum(c, &terms);
             ax.interp_row(c, tmp, row);
             io.emit(row, o);
         },

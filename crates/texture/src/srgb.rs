@@ -51,31 +51,57 @@ pub fn decode16() -> &'static [f32] {
 
 const BUCKETS: usize = 4096;
 
+/// Buckets of the f32 encoder are slices of the float's bit pattern: 2^MANTISSA_BITS per
+/// power of two from 2^MIN_EXP up to 1. Relative bucket width 2^-7 is below the smallest
+/// relative gap between rounding thresholds (0.9%, at the top of the curve), so a bucket holds
+/// at most one threshold and one compare finishes the lookup; the table build checks this.
+const MANTISSA_BITS: u32 = 7;
+const MIN_EXP: i32 = -13;
+const FAST_BUCKETS: usize = ((-MIN_EXP) as usize) << MANTISSA_BITS;
+
 /// Correctly rounded linear → 8-bit sRGB encoder (fetch once with [`encoder`], reuse in loops).
 pub struct Encoder {
     /// Linear value at which the rounded code steps from k to k + 1 (code k + 0.5 decoded).
-    thresholds32: [f32; 255],
     thresholds64: [f64; 255],
-    /// The code of each bucket's lower end, so a lookup starts at most a step or two short.
+    /// The code of each f64 bucket's lower end, so a lookup starts at most a step or two short.
     start: [u8; BUCKETS + 1],
+    /// Per bit-pattern bucket: the code at its lower end and the one threshold inside it
+    /// (infinity when none).
+    base: Vec<u8>,
+    step: Vec<f32>,
 }
 
+/// The shared encoder tables.
 pub fn encoder() -> &'static Encoder {
     static E: OnceLock<Box<Encoder>> = OnceLock::new();
     E.get_or_init(|| {
         let mut e = Box::new(Encoder {
-            thresholds32: [0.0; 255],
             thresholds64: [0.0; 255],
             start: [0; BUCKETS + 1],
+            base: vec![0; FAST_BUCKETS + 1],
+            step: vec![f32::INFINITY; FAST_BUCKETS + 1],
         });
         for k in 0..255 {
-            let t = srgb_to_linear((k as f64 + 0.5) / 255.0);
-            e.thresholds64[k] = t;
-            e.thresholds32[k] = t as f32;
+            e.thresholds64[k] = srgb_to_linear((k as f64 + 0.5) / 255.0);
         }
         for b in 0..=BUCKETS {
             let l = b as f64 / BUCKETS as f64;
             e.start[b] = e.thresholds64.iter().take_while(|&&t| t <= l).count() as u8;
+        }
+        let thresholds32: Vec<f32> = e.thresholds64.iter().map(|&t| t as f32).collect();
+        assert!(thresholds32[0] > (MIN_EXP as f32).exp2(), "first threshold below the table");
+        let lo_bits = (MIN_EXP as f32).exp2().to_bits();
+        for b in 0..=FAST_BUCKETS {
+            let lo = f32::from_bits(lo_bits + ((b as u32) << (23 - MANTISSA_BITS)));
+            let hi = f32::from_bits(lo_bits + ((b as u32 + 1) << (23 - MANTISSA_BITS)));
+            let below = thresholds32.iter().take_while(|&&t| t <= lo).count();
+            let inside: Vec<f32> =
+                thresholds32.iter().copied().filter(|&t| t > lo && t < hi).collect();
+            assert!(inside.len() <= 1, "bucket {b} holds {} thresholds", inside.len());
+            e.base[b] = below as u8;
+            if let Some(&t) = inside.first() {
+                e.step[b] = t;
+            }
         }
         e
     })
@@ -85,18 +111,11 @@ impl Encoder {
     /// Correctly rounded 8-bit sRGB code of a linear value (clamped to [0, 1]; NaN gives 0).
     #[inline]
     pub fn encode(&self, l: f32) -> u8 {
-        // `!(l > 0)` also catches NaN.
-        if !(l > 0.0) {
-            return 0;
-        }
-        if l >= 1.0 {
-            return 255;
-        }
-        let mut k = self.start[(l * BUCKETS as f32) as usize] as usize;
-        while k < 255 && l >= self.thresholds32[k] {
-            k += 1;
-        }
-        k as u8
+        const LO: f32 = 1.0 / 8192.0; // 2^MIN_EXP
+        // Written so NaN takes the first branch.
+        let l = if l > LO { l.min(1.0) } else { LO };
+        let b = ((l.to_bits() - LO.to_bits()) >> (23 - MANTISSA_BITS)) as usize;
+        self.base[b] + u8::from(l >= self.step[b])
     }
 }
 
