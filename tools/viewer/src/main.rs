@@ -3,6 +3,8 @@
 //! benchmarks per-pass GPU time. The interactive window (issue 7) plugs into the same
 //! `render::Renderer::render_to`.
 
+mod interactive;
+
 use std::io::Read;
 use std::path::{Path, PathBuf};
 use std::sync::mpsc;
@@ -44,6 +46,15 @@ struct Args {
     /// God rays at half resolution with per-pixel jitter.
     #[arg(long)]
     half_res_rays: bool,
+    /// Window: re-cook a scene.toml and swap the scene in when one of its sources changes.
+    #[arg(long)]
+    watch: bool,
+    /// Window: present without waiting for vertical sync.
+    #[arg(long)]
+    no_vsync: bool,
+    /// Window: synthetic input for tests (steps separated by `;`, see interactive/script.rs).
+    #[arg(long, hide = true)]
+    script: Option<String>,
 }
 
 fn parse_size(s: &str) -> Result<(u32, u32), String> {
@@ -262,20 +273,27 @@ fn bench(
 
 fn main() -> Result<()> {
     let args = Args::parse();
-    let has_display =
-        std::env::var_os("DISPLAY").is_some() || std::env::var_os("WAYLAND_DISPLAY").is_some();
-    if !args.headless {
-        if has_display {
-            println!("the interactive window is not available yet; rendering headless");
-        } else {
-            println!("no display found (DISPLAY/WAYLAND_DISPLAY unset): rendering headless");
-        }
-    }
     let mut settings = Settings::default();
     settings.god_rays.samples = args.samples;
     if args.half_res_rays {
         settings.god_rays.resolution_scale = 0.5;
         settings.god_rays.jitter = true;
+    }
+    if !args.headless {
+        let outcome = interactive::run(interactive::Options {
+            input: args.input.clone(),
+            out: args.out.clone(),
+            size: args.size,
+            camera: (args.camera != "all").then(|| args.camera.clone()),
+            settings,
+            watch: args.watch,
+            vsync: !args.no_vsync,
+            script: args.script.clone(),
+        })?;
+        match outcome {
+            interactive::Outcome::Closed => return Ok(()),
+            interactive::Outcome::NoDisplay(why) => println!("{why}: rendering headless"),
+        }
     }
     let gpu = Gpu::headless()?;
     println!("adapter: {}", gpu.describe());

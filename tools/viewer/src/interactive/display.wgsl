@@ -1,0 +1,116 @@
+// The interactive viewer's own passes: showing an intermediate target or the finished view
+// (`vs_fullscreen` + `fs_show`), and the false-colour material-ID view (`vs_ids` + `fs_ids`).
+
+struct FullscreenOut {
+    @builtin(position) clip: vec4<f32>,
+    @location(0) uv: vec2<f32>,
+}
+
+@vertex
+fn vs_fullscreen(@builtin(vertex_index) index: u32) -> FullscreenOut {
+    let x = f32((index << 1u) & 2u);
+    let y = f32(index & 2u);
+    var out: FullscreenOut;
+    out.clip = vec4<f32>(x * 2.0 - 1.0, 1.0 - y * 2.0, 0.0, 1.0);
+    out.uv = vec2<f32>(x, y);
+    return out;
+}
+
+struct Show {
+    // 0: pass through, 1: HDR colour (scaled, clamped), 2: signed normals, 3: black.
+    mode: u32,
+    // Exposure for mode 1.
+    scale: f32,
+    // 1 when the target view is not sRGB, so the shader encodes.
+    encode: u32,
+    pad: u32,
+}
+
+@group(0) @binding(0) var<uniform> show: Show;
+@group(0) @binding(1) var source: texture_2d<f32>;
+@group(0) @binding(2) var source_sampler: sampler;
+
+fn srgb_to_linear(c: vec3<f32>) -> vec3<f32> {
+    let low = c / 12.92;
+    let high = pow((c + 0.055) / 1.055, vec3<f32>(2.4));
+    return select(high, low, c <= vec3<f32>(0.04045));
+}
+
+fn linear_to_srgb(c: vec3<f32>) -> vec3<f32> {
+    let low = c * 12.92;
+    let high = 1.055 * pow(c, vec3<f32>(1.0 / 2.4)) - 0.055;
+    return select(high, low, c <= vec3<f32>(0.0031308));
+}
+
+// NaN and infinities show as black rather than as undefined colours.
+fn finite_clamped(c: vec3<f32>) -> vec3<f32> {
+    let bad = (c != c) | (abs(c) > vec3<f32>(3.0e38));
+    return select(clamp(c, vec3<f32>(0.0), vec3<f32>(1.0)), vec3<f32>(0.0), bad);
+}
+
+@fragment
+fn fs_show(in: FullscreenOut) -> @location(0) vec4<f32> {
+    let c = textureSample(source, source_sampler, in.uv).rgb;
+    var linear: vec3<f32>;
+    switch show.mode {
+        case 1u: {
+            linear = finite_clamped(c * show.scale);
+        }
+        case 2u: {
+            // The headless `--passes` image stores n * 0.5 + 0.5 as bytes; undo the sRGB
+            // encoding the target applies so both show the same values.
+            linear = srgb_to_linear(finite_clamped(c * 0.5 + 0.5));
+        }
+        case 3u: {
+            linear = vec3<f32>(0.0);
+        }
+        default: {
+            linear = finite_clamped(c);
+        }
+    }
+    if show.encode == 1u {
+        return vec4<f32>(linear_to_srgb(linear), 1.0);
+    }
+    return vec4<f32>(linear, 1.0);
+}
+
+struct IdCamera {
+    view_proj: mat4x4<f32>,
+    eye: vec4<f32>,
+}
+
+struct Swatch {
+    // Linear RGB of this material's false colour.
+    colour: vec4<f32>,
+}
+
+@group(0) @binding(0) var<uniform> id_camera: IdCamera;
+@group(1) @binding(0) var<uniform> swatch: Swatch;
+
+struct IdOut {
+    @builtin(position) clip: vec4<f32>,
+    @location(0) normal: vec3<f32>,
+    @location(1) world: vec3<f32>,
+}
+
+@vertex
+fn vs_ids(@location(0) position: vec3<f32>, @location(1) normal: vec3<f32>) -> IdOut {
+    var out: IdOut;
+    out.clip = id_camera.view_proj * vec4<f32>(position, 1.0);
+    out.normal = normal;
+    out.world = position;
+    return out;
+}
+
+@fragment
+fn fs_ids(in: IdOut) -> @location(0) vec4<f32> {
+    // Flat colour with a little facing-ratio shading, so shapes stay readable while the
+    // hue alone identifies the material.
+    var shade = 1.0;
+    let n_len = length(in.normal);
+    let to_eye = id_camera.eye.xyz - in.world;
+    if n_len > 1e-6 && length(to_eye) > 1e-6 {
+        shade = 0.55 + 0.45 * abs(dot(in.normal / n_len, normalize(to_eye)));
+    }
+    return vec4<f32>(swatch.colour.rgb * shade, 1.0);
+}
