@@ -18,26 +18,31 @@ fn is_inside(p: vec3<f32>) -> bool {
     return true;
 }
 
-// Light transmitted through the windows towards `p` (1 = unfiltered light).
-fn transmitted(p: vec3<f32>) -> vec3<f32> {
+// Light transmitted through the windows towards `p` (1 = unfiltered light). `dpx`/`dpy` are
+// the screen derivatives of `p`; the texture-coordinate derivatives follow from them exactly,
+// so this runs only where the surface faces the light (no uniform control flow needed).
+fn transmitted(p: vec3<f32>, dpx: vec3<f32>, dpy: vec3<f32>) -> vec3<f32> {
     var total = vec3<f32>(0.0);
     let count = min(frame.counts.x, MAX_WINDOWS);
     for (var i = 0u; i < count; i = i + 1u) {
         let w = windows.items[i];
-        let clip = w.projector * vec4<f32>(p, 1.0);
-        let in_front = clip.w > 0.0;
-        // Divide per fragment (never interpolate u/w linearly); a safe denominator keeps the
-        // derivatives finite where the result is rejected anyway.
-        let uv = select(vec2<f32>(0.0), clip.xy / max(clip.w, 1e-6), in_front);
-        // Derivatives in uniform control flow, before any per-fragment rejection.
-        let ddx = dpdx(uv);
-        let ddy = dpdy(uv);
-        let enabled = w.params.y != 0u;
-        let past_glass = dot(p - w.origin.xyz, w.normal.xyz) > 0.0;
-        let in_bounds = uv.x >= 0.0 && uv.x <= 1.0 && uv.y >= 0.0 && uv.y <= 1.0;
-        if (enabled && in_front && past_glass && in_bounds) {
-            total = total + textureSampleGrad(projectors, linear_clamp, uv, w.params.x, ddx, ddy).rgb * w.tint.rgb;
+        if (w.params.y == 0u || dot(p - w.origin.xyz, w.normal.xyz) <= 0.0) {
+            continue; // no light through this window, or p is on the light's side of it
         }
+        let clip = w.projector * vec4<f32>(p, 1.0);
+        if (clip.w <= 0.0) {
+            continue; // behind the light
+        }
+        // Divide per fragment: u/w interpolated linearly would be wrong.
+        let uv = clip.xy / clip.w;
+        if (uv.x < 0.0 || uv.x > 1.0 || uv.y < 0.0 || uv.y > 1.0) {
+            continue;
+        }
+        let cx = w.projector * vec4<f32>(dpx, 0.0);
+        let cy = w.projector * vec4<f32>(dpy, 0.0);
+        let ddx = (cx.xy - uv * cx.w) / clip.w;
+        let ddy = (cy.xy - uv * cy.w) / clip.w;
+        total = total + textureSampleGrad(projectors, linear_clamp, uv, w.params.x, ddx, ddy).rgb * w.tint.rgb;
     }
     return total;
 }
@@ -69,14 +74,19 @@ fn fs_main(vertex: VertexOut) -> @location(0) vec4<f32> {
         radiance = frame.light_colour.rgb;
     }
 
-    let through = transmitted(in.world);
-    // Surfaces lying in a window's plane (the wall around it) are judged by the side they face:
-    // a small step along the camera-facing normal puts the outer face outside.
-    let light_filter = select(vec3<f32>(1.0), through, is_inside(in.world + geometric * 0.01));
+    // Before any per-fragment branch: derivatives need uniform control flow.
+    let dpx = dpdx(in.world);
+    let dpy = dpdy(in.world);
     var colour = albedo * frame.ambient.rgb + material.emissive.rgb;
     let n_dot_l = dot(n, l);
     // The geometric test stops light reaching faces turned away from it through a normal map.
     if (n_dot_l > 0.0 && dot(geometric, l) > 0.0) {
+        // Surfaces lying in a window's plane (the wall around it) are judged by the side they
+        // face: a small step along the camera-facing normal puts the outer face outside.
+        var light_filter = vec3<f32>(1.0);
+        if (is_inside(in.world + geometric * 0.01)) {
+            light_filter = transmitted(in.world, dpx, dpy);
+        }
         let r = reflect(-l, n);
         let shininess = max(material.specular.w, 1.0);
         let spec = material.specular.rgb * pow(max(dot(r, v), 0.0), shininess);
