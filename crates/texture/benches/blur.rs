@@ -47,32 +47,62 @@ fn design(w: usize, h: usize) -> Vec<u8> {
 }
 
 fn bench(c: &mut Criterion) {
-    let side: usize =
-        std::env::var("TEXTURE_BENCH_SIZE").ok().and_then(|s| s.parse().ok()).unwrap_or(4096);
+    let side: usize = std::env::var("TEXTURE_BENCH_SIZE")
+        .ok()
+        .and_then(|s| s.parse().ok())
+        .unwrap_or(4096);
     let anchors = std::env::var("TEXTURE_BENCH_ANCHORS").map_or(true, |v| v != "0");
     let src = design(side, side);
     let mut g = c.benchmark_group(format!("gaussian blur {side}x{side}"));
-    g.sample_size(10).warm_up_time(Duration::from_millis(500)).measurement_time(Duration::from_secs(5));
+    g.sample_size(10)
+        .warm_up_time(Duration::from_millis(500))
+        .measurement_time(Duration::from_secs(5));
     for sigma in env_list("TEXTURE_BENCH_SIGMAS", "8,32") {
         g.bench_function(format!("gaussian blur: sigma {sigma} (ours, auto)"), |b| {
-            b.iter(|| blur_srgb8(black_box(&src), side as u32, side as u32, sigma, BlurMethod::Auto).unwrap())
+            b.iter(|| {
+                blur_srgb8(
+                    black_box(&src),
+                    side as u32,
+                    side as u32,
+                    sigma,
+                    BlurMethod::Auto,
+                )
+                .unwrap()
+            })
         });
         if sigma <= 8.0 {
-            g.bench_function(format!("gaussian blur: sigma {sigma} (ours, direct)"), |b| {
-                b.iter(|| {
-                    blur_srgb8(black_box(&src), side as u32, side as u32, sigma, BlurMethod::Direct).unwrap()
-                })
-            });
+            g.bench_function(
+                format!("gaussian blur: sigma {sigma} (ours, direct)"),
+                |b| {
+                    b.iter(|| {
+                        blur_srgb8(
+                            black_box(&src),
+                            side as u32,
+                            side as u32,
+                            sigma,
+                            BlurMethod::Direct,
+                        )
+                        .unwrap()
+                    })
+                },
+            );
         }
         if anchors {
-            g.bench_function(format!("gaussian blur: sigma {sigma} (libblur exact u8)"), |b| {
-                let mut dst = vec![0u8; src.len()];
-                b.iter(|| libblur_exact(black_box(&src), &mut dst, side as u32, sigma))
-            });
-            g.bench_function(format!("gaussian blur: sigma {sigma} (image::imageops::blur)"), |b| {
-                let img = image::RgbaImage::from_raw(side as u32, side as u32, src.clone()).unwrap();
-                b.iter(|| image::imageops::blur(black_box(&img), sigma))
-            });
+            g.bench_function(
+                format!("gaussian blur: sigma {sigma} (libblur exact u8)"),
+                |b| {
+                    let mut dst = vec![0u8; src.len()];
+                    b.iter(|| libblur_exact(black_box(&src), &mut dst, side as u32, sigma))
+                },
+            );
+            g.bench_function(
+                format!("gaussian blur: sigma {sigma} (image::imageops::blur)"),
+                |b| {
+                    let img =
+                        image::RgbaImage::from_raw(side as u32, side as u32, src.clone()).unwrap();
+                    b.iter(|| image::imageops::blur(black_box(&img), sigma))
+                },
+            );
         }
     }
     g.finish();

@@ -187,7 +187,10 @@ unsafe fn wsum_avx(out: &mut [f32], terms: &[(f32, &[f32])]) {
 /// independent multiply-adds with the partial sums held in registers.
 fn wsum(out: &mut [Px], terms: &[(f32, &[Px])]) {
     let n = out.len();
-    let flat: Vec<(f32, &[f32])> = terms.iter().map(|&(w, s)| (w, &s.as_flattened()[..n * 4])).collect();
+    let flat: Vec<(f32, &[f32])> = terms
+        .iter()
+        .map(|&(w, s)| (w, &s.as_flattened()[..n * 4]))
+        .collect();
     let out = out.as_flattened_mut();
     #[cfg(target_arch = "x86_64")]
     if std::is_x86_feature_detected!("avx") {
@@ -221,7 +224,11 @@ impl RowFir {
         for (s, xs) in phases.iter_mut().enumerate() {
             for (i, v) in xs.iter_mut().enumerate() {
                 let j = (self.k * i + s) as i64 - self.pad as i64;
-                *v = if j >= 0 && (j as usize) < row.len() { row[j as usize] } else { [0.0; 4] };
+                *v = if j >= 0 && (j as usize) < row.len() {
+                    row[j as usize]
+                } else {
+                    [0.0; 4]
+                };
             }
         }
         let terms: Vec<(f32, &[Px])> = self
@@ -300,7 +307,11 @@ fn direct<I: Io>(io: &I, w: usize, h: usize, sigma: f64, out: &mut [I::Out]) {
     let kx = to_f32(&gaussian_kernel(sigma, w - 1));
     let ky = to_f32(&gaussian_kernel(sigma, h - 1));
     let ry = ky.len() / 2;
-    let fir = RowFir { k: 1, pad: kx.len() / 2, taps: kx };
+    let fir = RowFir {
+        k: 1,
+        pad: kx.len() / 2,
+        taps: kx,
+    };
     let mut mid = vec![[0.0f32; 4]; w * h];
     mid.par_chunks_mut(w).enumerate().for_each_init(
         || (vec![[0.0f32; 4]; w], fir.scratch(w)),
@@ -309,17 +320,20 @@ fn direct<I: Io>(io: &I, w: usize, h: usize, sigma: f64, out: &mut [I::Out]) {
             fir.apply(row, phases, o);
         },
     );
-    out.par_chunks_mut(w * I::PER_TEXEL).enumerate().for_each_init(
-        || vec![[0.0f32; 4]; w],
-        |acc, (y, o)| {
-            let lo = y.saturating_sub(ry);
-            let hi = (y + ry).min(h - 1);
-            let terms: Vec<(f32, &[Px])> =
-                (lo..=hi).map(|sy| (ky[sy + ry - y], &mid[sy * w..(sy + 1) * w])).collect();
-            wsum(acc, &terms);
-            io.emit(acc, o);
-        },
-    );
+    out.par_chunks_mut(w * I::PER_TEXEL)
+        .enumerate()
+        .for_each_init(
+            || vec![[0.0f32; 4]; w],
+            |acc, (y, o)| {
+                let lo = y.saturating_sub(ry);
+                let hi = (y + ry).min(h - 1);
+                let terms: Vec<(f32, &[Px])> = (lo..=hi)
+                    .map(|sy| (ky[sy + ry - y], &mid[sy * w..(sy + 1) * w]))
+                    .collect();
+                wsum(acc, &terms);
+                io.emit(acc, o);
+            },
+        );
 }
 
 /// One axis of the decimated method.
@@ -355,7 +369,13 @@ impl Axis {
                 (off, ws.iter().map(|&v| (v / s) as f32).collect())
             })
             .collect();
-        Axis { n, k, rt, count, phases }
+        Axis {
+            n,
+            k,
+            rt,
+            count,
+            phases,
+        }
     }
 
     /// First coarse sample and weights that interpolate fine texel `i`.
@@ -366,7 +386,11 @@ impl Axis {
 
     /// Stage 1 along this axis: the coarse samples as a decimating row filter.
     fn stage1(&self, g1: &[f32]) -> RowFir {
-        RowFir { k: self.k, pad: self.rt + g1.len() / 2, taps: g1.to_vec() }
+        RowFir {
+            k: self.k,
+            pad: self.rt + g1.len() / 2,
+            taps: g1.to_vec(),
+        }
     }
 
     /// Stage 2 along a row: fine texels from coarse samples `c`, one phase at a time so each
@@ -376,8 +400,11 @@ impl Axis {
             let (m0, ws) = self.interp(r);
             let len = (self.n - r).div_ceil(self.k);
             let tmp = &mut tmp[..len];
-            let terms: Vec<(f32, &[Px])> =
-                ws.iter().enumerate().map(|(t, &w)| (w, &c[m0 + t..m0 + t + len])).collect();
+            let terms: Vec<(f32, &[Px])> = ws
+                .iter()
+                .enumerate()
+                .map(|(t, &w)| (w, &c[m0 + t..m0 + t + len]))
+                .collect();
             wsum(tmp, &terms);
             for (q, v) in tmp.iter().enumerate() {
                 out[q * self.k + r] = *v;
@@ -413,7 +440,9 @@ fn decimated<I: Io>(io: &I, w: usize, h: usize, sigma: f64, out: &mut [I::Out]) 
             .iter()
             .enumerate()
             .filter_map(|(t, &g)| {
-                let y = usize::try_from(p - r1 as i64 + t as i64).ok().filter(|&y| y < h)?;
+                let y = usize::try_from(p - r1 as i64 + t as i64)
+                    .ok()
+                    .filter(|&y| y < h)?;
                 Some((g, &a[y * mx..(y + 1) * mx]))
             })
             .collect();
@@ -421,20 +450,28 @@ fn decimated<I: Io>(io: &I, w: usize, h: usize, sigma: f64, out: &mut [I::Out]) 
     });
     drop(a);
     // Stage 2: interpolate y back to fine rows, then x to fine columns.
-    out.par_chunks_mut(w * I::PER_TEXEL).enumerate().for_each_init(
-        || (vec![[0.0f32; 4]; mx], vec![[0.0f32; 4]; w], vec![[0.0f32; 4]; w.div_ceil(k)]),
-        |(c, row, tmp), (y, o)| {
-            let (m0, ws) = ay.interp(y);
-            let terms: Vec<(f32, &[Px])> = ws
-                .iter()
-                .enumerate()
-                .map(|(i, &t)| (t, &b[(m0 + i) * mx..(m0 + i + 1) * mx]))
-                .collect();
-            wsum(c, &terms);
-            ax.interp_row(c, tmp, row);
-            io.emit(row, o);
-        },
-    );
+    out.par_chunks_mut(w * I::PER_TEXEL)
+        .enumerate()
+        .for_each_init(
+            || {
+                (
+                    vec![[0.0f32; 4]; mx],
+                    vec![[0.0f32; 4]; w],
+                    vec![[0.0f32; 4]; w.div_ceil(k)],
+                )
+            },
+            |(c, row, tmp), (y, o)| {
+                let (m0, ws) = ay.interp(y);
+                let terms: Vec<(f32, &[Px])> = ws
+                    .iter()
+                    .enumerate()
+                    .map(|(i, &t)| (t, &b[(m0 + i) * mx..(m0 + i + 1) * mx]))
+                    .collect();
+                wsum(c, &terms);
+                ax.interp_row(c, tmp, row);
+                io.emit(row, o);
+            },
+        );
 }
 
 fn run<I: Io>(io: &I, w: usize, h: usize, sigma: f64, method: BlurMethod, out: &mut [I::Out]) {

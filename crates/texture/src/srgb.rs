@@ -89,15 +89,25 @@ pub fn encoder() -> &'static Encoder {
             e.start[b] = e.thresholds64.iter().take_while(|&&t| t <= l).count() as u8;
         }
         let thresholds32: Vec<f32> = e.thresholds64.iter().map(|&t| t as f32).collect();
-        assert!(thresholds32[0] > (MIN_EXP as f32).exp2(), "first threshold below the table");
+        assert!(
+            thresholds32[0] > (MIN_EXP as f32).exp2(),
+            "first threshold below the table"
+        );
         let lo_bits = (MIN_EXP as f32).exp2().to_bits();
         for b in 0..=FAST_BUCKETS {
             let lo = f32::from_bits(lo_bits + ((b as u32) << (23 - MANTISSA_BITS)));
             let hi = f32::from_bits(lo_bits + ((b as u32 + 1) << (23 - MANTISSA_BITS)));
             let below = thresholds32.iter().take_while(|&&t| t <= lo).count();
-            let inside: Vec<f32> =
-                thresholds32.iter().copied().filter(|&t| t > lo && t < hi).collect();
-            assert!(inside.len() <= 1, "bucket {b} holds {} thresholds", inside.len());
+            let inside: Vec<f32> = thresholds32
+                .iter()
+                .copied()
+                .filter(|&t| t > lo && t < hi)
+                .collect();
+            assert!(
+                inside.len() <= 1,
+                "bucket {b} holds {} thresholds",
+                inside.len()
+            );
             e.base[b] = below as u8;
             if let Some(&t) = inside.first() {
                 e.step[b] = t;

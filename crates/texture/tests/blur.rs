@@ -17,14 +17,24 @@ fn blur_is_within_055_lsb_of_the_f64_reference() {
     for sigma in [0.3f32, 0.7, 1.0, 2.5, 3.9, 4.0, 8.0, 13.7, 32.0] {
         for method in [BlurMethod::Direct, BlurMethod::Decimated] {
             let e = err(w, h, sigma, method, &img);
-            eprintln!("sigma {sigma} {method:?}: max {:.4} rms {:.4}", e.max, e.rms);
-            assert!(e.max <= 0.55, "sigma {sigma} {method:?}: max error {} LSB", e.max);
+            eprintln!(
+                "sigma {sigma} {method:?}: max {:.4} rms {:.4}",
+                e.max, e.rms
+            );
+            assert!(
+                e.max <= 0.55,
+                "sigma {sigma} {method:?}: max error {} LSB",
+                e.max
+            );
         }
     }
 }
 
 fn premul_f32(bytes: &[u8]) -> Vec<[f32; 4]> {
-    srgb8_to_premultiplied_f64(bytes).iter().map(|t| t.map(|v| v as f32)).collect()
+    srgb8_to_premultiplied_f64(bytes)
+        .iter()
+        .map(|t| t.map(|v| v as f32))
+        .collect()
 }
 
 fn sum(v: &[[f32; 4]]) -> [f64; 4] {
@@ -46,7 +56,11 @@ fn constant_stays_exactly_constant_where_the_kernel_misses_the_border() {
         let r = blur::kernel_radius(sigma as f64);
         for y in r..h - r {
             for x in r..w - r {
-                assert_eq!(&out[(y * w + x) * 4..][..4], &[200, 30, 90, 255], "sigma {sigma} at {x},{y}");
+                assert_eq!(
+                    &out[(y * w + x) * 4..][..4],
+                    &[200, 30, 90, 255],
+                    "sigma {sigma} at {x},{y}"
+                );
             }
         }
         // The zero border darkens the edge (light stops at the wall).
@@ -73,7 +87,10 @@ fn mass_is_preserved_away_from_the_border() {
             let after = sum(&out);
             for c in 0..4 {
                 let rel = (after[c] - before[c]).abs() / before[c];
-                assert!(rel < 1e-6, "sigma {sigma} {method:?} channel {c}: relative mass change {rel}");
+                assert!(
+                    rel < 1e-6,
+                    "sigma {sigma} {method:?} channel {c}: relative mass change {rel}"
+                );
             }
         }
     }
@@ -97,7 +114,12 @@ fn huge_sigma_spreads_mass_as_the_reference_does() {
     });
     for c in 0..4 {
         assert!(a[c].is_finite() && a[c] > 0.0);
-        assert!((a[c] - b[c]).abs() / b[c] < 1e-5, "channel {c}: {} vs {}", a[c], b[c]);
+        assert!(
+            (a[c] - b[c]).abs() / b[c] < 1e-5,
+            "channel {c}: {} vs {}",
+            a[c],
+            b[c]
+        );
     }
 }
 

@@ -3,7 +3,9 @@ mod common;
 use common::{Rng, design, rgba_image};
 use image::DynamicImage;
 use texture::srgb::{linear_to_srgb_lsb, srgb_to_linear};
-use texture::{ColourOptions, MipFilter, colour_mips, colour_mips_reference, level_count, level_size};
+use texture::{
+    ColourOptions, MipFilter, colour_mips, colour_mips_reference, level_count, level_size,
+};
 
 /// Max LSB error of a cooked chain against the f64 reference chain.
 fn chain_error(img: &DynamicImage, opts: &ColourOptions) -> Vec<f64> {
@@ -32,7 +34,15 @@ fn chain_error(img: &DynamicImage, opts: &ColourOptions) -> Vec<f64> {
 
 #[test]
 fn chain_sizes_follow_the_pack_rule() {
-    for (w, h) in [(1, 1), (1, 9), (9, 1), (5, 3), (64, 64), (100, 37), (4096, 1)] {
+    for (w, h) in [
+        (1, 1),
+        (1, 9),
+        (9, 1),
+        (5, 3),
+        (64, 64),
+        (100, 37),
+        (4096, 1),
+    ] {
         let img = rgba_image(w, h, vec![7; w * h * 4]);
         let chain = colour_mips(&img, &ColourOptions::default()).unwrap();
         assert_eq!(chain.levels.len(), level_count(w as u32, h as u32));
@@ -49,7 +59,11 @@ fn chain_sizes_follow_the_pack_rule() {
 #[test]
 fn level_zero_of_an_8_bit_srgb_source_is_its_bytes() {
     let bytes = design(37, 21, 1);
-    let chain = colour_mips(&rgba_image(37, 21, bytes.clone()), &ColourOptions::default()).unwrap();
+    let chain = colour_mips(
+        &rgba_image(37, 21, bytes.clone()),
+        &ColourOptions::default(),
+    )
+    .unwrap();
     assert_eq!(chain.levels[0], bytes);
 }
 
@@ -61,7 +75,10 @@ fn every_filter_is_within_06_lsb_of_its_f64_reference() {
             for srgb in [true, false] {
                 let e = chain_error(&img, &ColourOptions { srgb, filter });
                 let max = e.iter().cloned().fold(0.0, f64::max);
-                assert!(max <= 0.6, "{w}x{h} {filter:?} srgb={srgb}: per-level {e:?}");
+                assert!(
+                    max <= 0.6,
+                    "{w}x{h} {filter:?} srgb={srgb}: per-level {e:?}"
+                );
             }
         }
     }
@@ -87,8 +104,17 @@ fn box_levels_are_exact_area_averages_of_level_zero() {
                 let (mut p, mut a, mut area) = ([0.0f64; 3], 0.0, 0.0);
                 for y in 0..h {
                     for x in 0..w {
-                        let f = overlap(ox as f64 * sx, (ox + 1) as f64 * sx, x as f64, x as f64 + 1.0)
-                            * overlap(oy as f64 * sy, (oy + 1) as f64 * sy, y as f64, y as f64 + 1.0);
+                        let f = overlap(
+                            ox as f64 * sx,
+                            (ox + 1) as f64 * sx,
+                            x as f64,
+                            x as f64 + 1.0,
+                        ) * overlap(
+                            oy as f64 * sy,
+                            (oy + 1) as f64 * sy,
+                            y as f64,
+                            y as f64 + 1.0,
+                        );
                         let i = y * w + x;
                         for c in 0..3 {
                             p[c] += f * lin(i, 3) * lin(i, c);
@@ -98,10 +124,17 @@ fn box_levels_are_exact_area_averages_of_level_zero() {
                     }
                 }
                 let o = &chain.levels[level][(oy * lw as usize + ox) * 4..][..4];
-                assert!((o[3] as f64 - a / area * 255.0).abs() <= 0.51, "level {level} alpha");
+                assert!(
+                    (o[3] as f64 - a / area * 255.0).abs() <= 0.51,
+                    "level {level} alpha"
+                );
                 for c in 0..3 {
                     let exact = linear_to_srgb_lsb(p[c] / a);
-                    assert!((o[c] as f64 - exact).abs() <= 0.6, "level {level} ({ox},{oy}) c{c}: {} vs {exact}", o[c]);
+                    assert!(
+                        (o[c] as f64 - exact).abs() <= 0.6,
+                        "level {level} ({ox},{oy}) c{c}: {} vs {exact}",
+                        o[c]
+                    );
                 }
             }
         }

@@ -32,7 +32,10 @@ fn directx_green_is_flipped_to_opengl() {
     let img = rgba_image(1, 1, vec![128, 200, 200, 255]);
     let gl = decode_normals(&img, NormalEncoding::Rgb, GreenAxis::OpenGl)[0];
     let dx = decode_normals(&img, NormalEncoding::Rgb, GreenAxis::DirectX)[0];
-    assert!(gl[1] > 0.1 && (gl[1] + dx[1]).abs() < 1e-6 && gl[2] == dx[2], "{gl:?} {dx:?}");
+    assert!(
+        gl[1] > 0.1 && (gl[1] + dx[1]).abs() < 1e-6 && gl[2] == dx[2],
+        "{gl:?} {dx:?}"
+    );
     let stored = normal_mips(&img, NormalEncoding::Rgb, GreenAxis::DirectX).unwrap();
     assert!(stored.levels[0][1] < 128, "{:?}", stored.levels[0]);
 }
@@ -44,7 +47,11 @@ fn rg_encoding_reconstructs_z() {
     let n = decode_normals(&img, NormalEncoding::Rg, GreenAxis::OpenGl)[0];
     assert!((n[2] - 0.8).abs() < 0.01, "{n:?}");
     let chain = normal_mips(&img, NormalEncoding::Rg, GreenAxis::OpenGl).unwrap();
-    assert!((chain.levels[0][2] as i32 - 230).abs() <= 1, "{:?}", chain.levels[0]);
+    assert!(
+        (chain.levels[0][2] as i32 - 230).abs() <= 1,
+        "{:?}",
+        chain.levels[0]
+    );
 }
 
 #[test]
@@ -67,7 +74,11 @@ fn derived_map_raises_lead_and_keeps_glass_subtle() {
     let mut bytes = Vec::with_capacity(w * h * 4);
     for _y in 0..h {
         for x in 0..w {
-            bytes.extend_from_slice(if (20..23).contains(&x) { &[15, 15, 18, 255] } else { &[40, 90, 220, 255] });
+            bytes.extend_from_slice(if (20..23).contains(&x) {
+                &[15, 15, 18, 255]
+            } else {
+                &[40, 90, 220, 255]
+            });
         }
     }
     let chain = derive_normal_map(&rgba_image(w, h, bytes), 1).unwrap();

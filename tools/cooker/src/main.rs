@@ -7,6 +7,7 @@
 mod diff;
 mod cook;
 mod exit;
+mod extract;
 mod info;
 mod validate;
 
@@ -29,6 +30,8 @@ enum Command {
     Validate(validate::Args),
     /// Compare two packs: per section, geometry, and per texture level error.
     Diff(diff::Args),
+    /// Write one cooked texture level as an 8-bit PNG (the stored bytes).
+    Extract(extract::Args),
 }
 
 fn main() {
@@ -49,6 +52,7 @@ fn main() {
         Command::Cook(args) => cook::run(args),
         Command::Validate(args) => validate::run(args),
         Command::Diff(args) => diff::run(args),
+        Command::Extract(args) => extract::run(args),
     };
     std::process::exit(exit::report(result));
 }

@@ -26,7 +26,12 @@ pub fn design(w: usize, h: usize, seed: u64) -> Vec<u8> {
         .map(|i| match i % 4 {
             0 => [rng.byte() / 16, rng.byte() / 16, rng.byte() / 16, 255],
             1 => [rng.byte(), rng.byte(), rng.byte(), 255],
-            2 => [rng.byte(), rng.byte() / 4, rng.byte() / 8, 128 + rng.byte() / 2],
+            2 => [
+                rng.byte(),
+                rng.byte() / 4,
+                rng.byte() / 8,
+                128 + rng.byte() / 2,
+            ],
             _ => [255, 250, rng.byte(), 255],
         })
         .collect();

@@ -1,0 +1,141 @@
+//! `cooker extract` on packs built in code.
+
+use std::path::Path;
+use std::process::{Command, Output};
+
+use pack::TextureRole;
+use pack::testing::{sample, sample_texture};
+
+fn cooker(args: &[&dyn AsRef<std::ffi::OsStr>]) -> Output {
+    let mut c = Command::new(env!("CARGO_BIN_EXE_cooker"));
+    for a in args {
+        c.arg(a);
+    }
+    c.output().expect("cooker runs")
+}
+
+/// The sample pack plus a 5x3 colour texture and a 4x4 normal map with known bytes.
+fn write_pack(path: &Path) -> (Vec<Vec<u8>>, Vec<Vec<u8>>) {
+    let (mut toc, mut data) = sample();
+    let (colour, colour_data) = sample_texture("design", TextureRole::Colour, 5, 3);
+    let (normal, normal_data) = sample_texture("design normal", TextureRole::Normal, 4, 4);
+    toc.textures.push(colour);
+    data.textures.push(colour_data.clone());
+    toc.textures.push(normal);
+    data.textures.push(normal_data.clone());
+    pack::write_pack(path, toc, &data).unwrap();
+    (colour_data, normal_data)
+}
+
+fn read_png(path: &Path) -> image::RgbaImage {
+    match image::open(path).unwrap() {
+        image::DynamicImage::ImageRgba8(i) => i,
+        other => panic!("expected an 8-bit RGBA PNG, got {:?}", other.color()),
+    }
+}
+
+#[test]
+fn every_level_round_trips_byte_for_byte() {
+    let dir = tempfile::tempdir().unwrap();
+    let pack = dir.path().join("s.pack");
+    let (colour, normal) = write_pack(&pack);
+    for (name, levels) in [("design", &colour), ("design normal", &normal)] {
+        for (mip, bytes) in levels.iter().enumerate() {
+            let out = dir.path().join(format!("{name}-{mip}.png"));
+            let o = cooker(&[
+                &"extract",
+                &pack,
+                &name,
+                &"--mip",
+                &mip.to_string(),
+                &"-o",
+                &out,
+            ]);
+            assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+            let img = read_png(&out);
+            let (w, h) = (img.width(), img.height());
+            assert_eq!(img.into_raw(), *bytes, "{name} mip {mip} ({w}x{h})");
+        }
+    }
+    // Level 0 is the default; level sizes follow the pack's rule.
+    let out = dir.path().join("default.png");
+    assert!(
+        cooker(&[&"extract", &pack, &"design", &"-o", &out])
+            .status
+            .success()
+    );
+    assert_eq!(read_png(&out).dimensions(), (5, 3));
+}
+
+#[test]
+fn bad_name_or_level_is_usage_and_writes_nothing() {
+    let dir = tempfile::tempdir().unwrap();
+    let pack = dir.path().join("s.pack");
+    write_pack(&pack);
+    let out = dir.path().join("out.png");
+    let o = cooker(&[&"extract", &pack, &"no such texture", &"-o", &out]);
+    assert_eq!(o.status.code(), Some(2));
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(
+        err.contains("no such texture") && err.contains("design"),
+        "{err}"
+    );
+    // 5x3 has levels 0..=2.
+    let o = cooker(&[&"extract", &pack, &"design", &"--mip", &"3", &"-o", &out]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&o.stderr).contains("mip level 3"));
+    assert!(!out.exists());
+    assert_eq!(
+        std::fs::read_dir(dir.path()).unwrap().count(),
+        1,
+        "stray files left behind"
+    );
+}
+
+#[test]
+fn corrupt_or_missing_pack_exits_3_or_4() {
+    let dir = tempfile::tempdir().unwrap();
+    let pack = dir.path().join("s.pack");
+    write_pack(&pack);
+    let mut bytes = std::fs::read(&pack).unwrap();
+    let n = bytes.len();
+    bytes[n - 1] ^= 0x40;
+    let bad = dir.path().join("bad.pack");
+    std::fs::write(&bad, &bytes).unwrap();
+    let out = dir.path().join("out.png");
+    let o = cooker(&[&"extract", &bad, &"design", &"-o", &out]);
+    assert_eq!(
+        o.status.code(),
+        Some(3),
+        "{}",
+        String::from_utf8_lossy(&o.stderr)
+    );
+    let o = cooker(&[
+        &"extract",
+        &dir.path().join("missing.pack"),
+        &"design",
+        &"-o",
+        &out,
+    ]);
+    assert_eq!(
+        o.status.code(),
+        Some(4),
+        "{}",
+        String::from_utf8_lossy(&o.stderr)
+    );
+    // An output directory that does not exist is an OS error, and leaves nothing behind.
+    let o = cooker(&[
+        &"extract",
+        &pack,
+        &"design",
+        &"-o",
+        &dir.path().join("nope/out.png"),
+    ]);
+    assert_eq!(
+        o.status.code(),
+        Some(4),
+        "{}",
+        String::from_utf8_lossy(&o.stderr)
+    );
+    assert!(!out.exists());
+}
