@@ -1,1 +1,73 @@
-fn main() {}
+//! Full mip chain of a 4096x4096 RGBA8 colour texture: ours (linear light, alpha-weighted,
+//! f32, re-encoded to sRGB per level) beside fast_image_resize (gamma space, one thread, each
+//! level from the previous one).
+//!
+//! `TEXTURE_BENCH_SIZE` overrides the side (default 4096).
+
+use std::hint::black_box;
+use std::time::Duration;
+
+use criterion::{Criterion, criterion_group, criterion_main};
+use fast_image_resize::images::Image;
+use fast_image_resize::{FilterType, PixelType, ResizeAlg, ResizeOptions, Resizer};
+use texture::{ColourOptions, MipFilter, colour_mips};
+
+fn design(side: u32) -> image::RgbaImage {
+    let mut state = 0x9E37_79B9_7F4A_7C15u64;
+    image::RgbaImage::from_fn(side, side, |x, y| {
+        state ^= state >> 12;
+        state ^= state << 25;
+        state ^= state >> 27;
+        let n = (state.wrapping_mul(0x2545_F491_4F6C_DD1D) >> 60) as u8;
+        if x % 61 < 3 || y % 47 < 3 {
+            image::Rgba([10, 10, 12, 255])
+        } else {
+            let p = ((x / 61) * 7 + (y / 47) * 3) as u8;
+            image::Rgba([p.wrapping_mul(37) ^ n, p.wrapping_mul(91), p.wrapping_mul(13) | n, 255])
+        }
+    })
+}
+
+/// fast_image_resize's chain: every level resized from the previous one, straight in the
+/// stored (gamma-encoded) bytes.
+fn fir_chain(src: &image::RgbaImage, filter: FilterType) -> usize {
+    let mut resizer = Resizer::new();
+    let opts = ResizeOptions::new().resize_alg(ResizeAlg::Convolution(filter)).use_alpha(false);
+    let (mut w, mut h) = src.dimensions();
+    let mut level = Image::from_vec_u8(w, h, src.as_raw().clone(), PixelType::U8x4).unwrap();
+    let mut bytes = 0;
+    while w > 1 || h > 1 {
+        (w, h) = ((w / 2).max(1), (h / 2).max(1));
+        let mut next = Image::new(w, h, PixelType::U8x4);
+        resizer.resize(&level, &mut next, &opts).unwrap();
+        bytes += next.buffer().len();
+        level = next;
+    }
+    bytes
+}
+
+fn bench(c: &mut Criterion) {
+    let side: u32 =
+        std::env::var("TEXTURE_BENCH_SIZE").ok().and_then(|s| s.parse().ok()).unwrap_or(4096);
+    let img = image::DynamicImage::ImageRgba8(design(side));
+    let rgba = img.to_rgba8();
+    let mut g = c.benchmark_group(format!("mip chain {side}x{side}"));
+    g.sample_size(10)
+        .warm_up_time(Duration::from_millis(500))
+        .measurement_time(Duration::from_secs(5));
+    for filter in [MipFilter::Box, MipFilter::Lanczos3] {
+        g.bench_function(format!("mip chain: {} (ours, linear light)", filter.name()), |b| {
+            b.iter(|| colour_mips(black_box(&img), &ColourOptions { srgb: true, filter }).unwrap())
+        });
+    }
+    // fast_image_resize runs on the calling thread.
+    for (name, filter) in [("box", FilterType::Box), ("lanczos3", FilterType::Lanczos3)] {
+        g.bench_function(format!("mip chain: {name} (fast_image_resize, gamma, 1 thread)"), |b| {
+            b.iter(|| fir_chain(black_box(&rgba), filter))
+        });
+    }
+    g.finish();
+}
+
+criterion_group!(benches, bench);
+criterion_main!(benches);
