@@ -7,7 +7,7 @@ use crate::TextureError;
 use crate::pixels::{Texel, to_linear};
 use crate::real::{Real, clamp01};
 use crate::resample::{MipFilter, half, reduce};
-use crate::srgb::{encode8, unorm8};
+use crate::srgb::{encoder, unorm8};
 
 /// A texture's levels as stored in a pack: tightly packed RGBA8 rows, level 0 first, each level
 /// `max(1, previous / 2)` texels on each axis, down to 1x1 (the rule of `pack::Texture`).
@@ -105,12 +105,41 @@ pub fn colour_levels<T: Real>(
     let mut levels = vec![level0];
     let (mut lw, mut lh) = (w, h);
     while lw > 1 || lh > 1 {
-        let mut next = reduce(levels.last().unwrap(), lw, lh, filter, weighted);
-        next.par_iter_mut().for_each(|t| *t = unweighted(*t));
+        let prev = levels.last().unwrap();
+        let next = if filter == MipFilter::Box && lw % 2 == 0 && lh % 2 == 0 {
+            box2(prev, lw as usize)
+        } else {
+            let mut next = reduce(prev, lw, lh, filter, weighted);
+            next.par_iter_mut().for_each(|t| *t = unweighted(*t));
+            next
+        };
         levels.push(next);
         (lw, lh) = (half(lw), half(lh));
     }
     levels
+}
+
+/// The box reduction of even sizes in one pass, with the same operations in the same order as
+/// the separable path (so the same bits): each 2x2 block, alpha-weighted.
+fn box2<T: Real>(src: &[[T; 4]], w: usize) -> Vec<[T; 4]> {
+    let w2 = w / 2;
+    let half = T::of(0.5);
+    let mut out = vec![[T::default(); 4]; w2 * (src.len() / w / 2)];
+    out.par_chunks_mut(w2).enumerate().for_each(|(y, o)| {
+        let (r0, r1) = (&src[2 * y * w..(2 * y + 1) * w], &src[(2 * y + 1) * w..(2 * y + 2) * w]);
+        for (x, o) in o.iter_mut().enumerate() {
+            let (a, b) = (weighted(r0[2 * x]), weighted(r0[2 * x + 1]));
+            let (c, d) = (weighted(r1[2 * x]), weighted(r1[2 * x + 1]));
+            let mut t = [T::default(); 4];
+            for ch in 0..4 {
+                let top = half * a[ch] + half * b[ch];
+                let bottom = half * c[ch] + half * d[ch];
+                t[ch] = half * top + half * bottom;
+            }
+            *o = unweighted(t);
+        }
+    });
+    out
 }
 
 /// Encodes straight linear RGBA to RGBA8 (sRGB or plain unorm colour, unorm alpha).
@@ -119,9 +148,10 @@ pub fn encode_level(level: &[Texel], srgb: bool) -> Vec<u8> {
     out.par_chunks_mut(4 * 1024)
         .zip(level.par_chunks(1024))
         .for_each(|(o, l)| {
+            let e = encoder();
             for (o, t) in o.chunks_exact_mut(4).zip(l) {
                 for c in 0..3 {
-                    o[c] = if srgb { encode8(t[c]) } else { unorm8(t[c]) };
+                    o[c] = if srgb { e.encode(t[c]) } else { unorm8(t[c]) };
                 }
                 o[3] = unorm8(t[3]);
             }
@@ -137,7 +167,16 @@ pub fn colour_mips(img: &DynamicImage, opts: &ColourOptions) -> Result<MipChain,
     check_size(w, h)?;
     let level0 = to_linear(img, opts.srgb);
     let levels = colour_levels::<f32>(level0, w, h, opts.filter);
-    let levels = levels.iter().map(|l| encode_level(l, opts.srgb)).collect();
+    let levels = levels
+        .iter()
+        .enumerate()
+        .map(|(i, l)| match img {
+            // Decoding then re-encoding 8-bit sRGB gives back every code (a unit test checks
+            // the tables), so level 0 is the source's bytes.
+            DynamicImage::ImageRgba8(src) if i == 0 && opts.srgb => src.as_raw().clone(),
+            _ => encode_level(l, opts.srgb),
+        })
+        .collect();
     Ok(MipChain {
         width: w,
         height: h,
