@@ -107,7 +107,8 @@ fn normalize(a: [f32; 3]) -> [f32; 3] {
 /// True when the triangle has no area: repeated corners or collinear positions.
 pub fn is_degenerate(a: [f32; 3], b: [f32; 3], c: [f32; 3]) -> bool {
     let n = cross(sub(b, a), sub(c, a));
-    !(dot(n, n) > 0.0)
+    // Written so NaN counts as degenerate too.
+    dot(n, n).partial_cmp(&0.0) != Some(std::cmp::Ordering::Greater)
 }
 
 fn plus_zero(v: f32) -> f32 {

@@ -236,6 +236,9 @@ fn projector_sigma(
     }
 }
 
+/// The pack's texture table, the mip levels of each texture, and the background panorama.
+pub type CookedTextures = (Vec<pack::Texture>, Vec<Vec<Vec<u8>>>, Option<u32>);
+
 /// Cooks every texture the materials, windows and background use; fills each material's
 /// texture references and returns the pack's texture table and mip data.
 pub fn cook_textures(
@@ -245,7 +248,7 @@ pub fn cook_textures(
     floor_y: Option<f32>,
     settings: &Settings,
     report: &mut Report,
-) -> Result<(Vec<pack::Texture>, Vec<Vec<Vec<u8>>>, Option<u32>), CookError> {
+) -> Result<CookedTextures, CookError> {
     if !settings.textures {
         return Ok((Vec::new(), Vec::new(), None));
     }

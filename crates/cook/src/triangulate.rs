@@ -28,7 +28,7 @@ pub fn triangulate(points: &[[f32; 3]], out: &mut Vec<[u32; 3]>) {
     let axis = (0..3)
         .max_by(|&a, &b| normal[a].abs().total_cmp(&normal[b].abs()))
         .unwrap_or(2);
-    if !(normal[axis].abs() > 0.0) {
+    if normal[axis] == 0.0 || !normal[axis].is_finite() {
         // Zero area (all points collinear or coincident): any split is as good as another.
         fan(n, out);
         return;

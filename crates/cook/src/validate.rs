@@ -450,9 +450,9 @@ pub fn check_geometry(
                 row.triangles += 1;
                 row.area += 0.5 * g.cross(h).length() as f64;
                 for q in p {
-                    for k in 0..3 {
-                        row.bounds_min[k] = row.bounds_min[k].min(q[k]);
-                        row.bounds_max[k] = row.bounds_max[k].max(q[k]);
+                    for (k, c) in q.into_iter().enumerate() {
+                        row.bounds_min[k] = row.bounds_min[k].min(c);
+                        row.bounds_max[k] = row.bounds_max[k].max(c);
                     }
                 }
                 if is_window {

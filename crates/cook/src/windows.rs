@@ -53,7 +53,7 @@ pub fn analyze(
         centroid += (a + b + c) / 3.0 * w;
         area += w;
     }
-    if !(area > 0.0) || area_normal.length() == 0.0 {
+    if area.is_nan() || area <= 0.0 || area_normal.length() == 0.0 {
         return None;
     }
     centroid /= area;

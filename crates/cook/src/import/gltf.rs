@@ -508,7 +508,7 @@ fn add_primitive(
             .map(|i| [indices[0], indices[i - 1], indices[i]])
             .collect(),
         _ => {
-            if indices.len() % 3 != 0 {
+            if !indices.len().is_multiple_of(3) {
                 out.warnings.push(Warning::new(
                     path,
                     None,

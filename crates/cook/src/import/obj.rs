@@ -64,6 +64,9 @@ fn trim(mut s: &[u8]) -> &[u8] {
     s
 }
 
+/// (material, group, object) names of a part.
+type PartKey = (Option<String>, Option<String>, Option<String>);
+
 /// Parser state: the source names in effect and the part they map to.
 #[derive(Default)]
 struct State {
@@ -71,7 +74,7 @@ struct State {
     group: Option<String>,
     object: Option<String>,
     part: Option<u32>,
-    parts: HashMap<(Option<String>, Option<String>, Option<String>), u32>,
+    parts: HashMap<PartKey, u32>,
 }
 
 /// Parses OBJ text. `path` names the file in errors and locates `mtllib` files.
@@ -369,13 +372,12 @@ fn resolve(
 }
 
 fn plural(what: &str, n: usize) -> String {
-    let noun = match (what, n) {
+    match (what, n) {
         ("vertex", 1) => "vertex is".to_string(),
         ("vertex", _) => "vertices are".to_string(),
         (w, 1) => format!("{w} is"),
         (w, _) => format!("{w}s are"),
-    };
-    noun
+    }
 }
 
 fn parse_corner(path: &Path, line: usize, tok: &[u8], out: &Imported) -> Result<Corner, CookError> {
