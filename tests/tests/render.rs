@@ -32,7 +32,11 @@ struct Builder {
 
 fn mip_chain(w: u32, h: u32, level0: Vec<u8>) -> (Vec<MipLevel>, Vec<Vec<u8>>) {
     let mut levels = vec![level0];
-    let mut mips = vec![MipLevel { width: w, height: h, section: 0 }];
+    let mut mips = vec![MipLevel {
+        width: w,
+        height: h,
+        section: 0,
+    }];
     let (mut cw, mut ch) = (w, h);
     while cw > 1 || ch > 1 {
         let (nw, nh) = ((cw / 2).max(1), (ch / 2).max(1));
@@ -52,7 +56,11 @@ fn mip_chain(w: u32, h: u32, level0: Vec<u8>) -> (Vec<MipLevel>, Vec<Vec<u8>>) {
             }
         }
         levels.push(next);
-        mips.push(MipLevel { width: nw, height: nh, section: 0 });
+        mips.push(MipLevel {
+            width: nw,
+            height: nh,
+            section: 0,
+        });
         (cw, ch) = (nw, nh);
     }
     (mips, levels)
@@ -60,21 +68,40 @@ fn mip_chain(w: u32, h: u32, level0: Vec<u8>) -> (Vec<MipLevel>, Vec<Vec<u8>>) {
 
 impl Builder {
     fn new() -> Self {
-        Self { toc: Toc::default(), data: PackData::default(), vertices: Vec::new(), indices: Vec::new(), ranges: Vec::new() }
+        Self {
+            toc: Toc::default(),
+            data: PackData::default(),
+            vertices: Vec::new(),
+            indices: Vec::new(),
+            ranges: Vec::new(),
+        }
     }
 
-    fn texture(&mut self, name: &str, role: TextureRole, size: u32, f: impl Fn(f32, f32) -> [u8; 4]) -> u32 {
+    fn texture(
+        &mut self,
+        name: &str,
+        role: TextureRole,
+        size: u32,
+        f: impl Fn(f32, f32) -> [u8; 4],
+    ) -> u32 {
         let mut px = Vec::with_capacity((size * size * 4) as usize);
         for y in 0..size {
             for x in 0..size {
-                px.extend_from_slice(&f((x as f32 + 0.5) / size as f32, (y as f32 + 0.5) / size as f32));
+                px.extend_from_slice(&f(
+                    (x as f32 + 0.5) / size as f32,
+                    (y as f32 + 0.5) / size as f32,
+                ));
             }
         }
         let (mips, levels) = mip_chain(size, size, px);
         self.toc.textures.push(Texture {
             name: name.into(),
             role,
-            colour_space: if role == TextureRole::Normal { ColourSpace::Linear } else { ColourSpace::Srgb },
+            colour_space: if role == TextureRole::Normal {
+                ColourSpace::Linear
+            } else {
+                ColourSpace::Srgb
+            },
             format: TextureFormat::Rgba8,
             width: size,
             height: size,
@@ -85,7 +112,16 @@ impl Builder {
     }
 
     #[allow(clippy::too_many_arguments)]
-    fn material(&mut self, name: &str, class: MaterialClass, diffuse: [f32; 3], emissive: [f32; 3], tex: Option<u32>, normal: Option<u32>, projector: Option<u32>) -> u16 {
+    fn material(
+        &mut self,
+        name: &str,
+        class: MaterialClass,
+        diffuse: [f32; 3],
+        emissive: [f32; 3],
+        tex: Option<u32>,
+        normal: Option<u32>,
+        projector: Option<u32>,
+    ) -> u16 {
         self.toc.materials.push(Material {
             name: name.into(),
             class,
@@ -113,18 +149,26 @@ impl Builder {
             });
         }
         let first = self.indices.len() as u32;
-        self.indices.extend([base, base + 1, base + 2, base, base + 2, base + 3]);
+        self.indices
+            .extend([base, base + 1, base + 2, base, base + 2, base + 3]);
         match self.ranges.last_mut() {
             Some(r) if r.material == material => r.index_count += 6,
-            _ => self.ranges.push(DrawRange { material, first_index: first, index_count: 6 }),
+            _ => self.ranges.push(DrawRange {
+                material,
+                first_index: first,
+                index_count: 6,
+            }),
         }
     }
 
     fn finish(mut self) -> Vec<u8> {
-        let (lo, hi) = self.vertices.iter().fold((Vec3::splat(f32::MAX), Vec3::splat(f32::MIN)), |(lo, hi), v| {
-            let p = Vec3::from(v.position);
-            (lo.min(p), hi.max(p))
-        });
+        let (lo, hi) = self.vertices.iter().fold(
+            (Vec3::splat(f32::MAX), Vec3::splat(f32::MIN)),
+            |(lo, hi), v| {
+                let p = Vec3::from(v.position);
+                (lo.min(p), hi.max(p))
+            },
+        );
         self.toc.meshes.push(Mesh {
             name: "scene".into(),
             layout: VertexLayout::standard(),
@@ -171,30 +215,120 @@ fn glass(u: f32, v: f32) -> [u8; 4] {
 fn scene(light: Option<LightSetup>, with_window: bool, with_normals: bool) -> Vec<u8> {
     let mut b = Builder::new();
     let floor_tex = b.texture("floor", TextureRole::Colour, 256, |u, v| {
-        let check = ((u * 8.0) as u32 + (v * 8.0) as u32) % 2 == 0;
-        if check { [200, 195, 185, 255] } else { [150, 145, 140, 255] }
+        let check = ((u * 8.0) as u32 + (v * 8.0) as u32).is_multiple_of(2);
+        if check {
+            [200, 195, 185, 255]
+        } else {
+            [150, 145, 140, 255]
+        }
     });
     let sky_tex = b.texture("sky", TextureRole::Colour, 32, |_, v| {
         let t = v;
-        [(120.0 + 100.0 * t) as u8, (170.0 + 60.0 * t) as u8, 245, 255]
+        [
+            (120.0 + 100.0 * t) as u8,
+            (170.0 + 60.0 * t) as u8,
+            245,
+            255,
+        ]
     });
-    let floor = b.material("floor", MaterialClass::Floor, [0.8, 0.8, 0.8], [0.0; 3], Some(floor_tex), None, None);
-    let wall = b.material("wall", MaterialClass::Wall, [0.7, 0.65, 0.6], [0.0; 3], None, None, None);
-    let sky = b.material("sky", MaterialClass::Background, [1.0; 3], [0.0; 3], Some(sky_tex), None, None);
-    let hill = b.material("hill", MaterialClass::Background, [0.15, 0.3, 0.12], [0.0; 3], None, None, None);
+    let floor = b.material(
+        "floor",
+        MaterialClass::Floor,
+        [0.8, 0.8, 0.8],
+        [0.0; 3],
+        Some(floor_tex),
+        None,
+        None,
+    );
+    let wall = b.material(
+        "wall",
+        MaterialClass::Wall,
+        [0.7, 0.65, 0.6],
+        [0.0; 3],
+        None,
+        None,
+        None,
+    );
+    let sky = b.material(
+        "sky",
+        MaterialClass::Background,
+        [1.0; 3],
+        [0.0; 3],
+        Some(sky_tex),
+        None,
+        None,
+    );
+    let hill = b.material(
+        "hill",
+        MaterialClass::Background,
+        [0.15, 0.3, 0.12],
+        [0.0; 3],
+        None,
+        None,
+        None,
+    );
 
     // Floor on both sides of the wall.
-    b.quad(floor, Vec3::new(-8.0, 0.0, 12.0), Vec3::new(16.0, 0.0, 0.0), Vec3::new(0.0, 0.0, -24.0), Vec3::Y, Vec2::new(4.0, 6.0));
+    b.quad(
+        floor,
+        Vec3::new(-8.0, 0.0, 12.0),
+        Vec3::new(16.0, 0.0, 0.0),
+        Vec3::new(0.0, 0.0, -24.0),
+        Vec3::Y,
+        Vec2::new(4.0, 6.0),
+    );
     // Wall at z = 0 around the window opening, normal facing the inside (+z).
     let n = Vec3::Z;
     let (x0, x1, y0, y1) = (WINDOW_MIN.x, WINDOW_MAX.x, WINDOW_MIN.y, WINDOW_MAX.y);
-    b.quad(wall, Vec3::new(-8.0, 0.0, 0.0), Vec3::new(8.0 + x0, 0.0, 0.0), Vec3::new(0.0, 6.0, 0.0), n, Vec2::ONE);
-    b.quad(wall, Vec3::new(x1, 0.0, 0.0), Vec3::new(8.0 - x1, 0.0, 0.0), Vec3::new(0.0, 6.0, 0.0), n, Vec2::ONE);
-    b.quad(wall, Vec3::new(x0, 0.0, 0.0), Vec3::new(x1 - x0, 0.0, 0.0), Vec3::new(0.0, y0, 0.0), n, Vec2::ONE);
-    b.quad(wall, Vec3::new(x0, y1, 0.0), Vec3::new(x1 - x0, 0.0, 0.0), Vec3::new(0.0, 6.0 - y1, 0.0), n, Vec2::ONE);
+    b.quad(
+        wall,
+        Vec3::new(-8.0, 0.0, 0.0),
+        Vec3::new(8.0 + x0, 0.0, 0.0),
+        Vec3::new(0.0, 6.0, 0.0),
+        n,
+        Vec2::ONE,
+    );
+    b.quad(
+        wall,
+        Vec3::new(x1, 0.0, 0.0),
+        Vec3::new(8.0 - x1, 0.0, 0.0),
+        Vec3::new(0.0, 6.0, 0.0),
+        n,
+        Vec2::ONE,
+    );
+    b.quad(
+        wall,
+        Vec3::new(x0, 0.0, 0.0),
+        Vec3::new(x1 - x0, 0.0, 0.0),
+        Vec3::new(0.0, y0, 0.0),
+        n,
+        Vec2::ONE,
+    );
+    b.quad(
+        wall,
+        Vec3::new(x0, y1, 0.0),
+        Vec3::new(x1 - x0, 0.0, 0.0),
+        Vec3::new(0.0, 6.0 - y1, 0.0),
+        n,
+        Vec2::ONE,
+    );
     // Sky and a hill far outside.
-    b.quad(sky, Vec3::new(-80.0, 60.0, -60.0), Vec3::new(160.0, 0.0, 0.0), Vec3::new(0.0, -70.0, 0.0), n, Vec2::ONE);
-    b.quad(hill, Vec3::new(-30.0, -1.0, -50.0), Vec3::new(40.0, 0.0, 0.0), Vec3::new(0.0, 9.0, 0.0), n, Vec2::ONE);
+    b.quad(
+        sky,
+        Vec3::new(-80.0, 60.0, -60.0),
+        Vec3::new(160.0, 0.0, 0.0),
+        Vec3::new(0.0, -70.0, 0.0),
+        n,
+        Vec2::ONE,
+    );
+    b.quad(
+        hill,
+        Vec3::new(-30.0, -1.0, -50.0),
+        Vec3::new(40.0, 0.0, 0.0),
+        Vec3::new(0.0, 9.0, 0.0),
+        n,
+        Vec2::ONE,
+    );
 
     if with_window {
         let colour = b.texture("glass", TextureRole::Colour, 64, glass);
@@ -216,7 +350,15 @@ fn scene(light: Option<LightSetup>, with_window: bool, with_normals: bool) -> Ve
             }
             c
         });
-        let window = b.material("lancet", MaterialClass::WindowUpper, [1.0; 3], [0.0; 3], Some(colour), normal, Some(projector));
+        let window = b.material(
+            "lancet",
+            MaterialClass::WindowUpper,
+            [1.0; 3],
+            [0.0; 3],
+            Some(colour),
+            normal,
+            Some(projector),
+        );
         // The design's v runs down: origin at the top left.
         let origin = Vec3::new(x0, y1, 0.0);
         let ua = Vec3::new(x1 - x0, 0.0, 0.0);
@@ -234,17 +376,42 @@ fn scene(light: Option<LightSetup>, with_window: bool, with_normals: bool) -> Ve
     }
     b.toc.light = light.map(|l| Light {
         kind: match l {
-            LightSetup::Sun => LightKind::Directional { direction: [0.12, -0.42, 0.9], angular_size: 0.0093 },
-            LightSetup::Lamp => LightKind::Point { position: [1.0, 5.0, -3.0], radius: 0.3 },
+            LightSetup::Sun => LightKind::Directional {
+                direction: [0.12, -0.42, 0.9],
+                angular_size: 0.0093,
+            },
+            LightSetup::Lamp => LightKind::Point {
+                position: [1.0, 5.0, -3.0],
+                radius: 0.3,
+            },
         },
         colour: [1.0, 0.95, 0.85],
         intensity: if l == LightSetup::Lamp { 60.0 } else { 3.0 },
     });
     b.toc.cameras = vec![
-        Camera { name: "inside".into(), position: [0.5, 1.6, 9.0], target: [0.0, 2.0, 0.0], up: [0.0, 1.0, 0.0], fov_y: 60.0, near: 0.05, far: 300.0 },
-        Camera { name: "outside".into(), position: [3.0, 2.0, -9.0], target: [0.0, 2.0, 0.0], up: [0.0, 1.0, 0.0], fov_y: 60.0, near: 0.05, far: 300.0 },
+        Camera {
+            name: "inside".into(),
+            position: [0.5, 1.6, 9.0],
+            target: [0.0, 2.0, 0.0],
+            up: [0.0, 1.0, 0.0],
+            fov_y: 60.0,
+            near: 0.05,
+            far: 300.0,
+        },
+        Camera {
+            name: "outside".into(),
+            position: [3.0, 2.0, -9.0],
+            target: [0.0, 2.0, 0.0],
+            up: [0.0, 1.0, 0.0],
+            fov_y: 60.0,
+            near: 0.05,
+            far: 300.0,
+        },
     ];
-    b.toc.background = Background { colour: [0.3, 0.45, 0.75], panorama: None };
+    b.toc.background = Background {
+        colour: [0.3, 0.45, 0.75],
+        panorama: None,
+    };
     b.finish()
 }
 
@@ -299,7 +466,11 @@ fn check_image(name: &str, image: &image::RgbaImage, max_mean: f32, max_p99: f32
     };
     let reference = reference.into_rgb8();
     let actual = image::DynamicImage::ImageRgba8(image.clone()).into_rgb8();
-    assert_eq!(reference.dimensions(), actual.dimensions(), "{name}: size differs from the reference");
+    assert_eq!(
+        reference.dimensions(),
+        actual.dimensions(),
+        "{name}: size differs from the reference"
+    );
     let (w, h) = actual.dimensions();
     let error = nv_flip::flip(
         nv_flip::FlipImageRgb8::with_data(w, h, &reference),
@@ -313,7 +484,10 @@ fn check_image(name: &str, image: &image::RgbaImage, max_mean: f32, max_p99: f32
         image.save(&actual_path).unwrap();
         let diff = error.apply_color_lut(&nv_flip::magma_lut());
         let diff_path = out_dir().join(format!("{name}-diff.png"));
-        image::RgbImage::from_raw(w, h, diff.to_vec()).unwrap().save(&diff_path).unwrap();
+        image::RgbImage::from_raw(w, h, diff.to_vec())
+            .unwrap()
+            .save(&diff_path)
+            .unwrap();
         panic!(
             "{name}: FLIP mean {mean:.4} (max {max_mean}), p99 {p99:.4} (max {max_p99}); see {} and {}",
             actual_path.display(),
@@ -323,7 +497,12 @@ fn check_image(name: &str, image: &image::RgbaImage, max_mean: f32, max_p99: f32
     eprintln!("{name}: FLIP mean {mean:.5}, p99 {p99:.5}");
 }
 
-fn render_camera(gpu: &Gpu, scene: &Scene, camera: usize, settings: Settings) -> (Renderer, render::FrameReport) {
+fn render_camera(
+    gpu: &Gpu,
+    scene: &Scene,
+    camera: usize,
+    settings: Settings,
+) -> (Renderer, render::FrameReport) {
     let mut r = Renderer::headless(gpu, scene, W, H, settings).unwrap();
     let view = r.view_for(&scene.toc().cameras[camera]);
     let report = r.render(gpu, scene, &view, TimingMethod::None).unwrap();
@@ -331,7 +510,13 @@ fn render_camera(gpu: &Gpu, scene: &Scene, camera: usize, settings: Settings) ->
 }
 
 fn skipped(report: &render::FrameReport, pass: PassId) -> bool {
-    report.passes.iter().find(|p| p.pass == pass).unwrap().skipped.is_some()
+    report
+        .passes
+        .iter()
+        .find(|p| p.pass == pass)
+        .unwrap()
+        .skipped
+        .is_some()
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -341,11 +526,17 @@ fn sun_through_window_matches_reference() {
     let gpu = gpu();
     let scene = load(&gpu, &scene(Some(LightSetup::Sun), true, true));
     let (r, report) = render_camera(&gpu, &scene, 0, Settings::default());
-    assert!(PassId::ALL.iter().all(|&p| !skipped(&report, p)), "{report:?}");
+    assert!(
+        PassId::ALL.iter().all(|&p| !skipped(&report, p)),
+        "{report:?}"
+    );
     assert!(report.god_ray_fade > 0.9, "the sun is in view: {report:?}");
     check_image("sun-inside", &r.read_output(&gpu).unwrap(), 0.01, 0.05);
     let (r, report) = render_camera(&gpu, &scene, 1, Settings::default());
-    assert!(skipped(&report, PassId::GodRays), "the sun is behind the outside camera: {report:?}");
+    assert!(
+        skipped(&report, PassId::GodRays),
+        "the sun is behind the outside camera: {report:?}"
+    );
     check_image("sun-outside", &r.read_output(&gpu).unwrap(), 0.01, 0.05);
 }
 
@@ -353,8 +544,25 @@ fn sun_through_window_matches_reference() {
 fn lamp_through_window_matches_reference() {
     let gpu = gpu();
     let scene = load(&gpu, &scene(Some(LightSetup::Lamp), true, true));
-    let (r, _) = render_camera(&gpu, &scene, 0, Settings { god_rays: render::GodRaySettings { resolution_scale: 0.5, jitter: true, ..GodRaySettings::default() }, ..Default::default() });
-    check_image("lamp-inside-half-res-rays", &r.read_output(&gpu).unwrap(), 0.01, 0.05);
+    let (r, _) = render_camera(
+        &gpu,
+        &scene,
+        0,
+        Settings {
+            god_rays: render::GodRaySettings {
+                resolution_scale: 0.5,
+                jitter: true,
+                ..GodRaySettings::default()
+            },
+            ..Default::default()
+        },
+    );
+    check_image(
+        "lamp-inside-half-res-rays",
+        &r.read_output(&gpu).unwrap(),
+        0.01,
+        0.05,
+    );
 }
 
 #[test]
@@ -363,7 +571,10 @@ fn scene_without_windows_skips_window_passes() {
     let scene = load(&gpu, &scene(Some(LightSetup::Sun), false, false));
     let (r, report) = render_camera(&gpu, &scene, 0, Settings::default());
     for p in [PassId::WindowMask, PassId::WindowNormals, PassId::GodRays] {
-        assert!(skipped(&report, p), "{p:?} recorded without windows: {report:?}");
+        assert!(
+            skipped(&report, p),
+            "{p:?} recorded without windows: {report:?}"
+        );
     }
     assert!(!skipped(&report, PassId::Lit) && !skipped(&report, PassId::Composite));
     check_image("no-windows", &r.read_output(&gpu).unwrap(), 0.01, 0.05);
@@ -395,7 +606,10 @@ fn sweep(setup: LightSetup, eye: Vec3) {
     const SH: u32 = 90;
     let gpu = gpu();
     let scene = load(&gpu, &scene(Some(setup), true, true));
-    let settings = Settings { skip_invisible_god_rays: false, ..Default::default() };
+    let settings = Settings {
+        skip_invisible_god_rays: false,
+        ..Default::default()
+    };
     let mut r = Renderer::headless(&gpu, &scene, SW, SH, settings).unwrap();
     let light = LightGeometry::from_light(scene.toc().light.as_ref().unwrap());
     let to_light = light.direction_from(eye).unwrap();
@@ -414,17 +628,37 @@ fn sweep(setup: LightSetup, eye: Vec3) {
                 to_light * a.cos() + side * a.sin()
             }
         };
-        let view = View::look(eye, forward, Vec3::Y, 60.0, SW as f32 / SH as f32, 0.05, 300.0);
+        let view = View::look(
+            eye,
+            forward,
+            Vec3::Y,
+            60.0,
+            SW as f32 / SH as f32,
+            0.05,
+            300.0,
+        );
         let report = r.render(&gpu, &scene, &view, TimingMethod::None).unwrap();
         assert!(!skipped(&report, PassId::GodRays));
-        for id in [TargetId::Background, TargetId::WindowMask, TargetId::WindowNormals, TargetId::Lit, TargetId::GodRays] {
+        for id in [
+            TargetId::Background,
+            TargetId::WindowMask,
+            TargetId::WindowNormals,
+            TargetId::Lit,
+            TargetId::GodRays,
+        ] {
             let (_, _, px) = r.read_target(&gpu, id).unwrap();
-            assert!(px.iter().flatten().all(|v| v.is_finite()), "{id:?} has NaN/Inf at {deg}°");
+            assert!(
+                px.iter().flatten().all(|v| v.is_finite()),
+                "{id:?} has NaN/Inf at {deg}°"
+            );
         }
         let (_, _, rays) = r.read_target(&gpu, TargetId::GodRays).unwrap();
         let energy = sum_rgb(&rays);
         if forward.dot(to_light) <= 0.0 {
-            assert_eq!(energy, 0.0, "god rays with the light behind the camera at {deg}°");
+            assert_eq!(
+                energy, 0.0,
+                "god rays with the light behind the camera at {deg}°"
+            );
             assert_eq!(report.god_ray_fade, 0.0);
         }
         energies.push((deg, energy));
@@ -434,9 +668,21 @@ fn sweep(setup: LightSetup, eye: Vec3) {
     // Neighbours 2° apart: the fade and the march are continuous, so no step may exceed 20 %
     // of the brightest view (a phantom or an unclamped march shows up as a jump near 90°;
     // the window entering the view measured 14 % here).
-    let worst = energies.windows(2).map(|w| ((w[1].1 - w[0].1).abs() / peak, w[0].0)).fold((0.0, 0), |a, b| if b.0 > a.0 { b } else { a });
-    eprintln!("{setup:?}: peak god-ray energy {peak:.1}, largest 2° step {:.3} of peak at {}°", worst.0, worst.1);
-    assert!(worst.0 <= 0.20, "god-ray energy jumps by {:.3} of its peak between {}° and {}°", worst.0, worst.1, worst.1 + 2);
+    let worst = energies
+        .windows(2)
+        .map(|w| ((w[1].1 - w[0].1).abs() / peak, w[0].0))
+        .fold((0.0, 0), |a, b| if b.0 > a.0 { b } else { a });
+    eprintln!(
+        "{setup:?}: peak god-ray energy {peak:.1}, largest 2° step {:.3} of peak at {}°",
+        worst.0, worst.1
+    );
+    assert!(
+        worst.0 <= 0.20,
+        "god-ray energy jumps by {:.3} of its peak between {}° and {}°",
+        worst.0,
+        worst.1,
+        worst.1 + 2
+    );
 }
 
 #[test]
@@ -458,16 +704,42 @@ fn god_rays_match_cpu_reference() {
     const SH: u32 = 36;
     let gpu = gpu();
     let scene = load(&gpu, &scene(Some(LightSetup::Sun), true, true));
-    let rays = GodRaySettings { samples: 48, ..GodRaySettings::default() };
-    let mut r = Renderer::headless(&gpu, &scene, SW, SH, Settings { god_rays: rays, ..Default::default() }).unwrap();
+    let rays = GodRaySettings {
+        samples: 48,
+        ..GodRaySettings::default()
+    };
+    let mut r = Renderer::headless(
+        &gpu,
+        &scene,
+        SW,
+        SH,
+        Settings {
+            god_rays: rays,
+            ..Default::default()
+        },
+    )
+    .unwrap();
     let view = r.view_for(&scene.toc().cameras[0]);
     r.render(&gpu, &scene, &view, TimingMethod::None).unwrap();
     let (mw, mh, mask) = r.read_target(&gpu, TargetId::WindowMask).unwrap();
     let (gw, gh, gpu_rays) = r.read_target(&gpu, TargetId::GodRays).unwrap();
     let l = scene.toc().light.as_ref().unwrap();
-    let (u, fade) = god_ray_uniforms(&rays, &view, &LightGeometry::from_light(l), Vec3::from(l.colour) * l.intensity, 0);
+    let (u, fade) = god_ray_uniforms(
+        &rays,
+        &view,
+        &LightGeometry::from_light(l),
+        Vec3::from(l.colour) * l.intensity,
+        0,
+    );
     assert!(fade > 0.5);
-    let cpu = god_rays_reference(&u, &mask, mw as usize, mh as usize, gw as usize, gh as usize);
+    let cpu = god_rays_reference(
+        &u,
+        &mask,
+        mw as usize,
+        mh as usize,
+        gw as usize,
+        gh as usize,
+    );
     let peak = cpu.iter().map(|c| c.max_element()).fold(0.0f32, f32::max);
     assert!(peak > 0.05, "reference has no rays (peak {peak})");
     let mut worst = 0.0f32;
@@ -478,7 +750,10 @@ fn god_rays_match_cpu_reference() {
     }
     eprintln!("god rays vs CPU reference: peak {peak:.4}, max abs error {worst:.5}");
     // f16 storage (~1e-3 relative) plus the sampler's 8-bit bilinear weights.
-    assert!(worst <= 0.01 * peak + 2e-3, "GPU god rays differ from the CPU reference by {worst} (peak {peak})");
+    assert!(
+        worst <= 0.01 * peak + 2e-3,
+        "GPU god rays differ from the CPU reference by {worst} (peak {peak})"
+    );
 }
 
 #[test]
@@ -487,8 +762,21 @@ fn sample_count_changes_accuracy_not_look() {
     let scene = load(&gpu, &scene(Some(LightSetup::Sun), true, true));
     let mut energies = Vec::new();
     for samples in [16, 64, 256] {
-        let rays = GodRaySettings { samples, ..GodRaySettings::default() };
-        let mut r = Renderer::headless(&gpu, &scene, 96, 54, Settings { god_rays: rays, ..Default::default() }).unwrap();
+        let rays = GodRaySettings {
+            samples,
+            ..GodRaySettings::default()
+        };
+        let mut r = Renderer::headless(
+            &gpu,
+            &scene,
+            96,
+            54,
+            Settings {
+                god_rays: rays,
+                ..Default::default()
+            },
+        )
+        .unwrap();
         let view = r.view_for(&scene.toc().cameras[0]);
         r.render(&gpu, &scene, &view, TimingMethod::None).unwrap();
         energies.push(sum_rgb(&r.read_target(&gpu, TargetId::GodRays).unwrap().2));
@@ -496,7 +784,11 @@ fn sample_count_changes_accuracy_not_look() {
     eprintln!("god-ray energy at 16/64/256 samples: {energies:?}");
     for e in &energies[..2] {
         let rel = (e - energies[2]).abs() / energies[2];
-        assert!(rel < 0.05, "energy {e} vs {} at 256 samples ({rel:.3})", energies[2]);
+        assert!(
+            rel < 0.05,
+            "energy {e} vs {} at 256 samples ({rel:.3})",
+            energies[2]
+        );
     }
 }
 
@@ -509,7 +801,8 @@ fn streamed_pack_draws_early_and_ends_identical() {
     let bytes = scene(Some(LightSetup::Sun), true, true);
     // Kept for trying the viewer on: `viewer target/tmp/render/synthetic-sun.pack --headless`.
     std::fs::write(out_dir().join("synthetic-sun.pack"), &bytes).unwrap();
-    let mut reader = pack::StreamReader::new("<stream>", std::io::Cursor::new(bytes.clone())).unwrap();
+    let mut reader =
+        pack::StreamReader::new("<stream>", std::io::Cursor::new(bytes.clone())).unwrap();
     let first = reader.next_section().unwrap().expect("TOC");
     assert_eq!(first.role, pack::SectionRole::Toc);
     let mut scene_gpu = Scene::new(&gpu, reader.toc().unwrap()).unwrap();
@@ -519,19 +812,30 @@ fn streamed_pack_draws_early_and_ends_identical() {
     while let Some(section) = reader.next_section().unwrap() {
         scene_gpu.upload_section(&gpu, &section).unwrap();
         if first_frame.is_none() && scene_gpu.ready_for_first_frame() {
-            assert!(!scene_gpu.fully_loaded(), "the floor's large mips should still be on their way");
+            assert!(
+                !scene_gpu.fully_loaded(),
+                "the floor's large mips should still be on their way"
+            );
             scene_gpu.refresh(&gpu);
-            r.render(&gpu, &scene_gpu, &view, TimingMethod::None).unwrap();
+            r.render(&gpu, &scene_gpu, &view, TimingMethod::None)
+                .unwrap();
             first_frame = Some(r.read_output(&gpu).unwrap());
         }
     }
     assert!(scene_gpu.fully_loaded());
     scene_gpu.refresh(&gpu);
-    r.render(&gpu, &scene_gpu, &view, TimingMethod::None).unwrap();
+    r.render(&gpu, &scene_gpu, &view, TimingMethod::None)
+        .unwrap();
     let streamed = r.read_output(&gpu).unwrap();
     let whole = load(&gpu, &bytes);
     let (r2, _) = render_camera(&gpu, &whole, 0, Settings::default());
-    assert!(streamed == r2.read_output(&gpu).unwrap(), "streamed and whole-pack frames differ");
+    assert!(
+        streamed == r2.read_output(&gpu).unwrap(),
+        "streamed and whole-pack frames differ"
+    );
     let first_frame = first_frame.expect("a first frame before the end");
-    assert!(first_frame != streamed, "the first frame should use low mips");
+    assert!(
+        first_frame != streamed,
+        "the first frame should use low mips"
+    );
 }

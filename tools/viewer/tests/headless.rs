@@ -1,0 +1,239 @@
+//! The headless viewer end to end on a tiny pack: files written per camera and pass, errors
+//! naming what is wrong. Needs a GPU adapter (lavapipe in CI) and fails without one.
+
+use std::path::PathBuf;
+use std::process::Command;
+
+use pack::{
+    Camera, DrawRange, IndexFormat, Light, LightKind, Material, MaterialClass, Mesh, MeshData,
+    PackData, StandardVertex, Toc, VertexLayout, Window,
+};
+
+fn scratch(name: &str) -> PathBuf {
+    let d = std::env::temp_dir().join(format!("viewer-test-{}-{name}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&d);
+    std::fs::create_dir_all(&d).unwrap();
+    d
+}
+
+/// A floor and a window quad in front of it, a sun, two cameras.
+fn tiny_pack() -> Vec<u8> {
+    let material = |name: &str, class| Material {
+        name: name.into(),
+        class,
+        diffuse: [0.7, 0.6, 0.5],
+        specular: [0.0; 3],
+        shininess: 8.0,
+        emissive: [0.0; 3],
+        diffuse_texture: None,
+        normal_texture: None,
+        projector_texture: None,
+    };
+    let v = |p: [f32; 3], n: [f32; 3], m: u16| StandardVertex {
+        position: p,
+        normal: n,
+        uv: [0.0; 2],
+        tangent: [1.0, 0.0, 0.0, 1.0],
+        material: [m, 0],
+    };
+    let vertices = vec![
+        v([-5.0, 0.0, 5.0], [0.0, 1.0, 0.0], 0),
+        v([5.0, 0.0, 5.0], [0.0, 1.0, 0.0], 0),
+        v([5.0, 0.0, -5.0], [0.0, 1.0, 0.0], 0),
+        v([-5.0, 0.0, -5.0], [0.0, 1.0, 0.0], 0),
+        v([-1.0, 3.0, 0.0], [0.0, 0.0, 1.0], 1),
+        v([1.0, 3.0, 0.0], [0.0, 0.0, 1.0], 1),
+        v([1.0, 1.0, 0.0], [0.0, 0.0, 1.0], 1),
+        v([-1.0, 1.0, 0.0], [0.0, 0.0, 1.0], 1),
+    ];
+    let indices: Vec<u16> = vec![0, 1, 2, 0, 2, 3, 4, 5, 6, 4, 6, 7];
+    let camera = |name: &str, z: f32| Camera {
+        name: name.into(),
+        position: [0.0, 1.7, z],
+        target: [0.0, 2.0, 0.0],
+        up: [0.0, 1.0, 0.0],
+        fov_y: 60.0,
+        near: 0.05,
+        far: 100.0,
+    };
+    let toc = Toc {
+        meshes: vec![Mesh {
+            name: "tiny".into(),
+            layout: VertexLayout::standard(),
+            vertex_count: vertices.len() as u32,
+            index_count: indices.len() as u32,
+            index_format: IndexFormat::U16,
+            vertex_section: 0,
+            index_section: 0,
+            bounds_min: [-5.0, 0.0, -5.0],
+            bounds_max: [5.0, 3.0, 5.0],
+            ranges: vec![
+                DrawRange {
+                    material: 0,
+                    first_index: 0,
+                    index_count: 6,
+                },
+                DrawRange {
+                    material: 1,
+                    first_index: 6,
+                    index_count: 6,
+                },
+            ],
+        }],
+        materials: vec![
+            material("floor", MaterialClass::Floor),
+            material("glass", MaterialClass::WindowLower),
+        ],
+        windows: vec![Window {
+            material: 1,
+            origin: [-1.0, 3.0, 0.0],
+            u_axis: [2.0, 0.0, 0.0],
+            v_axis: [0.0, -2.0, 0.0],
+            normal: [0.0, 0.0, 1.0],
+        }],
+        light: Some(Light {
+            kind: LightKind::Directional {
+                direction: [0.0, -0.5, 1.0],
+                angular_size: 0.01,
+            },
+            colour: [1.0; 3],
+            intensity: 2.0,
+        }),
+        cameras: vec![camera("near view", 6.0), camera("far", 9.0)],
+        ..Toc::default()
+    };
+    let data = PackData {
+        meshes: vec![MeshData {
+            vertices: bytemuck_bytes(&vertices),
+            indices: indices.iter().flat_map(|i| i.to_le_bytes()).collect(),
+        }],
+        textures: Vec::new(),
+    };
+    pack::encode(toc, &data).unwrap()
+}
+
+fn bytemuck_bytes(v: &[StandardVertex]) -> Vec<u8> {
+    let mut out = Vec::new();
+    for x in v {
+        for f in x
+            .position
+            .iter()
+            .chain(&x.normal)
+            .chain(&x.uv)
+            .chain(&x.tangent)
+        {
+            out.extend_from_slice(&f.to_le_bytes());
+        }
+        for m in x.material {
+            out.extend_from_slice(&m.to_le_bytes());
+        }
+    }
+    out
+}
+
+fn viewer(args: &[&std::ffi::OsStr]) -> std::process::Output {
+    Command::new(env!("CARGO_BIN_EXE_viewer"))
+        .args(args)
+        .output()
+        .unwrap()
+}
+
+#[test]
+fn writes_every_camera_and_pass() {
+    let dir = scratch("ok");
+    let pack_path = dir.join("tiny.pack");
+    std::fs::write(&pack_path, tiny_pack()).unwrap();
+    let out = dir.join("images/nested");
+    let o = viewer(&[
+        pack_path.as_os_str(),
+        "--headless".as_ref(),
+        "--out".as_ref(),
+        out.as_os_str(),
+        "--size".as_ref(),
+        "64x36".as_ref(),
+        "--passes".as_ref(),
+        "--bench".as_ref(),
+        "2".as_ref(),
+    ]);
+    let stdout = String::from_utf8_lossy(&o.stdout);
+    assert!(
+        o.status.success(),
+        "{stdout}\n{}",
+        String::from_utf8_lossy(&o.stderr)
+    );
+    for cam in ["near_view", "far"] {
+        let img = image::open(out.join(format!("{cam}.png"))).unwrap();
+        assert_eq!((img.width(), img.height()), (64, 36));
+        for pass in ["pass0-background", "pass1-window-mask", "pass3-lit"] {
+            assert!(
+                out.join(format!("{cam}-{pass}.png")).is_file(),
+                "{cam}-{pass}.png missing"
+            );
+        }
+        // No normal maps: pass 2 is skipped and says so instead of writing a stale image.
+        assert!(!out.join(format!("{cam}-pass2-window-normals.png")).exists());
+    }
+    assert!(
+        stdout.contains("first frame after") && stdout.contains("full quality after"),
+        "{stdout}"
+    );
+    assert!(
+        stdout.contains("skipped (no window normal maps)"),
+        "{stdout}"
+    );
+    assert!(
+        stdout.contains(&format!("images are in {}", out.display())),
+        "{stdout}"
+    );
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn names_the_problem_on_bad_input() {
+    let dir = scratch("bad");
+    let pack_path = dir.join("tiny.pack");
+    std::fs::write(&pack_path, tiny_pack()).unwrap();
+    let out = dir.join("out");
+    let o = viewer(&[
+        pack_path.as_os_str(),
+        "--headless".as_ref(),
+        "--out".as_ref(),
+        out.as_os_str(),
+        "--camera".as_ref(),
+        "nope".as_ref(),
+        "--size".as_ref(),
+        "32x18".as_ref(),
+    ]);
+    assert!(!o.status.success());
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(
+        err.contains("no camera named \"nope\"") && err.contains("near view"),
+        "{err}"
+    );
+
+    let mut bytes = tiny_pack();
+    let last = bytes.len() - 1;
+    bytes[last] ^= 0x40;
+    std::fs::write(&pack_path, &bytes).unwrap();
+    let o = viewer(&[
+        pack_path.as_os_str(),
+        "--headless".as_ref(),
+        "--out".as_ref(),
+        out.as_os_str(),
+    ]);
+    assert!(!o.status.success());
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(
+        err.contains("tiny.pack") && err.contains("checksum"),
+        "{err}"
+    );
+
+    let o = viewer(&[
+        pack_path.as_os_str(),
+        "--headless".as_ref(),
+        "--size".as_ref(),
+        "0x10".as_ref(),
+    ]);
+    assert!(!o.status.success());
+    let _ = std::fs::remove_dir_all(&dir);
+}
