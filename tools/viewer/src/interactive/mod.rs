@@ -68,7 +68,7 @@ pub fn run(options: Options) -> Result<Outcome> {
         Some(s) => Some(Script::parse(s).map_err(|e| anyhow!("--script: {e}"))?),
         None => None,
     };
-    let event_loop = match EventLoop::new() {
+    let event_loop = match event_loop() {
         Ok(l) => l,
         Err(e) => return Ok(Outcome::NoDisplay(format!("cannot open the display: {e}"))),
     };
@@ -80,6 +80,23 @@ pub fn run(options: Options) -> Result<Outcome> {
         return Err(e);
     }
     Ok(app.no_display.map_or(Outcome::Closed, Outcome::NoDisplay))
+}
+
+/// X11 when no Wayland compositor is announced: winit would otherwise try Wayland first,
+/// and libwayland complains on stderr under Xvfb.
+#[cfg(target_os = "linux")]
+fn event_loop() -> Result<EventLoop<()>, winit::error::EventLoopError> {
+    use winit::platform::x11::EventLoopBuilderExtX11;
+    let mut builder = EventLoop::builder();
+    if std::env::var_os("WAYLAND_DISPLAY").is_none() {
+        builder.with_x11();
+    }
+    builder.build()
+}
+
+#[cfg(not(target_os = "linux"))]
+fn event_loop() -> Result<EventLoop<()>, winit::error::EventLoopError> {
+    EventLoop::new()
 }
 
 /// The scene being shown, with its renderer once the first frame can be drawn.
@@ -139,7 +156,8 @@ struct App {
     first_frame_ms: Option<f64>,
     full_quality_ms: Option<f64>,
     watcher: Option<watch::Watcher>,
-    messages: Vec<String>,
+    /// Recent notes for the panel; `true` marks a problem.
+    messages: Vec<(bool, String)>,
     screenshots: u32,
     pending_screenshot: Option<PathBuf>,
     failure: Option<anyhow::Error>,
@@ -286,7 +304,16 @@ impl App {
 
     fn note(&mut self, message: String) {
         println!("{message}");
-        self.messages.push(message);
+        self.remember(false, message);
+    }
+
+    fn warn(&mut self, message: String) {
+        eprintln!("warning: {message}");
+        self.remember(true, message);
+    }
+
+    fn remember(&mut self, problem: bool, message: String) {
+        self.messages.push((problem, message));
         if self.messages.len() > 20 {
             self.messages.remove(0);
         }
@@ -413,7 +440,7 @@ impl App {
                     let is_reload = load.is_reload;
                     self.load = None;
                     if is_reload {
-                        self.note(format!("re-cook failed, keeping the old scene: {e:#}"));
+                        self.warn(format!("re-cook failed, keeping the old scene: {e:#}"));
                         return Ok(());
                     }
                     return Err(e);
@@ -472,7 +499,7 @@ impl App {
                     if load.is_reload {
                         let msg = format!("reload failed, keeping the old scene: {e:#}");
                         self.load = None;
-                        self.note(msg);
+                        self.warn(msg);
                         return Ok(());
                     }
                     return Err(e);
@@ -543,9 +570,9 @@ impl App {
                         if found.is_none() {
                             let names: Vec<&str> =
                                 toc.cameras.iter().map(|c| c.name.as_str()).collect();
-                            self.messages.push(format!(
-                                "no camera named {name:?} (cameras: {})",
-                                names.join(", ")
+                            self.messages.push((
+                                true,
+                                format!("no camera named {name:?} (cameras: {})", names.join(", ")),
                             ));
                         }
                         found
@@ -576,7 +603,7 @@ impl App {
         let Some(shown) = &self.shown else { return };
         let Some(c) = shown.scene.toc().cameras.get(index) else {
             let n = shown.scene.toc().cameras.len();
-            self.note(format!(
+            self.warn(format!(
                 "no camera preset {} (this scene has {n})",
                 index + 1
             ));
@@ -798,7 +825,7 @@ impl App {
         {
             let timing = if gpu.timestamps {
                 TimingMethod::GpuTimestamps
-            } else if self.frames % 30 == 0 {
+            } else if self.frames.is_multiple_of(30) {
                 // Without timestamp queries each pass is timed alone with a wait in between,
                 // which stalls the frame: sample it now and then.
                 TimingMethod::CpuWallClock
@@ -812,15 +839,16 @@ impl App {
             }
             let mut encoder = gpu.device.create_command_encoder(&Default::default());
             win.display.draw_view(
-                &gpu.device,
-                &gpu.queue,
+                gpu,
                 &mut encoder,
                 self.controls.view,
-                renderer,
-                Some(&report),
-                &shown.scene,
-                view,
-                self.controls.settings.exposure,
+                &views::Drawn {
+                    renderer,
+                    report: Some(&report),
+                    scene: &shown.scene,
+                    view,
+                    exposure: self.controls.settings.exposure,
+                },
             );
             gpu.queue.submit([encoder.finish()]);
             self.report = Some(report);
@@ -843,8 +871,7 @@ impl App {
         });
         let mut encoder = gpu.device.create_command_encoder(&Default::default());
         if drew_scene {
-            win.display
-                .present(&gpu.device, &gpu.queue, &mut encoder, &srgb_view);
+            win.display.present(gpu, &mut encoder, &srgb_view);
         }
 
         // The panel.
@@ -1007,7 +1034,7 @@ impl App {
             if drew_scene {
                 self.save_screenshot(&path)?;
             } else {
-                self.note("nothing drawn yet: screenshot skipped".into());
+                self.warn("nothing drawn yet: screenshot skipped".into());
             }
         }
         Ok(keep_open)

@@ -47,7 +47,8 @@ pub struct Info<'a> {
     pub materials: Vec<(&'a str, &'a str)>,
     pub point_light: bool,
     pub watch: Option<&'a str>,
-    pub messages: &'a [String],
+    /// Recent notes; `true` marks a problem.
+    pub messages: &'a [(bool, String)],
 }
 
 fn swatch(ui: &mut egui::Ui, rgb: [u8; 3]) {
@@ -88,7 +89,10 @@ pub fn panel(ui: &mut egui::Ui, c: &mut Controls, info: &Info<'_>) -> Vec<Reques
             if info.vsync { ", vsync" } else { "" }
         ));
         ui.small(info.adapter);
-        ui.small("WASD fly, Space/E up, Q/C down, Shift fast, Ctrl slow, drag to look, 1–9 presets, F1–F7 views, F12 screenshot, H panel");
+        ui.small(concat!(
+            "WASD fly, Space/E up, Q/C down, Shift fast, Ctrl slow, drag to look, ",
+            "wheel speed, 1–9 presets, F1–F7 views, F12 screenshot, H panel, Esc quit"
+        ));
 
         if let Some(what) = info.loading {
             ui.separator();
@@ -130,8 +134,12 @@ pub fn panel(ui: &mut egui::Ui, c: &mut Controls, info: &Info<'_>) -> Vec<Reques
                 }
             });
         }
-        for m in info.messages.iter().rev().take(4) {
-            ui.colored_label(egui::Color32::from_rgb(255, 170, 90), m);
+        for (problem, m) in info.messages.iter().rev().take(4) {
+            if *problem {
+                ui.colored_label(egui::Color32::from_rgb(255, 170, 90), m);
+            } else {
+                ui.weak(m);
+            }
         }
 
         ui.separator();
@@ -171,10 +179,18 @@ pub fn panel(ui: &mut egui::Ui, c: &mut Controls, info: &Info<'_>) -> Vec<Reques
             .show(ui, |ui| {
                 let g = &mut c.settings.god_rays;
                 ui.add(egui::Slider::new(&mut g.exposure, 0.0..=4.0).text("exposure"));
-                ui.add(egui::Slider::new(&mut g.decay, 0.001..=1.0).logarithmic(true).text("decay (left after a march)"));
+                ui.add(
+                    egui::Slider::new(&mut g.decay, 0.001..=1.0)
+                        .logarithmic(true)
+                        .text("decay (left after a march)"),
+                );
                 ui.add(egui::Slider::new(&mut g.density, 0.0..=2.0).text("density"));
                 ui.add(egui::Slider::new(&mut g.weight, 0.0..=4.0).text("weight"));
-                ui.add(egui::Slider::new(&mut g.samples, 1..=256).logarithmic(true).text("samples"));
+                ui.add(
+                    egui::Slider::new(&mut g.samples, 1..=256)
+                        .logarithmic(true)
+                        .text("samples"),
+                );
                 ui.horizontal(|ui| {
                     ui.label("resolution");
                     for (s, name) in [(1.0, "full"), (0.5, "half"), (0.25, "quarter")] {
@@ -192,7 +208,11 @@ pub fn panel(ui: &mut egui::Ui, c: &mut Controls, info: &Info<'_>) -> Vec<Reques
                             ui.label("colour");
                             ui.color_edit_button_rgb(&mut l.colour);
                         });
-                        ui.add(egui::Slider::new(&mut l.intensity, 0.0..=1e4).logarithmic(true).text("intensity"));
+                        ui.add(
+                            egui::Slider::new(&mut l.intensity, 0.0..=1e4)
+                                .logarithmic(true)
+                                .text("intensity"),
+                        );
                         ui.add_enabled(
                             info.point_light,
                             egui::Checkbox::new(&mut l.falloff, "inverse-square falloff"),
@@ -203,8 +223,15 @@ pub fn panel(ui: &mut egui::Ui, c: &mut Controls, info: &Info<'_>) -> Vec<Reques
                         ui.label("this scene has no light");
                     }
                 }
-                ui.add(egui::Slider::new(&mut c.settings.refraction_strength, 0.0..=0.5).text("refraction strength"));
-                ui.add(egui::Slider::new(&mut c.settings.exposure, 0.05..=8.0).logarithmic(true).text("exposure (tone map)"));
+                ui.add(
+                    egui::Slider::new(&mut c.settings.refraction_strength, 0.0..=0.5)
+                        .text("refraction strength"),
+                );
+                ui.add(
+                    egui::Slider::new(&mut c.settings.exposure, 0.05..=8.0)
+                        .logarithmic(true)
+                        .text("exposure (tone map)"),
+                );
             });
 
         ui.separator();

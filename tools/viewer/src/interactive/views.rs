@@ -3,7 +3,7 @@
 //! which is then copied to the window; the screenshot key reads that image, so a screenshot is
 //! exactly the current view without the panel.
 
-use render::{FrameReport, PassId, Renderer, Scene, TargetId, View};
+use render::{FrameReport, Gpu, PassId, Renderer, Scene, TargetId, View};
 
 const SHADER: &str = include_str!("display.wgsl");
 /// The display image's format: the composite writes it, screenshots read it as RGBA8.
@@ -91,7 +91,7 @@ impl ViewMode {
 pub fn material_colour(index: usize) -> [u8; 3] {
     let h = (index as f32 * 0.618_034 + 0.1).fract() * 6.0;
     // Alternate two saturation/value pairs so that hues that come round again still differ.
-    let (s, v) = if index % 2 == 0 {
+    let (s, v) = if index.is_multiple_of(2) {
         (0.75, 0.95)
     } else {
         (0.55, 0.75)
@@ -165,10 +165,21 @@ fn image(
     Image { texture, view }
 }
 
-/// One "show a texture" pipeline per output format.
+/// One "show a texture" pipeline per output format, with its parameter block.
 struct ShowPipeline {
     pipeline: wgpu::RenderPipeline,
     format: wgpu::TextureFormat,
+    params: wgpu::Buffer,
+}
+
+/// What one frame drew, for [`Display::draw_view`].
+pub struct Drawn<'a> {
+    pub renderer: &'a Renderer,
+    pub report: Option<&'a FrameReport>,
+    pub scene: &'a Scene,
+    pub view: &'a View,
+    /// The tone-mapping exposure, applied to HDR targets shown alone.
+    pub exposure: f32,
 }
 
 pub struct Display {
@@ -179,8 +190,6 @@ pub struct Display {
     to_display: ShowPipeline,
     to_window: ShowPipeline,
     sampler: wgpu::Sampler,
-    params_display: wgpu::Buffer,
-    params_window: wgpu::Buffer,
     id_pipeline: wgpu::RenderPipeline,
     id_camera: wgpu::Buffer,
     id_camera_group: wgpu::BindGroup,
@@ -217,7 +226,17 @@ fn show_pipeline(
         multiview_mask: None,
         cache: None,
     });
-    ShowPipeline { pipeline, format }
+    let params = device.create_buffer(&wgpu::BufferDescriptor {
+        label: Some("show params"),
+        size: std::mem::size_of::<ShowParams>() as u64,
+        usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+        mapped_at_creation: false,
+    });
+    ShowPipeline {
+        pipeline,
+        format,
+        params,
+    }
 }
 
 fn uniform_layout_entry(
@@ -375,8 +394,6 @@ impl Display {
                 min_filter: wgpu::FilterMode::Linear,
                 ..Default::default()
             }),
-            params_display: buffer("show params", std::mem::size_of::<ShowParams>() as u64),
-            params_window: buffer("window params", std::mem::size_of::<ShowParams>() as u64),
             id_pipeline,
             id_camera,
             id_camera_group,
@@ -461,23 +478,22 @@ impl Display {
 
     fn show(
         &self,
-        device: &wgpu::Device,
-        queue: &wgpu::Queue,
+        gpu: &Gpu,
         encoder: &mut wgpu::CommandEncoder,
         pipeline: &ShowPipeline,
-        params_buffer: &wgpu::Buffer,
         params: ShowParams,
         source: &wgpu::TextureView,
         target: &wgpu::TextureView,
     ) {
-        queue.write_buffer(params_buffer, 0, bytemuck::bytes_of(&params));
-        let group = device.create_bind_group(&wgpu::BindGroupDescriptor {
+        gpu.queue
+            .write_buffer(&pipeline.params, 0, bytemuck::bytes_of(&params));
+        let group = gpu.device.create_bind_group(&wgpu::BindGroupDescriptor {
             label: Some("show"),
             layout: &self.show_layout,
             entries: &[
                 wgpu::BindGroupEntry {
                     binding: 0,
-                    resource: params_buffer.as_entire_binding(),
+                    resource: pipeline.params.as_entire_binding(),
                 },
                 wgpu::BindGroupEntry {
                     binding: 1,
@@ -513,27 +529,21 @@ impl Display {
     /// Draws `mode` into the display image. The final view is already there (the renderer's
     /// composite wrote it); a pass the report lists as skipped shows black, because its target
     /// still holds an older frame.
-    #[allow(clippy::too_many_arguments)]
     pub fn draw_view(
         &self,
-        device: &wgpu::Device,
-        queue: &wgpu::Queue,
+        gpu: &Gpu,
         encoder: &mut wgpu::CommandEncoder,
         mode: ViewMode,
-        renderer: &Renderer,
-        report: Option<&FrameReport>,
-        scene: &Scene,
-        view: &View,
-        exposure: f32,
+        drawn: &Drawn<'_>,
     ) {
         if mode == ViewMode::MaterialIds {
-            self.draw_ids(queue, encoder, scene, view);
+            self.draw_ids(&gpu.queue, encoder, drawn.scene, drawn.view);
             return;
         }
         let Some((target, pass)) = mode.target() else {
             return;
         };
-        let skipped = report.is_none_or(|r| {
+        let skipped = drawn.report.is_none_or(|r| {
             r.passes
                 .iter()
                 .any(|p| p.pass == pass && p.skipped.is_some())
@@ -546,18 +556,16 @@ impl Display {
             1
         };
         self.show(
-            device,
-            queue,
+            gpu,
             encoder,
             &self.to_display,
-            &self.params_display,
             ShowParams {
                 mode: shader_mode,
-                scale: exposure,
+                scale: drawn.exposure,
                 encode: 0,
                 pad: 0,
             },
-            renderer.target_view(target),
+            drawn.renderer.target_view(target),
             &self.display.view,
         );
     }
@@ -622,18 +630,15 @@ impl Display {
     /// sRGB and the shader must encode).
     pub fn present(
         &self,
-        device: &wgpu::Device,
-        queue: &wgpu::Queue,
+        gpu: &Gpu,
         encoder: &mut wgpu::CommandEncoder,
         target: &wgpu::TextureView,
     ) {
         let encode = !self.to_window.format.is_srgb() as u32;
         self.show(
-            device,
-            queue,
+            gpu,
             encoder,
             &self.to_window,
-            &self.params_window,
             ShowParams {
                 mode: 0,
                 scale: 1.0,

@@ -1,0 +1,193 @@
+//! The interactive window under Xvfb: it opens, renders frames driven by `--script`, writes
+//! screenshots, follows a resize and closes with exit status 0. Without a display the same
+//! command falls back to headless images.
+//!
+//! These tests need `xvfb-run` and a Vulkan adapter (lavapipe is forced when installed, since a
+//! GPU driver usually cannot present to Xvfb); `scripts/install-test-deps.sh` installs both.
+//! They fail, never skip, when either is missing.
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Stdio};
+use std::sync::Mutex;
+use std::time::{Duration, Instant};
+
+/// `xvfb-run -a` picks a free display number racily; one window test at a time.
+static XVFB: Mutex<()> = Mutex::new(());
+
+fn lavapipe_icd() -> Option<PathBuf> {
+    let dir = std::fs::read_dir("/usr/share/vulkan/icd.d").ok()?;
+    dir.filter_map(|e| e.ok().map(|e| e.path())).find(|p| {
+        p.file_name()
+            .and_then(|n| n.to_str())
+            .is_some_and(|n| n.starts_with("lvp_icd") && n.ends_with(".json"))
+    })
+}
+
+fn sample_pack(dir: &Path) -> PathBuf {
+    let (toc, data) = pack::testing::sample();
+    let path = dir.join("sample.pack");
+    pack::write_pack(&path, toc, &data).expect("writing the sample pack");
+    path
+}
+
+struct Run {
+    status: std::process::ExitStatus,
+    log: String,
+}
+
+/// Runs the viewer with `args`, under `xvfb-run` when `display` is set, with a time limit.
+fn viewer(args: &[&std::ffi::OsStr], display: bool, dir: &Path) -> Run {
+    let exe = env!("CARGO_BIN_EXE_viewer");
+    let mut cmd = if display {
+        let found = Command::new("xvfb-run")
+            .arg("--help")
+            .stdout(Stdio::null())
+            .stderr(Stdio::null())
+            .status();
+        assert!(
+            found.is_ok(),
+            "xvfb-run is missing: run scripts/install-test-deps.sh (Debian package xvfb)"
+        );
+        let mut c = Command::new("xvfb-run");
+        c.args(["-a", "-s", "-screen 0 1280x720x24", exe]);
+        c
+    } else {
+        let mut c = Command::new(exe);
+        c.env_remove("DISPLAY");
+        c
+    };
+    cmd.args(args).env_remove("WAYLAND_DISPLAY");
+    if let Some(icd) = lavapipe_icd() {
+        cmd.env("VK_DRIVER_FILES", icd);
+    }
+    let log_path = dir.join("viewer.log");
+    let log = std::fs::File::create(&log_path).unwrap();
+    cmd.stdout(log.try_clone().unwrap()).stderr(log);
+    let mut child = cmd.spawn().expect("starting the viewer");
+    let start = Instant::now();
+    let status = loop {
+        if let Some(s) = child.try_wait().unwrap() {
+            break s;
+        }
+        if start.elapsed() > Duration::from_secs(300) {
+            let _ = child.kill();
+            let _ = child.wait();
+            panic!(
+                "the viewer did not close within 300 s:\n{}",
+                std::fs::read_to_string(&log_path).unwrap_or_default()
+            );
+        }
+        std::thread::sleep(Duration::from_millis(50));
+    };
+    Run {
+        status,
+        log: std::fs::read_to_string(&log_path).unwrap_or_default(),
+    }
+}
+
+/// Distinct colours covering at least `min_pixels` pixels each.
+fn colours(img: &image::RgbaImage, min_pixels: usize) -> usize {
+    let mut counts = std::collections::HashMap::new();
+    for p in img.pixels() {
+        *counts.entry(p.0).or_insert(0usize) += 1;
+    }
+    counts.values().filter(|&&n| n >= min_pixels).count()
+}
+
+fn load(path: &Path, log: &str) -> image::RgbaImage {
+    let meta = std::fs::metadata(path)
+        .unwrap_or_else(|e| panic!("{}: {e}\nviewer output:\n{log}", path.display()));
+    assert!(meta.len() > 0, "{} is empty", path.display());
+    image::open(path)
+        .unwrap_or_else(|e| panic!("{}: {e}", path.display()))
+        .to_rgba8()
+}
+
+#[test]
+fn window_renders_frames_takes_screenshots_and_closes_cleanly() {
+    let _guard = XVFB.lock().unwrap_or_else(|e| e.into_inner());
+    let dir = tempfile::tempdir().unwrap();
+    let pack = sample_pack(dir.path());
+    let shots = dir.path().join("shots");
+    let final_png = shots.join("final.png");
+    let ids_png = shots.join("ids.png");
+    let small_png = shots.join("resized.png");
+    // Frames, a camera move with held keys and the mouse, a view switch, a resize: each shot
+    // waits for frames drawn after the change.
+    let script = format!(
+        "wait 3; shot {}; hold w 3; look 5 -3; camera 1; wait 25; view ids; wait 2; shot {}; \
+         resize 240 160; wait 10; shot {}; quit",
+        final_png.display(),
+        ids_png.display(),
+        small_png.display()
+    );
+    let args = [
+        pack.as_os_str(),
+        "--out".as_ref(),
+        shots.as_os_str(),
+        "--size".as_ref(),
+        "320x180".as_ref(),
+        "--script".as_ref(),
+        script.as_ref(),
+    ];
+    let run = viewer(&args, true, dir.path());
+    assert!(
+        run.status.success(),
+        "viewer exited with {}:\n{}",
+        run.status,
+        run.log
+    );
+    assert!(
+        run.log.contains("adapter:"),
+        "no adapter line in:\n{}",
+        run.log
+    );
+
+    let img = load(&final_png, &run.log);
+    assert_eq!(img.dimensions(), (320, 180), "{}", run.log);
+    assert!(colours(&img, 20) >= 2, "the final image is uniform");
+
+    // The material-ID view: background plus one false colour per material of the quad.
+    let img = load(&ids_png, &run.log);
+    assert!(
+        colours(&img, 20) >= 3,
+        "expected the background and two material colours, found {}",
+        colours(&img, 20)
+    );
+
+    // The resize recreated the targets: the screenshot has the new size.
+    let img = load(&small_png, &run.log);
+    assert_eq!(img.dimensions(), (240, 160), "{}", run.log);
+}
+
+#[test]
+fn without_a_display_the_viewer_renders_headless_and_says_so() {
+    let dir = tempfile::tempdir().unwrap();
+    let pack = sample_pack(dir.path());
+    let out = dir.path().join("out");
+    let args = [
+        pack.as_os_str(),
+        "--out".as_ref(),
+        out.as_os_str(),
+        "--size".as_ref(),
+        "64x36".as_ref(),
+    ];
+    let run = viewer(&args, false, dir.path());
+    assert!(run.status.success(), "{}:\n{}", run.status, run.log);
+    assert!(
+        run.log.contains("no display found") && run.log.contains("rendering headless"),
+        "no fallback notice in:\n{}",
+        run.log
+    );
+    let pngs: Vec<_> = std::fs::read_dir(&out)
+        .unwrap()
+        .filter_map(|e| e.ok())
+        .filter(|e| e.path().extension().is_some_and(|x| x == "png"))
+        .collect();
+    assert!(
+        !pngs.is_empty(),
+        "no images in {}:\n{}",
+        out.display(),
+        run.log
+    );
+}
