@@ -21,7 +21,7 @@
 use rayon::prelude::*;
 
 use crate::TextureError;
-use crate::srgb::{decode8, encoder, linear_to_srgb_lsb, unorm8};
+use crate::srgb::{decode8, encoder, linear_to_srgb_lsb};
 
 /// Kernel truncation radius in σ. The mass beyond 5σ is 5.7e-7: under 0.002 LSB even where
 /// the sRGB curve is steepest.
@@ -289,13 +289,7 @@ impl Io for Srgb8Io<'_> {
         }
     }
     fn emit(&self, row: &[Px], out: &mut [u8]) {
-        let e = encoder();
-        for (o, t) in out.chunks_exact_mut(4).zip(row) {
-            o[0] = e.encode(t[0]);
-            o[1] = e.encode(t[1]);
-            o[2] = e.encode(t[2]);
-            o[3] = unorm8(t[3]);
-        }
+        encoder().encode_rgba(row, out);
     }
 }
 

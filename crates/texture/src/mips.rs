@@ -149,6 +149,10 @@ pub fn encode_level(level: &[Texel], srgb: bool) -> Vec<u8> {
         .zip(level.par_chunks(1024))
         .for_each(|(o, l)| {
             let e = encoder();
+            if srgb {
+                e.encode_rgba(l, o);
+                return;
+            }
             for (o, t) in o.chunks_exact_mut(4).zip(l) {
                 for c in 0..3 {
                     o[c] = if srgb { e.encode(t[c]) } else { unorm8(t[c]) };

@@ -9,7 +9,7 @@ use crate::mips::{MipChain, check_size, level_size};
 use crate::pixels::to_linear;
 use crate::real::clamp01;
 use crate::resample::{MipFilter, half, reduce};
-use crate::srgb::{decode8, encode8, linear_to_srgb_lsb, unorm8};
+use crate::srgb::{decode8, encoder, linear_to_srgb_lsb};
 
 /// How a projector texture is cooked.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -163,10 +163,11 @@ pub fn premultiplied_levels(level0: Vec<[f32; 4]>, w: u32, h: u32) -> Vec<Vec<[f
 
 /// Premultiplied linear RGBA → RGBA8 (sRGB colour, linear alpha).
 pub fn encode_premultiplied(level: &[[f32; 4]]) -> Vec<u8> {
-    level
-        .par_iter()
-        .flat_map_iter(|t| [encode8(t[0]), encode8(t[1]), encode8(t[2]), unorm8(t[3])])
-        .collect()
+    let mut out = vec![0u8; level.len() * 4];
+    out.par_chunks_mut(4 * 1024)
+        .zip(level.par_chunks(1024))
+        .for_each(|(o, l)| encoder().encode_rgba(l, o));
+    out
 }
 
 /// Bilinear sample positions of a `from`-texel axis at the texel centres of a `to`-texel axis,

@@ -67,7 +67,7 @@ pub struct Encoder {
     start: [u8; BUCKETS + 1],
     /// Per bit-pattern bucket: the code at its lower end and the one threshold inside it
     /// (infinity when none).
-    base: Vec<u8>,
+    base: Vec<i32>,
     step: Vec<f32>,
 }
 
@@ -108,7 +108,7 @@ pub fn encoder() -> &'static Encoder {
                 "bucket {b} holds {} thresholds",
                 inside.len()
             );
-            e.base[b] = below as u8;
+            e.base[b] = below as i32;
             if let Some(&t) = inside.first() {
                 e.step[b] = t;
             }
@@ -125,7 +125,74 @@ impl Encoder {
         // Written so NaN takes the first branch.
         let l = if l > LO { l.min(1.0) } else { LO };
         let b = ((l.to_bits() - LO.to_bits()) >> (23 - MANTISSA_BITS)) as usize;
-        self.base[b] + u8::from(l >= self.step[b])
+        (self.base[b] + i32::from(l >= self.step[b])) as u8
+    }
+}
+
+impl Encoder {
+    /// Encodes RGBA texels (premultiplied or straight, linear) to RGBA8: sRGB colour, unorm
+    /// alpha. Same results as [`Encoder::encode`] and [`unorm8`] texel by texel.
+    pub fn encode_rgba(&self, src: &[[f32; 4]], out: &mut [u8]) {
+        #[cfg(target_arch = "x86_64")]
+        if std::is_x86_feature_detected!("avx2") {
+            // SAFETY: the CPU supports AVX2, checked just above.
+            unsafe { self.encode_rgba_avx2(src, out) };
+            return;
+        }
+        self.encode_rgba_plain(src, out)
+    }
+
+    fn encode_rgba_plain(&self, src: &[[f32; 4]], out: &mut [u8]) {
+        for (o, t) in out.chunks_exact_mut(4).zip(src) {
+            o[0] = self.encode(t[0]);
+            o[1] = self.encode(t[1]);
+            o[2] = self.encode(t[2]);
+            o[3] = unorm8(t[3]);
+        }
+    }
+
+    /// Two texels at a time: the bucket lookup of [`Encoder::encode`] with gathers. Every
+    /// step is an exact comparison or integer operation, so the codes are the scalar ones.
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2")]
+    unsafe fn encode_rgba_avx2(&self, src: &[[f32; 4]], out: &mut [u8]) {
+        use std::arch::x86_64::*;
+        const LO: f32 = 1.0 / 8192.0;
+        let pairs = src.len().min(out.len() / 4) / 2;
+        let lo = _mm256_set1_ps(LO);
+        let lo_bits = _mm256_set1_epi32(LO.to_bits() as i32);
+        let one = _mm256_set1_ps(1.0);
+        for i in 0..pairs {
+            let flat = src[2 * i..2 * i + 2].as_flattened();
+            // SAFETY: `flat` holds exactly 8 floats; unaligned load.
+            let v = unsafe { _mm256_loadu_ps(flat.as_ptr()) };
+            let above = _mm256_cmp_ps::<_CMP_GT_OQ>(v, lo);
+            let l = _mm256_blendv_ps(lo, _mm256_min_ps(v, one), above);
+            let idx = _mm256_srli_epi32::<{ 23 - MANTISSA_BITS as i32 }>(_mm256_sub_epi32(
+                _mm256_castps_si256(l),
+                lo_bits,
+            ));
+            // SAFETY: `l` is clamped to [2^MIN_EXP, 1], so every index is in 0..=FAST_BUCKETS,
+            // the length of both tables.
+            let (base, step) = unsafe {
+                (
+                    _mm256_i32gather_epi32::<4>(self.base.as_ptr(), idx),
+                    _mm256_i32gather_ps::<4>(self.step.as_ptr(), idx),
+                )
+            };
+            let ge = _mm256_castps_si256(_mm256_cmp_ps::<_CMP_GE_OQ>(l, step));
+            let code = _mm256_sub_epi32(base, ge);
+            let mut codes = [0i32; 8];
+            // SAFETY: `codes` holds 8 i32; unaligned store.
+            unsafe { _mm256_storeu_si256(codes.as_mut_ptr().cast(), code) };
+            let o = &mut out[8 * i..8 * i + 8];
+            for j in 0..8 {
+                o[j] = codes[j] as u8;
+            }
+            o[3] = unorm8(flat[3]);
+            o[7] = unorm8(flat[7]);
+        }
+        self.encode_rgba_plain(&src[2 * pairs..], &mut out[8 * pairs..]);
     }
 }
 
@@ -186,6 +253,23 @@ mod tests {
         assert_eq!(encode8(f32::NAN), 0);
         assert_eq!(encode8(-1.0), 0);
         assert_eq!(encode8(7.0), 255);
+    }
+
+    #[test]
+    fn vector_encoder_matches_scalar_one() {
+        let e = encoder();
+        let mut vals: Vec<f32> = (0..100_000).map(|i| i as f32 / 99_000.0 - 0.005).collect();
+        vals.extend(e.thresholds64.iter().flat_map(|&t| {
+            let t = t as f32;
+            [t, f32::from_bits(t.to_bits() - 1), f32::from_bits(t.to_bits() + 1)]
+        }));
+        vals.extend([f32::NAN, f32::INFINITY, -f32::INFINITY, -0.0, 1e-30, 1.0, 2.0]);
+        let texels: Vec<[f32; 4]> = vals.chunks(4).filter(|c| c.len() == 4).map(|c| [c[0], c[1], c[2], c[3]]).collect();
+        let mut fast = vec![0u8; texels.len() * 4];
+        let mut plain = vec![0u8; texels.len() * 4];
+        e.encode_rgba(&texels, &mut fast);
+        e.encode_rgba_plain(&texels, &mut plain);
+        assert_eq!(fast, plain);
     }
 
     #[test]
