@@ -4,6 +4,7 @@
 //! TOC. Each stage is a plain function over plain data, so `cooker validate` can run the
 //! first stages and inspect what they produced.
 
+pub mod budget;
 pub mod cache;
 pub mod import;
 pub mod manifest;

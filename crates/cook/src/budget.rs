@@ -1,0 +1,357 @@
+//! The error budget: which blur and mip method to cook with for a maximum error a user asks for.
+//!
+//! The choice comes from a committed table of measured errors and relative costs
+//! (`error_table.json`, written by `bench --emit-table` from a 4096x4096 sweep, see
+//! `docs/bench/`), never from timings taken during a cook, so the same manifest always cooks
+//! the same pack. Errors are in LSB of the 8-bit sRGB output against an f64 linear-light
+//! reference (0.5 is the rounding floor); costs are relative to one unit measured in the same
+//! run, so only their ratios mean anything.
+//!
+//! Method names are those of `texture::BlurMethod::name` (`direct`, `decimated`) and
+//! `texture::MipFilter::name` (`box`, `kaiser`, `lanczos3`).
+
+use std::sync::OnceLock;
+
+use serde::Deserialize;
+
+/// The committed measurements.
+pub const ERROR_TABLE_JSON: &str = include_str!("error_table.json");
+
+#[derive(Clone, Debug, Deserialize, PartialEq)]
+pub struct BlurEntry {
+    pub method: String,
+    pub sigma: f32,
+    pub max_error_lsb: f32,
+    pub rms_error_lsb: f32,
+    pub relative_cost: f32,
+}
+
+#[derive(Clone, Debug, Deserialize, PartialEq)]
+pub struct MipEntry {
+    pub filter: String,
+    /// Filtered in linear light (true) or on the stored gamma-encoded values (false).
+    pub linear_light: bool,
+    /// Largest error over all levels, against the f64 linear-light chain of the same filter.
+    pub max_error_lsb: f32,
+    pub relative_cost: f32,
+}
+
+#[derive(Clone, Debug, Deserialize, PartialEq)]
+pub struct ErrorTable {
+    pub generated_by: String,
+    pub machine: String,
+    pub image_size: u32,
+    pub blur: Vec<BlurEntry>,
+    pub mip: Vec<MipEntry>,
+}
+
+/// The embedded table. A unit test parses it, so a malformed table never ships.
+pub fn table() -> &'static ErrorTable {
+    static TABLE: OnceLock<ErrorTable> = OnceLock::new();
+    TABLE.get_or_init(|| {
+        serde_json::from_str(ERROR_TABLE_JSON).expect("error_table.json is checked by a unit test")
+    })
+}
+
+/// What to cook with, and what error to expect.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Choice {
+    /// `texture::BlurMethod::name` or `texture::MipFilter::name`.
+    pub method: String,
+    /// Mips: filter in linear light. Always true for blur, which is only done in linear light.
+    pub linear_light: bool,
+    /// Measured max error, LSB.
+    pub expected_error: f32,
+    /// Relative cost from the table (comparable between choices of the same kind only).
+    pub relative_cost: f32,
+    /// Set when no method meets the budget and the most accurate one was chosen.
+    pub warning: Option<String>,
+}
+
+struct Candidate {
+    method: String,
+    linear_light: bool,
+    error: f32,
+    cost: f32,
+}
+
+/// The cheapest candidate within `budget`, or the most accurate one with a warning.
+fn pick(candidates: Vec<Candidate>, budget: f32, what: &str) -> Option<Choice> {
+    let within = candidates
+        .iter()
+        .filter(|c| c.error <= budget)
+        .min_by(|a, b| a.cost.total_cmp(&b.cost).then(a.error.total_cmp(&b.error)));
+    let (c, warning) = match within {
+        Some(c) => (c, None),
+        None => {
+            let best = candidates
+                .iter()
+                .min_by(|a, b| a.error.total_cmp(&b.error).then(a.cost.total_cmp(&b.cost)))?;
+            let warning = format!(
+                "error budget {budget} LSB is tighter than any {what} reaches (best: {} at \
+                 {:.3} LSB; 0.5 LSB is the 8-bit rounding floor); using {}",
+                best.method, best.error, best.method
+            );
+            (best, Some(warning))
+        }
+    };
+    Some(Choice {
+        method: c.method.clone(),
+        linear_light: c.linear_light,
+        expected_error: c.error,
+        relative_cost: c.cost,
+        warning,
+    })
+}
+
+/// The measured σ values bracketing `sigma` (both the nearest one at the ends of the table).
+fn bracket(sigmas: &[f32], sigma: f32) -> Option<(f32, f32)> {
+    let lo = sigmas
+        .iter()
+        .copied()
+        .filter(|&s| s <= sigma)
+        .reduce(f32::max);
+    let hi = sigmas
+        .iter()
+        .copied()
+        .filter(|&s| s >= sigma)
+        .reduce(f32::min);
+    match (lo, hi) {
+        (Some(l), Some(h)) => Some((l, h)),
+        (Some(l), None) => Some((l, l)),
+        (None, Some(h)) => Some((h, h)),
+        (None, None) => None,
+    }
+}
+
+/// The cheapest blur method whose measured error at `sigma` stays within `max_error_lsb`;
+/// when none does, the most accurate one and a warning.
+///
+/// Between two measured σ a method's error is taken as the larger of the two (the table's
+/// errors barely move with σ, and a budget must not be exceeded by interpolation) and its cost
+/// is interpolated in log σ. A method counts at `sigma` only when both bracketing σ measured
+/// it (the decimated blur exists only from σ ≈ 3.8). A NaN budget means no budget: the
+/// cheapest method.
+pub fn choose_blur(max_error_lsb: f32, sigma: f32) -> Choice {
+    choose_blur_in(table(), max_error_lsb, sigma).expect("the embedded table has blur entries")
+}
+
+pub fn choose_blur_in(table: &ErrorTable, max_error_lsb: f32, sigma: f32) -> Option<Choice> {
+    let budget = if max_error_lsb.is_nan() {
+        f32::INFINITY
+    } else {
+        max_error_lsb
+    };
+    let mut sigmas: Vec<f32> = table.blur.iter().map(|e| e.sigma).collect();
+    sigmas.sort_by(f32::total_cmp);
+    sigmas.dedup();
+    let sigma = if sigma.is_finite() { sigma } else { 0.0 };
+    let (lo, hi) = bracket(&sigmas, sigma)?;
+    let mut methods: Vec<&str> = table.blur.iter().map(|e| e.method.as_str()).collect();
+    methods.dedup();
+    let mut seen = Vec::new();
+    let mut candidates = Vec::new();
+    for m in methods {
+        if seen.contains(&m) {
+            continue;
+        }
+        seen.push(m);
+        let at = |s: f32| table.blur.iter().find(|e| e.method == m && e.sigma == s);
+        let (Some(a), Some(b)) = (at(lo), at(hi)) else {
+            continue;
+        };
+        let t = if hi > lo && sigma > lo {
+            ((sigma / lo).ln() / (hi / lo).ln()).clamp(0.0, 1.0)
+        } else {
+            0.0
+        };
+        let cost = (a.relative_cost.ln() * (1.0 - t) + b.relative_cost.ln() * t).exp();
+        candidates.push(Candidate {
+            method: m.to_string(),
+            linear_light: true,
+            error: a.max_error_lsb.max(b.max_error_lsb),
+            cost,
+        });
+    }
+    pick(candidates, budget, &format!("blur at sigma {sigma}"))
+}
+
+/// The cheapest mip method within `max_error_lsb` (error against the f64 linear-light chain of
+/// the same filter, worst level). `filter` restricts the choice to one filter (the manifest's
+/// `mip_filter`), so only linear light against gamma space is decided; `None` lets any filter
+/// win. When none meets the budget: the most accurate one and a warning.
+pub fn choose_mip(max_error_lsb: f32, filter: Option<&str>) -> Choice {
+    choose_mip_in(table(), max_error_lsb, filter)
+        .or_else(|| choose_mip_in(table(), max_error_lsb, None))
+        .expect("the embedded table has mip entries")
+}
+
+pub fn choose_mip_in(
+    table: &ErrorTable,
+    max_error_lsb: f32,
+    filter: Option<&str>,
+) -> Option<Choice> {
+    let budget = if max_error_lsb.is_nan() {
+        f32::INFINITY
+    } else {
+        max_error_lsb
+    };
+    let candidates = table
+        .mip
+        .iter()
+        .filter(|e| filter.is_none_or(|f| f == e.filter))
+        .map(|e| Candidate {
+            method: e.filter.clone(),
+            linear_light: e.linear_light,
+            error: e.max_error_lsb,
+            cost: e.relative_cost,
+        })
+        .collect();
+    pick(candidates, budget, "mip filter")
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn blur(method: &str, sigma: f32, err: f32, cost: f32) -> BlurEntry {
+        BlurEntry {
+            method: method.into(),
+            sigma,
+            max_error_lsb: err,
+            rms_error_lsb: err / 2.0,
+            relative_cost: cost,
+        }
+    }
+
+    fn synthetic() -> ErrorTable {
+        ErrorTable {
+            generated_by: "test".into(),
+            machine: "test".into(),
+            image_size: 64,
+            blur: vec![
+                blur("direct", 1.0, 0.50, 1.0),
+                blur("direct", 4.0, 0.51, 4.0),
+                blur("direct", 16.0, 0.52, 16.0),
+                blur("decimated", 4.0, 0.60, 2.0),
+                blur("decimated", 16.0, 0.55, 2.0),
+            ],
+            mip: vec![
+                MipEntry {
+                    filter: "box".into(),
+                    linear_light: true,
+                    max_error_lsb: 0.5,
+                    relative_cost: 1.0,
+                },
+                MipEntry {
+                    filter: "box".into(),
+                    linear_light: false,
+                    max_error_lsb: 45.0,
+                    relative_cost: 0.5,
+                },
+                MipEntry {
+                    filter: "lanczos3".into(),
+                    linear_light: true,
+                    max_error_lsb: 0.52,
+                    relative_cost: 3.0,
+                },
+            ],
+        }
+    }
+
+    #[test]
+    fn embedded_table_parses_and_covers_both_kinds() {
+        let t = table();
+        assert!(!t.blur.is_empty() && !t.mip.is_empty());
+        for e in &t.blur {
+            assert!(
+                e.max_error_lsb.is_finite() && e.max_error_lsb >= 0.0,
+                "{e:?}"
+            );
+            assert!(e.relative_cost > 0.0, "{e:?}");
+        }
+        for e in &t.mip {
+            assert!(
+                e.max_error_lsb.is_finite() && e.relative_cost > 0.0,
+                "{e:?}"
+            );
+        }
+        // The cooker's blur methods must all be exact to within the texture issue's bar.
+        for e in t.blur.iter().filter(|e| e.method == "direct") {
+            assert!(e.max_error_lsb <= 0.55, "{e:?}");
+        }
+    }
+
+    #[test]
+    fn cheapest_within_budget_wins() {
+        let t = synthetic();
+        let c = choose_blur_in(&t, 1.0, 16.0).unwrap();
+        assert_eq!((c.method.as_str(), c.warning), ("decimated", None));
+        // A tighter budget rules the decimated blur out at σ = 16.
+        let c = choose_blur_in(&t, 0.53, 16.0).unwrap();
+        assert_eq!(c.method, "direct");
+        assert_eq!(c.expected_error, 0.52);
+    }
+
+    #[test]
+    fn between_measured_sigmas_error_is_the_worse_and_cost_interpolates() {
+        let t = synthetic();
+        let c = choose_blur_in(&t, 0.58, 8.0).unwrap();
+        // decimated: max(0.60, 0.55) = 0.60 > 0.58, so direct, at a cost between 4 and 16.
+        assert_eq!(c.method, "direct");
+        assert_eq!(c.expected_error, 0.52);
+        assert!((c.relative_cost - 8.0).abs() < 1e-3, "{}", c.relative_cost);
+    }
+
+    #[test]
+    fn method_missing_at_small_sigma_is_not_offered() {
+        let t = synthetic();
+        let c = choose_blur_in(&t, 10.0, 2.0).unwrap();
+        assert_eq!(c.method, "direct");
+        // Beyond the table's ends the nearest measured σ stands in.
+        assert_eq!(
+            choose_blur_in(&t, 10.0, 1000.0).unwrap().method,
+            "decimated"
+        );
+        assert_eq!(choose_blur_in(&t, 10.0, 0.0).unwrap().method, "direct");
+    }
+
+    #[test]
+    fn too_tight_a_budget_uses_the_most_accurate_and_warns() {
+        let t = synthetic();
+        let c = choose_blur_in(&t, 0.1, 16.0).unwrap();
+        assert_eq!(c.method, "direct");
+        let w = c.warning.expect("warning");
+        assert!(w.contains("0.1") && w.contains("direct"), "{w}");
+        let m = choose_mip_in(&t, 0.2, None).unwrap();
+        assert_eq!((m.method.as_str(), m.linear_light), ("box", true));
+        assert!(m.warning.is_some());
+    }
+
+    #[test]
+    fn mips_reject_gamma_space_unless_the_budget_allows_it() {
+        let t = synthetic();
+        let m = choose_mip_in(&t, 1.0, Some("box")).unwrap();
+        assert_eq!(
+            (m.method.as_str(), m.linear_light, m.warning),
+            ("box", true, None)
+        );
+        let m = choose_mip_in(&t, 100.0, Some("box")).unwrap();
+        assert!(!m.linear_light);
+        let m = choose_mip_in(&t, 0.53, Some("lanczos3")).unwrap();
+        assert_eq!(m.method, "lanczos3");
+        assert!(choose_mip_in(&t, 1.0, Some("kaiser")).is_none());
+        // NaN means no budget at all: the cheapest.
+        assert!(!choose_mip_in(&t, f32::NAN, None).unwrap().linear_light);
+    }
+
+    #[test]
+    fn real_table_answers_for_every_sigma() {
+        for s in [0.0, 0.5, 1.0, 3.0, 7.0, 50.0, 1e4, f32::NAN] {
+            let c = choose_blur(0.55, s);
+            assert!(c.expected_error.is_finite(), "{s}: {c:?}");
+        }
+        let c = choose_mip(0.6, Some("box"));
+        assert!(c.linear_light, "{c:?}");
+    }
+}

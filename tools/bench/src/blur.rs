@@ -1,0 +1,324 @@
+//! Blur sweep: our methods against the f64 linear-light reference (the texture issue's error
+//! unit), beside anchors that filter the stored gamma-encoded bytes, measured against an f64
+//! blur of those bytes (a reference of their own kind, as the guide's anchor figures are).
+//!
+//! The anchors clamp at the edges where ours uses a zero border, so their error is measured only
+//! where no kernel (theirs or the reference's, 5σ) reaches an edge.
+
+use std::path::{Path, PathBuf};
+use std::process::Command;
+use std::time::Instant;
+
+use anyhow::{Context, Result, bail};
+use serde::Serialize;
+use texture::blur::{
+    BlurMethod, blur_srgb8, error_lsb, kernel_radius, reference_blur, srgb8_to_premultiplied_f64,
+};
+
+use crate::common::median_ms;
+
+#[derive(Clone, Debug, Serialize)]
+pub struct BlurRow {
+    pub sigma: f32,
+    /// `ours: direct`, `libblur exact u8`, …
+    pub method: String,
+    /// Whether the cooker can use it (and so it goes into the error table).
+    pub ours: bool,
+    /// `linear` (linear light, premultiplied, zero border: the texture issue's definition) or
+    /// `gamma` (the stored bytes filtered directly, interior only).
+    pub reference: &'static str,
+    pub time_ms: Option<f64>,
+    pub runs: usize,
+    pub max_lsb: Option<f64>,
+    pub rms_lsb: Option<f64>,
+    pub note: String,
+}
+
+pub struct BlurConfig {
+    pub size: usize,
+    pub sigmas: Vec<f32>,
+    pub runs: usize,
+    /// Command-line tools (`vips`, `convert`); skipped for larger σ once a call takes longer
+    /// than this many seconds.
+    pub external_limit_s: f64,
+    pub scratch: PathBuf,
+}
+
+/// Our methods worth measuring at σ: `Decimated` only where it really runs decimated.
+fn our_methods(sigma: f32) -> Vec<BlurMethod> {
+    let mut m = vec![BlurMethod::Direct];
+    if BlurMethod::Decimated.resolve(sigma) == BlurMethod::Decimated {
+        m.push(BlurMethod::Decimated);
+    }
+    m
+}
+
+/// Error in LSB of 8-bit `ours` against `reference` (values on the 0..255 scale), over texels at
+/// least `margin` from every edge. `None` when no texel is that far in.
+fn interior_error(
+    ours: &[u8],
+    reference: &[[f64; 4]],
+    w: usize,
+    h: usize,
+    margin: usize,
+) -> Option<(f64, f64)> {
+    if 2 * margin >= w || 2 * margin >= h {
+        return None;
+    }
+    let (mut max, mut sq, mut n) = (0.0f64, 0.0f64, 0usize);
+    for y in margin..h - margin {
+        for x in margin..w - margin {
+            let i = y * w + x;
+            for c in 0..4 {
+                let e = (ours[i * 4 + c] as f64 - reference[i][c]).abs();
+                max = max.max(e);
+                sq += e * e;
+                n += 1;
+            }
+        }
+    }
+    Some((max, (sq / n as f64).sqrt()))
+}
+
+fn libblur(src: &[u8], side: u32, sigma: f32, mode: libblur::ConvolutionMode) -> Result<Vec<u8>> {
+    use libblur::{
+        BlurImage, BlurImageMut, EdgeMode, EdgeMode2D, FastBlurChannels, GaussianBlurParams,
+        ThreadingPolicy,
+    };
+    let mut dst = vec![0u8; src.len()];
+    let s = BlurImage::borrow(src, side, side, FastBlurChannels::Channels4);
+    let mut d = BlurImageMut::borrow(&mut dst, side, side, FastBlurChannels::Channels4);
+    // libblur's own kernel-size rule of thumb: about 8σ + 1 taps, odd.
+    let ksize = ((sigma * 8.0).round() as u32) | 1;
+    libblur::gaussian_blur(
+        &s,
+        &mut d,
+        GaussianBlurParams::new(ksize.max(3), sigma as f64),
+        EdgeMode2D::new(EdgeMode::Clamp),
+        ThreadingPolicy::Adaptive,
+        mode,
+    )
+    .map_err(|e| anyhow::anyhow!("libblur: {e:?}"))?;
+    Ok(dst)
+}
+
+/// An external blur command, or `None` when it is not installed.
+struct External {
+    name: &'static str,
+    program: &'static str,
+    args: fn(&Path, &Path, f32) -> Vec<String>,
+}
+
+const EXTERNALS: [External; 2] = [
+    External {
+        name: "vips gaussblur (default)",
+        program: "vips",
+        args: |i, o, s| {
+            vec![
+                "gaussblur".into(),
+                i.display().to_string(),
+                o.display().to_string(),
+                format!("{s}"),
+            ]
+        },
+    },
+    External {
+        name: "ImageMagick convert -gaussian-blur",
+        program: "convert",
+        args: |i, o, s| {
+            vec![
+                i.display().to_string(),
+                "-gaussian-blur".into(),
+                format!("0x{s}"),
+                "-depth".into(),
+                "8".into(),
+                format!("PNG32:{}", o.display()),
+            ]
+        },
+    },
+];
+
+fn installed(program: &str) -> bool {
+    std::env::var_os("PATH").is_some_and(|paths| {
+        std::env::split_paths(&paths).any(|d| {
+            let p = d.join(program);
+            p.is_file()
+        })
+    })
+}
+
+fn run_external(e: &External, input: &Path, output: &Path, sigma: f32) -> Result<()> {
+    let status = Command::new(e.program)
+        .args((e.args)(input, output, sigma))
+        .output()
+        .with_context(|| format!("running {}", e.program))?;
+    if !status.status.success() {
+        bail!(
+            "{} failed: {}",
+            e.program,
+            String::from_utf8_lossy(&status.stderr).trim()
+        );
+    }
+    Ok(())
+}
+
+/// Runs the sweep. `progress` gets one line per measurement.
+pub fn sweep(cfg: &BlurConfig, progress: &mut dyn FnMut(&str)) -> Result<Vec<BlurRow>> {
+    let n = cfg.size;
+    let side = n as u32;
+    // Opaque: the anchors filter straight alpha, and ImageMagick weights colour by alpha, so
+    // with translucent texels no single gamma-space reference would be fair to all of them.
+    // (The texture crate's own tests cover translucent designs.)
+    let mut src = crate::common::design(n, n, 8);
+    for t in src.chunks_exact_mut(4) {
+        t[3] = 255;
+    }
+    let linear = srgb8_to_premultiplied_f64(&src);
+    let bytes_f64: Vec<[f64; 4]> = src
+        .chunks_exact(4)
+        .map(|b| [b[0] as f64, b[1] as f64, b[2] as f64, b[3] as f64])
+        .collect();
+    let input_png = cfg.scratch.join(format!("blur-input-{n}.png"));
+    let externals: Vec<&External> = EXTERNALS.iter().filter(|e| installed(e.program)).collect();
+    if !externals.is_empty() {
+        std::fs::create_dir_all(&cfg.scratch)?;
+        image::RgbaImage::from_raw(side, side, src.clone())
+            .context("design buffer")?
+            .save(&input_png)
+            .with_context(|| format!("writing {}", input_png.display()))?;
+    }
+    let mut too_slow: Vec<Option<f64>> = vec![None; EXTERNALS.len()];
+    let mut rows = Vec::new();
+    for &sigma in &cfg.sigmas {
+        let reference = reference_blur(&linear, n, n, sigma as f64);
+        for method in our_methods(sigma) {
+            let (ms, out) = median_ms(cfg.runs, || blur_srgb8(&src, side, side, sigma, method));
+            let out = out?;
+            let e = error_lsb(&out, &reference);
+            progress(&format!(
+                "blur {n}² σ={sigma} ours {}: {ms:.1} ms, max {:.3} LSB",
+                method.name(),
+                e.max
+            ));
+            rows.push(BlurRow {
+                sigma,
+                method: format!("ours: {}", method.name()),
+                ours: true,
+                reference: "linear",
+                time_ms: Some(ms),
+                runs: cfg.runs,
+                max_lsb: Some(e.max),
+                rms_lsb: Some(e.rms),
+                note: String::new(),
+            });
+        }
+        drop(reference);
+
+        let gamma_ref = reference_blur(&bytes_f64, n, n, sigma as f64);
+        let margin = kernel_radius(sigma as f64);
+        let mut anchor = |name: &str, ms: f64, out: &[u8], note: String| {
+            let e = interior_error(out, &gamma_ref, n, n, margin);
+            progress(&format!(
+                "blur {n}² σ={sigma} {name}: {ms:.1} ms, max {:?} LSB",
+                e.map(|e| e.0)
+            ));
+            BlurRow {
+                sigma,
+                method: name.to_string(),
+                ours: false,
+                reference: "gamma",
+                time_ms: Some(ms),
+                runs: cfg.runs,
+                max_lsb: e.map(|e| e.0),
+                rms_lsb: e.map(|e| e.1),
+                note,
+            }
+        };
+        for (name, mode) in [
+            ("libblur exact u8", libblur::ConvolutionMode::Exact),
+            (
+                "libblur fixed-point u8",
+                libblur::ConvolutionMode::FixedPoint,
+            ),
+        ] {
+            let (ms, out) = median_ms(cfg.runs, || libblur(&src, side, sigma, mode));
+            rows.push(anchor(name, ms, &out?, String::new()));
+        }
+        let img = image::RgbaImage::from_raw(side, side, src.clone()).context("design buffer")?;
+        let (ms, out) = median_ms(cfg.runs, || image::imageops::blur(&img, sigma));
+        rows.push(anchor(
+            "image::imageops::blur",
+            ms,
+            out.as_raw(),
+            String::new(),
+        ));
+
+        for e in &externals {
+            let slot = EXTERNALS.iter().position(|x| x.name == e.name).unwrap_or(0);
+            if let Some(s) = too_slow[slot] {
+                rows.push(BlurRow {
+                    sigma,
+                    method: e.name.into(),
+                    ours: false,
+                    reference: "gamma",
+                    time_ms: None,
+                    runs: 0,
+                    max_lsb: None,
+                    rms_lsb: None,
+                    note: format!("not run: a smaller σ already took {s:.0} s"),
+                });
+                continue;
+            }
+            let output = cfg
+                .scratch
+                .join(format!("blur-{}-{n}-{sigma}.png", e.program));
+            let mut times = Vec::new();
+            for _ in 0..cfg.runs.max(1) {
+                let start = Instant::now();
+                run_external(e, &input_png, &output, sigma)?;
+                times.push(start.elapsed().as_secs_f64() * 1e3);
+                if times[0] > cfg.external_limit_s * 1e3 {
+                    break;
+                }
+            }
+            let ms = crate::common::median(&mut times);
+            if ms > cfg.external_limit_s * 1e3 {
+                too_slow[slot] = Some(ms / 1e3);
+            }
+            let out = image::open(&output)
+                .with_context(|| format!("reading {}", output.display()))?
+                .to_rgba8();
+            if out.dimensions() != (side, side) {
+                bail!("{} wrote a {:?} image", e.program, out.dimensions());
+            }
+            rows.push(anchor(
+                e.name,
+                ms,
+                out.as_raw(),
+                format!(
+                    "{} run(s); includes PNG decode and encode and process start",
+                    times.len()
+                ),
+            ));
+            let _ = std::fs::remove_file(&output);
+        }
+    }
+    Ok(rows)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn interior_error_skips_the_margin() {
+        let (w, h) = (6, 6);
+        let mut ours = vec![10u8; w * h * 4];
+        // A wrong texel on the edge must not count.
+        ours[0] = 200;
+        let reference = vec![[10.25; 4]; w * h];
+        let (max, rms) = interior_error(&ours, &reference, w, h, 1).unwrap();
+        assert!((max - 0.25).abs() < 1e-12 && (rms - 0.25).abs() < 1e-12);
+        assert!(interior_error(&ours, &reference, w, h, 3).is_none());
+    }
+}

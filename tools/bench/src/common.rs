@@ -1,0 +1,214 @@
+//! What every sweep shares: the machine description, median timing, deterministic test data.
+
+use std::time::Instant;
+
+use serde::Serialize;
+
+/// Where and how the numbers were taken.
+#[derive(Clone, Debug, Serialize)]
+pub struct Machine {
+    pub cpu: String,
+    /// Logical CPUs this process may use.
+    pub cores: usize,
+    pub profile: &'static str,
+    /// UTC, when the run started.
+    pub date: String,
+    /// `rustc` jobs running when the run started: other builds make the timings noisy.
+    pub concurrent_rustc: Option<usize>,
+}
+
+impl Machine {
+    pub fn detect() -> Self {
+        let cpu = std::fs::read_to_string("/proc/cpuinfo")
+            .ok()
+            .and_then(|s| {
+                s.lines()
+                    .find(|l| l.starts_with("model name"))
+                    .and_then(|l| l.split_once(':'))
+                    .map(|(_, v)| v.trim().to_string())
+            })
+            .unwrap_or_else(|| "unknown".into());
+        Self {
+            cpu,
+            cores: std::thread::available_parallelism().map_or(1, |n| n.get()),
+            profile: if cfg!(debug_assertions) {
+                "debug (numbers not representative)"
+            } else {
+                "release"
+            },
+            date: utc_now(),
+            concurrent_rustc: count_processes("rustc"),
+        }
+    }
+
+    pub fn markdown(&self) -> String {
+        let load = match self.concurrent_rustc {
+            Some(0) => "no other compilation running at the start".to_string(),
+            Some(n) => {
+                format!("**{n} rustc process(es) running at the start: timings taken under load**")
+            }
+            None => "load unknown".to_string(),
+        };
+        format!(
+            "Machine: {}, {} logical cores; build profile: {}; {}; {}.",
+            self.cpu, self.cores, self.profile, self.date, load
+        )
+    }
+}
+
+/// Processes whose command name is `name`, from /proc (Linux only).
+fn count_processes(name: &str) -> Option<usize> {
+    let dir = std::fs::read_dir("/proc").ok()?;
+    let n = dir
+        .filter_map(|e| e.ok())
+        .filter(|e| {
+            e.file_name()
+                .to_string_lossy()
+                .bytes()
+                .all(|b| b.is_ascii_digit())
+        })
+        .filter(|e| std::fs::read_to_string(e.path().join("comm")).is_ok_and(|c| c.trim() == name))
+        .count();
+    Some(n)
+}
+
+/// The current UTC time as `YYYY-MM-DD HH:MM UTC`.
+pub fn utc_now() -> String {
+    let secs = std::time::SystemTime::now()
+        .duration_since(std::time::UNIX_EPOCH)
+        .map_or(0, |d| d.as_secs()) as i64;
+    let (days, rem) = (secs.div_euclid(86_400), secs.rem_euclid(86_400));
+    // Howard Hinnant's civil-from-days.
+    let z = days + 719_468;
+    let era = z.div_euclid(146_097);
+    let doe = z - era * 146_097;
+    let yoe = (doe - doe / 1460 + doe / 36_524 - doe / 146_096) / 365;
+    let doy = doe - (365 * yoe + yoe / 4 - yoe / 100);
+    let mp = (5 * doy + 2) / 153;
+    let d = doy - (153 * mp + 2) / 5 + 1;
+    let m = if mp < 10 { mp + 3 } else { mp - 9 };
+    let y = yoe + era * 400 + i64::from(m <= 2);
+    format!(
+        "{y:04}-{m:02}-{d:02} {:02}:{:02} UTC",
+        rem / 3600,
+        rem % 3600 / 60
+    )
+}
+
+/// Runs `f` `runs` times (at least once) and returns the median wall time in ms and the last
+/// result.
+///
+/// A first run under half a second is a warm-up and not counted (thread pool start, page
+/// faults of fresh buffers); a slower one counts, since there its share is small and repeating
+/// it would cost minutes.
+pub fn median_ms<T>(runs: usize, mut f: impl FnMut() -> T) -> (f64, T) {
+    let mut times = Vec::with_capacity(runs.max(1));
+    let start = Instant::now();
+    let mut last = Some(f());
+    let first = start.elapsed().as_secs_f64() * 1e3;
+    if first >= 500.0 {
+        times.push(first);
+    }
+    while times.len() < runs.max(1) {
+        let start = Instant::now();
+        let out = f();
+        times.push(start.elapsed().as_secs_f64() * 1e3);
+        last = Some(out);
+    }
+    (median(&mut times), last.expect("ran at least once"))
+}
+
+pub fn median(v: &mut [f64]) -> f64 {
+    if v.is_empty() {
+        return f64::NAN;
+    }
+    v.sort_by(f64::total_cmp);
+    let n = v.len();
+    if n % 2 == 1 {
+        v[n / 2]
+    } else {
+        0.5 * (v[n / 2 - 1] + v[n / 2])
+    }
+}
+
+/// xorshift64*: reproducible pseudo-random numbers without a dependency.
+pub struct Rng(pub u64);
+
+impl Rng {
+    pub fn next_u64(&mut self) -> u64 {
+        self.0 ^= self.0 >> 12;
+        self.0 ^= self.0 << 25;
+        self.0 ^= self.0 >> 27;
+        self.0.wrapping_mul(0x2545_F491_4F6C_DD1D)
+    }
+    pub fn byte(&mut self) -> u8 {
+        (self.next_u64() >> 56) as u8
+    }
+}
+
+/// A stained-glass-like RGBA8 design: panes of random colour (some very dark, some saturated,
+/// some translucent), dark lead lines, a little noise. Hard edges and dark regions are where a
+/// blur's or a mip filter's errors show most in sRGB.
+pub fn design(w: usize, h: usize, seed: u64) -> Vec<u8> {
+    let mut rng = Rng(seed | 1);
+    let panes: Vec<[u8; 4]> = (0..64)
+        .map(|i| match i % 4 {
+            0 => [rng.byte() / 16, rng.byte() / 16, rng.byte() / 16, 255],
+            1 => [rng.byte(), rng.byte(), rng.byte(), 255],
+            2 => [
+                rng.byte(),
+                rng.byte() / 4,
+                rng.byte() / 8,
+                128 + rng.byte() / 2,
+            ],
+            _ => [255, 250, rng.byte(), 255],
+        })
+        .collect();
+    let (cw, ch) = (61, 47);
+    let mut out = vec![0u8; w * h * 4];
+    for y in 0..h {
+        for x in 0..w {
+            let lead = x % cw < 3 || y % ch < 3;
+            let p = if lead {
+                [8, 8, 10, 255]
+            } else {
+                panes[((x / cw) * 7 + (y / ch) * 3) % 64]
+            };
+            let noise = rng.byte() % 3;
+            let o = &mut out[(y * w + x) * 4..][..4];
+            for c in 0..3 {
+                o[c] = p[c].saturating_add(noise);
+            }
+            o[3] = p[3];
+        }
+    }
+    out
+}
+
+/// Formats an optional number for a Markdown table (empty cell when absent).
+pub fn cell(v: Option<f64>, digits: usize) -> String {
+    match v {
+        Some(v) if v.is_finite() => format!("{v:.digits$}"),
+        Some(v) => format!("{v}"),
+        None => String::new(),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn median_of_odd_and_even_counts() {
+        assert_eq!(median(&mut [3.0, 1.0, 2.0]), 2.0);
+        assert_eq!(median(&mut [4.0, 1.0, 2.0, 3.0]), 2.5);
+        assert!(median(&mut []).is_nan());
+    }
+
+    #[test]
+    fn utc_date_is_well_formed() {
+        let d = utc_now();
+        assert_eq!(d.len(), "2026-01-01 00:00 UTC".len(), "{d}");
+        assert!(d.starts_with("20"), "{d}");
+    }
+}

@@ -1,0 +1,15 @@
+//! Run time against error for every place the toolchain trades accuracy for speed: blur, mips,
+//! meshes and god rays, each measured against an exact reference on this machine, written as a
+//! Markdown report with SVG plots, and the error table the cooker's budget reads
+//! (`crates/cook/src/error_table.json`).
+//!
+//! The binary (`bench`) is the entry point; the sweeps are library functions so that the test
+//! suite runs a small version of each.
+
+pub mod blur;
+pub mod common;
+pub mod godrays;
+pub mod mesh;
+pub mod mips;
+pub mod report;
+pub mod svg;

@@ -1,0 +1,155 @@
+//! `bench [--quick] [--out docs/bench] [--runs N] [--emit-table PATH]`: measures run time
+//! against error for blur, mips, meshes and god rays on this machine and writes the report.
+
+use std::path::PathBuf;
+
+use anyhow::{Context, Result};
+use bench::blur::BlurConfig;
+use bench::common::Machine;
+use bench::godrays::GodRayConfig;
+use bench::mesh::MeshConfig;
+use bench::mips::MipConfig;
+use bench::report::{Results, error_table, write_report};
+use clap::Parser;
+
+const LAVAPIPE_ICD: &str = "/usr/share/vulkan/icd.d/lvp_icd.x86_64.json";
+
+#[derive(Parser, Debug)]
+#[command(about = "Run time against error: blur, mips, meshes and god rays")]
+struct Args {
+    /// Small sizes and few parameters (CI): 256x256 blur and mips, few σ, a small frame.
+    #[arg(long)]
+    quick: bool,
+    /// Where the report goes.
+    #[arg(long, default_value = "docs/bench")]
+    out: PathBuf,
+    /// Runs per measurement (the median is reported). Default: 3, or 1 with --quick.
+    #[arg(long)]
+    runs: Option<usize>,
+    /// Also write the cooker's error table (blur and mip errors and relative costs) here, e.g.
+    /// crates/cook/src/error_table.json.
+    #[arg(long)]
+    emit_table: Option<PathBuf>,
+    /// Side of the square blur image (default 4096, 256 with --quick).
+    #[arg(long)]
+    blur_size: Option<usize>,
+    /// σ values to sweep, comma-separated (default 1,2,4,8,16,32,64; 1,2,4,8 with --quick).
+    #[arg(long, value_delimiter = ',')]
+    sigmas: Option<Vec<f32>>,
+    /// Skip the god-ray sweep (it needs a GPU adapter; lavapipe is enough).
+    #[arg(long)]
+    no_god_rays: bool,
+    /// Use whatever Vulkan driver the loader picks instead of forcing lavapipe.
+    #[arg(long)]
+    native_gpu: bool,
+}
+
+fn main() -> Result<()> {
+    let args = Args::parse();
+    if !args.native_gpu
+        && std::env::var_os("VK_DRIVER_FILES").is_none()
+        && std::path::Path::new(LAVAPIPE_ICD).is_file()
+    {
+        // SAFETY: nothing else runs yet (no threads, no wgpu instance), so no one reads the
+        // environment concurrently. Lavapipe renders bit-identically run to run.
+        unsafe { std::env::set_var("VK_DRIVER_FILES", LAVAPIPE_ICD) };
+    }
+    let machine = Machine::detect();
+    let runs = args.runs.unwrap_or(if args.quick { 1 } else { 3 });
+    let blur_size = args
+        .blur_size
+        .unwrap_or(if args.quick { 256 } else { 4096 });
+    let sigmas = args.sigmas.clone().unwrap_or_else(|| {
+        if args.quick {
+            vec![1.0, 2.0, 4.0, 8.0]
+        } else {
+            vec![1.0, 2.0, 4.0, 8.0, 16.0, 32.0, 64.0]
+        }
+    });
+    let scratch = std::env::temp_dir().join(format!("bench-scratch-{}", std::process::id()));
+    std::fs::create_dir_all(&scratch).with_context(|| format!("creating {}", scratch.display()))?;
+    let command = std::env::args()
+        .map(|a| if a.contains(' ') { format!("{a:?}") } else { a })
+        .collect::<Vec<_>>()
+        .join(" ")
+        .replace(&*std::env::args().next().unwrap_or_default(), "bench");
+    let mut progress = |s: &str| eprintln!("{s}");
+    eprintln!("{}", machine.markdown());
+
+    let blur = bench::blur::sweep(
+        &BlurConfig {
+            size: blur_size,
+            sigmas,
+            runs,
+            external_limit_s: if args.quick { 5.0 } else { 30.0 },
+            scratch: scratch.clone(),
+        },
+        &mut progress,
+    )?;
+    let mip_size = blur_size;
+    let mips = bench::mips::sweep(
+        &MipConfig {
+            size: mip_size,
+            runs,
+        },
+        &mut progress,
+    )?;
+    let meshes = bench::mesh::sweep(
+        &MeshConfig {
+            grid: if args.quick { 100 } else { 707 },
+            runs,
+            bunny: bench::mesh::bunny_path(),
+            scratch: scratch.clone(),
+        },
+        &mut progress,
+    )?;
+    let god_rays = if args.no_god_rays {
+        Err("skipped (--no-god-rays)".to_string())
+    } else {
+        let cfg = if args.quick {
+            GodRayConfig {
+                width: 160,
+                height: 90,
+                samples: vec![16, 64],
+                scales: vec![1.0, 0.5, 0.25],
+                runs,
+                scene: bench::godrays::default_scene(),
+            }
+        } else {
+            GodRayConfig {
+                width: 480,
+                height: 270,
+                samples: vec![8, 16, 32, 64, 128, 256, 1024],
+                scales: vec![1.0, 0.5, 0.25],
+                runs,
+                scene: bench::godrays::default_scene(),
+            }
+        };
+        bench::godrays::sweep(&cfg, &mut progress).map_err(|e| format!("{e:#}"))
+    };
+    if let Err(e) = &god_rays {
+        eprintln!("god rays not measured: {e}");
+    }
+    let _ = std::fs::remove_dir_all(&scratch);
+    let results = Results {
+        machine,
+        command,
+        blur_size,
+        mip_size,
+        blur,
+        mips,
+        meshes,
+        god_rays,
+    };
+    write_report(&args.out, &results)?;
+    eprintln!("report written to {}", args.out.join("README.md").display());
+    if let Some(path) = &args.emit_table {
+        let table = error_table(&results)?;
+        let text = serde_json::to_string_pretty(&table)? + "\n";
+        let tmp = path.with_extension("json.tmp");
+        std::fs::write(&tmp, text).with_context(|| format!("writing {}", tmp.display()))?;
+        std::fs::rename(&tmp, path).with_context(|| format!("writing {}", path.display()))?;
+        eprintln!("error table written to {}", path.display());
+    }
+    Ok(())
+}

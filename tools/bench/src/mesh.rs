@@ -1,0 +1,283 @@
+//! Mesh sweep: vertex cache optimizer × position quantization, through the cooker's own mesh
+//! stage (`cook::mesh::process`, `cook::mesh::quantize`) on a generated height field and, when
+//! present, the Stanford bunny from the test data.
+
+use std::path::{Path, PathBuf};
+use std::process::Command;
+use std::time::Instant;
+
+use anyhow::{Context, Result};
+use cook::mesh::{CacheMode, MaterialNeeds, MeshSettings, Processed, process, quantize};
+use serde::Serialize;
+
+use crate::common::{median, median_ms};
+
+#[derive(Clone, Debug, Serialize)]
+pub struct MeshRow {
+    pub mesh: String,
+    pub triangles: usize,
+    pub vertices: usize,
+    /// `full`, `fifo`, `none`, or an anchor's name.
+    pub cache: String,
+    /// Position bits per component: 32 (float), 16 (the cooker's quantization) or a modelled
+    /// width (see `modelled`).
+    pub position_bits: u32,
+    /// Width not implemented by the cooker: error and size computed here for a quantizer to the
+    /// bounding box with that many bits (`Unorm10x3`/`Unorm8x4` storage, 4 bytes).
+    pub modelled: bool,
+    pub time_ms: Option<f64>,
+    pub acmr: Option<f64>,
+    pub overfetch: Option<f64>,
+    pub bytes_per_triangle: Option<f64>,
+    /// Largest position error, in the mesh's units.
+    pub max_position_error: Option<f64>,
+    /// The same over the bounding box's largest extent.
+    pub relative_position_error: Option<f64>,
+    pub note: String,
+}
+
+pub struct MeshConfig {
+    /// Side of the generated height field in quads (2·n² triangles).
+    pub grid: usize,
+    pub runs: usize,
+    pub bunny: Option<PathBuf>,
+    pub scratch: PathBuf,
+}
+
+/// The Stanford bunny from the project's test data, when it is there.
+pub fn bunny_path() -> Option<PathBuf> {
+    let p = Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("../../tests/data/third_party/classic/stanford-bunny.obj");
+    p.is_file().then_some(p)
+}
+
+/// A wavy `n` x `n` height field as OBJ text, vertices in row order and triangles in row order
+/// (a plain scan order with a cache-unfriendly stride for large `n`).
+pub fn generated_obj(n: usize) -> String {
+    use std::fmt::Write;
+    let mut s = String::with_capacity(n * n * 60);
+    s.push_str("o terrain\nusemtl ground\n");
+    for j in 0..=n {
+        for i in 0..=n {
+            let (x, z) = (i as f32 / n as f32, j as f32 / n as f32);
+            let y = 0.05 * (x * 37.0).sin() * (z * 23.0).cos();
+            let _ = writeln!(s, "v {x:.6} {y:.6} {z:.6}");
+        }
+    }
+    for j in 0..n {
+        for i in 0..n {
+            let a = j * (n + 1) + i + 1;
+            let (b, c, d) = (a + 1, a + n + 1, a + n + 2);
+            let _ = writeln!(s, "f {a} {c} {b}\nf {b} {c} {d}");
+        }
+    }
+    s
+}
+
+fn stage(p: &Processed, name: &str) -> f64 {
+    p.stats
+        .stages
+        .iter()
+        .filter(|(n, _)| *n == name)
+        .map(|(_, d)| d.as_secs_f64() * 1e3)
+        .sum()
+}
+
+fn index_bytes(p: &Processed) -> usize {
+    // As the cooker stores them: 16-bit when every index fits.
+    let size = if p.vertices.len() <= u16::MAX as usize + 1 {
+        2
+    } else {
+        4
+    };
+    p.indices.len() * size
+}
+
+/// Max position error of quantizing to the bounding box with `bits` per component, as the
+/// GPU decodes it (`min + extent · q / (2^bits − 1)`).
+fn modelled_error(p: &Processed, bits: u32) -> f64 {
+    let levels = ((1u64 << bits) - 1) as f64;
+    let mut max = 0.0f64;
+    for v in &p.vertices {
+        for k in 0..3 {
+            let (lo, hi) = (p.bounds_min[k] as f64, p.bounds_max[k] as f64);
+            let ext = if hi > lo { hi - lo } else { 1.0 };
+            let x = v.position[k] as f64;
+            let q = ((x - lo) / ext * levels).round().clamp(0.0, levels);
+            let back = (lo + ext * (q / levels)) as f32 as f64;
+            max = max.max((back - x).abs());
+        }
+    }
+    max
+}
+
+fn extent(p: &Processed) -> f64 {
+    (0..3)
+        .map(|k| (p.bounds_max[k] - p.bounds_min[k]) as f64)
+        .fold(0.0, f64::max)
+}
+
+fn measure(
+    name: &str,
+    path: &Path,
+    cfg: &MeshConfig,
+    progress: &mut dyn FnMut(&str),
+) -> Result<Vec<MeshRow>> {
+    let src =
+        cook::import::import(path).with_context(|| format!("importing {}", path.display()))?;
+    let tri_material = vec![0u16; src.triangle_count()];
+    let needs = [MaterialNeeds {
+        window: false,
+        tangents: false,
+    }];
+    let mut rows = Vec::new();
+    // (label, cache mode to run, whether to take the vertex-cache stage out)
+    let modes = [
+        ("full", CacheMode::Full, false),
+        ("fifo", CacheMode::Fifo, false),
+        ("none", CacheMode::Fifo, true),
+    ];
+    for (label, cache, without_cache) in modes {
+        let settings = MeshSettings {
+            cache,
+            ..MeshSettings::default()
+        };
+        let mut times = Vec::new();
+        let mut last = None;
+        for _ in 0..cfg.runs.max(1) {
+            let start = Instant::now();
+            let p = process(&src, &tri_material, &needs, &settings);
+            let mut ms = start.elapsed().as_secs_f64() * 1e3;
+            if without_cache {
+                ms -= stage(&p, "vertex cache");
+            }
+            times.push(ms);
+            last = Some(p);
+        }
+        let p = last.expect("ran at least once");
+        let process_ms = median(&mut times);
+        let tris = p.indices.len() / 3;
+        let (acmr, overfetch, note) = if without_cache {
+            (
+                p.stats.acmr_in as f64,
+                None,
+                "source order: ACMR before optimization as the cooker measures it; time without \
+                 its vertex-cache stage; overfetch of the unoptimized order is not exposed",
+            )
+        } else {
+            (p.stats.acmr_out as f64, Some(p.stats.overfetch as f64), "")
+        };
+        let (q_ms, q) = median_ms(cfg.runs, || {
+            quantize(&p.vertices, p.bounds_min, p.bounds_max)
+        });
+        let stride16 = q.layout.stride as usize;
+        let float_stride = std::mem::size_of::<pack::StandardVertex>();
+        let per_tri = |stride: usize| {
+            (p.vertices.len() * stride + index_bytes(&p)) as f64 / tris.max(1) as f64
+        };
+        let ext = extent(&p).max(f64::MIN_POSITIVE);
+        let base = MeshRow {
+            mesh: name.to_string(),
+            triangles: tris,
+            vertices: p.vertices.len(),
+            cache: label.to_string(),
+            position_bits: 32,
+            modelled: false,
+            time_ms: Some(process_ms),
+            acmr: Some(acmr),
+            overfetch,
+            bytes_per_triangle: Some(per_tri(float_stride)),
+            max_position_error: Some(0.0),
+            relative_position_error: Some(0.0),
+            note: note.to_string(),
+        };
+        rows.push(base.clone());
+        let e16 = q.max_position_error as f64;
+        rows.push(MeshRow {
+            position_bits: 16,
+            time_ms: Some(process_ms + q_ms),
+            bytes_per_triangle: Some(per_tri(stride16)),
+            max_position_error: Some(e16),
+            relative_position_error: Some(e16 / ext),
+            ..base.clone()
+        });
+        for bits in [10, 8] {
+            let e = modelled_error(&p, bits);
+            rows.push(MeshRow {
+                position_bits: bits,
+                modelled: true,
+                time_ms: Some(process_ms + q_ms),
+                // 4 bytes of position instead of the 8 of Unorm16x4.
+                bytes_per_triangle: Some(per_tri(stride16 - 4)),
+                max_position_error: Some(e),
+                relative_position_error: Some(e / ext),
+                ..base.clone()
+            });
+        }
+        progress(&format!(
+            "mesh {name} ({tris} tris) {label}: {process_ms:.1} ms, acmr {acmr:.3}, 16-bit error {e16:.2e}"
+        ));
+    }
+    if let Some(gltfpack) = which("gltfpack") {
+        let out = cfg.scratch.join("gltfpack-out.glb");
+        let mut times = Vec::new();
+        for _ in 0..cfg.runs.max(1) {
+            let start = Instant::now();
+            let status = Command::new(&gltfpack)
+                .arg("-i")
+                .arg(path)
+                .arg("-o")
+                .arg(&out)
+                .output()
+                .context("running gltfpack")?;
+            times.push(start.elapsed().as_secs_f64() * 1e3);
+            anyhow::ensure!(
+                status.status.success(),
+                "gltfpack failed: {}",
+                String::from_utf8_lossy(&status.stderr)
+            );
+        }
+        let _ = std::fs::remove_file(&out);
+        rows.push(MeshRow {
+            mesh: name.to_string(),
+            triangles: src.triangle_count(),
+            vertices: 0,
+            cache: "gltfpack (end to end)".into(),
+            position_bits: 14,
+            modelled: false,
+            time_ms: Some(median(&mut times)),
+            acmr: None,
+            overfetch: None,
+            bytes_per_triangle: None,
+            max_position_error: None,
+            relative_position_error: None,
+            note: "includes OBJ parsing, process start and writing the .glb".into(),
+        });
+    }
+    Ok(rows)
+}
+
+fn which(program: &str) -> Option<PathBuf> {
+    let paths = std::env::var_os("PATH")?;
+    std::env::split_paths(&paths)
+        .map(|d| d.join(program))
+        .find(|p| p.is_file())
+}
+
+pub fn sweep(cfg: &MeshConfig, progress: &mut dyn FnMut(&str)) -> Result<Vec<MeshRow>> {
+    std::fs::create_dir_all(&cfg.scratch)?;
+    let grid = cfg.scratch.join(format!("grid-{}.obj", cfg.grid));
+    std::fs::write(&grid, generated_obj(cfg.grid))
+        .with_context(|| format!("writing {}", grid.display()))?;
+    let mut rows = measure(
+        &format!("generated {0}x{0} height field", cfg.grid),
+        &grid,
+        cfg,
+        progress,
+    )?;
+    let _ = std::fs::remove_file(&grid);
+    if let Some(b) = &cfg.bunny {
+        rows.extend(measure("Stanford bunny", b, cfg, progress)?);
+    }
+    Ok(rows)
+}

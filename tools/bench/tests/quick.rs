@@ -1,0 +1,169 @@
+//! The whole bench in its small form, so the report tool cannot rot: every sweep runs, every
+//! report file appears, and the numbers are sane. No timing is asserted.
+
+use std::path::Path;
+use std::process::Command;
+
+use serde_json::Value;
+
+fn run_quick(out: &Path, table: &Path) {
+    let status = Command::new(env!("CARGO_BIN_EXE_bench"))
+        .args(["--quick", "--out"])
+        .arg(out)
+        .arg("--emit-table")
+        .arg(table)
+        .env(
+            "VK_DRIVER_FILES",
+            std::env::var_os("VK_DRIVER_FILES")
+                .unwrap_or_else(|| "/usr/share/vulkan/icd.d/lvp_icd.x86_64.json".into()),
+        )
+        .status()
+        .expect("bench runs");
+    assert!(status.success(), "bench --quick failed: {status}");
+}
+
+fn f(v: &Value) -> f64 {
+    v.as_f64().unwrap_or_else(|| panic!("not a number: {v}"))
+}
+
+#[test]
+fn quick_bench_writes_a_sane_report_and_error_table() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("report");
+    let table_path = dir.path().join("error_table.json");
+    run_quick(&out, &table_path);
+
+    for name in [
+        "README.md",
+        "results.json",
+        "mips.svg",
+        "godrays.svg",
+        "meshes-0.svg",
+        "blur-sigma-8.svg",
+    ] {
+        let p = out.join(name);
+        let text = std::fs::read_to_string(&p).unwrap_or_else(|e| panic!("{}: {e}", p.display()));
+        assert!(!text.trim().is_empty(), "{name} is empty");
+        if name.ends_with(".svg") {
+            assert!(
+                text.starts_with("<svg") && text.trim_end().ends_with("</svg>"),
+                "{name}"
+            );
+        }
+    }
+    let readme = std::fs::read_to_string(out.join("README.md")).unwrap();
+    for heading in [
+        "## Summary",
+        "## Blur",
+        "## Mip chains",
+        "## Meshes",
+        "## God rays",
+    ] {
+        assert!(readme.contains(heading), "README lacks {heading}");
+    }
+    assert!(readme.contains("Pareto front"));
+
+    let r: Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("results.json")).unwrap()).unwrap();
+    assert!(!r["machine"]["cpu"].as_str().unwrap().is_empty());
+
+    // Blur: our methods are exact to the texture issue's bar everywhere; every anchor that ran
+    // has a finite error no better than the rounding floor allows.
+    let blur = r["blur"].as_array().unwrap();
+    assert!(blur.iter().any(|b| b["method"] == "ours: decimated"));
+    for b in blur {
+        if b["ours"] == true {
+            let max = f(&b["max_lsb"]);
+            assert!((0.45..=0.55).contains(&max), "{b}");
+            assert!(f(&b["rms_lsb"]) <= max && f(&b["time_ms"]) > 0.0, "{b}");
+        } else if !b["max_lsb"].is_null() {
+            assert!(
+                f(&b["max_lsb"]).is_finite() && f(&b["max_lsb"]) >= 0.0,
+                "{b}"
+            );
+        }
+    }
+    for anchor in ["libblur exact u8", "image::imageops::blur"] {
+        assert!(
+            blur.iter()
+                .any(|b| b["method"] == anchor && !b["max_lsb"].is_null()),
+            "{anchor}"
+        );
+    }
+
+    // Mips: linear light within 0.6 LSB of its f64 chain at every level; gamma space far off
+    // (the reason the cooker filters in linear light).
+    for m in r["mips"].as_array().unwrap() {
+        let levels = m["levels"].as_array().unwrap();
+        assert_eq!(levels.len(), 8, "256 → 1 has 8 levels below level 0: {m}");
+        let worst = levels.iter().map(|l| f(&l["max_lsb"])).fold(0.0, f64::max);
+        match (m["ours"].as_bool().unwrap(), m["space"].as_str().unwrap()) {
+            (true, "linear") => assert!(worst <= 0.6, "{m}"),
+            (_, "gamma") => assert!(worst > 5.0, "{m}"),
+            _ => unreachable!("{m}"),
+        }
+    }
+
+    // Meshes: optimizing the vertex cache never makes ACMR worse than the source order, and
+    // 16-bit positions stay within half a quantization step of the extent.
+    let meshes = r["meshes"].as_array().unwrap();
+    for mesh in ["generated 100x100 height field", "Stanford bunny"] {
+        let row = |cache: &str, bits: u64| {
+            meshes
+                .iter()
+                .find(|m| m["mesh"] == mesh && m["cache"] == cache && m["position_bits"] == bits)
+                .unwrap_or_else(|| panic!("{mesh} {cache} {bits}"))
+        };
+        let none = f(&row("none", 16)["acmr"]);
+        for cache in ["full", "fifo"] {
+            let acmr = f(&row(cache, 16)["acmr"]);
+            assert!(
+                acmr > 0.4 && acmr <= none,
+                "{mesh} {cache}: {acmr} vs {none}"
+            );
+            assert!(f(&row(cache, 16)["overfetch"]) >= 1.0);
+        }
+        let rel16 = f(&row("full", 16)["relative_position_error"]);
+        assert!(
+            rel16 > 0.0 && rel16 <= 0.5 / 65535.0 * 1.01,
+            "{mesh}: {rel16}"
+        );
+        let rel8 = f(&row("full", 8)["relative_position_error"]);
+        assert!(rel8 > rel16 && rel8 <= 0.5 / 255.0 * 1.01, "{mesh}: {rel8}");
+        assert!(
+            f(&row("full", 16)["bytes_per_triangle"]) < f(&row("full", 32)["bytes_per_triangle"])
+        );
+    }
+
+    // God rays: measured (lavapipe suffices), the reference composite matches the GPU's, and
+    // more samples at full resolution without jitter get closer to the reference.
+    let g = &r["god_rays"]["Ok"];
+    assert!(g.is_object(), "god rays not measured: {}", r["god_rays"]);
+    assert!(f(&g["composite_check_lsb"]) <= 1.0, "{g}");
+    let rows = g["rows"].as_array().unwrap();
+    assert_eq!(rows.len(), 12);
+    for x in rows {
+        for k in ["flip_mean", "flip_p99", "rmse_linear"] {
+            let v = f(&x[k]);
+            assert!(v.is_finite() && (0.0..=1.0).contains(&v), "{k}: {x}");
+        }
+        assert!(f(&x["flip_p99"]) >= f(&x["flip_mean"]), "{x}");
+    }
+    let at = |samples: u64| {
+        rows.iter()
+            .find(|x| {
+                x["samples"] == samples && x["resolution_scale"] == 1.0 && x["jitter"] == false
+            })
+            .unwrap()
+    };
+    assert!(f(&at(64)["rmse_linear"]) < f(&at(16)["rmse_linear"]));
+
+    // The error table round-trips into the cooker's budget.
+    let table: cook::budget::ErrorTable =
+        serde_json::from_str(&std::fs::read_to_string(&table_path).unwrap()).unwrap();
+    assert_eq!(table.image_size, 256);
+    let c = cook::budget::choose_blur_in(&table, 0.55, 8.0).unwrap();
+    assert!(c.warning.is_none() && c.expected_error <= 0.55, "{c:?}");
+    let c = cook::budget::choose_mip_in(&table, 0.6, Some("box")).unwrap();
+    assert!(c.linear_light, "{c:?}");
+}
