@@ -279,6 +279,8 @@ pub struct Layout {
     pub rose_radius: f32,
     pub pier_width: f32,
     pub pier_depth: f32,
+    /// How far the glass sits back from the inner face of the wall, in its embrasure.
+    pub reveal: f32,
     pub sky_radius: f32,
     pub sky_top: f32,
     pub ground_y: f32,
@@ -321,6 +323,7 @@ impl Default for Layout {
             rose_radius: 3.2,
             pier_width: 0.5,
             pier_depth: 0.3,
+            reveal: 0.35,
             sky_radius: 150.0,
             sky_top: 110.0,
             ground_y: -0.3,
@@ -360,7 +363,8 @@ impl Layout {
         ]
     }
 
-    /// Vault centre offset: the sunny arc's centre is at x = half_width - vault_radius.
+    /// Height of the vault above the walls. Each arc is centred on the springing line at
+    /// x = +-(half_width - vault_radius), i.e. beyond the corridor's axis.
     pub fn vault_rise(&self) -> f32 {
         let off = self.vault_radius - self.half_width;
         (self.vault_radius * self.vault_radius - off * off).sqrt()
@@ -699,7 +703,14 @@ pub fn build(layout: &Layout) -> Scene {
     zip_rings(&mut end, &far_plane, rose_centre, &ring, &profile, &wall_uv);
     scene.objects.push(end);
 
-    // Window panes. UVs span the design: u = 0 at the left edge seen from inside.
+    // Window panes, set back in their embrasures; the reveals close the shell between the
+    // wall's openings and the glass. UVs span the design: u = 0 at the left edge seen from
+    // inside.
+    let mut reveals = Object::new("reveals", "wall_stone", Class::Wall);
+    let sunny_glass = Plane {
+        origin: sunny.origin + Vec3::X * l.reveal,
+        ..sunny
+    };
     for (k, (shape, s0, outline, bay)) in windows.into_iter().enumerate() {
         let upper = k % 2 == 1;
         let n = bay + 1;
@@ -738,7 +749,8 @@ pub fn build(layout: &Layout) -> Scene {
             Vec2::new((p.x - s0) / w, (p.y - shape.sill) / h).clamp(Vec2::ZERO, Vec2::ONE)
         };
         let centre = Vec2::new(s0 + w / 2.0, shape.sill + h / 2.0);
-        fan2(&mut obj, &sunny, centre, &outline, &uv);
+        fan2(&mut obj, &sunny_glass, centre, &outline, &uv);
+        reveal(&mut reveals, &sunny, &sunny_glass, centre, &outline);
         scene.windows.push(WindowSpec {
             object: scene.objects.len(),
             material,
@@ -746,7 +758,7 @@ pub fn build(layout: &Layout) -> Scene {
             design,
             normal_map,
             inward: sunny.normal,
-            centre: sunny.at(centre),
+            centre: sunny_glass.at(centre),
         });
         scene.objects.push(obj);
     }
@@ -755,7 +767,12 @@ pub fn build(layout: &Layout) -> Scene {
     let uv = move |p: Vec2| {
         ((p - rose_centre + Vec2::splat(r)) / (2.0 * r)).clamp(Vec2::ZERO, Vec2::ONE)
     };
-    fan2(&mut rose, &far_plane, rose_centre, &ring, &uv);
+    let rose_glass = Plane {
+        origin: far_plane.origin - Vec3::Z * l.reveal,
+        ..far_plane
+    };
+    fan2(&mut rose, &rose_glass, rose_centre, &ring, &uv);
+    reveal(&mut reveals, &far_plane, &rose_glass, rose_centre, &ring);
     scene.windows.push(WindowSpec {
         object: scene.objects.len(),
         material: "rose".into(),
@@ -763,13 +780,39 @@ pub fn build(layout: &Layout) -> Scene {
         design: Design::Rose,
         normal_map: Some(NormalMap::Hammered),
         inward: far_plane.normal,
-        centre: far_plane.at(rose_centre),
+        centre: rose_glass.at(rose_centre),
     });
     scene.objects.push(rose);
 
+    scene.objects.push(reveals);
     scene.objects.push(piers_and_ribs(l));
-    scene.objects.extend(sky(l));
+    scene.objects.push(sky(l));
     scene
+}
+
+/// The embrasure of an opening: one flat quad per outline edge from the wall's face to the
+/// glass, facing into the opening.
+fn reveal(obj: &mut Object, wall: &Plane, glass: &Plane, centre: Vec2, outline: &[Vec2]) {
+    let depth = (glass.origin - wall.origin).length();
+    let mut along = 0.0;
+    for k in 0..outline.len() {
+        let (a, b) = (outline[k], outline[(k + 1) % outline.len()]);
+        let edge = b - a;
+        let to_centre = centre - (a + b) * 0.5;
+        let n2 = to_centre - edge * (to_centre.dot(edge) / edge.length_squared());
+        let n = (wall.s * n2.x + wall.t * n2.y).normalize();
+        let (u0, u1) = (along / WALL_TILE.x, (along + edge.length()) / WALL_TILE.x);
+        along += edge.length();
+        let v1 = depth / WALL_TILE.y;
+        let ids = [
+            obj.vertex(wall.at(a), n, Vec2::new(u0, 0.0)),
+            obj.vertex(wall.at(b), n, Vec2::new(u1, 0.0)),
+            obj.vertex(glass.at(b), n, Vec2::new(u1, v1)),
+            obj.vertex(glass.at(a), n, Vec2::new(u0, v1)),
+        ];
+        obj.triangle(ids[0], ids[1], ids[2], n);
+        obj.triangle(ids[0], ids[2], ids[3], n);
+    }
 }
 
 /// Covers the wall between an arch and the level `top` above it. Each half of the arch is
@@ -961,7 +1004,7 @@ fn quad3(obj: &mut Object, pts: [Vec3; 4], n: Vec3, uvs: [Vec2; 4]) {
 
 /// The world outside: a cylinder textured with sky and mountains, a cap at the zenith and a
 /// ground disc just below the floor. All of it faces the corridor, which sits at its centre.
-fn sky(l: &Layout) -> Vec<Object> {
+fn sky(l: &Layout) -> Object {
     let centre = Vec3::new(0.0, 0.0, -l.length() / 2.0);
     let (r, y0, y1) = (l.sky_radius, l.ground_y, l.sky_top);
     // Half a texel in from the edges, so bilinear filtering never wraps to the other edge.
@@ -1006,5 +1049,5 @@ fn sky(l: &Layout) -> Vec<Object> {
             obj.triangle(mid, ia, ib, facing);
         }
     }
-    vec![obj]
+    obj
 }

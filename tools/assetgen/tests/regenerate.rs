@@ -206,7 +206,16 @@ fn the_shell_is_closed_without_cracks_and_faces_inwards() {
         .map(|i| profile[i].perp_dot(profile[(i + 1) % profile.len()]))
         .sum::<f32>()
         / 2.0;
-    let expected = (section * s.layout.length()) as f64;
+    // Plus the embrasures: each pane's area times how far it is set back.
+    let panes: f32 = s
+        .windows
+        .iter()
+        .flat_map(|w| {
+            let o = s.window_object(w);
+            o.triangles.iter().map(|&t| double_area(o.corners(t)) / 2.0)
+        })
+        .sum();
+    let expected = (section * s.layout.length() + panes * s.layout.reveal) as f64;
     assert!(section > 0.0);
     assert!(
         (volume + expected).abs() < 1e-3 * expected,
