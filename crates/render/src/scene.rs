@@ -475,12 +475,17 @@ impl Scene {
         for (m, g) in self.materials.iter_mut().zip(groups) {
             m.bind_group = g;
         }
-        let sources: Vec<Option<(u32, &wgpu::TextureView)>> = self
+        let sources: Vec<Option<(u32, &wgpu::TextureView, u32)>> = self
             .projector_slots
             .iter()
             .map(|&t| {
+                let full = self.toc.textures[t as usize]
+                    .width
+                    .max(self.toc.textures[t as usize].height);
                 let t = &self.textures[t as usize];
-                t.resident_from.zip(t.view.as_ref())
+                t.resident_from
+                    .zip(t.view.as_ref())
+                    .map(|(b, v)| (b, v, full))
             })
             .collect();
         self.projectors.update(gpu, &sources);
@@ -762,6 +767,8 @@ struct Projectors {
     pipeline: wgpu::RenderPipeline,
     layout: wgpu::BindGroupLayout,
     sampler: wgpu::Sampler,
+    size: u32,
+    levels: u32,
     /// The resident base level each layer was last copied from.
     copied: Vec<Option<u32>>,
 }
@@ -784,6 +791,8 @@ impl Projectors {
             .min(MAX_PROJECTOR_SIZE);
         // One layer per projector plus a white one for windows without a projector texture.
         let layers = slots.len() as u32 + 1;
+        // A full chain: floors seen at grazing angles minify the patterns strongly.
+        let levels = 32 - size.leading_zeros();
         let texture = device.create_texture(&wgpu::TextureDescriptor {
             label: Some("projectors"),
             size: wgpu::Extent3d {
@@ -791,7 +800,7 @@ impl Projectors {
                 height: size,
                 depth_or_array_layers: layers,
             },
-            mip_level_count: 1,
+            mip_level_count: levels,
             sample_count: 1,
             dimension: wgpu::TextureDimension::D2,
             format: wgpu::TextureFormat::Rgba8UnormSrgb,
@@ -807,6 +816,16 @@ impl Projectors {
             entries: &[
                 crate::passes::texture_entry(0),
                 crate::passes::sampler_entry(1),
+                wgpu::BindGroupLayoutEntry {
+                    binding: 2,
+                    visibility: wgpu::ShaderStages::FRAGMENT,
+                    ty: wgpu::BindingType::Buffer {
+                        ty: wgpu::BufferBindingType::Uniform,
+                        has_dynamic_offset: false,
+                        min_binding_size: None,
+                    },
+                    count: None,
+                },
             ],
         });
         let pipeline = crate::passes::fullscreen_pipeline(
@@ -827,12 +846,16 @@ impl Projectors {
             pipeline,
             layout,
             sampler,
+            size,
+            levels,
             copied: vec![None; layers as usize],
         };
         // Until a projector's first level arrives its layer is white: unfiltered light.
         let mut encoder = device.create_command_encoder(&Default::default());
         for layer in 0..layers {
-            p.layer_pass(&mut encoder, layer, true);
+            for level in 0..levels {
+                p.layer_pass(&mut encoder, layer, level, true);
+            }
         }
         gpu.queue.submit([encoder.finish()]);
         p
@@ -842,12 +865,15 @@ impl Projectors {
         &self,
         encoder: &'e mut wgpu::CommandEncoder,
         layer: u32,
+        level: u32,
         clear_white: bool,
     ) -> wgpu::RenderPass<'e> {
         let view = self.texture.create_view(&wgpu::TextureViewDescriptor {
             dimension: Some(wgpu::TextureViewDimension::D2),
             base_array_layer: layer,
             array_layer_count: Some(1),
+            base_mip_level: level,
+            mip_level_count: Some(1),
             ..Default::default()
         });
         encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
@@ -872,35 +898,57 @@ impl Projectors {
         })
     }
 
-    /// Copies each layer whose source gained levels since its last copy.
-    fn update(&mut self, gpu: &Gpu, sources: &[Option<(u32, &wgpu::TextureView)>]) {
+    /// Copies each layer whose source gained levels since its last copy. A source is its
+    /// resident base level, a view of the resident levels and its full (level 0) size.
+    fn update(&mut self, gpu: &Gpu, sources: &[Option<(u32, &wgpu::TextureView, u32)>]) {
+        use wgpu::util::DeviceExt;
         let mut encoder = gpu.device.create_command_encoder(&Default::default());
         let mut any = false;
         for (layer, source) in sources.iter().enumerate() {
-            let Some((base, view)) = source else { continue };
-            if self.copied[layer] == Some(*base) {
+            let Some((base, view, full)) = *source else {
+                continue;
+            };
+            if self.copied[layer] == Some(base) {
                 continue;
             }
-            let group = gpu.device.create_bind_group(&wgpu::BindGroupDescriptor {
-                label: Some("projector copy"),
-                layout: &self.layout,
-                entries: &[
-                    wgpu::BindGroupEntry {
-                        binding: 0,
-                        resource: wgpu::BindingResource::TextureView(view),
-                    },
-                    wgpu::BindGroupEntry {
-                        binding: 1,
-                        resource: wgpu::BindingResource::Sampler(&self.sampler),
-                    },
-                ],
-            });
-            let mut pass = self.layer_pass(&mut encoder, layer as u32, false);
-            pass.set_pipeline(&self.pipeline);
-            pass.set_bind_group(0, &group, &[]);
-            pass.draw(0..3, 0..1);
-            drop(pass);
-            self.copied[layer] = Some(*base);
+            for level in 0..self.levels {
+                // Source level of about this array level's size, relative to the view's base.
+                let lod =
+                    ((full as f32 / self.size as f32).log2() + level as f32 - base as f32).max(0.0);
+                let u = uniforms::Blit {
+                    lod: [lod, 0.0, 0.0, 0.0],
+                };
+                let buffer = gpu
+                    .device
+                    .create_buffer_init(&wgpu::util::BufferInitDescriptor {
+                        label: Some("projector copy"),
+                        contents: bytemuck::bytes_of(&u),
+                        usage: wgpu::BufferUsages::UNIFORM,
+                    });
+                let group = gpu.device.create_bind_group(&wgpu::BindGroupDescriptor {
+                    label: Some("projector copy"),
+                    layout: &self.layout,
+                    entries: &[
+                        wgpu::BindGroupEntry {
+                            binding: 0,
+                            resource: wgpu::BindingResource::TextureView(view),
+                        },
+                        wgpu::BindGroupEntry {
+                            binding: 1,
+                            resource: wgpu::BindingResource::Sampler(&self.sampler),
+                        },
+                        wgpu::BindGroupEntry {
+                            binding: 2,
+                            resource: buffer.as_entire_binding(),
+                        },
+                    ],
+                });
+                let mut pass = self.layer_pass(&mut encoder, layer as u32, level, false);
+                pass.set_pipeline(&self.pipeline);
+                pass.set_bind_group(0, &group, &[]);
+                pass.draw(0..3, 0..1);
+            }
+            self.copied[layer] = Some(base);
             any = true;
         }
         if any {

@@ -68,6 +68,12 @@ pub struct Composite {
     pub flags: [u32; 4],
 }
 
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, Pod, Zeroable)]
+pub struct Blit {
+    pub lod: [f32; 4],
+}
+
 /// The class number the shaders compare against (`CLASS_*` in `common.wgsl`).
 pub fn class_id(class: MaterialClass) -> u32 {
     match class {
@@ -92,4 +98,5 @@ pub const LAYOUTS: &[(&str, &str, usize)] = &[
     ("Material", "Material", std::mem::size_of::<Material>()),
     ("GodRays", "GodRays", std::mem::size_of::<GodRays>()),
     ("Composite", "Composite", std::mem::size_of::<Composite>()),
+    ("Blit", "Blit", std::mem::size_of::<Blit>()),
 ];
