@@ -17,9 +17,9 @@ fn vs_fullscreen(@builtin(vertex_index) index: u32) -> FullscreenOut {
 }
 
 struct Show {
-    // 0: pass through, 1: HDR colour (scaled, clamped), 2: signed normals, 3: black.
+    // 0: pass through, 1: HDR colour (scaled, clamped), 2: window normals, 3: black.
     mode: u32,
-    // Exposure for mode 1.
+    // Gain of modes 1 and 2.
     scale: f32,
     // 1 when the target view is not sRGB, so the shader encodes.
     encode: u32,
@@ -50,16 +50,20 @@ fn finite_clamped(c: vec3<f32>) -> vec3<f32> {
 
 @fragment
 fn fs_show(in: FullscreenOut) -> @location(0) vec4<f32> {
-    let c = textureSample(source, source_sampler, in.uv).rgb;
+    let texel = textureSample(source, source_sampler, in.uv);
+    let c = texel.rgb;
     var linear: vec3<f32>;
     switch show.mode {
         case 1u: {
             linear = finite_clamped(c * show.scale);
         }
         case 2u: {
-            // The headless `--passes` image stores n * 0.5 + 0.5 as bytes; undo the sRGB
-            // encoding the target applies so both show the same values.
-            linear = srgb_to_linear(finite_clamped(c * 0.5 + 0.5));
+            // Pass 2 holds the normal map's view-space perturbation (xy) and the window
+            // coverage (a). Shown the way normal maps usually are: a flat window is (0.5, 0.5,
+            // 1), a perturbation shifts red and green; outside windows is black. The values
+            // are display bytes, so the sRGB encoding of the target is undone first.
+            let n = vec3<f32>(c.xy * show.scale * 0.5 + 0.5, 1.0) * step(0.5, texel.a);
+            linear = srgb_to_linear(finite_clamped(n));
         }
         case 3u: {
             linear = vec3<f32>(0.0);

@@ -265,6 +265,7 @@ impl App {
             settings: options.settings,
             light: None,
             view: ViewMode::Final,
+            view_gain: 1.0,
             show_panel: true,
         };
         Self {
@@ -847,7 +848,7 @@ impl App {
                     report: Some(&report),
                     scene: &shown.scene,
                     view,
-                    exposure: self.controls.settings.exposure,
+                    gain: self.controls.view_gain,
                 },
             );
             gpu.queue.submit([encoder.finish()]);

@@ -50,6 +50,7 @@ const SETTINGS: &[&str] = &[
     "refraction",
     "intensity",
     "falloff",
+    "gain",
 ];
 
 impl Script {
@@ -192,6 +193,7 @@ pub fn apply_setting(c: &mut Controls, name: &str, value: f32) -> Result<(), Str
         "scale" => g.resolution_scale = value.clamp(0.125, 1.0),
         "jitter" => g.jitter = value != 0.0,
         "refraction" => c.settings.refraction_strength = value,
+        "gain" => c.view_gain = value,
         "intensity" | "falloff" => {
             let l = c
                 .light
@@ -272,6 +274,7 @@ mod tests {
             settings: render::Settings::default(),
             light: None,
             view: ViewMode::Final,
+            view_gain: 1.0,
             show_panel: true,
         };
         apply_setting(&mut c, "samples", 16.0).unwrap();

@@ -20,6 +20,9 @@ pub struct Controls {
     pub settings: Settings,
     pub light: Option<LightEdit>,
     pub view: ViewMode,
+    /// Gain of an intermediate pass shown alone: faint normal perturbations and dim targets
+    /// need it to be seen.
+    pub view_gain: f32,
     pub show_panel: bool,
 }
 
@@ -143,12 +146,23 @@ pub fn panel(ui: &mut egui::Ui, c: &mut Controls, info: &Info<'_>) -> Vec<Reques
         }
 
         ui.separator();
+        // Times sit above the controls, so the cost of a change is visible while making it.
+        timings(ui, info.report);
+
+        ui.separator();
         ui.label("view");
         ui.horizontal_wrapped(|ui| {
             for m in ViewMode::ALL {
                 ui.selectable_value(&mut c.view, m, format!("{} {}", m.shortcut(), m.label()));
             }
         });
+        if !matches!(c.view, ViewMode::Final | ViewMode::MaterialIds) {
+            ui.add(
+                egui::Slider::new(&mut c.view_gain, 0.1..=64.0)
+                    .logarithmic(true)
+                    .text("gain of this view"),
+            );
+        }
         if ui.button("screenshot (F12)").clicked() {
             requests.push(Request::Screenshot);
         }
@@ -233,9 +247,6 @@ pub fn panel(ui: &mut egui::Ui, c: &mut Controls, info: &Info<'_>) -> Vec<Reques
                         .text("exposure (tone map)"),
                 );
             });
-
-        ui.separator();
-        timings(ui, info.report);
     });
     requests
 }

@@ -178,8 +178,8 @@ pub struct Drawn<'a> {
     pub report: Option<&'a FrameReport>,
     pub scene: &'a Scene,
     pub view: &'a View,
-    /// The tone-mapping exposure, applied to HDR targets shown alone.
-    pub exposure: f32,
+    /// Gain of an intermediate target shown alone (its colours, or the normals' perturbation).
+    pub gain: f32,
 }
 
 pub struct Display {
@@ -561,7 +561,7 @@ impl Display {
             &self.to_display,
             ShowParams {
                 mode: shader_mode,
-                scale: drawn.exposure,
+                scale: drawn.gain,
                 encode: 0,
                 pad: 0,
             },
