@@ -951,8 +951,15 @@ impl App {
                     .show(ui, |ui| {
                         requests = ui::panel(ui, controls, &info);
                     });
-            } else if controls.view == ViewMode::MaterialIds {
-                egui::Panel::left("legend").show(ui, |ui| ui::legend(ui, &info.materials));
+            }
+            if controls.view == ViewMode::MaterialIds {
+                // The legend floats over the view it explains, panel shown or not.
+                egui::Window::new("material IDs")
+                    .anchor(egui::Align2::RIGHT_TOP, [-8.0, 8.0])
+                    .resizable(false)
+                    .show(ui.ctx(), |ui| {
+                        egui::ScrollArea::vertical().show(ui, |ui| ui::legend(ui, &info.materials))
+                    });
             }
         });
         drop(info);

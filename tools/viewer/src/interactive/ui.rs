@@ -166,9 +166,6 @@ pub fn panel(ui: &mut egui::Ui, c: &mut Controls, info: &Info<'_>) -> Vec<Reques
         if ui.button("screenshot (F12)").clicked() {
             requests.push(Request::Screenshot);
         }
-        if c.view == ViewMode::MaterialIds {
-            legend(ui, &info.materials);
-        }
 
         if !info.cameras.is_empty() {
             ui.separator();
