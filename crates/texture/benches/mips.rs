@@ -23,7 +23,12 @@ fn design(side: u32) -> image::RgbaImage {
             image::Rgba([10, 10, 12, 255])
         } else {
             let p = ((x / 61) * 7 + (y / 47) * 3) as u8;
-            image::Rgba([p.wrapping_mul(37) ^ n, p.wrapping_mul(91), p.wrapping_mul(13) | n, 255])
+            image::Rgba([
+                p.wrapping_mul(37) ^ n,
+                p.wrapping_mul(91),
+                p.wrapping_mul(13) | n,
+                255,
+            ])
         }
     })
 }
@@ -32,7 +37,9 @@ fn design(side: u32) -> image::RgbaImage {
 /// stored (gamma-encoded) bytes.
 fn fir_chain(src: &image::RgbaImage, filter: FilterType) -> usize {
     let mut resizer = Resizer::new();
-    let opts = ResizeOptions::new().resize_alg(ResizeAlg::Convolution(filter)).use_alpha(false);
+    let opts = ResizeOptions::new()
+        .resize_alg(ResizeAlg::Convolution(filter))
+        .use_alpha(false);
     let (mut w, mut h) = src.dimensions();
     let mut level = Image::from_vec_u8(w, h, src.as_raw().clone(), PixelType::U8x4).unwrap();
     let mut bytes = 0;
@@ -47,8 +54,10 @@ fn fir_chain(src: &image::RgbaImage, filter: FilterType) -> usize {
 }
 
 fn bench(c: &mut Criterion) {
-    let side: u32 =
-        std::env::var("TEXTURE_BENCH_SIZE").ok().and_then(|s| s.parse().ok()).unwrap_or(4096);
+    let side: u32 = std::env::var("TEXTURE_BENCH_SIZE")
+        .ok()
+        .and_then(|s| s.parse().ok())
+        .unwrap_or(4096);
     let img = image::DynamicImage::ImageRgba8(design(side));
     let rgba = img.to_rgba8();
     let mut g = c.benchmark_group(format!("mip chain {side}x{side}"));
@@ -56,15 +65,21 @@ fn bench(c: &mut Criterion) {
         .warm_up_time(Duration::from_millis(500))
         .measurement_time(Duration::from_secs(5));
     for filter in [MipFilter::Box, MipFilter::Lanczos3] {
-        g.bench_function(format!("mip chain: {} (ours, linear light)", filter.name()), |b| {
-            b.iter(|| colour_mips(black_box(&img), &ColourOptions { srgb: true, filter }).unwrap())
-        });
+        g.bench_function(
+            format!("mip chain: {} (ours, linear light)", filter.name()),
+            |b| {
+                b.iter(|| {
+                    colour_mips(black_box(&img), &ColourOptions { srgb: true, filter }).unwrap()
+                })
+            },
+        );
     }
     // fast_image_resize runs on the calling thread.
     for (name, filter) in [("box", FilterType::Box), ("lanczos3", FilterType::Lanczos3)] {
-        g.bench_function(format!("mip chain: {name} (fast_image_resize, gamma, 1 thread)"), |b| {
-            b.iter(|| fir_chain(black_box(&rgba), filter))
-        });
+        g.bench_function(
+            format!("mip chain: {name} (fast_image_resize, gamma, 1 thread)"),
+            |b| b.iter(|| fir_chain(black_box(&rgba), filter)),
+        );
     }
     g.finish();
 }

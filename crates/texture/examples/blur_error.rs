@@ -1,13 +1,18 @@
 //! Max and RMS error (LSB) of our blur against the f64 reference on a synthetic design:
 //! `cargo run --release -p texture --example blur_error -- [side] [sigma...]`.
 
-use texture::blur::{BlurMethod, blur_srgb8, error_lsb, reference_blur, srgb8_to_premultiplied_f64};
+use texture::blur::{
+    BlurMethod, blur_srgb8, error_lsb, reference_blur, srgb8_to_premultiplied_f64,
+};
 
 fn main() {
     let args: Vec<String> = std::env::args().skip(1).collect();
     let side: usize = args.first().and_then(|s| s.parse().ok()).unwrap_or(1024);
     let sigmas: Vec<f32> = if args.len() > 1 {
-        args[1..].iter().map(|s| s.parse().expect("sigma")).collect()
+        args[1..]
+            .iter()
+            .map(|s| s.parse().expect("sigma"))
+            .collect()
     } else {
         vec![8.0, 32.0]
     };

@@ -126,7 +126,10 @@ fn box2<T: Real>(src: &[[T; 4]], w: usize) -> Vec<[T; 4]> {
     let half = T::of(0.5);
     let mut out = vec![[T::default(); 4]; w2 * (src.len() / w / 2)];
     out.par_chunks_mut(w2).enumerate().for_each(|(y, o)| {
-        let (r0, r1) = (&src[2 * y * w..(2 * y + 1) * w], &src[(2 * y + 1) * w..(2 * y + 2) * w]);
+        let (r0, r1) = (
+            &src[2 * y * w..(2 * y + 1) * w],
+            &src[(2 * y + 1) * w..(2 * y + 2) * w],
+        );
         for (x, o) in o.iter_mut().enumerate() {
             let (a, b) = (weighted(r0[2 * x]), weighted(r0[2 * x + 1]));
             let (c, d) = (weighted(r1[2 * x]), weighted(r1[2 * x + 1]));

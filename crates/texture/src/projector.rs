@@ -97,10 +97,10 @@ pub fn projector(
     let (w, h) = (design.width(), design.height());
     check_size(w, h)?;
     check_sigma(opts.sigma_texels)?;
-    if let Some(b) = opts.max_error_lsb {
-        if !(b.is_finite() && b >= 0.0) {
-            return Err(TextureError::InvalidBudget { budget: b });
-        }
+    if let Some(b) = opts.max_error_lsb
+        && !(b.is_finite() && b >= 0.0)
+    {
+        return Err(TextureError::InvalidBudget { budget: b });
     }
     let premul: Vec<[f32; 4]> = to_linear(design, true)
         .into_par_iter()
@@ -115,13 +115,13 @@ pub fn projector(
     let mut max_error = None;
     if let Some(budget) = opts.max_error_lsb {
         max_error = Some(upsampled_error(&encoded[0], w, h, &levels[0], w, h));
-        for k in 1..encoded.len() {
+        for (k, level) in encoded.iter().enumerate().skip(1) {
             // A level coarser than σ cannot hold the blurred detail; don't spend a pass on it.
             if (1u64 << k) as f32 > opts.sigma_texels {
                 break;
             }
             let (lw, lh) = level_size(w, h, k);
-            let e = upsampled_error(&encoded[k], lw, lh, &levels[0], w, h);
+            let e = upsampled_error(level, lw, lh, &levels[0], w, h);
             if e > budget as f64 {
                 break;
             }

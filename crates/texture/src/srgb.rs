@@ -205,7 +205,7 @@ pub fn encode8(l: f32) -> u8 {
 /// [`encode8`] for f64 input (reference paths).
 pub fn encode8_f64(l: f64) -> u8 {
     let e = encoder();
-    if !(l > 0.0) {
+    if l.is_nan() || l <= 0.0 {
         return 0;
     }
     if l >= 1.0 {
@@ -222,7 +222,7 @@ pub fn encode8_f64(l: f64) -> u8 {
 /// linear textures). NaN gives 0.
 #[inline]
 pub fn unorm8(v: f32) -> u8 {
-    if !(v > 0.0) {
+    if v.is_nan() || v <= 0.0 {
         return 0;
     }
     (v.min(1.0) * 255.0 + 0.5) as u8
@@ -261,10 +261,26 @@ mod tests {
         let mut vals: Vec<f32> = (0..100_000).map(|i| i as f32 / 99_000.0 - 0.005).collect();
         vals.extend(e.thresholds64.iter().flat_map(|&t| {
             let t = t as f32;
-            [t, f32::from_bits(t.to_bits() - 1), f32::from_bits(t.to_bits() + 1)]
+            [
+                t,
+                f32::from_bits(t.to_bits() - 1),
+                f32::from_bits(t.to_bits() + 1),
+            ]
         }));
-        vals.extend([f32::NAN, f32::INFINITY, -f32::INFINITY, -0.0, 1e-30, 1.0, 2.0]);
-        let texels: Vec<[f32; 4]> = vals.chunks(4).filter(|c| c.len() == 4).map(|c| [c[0], c[1], c[2], c[3]]).collect();
+        vals.extend([
+            f32::NAN,
+            f32::INFINITY,
+            -f32::INFINITY,
+            -0.0,
+            1e-30,
+            1.0,
+            2.0,
+        ]);
+        let texels: Vec<[f32; 4]> = vals
+            .chunks(4)
+            .filter(|c| c.len() == 4)
+            .map(|c| [c[0], c[1], c[2], c[3]])
+            .collect();
         let mut fast = vec![0u8; texels.len() * 4];
         let mut plain = vec![0u8; texels.len() * 4];
         e.encode_rgba(&texels, &mut fast);

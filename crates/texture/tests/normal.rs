@@ -1,3 +1,4 @@
+#![allow(clippy::needless_range_loop)]
 mod common;
 
 use common::{Rng, design, rgba_image};
@@ -9,7 +10,7 @@ fn unit_everywhere(levels: &[Vec<[f32; 4]>]) -> Result<(), String> {
     for (i, l) in levels.iter().enumerate() {
         for n in l {
             let len = (n[0] * n[0] + n[1] * n[1] + n[2] * n[2]).sqrt();
-            if !((len - 1.0).abs() <= 1e-3) {
+            if len.is_nan() || (len - 1.0).abs() > 1e-3 {
                 return Err(format!("level {i}: {n:?} has length {len}"));
             }
         }

@@ -1,23 +1,40 @@
+#![allow(clippy::needless_range_loop)]
 mod common;
 
 use common::{design, rgba_image};
 use texture::blur::srgb8_to_premultiplied_f64;
-use texture::{BlurMethod, ProjectorOptions, error_lsb, level_count, projector, reference_blur, sigma_from_light};
+use texture::{
+    BlurMethod, ProjectorOptions, error_lsb, level_count, projector, reference_blur,
+    sigma_from_light,
+};
 
 #[test]
 fn sun_through_a_window_gives_the_documented_sigma() {
     // Sun 0.53°, floor 4 m behind the window, design 256 texels per metre:
     // penumbra θ·d = 3.7 cm, σ = θ·d/4 in texels = 2.37.
     let s = sigma_from_light(0.53f32.to_radians(), 4.0, 256.0);
-    assert!((s - 0.53f32.to_radians() * 4.0 / 4.0 * 256.0).abs() < 1e-6 && (s - 2.368).abs() < 0.01, "{s}");
-    assert!(projector(&rgba_image(1, 1, vec![0; 4]), &ProjectorOptions::new(sigma_from_light(f32::NAN, 1.0, 1.0))).is_err());
+    assert!(
+        (s - 0.53f32.to_radians() * 4.0 / 4.0 * 256.0).abs() < 1e-6 && (s - 2.368).abs() < 0.01,
+        "{s}"
+    );
+    assert!(
+        projector(
+            &rgba_image(1, 1, vec![0; 4]),
+            &ProjectorOptions::new(sigma_from_light(f32::NAN, 1.0, 1.0))
+        )
+        .is_err()
+    );
 }
 
 #[test]
 fn projector_level_zero_is_the_blur_and_mips_are_complete() {
     let (w, h) = (60, 44);
     let bytes = design(w, h, 8);
-    let (chain, report) = projector(&rgba_image(w, h, bytes.clone()), &ProjectorOptions::new(3.0)).unwrap();
+    let (chain, report) = projector(
+        &rgba_image(w, h, bytes.clone()),
+        &ProjectorOptions::new(3.0),
+    )
+    .unwrap();
     assert_eq!((chain.width, chain.height), (60, 44));
     assert_eq!(chain.levels.len(), level_count(60, 44));
     assert_eq!(report.dropped_levels, 0);
@@ -31,20 +48,35 @@ fn projector_level_zero_is_the_blur_and_mips_are_complete() {
 fn heavy_blur_is_stored_smaller_only_within_the_budget() {
     let (w, h) = (128, 96);
     let img = rgba_image(w, h, design(w, h, 6));
-    let opts = |budget| ProjectorOptions { sigma_texels: 24.0, max_error_lsb: budget, method: BlurMethod::Auto };
+    let opts = |budget| ProjectorOptions {
+        sigma_texels: 24.0,
+        max_error_lsb: budget,
+        method: BlurMethod::Auto,
+    };
     let (full, _) = projector(&img, &opts(None)).unwrap();
     // The zero border's falloff is the steepest detail left, and limits how far it can go.
     let (small, report) = projector(&img, &opts(Some(3.0))).unwrap();
     assert!(report.dropped_levels >= 1, "{report}");
     assert!(report.max_error_lsb.unwrap() <= 3.0, "{report}");
-    assert_eq!(small.levels[..], full.levels[report.dropped_levels as usize..]);
+    assert_eq!(
+        small.levels[..],
+        full.levels[report.dropped_levels as usize..]
+    );
     assert!(report.to_string().contains("dropped"), "{report}");
     // A budget at the rounding floor keeps the design's resolution.
     let (exact, report) = projector(&img, &opts(Some(0.5))).unwrap();
     assert_eq!(report.dropped_levels, 0, "{report}");
     assert_eq!(exact, full);
     // A sharp projector never drops levels, whatever the budget.
-    let (_, report) = projector(&img, &ProjectorOptions { sigma_texels: 1.0, max_error_lsb: Some(3.0), method: BlurMethod::Auto }).unwrap();
+    let (_, report) = projector(
+        &img,
+        &ProjectorOptions {
+            sigma_texels: 1.0,
+            max_error_lsb: Some(3.0),
+            method: BlurMethod::Auto,
+        },
+    )
+    .unwrap();
     assert_eq!(report.dropped_levels, 0);
 }
 
@@ -52,8 +84,17 @@ fn heavy_blur_is_stored_smaller_only_within_the_budget() {
 fn bad_budget_is_an_error() {
     let img = rgba_image(2, 2, vec![9; 16]);
     for b in [f32::NAN, -1.0] {
-        let opts = ProjectorOptions { sigma_texels: 1.0, max_error_lsb: Some(b), method: BlurMethod::Auto };
-        assert!(projector(&img, &opts).unwrap_err().to_string().contains("budget"));
+        let opts = ProjectorOptions {
+            sigma_texels: 1.0,
+            max_error_lsb: Some(b),
+            method: BlurMethod::Auto,
+        };
+        assert!(
+            projector(&img, &opts)
+                .unwrap_err()
+                .to_string()
+                .contains("budget")
+        );
     }
 }
 
@@ -64,7 +105,8 @@ fn blur_error_on_a_512_design() {
     let bytes = design(w, h, 12);
     let reference_input = srgb8_to_premultiplied_f64(&bytes);
     for sigma in [8.0f32, 32.0] {
-        let ours = texture::blur_srgb8(&bytes, w as u32, h as u32, sigma, BlurMethod::Auto).unwrap();
+        let ours =
+            texture::blur_srgb8(&bytes, w as u32, h as u32, sigma, BlurMethod::Auto).unwrap();
         let e = error_lsb(&ours, &reference_blur(&reference_input, w, h, sigma as f64));
         assert!(e.max <= 0.55, "sigma {sigma}: {e:?}");
     }
