@@ -321,7 +321,7 @@ pub fn decode_table(header: &Header, table: &[u8]) -> Result<Vec<SectionEntry>, 
         if u32_at(chunk, 28) != 0 {
             return Err(Fail::at(at + 28, Problem::NonZeroPadding));
         }
-        if offset % align != 0 {
+        if !offset.is_multiple_of(align) {
             return Err(Fail::at(
                 at + 8,
                 Problem::Alignment {
@@ -332,7 +332,7 @@ pub fn decode_table(header: &Header, table: &[u8]) -> Result<Vec<SectionEntry>, 
             ));
         }
         let expected_offset = align_up(cursor, align);
-        let end = offset.checked_add(length).unwrap_or(u64::MAX);
+        let end = offset.saturating_add(length);
         if offset != expected_offset || end > header.file_length {
             return Err(Fail::at(
                 at + 8,

@@ -86,14 +86,15 @@ fn expect_section(
 
 fn validate_layout(mesh: &Mesh, what: &str) -> Result<(), Fail> {
     let l = &mesh.layout;
-    if l.stride == 0 || l.stride > 256 || l.stride % 4 != 0 {
+    if l.stride == 0 || l.stride > 256 || !l.stride.is_multiple_of(4) {
         return Err(Fail::toc(format!(
             "{what}: vertex stride {} is invalid (1..=256, multiple of 4)",
             l.stride
         )));
     }
     for (i, a) in l.attributes.iter().enumerate() {
-        if a.offset % 4 != 0 || a.offset as u64 + a.format.size() as u64 > l.stride as u64 {
+        if !a.offset.is_multiple_of(4) || a.offset as u64 + a.format.size() as u64 > l.stride as u64
+        {
             return Err(Fail::toc(format!(
                 "{what}: attribute {i} ({:?}) at offset {} does not fit stride {}",
                 a.semantic, a.offset, l.stride
@@ -188,7 +189,7 @@ pub fn validate_toc(toc: &Toc, table: &[SectionEntry]) -> Result<Vec<SectionRole
     for (mi, mesh) in toc.meshes.iter().enumerate() {
         let what = format!("mesh {mi} ({:?})", mesh.name);
         validate_layout(mesh, &what)?;
-        if mesh.index_count % 3 != 0 {
+        if !mesh.index_count.is_multiple_of(3) {
             return Err(Fail::toc(format!(
                 "{what}: index count {} is not a multiple of 3",
                 mesh.index_count
@@ -217,7 +218,10 @@ pub fn validate_toc(toc: &Toc, table: &[SectionEntry]) -> Result<Vec<SectionRole
                     r.material
                 )));
             }
-            if r.first_index as u64 != next || r.index_count % 3 != 0 || r.index_count == 0 {
+            if r.first_index as u64 != next
+                || !r.index_count.is_multiple_of(3)
+                || r.index_count == 0
+            {
                 return Err(Fail::toc(format!(
                     "{what}: range {ri} covers indices {}..+{}, expected to start at {next} with a non-zero multiple of 3",
                     r.first_index, r.index_count
@@ -323,12 +327,10 @@ pub fn validate_toc(toc: &Toc, table: &[SectionEntry]) -> Result<Vec<SectionRole
         }
     }
     for c in &toc.cameras {
-        if !finite(&c.position)
-            || !finite(&c.target)
-            || !finite(&c.up)
-            || !(c.fov_y > 0.0 && c.fov_y < 180.0)
-            || !(c.near > 0.0 && c.far > c.near && c.far.is_finite())
-        {
+        // Written as positive tests so NaN fails them.
+        let fov_ok = c.fov_y > 0.0 && c.fov_y < 180.0;
+        let depth_ok = c.near > 0.0 && c.far > c.near && c.far.is_finite();
+        if !finite(&c.position) || !finite(&c.target) || !finite(&c.up) || !fov_ok || !depth_ok {
             return Err(Fail::toc(format!(
                 "camera {:?} has invalid parameters",
                 c.name
