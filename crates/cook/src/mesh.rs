@@ -149,8 +149,14 @@ struct FxHasher(u64);
 
 impl std::hash::Hasher for FxHasher {
     fn write(&mut self, bytes: &[u8]) {
-        for b in bytes {
-            self.write_u64(*b as u64);
+        let mut chunks = bytes.chunks_exact(8);
+        for c in &mut chunks {
+            let mut word = [0u8; 8];
+            word.copy_from_slice(c);
+            self.write_u64(u64::from_le_bytes(word));
+        }
+        for &b in chunks.remainder() {
+            self.write_u64(b as u64);
         }
     }
     fn write_u32(&mut self, v: u32) {
@@ -163,60 +169,103 @@ impl std::hash::Hasher for FxHasher {
         self.write_u64(v as u64);
     }
     fn finish(&self) -> u64 {
-        self.0
+        // Multiplication only moves entropy upwards, and the table indexes by the low bits:
+        // keys whose low words are constant (no UVs, one material) would all collide. MurmurHash3's
+        // finalizer spreads every input bit over the whole word.
+        let mut h = self.0;
+        h ^= h >> 33;
+        h = h.wrapping_mul(0xff51_afd7_ed55_8ccd);
+        h ^= h >> 33;
+        h = h.wrapping_mul(0xc4ce_b9fe_1a85_ec53);
+        h ^ (h >> 33)
     }
 }
 
 type FxBuild = std::hash::BuildHasherDefault<FxHasher>;
 
-/// Angle-weighted vertex normals for the corners that have none, around welded positions;
-/// faces meeting at more than the crease angle do not smooth into each other.
-fn generate_normals(
-    positions: &[[f32; 3]],
-    tris: &[[u32; 3]],
-    face_normals: &[[f32; 3]],
-    need: &[bool],
-    crease_cos: f32,
-    out: &mut [[f32; 3]],
-) {
-    use rayon::prelude::*;
-    // Weld by value so unwelded sources (one position per glTF corner) still smooth.
-    let mut weld: HashMap<[u32; 3], u32, FxBuild> =
-        HashMap::with_capacity_and_hasher(positions.len(), FxBuild::default());
-    let canon: Vec<u32> = positions
+/// Welds values by their bits (after -0.0 → +0.0): equal values get equal ids, in order of
+/// first appearance.
+fn weld<const N: usize>(values: &[[f32; N]]) -> (Vec<u32>, usize) {
+    let mut map: HashMap<[u32; N], u32, FxBuild> =
+        HashMap::with_capacity_and_hasher(values.len(), FxBuild::default());
+    let ids = values
         .iter()
-        .map(|p| {
-            let key = p.map(|c| plus_zero(c).to_bits());
-            let next = weld.len() as u32;
-            *weld.entry(key).or_insert(next)
+        .map(|v| {
+            let next = map.len() as u32;
+            *map.entry(v.map(|c| plus_zero(c).to_bits())).or_insert(next)
         })
         .collect();
-    let n = weld.len();
-    drop(weld);
-    // Compressed adjacency: for each welded position, the corners (3 * triangle + k) around it.
-    let mut start = vec![0u32; n + 1];
-    for t in tris {
-        for &p in t {
-            start[canon[p as usize] as usize + 1] += 1;
+    (ids, map.len())
+}
+
+/// A normal for every corner (3 per kept triangle), as an index into a table of unit normals.
+///
+/// Source normals are used as they are. Missing ones are generated, angle-weighted, around
+/// each position (welded by value, so unwelded sources still smooth): the corners around a
+/// position fall into clusters, each corner joining the first cluster whose first face lies
+/// within the crease angle of its own face, so hard edges stay hard and a smooth surface gets
+/// one normal per position. Returns (per-corner ids, table, corners generated).
+fn corner_normals(
+    src: &Imported,
+    canon: &[u32],
+    welded: usize,
+    keep: &[u32],
+    tris: &[[u32; 3]],
+    face_normals: &[[f32; 3]],
+    crease_cos: f32,
+) -> (Vec<u32>, Vec<[f32; 3]>, usize) {
+    use rayon::prelude::*;
+    let unit: Vec<[f32; 3]> = src.normals.iter().map(|&n| normalize(n)).collect();
+    let (source_id, count) = weld(&unit);
+    let mut table = vec![[0.0f32; 3]; count];
+    for (n, &id) in unit.iter().zip(&source_id) {
+        table[id as usize] = n.map(plus_zero);
+    }
+    let mut ids: Vec<u32> = Vec::with_capacity(keep.len() * 3);
+    let mut missing = 0usize;
+    for &t in keep {
+        for c in &src.corners[t as usize * 3..t as usize * 3 + 3] {
+            let id = if c.n == NONE {
+                NONE
+            } else {
+                source_id[c.n as usize]
+            };
+            if id == NONE || dot(table[id as usize], table[id as usize]) == 0.0 {
+                ids.push(NONE);
+                missing += 1;
+            } else {
+                ids.push(id);
+            }
         }
     }
-    for i in 0..n {
+    if missing == 0 {
+        return (ids, table, 0);
+    }
+
+    // Corners needing a normal, grouped by welded position (counting sort keeps corner order).
+    let mut start = vec![0u32; welded + 1];
+    for (k, &id) in ids.iter().enumerate() {
+        if id == NONE {
+            start[canon[tris[k / 3][k % 3] as usize] as usize + 1] += 1;
+        }
+    }
+    for i in 0..welded {
         start[i + 1] += start[i];
     }
     let mut fill = start.clone();
-    let mut adj = vec![0u32; tris.len() * 3];
-    for (ti, t) in tris.iter().enumerate() {
-        for (k, &p) in t.iter().enumerate() {
-            let c = canon[p as usize] as usize;
-            adj[fill[c] as usize] = (ti * 3 + k) as u32;
+    let mut adj = vec![0u32; missing];
+    for (k, &id) in ids.iter().enumerate() {
+        if id == NONE {
+            let c = canon[tris[k / 3][k % 3] as usize] as usize;
+            adj[fill[c] as usize] = k as u32;
             fill[c] += 1;
         }
     }
     drop(fill);
-    let weights: Vec<[f32; 3]> = tris
+    let weights: Vec<f32> = tris
         .par_iter()
-        .map(|t| {
-            let [a, b, c] = t.map(|i| positions[i as usize]);
+        .flat_map_iter(|t| {
+            let [a, b, c] = t.map(|i| src.positions[i as usize]);
             [
                 corner_angle(a, b, c),
                 corner_angle(b, c, a),
@@ -224,30 +273,180 @@ fn generate_normals(
             ]
         })
         .collect();
-    // Each corner sums the faces around it independently, in adjacency order: the result does
-    // not depend on how the work is split between threads.
-    out.par_chunks_mut(3)
-        .zip(need.par_chunks(3))
+    // Per position: cluster its corners, sum each cluster. Sequential with reused buffers: one
+    // short pass over the corners, and ids come out in position order.
+    let mut reps: Vec<[f32; 3]> = Vec::new();
+    let mut sums: Vec<[f32; 3]> = Vec::new();
+    let mut slots: Vec<u32> = Vec::new();
+    for c in 0..welded {
+        let corners = &adj[start[c] as usize..start[c + 1] as usize];
+        if corners.is_empty() {
+            continue;
+        }
+        reps.clear();
+        sums.clear();
+        slots.clear();
+        for &k in corners {
+            let f = face_normals[k as usize / 3];
+            let slot = match reps.iter().position(|r| dot(*r, f) >= crease_cos) {
+                Some(s) => s,
+                None => {
+                    reps.push(f);
+                    sums.push([0.0; 3]);
+                    reps.len() - 1
+                }
+            };
+            let w = weights[k as usize];
+            let s = &mut sums[slot];
+            *s = [s[0] + f[0] * w, s[1] + f[1] * w, s[2] + f[2] * w];
+            slots.push(slot as u32);
+        }
+        let base = table.len() as u32;
+        for (s, r) in sums.iter().zip(&reps) {
+            let n = normalize(*s);
+            table.push(if dot(n, n) > 0.0 {
+                n.map(plus_zero)
+            } else {
+                *r
+            });
+        }
+        for (&k, &slot) in corners.iter().zip(&slots) {
+            ids[k as usize] = base + slot;
+        }
+    }
+    (ids, table, missing)
+}
+
+/// Corner attribute ids after welding by value: position, texture coordinate, normal, material.
+fn corner_keys(
+    src: &Imported,
+    pos: &[u32],
+    keep: &[u32],
+    tri_material: &[u16],
+    corner_normal: &[u32],
+) -> Vec<(u64, u64)> {
+    let (uv, _) = weld(&src.uvs);
+    keep.iter()
         .enumerate()
-        .for_each(|(ti, (out, need))| {
-            let fnrm = face_normals[ti];
-            for k in 0..3 {
-                if !need[k] {
-                    continue;
+        .flat_map(|(k, &t)| {
+            let m = tri_material[t as usize] as u64;
+            let c = &src.corners[t as usize * 3..t as usize * 3 + 3];
+            let uv = &uv;
+            (0..3).map(move |j| {
+                let p = pos[c[j].p as usize] as u64;
+                let t = if c[j].t == NONE {
+                    NONE
+                } else {
+                    uv[c[j].t as usize]
+                } as u64;
+                let n = corner_normal[k * 3 + j] as u64;
+                (p << 32 | t, n << 32 | m)
+            })
+        })
+        .collect()
+}
+
+fn vertex(
+    src: &Imported,
+    c: crate::import::Corner,
+    normal: [f32; 3],
+    material: u16,
+) -> StandardVertex {
+    StandardVertex {
+        position: src.positions[c.p as usize].map(plus_zero),
+        normal,
+        uv: if c.t == NONE {
+            [0.0; 2]
+        } else {
+            src.uvs[c.t as usize].map(plus_zero)
+        },
+        tangent: [0.0; 4],
+        material: [material, 0],
+    }
+}
+
+/// Deduplicates corners by their welded attribute ids, without materializing a vertex per
+/// corner: the same result as comparing whole vertices (every attribute is welded by value),
+/// at the cost of one 16-byte hash per corner.
+fn dedupe_by_key(
+    src: &Imported,
+    canon: &[u32],
+    keep: &[u32],
+    tri_material: &[u16],
+    corner_normal: &[u32],
+    normal_table: &[[f32; 3]],
+) -> (Vec<StandardVertex>, Vec<u32>) {
+    let keys = corner_keys(src, canon, keep, tri_material, corner_normal);
+    let mut map: HashMap<(u64, u64), u32, FxBuild> =
+        HashMap::with_capacity_and_hasher(keys.len() / 4, FxBuild::default());
+    let mut vertices = Vec::new();
+    let mut indices = Vec::with_capacity(keys.len());
+    for (k, key) in keys.into_iter().enumerate() {
+        let next = vertices.len() as u32;
+        let id = *map.entry(key).or_insert(next);
+        if id == next {
+            let t = keep[k / 3] as usize;
+            let c = src.corners[t * 3 + k % 3];
+            vertices.push(vertex(
+                src,
+                c,
+                normal_table[corner_normal[k] as usize],
+                tri_material[t],
+            ));
+        }
+        indices.push(id);
+    }
+    (vertices, indices)
+}
+
+/// The general path when some material has a normal map: one vertex per corner, MikkTSpace
+/// tangents on the triangles that need them, then deduplication of whole vertices.
+fn dedupe_with_tangents(
+    src: &Imported,
+    keep: &[u32],
+    tri_material: &[u16],
+    needs: &[MaterialNeeds],
+    corner_normal: &[u32],
+    normal_table: &[[f32; 3]],
+) -> (Vec<StandardVertex>, Vec<u32>, usize) {
+    let mut corners: Vec<StandardVertex> = Vec::with_capacity(keep.len() * 3);
+    for (k, &t) in keep.iter().enumerate() {
+        let m = tri_material[t as usize];
+        for j in 0..3 {
+            let c = src.corners[t as usize * 3 + j];
+            corners.push(vertex(
+                src,
+                c,
+                normal_table[corner_normal[k * 3 + j] as usize],
+                m,
+            ));
+        }
+    }
+    let tangent_faces: Vec<u32> = keep
+        .iter()
+        .enumerate()
+        .filter(|&(_, &t)| needs[tri_material[t as usize] as usize].tangents)
+        .map(|(k, _)| k as u32)
+        .collect();
+    if !tangent_faces.is_empty() {
+        let mut g = Mikk {
+            verts: &mut corners,
+            faces: &tangent_faces,
+        };
+        mikktspace::generate_tangents(&mut g);
+        for &f in &tangent_faces {
+            for v in &mut corners[f as usize * 3..f as usize * 3 + 3] {
+                if !v.tangent.iter().all(|c| c.is_finite()) {
+                    v.tangent = [1.0, 0.0, 0.0, 1.0];
                 }
-                let c = canon[tris[ti][k] as usize] as usize;
-                let mut sum = [0.0f32; 3];
-                for &other in &adj[start[c] as usize..start[c + 1] as usize] {
-                    let on = face_normals[other as usize / 3];
-                    if dot(on, fnrm) >= crease_cos {
-                        let w = weights[other as usize / 3][other as usize % 3];
-                        sum = [sum[0] + on[0] * w, sum[1] + on[1] * w, sum[2] + on[2] * w];
-                    }
-                }
-                let nrm = normalize(sum);
-                out[k] = if dot(nrm, nrm) > 0.0 { nrm } else { fnrm };
+                v.tangent = v.tangent.map(plus_zero);
             }
-        });
+        }
+    }
+    let (unique, remap) = meshopt::generate_vertex_remap(&corners, None);
+    let indices = meshopt::remap_index_buffer(None, corners.len(), &remap);
+    let vertices = meshopt::remap_vertex_buffer(&corners, unique, &remap);
+    (vertices, indices, tangent_faces.len())
 }
 
 struct Mikk<'a> {
@@ -321,91 +520,39 @@ pub fn process(
             normalize(cross(sub(b, a), sub(c, a)))
         })
         .collect();
-    let mut normals = vec![[0.0f32; 3]; tris.len() * 3];
-    let mut need = vec![false; tris.len() * 3];
-    for (k, &t) in keep.iter().enumerate() {
-        for j in 0..3 {
-            let c = src.corners[t as usize * 3 + j];
-            let n = if c.n == NONE {
-                [0.0; 3]
-            } else {
-                normalize(src.normals[c.n as usize])
-            };
-            if dot(n, n) > 0.0 {
-                normals[k * 3 + j] = n;
-            } else {
-                need[k * 3 + j] = true;
-            }
-        }
-    }
-    stats.normals_generated = need.iter().filter(|&&n| n).count();
-    if stats.normals_generated > 0 {
-        let crease = settings.crease_angle_deg.to_radians().cos();
-        generate_normals(
-            &src.positions,
-            &tris,
-            &face_normals,
-            &need,
-            crease,
-            &mut normals,
-        );
-    }
+    let crease = settings.crease_angle_deg.to_radians().cos();
+    let (canon, welded) = weld(&src.positions);
+    let (corner_normal, normal_table, generated) =
+        corner_normals(src, &canon, welded, &keep, &tris, &face_normals, crease);
+    stats.normals_generated = generated;
+    stats.corners = keep.len() * 3;
     timer.lap("normals");
 
-    // -0.0 becomes +0.0 here, before deduplication compares raw bits.
-    let mut corners: Vec<StandardVertex> = keep
-        .iter()
-        .enumerate()
-        .flat_map(|(k, &t)| {
-            let m = tri_material[t as usize];
-            let c = &src.corners[t as usize * 3..t as usize * 3 + 3];
-            let normals = &normals[k * 3..k * 3 + 3];
-            (0..3).map(move |j| StandardVertex {
-                position: src.positions[c[j].p as usize].map(plus_zero),
-                normal: normals[j].map(plus_zero),
-                uv: if c[j].t == NONE {
-                    [0.0; 2]
-                } else {
-                    src.uvs[c[j].t as usize].map(plus_zero)
-                },
-                tangent: [0.0; 4],
-                material: [m, 0],
-            })
-        })
-        .collect();
-    timer.lap("vertices");
     let any_tangents = needs.iter().any(|n| n.tangents);
-    let tangent_faces: Vec<u32> = keep
-        .iter()
-        .filter(|_| any_tangents)
-        .enumerate()
-        .filter(|&(_, &t)| needs[tri_material[t as usize] as usize].tangents)
-        .map(|(k, _)| k as u32)
-        .collect();
-    stats.tangent_triangles = tangent_faces.len();
-    if !tangent_faces.is_empty() {
-        let mut g = Mikk {
-            verts: &mut corners,
-            faces: &tangent_faces,
-        };
-        mikktspace::generate_tangents(&mut g);
-        for &f in &tangent_faces {
-            for v in &mut corners[f as usize * 3..f as usize * 3 + 3] {
-                if !v.tangent.iter().all(|c| c.is_finite()) {
-                    v.tangent = [1.0, 0.0, 0.0, 1.0];
-                }
-                v.tangent = v.tangent.map(plus_zero);
-            }
-        }
-    }
-    timer.lap("tangents");
-
-    stats.corners = corners.len();
-    let (unique, remap) = meshopt::generate_vertex_remap(&corners, None);
-    let mut indices = meshopt::remap_index_buffer(None, corners.len(), &remap);
-    let vertices: Vec<StandardVertex> = meshopt::remap_vertex_buffer(&corners, unique, &remap);
-    drop(corners);
-    timer.lap("dedupe");
+    let (vertices, mut indices) = if any_tangents {
+        let (v, i, tangent_triangles) = dedupe_with_tangents(
+            src,
+            &keep,
+            tri_material,
+            needs,
+            &corner_normal,
+            &normal_table,
+        );
+        stats.tangent_triangles = tangent_triangles;
+        timer.lap("tangents+dedupe");
+        (v, i)
+    } else {
+        let (v, i) = dedupe_by_key(
+            src,
+            &canon,
+            &keep,
+            tri_material,
+            &corner_normal,
+            &normal_table,
+        );
+        timer.lap("dedupe");
+        (v, i)
+    };
 
     let mut ranges: Vec<pack::DrawRange> = Vec::new();
     for (k, &t) in keep.iter().enumerate() {

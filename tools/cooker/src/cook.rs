@@ -134,8 +134,11 @@ fn print_stats(out: &cook::CookOutput, write_time: Duration) {
                     "  ({} of {} corners generated)",
                     s.normals_generated, s.corners
                 ),
-                "tangents" => format!("  ({} triangles with tangents)", s.tangent_triangles),
-                "dedupe" => format!("  ({} corners -> {} vertices)", s.corners, s.vertices_out),
+                "tangents+dedupe" => format!(
+                    "  ({} triangles with tangents, {} corners)",
+                    s.tangent_triangles, s.corners
+                ),
+                "dedupe" => format!("  ({} corners)", s.corners),
                 _ => String::new(),
             };
             println!(
