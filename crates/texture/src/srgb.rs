@@ -58,6 +58,9 @@ const BUCKETS: usize = 4096;
 const MANTISSA_BITS: u32 = 7;
 const MIN_EXP: i32 = -13;
 const FAST_BUCKETS: usize = ((-MIN_EXP) as usize) << MANTISSA_BITS;
+/// Bit patterns per bucket: 2^BUCKET_BITS.
+const BUCKET_BITS: u32 = 23 - MANTISSA_BITS;
+const LO: f32 = 1.0 / 8192.0; // 2^MIN_EXP
 
 /// Correctly rounded linear → 8-bit sRGB encoder (fetch once with [`encoder`], reuse in loops).
 pub struct Encoder {
@@ -65,10 +68,10 @@ pub struct Encoder {
     thresholds64: [f64; 255],
     /// The code of each f64 bucket's lower end, so a lookup starts at most a step or two short.
     start: [u8; BUCKETS + 1],
-    /// Per bit-pattern bucket: the code at its lower end and the one threshold inside it
-    /// (infinity when none).
-    base: Vec<i32>,
-    step: Vec<f32>,
+    /// Per bit-pattern bucket: the code at its lower end (bits 17..) and the offset of the one
+    /// threshold inside it from the bucket's first bit pattern (bits 0..17; 2^16 when none, which
+    /// no offset reaches). One table, so the vector path needs one gather.
+    table: Vec<i32>,
 }
 
 /// The shared encoder tables.
@@ -78,8 +81,7 @@ pub fn encoder() -> &'static Encoder {
         let mut e = Box::new(Encoder {
             thresholds64: [0.0; 255],
             start: [0; BUCKETS + 1],
-            base: vec![0; FAST_BUCKETS + 1],
-            step: vec![f32::INFINITY; FAST_BUCKETS + 1],
+            table: vec![0; FAST_BUCKETS + 1],
         });
         for k in 0..255 {
             e.thresholds64[k] = srgb_to_linear((k as f64 + 0.5) / 255.0);
@@ -108,10 +110,10 @@ pub fn encoder() -> &'static Encoder {
                 "bucket {b} holds {} thresholds",
                 inside.len()
             );
-            e.base[b] = below as i32;
-            if let Some(&t) = inside.first() {
-                e.step[b] = t;
-            }
+            let offset = inside
+                .first()
+                .map_or(1 << BUCKET_BITS, |t| t.to_bits() - lo.to_bits());
+            e.table[b] = ((below as i32) << 17) | offset as i32;
         }
         e
     })
@@ -121,11 +123,12 @@ impl Encoder {
     /// Correctly rounded 8-bit sRGB code of a linear value (clamped to [0, 1]; NaN gives 0).
     #[inline]
     pub fn encode(&self, l: f32) -> u8 {
-        const LO: f32 = 1.0 / 8192.0; // 2^MIN_EXP
-        // Written so NaN takes the first branch.
+        // Written so NaN takes the second branch.
         let l = if l > LO { l.min(1.0) } else { LO };
-        let b = ((l.to_bits() - LO.to_bits()) >> (23 - MANTISSA_BITS)) as usize;
-        (self.base[b] + i32::from(l >= self.step[b])) as u8
+        let bits = l.to_bits() - LO.to_bits();
+        let entry = self.table[(bits >> BUCKET_BITS) as usize];
+        let offset = (bits & ((1 << BUCKET_BITS) - 1)) as i32;
+        ((entry >> 17) + i32::from(offset >= (entry & 0x1_FFFF))) as u8
     }
 }
 
@@ -157,38 +160,37 @@ impl Encoder {
     #[target_feature(enable = "avx2")]
     unsafe fn encode_rgba_avx2(&self, src: &[[f32; 4]], out: &mut [u8]) {
         use std::arch::x86_64::*;
-        const LO: f32 = 1.0 / 8192.0;
         let pairs = src.len().min(out.len() / 4) / 2;
         let lo = _mm256_set1_ps(LO);
         let lo_bits = _mm256_set1_epi32(LO.to_bits() as i32);
         let one = _mm256_set1_ps(1.0);
+        let offset_mask = _mm256_set1_epi32((1 << BUCKET_BITS) - 1);
+        let threshold_mask = _mm256_set1_epi32(0x1_FFFF);
+        let ones = _mm256_set1_epi32(1);
         for i in 0..pairs {
             let flat = src[2 * i..2 * i + 2].as_flattened();
             // SAFETY: `flat` holds exactly 8 floats; unaligned load.
             let v = unsafe { _mm256_loadu_ps(flat.as_ptr()) };
             let above = _mm256_cmp_ps::<_CMP_GT_OQ>(v, lo);
             let l = _mm256_blendv_ps(lo, _mm256_min_ps(v, one), above);
-            let idx = _mm256_srli_epi32::<{ 23 - MANTISSA_BITS as i32 }>(_mm256_sub_epi32(
-                _mm256_castps_si256(l),
-                lo_bits,
-            ));
+            let bits = _mm256_sub_epi32(_mm256_castps_si256(l), lo_bits);
+            let idx = _mm256_srli_epi32::<{ BUCKET_BITS as i32 }>(bits);
             // SAFETY: `l` is clamped to [2^MIN_EXP, 1], so every index is in 0..=FAST_BUCKETS,
-            // the length of both tables.
-            let (base, step) = unsafe {
-                (
-                    _mm256_i32gather_epi32::<4>(self.base.as_ptr(), idx),
-                    _mm256_i32gather_ps::<4>(self.step.as_ptr(), idx),
-                )
-            };
-            let ge = _mm256_castps_si256(_mm256_cmp_ps::<_CMP_GE_OQ>(l, step));
-            let code = _mm256_sub_epi32(base, ge);
-            let mut codes = [0i32; 8];
-            // SAFETY: `codes` holds 8 i32; unaligned store.
-            unsafe { _mm256_storeu_si256(codes.as_mut_ptr().cast(), code) };
+            // the table's length minus one.
+            let entry = unsafe { _mm256_i32gather_epi32::<4>(self.table.as_ptr(), idx) };
+            let offset = _mm256_and_si256(bits, offset_mask);
+            let below = _mm256_cmpgt_epi32(_mm256_and_si256(entry, threshold_mask), offset);
+            // base + 1, less one where the offset is below the threshold (mask is -1 there).
+            let code = _mm256_add_epi32(
+                _mm256_add_epi32(_mm256_srli_epi32::<17>(entry), ones),
+                below,
+            );
+            let packed = _mm256_packus_epi16(_mm256_packus_epi32(code, code), code);
+            let lo4 = _mm_cvtsi128_si32(_mm256_castsi256_si128(packed)) as u32;
+            let hi4 = _mm_cvtsi128_si32(_mm256_extracti128_si256::<1>(packed)) as u32;
             let o = &mut out[8 * i..8 * i + 8];
-            for j in 0..8 {
-                o[j] = codes[j] as u8;
-            }
+            o[..4].copy_from_slice(&lo4.to_le_bytes());
+            o[4..].copy_from_slice(&hi4.to_le_bytes());
             o[3] = unorm8(flat[3]);
             o[7] = unorm8(flat[7]);
         }
