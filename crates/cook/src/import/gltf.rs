@@ -24,8 +24,50 @@ fn bad(path: &Path, message: impl Into<String>) -> CookError {
     }
 }
 
+/// Checks a GLB header before the gltf crate sees it: gltf 1.4 subtracts the header size from
+/// the declared length unchecked (an overflow panic, or a ~4 GiB allocation in release builds,
+/// found by fuzzing), so the declared length must cover the header and a chunk header and must
+/// not exceed the file.
+fn check_glb_header(path: &Path, bytes: &[u8]) -> Result<(), CookError> {
+    if !bytes.starts_with(b"glTF") {
+        return Ok(());
+    }
+    if bytes.len() < 20 {
+        return Err(bad(
+            path,
+            format!(
+                "GLB file is {} bytes, shorter than its 20-byte headers",
+                bytes.len()
+            ),
+        ));
+    }
+    let version = u32::from_le_bytes(bytes[4..8].try_into().unwrap());
+    let length = u32::from_le_bytes(bytes[8..12].try_into().unwrap()) as usize;
+    if version != 2 {
+        return Err(bad(
+            path,
+            format!("GLB version is {version}, only 2 is supported"),
+        ));
+    }
+    if length < 20 || length > bytes.len() {
+        return Err(bad(
+            path,
+            format!(
+                "GLB header declares {length} bytes, but the file has {} (and at least 20 are needed)",
+                bytes.len()
+            ),
+        ));
+    }
+    Ok(())
+}
+
 pub fn import(path: &Path) -> Result<Imported, CookError> {
-    let gltf = gltf::Gltf::open(path).map_err(|e| match e {
+    let bytes = std::fs::read(path).map_err(|source| CookError::Io {
+        path: path.to_path_buf(),
+        source,
+    })?;
+    check_glb_header(path, &bytes)?;
+    let gltf = gltf::Gltf::from_slice(&bytes).map_err(|e| match e {
         gltf::Error::Io(source) => CookError::Io {
             path: path.to_path_buf(),
             source,
