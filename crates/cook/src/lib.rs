@@ -242,13 +242,14 @@ pub fn cook(manifest: &Manifest, settings: &Settings) -> Result<CookOutput, Cook
             "cooking a bare mesh without a scene.toml: materials are tagged by name heuristics only",
         ));
     }
-    for (s, _) in &sources {
+    for (s, _) in sources.iter() {
         report.warnings.extend(s.warnings.iter().cloned());
     }
     lap(&mut report, "import");
 
     // 2. Tag: source names to pack materials with a class.
-    let imported: Vec<import::Imported> = sources.iter().map(|(s, _)| s.clone()).collect();
+    let (imported, import_times): (Vec<import::Imported>, Vec<Duration>) =
+        sources.into_iter().unzip();
     let mut tagging = tag::tag(manifest, &imported)?;
     note_heuristics(&imported, &tagging, &mut report);
     let needs = material_needs(&tagging);
@@ -341,7 +342,11 @@ pub fn cook(manifest: &Manifest, settings: &Settings) -> Result<CookOutput, Cook
         meshes: Vec::new(),
         textures: texture_data,
     };
-    for ((p, (src, import_time)), m) in processed.into_iter().zip(sources).zip(&manifest.meshes) {
+    for ((p, (src, import_time)), m) in processed
+        .into_iter()
+        .zip(imported.iter().zip(import_times))
+        .zip(&manifest.meshes)
+    {
         let mut mesh_report = MeshReport {
             name: m.name.clone(),
             source: m.source.clone(),
