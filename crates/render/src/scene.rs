@@ -957,3 +957,84 @@ impl Projectors {
         }
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use pack::VertexAttribute;
+
+    fn oct_encode(n: [f32; 3]) -> [i16; 2] {
+        let l1 = n[0].abs() + n[1].abs() + n[2].abs();
+        let (x, y) = (n[0] / l1, n[1] / l1);
+        let e = if n[2] >= 0.0 {
+            [x, y]
+        } else {
+            [(1.0 - y.abs()) * x.signum(), (1.0 - x.abs()) * y.signum()]
+        };
+        e.map(|c| (c * 32767.0).round() as i16)
+    }
+
+    /// The cooker's quantized layout: positions Unorm16x4 over the bounds, octahedral normals
+    /// and tangents (handedness in z), Unorm16 UVs.
+    #[test]
+    fn quantized_vertices_decode_to_standard() {
+        let attr = |semantic, format, offset| VertexAttribute {
+            semantic,
+            format,
+            offset,
+        };
+        let layout = VertexLayout {
+            stride: 28,
+            attributes: vec![
+                attr(Semantic::Position, AttributeFormat::Unorm16x4, 0),
+                attr(Semantic::Normal, AttributeFormat::Snorm16x2, 8),
+                attr(Semantic::Tangent, AttributeFormat::Snorm16x4, 12),
+                attr(Semantic::TexCoord, AttributeFormat::Unorm16x2, 20),
+                attr(Semantic::MaterialId, AttributeFormat::Uint16x2, 24),
+            ],
+            position_offset: [-2.0, 0.0, 1.0],
+            position_scale: [4.0, 3.0, 2.0],
+        };
+        let normal = glam::Vec3::new(0.3, -0.5, -0.8).normalize();
+        let tangent = glam::Vec3::new(0.0, 0.848, -0.53).normalize();
+        let mut bytes = Vec::new();
+        for q in [0u16, 65535, 32768, 0] {
+            bytes.extend_from_slice(&q.to_le_bytes());
+        }
+        for c in oct_encode(normal.to_array()) {
+            bytes.extend_from_slice(&c.to_le_bytes());
+        }
+        let t = oct_encode(tangent.to_array());
+        for c in [t[0], t[1], -32767, 0] {
+            bytes.extend_from_slice(&c.to_le_bytes());
+        }
+        for q in [16384u16, 65535] {
+            bytes.extend_from_slice(&q.to_le_bytes());
+        }
+        bytes.extend_from_slice(&[3, 0, 0, 0]);
+        let v = standard_vertices(&layout, &bytes, 1).unwrap().unwrap()[0];
+        let p = glam::Vec3::from(v.position);
+        assert!(
+            (p - glam::Vec3::new(-2.0, 3.0, 1.0 + 2.0 * 32768.0 / 65535.0)).length() < 1e-5,
+            "{p}"
+        );
+        assert!(
+            glam::Vec3::from(v.normal).angle_between(normal) < 1e-3,
+            "{:?}",
+            v.normal
+        );
+        let vt = glam::Vec4::from(v.tangent);
+        assert!(
+            vt.truncate().angle_between(tangent) < 1e-3 && vt.w == -1.0,
+            "{vt}"
+        );
+        assert!((v.uv[0] - 16384.0 / 65535.0).abs() < 1e-6 && v.uv[1] == 1.0);
+        // The standard layout is uploaded as is, and short data is an error, not a panic.
+        assert!(
+            standard_vertices(&VertexLayout::standard(), &[0; 52], 1)
+                .unwrap()
+                .is_none()
+        );
+        assert!(standard_vertices(&layout, &bytes[..20], 1).is_err());
+    }
+}

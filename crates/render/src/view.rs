@@ -467,3 +467,72 @@ mod tests {
         }
     }
 }
+
+#[cfg(test)]
+mod march_tests {
+    use super::*;
+
+    /// Around the perpendicular view, where the light's w goes to zero, the march stays finite
+    /// and changes smoothly: the CPU march over a mask with a bright bar, in 0.05° steps.
+    #[test]
+    fn march_is_finite_and_continuous_as_w_goes_to_zero() {
+        let (w, h) = (32usize, 18usize);
+        let mut mask = vec![[0.0f32; 4]; w * h];
+        for y in 4..14 {
+            for x in 20..24 {
+                mask[y * w + x] = [1.0, 0.5, 0.2, 1.0];
+            }
+        }
+        let light = LightGeometry::Directional {
+            towards: Vec3::new(1.0, 0.2, 0.0).normalize(),
+        };
+        let settings = GodRaySettings {
+            samples: 32,
+            ..Default::default()
+        };
+        let mut energies = Vec::new();
+        let mut deg = 70.0f32;
+        while deg <= 95.0 {
+            let a = deg.to_radians();
+            // Turn away from the light about the vertical axis.
+            let forward = Vec3::new(a.cos(), 0.0, -a.sin());
+            let view = View::look(
+                Vec3::ZERO,
+                forward,
+                Vec3::Y,
+                60.0,
+                w as f32 / h as f32,
+                0.1,
+                100.0,
+            );
+            let (u, fade) = god_ray_uniforms(&settings, &view, &light, Vec3::ONE, 0);
+            assert!(
+                u.light
+                    .iter()
+                    .chain(&u.colour)
+                    .chain(&u.params)
+                    .all(|v| v.is_finite()),
+                "{deg}°: {u:?}"
+            );
+            let out = god_rays_reference(&u, &mask, w, h, w, h);
+            let energy: f32 = out.iter().map(|c| c.element_sum()).sum();
+            assert!(energy.is_finite(), "{deg}°");
+            if deg >= 90.0 {
+                assert_eq!(energy, 0.0, "{deg}°, fade {fade}");
+            }
+            energies.push((deg, energy));
+            deg += 0.05;
+        }
+        let peak = energies.iter().map(|e| e.1).fold(0.0f32, f32::max);
+        assert!(peak > 0.0);
+        for pair in energies.windows(2) {
+            let step = (pair[1].1 - pair[0].1).abs() / peak;
+            assert!(
+                step <= 0.01,
+                "jump of {step} of the peak between {}° and {}°",
+                pair[0].0,
+                pair[1].0
+            );
+        }
+    }
+}
