@@ -36,9 +36,18 @@ struct Args {
     /// σ values to sweep, comma-separated (default 1,2,4,8,16,32,64; 1,2,4,8 with --quick).
     #[arg(long, value_delimiter = ',')]
     sigmas: Option<Vec<f32>>,
+    /// Blur error is measured over a square region this many texels wide (the top-left corner
+    /// for ours, an interior square for the anchors): the f64 reference of the whole 4096²
+    /// image would take minutes per σ.
+    #[arg(long, default_value_t = 1024)]
+    error_region: usize,
     /// Skip the god-ray sweep (it needs a GPU adapter; lavapipe is enough).
     #[arg(long)]
     no_god_rays: bool,
+    /// Run only these sweeps (blur, mips, meshes, god-rays), comma-separated; the others are
+    /// left out of the report.
+    #[arg(long, value_delimiter = ',')]
+    only: Option<Vec<String>>,
     /// Use whatever Vulkan driver the loader picks instead of forcing lavapipe.
     #[arg(long)]
     native_gpu: bool,
@@ -76,35 +85,53 @@ fn main() -> Result<()> {
     let mut progress = |s: &str| eprintln!("{s}");
     eprintln!("{}", machine.markdown());
 
-    let blur = bench::blur::sweep(
-        &BlurConfig {
-            size: blur_size,
-            sigmas,
-            runs,
-            external_limit_s: if args.quick { 5.0 } else { 30.0 },
-            scratch: scratch.clone(),
-        },
-        &mut progress,
-    )?;
+    let wanted = |name: &str| {
+        args.only
+            .as_ref()
+            .is_none_or(|o| o.iter().any(|x| x == name))
+    };
+    let blur = if wanted("blur") {
+        bench::blur::sweep(
+            &BlurConfig {
+                size: blur_size,
+                sigmas,
+                runs,
+                external_limit_s: if args.quick { 5.0 } else { 30.0 },
+                region: args.error_region,
+                scratch: scratch.clone(),
+            },
+            &mut progress,
+        )?
+    } else {
+        Vec::new()
+    };
     let mip_size = blur_size;
-    let mips = bench::mips::sweep(
-        &MipConfig {
-            size: mip_size,
-            runs,
-        },
-        &mut progress,
-    )?;
-    let meshes = bench::mesh::sweep(
-        &MeshConfig {
-            grid: if args.quick { 100 } else { 707 },
-            runs,
-            bunny: bench::mesh::bunny_path(),
-            scratch: scratch.clone(),
-        },
-        &mut progress,
-    )?;
-    let god_rays = if args.no_god_rays {
-        Err("skipped (--no-god-rays)".to_string())
+    let mips = if wanted("mips") {
+        bench::mips::sweep(
+            &MipConfig {
+                size: mip_size,
+                runs,
+            },
+            &mut progress,
+        )?
+    } else {
+        Vec::new()
+    };
+    let meshes = if wanted("meshes") {
+        bench::mesh::sweep(
+            &MeshConfig {
+                grid: if args.quick { 100 } else { 707 },
+                runs,
+                bunny: bench::mesh::bunny_path(),
+                scratch: scratch.clone(),
+            },
+            &mut progress,
+        )?
+    } else {
+        Vec::new()
+    };
+    let god_rays = if args.no_god_rays || !wanted("god-rays") {
+        Err("skipped".to_string())
     } else {
         let cfg = if args.quick {
             GodRayConfig {
@@ -135,6 +162,7 @@ fn main() -> Result<()> {
         machine,
         command,
         blur_size,
+        blur_error_region: args.error_region,
         mip_size,
         blur,
         mips,

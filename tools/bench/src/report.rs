@@ -19,6 +19,7 @@ pub struct Results {
     pub machine: Machine,
     pub command: String,
     pub blur_size: usize,
+    pub blur_error_region: usize,
     pub mip_size: usize,
     pub blur: Vec<BlurRow>,
     pub mips: Vec<MipRow>,
@@ -224,13 +225,18 @@ fn dedup(it: impl Iterator<Item = String>) -> Vec<String> {
 
 fn blur_section(dir: &Path, md: &mut String, r: &Results) -> Result<()> {
     let _ = writeln!(md, "## Blur ({0}x{0} RGBA8)\n", r.blur_size);
+    let region = r.blur_error_region.min(r.blur_size);
     let _ = writeln!(
         md,
         "Ours (crates/texture): Gaussian in linear light, premultiplied alpha, zero border, \
-         measured over the whole image against the f64 reference (`texture::reference_blur`). \
-         Anchors filter the stored gamma-encoded bytes with straight alpha and clamp at the edges, \
-         so they are measured against an f64 blur of those bytes, only where no kernel reaches an \
-         edge (`reference = gamma`). External tools include process start and PNG decode and \
+         measured against the f64 reference (`texture::reference_blur`) over the top-left \
+         {region}x{region} texels (two borders and a corner; the f64 reference of a whole 4096² \
+         image takes minutes per σ, and it is computed exactly over that region). Anchors filter \
+         the stored gamma-encoded bytes and clamp at the edges, so they are measured against an \
+         f64 blur of those bytes over a {region}x{region} square no kernel reaches the border \
+         from (`reference = gamma`). The design is opaque: with translucent texels the anchors \
+         disagree on alpha (ImageMagick weights colour by alpha, the others do not), so no single \
+         gamma-space reference would be fair to all of them. External tools include process start and PNG decode and \
          encode; an empty cell means the tool is not installed or was not run (see note).\n"
     );
     let _ = writeln!(
@@ -513,6 +519,7 @@ pub struct ErrorTable {
     pub image_size: usize,
     pub blur: Vec<BlurEntry>,
     pub mip: Vec<MipEntry>,
+    pub god_rays: Vec<GodRayEntry>,
 }
 
 #[derive(Debug, Serialize)]
@@ -521,6 +528,16 @@ pub struct BlurEntry {
     pub sigma: f32,
     pub max_error_lsb: f64,
     pub rms_error_lsb: f64,
+    pub relative_cost: f64,
+}
+
+#[derive(Debug, Serialize)]
+pub struct GodRayEntry {
+    pub samples: u32,
+    pub resolution_scale: f32,
+    pub jitter: bool,
+    pub flip_mean: f64,
+    pub flip_p99: f64,
     pub relative_cost: f64,
 }
 
@@ -574,7 +591,36 @@ pub fn error_table(r: &Results) -> Result<ErrorTable> {
             relative_cost: round(m.time_ms / mip_unit, 3).max(0.001),
         })
         .collect();
+    // God rays: pass time relative to the renderer's default setting.
+    let mut god_rays = Vec::new();
+    if let Ok(g) = &r.god_rays {
+        let d = render::view::GodRaySettings::default();
+        let unit = g
+            .rows
+            .iter()
+            .find(|x| {
+                x.samples == d.samples
+                    && x.resolution_scale == d.resolution_scale
+                    && x.jitter == d.jitter
+            })
+            .and_then(|x| x.god_ray_ms);
+        if let Some(unit) = unit {
+            for x in &g.rows {
+                if let Some(ms) = x.god_ray_ms {
+                    god_rays.push(GodRayEntry {
+                        samples: x.samples,
+                        resolution_scale: x.resolution_scale,
+                        jitter: x.jitter,
+                        flip_mean: round(x.flip_mean, 5),
+                        flip_p99: round(x.flip_p99, 5),
+                        relative_cost: round(ms / unit, 3).max(0.001),
+                    });
+                }
+            }
+        }
+    }
     Ok(ErrorTable {
+        god_rays,
         generated_by: r.command.clone(),
         machine: r.machine.markdown(),
         image_size: r.blur_size,
