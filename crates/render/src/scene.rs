@@ -391,7 +391,7 @@ impl Scene {
                     .device
                     .create_buffer_init(&wgpu::util::BufferInitDescriptor {
                         label: Some(&m.name),
-                        contents: data,
+                        contents: if data.is_empty() { &[0u8; 4] } else { data },
                         usage: wgpu::BufferUsages::VERTEX,
                     });
                 self.meshes[mesh as usize].vertices = Some(buffer);
@@ -399,9 +399,10 @@ impl Scene {
             }
             SectionRole::Indices { mesh } => {
                 let m = &self.toc.meshes[mesh as usize];
-                // Buffers must be a multiple of 4 bytes; an odd count of u16 indices is padded.
+                // Buffers must be a multiple of 4 bytes (an odd count of u16 indices is padded)
+                // and are kept non-empty, so a mesh without triangles needs no special case.
                 let mut data = bytes.to_vec();
-                data.resize(bytes.len().div_ceil(4) * 4, 0);
+                data.resize((bytes.len().div_ceil(4) * 4).max(4), 0);
                 let buffer = gpu
                     .device
                     .create_buffer_init(&wgpu::util::BufferInitDescriptor {
