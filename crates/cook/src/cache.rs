@@ -5,8 +5,10 @@
 //! deliberately not part of it: cooking is deterministic, so it never changes the output.
 //! Changing what goes into a key, or how, is a breaking change: bump `CACHE_VERSION`.
 //!
-//! Entries are files `<dir>/<key hex>.entry`: magic, payload length, SHA-256 of the payload,
-//! payload. A damaged entry (truncated, flipped bits, wrong magic) is reported as corrupt and
+//! Entries are files `<dir>/<key hex>.entry`: magic, payload length, CRC-32 of the payload,
+//! payload. (The payload check guards against damage, not an adversary: CRC-32 catches every
+//! single-bit flip and burst, and runs at memory speed, where SHA-256 over a 50 MB pack would
+//! dominate a cache hit.) A damaged entry (truncated, flipped bits, wrong magic) is reported as corrupt and
 //! re-cooked, never used. Entries are written to a temp file and renamed into place, so two
 //! cooks sharing a cache only ever see complete entries (both write identical bytes for a key).
 
@@ -19,7 +21,7 @@ use crate::CookError;
 const MAGIC: &[u8; 8] = b"SGCACHE\x01";
 /// Bump when the meaning of keys or payloads changes.
 pub const CACHE_VERSION: u32 = 1;
-const HEADER: usize = 8 + 8 + 32;
+const HEADER: usize = 8 + 8 + 4 + 4;
 
 /// A cache key: SHA-256 over an artifact's inputs.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
@@ -151,7 +153,8 @@ impl Cache {
         let mut bytes = Vec::with_capacity(HEADER + payload.len());
         bytes.extend_from_slice(MAGIC);
         bytes.extend_from_slice(&(payload.len() as u64).to_le_bytes());
-        bytes.extend_from_slice(&digest(payload));
+        bytes.extend_from_slice(&crc32fast::hash(payload).to_le_bytes());
+        bytes.extend_from_slice(&[0; 4]);
         bytes.extend_from_slice(payload);
         pack::write_atomic(&self.path(key), &bytes)?;
         Ok(())
@@ -175,7 +178,9 @@ fn check_entry(bytes: &[u8]) -> Result<(), String> {
             bytes.len() - HEADER
         ));
     }
-    if digest(&bytes[HEADER..])[..] != bytes[16..48] {
+    if crc32fast::hash(&bytes[HEADER..]).to_le_bytes()[..] != bytes[16..20]
+        || bytes[20..24] != [0; 4]
+    {
         return Err("checksum mismatch".into());
     }
     Ok(())

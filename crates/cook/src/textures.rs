@@ -10,7 +10,7 @@ use rayon::prelude::*;
 use crate::import::ImageRef;
 use crate::manifest::{GreenAxis, Manifest, MipFilter, NormalEncoding, WindowDesign};
 use crate::tag::Tagging;
-use crate::{CookError, Report, Settings, Warning};
+use crate::{CookError, Report, Settings, Warning, cache};
 
 /// One texture to cook.
 #[derive(Clone, Debug, PartialEq)]
@@ -142,6 +142,169 @@ fn seed(path: &Path) -> u64 {
         h = (h ^ b as u64).wrapping_mul(0x100_0000_01b3);
     }
     h
+}
+
+impl Job {
+    /// The image file the job reads, if it is a file.
+    fn file(&self) -> Option<&Path> {
+        match self {
+            Job::Colour {
+                image: ImageRef::File(p),
+                ..
+            }
+            | Job::Normal {
+                image: ImageRef::File(p),
+                ..
+            } => Some(p),
+            Job::DerivedNormal { design } | Job::Projector { design, .. } => Some(design),
+            _ => None,
+        }
+    }
+
+    fn base_name_suffix(&self) -> String {
+        match self {
+            Job::Colour { .. } => " (colour)".into(),
+            Job::Normal { .. } => " (normal)".into(),
+            Job::DerivedNormal { .. } => " (derived normal)".into(),
+            Job::Projector { sigma, .. } => format!(" (projector, sigma {sigma})"),
+        }
+    }
+
+    /// The cache key: the image's bytes and every parameter that shapes the result. The path
+    /// is part of it because a derived normal map's noise is seeded by the file name.
+    fn cache_key(
+        &self,
+        mip_filter: MipFilter,
+        max_error: Option<f32>,
+    ) -> Result<cache::Key, CookError> {
+        let mut k = cache::KeyBuilder::new("texture");
+        match self {
+            Job::Colour { image, srgb } => {
+                k.str("job", "colour").u64("srgb", *srgb as u64);
+                key_image(&mut k, image)?;
+            }
+            Job::Normal {
+                image,
+                encoding,
+                green,
+            } => {
+                k.str("job", "normal")
+                    .str("encoding", &format!("{encoding:?}"))
+                    .str("green", &format!("{green:?}"));
+                key_image(&mut k, image)?;
+            }
+            Job::DerivedNormal { design } => {
+                k.str("job", "derived normal").u64("seed", seed(design));
+                k.file("image", design)?;
+            }
+            Job::Projector { design, sigma } => {
+                k.str("job", "projector")
+                    .u64("sigma", sigma.to_bits() as u64);
+                k.file("image", design)?;
+            }
+        }
+        k.str("mip filter", &format!("{mip_filter:?}"));
+        k.u64(
+            "max error",
+            max_error.map_or(u64::MAX, |e| e.to_bits() as u64),
+        );
+        Ok(k.finish())
+    }
+}
+
+fn key_image(k: &mut cache::KeyBuilder, image: &ImageRef) -> Result<(), CookError> {
+    match image {
+        ImageRef::File(p) => {
+            k.file("image", p)?;
+        }
+        ImageRef::Embedded { name, bytes } => {
+            k.str("name", name).bytes("image", bytes);
+        }
+    }
+    Ok(())
+}
+
+fn encode_chain(chain: &texture::MipChain, note: &Option<String>) -> Vec<u8> {
+    let mut out = Vec::new();
+    out.extend_from_slice(&chain.width.to_le_bytes());
+    out.extend_from_slice(&chain.height.to_le_bytes());
+    out.extend_from_slice(&(chain.levels.len() as u32).to_le_bytes());
+    for l in &chain.levels {
+        out.extend_from_slice(&(l.len() as u64).to_le_bytes());
+        out.extend_from_slice(l);
+    }
+    let note = note.as_deref().unwrap_or("");
+    out.extend_from_slice(&(note.len() as u64).to_le_bytes());
+    out.extend_from_slice(note.as_bytes());
+    out
+}
+
+/// Decodes a cache payload; `None` when it does not hold a well-formed chain.
+fn decode_chain(bytes: &[u8]) -> Option<(texture::MipChain, Option<String>)> {
+    let mut at = 0usize;
+    let mut take = |n: usize| -> Option<&[u8]> {
+        let s = bytes.get(at..at.checked_add(n)?)?;
+        at += n;
+        Some(s)
+    };
+    let u32_ = |b: &[u8]| u32::from_le_bytes(b.try_into().unwrap());
+    let width = u32_(take(4)?);
+    let height = u32_(take(4)?);
+    let n = u32_(take(4)?) as usize;
+    let mut levels = Vec::with_capacity(n.min(32));
+    let (mut w, mut h) = (width as u64, height as u64);
+    for _ in 0..n {
+        let len = u64::from_le_bytes(take(8)?.try_into().unwrap());
+        if len != w * h * 4 {
+            return None;
+        }
+        levels.push(take(len as usize)?.to_vec());
+        w = (w / 2).max(1);
+        h = (h / 2).max(1);
+    }
+    let nlen = u64::from_le_bytes(take(8)?.try_into().unwrap()) as usize;
+    let note = String::from_utf8(take(nlen)?.to_vec()).ok()?;
+    if at != bytes.len() || levels.is_empty() {
+        return None;
+    }
+    Some((
+        texture::MipChain {
+            width,
+            height,
+            levels,
+        },
+        (!note.is_empty()).then_some(note),
+    ))
+}
+
+/// Cooks one texture, or reuses it from the cache.
+fn run_cached(
+    job: &Job,
+    mip_filter: MipFilter,
+    max_error: Option<f32>,
+    cache: Option<&cache::Cache>,
+) -> Result<(texture::MipChain, Option<String>, crate::ArtifactSource), CookError> {
+    let Some(cache) = cache else {
+        let (c, n) = run(job, mip_filter, max_error)?;
+        return Ok((c, n, crate::ArtifactSource::Cooked));
+    };
+    let key = job.cache_key(mip_filter, max_error)?;
+    let mut source = crate::ArtifactSource::Cooked;
+    match cache.get(&key) {
+        cache::Lookup::Hit(bytes) => match decode_chain(&bytes) {
+            Some((c, n)) => return Ok((c, n, crate::ArtifactSource::Reused)),
+            None => {
+                source =
+                    crate::ArtifactSource::Recooked(format!("{}: malformed payload", key.hex()))
+            }
+        },
+        cache::Lookup::Corrupt(why) => source = crate::ArtifactSource::Recooked(why),
+        cache::Lookup::Miss => {}
+    }
+    let (c, n) = run(job, mip_filter, max_error)?;
+    // A cache that cannot be written only costs time next cook; the cook itself succeeded.
+    let _ = cache.put(&key, &encode_chain(&c, &n));
+    Ok((c, n, source))
 }
 
 fn run(
@@ -318,15 +481,32 @@ pub fn cook_textures(
         })
     });
 
-    let results: Vec<Result<(texture::MipChain, Option<String>), CookError>> = jobs
+    for job in &jobs {
+        if let Some(p) = job.file() {
+            report.inputs.push(p.to_path_buf());
+        }
+    }
+    let results: Vec<
+        Result<(texture::MipChain, Option<String>, crate::ArtifactSource), CookError>,
+    > = jobs
         .par_iter()
-        .map(|j| run(j, manifest.textures.mip_filter, manifest.scene.max_error))
+        .map(|j| {
+            run_cached(
+                j,
+                manifest.textures.mip_filter,
+                manifest.scene.max_error,
+                settings.cache.as_ref(),
+            )
+        })
         .collect();
     let mut textures = Vec::with_capacity(jobs.len());
     let mut data = Vec::with_capacity(jobs.len());
     let mut names: HashMap<String, usize> = HashMap::new();
     for (job, result) in jobs.iter().zip(results) {
-        let (chain, note) = result?;
+        let (chain, note, source) = result?;
+        report
+            .artifacts
+            .push((job.image_name() + &job.base_name_suffix(), source));
         if let Some(n) = note {
             report.warnings.push(Warning::new(
                 &manifest.path,

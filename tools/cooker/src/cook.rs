@@ -8,6 +8,7 @@ use anyhow::Context;
 use cook::{CacheMode, Manifest, Settings};
 
 use crate::exit::{OK, Outcome};
+use crate::scene_cache;
 
 #[derive(clap::Args)]
 pub struct Args {
@@ -25,6 +26,13 @@ pub struct Args {
     /// Also reorder opaque ranges to reduce overdraw.
     #[arg(long)]
     overdraw: bool,
+    /// Where cooked artifacts are kept between cooks (default: $STAINED_GLASS_CACHE, else
+    /// $XDG_CACHE_HOME/stained-glass, else ~/.cache/stained-glass).
+    #[arg(long, value_name = "DIR")]
+    cache_dir: Option<PathBuf>,
+    /// Cook everything from scratch; read and write no cache.
+    #[arg(long, conflicts_with = "cache_dir")]
+    no_cache: bool,
     /// Quantize vertices (16-bit positions and UVs, octahedral normals); reports the error.
     #[arg(long)]
     quantize: bool,
@@ -47,6 +55,49 @@ pub fn run(args: Args) -> Outcome {
         CacheMode::Full
     };
     settings.mesh.overdraw = args.overdraw;
+
+    // Reuse: the whole pack when no input changed, else each texture whose inputs did not.
+    let cache = if args.no_cache {
+        None
+    } else {
+        Some(cook::cache::Cache::open(
+            args.cache_dir
+                .clone()
+                .unwrap_or_else(cook::cache::Cache::default_dir),
+        )?)
+    };
+    let scene_key = match &cache {
+        Some(_) => Some(scene_cache::scene_key(&args.input, &settings)?),
+        None => None,
+    };
+    if let (Some(cache), Some(key)) = (&cache, &scene_key) {
+        match scene_cache::lookup(cache, key, &args.output) {
+            scene_cache::Reuse::UpToDate => {
+                println!(
+                    "{} is up to date: no input changed since it was cooked ({})",
+                    args.output.display(),
+                    ms(start.elapsed())
+                );
+                return Ok(OK);
+            }
+            scene_cache::Reuse::Pack(bytes) => {
+                pack::write_atomic(&args.output, &bytes)?;
+                println!(
+                    "wrote {}: reused the cached pack, no input changed ({} bytes in {})",
+                    args.output.display(),
+                    bytes.len(),
+                    ms(start.elapsed())
+                );
+                return Ok(OK);
+            }
+            scene_cache::Reuse::Cook(why) => {
+                if args.verbose {
+                    println!("cache: cooking because {why}");
+                }
+            }
+        }
+    }
+    settings.cache = cache.clone();
 
     let spinner = std::io::stderr().is_terminal().then(|| {
         let pb = indicatif::ProgressBar::new_spinner();
@@ -79,8 +130,40 @@ pub fn run(args: Args) -> Outcome {
     }
 
     let write_start = Instant::now();
-    out.write(&args.output)
+    let bytes = pack::encode(out.toc.clone(), &out.data)?;
+    pack::write_atomic(&args.output, &bytes)
         .with_context(|| format!("writing {}", args.output.display()))?;
+    if let (Some(cache), Some(key)) = (&cache, &scene_key)
+        && let Err(e) = scene_cache::store(cache, key, &report.inputs, &bytes)
+    {
+        eprintln!("warning: cache not updated: {e}");
+    }
+    let reused = report
+        .artifacts
+        .iter()
+        .filter(|(_, s)| *s == cook::ArtifactSource::Reused)
+        .count();
+    if cache.is_some() {
+        println!(
+            "cache: {} textures reused, {} cooked",
+            reused,
+            report.artifacts.len() - reused
+        );
+    }
+    for (name, source) in &report.artifacts {
+        match source {
+            cook::ArtifactSource::Recooked(why) => eprintln!("warning: {why}; re-cooked {name}"),
+            s if args.verbose => println!(
+                "  {:<8} {name}",
+                if *s == cook::ArtifactSource::Reused {
+                    "reused"
+                } else {
+                    "cooked"
+                }
+            ),
+            _ => {}
+        }
+    }
     let write_time = write_start.elapsed();
 
     let triangles: u64 = out

@@ -9,6 +9,7 @@ mod cook;
 mod exit;
 mod extract;
 mod info;
+mod scene_cache;
 mod validate;
 
 use clap::{Parser, Subcommand};

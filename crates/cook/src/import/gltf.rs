@@ -89,6 +89,13 @@ pub fn import(path: &Path) -> Result<Imported, CookError> {
         path: path.to_path_buf(),
         ..Default::default()
     };
+    for b in document.buffers() {
+        if let gltf::buffer::Source::Uri(uri) = b.source()
+            && !uri.starts_with("data:")
+        {
+            out.files.push(base.join(uri));
+        }
+    }
     let mut material_ids: HashMap<usize, u32> = HashMap::new();
     let mut part_ids: HashMap<(Option<usize>, usize, usize), u32> = HashMap::new();
     let mut skipped_modes: Vec<String> = Vec::new();

@@ -155,6 +155,8 @@ pub struct Imported {
     pub warnings: Vec<Warning>,
     /// Polygons with more than three corners that were triangulated.
     pub polygons: usize,
+    /// Other files read for this source (material libraries, glTF buffers).
+    pub files: Vec<PathBuf>,
 }
 
 impl Imported {

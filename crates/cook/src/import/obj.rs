@@ -448,6 +448,7 @@ fn load_mtllib(
         ));
     }
     for mtl in found {
+        out.files.push(mtl.clone());
         let (materials, _) = tobj::load_mtl(&mtl).map_err(|e| CookError::Source {
             path: mtl.clone(),
             line: None,

@@ -1,0 +1,163 @@
+//! The incremental cook cache: an unchanged scene is reused whole, a changed window design
+//! re-cooks only that design's textures, and damaged entries are re-cooked, never used.
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+fn root() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("../..")
+}
+
+fn copy_dir(from: &Path, to: &Path) {
+    std::fs::create_dir_all(to).unwrap();
+    for e in std::fs::read_dir(from).unwrap() {
+        let p = e.unwrap().path();
+        let dest = to.join(p.file_name().unwrap());
+        if p.is_dir() {
+            copy_dir(&p, &dest);
+        } else {
+            std::fs::copy(&p, &dest).unwrap();
+        }
+    }
+}
+
+fn cook(scene: &Path, out: &Path, cache: &Path) -> Output {
+    let o = Command::new(env!("CARGO_BIN_EXE_cooker"))
+        .args(["cook", "-v"])
+        .arg(scene)
+        .arg("-o")
+        .arg(out)
+        .arg("--cache-dir")
+        .arg(cache)
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    o
+}
+
+fn stdout(o: &Output) -> String {
+    String::from_utf8_lossy(&o.stdout).into_owned()
+}
+
+fn lines_starting<'a>(text: &'a str, word: &str) -> Vec<&'a str> {
+    text.lines()
+        .filter(|l| l.trim_start().starts_with(word))
+        .collect()
+}
+
+#[test]
+fn unchanged_scene_reused_changed_design_recooked_alone_damage_detected() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene_dir = dir.path().join("scene");
+    copy_dir(&root().join("assets-src"), &scene_dir);
+    let scene = scene_dir.join("scene.toml");
+    let cache = dir.path().join("cache");
+    let out = dir.path().join("out.pack");
+
+    let first = cook(&scene, &out, &cache);
+    assert!(
+        stdout(&first).contains("0 textures reused"),
+        "{}",
+        stdout(&first)
+    );
+    let clean = std::fs::read(&out).unwrap();
+
+    // Unchanged: nothing is cooked, the output is left as it is.
+    let second = cook(&scene, &out, &cache);
+    assert!(
+        stdout(&second).contains("is up to date"),
+        "{}",
+        stdout(&second)
+    );
+    // Output removed: the cached pack is written back.
+    std::fs::remove_file(&out).unwrap();
+    let third = cook(&scene, &out, &cache);
+    assert!(
+        stdout(&third).contains("reused the cached pack"),
+        "{}",
+        stdout(&third)
+    );
+    assert!(std::fs::read(&out).unwrap() == clean);
+
+    // One design changes: only the textures made from it are cooked again.
+    let design = scene_dir.join("windows/lancet.png");
+    let mut img = image::open(&design).unwrap().to_rgba8();
+    img.get_pixel_mut(10, 10).0 = [255, 0, 255, 255];
+    img.save(&design).unwrap();
+    let fourth = stdout(&cook(&scene, &out, &cache));
+    let cooked = lines_starting(&fourth, "cooked ");
+    let reused = lines_starting(&fourth, "reused ");
+    assert!(!cooked.is_empty() && !reused.is_empty(), "{fourth}");
+    assert!(
+        cooked.iter().all(|l| l.contains("lancet")),
+        "only lancet textures re-cooked: {cooked:?}"
+    );
+    assert!(reused.iter().all(|l| !l.contains("lancet")), "{reused:?}");
+    let changed = std::fs::read(&out).unwrap();
+    assert!(changed != clean);
+
+    // Every cache entry damaged: all are detected, re-cooked, and the pack comes out identical
+    // to a cook without a cache.
+    for e in std::fs::read_dir(&cache).unwrap() {
+        let p = e.unwrap().path();
+        let mut b = std::fs::read(&p).unwrap();
+        let n = b.len();
+        b[n - 1] ^= 0x01;
+        std::fs::write(&p, b).unwrap();
+    }
+    let fresh = dir.path().join("fresh.pack");
+    let o = Command::new(env!("CARGO_BIN_EXE_cooker"))
+        .arg("cook")
+        .arg(&scene)
+        .arg("-o")
+        .arg(&fresh)
+        .arg("--no-cache")
+        .output()
+        .unwrap();
+    assert!(o.status.success());
+    std::fs::remove_file(&out).unwrap();
+    let fifth = cook(&scene, &out, &cache);
+    let err = String::from_utf8_lossy(&fifth.stderr);
+    assert!(err.contains("re-cooked"), "{err}");
+    assert!(
+        stdout(&fifth).contains("0 textures reused"),
+        "{}",
+        stdout(&fifth)
+    );
+    assert!(std::fs::read(&out).unwrap() == std::fs::read(&fresh).unwrap());
+    assert!(std::fs::read(&out).unwrap() == changed);
+}
+
+#[test]
+fn concurrent_cooks_into_one_cache_and_output_are_safe() {
+    let dir = tempfile::tempdir().unwrap();
+    let cache = dir.path().join("cache");
+    let out = dir.path().join("out.pack");
+    let scene = root().join("assets-src/scene.toml");
+    let children: Vec<_> = (0..2)
+        .map(|_| {
+            Command::new(env!("CARGO_BIN_EXE_cooker"))
+                .arg("cook")
+                .arg(&scene)
+                .arg("-o")
+                .arg(&out)
+                .arg("--cache-dir")
+                .arg(&cache)
+                .stdout(std::process::Stdio::null())
+                .stderr(std::process::Stdio::piped())
+                .spawn()
+                .unwrap()
+        })
+        .collect();
+    for c in children {
+        let o = c.wait_with_output().unwrap();
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    }
+    pack::Pack::open(&out).expect("the output is one complete pack");
+    let leftovers: Vec<_> = std::fs::read_dir(dir.path())
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .filter(|n| n.contains(".tmp-"))
+        .collect();
+    assert!(leftovers.is_empty(), "{leftovers:?}");
+}

@@ -1,0 +1,292 @@
+//! The bad-input catalogue: every hostile file gets a specific message naming the file, the
+//! documented exit code, no panic, and no output (a pack already at the output path stays as it
+//! was). Cases are built here in code, plus every malformed third-party file we keep.
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+const OLD_PACK: &[u8] = b"an old pack that must survive a failed cook";
+
+fn root() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("../..")
+}
+
+fn cook(input: &Path, out: &Path) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_cooker"))
+        .arg("cook")
+        .arg(input)
+        .arg("-o")
+        .arg(out)
+        .arg("--no-cache")
+        .output()
+        .expect("cooker runs")
+}
+
+fn text(o: &Output) -> String {
+    format!(
+        "{}{}",
+        String::from_utf8_lossy(&o.stdout),
+        String::from_utf8_lossy(&o.stderr)
+    )
+}
+
+/// Cooks `input`, expecting `code`; the message must name `names` (a file) and say `says`.
+fn expect(input: &Path, code: i32, names: &str, says: &str) {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("out.pack");
+    std::fs::write(&out, OLD_PACK).unwrap();
+    let o = cook(input, &out);
+    let msg = text(&o);
+    assert_eq!(o.status.code(), Some(code), "{}: {msg}", input.display());
+    assert!(!msg.contains("panicked"), "{}: {msg}", input.display());
+    assert!(
+        msg.contains(names),
+        "{}: message does not name {names:?}: {msg}",
+        input.display()
+    );
+    assert!(
+        msg.to_lowercase().contains(&says.to_lowercase()),
+        "{}: message does not say {says:?}: {msg}",
+        input.display()
+    );
+    if code != 0 {
+        assert_eq!(
+            std::fs::read(&out).unwrap(),
+            OLD_PACK,
+            "{}: old pack changed",
+            input.display()
+        );
+        let entries = std::fs::read_dir(dir.path()).unwrap().count();
+        assert_eq!(entries, 1, "{}: temp files left behind", input.display());
+    }
+}
+
+const QUAD_OBJ: &str = "mtllib quad.mtl\nv 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nvt 0 0\nvt 1 0\nvt 1 1\nvt 0 1\nvn 0 0 1\nusemtl glass\nf 1/1/1 2/2/1 3/3/1 4/4/1\n";
+
+/// A scene with one window whose design is `design`.
+fn window_scene(dir: &Path, design: &str) -> PathBuf {
+    std::fs::write(dir.join("quad.obj"), QUAD_OBJ).unwrap();
+    std::fs::write(dir.join("quad.mtl"), "newmtl glass\nKd 1 1 1\n").unwrap();
+    let manifest = format!(
+        "[[mesh]]\nsource = \"quad.obj\"\n\n[[rule]]\nmatch = \"glass\"\nclass = \"window-lower\"\n\n\
+         [[window]]\nmaterial = \"glass\"\ndesign = \"{design}\"\n\n\
+         [light]\ntype = \"directional\"\ndirection = [0.0, -0.5, -1.0]\nangular_size_deg = 0.53\n"
+    );
+    let path = dir.join("scene.toml");
+    std::fs::write(&path, manifest).unwrap();
+    path
+}
+
+fn png_bytes(w: u32, h: u32) -> Vec<u8> {
+    let img = image::RgbaImage::from_fn(w, h, |x, y| image::Rgba([x as u8, y as u8, 128, 255]));
+    let mut out = std::io::Cursor::new(Vec::new());
+    img.write_to(&mut out, image::ImageFormat::Png).unwrap();
+    out.into_inner()
+}
+
+/// A PNG whose header claims `w`×`h` (with a valid CRC) but holds almost no data.
+fn png_claiming(w: u32, h: u32) -> Vec<u8> {
+    let mut ihdr = b"IHDR".to_vec();
+    ihdr.extend_from_slice(&w.to_be_bytes());
+    ihdr.extend_from_slice(&h.to_be_bytes());
+    ihdr.extend_from_slice(&[8, 6, 0, 0, 0]);
+    let mut png = b"\x89PNG\r\n\x1a\n".to_vec();
+    png.extend_from_slice(&13u32.to_be_bytes());
+    png.extend_from_slice(&ihdr);
+    png.extend_from_slice(&crc32fast::hash(&ihdr).to_be_bytes());
+    // One tiny IDAT (zlib of a single zero byte), so decoders get past the header.
+    let mut idat = b"IDAT".to_vec();
+    idat.extend_from_slice(&[0x78, 0x9c, 0x63, 0x00, 0x00, 0x00, 0x01, 0x00, 0x01]);
+    png.extend_from_slice(&9u32.to_be_bytes());
+    png.extend_from_slice(&idat);
+    png.extend_from_slice(&crc32fast::hash(&idat).to_be_bytes());
+    png.extend_from_slice(&[0, 0, 0, 0, b'I', b'E', b'N', b'D', 0xAE, 0x42, 0x60, 0x82]);
+    png
+}
+
+#[test]
+fn hostile_images() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let good = png_bytes(64, 32);
+    std::fs::write(d.join("truncated.png"), &good[..good.len() / 2]).unwrap();
+    std::fs::write(d.join("empty.png"), b"").unwrap();
+    std::fs::write(d.join("huge.png"), png_claiming(100_000, 100_000)).unwrap();
+    std::fs::write(d.join("garbage.png"), b"this is not an image at all").unwrap();
+    for (file, says) in [
+        ("truncated.png", ""),
+        ("empty.png", ""),
+        ("huge.png", "100000"),
+        ("garbage.png", ""),
+    ] {
+        let scene = window_scene(d, file);
+        expect(&scene, 3, file, says);
+    }
+    let scene = window_scene(d, "missing.png");
+    expect(&scene, 3, "missing.png", "");
+}
+
+#[test]
+fn hostile_meshes() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let write = |name: &str, bytes: &[u8]| {
+        let p = d.join(name);
+        std::fs::write(&p, bytes).unwrap();
+        p
+    };
+    // Zero-length and empty-of-geometry files.
+    expect(&write("empty.obj", b""), 3, "empty.obj", "");
+    expect(&write("empty.gltf", b""), 3, "empty.gltf", "");
+    expect(&write("empty.glb", b""), 3, "empty.glb", "");
+    // NaN and infinite coordinates, with the line.
+    expect(
+        &write("nan.obj", b"v 0 0 0\nv 1 0 0\nv nan 1 0\nf 1 2 3\n"),
+        3,
+        "nan.obj:3",
+        "",
+    );
+    expect(
+        &write("inf.obj", b"v 0 0 0\nv 1 inf 0\nv 0 1 0\nf 1 2 3\n"),
+        3,
+        "inf.obj:2",
+        "",
+    );
+    // Indices past the end.
+    expect(
+        &write("index.obj", b"v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 9\n"),
+        3,
+        "index.obj:4",
+        "",
+    );
+    // UTF-16 text is not an OBJ.
+    let utf16: Vec<u8> = "\u{feff}v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n"
+        .encode_utf16()
+        .flat_map(|u| u.to_le_bytes())
+        .collect();
+    expect(&write("utf16.obj", &utf16), 3, "utf16.obj", "");
+    // A missing MTL cooks with a warning.
+    expect(
+        &write(
+            "nomtl.obj",
+            b"mtllib gone.mtl\nv 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n",
+        ),
+        0,
+        "gone.mtl",
+        "warning",
+    );
+    // A truncated GLB, and one whose header length underflows gltf's reader (found by fuzzing).
+    let glb = std::fs::read(root().join("tests/data/third_party/gltf/Box/Box.glb")).unwrap();
+    expect(
+        &write("truncated.glb", &glb[..glb.len() / 2]),
+        3,
+        "truncated.glb",
+        "",
+    );
+    let fuzz = std::fs::read(root().join("tests/data/bad/glb-length-underflow.glb")).unwrap();
+    expect(&write("underflow.glb", &fuzz), 3, "underflow.glb", "");
+    // A node hierarchy that contains itself.
+    let recursive = br#"{"asset":{"version":"2.0"},"scenes":[{"nodes":[0]}],"nodes":[{"children":[1]},{"children":[0]}]}"#;
+    expect(&write("recursive.gltf", recursive), 3, "recursive.gltf", "");
+}
+
+#[test]
+fn hostile_manifests_and_outputs() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    std::fs::write(d.join("quad.obj"), QUAD_OBJ).unwrap();
+    std::fs::write(d.join("quad.mtl"), "newmtl glass\n").unwrap();
+    let m = |name: &str, body: &str| {
+        let p = d.join(name);
+        std::fs::write(&p, body).unwrap();
+        p
+    };
+    expect(
+        &m(
+            "unknown.toml",
+            "[[mesh]]\nsource = \"quad.obj\"\ncolour = 3\n",
+        ),
+        3,
+        "unknown.toml:3",
+        "colour",
+    );
+    expect(
+        &m("type.toml", "[[mesh]]\nsource = 42\n"),
+        3,
+        "type.toml:2",
+        "",
+    );
+    expect(
+        &m("missing.toml", "[[mesh]]\nsource = \"nothere.obj\"\n"),
+        3,
+        "nothere.obj",
+        "",
+    );
+    expect(
+        &m("syntax.toml", "[[mesh]\nsource = \"quad.obj\"\n"),
+        3,
+        "syntax.toml:1",
+        "",
+    );
+    expect(&m("empty.toml", ""), 3, "empty.toml", "");
+
+    // Output paths the OS refuses: exit 4, naming the path.
+    let scene = m("ok.toml", "[[mesh]]\nsource = \"quad.obj\"\n");
+    for out in [d.join("no/such/dir/out.pack"), d.join("quad.obj/out.pack")] {
+        let o = cook(&scene, &out);
+        assert_eq!(o.status.code(), Some(4), "{}: {}", out.display(), text(&o));
+        assert!(text(&o).contains("out.pack"), "{}", text(&o));
+    }
+}
+
+#[test]
+fn third_party_malformed_files_never_panic() {
+    let base = root().join("tests/data/third_party/bad");
+    let mut files = Vec::new();
+    let mut stack = vec![base.clone()];
+    while let Some(dir) = stack.pop() {
+        for e in std::fs::read_dir(&dir).unwrap() {
+            let p = e.unwrap().path();
+            if p.is_dir() {
+                stack.push(p);
+            } else if matches!(
+                p.extension().and_then(|e| e.to_str()),
+                Some("obj" | "gltf" | "glb")
+            ) {
+                files.push(p);
+            }
+        }
+    }
+    files.sort();
+    assert!(
+        files.len() >= 10,
+        "catalogue has only {} files",
+        files.len()
+    );
+    let dir = tempfile::tempdir().unwrap();
+    for f in files {
+        let out = dir.path().join("out.pack");
+        let _ = std::fs::remove_file(&out);
+        let o = cook(&f, &out);
+        let msg = text(&o);
+        let code = o.status.code();
+        assert!(
+            matches!(code, Some(0) | Some(3)),
+            "{}: exit {code:?}: {msg}",
+            f.display()
+        );
+        assert!(!msg.contains("panicked"), "{}: {msg}", f.display());
+        if code == Some(3) {
+            let name = f.file_name().unwrap().to_string_lossy().into_owned();
+            assert!(
+                msg.contains(&name) || msg.contains(".bin") || msg.contains(".mtl"),
+                "{}: error names no file: {msg}",
+                f.display()
+            );
+            assert!(!out.exists(), "{}: failed cook left a pack", f.display());
+        } else {
+            pack::Pack::open(&out)
+                .unwrap_or_else(|e| panic!("{}: cooked pack invalid: {e}", f.display()));
+        }
+    }
+}
