@@ -86,6 +86,8 @@ pub struct Settings {
     pub quantize: bool,
     /// Cook textures; off for geometry-only checks such as `cooker validate`.
     pub textures: bool,
+    /// Reuse cooked textures from this cache, and store new ones in it.
+    pub cache: Option<cache::Cache>,
 }
 
 impl Default for Settings {
@@ -94,6 +96,7 @@ impl Default for Settings {
             mesh: MeshSettings::default(),
             quantize: false,
             textures: true,
+            cache: None,
         }
     }
 }
@@ -134,10 +137,23 @@ pub struct HeuristicNote {
 /// What happened while cooking, for the CLI.
 #[derive(Clone, Debug, Default)]
 pub struct Report {
+    /// Every file the cook read (sorted, without duplicates): what a cache entry depends on.
+    pub inputs: Vec<PathBuf>,
+    /// Per cooked artifact (texture), whether it was cooked or reused from the cache.
+    pub artifacts: Vec<(String, ArtifactSource)>,
     pub warnings: Vec<Warning>,
     pub meshes: Vec<MeshReport>,
     pub heuristics: Vec<HeuristicNote>,
     pub stages: Vec<(&'static str, Duration)>,
+}
+
+/// Where a cooked artifact came from.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub enum ArtifactSource {
+    Cooked,
+    Reused,
+    /// The cache entry was damaged; it was cooked again.
+    Recooked(String),
 }
 
 /// A cooked scene: write it with [`CookOutput::write`] (atomically).
@@ -242,8 +258,22 @@ pub fn cook(manifest: &Manifest, settings: &Settings) -> Result<CookOutput, Cook
             "cooking a bare mesh without a scene.toml: materials are tagged by name heuristics only",
         ));
     }
+    if sources.iter().all(|(s, _)| s.triangle_count() == 0) {
+        // An empty pack is never what a user meant: an empty or faceless file is an input error.
+        let path = sources
+            .first()
+            .map_or(manifest.path.clone(), |(s, _)| s.path.clone());
+        return Err(CookError::Source {
+            path,
+            line: None,
+            message: "nothing to cook: no mesh source has any triangles".into(),
+        });
+    }
+    report.inputs.push(manifest.path.clone());
     for (s, _) in sources.iter() {
         report.warnings.extend(s.warnings.iter().cloned());
+        report.inputs.push(s.path.clone());
+        report.inputs.extend(s.files.iter().cloned());
     }
     lap(&mut report, "import");
 
@@ -315,6 +345,8 @@ pub fn cook(manifest: &Manifest, settings: &Settings) -> Result<CookOutput, Cook
         settings,
         &mut report,
     )?;
+    report.inputs.sort();
+    report.inputs.dedup();
     lap(&mut report, "textures");
 
     // 6. Assemble the TOC and bulk data.
