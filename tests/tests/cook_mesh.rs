@@ -394,32 +394,47 @@ fn oddities_cook_with_warnings() {
         "{:?}",
         out.report.warnings
     );
-    // Lines and points only: nothing to draw, but a valid (empty) pack and a warning.
+    // Lines and points next to faces: skipped with a warning naming the first line.
+    let dir = tempfile::tempdir().unwrap();
+    let obj = dir.path().join("mixed.obj");
+    std::fs::write(&obj, "v 0 0 0\nv 1 0 0\nv 0 1 0\nl 1 2\np 3\nf 1 2 3\n").unwrap();
+    let (out, pack) = cook_to_pack(&Manifest::open(&obj).unwrap());
+    assert_eq!(triangles(&pack), 1);
+    let w = out
+        .report
+        .warnings
+        .iter()
+        .find(|w| w.message.contains("ignored"))
+        .expect("warning");
+    assert_eq!(w.line, Some(4), "{w}");
+    assert!(
+        w.message.starts_with("1 line and 1 point elements ignored"),
+        "{w}"
+    );
+    // Faces with fewer than three corners are skipped with a warning.
+    let src =
+        cook::import::import(&data("bad/obj/tinyobjloader/invalid-face-definition.obj")).unwrap();
+    assert_eq!(src.triangle_count(), 0);
+    assert!(
+        src.warnings
+            .iter()
+            .any(|w| w.message.contains("fewer than 3")),
+        "{:?}",
+        src.warnings
+    );
     for f in [
         "bad/obj/tinyobjloader/line-prim.obj",
         "bad/obj/tinyobjloader/points-prim.obj",
         "bad/obj/tobj/lines.obj",
     ] {
-        let (out, pack) = cook_file(f);
-        assert_eq!(triangles(&pack), 0, "{f}");
+        let src = cook::import::import(&data(f)).unwrap();
+        assert_eq!(src.triangle_count(), 0, "{f}");
         assert!(
-            out.report
-                .warnings
-                .iter()
-                .any(|w| w.message.contains("ignored")),
+            src.warnings.iter().any(|w| w.message.contains("ignored")),
             "{f}: {:?}",
-            out.report.warnings
+            src.warnings
         );
     }
-    // Faces with fewer than three corners are skipped (here: all of them).
-    let (out, pack) = cook_file("bad/obj/tinyobjloader/invalid-face-definition.obj");
-    assert_eq!(triangles(&pack), 0);
-    assert!(
-        out.report
-            .warnings
-            .iter()
-            .any(|w| w.message.contains("fewer than 3"))
-    );
     // Sparse accessors are applied.
     let (_, pack) = cook_file("bad/gltf/gltf-rs/box_sparse.gltf");
     assert_eq!(triangles(&pack), 12);
