@@ -186,14 +186,24 @@ pub fn import_sources(manifest: &Manifest) -> Result<Vec<(import::Imported, Dura
     results.into_iter().collect()
 }
 
-/// Which materials are windows and which need tangents.
-pub fn material_needs(tagging: &tag::Tagging) -> Vec<mesh::MaterialNeeds> {
+/// Which materials are windows and which need tangents. A window with a `[[window]]` design
+/// always gets a normal map (given, or derived from the design in the texture stage), so it
+/// needs tangents even though no source material names one.
+pub fn material_needs(manifest: &Manifest, tagging: &tag::Tagging) -> Vec<mesh::MaterialNeeds> {
     tagging
         .materials
         .iter()
-        .map(|m| mesh::MaterialNeeds {
-            window: m.material.class.is_window(),
-            tangents: m.normal_texture.is_some(),
+        .map(|m| {
+            let window = m.material.class.is_window();
+            let designed = window
+                && manifest
+                    .windows
+                    .iter()
+                    .any(|w| w.material == m.material.name);
+            mesh::MaterialNeeds {
+                window,
+                tangents: m.normal_texture.is_some() || designed,
+            }
         })
         .collect()
 }
@@ -282,7 +292,7 @@ pub fn cook(manifest: &Manifest, settings: &Settings) -> Result<CookOutput, Cook
         sources.into_iter().unzip();
     let mut tagging = tag::tag(manifest, &imported)?;
     note_heuristics(&imported, &tagging, &mut report);
-    let needs = material_needs(&tagging);
+    let needs = material_needs(manifest, &tagging);
     lap(&mut report, "tag");
 
     // 3. Mesh processing, one source per task.

@@ -277,13 +277,16 @@ fn decode_chain(bytes: &[u8]) -> Option<(texture::MipChain, Option<String>)> {
     ))
 }
 
+/// A cooked mip chain, the texture crate's note about it, and where it came from.
+type Cooked = (texture::MipChain, Option<String>, crate::ArtifactSource);
+
 /// Cooks one texture, or reuses it from the cache.
 fn run_cached(
     job: &Job,
     mip_filter: MipFilter,
     max_error: Option<f32>,
     cache: Option<&cache::Cache>,
-) -> Result<(texture::MipChain, Option<String>, crate::ArtifactSource), CookError> {
+) -> Result<Cooked, CookError> {
     let Some(cache) = cache else {
         let (c, n) = run(job, mip_filter, max_error)?;
         return Ok((c, n, crate::ArtifactSource::Cooked));
@@ -486,9 +489,7 @@ pub fn cook_textures(
             report.inputs.push(p.to_path_buf());
         }
     }
-    let results: Vec<
-        Result<(texture::MipChain, Option<String>, crate::ArtifactSource), CookError>,
-    > = jobs
+    let results: Vec<Result<Cooked, CookError>> = jobs
         .par_iter()
         .map(|j| {
             run_cached(

@@ -275,7 +275,7 @@ pub fn validate_scene(manifest: &Manifest) -> Result<Validation, CookError> {
     }
 
     // Processed geometry.
-    let needs = crate::material_needs(&tagging);
+    let needs = crate::material_needs(manifest, &tagging);
     let settings = Settings {
         textures: false,
         ..Default::default()
