@@ -20,7 +20,9 @@ fn role_name(pack: &Pack, role: SectionRole) -> String {
     let toc = pack.toc();
     match role {
         SectionRole::Toc => "toc".into(),
-        SectionRole::Vertices { mesh } => format!("vertices of {:?}", toc.meshes[mesh as usize].name),
+        SectionRole::Vertices { mesh } => {
+            format!("vertices of {:?}", toc.meshes[mesh as usize].name)
+        }
         SectionRole::Indices { mesh } => format!("indices of {:?}", toc.meshes[mesh as usize].name),
         SectionRole::Mip { texture, level } => {
             format!("mip {level} of {:?}", toc.textures[texture as usize].name)
@@ -102,7 +104,10 @@ pub fn describe(pack: &Pack) -> serde_json::Value {
             "type": "point", "position": position, "radius": radius,
             "colour": l.colour, "intensity": l.intensity,
         }),
-        pack::LightKind::Directional { direction, angular_size } => json!({
+        pack::LightKind::Directional {
+            direction,
+            angular_size,
+        } => json!({
             "type": "directional", "direction": direction, "angular_size": angular_size,
             "colour": l.colour, "intensity": l.intensity,
         }),
@@ -128,9 +133,17 @@ pub fn run(args: Args) -> Outcome {
         return Ok(OK);
     }
     let toc = pack.toc();
-    println!("{}: pack format version {}, {} bytes", args.pack.display(), pack.header().version, pack.header().file_length);
+    println!(
+        "{}: pack format version {}, {} bytes",
+        args.pack.display(),
+        pack.header().version,
+        pack.header().file_length
+    );
     println!("sections ({}), all checksums OK:", pack.sections().len());
-    println!("  {:>4}  {:<12} {:>12} {:>12}  {:<8}  holds", "#", "kind", "offset", "size", "crc32");
+    println!(
+        "  {:>4}  {:<12} {:>12} {:>12}  {:<8}  holds",
+        "#", "kind", "offset", "size", "crc32"
+    );
     for (i, (s, &r)) in pack.sections().iter().zip(pack.roles()).enumerate() {
         println!(
             "  {i:>4}  {:<12} {:>12} {:>12}  {:08x}  {}",
@@ -166,7 +179,11 @@ pub fn run(args: Args) -> Outcome {
         }
     }
     for (m, t) in toc.materials.iter().zip(&tris) {
-        println!("    {:<28} {:<13} {t:>10} triangles", m.name, m.class.name());
+        println!(
+            "    {:<28} {:<13} {t:>10} triangles",
+            m.name,
+            m.class.name()
+        );
     }
     println!("textures ({}):", toc.textures.len());
     for t in &toc.textures {
@@ -180,6 +197,14 @@ pub fn run(args: Args) -> Outcome {
             t.mips.len()
         );
     }
-    println!("windows: {}, cameras: {}", toc.windows.len(), toc.cameras.iter().map(|c| c.name.as_str()).collect::<Vec<_>>().join(", "));
+    println!(
+        "windows: {}, cameras: {}",
+        toc.windows.len(),
+        toc.cameras
+            .iter()
+            .map(|c| c.name.as_str())
+            .collect::<Vec<_>>()
+            .join(", ")
+    );
     Ok(OK)
 }

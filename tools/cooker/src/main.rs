@@ -4,8 +4,8 @@
 //! 3 invalid input (a malformed source file or pack); 4 an operating-system I/O error.
 //! A panic (101) is a bug.
 
-mod diff;
 mod cook;
+mod diff;
 mod exit;
 mod extract;
 mod info;
