@@ -268,17 +268,6 @@ pub fn cook(manifest: &Manifest, settings: &Settings) -> Result<CookOutput, Cook
             "cooking a bare mesh without a scene.toml: materials are tagged by name heuristics only",
         ));
     }
-    if sources.iter().all(|(s, _)| s.triangle_count() == 0) {
-        // An empty pack is never what a user meant: an empty or faceless file is an input error.
-        let path = sources
-            .first()
-            .map_or(manifest.path.clone(), |(s, _)| s.path.clone());
-        return Err(CookError::Source {
-            path,
-            line: None,
-            message: "nothing to cook: no mesh source has any triangles".into(),
-        });
-    }
     report.inputs.push(manifest.path.clone());
     for (s, _) in sources.iter() {
         report.warnings.extend(s.warnings.iter().cloned());

@@ -188,6 +188,18 @@ impl Imported {
 
 /// Imports an OBJ, glTF or GLB file, by extension.
 pub fn import(path: &Path) -> Result<Imported, CookError> {
+    // A zero-length file is a failed write or a truncated copy, never a mesh; a file with
+    // content but no faces (lines, points) still cooks, with the importer's warning.
+    if let Ok(m) = std::fs::metadata(path)
+        && m.is_file()
+        && m.len() == 0
+    {
+        return Err(CookError::Source {
+            path: path.to_path_buf(),
+            line: None,
+            message: "the file is empty (0 bytes)".into(),
+        });
+    }
     let ext = path
         .extension()
         .map(|e| e.to_string_lossy().to_ascii_lowercase())

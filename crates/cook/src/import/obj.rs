@@ -18,6 +18,15 @@ pub fn import(path: &Path) -> Result<Imported, CookError> {
         path: path.to_path_buf(),
         source,
     })?;
+    // UTF-16 (what some Windows tools save) would parse as a stream of unknown statements and
+    // cook to nothing; say what it is instead.
+    if bytes.starts_with(&[0xFF, 0xFE]) || bytes.starts_with(&[0xFE, 0xFF]) || bytes.contains(&0) {
+        return Err(bad(
+            path,
+            1,
+            "the file is UTF-16 or binary, not an ASCII/UTF-8 OBJ: save it as UTF-8",
+        ));
+    }
     parse(path, &bytes)
 }
 
