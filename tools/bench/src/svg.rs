@@ -182,14 +182,10 @@ pub fn render(plot: &Plot) -> String {
     }
     for (i, p) in plotted.iter().enumerate() {
         let (x, y) = (sx(p.x), sy(p.y));
+        let c = colour(&p.series);
         let _ = writeln!(
             s,
-            r#"<circle cx="{x:.1}" cy="{y:.1}" r="4" fill="{}"><title>{}: {} ({:.4} ms, {:.4})</title></circle>"#,
-            colour(&p.series),
-            escape(&p.series),
-            escape(&p.label),
-            p.x,
-            p.y
+            r#"<circle cx="{x:.1}" cy="{y:.1}" r="4" fill="{c}" stroke="{c}"/>"#
         );
         if front.contains(&i) {
             let _ = writeln!(
@@ -205,10 +201,10 @@ pub fn render(plot: &Plot) -> String {
     let lx = left + pw + 20.0;
     for (i, name) in series.iter().enumerate() {
         let y = top + 10.0 + i as f64 * 18.0;
+        let c = colour(name);
         let _ = writeln!(
             s,
-            r#"<circle cx="{lx}" cy="{y}" r="4" fill="{}"/><text x="{}" y="{}">{}</text>"#,
-            colour(name),
+            r#"<circle cx="{lx}" cy="{y}" r="4" fill="{c}" stroke="{c}"/><text x="{}" y="{}">{}</text>"#,
             lx + 10.0,
             y + 4.0,
             escape(name)
