@@ -185,6 +185,15 @@ fn hostile_meshes() {
     );
     let fuzz = std::fs::read(root().join("tests/data/bad/glb-length-underflow.glb")).unwrap();
     expect(&write("underflow.glb", &fuzz), 3, "underflow.glb", "");
+    let fuzz =
+        std::fs::read(root().join("tests/data/bad/gltf-position-accessor-out-of-range.gltf"))
+            .unwrap();
+    expect(
+        &write("accessor.gltf", &fuzz),
+        3,
+        "accessor.gltf",
+        "accessor 13",
+    );
     // A node hierarchy that contains itself.
     let recursive = br#"{"asset":{"version":"2.0"},"scenes":[{"nodes":[0]}],"nodes":[{"children":[1]},{"children":[0]}]}"#;
     expect(&write("recursive.gltf", recursive), 3, "recursive.gltf", "");

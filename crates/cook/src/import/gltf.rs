@@ -67,7 +67,7 @@ pub fn import(path: &Path) -> Result<Imported, CookError> {
         source,
     })?;
     check_glb_header(path, &bytes)?;
-    let gltf = gltf::Gltf::from_slice(&bytes).map_err(|e| match e {
+    let convert = |e: gltf::Error| match e {
         gltf::Error::Io(source) => CookError::Io {
             path: path.to_path_buf(),
             source,
@@ -78,9 +78,31 @@ pub fn import(path: &Path) -> Result<Imported, CookError> {
             message: format!("invalid glTF JSON: {j}"),
         },
         other => bad(path, format!("invalid glTF: {other}")),
-    })?;
+    };
+    let gltf::Gltf { document, blob } =
+        gltf::Gltf::from_slice_without_validation(&bytes).map_err(convert)?;
+    // gltf-json's validation indexes the POSITION accessor before checking it exists (an
+    // out-of-bounds panic found by fuzzing): check every attribute index first.
+    let json = document.into_json();
+    for (mi, mesh) in json.meshes.iter().enumerate() {
+        for (pi, prim) in mesh.primitives.iter().enumerate() {
+            let indices = prim.attributes.values().chain(prim.indices.as_ref());
+            for a in indices {
+                if a.value() >= json.accessors.len() {
+                    return Err(bad(
+                        path,
+                        format!(
+                            "mesh {mi} primitive {pi} uses accessor {}, but there are {}",
+                            a.value(),
+                            json.accessors.len()
+                        ),
+                    ));
+                }
+            }
+        }
+    }
+    let document = gltf::Document::from_json(json).map_err(convert)?;
     let base = path.parent().unwrap_or(Path::new(""));
-    let gltf::Gltf { document, blob } = gltf;
     let buffers = gltf::import_buffers(&document, Some(base), blob)
         .map_err(|e| bad(path, format!("cannot load buffers: {e}")))?;
     let buffers: Vec<&[u8]> = buffers.iter().map(|b| &b.0[..]).collect();
