@@ -117,10 +117,15 @@ fn summary(md: &mut String, r: &Results) {
             .blur
             .iter()
             .find(|b| b.sigma == s && b.method == "libblur exact u8");
+        // The cooker's default (`BlurMethod::Auto`) and whether it is on this σ's front.
+        let auto = texture::BlurMethod::Auto.resolve(s).name();
+        let points = blur_points(&r.blur, s);
+        let front = pareto_front(&points);
+        let auto_on_front = front.iter().any(|&i| points[i].label == auto);
         if let (Some(o), Some(l)) = (best_ours, lib) {
             let _ = writeln!(
                 md,
-                "- Blur σ={s} ({n}²): ours ({}) {} ms at max {} LSB; libblur exact u8 {} ms at max {} LSB (its own gamma-space reference){}.",
+                "- Blur σ={s} ({n}²): ours ({}) {} ms at max {} LSB; libblur exact u8 {} ms at max {} LSB (its own gamma-space reference){}. The default (auto = {auto}) is {} the Pareto front.",
                 o.method.trim_start_matches("ours: "),
                 cell(o.time_ms, 1),
                 cell(o.max_lsb, 3),
@@ -131,6 +136,7 @@ fn summary(md: &mut String, r: &Results) {
                         format!(": ours takes {:.2}x libblur's time", a / b),
                     _ => String::new(),
                 },
+                if auto_on_front { "on" } else { "**not** on" },
                 n = r.blur_size
             );
         }
