@@ -101,6 +101,20 @@ pub fn import(path: &Path) -> Result<Imported, CookError> {
             }
         }
     }
+    // gltf's `Image::source` unwraps the MIME type of a buffer-view image and the URI of any
+    // other (a panic found by fuzzing); the spec requires them, so a file without is invalid.
+    for (i, image) in json.images.iter().enumerate() {
+        let ok = match &image.buffer_view {
+            Some(v) => image.mime_type.is_some() && v.value() < json.buffer_views.len(),
+            None => image.uri.is_some(),
+        };
+        if !ok {
+            return Err(bad(
+                path,
+                format!("image {i} needs a uri, or a bufferView with a mimeType"),
+            ));
+        }
+    }
     let document = gltf::Document::from_json(json).map_err(convert)?;
     let base = path.parent().unwrap_or(Path::new(""));
     let buffers = gltf::import_buffers(&document, Some(base), blob)
