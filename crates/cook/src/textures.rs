@@ -310,6 +310,17 @@ fn run_cached(
     Ok((c, n, source))
 }
 
+fn choice_note(what: &str, c: &crate::budget::Choice) -> String {
+    let mut n = format!(
+        "{what} method {} chosen by the error budget (measured max error {:.3} LSB)",
+        c.method, c.expected_error
+    );
+    if let Some(w) = &c.warning {
+        n.push_str(&format!("; {w}"));
+    }
+    n
+}
+
 fn run(
     job: &Job,
     mip_filter: MipFilter,
@@ -318,13 +329,21 @@ fn run(
     match job {
         Job::Colour { image, srgb } => {
             let img = decode(image)?;
-            let opts = texture::ColourOptions {
+            let mut opts = texture::ColourOptions {
                 srgb: *srgb,
                 filter: filter(mip_filter),
             };
+            // The error budget picks from the committed table of measured errors, never from
+            // timings taken now, so the pack stays deterministic.
+            let note = max_error.map(|b| {
+                let c = crate::budget::choose_mip(b, Some(opts.filter.name()));
+                opts.filter = c.mip_filter().unwrap_or(opts.filter);
+                opts.srgb = *srgb && c.linear_light;
+                choice_note("mips", &c)
+            });
             let chain = texture::colour_mips(&img, &opts)
                 .map_err(|e| texture_error(Path::new(&image.name()), e))?;
-            Ok((chain, None))
+            Ok((chain, note))
         }
         Job::Normal {
             image,
@@ -354,9 +373,18 @@ fn run(
             let img = decode(&ImageRef::File(design.clone()))?;
             let mut opts = texture::ProjectorOptions::new(*sigma);
             opts.max_error_lsb = max_error;
+            let choice = max_error.map(|b| {
+                let c = crate::budget::choose_blur(b, *sigma);
+                opts.method = c.blur_method().unwrap_or(opts.method);
+                choice_note("blur", &c)
+            });
             let (chain, report) =
                 texture::projector(&img, &opts).map_err(|e| texture_error(design, e))?;
-            Ok((chain, Some(report.to_string())))
+            let note = match choice {
+                Some(c) => format!("{report}; {c}"),
+                None => report.to_string(),
+            };
+            Ok((chain, Some(note)))
         }
     }
 }

@@ -33,6 +33,10 @@ pub struct Args {
     /// Cook everything from scratch; read and write no cache.
     #[arg(long, conflicts_with = "cache_dir")]
     no_cache: bool,
+    /// Error budget in 8-bit sRGB steps (LSB): per texture, the cheapest blur and mip method
+    /// whose measured error stays within it (overrides the manifest's `[scene] max_error`).
+    #[arg(long, value_name = "LSB")]
+    max_error: Option<f32>,
     /// Quantize vertices (16-bit positions and UVs, octahedral normals); reports the error.
     #[arg(long)]
     quantize: bool,
@@ -44,7 +48,16 @@ fn ms(d: Duration) -> String {
 
 pub fn run(args: Args) -> Outcome {
     let start = Instant::now();
-    let manifest = Manifest::open(&args.input)?;
+    let mut manifest = Manifest::open(&args.input)?;
+    if let Some(b) = args.max_error {
+        if !(b.is_finite() && b >= 0.0) {
+            return Err(crate::exit::UsageError(format!(
+                "--max-error must be a finite number >= 0, got {b}"
+            ))
+            .into());
+        }
+        manifest.scene.max_error = Some(b);
+    }
     let mut settings = Settings {
         quantize: args.quantize,
         ..Default::default()
@@ -67,7 +80,11 @@ pub fn run(args: Args) -> Outcome {
         )?)
     };
     let scene_key = match &cache {
-        Some(_) => Some(scene_cache::scene_key(&args.input, &settings)?),
+        Some(_) => Some(scene_cache::scene_key(
+            &args.input,
+            &settings,
+            args.max_error,
+        )?),
         None => None,
     };
     if let (Some(cache), Some(key)) = (&cache, &scene_key) {

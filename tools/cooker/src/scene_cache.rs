@@ -23,7 +23,11 @@ fn hex(bytes: &[u8]) -> String {
 }
 
 /// The key of a scene: what is known before cooking.
-pub fn scene_key(input: &Path, settings: &cook::Settings) -> Result<Key, cook::CookError> {
+pub fn scene_key(
+    input: &Path,
+    settings: &cook::Settings,
+    max_error: Option<f32>,
+) -> Result<Key, cook::CookError> {
     let mut k = KeyBuilder::new("scene");
     let canonical = std::fs::canonicalize(input).unwrap_or_else(|_| input.to_path_buf());
     k.str("path", &canonical.to_string_lossy());
@@ -34,6 +38,7 @@ pub fn scene_key(input: &Path, settings: &cook::Settings) -> Result<Key, cook::C
         ..settings.clone()
     };
     k.str("settings", &format!("{shaping:?}"));
+    k.str("max error override", &format!("{max_error:?}"));
     Ok(k.finish())
 }
 

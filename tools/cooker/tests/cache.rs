@@ -161,3 +161,22 @@ fn concurrent_cooks_into_one_cache_and_output_are_safe() {
         .collect();
     assert!(leftovers.is_empty(), "{leftovers:?}");
 }
+
+#[test]
+fn error_budget_choice_is_reported_and_a_too_tight_budget_warns() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("out.pack");
+    let o = Command::new(env!("CARGO_BIN_EXE_cooker"))
+        .arg("cook")
+        .arg(root().join("assets-src/scene.toml"))
+        .arg("-o")
+        .arg(&out)
+        .args(["--no-cache", "--max-error", "0.1"])
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(o.status.success(), "{err}");
+    assert!(err.contains("chosen by the error budget"), "{err}");
+    assert!(err.contains("tighter than any"), "{err}");
+    pack::Pack::open(&out).unwrap();
+}
