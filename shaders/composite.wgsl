@@ -55,7 +55,8 @@ fn fs_main(in: FullscreenOut) -> @location(0) vec4<f32> {
                 src = shifted;
             }
         }
-        let glass = textureSampleLevel(mask_tex, nearest, src, 0.0).rgb;
+        // The design is painted on the glass itself: only what lies behind it is displaced.
+        let glass = here.rgb;
         let behind = textureSampleLevel(background_tex, nearest, src, 0.0).rgb;
         colour = colour + behind * glass;
     }
