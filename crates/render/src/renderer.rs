@@ -928,7 +928,7 @@ impl Renderer {
 
 /// A point light's inverse-square falloff where its light enters: averaged over the window
 /// centres, so god rays match the brightness of the light patches they lead to. 1 for the sun.
-fn god_ray_falloff(toc: &pack::Toc, light: &LightGeometry) -> f32 {
+pub fn god_ray_falloff(toc: &pack::Toc, light: &LightGeometry) -> f32 {
     let LightGeometry::Point { position, radius } = *light else {
         return 1.0;
     };

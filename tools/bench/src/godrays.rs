@@ -147,29 +147,6 @@ fn rmse_linear(test: &[u8], reference: &[Vec3]) -> f64 {
     (sq / (reference.len().max(1) * 3) as f64).sqrt()
 }
 
-/// A point light's falloff where its light enters, averaged over the window centres, as the
-/// renderer scales its god rays (1 for the sun). Mirrors `render`'s private `god_ray_falloff`.
-fn falloff(toc: &pack::Toc, light: &LightGeometry) -> f32 {
-    let LightGeometry::Point { position, radius } = *light else {
-        return 1.0;
-    };
-    if toc.windows.is_empty() {
-        return 1.0;
-    }
-    let sum: f32 = toc
-        .windows
-        .iter()
-        .map(|w| {
-            let centre = Vec3::from(w.origin) + (Vec3::from(w.u_axis) + Vec3::from(w.v_axis)) * 0.5;
-            1.0 / position
-                .distance_squared(centre)
-                .max(radius * radius)
-                .max(1e-12)
-        })
-        .sum();
-    sum / toc.windows.len() as f32
-}
-
 /// Cooks the scene and uploads it.
 pub fn load_scene(gpu: &Gpu, manifest: &Path) -> Result<Scene> {
     let m = cook::Manifest::load(manifest)
@@ -258,7 +235,8 @@ pub fn sweep(cfg: &GodRayConfig, progress: &mut dyn FnMut(&str)) -> Result<GodRa
         .max()
         .unwrap_or(0) as f64;
 
-    let colour = Vec3::from(light.colour) * light.intensity * falloff(&toc, &geometry);
+    let colour =
+        Vec3::from(light.colour) * light.intensity * render::god_ray_falloff(&toc, &geometry);
     let (mut u, _) = god_ray_uniforms(&max_gpu, &view, &geometry, colour, 0);
     u.config[0] = REFERENCE_SAMPLES;
     let ref_rays = god_rays_reference(&u, &mask, w as usize, h as usize, w as usize, h as usize);
