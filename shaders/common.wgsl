@@ -1,13 +1,22 @@
 // Shared by every geometry pass (0-3): the frame and material bindings and the vertex shader.
 // Struct layouts are mirrored by `render::uniforms`; a test checks the sizes with naga.
+//
+// Positions past the vertex shader are camera-relative (world minus `frame.camera_pos`): the
+// CPU builds the matrices, light and window positions in that frame, so no uniform carries
+// the scene's distance from the origin and nothing cancels large f32 products. The one large
+// subtraction, vertex minus camera, rounds once.
 
 const MAX_WINDOWS: u32 = 64u;
 
 struct Frame {
+    // Camera-relative position to clip space (no translation).
     view_proj: mat4x4<f32>,
+    // The view's rotation: world directions to view space.
     view: mat4x4<f32>,
+    // The camera's world position; subtracted from every vertex.
     camera_pos: vec4<f32>,
-    // xyz: position (point light) or the direction towards the light (directional); w: 1 or 0.
+    // xyz: camera-relative position (point light) or the direction towards the light
+    // (directional); w: 1 or 0.
     light_pos: vec4<f32>,
     // rgb: colour times intensity; w: the point light's radius (falloff clamp).
     light_colour: vec4<f32>,
@@ -17,9 +26,9 @@ struct Frame {
 }
 
 struct WindowProjector {
-    // Maps a world position to (u*w, v*w, 0, w) on the window's design.
+    // Maps a camera-relative position to (u*w, v*w, 0, w) on the window's design.
     projector: mat4x4<f32>,
-    // xyz: a point of the window plane, w unused.
+    // xyz: a point of the window plane (camera-relative), w unused.
     origin: vec4<f32>,
     // xyz: unit normal pointing into the building.
     normal: vec4<f32>,
@@ -72,7 +81,8 @@ struct VertexIn {
 
 struct VertexOut {
     @builtin(position) clip: vec4<f32>,
-    @location(0) world: vec3<f32>,
+    // Camera-relative position.
+    @location(0) rel: vec3<f32>,
     @location(1) normal: vec3<f32>,
     @location(2) uv: vec2<f32>,
     @location(3) tangent: vec4<f32>,
@@ -83,8 +93,9 @@ fn vs_main(v: VertexIn) -> VertexOut {
     var out: VertexOut;
     // `invariant`-like behaviour matters: passes 2 and 3 reuse pass 1's depth with an equal test,
     // so every pass computes the clip position with this same expression.
-    out.clip = frame.view_proj * vec4<f32>(v.position, 1.0);
-    out.world = v.position;
+    let rel = v.position - frame.camera_pos.xyz;
+    out.clip = frame.view_proj * vec4<f32>(rel, 1.0);
+    out.rel = rel;
     out.normal = v.normal;
     out.uv = v.uv;
     out.tangent = v.tangent;
@@ -135,7 +146,7 @@ fn background_radiance(in: VertexOut) -> vec3<f32> {
 // from outside does not light its inner face.
 fn facing_camera(in: VertexOut) -> VertexOut {
     var out = in;
-    if (dot(in.normal, frame.camera_pos.xyz - in.world) < 0.0) {
+    if (dot(in.normal, -in.rel) < 0.0) {
         out.normal = -in.normal;
     }
     return out;

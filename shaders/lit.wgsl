@@ -59,12 +59,12 @@ fn fs_main(vertex: VertexOut) -> @location(0) vec4<f32> {
     let albedo = base_colour(in).rgb;
     let n = shading_normal(in);
     let geometric = safe_normalize(in.normal, n);
-    let v = safe_normalize(frame.camera_pos.xyz - in.world, n);
+    let v = safe_normalize(-in.rel, n);
 
     var l: vec3<f32>;
     var radiance: vec3<f32>;
     if (frame.light_pos.w > 0.5) {
-        let d = frame.light_pos.xyz - in.world;
+        let d = frame.light_pos.xyz - in.rel;
         let d2 = dot(d, d);
         l = safe_normalize(d, n);
         let r = frame.light_colour.w;
@@ -75,8 +75,8 @@ fn fs_main(vertex: VertexOut) -> @location(0) vec4<f32> {
     }
 
     // Before any per-fragment branch: derivatives need uniform control flow.
-    let dpx = dpdx(in.world);
-    let dpy = dpdy(in.world);
+    let dpx = dpdx(in.rel);
+    let dpy = dpdy(in.rel);
     var colour = albedo * frame.ambient.rgb + material.emissive.rgb;
     let n_dot_l = dot(n, l);
     // The geometric test stops light reaching faces turned away from it through a normal map.
@@ -84,8 +84,8 @@ fn fs_main(vertex: VertexOut) -> @location(0) vec4<f32> {
         // Surfaces lying in a window's plane (the wall around it) are judged by the side they
         // face: a small step along the camera-facing normal puts the outer face outside.
         var light_filter = vec3<f32>(1.0);
-        if (is_inside(in.world + geometric * 0.01)) {
-            light_filter = transmitted(in.world, dpx, dpy);
+        if (is_inside(in.rel + geometric * 0.01)) {
+            light_filter = transmitted(in.rel, dpx, dpy);
         }
         let r = reflect(-l, n);
         let shininess = max(material.specular.w, 1.0);

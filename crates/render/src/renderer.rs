@@ -7,7 +7,9 @@ use crate::passes::{
     WindowNormalPass, frame_layout, geometry_layout,
 };
 use crate::uniforms;
-use crate::view::{GodRaySettings, LightGeometry, View, god_ray_uniforms, window_projector};
+use crate::view::{
+    GodRaySettings, LightGeometry, View, god_ray_uniforms, window_projector, window_relative_to,
+};
 use crate::{Gpu, RenderError, Scene};
 
 /// The passes in recording order.
@@ -471,10 +473,13 @@ impl Renderer {
     ) {
         let toc = scene.toc();
         let light = toc.light.as_ref();
-        let geometry = light.map(LightGeometry::from_light);
+        // The shaders work relative to the camera (`vs_main` subtracts `camera_pos` from each
+        // vertex), so nothing uploaded here carries a large translation that f32 products
+        // would have to cancel: far from the origin that loses ~0.01 units.
+        let geometry = light.map(|l| LightGeometry::from_light(l).relative_to(view.position));
         let mut frame = uniforms::Frame {
-            view_proj: view.view_proj().to_cols_array_2d(),
-            view: view.view.to_cols_array_2d(),
+            view_proj: view.view_proj_relative().to_cols_array_2d(),
+            view: view.rotation().to_cols_array_2d(),
             camera_pos: view.position.extend(1.0).to_array(),
             ambient: [
                 self.settings.ambient[0],
@@ -491,6 +496,11 @@ impl Renderer {
             ..Default::default()
         };
         let mut windows = uniforms::Windows::default();
+        let relative: Vec<pack::Window> = toc
+            .windows
+            .iter()
+            .map(|w| window_relative_to(w, view.position))
+            .collect();
         if let (Some(l), Some(g)) = (light, geometry) {
             frame.light_pos = g.homogeneous().to_array();
             let c = Vec3::from(l.colour) * l.intensity;
@@ -499,7 +509,7 @@ impl Renderer {
                 LightGeometry::Directional { .. } => 0.0,
             };
             frame.light_colour = c.extend(radius).to_array();
-            for (slot, w) in windows.items.iter_mut().zip(&toc.windows) {
+            for (slot, w) in windows.items.iter_mut().zip(&relative) {
                 let mat = &toc.materials[w.material as usize];
                 let projector = window_projector(w, &g);
                 let tex_slot = scene.projector_slot(mat.projector_texture);
@@ -522,7 +532,7 @@ impl Renderer {
                 slot.params = [layer, projector.is_some() as u32, 0, 0];
             }
         } else {
-            for (slot, w) in windows.items.iter_mut().zip(&toc.windows) {
+            for (slot, w) in windows.items.iter_mut().zip(&relative) {
                 slot.origin = Vec3::from(w.origin).extend(0.0).to_array();
                 slot.normal = Vec3::from(w.normal)
                     .normalize_or_zero()

@@ -1,7 +1,7 @@
 //! Cameras, lights and the projective math that the passes feed to the GPU. Everything here
 //! is plain CPU math so tests can check it without a device.
 
-use glam::{Mat4, Vec2, Vec3, Vec4};
+use glam::{DVec3, Mat4, Vec2, Vec3, Vec4};
 
 /// A camera resolved for one frame.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -94,8 +94,46 @@ impl View {
         )
     }
 
+    /// World to clip. Its translation column is about the camera's distance from the origin,
+    /// so far from the origin (1e5) its f32 products round to ~0.01 units before the
+    /// translation cancels them: the renderer uses [`View::view_proj_relative`] instead.
     pub fn view_proj(&self) -> Mat4 {
         self.proj * self.view
+    }
+
+    /// The view's rotation alone: world directions to view space.
+    pub fn rotation(&self) -> Mat4 {
+        let mut m = self.view;
+        m.w_axis = Vec4::W;
+        m
+    }
+
+    /// Camera-relative position (`p − position`) to clip. No translation, so it loses no
+    /// precision wherever the scene is; the shaders subtract the camera position from each
+    /// vertex first (an f32 difference, rounded once).
+    pub fn view_proj_relative(&self) -> Mat4 {
+        self.proj * self.rotation()
+    }
+
+    /// `p − position` in f64, rounded once to f32: exact up to that rounding for any `p`.
+    pub fn relative(&self, p: Vec3) -> Vec3 {
+        (p.as_dvec3() - self.position.as_dvec3()).as_vec3()
+    }
+
+    /// A homogeneous world point (w = 1) or direction (w = 0) in clip space, computed
+    /// camera-relative.
+    pub fn clip(&self, p: Vec4) -> Vec4 {
+        let rel = if p.w == 0.0 {
+            p
+        } else {
+            // Dehomogenise in f64 so a w ≠ 1 point is moved by the camera exactly once.
+            let w = p.w as f64;
+            let world = DVec3::new(p.x as f64, p.y as f64, p.z as f64) / w;
+            ((world - self.position.as_dvec3()) * w)
+                .as_vec3()
+                .extend(p.w)
+        };
+        self.view_proj_relative() * rel
     }
 }
 
@@ -139,11 +177,34 @@ impl LightGeometry {
     /// Unit direction from `eye` towards the light, when defined.
     pub fn direction_from(&self, eye: Vec3) -> Option<Vec3> {
         let d = match *self {
-            Self::Point { position, .. } => position - eye,
+            Self::Point { position, .. } => (position.as_dvec3() - eye.as_dvec3()).as_vec3(),
             Self::Directional { towards } => towards,
         };
         let d = d.normalize_or_zero();
         (d != Vec3::ZERO).then_some(d)
+    }
+}
+
+impl LightGeometry {
+    /// The same light with positions measured from `origin` (computed in f64, rounded once).
+    pub fn relative_to(&self, origin: Vec3) -> Self {
+        match *self {
+            Self::Point { position, radius } => Self::Point {
+                position: (position.as_dvec3() - origin.as_dvec3()).as_vec3(),
+                radius,
+            },
+            d @ Self::Directional { .. } => d,
+        }
+    }
+}
+
+/// `w` with its origin measured from `origin` (computed in f64, rounded once): the shaders
+/// work in camera-relative coordinates, so window planes and projectors are built there too.
+pub fn window_relative_to(w: &pack::Window, origin: Vec3) -> pack::Window {
+    let o = (Vec3::from(w.origin).as_dvec3() - origin.as_dvec3()).as_vec3();
+    pack::Window {
+        origin: o.to_array(),
+        ..w.clone()
     }
 }
 
@@ -267,7 +328,7 @@ pub fn god_ray_uniforms(
     colour: Vec3,
     seed: u32,
 ) -> (crate::uniforms::GodRays, f32) {
-    let clip = view.view_proj() * light.homogeneous();
+    let clip = view.clip(light.homogeneous());
     let mut fade = god_ray_fade(view, light);
     if !clip.is_finite() || clip.w <= 0.0 {
         fade = 0.0;
@@ -438,6 +499,45 @@ mod tests {
             radius: 0.1,
         };
         assert!(window_projector(&window(), &inside).is_none());
+    }
+
+    /// The same camera and lamp 1e5 from the origin give the lamp the clip position they give
+    /// at the origin; the world view-projection matrix loses ~1e-2 there, the relative path
+    /// only the rounding of its inputs.
+    #[test]
+    fn clip_positions_do_not_depend_on_the_distance_from_the_origin() {
+        let eye = Vec3::new(0.5, 1.5, 9.0);
+        let lamp = Vec4::new(1.0, 5.0, -3.0, 1.0);
+        let near = View::look(
+            eye,
+            Vec3::new(0.0, 0.3, -1.0),
+            Vec3::Y,
+            60.0,
+            1.6,
+            0.05,
+            300.0,
+        );
+        let expected = near.view_proj() * lamp;
+        assert!((near.clip(lamp) - expected).length() < 1e-5);
+        let offset = Vec3::splat(1e5);
+        let far = View::look(
+            eye + offset,
+            Vec3::new(0.0, 0.3, -1.0),
+            Vec3::Y,
+            60.0,
+            1.6,
+            0.05,
+            300.0,
+        );
+        let shifted = (lamp.truncate() + offset).extend(1.0);
+        let got = far.clip(shifted);
+        assert!(
+            (got - expected).length() < 1e-5 * expected.length(),
+            "{got} vs {expected}"
+        );
+        // Directions are unaffected by the camera's position.
+        let sun = Vec4::new(0.1, 0.4, -0.9, 0.0);
+        assert!((far.clip(sun) - near.view_proj() * sun).length() < 1e-5);
     }
 
     #[test]

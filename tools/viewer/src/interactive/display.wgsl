@@ -79,6 +79,8 @@ fn fs_show(in: FullscreenOut) -> @location(0) vec4<f32> {
 }
 
 struct IdCamera {
+    // Camera-relative position to clip (no translation, so no precision lost far from the
+    // origin; see common.wgsl).
     view_proj: mat4x4<f32>,
     eye: vec4<f32>,
 }
@@ -94,15 +96,17 @@ struct Swatch {
 struct IdOut {
     @builtin(position) clip: vec4<f32>,
     @location(0) normal: vec3<f32>,
-    @location(1) world: vec3<f32>,
+    // Camera-relative position.
+    @location(1) rel: vec3<f32>,
 }
 
 @vertex
 fn vs_ids(@location(0) position: vec3<f32>, @location(1) normal: vec3<f32>) -> IdOut {
     var out: IdOut;
-    out.clip = id_camera.view_proj * vec4<f32>(position, 1.0);
+    let rel = position - id_camera.eye.xyz;
+    out.clip = id_camera.view_proj * vec4<f32>(rel, 1.0);
     out.normal = normal;
-    out.world = position;
+    out.rel = rel;
     return out;
 }
 
@@ -112,7 +116,7 @@ fn fs_ids(in: IdOut) -> @location(0) vec4<f32> {
     // hue alone identifies the material.
     var shade = 1.0;
     let n_len = length(in.normal);
-    let to_eye = id_camera.eye.xyz - in.world;
+    let to_eye = -in.rel;
     if n_len > 1e-6 && length(to_eye) > 1e-6 {
         shade = 0.55 + 0.45 * abs(dot(in.normal / n_len, normalize(to_eye)));
     }

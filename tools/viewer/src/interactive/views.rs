@@ -578,7 +578,7 @@ impl Display {
         view: &View,
     ) {
         let cam = IdCamera {
-            view_proj: view.view_proj().to_cols_array_2d(),
+            view_proj: view.view_proj_relative().to_cols_array_2d(),
             eye: view.position.extend(1.0).to_array(),
         };
         queue.write_buffer(&self.id_camera, 0, bytemuck::bytes_of(&cam));
