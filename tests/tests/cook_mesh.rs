@@ -23,6 +23,26 @@ fn cook_file(rel: &str) -> (cook::CookOutput, Pack) {
     cook_to_pack(&Manifest::open(&data(rel)).unwrap())
 }
 
+/// Spot with a colour texture, so that its UVs are needed and kept in the pack (a bare cook
+/// of an untextured mesh drops them).
+fn textured_spot(dir: &Path) -> Manifest {
+    // Spot's faces carry no name a rule could match; give them one.
+    let mut obj = b"usemtl spot\n".to_vec();
+    obj.extend(std::fs::read(data("classic/spot.obj")).unwrap());
+    std::fs::write(dir.join("spot.obj"), obj).unwrap();
+    let scene = dir.join("spot.toml");
+    let texture = Path::new(env!("CARGO_MANIFEST_DIR")).join("../assets-src/textures/wall.png");
+    std::fs::write(
+        &scene,
+        format!(
+            "[[mesh]]\nsource = \"spot.obj\"\n\n[[rule]]\nmatch = \"spot\"\nclass = \"other\"\ntexture = {:?}\n",
+            texture
+        ),
+    )
+    .unwrap();
+    Manifest::open(&scene).unwrap()
+}
+
 fn triangles(pack: &Pack) -> u64 {
     pack.toc()
         .meshes
@@ -250,22 +270,40 @@ fn stanford_bunny() {
 
 #[test]
 fn spot_keeps_its_uvs() {
-    let (out, pack) = cook_file("classic/spot.obj");
+    let dir = tempfile::tempdir().unwrap();
+    let (out, pack) = cook_to_pack(&textured_spot(dir.path()));
     assert_eq!(triangles(&pack), 5856);
     check_material_ids(&pack);
     let m = &pack.toc().meshes[0];
-    let verts: &[pack::StandardVertex] = bytemuck::cast_slice(pack.vertex_bytes(m));
+    // No normal map: position, normal, UV and material, without the tangent.
+    let offset = |s| m.layout.attribute(s).expect("kept").offset as usize;
+    let (uv_at, normal_at) = (
+        offset(pack::Semantic::TexCoord),
+        offset(pack::Semantic::Normal),
+    );
+    assert!(m.layout.attribute(pack::Semantic::Tangent).is_none());
+    let f = |v: &[u8], o: usize| f32::from_le_bytes(v[o..o + 4].try_into().unwrap());
+    let verts: Vec<([f32; 2], [f32; 3])> = pack
+        .vertex_bytes(m)
+        .chunks_exact(m.layout.stride as usize)
+        .map(|v| {
+            (
+                [f(v, uv_at), f(v, uv_at + 4)],
+                [f(v, normal_at), f(v, normal_at + 4), f(v, normal_at + 8)],
+            )
+        })
+        .collect();
     // Spot's UVs slightly exceed [0, 1] in the file (v up to 1.00065); they are kept as they are.
     assert!(
         verts
             .iter()
-            .all(|v| v.uv.iter().all(|c| (-0.06..=1.001).contains(c)))
+            .all(|(uv, _)| uv.iter().all(|c| (-0.06..=1.001).contains(c)))
     );
-    assert!(verts.iter().any(|v| v.uv != [0.0, 0.0]));
+    assert!(verts.iter().any(|(uv, _)| *uv != [0.0, 0.0]));
     assert!(
         verts
             .iter()
-            .all(|v| (glam::Vec3::from(v.normal).length() - 1.0).abs() < 1e-3)
+            .all(|(_, n)| (glam::Vec3::from(*n).length() - 1.0).abs() < 1e-3)
     );
     assert!(out.report.meshes[0].stats.acmr_out <= 0.75);
 }
@@ -477,7 +515,8 @@ fn cooking_is_deterministic() {
 
 #[test]
 fn fifo_and_quantized_cooks_are_valid() {
-    let m = Manifest::open(&data("classic/spot.obj")).unwrap();
+    let dir = tempfile::tempdir().unwrap();
+    let m = textured_spot(dir.path());
     let mut s = Settings {
         quantize: true,
         ..Default::default()
@@ -498,8 +537,9 @@ fn fifo_and_quantized_cooks_are_valid() {
         q.position
     );
     assert!(q.normal_deg < 0.01 && q.uv <= 0.5 / 65535.0 + 1e-7, "{q:?}");
-    // Spot's UVs leave [0, 1], so they stay 32-bit floats: 20 + 8 + 4 bytes.
-    assert_eq!(m0.layout.stride, 32);
+    // Spot's UVs leave [0, 1], so they stay 32-bit floats: position 8, normal 4, UV 8,
+    // material 4; no normal map, so no tangent.
+    assert_eq!(m0.layout.stride, 24);
     assert_eq!(
         m0.layout
             .attribute(pack::Semantic::TexCoord)

@@ -113,6 +113,8 @@ pub struct MeshReport {
     pub vertex_bytes: usize,
     pub index_bytes: usize,
     pub quantization: Option<QuantizationError>,
+    /// Vertex attributes left out because no material of the mesh uses them.
+    pub dropped_attributes: Vec<&'static str>,
 }
 
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -144,6 +146,8 @@ pub struct Report {
     pub warnings: Vec<Warning>,
     pub meshes: Vec<MeshReport>,
     pub heuristics: Vec<HeuristicNote>,
+    /// What the scene defines but nothing uses, so it was not cooked: one line each.
+    pub skipped: Vec<String>,
     pub stages: Vec<(&'static str, Duration)>,
 }
 
@@ -186,9 +190,11 @@ pub fn import_sources(manifest: &Manifest) -> Result<Vec<(import::Imported, Dura
     results.into_iter().collect()
 }
 
-/// Which materials are windows and which need tangents. A window with a `[[window]]` design
-/// always gets a normal map (given, or derived from the design in the texture stage), so it
-/// needs tangents even though no source material names one.
+/// Which materials are windows and which vertex attributes each needs. A window with a
+/// `[[window]]` design always gets a normal map (given, or derived from the design in the
+/// texture stage), so it needs tangents even though no source material names one. Texture
+/// coordinates matter only to textured materials, normals to everything but the unlit
+/// backdrop.
 pub fn material_needs(manifest: &Manifest, tagging: &tag::Tagging) -> Vec<mesh::MaterialNeeds> {
     tagging
         .materials
@@ -200,9 +206,12 @@ pub fn material_needs(manifest: &Manifest, tagging: &tag::Tagging) -> Vec<mesh::
                     .windows
                     .iter()
                     .any(|w| w.material == m.material.name);
+            let tangents = m.normal_texture.is_some() || designed;
             mesh::MaterialNeeds {
                 window,
-                tangents: m.normal_texture.is_some() || designed,
+                tangents,
+                uvs: tangents || m.diffuse_texture.is_some(),
+                normals: tangents || m.material.class != pack::MaterialClass::Background,
             }
         })
         .collect()
@@ -285,11 +294,16 @@ pub fn cook(manifest: &Manifest, settings: &Settings) -> Result<CookOutput, Cook
     lap(&mut report, "tag");
 
     // 3. Mesh processing, one source per task.
-    let processed: Vec<mesh::Processed> = imported
+    let mut processed: Vec<mesh::Processed> = imported
         .par_iter()
         .zip(&tagging.part_material)
         .map(|(src, parts)| mesh::process(src, &tri_materials(src, parts), &needs, &settings.mesh))
         .collect();
+    // Materials left without triangles (empty groups, only degenerate faces) are not cooked,
+    // and neither are their textures.
+    prune_materials(manifest, &mut tagging, &mut processed, &mut report);
+    skip_unused_source_materials(&imported, &tagging, &mut report);
+    let needs = material_needs(manifest, &tagging);
     lap(&mut report, "mesh");
 
     // 4. Windows: frames from the geometry, designs from the manifest.
@@ -317,7 +331,8 @@ pub fn cook(manifest: &Manifest, settings: &Settings) -> Result<CookOutput, Cook
                 &manifest.path,
                 Some(w.line.0),
                 format!(
-                    "[[window]] names material {:?}, which no triangle uses",
+                    "[[window]] names material {:?}, which no triangle uses; its design is not \
+                     cooked",
                     w.material
                 ),
             )),
@@ -332,6 +347,26 @@ pub fn cook(manifest: &Manifest, settings: &Settings) -> Result<CookOutput, Cook
             Some(_) => {}
         }
     }
+    // A projector is cooked only for windows whose light can land on a receiving surface.
+    let mut lit_windows = vec![false; tagging.materials.len()];
+    for f in &window_frames {
+        let name = &tagging.materials[f.material as usize].material.name;
+        let reaches = light.is_some_and(|l| {
+            windows::light_reaches(f, l, receiving_triangles(&tagging, &processed))
+        });
+        lit_windows[f.material as usize] = reaches;
+        let designed = manifest.windows.iter().any(|w| &w.material == name);
+        if designed && !reaches {
+            report.skipped.push(format!(
+                "window {name:?}: {}, so no projector texture was cooked",
+                if light.is_some() {
+                    "its light reaches no floor, wall or other receiving surface"
+                } else {
+                    "the scene has no light"
+                }
+            ));
+        }
+    }
     lap(&mut report, "windows");
 
     // 5. Textures: material maps, window designs, normal maps and projectors, background.
@@ -340,6 +375,7 @@ pub fn cook(manifest: &Manifest, settings: &Settings) -> Result<CookOutput, Cook
         manifest,
         &mut tagging,
         &window_frames,
+        &lit_windows,
         floor_y,
         settings,
         &mut report,
@@ -387,6 +423,7 @@ pub fn cook(manifest: &Manifest, settings: &Settings) -> Result<CookOutput, Cook
             vertex_bytes: 0,
             index_bytes: 0,
             quantization: None,
+            dropped_attributes: Vec::new(),
         };
         if p.indices.is_empty() {
             report.warnings.push(Warning::new(
@@ -397,20 +434,23 @@ pub fn cook(manifest: &Manifest, settings: &Settings) -> Result<CookOutput, Cook
             report.meshes.push(mesh_report);
             continue;
         }
-        let (layout, vertices) = if settings.quantize {
-            let q = mesh::quantize(&p.vertices, p.bounds_min, p.bounds_max);
+        let attrs = mesh::Attributes::for_materials(&needs, p.ranges.iter().map(|r| r.material));
+        mesh_report.dropped_attributes = attrs.dropped();
+        let e = mesh::encode(
+            &p.vertices,
+            p.bounds_min,
+            p.bounds_max,
+            attrs,
+            settings.quantize,
+        );
+        if settings.quantize {
             mesh_report.quantization = Some(QuantizationError {
-                position: q.max_position_error,
-                normal_deg: q.max_normal_error_deg,
-                uv: q.max_uv_error,
+                position: e.max_position_error,
+                normal_deg: e.max_normal_error_deg,
+                uv: e.max_uv_error,
             });
-            (q.layout, q.bytes)
-        } else {
-            (
-                pack::VertexLayout::standard(),
-                bytemuck::cast_slice(&p.vertices).to_vec(),
-            )
-        };
+        }
+        let (layout, vertices) = (e.layout, e.bytes);
         let (index_format, indices) = if p.vertices.len() <= u16::MAX as usize + 1 {
             let v: Vec<u16> = p.indices.iter().map(|&i| i as u16).collect();
             (pack::IndexFormat::U16, bytemuck::cast_slice(&v).to_vec())
@@ -439,6 +479,128 @@ pub fn cook(manifest: &Manifest, settings: &Settings) -> Result<CookOutput, Cook
     }
     lap(&mut report, "assemble");
     Ok(CookOutput { toc, data, report })
+}
+
+/// Removes materials that no processed triangle uses from the material table, renumbers the
+/// material IDs in vertices and draw ranges (order-preserving, so ranges stay sorted and
+/// windows last), and reports each one with the textures it would have needed.
+fn prune_materials(
+    manifest: &Manifest,
+    tagging: &mut tag::Tagging,
+    processed: &mut [mesh::Processed],
+    report: &mut Report,
+) {
+    let mut used = vec![false; tagging.materials.len()];
+    for p in processed.iter() {
+        for r in p.ranges.iter().filter(|r| r.index_count > 0) {
+            used[r.material as usize] = true;
+        }
+    }
+    if used.iter().all(|&u| u) {
+        return;
+    }
+    let mut remap = vec![u16::MAX; used.len()];
+    let mut next = 0u16;
+    for (old, &u) in used.iter().enumerate() {
+        if u {
+            remap[old] = next;
+            next += 1;
+        }
+    }
+    let old = std::mem::take(&mut tagging.materials);
+    for (plan, &u) in old.into_iter().zip(&used) {
+        if u {
+            tagging.materials.push(plan);
+            continue;
+        }
+        let mut textures: Vec<String> = [&plan.diffuse_texture, &plan.normal_texture]
+            .into_iter()
+            .flatten()
+            .map(|t| t.name())
+            .collect();
+        for w in manifest
+            .windows
+            .iter()
+            .filter(|w| w.material == plan.material.name)
+        {
+            textures.push(w.design.display().to_string());
+            textures.extend(w.normal_map.iter().map(|n| n.display().to_string()));
+        }
+        let what = if textures.is_empty() {
+            String::new()
+        } else {
+            format!(", nor its textures ({})", textures.join(", "))
+        };
+        report.skipped.push(format!(
+            "material {:?} ({}): no triangles, not cooked{what}",
+            plan.material.name, plan.material.class
+        ));
+    }
+    // Parts of a pruned material have no triangles; they map to no material at all.
+    for parts in &mut tagging.part_material {
+        for m in parts.iter_mut() {
+            *m = remap[*m as usize];
+        }
+    }
+    for p in processed.iter_mut() {
+        for v in &mut p.vertices {
+            v.material[0] = remap[v.material[0] as usize];
+        }
+        p.ranges.retain(|r| r.index_count > 0);
+        for r in &mut p.ranges {
+            r.material = remap[r.material as usize];
+        }
+    }
+}
+
+/// Every triangle of a surface that can receive light through a window: everything but the
+/// windows themselves and the unlit backdrop.
+fn receiving_triangles<'a>(
+    tagging: &'a tag::Tagging,
+    processed: &'a [mesh::Processed],
+) -> impl Iterator<Item = [[f32; 3]; 3]> + 'a {
+    processed.iter().flat_map(move |p| {
+        p.ranges
+            .iter()
+            .filter(move |r| {
+                let class = tagging.materials[r.material as usize].material.class;
+                !class.is_window() && class != pack::MaterialClass::Background
+            })
+            .flat_map(move |r| {
+                p.indices[r.first_index as usize..(r.first_index + r.index_count) as usize]
+                    .chunks_exact(3)
+                    .map(move |t| [t[0], t[1], t[2]].map(|i| p.vertices[i as usize].position))
+            })
+    })
+}
+
+/// Source materials (an MTL entry, a glTF material) that no triangle uses never become pack
+/// materials; say so, with the textures that were therefore not cooked.
+fn skip_unused_source_materials(
+    sources: &[import::Imported],
+    tagging: &tag::Tagging,
+    report: &mut Report,
+) {
+    for (si, name) in &tagging.unused_source_materials {
+        let src = &sources[*si];
+        let textures: Vec<String> = src
+            .materials
+            .iter()
+            .filter(|m| &m.name == name)
+            .flat_map(|m| [&m.diffuse_texture, &m.normal_texture])
+            .flatten()
+            .map(|t| t.name())
+            .collect();
+        let what = if textures.is_empty() {
+            String::new()
+        } else {
+            format!(", nor its textures ({})", textures.join(", "))
+        };
+        report.skipped.push(format!(
+            "material {name:?} of {}: defined but no triangle uses it, not cooked{what}",
+            src.path.display()
+        ));
+    }
 }
 
 /// The height of the floor: the lowest point of any floor-class triangle.

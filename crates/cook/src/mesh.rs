@@ -49,6 +49,21 @@ pub struct MaterialNeeds {
     pub window: bool,
     /// Has a normal map: MikkTSpace tangents are generated.
     pub tangents: bool,
+    /// Samples a texture (design, colour or normal map). Without it the texture coordinates
+    /// are zeroed before deduplication, so vertices that differ only there merge.
+    pub uvs: bool,
+    /// Is shaded with its normal (everything but unlit backdrops); zeroed otherwise.
+    pub normals: bool,
+}
+
+impl MaterialNeeds {
+    /// An opaque material that keeps every attribute the source has.
+    pub const OPAQUE: MaterialNeeds = MaterialNeeds {
+        window: false,
+        tangents: false,
+        uvs: true,
+        normals: true,
+    };
 }
 
 /// Per-stage numbers, for `cooker cook -v`.
@@ -323,23 +338,30 @@ fn corner_keys(
     pos: &[u32],
     keep: &[u32],
     tri_material: &[u16],
+    needs: &[MaterialNeeds],
     corner_normal: &[u32],
 ) -> Vec<(u64, u64)> {
     let (uv, _) = weld(&src.uvs);
     keep.iter()
         .enumerate()
         .flat_map(|(k, &t)| {
-            let m = tri_material[t as usize] as u64;
+            let m = tri_material[t as usize];
+            let need = needs[m as usize];
+            let m = m as u64;
             let c = &src.corners[t as usize * 3..t as usize * 3 + 3];
             let uv = &uv;
             (0..3).map(move |j| {
                 let p = pos[c[j].p as usize] as u64;
-                let t = if c[j].t == NONE {
+                let t = if c[j].t == NONE || !need.uvs {
                     NONE
                 } else {
                     uv[c[j].t as usize]
                 } as u64;
-                let n = corner_normal[k * 3 + j] as u64;
+                let n = if need.normals {
+                    corner_normal[k * 3 + j]
+                } else {
+                    NONE
+                } as u64;
                 (p << 32 | t, n << 32 | m)
             })
         })
@@ -351,11 +373,12 @@ fn vertex(
     c: crate::import::Corner,
     normal: [f32; 3],
     material: u16,
+    need: MaterialNeeds,
 ) -> StandardVertex {
     StandardVertex {
         position: src.positions[c.p as usize].map(plus_zero),
-        normal,
-        uv: if c.t == NONE {
+        normal: if need.normals { normal } else { [0.0; 3] },
+        uv: if c.t == NONE || !need.uvs {
             [0.0; 2]
         } else {
             src.uvs[c.t as usize].map(plus_zero)
@@ -373,10 +396,11 @@ fn dedupe_by_key(
     canon: &[u32],
     keep: &[u32],
     tri_material: &[u16],
+    needs: &[MaterialNeeds],
     corner_normal: &[u32],
     normal_table: &[[f32; 3]],
 ) -> (Vec<StandardVertex>, Vec<u32>) {
-    let keys = corner_keys(src, canon, keep, tri_material, corner_normal);
+    let keys = corner_keys(src, canon, keep, tri_material, needs, corner_normal);
     let mut map: HashMap<(u64, u64), u32, FxBuild> =
         HashMap::with_capacity_and_hasher(keys.len() / 4, FxBuild::default());
     let mut vertices = Vec::new();
@@ -387,11 +411,13 @@ fn dedupe_by_key(
         if id == next {
             let t = keep[k / 3] as usize;
             let c = src.corners[t * 3 + k % 3];
+            let m = tri_material[t];
             vertices.push(vertex(
                 src,
                 c,
                 normal_table[corner_normal[k] as usize],
-                tri_material[t],
+                m,
+                needs[m as usize],
             ));
         }
         indices.push(id);
@@ -419,6 +445,7 @@ fn dedupe_with_tangents(
                 c,
                 normal_table[corner_normal[k * 3 + j] as usize],
                 m,
+                needs[m as usize],
             ));
         }
     }
@@ -547,6 +574,7 @@ pub fn process(
             &canon,
             &keep,
             tri_material,
+            needs,
             &corner_normal,
             &normal_table,
         );
@@ -632,19 +660,6 @@ pub fn process(
     }
 }
 
-/// Quantized vertex encoding and the error it introduced.
-#[derive(Clone, Debug, PartialEq)]
-pub struct Quantized {
-    pub layout: pack::VertexLayout,
-    pub bytes: Vec<u8>,
-    /// Largest position error in world units.
-    pub max_position_error: f32,
-    /// Largest normal error in degrees.
-    pub max_normal_error_deg: f32,
-    /// Largest texture-coordinate error (0 when UVs stay 32-bit floats).
-    pub max_uv_error: f32,
-}
-
 fn oct_encode(n: [f32; 3]) -> [f32; 2] {
     let l1 = n[0].abs() + n[1].abs() + n[2].abs();
     if l1 == 0.0 {
@@ -679,28 +694,122 @@ fn unorm16(v: f32) -> u16 {
     (v.clamp(0.0, 1.0) * 65535.0).round() as u16
 }
 
-/// Encodes vertices compactly: positions as 16-bit unorm within the bounding box, normals and
-/// tangents octahedral in 16-bit snorm, UVs as 16-bit unorm when they lie in [0, 1] (else
-/// floats). Stride 28 bytes instead of 52.
+/// Which optional vertex attributes a mesh stores; position and material ID always are.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Attributes {
+    pub normal: bool,
+    pub uv: bool,
+    pub tangent: bool,
+}
+
+impl Attributes {
+    pub const ALL: Attributes = Attributes {
+        normal: true,
+        uv: true,
+        tangent: true,
+    };
+
+    /// What the given materials need: an attribute no material of the mesh uses is dropped.
+    pub fn for_materials(
+        needs: &[MaterialNeeds],
+        materials: impl IntoIterator<Item = u16>,
+    ) -> Self {
+        let mut a = Attributes {
+            normal: false,
+            uv: false,
+            tangent: false,
+        };
+        for m in materials {
+            let n = needs[m as usize];
+            a.normal |= n.normals || n.tangents;
+            a.uv |= n.uvs || n.tangents;
+            a.tangent |= n.tangents;
+        }
+        a
+    }
+
+    /// Names of the attributes left out, for the report.
+    pub fn dropped(&self) -> Vec<&'static str> {
+        [
+            (self.normal, "normal"),
+            (self.uv, "uv"),
+            (self.tangent, "tangent"),
+        ]
+        .into_iter()
+        .filter(|(kept, _)| !kept)
+        .map(|(_, name)| name)
+        .collect()
+    }
+}
+
+/// Vertices encoded for the pack, and what the encoding cost in accuracy.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Encoded {
+    pub layout: pack::VertexLayout,
+    pub bytes: Vec<u8>,
+    /// Largest position error in world units (0 for float positions).
+    pub max_position_error: f32,
+    /// Largest normal error in degrees (0 for float normals).
+    pub max_normal_error_deg: f32,
+    /// Largest texture-coordinate error (0 when UVs stay 32-bit floats).
+    pub max_uv_error: f32,
+}
+
+/// Encodes vertices with the attributes `attrs` keeps. With every attribute and no quantization
+/// this is exactly [`pack::VertexLayout::standard`] (52 bytes), which the viewer uploads as is.
 ///
-/// Layout: position `Unorm16x4` at 0 (w unused), normal `Snorm16x2` at 8, tangent `Snorm16x4`
-/// at 12 (octahedral xy, handedness in z, w zero), UV at 20 (`Unorm16x2`, or `Float32x2` with a
-/// 32-byte stride), material `Uint16x2` last.
-pub fn quantize(
+/// Quantized: positions as 16-bit unorm within the bounding box, normals and tangents
+/// octahedral in 16-bit snorm (tangent handedness in z), UVs as 16-bit unorm when they lie in
+/// [0, 1] (else floats): 28 bytes with every attribute. Attributes keep the order position,
+/// normal, tangent, UV, material when quantized, and position, normal, UV, tangent, material
+/// as floats, so that the full float layout is the standard one.
+pub fn encode(
     vertices: &[StandardVertex],
     bounds_min: [f32; 3],
     bounds_max: [f32; 3],
-) -> Quantized {
+    attrs: Attributes,
+    quantize: bool,
+) -> Encoded {
     use pack::{AttributeFormat as F, Semantic as S, VertexAttribute as A};
-    let uv_unorm = vertices
-        .iter()
-        .all(|v| v.uv.iter().all(|&c| (0.0..=1.0).contains(&c)));
-    let (uv_format, uv_size) = if uv_unorm {
-        (F::Unorm16x2, 4)
-    } else {
-        (F::Float32x2, 8)
+    let uv_unorm = quantize
+        && vertices
+            .iter()
+            .all(|v| v.uv.iter().all(|&c| (0.0..=1.0).contains(&c)));
+    let mut attributes = Vec::new();
+    let mut stride = 0u32;
+    let mut push = |semantic, format: F| {
+        attributes.push(A {
+            semantic,
+            format,
+            offset: stride,
+        });
+        stride += format.size();
     };
-    let stride = 20 + uv_size + 4;
+    let uv_format = if uv_unorm { F::Unorm16x2 } else { F::Float32x2 };
+    if quantize {
+        push(S::Position, F::Unorm16x4);
+        if attrs.normal {
+            push(S::Normal, F::Snorm16x2);
+        }
+        if attrs.tangent {
+            push(S::Tangent, F::Snorm16x4);
+        }
+        if attrs.uv {
+            push(S::TexCoord, uv_format);
+        }
+    } else {
+        push(S::Position, F::Float32x3);
+        if attrs.normal {
+            push(S::Normal, F::Float32x3);
+        }
+        if attrs.uv {
+            push(S::TexCoord, F::Float32x2);
+        }
+        if attrs.tangent {
+            push(S::Tangent, F::Float32x4);
+        }
+    }
+    push(S::MaterialId, F::Uint16x2);
     // The GPU reads Unorm16 as q / 65535 in [0, 1], so the scale is the box's full extent.
     let scale: [f32; 3] = std::array::from_fn(|k| {
         let s = bounds_max[k] - bounds_min[k];
@@ -708,39 +817,33 @@ pub fn quantize(
     });
     let layout = pack::VertexLayout {
         stride,
-        attributes: vec![
-            A {
-                semantic: S::Position,
-                format: F::Unorm16x4,
-                offset: 0,
-            },
-            A {
-                semantic: S::Normal,
-                format: F::Snorm16x2,
-                offset: 8,
-            },
-            A {
-                semantic: S::Tangent,
-                format: F::Snorm16x4,
-                offset: 12,
-            },
-            A {
-                semantic: S::TexCoord,
-                format: uv_format,
-                offset: 20,
-            },
-            A {
-                semantic: S::MaterialId,
-                format: F::Uint16x2,
-                offset: 20 + uv_size,
-            },
-        ],
-        position_offset: bounds_min,
-        position_scale: scale,
+        attributes,
+        position_offset: if quantize { bounds_min } else { [0.0; 3] },
+        position_scale: if quantize { scale } else { [1.0; 3] },
     };
     let mut bytes = Vec::with_capacity(vertices.len() * stride as usize);
     let (mut perr, mut nerr, mut uverr) = (0.0f32, 0.0f32, 0.0f32);
+    let f32s = |bytes: &mut Vec<u8>, v: &[f32]| {
+        for c in v {
+            bytes.extend_from_slice(&c.to_le_bytes());
+        }
+    };
     for v in vertices {
+        if !quantize {
+            f32s(&mut bytes, &v.position);
+            if attrs.normal {
+                f32s(&mut bytes, &v.normal);
+            }
+            if attrs.uv {
+                f32s(&mut bytes, &v.uv);
+            }
+            if attrs.tangent {
+                f32s(&mut bytes, &v.tangent);
+            }
+            bytes.extend_from_slice(&v.material[0].to_le_bytes());
+            bytes.extend_from_slice(&0u16.to_le_bytes());
+            continue;
+        }
         let q: [u16; 3] =
             std::array::from_fn(|k| unorm16((v.position[k] - bounds_min[k]) / scale[k]));
         for k in 0..3 {
@@ -749,41 +852,55 @@ pub fn quantize(
             bytes.extend_from_slice(&q[k].to_le_bytes());
         }
         bytes.extend_from_slice(&0u16.to_le_bytes());
-        let e = oct_encode(v.normal).map(snorm16);
-        let back = oct_decode(e.map(|c| c as f32 / 32767.0));
-        if dot(v.normal, v.normal) > 0.0 {
-            // atan2 of |cross| and dot stays accurate for tiny angles, where acos(dot) does not.
-            let c = cross(back, v.normal);
-            nerr = nerr.max(dot(c, c).sqrt().atan2(dot(back, v.normal)).to_degrees());
-        }
-        for c in e {
-            bytes.extend_from_slice(&c.to_le_bytes());
-        }
-        let t = oct_encode([v.tangent[0], v.tangent[1], v.tangent[2]]).map(snorm16);
-        for c in [t[0], t[1], snorm16(v.tangent[3]), 0] {
-            bytes.extend_from_slice(&c.to_le_bytes());
-        }
-        if uv_unorm {
-            for c in v.uv {
-                let q = unorm16(c);
-                uverr = uverr.max((q as f32 / 65535.0 - c).abs());
-                bytes.extend_from_slice(&q.to_le_bytes());
+        if attrs.normal {
+            let e = oct_encode(v.normal).map(snorm16);
+            let back = oct_decode(e.map(|c| c as f32 / 32767.0));
+            if dot(v.normal, v.normal) > 0.0 {
+                // atan2 of |cross| and dot stays accurate for tiny angles, where acos(dot) does
+                // not.
+                let c = cross(back, v.normal);
+                nerr = nerr.max(dot(c, c).sqrt().atan2(dot(back, v.normal)).to_degrees());
             }
-        } else {
-            for c in v.uv {
+            for c in e {
                 bytes.extend_from_slice(&c.to_le_bytes());
+            }
+        }
+        if attrs.tangent {
+            let t = oct_encode([v.tangent[0], v.tangent[1], v.tangent[2]]).map(snorm16);
+            for c in [t[0], t[1], snorm16(v.tangent[3]), 0] {
+                bytes.extend_from_slice(&c.to_le_bytes());
+            }
+        }
+        if attrs.uv {
+            if uv_unorm {
+                for c in v.uv {
+                    let q = unorm16(c);
+                    uverr = uverr.max((q as f32 / 65535.0 - c).abs());
+                    bytes.extend_from_slice(&q.to_le_bytes());
+                }
+            } else {
+                f32s(&mut bytes, &v.uv);
             }
         }
         bytes.extend_from_slice(&v.material[0].to_le_bytes());
         bytes.extend_from_slice(&0u16.to_le_bytes());
     }
-    Quantized {
+    Encoded {
         layout,
         bytes,
         max_position_error: perr,
         max_normal_error_deg: nerr,
         max_uv_error: uverr,
     }
+}
+
+/// Every attribute, quantized (see [`encode`]).
+pub fn quantize(
+    vertices: &[StandardVertex],
+    bounds_min: [f32; 3],
+    bounds_max: [f32; 3],
+) -> Encoded {
+    encode(vertices, bounds_min, bounds_max, Attributes::ALL, true)
 }
 
 #[cfg(test)]
@@ -814,13 +931,10 @@ mod tests {
         }
     }
 
-    const OPAQUE: MaterialNeeds = MaterialNeeds {
-        window: false,
-        tangents: false,
-    };
+    const OPAQUE: MaterialNeeds = MaterialNeeds::OPAQUE;
     const WINDOW: MaterialNeeds = MaterialNeeds {
         window: true,
-        tangents: false,
+        ..MaterialNeeds::OPAQUE
     };
 
     #[test]
@@ -907,7 +1021,7 @@ mod tests {
             let tris: Vec<[u32; 3]> = raw.iter().map(|&(a, b, c, _)| [a % n, b % n, c % n]).collect();
             let mats: Vec<u16> = raw.iter().map(|r| r.3).collect();
             let s = soup(pts.clone(), tris.clone());
-            let needs = [OPAQUE, WINDOW, MaterialNeeds { window: false, tangents: true }];
+            let needs = [OPAQUE, WINDOW, MaterialNeeds { tangents: true, ..OPAQUE }];
             let settings = MeshSettings { cache: if fifo { CacheMode::Fifo } else { CacheMode::Full }, overdraw: true, ..Default::default() };
             let p = process(&s, &mats, &needs, &settings);
             let expected = tris.iter().filter(|t| {

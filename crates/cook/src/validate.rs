@@ -274,8 +274,16 @@ pub fn validate_scene(manifest: &Manifest) -> Result<Validation, CookError> {
         }
     }
 
-    // Processed geometry.
-    let needs = crate::material_needs(manifest, &tagging);
+    // Processed geometry, with every attribute the source has: validation looks at UVs and
+    // normals even where no material would sample them.
+    let needs: Vec<mesh::MaterialNeeds> = crate::material_needs(manifest, &tagging)
+        .into_iter()
+        .map(|n| mesh::MaterialNeeds {
+            uvs: true,
+            normals: true,
+            ..n
+        })
+        .collect();
     let settings = Settings {
         textures: false,
         ..Default::default()

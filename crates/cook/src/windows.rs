@@ -142,6 +142,91 @@ pub fn analyze(
     })
 }
 
+/// Whether light through the window can land on any of `receivers` (triangles of floors,
+/// walls and other opaque surfaces): some part of a triangle lies behind the window (on the
+/// side its normal points to) and, traced back along the light to the window's plane, falls
+/// inside the window's rectangle. Each triangle is clipped to the inner side first, then the
+/// bounding box of its traced-back corners is tested against [0, 1]², which can only err
+/// towards "reaches". Occlusion is not considered: a wall between the window and the floor
+/// does not stop the projector from being cooked.
+pub fn light_reaches(
+    frame: &pack::Window,
+    light: &LightKind,
+    receivers: impl IntoIterator<Item = [[f32; 3]; 3]>,
+) -> bool {
+    let origin = v3(frame.origin);
+    let (u, v, n) = (v3(frame.u_axis), v3(frame.v_axis), v3(frame.normal));
+    let n = n.normalize_or_zero();
+    // Surfaces in the window's own plane (the wall around it) are not behind it.
+    let eps = 1e-4 * (u.length() + v.length()).max(1e-6);
+    let gram = glam::DMat2::from_cols(
+        glam::DVec2::new(u.dot(u), u.dot(v)),
+        glam::DVec2::new(u.dot(v), v.dot(v)),
+    );
+    if n == glam::DVec3::ZERO || gram.determinant().abs() < 1e-18 {
+        return false;
+    }
+    let inv = gram.inverse();
+    // Back along the light to the window's plane; `None` when no light passes the window.
+    let trace: Box<dyn Fn(glam::DVec3, f64) -> glam::DVec3> = match *light {
+        LightKind::Directional { direction, .. } => {
+            let d = v3(direction).normalize_or_zero();
+            let dn = d.dot(n);
+            if dn <= 1e-9 {
+                return false; // grazing, or travelling out of the building
+            }
+            Box::new(move |p, s| p - d * (s / dn))
+        }
+        LightKind::Point { position, .. } => {
+            let l = v3(position);
+            let sl = (l - origin).dot(n);
+            if sl >= 0.0 {
+                return false; // the light is inside: nothing passes the window inwards
+            }
+            Box::new(move |p, s| l + (p - l) * (sl / (sl - s)))
+        }
+    };
+    let uv = |q: glam::DVec3| {
+        let r = q - origin;
+        inv * glam::DVec2::new(r.dot(u), r.dot(v))
+    };
+    for tri in receivers {
+        let pts = tri.map(v3);
+        let side = pts.map(|p| (p - origin).dot(n) - eps);
+        let mut lo = glam::DVec2::splat(f64::INFINITY);
+        let mut hi = glam::DVec2::splat(f64::NEG_INFINITY);
+        let mut any = false;
+        let mut add = |p: glam::DVec3, s: f64| {
+            let q = uv(trace(p, s + eps));
+            lo = lo.min(q);
+            hi = hi.max(q);
+            any = true;
+        };
+        for k in 0..3 {
+            let (a, b) = (pts[k], pts[(k + 1) % 3]);
+            let (sa, sb) = (side[k], side[(k + 1) % 3]);
+            if sa > 0.0 {
+                add(a, sa);
+            }
+            if (sa > 0.0) != (sb > 0.0) && sa != sb {
+                let t = sa / (sa - sb);
+                add(a + (b - a) * t, 0.0);
+            }
+        }
+        if any
+            && lo.is_finite()
+            && hi.is_finite()
+            && lo.x <= 1.0
+            && lo.y <= 1.0
+            && hi.x >= 0.0
+            && hi.y >= 0.0
+        {
+            return true;
+        }
+    }
+    false
+}
+
 /// Without usable UVs: the window's bounding rectangle in its plane, v up where possible.
 fn planar_frame(
     used: &[u32],
@@ -199,5 +284,78 @@ mod tests {
         assert!(close(a.frame.v_axis, [0., -3., 0.]));
         assert!(close(a.frame.normal, [0., 0., -1.]));
         assert_eq!(a.max_plane_distance, 0.0);
+    }
+
+    /// A unit window in the plane z = 0 (normal +z into the building), and a floor patch.
+    fn window() -> pack::Window {
+        pack::Window {
+            material: 0,
+            origin: [0.0, 2.0, 0.0],
+            u_axis: [1.0, 0.0, 0.0],
+            v_axis: [0.0, -1.0, 0.0],
+            normal: [0.0, 0.0, 1.0],
+        }
+    }
+
+    fn floor(z0: f32, z1: f32, x0: f32, x1: f32) -> Vec<[[f32; 3]; 3]> {
+        vec![
+            [[x0, 0.0, z0], [x1, 0.0, z0], [x1, 0.0, z1]],
+            [[x0, 0.0, z0], [x1, 0.0, z1], [x0, 0.0, z1]],
+        ]
+    }
+
+    #[test]
+    fn sun_through_window_reaches_the_floor_behind_it_only() {
+        let sun = LightKind::Directional {
+            direction: [0.0, -1.0, 1.0],
+            angular_size: 0.01,
+        };
+        // The shaft lands at z in [1, 2]; a floor there is lit.
+        assert!(light_reaches(&window(), &sun, floor(0.5, 3.0, -1.0, 2.0)));
+        // Floor beside the shaft, or outside the building, is not.
+        assert!(!light_reaches(&window(), &sun, floor(0.5, 3.0, 5.0, 6.0)));
+        assert!(!light_reaches(
+            &window(),
+            &sun,
+            floor(-3.0, -0.5, -1.0, 2.0)
+        ));
+        // The wall the window sits in lies in its plane and receives nothing.
+        let wall = vec![[[-5.0, 0.0, 0.0], [5.0, 0.0, 0.0], [5.0, 5.0, 0.0]]];
+        assert!(!light_reaches(&window(), &sun, wall));
+        // A floor crossing the window's plane counts with its inner part only.
+        assert!(light_reaches(&window(), &sun, floor(-3.0, 1.5, -1.0, 2.0)));
+        assert!(!light_reaches(&window(), &sun, floor(-3.0, 0.5, -1.0, 2.0)));
+    }
+
+    #[test]
+    fn light_that_cannot_pass_the_window_reaches_nothing() {
+        let all = floor(-10.0, 10.0, -10.0, 10.0);
+        let grazing = LightKind::Directional {
+            direction: [1.0, 0.0, 0.0],
+            angular_size: 0.01,
+        };
+        assert!(!light_reaches(&window(), &grazing, all.clone()));
+        let inside = LightKind::Point {
+            position: [0.5, 1.5, 1.0],
+            radius: 0.1,
+        };
+        assert!(!light_reaches(&window(), &inside, all.clone()));
+        let outside = LightKind::Point {
+            position: [0.5, 1.5, -1.0],
+            radius: 0.1,
+        };
+        // From (0.5, 1.5, -1), only the window's lower half sends light down: through its
+        // lower edge (y = 1) the light reaches the floor at z = 2, through higher points
+        // further away.
+        assert!(light_reaches(
+            &window(),
+            &outside,
+            floor(0.5, 3.0, -1.0, 2.0)
+        ));
+        assert!(!light_reaches(
+            &window(),
+            &outside,
+            floor(0.1, 0.4, -1.0, 2.0)
+        ));
     }
 }

@@ -8,11 +8,11 @@ use std::time::Instant;
 
 use anyhow::{Context, Result};
 use cook::mesh::{CacheMode, MaterialNeeds, MeshSettings, Processed, process, quantize};
-use serde::Serialize;
+use serde::{Deserialize, Serialize};
 
 use crate::common::{median, median_ms};
 
-#[derive(Clone, Debug, Serialize)]
+#[derive(Clone, Debug, Serialize, Deserialize)]
 pub struct MeshRow {
     pub mesh: String,
     pub triangles: usize,
@@ -126,10 +126,7 @@ fn measure(
     let src =
         cook::import::import(path).with_context(|| format!("importing {}", path.display()))?;
     let tri_material = vec![0u16; src.triangle_count()];
-    let needs = [MaterialNeeds {
-        window: false,
-        tangents: false,
-    }];
+    let needs = [MaterialNeeds::OPAQUE];
     let mut rows = Vec::new();
     // (label, cache mode to run, whether to take the vertex-cache stage out)
     let modes = [

@@ -146,6 +146,10 @@ pub fn run(args: Args) -> Outcome {
         );
     }
 
+    for s in &report.skipped {
+        println!("skipped: {s}");
+    }
+
     let write_start = Instant::now();
     let bytes = pack::encode(out.toc.clone(), &out.data)?;
     pack::write_atomic(&args.output, &bytes)
@@ -260,6 +264,12 @@ fn print_stats(out: &cook::CookOutput, write_time: Duration) {
             m.vertex_bytes,
             m.index_bytes
         );
+        if !m.dropped_attributes.is_empty() {
+            println!(
+                "  attributes dropped (no material uses them): {}",
+                m.dropped_attributes.join(", ")
+            );
+        }
         if let Some(q) = m.quantization {
             println!(
                 "  quantization error: position {:.3e} (world units), normal {:.4} deg, uv {:.3e}",

@@ -94,6 +94,7 @@ pub fn parse(path: &Path, bytes: &[u8]) -> Result<Imported, CookError> {
     };
     let mut state = State::default();
     let mut material_ids: HashMap<String, u32> = HashMap::new();
+    let mut missing_textures: Vec<(String, Warning)> = Vec::new();
     let mut unknown_materials: Vec<(String, usize)> = Vec::new();
     let mut skipped_lines = (0usize, 0usize, 0usize); // (line elements, points, first line)
     let mut short_faces: Vec<usize> = Vec::new();
@@ -243,7 +244,14 @@ pub fn parse(path: &Path, bytes: &[u8]) -> Result<Imported, CookError> {
                 state.material = (!name.is_empty()).then_some(name);
                 state.part = None;
             }
-            b"mtllib" => load_mtllib(path, line_no, rest, &mut out, &mut material_ids)?,
+            b"mtllib" => load_mtllib(
+                path,
+                line_no,
+                rest,
+                &mut out,
+                &mut material_ids,
+                &mut missing_textures,
+            )?,
             // Smoothing groups, free-form geometry and display attributes: normals are
             // generated with a crease angle instead, and the rest has no meaning here.
             b"s" | b"vp" | b"cstype" | b"deg" | b"bmat" | b"step" | b"curv" | b"curv2"
@@ -308,6 +316,18 @@ pub fn parse(path: &Path, bytes: &[u8]) -> Result<Imported, CookError> {
     if out.tri_part.is_empty() {
         out.warnings
             .push(Warning::new(path, None, "no faces: nothing to cook"));
+    }
+    // A missing texture matters only to a material some face uses.
+    let mut used = vec![false; out.materials.len()];
+    for &p in &out.tri_part {
+        if let Some(m) = out.parts[p as usize].material {
+            used[m as usize] = true;
+        }
+    }
+    for (name, w) in missing_textures {
+        if material_ids.get(&name).is_some_and(|&i| used[i as usize]) {
+            out.warnings.push(w);
+        }
     }
     Ok(out)
 }
@@ -438,6 +458,7 @@ fn load_mtllib(
     rest: &[u8],
     out: &mut Imported,
     ids: &mut HashMap<String, u32>,
+    missing_textures: &mut Vec<(String, Warning)>,
 ) -> Result<(), CookError> {
     let dir = path.parent().unwrap_or(Path::new(""));
     let (found, missing) = find_file(dir, rest);
@@ -474,14 +495,15 @@ fn load_mtllib(
                 match files.last() {
                     Some(f) => Some(ImageRef::File(f.clone())),
                     None => {
-                        out.warnings.push(Warning::new(
+                        let w = Warning::new(
                             &mtl,
                             None,
                             format!(
                                 "{what} {name:?} of material {:?} not found; ignored",
                                 m.name
                             ),
-                        ));
+                        );
+                        missing_textures.push((m.name.clone(), w));
                         None
                     }
                 }
