@@ -3,6 +3,7 @@
 //! benchmarks per-pass GPU time. The interactive window (issue 7) plugs into the same
 //! `render::Renderer::render_to`.
 
+mod god_rays;
 mod interactive;
 
 use std::io::Read;
@@ -12,7 +13,10 @@ use std::time::{Duration, Instant};
 
 use anyhow::{Context, Result, bail};
 use clap::Parser;
-use render::{FrameReport, Gpu, PassId, Renderer, Scene, Settings, TargetId, TimingMethod, View};
+use render::{
+    FrameReport, GodRaySettings, Gpu, PassId, Renderer, Scene, Settings, TargetId, TimingMethod,
+    View,
+};
 
 #[derive(Parser, Debug)]
 #[command(
@@ -40,11 +44,41 @@ struct Args {
     /// Render N frames per camera and print the median time of each pass.
     #[arg(long, value_name = "N")]
     bench: Option<u32>,
-    /// God-ray samples.
-    #[arg(long, default_value_t = 64)]
+    /// Largest god-ray error to accept (FLIP mean); picks samples, ray scale and jitter.
+    ///
+    /// The error is the FLIP mean of the final image against a 4096-sample render
+    /// (0 = identical), as measured on the default scene and committed in
+    /// crates/cook/src/error_table.json. The cheapest measured setting within the budget is
+    /// used and printed with its measured error; a budget tighter than every measured setting
+    /// gets the most accurate one and a warning. Cannot be combined with --samples,
+    /// --ray-scale, --jitter or --half-res-rays.
+    #[arg(
+        long,
+        value_name = "FLIP_MEAN",
+        value_parser = god_rays::parse_flip_mean,
+        conflicts_with_all = ["samples", "ray_scale", "jitter", "half_res_rays"]
+    )]
+    max_error: Option<f32>,
+    /// God-ray samples per pixel (1..=1024).
+    #[arg(
+        long,
+        default_value_t = GodRaySettings::default().samples,
+        value_parser = clap::value_parser!(u32).range(1..=1024)
+    )]
     samples: u32,
-    /// God rays at half resolution with per-pixel jitter.
+    /// God-ray target size relative to the frame: 1 full, 0.5 half, 0.25 quarter.
+    #[arg(
+        long,
+        value_name = "SCALE",
+        default_value_t = GodRaySettings::default().resolution_scale,
+        value_parser = god_rays::parse_scale
+    )]
+    ray_scale: f32,
+    /// Per-pixel jitter of the god-ray samples (trades banding for noise; off by default).
     #[arg(long)]
+    jitter: bool,
+    /// Shorthand for `--ray-scale 0.5 --jitter`.
+    #[arg(long, conflicts_with = "ray_scale")]
     half_res_rays: bool,
     /// Window: re-cook a scene.toml and swap the scene in when one of its sources changes.
     #[arg(long)]
@@ -273,14 +307,43 @@ fn bench(
     Ok(())
 }
 
+/// The renderer's settings with the god-ray quality from `--max-error` or the explicit flags
+/// (clap rejects both together); prints which setting it is and what it was measured at.
+fn god_ray_settings(args: &Args) -> Result<Settings> {
+    let mut settings = Settings::default();
+    let g = &mut settings.god_rays;
+    if let Some(budget) = args.max_error {
+        let choice = god_rays::apply_budget(budget, g)?;
+        if let Some(w) = &choice.warning {
+            eprintln!("warning: {w}");
+        }
+        println!(
+            "god rays for --max-error {budget}: {}; measured FLIP mean {:.4}, cost {:.3}× 64 \
+             samples at full resolution",
+            god_rays::describe(g),
+            choice.expected_flip_mean,
+            choice.relative_cost
+        );
+        return Ok(settings);
+    }
+    g.samples = args.samples;
+    g.resolution_scale = if args.half_res_rays {
+        0.5
+    } else {
+        args.ray_scale
+    };
+    g.jitter = args.jitter || args.half_res_rays;
+    println!(
+        "god rays: {}; {}",
+        god_rays::describe(g),
+        god_rays::measured_note(g)
+    );
+    Ok(settings)
+}
+
 fn main() -> Result<()> {
     let args = Args::parse();
-    let mut settings = Settings::default();
-    settings.god_rays.samples = args.samples;
-    if args.half_res_rays {
-        settings.god_rays.resolution_scale = 0.5;
-        settings.god_rays.jitter = true;
-    }
+    let settings = god_ray_settings(&args)?;
     if !args.headless {
         let outcome = interactive::run(interactive::Options {
             input: args.input.clone(),

@@ -237,3 +237,128 @@ fn names_the_problem_on_bad_input() {
     assert!(!o.status.success());
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// Runs the headless viewer on `pack` with the camera "far" at 64x36 and the god-ray pass
+/// written; returns (stdout, stderr, final image, god-ray image).
+fn render_far(
+    pack: &std::path::Path,
+    out: &std::path::Path,
+    extra: &[&str],
+) -> (String, String, image::RgbaImage, image::RgbaImage) {
+    let mut args: Vec<&std::ffi::OsStr> = vec![
+        pack.as_os_str(),
+        "--headless".as_ref(),
+        "--out".as_ref(),
+        out.as_os_str(),
+        "--size".as_ref(),
+        "64x36".as_ref(),
+        "--camera".as_ref(),
+        "far".as_ref(),
+        "--passes".as_ref(),
+    ];
+    args.extend(extra.iter().map(std::ffi::OsStr::new));
+    let o = viewer(&args);
+    let stdout = String::from_utf8_lossy(&o.stdout).into_owned();
+    let stderr = String::from_utf8_lossy(&o.stderr).into_owned();
+    assert!(o.status.success(), "{extra:?}: {stdout}\n{stderr}");
+    let frame = image::open(out.join("far.png")).unwrap().into_rgba8();
+    let rays = image::open(out.join("far-god-rays.png"))
+        .unwrap()
+        .into_rgba8();
+    (stdout, stderr, frame, rays)
+}
+
+#[test]
+fn max_error_chooses_reports_and_uses_a_measured_setting() {
+    let dir = scratch("max-error");
+    let pack_path = dir.join("tiny.pack");
+    std::fs::write(&pack_path, tiny_pack()).unwrap();
+
+    // A loose budget: the cheapest measured setting, whatever the committed table says.
+    let loose = cook::budget::choose_god_rays(0.2).expect("the table has god-ray rows");
+    assert!(loose.warning.is_none());
+    let (stdout, _, frame, rays) =
+        render_far(&pack_path, &dir.join("loose"), &["--max-error", "0.2"]);
+    let reported = format!("god rays for --max-error 0.2: {} samples, ", loose.samples);
+    assert!(stdout.contains(&reported), "{stdout}");
+    assert!(
+        stdout.contains(&format!(
+            "measured FLIP mean {:.4}",
+            loose.expected_flip_mean
+        )),
+        "{stdout}"
+    );
+    assert!(
+        stdout.contains(if loose.jitter {
+            ", jitter;"
+        } else {
+            ", no jitter;"
+        }),
+        "{stdout}"
+    );
+    // Used: the god-ray target has the chosen size, and the frame is the one the same
+    // setting gives through the explicit flags.
+    let scaled = |n: u32| ((n as f32 * loose.resolution_scale).round() as u32).max(1);
+    assert_eq!(rays.dimensions(), (scaled(64), scaled(36)));
+    let samples = loose.samples.to_string();
+    let scale = loose.resolution_scale.to_string();
+    let mut explicit = vec!["--samples", &samples, "--ray-scale", &scale];
+    if loose.jitter {
+        explicit.push("--jitter");
+    }
+    let (stdout, _, same_frame, same_rays) =
+        render_far(&pack_path, &dir.join("explicit"), &explicit);
+    assert!(
+        stdout.contains(&format!("god rays: {} samples", loose.samples)),
+        "{stdout}"
+    );
+    assert!(
+        same_frame == frame && same_rays == rays,
+        "--max-error and explicit flags differ"
+    );
+
+    // Tighter than any measured setting: the most accurate one, and a warning.
+    let tight = cook::budget::choose_god_rays(0.0).unwrap();
+    let (stdout, stderr, tight_frame, tight_rays) =
+        render_far(&pack_path, &dir.join("tight"), &["--max-error", "0"]);
+    assert!(
+        stderr.contains("warning:") && stderr.contains("tighter than any measured setting"),
+        "{stderr}"
+    );
+    assert!(
+        stdout.contains(&format!(
+            "god rays for --max-error 0: {} samples",
+            tight.samples
+        )),
+        "{stdout}"
+    );
+    assert_ne!(
+        (tight.samples, tight.resolution_scale),
+        (loose.samples, loose.resolution_scale)
+    );
+    assert!(
+        tight_frame != frame && tight_rays != rays,
+        "the two budgets rendered the same god rays"
+    );
+
+    // The budget replaces the explicit quality flags; both together are a usage error.
+    let o = viewer(&[
+        pack_path.as_os_str(),
+        "--headless".as_ref(),
+        "--max-error".as_ref(),
+        "0.02".as_ref(),
+        "--samples".as_ref(),
+        "16".as_ref(),
+    ]);
+    assert_eq!(o.status.code(), Some(2));
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(err.contains("cannot be used with"), "{err}");
+    let o = viewer(&[
+        pack_path.as_os_str(),
+        "--headless".as_ref(),
+        "--max-error".as_ref(),
+        "-1".as_ref(),
+    ]);
+    assert_eq!(o.status.code(), Some(2));
+    let _ = std::fs::remove_dir_all(&dir);
+}

@@ -127,6 +127,9 @@ fn window_renders_frames_takes_screenshots_and_closes_cleanly() {
         shots.as_os_str(),
         "--size".as_ref(),
         "320x180".as_ref(),
+        // The window takes its god-ray quality from an error budget too.
+        "--max-error".as_ref(),
+        "0.2".as_ref(),
         "--script".as_ref(),
         script.as_ref(),
     ];
@@ -140,6 +143,12 @@ fn window_renders_frames_takes_screenshots_and_closes_cleanly() {
     assert!(
         run.log.contains("adapter:"),
         "no adapter line in:\n{}",
+        run.log
+    );
+    assert!(
+        run.log.contains("god rays for --max-error 0.2: ")
+            && run.log.contains("measured FLIP mean"),
+        "no god-ray choice in:\n{}",
         run.log
     );
 

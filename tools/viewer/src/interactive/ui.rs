@@ -197,8 +197,10 @@ pub fn panel(ui: &mut egui::Ui, c: &mut Controls, info: &Info<'_>) -> Vec<Reques
                 );
                 ui.add(egui::Slider::new(&mut g.density, 0.0..=2.0).text("density"));
                 ui.add(egui::Slider::new(&mut g.weight, 0.0..=4.0).text("weight"));
+                // The renderer's full range: --max-error may choose 1024, which a narrower
+                // slider would clamp.
                 ui.add(
-                    egui::Slider::new(&mut g.samples, 1..=256)
+                    egui::Slider::new(&mut g.samples, 1..=1024)
                         .logarithmic(true)
                         .text("samples"),
                 );
@@ -209,6 +211,7 @@ pub fn panel(ui: &mut egui::Ui, c: &mut Controls, info: &Info<'_>) -> Vec<Reques
                     }
                 });
                 ui.checkbox(&mut g.jitter, "per-pixel jitter");
+                ui.label(crate::god_rays::measured_note(g));
             });
         egui::CollapsingHeader::new("light and shading")
             .default_open(true)
