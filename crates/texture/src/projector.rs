@@ -132,7 +132,7 @@ pub fn projector(
     let (sw, sh) = level_size(w, h, keep);
     let report = ProjectorReport {
         sigma_texels: opts.sigma_texels,
-        method: opts.method.resolve(opts.sigma_texels),
+        method: opts.method.resolve_sized(opts.sigma_texels, w, h),
         design_width: w,
         design_height: h,
         width: sw,
