@@ -10,14 +10,14 @@ use std::process::Command;
 use std::time::Instant;
 
 use anyhow::{Context, Result, bail};
-use serde::Serialize;
+use serde::{Deserialize, Serialize};
 use texture::blur::{
     BlurMethod, blur_srgb8, error_lsb, kernel_radius, reference_blur, srgb8_to_premultiplied_f64,
 };
 
 use crate::common::median_ms;
 
-#[derive(Clone, Debug, Serialize)]
+#[derive(Clone, Debug, Serialize, Deserialize)]
 pub struct BlurRow {
     pub sigma: f32,
     /// `ours: direct`, `libblur exact u8`, …
@@ -26,7 +26,7 @@ pub struct BlurRow {
     pub ours: bool,
     /// `linear` (linear light, premultiplied, zero border: the texture issue's definition) or
     /// `gamma` (the stored bytes filtered directly, interior only).
-    pub reference: &'static str,
+    pub reference: String,
     pub time_ms: Option<f64>,
     pub runs: usize,
     pub max_lsb: Option<f64>,
@@ -46,13 +46,13 @@ pub struct BlurConfig {
     pub scratch: PathBuf,
 }
 
-/// Our methods worth measuring at σ: `Decimated` only where it really runs decimated.
-fn our_methods(sigma: f32) -> Vec<BlurMethod> {
-    let mut m = vec![BlurMethod::Direct];
-    if BlurMethod::Decimated.resolve(sigma) == BlurMethod::Decimated {
-        m.push(BlurMethod::Decimated);
-    }
-    m
+/// Our methods worth measuring at σ on an `n x n` image: each only where it really runs as
+/// itself (the others fall back to an exact method there and would repeat its row).
+fn our_methods(sigma: f32, n: usize) -> Vec<BlurMethod> {
+    BlurMethod::ALL
+        .into_iter()
+        .filter(|&m| m != BlurMethod::Auto && m.resolve_sized(sigma, n as u32, n as u32) == m)
+        .collect()
 }
 
 /// Error in LSB of 8-bit `ours` against `reference` (values on the 0..255 scale), over texels at
@@ -242,7 +242,7 @@ pub fn sweep(cfg: &BlurConfig, progress: &mut dyn FnMut(&str)) -> Result<Vec<Blu
             size: cfg.region.min(n),
         };
         let reference = region_reference(&linear, n, corner, sigma as f64);
-        for method in our_methods(sigma) {
+        for method in our_methods(sigma, n) {
             let (ms, out) = median_ms(cfg.runs, || blur_srgb8(&src, side, side, sigma, method));
             let out = out?;
             let e = error_lsb(&region_bytes(&out, n, corner), &reference);
@@ -255,12 +255,16 @@ pub fn sweep(cfg: &BlurConfig, progress: &mut dyn FnMut(&str)) -> Result<Vec<Blu
                 sigma,
                 method: format!("ours: {}", method.name()),
                 ours: true,
-                reference: "linear",
+                reference: "linear".into(),
                 time_ms: Some(ms),
                 runs: cfg.runs,
                 max_lsb: Some(e.max),
                 rms_lsb: Some(e.rms),
-                note: String::new(),
+                note: if method.is_approximation() {
+                    "approximation".into()
+                } else {
+                    String::new()
+                },
             });
         }
         drop(reference);
@@ -286,7 +290,7 @@ pub fn sweep(cfg: &BlurConfig, progress: &mut dyn FnMut(&str)) -> Result<Vec<Blu
                 sigma,
                 method: name.to_string(),
                 ours: false,
-                reference: "gamma",
+                reference: "gamma".into(),
                 time_ms: Some(ms),
                 runs: cfg.runs,
                 max_lsb: e.map(|e| e.0),
@@ -320,7 +324,7 @@ pub fn sweep(cfg: &BlurConfig, progress: &mut dyn FnMut(&str)) -> Result<Vec<Blu
                     sigma,
                     method: e.name.into(),
                     ours: false,
-                    reference: "gamma",
+                    reference: "gamma".into(),
                     time_ms: None,
                     runs: 0,
                     max_lsb: None,

@@ -2,15 +2,15 @@
 
 use std::time::Instant;
 
-use serde::Serialize;
+use serde::{Deserialize, Serialize};
 
 /// Where and how the numbers were taken.
-#[derive(Clone, Debug, Serialize)]
+#[derive(Clone, Debug, Serialize, Deserialize)]
 pub struct Machine {
     pub cpu: String,
     /// Logical CPUs this process may use.
     pub cores: usize,
-    pub profile: &'static str,
+    pub profile: String,
     /// UTC, when the run started.
     pub date: String,
     /// `rustc` jobs running when the run started: other builds make the timings noisy.
@@ -35,7 +35,8 @@ impl Machine {
                 "debug (numbers not representative)"
             } else {
                 "release"
-            },
+            }
+            .to_string(),
             date: utc_now(),
             concurrent_rustc: count_processes("rustc"),
         }

@@ -16,11 +16,11 @@ use render::view::{
     GodRaySettings, LightGeometry, View, god_ray_fade, god_ray_uniforms, god_rays_reference,
 };
 use render::{Gpu, Renderer, Scene, Settings, TargetId, TimingMethod};
-use serde::Serialize;
+use serde::{Deserialize, Serialize};
 
 use crate::common::median;
 
-#[derive(Clone, Debug, Serialize)]
+#[derive(Clone, Debug, Serialize, Deserialize)]
 pub struct GodRayRow {
     pub samples: u32,
     pub resolution_scale: f32,
@@ -36,7 +36,7 @@ pub struct GodRayRow {
     pub rmse_linear: f64,
 }
 
-#[derive(Clone, Debug, Serialize)]
+#[derive(Clone, Debug, Serialize, Deserialize)]
 pub struct GodRayReport {
     pub device: String,
     pub timing: String,

@@ -48,6 +48,11 @@ struct Args {
     /// left out of the report.
     #[arg(long, value_delimiter = ',')]
     only: Option<Vec<String>>,
+    /// With --only: take the sweeps not run from the results.json already in --out (and say so
+    /// in the report), so one sweep can be re-measured and the error table rewritten without
+    /// re-running the others.
+    #[arg(long, requires = "only")]
+    keep_others: bool,
     /// Use whatever Vulkan driver the loader picks instead of forcing lavapipe.
     #[arg(long)]
     native_gpu: bool,
@@ -158,9 +163,10 @@ fn main() -> Result<()> {
         eprintln!("god rays not measured: {e}");
     }
     let _ = std::fs::remove_dir_all(&scratch);
-    let results = Results {
+    let mut results = Results {
         machine,
         command,
+        kept: Vec::new(),
         blur_size,
         blur_error_region: args.error_region,
         mip_size,
@@ -169,6 +175,15 @@ fn main() -> Result<()> {
         meshes,
         god_rays,
     };
+    if args.keep_others {
+        let path = args.out.join("results.json");
+        let text = std::fs::read_to_string(&path)
+            .with_context(|| format!("--keep-others: reading {}", path.display()))?;
+        let earlier: Results = serde_json::from_str(&text)
+            .with_context(|| format!("--keep-others: parsing {}", path.display()))?;
+        let ran: Vec<&str> = args.only.iter().flatten().map(String::as_str).collect();
+        results.keep_from(earlier, &ran);
+    }
     write_report(&args.out, &results)?;
     eprintln!("report written to {}", args.out.join("README.md").display());
     if let Some(path) = &args.emit_table {

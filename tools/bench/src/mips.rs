@@ -3,13 +3,13 @@
 //! linear-light chain of the same filter.
 
 use anyhow::{Context, Result};
-use serde::Serialize;
+use serde::{Deserialize, Serialize};
 use texture::srgb::linear_to_srgb_lsb;
 use texture::{ColourOptions, MipFilter, colour_mips, colour_mips_reference};
 
 use crate::common::median_ms;
 
-#[derive(Clone, Debug, Serialize)]
+#[derive(Clone, Debug, Serialize, Deserialize)]
 pub struct LevelError {
     pub level: usize,
     pub width: u32,
@@ -18,12 +18,12 @@ pub struct LevelError {
     pub rms_lsb: f64,
 }
 
-#[derive(Clone, Debug, Serialize)]
+#[derive(Clone, Debug, Serialize, Deserialize)]
 pub struct MipRow {
     /// `box`, `kaiser`, `lanczos3` (texture's `MipFilter::name`).
-    pub filter: &'static str,
+    pub filter: String,
     /// `linear` or `gamma`.
-    pub space: &'static str,
+    pub space: String,
     pub method: String,
     pub ours: bool,
     /// The whole chain, level 1 down to 1x1.
@@ -121,8 +121,8 @@ pub fn sweep(cfg: &MipConfig, progress: &mut dyn FnMut(&str)) -> Result<Vec<MipR
             let chain = chain?;
             let levels = level_errors(&chain.levels, &reference, n, n);
             let row = MipRow {
-                filter: filter.name(),
-                space,
+                filter: filter.name().into(),
+                space: space.into(),
                 method: format!("ours: {} ({space})", filter.name()),
                 ours: true,
                 time_ms: ms,
@@ -141,8 +141,8 @@ pub fn sweep(cfg: &MipConfig, progress: &mut dyn FnMut(&str)) -> Result<Vec<MipR
             let (ms, chain) = median_ms(cfg.runs, || fir_chain(&bytes, n, n));
             let levels = level_errors(&chain?, &reference, n, n);
             let row = MipRow {
-                filter: filter.name(),
-                space: "gamma",
+                filter: filter.name().into(),
+                space: "gamma".into(),
                 method: "fast_image_resize box (gamma)".into(),
                 ours: false,
                 time_ms: ms,

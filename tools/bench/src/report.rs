@@ -5,7 +5,7 @@ use std::fmt::Write;
 use std::path::Path;
 
 use anyhow::{Context, Result};
-use serde::Serialize;
+use serde::{Deserialize, Serialize};
 
 use crate::blur::BlurRow;
 use crate::common::{Machine, cell};
@@ -14,10 +14,14 @@ use crate::mesh::MeshRow;
 use crate::mips::MipRow;
 use crate::svg::{Plot, Point, pareto_front, render};
 
-#[derive(Debug, Serialize)]
+#[derive(Debug, Serialize, Deserialize)]
 pub struct Results {
     pub machine: Machine,
     pub command: String,
+    /// Sweeps copied from an earlier report (`bench --only … --keep-others`), each with the
+    /// machine line and command of the run that measured them.
+    #[serde(default)]
+    pub kept: Vec<KeptSweep>,
     pub blur_size: usize,
     pub blur_error_region: usize,
     pub mip_size: usize,
@@ -26,6 +30,54 @@ pub struct Results {
     pub meshes: Vec<MeshRow>,
     /// `Err` text when the god-ray sweep could not run (no adapter, say).
     pub god_rays: Result<GodRayReport, String>,
+}
+
+#[derive(Clone, Debug, Serialize, Deserialize)]
+pub struct KeptSweep {
+    pub sweep: String,
+    pub machine: String,
+    pub command: String,
+}
+
+impl Results {
+    /// Takes from `earlier` every sweep not in `ran` (`blur`, `mips`, `meshes`, `god-rays`), so
+    /// one sweep can be re-measured without re-running the others; the report says which rows
+    /// came from which run.
+    pub fn keep_from(&mut self, earlier: Results, ran: &[&str]) {
+        let note = |sweep: &str| {
+            earlier
+                .kept
+                .iter()
+                .find(|k| k.sweep == sweep)
+                .cloned()
+                .unwrap_or_else(|| KeptSweep {
+                    sweep: sweep.to_string(),
+                    machine: earlier.machine.markdown(),
+                    command: earlier.command.clone(),
+                })
+        };
+        let mut kept = Vec::new();
+        if !ran.contains(&"blur") {
+            kept.push(note("blur"));
+            self.blur = earlier.blur;
+            self.blur_size = earlier.blur_size;
+            self.blur_error_region = earlier.blur_error_region;
+        }
+        if !ran.contains(&"mips") {
+            kept.push(note("mips"));
+            self.mips = earlier.mips;
+            self.mip_size = earlier.mip_size;
+        }
+        if !ran.contains(&"meshes") {
+            kept.push(note("meshes"));
+            self.meshes = earlier.meshes;
+        }
+        if !ran.contains(&"god-rays") {
+            kept.push(note("god-rays"));
+            self.god_rays = earlier.god_rays;
+        }
+        self.kept = kept;
+    }
 }
 
 fn write(dir: &Path, name: &str, text: &str) -> Result<()> {
@@ -89,6 +141,13 @@ pub fn write_report(dir: &Path, r: &Results) -> Result<()> {
          the Pareto front (no other point is both faster and more accurate), its points ringed \
          and labelled. The raw numbers are in `results.json`.\n"
     );
+    for k in &r.kept {
+        let _ = writeln!(
+            md,
+            "The {} sweep is kept from an earlier run: `{}`. {}\n",
+            k.sweep, k.command, k.machine
+        );
+    }
     summary(&mut md, r);
     blur_section(dir, &mut md, r)?;
     mip_section(dir, &mut md, r)?;
@@ -104,10 +163,12 @@ fn summary(md: &mut String, r: &Results) {
     let mut sigmas: Vec<f32> = r.blur.iter().map(|b| b.sigma).collect();
     sigmas.dedup();
     for s in sigmas {
+        let exact = |b: &&BlurRow| !b.note.contains("approximation");
         let best_ours = r
             .blur
             .iter()
             .filter(|b| b.sigma == s && b.ours)
+            .filter(exact)
             .min_by(|a, b| {
                 a.time_ms
                     .unwrap_or(f64::INFINITY)
@@ -138,6 +199,27 @@ fn summary(md: &mut String, r: &Results) {
                 },
                 if auto_on_front { "on" } else { "**not** on" },
                 n = r.blur_size
+            );
+        }
+        let approx: Vec<String> = r
+            .blur
+            .iter()
+            .filter(|b| b.sigma == s && b.ours && !exact(b))
+            .map(|b| {
+                format!(
+                    "{} {} ms at max {} / RMS {} LSB",
+                    b.method.trim_start_matches("ours: "),
+                    cell(b.time_ms, 1),
+                    cell(b.max_lsb, 2),
+                    cell(b.rms_lsb, 2)
+                )
+            })
+            .collect();
+        if !approx.is_empty() {
+            let _ = writeln!(
+                md,
+                "  - Approximations (picked only when `--max-error` allows): {}.",
+                approx.join("; ")
             );
         }
     }

@@ -67,14 +67,22 @@ fn quick_bench_writes_a_sane_report_and_error_table() {
         serde_json::from_str(&std::fs::read_to_string(out.join("results.json")).unwrap()).unwrap();
     assert!(!r["machine"]["cpu"].as_str().unwrap().is_empty());
 
-    // Blur: our methods are exact to the texture issue's bar everywhere; every anchor that ran
-    // has a finite error no better than the rounding floor allows.
+    // Blur: our exact methods are exact to the texture issue's bar everywhere, the
+    // approximations measurably worse but bounded; every anchor that ran has a finite error no
+    // better than the rounding floor allows.
     let blur = r["blur"].as_array().unwrap();
-    assert!(blur.iter().any(|b| b["method"] == "ours: decimated"));
+    for m in ["decimated", "decimated-coarse", "box3"] {
+        let m = format!("ours: {m}");
+        assert!(blur.iter().any(|b| b["method"] == m.as_str()), "{m}");
+    }
     for b in blur {
         if b["ours"] == true {
             let max = f(&b["max_lsb"]);
-            assert!((0.45..=0.55).contains(&max), "{b}");
+            if b["note"] == "approximation" {
+                assert!(max > 0.55 && max < 40.0, "{b}");
+            } else {
+                assert!((0.45..=0.55).contains(&max), "{b}");
+            }
             assert!(f(&b["rms_lsb"]) <= max && f(&b["time_ms"]) > 0.0, "{b}");
         } else if !b["max_lsb"].is_null() {
             assert!(
@@ -166,4 +174,33 @@ fn quick_bench_writes_a_sane_report_and_error_table() {
     assert!(c.warning.is_none() && c.expected_error <= 0.55, "{c:?}");
     let c = cook::budget::choose_mip_in(&table, 0.6, Some("box")).unwrap();
     assert!(c.linear_light, "{c:?}");
+
+    // Re-measuring one sweep keeps the others' rows from the report already there, and says so.
+    let status = Command::new(env!("CARGO_BIN_EXE_bench"))
+        .args(["--quick", "--only", "blur", "--keep-others", "--sigmas", "4"])
+        .arg("--out")
+        .arg(&out)
+        .arg("--emit-table")
+        .arg(&table_path)
+        .status()
+        .expect("bench runs");
+    assert!(status.success(), "bench --only blur --keep-others failed");
+    let again: Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("results.json")).unwrap()).unwrap();
+    assert_eq!(again["mips"], r["mips"]);
+    assert_eq!(again["meshes"], r["meshes"]);
+    assert_eq!(again["god_rays"], r["god_rays"]);
+    assert!(again["blur"].as_array().unwrap().iter().all(|b| b["sigma"] == 4.0));
+    let kept: Vec<&str> = again["kept"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|k| k["sweep"].as_str().unwrap())
+        .collect();
+    assert_eq!(kept, ["mips", "meshes", "god-rays"]);
+    let readme = std::fs::read_to_string(out.join("README.md")).unwrap();
+    assert!(readme.contains("The mips sweep is kept from an earlier run"));
+    let table: cook::budget::ErrorTable =
+        serde_json::from_str(&std::fs::read_to_string(&table_path).unwrap()).unwrap();
+    assert!(!table.mip.is_empty() && table.blur.iter().all(|b| b.sigma == 4.0));
 }
