@@ -7,8 +7,10 @@
 //! reference (0.5 is the rounding floor); costs are relative to one unit measured in the same
 //! run, so only their ratios mean anything.
 //!
-//! Method names are those of `texture::BlurMethod::name` (`direct`, `decimated`) and
-//! `texture::MipFilter::name` (`box`, `kaiser`, `lanczos3`).
+//! Method names are those of `texture::BlurMethod::name` (exact: `direct`, `decimated`;
+//! approximations with a larger measured error: `decimated-coarse`, `box3`) and
+//! `texture::MipFilter::name` (`box`, `kaiser`, `lanczos3`). An approximation is chosen only when
+//! the budget allows its measured error and it is the cheapest method that fits.
 
 use std::sync::OnceLock;
 
@@ -89,7 +91,7 @@ impl Choice {
     /// The blur method to cook with, for `texture::ProjectorOptions::method`; `None` when the
     /// name is not a blur method (a mip choice).
     pub fn blur_method(&self) -> Option<texture::BlurMethod> {
-        [texture::BlurMethod::Direct, texture::BlurMethod::Decimated]
+        texture::BlurMethod::ALL
             .into_iter()
             .find(|m| m.name() == self.method)
     }
@@ -499,6 +501,79 @@ mod tests {
             ..t
         };
         assert!(choose_god_rays_in(&empty, 1.0).is_none());
+    }
+
+    #[test]
+    fn a_loose_budget_picks_an_approximation_and_a_tight_one_never_does() {
+        let t = table();
+        let cheapest = |sigma: f32, approx: bool| {
+            t.blur
+                .iter()
+                .filter(|e| e.sigma == sigma)
+                .filter(|e| {
+                    let m = texture::BlurMethod::ALL
+                        .into_iter()
+                        .find(|m| m.name() == e.method);
+                    m.expect("known method").is_approximation() == approx
+                })
+                .map(|e| e.relative_cost)
+                .reduce(f32::min)
+        };
+        let mut sigmas: Vec<f32> = t.blur.iter().map(|e| e.sigma).collect();
+        sigmas.dedup();
+        // Where an approximation was measured cheaper than every exact method, a user who
+        // allows its error gets it; the table must show that for most σ, or the approximations
+        // are not worth offering.
+        let mut faster = 0;
+        for &sigma in &sigmas {
+            let exact = choose_blur(0.55, sigma);
+            assert!(
+                !exact.blur_method().unwrap().is_approximation(),
+                "sigma {sigma}: {exact:?}"
+            );
+            let (Some(a), Some(e)) = (cheapest(sigma, true), cheapest(sigma, false)) else {
+                continue;
+            };
+            if a < e {
+                faster += 1;
+                let c = choose_blur(30.0, sigma);
+                let m = c.blur_method().expect("a blur method");
+                assert!(m.is_approximation(), "sigma {sigma}: {c:?}");
+                assert!(c.expected_error > 0.55 && c.expected_error <= 30.0, "{c:?}");
+                assert_eq!(c.warning, None);
+                assert!(c.relative_cost < exact.relative_cost, "{c:?} {exact:?}");
+            }
+        }
+        assert!(faster >= 3, "approximations faster at only {faster} σ");
+    }
+
+    #[test]
+    fn approximations_compete_on_cost_within_the_budget() {
+        let mut t = synthetic();
+        t.blur.extend([
+            blur("decimated-coarse", 4.0, 3.0, 1.0),
+            blur("decimated-coarse", 16.0, 3.5, 1.0),
+            blur("box3", 4.0, 12.0, 1.5),
+            blur("box3", 16.0, 8.0, 0.5),
+        ]);
+        // Budget 4: box3 (cheaper at σ = 16) is over it, so the coarse grid.
+        let c = choose_blur_in(&t, 4.0, 16.0).unwrap();
+        assert_eq!(c.method, "decimated-coarse");
+        assert_eq!(c.blur_method(), Some(texture::BlurMethod::DecimatedCoarse));
+        // Budget 10: box3 fits and is cheapest; between σ 4 and 16 its error is the worse of
+        // the two (12), so at σ = 8 it does not fit a budget of 10.
+        assert_eq!(choose_blur_in(&t, 10.0, 16.0).unwrap().method, "box3");
+        assert_eq!(
+            choose_blur_in(&t, 10.0, 8.0).unwrap().method,
+            "decimated-coarse"
+        );
+        assert_eq!(
+            choose_blur_in(&t, 10.0, 16.0).unwrap().blur_method(),
+            Some(texture::BlurMethod::Box3)
+        );
+        // An exact budget ignores them.
+        assert_eq!(choose_blur_in(&t, 0.55, 16.0).unwrap().method, "decimated");
+        assert_eq!(choose_blur_in(&t, 0.52, 16.0).unwrap().method, "direct");
     }
 
     #[test]
