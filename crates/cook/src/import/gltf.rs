@@ -669,12 +669,62 @@ fn percent_decode(s: &str) -> String {
     String::from_utf8_lossy(&out).into_owned()
 }
 
-fn image_ref(ctx: &Ctx, image: gltf::Image, warnings: &mut Vec<Warning>) -> Option<ImageRef> {
+/// The bytes of a base64 `data:` URI (what glTF exporters embed). Anything else, or a payload
+/// that does not decode, is an error naming the file: the texture was meant to be there.
+fn decode_data_uri(path: &Path, name: &str, uri: &str) -> Result<Vec<u8>, CookError> {
+    let rest = uri.strip_prefix("data:").unwrap_or(uri);
+    let Some((header, payload)) = rest.split_once(',') else {
+        return Err(bad(
+            path,
+            format!("image {name}: data URI has no ',' before its data"),
+        ));
+    };
+    if !header
+        .split(';')
+        .any(|p| p.trim().eq_ignore_ascii_case("base64"))
+    {
+        return Err(bad(
+            path,
+            format!(
+                "image {name}: data URI {header:?} is not base64; only base64 data URIs are \
+                 supported"
+            ),
+        ));
+    }
+    // The decoded size is known before decoding: refuse what the image decoder would refuse
+    // anyway, before allocating it.
+    let decoded = payload.len() / 4 * 3;
+    if decoded as u64 > texture::MAX_DECODE_BYTES {
+        return Err(bad(
+            path,
+            format!(
+                "image {name}: data URI holds about {decoded} bytes, over the limit of {}",
+                texture::MAX_DECODE_BYTES
+            ),
+        ));
+    }
+    let bytes = base64::decode(payload.trim()).map_err(|e| {
+        bad(
+            path,
+            format!("image {name}: malformed base64 in data URI: {e}"),
+        )
+    })?;
+    if bytes.is_empty() {
+        return Err(bad(path, format!("image {name}: data URI is empty")));
+    }
+    Ok(bytes)
+}
+
+fn image_ref(
+    ctx: &Ctx,
+    image: gltf::Image,
+    warnings: &mut Vec<Warning>,
+) -> Result<Option<ImageRef>, CookError> {
     let name = image
         .name()
         .map(str::to_string)
         .unwrap_or_else(|| format!("image{}", image.index()));
-    match image.source() {
+    Ok(match image.source() {
         gltf::image::Source::View { view, .. } => {
             match ctx.view_slice(&view, 0, view.length(), 1, &format!("image {name}")) {
                 Ok((bytes, _)) => Some(ImageRef::Embedded {
@@ -693,12 +743,11 @@ fn image_ref(ctx: &Ctx, image: gltf::Image, warnings: &mut Vec<Warning>) -> Opti
         }
         gltf::image::Source::Uri { uri, .. } => {
             if uri.starts_with("data:") {
-                warnings.push(Warning::new(
-                    ctx.path,
-                    None,
-                    format!("image {name}: data URIs are not supported; texture ignored"),
-                ));
-                return None;
+                let bytes = decode_data_uri(ctx.path, &name, uri)?;
+                return Ok(Some(ImageRef::Embedded {
+                    name: format!("{}#{name}", ctx.path.display()),
+                    bytes: Arc::new(bytes),
+                }));
             }
             let dir = ctx.path.parent().unwrap_or(Path::new(""));
             let p = [dir.join(uri), dir.join(percent_decode(uri))]
@@ -716,7 +765,7 @@ fn image_ref(ctx: &Ctx, image: gltf::Image, warnings: &mut Vec<Warning>) -> Opti
                 }
             }
         }
-    }
+    })
 }
 
 fn convert_material(
@@ -742,12 +791,14 @@ fn convert_material(
         specular,
         shininess,
         emissive: m.emissive_factor(),
-        diffuse_texture: pbr
-            .base_color_texture()
-            .and_then(|t| image_ref(ctx, t.texture().source(), warnings)),
-        normal_texture: m
-            .normal_texture()
-            .and_then(|t| image_ref(ctx, t.texture().source(), warnings)),
+        diffuse_texture: match pbr.base_color_texture() {
+            Some(t) => image_ref(ctx, t.texture().source(), warnings)?,
+            None => None,
+        },
+        normal_texture: match m.normal_texture() {
+            Some(t) => image_ref(ctx, t.texture().source(), warnings)?,
+            None => None,
+        },
     };
     if !sm
         .diffuse

@@ -1,0 +1,234 @@
+//! Real image inputs through the whole cooker: a TGA and a JPEG from third-party sets as OBJ
+//! material textures, and a glTF whose base colour image is a base64 data URI. Level 0 of a
+//! cooked 8-bit sRGB texture keeps the source's bytes, so it must equal the image crate's own
+//! decode exactly; damaged inputs exit 3 naming the file.
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+fn cooker(args: &[&dyn AsRef<std::ffi::OsStr>]) -> Output {
+    let mut c = Command::new(env!("CARGO_BIN_EXE_cooker"));
+    for a in args {
+        c.arg(a);
+    }
+    c.output().expect("cooker runs")
+}
+
+fn data(rel: &str) -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("../../tests/data/third_party")
+        .join(rel)
+}
+
+fn text(b: &[u8]) -> String {
+    String::from_utf8_lossy(b).into_owned()
+}
+
+const TGA: &str = "crytek-sponza/spnza_bricks_a_diff.crop128.tga";
+const JPEG: &str = "cpython/python.jpg";
+
+/// An OBJ quad per texture, each with its own material whose `map_Kd` is that file (copied
+/// into `dir`, so a test can damage its copy).
+fn obj_scene(dir: &Path, textures: &[&str]) -> PathBuf {
+    let mut obj = String::from("mtllib scene.mtl\nvt 0 0\nvt 1 0\nvt 1 1\nvt 0 1\nvn 0 0 1\n");
+    let mut mtl = String::new();
+    for (i, t) in textures.iter().enumerate() {
+        let src = data(t);
+        let name = src.file_name().unwrap().to_str().unwrap().to_string();
+        std::fs::copy(&src, dir.join(&name)).unwrap();
+        let x = 2 * i;
+        obj += &format!(
+            "v {x} 0 0\nv {} 0 0\nv {} 1 0\nv {x} 1 0\nusemtl m{i}\n",
+            x + 1,
+            x + 1
+        );
+        let b = 4 * i;
+        obj += &format!(
+            "f {}/1/1 {}/2/1 {}/3/1\nf {}/1/1 {}/3/1 {}/4/1\n",
+            b + 1,
+            b + 2,
+            b + 3,
+            b + 1,
+            b + 3,
+            b + 4
+        );
+        mtl += &format!("newmtl m{i}\nKd 1 1 1\nmap_Kd {name}\n");
+    }
+    std::fs::write(dir.join("scene.obj"), obj).unwrap();
+    std::fs::write(dir.join("scene.mtl"), mtl).unwrap();
+    dir.join("scene.obj")
+}
+
+/// `(width, height, mips)` of the pack's texture `name`, from `cooker info --json`.
+fn texture_info(pack: &Path, name: &str) -> (u64, u64, u64) {
+    let o = cooker(&[&"info", &pack, &"--json"]);
+    assert_eq!(o.status.code(), Some(0), "{}", text(&o.stderr));
+    let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    let t = v["textures"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .find(|t| t["name"] == name)
+        .unwrap_or_else(|| panic!("no texture {name:?} in {v}"));
+    assert_eq!(t["role"], "colour");
+    assert_eq!(t["colour_space"], "srgb");
+    let n = |k: &str| t[k].as_u64().unwrap();
+    (n("width"), n("height"), n("mips"))
+}
+
+fn extract(pack: &Path, name: &str, mip: u32, dir: &Path) -> image::RgbaImage {
+    let out = dir.join(format!("{name}-{mip}.png"));
+    let o = cooker(&[
+        &"extract",
+        &pack,
+        &name,
+        &"--mip",
+        &mip.to_string(),
+        &"-o",
+        &out,
+    ]);
+    assert_eq!(o.status.code(), Some(0), "{}", text(&o.stderr));
+    image::open(&out).unwrap().to_rgba8()
+}
+
+fn mips_for(w: u64, h: u64) -> u64 {
+    64 - w.max(h).leading_zeros() as u64
+}
+
+#[test]
+fn real_tga_and_jpeg_cook_with_their_exact_bytes_at_level_0() {
+    let dir = tempfile::tempdir().unwrap();
+    let obj = obj_scene(dir.path(), &[TGA, JPEG]);
+    let pack = dir.path().join("scene.pack");
+    let o = cooker(&[&"cook", &obj, &"-o", &pack, &"--no-cache"]);
+    assert_eq!(o.status.code(), Some(0), "{}", text(&o.stderr));
+    for (file, name, size) in [
+        (TGA, "spnza_bricks_a_diff.crop128", 128),
+        (JPEG, "python", 16),
+    ] {
+        let decoded = image::open(data(file)).unwrap().to_rgba8();
+        assert_eq!(decoded.dimensions(), (size, size), "{file}");
+        let (w, h, mips) = texture_info(&pack, name);
+        assert_eq!((w, h), (size as u64, size as u64), "{file}");
+        assert_eq!(mips, mips_for(w, h), "{file}: a full chain down to 1x1");
+        let level0 = extract(&pack, name, 0, dir.path());
+        assert!(
+            level0 == decoded,
+            "{file}: cooked level 0 differs from the image crate's decode"
+        );
+        // The chain is filtered, not copied: level 1 is half the size and still opaque.
+        let level1 = extract(&pack, name, 1, dir.path());
+        assert_eq!(level1.dimensions(), (size / 2, size / 2));
+        assert!(level1.pixels().all(|p| p[3] == 255), "{file}");
+        let last = extract(&pack, name, (mips - 1) as u32, dir.path());
+        assert_eq!(last.dimensions(), (1, 1));
+    }
+}
+
+#[test]
+fn truncated_tga_and_jpeg_exit_3_naming_the_file() {
+    for file in [TGA, JPEG] {
+        let dir = tempfile::tempdir().unwrap();
+        let obj = obj_scene(dir.path(), &[file]);
+        let copy = dir.path().join(data(file).file_name().unwrap());
+        let bytes = std::fs::read(&copy).unwrap();
+        std::fs::write(&copy, &bytes[..bytes.len() / 2]).unwrap();
+        let pack = dir.path().join("scene.pack");
+        let o = cooker(&[&"cook", &obj, &"-o", &pack, &"--no-cache"]);
+        let err = text(&o.stderr);
+        assert_eq!(o.status.code(), Some(3), "{file}: {err}");
+        assert!(
+            err.contains(copy.file_name().unwrap().to_str().unwrap()),
+            "{file}: the message names the file: {err}"
+        );
+        assert!(!pack.exists(), "{file}: a failed cook writes no pack");
+    }
+}
+
+/// Standard base64 with padding (RFC 4648), enough to build a data URI.
+fn base64(bytes: &[u8]) -> String {
+    const A: &[u8; 64] = b"ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
+    let mut s = String::new();
+    for c in bytes.chunks(3) {
+        let n = (c[0] as u32) << 16
+            | (*c.get(1).unwrap_or(&0) as u32) << 8
+            | *c.get(2).unwrap_or(&0) as u32;
+        for i in 0..4 {
+            if i <= c.len() {
+                s.push(A[(n >> (18 - 6 * i) & 63) as usize] as char);
+            } else {
+                s.push('=');
+            }
+        }
+    }
+    s
+}
+
+/// The BoxTextured sample with its PNG replaced by `uri`; the buffer stays a file beside it.
+fn box_with_image_uri(dir: &Path, uri: &str) -> PathBuf {
+    let src = data("gltf/BoxTextured");
+    std::fs::copy(src.join("BoxTextured0.bin"), dir.join("BoxTextured0.bin")).unwrap();
+    let gltf = std::fs::read_to_string(src.join("BoxTextured.gltf")).unwrap();
+    assert!(gltf.contains("\"CesiumLogoFlat.png\""));
+    let gltf = gltf.replace("\"CesiumLogoFlat.png\"", &format!("{uri:?}"));
+    let path = dir.join("box.gltf");
+    std::fs::write(&path, gltf).unwrap();
+    path
+}
+
+#[test]
+fn gltf_data_uri_image_is_decoded_and_cooked() {
+    let dir = tempfile::tempdir().unwrap();
+    let png_path = data("gltf/BoxTextured/CesiumLogoFlat.png");
+    let png = std::fs::read(&png_path).unwrap();
+    let gltf = box_with_image_uri(
+        dir.path(),
+        &format!("data:image/png;base64,{}", base64(&png)),
+    );
+    let pack = dir.path().join("box.pack");
+    let o = cooker(&[&"cook", &gltf, &"-o", &pack, &"--no-cache"]);
+    let err = text(&o.stderr);
+    assert_eq!(o.status.code(), Some(0), "{err}");
+    assert!(!err.contains("data URI"), "no longer skipped: {err}");
+    let info = cooker(&[&"info", &pack, &"--json"]);
+    let v: serde_json::Value = serde_json::from_slice(&info.stdout).unwrap();
+    let textures = v["textures"].as_array().unwrap();
+    assert_eq!(textures.len(), 1, "{v}");
+    let name = textures[0]["name"].as_str().unwrap().to_string();
+    let decoded = image::open(&png_path).unwrap().to_rgba8();
+    let (w, h, mips) = texture_info(&pack, &name);
+    assert_eq!((w as u32, h as u32), decoded.dimensions());
+    assert_eq!(mips, mips_for(w, h));
+    assert!(
+        extract(&pack, &name, 0, dir.path()) == decoded,
+        "level 0 differs from the PNG's decode"
+    );
+    // The material that samples it names it.
+    let used = v["materials"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .any(|m| m["diffuse_texture"] == name.as_str());
+    assert!(used, "{v}");
+}
+
+#[test]
+fn malformed_data_uris_exit_3_naming_the_file() {
+    for (uri, what) in [
+        ("data:image/png;base64,iVBORw0KGgo!!!!", "base64"),
+        ("data:image/png;base64", "','"),
+        ("data:image/png,rawbytes", "not base64"),
+        // Valid base64 of bytes that are no image: the decoder names the glTF's image.
+        ("data:image/png;base64,AAECAwQFBgcICQ==", "box.gltf"),
+    ] {
+        let dir = tempfile::tempdir().unwrap();
+        let gltf = box_with_image_uri(dir.path(), uri);
+        let pack = dir.path().join("box.pack");
+        let o = cooker(&[&"cook", &gltf, &"-o", &pack, &"--no-cache"]);
+        let err = text(&o.stderr);
+        assert_eq!(o.status.code(), Some(3), "{uri}: {err}");
+        assert!(err.contains("box.gltf"), "{uri}: names the file: {err}");
+        assert!(err.contains(what), "{uri}: says what is wrong: {err}");
+        assert!(!pack.exists());
+    }
+}
