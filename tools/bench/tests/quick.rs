@@ -177,7 +177,14 @@ fn quick_bench_writes_a_sane_report_and_error_table() {
 
     // Re-measuring one sweep keeps the others' rows from the report already there, and says so.
     let status = Command::new(env!("CARGO_BIN_EXE_bench"))
-        .args(["--quick", "--only", "blur", "--keep-others", "--sigmas", "4"])
+        .args([
+            "--quick",
+            "--only",
+            "blur",
+            "--keep-others",
+            "--sigmas",
+            "4",
+        ])
         .arg("--out")
         .arg(&out)
         .arg("--emit-table")
@@ -190,7 +197,13 @@ fn quick_bench_writes_a_sane_report_and_error_table() {
     assert_eq!(again["mips"], r["mips"]);
     assert_eq!(again["meshes"], r["meshes"]);
     assert_eq!(again["god_rays"], r["god_rays"]);
-    assert!(again["blur"].as_array().unwrap().iter().all(|b| b["sigma"] == 4.0));
+    assert!(
+        again["blur"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .all(|b| b["sigma"] == 4.0)
+    );
     let kept: Vec<&str> = again["kept"]
         .as_array()
         .unwrap()
