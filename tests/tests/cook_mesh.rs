@@ -670,3 +670,61 @@ fn window_problems_are_found() {
     assert!(planar.message.contains("tolerance"), "{}", planar.message);
     assert_eq!(v.materials[0].class, MaterialClass::WindowLower);
 }
+
+#[test]
+fn position_bits_bound_the_error_and_the_size() {
+    let m = Manifest::open(&data("classic/stanford-bunny.obj")).unwrap();
+    let mut strides = Vec::new();
+    for (bits, levels) in [
+        (cook::mesh::PositionBits::B16, 65535.0f32),
+        (cook::mesh::PositionBits::B10, 1023.0),
+        (cook::mesh::PositionBits::B8, 255.0),
+    ] {
+        let s = Settings {
+            quantize: true,
+            position_bits: bits,
+            ..Default::default()
+        };
+        let out = cook::cook(&m, &s).unwrap();
+        let bytes = pack::encode(out.toc.clone(), &out.data).unwrap();
+        let pack = Pack::from_bytes("q.pack", &bytes).unwrap();
+        let m0 = &pack.toc().meshes[0];
+        let extent: [f32; 3] = std::array::from_fn(|k| m0.bounds_max[k] - m0.bounds_min[k]);
+        let q = out.report.meshes[0].quantization.unwrap();
+        // Half a quantization step, plus the f32 rounding of decoding near the coordinates.
+        let magnitude = (0..3).fold(0.0f32, |a, k| {
+            a.max(m0.bounds_min[k].abs()).max(m0.bounds_max[k].abs())
+        });
+        let bound = extent.iter().fold(0.0f32, |a, &e| a.max(e)) / levels * 0.5
+            + 4.0 * f32::EPSILON * magnitude;
+        assert!(q.position <= bound, "{bits:?}: {} > {bound}", q.position);
+        // The reported error is what a reader decoding the pack sees.
+        let (src, _) = cook_file("classic/stanford-bunny.obj");
+        let exact = &src.toc.meshes[0];
+        let exact_pos = |i: usize| {
+            let stride = exact.layout.stride as usize;
+            exact
+                .layout
+                .position(&src.data.meshes[0].vertices[i * stride..(i + 1) * stride])
+                .unwrap()
+        };
+        let stride = m0.layout.stride as usize;
+        let mut worst = 0.0f32;
+        for (i, v) in pack.vertex_bytes(m0).chunks_exact(stride).enumerate() {
+            let p = m0.layout.position(v).unwrap();
+            let e = exact_pos(i);
+            for k in 0..3 {
+                worst = worst.max((p[k] - e[k]).abs());
+            }
+        }
+        assert!(
+            worst <= q.position * 1.001 + 1e-7,
+            "{bits:?}: decoded {worst} vs reported {}",
+            q.position
+        );
+        strides.push(m0.layout.stride);
+    }
+    // The bunny has no texture: position + normal + material; 16-bit positions take 8 bytes,
+    // 10- and 8-bit ones 4.
+    assert_eq!(strides, [16, 12, 12]);
+}

@@ -82,8 +82,9 @@ impl CookError {
 #[derive(Clone, Debug)]
 pub struct Settings {
     pub mesh: MeshSettings,
-    /// Quantize vertices (16-bit positions, octahedral normals, 16-bit UVs).
+    /// Quantize vertices (positions to `position_bits`, octahedral normals, 16-bit UVs).
     pub quantize: bool,
+    pub position_bits: mesh::PositionBits,
     /// Cook textures; off for geometry-only checks such as `cooker validate`.
     pub textures: bool,
     /// Reuse cooked textures from this cache, and store new ones in it.
@@ -95,6 +96,7 @@ impl Default for Settings {
         Self {
             mesh: MeshSettings::default(),
             quantize: false,
+            position_bits: mesh::PositionBits::B16,
             textures: true,
             cache: None,
         }
@@ -441,7 +443,7 @@ pub fn cook(manifest: &Manifest, settings: &Settings) -> Result<CookOutput, Cook
             p.bounds_min,
             p.bounds_max,
             attrs,
-            settings.quantize,
+            settings.quantize.then_some(settings.position_bits),
         );
         if settings.quantize {
             mesh_report.quantization = Some(QuantizationError {

@@ -694,6 +694,27 @@ fn unorm16(v: f32) -> u16 {
     (v.clamp(0.0, 1.0) * 65535.0).round() as u16
 }
 
+/// Bits per axis of quantized positions: 16 (`Unorm16x4`, 8 bytes) or 10 and 8 (packed in 4
+/// bytes).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum PositionBits {
+    #[default]
+    B16 = 16,
+    B10 = 10,
+    B8 = 8,
+}
+
+impl PositionBits {
+    pub fn from_bits(bits: u32) -> Option<Self> {
+        match bits {
+            16 => Some(Self::B16),
+            10 => Some(Self::B10),
+            8 => Some(Self::B8),
+            _ => None,
+        }
+    }
+}
+
 /// Which optional vertex attributes a mesh stores; position and material ID always are.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct Attributes {
@@ -758,7 +779,7 @@ pub struct Encoded {
 /// Encodes vertices with the attributes `attrs` keeps. With every attribute and no quantization
 /// this is exactly [`pack::VertexLayout::standard`] (52 bytes), which the viewer uploads as is.
 ///
-/// Quantized: positions as 16-bit unorm within the bounding box, normals and tangents
+/// Quantized (`quantize` gives the position bits): positions as unorm within the bounding box, normals and tangents
 /// octahedral in 16-bit snorm (tangent handedness in z), UVs as 16-bit unorm when they lie in
 /// [0, 1] (else floats): 28 bytes with every attribute. Attributes keep the order position,
 /// normal, tangent, UV, material when quantized, and position, normal, UV, tangent, material
@@ -768,9 +789,18 @@ pub fn encode(
     bounds_min: [f32; 3],
     bounds_max: [f32; 3],
     attrs: Attributes,
-    quantize: bool,
+    quantize: Option<PositionBits>,
 ) -> Encoded {
     use pack::{AttributeFormat as F, Semantic as S, VertexAttribute as A};
+    let bits = quantize;
+    let quantize = bits.is_some();
+    let position_format = match bits {
+        None => F::Float32x3,
+        Some(PositionBits::B16) => F::Unorm16x4,
+        Some(PositionBits::B10) => F::Unorm10x3,
+        Some(PositionBits::B8) => F::Unorm8x4,
+    };
+    let levels = bits.map_or(1.0, |b| ((1u32 << b as u32) - 1) as f32);
     let uv_unorm = quantize
         && vertices
             .iter()
@@ -787,7 +817,7 @@ pub fn encode(
     };
     let uv_format = if uv_unorm { F::Unorm16x2 } else { F::Float32x2 };
     if quantize {
-        push(S::Position, F::Unorm16x4);
+        push(S::Position, position_format);
         if attrs.normal {
             push(S::Normal, F::Snorm16x2);
         }
@@ -810,7 +840,8 @@ pub fn encode(
         }
     }
     push(S::MaterialId, F::Uint16x2);
-    // The GPU reads Unorm16 as q / 65535 in [0, 1], so the scale is the box's full extent.
+    // The GPU reads unorm q as q / (2^bits - 1) in [0, 1], so the scale is the box's full
+    // extent.
     let scale: [f32; 3] = std::array::from_fn(|k| {
         let s = bounds_max[k] - bounds_min[k];
         if s > 0.0 { s } else { 1.0 }
@@ -844,14 +875,24 @@ pub fn encode(
             bytes.extend_from_slice(&0u16.to_le_bytes());
             continue;
         }
-        let q: [u16; 3] =
-            std::array::from_fn(|k| unorm16((v.position[k] - bounds_min[k]) / scale[k]));
+        let q: [u32; 3] = std::array::from_fn(|k| {
+            (((v.position[k] - bounds_min[k]) / scale[k]).clamp(0.0, 1.0) * levels).round() as u32
+        });
         for k in 0..3 {
-            let back = bounds_min[k] + scale[k] * (q[k] as f32 / 65535.0);
+            let back = bounds_min[k] + scale[k] * (q[k] as f32 / levels);
             perr = perr.max((back - v.position[k]).abs());
-            bytes.extend_from_slice(&q[k].to_le_bytes());
         }
-        bytes.extend_from_slice(&0u16.to_le_bytes());
+        match position_format {
+            F::Unorm16x4 => {
+                for c in [q[0], q[1], q[2], 0] {
+                    bytes.extend_from_slice(&(c as u16).to_le_bytes());
+                }
+            }
+            F::Unorm10x3 => {
+                bytes.extend_from_slice(&(q[0] | q[1] << 10 | q[2] << 20).to_le_bytes());
+            }
+            _ => bytes.extend_from_slice(&[q[0] as u8, q[1] as u8, q[2] as u8, 0]),
+        }
         if attrs.normal {
             let e = oct_encode(v.normal).map(snorm16);
             let back = oct_decode(e.map(|c| c as f32 / 32767.0));
@@ -900,7 +941,13 @@ pub fn quantize(
     bounds_min: [f32; 3],
     bounds_max: [f32; 3],
 ) -> Encoded {
-    encode(vertices, bounds_min, bounds_max, Attributes::ALL, true)
+    encode(
+        vertices,
+        bounds_min,
+        bounds_max,
+        Attributes::ALL,
+        Some(PositionBits::B16),
+    )
 }
 
 #[cfg(test)]

@@ -382,16 +382,7 @@ fn decode(pack: &pack::Pack, m: &pack::Mesh) -> MeshView {
     let mut materials = Vec::with_capacity(n);
     for i in 0..n {
         let b = &bytes[i * stride..(i + 1) * stride];
-        positions.push(match attr(Semantic::Position) {
-            Some((AttributeFormat::Float32x3, o)) => {
-                [read_f32(b, o), read_f32(b, o + 4), read_f32(b, o + 8)]
-            }
-            Some((AttributeFormat::Unorm16x4, o)) => std::array::from_fn(|k| {
-                m.layout.position_offset[k]
-                    + m.layout.position_scale[k] * (read_u16(b, o + 2 * k) as f32 / 65535.0)
-            }),
-            _ => [0.0; 3],
-        });
+        positions.push(m.layout.position(b).unwrap_or([0.0; 3]));
         uvs.push(match attr(Semantic::TexCoord) {
             Some((AttributeFormat::Float32x2, o)) => [read_f32(b, o), read_f32(b, o + 4)],
             Some((AttributeFormat::Unorm16x2, o)) => [

@@ -176,6 +176,11 @@ pub enum AttributeFormat {
     Snorm16x4,
     /// Material ID in the first component; the second is zero.
     Uint16x2,
+    /// Quantized positions at 10 bits per axis, packed in a little-endian u32: x in bits 0-9,
+    /// y in 10-19, z in 20-29, bits 30-31 zero (wgpu's `Unorm10_10_10_2`).
+    Unorm10x3,
+    /// Quantized positions at 8 bits per axis; the fourth byte is zero.
+    Unorm8x4,
 }
 
 impl AttributeFormat {
@@ -186,6 +191,17 @@ impl AttributeFormat {
             Self::Float32x4 => 16,
             Self::Unorm16x2 | Self::Snorm16x2 | Self::Uint16x2 => 4,
             Self::Unorm16x4 | Self::Snorm16x4 => 8,
+            Self::Unorm10x3 | Self::Unorm8x4 => 4,
+        }
+    }
+
+    /// Bits per axis of a quantized position format; `None` for floats and other formats.
+    pub fn position_bits(self) -> Option<u32> {
+        match self {
+            Self::Unorm16x4 => Some(16),
+            Self::Unorm10x3 => Some(10),
+            Self::Unorm8x4 => Some(8),
+            _ => None,
         }
     }
 }
@@ -201,7 +217,8 @@ pub struct VertexAttribute {
 pub struct VertexLayout {
     pub stride: u32,
     pub attributes: Vec<VertexAttribute>,
-    /// Dequantization of `Unorm16x4` positions: `p = offset + scale * q`. Identity otherwise.
+    /// Dequantization of quantized positions (`Unorm16x4`, `Unorm10x3`, `Unorm8x4`, `q` in
+    /// [0, 1]): `p = offset + scale * q`. Identity otherwise.
     pub position_offset: [f32; 3],
     pub position_scale: [f32; 3],
 }
@@ -209,6 +226,32 @@ pub struct VertexLayout {
 impl VertexLayout {
     pub fn attribute(&self, semantic: Semantic) -> Option<&VertexAttribute> {
         self.attributes.iter().find(|a| a.semantic == semantic)
+    }
+
+    /// The world-space position of one vertex (`vertex` is its `stride` bytes), dequantized;
+    /// `None` when the layout has no position in a position format or the bytes are short.
+    pub fn position(&self, vertex: &[u8]) -> Option<[f32; 3]> {
+        let a = self.attribute(Semantic::Position)?;
+        let o = a.offset as usize;
+        let b = vertex.get(o..o + a.format.size() as usize)?;
+        let u16_at = |k: usize| u16::from_le_bytes([b[2 * k], b[2 * k + 1]]) as f32;
+        let q: [f32; 3] = match a.format {
+            AttributeFormat::Float32x3 => {
+                return Some(std::array::from_fn(|k| {
+                    f32::from_le_bytes([b[4 * k], b[4 * k + 1], b[4 * k + 2], b[4 * k + 3]])
+                }));
+            }
+            AttributeFormat::Unorm16x4 => std::array::from_fn(|k| u16_at(k) / 65535.0),
+            AttributeFormat::Unorm10x3 => {
+                let w = u32::from_le_bytes([b[0], b[1], b[2], b[3]]);
+                std::array::from_fn(|k| ((w >> (10 * k)) & 0x3ff) as f32 / 1023.0)
+            }
+            AttributeFormat::Unorm8x4 => std::array::from_fn(|k| b[k] as f32 / 255.0),
+            _ => return None,
+        };
+        Some(std::array::from_fn(|k| {
+            self.position_offset[k] + self.position_scale[k] * q[k]
+        }))
     }
 }
 
@@ -383,5 +426,83 @@ impl VertexLayout {
             position_offset: [0.0; 3],
             position_scale: [1.0; 3],
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn layout(format: AttributeFormat) -> VertexLayout {
+        VertexLayout {
+            stride: 4 + format.size(),
+            attributes: vec![
+                VertexAttribute {
+                    semantic: Semantic::MaterialId,
+                    format: AttributeFormat::Uint16x2,
+                    offset: 0,
+                },
+                VertexAttribute {
+                    semantic: Semantic::Position,
+                    format,
+                    offset: 4,
+                },
+            ],
+            position_offset: [-1.0, 10.0, 0.5],
+            position_scale: [2.0, 4.0, 1.0],
+        }
+    }
+
+    #[test]
+    fn quantized_positions_dequantize_over_the_bounds() {
+        let max10 = 1023u32 | 1023 << 10 | 1023 << 20;
+        let cases: [(AttributeFormat, Vec<u8>, [f32; 3]); 5] = [
+            (
+                AttributeFormat::Unorm16x4,
+                [0u16, 65535, 32768, 0]
+                    .iter()
+                    .flat_map(|c| c.to_le_bytes())
+                    .collect(),
+                [-1.0, 14.0, 0.5 + 32768.0 / 65535.0],
+            ),
+            (
+                AttributeFormat::Unorm10x3,
+                max10.to_le_bytes().to_vec(),
+                [1.0, 14.0, 1.5],
+            ),
+            (
+                AttributeFormat::Unorm10x3,
+                (512u32 << 10).to_le_bytes().to_vec(),
+                [-1.0, 10.0 + 4.0 * 512.0 / 1023.0, 0.5],
+            ),
+            (
+                AttributeFormat::Unorm8x4,
+                vec![255, 0, 51, 0],
+                [1.0, 10.0, 0.7],
+            ),
+            (
+                AttributeFormat::Float32x3,
+                [3.0f32, -2.0, 1e5]
+                    .iter()
+                    .flat_map(|c| c.to_le_bytes())
+                    .collect(),
+                [3.0, -2.0, 1e5],
+            ),
+        ];
+        for (format, bytes, want) in cases {
+            let l = layout(format);
+            let mut v = vec![0u8; 4];
+            v.extend(bytes);
+            let got = l.position(&v).unwrap();
+            for k in 0..3 {
+                assert!(
+                    (got[k] - want[k]).abs() < 1e-5,
+                    "{format:?}: {got:?} vs {want:?}"
+                );
+            }
+            // Short vertex bytes are refused, not read past.
+            assert_eq!(l.position(&v[..v.len() - 1]), None);
+        }
+        assert_eq!(layout(AttributeFormat::Snorm16x2).position(&[0; 8]), None);
     }
 }

@@ -110,10 +110,7 @@ fn validate_layout(mesh: &Mesh, what: &str) -> Result<(), Fail> {
     let pos = l
         .attribute(Semantic::Position)
         .ok_or_else(|| Fail::toc(format!("{what}: no position attribute")))?;
-    if !matches!(
-        pos.format,
-        AttributeFormat::Float32x3 | AttributeFormat::Unorm16x4
-    ) {
+    if pos.format != AttributeFormat::Float32x3 && pos.format.position_bits().is_none() {
         return Err(Fail::toc(format!(
             "{what}: position format {:?} is not supported",
             pos.format

@@ -717,30 +717,20 @@ fn standard_vertices(
                 ]
             }
             AttributeFormat::Uint16x2 => [u16_at(v, o) as f32, u16_at(v, o + 2) as f32, 0.0, 0.0],
+            // Quantized positions only; `VertexLayout::position` dequantizes them.
+            AttributeFormat::Unorm10x3 | AttributeFormat::Unorm8x4 => [0.0; 4],
         }
     };
-    let pos = layout.attribute(Semantic::Position);
     let nrm = layout.attribute(Semantic::Normal);
     let uv = layout.attribute(Semantic::TexCoord);
     let tan = layout.attribute(Semantic::Tangent);
-    let (po, ps) = (
-        glam::Vec3::from(layout.position_offset),
-        glam::Vec3::from(layout.position_scale),
-    );
     let out = bytes
         .chunks_exact(stride)
         .take(count)
         .map(|v| {
             let mut s = StandardVertex::default();
-            if let Some(a) = pos {
-                let p = read(v, a);
-                let p = glam::Vec3::new(p[0], p[1], p[2]);
-                let p = if a.format == AttributeFormat::Unorm16x4 {
-                    po + ps * p
-                } else {
-                    p
-                };
-                s.position = p.to_array();
+            if let Some(p) = layout.position(v) {
+                s.position = p;
             }
             if let Some(a) = nrm {
                 let n = read(v, a);

@@ -7,7 +7,9 @@ use std::process::Command;
 use std::time::Instant;
 
 use anyhow::{Context, Result};
-use cook::mesh::{CacheMode, MaterialNeeds, MeshSettings, Processed, process, quantize};
+use cook::mesh::{
+    Attributes, CacheMode, MaterialNeeds, MeshSettings, PositionBits, Processed, encode, process,
+};
 use serde::{Deserialize, Serialize};
 
 use crate::common::{median, median_ms};
@@ -19,11 +21,12 @@ pub struct MeshRow {
     pub vertices: usize,
     /// `full`, `fifo`, `none`, or an anchor's name.
     pub cache: String,
-    /// Position bits per component: 32 (float), 16 (the cooker's quantization) or a modelled
-    /// width (see `modelled`).
+    /// Position bits per component: 32 (float), or the cooker's quantization to the bounding
+    /// box at 16 (`Unorm16x4`, 8 bytes), 10 (`Unorm10x3`) or 8 (`Unorm8x4`, 4 bytes each).
     pub position_bits: u32,
-    /// Width not implemented by the cooker: error and size computed here for a quantizer to the
-    /// bounding box with that many bits (`Unorm10x3`/`Unorm8x4` storage, 4 bytes).
+    /// True for rows computed by a model rather than the cooker's own encoder; every row is
+    /// measured now, the field stays so older result files still load.
+    #[serde(default)]
     pub modelled: bool,
     pub time_ms: Option<f64>,
     pub acmr: Option<f64>,
@@ -93,24 +96,6 @@ fn index_bytes(p: &Processed) -> usize {
     p.indices.len() * size
 }
 
-/// Max position error of quantizing to the bounding box with `bits` per component, as the
-/// GPU decodes it (`min + extent · q / (2^bits − 1)`).
-fn modelled_error(p: &Processed, bits: u32) -> f64 {
-    let levels = ((1u64 << bits) - 1) as f64;
-    let mut max = 0.0f64;
-    for v in &p.vertices {
-        for k in 0..3 {
-            let (lo, hi) = (p.bounds_min[k] as f64, p.bounds_max[k] as f64);
-            let ext = if hi > lo { hi - lo } else { 1.0 };
-            let x = v.position[k] as f64;
-            let q = ((x - lo) / ext * levels).round().clamp(0.0, levels);
-            let back = (lo + ext * (q / levels)) as f32 as f64;
-            max = max.max((back - x).abs());
-        }
-    }
-    max
-}
-
 fn extent(p: &Processed) -> f64 {
     (0..3)
         .map(|k| (p.bounds_max[k] - p.bounds_min[k]) as f64)
@@ -164,10 +149,6 @@ fn measure(
         } else {
             (p.stats.acmr_out as f64, Some(p.stats.overfetch as f64), "")
         };
-        let (q_ms, q) = median_ms(cfg.runs, || {
-            quantize(&p.vertices, p.bounds_min, p.bounds_max)
-        });
-        let stride16 = q.layout.stride as usize;
         let float_stride = std::mem::size_of::<pack::StandardVertex>();
         let per_tri = |stride: usize| {
             (p.vertices.len() * stride + index_bytes(&p)) as f64 / tris.max(1) as f64
@@ -189,23 +170,25 @@ fn measure(
             note: note.to_string(),
         };
         rows.push(base.clone());
-        let e16 = q.max_position_error as f64;
-        rows.push(MeshRow {
-            position_bits: 16,
-            time_ms: Some(process_ms + q_ms),
-            bytes_per_triangle: Some(per_tri(stride16)),
-            max_position_error: Some(e16),
-            relative_position_error: Some(e16 / ext),
-            ..base.clone()
-        });
-        for bits in [10, 8] {
-            let e = modelled_error(&p, bits);
+        let mut e16 = 0.0;
+        for bits in [PositionBits::B16, PositionBits::B10, PositionBits::B8] {
+            let (q_ms, q) = median_ms(cfg.runs, || {
+                encode(
+                    &p.vertices,
+                    p.bounds_min,
+                    p.bounds_max,
+                    Attributes::ALL,
+                    Some(bits),
+                )
+            });
+            let e = q.max_position_error as f64;
+            if bits == PositionBits::B16 {
+                e16 = e;
+            }
             rows.push(MeshRow {
-                position_bits: bits,
-                modelled: true,
+                position_bits: bits as u32,
                 time_ms: Some(process_ms + q_ms),
-                // 4 bytes of position instead of the 8 of Unorm16x4.
-                bytes_per_triangle: Some(per_tri(stride16 - 4)),
+                bytes_per_triangle: Some(per_tri(q.layout.stride as usize)),
                 max_position_error: Some(e),
                 relative_position_error: Some(e / ext),
                 ..base.clone()

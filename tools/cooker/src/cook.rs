@@ -1,4 +1,5 @@
-//! `cooker cook <scene.toml|mesh file> -o <pack> [-v] [--fifo] [--overdraw] [--quantize]`
+//! `cooker cook <scene.toml|mesh file> -o <pack> [-v] [--fifo] [--overdraw] [--quantize
+//! [--position-bits 16|10|8]]`
 
 use std::io::IsTerminal;
 use std::path::PathBuf;
@@ -37,9 +38,21 @@ pub struct Args {
     /// whose measured error stays within it (overrides the manifest's `[scene] max_error`).
     #[arg(long, value_name = "LSB")]
     max_error: Option<f32>,
-    /// Quantize vertices (16-bit positions and UVs, octahedral normals); reports the error.
+    /// Quantize vertices (positions within the mesh's bounds, 16-bit UVs, octahedral
+    /// normals); reports the error.
     #[arg(long)]
     quantize: bool,
+    /// Bits per axis of quantized positions: 16 (8 bytes), 10 or 8 (4 bytes each).
+    #[arg(long, value_name = "BITS", requires = "quantize", default_value = "16",
+          value_parser = position_bits)]
+    position_bits: cook::mesh::PositionBits,
+}
+
+fn position_bits(s: &str) -> Result<cook::mesh::PositionBits, String> {
+    s.parse::<u32>()
+        .ok()
+        .and_then(cook::mesh::PositionBits::from_bits)
+        .ok_or_else(|| format!("{s:?} is not one of 16, 10, 8"))
 }
 
 fn ms(d: Duration) -> String {
@@ -60,6 +73,7 @@ pub fn run(args: Args) -> Outcome {
     }
     let mut settings = Settings {
         quantize: args.quantize,
+        position_bits: args.position_bits,
         ..Default::default()
     };
     settings.mesh.cache = if args.fifo {

@@ -80,22 +80,9 @@ fn level_diff(role: TextureRole, level: usize, w: u32, h: u32, a: &[u8], b: &[u8
 
 fn positions(pack: &Pack, mesh: &pack::Mesh) -> Vec<[f32; 3]> {
     let l = &mesh.layout;
-    let attr = l.attribute(Semantic::Position).expect("validated layout");
-    let bytes = pack.vertex_bytes(mesh);
-    bytes
+    pack.vertex_bytes(mesh)
         .chunks_exact(l.stride as usize)
-        .map(|v| {
-            let o = attr.offset as usize;
-            match attr.format {
-                pack::AttributeFormat::Unorm16x4 => std::array::from_fn(|k| {
-                    let q = u16::from_le_bytes([v[o + 2 * k], v[o + 2 * k + 1]]) as f32 / 65535.0;
-                    l.position_offset[k] + l.position_scale[k] * q
-                }),
-                _ => std::array::from_fn(|k| {
-                    f32::from_le_bytes(v[o + 4 * k..o + 4 * k + 4].try_into().unwrap())
-                }),
-            }
-        })
+        .map(|v| l.position(v).expect("validated layout"))
         .collect()
 }
 
