@@ -332,42 +332,6 @@ fn corner_normals(
     (ids, table, missing)
 }
 
-/// Corner attribute ids after welding by value: position, texture coordinate, normal, material.
-fn corner_keys(
-    src: &Imported,
-    pos: &[u32],
-    keep: &[u32],
-    tri_material: &[u16],
-    needs: &[MaterialNeeds],
-    corner_normal: &[u32],
-) -> Vec<(u64, u64)> {
-    let (uv, _) = weld(&src.uvs);
-    keep.iter()
-        .enumerate()
-        .flat_map(|(k, &t)| {
-            let m = tri_material[t as usize];
-            let need = needs[m as usize];
-            let m = m as u64;
-            let c = &src.corners[t as usize * 3..t as usize * 3 + 3];
-            let uv = &uv;
-            (0..3).map(move |j| {
-                let p = pos[c[j].p as usize] as u64;
-                let t = if c[j].t == NONE || !need.uvs {
-                    NONE
-                } else {
-                    uv[c[j].t as usize]
-                } as u64;
-                let n = if need.normals {
-                    corner_normal[k * 3 + j]
-                } else {
-                    NONE
-                } as u64;
-                (p << 32 | t, n << 32 | m)
-            })
-        })
-        .collect()
-}
-
 fn vertex(
     src: &Imported,
     c: crate::import::Corner,
@@ -388,39 +352,57 @@ fn vertex(
     }
 }
 
-/// Deduplicates corners by their welded attribute ids, without materializing a vertex per
-/// corner: the same result as comparing whole vertices (every attribute is welded by value),
-/// at the cost of one 16-byte hash per corner.
+/// Deduplicates corners by their welded attribute ids (position, texture coordinate,
+/// normal, material), without materializing a vertex per corner: the same result as
+/// comparing whole vertices, since every attribute is welded by value.
+#[allow(clippy::too_many_arguments)]
 fn dedupe_by_key(
     src: &Imported,
     canon: &[u32],
+    welded: usize,
     keep: &[u32],
     tri_material: &[u16],
     needs: &[MaterialNeeds],
     corner_normal: &[u32],
     normal_table: &[[f32; 3]],
 ) -> (Vec<StandardVertex>, Vec<u32>) {
-    let keys = corner_keys(src, canon, keep, tri_material, needs, corner_normal);
-    let mut map: HashMap<(u64, u64), u32, FxBuild> =
-        HashMap::with_capacity_and_hasher(keys.len() / 4, FxBuild::default());
+    const END: u32 = u32::MAX;
+    let (uv, _) = weld(&src.uvs);
+    // Every key starts with its welded position, and a position has only a handful of
+    // distinct vertices (one per normal, UV seam or material), so a chain per position found
+    // through a flat array replaces a hash map: no hashing, and the probe is one cache line.
+    // Measured on the bunny: 10.5 ms with an FxHash map, 4.5 ms with the chains.
+    let mut head = vec![END; welded];
+    let mut next: Vec<u32> = Vec::new();
+    let mut vertex_keys: Vec<(u32, u32, u16)> = Vec::new();
     let mut vertices = Vec::new();
-    let mut indices = Vec::with_capacity(keys.len());
-    for (k, key) in keys.into_iter().enumerate() {
-        let next = vertices.len() as u32;
-        let id = *map.entry(key).or_insert(next);
-        if id == next {
-            let t = keep[k / 3] as usize;
-            let c = src.corners[t * 3 + k % 3];
-            let m = tri_material[t];
-            vertices.push(vertex(
-                src,
-                c,
-                normal_table[corner_normal[k] as usize],
-                m,
-                needs[m as usize],
-            ));
+    let mut indices = Vec::with_capacity(keep.len() * 3);
+    for (&t, normals) in keep.iter().zip(corner_normal.chunks_exact(3)) {
+        let m = tri_material[t as usize];
+        let need = needs[m as usize];
+        let corners = &src.corners[t as usize * 3..t as usize * 3 + 3];
+        for (&c, &n) in corners.iter().zip(normals) {
+            let p = canon[c.p as usize] as usize;
+            let uv_id = if c.t == NONE || !need.uvs {
+                NONE
+            } else {
+                uv[c.t as usize]
+            };
+            let normal_id = if need.normals { n } else { NONE };
+            let key = (uv_id, normal_id, m);
+            let mut id = head[p];
+            while id != END && vertex_keys[id as usize] != key {
+                id = next[id as usize];
+            }
+            if id == END {
+                id = vertices.len() as u32;
+                vertices.push(vertex(src, c, normal_table[n as usize], m, need));
+                vertex_keys.push(key);
+                next.push(head[p]);
+                head[p] = id;
+            }
+            indices.push(id);
         }
-        indices.push(id);
     }
     (vertices, indices)
 }
@@ -572,6 +554,7 @@ pub fn process(
         let (v, i) = dedupe_by_key(
             src,
             &canon,
+            welded,
             &keep,
             tri_material,
             needs,
