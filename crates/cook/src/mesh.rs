@@ -10,6 +10,7 @@ use std::collections::HashMap;
 use std::time::{Duration, Instant};
 
 use pack::StandardVertex;
+use rayon::prelude::*;
 
 use crate::import::{Imported, NONE};
 
@@ -131,13 +132,6 @@ fn plus_zero(v: f32) -> f32 {
     v + 0.0
 }
 
-/// Angle between the two edges at corner `a`.
-fn corner_angle(a: [f32; 3], b: [f32; 3], c: [f32; 3]) -> f32 {
-    let u = normalize(sub(b, a));
-    let v = normalize(sub(c, a));
-    dot(u, v).clamp(-1.0, 1.0).acos()
-}
-
 struct Timer {
     last: Instant,
     stages: Vec<(&'static str, Duration)>,
@@ -229,7 +223,6 @@ fn corner_normals(
     face_normals: &[[f32; 3]],
     crease_cos: f32,
 ) -> (Vec<u32>, Vec<[f32; 3]>, usize) {
-    use rayon::prelude::*;
     let unit: Vec<[f32; 3]> = src.normals.iter().map(|&n| normalize(n)).collect();
     let (source_id, count) = weld(&unit);
     let mut table = vec![[0.0f32; 3]; count];
@@ -281,11 +274,15 @@ fn corner_normals(
         .par_iter()
         .flat_map_iter(|t| {
             let [a, b, c] = t.map(|i| src.positions[i as usize]);
-            [
-                corner_angle(a, b, c),
-                corner_angle(b, c, a),
-                corner_angle(c, a, b),
-            ]
+            // Each edge normalized once; negating a unit vector is exact, so these are the
+            // same angles as normalizing both edges at every corner.
+            let (ab, bc, ca) = (
+                normalize(sub(b, a)),
+                normalize(sub(c, b)),
+                normalize(sub(a, c)),
+            );
+            let angle = |u: [f32; 3], v: [f32; 3]| (-dot(u, v)).clamp(-1.0, 1.0).acos();
+            [angle(ab, ca), angle(bc, ab), angle(ca, bc)]
         })
         .collect();
     // Per position: cluster its corners, sum each cluster. Sequential with reused buffers: one
@@ -523,7 +520,7 @@ pub fn process(
         })
         .collect();
     let face_normals: Vec<[f32; 3]> = tris
-        .iter()
+        .par_iter()
         .map(|t| {
             let [a, b, c] = t.map(|i| src.positions[i as usize]);
             normalize(cross(sub(b, a), sub(c, a)))

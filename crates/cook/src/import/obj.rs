@@ -51,8 +51,27 @@ fn parse_f32(t: &[u8]) -> Option<f32> {
     std::str::from_utf8(t).ok()?.parse().ok()
 }
 
+/// The same integers `str::parse::<i64>` accepts (optional sign, decimal digits, no
+/// overflow), read straight from the bytes: face indices are most of an OBJ's tokens.
 fn parse_i64(t: &[u8]) -> Option<i64> {
-    std::str::from_utf8(t).ok()?.parse().ok()
+    let (negative, digits) = match t {
+        [b'-', rest @ ..] => (true, rest),
+        [b'+', rest @ ..] => (false, rest),
+        _ => (false, t),
+    };
+    if digits.is_empty() {
+        return None;
+    }
+    let mut v: i64 = 0;
+    for &b in digits {
+        let d = b.wrapping_sub(b'0');
+        if d > 9 {
+            return None;
+        }
+        // Accumulate negatively so i64::MIN parses too.
+        v = v.checked_mul(10)?.checked_sub(d as i64)?;
+    }
+    if negative { Some(v) } else { v.checked_neg() }
 }
 
 fn trim(mut s: &[u8]) -> &[u8] {
@@ -563,6 +582,16 @@ fn load_mtllib(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use proptest::prelude::*;
+
+    proptest! {
+        #[test]
+        fn integers_parse_as_std_does(s in "[-+]?[0-9]{0,21}|[-+0-9a ]{0,4}", n in any::<i64>()) {
+            prop_assert_eq!(parse_i64(s.as_bytes()), s.parse::<i64>().ok());
+            let t = n.to_string();
+            prop_assert_eq!(parse_i64(t.as_bytes()), Some(n));
+        }
+    }
 
     fn parse_str(s: &str) -> Result<Imported, CookError> {
         parse(Path::new("test.obj"), s.as_bytes())
