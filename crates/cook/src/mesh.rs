@@ -6,7 +6,6 @@
 //! bits), and vertices shared by two materials are split simply because the material ID is
 //! part of the vertex.
 
-use std::collections::HashMap;
 use std::time::{Duration, Instant};
 
 use pack::StandardVertex;
@@ -190,21 +189,49 @@ impl std::hash::Hasher for FxHasher {
     }
 }
 
-type FxBuild = std::hash::BuildHasherDefault<FxHasher>;
-
 /// Welds values by their bits (after -0.0 → +0.0): equal values get equal ids, in order of
 /// first appearance.
+///
+/// An open-addressing table of 8-byte slots (hash fingerprint and index of the first
+/// occurrence, linear probing, values compared through `values`) rather than a map holding
+/// the keys. Measured on a 500k-position grid: 41 ms with `HashMap<[u32; N], u32>` and
+/// FxHash, 20 to 25 ms this way.
 fn weld<const N: usize>(values: &[[f32; N]]) -> (Vec<u32>, usize) {
-    let mut map: HashMap<[u32; N], u32, FxBuild> =
-        HashMap::with_capacity_and_hasher(values.len(), FxBuild::default());
-    let ids = values
-        .iter()
-        .map(|v| {
-            let next = map.len() as u32;
-            *map.entry(v.map(|c| plus_zero(c).to_bits())).or_insert(next)
-        })
-        .collect();
-    (ids, map.len())
+    const EMPTY: u64 = u64::MAX;
+    let bits = |v: &[f32; N]| v.map(|c| plus_zero(c).to_bits());
+    let size = (values.len() * 2).next_power_of_two().max(16);
+    let mask = size - 1;
+    // Each slot: the hash's high half as a fingerprint, and the index of the value's first
+    // occurrence; values are read back only when fingerprints agree.
+    let mut slots = vec![EMPTY; size];
+    let mut ids: Vec<u32> = Vec::with_capacity(values.len());
+    let mut next = 0u32;
+    for (i, v) in values.iter().enumerate() {
+        let key = bits(v);
+        let mut h = FxHasher::default();
+        for k in key {
+            std::hash::Hasher::write_u32(&mut h, k);
+        }
+        let hash = std::hash::Hasher::finish(&h);
+        let fingerprint = hash >> 32;
+        let mut slot = hash as usize & mask;
+        loop {
+            let entry = slots[slot];
+            if entry == EMPTY {
+                slots[slot] = fingerprint << 32 | i as u64;
+                ids.push(next);
+                next += 1;
+                break;
+            }
+            let at = (entry & 0xffff_ffff) as usize;
+            if entry >> 32 == fingerprint && bits(&values[at]) == key {
+                ids.push(ids[at]);
+                break;
+            }
+            slot = (slot + 1) & mask;
+        }
+    }
+    (ids, next as usize)
 }
 
 /// A normal for every corner (3 per kept triangle), as an index into a table of unit normals.
@@ -1036,6 +1063,23 @@ mod tests {
     }
 
     proptest! {
+        /// The table weld gives the ids a map keyed by the values' bits would, in order of
+        /// first appearance, with -0.0 and +0.0 merged.
+        #[test]
+        fn weld_matches_a_map(values in prop::collection::vec(prop::array::uniform3(prop::sample::select(vec![-1.0f32, -0.0, 0.0, 0.5, 1e30, f32::MIN_POSITIVE])), 0..200)) {
+            let (ids, count) = weld(&values);
+            let mut map = std::collections::HashMap::new();
+            let want: Vec<u32> = values
+                .iter()
+                .map(|v| {
+                    let n = map.len() as u32;
+                    *map.entry(v.map(|c| (c + 0.0).to_bits())).or_insert(n)
+                })
+                .collect();
+            prop_assert_eq!(ids, want);
+            prop_assert_eq!(count, map.len());
+        }
+
         /// Arbitrary (often degenerate) soups: every output triangle is non-degenerate, every
         /// index is in range, ranges tile the index buffer and vertices agree with their range.
         #[test]
