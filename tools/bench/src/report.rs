@@ -448,12 +448,12 @@ fn mesh_section(dir: &Path, md: &mut String, r: &Results) -> Result<()> {
     let _ = writeln!(
         md,
         "The cooker's mesh stage (`cook::mesh::process`: degenerate removal, normals, dedupe, \
-         vertex cache, vertex fetch) with each vertex cache mode, then `cook::mesh::quantize` \
-         for 16-bit positions. ACMR with a FIFO cache of 16; overfetch against a 64-byte line; \
-         bytes per triangle count the vertex and index buffers as the cooker stores them (16-bit \
-         indices when they fit). Rows marked *modelled* are position widths the cooker does not \
-         implement: their error and size are computed here for a bounding-box quantizer stored \
-         in 4 bytes.\n"
+         vertex cache, vertex fetch) with each vertex cache mode, then `cook::mesh::encode` \
+         for 16-, 10- and 8-bit positions (`cooker cook --quantize --position-bits`), every \
+         attribute kept. ACMR with a FIFO cache of 16; overfetch against a 64-byte line; bytes \
+         per triangle count the vertex and index buffers as the cooker stores them (16-bit \
+         indices when they fit). The *end to end* rows time whole processes the same way: the \
+         `cooker` binary (release build) and, when installed, gltfpack.\n"
     );
     let _ = writeln!(
         md,
