@@ -394,26 +394,47 @@ fn direct<I: Io>(io: &I, w: usize, h: usize, sigma: f64, out: &mut [I::Out]) {
         pad: kx.len() / 2,
         taps: kx,
     };
-    let mut mid = vec![[0.0f32; 4]; w * h];
-    mid.par_chunks_mut(w).enumerate().for_each_init(
-        || (vec![[0.0f32; 4]; w], fir.scratch(w)),
-        |(row, phases), (y, o)| {
-            io.fill(y, row);
-            fir.apply(row, phases, o);
-        },
-    );
-    out.par_chunks_mut(w * I::PER_TEXEL)
+    // Streamed like the decimated blur's first stage: each band of output rows filters the
+    // input rows its window reaches, once each, into a ring of 2·ry + 1 rows, instead of a
+    // full-size intermediate image. One band per thread keeps the rows recomputed at band
+    // edges (2·ry per band) small even for the widest kernels.
+    let taps = ky.len();
+    let bands = rayon::current_num_threads().clamp(1, h);
+    let band_rows = h.div_ceil(bands);
+    out.par_chunks_mut(w * I::PER_TEXEL * band_rows)
         .enumerate()
         .for_each_init(
-            || vec![[0.0f32; 4]; w],
-            |acc, (y, o)| {
-                let lo = y.saturating_sub(ry);
-                let hi = (y + ry).min(h - 1);
-                let terms: Vec<(f32, &[Px])> = (lo..=hi)
-                    .map(|sy| (ky[sy + ry - y], &mid[sy * w..(sy + 1) * w]))
-                    .collect();
-                wsum(acc, &terms);
-                io.emit(acc, o);
+            || {
+                (
+                    vec![[0.0f32; 4]; w],
+                    fir.scratch(w),
+                    vec![[0.0f32; 4]; w],
+                    vec![[0.0f32; 4]; w * taps],
+                )
+            },
+            |(row, phases, acc, ring), (band, out_rows)| {
+                let y0 = band * band_rows;
+                let mut next = y0.saturating_sub(ry);
+                for (i, o) in out_rows.chunks_mut(w * I::PER_TEXEL).enumerate() {
+                    let y = y0 + i;
+                    let lo = y.saturating_sub(ry);
+                    let hi = (y + ry).min(h - 1);
+                    next = next.max(lo);
+                    while next <= hi {
+                        let slot = next % taps;
+                        io.fill(next, row);
+                        fir.apply(row, phases, &mut ring[slot * w..(slot + 1) * w]);
+                        next += 1;
+                    }
+                    let terms: Vec<(f32, &[Px])> = (lo..=hi)
+                        .map(|sy| {
+                            let slot = sy % taps;
+                            (ky[sy + ry - y], &ring[slot * w..(slot + 1) * w])
+                        })
+                        .collect();
+                    wsum(acc, &terms);
+                    io.emit(acc, o);
+                }
             },
         );
 }
