@@ -793,17 +793,30 @@ pub fn blur_srgb8(
     sigma: f32,
     method: BlurMethod,
 ) -> Result<Vec<u8>, TextureError> {
+    let mut out = vec![0u8; src.len()];
+    blur_srgb8_into(src, w, h, sigma, method, &mut out)?;
+    Ok(out)
+}
+
+/// [`blur_srgb8`] into a caller's buffer (`w * h * 4` bytes), so repeated blurs of one size
+/// reuse memory instead of faulting in fresh pages for every result.
+pub fn blur_srgb8_into(
+    src: &[u8],
+    w: u32,
+    h: u32,
+    sigma: f32,
+    method: BlurMethod,
+    out: &mut [u8],
+) -> Result<(), TextureError> {
     let s = check_sigma(sigma)?;
     crate::mips::check_size(w, h)?;
     let (w, h) = (w as usize, h as usize);
-    assert_eq!(
-        src.len(),
-        w * h * 4,
-        "blur_srgb8: buffer does not match {w}x{h}"
+    assert!(
+        src.len() == w * h * 4 && out.len() == w * h * 4,
+        "blur_srgb8: buffers do not match {w}x{h}"
     );
-    let mut out = vec![0u8; w * h * 4];
-    run(&Srgb8Io { src, w }, w, h, s, method, &mut out);
-    Ok(out)
+    run(&Srgb8Io { src, w }, w, h, s, method, out);
+    Ok(())
 }
 
 /// sRGB RGBA8 with straight alpha → premultiplied linear RGBA in f64 (exact decode).
