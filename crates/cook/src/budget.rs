@@ -48,7 +48,8 @@ pub struct GodRayEntry {
     /// FLIP mean of the final image (0 = identical).
     pub flip_mean: f32,
     pub flip_p99: f32,
-    /// God-ray pass time relative to the renderer's default (64 samples, full, no jitter).
+    /// God-ray pass time relative to 64 samples at full resolution without jitter (the
+    /// renderer's default when the table was measured).
     pub relative_cost: f32,
 }
 

@@ -284,11 +284,11 @@ fn summary(md: &mut String, r: &Results) {
         if let Some(d) = d {
             let _ = writeln!(
                 md,
-                "- God rays ({}x{}, {}): the default ({} samples, full resolution, no jitter) costs {} ms on the god-ray pass, FLIP mean {:.4} / p99 {:.4}, RMSE {:.5} against {} samples; {} the Pareto front of FLIP mean against pass time.",
+                "- God rays ({}x{}, {}): the default ({}) costs {} ms on the god-ray pass, FLIP mean {:.4} / p99 {:.4}, RMSE {:.5} against {} samples; {} the Pareto front of FLIP mean against pass time.",
                 g.width,
                 g.height,
                 g.device,
-                d.samples,
+                god_ray_label(d.samples, d.resolution_scale, d.jitter),
                 cell(d.god_ray_ms, 2),
                 d.flip_mean,
                 d.flip_p99,
