@@ -528,14 +528,11 @@ fn prune_materials(
             textures.push(w.design.display().to_string());
             textures.extend(w.normal_map.iter().map(|n| n.display().to_string()));
         }
-        let what = if textures.is_empty() {
-            String::new()
-        } else {
-            format!(", nor its textures ({})", textures.join(", "))
-        };
         report.skipped.push(format!(
-            "material {:?} ({}): no triangles, not cooked{what}",
-            plan.material.name, plan.material.class
+            "material {:?} ({}): no triangles, not cooked{}",
+            plan.material.name,
+            plan.material.class,
+            nor_textures(&textures)
         ));
     }
     // Parts of a pruned material have no triangles; they map to no material at all.
@@ -576,6 +573,14 @@ fn receiving_triangles<'a>(
     })
 }
 
+fn nor_textures(textures: &[String]) -> String {
+    if textures.is_empty() {
+        String::new()
+    } else {
+        format!(", nor its textures ({})", textures.join(", "))
+    }
+}
+
 /// Source materials (an MTL entry, a glTF material) that no triangle uses never become pack
 /// materials; say so, with the textures that were therefore not cooked.
 fn skip_unused_source_materials(
@@ -593,14 +598,10 @@ fn skip_unused_source_materials(
             .flatten()
             .map(|t| t.name())
             .collect();
-        let what = if textures.is_empty() {
-            String::new()
-        } else {
-            format!(", nor its textures ({})", textures.join(", "))
-        };
         report.skipped.push(format!(
-            "material {name:?} of {}: defined but no triangle uses it, not cooked{what}",
-            src.path.display()
+            "material {name:?} of {}: defined but no triangle uses it, not cooked{}",
+            src.path.display(),
+            nor_textures(&textures)
         ));
     }
 }

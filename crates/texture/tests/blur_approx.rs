@@ -3,9 +3,9 @@
 #![allow(clippy::needless_range_loop)]
 mod common;
 
-use common::{Rng, design};
+use common::{Rng, blur_error as err, design, premul_f32, sum};
 use texture::blur::{BlurMethod, srgb8_to_premultiplied_f64};
-use texture::{blur_linear, blur_srgb8, error_lsb, reference_blur};
+use texture::{blur_linear, blur_srgb8, reference_blur};
 
 const APPROX: [BlurMethod; 2] = [BlurMethod::Box3, BlurMethod::DecimatedCoarse];
 
@@ -19,29 +19,6 @@ fn bound(method: BlurMethod) -> f64 {
         BlurMethod::DecimatedCoarse => 4.0,
         _ => 0.55,
     }
-}
-
-fn err(w: usize, h: usize, sigma: f32, method: BlurMethod, bytes: &[u8]) -> texture::ErrorLsb {
-    let ours = blur_srgb8(bytes, w as u32, h as u32, sigma, method).unwrap();
-    let reference = reference_blur(&srgb8_to_premultiplied_f64(bytes), w, h, sigma as f64);
-    error_lsb(&ours, &reference)
-}
-
-fn premul_f32(bytes: &[u8]) -> Vec<[f32; 4]> {
-    srgb8_to_premultiplied_f64(bytes)
-        .iter()
-        .map(|t| t.map(|v| v as f32))
-        .collect()
-}
-
-fn sum(v: &[[f32; 4]]) -> [f64; 4] {
-    let mut s = [0.0f64; 4];
-    for t in v {
-        for c in 0..4 {
-            s[c] += t[c] as f64;
-        }
-    }
-    s
 }
 
 #[test]

@@ -199,7 +199,22 @@ fn measure(
         ));
     }
     // Our whole cook as a user runs it, timed the same way as the gltfpack anchor: process
-    // start, OBJ parsing, processing and the atomic pack write.
+    // start, OBJ parsing, processing and writing the output.
+    let end_to_end = |label: &str, bits: u32, ms: f64, note: &str| MeshRow {
+        mesh: name.to_string(),
+        triangles: src.triangle_count(),
+        vertices: 0,
+        cache: label.into(),
+        position_bits: bits,
+        modelled: false,
+        time_ms: Some(ms),
+        acmr: None,
+        overfetch: None,
+        bytes_per_triangle: None,
+        max_position_error: None,
+        relative_position_error: None,
+        note: note.into(),
+    };
     if let Some(cooker) = cooker_binary() {
         let out = cfg.scratch.join("cooker-out.pack");
         for (label, flags, bits) in [
@@ -207,83 +222,58 @@ fn measure(
             ("cooker --fifo (end to end)", &["--fifo"][..], 32),
             ("cooker --quantize (end to end)", &["--quantize"][..], 16),
         ] {
-            let mut times = Vec::new();
-            for _ in 0..cfg.runs.max(1) {
-                let start = Instant::now();
-                let status = Command::new(&cooker)
-                    .arg("cook")
-                    .arg(path)
-                    .arg("-o")
-                    .arg(&out)
-                    .arg("--no-cache")
-                    .args(flags)
-                    .output()
-                    .context("running cooker")?;
-                times.push(start.elapsed().as_secs_f64() * 1e3);
-                anyhow::ensure!(
-                    status.status.success(),
-                    "cooker failed: {}",
-                    String::from_utf8_lossy(&status.stderr)
-                );
-            }
-            rows.push(MeshRow {
-                mesh: name.to_string(),
-                triangles: src.triangle_count(),
-                vertices: 0,
-                cache: label.into(),
-                position_bits: bits,
-                modelled: false,
-                time_ms: Some(median(&mut times)),
-                acmr: None,
-                overfetch: None,
-                bytes_per_triangle: None,
-                max_position_error: None,
-                relative_position_error: None,
-                note: "includes OBJ parsing, process start and the atomic pack write (fsync)"
-                    .into(),
-            });
+            let ms = time_process(cfg.runs, || {
+                let mut c = Command::new(&cooker);
+                c.arg("cook").arg(path).arg("-o").arg(&out);
+                c.arg("--no-cache").args(flags);
+                c
+            })?;
+            rows.push(end_to_end(
+                label,
+                bits,
+                ms,
+                "includes OBJ parsing, process start and the atomic pack write (fsync)",
+            ));
         }
         let _ = std::fs::remove_file(&out);
     }
     if let Some(gltfpack) = which("gltfpack") {
         let out = cfg.scratch.join("gltfpack-out.glb");
-        let mut times = Vec::new();
-        for _ in 0..cfg.runs.max(1) {
-            let start = Instant::now();
-            let status = Command::new(&gltfpack)
-                .arg("-i")
-                .arg(path)
-                .arg("-o")
-                .arg(&out)
-                .output()
-                .context("running gltfpack")?;
-            times.push(start.elapsed().as_secs_f64() * 1e3);
-            anyhow::ensure!(
-                status.status.success(),
-                "gltfpack failed: {}",
-                String::from_utf8_lossy(&status.stderr)
-            );
-        }
+        let ms = time_process(cfg.runs, || {
+            let mut c = Command::new(&gltfpack);
+            c.arg("-i").arg(path).arg("-o").arg(&out);
+            c
+        })?;
         let _ = std::fs::remove_file(&out);
-        rows.push(MeshRow {
-            mesh: name.to_string(),
-            triangles: src.triangle_count(),
-            vertices: 0,
-            cache: "gltfpack (end to end)".into(),
-            position_bits: 14,
-            modelled: false,
-            time_ms: Some(median(&mut times)),
-            acmr: None,
-            overfetch: None,
-            bytes_per_triangle: None,
-            max_position_error: None,
-            relative_position_error: None,
-            note: "includes OBJ parsing, process start and writing the .glb; the npm build is \
-                   WebAssembly under Node.js (about 4.6x slower than native gltfpack)"
-                .into(),
-        });
+        rows.push(end_to_end(
+            "gltfpack (end to end)",
+            14,
+            ms,
+            "includes OBJ parsing, process start and writing the .glb; the npm build is \
+             WebAssembly under Node.js (about 4.6x slower than native gltfpack)",
+        ));
     }
     Ok(rows)
+}
+
+/// Median wall time of `runs` runs of a process, which must succeed.
+fn time_process(runs: usize, command: impl Fn() -> Command) -> Result<f64> {
+    let mut times = Vec::new();
+    for _ in 0..runs.max(1) {
+        let mut c = command();
+        let start = Instant::now();
+        let out = c
+            .output()
+            .with_context(|| format!("running {:?}", c.get_program()))?;
+        times.push(start.elapsed().as_secs_f64() * 1e3);
+        anyhow::ensure!(
+            out.status.success(),
+            "{:?} failed: {}",
+            c.get_program(),
+            String::from_utf8_lossy(&out.stderr)
+        );
+    }
+    Ok(median(&mut times))
 }
 
 /// The `cooker` binary built beside this one (`cargo build --release -p cooker`), if any.

@@ -58,3 +58,36 @@ pub fn design(w: usize, h: usize, seed: u64) -> Vec<u8> {
 pub fn rgba_image(w: usize, h: usize, bytes: Vec<u8>) -> image::DynamicImage {
     image::DynamicImage::ImageRgba8(image::RgbaImage::from_raw(w as u32, h as u32, bytes).unwrap())
 }
+
+/// Our sRGB8 blur's error against the f64 linear-light reference of the same image.
+pub fn blur_error(
+    w: usize,
+    h: usize,
+    sigma: f32,
+    method: texture::blur::BlurMethod,
+    bytes: &[u8],
+) -> texture::ErrorLsb {
+    let ours = texture::blur_srgb8(bytes, w as u32, h as u32, sigma, method).unwrap();
+    let linear = texture::blur::srgb8_to_premultiplied_f64(bytes);
+    let reference = texture::reference_blur(&linear, w, h, sigma as f64);
+    texture::error_lsb(&ours, &reference)
+}
+
+/// sRGB RGBA8 → premultiplied linear f32.
+pub fn premul_f32(bytes: &[u8]) -> Vec<[f32; 4]> {
+    texture::blur::srgb8_to_premultiplied_f64(bytes)
+        .iter()
+        .map(|t| t.map(|v| v as f32))
+        .collect()
+}
+
+/// Per-channel sum in f64, for mass checks.
+pub fn sum(v: &[[f32; 4]]) -> [f64; 4] {
+    let mut s = [0.0f64; 4];
+    for t in v {
+        for c in 0..4 {
+            s[c] += t[c] as f64;
+        }
+    }
+    s
+}
