@@ -16,7 +16,7 @@ pub mod view;
 pub use gpu::Gpu;
 pub use renderer::{
     FrameReport, PassId, PassTime, Renderer, Settings, TargetId, TimingMethod, f16_to_f32,
-    god_ray_falloff, target_image,
+    god_ray_falloff, read_texture, target_image,
 };
 pub use scene::{LoadStatus, SMALL_MIP_BYTES, Scene};
 pub use view::{GodRaySettings, LightGeometry, View};

@@ -883,7 +883,7 @@ impl Renderer {
                 }
                 gpu.queue.submit([encoder.finish()]);
                 if let (true, Some(t)) = (timed, &self.timestamps) {
-                    let ticks = read_buffer(gpu, &t.readback)?;
+                    let ticks = read_buffer(&gpu.device, &t.readback)?;
                     let ticks: &[u64] = bytemuck::cast_slice(&ticks);
                     let period = gpu.queue.get_timestamp_period() as f64;
                     for (i, id) in PassId::ALL.iter().enumerate() {
@@ -910,7 +910,7 @@ impl Renderer {
     pub fn read_output(&self, gpu: &Gpu) -> Result<image::RgbaImage, RenderError> {
         let t = self.targets.output.as_ref().ok_or(RenderError::NoOutput)?;
         let (w, h) = self.targets.size;
-        let bytes = read_texture(gpu, &t.texture, w, h, 4)?;
+        let bytes = read_texture(&gpu.device, &gpu.queue, &t.texture, 4)?;
         image::RgbaImage::from_raw(w, h, bytes).ok_or(RenderError::Readback("output size".into()))
     }
 
@@ -926,7 +926,7 @@ impl Renderer {
         } else {
             self.targets.size
         };
-        let bytes = read_texture(gpu, &t.texture, w, h, 8)?;
+        let bytes = read_texture(&gpu.device, &gpu.queue, &t.texture, 8)?;
         let halfs: &[u16] = bytemuck::cast_slice(&bytes);
         let px = halfs
             .chunks_exact(4)
@@ -1017,12 +1017,14 @@ pub fn f16_to_f32(h: u16) -> f32 {
     }
 }
 
-fn read_buffer(gpu: &Gpu, buffer: &wgpu::Buffer) -> Result<Vec<u8>, RenderError> {
+fn read_buffer(device: &wgpu::Device, buffer: &wgpu::Buffer) -> Result<Vec<u8>, RenderError> {
     let (tx, rx) = std::sync::mpsc::channel();
     buffer.map_async(wgpu::MapMode::Read, .., move |r| {
         let _ = tx.send(r);
     });
-    gpu.wait()?;
+    device
+        .poll(wgpu::PollType::wait_indefinitely())
+        .map_err(|e| RenderError::Device(e.to_string()))?;
     rx.recv()
         .map_err(|e| RenderError::Readback(e.to_string()))?
         .map_err(|e| RenderError::Readback(e.to_string()))?;
@@ -1034,23 +1036,26 @@ fn read_buffer(gpu: &Gpu, buffer: &wgpu::Buffer) -> Result<Vec<u8>, RenderError>
     Ok(data)
 }
 
-fn read_texture(
-    gpu: &Gpu,
+/// Copies a whole 2D texture (`bytes_per_texel` bytes each) back to the CPU, rows tightly
+/// packed: the headless frames, the pass images and the viewer's screenshots all read back
+/// through here.
+pub fn read_texture(
+    device: &wgpu::Device,
+    queue: &wgpu::Queue,
     texture: &wgpu::Texture,
-    w: u32,
-    h: u32,
-    bpp: u32,
+    bytes_per_texel: u32,
 ) -> Result<Vec<u8>, RenderError> {
-    let row = w * bpp;
+    let (w, h) = (texture.width(), texture.height());
+    let row = w * bytes_per_texel;
     let padded =
         row.div_ceil(wgpu::COPY_BYTES_PER_ROW_ALIGNMENT) * wgpu::COPY_BYTES_PER_ROW_ALIGNMENT;
-    let buffer = gpu.device.create_buffer(&wgpu::BufferDescriptor {
+    let buffer = device.create_buffer(&wgpu::BufferDescriptor {
         label: Some("readback"),
         size: padded as u64 * h as u64,
         usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
         mapped_at_creation: false,
     });
-    let mut encoder = gpu.device.create_command_encoder(&Default::default());
+    let mut encoder = device.create_command_encoder(&Default::default());
     encoder.copy_texture_to_buffer(
         texture.as_image_copy(),
         wgpu::TexelCopyBufferInfo {
@@ -1067,8 +1072,8 @@ fn read_texture(
             depth_or_array_layers: 1,
         },
     );
-    gpu.queue.submit([encoder.finish()]);
-    let data = read_buffer(gpu, &buffer)?;
+    queue.submit([encoder.finish()]);
+    let data = read_buffer(device, &buffer)?;
     let mut out = Vec::with_capacity((row * h) as usize);
     for y in 0..h as usize {
         out.extend_from_slice(&data[y * padded as usize..y * padded as usize + row as usize]);

@@ -61,12 +61,24 @@ pub fn compose(name: &str) -> Option<String> {
     Some(out)
 }
 
+/// Composes a WGSL source that lives outside this crate (the viewer's own passes) with this
+/// crate's includes, so shared pieces such as `fullscreen.wgsl` exist once.
+pub fn compose_source(name: &str, src: &str) -> Option<String> {
+    let mut out = String::new();
+    let mut seen = vec![name.to_owned()];
+    append_source(name, src, &mut out, &mut seen)?;
+    Some(out)
+}
+
 fn append(name: &str, out: &mut String, seen: &mut Vec<String>) -> Option<()> {
     if seen.iter().any(|s| s == name) {
         return Some(());
     }
     seen.push(name.to_owned());
-    let src = file(name)?;
+    append_source(name, file(name)?, out, seen)
+}
+
+fn append_source(name: &str, src: &str, out: &mut String, seen: &mut Vec<String>) -> Option<()> {
     for line in src.lines() {
         if let Some(inc) = line.trim().strip_prefix(INCLUDE) {
             append(inc.trim(), out, seen)?;

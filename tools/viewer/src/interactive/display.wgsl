@@ -1,20 +1,7 @@
 // The interactive viewer's own passes: showing an intermediate target or the finished view
 // (`vs_fullscreen` + `fs_show`), and the false-colour material-ID view (`vs_ids` + `fs_ids`).
 
-struct FullscreenOut {
-    @builtin(position) clip: vec4<f32>,
-    @location(0) uv: vec2<f32>,
-}
-
-@vertex
-fn vs_fullscreen(@builtin(vertex_index) index: u32) -> FullscreenOut {
-    let x = f32((index << 1u) & 2u);
-    let y = f32(index & 2u);
-    var out: FullscreenOut;
-    out.clip = vec4<f32>(x * 2.0 - 1.0, 1.0 - y * 2.0, 0.0, 1.0);
-    out.uv = vec2<f32>(x, y);
-    return out;
-}
+//#include fullscreen.wgsl
 
 struct Show {
     // 0: pass through, 1: HDR colour (scaled, clamped), 2: window normals, 3: black.

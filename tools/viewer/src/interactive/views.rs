@@ -6,6 +6,12 @@
 use render::{FrameReport, Gpu, PassId, Renderer, Scene, TargetId, View};
 
 const SHADER: &str = include_str!("display.wgsl");
+
+/// `display.wgsl` with the render crate's includes (its full-screen triangle) spliced in.
+fn display_shader() -> String {
+    render::shaders::compose_source("display.wgsl", SHADER)
+        .expect("display.wgsl includes only files the render crate compiles in")
+}
 /// The display image's format: the composite writes it, screenshots read it as RGBA8.
 pub const DISPLAY_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba8UnormSrgb;
 const DEPTH_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Depth32Float;
@@ -266,7 +272,7 @@ impl Display {
     ) -> Self {
         let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
             label: Some("viewer display"),
-            source: wgpu::ShaderSource::Wgsl(SHADER.into()),
+            source: wgpu::ShaderSource::Wgsl(display_shader().into()),
         });
         let show_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: Some("show"),
@@ -657,53 +663,10 @@ pub fn read_rgba8(
     queue: &wgpu::Queue,
     texture: &wgpu::Texture,
 ) -> anyhow::Result<image::RgbaImage> {
+    let bytes = render::read_texture(device, queue, texture, 4)
+        .map_err(|e| anyhow::anyhow!("reading the screenshot back: {e}"))?;
     let (w, h) = (texture.width(), texture.height());
-    let row = w * 4;
-    let padded =
-        row.div_ceil(wgpu::COPY_BYTES_PER_ROW_ALIGNMENT) * wgpu::COPY_BYTES_PER_ROW_ALIGNMENT;
-    let buffer = device.create_buffer(&wgpu::BufferDescriptor {
-        label: Some("screenshot"),
-        size: padded as u64 * h as u64,
-        usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
-        mapped_at_creation: false,
-    });
-    let mut encoder = device.create_command_encoder(&Default::default());
-    encoder.copy_texture_to_buffer(
-        texture.as_image_copy(),
-        wgpu::TexelCopyBufferInfo {
-            buffer: &buffer,
-            layout: wgpu::TexelCopyBufferLayout {
-                offset: 0,
-                bytes_per_row: Some(padded),
-                rows_per_image: Some(h),
-            },
-        },
-        wgpu::Extent3d {
-            width: w,
-            height: h,
-            depth_or_array_layers: 1,
-        },
-    );
-    queue.submit([encoder.finish()]);
-    let (tx, rx) = std::sync::mpsc::channel();
-    buffer.map_async(wgpu::MapMode::Read, .., move |r| {
-        let _ = tx.send(r);
-    });
-    device
-        .poll(wgpu::PollType::wait_indefinitely())
-        .map_err(|e| anyhow::anyhow!("waiting for the GPU: {e}"))?;
-    rx.recv()?
-        .map_err(|e| anyhow::anyhow!("mapping the screenshot: {e}"))?;
-    let data = buffer
-        .get_mapped_range(..)
-        .map_err(|e| anyhow::anyhow!("mapping the screenshot: {e}"))?
-        .to_vec();
-    buffer.unmap();
-    let mut out = Vec::with_capacity((row * h) as usize);
-    for y in 0..h as usize {
-        out.extend_from_slice(&data[y * padded as usize..][..row as usize]);
-    }
-    image::RgbaImage::from_raw(w, h, out)
+    image::RgbaImage::from_raw(w, h, bytes)
         .ok_or_else(|| anyhow::anyhow!("screenshot of {w}x{h} has the wrong size"))
 }
 
@@ -713,7 +676,7 @@ mod tests {
 
     #[test]
     fn the_display_shader_validates() {
-        let module = naga::front::wgsl::parse_str(SHADER).expect("parses");
+        let module = naga::front::wgsl::parse_str(&display_shader()).expect("parses");
         naga::valid::Validator::new(
             naga::valid::ValidationFlags::all(),
             naga::valid::Capabilities::all(),
