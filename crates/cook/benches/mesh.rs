@@ -13,28 +13,6 @@ fn bunny() -> PathBuf {
         .join("../../tests/data/third_party/classic/stanford-bunny.obj")
 }
 
-/// A wavy height field of `n` x `n` quads split into triangles, as OBJ text.
-fn generated_obj(n: usize) -> String {
-    use std::fmt::Write;
-    let mut s = String::with_capacity(n * n * 60);
-    s.push_str("o terrain\nusemtl ground\n");
-    for j in 0..=n {
-        for i in 0..=n {
-            let (x, z) = (i as f32 / n as f32, j as f32 / n as f32);
-            let y = 0.05 * (x * 37.0).sin() * (z * 23.0).cos();
-            let _ = writeln!(s, "v {x:.6} {y:.6} {z:.6}");
-        }
-    }
-    for j in 0..n {
-        for i in 0..n {
-            let a = j * (n + 1) + i + 1;
-            let (b, c, d) = (a + 1, a + n + 1, a + n + 2);
-            let _ = writeln!(s, "f {a} {c} {b}\nf {b} {c} {d}");
-        }
-    }
-    s
-}
-
 fn cook_and_write(input: &Path, out: &Path, settings: &cook::Settings) -> cook::CookOutput {
     let manifest = cook::Manifest::open(input).unwrap();
     let cooked = cook::cook(&manifest, settings).unwrap();
@@ -45,7 +23,7 @@ fn cook_and_write(input: &Path, out: &Path, settings: &cook::Settings) -> cook::
 fn end_to_end(c: &mut Criterion) {
     let dir = tempfile::tempdir().unwrap();
     let big = dir.path().join("grid-1m.obj");
-    std::fs::write(&big, generated_obj(707)).unwrap();
+    std::fs::write(&big, cook::testing::height_field_obj(707)).unwrap();
     let inputs = [
         ("stanford bunny", bunny()),
         ("generated 1M-triangle grid", big),

@@ -10,6 +10,8 @@ pub mod import;
 pub mod manifest;
 pub mod mesh;
 pub mod tag;
+#[doc(hidden)]
+pub mod testing;
 mod textures;
 pub mod triangulate;
 pub mod validate;

@@ -18,41 +18,13 @@ fn env_list(name: &str, default: &str) -> Vec<f32> {
         .collect()
 }
 
-/// Stained-glass-like content: flat panes, dark lead lines, a little noise.
-fn design(w: usize, h: usize) -> Vec<u8> {
-    let mut state = 0x9E37_79B9_7F4A_7C15u64;
-    let mut rnd = move || {
-        state ^= state >> 12;
-        state ^= state << 25;
-        state ^= state >> 27;
-        (state.wrapping_mul(0x2545_F491_4F6C_DD1D) >> 56) as u8
-    };
-    let panes: Vec<[u8; 3]> = (0..64).map(|_| [rnd(), rnd(), rnd()]).collect();
-    let mut out = vec![255u8; w * h * 4];
-    for y in 0..h {
-        for x in 0..w {
-            let o = &mut out[(y * w + x) * 4..][..3];
-            if x % 61 < 3 || y % 47 < 3 {
-                o.copy_from_slice(&[10, 10, 12]);
-            } else {
-                let p = panes[((x / 61) * 7 + (y / 47) * 3) % 64];
-                let n = rnd() % 4;
-                for c in 0..3 {
-                    o[c] = p[c].saturating_add(n);
-                }
-            }
-        }
-    }
-    out
-}
-
 fn bench(c: &mut Criterion) {
     let side: usize = std::env::var("TEXTURE_BENCH_SIZE")
         .ok()
         .and_then(|s| s.parse().ok())
         .unwrap_or(4096);
     let anchors = std::env::var("TEXTURE_BENCH_ANCHORS").map_or(true, |v| v != "0");
-    let src = design(side, side);
+    let src = texture::testing::opaque_design(side, side);
     let mut g = c.benchmark_group(format!("gaussian blur {side}x{side}"));
     g.sample_size(10)
         .warm_up_time(Duration::from_millis(500))

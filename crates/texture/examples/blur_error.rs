@@ -16,30 +16,8 @@ fn main() {
     } else {
         vec![8.0, 32.0]
     };
-    // Same content as the benchmark: flat panes, dark lead lines, a little noise.
-    let mut state = 0x9E37_79B9_7F4A_7C15u64;
-    let mut rnd = move || {
-        state ^= state >> 12;
-        state ^= state << 25;
-        state ^= state >> 27;
-        (state.wrapping_mul(0x2545_F491_4F6C_DD1D) >> 56) as u8
-    };
-    let panes: Vec<[u8; 3]> = (0..64).map(|_| [rnd(), rnd(), rnd()]).collect();
-    let mut src = vec![255u8; side * side * 4];
-    for y in 0..side {
-        for x in 0..side {
-            let o = &mut src[(y * side + x) * 4..][..3];
-            if x % 61 < 3 || y % 47 < 3 {
-                o.copy_from_slice(&[10, 10, 12]);
-            } else {
-                let p = panes[((x / 61) * 7 + (y / 47) * 3) % 64];
-                let n = rnd() % 4;
-                for c in 0..3 {
-                    o[c] = p[c].saturating_add(n);
-                }
-            }
-        }
-    }
+    // Same content as the benchmark.
+    let src = texture::testing::opaque_design(side, side);
     let input = srgb8_to_premultiplied_f64(&src);
     for sigma in sigmas {
         let reference = reference_blur(&input, side, side, sigma as f64);

@@ -32,6 +32,8 @@ pub mod projector;
 mod real;
 pub mod resample;
 pub mod srgb;
+#[doc(hidden)]
+pub mod testing;
 
 pub use blur::{BlurMethod, ErrorLsb, blur_linear, blur_srgb8, error_lsb, reference_blur};
 pub use error::TextureError;

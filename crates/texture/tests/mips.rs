@@ -205,11 +205,11 @@ mod properties {
             let img = match kind {
                 0 => rgba_image(w, h, (0..w * h * 4).map(|_| rng.byte()).collect()),
                 1 => DynamicImage::ImageRgba16(image::ImageBuffer::from_fn(w as u32, h as u32, |_, _| {
-                    image::Rgba([rng.next() as u16, rng.next() as u16, rng.next() as u16, rng.next() as u16])
+                    image::Rgba([rng.next_u64() as u16, rng.next_u64() as u16, rng.next_u64() as u16, rng.next_u64() as u16])
                 })),
                 2 => DynamicImage::ImageLuma8(image::ImageBuffer::from_fn(w as u32, h as u32, |_, _| image::Luma([rng.byte()]))),
                 _ => DynamicImage::ImageLumaA16(image::ImageBuffer::from_fn(w as u32, h as u32, |_, _| {
-                    image::LumaA([rng.next() as u16, rng.next() as u16])
+                    image::LumaA([rng.next_u64() as u16, rng.next_u64() as u16])
                 })),
             };
             let e = chain_error(&img, &ColourOptions::default());

@@ -113,7 +113,7 @@ mod properties {
             let mut rng = Rng(seed | 1);
             let img = if sixteen {
                 DynamicImage::ImageRgb16(image::ImageBuffer::from_fn(w, h, |_, _| {
-                    image::Rgb([rng.next() as u16, rng.next() as u16, (rng.next() as u16) | 1])
+                    image::Rgb([rng.next_u64() as u16, rng.next_u64() as u16, (rng.next_u64() as u16) | 1])
                 }))
             } else {
                 DynamicImage::ImageRgb8(image::ImageBuffer::from_fn(w, h, |_, _| {

@@ -132,20 +132,7 @@ pub fn median(v: &mut [f64]) -> f64 {
     }
 }
 
-/// xorshift64*: reproducible pseudo-random numbers without a dependency.
-pub struct Rng(pub u64);
-
-impl Rng {
-    pub fn next_u64(&mut self) -> u64 {
-        self.0 ^= self.0 >> 12;
-        self.0 ^= self.0 << 25;
-        self.0 ^= self.0 >> 27;
-        self.0.wrapping_mul(0x2545_F491_4F6C_DD1D)
-    }
-    pub fn byte(&mut self) -> u8 {
-        (self.next_u64() >> 56) as u8
-    }
-}
+pub use texture::testing::Rng;
 
 /// A stained-glass-like RGBA8 design: panes of random colour (some very dark, some saturated,
 /// some translucent), dark lead lines, a little noise. Hard edges and dark regions are where a

@@ -54,29 +54,6 @@ pub fn bunny_path() -> Option<PathBuf> {
     p.is_file().then_some(p)
 }
 
-/// A wavy `n` x `n` height field as OBJ text, vertices in row order and triangles in row order
-/// (a plain scan order with a cache-unfriendly stride for large `n`).
-pub fn generated_obj(n: usize) -> String {
-    use std::fmt::Write;
-    let mut s = String::with_capacity(n * n * 60);
-    s.push_str("o terrain\nusemtl ground\n");
-    for j in 0..=n {
-        for i in 0..=n {
-            let (x, z) = (i as f32 / n as f32, j as f32 / n as f32);
-            let y = 0.05 * (x * 37.0).sin() * (z * 23.0).cos();
-            let _ = writeln!(s, "v {x:.6} {y:.6} {z:.6}");
-        }
-    }
-    for j in 0..n {
-        for i in 0..n {
-            let a = j * (n + 1) + i + 1;
-            let (b, c, d) = (a + 1, a + n + 1, a + n + 2);
-            let _ = writeln!(s, "f {a} {c} {b}\nf {b} {c} {d}");
-        }
-    }
-    s
-}
-
 fn stage(p: &Processed, name: &str) -> f64 {
     p.stats
         .stages
@@ -293,7 +270,7 @@ fn which(program: &str) -> Option<PathBuf> {
 pub fn sweep(cfg: &MeshConfig, progress: &mut dyn FnMut(&str)) -> Result<Vec<MeshRow>> {
     std::fs::create_dir_all(&cfg.scratch)?;
     let grid = cfg.scratch.join(format!("grid-{}.obj", cfg.grid));
-    std::fs::write(&grid, generated_obj(cfg.grid))
+    std::fs::write(&grid, cook::testing::height_field_obj(cfg.grid))
         .with_context(|| format!("writing {}", grid.display()))?;
     let mut rows = measure(
         &format!("generated {0}x{0} height field", cfg.grid),

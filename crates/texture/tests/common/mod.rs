@@ -1,20 +1,7 @@
 //! Deterministic test images.
 #![allow(dead_code)]
 
-/// xorshift64*: reproducible pseudo-random bytes without a dependency.
-pub struct Rng(pub u64);
-
-impl Rng {
-    pub fn next(&mut self) -> u64 {
-        self.0 ^= self.0 >> 12;
-        self.0 ^= self.0 << 25;
-        self.0 ^= self.0 >> 27;
-        self.0.wrapping_mul(0x2545_F491_4F6C_DD1D)
-    }
-    pub fn byte(&mut self) -> u8 {
-        (self.next() >> 56) as u8
-    }
-}
+pub use texture::testing::Rng;
 
 /// A stained-glass-like RGBA8 test image: flat panes of random colour (some very dark, some
 /// saturated), black lead lines, a few translucent panes, and a little noise: hard edges and
