@@ -667,60 +667,7 @@ pub fn process(
     }
 }
 
-fn oct_encode(n: [f32; 3]) -> [f32; 2] {
-    let l1 = n[0].abs() + n[1].abs() + n[2].abs();
-    if l1 == 0.0 {
-        return [0.0, 0.0];
-    }
-    let (x, y) = (n[0] / l1, n[1] / l1);
-    if n[2] >= 0.0 {
-        [x, y]
-    } else {
-        [(1.0 - y.abs()) * x.signum(), (1.0 - x.abs()) * y.signum()]
-    }
-}
-
-fn oct_decode(e: [f32; 2]) -> [f32; 3] {
-    let z = 1.0 - e[0].abs() - e[1].abs();
-    let (x, y) = if z >= 0.0 {
-        (e[0], e[1])
-    } else {
-        (
-            (1.0 - e[1].abs()) * e[0].signum(),
-            (1.0 - e[0].abs()) * e[1].signum(),
-        )
-    };
-    normalize([x, y, z])
-}
-
-fn snorm16(v: f32) -> i16 {
-    (v.clamp(-1.0, 1.0) * 32767.0).round() as i16
-}
-
-fn unorm16(v: f32) -> u16 {
-    (v.clamp(0.0, 1.0) * 65535.0).round() as u16
-}
-
-/// Bits per axis of quantized positions: 16 (`Unorm16x4`, 8 bytes) or 10 and 8 (packed in 4
-/// bytes).
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
-pub enum PositionBits {
-    #[default]
-    B16 = 16,
-    B10 = 10,
-    B8 = 8,
-}
-
-impl PositionBits {
-    pub fn from_bits(bits: u32) -> Option<Self> {
-        match bits {
-            16 => Some(Self::B16),
-            10 => Some(Self::B10),
-            8 => Some(Self::B8),
-            _ => None,
-        }
-    }
-}
+pub use pack::vertex::{Encoded, PositionBits};
 
 /// Which optional vertex attributes a mesh stores; position and material ID always are.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -770,27 +717,8 @@ impl Attributes {
     }
 }
 
-/// Vertices encoded for the pack, and what the encoding cost in accuracy.
-#[derive(Clone, Debug, PartialEq)]
-pub struct Encoded {
-    pub layout: pack::VertexLayout,
-    pub bytes: Vec<u8>,
-    /// Largest position error in world units (0 for float positions).
-    pub max_position_error: f32,
-    /// Largest normal error in degrees (0 for float normals).
-    pub max_normal_error_deg: f32,
-    /// Largest texture-coordinate error (0 when UVs stay 32-bit floats).
-    pub max_uv_error: f32,
-}
-
-/// Encodes vertices with the attributes `attrs` keeps. With every attribute and no quantization
-/// this is exactly [`pack::VertexLayout::standard`] (52 bytes), which the viewer uploads as is.
-///
-/// Quantized (`quantize` gives the position bits): positions as unorm within the bounding box, normals and tangents
-/// octahedral in 16-bit snorm (tangent handedness in z), UVs as 16-bit unorm when they lie in
-/// [0, 1] (else floats): 28 bytes with every attribute. Attributes keep the order position,
-/// normal, tangent, UV, material when quantized, and position, normal, UV, tangent, material
-/// as floats, so that the full float layout is the standard one.
+/// Encodes vertices with the attributes `attrs` keeps, quantized when `quantize` gives the
+/// position bits; the layouts are [`pack::vertex::encode`]'s.
 pub fn encode(
     vertices: &[StandardVertex],
     bounds_min: [f32; 3],
@@ -798,163 +726,13 @@ pub fn encode(
     attrs: Attributes,
     quantize: Option<PositionBits>,
 ) -> Encoded {
-    use pack::{AttributeFormat as F, Semantic as S, VertexAttribute as A};
-    let bits = quantize;
-    let quantize = bits.is_some();
-    let position_format = match bits {
-        None => F::Float32x3,
-        Some(PositionBits::B16) => F::Unorm16x4,
-        Some(PositionBits::B10) => F::Unorm10x3,
-        Some(PositionBits::B8) => F::Unorm8x4,
+    let encoding = pack::vertex::Encoding {
+        normal: attrs.normal,
+        uv: attrs.uv,
+        tangent: attrs.tangent,
+        quantize,
     };
-    let levels = bits.map_or(1.0, |b| ((1u32 << b as u32) - 1) as f32);
-    let uv_unorm = quantize
-        && vertices
-            .iter()
-            .all(|v| v.uv.iter().all(|&c| (0.0..=1.0).contains(&c)));
-    let mut attributes = Vec::new();
-    let mut stride = 0u32;
-    let mut push = |semantic, format: F| {
-        attributes.push(A {
-            semantic,
-            format,
-            offset: stride,
-        });
-        stride += format.size();
-    };
-    let uv_format = if uv_unorm { F::Unorm16x2 } else { F::Float32x2 };
-    if quantize {
-        push(S::Position, position_format);
-        if attrs.normal {
-            push(S::Normal, F::Snorm16x2);
-        }
-        if attrs.tangent {
-            push(S::Tangent, F::Snorm16x4);
-        }
-        if attrs.uv {
-            push(S::TexCoord, uv_format);
-        }
-    } else {
-        push(S::Position, F::Float32x3);
-        if attrs.normal {
-            push(S::Normal, F::Float32x3);
-        }
-        if attrs.uv {
-            push(S::TexCoord, F::Float32x2);
-        }
-        if attrs.tangent {
-            push(S::Tangent, F::Float32x4);
-        }
-    }
-    push(S::MaterialId, F::Uint16x2);
-    // The GPU reads unorm q as q / (2^bits - 1) in [0, 1], so the scale is the box's full
-    // extent.
-    let scale: [f32; 3] = std::array::from_fn(|k| {
-        let s = bounds_max[k] - bounds_min[k];
-        if s > 0.0 { s } else { 1.0 }
-    });
-    let layout = pack::VertexLayout {
-        stride,
-        attributes,
-        position_offset: if quantize { bounds_min } else { [0.0; 3] },
-        position_scale: if quantize { scale } else { [1.0; 3] },
-    };
-    let mut bytes = Vec::with_capacity(vertices.len() * stride as usize);
-    let (mut perr, mut nerr, mut uverr) = (0.0f32, 0.0f32, 0.0f32);
-    let f32s = |bytes: &mut Vec<u8>, v: &[f32]| {
-        for c in v {
-            bytes.extend_from_slice(&c.to_le_bytes());
-        }
-    };
-    for v in vertices {
-        if !quantize {
-            f32s(&mut bytes, &v.position);
-            if attrs.normal {
-                f32s(&mut bytes, &v.normal);
-            }
-            if attrs.uv {
-                f32s(&mut bytes, &v.uv);
-            }
-            if attrs.tangent {
-                f32s(&mut bytes, &v.tangent);
-            }
-            bytes.extend_from_slice(&v.material[0].to_le_bytes());
-            bytes.extend_from_slice(&0u16.to_le_bytes());
-            continue;
-        }
-        let q: [u32; 3] = std::array::from_fn(|k| {
-            (((v.position[k] - bounds_min[k]) / scale[k]).clamp(0.0, 1.0) * levels).round() as u32
-        });
-        for k in 0..3 {
-            let back = bounds_min[k] + scale[k] * (q[k] as f32 / levels);
-            perr = perr.max((back - v.position[k]).abs());
-        }
-        match position_format {
-            F::Unorm16x4 => {
-                for c in [q[0], q[1], q[2], 0] {
-                    bytes.extend_from_slice(&(c as u16).to_le_bytes());
-                }
-            }
-            F::Unorm10x3 => {
-                bytes.extend_from_slice(&(q[0] | q[1] << 10 | q[2] << 20).to_le_bytes());
-            }
-            _ => bytes.extend_from_slice(&[q[0] as u8, q[1] as u8, q[2] as u8, 0]),
-        }
-        if attrs.normal {
-            let e = oct_encode(v.normal).map(snorm16);
-            let back = oct_decode(e.map(|c| c as f32 / 32767.0));
-            if dot(v.normal, v.normal) > 0.0 {
-                // atan2 of |cross| and dot stays accurate for tiny angles, where acos(dot) does
-                // not.
-                let c = cross(back, v.normal);
-                nerr = nerr.max(dot(c, c).sqrt().atan2(dot(back, v.normal)).to_degrees());
-            }
-            for c in e {
-                bytes.extend_from_slice(&c.to_le_bytes());
-            }
-        }
-        if attrs.tangent {
-            let t = oct_encode([v.tangent[0], v.tangent[1], v.tangent[2]]).map(snorm16);
-            for c in [t[0], t[1], snorm16(v.tangent[3]), 0] {
-                bytes.extend_from_slice(&c.to_le_bytes());
-            }
-        }
-        if attrs.uv {
-            if uv_unorm {
-                for c in v.uv {
-                    let q = unorm16(c);
-                    uverr = uverr.max((q as f32 / 65535.0 - c).abs());
-                    bytes.extend_from_slice(&q.to_le_bytes());
-                }
-            } else {
-                f32s(&mut bytes, &v.uv);
-            }
-        }
-        bytes.extend_from_slice(&v.material[0].to_le_bytes());
-        bytes.extend_from_slice(&0u16.to_le_bytes());
-    }
-    Encoded {
-        layout,
-        bytes,
-        max_position_error: perr,
-        max_normal_error_deg: nerr,
-        max_uv_error: uverr,
-    }
-}
-
-/// Every attribute, quantized (see [`encode`]).
-pub fn quantize(
-    vertices: &[StandardVertex],
-    bounds_min: [f32; 3],
-    bounds_max: [f32; 3],
-) -> Encoded {
-    encode(
-        vertices,
-        bounds_min,
-        bounds_max,
-        Attributes::ALL,
-        Some(PositionBits::B16),
-    )
+    pack::vertex::encode(vertices, bounds_min, bounds_max, encoding)
 }
 
 #[cfg(test)]
@@ -1052,7 +830,13 @@ mod tests {
             vec![[0, 1, 2]],
         );
         let p = process(&s, &[0], &[OPAQUE], &MeshSettings::default());
-        let q = quantize(&p.vertices, p.bounds_min, p.bounds_max);
+        let q = encode(
+            &p.vertices,
+            p.bounds_min,
+            p.bounds_max,
+            Attributes::ALL,
+            Some(PositionBits::B16),
+        );
         assert_eq!(q.bytes.len(), p.vertices.len() * q.layout.stride as usize);
         assert!(
             q.max_position_error <= 10.0 / 65535.0 * 0.51,

@@ -5,7 +5,7 @@
 
 use std::collections::{HashMap, HashSet};
 
-use pack::{AttributeFormat, MaterialClass, Semantic};
+use pack::{MaterialClass, Semantic};
 use serde_json::json;
 
 use crate::manifest::Manifest;
@@ -364,37 +364,18 @@ pub fn validate_pack(pack: &pack::Pack) -> Validation {
     v
 }
 
-fn read_f32(b: &[u8], o: usize) -> f32 {
-    f32::from_le_bytes([b[o], b[o + 1], b[o + 2], b[o + 3]])
-}
-
-fn read_u16(b: &[u8], o: usize) -> u16 {
-    u16::from_le_bytes([b[o], b[o + 1]])
-}
-
 fn decode(pack: &pack::Pack, m: &pack::Mesh) -> MeshView {
+    let l = &m.layout;
     let bytes = pack.vertex_bytes(m);
-    let stride = m.layout.stride as usize;
-    let n = m.vertex_count as usize;
-    let attr = |s: Semantic| m.layout.attribute(s).map(|a| (a.format, a.offset as usize));
-    let mut positions = Vec::with_capacity(n);
-    let mut uvs = Vec::with_capacity(n);
-    let mut materials = Vec::with_capacity(n);
-    for i in 0..n {
-        let b = &bytes[i * stride..(i + 1) * stride];
-        positions.push(m.layout.position(b).unwrap_or([0.0; 3]));
-        uvs.push(match attr(Semantic::TexCoord) {
-            Some((AttributeFormat::Float32x2, o)) => [read_f32(b, o), read_f32(b, o + 4)],
-            Some((AttributeFormat::Unorm16x2, o)) => [
-                read_u16(b, o) as f32 / 65535.0,
-                read_u16(b, o + 2) as f32 / 65535.0,
-            ],
-            _ => [0.0; 2],
-        });
-        materials.push(match attr(Semantic::MaterialId) {
-            Some((_, o)) => read_u16(b, o),
-            None => u16::MAX,
-        });
+    let vertices = bytes
+        .chunks_exact(l.stride as usize)
+        .take(m.vertex_count as usize);
+    let (mut positions, mut uvs, mut materials) = (Vec::new(), Vec::new(), Vec::new());
+    for b in vertices {
+        positions.push(l.position(b).unwrap_or([0.0; 3]));
+        let [u, v, ..] = l.read(b, Semantic::TexCoord).unwrap_or([0.0; 4]);
+        uvs.push([u, v]);
+        materials.push(l.material_id(b).unwrap_or(u16::MAX));
     }
     MeshView {
         name: m.name.clone(),

@@ -15,21 +15,13 @@ mod stream;
 pub mod testing;
 pub mod toc;
 mod validate;
+pub mod vertex;
 mod writer;
 
 pub use error::{PackError, Problem};
 pub use format::{FORMAT_VERSION, SectionEntry, SectionKind};
-pub use reader::{AlignedBytes, Pack, validate_bytes};
+pub use reader::{AlignedBytes, Pack};
 pub use stream::{StreamReader, StreamSection};
 pub use toc::*;
 pub use validate::{SectionRole, encode_toc};
 pub use writer::{MeshData, PackData, encode, write_atomic, write_pack};
-
-/// Raw error of [`validate_bytes`]; converts into a [`PackError`] with a path.
-pub use error::Fail as ByteError;
-
-impl ByteError {
-    pub fn into_error(self, path: impl Into<std::path::PathBuf>) -> PackError {
-        self.with_path(path)
-    }
-}

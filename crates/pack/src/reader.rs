@@ -118,8 +118,8 @@ fn parse(bytes: &[u8]) -> Result<Parsed, Fail> {
     })
 }
 
-/// Validates a whole pack held in memory; the entry point for fuzzing.
-pub fn validate_bytes(bytes: &[u8]) -> Result<Toc, crate::error::Fail> {
+/// Validates a whole pack held in memory (what the writer checks its output with).
+pub(crate) fn validate_bytes(bytes: &[u8]) -> Result<Toc, crate::error::Fail> {
     parse(bytes).map(|p| p.toc)
 }
 

@@ -372,33 +372,22 @@ pub fn validate_toc(toc: &Toc, table: &[SectionEntry]) -> Result<Vec<SectionRole
 pub fn validate_vertices(toc: &Toc, mesh: u32, bytes: &[u8]) -> Result<(), Fail> {
     let m = &toc.meshes[mesh as usize];
     let stride = m.layout.stride as usize;
-    let mat = m
-        .layout
-        .attribute(Semantic::MaterialId)
-        .expect("validated layout")
-        .offset as usize;
-    let pos = m
-        .layout
-        .attribute(Semantic::Position)
-        .expect("validated layout");
     let nmat = toc.materials.len();
     for (v, chunk) in bytes.chunks_exact(stride).enumerate() {
-        let id = u16::from_le_bytes([chunk[mat], chunk[mat + 1]]);
-        if id as usize >= nmat || chunk[mat + 2] != 0 || chunk[mat + 3] != 0 {
+        let [id, zero, ..] = m
+            .layout
+            .read(chunk, Semantic::MaterialId)
+            .expect("validated layout");
+        if id as usize >= nmat || zero != 0.0 {
             return Err(Fail::toc(format!(
                 "mesh {mesh} vertex {v} has material ID {id}, but there are {nmat} materials"
             )));
         }
-        if pos.format == AttributeFormat::Float32x3 {
-            let o = pos.offset as usize;
-            for k in 0..3 {
-                let x = f32::from_le_bytes(chunk[o + 4 * k..o + 4 * k + 4].try_into().unwrap());
-                if !x.is_finite() {
-                    return Err(Fail::toc(format!(
-                        "mesh {mesh} vertex {v} has a non-finite position"
-                    )));
-                }
-            }
+        let p = m.layout.position(chunk).expect("validated layout");
+        if !finite(&p) {
+            return Err(Fail::toc(format!(
+                "mesh {mesh} vertex {v} has a non-finite position"
+            )));
         }
     }
     Ok(())

@@ -3,9 +3,7 @@
 //! resident so far (they arrive smallest first), and a placeholder stands in until its first
 //! level is in.
 
-use pack::{
-    AttributeFormat, MaterialClass, SectionRole, Semantic, StandardVertex, Toc, VertexLayout,
-};
+use pack::{MaterialClass, SectionRole, StandardVertex, Toc, VertexLayout};
 
 use crate::uniforms;
 use crate::{Gpu, RenderError};
@@ -652,17 +650,6 @@ pub(crate) fn vertex_layout() -> wgpu::VertexBufferLayout<'static> {
     }
 }
 
-fn oct_decode(x: f32, y: f32) -> [f32; 3] {
-    let z = 1.0 - x.abs() - y.abs();
-    let (mut vx, mut vy) = (x, y);
-    if z < 0.0 {
-        vx = (1.0 - y.abs()) * x.signum();
-        vy = (1.0 - x.abs()) * y.signum();
-    }
-    let v = glam::Vec3::new(vx, vy, z).normalize_or_zero();
-    v.to_array()
-}
-
 /// Converts vertices of any layout the pack allows into [`StandardVertex`]; `None` when the
 /// layout already is the standard one (uploaded as is).
 fn standard_vertices(
@@ -680,71 +667,10 @@ fn standard_vertices(
             bytes.len()
         ));
     }
-    let f32_at = |b: &[u8], o: usize| f32::from_le_bytes([b[o], b[o + 1], b[o + 2], b[o + 3]]);
-    let u16_at = |b: &[u8], o: usize| u16::from_le_bytes([b[o], b[o + 1]]);
-    let i16_at =
-        |b: &[u8], o: usize| (i16::from_le_bytes([b[o], b[o + 1]]) as f32 / 32767.0).max(-1.0);
-    let read = |v: &[u8], a: &pack::VertexAttribute| -> [f32; 4] {
-        let o = a.offset as usize;
-        match a.format {
-            AttributeFormat::Float32x2 => [f32_at(v, o), f32_at(v, o + 4), 0.0, 0.0],
-            AttributeFormat::Float32x3 => [f32_at(v, o), f32_at(v, o + 4), f32_at(v, o + 8), 0.0],
-            AttributeFormat::Float32x4 => [
-                f32_at(v, o),
-                f32_at(v, o + 4),
-                f32_at(v, o + 8),
-                f32_at(v, o + 12),
-            ],
-            AttributeFormat::Unorm16x2 => [
-                u16_at(v, o) as f32 / 65535.0,
-                u16_at(v, o + 2) as f32 / 65535.0,
-                0.0,
-                0.0,
-            ],
-            AttributeFormat::Unorm16x4 => [0, 2, 4, 6].map(|k| u16_at(v, o + k) as f32 / 65535.0),
-            AttributeFormat::Snorm16x2 => {
-                let d = oct_decode(i16_at(v, o), i16_at(v, o + 2));
-                [d[0], d[1], d[2], 0.0]
-            }
-            AttributeFormat::Snorm16x4 => {
-                let d = oct_decode(i16_at(v, o), i16_at(v, o + 2));
-                // The third component carries the tangent handedness.
-                [
-                    d[0],
-                    d[1],
-                    d[2],
-                    if i16_at(v, o + 4) < 0.0 { -1.0 } else { 1.0 },
-                ]
-            }
-            AttributeFormat::Uint16x2 => [u16_at(v, o) as f32, u16_at(v, o + 2) as f32, 0.0, 0.0],
-            // Quantized positions only; `VertexLayout::position` dequantizes them.
-            AttributeFormat::Unorm10x3 | AttributeFormat::Unorm8x4 => [0.0; 4],
-        }
-    };
-    let nrm = layout.attribute(Semantic::Normal);
-    let uv = layout.attribute(Semantic::TexCoord);
-    let tan = layout.attribute(Semantic::Tangent);
     let out = bytes
         .chunks_exact(stride)
         .take(count)
-        .map(|v| {
-            let mut s = StandardVertex::default();
-            if let Some(p) = layout.position(v) {
-                s.position = p;
-            }
-            if let Some(a) = nrm {
-                let n = read(v, a);
-                s.normal = [n[0], n[1], n[2]];
-            }
-            if let Some(a) = uv {
-                let t = read(v, a);
-                s.uv = [t[0], t[1]];
-            }
-            if let Some(a) = tan {
-                s.tangent = read(v, a);
-            }
-            s
-        })
+        .map(|v| layout.decode(v))
         .collect();
     Ok(Some(out))
 }
@@ -952,18 +878,7 @@ impl Projectors {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use pack::VertexAttribute;
-
-    fn oct_encode(n: [f32; 3]) -> [i16; 2] {
-        let l1 = n[0].abs() + n[1].abs() + n[2].abs();
-        let (x, y) = (n[0] / l1, n[1] / l1);
-        let e = if n[2] >= 0.0 {
-            [x, y]
-        } else {
-            [(1.0 - y.abs()) * x.signum(), (1.0 - x.abs()) * y.signum()]
-        };
-        e.map(|c| (c * 32767.0).round() as i16)
-    }
+    use pack::{AttributeFormat, Semantic, VertexAttribute};
 
     /// The cooker's quantized layout: positions Unorm16x4 over the bounds, octahedral normals
     /// and tangents (handedness in z), Unorm16 UVs.
@@ -992,10 +907,10 @@ mod tests {
         for q in [0u16, 65535, 32768, 0] {
             bytes.extend_from_slice(&q.to_le_bytes());
         }
-        for c in oct_encode(normal.to_array()) {
-            bytes.extend_from_slice(&c.to_le_bytes());
+        for c in pack::vertex::oct_encode(normal.to_array()) {
+            bytes.extend_from_slice(&((c * 32767.0).round() as i16).to_le_bytes());
         }
-        let t = oct_encode(tangent.to_array());
+        let t = pack::vertex::oct_encode(tangent.to_array()).map(|c| (c * 32767.0).round() as i16);
         for c in [t[0], t[1], -32767, 0] {
             bytes.extend_from_slice(&c.to_le_bytes());
         }

@@ -1,5 +1,5 @@
 //! Mesh sweep: vertex cache optimizer × position quantization, through the cooker's own mesh
-//! stage (`cook::mesh::process`, `cook::mesh::quantize`) on a generated height field and, when
+//! stage (`cook::mesh::process`, `cook::mesh::encode`) on a generated height field and, when
 //! present, the Stanford bunny from the test data.
 
 use std::path::{Path, PathBuf};

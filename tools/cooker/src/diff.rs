@@ -8,7 +8,7 @@
 use std::collections::BTreeMap;
 use std::path::PathBuf;
 
-use pack::{Pack, SectionRole, Semantic, TextureRole};
+use pack::{Pack, SectionRole, TextureRole};
 use serde_json::{Value, json};
 
 use crate::exit::{FOUND_PROBLEMS, OK, Outcome, UsageError};
@@ -87,14 +87,10 @@ fn positions(pack: &Pack, mesh: &pack::Mesh) -> Vec<[f32; 3]> {
 }
 
 fn material_ids(pack: &Pack, mesh: &pack::Mesh) -> Vec<u16> {
-    let o = mesh
-        .layout
-        .attribute(Semantic::MaterialId)
-        .expect("validated layout")
-        .offset as usize;
+    let l = &mesh.layout;
     pack.vertex_bytes(mesh)
-        .chunks_exact(mesh.layout.stride as usize)
-        .map(|v| u16::from_le_bytes([v[o], v[o + 1]]))
+        .chunks_exact(l.stride as usize)
+        .map(|v| l.material_id(v).expect("validated layout"))
         .collect()
 }
 
