@@ -6,7 +6,9 @@
 
 pub mod budget;
 pub mod cache;
+pub mod design;
 pub mod import;
+pub mod instances;
 pub mod manifest;
 pub mod mesh;
 pub mod tag;
@@ -15,6 +17,7 @@ pub mod testing;
 mod textures;
 pub mod triangulate;
 pub mod validate;
+pub mod window_plan;
 pub mod windows;
 
 use std::path::{Path, PathBuf};
@@ -26,10 +29,11 @@ pub use import::Warning;
 pub use manifest::Manifest;
 pub use mesh::{CacheMode, MeshSettings, MeshStats};
 
-/// An error while cooking, naming the file (and line where there is one).
+/// An error while cooking, naming the file (and line where there is one). Wrapped errors are
+/// the `source`, not repeated in the message.
 #[derive(Debug, thiserror::Error)]
 pub enum CookError {
-    #[error("{}: {source}", path.display())]
+    #[error("{}", path.display())]
     Io {
         path: PathBuf,
         #[source]
@@ -47,6 +51,9 @@ pub enum CookError {
         line: Option<usize>,
         message: String,
     },
+    /// `--window NAME=…` names no window of the scene.
+    #[error("--window {pattern:?} matches no window; the scene's windows are: {}", if known.is_empty() { "(none)".to_string() } else { known.join(", ") })]
+    UnknownWindow { pattern: String, known: Vec<String> },
     /// A source file (mesh, material library, image) is malformed.
     #[error("{}{}: {message}", path.display(), line.map(|l| format!(":{l}")).unwrap_or_default())]
     Source {
@@ -64,7 +71,9 @@ impl CookError {
             CookError::Io { .. } => true,
             CookError::Pack(p) => p.is_io(),
             CookError::Texture(t) => t.is_io(),
-            CookError::Manifest { .. } | CookError::Source { .. } => false,
+            CookError::Manifest { .. }
+            | CookError::Source { .. }
+            | CookError::UnknownWindow { .. } => false,
         }
     }
 
@@ -75,7 +84,7 @@ impl CookError {
             | CookError::Manifest { path, .. }
             | CookError::Source { path, .. } => Some(path),
             CookError::Texture(t) => t.path(),
-            CookError::Pack(_) => None,
+            CookError::Pack(_) | CookError::UnknownWindow { .. } => None,
         }
     }
 }
@@ -91,6 +100,8 @@ pub struct Settings {
     pub textures: bool,
     /// Reuse cooked textures from this cache, and store new ones in it.
     pub cache: Option<cache::Cache>,
+    /// `--window NAME=IMAGE` designs, taking precedence over the manifest's `[[window]]`s.
+    pub window_overrides: Vec<manifest::WindowDesign>,
 }
 
 impl Default for Settings {
@@ -101,6 +112,7 @@ impl Default for Settings {
             position_bits: mesh::PositionBits::B16,
             textures: true,
             cache: None,
+            window_overrides: Vec::new(),
         }
     }
 }
@@ -135,8 +147,11 @@ pub struct HeuristicNote {
     pub names: String,
     pub material: String,
     pub class: pack::MaterialClass,
-    /// The keyword that decided, `None` when nothing matched (class `other`).
+    /// The name keyword that decided, if a name did.
     pub keyword: Option<&'static str>,
+    /// Why: the keyword, the material property or the geometry that decided, or that nothing
+    /// matched.
+    pub reason: String,
     pub triangles: usize,
 }
 
@@ -199,17 +214,13 @@ pub fn import_sources(manifest: &Manifest) -> Result<Vec<(import::Imported, Dura
 /// texture stage), so it needs tangents even though no source material names one. Texture
 /// coordinates matter only to textured materials, normals to everything but the unlit
 /// backdrop.
-pub fn material_needs(manifest: &Manifest, tagging: &tag::Tagging) -> Vec<mesh::MaterialNeeds> {
+pub fn material_needs(tagging: &tag::Tagging) -> Vec<mesh::MaterialNeeds> {
     tagging
         .materials
         .iter()
         .map(|m| {
             let window = m.material.class.is_window();
-            let designed = window
-                && manifest
-                    .windows
-                    .iter()
-                    .any(|w| w.material == m.material.name);
+            let designed = window && m.window.is_some();
             let tangents = m.normal_texture.is_some() || designed;
             mesh::MaterialNeeds {
                 window,
@@ -219,6 +230,49 @@ pub fn material_needs(manifest: &Manifest, tagging: &tag::Tagging) -> Vec<mesh::
             }
         })
         .collect()
+}
+
+/// The front of the pipeline, shared with `cooker validate`: import, tag, then the window
+/// stage (instances, per-window materials, planar UVs, designs).
+pub struct Prepared {
+    pub imported: Vec<import::Imported>,
+    pub import_times: Vec<Duration>,
+    pub tagging: tag::Tagging,
+    /// Per source, per triangle: the pack material.
+    pub tri_material: Vec<Vec<u16>>,
+    pub windows: window_plan::Windows,
+}
+
+/// Runs import → tag → windows; see [`Prepared`].
+pub fn prepare(
+    manifest: &Manifest,
+    settings: &Settings,
+    report: &mut Report,
+) -> Result<Prepared, CookError> {
+    let sources = import_sources(manifest)?;
+    let (mut imported, import_times): (Vec<import::Imported>, Vec<Duration>) =
+        sources.into_iter().unzip();
+    let mut tagging = tag::tag(manifest, &imported)?;
+    let mut tri_material: Vec<Vec<u16>> = imported
+        .iter()
+        .zip(&tagging.part_material)
+        .map(|(src, parts)| tri_materials(src, parts))
+        .collect();
+    let windows = window_plan::plan(
+        manifest,
+        &settings.window_overrides,
+        &mut imported,
+        &mut tagging,
+        &mut tri_material,
+        report,
+    )?;
+    Ok(Prepared {
+        imported,
+        import_times,
+        tagging,
+        tri_material,
+        windows,
+    })
 }
 
 fn tri_materials(src: &import::Imported, part_material: &[u16]) -> Vec<u16> {
@@ -272,8 +326,15 @@ pub fn cook(manifest: &Manifest, settings: &Settings) -> Result<CookOutput, Cook
         clock = now;
     };
 
-    // 1. Import: every source into a triangle soup, errors naming file and line.
-    let sources = import_sources(manifest)?;
+    // 1–3. Import every source into a triangle soup (errors name file and line); tag source
+    // names to pack materials with a class; find the windows in the geometry.
+    let Prepared {
+        imported,
+        import_times,
+        mut tagging,
+        tri_material,
+        windows: found,
+    } = prepare(manifest, settings, &mut report)?;
     if manifest.bare {
         report.warnings.push(Warning::new(
             &manifest.path,
@@ -282,40 +343,41 @@ pub fn cook(manifest: &Manifest, settings: &Settings) -> Result<CookOutput, Cook
         ));
     }
     report.inputs.push(manifest.path.clone());
-    for (s, _) in sources.iter() {
+    for s in imported.iter() {
         report.warnings.extend(s.warnings.iter().cloned());
         report.inputs.push(s.path.clone());
         report.inputs.extend(s.files.iter().cloned());
     }
-    lap(&mut report, "import");
-
-    // 2. Tag: source names to pack materials with a class.
-    let (imported, import_times): (Vec<import::Imported>, Vec<Duration>) =
-        sources.into_iter().unzip();
-    let mut tagging = tag::tag(manifest, &imported)?;
     note_heuristics(&imported, &tagging, &mut report);
-    let needs = material_needs(manifest, &tagging);
-    lap(&mut report, "tag");
+    lap(&mut report, "import, tag, windows");
 
-    // 3. Mesh processing, one source per task.
+    // 4. Mesh processing, one source per task.
+    let needs = material_needs(&tagging);
     let mut processed: Vec<mesh::Processed> = imported
         .par_iter()
-        .zip(&tagging.part_material)
-        .map(|(src, parts)| mesh::process(src, &tri_materials(src, parts), &needs, &settings.mesh))
+        .zip(&tri_material)
+        .map(|(src, tm)| mesh::process(src, tm, &needs, &settings.mesh))
         .collect();
     // Materials left without triangles (empty groups, only degenerate faces) are not cooked,
     // and neither are their textures.
-    prune_materials(manifest, &mut tagging, &mut processed, &mut report);
+    prune_materials(
+        manifest,
+        &found.replaced,
+        &mut tagging,
+        &mut processed,
+        &mut report,
+    );
     skip_unused_source_materials(&imported, &tagging, &mut report);
-    let needs = material_needs(manifest, &tagging);
+    let needs = material_needs(&tagging);
     lap(&mut report, "mesh");
 
-    // 4. Windows: frames from the geometry, designs from the manifest.
+    // 5. Windows: frames from the geometry, facing the side the window stage chose.
     let light = manifest.light.as_ref().map(|l| &l.kind);
     let mut window_frames = Vec::new();
     for (mi, g) in window_geometry(&tagging, &processed) {
         let name = &tagging.materials[mi as usize].material.name;
-        match windows::analyze(mi, &g, light) {
+        let inside = window_plan::inside_of(&tagging, mi);
+        match windows::analyze(mi, &g, light, inside) {
             Some(a) => window_frames.push(a.frame),
             None if g.triangles.is_empty() => {}
             None => report.warnings.push(Warning::new(
@@ -323,32 +385,6 @@ pub fn cook(manifest: &Manifest, settings: &Settings) -> Result<CookOutput, Cook
                 None,
                 format!("window material {name:?} has no area; no projector frame"),
             )),
-        }
-    }
-    for w in &manifest.windows {
-        let found = tagging
-            .materials
-            .iter()
-            .find(|m| m.material.name == w.material);
-        match found {
-            None => report.warnings.push(Warning::new(
-                &manifest.path,
-                Some(w.line.0),
-                format!(
-                    "[[window]] names material {:?}, which no triangle uses; its design is not \
-                     cooked",
-                    w.material
-                ),
-            )),
-            Some(m) if !m.material.class.is_window() => report.warnings.push(Warning::new(
-                &manifest.path,
-                Some(w.line.0),
-                format!(
-                    "[[window]] material {:?} is tagged {}, not a window class",
-                    w.material, m.material.class
-                ),
-            )),
-            Some(_) => {}
         }
     }
     // A projector is cooked only for windows whose light can land on a receiving surface.
@@ -359,7 +395,7 @@ pub fn cook(manifest: &Manifest, settings: &Settings) -> Result<CookOutput, Cook
             windows::light_reaches(f, l, receiving_triangles(&tagging, &processed))
         });
         lit_windows[f.material as usize] = reaches;
-        let designed = manifest.windows.iter().any(|w| &w.material == name);
+        let designed = tagging.materials[f.material as usize].window.is_some();
         if designed && !reaches {
             report.skipped.push(format!(
                 "window {name:?}: {}, so no projector texture was cooked",
@@ -373,7 +409,7 @@ pub fn cook(manifest: &Manifest, settings: &Settings) -> Result<CookOutput, Cook
     }
     lap(&mut report, "windows");
 
-    // 5. Textures: material maps, window designs, normal maps and projectors, background.
+    // 6. Textures: material maps, window designs, normal maps and projectors, background.
     let floor_y = processed_floor(&tagging, &processed);
     let (textures, texture_data, panorama) = textures::cook_textures(
         manifest,
@@ -388,7 +424,7 @@ pub fn cook(manifest: &Manifest, settings: &Settings) -> Result<CookOutput, Cook
     report.inputs.dedup();
     lap(&mut report, "textures");
 
-    // 6. Assemble the TOC and bulk data.
+    // 7. Assemble the TOC and bulk data.
     let mut toc = pack::Toc {
         materials: tagging
             .materials
@@ -490,6 +526,7 @@ pub fn cook(manifest: &Manifest, settings: &Settings) -> Result<CookOutput, Cook
 /// windows last), and reports each one with the textures it would have needed.
 fn prune_materials(
     manifest: &Manifest,
+    replaced: &[u16],
     tagging: &mut tag::Tagging,
     processed: &mut [mesh::Processed],
     report: &mut Report,
@@ -512,9 +549,13 @@ fn prune_materials(
         }
     }
     let old = std::mem::take(&mut tagging.materials);
-    for (plan, &u) in old.into_iter().zip(&used) {
+    for (i, (plan, &u)) in old.into_iter().zip(&used).enumerate() {
         if u {
             tagging.materials.push(plan);
+            continue;
+        }
+        // Its triangles now belong to per-window materials.
+        if replaced.contains(&(i as u16)) {
             continue;
         }
         let mut textures: Vec<String> = [&plan.diffuse_texture, &plan.normal_texture]
@@ -522,12 +563,13 @@ fn prune_materials(
             .flatten()
             .map(|t| t.name())
             .collect();
-        for w in manifest
-            .windows
-            .iter()
-            .filter(|w| w.material == plan.material.name)
-        {
-            textures.push(w.design.display().to_string());
+        for w in manifest.windows.iter().filter(|w| {
+            w.matches(
+                &plan.material.name,
+                std::iter::once(plan.material.name.as_str()),
+            )
+        }) {
+            textures.extend(w.design.iter().map(|d| d.display().to_string()));
             textures.extend(w.normal_map.iter().map(|n| n.display().to_string()));
         }
         report.skipped.push(format!(
@@ -644,6 +686,7 @@ fn note_heuristics(sources: &[import::Imported], tagging: &tag::Tagging, report:
                     tag::Decision::Heuristic { keyword, .. } => Some(keyword),
                     _ => None,
                 },
+                reason: d.reason().unwrap_or_default(),
                 triangles: counts[pi],
             });
         }

@@ -137,16 +137,105 @@ pub enum GreenAxis {
     DirectX,
 }
 
+/// Where a window's texture coordinates come from.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum UvMode {
+    /// The source's own UVs where the triangles have them, else planar.
+    #[default]
+    Auto,
+    /// Always generated from the window's rectangle.
+    Planar,
+}
+
+/// How a design image of another aspect ratio fills a window's rectangle (planar UVs only).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+pub enum Fit {
+    /// Fills the glass and crops the excess, as a photo fills a frame.
+    #[default]
+    Cover,
+    /// The whole design, with clear glass around it.
+    Contain,
+    /// Fills the rectangle exactly, distorting the design.
+    Stretch,
+}
+
+/// Lead came width as a fraction of a window's shorter side, when the manifest gives none.
+pub const DEFAULT_CAME_WIDTH: f32 = 0.015;
+/// Resolution of designs rasterized from the mesh, when the manifest gives none.
+pub const DEFAULT_TEXELS_PER_METRE: f32 = 200.0;
+
+/// A `[[window]]` entry: which windows it describes, and how.
 #[derive(Clone, Debug)]
 pub struct WindowDesign {
-    pub material: String,
-    pub design: PathBuf,
+    /// Glob over window names (`cooker info` lists them).
+    pub name: Option<String>,
+    /// Glob over the materials of a window's triangles (source or pack names).
+    pub material: Option<String>,
+    /// The design image; `None` rasterizes one from the panes' colours.
+    pub design: Option<PathBuf>,
     pub colour_space: pack::ColourSpace,
     pub normal_map: Option<PathBuf>,
     pub normal_encoding: NormalEncoding,
     pub green: GreenAxis,
     pub blur_sigma: Option<f32>,
+    pub uv: UvMode,
+    pub fit: Fit,
+    /// A point or direction on the inner side, overriding the guess.
+    pub inside: Option<[f32; 3]>,
+    /// Lead came width, a fraction of the shorter side (designs from the mesh).
+    pub came_width: f32,
+    /// Resolution of a design rasterized from the mesh.
+    pub texels_per_metre: f32,
     pub line: Line,
+}
+
+/// A glob as the manifest writes them; a pattern that does not compile matches only itself.
+pub fn glob_matches(pattern: &str, name: &str) -> bool {
+    match globset::Glob::new(pattern) {
+        Ok(g) => g.compile_matcher().is_match(name),
+        Err(_) => pattern == name,
+    }
+}
+
+impl WindowDesign {
+    /// A design entry for `--window NAME=IMAGE`: NAME matches window names and materials.
+    pub fn from_override(pattern: &str, design: PathBuf) -> Self {
+        Self {
+            name: Some(pattern.to_string()),
+            material: Some(pattern.to_string()),
+            design: Some(design),
+            colour_space: pack::ColourSpace::Srgb,
+            normal_map: None,
+            normal_encoding: NormalEncoding::Rgb,
+            green: GreenAxis::OpenGl,
+            blur_sigma: None,
+            uv: UvMode::Auto,
+            fit: Fit::Cover,
+            inside: None,
+            came_width: DEFAULT_CAME_WIDTH,
+            texels_per_metre: DEFAULT_TEXELS_PER_METRE,
+            line: Line(0),
+        }
+    }
+
+    /// Whether this entry describes the window `name` made of `materials`.
+    pub fn matches<'a>(&self, name: &str, mut materials: impl Iterator<Item = &'a str>) -> bool {
+        self.name.as_deref().is_some_and(|p| glob_matches(p, name))
+            || self
+                .material
+                .as_deref()
+                .is_some_and(|p| materials.any(|m| glob_matches(p, m)))
+    }
+
+    /// What the entry names, for messages.
+    pub fn describe(&self) -> String {
+        match (&self.name, &self.material) {
+            (Some(n), Some(m)) if n == m => format!("{n:?}"),
+            (Some(n), _) => format!("window {n:?}"),
+            (None, Some(m)) => format!("material {m:?}"),
+            (None, None) => "nothing".into(),
+        }
+    }
 }
 
 #[derive(Clone, Debug, PartialEq)]
@@ -232,8 +321,14 @@ struct RawRule {
 #[derive(Deserialize)]
 #[serde(deny_unknown_fields)]
 struct RawWindow {
-    material: String,
-    design: Spanned<String>,
+    name: Option<Spanned<String>>,
+    material: Option<Spanned<String>>,
+    design: Option<Spanned<String>>,
+    uv: Option<Spanned<String>>,
+    fit: Option<Spanned<String>>,
+    inside: Option<Spanned<[f32; 3]>>,
+    came_width: Option<Spanned<f32>>,
+    texels_per_metre: Option<Spanned<f32>>,
     colour_space: Option<Spanned<String>>,
     normal_map: Option<Spanned<String>>,
     normal_encoding: Option<Spanned<String>>,
@@ -529,18 +624,83 @@ impl Manifest {
         for w in &raw.window {
             let line = src.line(w.span().start);
             let w = w.get_ref();
-            if let Some(prev) = windows.iter().find(|p| p.material == w.material) {
+            let name = w.name.as_ref().map(|n| n.get_ref().clone());
+            let material = w.material.as_ref().map(|n| n.get_ref().clone());
+            if name.is_none() && material.is_none() {
+                return Err(src.at_line(
+                    line,
+                    "a [[window]] needs `name` (a window name or glob) or `material` (a material \
+                     name or glob)",
+                ));
+            }
+            for p in [&w.name, &w.material].into_iter().flatten() {
+                if let Err(e) = globset::Glob::new(p.get_ref()) {
+                    return Err(src.err_at(p, format!("invalid glob: {e}")));
+                }
+            }
+            if let Some(prev) = windows
+                .iter()
+                .find(|p| p.material.is_some() && p.material == material && p.name == name)
+            {
                 return Err(src.at_line(
                     line,
                     format!(
-                        "window material {:?} is already described at line {}",
-                        w.material, prev.line.0
+                        "window {} is already described at line {}",
+                        prev.describe(),
+                        prev.line.0
                     ),
                 ));
             }
+            let fraction = |v: &Option<Spanned<f32>>, what: &str, default: f32| match v {
+                Some(s)
+                    if !(s.get_ref().is_finite() && *s.get_ref() >= 0.0 && *s.get_ref() < 0.5) =>
+                {
+                    Err(src.err_at(s, format!("{what} {} must be in [0, 0.5)", s.get_ref())))
+                }
+                Some(s) => Ok(*s.get_ref()),
+                None => Ok(default),
+            };
             windows.push(WindowDesign {
-                material: w.material.clone(),
-                design: src.file(&w.design, "window design")?,
+                name,
+                material,
+                design: w
+                    .design
+                    .as_ref()
+                    .map(|d| src.file(d, "window design"))
+                    .transpose()?,
+                uv: match &w.uv {
+                    Some(c) => src.choice(
+                        c,
+                        "uv",
+                        &[("source", UvMode::Auto), ("planar", UvMode::Planar)],
+                    )?,
+                    None => UvMode::Auto,
+                },
+                fit: match &w.fit {
+                    Some(c) => src.choice(
+                        c,
+                        "fit",
+                        &[
+                            ("cover", Fit::Cover),
+                            ("contain", Fit::Contain),
+                            ("stretch", Fit::Stretch),
+                        ],
+                    )?,
+                    None => Fit::Cover,
+                },
+                inside: match &w.inside {
+                    Some(v) if !finite3(*v.get_ref()) || *v.get_ref() == [0.0; 3] => {
+                        return Err(src.err_at(v, "inside must be a finite, non-zero vector"));
+                    }
+                    v => v.as_ref().map(|v| *v.get_ref()),
+                },
+                came_width: fraction(&w.came_width, "came_width", DEFAULT_CAME_WIDTH)?,
+                texels_per_metre: w
+                    .texels_per_metre
+                    .as_ref()
+                    .map(|s| src.positive(s, "texels_per_metre"))
+                    .transpose()?
+                    .unwrap_or(DEFAULT_TEXELS_PER_METRE),
                 colour_space: match &w.colour_space {
                     Some(c) => src.choice(
                         c,

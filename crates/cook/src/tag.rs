@@ -24,6 +24,10 @@ pub enum Decision {
         kind: NameKind,
         name: String,
     },
+    /// The source material's transparency made it glass (`reason` says which property).
+    Glass { reason: String },
+    /// Where the part lies and faces decided (`reason` gives the numbers).
+    Geometry { reason: String },
     /// Nothing matched at all: class `other`.
     Unmatched,
 }
@@ -31,6 +35,23 @@ pub enum Decision {
 impl Decision {
     pub fn is_rule(&self) -> bool {
         matches!(self, Decision::Rule(_))
+    }
+
+    /// Why a heuristic decided, for reports; `None` for rules.
+    pub fn reason(&self) -> Option<String> {
+        match self {
+            Decision::Rule(_) => None,
+            Decision::Heuristic {
+                keyword,
+                kind,
+                name,
+            } => Some(format!("{} name {name:?} has {keyword:?}", kind.name())),
+            Decision::Glass { reason } => Some(format!("material: {reason}")),
+            Decision::Geometry { reason } => Some(reason.clone()),
+            Decision::Unmatched => {
+                Some("no rule, name, material property or geometry matched".into())
+            }
+        }
     }
 }
 
@@ -41,6 +62,8 @@ pub struct MaterialPlan {
     pub material: pack::Material,
     pub diffuse_texture: Option<ImageRef>,
     pub normal_texture: Option<ImageRef>,
+    /// For a window: its design and how it sits, filled by the window stage.
+    pub window: Option<Box<crate::window_plan::WindowPlan>>,
 }
 
 /// A source name that more than one rule matches (the first wins).
@@ -64,30 +87,126 @@ pub struct Tagging {
     pub unused_source_materials: Vec<(usize, String)>,
 }
 
-/// Keywords in several languages; matched against lower-cased names.
+/// Keywords in the common European languages, matched against the words of lower-cased names
+/// (see [`name_words`]). Words of four letters or fewer must match a whole word ("pod" is a
+/// floor, "tripod" is not); longer ones may start a word or sit inside a compound
+/// ("Kirchenfenster", "walls").
 const HEURISTICS: &[(&str, MaterialClass)] = &[
     ("window", MaterialClass::WindowUpper),
     ("glass", MaterialClass::WindowUpper),
-    ("vitra", MaterialClass::WindowUpper),
+    ("glazing", MaterialClass::WindowUpper),
+    ("vitrail", MaterialClass::WindowUpper),
+    ("vitraux", MaterialClass::WindowUpper),
+    ("vitrage", MaterialClass::WindowUpper),
     ("vitre", MaterialClass::WindowUpper),
-    ("fenster", MaterialClass::WindowUpper),
+    ("verre", MaterialClass::WindowUpper),
+    ("fenetre", MaterialClass::WindowUpper),
+    ("fenêtre", MaterialClass::WindowUpper),
+    ("vidrio", MaterialClass::WindowUpper),
+    ("vidriera", MaterialClass::WindowUpper),
+    ("vitral", MaterialClass::WindowUpper),
     ("ventana", MaterialClass::WindowUpper),
+    ("vetro", MaterialClass::WindowUpper),
+    ("vetrata", MaterialClass::WindowUpper),
+    ("finestra", MaterialClass::WindowUpper),
+    ("glas", MaterialClass::WindowUpper),
+    ("fenster", MaterialClass::WindowUpper),
+    ("staklo", MaterialClass::WindowUpper),
+    ("vitraj", MaterialClass::WindowUpper),
+    ("prozor", MaterialClass::WindowUpper),
+    ("szkło", MaterialClass::WindowUpper),
+    ("szklo", MaterialClass::WindowUpper),
+    ("witraż", MaterialClass::WindowUpper),
+    ("witraz", MaterialClass::WindowUpper),
+    ("okno", MaterialClass::WindowUpper),
     ("lancet", MaterialClass::WindowUpper),
     ("floor", MaterialClass::Floor),
     ("ground", MaterialClass::Floor),
-    ("boden", MaterialClass::Floor),
+    ("pavement", MaterialClass::Floor),
+    ("paving", MaterialClass::Floor),
+    ("sol", MaterialClass::Floor),
+    ("plancher", MaterialClass::Floor),
+    ("dallage", MaterialClass::Floor),
     ("suelo", MaterialClass::Floor),
+    ("piso", MaterialClass::Floor),
     ("pavimento", MaterialClass::Floor),
+    ("boden", MaterialClass::Floor),
+    ("pod", MaterialClass::Floor),
+    ("podloga", MaterialClass::Floor),
+    ("podłoga", MaterialClass::Floor),
+    ("vloer", MaterialClass::Floor),
     ("wall", MaterialClass::Wall),
-    ("wand", MaterialClass::Wall),
     ("mur", MaterialClass::Wall),
+    ("murs", MaterialClass::Wall),
+    ("muro", MaterialClass::Wall),
     ("pared", MaterialClass::Wall),
+    ("parete", MaterialClass::Wall),
+    ("wand", MaterialClass::Wall),
+    ("mauer", MaterialClass::Wall),
+    ("zid", MaterialClass::Wall),
+    ("ściana", MaterialClass::Wall),
+    ("sciana", MaterialClass::Wall),
+    ("muur", MaterialClass::Wall),
     ("sky", MaterialClass::Background),
     ("background", MaterialClass::Background),
     ("backdrop", MaterialClass::Background),
+    ("himmel", MaterialClass::Background),
+    ("ciel", MaterialClass::Background),
+    ("cielo", MaterialClass::Background),
 ];
 
-/// The class the name heuristics give `names`, if any keyword occurs.
+/// Words that make a window keyword in the same name mean the stone or wood around the glass
+/// ("window_frame", "prozor_okvir"), not the glass.
+const NOT_GLASS: &[&str] = &[
+    "frame", "sill", "mullion", "tracery", "okvir", "rahmen", "cadre", "marco", "telaio", "ledge",
+];
+
+/// Words that put a window in the lower class.
+const LOWER: &[&str] = &[
+    "lower",
+    "bottom",
+    "unten",
+    "bas",
+    "donji",
+    "inferior",
+    "inferiore",
+];
+
+/// The words of a name, lower-cased: split at anything but letters and digits and at
+/// lower-to-upper case changes ("StainedGlass_01" → stained, glass, 01).
+pub fn name_words(name: &str) -> Vec<String> {
+    let mut words = Vec::new();
+    let mut cur = String::new();
+    let mut prev_lower = false;
+    for c in name.chars() {
+        if !c.is_alphanumeric() {
+            if !cur.is_empty() {
+                words.push(std::mem::take(&mut cur));
+            }
+            prev_lower = false;
+            continue;
+        }
+        if c.is_uppercase() && prev_lower && !cur.is_empty() {
+            words.push(std::mem::take(&mut cur));
+        }
+        prev_lower = c.is_lowercase();
+        cur.extend(c.to_lowercase());
+    }
+    if !cur.is_empty() {
+        words.push(cur);
+    }
+    words
+}
+
+fn word_matches(word: &str, keyword: &str) -> bool {
+    if keyword.chars().count() <= 4 {
+        word == keyword
+    } else {
+        word.contains(keyword)
+    }
+}
+
+/// The class the name keywords give `names`, if any keyword occurs.
 pub fn heuristic(
     names: &crate::import::Names,
 ) -> Option<(&'static str, NameKind, String, MaterialClass)> {
@@ -95,21 +214,115 @@ pub fn heuristic(
         let Some(name) = names.get(kind) else {
             continue;
         };
-        let lower = name.to_lowercase();
+        let words = name_words(name);
+        let has = |list: &[&str]| {
+            words
+                .iter()
+                .any(|w| list.iter().any(|k| word_matches(w, k)))
+        };
         for &(keyword, class) in HEURISTICS {
-            if lower.contains(keyword) {
-                let class = if class.is_window()
-                    && ["lower", "bottom", "unten", "bas"]
-                        .iter()
-                        .any(|k| lower.contains(k))
-                {
-                    MaterialClass::WindowLower
-                } else {
-                    class
-                };
-                return Some((keyword, kind, name.to_string(), class));
+            if !words.iter().any(|w| word_matches(w, keyword)) {
+                continue;
             }
+            if class.is_window() && has(NOT_GLASS) {
+                continue;
+            }
+            let class = if class.is_window() && has(LOWER) {
+                MaterialClass::WindowLower
+            } else {
+                class
+            };
+            return Some((keyword, kind, name.to_string(), class));
         }
+    }
+    None
+}
+
+/// Where a part's triangles lie and face, for the geometry heuristics.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct PartGeometry {
+    pub area: f64,
+    /// Area of triangles within about 25° of horizontal (facing up or down).
+    pub horizontal: f64,
+    /// Area of triangles within about 15° of vertical.
+    pub vertical: f64,
+    /// Area-weighted mean height.
+    pub mean_y: f64,
+}
+
+/// Per part of `src`: [`PartGeometry`]; and the source's height range and total area.
+pub fn part_geometry(src: &Imported) -> (Vec<PartGeometry>, [f64; 2], f64) {
+    let mut out = vec![PartGeometry::default(); src.parts.len()];
+    let mut range = [f64::INFINITY, f64::NEG_INFINITY];
+    let mut total = 0.0;
+    for (t, &part) in src.corners.chunks_exact(3).zip(&src.tri_part) {
+        let [a, b, c] = [t[0], t[1], t[2]].map(|k| {
+            let p = src.positions[k.p as usize];
+            glam::DVec3::new(p[0] as f64, p[1] as f64, p[2] as f64)
+        });
+        let n = (b - a).cross(c - a);
+        let area = n.length() * 0.5;
+        if !(area > 0.0) {
+            continue;
+        }
+        let up = (n.y / (2.0 * area)).abs();
+        let g = &mut out[part as usize];
+        g.area += area;
+        if up > 0.9 {
+            g.horizontal += area;
+        }
+        if up < 0.26 {
+            g.vertical += area;
+        }
+        g.mean_y += area * (a.y + b.y + c.y) / 3.0;
+        total += area;
+        for y in [a.y, b.y, c.y] {
+            range[0] = range[0].min(y);
+            range[1] = range[1].max(y);
+        }
+    }
+    for g in &mut out {
+        if g.area > 0.0 {
+            g.mean_y /= g.area;
+        }
+    }
+    (out, range, total)
+}
+
+/// The class geometry suggests: a large, mostly horizontal surface in the lowest tenth of the
+/// model's height is a floor; a large, mostly vertical one is a wall. "Large" is at least 2 %
+/// of the model's surface area, so furniture, statues and trim stay `other`.
+pub fn geometry_heuristic(
+    g: &PartGeometry,
+    height: [f64; 2],
+    total_area: f64,
+) -> Option<(String, MaterialClass)> {
+    if !(g.area >= 0.02 * total_area) || g.area <= 0.0 {
+        return None;
+    }
+    let span = (height[1] - height[0]).max(1e-9);
+    let rel = (g.mean_y - height[0]) / span;
+    let share = |a: f64| a / g.area;
+    if share(g.horizontal) >= 0.75 && rel <= 0.1 {
+        return Some((
+            format!(
+                "geometry: {:.0}% horizontal, {:.0}% of the model's area, at {:.0}% of its height",
+                share(g.horizontal) * 100.0,
+                g.area / total_area * 100.0,
+                rel * 100.0
+            ),
+            MaterialClass::Floor,
+        ));
+    }
+    if share(g.vertical) >= 0.75 {
+        return Some((
+            format!(
+                "geometry: {:.0}% vertical, {:.0}% of the model's area",
+                share(g.vertical) * 100.0,
+                g.area / total_area * 100.0
+            ),
+            MaterialClass::Wall,
+        ));
     }
     None
 }
@@ -160,6 +373,7 @@ pub fn tag(manifest: &Manifest, sources: &[Imported]) -> Result<Tagging, CookErr
         for &p in &src.tri_part {
             part_counts[p as usize] += 1;
         }
+        let geometry = part_geometry(src);
         let mut mats = Vec::with_capacity(src.parts.len());
         let mut decisions = Vec::with_capacity(src.parts.len());
         for (pi, part) in src.parts.iter().enumerate() {
@@ -189,19 +403,37 @@ pub fn tag(manifest: &Manifest, sources: &[Imported]) -> Result<Tagging, CookErr
                 used[m as usize] = true;
             }
             let rule = rules.iter().position(|r| r.matches(&part.names));
-            let (decision, class) = match rule {
-                Some(r) => (Decision::Rule(r), rules[r].rule.class),
-                None => match heuristic(&part.names) {
-                    Some((keyword, kind, name, class)) => (
-                        Decision::Heuristic {
-                            keyword,
-                            kind,
-                            name,
-                        },
-                        class,
-                    ),
-                    None => (Decision::Unmatched, MaterialClass::Other),
-                },
+            // Evidence in order of trust: an explicit rule; the material's own transparency
+            // (a glass named anything); a keyword in a name; then where the part lies.
+            let glass = source_material.and_then(|m| m.transmission.glass_reason());
+            let named = heuristic(&part.names);
+            let (decision, class) = match (rule, glass, named) {
+                (Some(r), _, _) => (Decision::Rule(r), rules[r].rule.class),
+                (None, Some(reason), named) => {
+                    let lower = named
+                        .as_ref()
+                        .is_some_and(|n| n.3 == MaterialClass::WindowLower);
+                    let class = if lower {
+                        MaterialClass::WindowLower
+                    } else {
+                        MaterialClass::WindowUpper
+                    };
+                    (Decision::Glass { reason }, class)
+                }
+                (None, None, Some((keyword, kind, name, class))) => (
+                    Decision::Heuristic {
+                        keyword,
+                        kind,
+                        name,
+                    },
+                    class,
+                ),
+                (None, None, None) => {
+                    match geometry_heuristic(&geometry.0[pi], geometry.1, geometry.2) {
+                        Some((reason, class)) => (Decision::Geometry { reason }, class),
+                        None => (Decision::Unmatched, MaterialClass::Other),
+                    }
+                }
             };
             let rule = rule.map(|r| rules[r].rule);
             let base_name = rule
@@ -245,6 +477,7 @@ pub fn tag(manifest: &Manifest, sources: &[Imported]) -> Result<Tagging, CookErr
                         },
                         diffuse_texture: base.diffuse_texture,
                         normal_texture: base.normal_texture,
+                        window: None,
                     };
                     if let Some(r) = rule {
                         let m = &mut plan.material;

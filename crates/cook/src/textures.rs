@@ -8,7 +8,7 @@ use std::path::{Path, PathBuf};
 use rayon::prelude::*;
 
 use crate::import::ImageRef;
-use crate::manifest::{GreenAxis, Manifest, MipFilter, NormalEncoding, WindowDesign};
+use crate::manifest::{GreenAxis, Manifest, MipFilter, NormalEncoding};
 use crate::tag::Tagging;
 use crate::{CookError, Report, Settings, Warning, cache};
 
@@ -25,10 +25,10 @@ enum Job {
         green: GreenAxis,
     },
     DerivedNormal {
-        design: PathBuf,
+        design: ImageRef,
     },
     Projector {
-        design: PathBuf,
+        design: ImageRef,
         sigma: f32,
     },
 }
@@ -37,9 +37,7 @@ impl Job {
     fn image_name(&self) -> String {
         match self {
             Job::Colour { image, .. } | Job::Normal { image, .. } => image.name(),
-            Job::DerivedNormal { design } | Job::Projector { design, .. } => {
-                design.display().to_string()
-            }
+            Job::DerivedNormal { design } | Job::Projector { design, .. } => design.name(),
         }
     }
 
@@ -62,30 +60,19 @@ impl Job {
 
     /// A unique, readable texture name: the image's file stem and what was made of it.
     fn base_name(&self) -> String {
-        let stem = match self {
-            Job::Colour {
-                image: ImageRef::File(p),
-                ..
-            }
-            | Job::Normal {
-                image: ImageRef::File(p),
-                ..
-            } => p
+        let image = match self {
+            Job::Colour { image, .. } | Job::Normal { image, .. } => image,
+            Job::DerivedNormal { design } | Job::Projector { design, .. } => design,
+        };
+        let stem = match image {
+            ImageRef::File(p) => p
                 .file_stem()
                 .map(|s| s.to_string_lossy().into_owned())
                 .unwrap_or_default(),
-            Job::Colour {
-                image: ImageRef::Embedded { name, .. },
-                ..
+            ImageRef::Embedded { name, .. } => {
+                name.rsplit(['/', '#']).next().unwrap_or(name).to_string()
             }
-            | Job::Normal {
-                image: ImageRef::Embedded { name, .. },
-                ..
-            } => name.rsplit(['/', '#']).next().unwrap_or(name).to_string(),
-            Job::DerivedNormal { design } | Job::Projector { design, .. } => design
-                .file_stem()
-                .map(|s| s.to_string_lossy().into_owned())
-                .unwrap_or_default(),
+            ImageRef::Raster { name, .. } => name.clone(),
         };
         let suffix = match self {
             Job::Colour { .. } => "",
@@ -119,6 +106,7 @@ fn decode(image: &ImageRef) -> Result<image::DynamicImage, CookError> {
                 message: format!("cannot decode embedded image: {e}"),
             })
         }
+        ImageRef::Raster { image, .. } => Ok(image::DynamicImage::ImageRgba8((**image).clone())),
     }
 }
 
@@ -130,15 +118,18 @@ fn filter(f: MipFilter) -> texture::MipFilter {
     }
 }
 
-/// Deterministic per-design seed for the derived normal map's hammered-glass noise.
-fn seed(path: &Path) -> u64 {
+/// Deterministic per-design seed for the derived normal map's hammered-glass noise: the
+/// file name, or the name of a design made by the cook.
+fn seed(design: &ImageRef) -> u64 {
+    let name = match design {
+        ImageRef::File(path) => path
+            .file_name()
+            .map(|n| n.to_string_lossy().into_owned())
+            .unwrap_or_default(),
+        other => other.name(),
+    };
     let mut h: u64 = 0xcbf2_9ce4_8422_2325;
-    for b in path
-        .file_name()
-        .map(|n| n.to_string_lossy().into_owned())
-        .unwrap_or_default()
-        .bytes()
-    {
+    for b in name.bytes() {
         h = (h ^ b as u64).wrapping_mul(0x100_0000_01b3);
     }
     h
@@ -155,8 +146,14 @@ impl Job {
             | Job::Normal {
                 image: ImageRef::File(p),
                 ..
+            }
+            | Job::DerivedNormal {
+                design: ImageRef::File(p),
+            }
+            | Job::Projector {
+                design: ImageRef::File(p),
+                ..
             } => Some(p),
-            Job::DerivedNormal { design } | Job::Projector { design, .. } => Some(design),
             _ => None,
         }
     }
@@ -195,12 +192,12 @@ impl Job {
             }
             Job::DerivedNormal { design } => {
                 k.str("job", "derived normal").u64("seed", seed(design));
-                k.file("image", design)?;
+                key_image(&mut k, design)?;
             }
             Job::Projector { design, sigma } => {
                 k.str("job", "projector")
                     .u64("sigma", sigma.to_bits() as u64);
-                k.file("image", design)?;
+                key_image(&mut k, design)?;
             }
         }
         k.str("mip filter", &format!("{mip_filter:?}"));
@@ -219,6 +216,12 @@ fn key_image(k: &mut cache::KeyBuilder, image: &ImageRef) -> Result<(), CookErro
         }
         ImageRef::Embedded { name, bytes } => {
             k.str("name", name).bytes("image", bytes);
+        }
+        ImageRef::Raster { name, image } => {
+            k.str("name", name)
+                .u64("width", image.width() as u64)
+                .u64("height", image.height() as u64)
+                .bytes("pixels", image.as_raw());
         }
     }
     Ok(())
@@ -364,13 +367,13 @@ fn run(
             Ok((chain, None))
         }
         Job::DerivedNormal { design } => {
-            let img = decode(&ImageRef::File(design.clone()))?;
+            let img = decode(design)?;
             let chain = texture::derive_normal_map(&img, seed(design))
-                .map_err(|e| texture_error(design, e))?;
+                .map_err(|e| texture_error(Path::new(&design.name()), e))?;
             Ok((chain, None))
         }
         Job::Projector { design, sigma } => {
-            let img = decode(&ImageRef::File(design.clone()))?;
+            let img = decode(design)?;
             let mut opts = texture::ProjectorOptions::new(*sigma);
             opts.max_error_lsb = max_error;
             let choice = max_error.map(|b| {
@@ -378,8 +381,8 @@ fn run(
                 opts.method = c.blur_method().unwrap_or(opts.method);
                 choice_note("blur", &c)
             });
-            let (chain, report) =
-                texture::projector(&img, &opts).map_err(|e| texture_error(design, e))?;
+            let (chain, report) = texture::projector(&img, &opts)
+                .map_err(|e| texture_error(Path::new(&design.name()), e))?;
             let note = match choice {
                 Some(c) => format!("{report}; {c}"),
                 None => report.to_string(),
@@ -391,13 +394,13 @@ fn run(
 
 /// Projector blur σ in design texels: the manifest's, or the light's penumbra on the floor.
 fn projector_sigma(
-    w: &WindowDesign,
+    blur_sigma: Option<f32>,
     frame: Option<&pack::Window>,
     light: Option<&pack::LightKind>,
     floor_y: Option<f32>,
     design_width: Option<u32>,
 ) -> f32 {
-    if let Some(s) = w.blur_sigma {
+    if let Some(s) = blur_sigma {
         return s;
     }
     let (Some(frame), Some(light), Some(width)) = (frame, light, design_width) else {
@@ -465,22 +468,22 @@ pub fn cook_textures(
     let mut refs: Vec<(Option<u32>, Option<u32>, Option<u32>)> = Vec::new();
     let light = manifest.light.as_ref().map(|l| &l.kind);
     for (mi, plan) in tagging.materials.iter().enumerate() {
-        let design = manifest
-            .windows
-            .iter()
-            .find(|w| w.material == plan.material.name && plan.material.class.is_window());
+        let design = plan
+            .window
+            .as_deref()
+            .filter(|_| plan.material.class.is_window());
         let mut r = (None, None, None);
         match design {
             Some(w) => {
                 r.0 = Some(add(Job::Colour {
-                    image: ImageRef::File(w.design.clone()),
+                    image: w.design.clone(),
                     srgb: w.colour_space == pack::ColourSpace::Srgb,
                 }));
-                r.1 = Some(add(match &w.normal_map {
-                    Some(n) => Job::Normal {
-                        image: ImageRef::File(n.clone()),
-                        encoding: w.normal_encoding,
-                        green: w.green,
+                r.1 = Some(add(match &w.normal {
+                    Some((image, encoding, green)) => Job::Normal {
+                        image: image.clone(),
+                        encoding: *encoding,
+                        green: *green,
                     },
                     None => Job::DerivedNormal {
                         design: w.design.clone(),
@@ -488,8 +491,8 @@ pub fn cook_textures(
                 }));
                 if lit_windows.get(mi).copied().unwrap_or(false) {
                     let frame = windows.iter().find(|f| f.material as usize == mi);
-                    let width = image::image_dimensions(&w.design).ok().map(|d| d.0);
-                    let sigma = projector_sigma(w, frame, light, floor_y, width);
+                    let width = (w.design_width > 0).then_some(w.design_width);
+                    let sigma = projector_sigma(w.blur_sigma, frame, light, floor_y, width);
                     r.2 = Some(add(Job::Projector {
                         design: w.design.clone(),
                         sigma,

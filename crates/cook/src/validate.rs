@@ -125,11 +125,14 @@ fn degenerate_and_duplicates(tris: impl Iterator<Item = [[f32; 3]; 3]>) -> (usiz
 /// Checks a scene: imports and tags it, processes the geometry, and checks the result.
 pub fn validate_scene(manifest: &Manifest) -> Result<Validation, CookError> {
     let mut v = Validation::default();
-    let sources: Vec<crate::import::Imported> = crate::import_sources(manifest)?
-        .into_iter()
-        .map(|(s, _)| s)
-        .collect();
-    let tagging = tag::tag(manifest, &sources)?;
+    let mut report = crate::Report::default();
+    let crate::Prepared {
+        imported: sources,
+        tagging,
+        tri_material,
+        windows: found,
+        ..
+    } = crate::prepare(manifest, &Settings::default(), &mut report)?;
 
     // Tagging.
     let mut untagged_tris = 0usize;
@@ -145,12 +148,7 @@ pub fn validate_scene(manifest: &Manifest) -> Result<Validation, CookError> {
             }
             untagged_tris += counts[pi];
             let m = &tagging.materials[tagging.part_material[si][pi] as usize].material;
-            let how = match d {
-                tag::Decision::Heuristic { keyword, .. } => {
-                    format!("heuristic {keyword:?} → {}", m.class)
-                }
-                _ => "no heuristic → other".into(),
-            };
+            let how = format!("{} → {}", d.reason().unwrap_or_default(), m.class);
             untagged_names.push(format!("{} ({how})", src.parts[pi].names.describe()));
         }
     }
@@ -255,28 +253,59 @@ pub fn validate_scene(manifest: &Manifest) -> Result<Validation, CookError> {
         .map(|m| m.material.clone())
         .collect();
     for w in &manifest.windows {
-        match materials.iter().find(|m| m.name == w.material) {
-            None => v.add(
-                "window-unknown-material",
-                format!(
-                    "[[window]] at manifest line {} names material {:?}, which no triangle uses",
-                    w.line.0, w.material
-                ),
-            ),
+        let hit = found.instances.iter().zip(&found.material).any(|(i, &m)| {
+            let plan = tagging.materials[m as usize].window.as_deref();
+            let mats = plan.map(|p| p.materials.clone()).unwrap_or_default();
+            w.matches(
+                &i.name,
+                mats.iter()
+                    .map(String::as_str)
+                    .chain([materials[m as usize].name.as_str()]),
+            )
+        });
+        if hit {
+            continue;
+        }
+        match materials
+            .iter()
+            .find(|m| w.matches(&m.name, std::iter::once(m.name.as_str())))
+        {
             Some(m) if !m.class.is_window() => v.add(
                 "window-not-window-class",
                 format!(
-                    "[[window]] at manifest line {} names material {:?}, tagged {}",
-                    w.line.0, w.material, m.class
+                    "[[window]] at manifest line {} names {}, tagged {}",
+                    w.line.0,
+                    w.describe(),
+                    m.class
                 ),
             ),
-            Some(_) => {}
+            _ => v.add(
+                "window-unknown-material",
+                format!(
+                    "[[window]] at manifest line {} names {}, which matches no window",
+                    w.line.0,
+                    w.describe()
+                ),
+            ),
         }
+    }
+    for i in found.instances.iter().filter(|i| !i.planar) {
+        v.add(
+            "window-curved",
+            format!(
+                "window {:?} is curved: a vertex lies {:.4} from its plane ({:.1}% of its size, \
+                 more than {}%), and it is not made of a few planes to split it into",
+                i.name,
+                i.max_deviation,
+                i.max_deviation / i.width().hypot(i.height()).max(1e-12) * 100.0,
+                crate::instances::PLANAR_TOLERANCE * 100.0
+            ),
+        );
     }
 
     // Processed geometry, with every attribute the source has: validation looks at UVs and
     // normals even where no material would sample them.
-    let needs: Vec<mesh::MaterialNeeds> = crate::material_needs(manifest, &tagging)
+    let needs: Vec<mesh::MaterialNeeds> = crate::material_needs(&tagging)
         .into_iter()
         .map(|n| mesh::MaterialNeeds {
             uvs: true,
@@ -290,11 +319,10 @@ pub fn validate_scene(manifest: &Manifest) -> Result<Validation, CookError> {
     };
     let views: Vec<MeshView> = sources
         .iter()
-        .zip(&tagging.part_material)
+        .zip(&tri_material)
         .zip(&manifest.meshes)
-        .map(|((src, parts), m)| {
-            let tm: Vec<u16> = src.tri_part.iter().map(|&p| parts[p as usize]).collect();
-            let p = mesh::process(src, &tm, &needs, &settings.mesh);
+        .map(|((src, tm), m)| {
+            let p = mesh::process(src, tm, &needs, &settings.mesh);
             MeshView {
                 name: m.name.clone(),
                 positions: p.vertices.iter().map(|v| v.position).collect(),
@@ -305,9 +333,10 @@ pub fn validate_scene(manifest: &Manifest) -> Result<Validation, CookError> {
             }
         })
         .collect();
-    let has_design: Vec<bool> = materials
+    let has_design: Vec<bool> = tagging
+        .materials
         .iter()
-        .map(|m| manifest.windows.iter().any(|w| w.material == m.name))
+        .map(|m| m.window.is_some())
         .collect();
     check_geometry(
         &views,
@@ -499,7 +528,7 @@ pub fn check_geometry(
         let Some(g) = window_geo.get(&(mi as u16)) else {
             continue;
         };
-        match windows::analyze(mi as u16, g, light) {
+        match windows::analyze(mi as u16, g, light, None) {
             None => v.add(
                 "window-no-area",
                 format!("window material {:?} has no area", m.name),

@@ -41,6 +41,7 @@ pub fn analyze(
     material: u16,
     g: &WindowGeometry,
     light: Option<&LightKind>,
+    inside: Option<glam::DVec3>,
 ) -> Option<WindowAnalysis> {
     let mut area_normal = glam::DVec3::ZERO;
     let mut centroid = glam::DVec3::ZERO;
@@ -114,10 +115,12 @@ pub fn analyze(
 
     // A window is seen from inside; its normal points into the building, away from the light.
     let mut normal = plane_n;
-    let inward = match light {
-        Some(LightKind::Directional { direction, .. }) => Some(v3(*direction)),
-        Some(LightKind::Point { position, .. }) => Some(centroid - v3(*position)),
-        None => None,
+    // The window stage's decision (light, manifest or receiving geometry) comes first.
+    let inward = match (inside, light) {
+        (Some(d), _) => Some(d),
+        (None, Some(LightKind::Directional { direction, .. })) => Some(v3(*direction)),
+        (None, Some(LightKind::Point { position, .. })) => Some(centroid - v3(*position)),
+        (None, None) => None,
     };
     if let Some(d) = inward
         && normal.dot(d) < 0.0
@@ -276,7 +279,7 @@ mod tests {
             direction: [0.0, -0.5, -1.0],
             angular_size: 0.01,
         };
-        let a = analyze(7, &g, Some(&light)).unwrap();
+        let a = analyze(7, &g, Some(&light), None).unwrap();
         assert!(a.from_uvs && a.has_uvs);
         let close = |x: [f32; 3], y: [f32; 3]| x.iter().zip(&y).all(|(a, b)| (a - b).abs() < 1e-5);
         assert!(close(a.frame.origin, [1., 4., 5.]), "{:?}", a.frame);

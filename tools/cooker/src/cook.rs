@@ -46,6 +46,36 @@ pub struct Args {
     #[arg(long, value_name = "BITS", requires = "quantize", default_value = "16",
           value_parser = position_bits)]
     position_bits: cook::mesh::PositionBits,
+    /// Use IMAGE as the design of the windows NAME matches: a window name (as `cooker info`
+    /// lists them), a material, or a glob over either. Repeatable; the manifest is not changed.
+    #[arg(long = "window", value_name = "NAME=IMAGE", value_parser = window_override)]
+    windows: Vec<(String, PathBuf)>,
+}
+
+/// Parses `NAME=IMAGE`.
+pub fn window_override(s: &str) -> Result<(String, PathBuf), String> {
+    match s.split_once('=') {
+        Some((name, image)) if !name.is_empty() && !image.is_empty() => {
+            Ok((name.to_string(), PathBuf::from(image)))
+        }
+        _ => Err(format!("{s:?} is not NAME=IMAGE")),
+    }
+}
+
+/// `--window` entries as design overrides; each image must decode (exit 3 naming it).
+pub fn window_overrides(
+    windows: &[(String, PathBuf)],
+) -> anyhow::Result<Vec<cook::manifest::WindowDesign>> {
+    windows
+        .iter()
+        .map(|(name, image)| {
+            texture::load_image(image).map_err(cook::CookError::from)?;
+            Ok(cook::manifest::WindowDesign::from_override(
+                name,
+                image.clone(),
+            ))
+        })
+        .collect()
 }
 
 fn position_bits(s: &str) -> Result<cook::mesh::PositionBits, String> {
@@ -74,6 +104,7 @@ pub fn run(args: Args) -> Outcome {
     let mut settings = Settings {
         quantize: args.quantize,
         position_bits: args.position_bits,
+        window_overrides: window_overrides(&args.windows)?,
         ..Default::default()
     };
     settings.mesh.cache = if args.fifo {
@@ -146,17 +177,14 @@ pub fn run(args: Args) -> Outcome {
         eprintln!("warning: {w}");
     }
     for h in &report.heuristics {
-        let why = match h.keyword {
-            Some(k) => format!("name heuristic {k:?}"),
-            None => "no rule or heuristic matched".to_string(),
-        };
         eprintln!(
-            "note: {}: {} triangles with {} tagged {} as material {:?} ({why})",
+            "note: {}: {} triangles with {} tagged {} as material {:?} ({})",
             h.source.display(),
             h.triangles,
             h.names,
             h.class,
-            h.material
+            h.material,
+            h.reason
         );
     }
 
@@ -167,7 +195,8 @@ pub fn run(args: Args) -> Outcome {
     let write_start = Instant::now();
     let bytes = pack::encode(out.toc.clone(), &out.data)?;
     pack::write_atomic(&args.output, &bytes)
-        .with_context(|| format!("writing {}", args.output.display()))?;
+        // The pack error names the path; the context says what was being done with it.
+        .context("writing the pack")?;
     if let (Some(cache), Some(key)) = (&cache, &scene_key)
         && let Err(e) = scene_cache::store(cache, key, &report.inputs, &bytes)
     {

@@ -25,6 +25,9 @@ pub fn code_for(e: &anyhow::Error) -> i32 {
             return if p.is_io() { IO } else { INVALID_INPUT };
         }
         if let Some(c) = cause.downcast_ref::<cook::CookError>() {
+            if matches!(c, cook::CookError::UnknownWindow { .. }) {
+                return USAGE;
+            }
             return if c.is_io() { IO } else { INVALID_INPUT };
         }
         if cause.downcast_ref::<std::io::Error>().is_some() {

@@ -77,6 +77,8 @@ pub fn import(path: &Path) -> Result<Imported, CookError> {
             line: (j.line() > 0).then_some(j.line()),
             message: format!("invalid glTF JSON: {j}"),
         },
+        // gltf's message for these already begins "invalid glTF:".
+        e @ gltf::Error::Validation(_) => bad(path, e.to_string()),
         other => bad(path, format!("invalid glTF: {other}")),
     };
     let gltf::Gltf { document, blob } =
@@ -768,6 +770,26 @@ fn image_ref(
     })
 }
 
+/// Glass in glTF: `KHR_materials_transmission` (its colour is the base colour, tinted by
+/// `KHR_materials_volume`'s attenuation colour) or an alpha-blended material.
+fn gltf_transmission(m: &gltf::Material) -> super::Transmission {
+    let base = m.pbr_metallic_roughness().base_color_factor();
+    let factor = m.transmission().map(|t| t.transmission_factor());
+    let blend = m.alpha_mode() == gltf::material::AlphaMode::Blend;
+    let attenuation = m.volume().map(|v| v.attenuation_color());
+    let filter = (factor.is_some_and(|f| f > 0.0) || blend).then(|| {
+        let a = attenuation.unwrap_or([1.0; 3]);
+        [0, 1, 2].map(|k| (base[k] * a[k]).clamp(0.0, 1.0))
+    });
+    super::Transmission {
+        filter,
+        opacity: blend.then_some(base[3].clamp(0.0, 1.0)),
+        illum: None,
+        factor,
+        blend,
+    }
+}
+
 fn convert_material(
     ctx: &Ctx,
     m: &gltf::Material,
@@ -799,6 +821,7 @@ fn convert_material(
             Some(t) => image_ref(ctx, t.texture().source(), warnings)?,
             None => None,
         },
+        transmission: gltf_transmission(m),
     };
     if !sm
         .diffuse

@@ -75,13 +75,18 @@ pub enum ImageRef {
         name: String,
         bytes: Arc<Vec<u8>>,
     },
+    /// Pixels made by the cook (a window design rasterized from the mesh, fitted or masked).
+    Raster {
+        name: String,
+        image: Arc<image::RgbaImage>,
+    },
 }
 
 impl ImageRef {
     pub fn name(&self) -> String {
         match self {
             ImageRef::File(p) => p.display().to_string(),
-            ImageRef::Embedded { name, .. } => name.clone(),
+            ImageRef::Embedded { name, .. } | ImageRef::Raster { name, .. } => name.clone(),
         }
     }
 }
@@ -96,6 +101,72 @@ pub struct SourceMaterial {
     pub emissive: [f32; 3],
     pub diffuse_texture: Option<ImageRef>,
     pub normal_texture: Option<ImageRef>,
+    /// What the source says about light passing through it (glass).
+    pub transmission: Transmission,
+}
+
+/// Light passing through a material, as the source states it. Real models put a glass
+/// colour in MTL `Tf` (with `Kd` often black), mark glass with `illum` 4, 6 or 7, `d` < 1 or
+/// `Tr` > 0, and in glTF with `KHR_materials_transmission` or alpha blending.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Transmission {
+    /// MTL `Tf`, or glTF `KHR_materials_volume` attenuation colour, in linear RGB.
+    pub filter: Option<[f32; 3]>,
+    /// Opacity: MTL `d`, else 1 − `Tr`; glTF base colour alpha of a blended material.
+    pub opacity: Option<f32>,
+    /// MTL `illum`.
+    pub illum: Option<u8>,
+    /// glTF `KHR_materials_transmission` factor.
+    pub factor: Option<f32>,
+    /// glTF `alphaMode: BLEND`.
+    pub blend: bool,
+}
+
+fn chroma(c: [f32; 3]) -> f32 {
+    c.iter().copied().fold(f32::MIN, f32::max) - c.iter().copied().fold(f32::MAX, f32::min)
+}
+
+impl Transmission {
+    /// Why the source marks this material as glass, or `None` when nothing does.
+    pub fn glass_reason(&self) -> Option<String> {
+        if let Some(i @ (4 | 6 | 7)) = self.illum {
+            return Some(format!("MTL illum {i} (transparency)"));
+        }
+        if let Some(f) = self.factor.filter(|&f| f > 0.0) {
+            return Some(format!("glTF transmission {f}"));
+        }
+        if self.blend {
+            return Some("glTF alpha mode BLEND".into());
+        }
+        if let Some(d) = self.opacity.filter(|&d| d < 0.999) {
+            return Some(format!("opacity {d} (MTL d / Tr)"));
+        }
+        if let Some(f) = self.filter.filter(|f| f.iter().any(|&c| c < 0.999)) {
+            return Some(format!("transmission filter Tf {} {} {}", f[0], f[1], f[2]));
+        }
+        None
+    }
+
+    /// The colour light takes through the material, linear RGB, and how much passes (0–1).
+    /// `Tf` is the transmitted colour when it has one; an uncoloured `Tf` (grey) only scales a
+    /// coloured `Kd`, as exporters that keep the glass colour in `Kd` write it.
+    pub fn transmitted(&self, diffuse: [f32; 3]) -> ([f32; 3], f32) {
+        let amount = match (self.filter, self.opacity) {
+            (Some(_), _) => 1.0,
+            (None, Some(d)) if d < 0.999 => (1.0 - d).clamp(0.05, 1.0),
+            _ => 1.0,
+        };
+        let colour = match self.filter {
+            Some(f) if chroma(f) >= 0.05 || chroma(diffuse) < 0.1 => f,
+            Some(f) => {
+                let level = (f[0] + f[1] + f[2]) / 3.0;
+                let peak = diffuse.iter().copied().fold(1e-6, f32::max);
+                diffuse.map(|c| c / peak * level)
+            }
+            None => diffuse,
+        };
+        (colour.map(|c| c.clamp(0.0, 1.0)), amount)
+    }
 }
 
 impl SourceMaterial {
@@ -108,6 +179,7 @@ impl SourceMaterial {
             emissive: [0.0; 3],
             diffuse_texture: None,
             normal_texture: None,
+            transmission: Transmission::default(),
         }
     }
 }

@@ -183,7 +183,9 @@ pub fn parse(path: &Path, bytes: &[u8]) -> Result<Imported, CookError> {
                         None => {}
                     }
                 }
-                out.uvs.push(uv);
+                // OBJ puts v = 0 at the bottom of an image; the pack, glTF and the GPU put it
+                // at the top row.
+                out.uvs.push([uv[0], 1.0 - uv[1]]);
             }
             b"vn" => {
                 let mut n = [0.0f32; 3];
@@ -471,6 +473,45 @@ fn find_file(dir: &Path, rest: &[u8]) -> (Vec<PathBuf>, Vec<String>) {
     (found, missing)
 }
 
+/// `Tf`, `d`/`Tr` and `illum` of an MTL entry; unparsable values count as absent.
+fn mtl_transmission(m: &tobj::Material) -> super::Transmission {
+    let floats = |key: &str| -> Option<Vec<f32>> {
+        let v: Vec<f32> = m
+            .unknown_param
+            .get(key)?
+            .split_whitespace()
+            .map_while(|t| t.parse::<f32>().ok())
+            .filter(|f| f.is_finite())
+            .collect();
+        (!v.is_empty()).then_some(v)
+    };
+    // `Tf` may be written as one grey value or as `Tf xyz …`/`Tf spectral …`, which have no
+    // RGB and are ignored.
+    let filter = floats("Tf").map(|v| match v.len() {
+        1 | 2 => [v[0]; 3],
+        _ => [v[0], v[1], v[2]],
+    });
+    let opacity = m
+        .dissolve
+        .filter(|d| d.is_finite())
+        // `Tr 1` alone is how some exporters write "opaque" (the inverted convention), so a
+        // fully transparent `Tr` without `d` is not believed.
+        .or_else(|| {
+            floats("Tr")
+                .map(|t| t[0])
+                .filter(|&t| t < 0.999)
+                .map(|t| 1.0 - t)
+        })
+        .map(|d| d.clamp(0.0, 1.0));
+    super::Transmission {
+        filter: filter.map(|f| f.map(|c| c.clamp(0.0, 1.0))),
+        opacity,
+        illum: m.illumination_model,
+        factor: None,
+        blend: false,
+    }
+}
+
 fn load_mtllib(
     path: &Path,
     line: usize,
@@ -480,14 +521,31 @@ fn load_mtllib(
     missing_textures: &mut Vec<(String, Warning)>,
 ) -> Result<(), CookError> {
     let dir = path.parent().unwrap_or(Path::new(""));
-    let (found, missing) = find_file(dir, rest);
+    let (mut found, missing) = find_file(dir, rest);
     if found.is_empty() {
-        out.warnings.push(Warning::new(
-            path,
-            Some(line),
-            format!("material library {:?} not found; materials keep their names but get default shading", text(rest)),
-        ));
-        return Ok(());
+        // Exporters often name a library that was never shipped (`untitled.mtl`) while the
+        // real one sits beside the OBJ under the OBJ's own name.
+        let beside = path.with_extension("mtl");
+        let already = out.files.iter().any(|f| *f == beside);
+        if beside.is_file() && !already {
+            out.warnings.push(Warning::new(
+                path,
+                Some(line),
+                format!(
+                    "material library {:?} not found; using {} beside the OBJ instead",
+                    text(rest),
+                    beside.display()
+                ),
+            ));
+            found.push(beside);
+        } else {
+            out.warnings.push(Warning::new(
+                path,
+                Some(line),
+                format!("material library {:?} not found; materials keep their names but get default shading", text(rest)),
+            ));
+            return Ok(());
+        }
     }
     if !missing.is_empty() && found.len() > 1 {
         out.warnings.push(Warning::new(
@@ -541,6 +599,7 @@ fn load_mtllib(
                 emissive: m.emissive.unwrap_or([0.0; 3]),
                 diffuse_texture,
                 normal_texture,
+                transmission: mtl_transmission(&m),
             };
             let finite = sm
                 .diffuse

@@ -1,0 +1,341 @@
+//! Window designs made in the cook: a design rasterized from the panes' own colours with lead
+//! cames, a design image fitted to a window's rectangle, and the window's outline as a mask,
+//! so a rectangular photo on a pointed lancet throws a pointed patch of light.
+//!
+//! Everything is rasterized in texture space. Texel row `r` covers `v` in `[r/H, (r+1)/H)`,
+//! which is how the renderer samples a texture at a vertex's coordinate.
+
+use std::sync::Arc;
+
+use image::{Rgba, RgbaImage};
+
+use crate::manifest::Fit;
+
+/// Largest side of a design made or composed by the cook.
+pub const MAX_SIDE: u32 = 1024;
+/// Lead came colour (sRGB) and opacity: dark and opaque, so it blocks the light.
+const CAME: Rgba<u8> = Rgba([22, 20, 18, 255]);
+/// Clear glass around a design that does not fill its window (`fit = "contain"`).
+const CLEAR: Rgba<u8> = Rgba([255, 255, 255, 255]);
+
+/// A triangle in texture space and the pane (index into the palette) it belongs to.
+pub type UvTriangle = ([[f32; 2]; 3], u16);
+
+/// The colour light takes through one pane: linear RGB, and the fraction that passes.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Pane {
+    pub colour: [f32; 3],
+    pub amount: f32,
+}
+
+/// Pane index + 1 per texel (0 where no triangle covers the texel's centre).
+pub fn rasterize(tris: &[UvTriangle], w: u32, h: u32) -> Vec<u16> {
+    let mut ids = vec![0u16; (w * h) as usize];
+    let (wf, hf) = (w as f64, h as f64);
+    for (uv, pane) in tris {
+        let p = uv.map(|c| [c[0] as f64 * wf, c[1] as f64 * hf]);
+        let area =
+            (p[1][0] - p[0][0]) * (p[2][1] - p[0][1]) - (p[2][0] - p[0][0]) * (p[1][1] - p[0][1]);
+        if area == 0.0 || !area.is_finite() {
+            continue;
+        }
+        let sign = area.signum();
+        let x0 = p
+            .iter()
+            .map(|q| q[0])
+            .fold(f64::INFINITY, f64::min)
+            .floor()
+            .max(0.0) as u32;
+        let x1 = (p
+            .iter()
+            .map(|q| q[0])
+            .fold(f64::NEG_INFINITY, f64::max)
+            .ceil())
+        .min(wf) as u32;
+        let y0 = p
+            .iter()
+            .map(|q| q[1])
+            .fold(f64::INFINITY, f64::min)
+            .floor()
+            .max(0.0) as u32;
+        let y1 = (p
+            .iter()
+            .map(|q| q[1])
+            .fold(f64::NEG_INFINITY, f64::max)
+            .ceil())
+        .min(hf) as u32;
+        let edge = |a: [f64; 2], b: [f64; 2], x: f64, y: f64| {
+            ((b[0] - a[0]) * (y - a[1]) - (b[1] - a[1]) * (x - a[0])) * sign
+        };
+        for y in y0..y1 {
+            let cy = y as f64 + 0.5;
+            for x in x0..x1 {
+                let cx = x as f64 + 0.5;
+                if edge(p[0], p[1], cx, cy) >= 0.0
+                    && edge(p[1], p[2], cx, cy) >= 0.0
+                    && edge(p[2], p[0], cx, cy) >= 0.0
+                {
+                    ids[(y * w + x) as usize] = pane + 1;
+                }
+            }
+        }
+    }
+    ids
+}
+
+/// Distance in texels from each texel to the nearest texel of another pane, of no pane, or
+/// beyond the image edge (a 3-4 chamfer transform: within 4 % of the Euclidean distance).
+fn boundary_distance(ids: &[u16], w: u32, h: u32) -> Vec<f32> {
+    let (w, h) = (w as usize, h as usize);
+    let mut d = vec![f32::INFINITY; w * h];
+    for y in 0..h {
+        for x in 0..w {
+            let id = ids[y * w + x];
+            let differs = |nx: isize, ny: isize| {
+                nx < 0
+                    || ny < 0
+                    || nx >= w as isize
+                    || ny >= h as isize
+                    || ids[ny as usize * w + nx as usize] != id
+            };
+            let (xi, yi) = (x as isize, y as isize);
+            if differs(xi - 1, yi)
+                || differs(xi + 1, yi)
+                || differs(xi, yi - 1)
+                || differs(xi, yi + 1)
+            {
+                d[y * w + x] = 0.0;
+            }
+        }
+    }
+    let (a, b) = (1.0f32, 1.4f32);
+    for y in 0..h {
+        for x in 0..w {
+            let mut v = d[y * w + x];
+            if x > 0 {
+                v = v.min(d[y * w + x - 1] + a);
+            }
+            if y > 0 {
+                v = v.min(d[(y - 1) * w + x] + a);
+                if x > 0 {
+                    v = v.min(d[(y - 1) * w + x - 1] + b);
+                }
+                if x + 1 < w {
+                    v = v.min(d[(y - 1) * w + x + 1] + b);
+                }
+            }
+            d[y * w + x] = v;
+        }
+    }
+    for y in (0..h).rev() {
+        for x in (0..w).rev() {
+            let mut v = d[y * w + x];
+            if x + 1 < w {
+                v = v.min(d[y * w + x + 1] + a);
+            }
+            if y + 1 < h {
+                v = v.min(d[(y + 1) * w + x] + a);
+                if x + 1 < w {
+                    v = v.min(d[(y + 1) * w + x + 1] + b);
+                }
+                if x > 0 {
+                    v = v.min(d[(y + 1) * w + x - 1] + b);
+                }
+            }
+            d[y * w + x] = v;
+        }
+    }
+    d
+}
+
+/// A design from the window's own triangles: each pane in its glass colour, lead cames of
+/// `came` texels along the outline and between panes of different glass, nothing (alpha 0)
+/// outside the outline.
+pub fn mesh_design(panes: &[Pane], tris: &[UvTriangle], w: u32, h: u32, came: f32) -> RgbaImage {
+    let ids = rasterize(tris, w, h);
+    let dist = boundary_distance(&ids, w, h);
+    // The boundary texels are themselves lead; half the width lies on each side of a seam.
+    let half = came * 0.5;
+    let colours: Vec<Rgba<u8>> = panes
+        .iter()
+        .map(|p| {
+            let c = p.colour.map(texture::srgb::encode8);
+            Rgba([c[0], c[1], c[2], texture::srgb::unorm8(p.amount)])
+        })
+        .collect();
+    RgbaImage::from_fn(w, h, |x, y| {
+        let i = (y * w + x) as usize;
+        match ids[i] {
+            0 => Rgba([0, 0, 0, 0]),
+            id if came > 0.0 && dist[i] < half.max(0.5) => {
+                let _ = id;
+                CAME
+            }
+            id => colours[id as usize - 1],
+        }
+    })
+}
+
+/// Texture size for a design of a `width` × `height` window at `texels_per_metre`, at most
+/// [`MAX_SIDE`] on the long side and at least 8.
+pub fn design_size(width: f64, height: f64, texels_per_metre: f32) -> (u32, u32) {
+    let tpm = texels_per_metre as f64;
+    let (mut w, mut h) = (width * tpm, height * tpm);
+    let long = w.max(h);
+    if long > MAX_SIDE as f64 {
+        w *= MAX_SIDE as f64 / long;
+        h *= MAX_SIDE as f64 / long;
+    }
+    (
+        (w.round() as u32).clamp(8, MAX_SIDE),
+        (h.round() as u32).clamp(8, MAX_SIDE),
+    )
+}
+
+/// Places `design` in a canvas of the window rectangle's aspect ratio (`aspect` = width /
+/// height): `cover` crops the excess, `contain` adds clear glass, `stretch` keeps the design
+/// as it is (the texture coordinates stretch it).
+pub fn fit_design(design: &RgbaImage, fit: Fit, aspect: f64) -> RgbaImage {
+    let (iw, ih) = (design.width() as f64, design.height() as f64);
+    if fit == Fit::Stretch || !(aspect > 0.0) || !aspect.is_finite() {
+        return design.clone();
+    }
+    let wider = iw / ih > aspect;
+    let (cw, ch) = match (fit, wider) {
+        (Fit::Cover, true) | (Fit::Contain, false) => ((ih * aspect).round(), ih),
+        _ => (iw, (iw / aspect).round()),
+    };
+    let (cw, ch) = (cw.max(1.0) as u32, ch.max(1.0) as u32);
+    // The design's centre goes to the canvas centre; both are sampled on the same texel grid.
+    let dx = (iw as i64 - cw as i64) / 2;
+    let dy = (ih as i64 - ch as i64) / 2;
+    RgbaImage::from_fn(cw, ch, |x, y| {
+        let (sx, sy) = (x as i64 + dx, y as i64 + dy);
+        if sx < 0 || sy < 0 || sx >= iw as i64 || sy >= ih as i64 {
+            CLEAR
+        } else {
+            *design.get_pixel(sx as u32, sy as u32)
+        }
+    })
+}
+
+/// The window's coverage in texture space at the image's size.
+pub fn coverage(tris: &[UvTriangle], w: u32, h: u32) -> Vec<bool> {
+    rasterize(tris, w, h).into_iter().map(|i| i != 0).collect()
+}
+
+/// Whether `design` lets light through where the window has no glass: more than 0.5 % of its
+/// texels outside the outline grown by one texel pass a quarter of the light or more (alpha
+/// times the brightest channel). A design that is already dark or transparent there (its edges
+/// antialiased differently) is left as it is.
+pub fn light_outside(design: &RgbaImage, mask: &[bool]) -> bool {
+    let (w, h) = (design.width() as i64, design.height() as i64);
+    let near = |x: i64, y: i64| {
+        (-1..=1).any(|dy| {
+            (-1..=1).any(|dx| {
+                let (nx, ny) = (x + dx, y + dy);
+                nx >= 0 && ny >= 0 && nx < w && ny < h && mask[(ny * w + nx) as usize]
+            })
+        })
+    };
+    let mut outside = 0u64;
+    for y in 0..h {
+        for x in 0..w {
+            let p = design.get_pixel(x as u32, y as u32);
+            let light = p[3] as u32 * p[0].max(p[1]).max(p[2]) as u32;
+            if light >= 64 * 255 && !near(x, y) {
+                outside += 1;
+            }
+        }
+    }
+    outside * 200 > (w * h) as u64
+}
+
+/// Clears the design outside the mask (no glass: no colour, no light).
+pub fn apply_mask(design: &mut RgbaImage, mask: &[bool]) {
+    for (p, &m) in design.pixels_mut().zip(mask) {
+        if !m {
+            *p = Rgba([0, 0, 0, 0]);
+        }
+    }
+}
+
+/// A design made in memory, shared by the texture jobs that use it.
+pub fn shared(image: RgbaImage) -> Arc<RgbaImage> {
+    Arc::new(image)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn quad(u0: f32, v0: f32, u1: f32, v1: f32, pane: u16) -> [UvTriangle; 2] {
+        [
+            ([[u0, v0], [u1, v0], [u1, v1]], pane),
+            ([[u0, v0], [u1, v1], [u0, v1]], pane),
+        ]
+    }
+
+    #[test]
+    fn panes_get_their_colour_and_lead_between_them() {
+        let mut tris = quad(0.0, 0.0, 0.5, 1.0, 0).to_vec();
+        tris.extend(quad(0.5, 0.0, 1.0, 1.0, 1));
+        let panes = [
+            Pane {
+                colour: [1.0, 0.0, 0.0],
+                amount: 1.0,
+            },
+            Pane {
+                colour: [0.0, 0.0, 1.0],
+                amount: 1.0,
+            },
+        ];
+        let img = mesh_design(&panes, &tris, 100, 50, 4.0);
+        assert_eq!(*img.get_pixel(25, 25), Rgba([255, 0, 0, 255]));
+        assert_eq!(*img.get_pixel(75, 25), Rgba([0, 0, 255, 255]));
+        // The seam at x = 50 and the outline are lead, 4 texels wide in all.
+        for x in 48..52 {
+            assert_eq!(*img.get_pixel(x, 25), CAME, "x {x}");
+        }
+        assert_eq!(*img.get_pixel(46, 25), Rgba([255, 0, 0, 255]));
+        assert_eq!(*img.get_pixel(0, 25), CAME);
+        assert_eq!(*img.get_pixel(1, 25), CAME);
+        assert_eq!(*img.get_pixel(3, 25), Rgba([255, 0, 0, 255]));
+    }
+
+    #[test]
+    fn a_pointed_outline_masks_a_rectangular_design() {
+        // A lancet: a rectangle below v = 0.6 and a triangle up to a point at (0.5, 1).
+        let mut tris = quad(0.0, 0.0, 1.0, 0.6, 0).to_vec();
+        tris.push(([[0.0, 0.6], [1.0, 0.6], [0.5, 1.0]], 0));
+        let mask = coverage(&tris, 40, 100);
+        let mut photo = RgbaImage::from_pixel(40, 100, Rgba([200, 150, 100, 255]));
+        assert!(light_outside(&photo, &mask));
+        apply_mask(&mut photo, &mask);
+        assert_eq!(photo.get_pixel(20, 95)[3], 255, "the point itself is glass");
+        assert_eq!(photo.get_pixel(2, 95)[3], 0, "beside the point is stone");
+        assert_eq!(photo.get_pixel(2, 30)[3], 255);
+        assert!(!light_outside(&photo, &mask));
+    }
+
+    #[test]
+    fn fit_cover_crops_and_contain_pads() {
+        let d = RgbaImage::from_fn(200, 100, |x, _| Rgba([(x / 100) as u8 * 255, 0, 0, 255]));
+        let c = fit_design(&d, Fit::Cover, 1.0);
+        assert_eq!(c.dimensions(), (100, 100));
+        assert_eq!(c.get_pixel(0, 0)[0], 0);
+        assert_eq!(c.get_pixel(99, 0)[0], 255);
+        let c = fit_design(&d, Fit::Contain, 1.0);
+        assert_eq!(c.dimensions(), (200, 200));
+        assert_eq!(*c.get_pixel(100, 10), CLEAR);
+        assert_eq!(c.get_pixel(150, 100)[0], 255);
+        assert_eq!(fit_design(&d, Fit::Stretch, 1.0).dimensions(), (200, 100));
+    }
+
+    #[test]
+    fn design_size_follows_the_window_and_is_capped() {
+        assert_eq!(design_size(2.0, 6.0, 100.0), (200, 600));
+        assert_eq!(design_size(2.0, 6.0, 1000.0), (341, 1024));
+        assert_eq!(design_size(0.01, 0.01, 100.0), (8, 8));
+    }
+}

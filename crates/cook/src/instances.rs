@@ -1,0 +1,745 @@
+//! Window instances: the windows of a real model are found in its geometry, not read from its
+//! material names. A window is a connected, planar patch of window-class triangles: one glass
+//! material may hold thirty lancets, and one rose may be made of four coloured glasses.
+//!
+//! For each instance this module fits the plane, decides which side is inside, fits the
+//! minimum-area rectangle with "up" taken from the scene's up axis (+Y), and names it. The
+//! pipeline then gives every instance its own pack material (so its own design and projector)
+//! and generates planar texture coordinates where the glass has none.
+
+use std::collections::HashMap;
+
+use glam::{DVec2, DVec3};
+use pack::{LightKind, MaterialClass};
+
+use crate::import::{Imported, NONE};
+
+/// Relative weld tolerance: positions closer than this fraction of the model's diagonal are
+/// the same point when deciding which triangles touch.
+const WELD: f64 = 1e-5;
+/// A patch whose vertices leave its plane by more than this fraction of its size is not flat.
+pub const PLANAR_TOLERANCE: f64 = 0.01;
+/// Most planes a non-planar patch is split into; more means curved glass, which is reported.
+const MAX_SPLIT: usize = 8;
+
+/// One window found in the geometry.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Instance {
+    pub name: String,
+    /// Index of the source (mesh) the triangles belong to.
+    pub source: usize,
+    /// Triangle indices within the source.
+    pub triangles: Vec<u32>,
+    /// Tagged pack materials of the triangles with their area, largest first.
+    pub materials: Vec<(u16, f64)>,
+    pub area: f64,
+    pub centroid: DVec3,
+    /// Unit normal pointing into the building, and what decided it.
+    pub inside: DVec3,
+    pub inside_reason: &'static str,
+    /// The fitted rectangle: bottom-left corner seen from inside, the full right and up edges.
+    pub origin: DVec3,
+    pub right: DVec3,
+    pub up: DVec3,
+    /// Largest distance of a vertex from the fitted plane.
+    pub max_deviation: f64,
+    /// False for curved glass that could not be split into a few planes.
+    pub planar: bool,
+    /// True when every corner has a texture coordinate and they are not all the same.
+    pub has_uvs: bool,
+}
+
+impl Instance {
+    pub fn width(&self) -> f64 {
+        self.right.length()
+    }
+
+    pub fn height(&self) -> f64 {
+        self.up.length()
+    }
+
+    /// The planar texture coordinate of `p`, seen from inside: u from left to right, v from
+    /// the top row of the design down, as the pack stores texture coordinates (in OBJ terms,
+    /// (0, 0) is the bottom left).
+    pub fn planar_uv(&self, p: DVec3) -> [f32; 2] {
+        let d = p - self.origin;
+        let u = d.dot(self.right) / self.right.length_squared().max(1e-300);
+        let v = d.dot(self.up) / self.up.length_squared().max(1e-300);
+        [u as f32, (1.0 - v) as f32]
+    }
+}
+
+fn v3(p: [f32; 3]) -> DVec3 {
+    DVec3::new(p[0] as f64, p[1] as f64, p[2] as f64)
+}
+
+struct UnionFind(Vec<u32>);
+
+impl UnionFind {
+    fn new(n: usize) -> Self {
+        Self((0..n as u32).collect())
+    }
+
+    fn find(&mut self, mut a: u32) -> u32 {
+        while self.0[a as usize] != a {
+            let parent = self.0[self.0[a as usize] as usize];
+            self.0[a as usize] = parent;
+            a = parent;
+        }
+        a
+    }
+
+    fn union(&mut self, a: u32, b: u32) {
+        let (ra, rb) = (self.find(a), self.find(b));
+        // The smaller root wins, so components do not depend on the order of unions.
+        if ra < rb {
+            self.0[rb as usize] = ra;
+        } else if rb < ra {
+            self.0[ra as usize] = rb;
+        }
+    }
+}
+
+/// One id per position: positions within the weld tolerance (on a grid of that size) share it.
+fn weld_ids(positions: &[[f32; 3]], tolerance: f64) -> Vec<u32> {
+    let mut cells: HashMap<[i64; 3], u32> = HashMap::new();
+    positions
+        .iter()
+        .map(|p| {
+            let key = p.map(|c| (c as f64 / tolerance).round() as i64);
+            let next = cells.len() as u32;
+            *cells.entry(key).or_insert(next)
+        })
+        .collect()
+}
+
+fn triangle(src: &Imported, t: u32) -> [DVec3; 3] {
+    let c = &src.corners[t as usize * 3..t as usize * 3 + 3];
+    [c[0], c[1], c[2]].map(|k| v3(src.positions[k.p as usize]))
+}
+
+/// Area-weighted plane of some triangles: centroid, unit normal (sign of the largest
+/// triangle, with flipped triangles turned to agree) and area.
+fn fit_plane(src: &Imported, tris: &[u32]) -> Option<(DVec3, DVec3, f64)> {
+    let normals: Vec<(DVec3, DVec3, f64)> = tris
+        .iter()
+        .map(|&t| {
+            let [a, b, c] = triangle(src, t);
+            let n = (b - a).cross(c - a);
+            ((a + b + c) / 3.0, n, n.length() * 0.5)
+        })
+        .collect();
+    let reference = normals
+        .iter()
+        .max_by(|a, b| a.2.total_cmp(&b.2))
+        .map(|n| n.1)?;
+    let mut sum = DVec3::ZERO;
+    let mut centroid = DVec3::ZERO;
+    let mut area = 0.0;
+    for (c, n, a) in &normals {
+        sum += if n.dot(reference) < 0.0 { -*n } else { *n };
+        centroid += *c * *a;
+        area += a;
+    }
+    if !(area > 0.0) || sum.length() == 0.0 {
+        return None;
+    }
+    Some((centroid / area, sum.normalize(), area))
+}
+
+fn vertices<'a>(src: &'a Imported, tris: &'a [u32]) -> impl Iterator<Item = DVec3> + 'a {
+    tris.iter().flat_map(move |&t| triangle(src, t))
+}
+
+fn size_of(src: &Imported, tris: &[u32]) -> f64 {
+    let mut lo = DVec3::splat(f64::INFINITY);
+    let mut hi = DVec3::splat(f64::NEG_INFINITY);
+    for p in vertices(src, tris) {
+        lo = lo.min(p);
+        hi = hi.max(p);
+    }
+    (hi - lo).length()
+}
+
+/// Connected components of `tris` over welded positions, each in ascending triangle order,
+/// ordered by their first triangle.
+fn components(src: &Imported, weld: &[u32], tris: &[u32]) -> Vec<Vec<u32>> {
+    let mut local: HashMap<u32, u32> = HashMap::new();
+    for &t in tris {
+        for k in 0..3 {
+            let w = weld[src.corners[t as usize * 3 + k].p as usize];
+            let n = local.len() as u32;
+            local.entry(w).or_insert(n);
+        }
+    }
+    let mut uf = UnionFind::new(local.len());
+    for &t in tris {
+        let ids: Vec<u32> = (0..3)
+            .map(|k| local[&weld[src.corners[t as usize * 3 + k].p as usize]])
+            .collect();
+        uf.union(ids[0], ids[1]);
+        uf.union(ids[0], ids[2]);
+    }
+    let mut groups: Vec<(u32, Vec<u32>)> = Vec::new();
+    let mut slot: HashMap<u32, usize> = HashMap::new();
+    for &t in tris {
+        let w = weld[src.corners[t as usize * 3].p as usize];
+        let root = uf.find(local[&w]);
+        let i = *slot.entry(root).or_insert_with(|| {
+            groups.push((t, Vec::new()));
+            groups.len() - 1
+        });
+        groups[i].1.push(t);
+    }
+    groups.into_iter().map(|g| g.1).collect()
+}
+
+/// Splits a non-planar patch into the planes it is made of (a bay window), each piece
+/// connected; `None` when it would take more than [`MAX_SPLIT`] planes (curved glass).
+fn split_planes(src: &Imported, weld: &[u32], tris: &[u32], size: f64) -> Option<Vec<Vec<u32>>> {
+    let mut order: Vec<(u32, DVec3, DVec3, f64)> = tris
+        .iter()
+        .map(|&t| {
+            let [a, b, c] = triangle(src, t);
+            let n = (b - a).cross(c - a);
+            (t, n.normalize_or_zero(), (a + b + c) / 3.0, n.length())
+        })
+        .collect();
+    order.sort_by(|a, b| b.3.total_cmp(&a.3).then(a.0.cmp(&b.0)));
+    let cos = 5f64.to_radians().cos();
+    let mut planes: Vec<(DVec3, DVec3, Vec<u32>)> = Vec::new();
+    for (t, n, c, _) in order {
+        let found = planes.iter_mut().find(|(pn, pc, _)| {
+            n.dot(*pn).abs() >= cos && (c - *pc).dot(*pn).abs() <= PLANAR_TOLERANCE * size
+        });
+        match found {
+            Some(p) => p.2.push(t),
+            None => {
+                if planes.len() == MAX_SPLIT {
+                    return None;
+                }
+                planes.push((n, c, vec![t]));
+            }
+        }
+    }
+    let mut pieces = Vec::new();
+    for (_, _, mut group) in planes {
+        group.sort_unstable();
+        pieces.extend(components(src, weld, &group));
+    }
+    pieces.sort_by_key(|p| p[0]);
+    Some(pieces)
+}
+
+/// Andrew's monotone chain; the hull counter-clockwise without repeated points.
+fn convex_hull(mut pts: Vec<DVec2>) -> Vec<DVec2> {
+    pts.sort_by(|a, b| a.x.total_cmp(&b.x).then(a.y.total_cmp(&b.y)));
+    pts.dedup();
+    if pts.len() < 3 {
+        return pts;
+    }
+    let cross = |o: DVec2, a: DVec2, b: DVec2| (a - o).perp_dot(b - o);
+    let mut hull: Vec<DVec2> = Vec::with_capacity(pts.len() * 2);
+    for pass in 0..2 {
+        let start = hull.len();
+        let iter: Box<dyn Iterator<Item = &DVec2>> = if pass == 0 {
+            Box::new(pts.iter())
+        } else {
+            Box::new(pts.iter().rev())
+        };
+        for &p in iter {
+            while hull.len() >= start + 2
+                && cross(hull[hull.len() - 2], hull[hull.len() - 1], p) <= 0.0
+            {
+                hull.pop();
+            }
+            hull.push(p);
+        }
+        hull.pop();
+    }
+    hull
+}
+
+/// The direction (angle in [0, π/2)) of the minimum-area rectangle around `hull`, preferring
+/// the one closest to the axes among those within 1 % of the minimum area: a rose window's
+/// rectangle is then upright, not turned to some polygon edge.
+fn rectangle_angle(hull: &[DVec2]) -> f64 {
+    let quarter = std::f64::consts::FRAC_PI_2;
+    let mut candidates = vec![0.0];
+    for i in 0..hull.len() {
+        let e = hull[(i + 1) % hull.len()] - hull[i];
+        if e.length_squared() > 0.0 {
+            candidates.push(e.y.atan2(e.x).rem_euclid(quarter));
+        }
+    }
+    let area = |angle: f64| {
+        let (a, b) = (DVec2::from_angle(angle), DVec2::from_angle(angle + quarter));
+        let (mut lo, mut hi) = (DVec2::splat(f64::INFINITY), DVec2::splat(f64::NEG_INFINITY));
+        for p in hull {
+            let q = DVec2::new(p.dot(a), p.dot(b));
+            lo = lo.min(q);
+            hi = hi.max(q);
+        }
+        (hi - lo).x * (hi - lo).y
+    };
+    let areas: Vec<f64> = candidates.iter().map(|&c| area(c)).collect();
+    let best = areas.iter().copied().fold(f64::INFINITY, f64::min);
+    let tilt = |c: f64| c.min(quarter - c);
+    candidates
+        .iter()
+        .zip(&areas)
+        .filter(|(_, a)| **a <= best * 1.01 + 1e-12)
+        .map(|(c, _)| *c)
+        .min_by(|a, b| tilt(*a).total_cmp(&tilt(*b)).then(a.total_cmp(b)))
+        .unwrap_or(0.0)
+}
+
+/// A unit vector in the plane pointing as "up" as the plane allows: +Y projected, or +Z for
+/// horizontal glass (skylights), whose image has no natural up.
+fn plane_up(n: DVec3) -> DVec3 {
+    let reference = if n.y.abs() < 0.99 { DVec3::Y } else { DVec3::Z };
+    (reference - n * reference.dot(n)).normalize()
+}
+
+/// The rectangle of `tris` in the plane through `centroid` with normal `inside`.
+fn fit_rectangle(
+    src: &Imported,
+    tris: &[u32],
+    centroid: DVec3,
+    inside: DVec3,
+) -> (DVec3, DVec3, DVec3) {
+    let f = plane_up(inside);
+    let e = f.cross(inside);
+    let pts: Vec<DVec2> = vertices(src, tris)
+        .map(|p| DVec2::new((p - centroid).dot(e), (p - centroid).dot(f)))
+        .collect();
+    let hull = convex_hull(pts);
+    let angle = rectangle_angle(&hull);
+    let axes = [
+        DVec2::from_angle(angle),
+        DVec2::from_angle(angle + std::f64::consts::FRAC_PI_2),
+    ]
+    .map(|a| e * a.x + f * a.y);
+    // Of the rectangle's four edge directions, "up" is the one closest to the scene's up.
+    let up_dir = [axes[0], -axes[0], axes[1], -axes[1]]
+        .into_iter()
+        .max_by(|a, b| a.dot(f).total_cmp(&b.dot(f)))
+        .unwrap_or(f);
+    // Seen from inside, the viewer looks along −inside; right = look × up.
+    let right_dir = (-inside).cross(up_dir).normalize();
+    let (mut r0, mut r1, mut u0, mut u1) = (
+        f64::INFINITY,
+        f64::NEG_INFINITY,
+        f64::INFINITY,
+        f64::NEG_INFINITY,
+    );
+    for p in vertices(src, tris) {
+        let d = p - centroid;
+        r0 = r0.min(d.dot(right_dir));
+        r1 = r1.max(d.dot(right_dir));
+        u0 = u0.min(d.dot(up_dir));
+        u1 = u1.max(d.dot(up_dir));
+    }
+    (
+        centroid + right_dir * r0 + up_dir * u0,
+        right_dir * (r1 - r0),
+        up_dir * (u1 - u0),
+    )
+}
+
+fn has_uvs(src: &Imported, tris: &[u32]) -> bool {
+    let mut first: Option<[f32; 2]> = None;
+    let mut varies = false;
+    for &t in tris {
+        for k in 0..3 {
+            let c = src.corners[t as usize * 3 + k];
+            if c.t == NONE {
+                return false;
+            }
+            let uv = src.uvs[c.t as usize];
+            match first {
+                None => first = Some(uv),
+                Some(f) => varies |= (f[0] - uv[0]).abs() > 1e-6 || (f[1] - uv[1]).abs() > 1e-6,
+            }
+        }
+    }
+    varies
+}
+
+/// Every triangle that can receive window light (not glass, not the backdrop), as centroid
+/// and area, over all sources.
+pub fn receivers(
+    sources: &[Imported],
+    tri_material: &[Vec<u16>],
+    classes: &[MaterialClass],
+) -> Vec<(DVec3, f64)> {
+    let mut out = Vec::new();
+    for (src, mats) in sources.iter().zip(tri_material) {
+        for (t, &m) in mats.iter().enumerate() {
+            let class = classes[m as usize];
+            if class.is_window() || class == MaterialClass::Background {
+                continue;
+            }
+            let [a, b, c] = triangle(src, t as u32);
+            let area = (b - a).cross(c - a).length() * 0.5;
+            if area > 0.0 {
+                out.push(((a + b + c) / 3.0, area));
+            }
+        }
+    }
+    out
+}
+
+/// Which way is inside: an explicit point or direction, else the side the light leaves the
+/// window through, else the side facing most receiving geometry (nearer surfaces count more).
+pub fn decide_inside(
+    normal: DVec3,
+    centroid: DVec3,
+    size: f64,
+    explicit: Option<[f32; 3]>,
+    light: Option<&LightKind>,
+    receivers: &[(DVec3, f64)],
+) -> (DVec3, &'static str) {
+    let orient = |d: DVec3| if normal.dot(d) < 0.0 { -normal } else { normal };
+    if let Some(v) = explicit {
+        return (orient(v3(v)), "the manifest's `inside`");
+    }
+    match light {
+        Some(LightKind::Directional { direction, .. })
+            if normal.dot(v3(*direction)).abs() > 1e-6 =>
+        {
+            return (
+                orient(v3(*direction)),
+                "the side the sunlight leaves through",
+            );
+        }
+        Some(LightKind::Point { position, .. })
+            if normal.dot(centroid - v3(*position)).abs() > 1e-9 =>
+        {
+            return (
+                orient(centroid - v3(*position)),
+                "the side away from the light",
+            );
+        }
+        _ => {}
+    }
+    let s2 = (size * size).max(1e-12);
+    let score: f64 = receivers
+        .iter()
+        .map(|(c, a)| {
+            let d = *c - centroid;
+            let side = d.dot(normal);
+            if side.abs() < 1e-9 * size {
+                0.0
+            } else {
+                side.signum() * a / (1.0 + d.length_squared() / s2)
+            }
+        })
+        .sum();
+    (
+        if score < 0.0 { -normal } else { normal },
+        "the side facing most receiving geometry",
+    )
+}
+
+/// Finds every window instance. `tri_material` gives each triangle's tagged pack material,
+/// `classes` each material's class, `names` each material's name; `inside` gives the
+/// manifest's override for an instance name and its materials, if any.
+pub fn find(
+    sources: &[Imported],
+    tri_material: &[Vec<u16>],
+    classes: &[MaterialClass],
+    names: &[String],
+    light: Option<&LightKind>,
+    inside: &dyn Fn(&str, &[u16]) -> Option<[f32; 3]>,
+) -> Vec<Instance> {
+    let receivers = receivers(sources, tri_material, classes);
+    // The weld tolerance is relative to the whole model, so it means the same for every mesh.
+    let mut lo = DVec3::splat(f64::INFINITY);
+    let mut hi = DVec3::splat(f64::NEG_INFINITY);
+    for s in sources {
+        for p in &s.positions {
+            lo = lo.min(v3(*p));
+            hi = hi.max(v3(*p));
+        }
+    }
+    let tolerance = ((hi - lo).length() * WELD).max(1e-9);
+
+    let mut out: Vec<Instance> = Vec::new();
+    for (si, (src, mats)) in sources.iter().zip(tri_material).enumerate() {
+        let glass: Vec<u32> = (0..mats.len() as u32)
+            .filter(|&t| classes[mats[t as usize] as usize].is_window())
+            .collect();
+        if glass.is_empty() {
+            continue;
+        }
+        let weld = weld_ids(&src.positions, tolerance);
+        for component in components(src, &weld, &glass) {
+            let size = size_of(src, &component);
+            let deviation = |tris: &[u32]| -> Option<(DVec3, DVec3, f64, f64)> {
+                let (c, n, a) = fit_plane(src, tris)?;
+                let d = vertices(src, tris)
+                    .map(|p| (p - c).dot(n).abs())
+                    .fold(0.0, f64::max);
+                Some((c, n, a, d))
+            };
+            let Some(whole) = deviation(&component) else {
+                continue;
+            };
+            let pieces = if whole.3 <= PLANAR_TOLERANCE * size {
+                vec![component]
+            } else {
+                split_planes(src, &weld, &component, size).unwrap_or_else(|| vec![component])
+            };
+            for tris in pieces {
+                let Some((centroid, normal, area, dev)) = deviation(&tris) else {
+                    continue;
+                };
+                let piece_size = size_of(src, &tris);
+                let mut by_material: Vec<(u16, f64)> = Vec::new();
+                for &t in &tris {
+                    let [a, b, c] = triangle(src, t);
+                    let ar = (b - a).cross(c - a).length() * 0.5;
+                    let m = mats[t as usize];
+                    match by_material.iter_mut().find(|e| e.0 == m) {
+                        Some(e) => e.1 += ar,
+                        None => by_material.push((m, ar)),
+                    }
+                }
+                by_material.sort_by(|a, b| b.1.total_cmp(&a.1).then(a.0.cmp(&b.0)));
+                out.push(Instance {
+                    name: names[by_material[0].0 as usize].clone(),
+                    source: si,
+                    has_uvs: has_uvs(src, &tris),
+                    triangles: tris,
+                    materials: by_material,
+                    area,
+                    centroid,
+                    inside: normal,
+                    inside_reason: "",
+                    origin: DVec3::ZERO,
+                    right: DVec3::ZERO,
+                    up: DVec3::ZERO,
+                    max_deviation: dev,
+                    planar: dev <= PLANAR_TOLERANCE * piece_size,
+                });
+            }
+        }
+    }
+    // Names: the dominant material's, numbered where several windows share it.
+    let mut count: HashMap<String, usize> = HashMap::new();
+    for i in &out {
+        *count.entry(i.name.clone()).or_insert(0) += 1;
+    }
+    let mut seen: HashMap<String, usize> = HashMap::new();
+    for i in &mut out {
+        if count[&i.name] > 1 {
+            let k = seen.entry(i.name.clone()).or_insert(0);
+            *k += 1;
+            i.name = format!("{}#{k}", i.name);
+        }
+    }
+    for i in &mut out {
+        let mats: Vec<u16> = i.materials.iter().map(|m| m.0).collect();
+        let size = size_of(&sources[i.source], &i.triangles);
+        let (n, why) = decide_inside(
+            i.inside,
+            i.centroid,
+            size,
+            inside(&i.name, &mats),
+            light,
+            &receivers,
+        );
+        i.inside = n;
+        i.inside_reason = why;
+        let (o, r, u) = fit_rectangle(&sources[i.source], &i.triangles, i.centroid, n);
+        i.origin = o;
+        i.right = r;
+        i.up = u;
+    }
+    out
+}
+
+/// Writes planar texture coordinates for the instance's triangles into its source.
+pub fn write_planar_uvs(src: &mut Imported, instance: &Instance) {
+    for &t in &instance.triangles {
+        for k in 0..3 {
+            let c = t as usize * 3 + k;
+            let p = v3(src.positions[src.corners[c].p as usize]);
+            src.uvs.push(instance.planar_uv(p));
+            src.corners[c].t = src.uvs.len() as u32 - 1;
+        }
+    }
+}
+
+/// The class of a window no rule placed: lower when its sill is in the lower half of the
+/// height between the floor and the top of the walls.
+pub fn class_by_sill(sill: f64, floor: f64, wall_top: f64) -> MaterialClass {
+    if wall_top > floor && (sill - floor) < 0.5 * (wall_top - floor) {
+        MaterialClass::WindowLower
+    } else {
+        MaterialClass::WindowUpper
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::import::{Corner, Part};
+
+    /// A source of quads: each `[corner, right edge, up edge, material]`.
+    fn quads(q: &[([f32; 3], [f32; 3], [f32; 3], u32)]) -> Imported {
+        let mut s = Imported::default();
+        for &(o, r, u, m) in q {
+            let base = s.positions.len() as u32;
+            let o = glam::Vec3::from(o);
+            let (r, u) = (glam::Vec3::from(r), glam::Vec3::from(u));
+            for p in [o, o + r, o + r + u, o + u] {
+                s.positions.push(p.to_array());
+            }
+            for t in [[0, 1, 2], [0, 2, 3]] {
+                for k in t {
+                    s.corners.push(Corner {
+                        p: base + k,
+                        t: NONE,
+                        n: NONE,
+                    });
+                }
+                s.tri_part.push(m);
+            }
+        }
+        let parts = s.tri_part.iter().copied().max().unwrap_or(0) + 1;
+        s.parts = (0..parts)
+            .map(|_| Part {
+                names: Default::default(),
+                material: None,
+            })
+            .collect();
+        s
+    }
+
+    fn run(src: &Imported, classes: &[MaterialClass], light: Option<&LightKind>) -> Vec<Instance> {
+        let mats: Vec<u16> = src.tri_part.iter().map(|&p| p as u16).collect();
+        let names: Vec<String> = (0..classes.len()).map(|i| format!("m{i}")).collect();
+        find(
+            std::slice::from_ref(src),
+            &[mats],
+            classes,
+            &names,
+            light,
+            &|_, _| None,
+        )
+    }
+
+    const W: MaterialClass = MaterialClass::WindowUpper;
+    const F: MaterialClass = MaterialClass::Floor;
+
+    #[test]
+    fn panes_of_four_materials_in_one_plane_are_one_window() {
+        // A 2 x 2 grid of 1 m panes in the plane x = 0, sharing edges, four materials.
+        let mut q = Vec::new();
+        for (i, (y, z)) in [(0., 0.), (0., 1.), (1., 0.), (1., 1.)]
+            .into_iter()
+            .enumerate()
+        {
+            q.push(([0., 2. + y, z], [0., 0., 1.], [0., 1., 0.], i as u32));
+        }
+        let src = quads(&q);
+        let sun = LightKind::Directional {
+            direction: [1.0, -1.0, 0.0],
+            angular_size: 0.01,
+        };
+        let w = run(&src, &[W, W, W, W], Some(&sun));
+        assert_eq!(w.len(), 1, "{w:#?}");
+        let w = &w[0];
+        assert_eq!(w.materials.len(), 4);
+        assert!((w.area - 4.0).abs() < 1e-9);
+        assert_eq!(w.inside, DVec3::X);
+        assert!((w.width() - 2.0).abs() < 1e-9 && (w.height() - 2.0).abs() < 1e-9);
+        // Seen from inside (looking along −x), right is −z and up is +y.
+        assert!((w.up.normalize() - DVec3::Y).length() < 1e-9);
+        assert!(
+            (w.right.normalize() + DVec3::Z).length() < 1e-9,
+            "{:?}",
+            w.right
+        );
+        assert!((w.origin - DVec3::new(0.0, 2.0, 2.0)).length() < 1e-9);
+        // Bottom left and top right seen from inside; v runs down the design.
+        assert_eq!(w.planar_uv(DVec3::new(0.0, 2.0, 2.0)), [0.0, 1.0]);
+        assert_eq!(w.planar_uv(DVec3::new(0.0, 4.0, 0.0)), [1.0, 0.0]);
+    }
+
+    #[test]
+    fn thirty_panes_of_one_material_are_thirty_windows_in_order() {
+        let q: Vec<_> = (0..30)
+            .map(|i| ([4., 1., -2. * i as f32], [0., 0., 1.], [0., 3., 0.], 0))
+            .collect();
+        let mut src = quads(&q);
+        // A floor inside (x < 4) decides the inside without a light.
+        let floor = quads(&[([-4., 0., -60.], [8., 0., 0.], [0., 0., 62.], 1)]);
+        let n = src.positions.len() as u32;
+        src.positions.extend(&floor.positions);
+        for c in &floor.corners {
+            src.corners.push(Corner { p: c.p + n, ..*c });
+        }
+        src.tri_part.extend([1, 1]);
+        src.parts.push(Part {
+            names: Default::default(),
+            material: None,
+        });
+        let w = run(&src, &[W, F], None);
+        assert_eq!(w.len(), 30);
+        assert_eq!(w[0].name, "m0#1");
+        assert_eq!(w[29].name, "m0#30");
+        for i in &w {
+            assert_eq!(i.inside, -DVec3::X, "{}", i.inside_reason);
+            assert!((i.height() - 3.0).abs() < 1e-6 && (i.width() - 1.0).abs() < 1e-6);
+        }
+    }
+
+    #[test]
+    fn a_bay_window_in_two_planes_splits() {
+        // Two 1 x 2 panes meeting at a 90° edge.
+        let src = quads(&[
+            ([0., 0., 0.], [1., 0., 0.], [0., 2., 0.], 0),
+            ([1., 0., 0.], [0., 0., 1.], [0., 2., 0.], 0),
+        ]);
+        let w = run(&src, &[W], None);
+        assert_eq!(w.len(), 2, "{w:#?}");
+        assert!(w.iter().all(|i| i.planar && i.max_deviation < 1e-9));
+        assert_eq!(w[0].name, "m0#1");
+    }
+
+    #[test]
+    fn curved_glass_is_kept_whole_and_marked_non_planar() {
+        // Twelve facets of a half cylinder: too many planes to split.
+        let mut q = Vec::new();
+        for i in 0..12 {
+            let a0 = i as f32 / 12.0 * std::f32::consts::PI;
+            let a1 = (i + 1) as f32 / 12.0 * std::f32::consts::PI;
+            let p0 = [a0.cos(), 0., a0.sin()];
+            let p1 = [a1.cos(), 0., a1.sin()];
+            q.push((p0, [p1[0] - p0[0], 0., p1[2] - p0[2]], [0., 2., 0.], 0));
+        }
+        let w = run(&quads(&q), &[W], None);
+        assert_eq!(w.len(), 1);
+        assert!(!w[0].planar);
+        assert!(w[0].max_deviation > 0.1);
+    }
+
+    #[test]
+    fn a_rotated_rectangle_is_found_with_its_own_axes() {
+        // A 1 x 3 pane tilted by 30° in the plane z = 0.
+        let (s, c) = 30f32.to_radians().sin_cos();
+        let src = quads(&[([0., 0., 0.], [c, s, 0.], [-3. * s, 3. * c, 0.], 0)]);
+        let w = run(&src, &[W], None);
+        assert!((w[0].width() - 1.0).abs() < 1e-5, "{:?}", w[0]);
+        assert!((w[0].height() - 3.0).abs() < 1e-5);
+    }
+
+    #[test]
+    fn sill_height_decides_upper_and_lower() {
+        assert_eq!(class_by_sill(1.0, 0.0, 12.5), MaterialClass::WindowLower);
+        assert_eq!(class_by_sill(8.2, 0.0, 12.5), MaterialClass::WindowUpper);
+    }
+}

@@ -1,0 +1,457 @@
+//! The window stage before mesh processing: finds the window instances, gives each its own
+//! pack material, writes planar texture coordinates where the glass has none, and decides
+//! each window's design (an image, the material's own texture, or one rasterized from the
+//! panes' colours), masked by the window's outline.
+
+use std::path::{Path, PathBuf};
+use std::sync::Arc;
+
+use glam::DVec3;
+use pack::MaterialClass;
+
+use crate::design::{self, Pane, UvTriangle};
+use crate::import::{ImageRef, Imported, NONE};
+use crate::instances::{self, Instance};
+use crate::manifest::{Fit, GreenAxis, Manifest, NormalEncoding, UvMode, WindowDesign};
+use crate::tag::{Decision, Tagging};
+use crate::{CookError, Report, Warning};
+
+/// Where a window's design came from, for reports.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum DesignSource {
+    /// A `[[window]]` design or `--window` image.
+    Image,
+    /// The glass material's own colour texture.
+    Texture,
+    /// Rasterized from the panes' transmitted colours, with lead cames.
+    Mesh,
+}
+
+impl DesignSource {
+    pub fn name(self) -> &'static str {
+        match self {
+            DesignSource::Image => "image",
+            DesignSource::Texture => "material texture",
+            DesignSource::Mesh => "mesh colours",
+        }
+    }
+}
+
+/// What the texture stage cooks for one window.
+#[derive(Clone, Debug, PartialEq)]
+pub struct WindowPlan {
+    pub design: ImageRef,
+    pub source: DesignSource,
+    pub colour_space: pack::ColourSpace,
+    /// A given normal map; `None` derives one from the design.
+    pub normal: Option<(ImageRef, NormalEncoding, GreenAxis)>,
+    pub blur_sigma: Option<f32>,
+    /// Width of the design in texels (the projector's blur is in texels).
+    pub design_width: u32,
+    /// Unit normal into the building.
+    pub inside: [f32; 3],
+    /// The source materials of the window's glass.
+    pub materials: Vec<String>,
+    pub triangles: usize,
+    /// True when the texture coordinates were generated from the window's rectangle.
+    pub planar_uvs: bool,
+}
+
+/// What the window stage found, for `validate`, `info` and reports.
+#[derive(Clone, Debug, Default)]
+pub struct Windows {
+    pub instances: Vec<Instance>,
+    /// Pack material of each instance.
+    pub material: Vec<u16>,
+    /// Materials whose triangles all moved to per-window materials: not reported as unused.
+    pub replaced: Vec<u16>,
+}
+
+fn decode_ref(image: &ImageRef) -> Result<image::RgbaImage, CookError> {
+    let img = match image {
+        ImageRef::File(p) => texture::load_image(p).map_err(CookError::from)?,
+        ImageRef::Embedded { name, bytes } => {
+            image::load_from_memory(bytes).map_err(|e| CookError::Source {
+                path: PathBuf::from(name),
+                line: None,
+                message: format!("cannot decode embedded image: {e}"),
+            })?
+        }
+        ImageRef::Raster { image, .. } => return Ok((**image).clone()),
+    };
+    Ok(img.to_rgba8())
+}
+
+/// The instance's triangles in texture space, each with its pane (index into `panes`), and
+/// the panes: one per source material, in its transmitted colour.
+fn uv_triangles(
+    src: &Imported,
+    inst: &Instance,
+    tri_material: &[u16],
+    tagging: &Tagging,
+    si: usize,
+) -> (Vec<UvTriangle>, Vec<Pane>) {
+    let mut panes: Vec<(Option<u32>, Pane)> = Vec::new();
+    let mut tris = Vec::with_capacity(inst.triangles.len());
+    for &t in &inst.triangles {
+        let part = src.tri_part[t as usize] as usize;
+        let source_material = src.parts[part].material;
+        let pane = match source_material.and_then(|m| src.materials.get(m as usize)) {
+            Some(m) => {
+                let (colour, amount) = m.transmission.transmitted(m.diffuse);
+                Pane { colour, amount }
+            }
+            None => {
+                let m = &tagging.materials[tri_material[t as usize] as usize].material;
+                Pane {
+                    colour: m.diffuse,
+                    amount: 1.0,
+                }
+            }
+        };
+        // Panes are told apart by source material (tagged material when there is none).
+        let key = source_material.or(Some(u32::MAX - tagging.part_material[si][part] as u32));
+        let id = match panes.iter().position(|p| p.0 == key) {
+            Some(i) => i,
+            None => {
+                panes.push((key, pane));
+                panes.len() - 1
+            }
+        };
+        let c = &src.corners[t as usize * 3..t as usize * 3 + 3];
+        let uv = [c[0], c[1], c[2]].map(|k| {
+            if k.t == NONE {
+                [0.0; 2]
+            } else {
+                src.uvs[k.t as usize]
+            }
+        });
+        tris.push((uv, id as u16));
+    }
+    (tris, panes.into_iter().map(|p| p.1).collect())
+}
+
+fn raster(name: String, image: image::RgbaImage) -> ImageRef {
+    ImageRef::Raster {
+        name,
+        image: Arc::new(image),
+    }
+}
+
+/// Runs the window stage: see the module documentation. `overrides` are `--window` entries,
+/// which come before the manifest's. `tri_material` (per source, per triangle) is updated to
+/// the per-window materials.
+pub fn plan(
+    manifest: &Manifest,
+    overrides: &[WindowDesign],
+    sources: &mut [Imported],
+    tagging: &mut Tagging,
+    tri_material: &mut [Vec<u16>],
+    report: &mut Report,
+) -> Result<Windows, CookError> {
+    let entries: Vec<&WindowDesign> = overrides.iter().chain(&manifest.windows).collect();
+    let classes: Vec<MaterialClass> = tagging.materials.iter().map(|m| m.material.class).collect();
+    let names: Vec<String> = tagging
+        .materials
+        .iter()
+        .map(|m| m.material.name.clone())
+        .collect();
+    let material_names =
+        |mats: &[u16]| -> Vec<String> { mats.iter().map(|&m| names[m as usize].clone()).collect() };
+    let entry_for = |name: &str, mats: &[u16]| -> Option<&WindowDesign> {
+        let mn = material_names(mats);
+        entries
+            .iter()
+            .copied()
+            .find(|e| e.matches(name, mn.iter().map(String::as_str)))
+    };
+    let light = manifest.light.as_ref().map(|l| &l.kind);
+    let found = instances::find(
+        sources,
+        tri_material,
+        &classes,
+        &names,
+        light,
+        &|name, mats| entry_for(name, mats).and_then(|e| e.inside),
+    );
+
+    // `--window NAME=image` must name something: a typo would silently cook the old design.
+    for o in overrides {
+        let hit = found.iter().any(|i| {
+            let mats: Vec<u16> = i.materials.iter().map(|m| m.0).collect();
+            o.matches(&i.name, material_names(&mats).iter().map(String::as_str))
+        });
+        if !hit {
+            return Err(CookError::UnknownWindow {
+                pattern: o.name.clone().unwrap_or_default(),
+                known: found.iter().map(|i| i.name.clone()).collect(),
+            });
+        }
+    }
+    for e in &manifest.windows {
+        let hit = found.iter().any(|i| {
+            let mats: Vec<u16> = i.materials.iter().map(|m| m.0).collect();
+            e.matches(&i.name, material_names(&mats).iter().map(String::as_str))
+        });
+        if !hit {
+            report.warnings.push(Warning::new(
+                &manifest.path,
+                Some(e.line.0),
+                format!(
+                    "[[window]] names {}, which matches no window (windows: {}); its design is \
+                     not cooked",
+                    e.describe(),
+                    if found.is_empty() {
+                        "none".to_string()
+                    } else {
+                        found
+                            .iter()
+                            .map(|i| i.name.as_str())
+                            .collect::<Vec<_>>()
+                            .join(", ")
+                    }
+                ),
+            ));
+        }
+    }
+
+    // Heights for upper/lower: floor and wall top from the tagged geometry.
+    let (mut floor, mut wall_top) = (f64::INFINITY, f64::NEG_INFINITY);
+    for (src, mats) in sources.iter().zip(tri_material.iter()) {
+        for (t, &m) in mats.iter().enumerate() {
+            let class = classes[m as usize];
+            for k in 0..3 {
+                let y = src.positions[src.corners[t * 3 + k].p as usize][1] as f64;
+                match class {
+                    MaterialClass::Floor => floor = floor.min(y),
+                    MaterialClass::Wall => wall_top = wall_top.max(y),
+                    _ => {}
+                }
+            }
+        }
+    }
+    // A material placed by an explicit rule keeps its class; heuristics defer to the sill.
+    let mut by_rule = vec![false; tagging.materials.len()];
+    for (si, decisions) in tagging.decisions.iter().enumerate() {
+        for (pi, d) in decisions.iter().enumerate() {
+            if matches!(d, Decision::Rule(_)) {
+                by_rule[tagging.part_material[si][pi] as usize] = true;
+            }
+        }
+    }
+    let mut instance_count = vec![0usize; tagging.materials.len()];
+    for i in &found {
+        for m in &i.materials {
+            instance_count[m.0 as usize] += 1;
+        }
+    }
+
+    let mut out = Windows::default();
+    for inst in &found {
+        let dominant = inst.materials[0].0;
+        let sill = inst
+            .triangles
+            .iter()
+            .flat_map(|&t| {
+                let c = &sources[inst.source].corners[t as usize * 3..t as usize * 3 + 3];
+                [c[0], c[1], c[2]].map(|k| sources[inst.source].positions[k.p as usize][1] as f64)
+            })
+            .fold(f64::INFINITY, f64::min);
+        let class = if by_rule[dominant as usize] || !floor.is_finite() {
+            classes[dominant as usize]
+        } else if wall_top.is_finite() {
+            instances::class_by_sill(sill, floor, wall_top)
+        } else {
+            classes[dominant as usize]
+        };
+        // A window that is all of one material, and the only window of it, keeps the
+        // material; otherwise it gets its own, named after the window.
+        let own = inst.materials.len() == 1 && instance_count[dominant as usize] == 1;
+        let material = if own {
+            tagging.materials[dominant as usize].material.class = class;
+            dominant
+        } else {
+            let mut plan = tagging.materials[dominant as usize].clone();
+            plan.material.name = inst.name.clone();
+            plan.material.class = class;
+            tagging.materials.push(plan);
+            for m in &inst.materials {
+                if !out.replaced.contains(&m.0) {
+                    out.replaced.push(m.0);
+                }
+            }
+            (tagging.materials.len() - 1) as u16
+        };
+        if tagging.materials.len() > u16::MAX as usize + 1 {
+            return Err(CookError::Source {
+                path: sources[inst.source].path.clone(),
+                line: None,
+                message: "more than 65536 materials and windows: material IDs are 16-bit".into(),
+            });
+        }
+        for &t in &inst.triangles {
+            tri_material[inst.source][t as usize] = material;
+        }
+
+        let entry = entry_for(
+            &inst.name,
+            &inst.materials.iter().map(|m| m.0).collect::<Vec<_>>(),
+        );
+        let planar = !inst.has_uvs || entry.is_some_and(|e| e.uv == UvMode::Planar);
+        if planar {
+            instances::write_planar_uvs(&mut sources[inst.source], inst);
+        }
+        let (tris, panes) = uv_triangles(
+            &sources[inst.source],
+            inst,
+            &tri_material[inst.source],
+            tagging,
+            inst.source,
+        );
+        let plan_textures = tagging.materials[material as usize].diffuse_texture.clone();
+        let image = match entry.and_then(|e| e.design.clone()) {
+            Some(p) => Some((ImageRef::File(p), DesignSource::Image)),
+            None if !planar => plan_textures.map(|t| (t, DesignSource::Texture)),
+            None => None,
+        };
+        // A design decoded here for its mask may reach the texture stage only as pixels; the
+        // file is still an input of the cook (and of its cache entry).
+        if let Some((ImageRef::File(p), _)) = &image {
+            report.inputs.push(p.clone());
+        }
+        let fit = entry.map_or(Fit::Cover, |e| e.fit);
+        let (design, source) = match image {
+            Some((img, source)) => {
+                // Named after the image, so windows that mask a design the same way share one
+                // texture (jobs compare names and pixels).
+                let stem = match &img {
+                    ImageRef::File(p) => p
+                        .file_stem()
+                        .map(|s| s.to_string_lossy().into_owned())
+                        .unwrap_or_default(),
+                    other => other.name(),
+                };
+                let name = format!("{stem}.{}", if planar { "fitted" } else { "masked" });
+                if planar {
+                    let mut canvas = design::fit_design(
+                        &decode_ref(&img)?,
+                        fit,
+                        inst.width() / inst.height().max(1e-12),
+                    );
+                    let mask = design::coverage(&tris, canvas.width(), canvas.height());
+                    design::apply_mask(&mut canvas, &mask);
+                    (raster(name, canvas), source)
+                } else {
+                    // With the model's own UVs the design is used as it is, unless it would
+                    // let light through where the window has no glass.
+                    let mut pixels = decode_ref(&img)?;
+                    let mask = design::coverage(&tris, pixels.width(), pixels.height());
+                    if design::light_outside(&pixels, &mask) {
+                        design::apply_mask(&mut pixels, &mask);
+                        (raster(name, pixels), source)
+                    } else {
+                        (img, source)
+                    }
+                }
+            }
+            None => {
+                let (w, h) = design::design_size(
+                    inst.width(),
+                    inst.height(),
+                    entry.map_or(crate::manifest::DEFAULT_TEXELS_PER_METRE, |e| {
+                        e.texels_per_metre
+                    }),
+                );
+                let came = entry.map_or(crate::manifest::DEFAULT_CAME_WIDTH, |e| e.came_width)
+                    * w.min(h) as f32;
+                let img = design::mesh_design(&panes, &tris, w, h, came);
+                (
+                    raster(format!("{}.design", inst.name), img),
+                    DesignSource::Mesh,
+                )
+            }
+        };
+        let design_width = match &design {
+            ImageRef::Raster { image, .. } => image.width(),
+            ImageRef::File(p) => image::image_dimensions(p).map(|d| d.0).unwrap_or(0),
+            ImageRef::Embedded { bytes, .. } => image::load_from_memory(bytes)
+                .map(|i| i.width())
+                .unwrap_or(0),
+        };
+        let src_names: Vec<String> = {
+            let src = &sources[inst.source];
+            let mut v: Vec<String> = Vec::new();
+            for &t in &inst.triangles {
+                let part = &src.parts[src.tri_part[t as usize] as usize];
+                let n = part
+                    .material
+                    .and_then(|m| src.materials.get(m as usize))
+                    .map(|m| m.name.clone())
+                    .or_else(|| part.names.material.clone())
+                    .unwrap_or_else(|| {
+                        names[tagging.part_material[inst.source][src.tri_part[t as usize] as usize]
+                            as usize]
+                            .clone()
+                    });
+                if !v.contains(&n) {
+                    v.push(n);
+                }
+            }
+            v
+        };
+        tagging.materials[material as usize].window = Some(Box::new(WindowPlan {
+            design,
+            source,
+            colour_space: entry.map_or(pack::ColourSpace::Srgb, |e| e.colour_space),
+            normal: entry.and_then(|e| {
+                e.normal_map
+                    .clone()
+                    .map(|n| (ImageRef::File(n), e.normal_encoding, e.green))
+            }),
+            blur_sigma: entry.and_then(|e| e.blur_sigma),
+            design_width,
+            inside: [
+                inst.inside.x as f32,
+                inst.inside.y as f32,
+                inst.inside.z as f32,
+            ],
+            materials: src_names,
+            triangles: inst.triangles.len(),
+            planar_uvs: planar,
+        }));
+        out.material.push(material);
+        if !inst.planar {
+            report.warnings.push(Warning::new(
+                &sources[inst.source].path,
+                None,
+                format!(
+                    "window {:?} is curved: a vertex lies {:.4} from its plane ({:.1}% of its \
+                     size); its projector assumes the fitted plane",
+                    inst.name,
+                    inst.max_deviation,
+                    inst.max_deviation / (inst.width().hypot(inst.height())).max(1e-12) * 100.0
+                ),
+            ));
+        }
+    }
+    out.instances = found;
+    Ok(out)
+}
+
+/// The inside normal of a window material, if the window stage planned it.
+pub fn inside_of(tagging: &Tagging, material: u16) -> Option<DVec3> {
+    let w = tagging.materials.get(material as usize)?.window.as_ref()?;
+    Some(DVec3::new(
+        w.inside[0] as f64,
+        w.inside[1] as f64,
+        w.inside[2] as f64,
+    ))
+}
+
+/// Name of a design texture for reports.
+pub fn design_name(plan: &WindowPlan) -> String {
+    match &plan.design {
+        ImageRef::File(p) => Path::new(p).display().to_string(),
+        other => other.name(),
+    }
+}
