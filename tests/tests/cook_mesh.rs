@@ -403,16 +403,36 @@ fn bad_obj_files_fail_with_file_and_line() {
 
 #[test]
 fn bad_gltf_files_fail_cleanly() {
-    for file in [
-        "bad/gltf/tinygltf/invalid-buffer-index.gltf",
-        "bad/gltf/tinygltf/invalid-buffer-view-index.gltf",
-        "bad/gltf/tinygltf/invalid-primitive-indices.gltf",
-        "bad/gltf/tinygltf/integer-out-of-bounds.gltf",
-        "bad/gltf/gltf-rs/non_sparse_accessor_without_buffer_view.gltf",
-        "bad/gltf/gltf-rs/minimal_accessor_invalid.gltf",
+    for (file, says) in [
+        (
+            "bad/gltf/tinygltf/invalid-buffer-index.gltf",
+            "invalid glTF: bufferViews[1].buffer: Index out of bounds",
+        ),
+        (
+            "bad/gltf/tinygltf/invalid-buffer-view-index.gltf",
+            "invalid glTF: accessors[0].bufferView: Index out of bounds",
+        ),
+        (
+            "bad/gltf/tinygltf/invalid-primitive-indices.gltf",
+            "mesh 0 primitive 0 uses accessor 1, but there are 1",
+        ),
+        (
+            "bad/gltf/tinygltf/integer-out-of-bounds.gltf",
+            "invalid glTF JSON: invalid type: floating point `1e+300`, expected u64",
+        ),
+        (
+            "bad/gltf/gltf-rs/non_sparse_accessor_without_buffer_view.gltf",
+            "invalid glTF: accessors[0].bufferView: Missing data",
+        ),
+        (
+            "bad/gltf/gltf-rs/minimal_accessor_invalid.gltf",
+            "attributes[\"POSITION\"].max: Invalid value",
+        ),
     ] {
         let (_, msg) = source_error(file);
-        assert!(msg.contains(".gltf"), "{msg}");
+        assert!(msg.contains(".gltf") && msg.contains(says), "{msg}");
+        // gltf's validation message starts with the same words the importer would add.
+        assert!(msg.matches("invalid glTF").count() <= 1, "{msg}");
     }
     // JSON errors carry the line.
     let (line, _) = source_error("bad/gltf/tinygltf/integer-out-of-bounds.gltf");
@@ -531,12 +551,19 @@ fn fifo_and_quantized_cooks_are_valid() {
     let extent = (0..3)
         .map(|k| m0.bounds_max[k] - m0.bounds_min[k])
         .fold(0.0f32, f32::max);
+    // Half a step is the rounding bound; f32 decoding adds a few ulps of the coordinates.
+    let magnitude = (0..3).fold(0.0f32, |a, k| {
+        a.max(m0.bounds_min[k].abs()).max(m0.bounds_max[k].abs())
+    });
+    let bound = extent / 65535.0 * 0.5 + 4.0 * f32::EPSILON * magnitude;
     assert!(
-        q.position <= extent / 65535.0,
-        "position error {} for extent {extent}",
+        q.position > 0.0 && q.position <= bound,
+        "position error {} for extent {extent} (bound {bound})",
         q.position
     );
-    assert!(q.normal_deg < 0.01 && q.uv <= 0.5 / 65535.0 + 1e-7, "{q:?}");
+    // Spot's UVs stay floats (below), so they have no quantization error to bound here;
+    // `quantized_uvs_stay_within_half_a_step` checks the quantized case.
+    assert!(q.normal_deg < 0.01 && q.uv == 0.0, "{q:?}");
     // Spot's UVs leave [0, 1], so they stay 32-bit floats: position 8, normal 4, UV 8,
     // material 4; no normal map, so no tangent.
     assert_eq!(m0.layout.stride, 24);
@@ -727,4 +754,89 @@ fn position_bits_bound_the_error_and_the_size() {
     // The bunny has no texture: position + normal + material; 16-bit positions take 8 bytes,
     // 10- and 8-bit ones 4.
     assert_eq!(strides, [16, 12, 12]);
+}
+
+/// UVs inside [0, 1] are stored as unorm16 when quantizing: the reported error is positive,
+/// within half a step, and is what a reader decoding the bytes by hand sees.
+#[test]
+fn quantized_uvs_stay_within_half_a_step() {
+    let dir = tempfile::tempdir().unwrap();
+    // A 9x9 grid whose UVs (multiples of 1/7 and 1/9) fall between unorm16 steps.
+    let mut obj = String::from("usemtl tile\n");
+    for j in 0..9 {
+        for i in 0..9 {
+            obj += &format!(
+                "v {i} {} {j}\nvt {} {}\n",
+                (i * j) % 3,
+                i as f32 / 7.0 % 1.0,
+                j as f32 / 9.0
+            );
+        }
+    }
+    for j in 0..8 {
+        for i in 0..8 {
+            let k = j * 9 + i + 1;
+            obj += &format!("f {k}/{k} {}/{} {}/{}\n", k + 1, k + 1, k + 10, k + 10);
+            obj += &format!("f {k}/{k} {}/{} {}/{}\n", k + 10, k + 10, k + 9, k + 9);
+        }
+    }
+    std::fs::write(dir.path().join("grid.obj"), obj).unwrap();
+    let texture = Path::new(env!("CARGO_MANIFEST_DIR")).join("../assets-src/textures/wall.png");
+    let scene = dir.path().join("grid.toml");
+    std::fs::write(
+        &scene,
+        format!(
+            "[[mesh]]\nsource = \"grid.obj\"\n\n[[rule]]\nmatch = \"tile\"\nclass = \"floor\"\ntexture = {texture:?}\n"
+        ),
+    )
+    .unwrap();
+    let m = Manifest::load(&scene).unwrap();
+    let uvs = |quantize: bool| {
+        let s = Settings {
+            quantize,
+            ..Default::default()
+        };
+        let out = cook::cook(&m, &s).unwrap();
+        let q = out.report.meshes[0].quantization;
+        let mesh = &out.toc.meshes[0];
+        let a = mesh.layout.attribute(pack::Semantic::TexCoord).unwrap();
+        let stride = mesh.layout.stride as usize;
+        let uv: Vec<[f32; 2]> = out.data.meshes[0]
+            .vertices
+            .chunks_exact(stride)
+            .map(|v| {
+                let at = |k: usize| &v[a.offset as usize + k..];
+                match a.format {
+                    pack::AttributeFormat::Float32x2 => std::array::from_fn(|c| {
+                        f32::from_le_bytes(at(4 * c)[..4].try_into().unwrap())
+                    }),
+                    pack::AttributeFormat::Unorm16x2 => std::array::from_fn(|c| {
+                        u16::from_le_bytes(at(2 * c)[..2].try_into().unwrap()) as f32 / 65535.0
+                    }),
+                    f => panic!("UV format {f:?}"),
+                }
+            })
+            .collect();
+        (a.format, q, uv)
+    };
+    let (float_format, _, exact) = uvs(false);
+    let (format, q, quantized) = uvs(true);
+    assert_eq!(float_format, pack::AttributeFormat::Float32x2);
+    assert_eq!(format, pack::AttributeFormat::Unorm16x2);
+    assert_eq!(exact.len(), quantized.len());
+    let worst = exact
+        .iter()
+        .zip(&quantized)
+        .flat_map(|(e, q)| [(e[0] - q[0]).abs(), (e[1] - q[1]).abs()])
+        .fold(0.0f32, f32::max);
+    let half_step = 0.5 / 65535.0;
+    let reported = q.unwrap().uv;
+    assert!(
+        worst > 0.1 * half_step && worst <= half_step * 1.001,
+        "decoded UV error {worst}, half a step {half_step}"
+    );
+    assert!(
+        (reported - worst).abs() <= 1e-7,
+        "reported {reported}, decoded {worst}"
+    );
 }

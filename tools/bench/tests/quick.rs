@@ -85,8 +85,11 @@ fn quick_bench_writes_a_sane_report_and_error_table() {
             }
             assert!(f(&b["rms_lsb"]) <= max && f(&b["time_ms"]) > 0.0, "{b}");
         } else if !b["max_lsb"].is_null() {
+            // 8-bit output cannot be closer than the rounding floor (0.5 LSB) to an
+            // unrounded reference on a non-trivial image; less means the error was not
+            // measured against the reference.
             assert!(
-                f(&b["max_lsb"]).is_finite() && f(&b["max_lsb"]) >= 0.0,
+                f(&b["max_lsb"]).is_finite() && f(&b["max_lsb"]) >= 0.45,
                 "{b}"
             );
         }

@@ -228,13 +228,30 @@ fn names_the_problem_on_bad_input() {
         "{err}"
     );
 
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// On a valid pack, so only the size check can make it fail.
+#[test]
+fn zero_size_is_bad_usage() {
+    let dir = scratch("size");
+    let pack_path = dir.join("tiny.pack");
+    std::fs::write(&pack_path, tiny_pack()).unwrap();
     let o = viewer(&[
         pack_path.as_os_str(),
         "--headless".as_ref(),
+        "--out".as_ref(),
+        dir.join("out").as_os_str(),
         "--size".as_ref(),
         "0x10".as_ref(),
     ]);
-    assert!(!o.status.success());
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(2), "{err}");
+    assert!(
+        err.contains("size 0x10 must be 1..=16384 on each axis"),
+        "{err}"
+    );
+    assert!(!dir.join("out").exists(), "images written for a bad size");
     let _ = std::fs::remove_dir_all(&dir);
 }
 
