@@ -1,9 +1,12 @@
 use std::path::PathBuf;
 
 /// An error reading or writing a pack, naming the file.
+///
+/// The operating system's error is the `source`, not part of the message: `{:#}` of an
+/// `anyhow::Error` prints each link of the chain once.
 #[derive(Debug, thiserror::Error)]
 pub enum PackError {
-    #[error("{}: {source}", path.display())]
+    #[error("{}", path.display())]
     Io {
         path: PathBuf,
         #[source]

@@ -4,15 +4,18 @@ use std::path::PathBuf;
 /// file (where there is one) and the offending value, so a message is actionable on its own.
 #[derive(Debug, thiserror::Error)]
 pub enum TextureError {
-    #[error("{}: cannot read: {source}", path.display())]
+    // The wrapped error is the `source`, printed by whoever prints the chain (`{:#}`).
+    #[error("{}: cannot read", path.display())]
     Io {
         path: PathBuf,
         source: std::io::Error,
     },
-    #[error("{}: cannot decode image: {source}", path.display())]
+    // Not a `source`: image's errors print their own cause in their message and return it
+    // again as their source, so a chain printer would repeat it.
+    #[error("{}: cannot decode image: {error}", path.display())]
     Decode {
         path: PathBuf,
-        source: image::ImageError,
+        error: image::ImageError,
     },
     #[error(
         "{}: image claims {width}x{height} texels, over the limit of {max}x{max}",
@@ -39,7 +42,7 @@ impl TextureError {
             Self::Io { .. } => true,
             // Decoders report a truncated file as an I/O error; that is bad input, not the OS.
             Self::Decode {
-                source: image::ImageError::IoError(e),
+                error: image::ImageError::IoError(e),
                 ..
             } => !matches!(
                 e.kind(),

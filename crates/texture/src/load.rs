@@ -26,9 +26,9 @@ fn reader(path: &Path) -> Result<ImageReader<std::io::BufReader<std::fs::File>>,
 /// bits, grey, RGB, RGBA or palette. The header's size is checked against [`MAX_SIDE`] before
 /// anything is allocated; truncated or corrupt data is a [`TextureError::Decode`] naming the file.
 pub fn load_image(path: &Path) -> Result<DynamicImage, TextureError> {
-    let decode = |source| TextureError::Decode {
+    let decode = |error| TextureError::Decode {
         path: path.to_path_buf(),
-        source,
+        error,
     };
     let (width, height) = reader(path)?.into_dimensions().map_err(decode)?;
     if width > MAX_SIDE || height > MAX_SIDE {

@@ -1,7 +1,11 @@
 //! The `cooker cook` and `cooker validate` command lines: exit codes, messages, no partial packs.
 
+mod common;
+
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
+
+use common::assert_said_once;
 
 /// Runs the cooker; `cook` runs without the cache, so every run cooks and reports its stages.
 fn cooker(args: &[&str]) -> Output {
@@ -113,23 +117,42 @@ fn bad_input_exits_3_with_file_and_line_and_keeps_the_old_pack() {
     let dir = scratch("bad");
     let out = dir.join("scene.pack");
     std::fs::write(&out, b"previous pack").unwrap();
-    for (file, at) in [
-        ("bad/obj/tinyobjloader/test-nan.obj", "test-nan.obj:12:"),
-        ("bad/obj/tobj/invalid_index.obj", "invalid_index.obj:12:"),
+    for (file, at, says) in [
+        (
+            "bad/obj/tinyobjloader/test-nan.obj",
+            "test-nan.obj:12:",
+            "vertex coordinate \"nan\" is not finite",
+        ),
+        (
+            "bad/obj/tobj/invalid_index.obj",
+            "invalid_index.obj:12:",
+            "vertex index 7 is out of range: 6 vertices are defined before this line",
+        ),
         (
             "bad/gltf/tinygltf/integer-out-of-bounds.gltf",
             "integer-out-of-bounds.gltf:34:",
+            "invalid glTF JSON: invalid type: floating point `1e+300`, expected u64",
         ),
         (
             "bad/gltf/tinygltf/invalid-primitive-indices.gltf",
             "invalid-primitive-indices.gltf:",
+            "mesh 0 primitive 0 uses accessor 1, but there are 1",
         ),
     ] {
         let o = cooker(&["cook", &data(file), "-o", out.to_str().unwrap()]);
-        assert_eq!(o.status.code(), Some(3), "{file}: {}", text(&o.stderr));
-        assert!(text(&o.stderr).contains(at), "{file}: {}", text(&o.stderr));
+        let err = text(&o.stderr);
+        assert_eq!(o.status.code(), Some(3), "{file}: {err}");
+        assert!(err.contains(at) && err.contains(says), "{file}: {err}");
+        assert_said_once(&err);
         assert_eq!(std::fs::read(&out).unwrap(), b"previous pack");
     }
+    // One whole line for exit 3: the label, file and line, the reason, nothing else.
+    let nan = data("bad/obj/tinyobjloader/test-nan.obj");
+    let o = cooker(&["cook", &nan, "-o", out.to_str().unwrap()]);
+    assert_eq!(
+        text(&o.stderr),
+        format!("error: {nan}:12: vertex coordinate \"nan\" is not finite\n")
+    );
     let leftovers: Vec<_> = std::fs::read_dir(&dir)
         .unwrap()
         .map(|e| e.unwrap().file_name())
@@ -146,29 +169,31 @@ fn manifest_errors_name_the_line() {
         (
             format!("[[mesh]]\nsource = {obj:?}\ncolour = 1\n"),
             ":3:",
-            "unknown field",
+            "unknown field `colour`",
         ),
         (
             format!("[[mesh]]\nsource = {obj:?}\n\n[[rule]]\nmatch = \"x\"\nclass = \"roof\"\n"),
             ":6:",
-            "roof",
+            "class is \"roof\" but must be one of",
         ),
         (
             "[[mesh]]\nsource = \"nowhere.obj\"\n".to_string(),
             ":2:",
-            "nowhere.obj",
+            "mesh source \"nowhere.obj\" cannot be read",
         ),
         (
             format!("[[mesh]]\nsource = {obj:?}\nscale = \"big\"\n"),
             ":3:",
-            "",
+            // serde's message for the untagged scale names only its internal enum; it should
+            // say "a number or [x, y, z]".
+            "RawScale",
         ),
         (
             format!(
                 "[[mesh]]\nsource = {obj:?}\n[light]\ntype = \"point\"\nposition = [0.0, 1.0, 0.0]\n"
             ),
             ":3:",
-            "radius",
+            "a point light needs `radius`",
         ),
     ];
     for (i, (body, line, word)) in cases.iter().enumerate() {
@@ -187,6 +212,7 @@ fn manifest_errors_name_the_line() {
             "case {i}: {err}"
         );
         assert!(err.contains(word), "case {i}: {err}");
+        assert_said_once(&err);
         assert!(!dir.join("x.pack").exists());
     }
     let _ = std::fs::remove_dir_all(&dir);
@@ -232,6 +258,17 @@ fn missing_input_is_an_io_error() {
         "/tmp/never.pack",
     ]);
     assert_eq!(o.status.code(), Some(4), "{}", text(&o.stderr));
+    // The whole line for exit 4: the path, then the operating system's reason, once.
+    assert_eq!(
+        text(&o.stderr),
+        "error: /nonexistent/dir/scene.obj: No such file or directory (os error 2)\n"
+    );
     let o = cooker(&["cook", "scene.obj"]);
     assert_eq!(o.status.code(), Some(2), "missing -o is bad usage");
+    let err = text(&o.stderr);
+    assert!(
+        err.starts_with("error: the following required arguments were not provided:")
+            && err.contains("--output <OUTPUT>"),
+        "{err}"
+    );
 }

@@ -82,19 +82,36 @@ fn info_exit_codes_for_bad_input_io_and_usage() {
     let o = cooker(&[&"info", &p]);
     assert_eq!(o.status.code(), Some(3), "{}", text(&o));
     assert!(
-        text(&o).contains("bad.pack") && text(&o).contains("checksum"),
+        text(&o).contains("bad.pack: at byte offset") && text(&o).contains("checksum mismatch"),
         "{}",
         text(&o)
     );
 
-    let o = cooker(&[&"info", &dir.path().join("missing.pack")]);
+    let missing = dir.path().join("missing.pack");
+    let o = cooker(&[&"info", &missing]);
     assert_eq!(o.status.code(), Some(4), "{}", text(&o));
-    assert!(text(&o).contains("missing.pack"));
+    assert_eq!(
+        text(&o),
+        format!(
+            "error: {}: No such file or directory (os error 2)\n",
+            missing.display()
+        )
+    );
 
     let o = cooker(&[&"info"]);
     assert_eq!(o.status.code(), Some(2), "{}", text(&o));
+    assert!(
+        text(&o).contains("the following required arguments were not provided"),
+        "{}",
+        text(&o)
+    );
     let o = cooker(&[&"frobnicate"]);
     assert_eq!(o.status.code(), Some(2), "{}", text(&o));
+    assert!(
+        text(&o).contains("unrecognized subcommand 'frobnicate'"),
+        "{}",
+        text(&o)
+    );
 }
 
 #[test]
@@ -145,4 +162,9 @@ fn diff_identical_changed_texel_and_material() {
 
     let o = cooker(&[&"diff", &a, &b, &"--max-error", &"-1"]);
     assert_eq!(o.status.code(), Some(2), "{}", text(&o));
+    assert!(
+        text(&o).contains("unexpected argument '-1'"),
+        "{}",
+        text(&o)
+    );
 }

@@ -737,7 +737,7 @@ impl App {
         if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
             std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
         }
-        pack::write_atomic(path, &png).with_context(|| format!("writing {}", path.display()))?;
+        pack::write_atomic(path, &png).context("writing the screenshot")?;
         self.note(format!("wrote {}", path.display()));
         Ok(())
     }
