@@ -181,6 +181,7 @@ fn unneeded_materials_textures_and_projectors_are_skipped_and_reported() {
 
     // The pack is clean by its own validation: no unused material or texture left in it.
     let check = cooker(&["validate", "out.pack"], d);
+    assert_eq!(check.status.code(), Some(0), "{}", text(&check));
     assert!(!text(&check).contains("unused"), "{}", text(&check));
 }
 
