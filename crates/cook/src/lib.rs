@@ -7,6 +7,7 @@
 pub mod budget;
 pub mod cache;
 pub mod design;
+pub mod guess;
 pub mod import;
 pub mod instances;
 pub mod manifest;
@@ -328,20 +329,38 @@ pub fn cook(manifest: &Manifest, settings: &Settings) -> Result<CookOutput, Cook
 
     // 1–3. Import every source into a triangle soup (errors name file and line); tag source
     // names to pack materials with a class; find the windows in the geometry.
+    let prepared = prepare(manifest, settings, &mut report)?;
+    // A bare model says nothing of light or cameras: use the guesses `cooker init` writes.
+    let guessed;
+    let manifest = if manifest.bare && manifest.light.is_none() {
+        let g = guess::guess(&prepared);
+        let mut m = manifest.clone();
+        m.light = g.light;
+        if m.cameras.is_empty() {
+            m.cameras = g.cameras;
+        }
+        report.warnings.push(Warning::new(
+            &manifest.path,
+            None,
+            format!(
+                "cooking a bare mesh without a scene.toml: materials are tagged by heuristics \
+                 (material transparency, names, geometry), and the light and cameras are \
+                 guessed ({}); `cooker init` writes these guesses into a scene.toml to edit",
+                g.notes.join("; ")
+            ),
+        ));
+        guessed = m;
+        &guessed
+    } else {
+        manifest
+    };
     let Prepared {
         imported,
         import_times,
         mut tagging,
         tri_material,
         windows: found,
-    } = prepare(manifest, settings, &mut report)?;
-    if manifest.bare {
-        report.warnings.push(Warning::new(
-            &manifest.path,
-            None,
-            "cooking a bare mesh without a scene.toml: materials are tagged by name heuristics only",
-        ));
-    }
+    } = prepared;
     report.inputs.push(manifest.path.clone());
     for s in imported.iter() {
         report.warnings.extend(s.warnings.iter().cloned());
@@ -540,22 +559,9 @@ fn prune_materials(
     if used.iter().all(|&u| u) {
         return;
     }
-    let mut remap = vec![u16::MAX; used.len()];
-    let mut next = 0u16;
-    for (old, &u) in used.iter().enumerate() {
-        if u {
-            remap[old] = next;
-            next += 1;
-        }
-    }
-    let old = std::mem::take(&mut tagging.materials);
-    for (i, (plan, &u)) in old.into_iter().zip(&used).enumerate() {
-        if u {
-            tagging.materials.push(plan);
-            continue;
-        }
+    for (i, (plan, &u)) in tagging.materials.iter().zip(&used).enumerate() {
         // Its triangles now belong to per-window materials.
-        if replaced.contains(&(i as u16)) {
+        if u || replaced.contains(&(i as u16)) {
             continue;
         }
         let mut textures: Vec<String> = [&plan.diffuse_texture, &plan.normal_texture]
@@ -579,7 +585,39 @@ fn prune_materials(
             nor_textures(&textures)
         ));
     }
-    // Parts of a pruned material have no triangles; they map to no material at all.
+    renumber(&used, tagging, processed);
+}
+
+/// Removes the `replaced` materials (their triangles moved to per-window materials) from
+/// the table and renumbers material IDs, as [`prune_materials`] does for the cook.
+pub(crate) fn drop_replaced(
+    replaced: &[u16],
+    tagging: &mut tag::Tagging,
+    processed: &mut [mesh::Processed],
+) {
+    let keep: Vec<bool> = (0..tagging.materials.len())
+        .map(|i| !replaced.contains(&(i as u16)))
+        .collect();
+    renumber(&keep, tagging, processed);
+}
+
+/// Keeps the materials marked in `keep`, in order, and renumbers every reference to them.
+fn renumber(keep: &[bool], tagging: &mut tag::Tagging, processed: &mut [mesh::Processed]) {
+    let mut remap = vec![u16::MAX; keep.len()];
+    let mut next = 0u16;
+    for (old, &k) in keep.iter().enumerate() {
+        if k {
+            remap[old] = next;
+            next += 1;
+        }
+    }
+    let old = std::mem::take(&mut tagging.materials);
+    tagging.materials = old
+        .into_iter()
+        .zip(keep)
+        .filter(|(_, k)| **k)
+        .map(|(m, _)| m)
+        .collect();
     for parts in &mut tagging.part_material {
         for m in parts.iter_mut() {
             *m = remap[*m as usize];

@@ -317,20 +317,30 @@ pub fn validate_scene(manifest: &Manifest) -> Result<Validation, CookError> {
         textures: false,
         ..Default::default()
     };
-    let views: Vec<MeshView> = sources
+    let mut processed: Vec<mesh::Processed> = sources
         .iter()
         .zip(&tri_material)
+        .map(|(src, tm)| mesh::process(src, tm, &needs, &settings.mesh))
+        .collect();
+    // Materials whose triangles all went to per-window materials are gone, as in the cook;
+    // materials without triangles for other reasons stay, so they are reported below.
+    let mut tagging = tagging;
+    crate::drop_replaced(&found.replaced, &mut tagging, &mut processed);
+    let materials: Vec<pack::Material> = tagging
+        .materials
+        .iter()
+        .map(|m| m.material.clone())
+        .collect();
+    let views: Vec<MeshView> = processed
+        .into_iter()
         .zip(&manifest.meshes)
-        .map(|((src, tm), m)| {
-            let p = mesh::process(src, tm, &needs, &settings.mesh);
-            MeshView {
-                name: m.name.clone(),
-                positions: p.vertices.iter().map(|v| v.position).collect(),
-                uvs: p.vertices.iter().map(|v| v.uv).collect(),
-                materials: p.vertices.iter().map(|v| v.material[0]).collect(),
-                indices: p.indices,
-                ranges: p.ranges,
-            }
+        .map(|(p, m)| MeshView {
+            name: m.name.clone(),
+            positions: p.vertices.iter().map(|v| v.position).collect(),
+            uvs: p.vertices.iter().map(|v| v.uv).collect(),
+            materials: p.vertices.iter().map(|v| v.material[0]).collect(),
+            indices: p.indices,
+            ranges: p.ranges,
         })
         .collect();
     let has_design: Vec<bool> = tagging

@@ -9,6 +9,7 @@ mod diff;
 mod exit;
 mod extract;
 mod info;
+mod init;
 mod scene_cache;
 mod validate;
 
@@ -27,6 +28,8 @@ enum Command {
     Info(info::Args),
     /// Cook a scene (or a bare OBJ/glTF file) into a pack.
     Cook(cook::Args),
+    /// Write a starter scene.toml for a model: rules, windows, sun and cameras it guesses.
+    Init(init::Args),
     /// Check material tagging and window geometry of a scene or a pack.
     Validate(validate::Args),
     /// Compare two packs: per section, geometry, and per texture level error.
@@ -51,6 +54,7 @@ fn main() {
     let result = match cli.command {
         Command::Info(args) => info::run(args),
         Command::Cook(args) => cook::run(args),
+        Command::Init(args) => init::run(args),
         Command::Validate(args) => validate::run(args),
         Command::Diff(args) => diff::run(args),
         Command::Extract(args) => extract::run(args),

@@ -1,0 +1,283 @@
+//! What a bare model does not say: a sun whose light, through the windows, lands on the floor,
+//! and a few cameras inside the building. `cooker init` writes these into a starter manifest,
+//! and a bare `cooker cook model.obj` uses them directly, so a model from another tool shows
+//! stained-glass light without hand edits.
+
+use glam::{DVec2, DVec3, Vec3Swizzles};
+use pack::MaterialClass;
+
+use crate::Prepared;
+use crate::manifest::{Camera, Light};
+
+/// The sun's angular diameter.
+const SUN_DEG: f32 = 0.53;
+/// Cells per side of the floor's footprint grid.
+const GRID: usize = 256;
+
+/// The guessed light and cameras, and what decided them.
+#[derive(Clone, Debug)]
+pub struct Guess {
+    pub light: Option<Light>,
+    pub cameras: Vec<Camera>,
+    pub notes: Vec<String>,
+}
+
+/// The floor's footprint seen from above, for "does this ray land on the floor".
+struct Footprint {
+    lo: DVec2,
+    cell: DVec2,
+    y: f64,
+    covered: Vec<bool>,
+}
+
+impl Footprint {
+    fn new(tris: &[[DVec3; 3]]) -> Option<Self> {
+        let mut lo = DVec2::splat(f64::INFINITY);
+        let mut hi = DVec2::splat(f64::NEG_INFINITY);
+        let mut y = 0.0;
+        let mut area = 0.0;
+        for t in tris {
+            for p in t {
+                lo = lo.min(p.xz());
+                hi = hi.max(p.xz());
+            }
+            let a = (t[1] - t[0]).cross(t[2] - t[0]).length() * 0.5;
+            y += a * (t[0].y + t[1].y + t[2].y) / 3.0;
+            area += a;
+        }
+        if !(area > 0.0) || !(hi.x > lo.x) || !(hi.y > lo.y) {
+            return None;
+        }
+        let cell = (hi - lo) / GRID as f64;
+        let mut covered = vec![false; GRID * GRID];
+        for t in tris {
+            let q = t.map(|p| (p.xz() - lo) / cell);
+            let (x0, x1) = (
+                q.iter().map(|p| p.x).fold(f64::INFINITY, f64::min),
+                q.iter().map(|p| p.x).fold(f64::NEG_INFINITY, f64::max),
+            );
+            let (z0, z1) = (
+                q.iter().map(|p| p.y).fold(f64::INFINITY, f64::min),
+                q.iter().map(|p| p.y).fold(f64::NEG_INFINITY, f64::max),
+            );
+            let area2 = (q[1] - q[0]).perp_dot(q[2] - q[0]);
+            for z in (z0.floor().max(0.0) as usize)..(z1.ceil().min(GRID as f64) as usize) {
+                for x in (x0.floor().max(0.0) as usize)..(x1.ceil().min(GRID as f64) as usize) {
+                    let c = DVec2::new(x as f64 + 0.5, z as f64 + 0.5);
+                    let e = |a: DVec2, b: DVec2| (b - a).perp_dot(c - a) * area2.signum();
+                    if area2 != 0.0
+                        && e(q[0], q[1]) >= 0.0
+                        && e(q[1], q[2]) >= 0.0
+                        && e(q[2], q[0]) >= 0.0
+                    {
+                        covered[z * GRID + x] = true;
+                    }
+                }
+            }
+        }
+        Some(Self {
+            lo,
+            cell,
+            y: y / area,
+            covered,
+        })
+    }
+
+    /// Where a ray from `p` along `d` (downwards) meets the floor, if it lands on it.
+    fn land(&self, p: DVec3, d: DVec3) -> Option<DVec3> {
+        if d.y >= -1e-6 || p.y <= self.y {
+            return None;
+        }
+        let hit = p + d * ((self.y - p.y) / d.y);
+        let c = (hit.xz() - self.lo) / self.cell;
+        if c.x < 0.0 || c.y < 0.0 || c.x >= GRID as f64 || c.y >= GRID as f64 {
+            return None;
+        }
+        self.covered[c.y as usize * GRID + c.x as usize].then_some(hit)
+    }
+}
+
+fn f3(v: DVec3) -> [f32; 3] {
+    [v.x as f32, v.y as f32, v.z as f32]
+}
+
+/// Guesses a sun and cameras for the prepared scene (see the module documentation). The sun
+/// is the direction, among 5 elevations × 24 azimuths, through which the most window area
+/// (sampled on a 5 × 5 grid of each window's rectangle) lands on the floor, ties going to
+/// elevations near 45°. Occluders between a window and the floor are not considered.
+pub fn guess(p: &Prepared) -> Guess {
+    let mut notes = Vec::new();
+    let classes: Vec<MaterialClass> = p
+        .tagging
+        .materials
+        .iter()
+        .map(|m| m.material.class)
+        .collect();
+    let mut floor_tris = Vec::new();
+    let mut lo = DVec3::splat(f64::INFINITY);
+    let mut hi = DVec3::splat(f64::NEG_INFINITY);
+    for (src, mats) in p.imported.iter().zip(&p.tri_material) {
+        for (t, &m) in mats.iter().enumerate() {
+            let tri = [0, 1, 2].map(|k| {
+                let q = src.positions[src.corners[t * 3 + k].p as usize];
+                DVec3::new(q[0] as f64, q[1] as f64, q[2] as f64)
+            });
+            if classes[m as usize] == MaterialClass::Background {
+                continue;
+            }
+            for q in tri {
+                lo = lo.min(q);
+                hi = hi.max(q);
+            }
+            if classes[m as usize] == MaterialClass::Floor {
+                floor_tris.push(tri);
+            }
+        }
+    }
+    if !lo.is_finite() {
+        return Guess {
+            light: None,
+            cameras: Vec::new(),
+            notes: vec!["the model has no geometry to light".into()],
+        };
+    }
+    let diag = (hi - lo).length().max(1e-6);
+    let floor = Footprint::new(&floor_tris);
+    let windows = &p.windows.instances;
+
+    // The sun: the most window area landing on the floor.
+    let mut best: Option<(f64, DVec3)> = None;
+    if let Some(fp) = &floor {
+        for el in [25.0f64, 35.0, 45.0, 55.0, 65.0] {
+            for az in 0..24 {
+                let (e, a) = (el.to_radians(), (az as f64 * 15.0).to_radians());
+                let d = DVec3::new(e.cos() * a.sin(), -e.sin(), e.cos() * a.cos());
+                let mut score = 0.0;
+                for w in windows {
+                    if w.inside.dot(d) <= 0.05 {
+                        continue;
+                    }
+                    let mut landed = 0;
+                    for i in 0..5 {
+                        for j in 0..5 {
+                            let q = w.origin
+                                + w.right * ((i as f64 + 0.5) / 5.0)
+                                + w.up * ((j as f64 + 0.5) / 5.0);
+                            landed += fp.land(q, d).is_some() as u32;
+                        }
+                    }
+                    score += w.area * landed as f64 / 25.0 * w.inside.dot(d);
+                }
+                // Ties (and near ties) go to a sun near 45°, which casts patches of a sensible
+                // length.
+                let score = score * (1.0 - 0.002 * (el - 45.0).abs());
+                if score > 0.0 && best.is_none_or(|b| score > b.0) {
+                    best = Some((score, d));
+                }
+            }
+        }
+    }
+    let light = match best {
+        Some((_, d)) => {
+            notes.push(format!(
+                "sun direction [{:.3}, {:.3}, {:.3}]: the most window light lands on the floor",
+                d.x, d.y, d.z
+            ));
+            Some(d)
+        }
+        None if windows.is_empty() => {
+            notes.push("no windows found: a default sun, which lights nothing through glass".into());
+            Some(DVec3::new(-0.4, -0.8, 0.45).normalize())
+        }
+        None => {
+            notes.push(
+                "no sun direction lands window light on a floor (no floor found, or the windows face away): a default sun through the largest window".into(),
+            );
+            let w = windows.iter().max_by(|a, b| a.area.total_cmp(&b.area));
+            Some(w.map_or(DVec3::new(-0.4, -0.8, 0.45), |w| (w.inside - DVec3::Y).normalize()))
+        }
+    }
+    .map(|d| Light {
+        kind: pack::LightKind::Directional {
+            direction: f3(d),
+            angular_size: SUN_DEG.to_radians(),
+        },
+        colour: [1.0, 0.95, 0.85],
+        intensity: 4.0,
+    });
+
+    // Cameras at eye height above the floor (or the model's bottom), inside its footprint.
+    let floor_y = floor.as_ref().map_or(lo.y, |f| f.y);
+    let eye = floor_y + ((hi.y - floor_y) * 0.12).clamp(diag * 0.002, 2.0).max(0.01);
+    let centre = match &floor {
+        Some(f) => {
+            let c = f.lo + f.cell * (GRID as f64 / 2.0);
+            DVec3::new(c.x, eye, c.y)
+        }
+        None => DVec3::new((lo.x + hi.x) / 2.0, eye, (lo.z + hi.z) / 2.0),
+    };
+    let camera = |name: &str, position: DVec3, target: DVec3| Camera {
+        name: name.into(),
+        position: f3(position),
+        target: f3(target),
+        up: [0.0, 1.0, 0.0],
+        fov_y: 60f32.to_radians(),
+        near: (diag * 1e-4).max(0.01) as f32,
+        far: (diag * 3.0) as f32,
+    };
+    let mut cameras = Vec::new();
+    // Along the longer horizontal axis, from one end towards the other.
+    let long_x = hi.x - lo.x >= hi.z - lo.z;
+    let (a, b) = if long_x {
+        (
+            DVec3::new(lo.x + 0.1 * (hi.x - lo.x), eye, centre.z),
+            DVec3::new(hi.x, eye, centre.z),
+        )
+    } else {
+        (
+            DVec3::new(centre.x, eye, lo.z + 0.1 * (hi.z - lo.z)),
+            DVec3::new(centre.x, eye, hi.z),
+        )
+    };
+    cameras.push(camera("nave", a, b));
+    let mut by_area: Vec<&crate::instances::Instance> = windows.iter().collect();
+    by_area.sort_by(|x, y| y.area.total_cmp(&x.area));
+    if let Some(w) = by_area.first() {
+        let target = w.origin + (w.right + w.up) * 0.5;
+        // From inside: back from the window along its inside normal, at eye height.
+        let back = (w.width().max(w.height()) * 1.5).max(diag * 0.05);
+        let mut pos = target + w.inside * back;
+        pos.y = eye;
+        cameras.push(camera("windows", pos, target));
+        if let (Some(fp), Some(l)) = (&floor, &light)
+            && let pack::LightKind::Directional { direction, .. } = l.kind
+        {
+            let d = DVec3::new(
+                direction[0] as f64,
+                direction[1] as f64,
+                direction[2] as f64,
+            );
+            let lit = by_area
+                .iter()
+                .find_map(|w| fp.land(w.origin + (w.right + w.up) * 0.5, d));
+            if let Some(spot) = lit {
+                let away = DVec3::new(d.x, 0.0, d.z).normalize_or_zero();
+                let mut pos = spot + away * (hi.y - floor_y).max(diag * 0.05) * 0.8;
+                // Kept inside the model's footprint.
+                pos.x = pos
+                    .x
+                    .clamp(lo.x + 0.05 * (hi.x - lo.x), hi.x - 0.05 * (hi.x - lo.x));
+                pos.z = pos
+                    .z
+                    .clamp(lo.z + 0.05 * (hi.z - lo.z), hi.z - 0.05 * (hi.z - lo.z));
+                pos.y = eye;
+                cameras.push(camera("lit-floor", pos, spot));
+            }
+        }
+    }
+    Guess {
+        light,
+        cameras,
+        notes,
+    }
+}

@@ -1,0 +1,267 @@
+//! `cooker init <mesh> [-o scene.toml] [--force]`: a starter manifest from what the cook
+//! guesses about a model: tagging rules, the windows found in the geometry, a sun whose light
+//! lands on the floor through them, and cameras inside the building.
+
+use std::fmt::Write as _;
+use std::path::{Path, PathBuf};
+
+use cook::Manifest;
+use cook::tag::Decision;
+use pack::MaterialClass;
+
+use crate::exit::{OK, Outcome, UsageError};
+
+#[derive(clap::Args)]
+pub struct Args {
+    /// The model: an .obj, .gltf or .glb file.
+    mesh: PathBuf,
+    /// The manifest to write (default: scene.toml beside the model).
+    #[arg(short, long)]
+    output: Option<PathBuf>,
+    /// Replace an existing manifest.
+    #[arg(long)]
+    force: bool,
+}
+
+fn quote(s: &str) -> String {
+    toml::Value::String(s.to_string()).to_string()
+}
+
+/// A glob that matches exactly `s`: each metacharacter in a class of its own.
+fn literal_glob(s: &str) -> String {
+    let mut out = String::with_capacity(s.len());
+    for c in s.chars() {
+        match c {
+            '*' | '?' | '[' | ']' | '{' | '}' | '!' | '\\' | ',' => {
+                out.push('[');
+                out.push(c);
+                out.push(']');
+            }
+            c => out.push(c),
+        }
+    }
+    out
+}
+
+fn vec3(v: [f32; 3]) -> String {
+    format!("[{:.4}, {:.4}, {:.4}]", v[0], v[1], v[2])
+}
+
+/// The path to write for `mesh` in a manifest in `dir`: relative when the mesh lies under it.
+fn relative(mesh: &Path, dir: &Path) -> String {
+    let abs = |p: &Path| std::fs::canonicalize(p).unwrap_or_else(|_| p.to_path_buf());
+    let (m, d) = (abs(mesh), abs(dir));
+    m.strip_prefix(&d)
+        .map(|r| r.to_string_lossy().replace('\\', "/"))
+        .unwrap_or_else(|_| m.to_string_lossy().into_owned())
+}
+
+pub fn run(args: Args) -> Outcome {
+    let output = args
+        .output
+        .clone()
+        .unwrap_or_else(|| args.mesh.with_file_name("scene.toml"));
+    if output.exists() && !args.force {
+        return Err(UsageError(format!(
+            "{} exists; pass --force to replace it",
+            output.display()
+        ))
+        .into());
+    }
+    let manifest = Manifest::from_mesh_file(&args.mesh)?;
+    let mut report = cook::Report::default();
+    let prepared = cook::prepare(&manifest, &cook::Settings::default(), &mut report)?;
+    let guess = cook::guess::guess(&prepared);
+    for w in prepared
+        .imported
+        .iter()
+        .flat_map(|s| &s.warnings)
+        .chain(&report.warnings)
+    {
+        eprintln!("warning: {w}");
+    }
+
+    let dir = output
+        .parent()
+        .filter(|p| !p.as_os_str().is_empty())
+        .unwrap_or(Path::new("."));
+    let stem = args
+        .mesh
+        .file_stem()
+        .map(|s| s.to_string_lossy().into_owned())
+        .unwrap_or_default();
+    let mut t = String::new();
+    let _ = writeln!(
+        t,
+        "# Written by `cooker init {}`: what the cook guessed about the model. Edit freely;\n\
+         # explicit rules win over every heuristic (docs/scene-manifest.md).\n",
+        args.mesh.display()
+    );
+    let _ = writeln!(t, "[scene]\nname = {}\n", quote(&stem));
+    let _ = writeln!(
+        t,
+        "[[mesh]]\nsource = {}\n",
+        quote(&relative(&args.mesh, dir))
+    );
+
+    // Rules: one per deciding name, in the order the parts appear.
+    let _ = writeln!(
+        t,
+        "# Tagging rules, first match wins: one per name the guesses rest on."
+    );
+    let mut written: Vec<(cook::manifest::NameKind, String)> = Vec::new();
+    let mut glass: Vec<String> = Vec::new();
+    for (si, src) in prepared.imported.iter().enumerate() {
+        let mut used = vec![false; src.parts.len()];
+        for &p in &src.tri_part {
+            used[p as usize] = true;
+        }
+        for (pi, part) in src.parts.iter().enumerate() {
+            if !used[pi] {
+                continue;
+            }
+            let decision = &prepared.tagging.decisions[si][pi];
+            let class = prepared.tagging.materials[prepared.tagging.part_material[si][pi] as usize]
+                .material
+                .class;
+            let why = decision.reason().unwrap_or_default();
+            if class.is_window() {
+                let line = format!("{}: {why}", part.names.describe());
+                if !glass.contains(&line) {
+                    glass.push(line);
+                }
+                continue;
+            }
+            let (kind, name) = match decision {
+                Decision::Heuristic { kind, name, .. } => (*kind, name.clone()),
+                _ => match cook::manifest::NameKind::ALL
+                    .iter()
+                    .find_map(|&k| part.names.get(k).map(|n| (k, n.to_string())))
+                {
+                    Some(kn) => kn,
+                    None => continue,
+                },
+            };
+            if written.contains(&(kind, name.clone())) {
+                continue;
+            }
+            written.push((kind, name.clone()));
+            let _ = writeln!(
+                t,
+                "[[rule]]\nmatch = {}\non = [{}]\nclass = {}    # {}\n",
+                quote(&literal_glob(&name)),
+                quote(kind.name()),
+                quote(class.name()),
+                why.replace('\n', " ")
+            );
+        }
+    }
+    if !glass.is_empty() {
+        let _ = writeln!(
+            t,
+            "# Glass, left to the heuristics so each window is classed upper or lower by its sill:"
+        );
+        for g in &glass {
+            let _ = writeln!(t, "#   {g}");
+        }
+        let _ = writeln!(t);
+    }
+
+    // Windows.
+    let _ = writeln!(
+        t,
+        "# Windows found in the geometry. Without `design` each gets one rasterized from its\n\
+         # panes' colours; `design = \"image.png\"` (with `fit = \"cover\"|\"contain\"|\"stretch\"`)\n\
+         # uses an image instead."
+    );
+    for (inst, &m) in prepared
+        .windows
+        .instances
+        .iter()
+        .zip(&prepared.windows.material)
+    {
+        let plan = prepared.tagging.materials[m as usize].window.as_deref();
+        let c = inst.origin + (inst.right + inst.up) * 0.5;
+        let _ = writeln!(
+            t,
+            "# {:.2} x {:.2}, centre {}, {} triangles of {}; inside: {}",
+            inst.width(),
+            inst.height(),
+            vec3([c.x as f32, c.y as f32, c.z as f32]),
+            inst.triangles.len(),
+            plan.map(|p| p.materials.join(", ")).unwrap_or_default(),
+            inst.inside_reason
+        );
+        let _ = writeln!(
+            t,
+            "[[window]]\nname = {}\n",
+            quote(&literal_glob(&inst.name))
+        );
+    }
+
+    if let Some(l) = &guess.light {
+        for n in &guess.notes {
+            let _ = writeln!(t, "# {n}");
+        }
+        match l.kind {
+            pack::LightKind::Directional {
+                direction,
+                angular_size,
+            } => {
+                let _ = writeln!(
+                    t,
+                    "[light]\ntype = \"directional\"\ndirection = {}\nangular_size_deg = {:.3}\ncolour = {}\nintensity = {}\n",
+                    vec3(direction),
+                    angular_size.to_degrees(),
+                    vec3(l.colour),
+                    l.intensity
+                );
+            }
+            pack::LightKind::Point { position, radius } => {
+                let _ = writeln!(
+                    t,
+                    "[light]\ntype = \"point\"\nposition = {}\nradius = {radius}\ncolour = {}\nintensity = {}\n",
+                    vec3(position),
+                    vec3(l.colour),
+                    l.intensity
+                );
+            }
+        }
+    }
+    for c in &guess.cameras {
+        let _ = writeln!(
+            t,
+            "[[camera]]\nname = {}\nposition = {}\ntarget = {}\nfov_y_deg = {:.1}\nnear = {}\nfar = {}\n",
+            quote(&c.name),
+            vec3(c.position),
+            vec3(c.target),
+            c.fov_y.to_degrees(),
+            c.near,
+            c.far
+        );
+    }
+
+    // The manifest must parse as written: a guess that does not is a bug here, not the user's.
+    Manifest::parse(&output, &t).map_err(|e| {
+        anyhow::anyhow!("the starter manifest does not parse (a bug in cooker init): {e}")
+    })?;
+    pack::write_atomic(&output, t.as_bytes())?;
+    let windows = prepared.windows.instances.len();
+    let classes = |c: MaterialClass| {
+        prepared
+            .tagging
+            .materials
+            .iter()
+            .filter(|m| m.material.class == c)
+            .count()
+    };
+    println!(
+        "wrote {}: {} rules, {windows} windows, {} floor and {} wall materials, {} cameras",
+        output.display(),
+        written.len(),
+        classes(MaterialClass::Floor),
+        classes(MaterialClass::Wall),
+        guess.cameras.len()
+    );
+    Ok(OK)
+}
