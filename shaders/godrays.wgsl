@@ -12,12 +12,20 @@ struct GodRays {
     light: vec4<f32>,
     // rgb: light colour * intensity * exposure * view fade.
     colour: vec4<f32>,
-    // x: density, y: ln(decay) per unit march, z: weight per unit march, w: max march length.
-    params: vec4<f32>,
-    // x: aspect (width / height), y: jitter (0 or 1), z: max output value.
-    screen: vec4<f32>,
-    // x: samples, y: frame seed.
-    config: vec4<u32>,
+    density: f32,
+    // Per unit of march, like `weight`.
+    ln_decay: f32,
+    weight: f32,
+    max_length: f32,
+    // width / height.
+    aspect: f32,
+    // 0 or 1.
+    jitter: f32,
+    max_output: f32,
+    pad0: f32,
+    samples: u32,
+    seed: u32,
+    pad1: vec2<u32>,
 }
 
 @group(0) @binding(0) var<uniform> rays: GodRays;
@@ -39,12 +47,12 @@ fn fs_main(in: FullscreenOut) -> @location(0) vec4<f32> {
     if (!(lw > 0.0)) {
         return vec4<f32>(0.0, 0.0, 0.0, 1.0);
     }
-    let aspect = rays.screen.x;
+    let aspect = rays.aspect;
     let p = vec2<f32>((in.uv.x * 2.0 - 1.0) * aspect, 1.0 - in.uv.y * 2.0);
     let d = rays.light.xy - p * lw;
     let dl = length(d);
-    let density = rays.params.x;
-    let max_length = rays.params.w;
+    let density = rays.density;
+    let max_length = rays.max_length;
     var march = 0.0;
     var dir = vec2<f32>(0.0);
     if (dl > 0.0) {
@@ -52,14 +60,14 @@ fn fs_main(in: FullscreenOut) -> @location(0) vec4<f32> {
         // min(density * dl / lw, max_length) without dividing by a small w.
         march = select(density * dl / lw, max_length, density * dl >= max_length * lw);
     }
-    let samples = max(rays.config.x, 1u);
+    let samples = max(rays.samples, 1u);
     let n = f32(samples);
     var offset = 0.5;
-    if (rays.screen.y > 0.0) {
-        offset = hash(vec2<u32>(in.clip.xy), rays.config.y);
+    if (rays.jitter > 0.0) {
+        offset = hash(vec2<u32>(in.clip.xy), rays.seed);
     }
-    let ln_decay = rays.params.y;
-    let weight = rays.params.z / n;
+    let ln_decay = rays.ln_decay;
+    let weight = rays.weight / n;
     var sum = vec3<f32>(0.0);
     for (var i = 0u; i < samples; i = i + 1u) {
         let t = (f32(i) + offset) / n;
@@ -71,6 +79,6 @@ fn fs_main(in: FullscreenOut) -> @location(0) vec4<f32> {
             sum = sum + m * (weight * exp(ln_decay * t));
         }
     }
-    let out = clamp(sum * rays.colour.rgb, vec3<f32>(0.0), vec3<f32>(rays.screen.z));
+    let out = clamp(sum * rays.colour.rgb, vec3<f32>(0.0), vec3<f32>(rays.max_output));
     return vec4<f32>(out, 1.0);
 }

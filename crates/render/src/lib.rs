@@ -19,6 +19,7 @@ pub use renderer::{
     god_ray_falloff, read_texture, target_image,
 };
 pub use scene::{LoadStatus, SMALL_MIP_BYTES, Scene};
+pub use uniforms::MAX_GOD_RAY_SAMPLES;
 pub use view::{GodRaySettings, LightGeometry, View};
 
 /// A renderer failure, with the values involved.

@@ -3,8 +3,8 @@
 use glam::Vec3;
 
 use crate::passes::{
-    BackgroundPass, CompositePass, DEPTH, GodRayPass, HDR, LitPass, WindowMaskPass,
-    WindowNormalPass, frame_layout, geometry_layout,
+    Colour, CompositeInputs, CompositePass, DEPTH, GeometryPass, GodRayPass, HDR, frame_layout,
+    geometry_layout, uniform_buffer,
 };
 use crate::uniforms;
 use crate::view::{
@@ -245,10 +245,10 @@ pub struct Renderer {
     frame_group: Option<(u64, wgpu::BindGroup)>,
     linear_clamp: wgpu::Sampler,
     nearest_clamp: wgpu::Sampler,
-    background: BackgroundPass,
-    mask: WindowMaskPass,
-    normals: WindowNormalPass,
-    lit: LitPass,
+    background: GeometryPass,
+    mask: GeometryPass,
+    normals: GeometryPass,
+    lit: GeometryPass,
     rays: GodRayPass,
     composite: CompositePass,
     timestamps: Option<Timestamps>,
@@ -288,14 +288,6 @@ impl Renderer {
         let device = &gpu.device;
         let frame_layout = frame_layout(device);
         let layout = geometry_layout(device, &frame_layout, &scene.material_layout);
-        let buffer = |label, size: usize| {
-            device.create_buffer(&wgpu::BufferDescriptor {
-                label: Some(label),
-                size: size as u64,
-                usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
-                mapped_at_creation: false,
-            })
-        };
         let clamp_sampler = |filter| {
             device.create_sampler(&wgpu::SamplerDescriptor {
                 mag_filter: filter,
@@ -335,16 +327,20 @@ impl Renderer {
             ),
             settings,
             output_format,
-            frame_buffer: buffer("frame", std::mem::size_of::<uniforms::Frame>()),
-            windows_buffer: buffer("windows", std::mem::size_of::<uniforms::Windows>()),
+            frame_buffer: uniform_buffer(device, "frame", std::mem::size_of::<uniforms::Frame>()),
+            windows_buffer: uniform_buffer(
+                device,
+                "windows",
+                std::mem::size_of::<uniforms::Windows>(),
+            ),
             frame_layout,
             frame_group: None,
             linear_clamp: clamp_sampler(wgpu::FilterMode::Linear),
             nearest_clamp: clamp_sampler(wgpu::FilterMode::Nearest),
-            background: BackgroundPass::new(device, &layout),
-            mask: WindowMaskPass::new(device, &layout),
-            normals: WindowNormalPass::new(device, &layout),
-            lit: LitPass::new(device, &layout),
+            background: GeometryPass::background(device, &layout),
+            mask: GeometryPass::window_mask(device, &layout),
+            normals: GeometryPass::window_normals(device, &layout),
+            lit: GeometryPass::lit(device, &layout),
             rays: GodRayPass::new(device),
             composite: CompositePass::new(device, output_format),
             timestamps,
@@ -545,8 +541,7 @@ impl Renderer {
         gpu.queue
             .write_buffer(&self.windows_buffer, 0, bytemuck::bytes_of(&windows));
         if let Some(r) = rays {
-            gpu.queue
-                .write_buffer(&self.rays.uniforms, 0, bytemuck::bytes_of(&r));
+            self.rays.write_uniforms(&gpu.queue, &r);
         }
         let comp = uniforms::Composite {
             params: [
@@ -562,8 +557,7 @@ impl Renderer {
                 plan.windows as u32,
             ],
         };
-        gpu.queue
-            .write_buffer(&self.composite.uniforms, 0, bytemuck::bytes_of(&comp));
+        self.composite.write_uniforms(&gpu.queue, &comp);
         if self.frame_group.as_ref().map(|(g, _)| *g) != Some(scene.generation()) {
             let entries = [
                 wgpu::BindGroupEntry {
@@ -603,6 +597,7 @@ impl Renderer {
             })
     }
 
+    /// Records one pass: the frame graph's part is which targets each pass reads and writes.
     fn record(&self, pass: PassId, encoder: &mut wgpu::CommandEncoder, rec: &Recording<'_>) {
         let Recording {
             gpu,
@@ -611,7 +606,14 @@ impl Renderer {
             output,
             timed,
         } = *rec;
-        let background_colour = {
+        let ts = if timed {
+            self.timestamp_writes(pass)
+        } else {
+            None
+        };
+        let t = &self.targets;
+        let frame = &self.frame_group.as_ref().expect("uniforms written").1;
+        let background = {
             let c = scene.toc().background.colour;
             wgpu::Color {
                 r: c[0] as f64,
@@ -620,174 +622,65 @@ impl Renderer {
                 a: 1.0,
             }
         };
-        let ts = if timed {
-            self.timestamp_writes(pass)
-        } else {
-            None
-        };
-        let frame_group = &self.frame_group.as_ref().expect("uniforms written").1;
-        let colour = |view, clear| {
-            [Some(wgpu::RenderPassColorAttachment {
-                view,
-                depth_slice: None,
-                resolve_target: None,
-                ops: wgpu::Operations {
-                    load: wgpu::LoadOp::Clear(clear),
-                    store: wgpu::StoreOp::Store,
-                },
-            })]
-        };
-        let depth = |clear: bool| {
-            Some(wgpu::RenderPassDepthStencilAttachment {
-                view: &self.targets.depth.view,
-                depth_ops: Some(wgpu::Operations {
-                    load: if clear {
-                        wgpu::LoadOp::Clear(1.0)
-                    } else {
-                        wgpu::LoadOp::Load
-                    },
-                    store: wgpu::StoreOp::Store,
-                }),
-                stencil_ops: None,
-            })
-        };
-        let geometry = |encoder: &mut wgpu::CommandEncoder,
-                        label,
-                        view,
-                        clear,
-                        clear_depth,
-                        pipeline: &wgpu::RenderPipeline,
-                        filter: &dyn Fn(pack::MaterialClass) -> bool| {
-            let attachments = colour(view, clear);
-            let mut rp = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
-                label: Some(label),
-                color_attachments: &attachments,
-                depth_stencil_attachment: depth(clear_depth),
-                timestamp_writes: ts.clone(),
-                occlusion_query_set: None,
-                multiview_mask: None,
-            });
-            rp.set_pipeline(pipeline);
-            rp.set_bind_group(0, frame_group, &[]);
-            scene.draw(&mut rp, filter);
-        };
-        match pass {
-            PassId::Background => geometry(
-                encoder,
-                "pass0 background",
-                &self.targets.background.view,
-                background_colour,
-                true,
-                &self.background.pipeline,
-                &|c| c == pack::MaterialClass::Background,
-            ),
-            PassId::WindowMask => geometry(
-                encoder,
-                "pass1 window mask",
-                &self.targets.mask.view,
-                wgpu::Color::TRANSPARENT,
-                true,
-                &self.mask.pipeline,
-                &|_| true,
-            ),
-            PassId::WindowNormals => geometry(
-                encoder,
-                "pass2 window normals",
-                &self.targets.normals.view,
-                wgpu::Color::TRANSPARENT,
-                false,
-                &self.normals.pipeline,
-                &|_| true,
-            ),
-            PassId::Lit => geometry(
-                encoder,
-                "pass3 lit",
-                &self.targets.lit.view,
-                background_colour,
-                !plan.windows,
-                &self.lit.pipeline,
-                &|_| true,
-            ),
-            PassId::GodRays => {
-                let group = gpu.device.create_bind_group(&wgpu::BindGroupDescriptor {
-                    label: Some("god rays"),
-                    layout: &self.rays.layout,
-                    entries: &[
-                        wgpu::BindGroupEntry {
-                            binding: 0,
-                            resource: self.rays.uniforms.as_entire_binding(),
-                        },
-                        wgpu::BindGroupEntry {
-                            binding: 1,
-                            resource: wgpu::BindingResource::TextureView(&self.targets.mask.view),
-                        },
-                        wgpu::BindGroupEntry {
-                            binding: 2,
-                            resource: wgpu::BindingResource::Sampler(&self.linear_clamp),
-                        },
-                    ],
-                });
-                let attachments = colour(&self.targets.rays.view, wgpu::Color::BLACK);
-                let mut rp = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
-                    label: Some("god rays"),
-                    color_attachments: &attachments,
-                    depth_stencil_attachment: None,
-                    timestamp_writes: ts,
-                    occlusion_query_set: None,
-                    multiview_mask: None,
-                });
-                rp.set_pipeline(&self.rays.pipeline);
-                rp.set_bind_group(0, &group, &[]);
-                rp.draw(0..3, 0..1);
+        fn into(target: &Target, clear: wgpu::Color) -> Colour<'_> {
+            Colour {
+                view: &target.view,
+                clear,
             }
+        }
+        let clear = wgpu::Color::TRANSPARENT;
+        let depth = &t.depth.view;
+        match pass {
+            PassId::Background => {
+                let target = into(&t.background, background);
+                self.background
+                    .record(encoder, target, depth, true, frame, scene, ts)
+            }
+            PassId::WindowMask => {
+                let target = into(&t.mask, clear);
+                self.mask
+                    .record(encoder, target, depth, true, frame, scene, ts)
+            }
+            // Passes 2 and 3 test against the depth pass 1 laid down (pass 3 clears it only
+            // when pass 1 did not run).
+            PassId::WindowNormals => {
+                let target = into(&t.normals, clear);
+                self.normals
+                    .record(encoder, target, depth, false, frame, scene, ts)
+            }
+            PassId::Lit => {
+                let target = into(&t.lit, background);
+                self.lit
+                    .record(encoder, target, depth, !plan.windows, frame, scene, ts)
+            }
+            PassId::GodRays => self.rays.record(
+                encoder,
+                &gpu.device,
+                &t.mask.view,
+                &self.linear_clamp,
+                &t.rays.view,
+                ts,
+            ),
             PassId::Composite => {
                 let black = &scene.placeholders.black_hdr;
-                fn pick<'a>(
+                fn used<'a>(
                     used: bool,
-                    t: &'a Target,
+                    target: &'a Target,
                     black: &'a wgpu::TextureView,
                 ) -> &'a wgpu::TextureView {
-                    if used { &t.view } else { black }
+                    if used { &target.view } else { black }
                 }
-                let tex = |binding, view| wgpu::BindGroupEntry {
-                    binding,
-                    resource: wgpu::BindingResource::TextureView(view),
+                let inputs = CompositeInputs {
+                    lit: &t.lit.view,
+                    background: &t.background.view,
+                    mask: used(plan.windows, &t.mask, black),
+                    normals: used(plan.refraction, &t.normals, black),
+                    rays: used(plan.god_rays, &t.rays, black),
+                    nearest: &self.nearest_clamp,
+                    linear: &self.linear_clamp,
                 };
-                let group = gpu.device.create_bind_group(&wgpu::BindGroupDescriptor {
-                    label: Some("composite"),
-                    layout: &self.composite.layout,
-                    entries: &[
-                        wgpu::BindGroupEntry {
-                            binding: 0,
-                            resource: self.composite.uniforms.as_entire_binding(),
-                        },
-                        tex(1, &self.targets.lit.view),
-                        tex(2, &self.targets.background.view),
-                        tex(3, pick(plan.windows, &self.targets.mask, black)),
-                        tex(4, pick(plan.refraction, &self.targets.normals, black)),
-                        tex(5, pick(plan.god_rays, &self.targets.rays, black)),
-                        wgpu::BindGroupEntry {
-                            binding: 6,
-                            resource: wgpu::BindingResource::Sampler(&self.nearest_clamp),
-                        },
-                        wgpu::BindGroupEntry {
-                            binding: 7,
-                            resource: wgpu::BindingResource::Sampler(&self.linear_clamp),
-                        },
-                    ],
-                });
-                let attachments = colour(output, wgpu::Color::BLACK);
-                let mut rp = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
-                    label: Some("composite"),
-                    color_attachments: &attachments,
-                    depth_stencil_attachment: None,
-                    timestamp_writes: ts,
-                    occlusion_query_set: None,
-                    multiview_mask: None,
-                });
-                rp.set_pipeline(&self.composite.pipeline);
-                rp.set_bind_group(0, &group, &[]);
-                rp.draw(0..3, 0..1);
+                self.composite
+                    .record(encoder, &gpu.device, &inputs, output, ts)
             }
         }
     }

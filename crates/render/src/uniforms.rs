@@ -8,6 +8,10 @@ use pack::MaterialClass;
 /// Windows the lit pass can project through; matches `MAX_WINDOWS` in `common.wgsl`.
 pub const MAX_WINDOWS: usize = 64;
 
+/// The most god-ray samples per pixel the renderer takes (the least is 1): the settings are
+/// clamped to it, and the viewer's flag and slider offer this range.
+pub const MAX_GOD_RAY_SAMPLES: u32 = 1024;
+
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, Pod, Zeroable)]
 pub struct Frame {
@@ -54,11 +58,30 @@ pub struct Material {
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, Pod, Zeroable)]
 pub struct GodRays {
+    /// `(L.x * aspect, L.y, 0, L.w)`: the light in clip space, aspect-corrected.
     pub light: [f32; 4],
+    /// rgb: light colour × intensity × exposure × view fade.
     pub colour: [f32; 4],
-    pub params: [f32; 4],
-    pub screen: [f32; 4],
-    pub config: [u32; 4],
+    /// March length as a fraction of the distance from a pixel to the light.
+    pub density: f32,
+    /// ln(decay) per unit of march.
+    pub ln_decay: f32,
+    /// Weight per unit of march.
+    pub weight: f32,
+    /// Longest march, in half screen heights.
+    pub max_length: f32,
+    /// Width / height.
+    pub aspect: f32,
+    /// 1 to jitter the samples per pixel, 0 for midpoints.
+    pub jitter: f32,
+    /// Largest value written.
+    pub max_output: f32,
+    pub pad0: f32,
+    /// 1..=[`MAX_GOD_RAY_SAMPLES`].
+    pub samples: u32,
+    /// Seed of the jitter, changed every frame.
+    pub seed: u32,
+    pub pad1: [u32; 2],
 }
 
 #[repr(C)]

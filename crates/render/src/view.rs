@@ -356,19 +356,18 @@ pub fn god_ray_uniforms(
     let u = crate::uniforms::GodRays {
         light: light.to_array(),
         colour: c.extend(0.0).to_array(),
-        params: [
-            settings.density.max(0.0),
-            decay.ln(),
-            settings.weight.max(0.0),
-            settings.max_length.max(0.0),
-        ],
-        screen: [
-            view.aspect,
-            if settings.jitter { 1.0 } else { 0.0 },
-            settings.max_output.max(0.0),
-            0.0,
-        ],
-        config: [settings.samples.clamp(1, 1024), seed, 0, 0],
+        density: settings.density.max(0.0),
+        ln_decay: decay.ln(),
+        weight: settings.weight.max(0.0),
+        max_length: settings.max_length.max(0.0),
+        aspect: view.aspect,
+        jitter: if settings.jitter { 1.0 } else { 0.0 },
+        max_output: settings.max_output.max(0.0),
+        samples: settings
+            .samples
+            .clamp(1, crate::uniforms::MAX_GOD_RAY_SAMPLES),
+        seed,
+        ..Default::default()
     };
     (u, fade)
 }
@@ -406,9 +405,15 @@ pub fn god_rays_reference(
     if l.w.is_nan() || l.w <= 0.0 {
         return out;
     }
-    let aspect = u.screen[0];
-    let [density, ln_decay, weight, max_length] = u.params;
-    let samples = u.config[0].max(1);
+    let crate::uniforms::GodRays {
+        aspect,
+        density,
+        ln_decay,
+        weight,
+        max_length,
+        ..
+    } = *u;
+    let samples = u.samples.max(1);
     let n = samples as f32;
     for y in 0..out_h {
         for x in 0..out_w {
@@ -440,7 +445,7 @@ pub fn god_rays_reference(
                 }
             }
             let c = Vec3::new(u.colour[0], u.colour[1], u.colour[2]);
-            out[y * out_w + x] = (sum * c).clamp(Vec3::ZERO, Vec3::splat(u.screen[2]));
+            out[y * out_w + x] = (sum * c).clamp(Vec3::ZERO, Vec3::splat(u.max_output));
         }
     }
     out
@@ -616,7 +621,7 @@ mod march_tests {
                 u.light
                     .iter()
                     .chain(&u.colour)
-                    .chain(&u.params)
+                    .chain(&[u.density, u.ln_decay, u.weight, u.max_length])
                     .all(|v| v.is_finite()),
                 "{deg}°: {u:?}"
             );

@@ -192,7 +192,7 @@ pub fn sweep(cfg: &GodRayConfig, progress: &mut dyn FnMut(&str)) -> Result<GodRa
 
     // The reference: GPU targets at full resolution, CPU march at 4096 samples.
     let max_gpu = GodRaySettings {
-        samples: 1024,
+        samples: render::MAX_GOD_RAY_SAMPLES,
         jitter: false,
         resolution_scale: 1.0,
         ..base.god_rays
@@ -238,7 +238,7 @@ pub fn sweep(cfg: &GodRayConfig, progress: &mut dyn FnMut(&str)) -> Result<GodRa
     let colour =
         Vec3::from(light.colour) * light.intensity * render::god_ray_falloff(&toc, &geometry);
     let (mut u, _) = god_ray_uniforms(&max_gpu, &view, &geometry, colour, 0);
-    u.config[0] = REFERENCE_SAMPLES;
+    u.samples = REFERENCE_SAMPLES;
     let ref_rays = god_rays_reference(&u, &mask, w as usize, h as usize, w as usize, h as usize);
     let reference = composite(&lit, &background, &mask, &ref_rays, base.exposure);
     let reference8 = to_rgb8(&reference);

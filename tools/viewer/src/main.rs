@@ -63,7 +63,7 @@ struct Args {
     #[arg(
         long,
         default_value_t = GodRaySettings::default().samples,
-        value_parser = clap::value_parser!(u32).range(1..=1024)
+        value_parser = clap::value_parser!(u32).range(1..=render::MAX_GOD_RAY_SAMPLES as i64)
     )]
     samples: u32,
     /// God-ray target size relative to the frame: 1 full, 0.5 half, 0.25 quarter.

@@ -1,13 +1,24 @@
-//! One struct per pass. Geometry passes (0–3) share the frame (group 0) and material (group 1)
-//! layouts and the vertex shader in `common.wgsl`; god rays and the composite are full-screen.
+//! The passes, one unit each: a pass owns its pipeline (and, for the full-screen ones, its
+//! bind group layout and uniform buffer) and records itself into the targets the frame graph
+//! (`renderer.rs`) hands it. The four geometry passes (0–3) differ only in shader, material
+//! filter and targets, so they are one type, [`GeometryPass`]; they share the frame (group 0)
+//! and material (group 1) layouts and the vertex shader in `common.wgsl`. God rays and the
+//! composite are full-screen passes of their own.
 
-use crate::scene::vertex_layout;
+mod composite;
+mod geometry;
+mod god_rays;
+
+pub use composite::{CompositeInputs, CompositePass};
+pub use geometry::GeometryPass;
+pub use god_rays::GodRayPass;
+
 use crate::shaders;
 
 pub(crate) const HDR: wgpu::TextureFormat = wgpu::TextureFormat::Rgba16Float;
 pub(crate) const DEPTH: wgpu::TextureFormat = wgpu::TextureFormat::Depth32Float;
 
-fn uniform_entry(binding: u32, size: usize) -> wgpu::BindGroupLayoutEntry {
+pub(crate) fn uniform_entry(binding: u32, size: usize) -> wgpu::BindGroupLayoutEntry {
     wgpu::BindGroupLayoutEntry {
         binding,
         visibility: wgpu::ShaderStages::VERTEX_FRAGMENT,
@@ -65,48 +76,6 @@ pub(crate) fn frame_layout(device: &wgpu::Device) -> wgpu::BindGroupLayout {
     })
 }
 
-fn geometry_pipeline(
-    device: &wgpu::Device,
-    layout: &wgpu::PipelineLayout,
-    shader: &'static str,
-) -> wgpu::RenderPipeline {
-    let module = shaders::module(device, shader);
-    device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
-        label: Some(shader),
-        layout: Some(layout),
-        vertex: wgpu::VertexState {
-            module: &module,
-            entry_point: Some("vs_main"),
-            compilation_options: Default::default(),
-            buffers: &[Some(vertex_layout())],
-        },
-        primitive: wgpu::PrimitiveState {
-            topology: wgpu::PrimitiveTopology::TriangleList,
-            // Scenes hold single-sided quads (walls, windows) seen from both sides.
-            cull_mode: None,
-            ..Default::default()
-        },
-        depth_stencil: Some(wgpu::DepthStencilState {
-            format: DEPTH,
-            depth_write_enabled: Some(true),
-            // LessEqual lets passes 2 and 3 reuse the depth pass 1 wrote: the same vertex shader
-            // yields the same depths.
-            depth_compare: Some(wgpu::CompareFunction::LessEqual),
-            stencil: Default::default(),
-            bias: Default::default(),
-        }),
-        multisample: Default::default(),
-        fragment: Some(wgpu::FragmentState {
-            module: &module,
-            entry_point: Some("fs_main"),
-            compilation_options: Default::default(),
-            targets: &[Some(HDR.into())],
-        }),
-        multiview_mask: None,
-        cache: None,
-    })
-}
-
 pub(crate) fn fullscreen_pipeline(
     device: &wgpu::Device,
     layout: &wgpu::BindGroupLayout,
@@ -154,123 +123,59 @@ pub(crate) fn geometry_layout(
     })
 }
 
-/// Pass 0: background-class geometry alone into its own target.
-pub struct BackgroundPass {
-    pub(crate) pipeline: wgpu::RenderPipeline,
+pub(crate) fn uniform_buffer(device: &wgpu::Device, label: &str, size: usize) -> wgpu::Buffer {
+    device.create_buffer(&wgpu::BufferDescriptor {
+        label: Some(label),
+        size: size as u64,
+        usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+        mapped_at_creation: false,
+    })
 }
 
-impl BackgroundPass {
-    pub(crate) fn new(device: &wgpu::Device, layout: &wgpu::PipelineLayout) -> Self {
-        Self {
-            pipeline: geometry_pipeline(device, layout, "background.wgsl"),
-        }
-    }
+/// A colour target and what it is cleared to.
+#[derive(Clone, Copy)]
+pub(crate) struct Colour<'a> {
+    pub view: &'a wgpu::TextureView,
+    pub clear: wgpu::Color,
 }
 
-/// Pass 1: window colour, everything else black; also lays down the depth passes 2–3 reuse.
-pub struct WindowMaskPass {
-    pub(crate) pipeline: wgpu::RenderPipeline,
+/// Begins a render pass into one colour target (cleared, stored) and an optional depth target.
+pub(crate) fn begin<'e>(
+    encoder: &'e mut wgpu::CommandEncoder,
+    label: &str,
+    target: Colour<'_>,
+    depth: Option<wgpu::RenderPassDepthStencilAttachment<'_>>,
+    timestamps: Option<wgpu::RenderPassTimestampWrites<'_>>,
+) -> wgpu::RenderPass<'e> {
+    encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
+        label: Some(label),
+        color_attachments: &[Some(wgpu::RenderPassColorAttachment {
+            view: target.view,
+            depth_slice: None,
+            resolve_target: None,
+            ops: wgpu::Operations {
+                load: wgpu::LoadOp::Clear(target.clear),
+                store: wgpu::StoreOp::Store,
+            },
+        })],
+        depth_stencil_attachment: depth,
+        timestamp_writes: timestamps,
+        occlusion_query_set: None,
+        multiview_mask: None,
+    })
 }
 
-impl WindowMaskPass {
-    pub(crate) fn new(device: &wgpu::Device, layout: &wgpu::PipelineLayout) -> Self {
-        Self {
-            pipeline: geometry_pipeline(device, layout, "windows.wgsl"),
-        }
-    }
-}
-
-/// Pass 2: window normal-map perturbation in view space, everything else zero.
-pub struct WindowNormalPass {
-    pub(crate) pipeline: wgpu::RenderPipeline,
-}
-
-impl WindowNormalPass {
-    pub(crate) fn new(device: &wgpu::Device, layout: &wgpu::PipelineLayout) -> Self {
-        Self {
-            pipeline: geometry_pipeline(device, layout, "normals.wgsl"),
-        }
-    }
-}
-
-/// Pass 3: the lit scene, windows black, projectors through the windows.
-pub struct LitPass {
-    pub(crate) pipeline: wgpu::RenderPipeline,
-}
-
-impl LitPass {
-    pub(crate) fn new(device: &wgpu::Device, layout: &wgpu::PipelineLayout) -> Self {
-        Self {
-            pipeline: geometry_pipeline(device, layout, "lit.wgsl"),
-        }
-    }
-}
-
-/// Radial blur of the window mask towards the light, at full or reduced resolution.
-pub struct GodRayPass {
-    pub(crate) pipeline: wgpu::RenderPipeline,
-    pub(crate) layout: wgpu::BindGroupLayout,
-    pub(crate) uniforms: wgpu::Buffer,
-}
-
-impl GodRayPass {
-    pub(crate) fn new(device: &wgpu::Device) -> Self {
-        let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-            label: Some("god rays"),
-            entries: &[
-                uniform_entry(0, std::mem::size_of::<crate::uniforms::GodRays>()),
-                texture_entry(1),
-                sampler_entry(2),
-            ],
-        });
-        let pipeline = fullscreen_pipeline(device, &layout, "godrays.wgsl", HDR);
-        let uniforms = device.create_buffer(&wgpu::BufferDescriptor {
-            label: Some("god rays"),
-            size: std::mem::size_of::<crate::uniforms::GodRays>() as u64,
-            usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
-            mapped_at_creation: false,
-        });
-        Self {
-            pipeline,
-            layout,
-            uniforms,
-        }
-    }
-}
-
-/// Pass 4: refraction, god rays and tone mapping into the output format.
-pub struct CompositePass {
-    pub(crate) pipeline: wgpu::RenderPipeline,
-    pub(crate) layout: wgpu::BindGroupLayout,
-    pub(crate) uniforms: wgpu::Buffer,
-}
-
-impl CompositePass {
-    pub(crate) fn new(device: &wgpu::Device, output: wgpu::TextureFormat) -> Self {
-        let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-            label: Some("composite"),
-            entries: &[
-                uniform_entry(0, std::mem::size_of::<crate::uniforms::Composite>()),
-                texture_entry(1),
-                texture_entry(2),
-                texture_entry(3),
-                texture_entry(4),
-                texture_entry(5),
-                sampler_entry(6),
-                sampler_entry(7),
-            ],
-        });
-        let pipeline = fullscreen_pipeline(device, &layout, "composite.wgsl", output);
-        let uniforms = device.create_buffer(&wgpu::BufferDescriptor {
-            label: Some("composite"),
-            size: std::mem::size_of::<crate::uniforms::Composite>() as u64,
-            usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
-            mapped_at_creation: false,
-        });
-        Self {
-            pipeline,
-            layout,
-            uniforms,
-        }
-    }
+/// Draws one full-screen triangle with `pipeline` and its single bind group.
+pub(crate) fn draw_fullscreen(
+    encoder: &mut wgpu::CommandEncoder,
+    label: &str,
+    pipeline: &wgpu::RenderPipeline,
+    group: &wgpu::BindGroup,
+    target: Colour<'_>,
+    timestamps: Option<wgpu::RenderPassTimestampWrites<'_>>,
+) {
+    let mut rp = begin(encoder, label, target, None, timestamps);
+    rp.set_pipeline(pipeline);
+    rp.set_bind_group(0, group, &[]);
+    rp.draw(0..3, 0..1);
 }

@@ -189,7 +189,7 @@ pub fn apply_setting(c: &mut Controls, name: &str, value: f32) -> Result<(), Str
         "decay" => g.decay = value,
         "density" => g.density = value,
         "weight" => g.weight = value,
-        "samples" => g.samples = value.clamp(1.0, 1024.0) as u32,
+        "samples" => g.samples = value.clamp(1.0, render::MAX_GOD_RAY_SAMPLES as f32) as u32,
         "scale" => g.resolution_scale = value.clamp(0.125, 1.0),
         "jitter" => g.jitter = value != 0.0,
         "refraction" => c.settings.refraction_strength = value,

@@ -197,10 +197,10 @@ pub fn panel(ui: &mut egui::Ui, c: &mut Controls, info: &Info<'_>) -> Vec<Reques
                 );
                 ui.add(egui::Slider::new(&mut g.density, 0.0..=2.0).text("density"));
                 ui.add(egui::Slider::new(&mut g.weight, 0.0..=4.0).text("weight"));
-                // The renderer's full range: --max-error may choose 1024, which a narrower
+                // The renderer's full range: --max-flip may choose the most, which a narrower
                 // slider would clamp.
                 ui.add(
-                    egui::Slider::new(&mut g.samples, 1..=1024)
+                    egui::Slider::new(&mut g.samples, 1..=render::MAX_GOD_RAY_SAMPLES)
                         .logarithmic(true)
                         .text("samples"),
                 );

@@ -1,0 +1,134 @@
+//! Passes 0–3: scene geometry drawn with one shader each over the frame and material groups.
+
+use pack::MaterialClass;
+
+use super::{Colour, DEPTH, HDR, begin};
+use crate::scene::vertex_layout;
+use crate::{Scene, shaders};
+
+/// One geometry pass: its pipeline and which materials it draws.
+pub struct GeometryPass {
+    label: &'static str,
+    pipeline: wgpu::RenderPipeline,
+    draws: fn(MaterialClass) -> bool,
+}
+
+impl GeometryPass {
+    /// Pass 0: background-class geometry alone into its own target, unoccluded (refraction
+    /// reads it).
+    pub(crate) fn background(device: &wgpu::Device, layout: &wgpu::PipelineLayout) -> Self {
+        Self::new(device, layout, "pass0 background", "background.wgsl", |c| {
+            c == MaterialClass::Background
+        })
+    }
+
+    /// Pass 1: window colour, everything else black; also lays down the depth passes 2–3 reuse.
+    pub(crate) fn window_mask(device: &wgpu::Device, layout: &wgpu::PipelineLayout) -> Self {
+        Self::new(device, layout, "pass1 window mask", "windows.wgsl", |_| {
+            true
+        })
+    }
+
+    /// Pass 2: window normal-map perturbation in view space, everything else zero.
+    pub(crate) fn window_normals(device: &wgpu::Device, layout: &wgpu::PipelineLayout) -> Self {
+        Self::new(
+            device,
+            layout,
+            "pass2 window normals",
+            "normals.wgsl",
+            |_| true,
+        )
+    }
+
+    /// Pass 3: the lit scene, windows black, projectors through the windows.
+    pub(crate) fn lit(device: &wgpu::Device, layout: &wgpu::PipelineLayout) -> Self {
+        Self::new(device, layout, "pass3 lit", "lit.wgsl", |_| true)
+    }
+
+    fn new(
+        device: &wgpu::Device,
+        layout: &wgpu::PipelineLayout,
+        label: &'static str,
+        shader: &'static str,
+        draws: fn(MaterialClass) -> bool,
+    ) -> Self {
+        Self {
+            label,
+            pipeline: geometry_pipeline(device, layout, shader),
+            draws,
+        }
+    }
+
+    /// Draws the scene's ranges this pass takes into `target`, testing against `depth`
+    /// (cleared first when `clear_depth`, else kept from an earlier pass).
+    #[allow(clippy::too_many_arguments)]
+    pub(crate) fn record(
+        &self,
+        encoder: &mut wgpu::CommandEncoder,
+        target: Colour<'_>,
+        depth: &wgpu::TextureView,
+        clear_depth: bool,
+        frame: &wgpu::BindGroup,
+        scene: &Scene,
+        timestamps: Option<wgpu::RenderPassTimestampWrites<'_>>,
+    ) {
+        let depth = wgpu::RenderPassDepthStencilAttachment {
+            view: depth,
+            depth_ops: Some(wgpu::Operations {
+                load: if clear_depth {
+                    wgpu::LoadOp::Clear(1.0)
+                } else {
+                    wgpu::LoadOp::Load
+                },
+                store: wgpu::StoreOp::Store,
+            }),
+            stencil_ops: None,
+        };
+        let mut rp = begin(encoder, self.label, target, Some(depth), timestamps);
+        rp.set_pipeline(&self.pipeline);
+        rp.set_bind_group(0, frame, &[]);
+        scene.draw(&mut rp, self.draws);
+    }
+}
+
+fn geometry_pipeline(
+    device: &wgpu::Device,
+    layout: &wgpu::PipelineLayout,
+    shader: &'static str,
+) -> wgpu::RenderPipeline {
+    let module = shaders::module(device, shader);
+    device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
+        label: Some(shader),
+        layout: Some(layout),
+        vertex: wgpu::VertexState {
+            module: &module,
+            entry_point: Some("vs_main"),
+            compilation_options: Default::default(),
+            buffers: &[Some(vertex_layout())],
+        },
+        primitive: wgpu::PrimitiveState {
+            topology: wgpu::PrimitiveTopology::TriangleList,
+            // Scenes hold single-sided quads (walls, windows) seen from both sides.
+            cull_mode: None,
+            ..Default::default()
+        },
+        depth_stencil: Some(wgpu::DepthStencilState {
+            format: DEPTH,
+            depth_write_enabled: Some(true),
+            // LessEqual lets passes 2 and 3 reuse the depth pass 1 wrote: the same vertex shader
+            // yields the same depths.
+            depth_compare: Some(wgpu::CompareFunction::LessEqual),
+            stencil: Default::default(),
+            bias: Default::default(),
+        }),
+        multisample: Default::default(),
+        fragment: Some(wgpu::FragmentState {
+            module: &module,
+            entry_point: Some("fs_main"),
+            compilation_options: Default::default(),
+            targets: &[Some(HDR.into())],
+        }),
+        multiview_mask: None,
+        cache: None,
+    })
+}
