@@ -218,6 +218,28 @@ impl WindowDesign {
         }
     }
 
+    /// Parses a command line's `NAME=IMAGE`.
+    pub fn parse_override(s: &str) -> Result<(String, PathBuf), String> {
+        match s.split_once('=') {
+            Some((name, image)) if !name.is_empty() && !image.is_empty() => {
+                Ok((name.to_string(), PathBuf::from(image)))
+            }
+            _ => Err(format!("{s:?} is not NAME=IMAGE")),
+        }
+    }
+
+    /// Design entries for `--window NAME=IMAGE` arguments; each image must decode, so a bad
+    /// one fails before any cooking, naming the file.
+    pub fn overrides(windows: &[(String, PathBuf)]) -> Result<Vec<WindowDesign>, CookError> {
+        windows
+            .iter()
+            .map(|(name, image)| {
+                texture::load_image(image)?;
+                Ok(Self::from_override(name, image.clone()))
+            })
+            .collect()
+    }
+
     /// Whether this entry describes the window `name` made of `materials`.
     pub fn matches<'a>(&self, name: &str, mut materials: impl Iterator<Item = &'a str>) -> bool {
         self.name.as_deref().is_some_and(|p| glob_matches(p, name))

@@ -48,34 +48,8 @@ pub struct Args {
     position_bits: cook::mesh::PositionBits,
     /// Use IMAGE as the design of the windows NAME matches: a window name (as `cooker info`
     /// lists them), a material, or a glob over either. Repeatable; the manifest is not changed.
-    #[arg(long = "window", value_name = "NAME=IMAGE", value_parser = window_override)]
+    #[arg(long = "window", value_name = "NAME=IMAGE", value_parser = cook::manifest::WindowDesign::parse_override)]
     windows: Vec<(String, PathBuf)>,
-}
-
-/// Parses `NAME=IMAGE`.
-pub fn window_override(s: &str) -> Result<(String, PathBuf), String> {
-    match s.split_once('=') {
-        Some((name, image)) if !name.is_empty() && !image.is_empty() => {
-            Ok((name.to_string(), PathBuf::from(image)))
-        }
-        _ => Err(format!("{s:?} is not NAME=IMAGE")),
-    }
-}
-
-/// `--window` entries as design overrides; each image must decode (exit 3 naming it).
-pub fn window_overrides(
-    windows: &[(String, PathBuf)],
-) -> anyhow::Result<Vec<cook::manifest::WindowDesign>> {
-    windows
-        .iter()
-        .map(|(name, image)| {
-            texture::load_image(image).map_err(cook::CookError::from)?;
-            Ok(cook::manifest::WindowDesign::from_override(
-                name,
-                image.clone(),
-            ))
-        })
-        .collect()
 }
 
 fn position_bits(s: &str) -> Result<cook::mesh::PositionBits, String> {
@@ -104,7 +78,7 @@ pub fn run(args: Args) -> Outcome {
     let mut settings = Settings {
         quantize: args.quantize,
         position_bits: args.position_bits,
-        window_overrides: window_overrides(&args.windows)?,
+        window_overrides: cook::manifest::WindowDesign::overrides(&args.windows)?,
         ..Default::default()
     };
     settings.mesh.cache = if args.fifo {

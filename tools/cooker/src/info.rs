@@ -30,6 +30,44 @@ fn role_name(pack: &Pack, role: SectionRole) -> String {
     }
 }
 
+/// Each window: its material, size and placement in metres, and its textures. A design made
+/// by the cook is named `<window>.design` (rasterized from the mesh's pane colours),
+/// `<image>.fitted` (an image fitted to planar texture coordinates) or `<image>.masked` (an
+/// image cut to the window's outline).
+fn windows(toc: &pack::Toc, tris: &[u64]) -> Vec<serde_json::Value> {
+    let tex = |i: Option<u32>| i.map(|i| toc.textures[i as usize].name.clone());
+    toc.windows
+        .iter()
+        .map(|w| {
+            let m = &toc.materials[w.material as usize];
+            let v = |a: [f32; 3]| glam::Vec3::from(a);
+            let centre = v(w.origin) + 0.5 * (v(w.u_axis) + v(w.v_axis));
+            let design = tex(m.diffuse_texture);
+            let source = match design.as_deref() {
+                None => "none",
+                Some(d) if d.ends_with(".design") => "mesh colours",
+                Some(d) if d.ends_with(".fitted") => "image, fitted to the window",
+                Some(d) if d.ends_with(".masked") => "image, cut to the window's outline",
+                Some(_) => "image",
+            };
+            json!({
+                "name": m.name,
+                "material": w.material,
+                "class": m.class.name(),
+                "triangles": tris.get(w.material as usize).copied().unwrap_or(0),
+                "centre": centre.to_array(),
+                "normal": w.normal,
+                "width": v(w.u_axis).length(),
+                "height": v(w.v_axis).length(),
+                "design": design,
+                "design_source": source,
+                "normal_texture": tex(m.normal_texture),
+                "projector_texture": tex(m.projector_texture),
+            })
+        })
+        .collect()
+}
+
 /// The JSON description of a pack; also what golden regression data is made of.
 pub fn describe(pack: &Pack) -> serde_json::Value {
     let toc = pack.toc();
@@ -120,7 +158,7 @@ pub fn describe(pack: &Pack) -> serde_json::Value {
         "triangles": tris.iter().sum::<u64>(),
         "materials": materials,
         "textures": textures,
-        "windows": toc.windows.len(),
+        "windows": windows(toc, &tris),
         "light": light,
         "cameras": toc.cameras.iter().map(|c| c.name.clone()).collect::<Vec<_>>(),
     })

@@ -73,7 +73,8 @@ fn cook_verbose_reports_stages_and_acmr() {
         "{stdout}"
     );
     assert!(
-        text(&o.stderr).contains("heuristics only"),
+        text(&o.stderr).contains("cooking a bare mesh without a scene.toml")
+            && text(&o.stderr).contains("`cooker init`"),
         "a bare mesh warns"
     );
     // The pack it wrote validates clean.

@@ -24,8 +24,12 @@ use render::{
     about = "View a stained-glass pack or scene.toml (headless: PNGs and per-pass timings)"
 )]
 struct Args {
-    /// A cooked `.pack`, or a `scene.toml` to cook first.
+    /// A cooked `.pack`, or a `scene.toml` or bare .obj/.gltf/.glb to cook first.
     input: PathBuf,
+    /// Cook with IMAGE as the design of the windows NAME matches (a window name, a material,
+    /// or a glob); repeatable, as `cooker cook --window`.
+    #[arg(long = "window", value_name = "NAME=IMAGE", value_parser = cook::manifest::WindowDesign::parse_override)]
+    windows: Vec<(String, PathBuf)>,
     /// Render to files instead of opening a window (the only mode without a display).
     #[arg(long)]
     headless: bool,
@@ -44,21 +48,22 @@ struct Args {
     /// Render N frames per camera and print the median time of each pass.
     #[arg(long, value_name = "N")]
     bench: Option<u32>,
-    /// Largest god-ray error to accept (FLIP mean); picks samples, ray scale and jitter.
+    /// Largest god-ray error to accept, as a FLIP mean (0 = identical, 1 = worst); picks
+    /// samples, ray scale and jitter. `--max-error` is the old spelling.
     ///
-    /// The error is the FLIP mean of the final image against a 4096-sample render
-    /// (0 = identical), as measured on the default scene and committed in
-    /// crates/cook/src/error_table.json. The cheapest measured setting within the budget is
-    /// used and printed with its measured error; a budget tighter than every measured setting
-    /// gets the most accurate one and a warning. Cannot be combined with --samples,
-    /// --ray-scale, --jitter or --half-res-rays.
+    /// The error is the FLIP mean of the final image against a 4096-sample render, as measured
+    /// on the default scene and committed in crates/render/src/god_ray_table.json. The
+    /// cheapest measured setting within the budget is used and printed with its measured
+    /// error; a budget tighter than every measured setting gets the most accurate one and a
+    /// warning. Cannot be combined with --samples, --ray-scale, --jitter or --half-res-rays.
     #[arg(
-        long,
+        long = "max-flip",
+        alias = "max-error",
         value_name = "FLIP_MEAN",
         value_parser = god_rays::parse_flip_mean,
         conflicts_with_all = ["samples", "ray_scale", "jitter", "half_res_rays"]
     )]
-    max_error: Option<f32>,
+    max_flip: Option<f32>,
     /// God-ray samples per pixel (1..=1024).
     #[arg(
         long,
@@ -140,15 +145,23 @@ fn stream(path: PathBuf, source: Box<dyn Read + Send>) -> mpsc::Receiver<Message
     rx
 }
 
+/// `--window` designs, set once from the command line; every re-cook (`--watch`) uses them.
+static WINDOW_OVERRIDES: std::sync::OnceLock<Vec<cook::manifest::WindowDesign>> =
+    std::sync::OnceLock::new();
+
 fn open_source(path: &Path) -> Result<Box<dyn Read + Send>> {
-    let is_manifest = path
+    let is_pack = path
         .extension()
-        .is_some_and(|e| e.eq_ignore_ascii_case("toml"));
-    if is_manifest {
+        .is_some_and(|e| e.eq_ignore_ascii_case("pack"));
+    if !is_pack {
         let start = Instant::now();
         let manifest =
-            cook::Manifest::load(path).with_context(|| format!("loading {}", path.display()))?;
-        let out = cook::cook(&manifest, &cook::Settings::default())
+            cook::Manifest::open(path).with_context(|| format!("loading {}", path.display()))?;
+        let settings = cook::Settings {
+            window_overrides: WINDOW_OVERRIDES.get().cloned().unwrap_or_default(),
+            ..Default::default()
+        };
+        let out = cook::cook(&manifest, &settings)
             .with_context(|| format!("cooking {}", path.display()))?;
         for w in &out.report.warnings {
             eprintln!("warning: {w}");
@@ -176,6 +189,7 @@ fn ms(d: Duration) -> f64 {
 /// small mips are in and reporting both times.
 fn load(gpu: &Gpu, args: &Args, settings: Settings) -> Result<(Scene, Renderer)> {
     // Cooking (for a scene.toml) is reported on its own; the clock starts with the stream.
+    let _ = WINDOW_OVERRIDES.set(cook::manifest::WindowDesign::overrides(&args.windows)?);
     let source = open_source(&args.input)?;
     let start = Instant::now();
     let rx = stream(args.input.clone(), source);
@@ -307,22 +321,20 @@ fn bench(
     Ok(())
 }
 
-/// The renderer's settings with the god-ray quality from `--max-error` or the explicit flags
+/// The renderer's settings with the god-ray quality from `--max-flip` or the explicit flags
 /// (clap rejects both together); prints which setting it is and what it was measured at.
 fn god_ray_settings(args: &Args) -> Result<Settings> {
     let mut settings = Settings::default();
     let g = &mut settings.god_rays;
-    if let Some(budget) = args.max_error {
+    if let Some(budget) = args.max_flip {
         let choice = god_rays::apply_budget(budget, g)?;
         if let Some(w) = &choice.warning {
             eprintln!("warning: {w}");
         }
         println!(
-            "god rays for --max-error {budget}: {}; measured FLIP mean {:.4}, cost {:.3}× 64 \
-             samples at full resolution",
+            "god rays for --max-flip {budget}: {}; {}",
             god_rays::describe(g),
-            choice.expected_flip_mean,
-            choice.relative_cost
+            god_rays::measured_note(g)
         );
         return Ok(settings);
     }

@@ -27,7 +27,7 @@ pub fn sources(manifest_path: &Path) -> Vec<PathBuf> {
         files.extend(r.normal_map.iter().cloned());
     }
     for w in &m.windows {
-        files.push(w.design.clone());
+        files.extend(w.design.clone());
         files.extend(w.normal_map.iter().cloned());
     }
     files.extend(m.background.panorama.iter().cloned());
