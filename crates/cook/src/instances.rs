@@ -261,8 +261,8 @@ fn convex_hull(mut pts: Vec<DVec2>) -> Vec<DVec2> {
 }
 
 /// The direction (angle in [0, π/2)) of the minimum-area rectangle around `hull`, preferring
-/// the one closest to the axes among those within 1 % of the minimum area: a rose window's
-/// rectangle is then upright, not turned to some polygon edge.
+/// the one closest to the axes among those within 1 % of the minimum area; upright for round
+/// shapes: a rose window's rectangle is not turned to some polygon edge.
 fn rectangle_angle(hull: &[DVec2]) -> f64 {
     let quarter = std::f64::consts::FRAC_PI_2;
     let mut candidates = vec![0.0];
@@ -284,6 +284,16 @@ fn rectangle_angle(hull: &[DVec2]) -> f64 {
     };
     let areas: Vec<f64> = candidates.iter().map(|&c| area(c)).collect();
     let best = areas.iter().copied().fold(f64::INFINITY, f64::min);
+    // A shape whose bounding rectangle hardly changes with the angle has no direction of its
+    // own: a rose of 16 segments is 4 % smaller turned to an edge, an octagon 15 %, while any
+    // rectangle's grows at least twofold at 45°. Such a shape stays upright.
+    let largest = (0..16)
+        .map(|k| area(k as f64 * quarter / 16.0))
+        .chain(areas.iter().copied())
+        .fold(0.0, f64::max);
+    if largest <= best * 1.25 {
+        return 0.0;
+    }
     let tilt = |c: f64| c.min(quarter - c);
     candidates
         .iter()
@@ -735,6 +745,43 @@ mod tests {
         let w = run(&src, &[W], None);
         assert!((w[0].width() - 1.0).abs() < 1e-5, "{:?}", w[0]);
         assert!((w[0].height() - 3.0).abs() < 1e-5);
+    }
+
+    #[test]
+    fn a_rose_of_sixteen_segments_stays_upright() {
+        // Its minimum-area rectangle is turned 11.25° (to an edge), 4 % smaller than upright.
+        let r = 1.5f32;
+        let mut s = Imported::default();
+        for k in 0..16 {
+            let (a0, a1) = (
+                k as f32 * 22.5f32.to_radians(),
+                (k + 1) as f32 * 22.5f32.to_radians(),
+            );
+            let base = s.positions.len() as u32;
+            s.positions.push([0.0, 6.0, 0.0]);
+            s.positions.push([r * a0.cos(), 6.0 + r * a0.sin(), 0.0]);
+            s.positions.push([r * a1.cos(), 6.0 + r * a1.sin(), 0.0]);
+            for c in 0..3 {
+                s.corners.push(Corner {
+                    p: base + c,
+                    t: NONE,
+                    n: NONE,
+                });
+            }
+            s.tri_part.push(0);
+        }
+        s.parts.push(Part {
+            names: Default::default(),
+            material: None,
+        });
+        let w = run(&s, &[W], None);
+        assert_eq!(w.len(), 1);
+        assert!(
+            (w[0].up.normalize() - DVec3::Y).length() < 1e-9,
+            "{:?}",
+            w[0].up
+        );
+        assert!((w[0].width() - 3.0).abs() < 1e-5 && (w[0].height() - 3.0).abs() < 1e-5);
     }
 
     #[test]
