@@ -38,21 +38,6 @@ pub struct MipEntry {
     pub relative_cost: f32,
 }
 
-/// One god-ray configuration, measured on the default scene against a 4096-sample reference.
-#[derive(Clone, Debug, Deserialize, PartialEq)]
-pub struct GodRayEntry {
-    pub samples: u32,
-    /// God-ray target size relative to the frame (1, 0.5, 0.25).
-    pub resolution_scale: f32,
-    pub jitter: bool,
-    /// FLIP mean of the final image (0 = identical).
-    pub flip_mean: f32,
-    pub flip_p99: f32,
-    /// God-ray pass time relative to 64 samples at full resolution without jitter (the
-    /// renderer's default when the table was measured).
-    pub relative_cost: f32,
-}
-
 #[derive(Clone, Debug, Deserialize, PartialEq)]
 pub struct ErrorTable {
     pub generated_by: String,
@@ -60,9 +45,6 @@ pub struct ErrorTable {
     pub image_size: u32,
     pub blur: Vec<BlurEntry>,
     pub mip: Vec<MipEntry>,
-    /// Empty when the bench had no GPU adapter.
-    #[serde(default)]
-    pub god_rays: Vec<GodRayEntry>,
 }
 
 /// The embedded table. A unit test parses it, so a malformed table never ships.
@@ -253,66 +235,6 @@ pub fn choose_mip_in(
     pick(candidates, budget, "mip filter")
 }
 
-/// A god-ray setting for `viewer --max-error`, with its measured error.
-#[derive(Clone, Debug, PartialEq)]
-pub struct GodRayChoice {
-    pub samples: u32,
-    pub resolution_scale: f32,
-    pub jitter: bool,
-    pub expected_flip_mean: f32,
-    pub relative_cost: f32,
-    pub warning: Option<String>,
-}
-
-/// The cheapest god-ray setting whose measured FLIP mean (final image against a 4096-sample
-/// render) stays within `max_flip_mean`; when none does, the most accurate one and a warning.
-/// `None` when the table has no god-ray measurements.
-pub fn choose_god_rays(max_flip_mean: f32) -> Option<GodRayChoice> {
-    choose_god_rays_in(table(), max_flip_mean)
-}
-
-pub fn choose_god_rays_in(table: &ErrorTable, max_flip_mean: f32) -> Option<GodRayChoice> {
-    let budget = if max_flip_mean.is_nan() {
-        f32::INFINITY
-    } else {
-        max_flip_mean
-    };
-    let by_cost = |a: &&GodRayEntry, b: &&GodRayEntry| {
-        a.relative_cost
-            .total_cmp(&b.relative_cost)
-            .then(a.flip_mean.total_cmp(&b.flip_mean))
-    };
-    let within = table
-        .god_rays
-        .iter()
-        .filter(|e| e.flip_mean <= budget)
-        .min_by(by_cost);
-    let (e, warning) = match within {
-        Some(e) => (e, None),
-        None => {
-            let best = table.god_rays.iter().min_by(|a, b| {
-                a.flip_mean
-                    .total_cmp(&b.flip_mean)
-                    .then(a.relative_cost.total_cmp(&b.relative_cost))
-            })?;
-            let w = format!(
-                "god-ray error budget {budget} (FLIP mean) is tighter than any measured setting \
-                 reaches (best: {} samples at {:.4}); using it",
-                best.samples, best.flip_mean
-            );
-            (best, Some(w))
-        }
-    };
-    Some(GodRayChoice {
-        samples: e.samples,
-        resolution_scale: e.resolution_scale,
-        jitter: e.jitter,
-        expected_flip_mean: e.flip_mean,
-        relative_cost: e.relative_cost,
-        warning,
-    })
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -338,24 +260,6 @@ mod tests {
                 blur("direct", 16.0, 0.52, 16.0),
                 blur("decimated", 4.0, 0.60, 2.0),
                 blur("decimated", 16.0, 0.55, 2.0),
-            ],
-            god_rays: vec![
-                GodRayEntry {
-                    samples: 16,
-                    resolution_scale: 0.5,
-                    jitter: true,
-                    flip_mean: 0.04,
-                    flip_p99: 0.2,
-                    relative_cost: 0.2,
-                },
-                GodRayEntry {
-                    samples: 64,
-                    resolution_scale: 1.0,
-                    jitter: false,
-                    flip_mean: 0.01,
-                    flip_p99: 0.05,
-                    relative_cost: 1.0,
-                },
             ],
             mip: vec![
                 MipEntry {
@@ -485,23 +389,6 @@ mod tests {
         assert!(choose_mip_in(&t, 1.0, Some("kaiser")).is_none());
         // NaN means no budget at all: the cheapest.
         assert!(!choose_mip_in(&t, f32::NAN, None).unwrap().linear_light);
-    }
-
-    #[test]
-    fn god_rays_cheapest_within_budget_or_most_accurate_with_warning() {
-        let t = synthetic();
-        let c = choose_god_rays_in(&t, 0.05).unwrap();
-        assert_eq!((c.samples, c.resolution_scale, c.warning), (16, 0.5, None));
-        let c = choose_god_rays_in(&t, 0.02).unwrap();
-        assert_eq!(c.samples, 64);
-        let c = choose_god_rays_in(&t, 0.001).unwrap();
-        assert_eq!(c.samples, 64);
-        assert!(c.warning.is_some());
-        let empty = ErrorTable {
-            god_rays: Vec::new(),
-            ..t
-        };
-        assert!(choose_god_rays_in(&empty, 1.0).is_none());
     }
 
     #[test]

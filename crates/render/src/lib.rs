@@ -1,10 +1,14 @@
-//! The four-pass stained-glass renderer (wgpu), fed from a pack.
+//! The stained-glass renderer (wgpu), fed from a pack.
 //!
-//! Passes: 0 background alone; 1 windows coloured, everything else black; 2 window normal maps;
-//! 3 the lit scene with projectors through the windows; then god rays (radial blur of pass 1)
-//! and 4 the composite (refraction, god rays, tone mapping). [`Scene`] holds the GPU copy of a
-//! pack and accepts sections as they stream in; [`Renderer`] owns the targets and the passes.
+//! The design numbers its passes 0–4; [`PassId`] has six because god rays, a full-screen pass
+//! of their own between 3 and 4, are timed and skipped separately:
+//! `Background` = 0 background alone; `WindowMask` = 1 windows coloured, everything else black;
+//! `WindowNormals` = 2 window normal maps; `Lit` = 3 the lit scene with projectors through the
+//! windows; `GodRays` = the radial blur of pass 1 (no number); `Composite` = 4 refraction, god
+//! rays and tone mapping. [`Scene`] holds the GPU copy of a pack and accepts sections as they
+//! stream in; [`Renderer`] owns the targets and the frame graph, [`passes`] the passes.
 
+pub mod budget;
 mod gpu;
 pub mod passes;
 mod renderer;

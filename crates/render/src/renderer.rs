@@ -12,7 +12,8 @@ use crate::view::{
 };
 use crate::{Gpu, RenderError, Scene};
 
-/// The passes in recording order.
+/// The passes in recording order: the design's numbered passes 0–4, with the unnumbered god
+/// rays between 3 and 4 (see [`PassId::name`]).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub enum PassId {
     Background,

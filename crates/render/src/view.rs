@@ -288,11 +288,9 @@ pub struct GodRaySettings {
 
 impl Default for GodRaySettings {
     /// 128 samples at half resolution without jitter: on the Pareto front of the measured
-    /// table (`crates/cook/src/error_table.json`: default scene, camera `rose`, 480x270, lavapipe), FLIP mean
-    /// 0.0156 (p99 0.051) at 0.51 of the cost of 64 samples at full resolution, which it
-    /// replaced (0.0198, p99 0.082, dominated by this and by 64 with jitter). The rays are
-    /// smooth, so half resolution costs little accuracy; without jitter frames do not shimmer
-    /// (the seed changes per frame and nothing accumulates them).
+    /// table ([`crate::budget`]; the numbers are in `docs/bench/README.md`), which the viewer's
+    /// tests check. The rays are smooth, so half resolution costs little accuracy; without
+    /// jitter frames do not shimmer (the seed changes per frame and nothing accumulates them).
     fn default() -> Self {
         Self {
             exposure: 0.35,

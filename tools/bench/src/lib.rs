@@ -1,7 +1,8 @@
 //! Run time against error for every place the toolchain trades accuracy for speed: blur, mips,
 //! meshes and god rays, each measured against an exact reference on this machine, written as a
-//! Markdown report with SVG plots, and the error table the cooker's budget reads
-//! (`crates/cook/src/error_table.json`).
+//! Markdown report with SVG plots, and the error tables the cooker's budget reads
+//! (`crates/cook/src/error_table.json`) and the renderer's god-ray budget reads
+//! (`crates/render/src/god_ray_table.json`).
 //!
 //! The binary (`bench`) is the entry point; the sweeps are library functions so that the test
 //! suite runs a small version of each.

@@ -1,4 +1,5 @@
-//! `bench [--quick] [--out docs/bench] [--runs N] [--emit-table PATH]`: measures run time
+//! `bench [--quick] [--out docs/bench] [--runs N] [--emit-table PATH] [--emit-god-ray-table PATH]`:
+//! measures run time
 //! against error for blur, mips, meshes and god rays on this machine and writes the report.
 
 use std::path::PathBuf;
@@ -9,7 +10,7 @@ use bench::common::Machine;
 use bench::godrays::GodRayConfig;
 use bench::mesh::MeshConfig;
 use bench::mips::MipConfig;
-use bench::report::{Results, error_table, write_report};
+use bench::report::{Results, error_table, god_ray_table, write_report};
 use clap::Parser;
 
 const LAVAPIPE_ICD: &str = "/usr/share/vulkan/icd.d/lvp_icd.x86_64.json";
@@ -30,6 +31,10 @@ struct Args {
     /// crates/cook/src/error_table.json.
     #[arg(long)]
     emit_table: Option<PathBuf>,
+    /// Also write the renderer's god-ray table (FLIP error and relative cost of each setting)
+    /// here, e.g. crates/render/src/god_ray_table.json.
+    #[arg(long)]
+    emit_god_ray_table: Option<PathBuf>,
     /// Side of the square blur image (default 4096, 256 with --quick).
     #[arg(long)]
     blur_size: Option<usize>,
@@ -187,12 +192,21 @@ fn main() -> Result<()> {
     write_report(&args.out, &results)?;
     eprintln!("report written to {}", args.out.join("README.md").display());
     if let Some(path) = &args.emit_table {
-        let table = error_table(&results)?;
-        let text = serde_json::to_string_pretty(&table)? + "\n";
-        let tmp = path.with_extension("json.tmp");
-        std::fs::write(&tmp, text).with_context(|| format!("writing {}", tmp.display()))?;
-        std::fs::rename(&tmp, path).with_context(|| format!("writing {}", path.display()))?;
+        write_json(path, &error_table(&results)?)?;
         eprintln!("error table written to {}", path.display());
     }
+    if let Some(path) = &args.emit_god_ray_table {
+        write_json(path, &god_ray_table(&results))?;
+        eprintln!("god-ray table written to {}", path.display());
+    }
+    Ok(())
+}
+
+/// Writes through a temp file and a rename, so a failed run leaves the committed table whole.
+fn write_json(path: &std::path::Path, value: &impl serde::Serialize) -> Result<()> {
+    let text = serde_json::to_string_pretty(value)? + "\n";
+    let tmp = path.with_extension("json.tmp");
+    std::fs::write(&tmp, text).with_context(|| format!("writing {}", tmp.display()))?;
+    std::fs::rename(&tmp, path).with_context(|| format!("writing {}", path.display()))?;
     Ok(())
 }

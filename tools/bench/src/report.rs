@@ -218,7 +218,7 @@ fn summary(md: &mut String, r: &Results) {
         if !approx.is_empty() {
             let _ = writeln!(
                 md,
-                "  - Approximations (picked only when `--max-error` allows): {}.",
+                "  - Approximations (picked only when `--max-error-lsb` allows): {}.",
                 approx.join("; ")
             );
         }
@@ -607,6 +607,14 @@ pub struct ErrorTable {
     pub image_size: usize,
     pub blur: Vec<BlurEntry>,
     pub mip: Vec<MipEntry>,
+}
+
+/// The table `crates/render/src/budget.rs` embeds: every god-ray row, costs relative to 64
+/// samples at full resolution.
+#[derive(Debug, Serialize)]
+pub struct GodRayTable {
+    pub generated_by: String,
+    pub machine: String,
     pub god_rays: Vec<GodRayEntry>,
 }
 
@@ -679,18 +687,25 @@ pub fn error_table(r: &Results) -> Result<ErrorTable> {
             relative_cost: round(m.time_ms / mip_unit, 3).max(0.001),
         })
         .collect();
-    // God rays: pass time relative to the renderer's default setting.
+    Ok(ErrorTable {
+        generated_by: r.command.clone(),
+        machine: r.machine.markdown(),
+        image_size: r.blur_size,
+        blur,
+        mip,
+    })
+}
+
+/// The god-ray rows, pass time relative to 64 samples at full resolution without jitter (a row
+/// every sweep, quick or full, measures, and one that does not move when the default does);
+/// empty when the sweep did not run.
+pub fn god_ray_table(r: &Results) -> GodRayTable {
     let mut god_rays = Vec::new();
     if let Ok(g) = &r.god_rays {
-        let d = render::view::GodRaySettings::default();
         let unit = g
             .rows
             .iter()
-            .find(|x| {
-                x.samples == d.samples
-                    && x.resolution_scale == d.resolution_scale
-                    && x.jitter == d.jitter
-            })
+            .find(|x| x.samples == 64 && x.resolution_scale == 1.0 && !x.jitter)
             .and_then(|x| x.god_ray_ms);
         if let Some(unit) = unit {
             for x in &g.rows {
@@ -707,12 +722,9 @@ pub fn error_table(r: &Results) -> Result<ErrorTable> {
             }
         }
     }
-    Ok(ErrorTable {
-        god_rays,
+    GodRayTable {
         generated_by: r.command.clone(),
         machine: r.machine.markdown(),
-        image_size: r.blur_size,
-        blur,
-        mip,
-    })
+        god_rays,
+    }
 }

@@ -12,6 +12,8 @@ fn run_quick(out: &Path, table: &Path) {
         .arg(out)
         .arg("--emit-table")
         .arg(table)
+        .arg("--emit-god-ray-table")
+        .arg(table.with_file_name("god_ray_table.json"))
         .env(
             "VK_DRIVER_FILES",
             std::env::var_os("VK_DRIVER_FILES")
@@ -177,6 +179,14 @@ fn quick_bench_writes_a_sane_report_and_error_table() {
     assert!(c.warning.is_none() && c.expected_error <= 0.55, "{c:?}");
     let c = cook::budget::choose_mip_in(&table, 0.6, Some("box")).unwrap();
     assert!(c.linear_light, "{c:?}");
+    // And the god-ray table into the renderer's.
+    let rays: render::budget::GodRayTable = serde_json::from_str(
+        &std::fs::read_to_string(dir.path().join("god_ray_table.json")).unwrap(),
+    )
+    .unwrap();
+    assert!(!rays.god_rays.is_empty());
+    let c = render::budget::choose_god_rays_in(&rays, 1.0).unwrap();
+    assert!(c.warning.is_none(), "{c:?}");
 
     // Re-measuring one sweep keeps the others' rows from the report already there, and says so.
     let status = Command::new(env!("CARGO_BIN_EXE_bench"))

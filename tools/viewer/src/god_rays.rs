@@ -1,12 +1,12 @@
-//! God-ray settings from an error budget (`--max-error`) and the measured error of a setting,
-//! both from the committed table `cook::budget` embeds (`crates/cook/src/error_table.json`,
-//! measured by `bench` on the default scene against a 4096-sample reference).
+//! God-ray settings from an error budget (`--max-flip`) and the measured error of a setting,
+//! both from the table `render::budget` embeds (measured by `bench` on the default scene
+//! against a 4096-sample reference).
 
 use anyhow::{Result, bail};
-use cook::budget::{GodRayChoice, GodRayEntry, choose_god_rays, table};
 use render::GodRaySettings;
+use render::budget::{GodRayChoice, GodRayEntry, choose_god_rays, table};
 
-/// Parses a `--max-error` value: a FLIP mean, in [0, 1].
+/// Parses a `--max-flip` value: a FLIP mean, in [0, 1].
 pub fn parse_flip_mean(s: &str) -> Result<f32, String> {
     let v: f32 = s
         .trim()
@@ -34,9 +34,7 @@ pub fn parse_scale(s: &str) -> Result<f32, String> {
 
 /// The measured row of exactly this sample count, scale and jitter, if the table has one.
 pub fn measured(g: &GodRaySettings) -> Option<&'static GodRayEntry> {
-    table().god_rays.iter().find(|e| {
-        e.samples == g.samples && e.resolution_scale == g.resolution_scale && e.jitter == g.jitter
-    })
+    table().measured(g)
 }
 
 /// "128 samples, half resolution, no jitter".
@@ -57,10 +55,16 @@ pub fn describe(g: &GodRaySettings) -> String {
 /// What the measured table says about `g`, for printing and the panel.
 pub fn measured_note(g: &GodRaySettings) -> String {
     match measured(g) {
-        Some(e) => format!(
-            "measured FLIP mean {:.4} (p99 {:.4}), cost {:.3}× 64 samples at full resolution",
-            e.flip_mean, e.flip_p99, e.relative_cost
-        ),
+        Some(e) => {
+            let cost = match table().cost_vs_64_full(e) {
+                Some(c) => format!(", cost {c:.3}× 64 samples at full resolution"),
+                None => String::new(),
+            };
+            format!(
+                "measured FLIP mean {:.4} (p99 {:.4}){cost}",
+                e.flip_mean, e.flip_p99
+            )
+        }
         None => "not a measured setting".to_string(),
     }
 }
@@ -69,7 +73,7 @@ pub fn measured_note(g: &GodRaySettings) -> String {
 /// resolution scale, jitter; the look parameters stay) and returns the choice.
 pub fn apply_budget(max_flip_mean: f32, g: &mut GodRaySettings) -> Result<GodRayChoice> {
     let Some(choice) = choose_god_rays(max_flip_mean) else {
-        bail!("--max-error: the committed error table has no god-ray measurements");
+        bail!("--max-flip: the committed god-ray table has no measurements");
     };
     g.samples = choice.samples;
     g.resolution_scale = choice.resolution_scale;

@@ -286,17 +286,17 @@ fn render_far(
 }
 
 #[test]
-fn max_error_chooses_reports_and_uses_a_measured_setting() {
-    let dir = scratch("max-error");
+fn max_flip_chooses_reports_and_uses_a_measured_setting() {
+    let dir = scratch("max-flip");
     let pack_path = dir.join("tiny.pack");
     std::fs::write(&pack_path, tiny_pack()).unwrap();
 
     // A loose budget: the cheapest measured setting, whatever the committed table says.
-    let loose = cook::budget::choose_god_rays(0.2).expect("the table has god-ray rows");
+    let loose = render::budget::choose_god_rays(0.2).expect("the table has god-ray rows");
     assert!(loose.warning.is_none());
     let (stdout, _, frame, rays) =
-        render_far(&pack_path, &dir.join("loose"), &["--max-error", "0.2"]);
-    let reported = format!("god rays for --max-error 0.2: {} samples, ", loose.samples);
+        render_far(&pack_path, &dir.join("loose"), &["--max-flip", "0.2"]);
+    let reported = format!("god rays for --max-flip 0.2: {} samples, ", loose.samples);
     assert!(stdout.contains(&reported), "{stdout}");
     assert!(
         stdout.contains(&format!(
@@ -331,11 +331,12 @@ fn max_error_chooses_reports_and_uses_a_measured_setting() {
     );
     assert!(
         same_frame == frame && same_rays == rays,
-        "--max-error and explicit flags differ"
+        "--max-flip and explicit flags differ"
     );
 
-    // Tighter than any measured setting: the most accurate one, and a warning.
-    let tight = cook::budget::choose_god_rays(0.0).unwrap();
+    // Tighter than any measured setting: the most accurate one, and a warning (asked with the
+    // flag's old spelling, which still works).
+    let tight = render::budget::choose_god_rays(0.0).unwrap();
     let (stdout, stderr, tight_frame, tight_rays) =
         render_far(&pack_path, &dir.join("tight"), &["--max-error", "0"]);
     assert!(
@@ -344,7 +345,7 @@ fn max_error_chooses_reports_and_uses_a_measured_setting() {
     );
     assert!(
         stdout.contains(&format!(
-            "god rays for --max-error 0: {} samples",
+            "god rays for --max-flip 0: {} samples",
             tight.samples
         )),
         "{stdout}"
@@ -362,7 +363,7 @@ fn max_error_chooses_reports_and_uses_a_measured_setting() {
     let o = viewer(&[
         pack_path.as_os_str(),
         "--headless".as_ref(),
-        "--max-error".as_ref(),
+        "--max-flip".as_ref(),
         "0.02".as_ref(),
         "--samples".as_ref(),
         "16".as_ref(),
