@@ -36,7 +36,8 @@ pub struct Args {
     no_cache: bool,
     /// Error budget in 8-bit sRGB steps (LSB): per texture, the cheapest blur and mip method
     /// whose measured error stays within it (overrides the manifest's `[scene] max_error`).
-    #[arg(long, value_name = "LSB")]
+    /// `--max-error` is the old spelling.
+    #[arg(long = "max-error-lsb", alias = "max-error", value_name = "LSB")]
     max_error: Option<f32>,
     /// Quantize vertices (positions within the mesh's bounds, 16-bit UVs, octahedral
     /// normals); reports the error.
@@ -69,7 +70,7 @@ pub fn run(args: Args) -> Outcome {
     if let Some(b) = args.max_error {
         if !(b.is_finite() && b >= 0.0) {
             return Err(crate::exit::UsageError(format!(
-                "--max-error must be a finite number >= 0, got {b}"
+                "--max-error-lsb must be a finite number >= 0, got {b}"
             ))
             .into());
         }

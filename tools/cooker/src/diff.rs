@@ -1,4 +1,4 @@
-//! `cooker diff <a.pack> <b.pack> [--json] [--max-error LSB] [--max-position-delta D]`
+//! `cooker diff <a.pack> <b.pack> [--json] [--tolerance-lsb LSB] [--max-position-delta D]`
 //!
 //! Compares two packs section by section and explains the differences: geometry (counts,
 //! largest position change, material ID changes) and, per texture and mip level, the largest
@@ -22,9 +22,10 @@ pub struct Args {
     /// Print one JSON object instead of text.
     #[arg(long)]
     json: bool,
-    /// Largest texel difference (8-bit steps) accepted in any texture level; default: identical.
-    #[arg(long, value_name = "LSB")]
-    max_error: Option<f64>,
+    /// Largest texel difference accepted in any texture level, in 8-bit steps (LSB); default:
+    /// identical. `--max-error` is the old spelling.
+    #[arg(long = "tolerance-lsb", alias = "max-error", value_name = "LSB")]
+    tolerance_lsb: Option<f64>,
     /// Largest vertex position change accepted (scene units); default: identical.
     #[arg(long, value_name = "D")]
     max_position_delta: Option<f64>,
@@ -108,7 +109,7 @@ fn role_key(pack: &Pack, role: SectionRole) -> String {
 
 pub fn run(args: Args) -> Outcome {
     for (name, v) in [
-        ("--max-error", args.max_error),
+        ("--tolerance-lsb", args.tolerance_lsb),
         ("--max-position-delta", args.max_position_delta),
     ] {
         if let Some(v) = v
@@ -240,7 +241,7 @@ pub fn run(args: Args) -> Outcome {
     }
 
     // Textures, by name, level by level.
-    let tolerance = args.max_error.unwrap_or(0.0);
+    let tolerance = args.tolerance_lsb.unwrap_or(0.0);
     let mut textures = Vec::new();
     for (i, t) in ta.textures.iter().enumerate() {
         let Some((j, u)) = tb.texture_by_name(&t.name) else {
@@ -302,7 +303,7 @@ pub fn run(args: Args) -> Outcome {
     }
     // Identical by default: without thresholds any byte difference (even one no rule above
     // explains, such as reordered sections) is a difference.
-    let strict = args.max_error.is_none() && args.max_position_delta.is_none();
+    let strict = args.tolerance_lsb.is_none() && args.max_position_delta.is_none();
     if strict && !identical && problems.is_empty() {
         problems.push("the packs differ in bytes (section order or TOC encoding)".into());
     }

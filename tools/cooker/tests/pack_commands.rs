@@ -146,8 +146,9 @@ fn diff_identical_changed_texel_and_material() {
     assert_eq!(changed.len(), 1, "only the edited mip differs: {changed:?}");
     assert_eq!(changed[0]["section"], "mip/rose.colour/0");
 
-    let o = cooker(&[&"diff", &a, &b, &"--max-error", &"2"]);
+    let o = cooker(&[&"diff", &a, &b, &"--tolerance-lsb", &"2"]);
     assert_eq!(o.status.code(), Some(0), "{}", text(&o));
+    // The old spelling of --tolerance-lsb still works.
     let o = cooker(&[&"diff", &a, &b, &"--max-error", &"1"]);
     assert_eq!(o.status.code(), Some(1), "{}", text(&o));
     assert!(text(&o).contains("max error 2 LSB"), "{}", text(&o));
