@@ -1,7 +1,7 @@
-//! `viewer`: renders a cooked pack (or a `scene.toml`, cooked first) with the stained-glass
-//! renderer. Headless today: writes PNGs per camera, optionally every intermediate pass, and
-//! benchmarks per-pass GPU time. The interactive window (issue 7) plugs into the same
-//! `render::Renderer::render_to`.
+//! `viewer`: renders a cooked pack (or a `scene.toml` or bare mesh, cooked first) with the
+//! stained-glass renderer, in a window (`interactive`: fly camera, views of each pass, egui
+//! panel, `--watch`) or `--headless`: PNGs per camera, optionally every intermediate pass, and
+//! per-pass GPU times. Both draw through `render::Renderer::render_to`.
 
 mod god_rays;
 mod interactive;
