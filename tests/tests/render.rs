@@ -479,8 +479,14 @@ fn out_dir() -> PathBuf {
     d
 }
 
-/// Compares with `data/reference/<name>.png` using FLIP. Tolerances: mean FLIP error and the
-/// 99th-percentile error (lavapipe is bit-exact run to run; the margins absorb driver versions).
+/// Largest difference of any 8-bit channel from the reference. lavapipe renders these scenes
+/// bit-exactly run to run (FLIP 0); the few LSB absorb another Mesa version's rounding, while a
+/// lost feature (refraction off: `flat-glass` against `sun-inside` differs by FLIP mean 0.0024
+/// only) moves some pixels by far more.
+const MAX_LSB: u8 = 4;
+
+/// Compares with `data/reference/<name>.png` using FLIP (mean and 99th percentile) and the
+/// largest channel difference, [`MAX_LSB`].
 fn check_image(name: &str, image: &image::RgbaImage, max_mean: f32, max_p99: f32) {
     let reference_path = reference_dir().join(format!("{name}.png"));
     let actual_path = out_dir().join(format!("{name}-actual.png"));
@@ -513,7 +519,14 @@ fn check_image(name: &str, image: &image::RgbaImage, max_mean: f32, max_p99: f32
     let mut pool = nv_flip::FlipPool::from_image(&error);
     let mean = pool.mean();
     let p99 = pool.get_percentile(0.99, false);
-    if !(mean <= max_mean && p99 <= max_p99) {
+    let max_lsb = reference
+        .as_raw()
+        .iter()
+        .zip(actual.as_raw())
+        .map(|(a, b)| a.abs_diff(*b))
+        .max()
+        .unwrap_or(0);
+    if !(mean <= max_mean && p99 <= max_p99 && max_lsb <= MAX_LSB) {
         image.save(&actual_path).unwrap();
         let diff = error.apply_color_lut(&nv_flip::magma_lut());
         let diff_path = out_dir().join(format!("{name}-diff.png"));
@@ -522,12 +535,13 @@ fn check_image(name: &str, image: &image::RgbaImage, max_mean: f32, max_p99: f32
             .save(&diff_path)
             .unwrap();
         panic!(
-            "{name}: FLIP mean {mean:.4} (max {max_mean}), p99 {p99:.4} (max {max_p99}); see {} and {}",
+            "{name}: FLIP mean {mean:.4} (max {max_mean}), p99 {p99:.4} (max {max_p99}), \
+             {max_lsb} LSB (max {MAX_LSB}); see {} and {}",
             actual_path.display(),
             diff_path.display()
         );
     }
-    eprintln!("{name}: FLIP mean {mean:.5}, p99 {p99:.5}");
+    eprintln!("{name}: FLIP mean {mean:.5}, p99 {p99:.5}, {max_lsb} LSB");
 }
 
 fn render_camera(
@@ -564,13 +578,13 @@ fn sun_through_window_matches_reference() {
         "{report:?}"
     );
     assert!(report.god_ray_fade > 0.9, "the sun is in view: {report:?}");
-    check_image("sun-inside", &r.read_output(&gpu).unwrap(), 0.01, 0.05);
+    check_image("sun-inside", &r.read_output(&gpu).unwrap(), 1e-3, 0.01);
     let (r, report) = render_camera(&gpu, &scene, 1, Settings::default());
     assert!(
         skipped(&report, PassId::GodRays),
         "the sun is behind the outside camera: {report:?}"
     );
-    check_image("sun-outside", &r.read_output(&gpu).unwrap(), 0.01, 0.05);
+    check_image("sun-outside", &r.read_output(&gpu).unwrap(), 1e-3, 0.01);
 }
 
 #[test]
@@ -593,8 +607,8 @@ fn lamp_through_window_matches_reference() {
     check_image(
         "lamp-inside-half-res-rays",
         &r.read_output(&gpu).unwrap(),
+        1e-3,
         0.01,
-        0.05,
     );
 }
 
@@ -610,7 +624,7 @@ fn scene_without_windows_skips_window_passes() {
         );
     }
     assert!(!skipped(&report, PassId::Lit) && !skipped(&report, PassId::Composite));
-    check_image("no-windows", &r.read_output(&gpu).unwrap(), 0.01, 0.05);
+    check_image("no-windows", &r.read_output(&gpu).unwrap(), 1e-3, 0.01);
 }
 
 #[test]
@@ -620,7 +634,7 @@ fn window_without_normal_map_skips_refraction() {
     let (r, report) = render_camera(&gpu, &scene, 0, Settings::default());
     assert!(skipped(&report, PassId::WindowNormals), "{report:?}");
     assert!(!skipped(&report, PassId::WindowMask) && !skipped(&report, PassId::GodRays));
-    check_image("flat-glass", &r.read_output(&gpu).unwrap(), 0.01, 0.05);
+    check_image("flat-glass", &r.read_output(&gpu).unwrap(), 1e-3, 0.01);
 }
 
 // ---------------------------------------------------------------------------------------------
