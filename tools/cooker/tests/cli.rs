@@ -3,7 +3,7 @@
 mod common;
 
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
+use std::process::Output;
 
 use common::assert_said_once;
 
@@ -13,10 +13,7 @@ fn cooker(args: &[&str]) -> Output {
     if args.first() == Some(&"cook") {
         args.push("--no-cache");
     }
-    Command::new(env!("CARGO_BIN_EXE_cooker"))
-        .args(&args)
-        .output()
-        .expect("cooker runs")
+    common::command().args(&args).output().expect("cooker runs")
 }
 
 fn data(rel: &str) -> String {

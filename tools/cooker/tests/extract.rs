@@ -1,18 +1,13 @@
 //! `cooker extract` on packs built in code.
 
+mod common;
+
 use std::path::Path;
-use std::process::{Command, Output};
+
+use common::cooker;
 
 use pack::TextureRole;
 use pack::testing::{sample, sample_texture};
-
-fn cooker(args: &[&dyn AsRef<std::ffi::OsStr>]) -> Output {
-    let mut c = Command::new(env!("CARGO_BIN_EXE_cooker"));
-    for a in args {
-        c.arg(a);
-    }
-    c.output().expect("cooker runs")
-}
 
 /// The sample pack plus a 5x3 colour texture and a 4x4 normal map with known bytes.
 fn write_pack(path: &Path) -> (Vec<Vec<u8>>, Vec<Vec<u8>>) {

@@ -3,16 +3,11 @@
 //! cooked 8-bit sRGB texture keeps the source's bytes, so it must equal the image crate's own
 //! decode exactly; damaged inputs exit 3 naming the file.
 
-use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
+mod common;
 
-fn cooker(args: &[&dyn AsRef<std::ffi::OsStr>]) -> Output {
-    let mut c = Command::new(env!("CARGO_BIN_EXE_cooker"));
-    for a in args {
-        c.arg(a);
-    }
-    c.output().expect("cooker runs")
-}
+use std::path::{Path, PathBuf};
+
+use common::cooker;
 
 fn data(rel: &str) -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR"))

@@ -1,17 +1,13 @@
 //! `cooker info` and `cooker diff` on packs built in code.
 
+mod common;
+
 use std::path::Path;
-use std::process::{Command, Output};
+use std::process::Output;
+
+use common::cooker;
 
 use pack::testing::sample;
-
-fn cooker(args: &[&dyn AsRef<std::ffi::OsStr>]) -> Output {
-    let mut c = Command::new(env!("CARGO_BIN_EXE_cooker"));
-    for a in args {
-        c.arg(a);
-    }
-    c.output().expect("cooker runs")
-}
 
 fn write_sample(path: &Path, edit: impl FnOnce(&mut pack::Toc, &mut pack::PackData)) {
     let (mut toc, mut data) = sample();

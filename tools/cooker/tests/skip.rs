@@ -2,11 +2,13 @@
 //! textures, source materials nothing uses, projectors for windows whose light lands nowhere,
 //! and vertex attributes no material of a mesh reads.
 
+mod common;
+
 use std::path::Path;
-use std::process::{Command, Output};
+use std::process::Output;
 
 fn cooker(args: &[&str], dir: &Path) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_cooker"))
+    common::command()
         .args(args)
         .current_dir(dir)
         .output()

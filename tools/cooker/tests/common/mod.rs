@@ -1,5 +1,25 @@
 //! Helpers shared by the cooker's integration tests.
 
+// Each test crate compiles this module and uses a different subset of it.
+#![allow(dead_code)]
+
+use std::ffi::OsStr;
+use std::process::{Command, Output};
+
+/// A command running the `cooker` binary this package builds.
+pub fn command() -> Command {
+    Command::new(env!("CARGO_BIN_EXE_cooker"))
+}
+
+/// Runs the cooker with `args` and waits for it.
+pub fn cooker(args: &[&dyn AsRef<OsStr>]) -> Output {
+    let mut c = command();
+    for a in args {
+        c.arg(a);
+    }
+    c.output().expect("cooker runs")
+}
+
 /// Panics when a line of `msg` says the same thing twice: after the `error:`/`warning:` label,
 /// no `": "`-separated part may contain another. That is how an error that prints its cause
 /// and also returns it as its `source` shows up in a printed chain
