@@ -7,8 +7,8 @@
 //!
 //! Entries are files `<dir>/<key hex>.entry`: magic, payload length, CRC-32 of the payload,
 //! payload. (The payload check guards against damage, not an adversary: CRC-32 catches every
-//! single-bit flip and burst, and runs at memory speed, where SHA-256 over a 50 MB pack would
-//! dominate a cache hit.) A damaged entry (truncated, flipped bits, wrong magic) is reported as corrupt and
+//! single-bit flip and burst, and runs at memory speed, where SHA-256 over a pack of tens of
+//! megabytes would dominate a cache hit.) A damaged entry (truncated, flipped bits, wrong magic) is reported as corrupt and
 //! re-cooked, never used. Entries are written to a temp file and renamed into place, so two
 //! cooks sharing a cache only ever see complete entries (both write identical bytes for a key).
 
