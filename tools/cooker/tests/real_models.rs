@@ -350,13 +350,32 @@ fn texture_name(info: &Value, reference: &Value) -> Option<String> {
     }
 }
 
-/// How many windows the pack has (`windows` is a count, or a list once `info` lists them).
+/// The pack's windows, as `cooker info --json` lists them.
+fn windows(info: &Value) -> &Vec<Value> {
+    info["windows"].as_array().expect("a list of windows")
+}
+
 fn window_count(info: &Value) -> usize {
-    match &info["windows"] {
-        Value::Number(n) => n.as_u64().unwrap() as usize,
-        Value::Array(a) => a.len(),
-        other => panic!("unexpected windows {other}"),
-    }
+    windows(info).len()
+}
+
+fn window<'a>(info: &'a Value, name: &str) -> &'a Value {
+    windows(info)
+        .iter()
+        .find(|w| w["name"] == name)
+        .unwrap_or_else(|| panic!("no window {name:?} in {:?}", windows(info)))
+}
+
+fn f(v: &Value) -> f64 {
+    v.as_f64().unwrap()
+}
+
+fn vec3(v: &Value) -> [f64; 3] {
+    [f(&v[0]), f(&v[1]), f(&v[2])]
+}
+
+fn near3(a: [f64; 3], b: [f64; 3]) -> bool {
+    a.iter().zip(b).all(|(x, y)| (x - y).abs() < 1e-4)
 }
 
 fn is_window(class: &str) -> bool {
@@ -473,6 +492,16 @@ fn manifest_cook_rasterizes_the_rose_from_its_tf_colours_with_lead_and_a_project
     let projector = texture_name(&v, &m["projector_texture"]).expect("a projector");
     assert_eq!(projector, format!("{rose}.design.projector"));
     assert!(texture_name(&v, &m["normal_texture"]).is_some());
+    // `info` lists it: 3 m x 3 m, upright, facing into the nave (+z, where the sun goes).
+    let w = window(&v, &rose);
+    assert_eq!(w["design_source"], "mesh colours");
+    assert_eq!(w["design"].as_str(), Some(design.as_str()));
+    assert_eq!(w["projector_texture"].as_str(), Some(projector.as_str()));
+    assert_eq!(w["triangles"], 16);
+    assert!((f(&w["width"]) - 3.0).abs() < 1e-4 && (f(&w["height"]) - 3.0).abs() < 1e-4);
+    assert!(near3(vec3(&w["normal"]), [0.0, 0.0, 1.0]), "{w}");
+    assert!(near3(vec3(&w["centre"]), [0.0, 6.0, -9.95]), "{w}");
+    assert_eq!(window_count(&v), LANCETS + 1);
 
     // 3 m x 3 m at 100 texels per metre.
     let img = extract(&pack, &design, dir.path());
@@ -512,13 +541,18 @@ fn manifest_cook_rasterizes_the_rose_from_its_tf_colours_with_lead_and_a_project
     assert!(red[0] > 200 && red[1] < 120 && red[2] < 120, "{red:?}");
     assert_eq!(p.get_pixel(2, 2)[3], 0);
 
-    // The lancets, with no [[window]], get designs from their Kd; all thirty are lit.
+    // The lancets, with no [[window]], get designs from their Kd; all thirty are lit, in
+    // the order of the file, 0.6 m apart, facing into the nave (+x).
     for k in 1..=LANCETS {
-        let m = material(&v, &format!("glass#{k}"));
-        assert!(
-            texture_name(&v, &m["projector_texture"]).is_some(),
-            "glass#{k}"
-        );
+        let w = window(&v, &format!("glass#{k}"));
+        assert_eq!(w["design_source"], "mesh colours", "{w}");
+        assert!(w["projector_texture"].is_string(), "{w}");
+        assert_eq!(w["triangles"], 3, "{w}");
+        assert!((f(&w["width"]) - 0.4).abs() < 1e-4, "{w}");
+        assert!((f(&w["height"]) - 2.5).abs() < 1e-4, "{w}");
+        assert!(near3(vec3(&w["normal"]), [1.0, 0.0, 0.0]), "{w}");
+        let z = -8.7 + 0.6 * (k - 1) as f64;
+        assert!(near3(vec3(&w["centre"]), [LANCET_X as f64, 5.75, z]), "{w}");
     }
     let lancet = extract(&pack, "glass#7.design", dir.path());
     let (lw, lh) = lancet.dimensions();
@@ -592,6 +626,10 @@ fn a_rectangular_design_on_a_pointed_lancet_throws_pointed_light() {
     let projector = texture_name(&v, &m["projector_texture"]).unwrap();
     assert_eq!(colour, "photo.fitted");
     assert_eq!(projector, "photo.fitted.projector");
+    assert_eq!(
+        window(&v, "glass#7")["design_source"],
+        "image, fitted to the window"
+    );
     // The other lancets keep their own designs.
     let other = material(&v, "glass#8");
     assert_eq!(
@@ -714,6 +752,14 @@ fn french_chapel_names_and_a_bay_window_in_two_planes() {
         );
         assert_eq!(material(&v, &name)["triangles"], 2);
     }
+    // Their frames: the slanted pane faces into the chapel diagonally, the other along +x.
+    let n1 = vec3(&window(&v, "vitrail_baie#1")["normal"]);
+    let n2 = vec3(&window(&v, "vitrail_baie#2")["normal"]);
+    let d = 1.0 / 1.36f64.sqrt();
+    assert!(near3(n1, [d, 0.0, 0.6 * d]), "{n1:?}");
+    assert!(near3(n2, [1.0, 0.0, 0.0]), "{n2:?}");
+    assert!((f(&window(&v, "vitrail_baie#2")["width"]) - 1.0).abs() < 1e-4);
+    assert!((f(&window(&v, "vitrail_baie#1")["width"]) - 1.36f64.sqrt()).abs() < 1e-4);
     assert_eq!(window_count(&v), 4);
     // Planar, not curved: no warning, and validate agrees.
     assert!(!err.contains("curved"), "{err}");
@@ -772,4 +818,17 @@ fn bare_cornell_box_tags_floor_and_walls() {
     assert_eq!(tris("white.other"), 2, "the ceiling");
     assert_eq!(tris("white.wall"), 2 + 10 + 10, "back wall and both blocks");
     assert_eq!(window_count(&v), 0);
+}
+
+/// `KEEP_FIXTURES=DIR cargo test -p cooker --test real_models keep` writes the fixtures to DIR
+/// (for a look at them in the viewer); without the variable it does nothing.
+#[test]
+fn keep_fixtures_when_asked() {
+    if let Some(dir) = std::env::var_os("KEEP_FIXTURES") {
+        let dir = Path::new(&dir);
+        std::fs::create_dir_all(dir).unwrap();
+        sibenik_manifest(dir);
+        chapelle(dir);
+        kapelle(dir);
+    }
 }
