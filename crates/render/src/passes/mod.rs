@@ -31,7 +31,8 @@ pub(crate) fn uniform_entry(binding: u32, size: usize) -> wgpu::BindGroupLayoutE
     }
 }
 
-pub(crate) fn texture_entry(binding: u32) -> wgpu::BindGroupLayoutEntry {
+/// A filterable 2D texture read by the fragment stage (also for the viewer's own passes).
+pub fn texture_entry(binding: u32) -> wgpu::BindGroupLayoutEntry {
     wgpu::BindGroupLayoutEntry {
         binding,
         visibility: wgpu::ShaderStages::FRAGMENT,
@@ -44,7 +45,8 @@ pub(crate) fn texture_entry(binding: u32) -> wgpu::BindGroupLayoutEntry {
     }
 }
 
-pub(crate) fn sampler_entry(binding: u32) -> wgpu::BindGroupLayoutEntry {
+/// A filtering sampler for the fragment stage.
+pub fn sampler_entry(binding: u32) -> wgpu::BindGroupLayoutEntry {
     wgpu::BindGroupLayoutEntry {
         binding,
         visibility: wgpu::ShaderStages::FRAGMENT,

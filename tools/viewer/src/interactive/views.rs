@@ -283,22 +283,8 @@ impl Display {
                     false,
                     wgpu::ShaderStages::FRAGMENT,
                 ),
-                wgpu::BindGroupLayoutEntry {
-                    binding: 1,
-                    visibility: wgpu::ShaderStages::FRAGMENT,
-                    ty: wgpu::BindingType::Texture {
-                        sample_type: wgpu::TextureSampleType::Float { filterable: true },
-                        view_dimension: wgpu::TextureViewDimension::D2,
-                        multisampled: false,
-                    },
-                    count: None,
-                },
-                wgpu::BindGroupLayoutEntry {
-                    binding: 2,
-                    visibility: wgpu::ShaderStages::FRAGMENT,
-                    ty: wgpu::BindingType::Sampler(wgpu::SamplerBindingType::Filtering),
-                    count: None,
-                },
+                render::passes::texture_entry(1),
+                render::passes::sampler_entry(2),
             ],
         });
         let show_pl = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
