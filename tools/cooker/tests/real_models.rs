@@ -832,3 +832,92 @@ fn keep_fixtures_when_asked() {
         kapelle(dir);
     }
 }
+
+/// docs/scene-manifest.md against the code: its example parses with the `[[window]]` values it
+/// shows (the defaults), and the keywords and rules its Tagging section quotes hold.
+#[test]
+fn the_manifest_documentation_matches_the_code() {
+    use cook::manifest::{Fit, Manifest, UvMode};
+    use pack::MaterialClass as C;
+
+    let doc = std::fs::read_to_string(
+        Path::new(env!("CARGO_MANIFEST_DIR")).join("../../docs/scene-manifest.md"),
+    )
+    .unwrap();
+    let start = doc.find("```toml\n").expect("a TOML example") + "```toml\n".len();
+    let example = &doc[start..start + doc[start..].find("```").unwrap()];
+    let dir = tempfile::tempdir().unwrap();
+    for f in [
+        "corridor.obj",
+        "textures/stone.png",
+        "textures/stone_n.png",
+        "windows/lancet.png",
+        "normals/hammered.png",
+    ] {
+        let p = dir.path().join(f);
+        std::fs::create_dir_all(p.parent().unwrap()).unwrap();
+        std::fs::write(p, b"").unwrap();
+    }
+    let m = Manifest::parse(&dir.path().join("scene.toml"), example)
+        .unwrap_or_else(|e| panic!("the documented example does not parse: {e}"));
+    let w = &m.windows[0];
+    assert_eq!(w.name.as_deref(), Some("lancet_*"));
+    assert_eq!(w.material.as_deref(), Some("glass"));
+    assert!(w.design.is_some());
+    assert_eq!((w.uv, w.fit), (UvMode::Auto, Fit::Cover));
+    assert_eq!(w.inside, Some([1.0, 0.0, 0.0]));
+    // The example shows the defaults.
+    assert_eq!(w.came_width, cook::manifest::DEFAULT_CAME_WIDTH);
+    assert_eq!(w.texels_per_metre, cook::manifest::DEFAULT_TEXELS_PER_METRE);
+    assert!(w.matches("lancet_3", std::iter::empty()));
+    assert!(w.matches("rose", ["lead", "glass"].into_iter()));
+    assert!(!w.matches("rose", ["staklo"].into_iter()));
+
+    let class = |name: &str| {
+        let names = cook::import::Names {
+            material: Some(name.to_string()),
+            ..Default::default()
+        };
+        cook::tag::heuristic(&names).map(|h| h.3)
+    };
+    for (words, want) in [
+        (
+            &[
+                "glass",
+                "window",
+                "verre",
+                "vitrail",
+                "vidrio",
+                "vetro",
+                "Glas",
+                "Fenster",
+                "staklo",
+                "szkło",
+                "Kirchenfenster",
+            ][..],
+            C::WindowUpper,
+        ),
+        (
+            &["floor", "sol", "suelo", "pavimento", "Boden", "pod"][..],
+            C::Floor,
+        ),
+        (&["wall", "mur", "pared", "Wand", "zid"][..], C::Wall),
+        (&["sky", "ciel", "Himmel"][..], C::Background),
+    ] {
+        for w in words {
+            assert_eq!(class(w), Some(want), "{w}");
+        }
+    }
+    // Short keywords are whole words; a window word beside a frame word is not glass.
+    assert_eq!(class("tripod"), None);
+    assert_eq!(class("kamen_zid"), Some(C::Wall));
+    assert_eq!(class("StainedGlassWindow"), Some(C::WindowUpper));
+    for frame in [
+        "window_frame",
+        "Fenster_Rahmen",
+        "vitrail_cadre",
+        "prozor_okvir",
+    ] {
+        assert_eq!(class(frame), None, "{frame}");
+    }
+}
