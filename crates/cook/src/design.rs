@@ -28,7 +28,9 @@ pub struct Pane {
     pub amount: f32,
 }
 
-/// Pane index + 1 per texel (0 where no triangle covers the texel's centre).
+/// Pane index + 1 per texel (0 where no triangle covers the texel's centre). Scanline: per
+/// row, the span between the triangle's edges, so the cost is the covered area, not each
+/// triangle's bounding box (a fan of long thin triangles has large boxes and little area).
 pub fn rasterize(tris: &[UvTriangle], w: u32, h: u32) -> Vec<u16> {
     let mut ids = vec![0u16; (w * h) as usize];
     let (wf, hf) = (w as f64, h as f64);
@@ -39,44 +41,35 @@ pub fn rasterize(tris: &[UvTriangle], w: u32, h: u32) -> Vec<u16> {
         if area == 0.0 || !area.is_finite() {
             continue;
         }
-        let sign = area.signum();
-        let x0 = p
-            .iter()
-            .map(|q| q[0])
-            .fold(f64::INFINITY, f64::min)
-            .floor()
-            .max(0.0) as u32;
-        let x1 = (p
-            .iter()
-            .map(|q| q[0])
-            .fold(f64::NEG_INFINITY, f64::max)
-            .ceil())
-        .min(wf) as u32;
-        let y0 = p
-            .iter()
-            .map(|q| q[1])
-            .fold(f64::INFINITY, f64::min)
-            .floor()
-            .max(0.0) as u32;
-        let y1 = (p
-            .iter()
-            .map(|q| q[1])
-            .fold(f64::NEG_INFINITY, f64::max)
-            .ceil())
-        .min(hf) as u32;
-        let edge = |a: [f64; 2], b: [f64; 2], x: f64, y: f64| {
-            ((b[0] - a[0]) * (y - a[1]) - (b[1] - a[1]) * (x - a[0])) * sign
-        };
+        let y_min = p.iter().map(|q| q[1]).fold(f64::INFINITY, f64::min);
+        let y_max = p.iter().map(|q| q[1]).fold(f64::NEG_INFINITY, f64::max);
+        let y0 = (y_min - 0.5).ceil().max(0.0) as u32;
+        let y1 = ((y_max - 0.5).floor() + 1.0).clamp(0.0, hf) as u32;
         for y in y0..y1 {
             let cy = y as f64 + 0.5;
-            for x in x0..x1 {
-                let cx = x as f64 + 0.5;
-                if edge(p[0], p[1], cx, cy) >= 0.0
-                    && edge(p[1], p[2], cx, cy) >= 0.0
-                    && edge(p[2], p[0], cx, cy) >= 0.0
-                {
-                    ids[(y * w + x) as usize] = pane + 1;
+            // Where the row crosses the edges; a centre on an edge counts as inside.
+            let (mut xl, mut xr) = (f64::INFINITY, f64::NEG_INFINITY);
+            for k in 0..3 {
+                let (a, b) = (p[k], p[(k + 1) % 3]);
+                if (a[1] <= cy && cy <= b[1]) || (b[1] <= cy && cy <= a[1]) {
+                    if a[1] == b[1] {
+                        xl = xl.min(a[0].min(b[0]));
+                        xr = xr.max(a[0].max(b[0]));
+                    } else {
+                        let x = a[0] + (b[0] - a[0]) * (cy - a[1]) / (b[1] - a[1]);
+                        xl = xl.min(x);
+                        xr = xr.max(x);
+                    }
                 }
+            }
+            if !(xl <= xr) {
+                continue;
+            }
+            let x0 = (xl - 0.5).ceil().max(0.0) as u32;
+            let x1 = ((xr - 0.5).floor() + 1.0).clamp(0.0, wf) as u32;
+            let row = (y * w) as usize;
+            for x in x0..x1 {
+                ids[row + x as usize] = pane + 1;
             }
         }
     }

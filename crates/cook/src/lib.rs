@@ -250,15 +250,20 @@ pub fn prepare(
     settings: &Settings,
     report: &mut Report,
 ) -> Result<Prepared, CookError> {
+    let start = Instant::now();
     let sources = import_sources(manifest)?;
     let (mut imported, import_times): (Vec<import::Imported>, Vec<Duration>) =
         sources.into_iter().unzip();
+    let tagged = Instant::now();
+    report.stages.push(("import", tagged - start));
     let mut tagging = tag::tag(manifest, &imported)?;
     let mut tri_material: Vec<Vec<u16>> = imported
         .iter()
         .zip(&tagging.part_material)
         .map(|(src, parts)| tri_materials(src, parts))
         .collect();
+    let found = Instant::now();
+    report.stages.push(("tag", found - tagged));
     let windows = window_plan::plan(
         manifest,
         &settings.window_overrides,
@@ -267,6 +272,7 @@ pub fn prepare(
         &mut tri_material,
         report,
     )?;
+    report.stages.push(("windows", found.elapsed()));
     Ok(Prepared {
         imported,
         import_times,
@@ -320,12 +326,6 @@ pub fn window_geometry(
 /// The whole pipeline: sources in, a pack's TOC and data out.
 pub fn cook(manifest: &Manifest, settings: &Settings) -> Result<CookOutput, CookError> {
     let mut report = Report::default();
-    let mut clock = Instant::now();
-    let mut lap = |report: &mut Report, name: &'static str| {
-        let now = Instant::now();
-        report.stages.push((name, now - clock));
-        clock = now;
-    };
 
     // 1–3. Import every source into a triangle soup (errors name file and line); tag source
     // names to pack materials with a class; find the windows in the geometry.
@@ -368,7 +368,12 @@ pub fn cook(manifest: &Manifest, settings: &Settings) -> Result<CookOutput, Cook
         report.inputs.extend(s.files.iter().cloned());
     }
     note_heuristics(&imported, &tagging, &mut report);
-    lap(&mut report, "import, tag, windows");
+    let mut clock = Instant::now();
+    let mut lap = |report: &mut Report, name: &'static str| {
+        let now = Instant::now();
+        report.stages.push((name, now - clock));
+        clock = now;
+    };
 
     // 4. Mesh processing, one source per task.
     let needs = material_needs(&tagging);

@@ -162,7 +162,7 @@ pub enum Fit {
 /// Lead came width as a fraction of a window's shorter side, when the manifest gives none.
 pub const DEFAULT_CAME_WIDTH: f32 = 0.015;
 /// Resolution of designs rasterized from the mesh, when the manifest gives none.
-pub const DEFAULT_TEXELS_PER_METRE: f32 = 200.0;
+pub const DEFAULT_TEXELS_PER_METRE: f32 = 128.0;
 
 /// A `[[window]]` entry: which windows it describes, and how.
 #[derive(Clone, Debug)]

@@ -8,6 +8,7 @@ use std::sync::Arc;
 
 use glam::DVec3;
 use pack::MaterialClass;
+use rayon::prelude::*;
 
 use crate::design::{self, Pane, UvTriangle};
 use crate::import::{ImageRef, Imported, NONE};
@@ -247,6 +248,7 @@ pub fn plan(
     }
 
     let mut out = Windows::default();
+    let mut pending: Vec<Pending> = Vec::new();
     for inst in &found {
         let dominant = inst.materials[0].0;
         let sill = inst
@@ -319,65 +321,24 @@ pub fn plan(
         if let Some((ImageRef::File(p), _)) = &image {
             report.inputs.push(p.clone());
         }
-        let fit = entry.map_or(Fit::Cover, |e| e.fit);
-        let (design, source) = match image {
-            Some((img, source)) => {
-                // Named after the image, so windows that mask a design the same way share one
-                // texture (jobs compare names and pixels).
-                let stem = match &img {
-                    ImageRef::File(p) => p
-                        .file_stem()
-                        .map(|s| s.to_string_lossy().into_owned())
-                        .unwrap_or_default(),
-                    other => other.name(),
-                };
-                let name = format!("{stem}.{}", if planar { "fitted" } else { "masked" });
-                if planar {
-                    let mut canvas = design::fit_design(
-                        &decode_ref(&img)?,
-                        fit,
-                        inst.width() / inst.height().max(1e-12),
-                    );
-                    let mask = design::coverage(&tris, canvas.width(), canvas.height());
-                    design::apply_mask(&mut canvas, &mask);
-                    (raster(name, canvas), source)
-                } else {
-                    // With the model's own UVs the design is used as it is, unless it would
-                    // let light through where the window has no glass.
-                    let mut pixels = decode_ref(&img)?;
-                    let mask = design::coverage(&tris, pixels.width(), pixels.height());
-                    if design::light_outside(&pixels, &mask) {
-                        design::apply_mask(&mut pixels, &mask);
-                        (raster(name, pixels), source)
-                    } else {
-                        (img, source)
-                    }
-                }
-            }
-            None => {
-                let (w, h) = design::design_size(
-                    inst.width(),
-                    inst.height(),
-                    entry.map_or(crate::manifest::DEFAULT_TEXELS_PER_METRE, |e| {
-                        e.texels_per_metre
-                    }),
-                );
-                let came = entry.map_or(crate::manifest::DEFAULT_CAME_WIDTH, |e| e.came_width)
-                    * w.min(h) as f32;
-                let img = design::mesh_design(&panes, &tris, w, h, came);
-                (
-                    raster(format!("{}.design", inst.name), img),
-                    DesignSource::Mesh,
-                )
-            }
-        };
-        let design_width = match &design {
-            ImageRef::Raster { image, .. } => image.width(),
-            ImageRef::File(p) => image::image_dimensions(p).map(|d| d.0).unwrap_or(0),
-            ImageRef::Embedded { bytes, .. } => image::load_from_memory(bytes)
-                .map(|i| i.width())
-                .unwrap_or(0),
-        };
+        pending.push(Pending {
+            material,
+            name: inst.name.clone(),
+            image,
+            tris,
+            panes,
+            planar,
+            fit: entry.map_or(Fit::Cover, |e| e.fit),
+            aspect: inst.width() / inst.height().max(1e-12),
+            size: design::design_size(
+                inst.width(),
+                inst.height(),
+                entry.map_or(crate::manifest::DEFAULT_TEXELS_PER_METRE, |e| {
+                    e.texels_per_metre
+                }),
+            ),
+            came_width: entry.map_or(crate::manifest::DEFAULT_CAME_WIDTH, |e| e.came_width),
+        });
         let src_names: Vec<String> = {
             let src = &sources[inst.source];
             let mut v: Vec<String> = Vec::new();
@@ -400,8 +361,12 @@ pub fn plan(
             v
         };
         tagging.materials[material as usize].window = Some(Box::new(WindowPlan {
-            design,
-            source,
+            // Made below, in parallel over the windows.
+            design: ImageRef::Raster {
+                name: String::new(),
+                image: Arc::new(image::RgbaImage::new(0, 0)),
+            },
+            source: DesignSource::Mesh,
             colour_space: entry.map_or(pack::ColourSpace::Srgb, |e| e.colour_space),
             normal: entry.and_then(|e| {
                 e.normal_map
@@ -409,7 +374,7 @@ pub fn plan(
                     .map(|n| (ImageRef::File(n), e.normal_encoding, e.green))
             }),
             blur_sigma: entry.and_then(|e| e.blur_sigma),
-            design_width,
+            design_width: 0,
             inside: [
                 inst.inside.x as f32,
                 inst.inside.y as f32,
@@ -434,8 +399,79 @@ pub fn plan(
             ));
         }
     }
+    let designs: Vec<Result<(ImageRef, DesignSource), CookError>> =
+        pending.par_iter().map(make_design).collect();
+    for (p, d) in pending.iter().zip(designs) {
+        let (design, source) = d?;
+        let plan = tagging.materials[p.material as usize]
+            .window
+            .as_mut()
+            .expect("planned above");
+        plan.design_width = match &design {
+            ImageRef::Raster { image, .. } => image.width(),
+            ImageRef::File(p) => image::image_dimensions(p).map(|d| d.0).unwrap_or(0),
+            ImageRef::Embedded { bytes, .. } => image::load_from_memory(bytes)
+                .map(|i| i.width())
+                .unwrap_or(0),
+        };
+        plan.design = design;
+        plan.source = source;
+    }
     out.instances = found;
     Ok(out)
+}
+
+/// A window design still to make: what [`make_design`] needs, gathered sequentially.
+struct Pending {
+    material: u16,
+    name: String,
+    image: Option<(ImageRef, DesignSource)>,
+    tris: Vec<UvTriangle>,
+    panes: Vec<Pane>,
+    planar: bool,
+    fit: Fit,
+    aspect: f64,
+    size: (u32, u32),
+    came_width: f32,
+}
+
+/// The design of one window: an image fitted and masked, or cut to the outline where it
+/// would let light through stone, or rasterized from the panes.
+fn make_design(p: &Pending) -> Result<(ImageRef, DesignSource), CookError> {
+    let Some((img, source)) = &p.image else {
+        let (w, h) = p.size;
+        let img = design::mesh_design(&p.panes, &p.tris, w, h, p.came_width * w.min(h) as f32);
+        return Ok((
+            raster(format!("{}.design", p.name), img),
+            DesignSource::Mesh,
+        ));
+    };
+    // Named after the image, so windows that mask a design the same way share one texture
+    // (jobs compare names and pixels).
+    let stem = match img {
+        ImageRef::File(f) => f
+            .file_stem()
+            .map(|s| s.to_string_lossy().into_owned())
+            .unwrap_or_default(),
+        other => other.name(),
+    };
+    let name = format!("{stem}.{}", if p.planar { "fitted" } else { "masked" });
+    if p.planar {
+        let mut canvas = design::fit_design(&decode_ref(img)?, p.fit, p.aspect);
+        let mask = design::coverage(&p.tris, canvas.width(), canvas.height());
+        design::apply_mask(&mut canvas, &mask);
+        return Ok((raster(name, canvas), *source));
+    }
+    // With the model's own UVs the design is used as it is, unless it would let light
+    // through where the window has no glass.
+    let mut pixels = decode_ref(img)?;
+    let mask = design::coverage(&p.tris, pixels.width(), pixels.height());
+    if design::light_outside(&pixels, &mask) {
+        design::apply_mask(&mut pixels, &mask);
+        Ok((raster(name, pixels), *source))
+    } else {
+        Ok((img.clone(), *source))
+    }
 }
 
 /// The inside normal of a window material, if the window stage planned it.
