@@ -214,6 +214,39 @@ fn measure(
         }
         let _ = std::fs::remove_file(&out);
     }
+    // Native gltfpack, when the machine has it: it quantizes by default, so its like-for-like
+    // row is `cooker --quantize` of this same run. Only run, never linked or needed to build.
+    match native_gltfpack() {
+        Some(native) => {
+            let out = cfg.scratch.join("gltfpack-native-out.glb");
+            for (label, flags, bits, note) in [
+                (
+                    "gltfpack native (end to end)",
+                    &[][..],
+                    14,
+                    "native build, default settings (quantized): compare with cooker --quantize",
+                ),
+                (
+                    "gltfpack native -noq (end to end)",
+                    &["-noq"][..],
+                    32,
+                    "native build, float attributes: compare with cooker",
+                ),
+            ] {
+                let ms = time_process(cfg.runs, || {
+                    let mut c = Command::new(&native);
+                    c.arg("-i").arg(path).arg("-o").arg(&out).args(flags);
+                    c
+                })?;
+                rows.push(end_to_end(label, bits, ms, note));
+            }
+            let _ = std::fs::remove_file(&out);
+        }
+        None => progress(&format!(
+            "mesh {name}: no native gltfpack (GLTFPACK_NATIVE or ../shared/anchors/gltfpack): \
+             its rows are skipped"
+        )),
+    }
     if let Some(gltfpack) = which("gltfpack") {
         let out = cfg.scratch.join("gltfpack-out.glb");
         let ms = time_process(cfg.runs, || {
@@ -257,6 +290,16 @@ fn time_process(runs: usize, command: impl Fn() -> Command) -> Result<f64> {
 fn cooker_binary() -> Option<PathBuf> {
     let exe = std::env::current_exe().ok()?;
     let p = exe.with_file_name(format!("cooker{}", std::env::consts::EXE_SUFFIX));
+    p.is_file().then_some(p)
+}
+
+/// A native gltfpack: `$GLTFPACK_NATIVE`, else the team's shared anchor build beside the
+/// checkout (`../shared/anchors/gltfpack`).
+fn native_gltfpack() -> Option<PathBuf> {
+    let p = match std::env::var_os("GLTFPACK_NATIVE") {
+        Some(p) => PathBuf::from(p),
+        None => Path::new(env!("CARGO_MANIFEST_DIR")).join("../../../shared/anchors/gltfpack"),
+    };
     p.is_file().then_some(p)
 }
 

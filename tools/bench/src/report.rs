@@ -378,7 +378,8 @@ fn mip_section(dir: &Path, md: &mut String, r: &Results) -> Result<()> {
         "Every level against the f64 chain of the same filter computed in linear light with \
          alpha weighting (`texture::colour_mips_reference`). `gamma` filters the stored sRGB bytes \
          directly: its error is what linear-light filtering avoids. Time is for the whole chain \
-         (level 0 is the source's bytes).\n"
+         (level 0 is the source's bytes), every method on one thread; fast_image_resize weights \
+         by alpha (`use_alpha(true)`) as ours does.\n"
     );
     let _ = writeln!(
         md,
@@ -453,7 +454,10 @@ fn mesh_section(dir: &Path, md: &mut String, r: &Results) -> Result<()> {
          attribute kept. ACMR with a FIFO cache of 16; overfetch against a 64-byte line; bytes \
          per triangle count the vertex and index buffers as the cooker stores them (16-bit \
          indices when they fit). The *end to end* rows time whole processes the same way: the \
-         `cooker` binary (release build) and, when installed, gltfpack.\n"
+         `cooker` binary (release build) and gltfpack where found: the native build \
+         (`$GLTFPACK_NATIVE` or `../shared/anchors/gltfpack`), whose default quantizes (compare \
+         it with `cooker --quantize`; its `-noq` row with `cooker`), and the npm WebAssembly \
+         build on `PATH`.\n"
     );
     let _ = writeln!(
         md,
