@@ -78,7 +78,8 @@ impl TargetId {
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Settings {
     pub god_rays: GodRaySettings,
-    /// Shift of the refracted image per unit of normal perturbation, in half screen heights.
+    /// Shift of the refracted image per unit of normal perturbation, in screen heights (the
+    /// composite samples at `uv + (n.x / aspect, -n.y) * strength`; tests/tests/analytic.rs).
     pub refraction_strength: f32,
     /// Scale applied before tone mapping.
     pub exposure: f32,
