@@ -13,25 +13,10 @@ use fast_image_resize::images::Image;
 use fast_image_resize::{FilterType, PixelType, ResizeAlg, ResizeOptions, Resizer};
 use texture::{ColourOptions, MipFilter, colour_mips};
 
+/// The blur benchmark's content, so both benchmarks filter the same kind of image.
 fn design(side: u32) -> image::RgbaImage {
-    let mut state = 0x9E37_79B9_7F4A_7C15u64;
-    image::RgbaImage::from_fn(side, side, |x, y| {
-        state ^= state >> 12;
-        state ^= state << 25;
-        state ^= state >> 27;
-        let n = (state.wrapping_mul(0x2545_F491_4F6C_DD1D) >> 60) as u8;
-        if x % 61 < 3 || y % 47 < 3 {
-            image::Rgba([10, 10, 12, 255])
-        } else {
-            let p = ((x / 61) * 7 + (y / 47) * 3) as u8;
-            image::Rgba([
-                p.wrapping_mul(37) ^ n,
-                p.wrapping_mul(91),
-                p.wrapping_mul(13) | n,
-                255,
-            ])
-        }
-    })
+    let bytes = texture::testing::opaque_design(side as usize, side as usize);
+    image::RgbaImage::from_raw(side, side, bytes).expect("side x side RGBA8")
 }
 
 /// fast_image_resize's chain: every level resized from the previous one, straight in the

@@ -41,3 +41,54 @@ pub fn opaque_design(w: usize, h: usize) -> Vec<u8> {
     }
     out
 }
+
+/// The pane grid of [`design`]: panes `width` × `height` texels, lead lines `lead` texels wide
+/// along the left and top of each.
+#[derive(Clone, Copy, Debug)]
+pub struct Panes {
+    pub width: usize,
+    pub height: usize,
+    pub lead: usize,
+}
+
+/// A stained-glass-like RGBA8 image (`w x h`): panes of random colour (some very dark, some
+/// saturated, some translucent), dark lead lines, a little noise. Hard edges and dark regions
+/// are where a blur's or a mip filter's errors show most in sRGB.
+pub fn design(w: usize, h: usize, seed: u64, panes: Panes) -> Vec<u8> {
+    let mut rng = Rng(seed | 1);
+    let colours: Vec<[u8; 4]> = (0..64)
+        .map(|i| match i % 4 {
+            0 => [rng.byte() / 16, rng.byte() / 16, rng.byte() / 16, 255],
+            1 => [rng.byte(), rng.byte(), rng.byte(), 255],
+            2 => [
+                rng.byte(),
+                rng.byte() / 4,
+                rng.byte() / 8,
+                128 + rng.byte() / 2,
+            ],
+            _ => [255, 250, rng.byte(), 255],
+        })
+        .collect();
+    let Panes {
+        width: pw,
+        height: ph,
+        lead,
+    } = panes;
+    let mut out = vec![0u8; w * h * 4];
+    for y in 0..h {
+        for x in 0..w {
+            let p = if x % pw < lead || y % ph < lead {
+                [8, 8, 10, 255]
+            } else {
+                colours[((x / pw) * 7 + (y / ph) * 3) % 64]
+            };
+            let noise = rng.byte() % 3;
+            let o = &mut out[(y * w + x) * 4..][..4];
+            for c in 0..3 {
+                o[c] = p[c].saturating_add(noise);
+            }
+            o[3] = p[3];
+        }
+    }
+    out
+}

@@ -3,8 +3,9 @@
 #![allow(clippy::needless_range_loop)]
 mod common;
 
-use common::{Rng, blur_error as err, design, premul_f32, sum};
+use common::{blur_error as err, design, premul_f32, sum};
 use texture::blur::{BlurMethod, srgb8_to_premultiplied_f64};
+use texture::testing::Rng;
 use texture::{blur_linear, blur_srgb8, reference_blur};
 
 const APPROX: [BlurMethod; 2] = [BlurMethod::Box3, BlurMethod::DecimatedCoarse];

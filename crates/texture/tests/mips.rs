@@ -1,9 +1,10 @@
 #![allow(clippy::needless_range_loop)]
 mod common;
 
-use common::{Rng, design, rgba_image};
+use common::{design, rgba_image};
 use image::DynamicImage;
 use texture::srgb::{linear_to_srgb_lsb, srgb_to_linear};
+use texture::testing::Rng;
 use texture::{
     ColourOptions, MipFilter, colour_mips, colour_mips_reference, level_count, level_size,
 };

@@ -1,9 +1,10 @@
 #![allow(clippy::needless_range_loop)]
 mod common;
 
-use common::{Rng, design, rgba_image};
+use common::{design, rgba_image};
 use image::DynamicImage;
 use texture::normal::{decode_normals, normal_levels};
+use texture::testing::Rng;
 use texture::{GreenAxis, NormalEncoding, derive_normal_map, normal_mips};
 
 fn unit_everywhere(levels: &[Vec<[f32; 4]>]) -> Result<(), String> {

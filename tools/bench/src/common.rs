@@ -132,45 +132,14 @@ pub fn median(v: &mut [f64]) -> f64 {
     }
 }
 
-pub use texture::testing::Rng;
-
-/// A stained-glass-like RGBA8 design: panes of random colour (some very dark, some saturated,
-/// some translucent), dark lead lines, a little noise. Hard edges and dark regions are where a
-/// blur's or a mip filter's errors show most in sRGB.
+/// [`texture::testing::design`] with the blur benchmark's pane grid (61 x 47, leads 3 wide).
 pub fn design(w: usize, h: usize, seed: u64) -> Vec<u8> {
-    let mut rng = Rng(seed | 1);
-    let panes: Vec<[u8; 4]> = (0..64)
-        .map(|i| match i % 4 {
-            0 => [rng.byte() / 16, rng.byte() / 16, rng.byte() / 16, 255],
-            1 => [rng.byte(), rng.byte(), rng.byte(), 255],
-            2 => [
-                rng.byte(),
-                rng.byte() / 4,
-                rng.byte() / 8,
-                128 + rng.byte() / 2,
-            ],
-            _ => [255, 250, rng.byte(), 255],
-        })
-        .collect();
-    let (cw, ch) = (61, 47);
-    let mut out = vec![0u8; w * h * 4];
-    for y in 0..h {
-        for x in 0..w {
-            let lead = x % cw < 3 || y % ch < 3;
-            let p = if lead {
-                [8, 8, 10, 255]
-            } else {
-                panes[((x / cw) * 7 + (y / ch) * 3) % 64]
-            };
-            let noise = rng.byte() % 3;
-            let o = &mut out[(y * w + x) * 4..][..4];
-            for c in 0..3 {
-                o[c] = p[c].saturating_add(noise);
-            }
-            o[3] = p[3];
-        }
-    }
-    out
+    let panes = texture::testing::Panes {
+        width: 61,
+        height: 47,
+        lead: 3,
+    };
+    texture::testing::design(w, h, seed, panes)
 }
 
 /// Formats an optional number for a Markdown table (empty cell when absent).

@@ -1,45 +1,18 @@
 //! Deterministic test images.
 #![allow(dead_code)]
 
-pub use texture::testing::Rng;
+use texture::testing::Panes;
 
-/// A stained-glass-like RGBA8 test image: flat panes of random colour (some very dark, some
-/// saturated), black lead lines, a few translucent panes, and a little noise: hard edges and
-/// dark regions, where a blur's errors show most in sRGB.
+/// [`texture::testing::design`] with small panes that vary with the seed, so small images still
+/// hold many edges.
 pub fn design(w: usize, h: usize, seed: u64) -> Vec<u8> {
-    let mut rng = Rng(seed | 1);
     let cell = 7 + (seed % 5) as usize;
-    let panes: Vec<[u8; 4]> = (0..64)
-        .map(|i| match i % 4 {
-            0 => [rng.byte() / 16, rng.byte() / 16, rng.byte() / 16, 255],
-            1 => [rng.byte(), rng.byte(), rng.byte(), 255],
-            2 => [
-                rng.byte(),
-                rng.byte() / 4,
-                rng.byte() / 8,
-                128 + rng.byte() / 2,
-            ],
-            _ => [255, 250, rng.byte(), 255],
-        })
-        .collect();
-    let mut out = vec![0u8; w * h * 4];
-    for y in 0..h {
-        for x in 0..w {
-            let lead = x % cell == 0 || y % (cell + 2) == 0;
-            let p = if lead {
-                [8, 8, 10, 255]
-            } else {
-                panes[((x / cell) * 7 + (y / (cell + 2)) * 3) % 64]
-            };
-            let noise = rng.byte() % 3;
-            let o = &mut out[(y * w + x) * 4..][..4];
-            for c in 0..3 {
-                o[c] = p[c].saturating_add(noise);
-            }
-            o[3] = p[3];
-        }
-    }
-    out
+    let panes = Panes {
+        width: cell,
+        height: cell + 2,
+        lead: 1,
+    };
+    texture::testing::design(w, h, seed, panes)
 }
 
 pub fn rgba_image(w: usize, h: usize, bytes: Vec<u8>) -> image::DynamicImage {
