@@ -258,15 +258,21 @@ fn kapelle(dir: &Path) -> PathBuf {
     let mut obj = Obj::new("kapelle.mtl");
     obj.usemtl("Boden")
         .quad([-3., 0., -6.], [0., 0., 12.], [6., 0., 0.]);
-    obj.usemtl("Wand")
-        .quad([-3., 0., -6.], [0., 5., 0.], [0., 0., 12.])
-        .quad([3., 0., -6.], [0., 0., 12.], [0., 5., 0.]);
+    // The side walls (x = ±3, 5 m high) with an opening for each window, z in [-1, 1].
+    obj.usemtl("Wand");
+    for (x, y0, y1) in [(-3f32, 0.8f32, 2.3f32), (3., 3.0, 4.5)] {
+        obj.quad([x, 0., -6.], [0., 5., 0.], [0., 0., 5.])
+            .quad([x, 0., 1.], [0., 5., 0.], [0., 0., 5.])
+            .quad([x, 0., -1.], [0., y0, 0.], [0., 0., 2.])
+            .quad([x, y1, -1.], [0., 5. - y1, 0.], [0., 0., 2.]);
+    }
+    // The glass in the openings, in the walls' plane.
     obj.usemtl("Fenster")
-        .quad([-2.95, 0.8, -1.], [0., 0., 2.], [0., 1.5, 0.]);
+        .quad([-3., 0.8, -1.], [0., 0., 2.], [0., 1.5, 0.]);
     obj.usemtl("Kirchenfenster_Nord")
-        .quad([2.95, 3., -1.], [0., 1.5, 0.], [0., 0., 2.]);
+        .quad([3., 3., -1.], [0., 1.5, 0.], [0., 0., 2.]);
     obj.usemtl("Fensterrahmen")
-        .quad([-2.97, 0.7, -1.1], [0., 0., 2.2], [0., 0.1, 0.]);
+        .quad([-2.98, 0.7, -1.1], [0., 0., 2.2], [0., 0.1, 0.]);
     let path = dir.join("kapelle.obj");
     obj.write(&path);
     std::fs::write(
@@ -556,7 +562,12 @@ fn manifest_cook_rasterizes_the_rose_from_its_tf_colours_with_lead_and_a_project
     }
     let lancet = extract(&pack, "glass#7.design", dir.path());
     let (lw, lh) = lancet.dimensions();
-    assert_eq!((lw, lh), (80, 500), "0.4 m x 2.5 m at 200 texels per metre");
+    let tpm = cook::manifest::DEFAULT_TEXELS_PER_METRE as f64;
+    assert_eq!(
+        (lw, lh),
+        ((0.4 * tpm).round() as u32, (2.5 * tpm).round() as u32),
+        "0.4 m x 2.5 m at the default texels per metre"
+    );
     let kd = LANCET_KD.map(srgb8);
     assert!(close(
         *lancet.get_pixel(lw / 2, lh / 2),
@@ -785,6 +796,33 @@ fn german_chapel_names_frames_and_sill_heights() {
     // A window frame is not glass, and too small to be a wall.
     assert_eq!(c["Fensterrahmen"], "other", "{c:?}");
     assert_eq!(window_count(&v), 2);
+    // Without a light, the inside is the side facing the room.
+    assert!(near3(
+        vec3(&window(&v, "Fenster")["normal"]),
+        [1.0, 0.0, 0.0]
+    ));
+    assert!(near3(
+        vec3(&window(&v, "Kirchenfenster_Nord")["normal"]),
+        [-1.0, 0.0, 0.0]
+    ));
+
+    // `inside` overrides the guess: a direction, here pointing out of the room.
+    let scene = dir.path().join("scene.toml");
+    std::fs::write(
+        &scene,
+        "[[mesh]]\nsource = \"kapelle.obj\"\n\n[[window]]\nname = \"Fenster\"\ninside = [-1.0, 0.2, 0.0]\n",
+    )
+    .unwrap();
+    cook(&scene, &pack, &[]);
+    let v = info(&pack);
+    assert!(near3(
+        vec3(&window(&v, "Fenster")["normal"]),
+        [-1.0, 0.0, 0.0]
+    ));
+    assert!(near3(
+        vec3(&window(&v, "Kirchenfenster_Nord")["normal"]),
+        [-1.0, 0.0, 0.0]
+    ));
 }
 
 #[test]
