@@ -68,7 +68,6 @@ fn end_to_end(c: &mut Criterion) {
         single_index: false,
         ignore_points: true,
         ignore_lines: true,
-        ..Default::default()
     };
     group.bench_function(
         "tobj load_obj_buf, triangulate, separate indices (stanford bunny)",

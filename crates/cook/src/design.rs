@@ -62,7 +62,7 @@ pub fn rasterize(tris: &[UvTriangle], w: u32, h: u32) -> Vec<u16> {
                     }
                 }
             }
-            if !(xl <= xr) {
+            if xl.partial_cmp(&xr).is_none_or(|o| o.is_gt()) {
                 continue;
             }
             let x0 = (xl - 0.5).ceil().max(0.0) as u32;
@@ -190,7 +190,7 @@ pub fn design_size(width: f64, height: f64, texels_per_metre: f32) -> (u32, u32)
 /// as it is (the texture coordinates stretch it).
 pub fn fit_design(design: &RgbaImage, fit: Fit, aspect: f64) -> RgbaImage {
     let (iw, ih) = (design.width() as f64, design.height() as f64);
-    if fit == Fit::Stretch || !(aspect > 0.0) || !aspect.is_finite() {
+    if fit == Fit::Stretch || aspect.is_nan() || aspect <= 0.0 || !aspect.is_finite() {
         return design.clone();
     }
     let wider = iw / ih > aspect;

@@ -45,7 +45,7 @@ impl Footprint {
             y += a * (t[0].y + t[1].y + t[2].y) / 3.0;
             area += a;
         }
-        if !(area > 0.0) || !(hi.x > lo.x) || !(hi.y > lo.y) {
+        if area.is_nan() || area <= 0.0 || hi.x.is_nan() || hi.x <= lo.x || hi.y <= lo.y {
             return None;
         }
         let cell = (hi - lo) / GRID as f64;

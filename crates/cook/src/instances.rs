@@ -141,7 +141,7 @@ fn fit_plane(src: &Imported, tris: &[u32]) -> Option<(DVec3, DVec3, f64)> {
         centroid += *c * *a;
         area += a;
     }
-    if !(area > 0.0) || sum.length() == 0.0 {
+    if area.is_nan() || area <= 0.0 || sum.length() == 0.0 {
         return None;
     }
     Some((centroid / area, sum.normalize(), area))
@@ -452,6 +452,9 @@ pub fn decide_inside(
     )
 }
 
+/// The manifest's `inside` override for a window name and its materials.
+pub type InsideOverride<'a> = &'a dyn Fn(&str, &[u16]) -> Option<[f32; 3]>;
+
 /// Finds every window instance. `tri_material` gives each triangle's tagged pack material,
 /// `classes` each material's class, `names` each material's name; `inside` gives the
 /// manifest's override for an instance name and its materials, if any.
@@ -461,7 +464,7 @@ pub fn find(
     classes: &[MaterialClass],
     names: &[String],
     light: Option<&LightKind>,
-    inside: &dyn Fn(&str, &[u16]) -> Option<[f32; 3]>,
+    inside: InsideOverride<'_>,
 ) -> Vec<Instance> {
     let receivers = receivers(sources, tri_material, classes);
     // The weld tolerance is relative to the whole model, so it means the same for every mesh.
@@ -597,8 +600,10 @@ mod tests {
     use super::*;
     use crate::import::{Corner, Part};
 
-    /// A source of quads: each `[corner, right edge, up edge, material]`.
-    fn quads(q: &[([f32; 3], [f32; 3], [f32; 3], u32)]) -> Imported {
+    /// A quad: corner, right edge, up edge, material.
+    type Quad = ([f32; 3], [f32; 3], [f32; 3], u32);
+
+    fn quads(q: &[Quad]) -> Imported {
         let mut s = Imported::default();
         for &(o, r, u, m) in q {
             let base = s.positions.len() as u32;

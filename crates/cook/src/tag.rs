@@ -262,7 +262,7 @@ pub fn part_geometry(src: &Imported) -> (Vec<PartGeometry>, [f64; 2], f64) {
         });
         let n = (b - a).cross(c - a);
         let area = n.length() * 0.5;
-        if !(area > 0.0) {
+        if area.is_nan() || area <= 0.0 {
             continue;
         }
         let up = (n.y / (2.0 * area)).abs();
@@ -297,7 +297,7 @@ pub fn geometry_heuristic(
     height: [f64; 2],
     total_area: f64,
 ) -> Option<(String, MaterialClass)> {
-    if !(g.area >= 0.02 * total_area) || g.area <= 0.0 {
+    if g.area.is_nan() || g.area < 0.02 * total_area || g.area <= 0.0 {
         return None;
     }
     let span = (height[1] - height[0]).max(1e-9);

@@ -526,7 +526,7 @@ fn load_mtllib(
         // Exporters often name a library that was never shipped (`untitled.mtl`) while the
         // real one sits beside the OBJ under the OBJ's own name.
         let beside = path.with_extension("mtl");
-        let already = out.files.iter().any(|f| *f == beside);
+        let already = out.files.contains(&beside);
         if beside.is_file() && !already {
             out.warnings.push(Warning::new(
                 path,
