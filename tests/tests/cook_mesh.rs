@@ -55,11 +55,7 @@ fn triangles(pack: &Pack) -> u64 {
 fn check_material_ids(pack: &Pack) {
     let toc = pack.toc();
     for m in &toc.meshes {
-        let mat = m
-            .layout
-            .attribute(pack::Semantic::MaterialId)
-            .unwrap()
-            .offset as usize;
+        let stride = m.layout.stride as usize;
         let bytes = pack.vertex_bytes(m);
         let indices = pack.indices(m);
         let mut seen_window = false;
@@ -72,8 +68,8 @@ fn check_material_ids(pack: &Pack) {
             );
             seen_window |= w;
             for &i in &indices[r.first_index as usize..(r.first_index + r.index_count) as usize] {
-                let o = i as usize * m.layout.stride as usize + mat;
-                assert_eq!(u16::from_le_bytes([bytes[o], bytes[o + 1]]), r.material);
+                let v = &bytes[i as usize * stride..][..stride];
+                assert_eq!(m.layout.material_id(v), Some(r.material));
             }
         }
     }
@@ -276,21 +272,16 @@ fn spot_keeps_its_uvs() {
     check_material_ids(&pack);
     let m = &pack.toc().meshes[0];
     // No normal map: position, normal, UV and material, without the tangent.
-    let offset = |s| m.layout.attribute(s).expect("kept").offset as usize;
-    let (uv_at, normal_at) = (
-        offset(pack::Semantic::TexCoord),
-        offset(pack::Semantic::Normal),
-    );
+    for s in [pack::Semantic::TexCoord, pack::Semantic::Normal] {
+        assert!(m.layout.attribute(s).is_some(), "{s:?} kept");
+    }
     assert!(m.layout.attribute(pack::Semantic::Tangent).is_none());
-    let f = |v: &[u8], o: usize| f32::from_le_bytes(v[o..o + 4].try_into().unwrap());
     let verts: Vec<([f32; 2], [f32; 3])> = pack
         .vertex_bytes(m)
         .chunks_exact(m.layout.stride as usize)
         .map(|v| {
-            (
-                [f(v, uv_at), f(v, uv_at + 4)],
-                [f(v, normal_at), f(v, normal_at + 4), f(v, normal_at + 8)],
-            )
+            let d = m.layout.decode(v);
+            (d.uv, d.normal)
         })
         .collect();
     // Spot's UVs slightly exceed [0, 1] in the file (v up to 1.00065); they are kept as they are.
