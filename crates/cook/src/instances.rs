@@ -433,16 +433,18 @@ pub fn decide_inside(
         }
         _ => {}
     }
-    let s2 = (size * size).max(1e-12);
+    // Each surface counts by how large it looks from the window (area × |cos| / d², with the
+    // cosine taken against the window's normal); surfaces lying about in the window's own
+    // plane (its wall, a reveal just behind the glass) say nothing about the sides.
     let score: f64 = receivers
         .iter()
         .map(|(c, a)| {
             let d = *c - centroid;
             let side = d.dot(normal);
-            if side.abs() < 1e-9 * size {
+            if side.abs() < 0.05 * size {
                 0.0
             } else {
-                side.signum() * a / (1.0 + d.length_squared() / s2)
+                side.signum() * a * side.abs() / d.length().powi(3)
             }
         })
         .sum();

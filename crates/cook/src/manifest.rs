@@ -180,7 +180,7 @@ pub struct WindowDesign {
     pub blur_sigma: Option<f32>,
     pub uv: UvMode,
     pub fit: Fit,
-    /// A point or direction on the inner side, overriding the guess.
+    /// A direction pointing into the building, overriding the guess.
     pub inside: Option<[f32; 3]>,
     /// Lead came width, a fraction of the shorter side (designs from the mesh).
     pub came_width: f32,

@@ -248,11 +248,19 @@ pub struct PartGeometry {
     pub vertical: f64,
     /// Area-weighted mean height.
     pub mean_y: f64,
+    /// Lowest and highest point.
+    pub y_range: [f64; 2],
 }
 
 /// Per part of `src`: [`PartGeometry`]; and the source's height range and total area.
 pub fn part_geometry(src: &Imported) -> (Vec<PartGeometry>, [f64; 2], f64) {
-    let mut out = vec![PartGeometry::default(); src.parts.len()];
+    let mut out = vec![
+        PartGeometry {
+            y_range: [f64::INFINITY, f64::NEG_INFINITY],
+            ..Default::default()
+        };
+        src.parts.len()
+    ];
     let mut range = [f64::INFINITY, f64::NEG_INFINITY];
     let mut total = 0.0;
     for (t, &part) in src.corners.chunks_exact(3).zip(&src.tri_part) {
@@ -275,6 +283,10 @@ pub fn part_geometry(src: &Imported) -> (Vec<PartGeometry>, [f64; 2], f64) {
             g.vertical += area;
         }
         g.mean_y += area * (a.y + b.y + c.y) / 3.0;
+        for y in [a.y, b.y, c.y] {
+            g.y_range[0] = g.y_range[0].min(y);
+            g.y_range[1] = g.y_range[1].max(y);
+        }
         total += area;
         for y in [a.y, b.y, c.y] {
             range[0] = range[0].min(y);
@@ -290,8 +302,9 @@ pub fn part_geometry(src: &Imported) -> (Vec<PartGeometry>, [f64; 2], f64) {
 }
 
 /// The class geometry suggests: a large, mostly horizontal surface in the lowest tenth of the
-/// model's height is a floor; a large, mostly vertical one is a wall. "Large" is at least 2 %
-/// of the model's surface area, so furniture, statues and trim stay `other`.
+/// model's height is a floor; a large, mostly vertical one rising through at least half the
+/// model's height is a wall. "Large" is at least 2 % of the model's surface area, so
+/// furniture, blocks, statues and trim stay `other`.
 pub fn geometry_heuristic(
     g: &PartGeometry,
     height: [f64; 2],
@@ -314,7 +327,8 @@ pub fn geometry_heuristic(
             MaterialClass::Floor,
         ));
     }
-    if share(g.vertical) >= 0.75 {
+    // A wall rises through most of the building; a block or a statue does not.
+    if share(g.vertical) >= 0.75 && (g.y_range[1] - g.y_range[0]) >= 0.5 * span {
         return Some((
             format!(
                 "geometry: {:.0}% vertical, {:.0}% of the model's area",
