@@ -171,7 +171,7 @@ fn error_budget_choice_is_reported_and_a_too_tight_budget_warns() {
         .arg(root().join("assets-src/scene.toml"))
         .arg("-o")
         .arg(&out)
-        .args(["--no-cache", "--max-error", "0.1"])
+        .args(["--no-cache", "--max-error-lsb", "0.1"])
         .output()
         .unwrap();
     let err = String::from_utf8_lossy(&o.stderr);

@@ -128,7 +128,7 @@ fn window_renders_frames_takes_screenshots_and_closes_cleanly() {
         "--size".as_ref(),
         "320x180".as_ref(),
         // The window takes its god-ray quality from an error budget too.
-        "--max-error".as_ref(),
+        "--max-flip".as_ref(),
         "0.2".as_ref(),
         "--script".as_ref(),
         script.as_ref(),
@@ -146,8 +146,7 @@ fn window_renders_frames_takes_screenshots_and_closes_cleanly() {
         run.log
     );
     assert!(
-        run.log.contains("god rays for --max-error 0.2: ")
-            && run.log.contains("measured FLIP mean"),
+        run.log.contains("god rays for --max-flip 0.2: ") && run.log.contains("measured FLIP mean"),
         "no god-ray choice in:\n{}",
         run.log
     );
