@@ -1,5 +1,5 @@
 //! The report: Markdown tables and SVG plots in one folder, the raw numbers as JSON, and the
-//! error table the cooker embeds.
+//! error tables the cooker and the renderer embed.
 
 use std::fmt::Write;
 use std::path::Path;
