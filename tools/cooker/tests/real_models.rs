@@ -968,3 +968,47 @@ fn the_manifest_documentation_matches_the_code() {
         assert_eq!(class(frame), None, "{frame}");
     }
 }
+
+/// The first use: `cooker init model.obj && cooker cook scene.toml` with no hand edits
+/// gives stained-glass light: a manifest that parses, a sun whose light lands on the floor
+/// through the windows (so the cook makes their projectors), and cameras inside.
+#[test]
+fn init_writes_a_manifest_that_cooks_window_light_without_edits() {
+    let dir = tempfile::tempdir().unwrap();
+    let obj = sibenik(dir.path());
+    let scene = dir.path().join("scene.toml");
+    let o = cooker(&[&"init", &obj, &"-o", &scene]);
+    assert!(o.status.success(), "{}", text(&o.stderr));
+    let toml = std::fs::read_to_string(&scene).unwrap();
+    for key in [
+        "[[rule]]",
+        "[[window]]",
+        "[light]",
+        "type = \"directional\"",
+        "[[camera]]",
+    ] {
+        assert!(toml.contains(key), "{key} missing:\n{toml}");
+    }
+    assert!(
+        toml.contains("match = \"pod\"") && toml.contains("class = \"floor\""),
+        "{toml}"
+    );
+    assert!(toml.matches("[[camera]]").count() >= 2, "{toml}");
+    // A second init does not overwrite the first without --force.
+    let again = cooker(&[&"init", &obj, &"-o", &scene]);
+    assert_eq!(again.status.code(), Some(2), "{}", text(&again.stderr));
+    assert!(text(&again.stderr).contains("--force"));
+
+    let pack = dir.path().join("m.pack");
+    cook(&scene, &pack, &[]);
+    let v = info(&pack);
+    let lit = windows(&v)
+        .iter()
+        .filter(|w| !w["projector_texture"].is_null())
+        .count();
+    assert!(lit >= 1, "no window throws light: {:#?}", windows(&v));
+    // The sun was chosen for the most window area landing on the floor: here the thirty
+    // lancets of one side (the rose faces along the nave, across that light).
+    assert!(lit >= 15, "{lit} of {} windows lit", window_count(&v));
+    assert!(v["cameras"].as_array().unwrap().len() >= 2, "{v:#}");
+}
