@@ -9,6 +9,7 @@
 //! stream in; [`Renderer`] owns the targets and the frame graph, [`passes`] the passes.
 
 pub mod budget;
+mod capture;
 mod gpu;
 pub mod passes;
 mod renderer;
@@ -17,10 +18,10 @@ pub mod shaders;
 pub mod uniforms;
 pub mod view;
 
+pub use capture::{f16_to_f32, read_texture, target_image};
 pub use gpu::Gpu;
 pub use renderer::{
-    FrameReport, PassId, PassTime, Renderer, Settings, TargetId, TimingMethod, f16_to_f32,
-    god_ray_falloff, read_texture, target_image,
+    FrameReport, PassId, PassTime, Renderer, Settings, TargetId, TimingMethod, god_ray_falloff,
 };
 pub use scene::{LoadStatus, SMALL_MIP_BYTES, Scene};
 pub use uniforms::MAX_GOD_RAY_SAMPLES;
