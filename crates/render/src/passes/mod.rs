@@ -90,11 +90,25 @@ pub(crate) fn fullscreen_pipeline(
         bind_group_layouts: &[Some(layout)],
         immediate_size: 0,
     });
+    fullscreen_pipeline_in(device, shader, &module, &pl, "fs_main", format)
+}
+
+/// A pipeline drawing one full-screen triangle (`vs_fullscreen` from `fullscreen.wgsl`, which
+/// `module` includes) with the fragment entry point `fragment` into one `format` target; also
+/// for the viewer's own display passes.
+pub fn fullscreen_pipeline_in(
+    device: &wgpu::Device,
+    label: &str,
+    module: &wgpu::ShaderModule,
+    layout: &wgpu::PipelineLayout,
+    fragment: &str,
+    format: wgpu::TextureFormat,
+) -> wgpu::RenderPipeline {
     device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
-        label: Some(shader),
-        layout: Some(&pl),
+        label: Some(label),
+        layout: Some(layout),
         vertex: wgpu::VertexState {
-            module: &module,
+            module,
             entry_point: Some("vs_fullscreen"),
             compilation_options: Default::default(),
             buffers: &[],
@@ -103,8 +117,8 @@ pub(crate) fn fullscreen_pipeline(
         depth_stencil: None,
         multisample: Default::default(),
         fragment: Some(wgpu::FragmentState {
-            module: &module,
-            entry_point: Some("fs_main"),
+            module,
+            entry_point: Some(fragment),
             compilation_options: Default::default(),
             targets: &[Some(format.into())],
         }),
@@ -125,7 +139,7 @@ pub(crate) fn geometry_layout(
     })
 }
 
-pub(crate) fn uniform_buffer(device: &wgpu::Device, label: &str, size: usize) -> wgpu::Buffer {
+pub fn uniform_buffer(device: &wgpu::Device, label: &str, size: usize) -> wgpu::Buffer {
     device.create_buffer(&wgpu::BufferDescriptor {
         label: Some(label),
         size: size as u64,

@@ -211,33 +211,10 @@ fn show_pipeline(
     layout: &wgpu::PipelineLayout,
     format: wgpu::TextureFormat,
 ) -> ShowPipeline {
-    let pipeline = device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
-        label: Some("show"),
-        layout: Some(layout),
-        vertex: wgpu::VertexState {
-            module,
-            entry_point: Some("vs_fullscreen"),
-            compilation_options: Default::default(),
-            buffers: &[],
-        },
-        primitive: Default::default(),
-        depth_stencil: None,
-        multisample: Default::default(),
-        fragment: Some(wgpu::FragmentState {
-            module,
-            entry_point: Some("fs_show"),
-            compilation_options: Default::default(),
-            targets: &[Some(format.into())],
-        }),
-        multiview_mask: None,
-        cache: None,
-    });
-    let params = device.create_buffer(&wgpu::BufferDescriptor {
-        label: Some("show params"),
-        size: std::mem::size_of::<ShowParams>() as u64,
-        usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
-        mapped_at_creation: false,
-    });
+    let pipeline =
+        render::passes::fullscreen_pipeline_in(device, "show", module, layout, "fs_show", format);
+    let params =
+        render::passes::uniform_buffer(device, "show params", std::mem::size_of::<ShowParams>());
     ShowPipeline {
         pipeline,
         format,
