@@ -179,13 +179,14 @@ colour = [0.1, 0.2, 0.3]
         pack::LightKind::Directional { .. }
     ));
 
-    // The light quad has neither UVs nor a design; MTL "blue" is used by no face.
+    // The light quad has neither UVs nor a design: it gets planar UVs and a design from its
+    // own colour, so only MTL "blue", used by no face, is a finding.
     let v = cook::validate::validate_scene(&m).unwrap();
     let mut codes: Vec<&str> = v.findings.iter().map(|f| f.code).collect();
     codes.sort();
     assert_eq!(
         codes,
-        vec!["unused-material", "window-no-design", "window-no-uvs"],
+        vec!["unused-material"],
         "{:#?}",
         v.findings
     );
@@ -209,7 +210,7 @@ fn bare_cornell_box_uses_heuristics_and_says_so() {
         out.report
             .warnings
             .iter()
-            .any(|w| w.message.contains("heuristics only"))
+            .any(|w| w.message.contains("cooking a bare mesh without a scene.toml"))
     );
     let floor: u64 = class_triangles(&pack)
         .iter()
@@ -221,7 +222,9 @@ fn bare_cornell_box_uses_heuristics_and_says_so() {
         .filter(|c| c.1 == MaterialClass::Wall)
         .map(|c| c.2)
         .sum();
-    assert_eq!((floor, wall), (6, 6));
+    // Three walls by name; the tall block (60 % of the room's height, mostly vertical) is a
+    // wall by geometry too.
+    assert_eq!((floor, wall), (6, 6 + 10));
     assert!(
         out.report
             .heuristics
@@ -571,7 +574,8 @@ fn fifo_and_quantized_cooks_are_valid() {
 #[test]
 fn window_scene_cooks_design_normal_map_and_projector() {
     let dir = tempfile::tempdir().unwrap();
-    // A 4 x 4 floor at y = 0 and a 1 x 2 lancet in the plane z = 0, u to the right, v down.
+    // A 4 x 4 floor at y = 0 and a 1 x 2 lancet in the plane z = 0, u to the right; the OBJ's
+    // v = 0 is at y = 3, which OBJ's convention (v up) makes the bottom of the image.
     std::fs::write(
         dir.path().join("room.obj"),
         "v 0 0 0\nv 4 0 0\nv 4 0 4\nv 0 0 4\nv 1 3 0\nv 2 3 0\nv 2 1 0\nv 1 1 0\n\
@@ -631,15 +635,16 @@ direction = [0.0, -0.5, 1.0]
         pack.mip_bytes(glass.diffuse_texture.unwrap() as usize, 0),
         design.as_raw().as_slice()
     );
-    // The frame reproduces the UV mapping; the normal points along the light, into the room.
+    // The frame reproduces the UV mapping (the image's top row, v = 0 in the pack, at the
+    // OBJ's v = 1: y = 1); the normal points along the light, into the room.
     let w = &toc.windows[0];
     let close = |a: [f32; 3], b: [f32; 3]| a.iter().zip(&b).all(|(x, y)| (x - y).abs() < 1e-4);
     assert!(
-        close(w.origin, [1.0, 3.0, 0.0]) && close(w.u_axis, [1.0, 0.0, 0.0]),
+        close(w.origin, [1.0, 1.0, 0.0]) && close(w.u_axis, [1.0, 0.0, 0.0]),
         "{w:?}"
     );
     assert!(
-        close(w.v_axis, [0.0, -2.0, 0.0]) && close(w.normal, [0.0, 0.0, 1.0]),
+        close(w.v_axis, [0.0, 2.0, 0.0]) && close(w.normal, [0.0, 0.0, 1.0]),
         "{w:?}"
     );
     // Windows are drawn last.
@@ -667,26 +672,19 @@ fn window_problems_are_found() {
     let m = Manifest::open(&dir.path().join("w.obj")).unwrap();
     let v = cook::validate::validate_scene(&m).unwrap();
     let codes: Vec<&str> = v.findings.iter().map(|f| f.code).collect();
-    for code in [
-        "untagged",
-        "duplicate-triangles",
-        "window-no-design",
-        "window-not-planar",
-        "window-uv-range",
-    ] {
+    // Bent by half its size, the window is split along its planes (each a window of its own,
+    // with a design from its colour, so no window-no-design); the UVs beyond 1 stay a finding.
+    for code in ["untagged", "duplicate-triangles", "window-uv-range"] {
         assert!(
             codes.contains(&code),
             "{code} missing from {:#?}",
             v.findings
         );
     }
-    let planar = v
-        .findings
-        .iter()
-        .find(|f| f.code == "window-not-planar")
-        .unwrap();
-    assert!(planar.message.contains("tolerance"), "{}", planar.message);
-    assert_eq!(v.materials[0].class, MaterialClass::WindowLower);
+    assert!(!codes.contains(&"window-not-planar"), "{:#?}", v.findings);
+    let windows: Vec<_> = v.materials.iter().filter(|m| m.class.is_window()).collect();
+    assert!(windows.len() >= 2, "{:#?}", v.materials);
+    assert!(windows.iter().all(|m| m.class == MaterialClass::WindowLower));
 }
 
 #[test]
