@@ -337,14 +337,34 @@ pub fn sweep(cfg: &BlurConfig, progress: &mut dyn FnMut(&str)) -> Result<Vec<Blu
                 .scratch
                 .join(format!("blur-{}-{n}-{sigma}.png", e.program));
             let mut times = Vec::new();
+            let mut failed = None;
             for _ in 0..cfg.runs.max(1) {
                 let start = Instant::now();
-                run_external(e, &input_png, &output, sigma)?;
+                // A tool on PATH that does not work (a stand-in, a broken install) is an anchor
+                // missing from the report, not a failed benchmark.
+                if let Err(err) = run_external(e, &input_png, &output, sigma) {
+                    failed = Some(format!("{err:#}"));
+                    break;
+                }
                 times.push(start.elapsed().as_secs_f64() * 1e3);
                 // One run of a slow tool is enough to place it; repeating costs minutes.
                 if times[0] > cfg.external_limit_s * 1e3 / 6.0 {
                     break;
                 }
+            }
+            if let Some(why) = failed {
+                rows.push(BlurRow {
+                    sigma,
+                    method: e.name.into(),
+                    ours: false,
+                    reference: "gamma".into(),
+                    time_ms: None,
+                    runs: 0,
+                    max_lsb: None,
+                    rms_lsb: None,
+                    note: format!("not run: {why}"),
+                });
+                continue;
             }
             let ms = crate::common::median(&mut times);
             if ms > cfg.external_limit_s * 1e3 {
