@@ -184,12 +184,7 @@ colour = [0.1, 0.2, 0.3]
     let v = cook::validate::validate_scene(&m).unwrap();
     let mut codes: Vec<&str> = v.findings.iter().map(|f| f.code).collect();
     codes.sort();
-    assert_eq!(
-        codes,
-        vec!["unused-material"],
-        "{:#?}",
-        v.findings
-    );
+    assert_eq!(codes, vec!["unused-material"], "{:#?}", v.findings);
     assert!(v.findings.iter().any(|f| f.message.contains("\"blue\"")));
     let floor = v.materials.iter().find(|r| r.name == "floor").unwrap();
     assert_eq!(floor.triangles, 6);
@@ -206,12 +201,10 @@ fn bare_cornell_box_uses_heuristics_and_says_so() {
     let (out, pack) = cook_file("cornell_box/cornell_box.obj");
     assert_eq!(triangles(&pack), 36);
     check_material_ids(&pack);
-    assert!(
-        out.report
-            .warnings
-            .iter()
-            .any(|w| w.message.contains("cooking a bare mesh without a scene.toml"))
-    );
+    assert!(out.report.warnings.iter().any(|w| {
+        w.message
+            .contains("cooking a bare mesh without a scene.toml")
+    }));
     let floor: u64 = class_triangles(&pack)
         .iter()
         .filter(|c| c.1 == MaterialClass::Floor)
@@ -684,7 +677,11 @@ fn window_problems_are_found() {
     assert!(!codes.contains(&"window-not-planar"), "{:#?}", v.findings);
     let windows: Vec<_> = v.materials.iter().filter(|m| m.class.is_window()).collect();
     assert!(windows.len() >= 2, "{:#?}", v.materials);
-    assert!(windows.iter().all(|m| m.class == MaterialClass::WindowLower));
+    assert!(
+        windows
+            .iter()
+            .all(|m| m.class == MaterialClass::WindowLower)
+    );
 }
 
 #[test]
