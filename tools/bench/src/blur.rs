@@ -34,6 +34,23 @@ pub struct BlurRow {
     pub note: String,
 }
 
+impl BlurRow {
+    /// An anchor that was not measured at `sigma`, and why.
+    fn not_run(sigma: f32, method: &str, why: String) -> Self {
+        Self {
+            sigma,
+            method: method.into(),
+            ours: false,
+            reference: "gamma".into(),
+            time_ms: None,
+            runs: 0,
+            max_lsb: None,
+            rms_lsb: None,
+            note: format!("not run: {why}"),
+        }
+    }
+}
+
 pub struct BlurConfig {
     pub size: usize,
     pub sigmas: Vec<f32>,
@@ -320,17 +337,11 @@ pub fn sweep(cfg: &BlurConfig, progress: &mut dyn FnMut(&str)) -> Result<Vec<Blu
         for e in &externals {
             let slot = EXTERNALS.iter().position(|x| x.name == e.name).unwrap_or(0);
             if let Some(s) = too_slow[slot] {
-                rows.push(BlurRow {
+                rows.push(BlurRow::not_run(
                     sigma,
-                    method: e.name.into(),
-                    ours: false,
-                    reference: "gamma".into(),
-                    time_ms: None,
-                    runs: 0,
-                    max_lsb: None,
-                    rms_lsb: None,
-                    note: format!("not run: a smaller σ already took {s:.0} s"),
-                });
+                    e.name,
+                    format!("a smaller σ already took {s:.0} s"),
+                ));
                 continue;
             }
             let output = cfg
@@ -353,17 +364,7 @@ pub fn sweep(cfg: &BlurConfig, progress: &mut dyn FnMut(&str)) -> Result<Vec<Blu
                 }
             }
             if let Some(why) = failed {
-                rows.push(BlurRow {
-                    sigma,
-                    method: e.name.into(),
-                    ours: false,
-                    reference: "gamma".into(),
-                    time_ms: None,
-                    runs: 0,
-                    max_lsb: None,
-                    rms_lsb: None,
-                    note: format!("not run: {why}"),
-                });
+                rows.push(BlurRow::not_run(sigma, e.name, why));
                 continue;
             }
             let ms = crate::common::median(&mut times);
