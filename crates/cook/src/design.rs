@@ -5,8 +5,6 @@
 //! Everything is rasterized in texture space. Texel row `r` covers `v` in `[r/H, (r+1)/H)`,
 //! which is how the renderer samples a texture at a vertex's coordinate.
 
-use std::sync::Arc;
-
 use image::{Rgba, RgbaImage};
 
 use crate::manifest::Fit;
@@ -251,11 +249,6 @@ pub fn apply_mask(design: &mut RgbaImage, mask: &[bool]) {
             *p = Rgba([0, 0, 0, 0]);
         }
     }
-}
-
-/// A design made in memory, shared by the texture jobs that use it.
-pub fn shared(image: RgbaImage) -> Arc<RgbaImage> {
-    Arc::new(image)
 }
 
 #[cfg(test)]

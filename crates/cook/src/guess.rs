@@ -49,32 +49,17 @@ impl Footprint {
             return None;
         }
         let cell = (hi - lo) / GRID as f64;
-        let mut covered = vec![false; GRID * GRID];
-        for t in tris {
-            let q = t.map(|p| (p.xz() - lo) / cell);
-            let (x0, x1) = (
-                q.iter().map(|p| p.x).fold(f64::INFINITY, f64::min),
-                q.iter().map(|p| p.x).fold(f64::NEG_INFINITY, f64::max),
-            );
-            let (z0, z1) = (
-                q.iter().map(|p| p.y).fold(f64::INFINITY, f64::min),
-                q.iter().map(|p| p.y).fold(f64::NEG_INFINITY, f64::max),
-            );
-            let area2 = (q[1] - q[0]).perp_dot(q[2] - q[0]);
-            for z in (z0.floor().max(0.0) as usize)..(z1.ceil().min(GRID as f64) as usize) {
-                for x in (x0.floor().max(0.0) as usize)..(x1.ceil().min(GRID as f64) as usize) {
-                    let c = DVec2::new(x as f64 + 0.5, z as f64 + 0.5);
-                    let e = |a: DVec2, b: DVec2| (b - a).perp_dot(c - a) * area2.signum();
-                    if area2 != 0.0
-                        && e(q[0], q[1]) >= 0.0
-                        && e(q[1], q[2]) >= 0.0
-                        && e(q[2], q[0]) >= 0.0
-                    {
-                        covered[z * GRID + x] = true;
-                    }
-                }
-            }
-        }
+        // The footprint in [0, 1]², rasterized like a window's outline.
+        let flat: Vec<crate::design::UvTriangle> = tris
+            .iter()
+            .map(|t| {
+                (
+                    t.map(|p| ((p.xz() - lo) / (hi - lo)).as_vec2().to_array()),
+                    0,
+                )
+            })
+            .collect();
+        let covered = crate::design::coverage(&flat, GRID as u32, GRID as u32);
         Some(Self {
             lo,
             cell,

@@ -96,7 +96,7 @@ fn texture_error(path: &Path, e: texture::TextureError) -> CookError {
     }
 }
 
-fn decode(image: &ImageRef) -> Result<image::DynamicImage, CookError> {
+pub(crate) fn decode(image: &ImageRef) -> Result<image::DynamicImage, CookError> {
     match image {
         ImageRef::File(p) => texture::load_image(p).map_err(|e| texture_error(p, e)),
         ImageRef::Embedded { name, bytes } => {

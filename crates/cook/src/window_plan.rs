@@ -3,7 +3,6 @@
 //! each window's design (an image, the material's own texture, or one rasterized from the
 //! panes' colours), masked by the window's outline.
 
-use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
 use glam::DVec3;
@@ -28,16 +27,6 @@ pub enum DesignSource {
     Mesh,
 }
 
-impl DesignSource {
-    pub fn name(self) -> &'static str {
-        match self {
-            DesignSource::Image => "image",
-            DesignSource::Texture => "material texture",
-            DesignSource::Mesh => "mesh colours",
-        }
-    }
-}
-
 /// What the texture stage cooks for one window.
 #[derive(Clone, Debug, PartialEq)]
 pub struct WindowPlan {
@@ -53,9 +42,6 @@ pub struct WindowPlan {
     pub inside: [f32; 3],
     /// The source materials of the window's glass.
     pub materials: Vec<String>,
-    pub triangles: usize,
-    /// True when the texture coordinates were generated from the window's rectangle.
-    pub planar_uvs: bool,
 }
 
 /// What the window stage found, for `validate`, `info` and reports.
@@ -68,19 +54,8 @@ pub struct Windows {
     pub replaced: Vec<u16>,
 }
 
-fn decode_ref(image: &ImageRef) -> Result<image::RgbaImage, CookError> {
-    let img = match image {
-        ImageRef::File(p) => texture::load_image(p).map_err(CookError::from)?,
-        ImageRef::Embedded { name, bytes } => {
-            image::load_from_memory(bytes).map_err(|e| CookError::Source {
-                path: PathBuf::from(name),
-                line: None,
-                message: format!("cannot decode embedded image: {e}"),
-            })?
-        }
-        ImageRef::Raster { image, .. } => return Ok((**image).clone()),
-    };
-    Ok(img.to_rgba8())
+fn decode_rgba(image: &ImageRef) -> Result<image::RgbaImage, CookError> {
+    Ok(crate::textures::decode(image)?.into_rgba8())
 }
 
 /// The instance's triangles in texture space, each with its pane (index into `panes`), and
@@ -381,8 +356,6 @@ pub fn plan(
                 inst.inside.z as f32,
             ],
             materials: src_names,
-            triangles: inst.triangles.len(),
-            planar_uvs: planar,
         }));
         out.material.push(material);
         if !inst.planar {
@@ -399,21 +372,15 @@ pub fn plan(
             ));
         }
     }
-    let designs: Vec<Result<(ImageRef, DesignSource), CookError>> =
+    let designs: Vec<Result<(ImageRef, DesignSource, u32), CookError>> =
         pending.par_iter().map(make_design).collect();
     for (p, d) in pending.iter().zip(designs) {
-        let (design, source) = d?;
+        let (design, source, width) = d?;
         let plan = tagging.materials[p.material as usize]
             .window
             .as_mut()
             .expect("planned above");
-        plan.design_width = match &design {
-            ImageRef::Raster { image, .. } => image.width(),
-            ImageRef::File(p) => image::image_dimensions(p).map(|d| d.0).unwrap_or(0),
-            ImageRef::Embedded { bytes, .. } => image::load_from_memory(bytes)
-                .map(|i| i.width())
-                .unwrap_or(0),
-        };
+        plan.design_width = width;
         plan.design = design;
         plan.source = source;
     }
@@ -436,14 +403,15 @@ struct Pending {
 }
 
 /// The design of one window: an image fitted and masked, or cut to the outline where it
-/// would let light through stone, or rasterized from the panes.
-fn make_design(p: &Pending) -> Result<(ImageRef, DesignSource), CookError> {
+/// would let light through stone, or rasterized from the panes; with its width in texels.
+fn make_design(p: &Pending) -> Result<(ImageRef, DesignSource, u32), CookError> {
     let Some((img, source)) = &p.image else {
         let (w, h) = p.size;
         let img = design::mesh_design(&p.panes, &p.tris, w, h, p.came_width * w.min(h) as f32);
         return Ok((
             raster(format!("{}.design", p.name), img),
             DesignSource::Mesh,
+            w,
         ));
     };
     // Named after the image, so windows that mask a design the same way share one texture
@@ -457,20 +425,22 @@ fn make_design(p: &Pending) -> Result<(ImageRef, DesignSource), CookError> {
     };
     let name = format!("{stem}.{}", if p.planar { "fitted" } else { "masked" });
     if p.planar {
-        let mut canvas = design::fit_design(&decode_ref(img)?, p.fit, p.aspect);
+        let mut canvas = design::fit_design(&decode_rgba(img)?, p.fit, p.aspect);
         let mask = design::coverage(&p.tris, canvas.width(), canvas.height());
         design::apply_mask(&mut canvas, &mask);
-        return Ok((raster(name, canvas), *source));
+        let width = canvas.width();
+        return Ok((raster(name, canvas), *source, width));
     }
     // With the model's own UVs the design is used as it is, unless it would let light
     // through where the window has no glass.
-    let mut pixels = decode_ref(img)?;
-    let mask = design::coverage(&p.tris, pixels.width(), pixels.height());
+    let mut pixels = decode_rgba(img)?;
+    let width = pixels.width();
+    let mask = design::coverage(&p.tris, width, pixels.height());
     if design::light_outside(&pixels, &mask) {
         design::apply_mask(&mut pixels, &mask);
-        Ok((raster(name, pixels), *source))
+        Ok((raster(name, pixels), *source, width))
     } else {
-        Ok((img.clone(), *source))
+        Ok((img.clone(), *source, width))
     }
 }
 
@@ -482,12 +452,4 @@ pub fn inside_of(tagging: &Tagging, material: u16) -> Option<DVec3> {
         w.inside[1] as f64,
         w.inside[2] as f64,
     ))
-}
-
-/// Name of a design texture for reports.
-pub fn design_name(plan: &WindowPlan) -> String {
-    match &plan.design {
-        ImageRef::File(p) => Path::new(p).display().to_string(),
-        other => other.name(),
-    }
 }
