@@ -8,27 +8,16 @@
 //! Needs an adapter (lavapipe in CI); no adapter fails, never skips. Images are tiny: lavapipe
 //! is a CPU renderer.
 
-use std::sync::{Mutex, MutexGuard, OnceLock};
+mod common;
+use common::{gpu, load};
 
 use glam::Vec3;
 use pack::{
-    ColourSpace, DrawRange, IndexFormat, Light, LightKind, Material, MaterialClass, Mesh, MeshData,
-    MipLevel, PackData, StandardVertex, Texture, TextureFormat, TextureRole, Toc, VertexLayout,
-    Window,
+    ColourSpace, DrawRange, Light, LightKind, Material, MaterialClass, MipLevel, PackData,
+    StandardVertex, Texture, TextureFormat, TextureRole, Toc, Window,
 };
 use render::view::{GodRaySettings, LightGeometry};
-use render::{Gpu, Renderer, Scene, Settings, TargetId, TimingMethod, View};
-
-fn gpu() -> MutexGuard<'static, Gpu> {
-    static GPU: OnceLock<Mutex<Gpu>> = OnceLock::new();
-    GPU.get_or_init(|| {
-        let gpu = Gpu::headless().unwrap_or_else(|e| panic!("GPU tests need an adapter: {e}"));
-        eprintln!("adapter: {}", gpu.describe());
-        Mutex::new(gpu)
-    })
-    .lock()
-    .unwrap_or_else(|p| p.into_inner())
-}
+use render::{Renderer, Settings, TargetId, TimingMethod, View};
 
 // ---------------------------------------------------------------------------------------------
 // A minimal pack builder: quads with flat materials and constant textures.
@@ -128,37 +117,15 @@ impl Builder {
         });
     }
 
-    fn finish(mut self) -> Vec<u8> {
-        let (lo, hi) = self.vertices.iter().fold(
-            (Vec3::splat(f32::MAX), Vec3::splat(f32::MIN)),
-            |(lo, hi), v| {
-                let p = Vec3::from(v.position);
-                (lo.min(p), hi.max(p))
-            },
-        );
-        self.toc.meshes.push(Mesh {
-            name: "scene".into(),
-            layout: VertexLayout::standard(),
-            vertex_count: self.vertices.len() as u32,
-            index_count: self.indices.len() as u32,
-            index_format: IndexFormat::U32,
-            vertex_section: 0,
-            index_section: 0,
-            bounds_min: lo.to_array(),
-            bounds_max: hi.to_array(),
-            ranges: self.ranges,
-        });
-        self.data.meshes.push(MeshData {
-            vertices: bytemuck::cast_slice(&self.vertices).to_vec(),
-            indices: bytemuck::cast_slice(&self.indices).to_vec(),
-        });
-        pack::encode(self.toc, &self.data).expect("synthetic pack is valid")
+    fn finish(self) -> Vec<u8> {
+        common::encode_scene(
+            self.toc,
+            self.data,
+            &self.vertices,
+            &self.indices,
+            self.ranges,
+        )
     }
-}
-
-fn load(gpu: &Gpu, bytes: &[u8]) -> Scene {
-    let pack = pack::Pack::from_bytes("<analytic>", bytes).expect("valid pack");
-    Scene::from_pack(gpu, &pack).expect("upload")
 }
 
 fn sun(travel: Vec3) -> Light {

@@ -3,14 +3,15 @@
 //! not a skip. Images are compared with committed references using FLIP; `BLESS=1` rewrites
 //! the references, and a missing reference fails.
 
+mod common;
+use common::{gpu, load};
+
 use std::path::{Path, PathBuf};
-use std::sync::{Mutex, OnceLock};
 
 use glam::{Vec2, Vec3};
 use pack::{
-    Background, Camera, ColourSpace, DrawRange, IndexFormat, Light, LightKind, Material,
-    MaterialClass, Mesh, MeshData, MipLevel, PackData, StandardVertex, Texture, TextureFormat,
-    TextureRole, Toc, VertexLayout, Window,
+    Background, Camera, ColourSpace, DrawRange, Light, LightKind, Material, MaterialClass,
+    MipLevel, PackData, StandardVertex, Texture, TextureFormat, TextureRole, Toc, Window,
 };
 use render::view::{GodRaySettings, LightGeometry, god_ray_uniforms, god_rays_reference};
 use render::{Gpu, PassId, Renderer, Scene, Settings, TargetId, TimingMethod, View};
@@ -163,31 +164,14 @@ impl Builder {
         }
     }
 
-    fn finish(mut self) -> Vec<u8> {
-        let (lo, hi) = self.vertices.iter().fold(
-            (Vec3::splat(f32::MAX), Vec3::splat(f32::MIN)),
-            |(lo, hi), v| {
-                let p = Vec3::from(v.position);
-                (lo.min(p), hi.max(p))
-            },
-        );
-        self.toc.meshes.push(Mesh {
-            name: "scene".into(),
-            layout: VertexLayout::standard(),
-            vertex_count: self.vertices.len() as u32,
-            index_count: self.indices.len() as u32,
-            index_format: IndexFormat::U32,
-            vertex_section: 0,
-            index_section: 0,
-            bounds_min: lo.to_array(),
-            bounds_max: hi.to_array(),
-            ranges: self.ranges,
-        });
-        self.data.meshes.push(MeshData {
-            vertices: bytemuck::cast_slice(&self.vertices).to_vec(),
-            indices: bytemuck::cast_slice(&self.indices).to_vec(),
-        });
-        pack::encode(self.toc, &self.data).expect("synthetic pack is valid")
+    fn finish(self) -> Vec<u8> {
+        common::encode_scene(
+            self.toc,
+            self.data,
+            &self.vertices,
+            &self.indices,
+            self.ranges,
+        )
     }
 }
 
@@ -449,25 +433,7 @@ fn scene_at(
 }
 
 // ---------------------------------------------------------------------------------------------
-// GPU access: one device for the whole test binary (lavapipe is slow to start), used by one
-// test at a time so timings and memory stay predictable.
-
-fn gpu() -> std::sync::MutexGuard<'static, Gpu> {
-    static GPU: OnceLock<Mutex<Gpu>> = OnceLock::new();
-    GPU.get_or_init(|| {
-        // No adapter must fail the test run, never skip it.
-        let gpu = Gpu::headless().unwrap_or_else(|e| panic!("GPU tests need an adapter: {e}"));
-        eprintln!("adapter: {}", gpu.describe());
-        Mutex::new(gpu)
-    })
-    .lock()
-    .unwrap_or_else(|p| p.into_inner())
-}
-
-fn load(gpu: &Gpu, bytes: &[u8]) -> Scene {
-    let pack = pack::Pack::from_bytes("<synthetic>", bytes).expect("valid pack");
-    Scene::from_pack(gpu, &pack).expect("upload")
-}
+// Reference images.
 
 fn reference_dir() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("data/reference")

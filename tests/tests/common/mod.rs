@@ -1,0 +1,64 @@
+//! Helpers shared by the GPU tests: one device per test binary and synthetic packs.
+
+// Each test crate compiles this module and uses a different subset of it.
+#![allow(dead_code)]
+
+use std::sync::{Mutex, MutexGuard, OnceLock};
+
+use glam::Vec3;
+use pack::{DrawRange, IndexFormat, Mesh, MeshData, PackData, StandardVertex, Toc, VertexLayout};
+use render::{Gpu, Scene};
+
+/// One device for the whole test binary (lavapipe is slow to start), used by one test at a
+/// time so timings and memory stay predictable. No adapter fails the test, never skips it.
+pub fn gpu() -> MutexGuard<'static, Gpu> {
+    static GPU: OnceLock<Mutex<Gpu>> = OnceLock::new();
+    GPU.get_or_init(|| {
+        let gpu = Gpu::headless().unwrap_or_else(|e| panic!("GPU tests need an adapter: {e}"));
+        eprintln!("adapter: {}", gpu.describe());
+        Mutex::new(gpu)
+    })
+    .lock()
+    .unwrap_or_else(|p| p.into_inner())
+}
+
+/// Uploads a pack's bytes.
+pub fn load(gpu: &Gpu, bytes: &[u8]) -> Scene {
+    let pack = pack::Pack::from_bytes("<synthetic>", bytes).expect("valid pack");
+    Scene::from_pack(gpu, &pack).expect("upload")
+}
+
+/// A pack of `toc` and `data` plus one mesh, "scene", of standard vertices and 32-bit indices
+/// drawn in `ranges`.
+pub fn encode_scene(
+    mut toc: Toc,
+    mut data: PackData,
+    vertices: &[StandardVertex],
+    indices: &[u32],
+    ranges: Vec<DrawRange>,
+) -> Vec<u8> {
+    let (lo, hi) = vertices.iter().fold(
+        (Vec3::splat(f32::MAX), Vec3::splat(f32::MIN)),
+        |(lo, hi), v| {
+            let p = Vec3::from(v.position);
+            (lo.min(p), hi.max(p))
+        },
+    );
+    toc.meshes.push(Mesh {
+        name: "scene".into(),
+        layout: VertexLayout::standard(),
+        vertex_count: vertices.len() as u32,
+        index_count: indices.len() as u32,
+        index_format: IndexFormat::U32,
+        vertex_section: 0,
+        index_section: 0,
+        bounds_min: lo.to_array(),
+        bounds_max: hi.to_array(),
+        ranges,
+    });
+    data.meshes.push(MeshData {
+        vertices: bytemuck::cast_slice(vertices).to_vec(),
+        indices: bytemuck::cast_slice(indices).to_vec(),
+    });
+    pack::encode(toc, &data).expect("synthetic pack is valid")
+}
