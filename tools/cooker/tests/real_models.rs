@@ -1,4 +1,4 @@
-//! Models shaped like real third-party churches, through the `cooker` binary (issue #13).
+//! Models shaped like real third-party churches, through the `cooker` binary.
 //!
 //! The fixtures are written by the generators below into a temporary directory:
 //! - a Šibenik-like cathedral: Croatian names (`pod`, `kamen_zid`), a rose of four
@@ -16,17 +16,11 @@
 use std::collections::BTreeMap;
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
 
 use serde_json::Value;
 
-fn cooker(args: &[&dyn AsRef<std::ffi::OsStr>]) -> Output {
-    let mut c = Command::new(env!("CARGO_BIN_EXE_cooker"));
-    for a in args {
-        c.arg(a);
-    }
-    c.output().expect("cooker runs")
-}
+mod common;
+use common::cooker;
 
 fn text(b: &[u8]) -> String {
     String::from_utf8_lossy(b).into_owned()
@@ -687,17 +681,20 @@ fn window_names_and_images_given_with_window_are_checked() {
         .unwrap();
     let pack = dir.path().join("x.pack");
 
+    let with_window = |arg: String| {
+        cooker(&[
+            &"cook",
+            &scene,
+            &"-o",
+            &pack,
+            &"--no-cache",
+            &"--window",
+            &arg,
+        ])
+    };
+
     // An unknown name: usage error listing the windows; no pack.
-    let arg = format!("apsida={}", photo.display());
-    let o = cooker(&[
-        &"cook",
-        &scene,
-        &"-o",
-        &pack,
-        &"--no-cache",
-        &"--window",
-        &arg,
-    ]);
+    let o = with_window(format!("apsida={}", photo.display()));
     let err = text(&o.stderr);
     assert_eq!(o.status.code(), Some(2), "{err}");
     assert!(err.contains("apsida"), "{err}");
@@ -709,16 +706,7 @@ fn window_names_and_images_given_with_window_are_checked() {
     // A file that is not an image: invalid input naming it.
     let bad = dir.path().join("not-an-image.png");
     std::fs::write(&bad, b"this is not a PNG").unwrap();
-    let arg = format!("glass#*={}", bad.display());
-    let o = cooker(&[
-        &"cook",
-        &scene,
-        &"-o",
-        &pack,
-        &"--no-cache",
-        &"--window",
-        &arg,
-    ]);
+    let o = with_window(format!("glass#*={}", bad.display()));
     let err = text(&o.stderr);
     assert_eq!(o.status.code(), Some(3), "{err}");
     assert!(err.contains("not-an-image.png"), "{err}");
