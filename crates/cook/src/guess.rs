@@ -8,6 +8,7 @@ use pack::MaterialClass;
 
 use crate::Prepared;
 use crate::manifest::{Camera, Light};
+use crate::windows::f3;
 
 /// The sun's angular diameter.
 const SUN_DEG: f32 = 0.53;
@@ -80,10 +81,6 @@ impl Footprint {
         }
         self.covered[c.y as usize * GRID + c.x as usize].then_some(hit)
     }
-}
-
-fn f3(v: DVec3) -> [f32; 3] {
-    [v.x as f32, v.y as f32, v.z as f32]
 }
 
 /// Guesses a sun and cameras for the prepared scene (see the module documentation). The sun

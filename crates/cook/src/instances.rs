@@ -13,6 +13,7 @@ use glam::{DVec2, DVec3};
 use pack::{LightKind, MaterialClass};
 
 use crate::import::{Imported, NONE};
+use crate::windows::v3;
 
 /// Relative weld tolerance: positions closer than this fraction of the model's diagonal are
 /// the same point when deciding which triangles touch.
@@ -67,10 +68,6 @@ impl Instance {
         let v = d.dot(self.up) / self.up.length_squared().max(1e-300);
         [u as f32, (1.0 - v) as f32]
     }
-}
-
-fn v3(p: [f32; 3]) -> DVec3 {
-    DVec3::new(p[0] as f64, p[1] as f64, p[2] as f64)
 }
 
 struct UnionFind(Vec<u32>);

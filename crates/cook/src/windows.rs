@@ -26,11 +26,11 @@ pub struct WindowAnalysis {
     pub from_uvs: bool,
 }
 
-fn v3(a: [f32; 3]) -> glam::DVec3 {
+pub(crate) fn v3(a: [f32; 3]) -> glam::DVec3 {
     glam::DVec3::new(a[0] as f64, a[1] as f64, a[2] as f64)
 }
 
-fn f3(v: glam::DVec3) -> [f32; 3] {
+pub(crate) fn f3(v: glam::DVec3) -> [f32; 3] {
     [v.x as f32, v.y as f32, v.z as f32]
 }
 
