@@ -190,7 +190,9 @@ pub fn guess(p: &Prepared) -> Guess {
 
     // Cameras at eye height above the floor (or the model's bottom), inside its footprint.
     let floor_y = floor.as_ref().map_or(lo.y, |f| f.y);
-    let eye = floor_y + ((hi.y - floor_y) * 0.12).clamp(diag * 0.002, 2.0).max(0.01);
+    // A fraction of the building's height, not metres: models come in any unit (the Cornell
+    // box is 550 units tall, and 2 units above its floor is a view along the floor).
+    let eye = floor_y + ((hi.y - floor_y) * 0.12).max(diag * 0.002);
     let centre = match &floor {
         Some(f) => {
             let c = f.lo + f.cell * (GRID as f64 / 2.0);
