@@ -11,17 +11,20 @@
 pub mod budget;
 mod capture;
 mod gpu;
+pub mod occlusion;
 pub mod passes;
 mod renderer;
 mod scene;
 pub mod shaders;
+pub mod shadows;
 pub mod uniforms;
 pub mod view;
 
 pub use capture::{f16_to_f32, read_texture, target_image};
 pub use gpu::Gpu;
 pub use renderer::{
-    FrameReport, PassId, PassTime, Renderer, Settings, TargetId, TimingMethod, god_ray_falloff,
+    FrameReport, PassId, PassTime, Renderer, Settings, ShadowSettings, TargetId, TimingMethod,
+    god_ray_falloff,
 };
 pub use scene::{LoadStatus, SMALL_MIP_BYTES, Scene};
 pub use uniforms::MAX_GOD_RAY_SAMPLES;
