@@ -13,6 +13,7 @@ mod capture;
 mod gpu;
 pub mod occlusion;
 pub mod passes;
+pub mod reference;
 mod renderer;
 mod scene;
 pub mod shaders;
