@@ -18,8 +18,10 @@ fn is_inside(p: vec3<f32>) -> bool {
     return true;
 }
 
-// Shadow taps per lookup, for the blocker search and again for the filter.
+// Taps of the blocker search, and of the filter (only in penumbrae: lit and fully shadowed
+// points stop after the search).
 const SHADOW_TAPS: u32 = 16u;
+const FILTER_TAPS: u32 = 32u;
 // The blocker search never spans more texels than this (the cost stays bounded; a wider
 // penumbra is still filtered at its width, from the blockers found).
 const MAX_SEARCH_TEXELS: f32 = 24.0;
@@ -128,15 +130,15 @@ fn shadow_visibility(w: WindowProjector, p: vec3<f32>, n: vec3<f32>, frag: vec2<
         return 0.0;
     }
     var lit = 0.0;
-    for (var i = 0u; i < SHADOW_TAPS; i = i + 1u) {
+    for (var i = 0u; i < FILTER_TAPS; i = i + 1u) {
         // A 2D Gaussian's radius for the area fraction q: σ·sqrt(−2 ln(1 − q)).
-        let q = (f32(i) + 0.5) / f32(SHADOW_TAPS);
+        let q = (f32(i) + 0.5) / f32(FILTER_TAPS);
         let a = f32(i) * GOLDEN_ANGLE + angle;
         let o = vec2<f32>(cos(a), sin(a)) * sqrt(-2.0 * log(1.0 - q)) * sigma;
         let reference = shadow_stored(w, lr + gx * o.x + gy * o.y - eps);
         lit = lit + textureSampleCompareLevel(shadow_maps, shadow_cmp, m.xy + o / size, layer, reference);
     }
-    return lit / f32(SHADOW_TAPS);
+    return lit / f32(FILTER_TAPS);
 }
 
 // Light transmitted through the windows towards `p` (1 = unfiltered light), shadows included.

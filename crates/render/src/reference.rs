@@ -27,8 +27,8 @@ pub struct ReferenceSettings {
 impl Default for ReferenceSettings {
     fn default() -> Self {
         Self {
-            pixel_samples: 2,
-            light_samples: 16,
+            pixel_samples: 4,
+            light_samples: 4,
             ambient: crate::Settings::default().ambient,
         }
     }
