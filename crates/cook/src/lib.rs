@@ -431,7 +431,7 @@ pub fn cook(manifest: &Manifest, settings: &Settings) -> Result<CookOutput, Cook
             ));
         }
     }
-    lap(&mut report, "windows");
+    lap(&mut report, "light reach");
 
     // 6. Textures: material maps, window designs, normal maps and projectors, background.
     let floor_y = processed_floor(&tagging, &processed);

@@ -105,11 +105,17 @@ impl NameKind {
     }
 }
 
+/// The rule class that makes a window whose upper/lower class follows its sill.
+pub const WINDOW_BY_SILL: &str = "window";
+
 #[derive(Clone, Debug)]
 pub struct Rule {
     pub pattern: String,
     pub on: Vec<NameKind>,
     pub class: pack::MaterialClass,
+    /// `class = "window"`: a window, upper or lower by its sill height (the cook decides,
+    /// per window instance), instead of a fixed class.
+    pub by_sill: bool,
     pub material: Option<String>,
     pub diffuse: Option<[f32; 3]>,
     pub specular: Option<[f32; 3]>,
@@ -587,10 +593,18 @@ impl Manifest {
             if let Err(e) = globset::GlobBuilder::new(r.pattern.get_ref()).build() {
                 return Err(src.err_at(&r.pattern, format!("invalid glob: {e}")));
             }
-            let class = pack::MaterialClass::from_name(r.class.get_ref()).ok_or_else(|| {
+            let by_sill = r.class.get_ref() == WINDOW_BY_SILL;
+            let class = if by_sill {
+                Some(pack::MaterialClass::WindowUpper)
+            } else {
+                pack::MaterialClass::from_name(r.class.get_ref())
+            };
+            let class = class.ok_or_else(|| {
                 let names: Vec<_> = pack::MaterialClass::ALL
                     .iter()
-                    .map(|c| format!("{:?}", c.name()))
+                    .map(|c| c.name())
+                    .chain([WINDOW_BY_SILL])
+                    .map(|c| format!("{c:?}"))
                     .collect();
                 src.err_at(
                     &r.class,
@@ -623,6 +637,7 @@ impl Manifest {
                 pattern: r.pattern.get_ref().clone(),
                 on,
                 class,
+                by_sill,
                 material: r.material.clone(),
                 diffuse: r.diffuse,
                 specular: r.specular,
