@@ -273,7 +273,8 @@ fn cook_hall(hall: &Hall, dir: &Path) -> Vec<u8> {
         }
     };
     let mut manifest = format!(
-        "[[mesh]]\nsource = \"hall.obj\"\n\n\
+        "# A pillar hall lit through its roof or walls; written by tests/tests/shadows.rs.\n\n\
+         [[mesh]]\nsource = \"hall.obj\"\n\n\
          [[rule]]\nmatch = \"floor\"\nclass = \"floor\"\ndiffuse = [0.7, 0.7, 0.7]\n\
          specular = [0.0, 0.0, 0.0]\n\n\
          [[rule]]\nmatch = \"{{stone,pillar}}\"\nclass = \"wall\"\ndiffuse = [0.6, 0.58, 0.55]\n\
@@ -392,6 +393,33 @@ fn on_floor_behind(p: Vec3, travel: Vec3) -> Vec3 {
     p + travel * (-p.y / travel.y)
 }
 
+/// The pillar hall is committed in `tests/data/pillar-hall/` for the bench report and for
+/// viewing (`viewer tests/data/pillar-hall/hall.toml`); it must be what [`Hall::pillar`]
+/// builds (`BLESS=1` rewrites it).
+fn committed_fixture_is_current(built: &Path) {
+    let committed = Path::new(env!("CARGO_MANIFEST_DIR")).join("data/pillar-hall");
+    let bless = std::env::var_os("BLESS").is_some_and(|v| v == "1");
+    for name in ["hall.obj", "hall.toml", "design.png"] {
+        let (a, b) = (built.join(name), committed.join(name));
+        if bless {
+            std::fs::create_dir_all(&committed).unwrap();
+            std::fs::copy(&a, &b).unwrap();
+            continue;
+        }
+        let same = if name.ends_with(".png") {
+            let load = |p: &Path| image::open(p).map(|i| i.into_rgba8());
+            matches!((load(&a), load(&b)), (Ok(x), Ok(y)) if x == y)
+        } else {
+            std::fs::read(&a).ok() == std::fs::read(&b).ok()
+        };
+        assert!(
+            same,
+            "{} differs from what Hall::pillar builds; run with BLESS=1 after checking",
+            b.display()
+        );
+    }
+}
+
 /// Mean FLIP of the GPU's lit pass against the reference (both tone mapped); both images and
 /// the FLIP map are written to the test's temporary folder for a look.
 fn compare(name: &str, (w, h): (u32, u32), traced: &[[f32; 4]], gpu: &[[f32; 4]]) -> f32 {
@@ -414,6 +442,7 @@ fn pillar_in_the_skylight_casts_a_shadow_like_the_reference() {
     let dir = tempfile::tempdir().unwrap();
     let hall = Hall::pillar();
     let bytes = cook_hall(&hall, dir.path());
+    committed_fixture_is_current(dir.path());
     let gpu = gpu();
     let scene = common::load(&gpu, &bytes);
     assert_eq!(
