@@ -833,10 +833,42 @@ fn lamp_gets_a_map_for_the_window_whose_light_is_blocked() {
     );
     let mut r = Renderer::headless(&gpu, &scene, 64, 64, no_ambient()).unwrap();
     let view = r.view_for(&scene.toc().cameras[0]);
-    r.render(&gpu, &scene, &view, TimingMethod::None).unwrap();
+    let drawn = |report: &render::FrameReport| {
+        report
+            .passes
+            .iter()
+            .find(|p| p.pass == PassId::Shadows)
+            .unwrap()
+            .skipped
+    };
+    let first = r.render(&gpu, &scene, &view, TimingMethod::None).unwrap();
+    assert_eq!(drawn(&first), None);
     let layout = r.shadow_layout();
     assert_eq!(layout.layers.len(), 1, "one spot map, for the first window");
     assert!(layout.windows[0].is_some() && layout.windows[1].is_none());
+    // The maps are kept while nothing they depend on changes, the bias included.
+    let mut settings = no_ambient();
+    settings.shadows.bias = 2.0;
+    r.set_settings(&gpu, settings);
+    let second = r.render(&gpu, &scene, &view, TimingMethod::None).unwrap();
+    assert!(drawn(&second).is_some_and(|why| why.starts_with("up to date")));
+    r.invalidate_shadow_maps();
+    let third = r.render(&gpu, &scene, &view, TimingMethod::None).unwrap();
+    assert_eq!(drawn(&third), None);
+    // A light that moves makes them stale; one that only changes colour does not.
+    let mut scene = scene;
+    let mut light = scene.toc().light.clone().unwrap();
+    light.colour = [1.0, 0.5, 0.5];
+    scene.set_light(Some(light.clone()));
+    let recoloured = r.render(&gpu, &scene, &view, TimingMethod::None).unwrap();
+    assert!(drawn(&recoloured).is_some());
+    if let pack::LightKind::Point { position, .. } = &mut light.kind {
+        position[1] += 0.5;
+    }
+    scene.set_light(Some(light));
+    let moved = r.render(&gpu, &scene, &view, TimingMethod::None).unwrap();
+    assert_eq!(drawn(&moved), None);
+    let scene = common::load(&gpu, &bytes);
 
     let reference = Reference::from_pack(&pack::Pack::from_bytes("<hall>", &bytes).unwrap());
     // The floor point behind the pillar at 0.8 m, on the line from the lamp (higher up, the

@@ -515,8 +515,15 @@ impl Renderer {
         }
     }
 
+    /// What the maps' contents depend on (bias and filter width are applied when reading).
     fn shadow_key(&self, scene: &Scene) -> (u64, u64, ShadowSettings) {
-        (scene.id(), scene.shadow_generation(), self.settings.shadows)
+        let s = self.settings.shadows;
+        let drawn = ShadowSettings {
+            bias: 0.0,
+            filter: 0.0,
+            ..s
+        };
+        (scene.id(), scene.shadow_generation(), drawn)
     }
 
     fn plan(&self, scene: &Scene, view: &View) -> (Plan, Option<uniforms::GodRays>) {

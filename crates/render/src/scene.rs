@@ -538,8 +538,10 @@ impl Scene {
     /// Replaces the scene's light; the next frame's shading, projectors and god rays follow.
     /// The interactive viewer tunes colour, intensity and falloff this way without a re-cook.
     pub fn set_light(&mut self, light: Option<pack::Light>) {
-        if self.toc.light != light {
-            self.toc.light = light;
+        // Colour and intensity change neither which windows need maps nor the maps.
+        let moved = self.toc.light.as_ref().map(|l| &l.kind) != light.as_ref().map(|l| &l.kind);
+        self.toc.light = light;
+        if moved {
             self.analyse_occlusion();
         }
     }
