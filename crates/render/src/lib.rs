@@ -8,7 +8,7 @@
 //! windows; `GodRays` = the radial blur of pass 1 (no number); `Composite` = 4 refraction, god
 //! rays and tone mapping. [`Scene`] holds the GPU copy of a pack and accepts sections as they
 //! stream in; [`Renderer`] owns the targets and the frame graph, [`passes`] the passes;
-//! [`reference`] is a CPU ray tracer of the lit pass to judge them against.
+//! [`reference`](mod@reference) is a CPU ray tracer of the lit pass to judge them against.
 
 pub mod budget;
 mod capture;
