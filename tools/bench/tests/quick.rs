@@ -247,7 +247,7 @@ fn quick_bench_writes_a_sane_report_and_error_table() {
         .iter()
         .map(|k| k["sweep"].as_str().unwrap())
         .collect();
-    assert_eq!(kept, ["mips", "meshes", "god-rays"]);
+    assert_eq!(kept, ["mips", "meshes", "god-rays", "shadows"]);
     let readme = std::fs::read_to_string(out.join("README.md")).unwrap();
     assert!(readme.contains("The mips sweep is kept from an earlier run"));
     let table: cook::budget::ErrorTable =
