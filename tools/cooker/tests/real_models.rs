@@ -902,6 +902,28 @@ fn bare_cornell_box_tags_floor_and_walls() {
         "the back wall and the tall block"
     );
     assert_eq!(window_count(&v), 0);
+
+    // The guessed camera looks into the room with a 60° view (the pack stores degrees) from
+    // where its view runs deepest: not up against a block.
+    let toc = pack::Pack::open(&pack).unwrap().toc().clone();
+    let cam = &toc.cameras[0];
+    assert_eq!(cam.fov_y, 60.0, "{cam:?}");
+    let [x, y, z] = cam.position;
+    assert!(
+        (0.0..556.0).contains(&x) && (0.0..548.8).contains(&y) && (0.0..559.2).contains(&z),
+        "{cam:?}"
+    );
+    let inside_block = |lo: [f32; 2], hi: [f32; 2], top: f32| {
+        (lo[0]..hi[0]).contains(&x) && (lo[1]..hi[1]).contains(&z) && y < top
+    };
+    assert!(
+        !inside_block([82.0, 65.0], [290.0, 296.0], 165.0),
+        "{cam:?}"
+    );
+    assert!(
+        !inside_block([265.0, 247.0], [472.0, 456.0], 330.0),
+        "{cam:?}"
+    );
 }
 
 /// `KEEP_FIXTURES=DIR cargo test -p cooker --test real_models keep` writes the fixtures to DIR
