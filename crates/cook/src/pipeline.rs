@@ -59,7 +59,7 @@ pub fn cook(manifest: &Manifest, settings: &Settings) -> Result<CookOutput, Cook
 
     // 5. Windows: frames from the geometry, and which of them light a receiving surface.
     let (window_frames, lit_windows) = frame_windows(&manifest, &tagging, &processed, &mut report);
-    clock.lap(&mut report, "windows");
+    clock.lap(&mut report, "light reach");
 
     // 6. Textures: material maps, window designs, normal maps and projectors, background.
     let floor_y = floor_height(&tagging, &processed);

@@ -110,7 +110,6 @@ pub fn run(args: Args) -> Outcome {
         "# Tagging rules, first match wins: one per name the guesses rest on."
     );
     let mut written: Vec<(cook::manifest::NameKind, String)> = Vec::new();
-    let mut glass: Vec<String> = Vec::new();
     for (si, src) in prepared.imported.iter().enumerate() {
         let mut used = vec![false; src.parts.len()];
         for &p in &src.tri_part {
@@ -125,13 +124,13 @@ pub fn run(args: Args) -> Outcome {
                 .material
                 .class;
             let why = decision.reason().unwrap_or_default();
-            if class.is_window() {
-                let line = format!("{}: {why}", part.names.describe());
-                if !glass.contains(&line) {
-                    glass.push(line);
-                }
-                continue;
-            }
+            // Glass is tagged a window without saying upper or lower: each window instance
+            // is classed by its own sill height.
+            let class = if class.is_window() {
+                cook::manifest::WINDOW_BY_SILL
+            } else {
+                class.name()
+            };
             let (kind, name) = match decision {
                 Decision::Heuristic { kind, name, .. } => (*kind, name.clone()),
                 _ => match cook::manifest::NameKind::ALL
@@ -151,22 +150,11 @@ pub fn run(args: Args) -> Outcome {
                 "[[rule]]\nmatch = {}\non = [{}]\nclass = {}    # {}\n",
                 quote(&literal_glob(&name)),
                 quote(kind.name()),
-                quote(class.name()),
+                quote(class),
                 why.replace('\n', " ")
             );
         }
     }
-    if !glass.is_empty() {
-        let _ = writeln!(
-            t,
-            "# Glass, left to the heuristics so each window is classed upper or lower by its sill:"
-        );
-        for g in &glass {
-            let _ = writeln!(t, "#   {g}");
-        }
-        let _ = writeln!(t);
-    }
-
     // Windows.
     let _ = writeln!(
         t,

@@ -554,7 +554,31 @@ fn manifest_cook_rasterizes_the_rose_from_its_tf_colours_with_lead_and_a_project
         let z = -8.7 + 0.6 * (k - 1) as f64;
         assert!(near3(vec3(&w["centre"]), [LANCET_X as f64, 5.75, z]), "{w}");
     }
-    let lancet = extract(&pack, "glass#7.design", dir.path());
+    // Thirty lancets of one glass and one shape share one design, one normal map and one
+    // projector (the same texels, stored once).
+    for k in 1..=LANCETS {
+        let m = material(&v, &format!("glass#{k}"));
+        assert_eq!(
+            texture_name(&v, &m["diffuse_texture"]).as_deref(),
+            Some("glass.design"),
+            "glass#{k}"
+        );
+        assert_eq!(
+            texture_name(&v, &m["projector_texture"]).as_deref(),
+            Some("glass.design.projector"),
+            "glass#{k}"
+        );
+    }
+    assert_eq!(
+        texture_names(&v)
+            .iter()
+            .filter(|n| n.starts_with("glass"))
+            .count(),
+        3,
+        "{:?}",
+        texture_names(&v)
+    );
+    let lancet = extract(&pack, "glass.design", dir.path());
     let (lw, lh) = lancet.dimensions();
     let tpm = cook::manifest::DEFAULT_TEXELS_PER_METRE as f64;
     assert_eq!(
@@ -635,11 +659,11 @@ fn a_rectangular_design_on_a_pointed_lancet_throws_pointed_light() {
         window(&v, "glass#7")["design_source"],
         "image, fitted to the window"
     );
-    // The other lancets keep their own designs.
+    // The other lancets keep their (shared) designs from the mesh.
     let other = material(&v, "glass#8");
     assert_eq!(
         texture_name(&v, &other["diffuse_texture"]).as_deref(),
-        Some("glass#8.design")
+        Some("glass.design")
     );
 
     // `cover`: the square photo is cropped to the lancet's 0.4 : 2.5.
@@ -811,6 +835,31 @@ fn german_chapel_names_frames_and_sill_heights() {
         vec3(&window(&v, "Kirchenfenster_Nord")["normal"]),
         [-1.0, 0.0, 0.0]
     ));
+
+    // A rule with `class = "window"` leaves upper/lower to the sill; a rule naming the class
+    // fixes it, whatever the sill.
+    std::fs::write(
+        &scene,
+        "[[mesh]]\nsource = \"kapelle.obj\"\n\n\
+         [[rule]]\nmatch = \"Fenster\"\nclass = \"window\"\n\n\
+         [[rule]]\nmatch = \"Kirchenfenster_*\"\nclass = \"window-lower\"\n",
+    )
+    .unwrap();
+    cook(&scene, &pack, &[]);
+    let c = classes(&info(&pack));
+    assert_eq!(c["Fenster"], "window-lower", "{c:?}");
+    assert_eq!(c["Kirchenfenster_Nord"], "window-lower", "{c:?}");
+    std::fs::write(
+        &scene,
+        "[[mesh]]\nsource = \"kapelle.obj\"\n\n\
+         [[rule]]\nmatch = \"Fenster\"\nclass = \"window\"\n\n\
+         [[rule]]\nmatch = \"Kirchen*\"\nclass = \"window\"\n",
+    )
+    .unwrap();
+    cook(&scene, &pack, &[]);
+    let c = classes(&info(&pack));
+    assert_eq!(c["Fenster"], "window-lower", "{c:?}");
+    assert_eq!(c["Kirchenfenster_Nord"], "window-upper", "{c:?}");
 }
 
 #[test]
@@ -982,6 +1031,20 @@ fn init_writes_a_manifest_that_cooks_window_light_without_edits() {
         "{toml}"
     );
     assert!(toml.matches("[[camera]]").count() >= 2, "{toml}");
+    // Glass gets a rule too (class by sill), so every triangle is tagged by a rule and the
+    // manifest validates clean.
+    assert!(
+        toml.contains("match = \"staklo_plavo\"") && toml.contains("class = \"window\""),
+        "{toml}"
+    );
+    let checked = cooker(&[&"validate", &scene]);
+    assert_eq!(
+        checked.status.code(),
+        Some(0),
+        "{}{}",
+        text(&checked.stdout),
+        text(&checked.stderr)
+    );
     // A second init does not overwrite the first without --force.
     let again = cooker(&[&"init", &obj, &"-o", &scene]);
     assert_eq!(again.status.code(), Some(2), "{}", text(&again.stderr));

@@ -8,7 +8,7 @@ use toml::Spanned;
 use super::model;
 use super::{
     Background, DEFAULT_CAME_WIDTH, DEFAULT_TEXELS_PER_METRE, Fit, Light, Line, Manifest,
-    MeshSource, NameKind, Rule, SceneInfo, Textures, UvMode, WindowDesign,
+    MeshSource, NameKind, Rule, SceneInfo, Textures, UvMode, WINDOW_BY_SILL, WindowDesign,
 };
 use crate::CookError;
 
@@ -247,12 +247,28 @@ fn rules(src: &Source<'_>, raw: &[Spanned<model::Rule>]) -> Result<Vec<Rule>, Co
         if let Err(e) = globset::GlobBuilder::new(r.pattern.get_ref()).build() {
             return Err(src.err_at(&r.pattern, format!("invalid glob: {e}")));
         }
-        let class = src.named(
-            &r.class,
-            "class",
-            &pack::MaterialClass::ALL,
-            pack::MaterialClass::name,
-        )?;
+        let by_sill = r.class.get_ref() == WINDOW_BY_SILL;
+        let class = if by_sill {
+            Some(pack::MaterialClass::WindowUpper)
+        } else {
+            pack::MaterialClass::from_name(r.class.get_ref())
+        };
+        let class = class.ok_or_else(|| {
+            let names: Vec<_> = pack::MaterialClass::ALL
+                .iter()
+                .map(|c| c.name())
+                .chain([WINDOW_BY_SILL])
+                .map(|c| format!("{c:?}"))
+                .collect();
+            src.err_at(
+                &r.class,
+                format!(
+                    "class is {:?} but must be one of {}",
+                    r.class.get_ref(),
+                    names.join(", ")
+                ),
+            )
+        })?;
         let on = match &r.on {
             Some(on) if on.get_ref().is_empty() => {
                 return Err(src.err_at(on, "`on` is empty: the rule could never match"));
@@ -275,6 +291,7 @@ fn rules(src: &Source<'_>, raw: &[Spanned<model::Rule>]) -> Result<Vec<Rule>, Co
             pattern: r.pattern.get_ref().clone(),
             on,
             class,
+            by_sill,
             material: r.material.clone(),
             diffuse: r.diffuse,
             specular: r.specular,

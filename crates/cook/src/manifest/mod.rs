@@ -101,11 +101,17 @@ impl NameKind {
     }
 }
 
+/// The rule class that makes a window whose upper/lower class follows its sill.
+pub const WINDOW_BY_SILL: &str = "window";
+
 #[derive(Clone, Debug)]
 pub struct Rule {
     pub pattern: String,
     pub on: Vec<NameKind>,
     pub class: pack::MaterialClass,
+    /// `class = "window"`: a window, upper or lower by its sill height (the cook decides,
+    /// per window instance), instead of a fixed class.
+    pub by_sill: bool,
     pub material: Option<String>,
     pub diffuse: Option<[f32; 3]>,
     pub specular: Option<[f32; 3]>,
