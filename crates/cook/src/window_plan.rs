@@ -384,7 +384,7 @@ pub fn plan(
             None => i,
         })
         .collect();
-    let made: Vec<Option<Result<(ImageRef, DesignSource, u32), CookError>>> = pending
+    let made: Vec<Option<Result<_, CookError>>> = pending
         .par_iter()
         .enumerate()
         .map(|(i, p)| (same_as[i] == i).then(|| make_design(p)))
