@@ -12,9 +12,10 @@ use rayon::prelude::*;
 use crate::design::{self, Pane, UvTriangle};
 use crate::import::{ImageRef, Imported, NONE};
 use crate::instances::{self, Instance};
-use crate::manifest::{Fit, GreenAxis, Manifest, NormalEncoding, UvMode, WindowDesign};
+use crate::manifest::{Fit, Manifest, UvMode, WindowDesign};
 use crate::tag::{Decision, Tagging};
 use crate::{CookError, Report, Warning};
+use texture::{GreenAxis, NormalEncoding};
 
 /// Where a window's design came from, for reports.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]

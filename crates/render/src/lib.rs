@@ -12,6 +12,7 @@ pub mod budget;
 mod capture;
 mod gpu;
 pub mod passes;
+mod projectors;
 mod renderer;
 mod scene;
 pub mod shaders;
