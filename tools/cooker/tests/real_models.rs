@@ -694,6 +694,58 @@ fn a_rectangular_design_on_a_pointed_lancet_throws_pointed_light() {
     }
 }
 
+/// `fit = "contain"` keeps the whole photo and fills the rest of the lancet with clear glass;
+/// `fit = "stretch"` keeps the photo's pixels and lets the planar UVs stretch it. Both are
+/// still cut to the pointed outline.
+#[test]
+fn contain_and_stretch_fit_a_square_photo_to_a_lancet() {
+    let dir = tempfile::tempdir().unwrap();
+    sibenik(dir.path());
+    let photo = dir.path().join("photo.png");
+    image::RgbaImage::from_pixel(200, 200, image::Rgba([200, 40, 40, 255]))
+        .save(&photo)
+        .unwrap();
+    for (fit, want) in [("contain", (200, 1250)), ("stretch", (200, 200))] {
+        let scene = dir.path().join(format!("{fit}.toml"));
+        std::fs::write(
+            &scene,
+            format!(
+                "[[mesh]]\nsource = \"sibenik.obj\"\n\n[[window]]\nname = \"glass#3\"\n\
+                 design = \"photo.png\"\nfit = \"{fit}\"\n\n{SUN}"
+            ),
+        )
+        .unwrap();
+        let pack = dir.path().join(format!("{fit}.pack"));
+        cook(&scene, &pack, &[]);
+        let v = info(&pack);
+        let m = material(&v, "glass#3");
+        let name = texture_name(&v, &m["diffuse_texture"]).unwrap();
+        assert_eq!(name, "photo.fitted", "{fit}");
+        let img = extract(&pack, &name, dir.path());
+        let (w, h) = img.dimensions();
+        assert_eq!((w, h), want, "{fit}");
+        let red = |p: &image::Rgba<u8>| p[0] > 150 && p[1] < 80 && p[3] == 255;
+        // The middle of the body is the photo either way.
+        assert!(
+            red(img.get_pixel(w / 2, h / 2)),
+            "{fit}: {:?}",
+            img.get_pixel(w / 2, h / 2)
+        );
+        // Beside the point: stone, no light.
+        assert_eq!(img.get_pixel(1, 1)[3], 0, "{fit}");
+        if fit == "contain" {
+            // Clear glass above and below the photo (inside the outline, below the arch).
+            let sill = img.get_pixel(w / 2, h - 5);
+            assert!(
+                sill[3] == 255 && sill.0[..3].iter().all(|&c| c > 240),
+                "{fit}: {sill:?}"
+            );
+        } else {
+            assert!(red(img.get_pixel(w / 2, h - 5)), "{fit}");
+        }
+    }
+}
+
 #[test]
 fn window_names_and_images_given_with_window_are_checked() {
     let dir = tempfile::tempdir().unwrap();
