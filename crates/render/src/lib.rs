@@ -15,6 +15,7 @@ mod capture;
 mod gpu;
 pub mod occlusion;
 pub mod passes;
+mod projectors;
 pub mod reference;
 mod renderer;
 mod scene;

@@ -6,6 +6,7 @@
 use pack::{MaterialClass, SectionRole, StandardVertex, Toc, VertexLayout};
 
 use crate::occlusion::{self, WindowShadow};
+use crate::projectors::Projectors;
 use crate::uniforms;
 use crate::view::LightGeometry;
 use crate::{Gpu, RenderError};
@@ -120,8 +121,6 @@ pub struct Scene {
     pub(crate) material_layout: wgpu::BindGroupLayout,
     pub(crate) placeholders: Placeholders,
     material_sampler: wgpu::Sampler,
-    /// Texture index of each projector array layer.
-    projector_slots: Vec<u32>,
     projectors: Projectors,
     /// CPU copies of the geometry, for the load-time occlusion analysis.
     cpu: Vec<CpuMesh>,
@@ -204,21 +203,6 @@ impl Scene {
                 view: None,
             });
         }
-        let mut projector_slots: Vec<u32> = Vec::new();
-        for w in &toc.windows {
-            if let Some(p) = toc.materials[w.material as usize].projector_texture
-                && !projector_slots.contains(&p)
-            {
-                projector_slots.push(p);
-            }
-        }
-        let max_layers = device.limits().max_texture_array_layers as usize;
-        if projector_slots.len() > max_layers {
-            return Err(RenderError::TooManyProjectors {
-                found: projector_slots.len(),
-                max: max_layers,
-            });
-        }
         if toc.windows.len() > uniforms::MAX_WINDOWS {
             return Err(RenderError::TooManyWindows {
                 found: toc.windows.len(),
@@ -258,8 +242,7 @@ impl Scene {
             material_layout,
             placeholders,
             material_sampler,
-            projectors: Projectors::new(gpu, toc, &projector_slots),
-            projector_slots,
+            projectors: Projectors::new(gpu, toc)?,
             cpu: toc.meshes.iter().map(|_| CpuMesh::default()).collect(),
             occluders: Vec::new(),
             window_shadows: vec![WindowShadow::NoLight; toc.windows.len()],
@@ -511,20 +494,11 @@ impl Scene {
         for (m, g) in self.materials.iter_mut().zip(groups) {
             m.bind_group = g;
         }
-        let sources: Vec<Option<(u32, &wgpu::TextureView, u32)>> = self
-            .projector_slots
-            .iter()
-            .map(|&t| {
-                let full = self.toc.textures[t as usize]
-                    .width
-                    .max(self.toc.textures[t as usize].height);
-                let t = &self.textures[t as usize];
-                t.resident_from
-                    .zip(t.view.as_ref())
-                    .map(|(b, v)| (b, v, full))
-            })
-            .collect();
-        self.projectors.update(gpu, &sources);
+        let textures = &self.textures;
+        self.projectors.update(gpu, &self.toc, |t| {
+            let t = &textures[t as usize];
+            t.resident_from.zip(t.view.as_ref())
+        });
         self.generation += 1;
     }
 
@@ -643,20 +617,16 @@ impl Scene {
 
     /// Every window's projector texture, one layer each (white where not resident yet).
     pub(crate) fn projector_array(&self) -> &wgpu::TextureView {
-        &self.projectors.view
+        self.projectors.view()
     }
 
     /// The projector layer that stays white.
     pub(crate) fn white_projector_layer(&self) -> u32 {
-        self.projector_slots.len() as u32
+        self.projectors.white_layer()
     }
 
     pub(crate) fn projector_slot(&self, texture: Option<u32>) -> Option<u32> {
-        let t = texture?;
-        self.projector_slots
-            .iter()
-            .position(|&p| p == t)
-            .map(|s| s as u32)
+        self.projectors.slot(texture)
     }
 
     /// True when some loaded range is drawn with a window material.
@@ -770,206 +740,6 @@ fn standard_vertices(
         .map(|v| layout.decode(v))
         .collect();
     Ok(Some(out))
-}
-
-/// Projector textures gathered into one array, so the lit pass can reach any window's design
-/// with a single binding however many windows a scene has. Each layer is a resampled copy of
-/// the levels resident so far, refreshed as larger ones stream in.
-struct Projectors {
-    texture: wgpu::Texture,
-    view: wgpu::TextureView,
-    pipeline: wgpu::RenderPipeline,
-    layout: wgpu::BindGroupLayout,
-    sampler: wgpu::Sampler,
-    size: u32,
-    levels: u32,
-    /// The resident base level each layer was last copied from.
-    copied: Vec<Option<u32>>,
-}
-
-/// Layers are square. Projectors are pre-blurred (the default scene's by 6 to 7 texels at
-/// 1024), so 512 keeps their detail while quartering the copy each streamed level costs.
-const MAX_PROJECTOR_SIZE: u32 = 512;
-
-impl Projectors {
-    fn new(gpu: &Gpu, toc: &Toc, slots: &[u32]) -> Self {
-        let device = &gpu.device;
-        let size = slots
-            .iter()
-            .map(|&t| {
-                toc.textures[t as usize]
-                    .width
-                    .max(toc.textures[t as usize].height)
-            })
-            .max()
-            .unwrap_or(1)
-            .min(MAX_PROJECTOR_SIZE);
-        // One layer per projector plus a white one for windows without a projector texture.
-        let layers = slots.len() as u32 + 1;
-        // A full chain: floors seen at grazing angles minify the patterns strongly.
-        let levels = 32 - size.leading_zeros();
-        let texture = device.create_texture(&wgpu::TextureDescriptor {
-            label: Some("projectors"),
-            size: wgpu::Extent3d {
-                width: size,
-                height: size,
-                depth_or_array_layers: layers,
-            },
-            mip_level_count: levels,
-            sample_count: 1,
-            dimension: wgpu::TextureDimension::D2,
-            format: wgpu::TextureFormat::Rgba8UnormSrgb,
-            usage: wgpu::TextureUsages::TEXTURE_BINDING | wgpu::TextureUsages::RENDER_ATTACHMENT,
-            view_formats: &[],
-        });
-        let view = texture.create_view(&wgpu::TextureViewDescriptor {
-            dimension: Some(wgpu::TextureViewDimension::D2Array),
-            ..Default::default()
-        });
-        let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-            label: Some("projector copy"),
-            entries: &[
-                crate::passes::texture_entry(0),
-                crate::passes::sampler_entry(1),
-                wgpu::BindGroupLayoutEntry {
-                    binding: 2,
-                    visibility: wgpu::ShaderStages::FRAGMENT,
-                    ty: wgpu::BindingType::Buffer {
-                        ty: wgpu::BufferBindingType::Uniform,
-                        has_dynamic_offset: false,
-                        min_binding_size: None,
-                    },
-                    count: None,
-                },
-            ],
-        });
-        let pipeline = crate::passes::fullscreen_pipeline(
-            device,
-            &layout,
-            "blit.wgsl",
-            wgpu::TextureFormat::Rgba8UnormSrgb,
-        );
-        let sampler = device.create_sampler(&wgpu::SamplerDescriptor {
-            mag_filter: wgpu::FilterMode::Linear,
-            min_filter: wgpu::FilterMode::Linear,
-            mipmap_filter: wgpu::MipmapFilterMode::Linear,
-            ..Default::default()
-        });
-        let p = Self {
-            texture,
-            view,
-            pipeline,
-            layout,
-            sampler,
-            size,
-            levels,
-            copied: vec![None; layers as usize],
-        };
-        // Until a projector's first level arrives its layer is white: unfiltered light.
-        let mut encoder = device.create_command_encoder(&Default::default());
-        for layer in 0..layers {
-            for level in 0..levels {
-                p.layer_pass(&mut encoder, layer, level, true);
-            }
-        }
-        gpu.queue.submit([encoder.finish()]);
-        p
-    }
-
-    fn layer_pass<'e>(
-        &self,
-        encoder: &'e mut wgpu::CommandEncoder,
-        layer: u32,
-        level: u32,
-        clear_white: bool,
-    ) -> wgpu::RenderPass<'e> {
-        let view = self.texture.create_view(&wgpu::TextureViewDescriptor {
-            dimension: Some(wgpu::TextureViewDimension::D2),
-            base_array_layer: layer,
-            array_layer_count: Some(1),
-            base_mip_level: level,
-            mip_level_count: Some(1),
-            ..Default::default()
-        });
-        encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
-            label: Some("projector copy"),
-            color_attachments: &[Some(wgpu::RenderPassColorAttachment {
-                view: &view,
-                depth_slice: None,
-                resolve_target: None,
-                ops: wgpu::Operations {
-                    load: wgpu::LoadOp::Clear(if clear_white {
-                        wgpu::Color::WHITE
-                    } else {
-                        wgpu::Color::BLACK
-                    }),
-                    store: wgpu::StoreOp::Store,
-                },
-            })],
-            depth_stencil_attachment: None,
-            timestamp_writes: None,
-            occlusion_query_set: None,
-            multiview_mask: None,
-        })
-    }
-
-    /// Copies each layer whose source gained levels since its last copy. A source is its
-    /// resident base level, a view of the resident levels and its full (level 0) size.
-    fn update(&mut self, gpu: &Gpu, sources: &[Option<(u32, &wgpu::TextureView, u32)>]) {
-        use wgpu::util::DeviceExt;
-        let mut encoder = gpu.device.create_command_encoder(&Default::default());
-        let mut any = false;
-        for (layer, source) in sources.iter().enumerate() {
-            let Some((base, view, full)) = *source else {
-                continue;
-            };
-            if self.copied[layer] == Some(base) {
-                continue;
-            }
-            for level in 0..self.levels {
-                // Source level of about this array level's size, relative to the view's base.
-                let lod =
-                    ((full as f32 / self.size as f32).log2() + level as f32 - base as f32).max(0.0);
-                let u = uniforms::Blit {
-                    lod: [lod, 0.0, 0.0, 0.0],
-                };
-                let buffer = gpu
-                    .device
-                    .create_buffer_init(&wgpu::util::BufferInitDescriptor {
-                        label: Some("projector copy"),
-                        contents: bytemuck::bytes_of(&u),
-                        usage: wgpu::BufferUsages::UNIFORM,
-                    });
-                let group = gpu.device.create_bind_group(&wgpu::BindGroupDescriptor {
-                    label: Some("projector copy"),
-                    layout: &self.layout,
-                    entries: &[
-                        wgpu::BindGroupEntry {
-                            binding: 0,
-                            resource: wgpu::BindingResource::TextureView(view),
-                        },
-                        wgpu::BindGroupEntry {
-                            binding: 1,
-                            resource: wgpu::BindingResource::Sampler(&self.sampler),
-                        },
-                        wgpu::BindGroupEntry {
-                            binding: 2,
-                            resource: buffer.as_entire_binding(),
-                        },
-                    ],
-                });
-                let mut pass = self.layer_pass(&mut encoder, layer as u32, level, false);
-                pass.set_pipeline(&self.pipeline);
-                pass.set_bind_group(0, &group, &[]);
-                pass.draw(0..3, 0..1);
-            }
-            self.copied[layer] = Some(base);
-            any = true;
-        }
-        if any {
-            gpu.queue.submit([encoder.finish()]);
-        }
-    }
 }
 
 #[cfg(test)]
