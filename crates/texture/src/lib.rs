@@ -24,6 +24,7 @@
 
 pub mod blur;
 mod error;
+mod fir;
 mod load;
 pub mod mips;
 pub mod normal;
