@@ -132,7 +132,7 @@ pub fn validate_scene(manifest: &Manifest) -> Result<Validation, CookError> {
         tri_material,
         windows: found,
         ..
-    } = crate::prepare(manifest, &Settings::default(), &mut report)?;
+    } = crate::prepare(manifest, &Settings::new(manifest), &mut report)?;
 
     // Tagging.
     let mut untagged_tris = 0usize;
@@ -313,14 +313,11 @@ pub fn validate_scene(manifest: &Manifest) -> Result<Validation, CookError> {
             ..n
         })
         .collect();
-    let settings = Settings {
-        textures: false,
-        ..Default::default()
-    };
+    let settings = mesh::MeshSettings::default();
     let mut processed: Vec<mesh::Processed> = sources
         .iter()
         .zip(&tri_material)
-        .map(|(src, tm)| mesh::process(src, tm, &needs, &settings.mesh))
+        .map(|(src, tm)| mesh::process(src, tm, &needs, &settings))
         .collect();
     // Materials whose triangles all went to per-window materials are gone, as in the cook;
     // materials without triangles for other reasons stay, so they are reported below.
