@@ -290,7 +290,7 @@ fn record_sources(
         report.inputs.push(s.path.clone());
         report.inputs.extend(s.files.iter().cloned());
     }
-    note_heuristics(imported, tagging, report);
+    report.heuristics = heuristic_notes(imported, tagging);
 }
 
 fn process_meshes(
@@ -422,7 +422,13 @@ fn floor_height(tagging: &tag::Tagging, processed: &[mesh::Processed]) -> Option
     y
 }
 
-fn note_heuristics(sources: &[import::Imported], tagging: &tag::Tagging, report: &mut Report) {
+/// The parts of each source that a heuristic tagged rather than a rule (and that have
+/// triangles), with why: the cook's `note:` lines and `cooker validate`'s `untagged` finding.
+pub(crate) fn heuristic_notes(
+    sources: &[import::Imported],
+    tagging: &tag::Tagging,
+) -> Vec<HeuristicNote> {
+    let mut notes = Vec::new();
     for (si, src) in sources.iter().enumerate() {
         let mut counts = vec![0usize; src.parts.len()];
         for &p in &src.tri_part {
@@ -433,7 +439,7 @@ fn note_heuristics(sources: &[import::Imported], tagging: &tag::Tagging, report:
                 continue;
             }
             let m = &tagging.materials[tagging.part_material[si][pi] as usize].material;
-            report.heuristics.push(HeuristicNote {
+            notes.push(HeuristicNote {
                 source: src.path.clone(),
                 names: src.parts[pi].names.describe(),
                 material: m.name.clone(),
@@ -447,4 +453,5 @@ fn note_heuristics(sources: &[import::Imported], tagging: &tag::Tagging, report:
             });
         }
     }
+    notes
 }
