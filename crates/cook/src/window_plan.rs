@@ -384,12 +384,12 @@ pub fn plan(
             None => i,
         })
         .collect();
-    let made: Vec<Option<Result<_, CookError>>> = pending
+    let made: Vec<Option<Result<Design, CookError>>> = pending
         .par_iter()
         .enumerate()
         .map(|(i, p)| (same_as[i] == i).then(|| make_design(p)))
         .collect();
-    let mut designs: Vec<Option<(ImageRef, DesignSource, u32)>> = Vec::with_capacity(made.len());
+    let mut designs: Vec<Option<Design>> = Vec::with_capacity(made.len());
     for (i, d) in made.into_iter().enumerate() {
         designs.push(match d {
             Some(d) => Some(d?),
@@ -413,9 +413,7 @@ pub fn plan(
 /// Windows whose rasterized designs are texel for texel the same (thirty lancets of one glass)
 /// get one image under one name, so the texture stage cooks and stores it once. The name drops
 /// the windows' `#k` numbers when they all share the prefix.
-fn share_identical(
-    mut designs: Vec<(ImageRef, DesignSource, u32)>,
-) -> Vec<(ImageRef, DesignSource, u32)> {
+fn share_identical(mut designs: Vec<Design>) -> Vec<Design> {
     use std::collections::HashMap;
     use std::hash::{Hash, Hasher};
     let mut groups: HashMap<(u32, u32, u64), Vec<Vec<usize>>> = HashMap::new();
@@ -472,6 +470,9 @@ fn share_identical(
     designs
 }
 
+/// A window's design image, where it came from, and its width in texels.
+type Design = (ImageRef, DesignSource, u32);
+
 /// A window design still to make: what [`make_design`] needs, gathered sequentially.
 struct Pending {
     material: u16,
@@ -509,7 +510,7 @@ impl Pending {
 
 /// The design of one window: an image fitted and masked, or cut to the outline where it
 /// would let light through stone, or rasterized from the panes; with its width in texels.
-fn make_design(p: &Pending) -> Result<(ImageRef, DesignSource, u32), CookError> {
+fn make_design(p: &Pending) -> Result<Design, CookError> {
     let Some((img, source)) = &p.image else {
         let (w, h) = p.size;
         let img = design::mesh_design(&p.panes, &p.tris, w, h, p.came_width * w.min(h) as f32);

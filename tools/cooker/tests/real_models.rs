@@ -694,6 +694,58 @@ fn a_rectangular_design_on_a_pointed_lancet_throws_pointed_light() {
     }
 }
 
+/// `fit = "contain"` keeps the whole photo and fills the rest of the lancet with clear glass;
+/// `fit = "stretch"` keeps the photo's pixels and lets the planar UVs stretch it. Both are
+/// still cut to the pointed outline.
+#[test]
+fn contain_and_stretch_fit_a_square_photo_to_a_lancet() {
+    let dir = tempfile::tempdir().unwrap();
+    sibenik(dir.path());
+    let photo = dir.path().join("photo.png");
+    image::RgbaImage::from_pixel(200, 200, image::Rgba([200, 40, 40, 255]))
+        .save(&photo)
+        .unwrap();
+    for (fit, want) in [("contain", (200, 1250)), ("stretch", (200, 200))] {
+        let scene = dir.path().join(format!("{fit}.toml"));
+        std::fs::write(
+            &scene,
+            format!(
+                "[[mesh]]\nsource = \"sibenik.obj\"\n\n[[window]]\nname = \"glass#3\"\n\
+                 design = \"photo.png\"\nfit = \"{fit}\"\n\n{SUN}"
+            ),
+        )
+        .unwrap();
+        let pack = dir.path().join(format!("{fit}.pack"));
+        cook(&scene, &pack, &[]);
+        let v = info(&pack);
+        let m = material(&v, "glass#3");
+        let name = texture_name(&v, &m["diffuse_texture"]).unwrap();
+        assert_eq!(name, "photo.fitted", "{fit}");
+        let img = extract(&pack, &name, dir.path());
+        let (w, h) = img.dimensions();
+        assert_eq!((w, h), want, "{fit}");
+        let red = |p: &image::Rgba<u8>| p[0] > 150 && p[1] < 80 && p[3] == 255;
+        // The middle of the body is the photo either way.
+        assert!(
+            red(img.get_pixel(w / 2, h / 2)),
+            "{fit}: {:?}",
+            img.get_pixel(w / 2, h / 2)
+        );
+        // Beside the point: stone, no light.
+        assert_eq!(img.get_pixel(1, 1)[3], 0, "{fit}");
+        if fit == "contain" {
+            // Clear glass above and below the photo (inside the outline, below the arch).
+            let sill = img.get_pixel(w / 2, h - 5);
+            assert!(
+                sill[3] == 255 && sill.0[..3].iter().all(|&c| c > 240),
+                "{fit}: {sill:?}"
+            );
+        } else {
+            assert!(red(img.get_pixel(w / 2, h - 5)), "{fit}");
+        }
+    }
+}
+
 #[test]
 fn window_names_and_images_given_with_window_are_checked() {
     let dir = tempfile::tempdir().unwrap();
@@ -902,6 +954,28 @@ fn bare_cornell_box_tags_floor_and_walls() {
         "the back wall and the tall block"
     );
     assert_eq!(window_count(&v), 0);
+
+    // The guessed camera looks into the room with a 60° view (the pack stores degrees) from
+    // where its view runs deepest: not up against a block.
+    let toc = pack::Pack::open(&pack).unwrap().toc().clone();
+    let cam = &toc.cameras[0];
+    assert_eq!(cam.fov_y, 60.0, "{cam:?}");
+    let [x, y, z] = cam.position;
+    assert!(
+        (0.0..556.0).contains(&x) && (0.0..548.8).contains(&y) && (0.0..559.2).contains(&z),
+        "{cam:?}"
+    );
+    let inside_block = |lo: [f32; 2], hi: [f32; 2], top: f32| {
+        (lo[0]..hi[0]).contains(&x) && (lo[1]..hi[1]).contains(&z) && y < top
+    };
+    assert!(
+        !inside_block([82.0, 65.0], [290.0, 296.0], 165.0),
+        "{cam:?}"
+    );
+    assert!(
+        !inside_block([265.0, 247.0], [472.0, 456.0], 330.0),
+        "{cam:?}"
+    );
 }
 
 /// `KEEP_FIXTURES=DIR cargo test -p cooker --test real_models keep` writes the fixtures to DIR
