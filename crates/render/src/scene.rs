@@ -5,9 +5,17 @@
 
 use pack::{MaterialClass, SectionRole, StandardVertex, Toc, VertexLayout};
 
+use crate::occlusion::{self, WindowShadow};
 use crate::projectors::Projectors;
 use crate::uniforms;
+use crate::view::LightGeometry;
 use crate::{Gpu, RenderError};
+
+#[derive(Default)]
+struct CpuMesh {
+    positions: Option<Vec<glam::Vec3>>,
+    indices: Option<Vec<u32>>,
+}
 
 /// Mips up to this many bytes (64×64 RGBA8) count as "small": the first frame waits for them.
 pub const SMALL_MIP_BYTES: u64 = 64 * 64 * 4;
@@ -114,10 +122,20 @@ pub struct Scene {
     pub(crate) placeholders: Placeholders,
     material_sampler: wgpu::Sampler,
     projectors: Projectors,
+    /// CPU copies of the geometry, for the load-time occlusion analysis.
+    cpu: Vec<CpuMesh>,
+    /// Opaque triangles (neither glass nor backdrop), once all geometry is in.
+    occluders: Vec<[glam::Vec3; 3]>,
+    /// Per window, whether its light needs a shadow map (for the current light).
+    window_shadows: Vec<WindowShadow>,
+    /// Bumped when the geometry or the light changes: shadow maps drawn before are stale.
+    shadow_generation: u64,
     status: LoadStatus,
     dirty: bool,
     /// Bumped whenever a texture view changes, so frame bind groups can be rebuilt.
     generation: u64,
+    /// Unique per scene, so a renderer can tell a swapped-in scene from the one it drew.
+    id: u64,
 }
 
 pub(crate) fn material_layout(device: &wgpu::Device) -> wgpu::BindGroupLayout {
@@ -225,6 +243,10 @@ impl Scene {
             placeholders,
             material_sampler,
             projectors: Projectors::new(gpu, toc)?,
+            cpu: toc.meshes.iter().map(|_| CpuMesh::default()).collect(),
+            occluders: Vec::new(),
+            window_shadows: vec![WindowShadow::NoLight; toc.windows.len()],
+            shadow_generation: 0,
             status: LoadStatus {
                 geometry_total: toc.meshes.len() as u32 * 2,
                 mips_total: toc.textures.iter().map(|t| t.mips.len() as u32).sum(),
@@ -232,6 +254,10 @@ impl Scene {
             },
             dirty: false,
             generation: 0,
+            id: {
+                static NEXT: std::sync::atomic::AtomicU64 = std::sync::atomic::AtomicU64::new(1);
+                NEXT.fetch_add(1, std::sync::atomic::Ordering::Relaxed)
+            },
         };
         scene.materials = toc
             .materials
@@ -350,6 +376,18 @@ impl Scene {
                         mesh: m.name.clone(),
                         reason,
                     })?;
+                let positions = match &converted {
+                    Some(v) => v.iter().map(|v| glam::Vec3::from(v.position)).collect(),
+                    None => bytes
+                        .chunks_exact(std::mem::size_of::<StandardVertex>())
+                        .map(|v| {
+                            glam::Vec3::from(
+                                bytemuck::pod_read_unaligned::<StandardVertex>(v).position,
+                            )
+                        })
+                        .collect(),
+                };
+                self.cpu[mesh as usize].positions = Some(positions);
                 let data: &[u8] = converted
                     .as_deref()
                     .map(bytemuck::cast_slice)
@@ -363,11 +401,23 @@ impl Scene {
                     });
                 self.meshes[mesh as usize].vertices = Some(buffer);
                 self.status.geometry_sections += 1;
+                self.geometry_arrived();
             }
             SectionRole::Indices { mesh } => {
                 let m = &self.toc.meshes[mesh as usize];
                 // Buffers must be a multiple of 4 bytes (an odd count of u16 indices is padded)
                 // and are kept non-empty, so a mesh without triangles needs no special case.
+                let indices = match m.index_format {
+                    pack::IndexFormat::U16 => bytes
+                        .chunks_exact(2)
+                        .map(|c| u16::from_le_bytes([c[0], c[1]]) as u32)
+                        .collect(),
+                    pack::IndexFormat::U32 => bytes
+                        .chunks_exact(4)
+                        .map(|c| u32::from_le_bytes([c[0], c[1], c[2], c[3]]))
+                        .collect(),
+                };
+                self.cpu[mesh as usize].indices = Some(indices);
                 let mut data = bytes.to_vec();
                 data.resize((bytes.len().div_ceil(4) * 4).max(4), 0);
                 let buffer = gpu
@@ -379,6 +429,7 @@ impl Scene {
                     });
                 self.meshes[mesh as usize].indices = Some(buffer);
                 self.status.geometry_sections += 1;
+                self.geometry_arrived();
             }
             SectionRole::Mip { texture, level } => {
                 let t = &self.toc.textures[texture as usize];
@@ -461,7 +512,63 @@ impl Scene {
     /// Replaces the scene's light; the next frame's shading, projectors and god rays follow.
     /// The interactive viewer tunes colour, intensity and falloff this way without a re-cook.
     pub fn set_light(&mut self, light: Option<pack::Light>) {
+        // Colour and intensity change neither which windows need maps nor the maps.
+        let moved = self.toc.light.as_ref().map(|l| &l.kind) != light.as_ref().map(|l| &l.kind);
         self.toc.light = light;
+        if moved {
+            self.analyse_occlusion();
+        }
+    }
+
+    /// Once the last geometry section is in, gathers the opaque triangles and decides which
+    /// windows need shadow maps.
+    fn geometry_arrived(&mut self) {
+        if !self.geometry_complete() {
+            return;
+        }
+        self.occluders.clear();
+        for (m, cpu) in self.toc.meshes.iter().zip(&self.cpu) {
+            let (Some(pos), Some(idx)) = (&cpu.positions, &cpu.indices) else {
+                continue;
+            };
+            for r in &m.ranges {
+                let class = self.toc.materials[r.material as usize].class;
+                if class.is_window() || class == MaterialClass::Background {
+                    continue;
+                }
+                let first = r.first_index as usize;
+                let end = (first + r.index_count as usize).min(idx.len());
+                for t in idx[first.min(end)..end].chunks_exact(3) {
+                    // Indices were validated against the vertex count by the pack reader.
+                    let p = |i: u32| pos.get(i as usize).copied().unwrap_or(glam::Vec3::ZERO);
+                    self.occluders.push([p(t[0]), p(t[1]), p(t[2])]);
+                }
+            }
+        }
+        self.analyse_occlusion();
+    }
+
+    fn analyse_occlusion(&mut self) {
+        let light = self.toc.light.as_ref().map(LightGeometry::from_light);
+        self.window_shadows =
+            occlusion::analyse(&self.toc.windows, light.as_ref(), &self.occluders);
+        self.shadow_generation += 1;
+    }
+
+    /// Per window (in TOC order), whether its light needs a shadow map and why; decided from
+    /// the geometry once it is all in (every window reads [`WindowShadow::NoLight`] before).
+    pub fn window_shadows(&self) -> &[WindowShadow] {
+        &self.window_shadows
+    }
+
+    /// The opaque triangles (world positions) the shadow maps and the analysis see.
+    pub fn occluders(&self) -> &[[glam::Vec3; 3]] {
+        &self.occluders
+    }
+
+    /// Changes whenever shadow maps drawn earlier may be stale (geometry or light changed).
+    pub(crate) fn shadow_generation(&self) -> u64 {
+        self.shadow_generation
     }
 
     /// Records every loaded draw range with the caller's pipeline: `bind` runs before each
@@ -486,6 +593,10 @@ impl Scene {
     }
     pub(crate) fn generation(&self) -> u64 {
         self.generation
+    }
+
+    pub(crate) fn id(&self) -> u64 {
+        self.id
     }
 
     pub fn geometry_complete(&self) -> bool {

@@ -62,6 +62,7 @@ fn quick_bench_writes_a_sane_report_and_error_table() {
         "## Mip chains",
         "## Meshes",
         "## God rays",
+        "## Shadows",
     ] {
         assert!(readme.contains(heading), "README lacks {heading}");
     }
@@ -70,6 +71,26 @@ fn quick_bench_writes_a_sane_report_and_error_table() {
     let r: Value =
         serde_json::from_str(&std::fs::read_to_string(out.join("results.json")).unwrap()).unwrap();
     assert!(!r["machine"]["cpu"].as_str().unwrap().is_empty());
+
+    // Shadows: every camera of both scenes compared, its images written, the shadow pass timed.
+    let shadows = &r["shadows"]["Ok"];
+    let cameras = shadows["cameras"].as_array().unwrap();
+    assert!(cameras.len() >= 6, "{cameras:?}");
+    for c in cameras {
+        assert!((0.0..1.0).contains(&f(&c["flip_mean"])), "{c}");
+        for key in ["reference_image", "gpu_image"] {
+            let p = out.join(c[key].as_str().unwrap());
+            assert!(p.is_file(), "{}", p.display());
+        }
+    }
+    assert!(
+        shadows["timings"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .any(|t| t["map_size"].as_u64() > Some(0) && t["shadow_ms"].is_number()),
+        "{shadows}"
+    );
 
     // Blur: our exact methods are exact to the texture issue's bar everywhere, the
     // approximations measurably worse but bounded; every anchor that ran has a finite error no
@@ -212,6 +233,7 @@ fn quick_bench_writes_a_sane_report_and_error_table() {
     assert_eq!(again["mips"], r["mips"]);
     assert_eq!(again["meshes"], r["meshes"]);
     assert_eq!(again["god_rays"], r["god_rays"]);
+    assert_eq!(again["shadows"], r["shadows"]);
     assert!(
         again["blur"]
             .as_array()
@@ -225,7 +247,7 @@ fn quick_bench_writes_a_sane_report_and_error_table() {
         .iter()
         .map(|k| k["sweep"].as_str().unwrap())
         .collect();
-    assert_eq!(kept, ["mips", "meshes", "god-rays"]);
+    assert_eq!(kept, ["mips", "meshes", "god-rays", "shadows"]);
     let readme = std::fs::read_to_string(out.join("README.md")).unwrap();
     assert!(readme.contains("The mips sweep is kept from an earlier run"));
     let table: cook::budget::ErrorTable =
