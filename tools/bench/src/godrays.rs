@@ -151,7 +151,7 @@ fn rmse_linear(test: &[u8], reference: &[Vec3]) -> f64 {
 pub fn load_scene(gpu: &Gpu, manifest: &Path) -> Result<Scene> {
     let m = cook::Manifest::load(manifest)
         .with_context(|| format!("loading {}", manifest.display()))?;
-    let out = cook::cook(&m, &cook::Settings::default())
+    let out = cook::cook(&m, &cook::Settings::new(&m))
         .with_context(|| format!("cooking {}", manifest.display()))?;
     let bytes = pack::encode(out.toc, &out.data).context("encoding the cooked pack")?;
     let pack = pack::Pack::from_bytes(manifest, &bytes).context("reading the cooked pack")?;

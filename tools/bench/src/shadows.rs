@@ -74,7 +74,7 @@ pub fn pillar_hall() -> PathBuf {
 fn cook_pack(manifest: &Path) -> Result<Vec<u8>> {
     let m = cook::Manifest::load(manifest)
         .with_context(|| format!("loading {}", manifest.display()))?;
-    let out = cook::cook(&m, &cook::Settings::default())
+    let out = cook::cook(&m, &cook::Settings::new(&m))
         .with_context(|| format!("cooking {}", manifest.display()))?;
     pack::encode(out.toc, &out.data).context("encoding the cooked pack")
 }
