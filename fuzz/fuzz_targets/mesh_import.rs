@@ -12,7 +12,7 @@ fuzz_target!(|data: &[u8]| {
     let path = dir.join(format!("input.{ext}"));
     std::fs::write(&path, body).unwrap();
     if let Ok(manifest) = cook::Manifest::from_mesh_file(&path) {
-        let settings = cook::Settings { textures: false, ..Default::default() };
+        let settings = cook::Settings { cook_textures: false, ..cook::Settings::new(&manifest) };
         if let Ok(out) = cook::cook(&manifest, &settings) {
             // A successful cook must produce a pack the reader accepts.
             let bytes = pack::encode(out.toc.clone(), &out.data).expect("cooked pack encodes");

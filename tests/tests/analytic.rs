@@ -591,7 +591,7 @@ fn cooked_window_projects_each_pane_where_its_ray_lands() {
         let path = d.join(format!("{what}.toml"));
         std::fs::write(&path, manifest).unwrap();
         let m = cook::Manifest::load(&path).unwrap();
-        let out = cook::cook(&m, &cook::Settings::default()).unwrap();
+        let out = cook::cook(&m, &cook::Settings::new(&m)).unwrap();
         let bytes = pack::encode(out.toc, &out.data).unwrap();
         let scene = load(&gpu, &bytes);
         assert!(

@@ -13,7 +13,7 @@ fn data(rel: &str) -> PathBuf {
 }
 
 fn cook_to_pack(manifest: &Manifest) -> (cook::CookOutput, Pack) {
-    let out = cook::cook(manifest, &Settings::default()).expect("cooks");
+    let out = cook::cook(manifest, &Settings::new(manifest)).expect("cooks");
     let bytes = pack::encode(out.toc.clone(), &out.data).expect("encodes");
     let pack = Pack::from_bytes("memory.pack", &bytes).expect("reads back");
     (out, pack)
@@ -343,7 +343,7 @@ fn gltf_samples() {
 
 fn source_error(rel: &str) -> (Option<usize>, String) {
     let m = Manifest::open(&data(rel)).unwrap();
-    match cook::cook(&m, &Settings::default()) {
+    match cook::cook(&m, &Settings::new(&m)) {
         Err(e @ CookError::Source { .. }) => {
             assert!(!e.is_io());
             let CookError::Source { line, ref path, .. } = e else {
@@ -512,8 +512,8 @@ fn ngons_are_triangulated_without_losing_area() {
 #[test]
 fn cooking_is_deterministic() {
     let m = Manifest::open(&data("classic/spot.obj")).unwrap();
-    let a = cook::cook(&m, &Settings::default()).unwrap();
-    let b = cook::cook(&m, &Settings::default()).unwrap();
+    let a = cook::cook(&m, &Settings::new(&m)).unwrap();
+    let b = cook::cook(&m, &Settings::new(&m)).unwrap();
     assert_eq!(
         pack::encode(a.toc, &a.data).unwrap(),
         pack::encode(b.toc, &b.data).unwrap()
@@ -526,7 +526,7 @@ fn fifo_and_quantized_cooks_are_valid() {
     let m = textured_spot(dir.path());
     let mut s = Settings {
         quantize: true,
-        ..Default::default()
+        ..Settings::new(&m)
     };
     s.mesh.cache = cook::CacheMode::Fifo;
     let out = cook::cook(&m, &s).unwrap();
@@ -696,7 +696,7 @@ fn position_bits_bound_the_error_and_the_size() {
         let s = Settings {
             quantize: true,
             position_bits: bits,
-            ..Default::default()
+            ..Settings::new(&m)
         };
         let out = cook::cook(&m, &s).unwrap();
         let bytes = pack::encode(out.toc.clone(), &out.data).unwrap();
@@ -780,7 +780,7 @@ fn quantized_uvs_stay_within_half_a_step() {
     let uvs = |quantize: bool| {
         let s = Settings {
             quantize,
-            ..Default::default()
+            ..Settings::new(&m)
         };
         let out = cook::cook(&m, &s).unwrap();
         let q = out.report.meshes[0].quantization;

@@ -295,7 +295,7 @@ fn cook_hall(hall: &Hall, dir: &Path) -> Vec<u8> {
     let path = dir.join("hall.toml");
     std::fs::write(&path, manifest).unwrap();
     let m = cook::Manifest::load(&path).unwrap();
-    let out = cook::cook(&m, &cook::Settings::default()).unwrap();
+    let out = cook::cook(&m, &cook::Settings::new(&m)).unwrap();
     pack::encode(out.toc, &out.data).unwrap()
 }
 
@@ -582,7 +582,7 @@ fn pillar_in_the_skylight_casts_a_shadow_like_the_reference() {
 fn default_scene_matches_the_reference_on_every_camera() {
     let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("..");
     let m = cook::Manifest::load(&root.join("assets-src/scene.toml")).unwrap();
-    let out = cook::cook(&m, &cook::Settings::default()).unwrap();
+    let out = cook::cook(&m, &cook::Settings::new(&m)).unwrap();
     let bytes = pack::encode(out.toc, &out.data).unwrap();
     let gpu = gpu();
     let scene = common::load(&gpu, &bytes);

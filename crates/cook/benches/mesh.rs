@@ -13,9 +13,11 @@ fn bunny() -> PathBuf {
         .join("../../tests/data/third_party/classic/stanford-bunny.obj")
 }
 
-fn cook_and_write(input: &Path, out: &Path, settings: &cook::Settings) -> cook::CookOutput {
+fn cook_and_write(input: &Path, out: &Path, cache: cook::CacheMode) -> cook::CookOutput {
     let manifest = cook::Manifest::open(input).unwrap();
-    let cooked = cook::cook(&manifest, settings).unwrap();
+    let mut settings = cook::Settings::new(&manifest);
+    settings.mesh.cache = cache;
+    let cooked = cook::cook(&manifest, &settings).unwrap();
     cooked.write(out).unwrap();
     cooked
 }
@@ -36,9 +38,7 @@ fn end_to_end(c: &mut Criterion) {
             ("full", cook::CacheMode::Full),
             ("fifo", cook::CacheMode::Fifo),
         ] {
-            let mut settings = cook::Settings::default();
-            settings.mesh.cache = cache;
-            let cooked = cook_and_write(path, &out, &settings);
+            let cooked = cook_and_write(path, &out, cache);
             let s = &cooked.report.meshes[0].stats;
             eprintln!(
                 "{name} ({mode}): {} triangles, acmr_in={:.3} acmr_out={:.3} overfetch={:.3}",
@@ -48,7 +48,7 @@ fn end_to_end(c: &mut Criterion) {
             group.bench_with_input(
                 BenchmarkId::new(format!("{name}, {mode} cache"), s.triangles_in),
                 path,
-                |b, p| b.iter(|| cook_and_write(p, &out, &settings)),
+                |b, p| b.iter(|| cook_and_write(p, &out, cache)),
             );
         }
     }

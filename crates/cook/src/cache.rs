@@ -1,9 +1,12 @@
 //! The incremental cook cache: a content-addressed store of cooked artifacts.
 //!
 //! A key is a SHA-256 over everything that can change an artifact: the bytes of every input
-//! file, the settings, the cooker's version and the pack format version. The thread count is
-//! deliberately not part of it: cooking is deterministic, so it never changes the output.
-//! Changing what goes into a key, or how, is a breaking change: bump `CACHE_VERSION`.
+//! file, the settings, the cooker's version and the pack format version. Settings enter every
+//! key in one way, serialized whole (bincode, a canonical encoding): the scene's key takes all
+//! of [`Settings`], a texture's its [`TextureSettings`], so no key lists settings one by one
+//! and none can miss a new one. The thread count is deliberately not part of any key: cooking
+//! is deterministic, so it never changes the output. Changing what goes into a key, or how, is
+//! a breaking change: bump `CACHE_VERSION`.
 //!
 //! Entries are files `<dir>/<key hex>.entry`: magic, payload length, CRC-32 of the payload,
 //! payload. (The payload check guards against damage, not an adversary: CRC-32 catches every
@@ -14,13 +17,14 @@
 
 use std::path::{Path, PathBuf};
 
+use serde::Serialize;
 use sha2::{Digest, Sha256};
 
-use crate::CookError;
+use crate::{CookError, Settings, TextureSettings};
 
 const MAGIC: &[u8; 8] = b"SGCACHE\x01";
 /// Bump when the meaning of keys or payloads changes.
-pub const CACHE_VERSION: u32 = 1;
+pub const CACHE_VERSION: u32 = 2;
 const HEADER: usize = 8 + 8 + 4 + 4;
 
 /// A cache key: SHA-256 over an artifact's inputs.
@@ -64,6 +68,15 @@ impl KeyBuilder {
         self.bytes(label, &v.to_le_bytes())
     }
 
+    /// Hashes a value's canonical encoding: every field, in declaration order.
+    pub fn serialized(&mut self, label: &str, value: &impl Serialize) -> &mut Self {
+        let bytes = bincode::serde::encode_to_vec(value, bincode::config::standard())
+            // Settings are plain data: structs, enums, numbers, strings, sequences of known
+            // length, all of which the encoder represents.
+            .expect("settings have a bincode encoding");
+        self.bytes(label, &bytes)
+    }
+
     /// Hashes a file's content (not its name or timestamps: a touched but unchanged file still
     /// hits).
     pub fn file(&mut self, label: &str, path: &Path) -> Result<&mut Self, CookError> {
@@ -77,6 +90,26 @@ impl KeyBuilder {
     pub fn finish(&self) -> Key {
         Key(self.0.clone().finalize().into())
     }
+}
+
+/// The key of a whole scene cooked from `manifest` (a scene.toml or a bare mesh file): the
+/// manifest's path and bytes and all the settings. The other files the cook reads are not
+/// known before it runs; the scene's entry records their hashes instead.
+pub fn scene_key(manifest: &Path, settings: &Settings) -> Result<Key, CookError> {
+    let mut k = KeyBuilder::new("scene");
+    let canonical = std::fs::canonicalize(manifest).unwrap_or_else(|_| manifest.to_path_buf());
+    k.bytes("path", canonical.as_os_str().as_encoded_bytes());
+    k.file("manifest", manifest)?;
+    k.serialized("settings", settings);
+    Ok(k.finish())
+}
+
+/// The start of a texture's key: the texture settings. The texture stage adds what the job
+/// makes and the image it reads.
+pub fn texture_key(settings: &TextureSettings) -> KeyBuilder {
+    let mut k = KeyBuilder::new("texture");
+    k.serialized("settings", settings);
+    k
 }
 
 /// SHA-256 of some bytes, for recording what an artifact depended on.
@@ -189,6 +222,221 @@ fn check_entry(bytes: &[u8]) -> Result<(), String> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::manifest::WindowDesign;
+    use crate::mesh::{CacheMode, MeshSettings, PositionBits};
+    use texture::MipFilter;
+
+    /// Every setting spelled out, so this does not depend on what the defaults are.
+    fn settings() -> Settings {
+        Settings {
+            mesh: MeshSettings {
+                cache: CacheMode::Full,
+                overdraw: false,
+                crease_angle_deg: 60.0,
+            },
+            quantize: false,
+            position_bits: PositionBits::B16,
+            cook_textures: true,
+            textures: TextureSettings {
+                mip_filter: MipFilter::Box,
+                max_error_lsb: None,
+            },
+            window_overrides: Vec::new(),
+            cache: None,
+        }
+    }
+
+    fn manifest(dir: &Path) -> PathBuf {
+        let path = dir.join("scene.toml");
+        std::fs::write(&path, "[[mesh]]\nsource = \"m.obj\"\n").unwrap();
+        path
+    }
+
+    /// Paths of the leaves of a serialized value: `mesh.cache`, `quantize`, …
+    fn leaves(prefix: &str, v: &serde_json::Value, out: &mut Vec<String>) {
+        match v {
+            serde_json::Value::Object(fields) => {
+                for (k, v) in fields {
+                    let path = if prefix.is_empty() {
+                        k.clone()
+                    } else {
+                        format!("{prefix}.{k}")
+                    };
+                    leaves(&path, v, out);
+                }
+            }
+            _ => out.push(prefix.to_string()),
+        }
+    }
+
+    #[test]
+    fn every_setting_changes_the_scene_key_and_texture_settings_the_texture_keys() {
+        let dir = tempfile::tempdir().unwrap();
+        let manifest = manifest(dir.path());
+        let base = settings();
+        // No `..`: a field added to the settings fails to compile here until it has a case.
+        let Settings {
+            mesh:
+                MeshSettings {
+                    cache: vertex_cache,
+                    overdraw,
+                    crease_angle_deg,
+                },
+            quantize,
+            position_bits,
+            cook_textures,
+            textures:
+                TextureSettings {
+                    mip_filter,
+                    max_error_lsb,
+                },
+            window_overrides,
+            // Not a knob; `irrelevant_things_change_no_key` checks it changes nothing.
+            cache: _,
+        } = base.clone();
+        let changed = |f: &dyn Fn(&mut Settings)| {
+            let mut s = base.clone();
+            f(&mut s);
+            s
+        };
+        // (the field as serialized, the settings with it changed, whether textures depend on it)
+        let cases = [
+            (
+                "mesh.cache",
+                changed(&|s| {
+                    s.mesh.cache = match vertex_cache {
+                        CacheMode::Full => CacheMode::Fifo,
+                        CacheMode::Fifo => CacheMode::Full,
+                    }
+                }),
+                false,
+            ),
+            (
+                "mesh.overdraw",
+                changed(&|s| s.mesh.overdraw = !overdraw),
+                false,
+            ),
+            (
+                "mesh.crease_angle_deg",
+                changed(&|s| s.mesh.crease_angle_deg = crease_angle_deg + 1.0),
+                false,
+            ),
+            ("quantize", changed(&|s| s.quantize = !quantize), false),
+            (
+                "position_bits",
+                changed(&|s| {
+                    s.position_bits = match position_bits {
+                        PositionBits::B8 => PositionBits::B10,
+                        _ => PositionBits::B8,
+                    }
+                }),
+                false,
+            ),
+            (
+                "cook_textures",
+                changed(&|s| s.cook_textures = !cook_textures),
+                false,
+            ),
+            (
+                "textures.mip_filter",
+                changed(&|s| {
+                    s.textures.mip_filter = match mip_filter {
+                        MipFilter::Box => MipFilter::Kaiser,
+                        _ => MipFilter::Box,
+                    }
+                }),
+                true,
+            ),
+            (
+                "textures.max_error_lsb",
+                changed(&|s| s.textures.max_error_lsb = Some(max_error_lsb.unwrap_or(0.5) + 1.0)),
+                true,
+            ),
+            (
+                "window_overrides",
+                changed(&|s| {
+                    s.window_overrides = window_overrides.clone();
+                    s.window_overrides
+                        .push(WindowDesign::from_override("lancet*", "a.png".into()));
+                }),
+                false,
+            ),
+        ];
+        // And at run time: every field the settings serialize has a case.
+        let mut fields = Vec::new();
+        leaves("", &serde_json::to_value(&base).unwrap(), &mut fields);
+        let mut named: Vec<String> = cases.iter().map(|c| c.0.to_string()).collect();
+        fields.sort();
+        named.sort();
+        assert_eq!(fields, named, "each setting needs a case here");
+
+        let scene = scene_key(&manifest, &base).unwrap();
+        let texture = texture_key(&base.textures).finish();
+        for (name, s, shapes_textures) in &cases {
+            assert_ne!(
+                scene_key(&manifest, s).unwrap(),
+                scene,
+                "{name} must change the scene key"
+            );
+            assert_eq!(
+                texture_key(&s.textures).finish() != texture,
+                *shapes_textures,
+                "{name} changes texture keys exactly when it shapes textures"
+            );
+        }
+        // A nested change counts too: the same override with another image.
+        let a = changed(&|s| {
+            s.window_overrides = vec![WindowDesign::from_override("w", "a.png".into())]
+        });
+        let b = changed(&|s| {
+            s.window_overrides = vec![WindowDesign::from_override("w", "b.png".into())]
+        });
+        assert_ne!(
+            scene_key(&manifest, &a).unwrap(),
+            scene_key(&manifest, &b).unwrap()
+        );
+    }
+
+    #[test]
+    fn irrelevant_things_change_no_key() {
+        let dir = tempfile::tempdir().unwrap();
+        let manifest = manifest(dir.path());
+        let base = settings();
+        let keys: Vec<(Key, Key)> = [1, 2, 8]
+            .iter()
+            .map(|&n| {
+                let pool = rayon::ThreadPoolBuilder::new()
+                    .num_threads(n)
+                    .build()
+                    .unwrap();
+                pool.install(|| {
+                    (
+                        scene_key(&manifest, &base).unwrap(),
+                        texture_key(&base.textures).finish(),
+                    )
+                })
+            })
+            .collect();
+        assert!(
+            keys.iter().all(|k| *k == keys[0]),
+            "thread count changed a key"
+        );
+        let cached = Settings {
+            cache: Some(Cache::open(dir.path().join("cache")).unwrap()),
+            ..base.clone()
+        };
+        assert_eq!(
+            scene_key(&manifest, &cached).unwrap(),
+            keys[0].0,
+            "the cache's location changed the key"
+        );
+        // The manifest's content is in the key, its timestamps are not.
+        let text = std::fs::read(&manifest).unwrap();
+        std::fs::write(&manifest, &text).unwrap();
+        assert_eq!(scene_key(&manifest, &base).unwrap(), keys[0].0);
+        std::fs::write(&manifest, [&text[..], b"\n"].concat()).unwrap();
+        assert_ne!(scene_key(&manifest, &base).unwrap(), keys[0].0);
+    }
 
     fn key(s: &str) -> Key {
         KeyBuilder::new("test").str("s", s).finish()

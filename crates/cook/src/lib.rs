@@ -34,4 +34,4 @@ pub use pipeline::{
     CookOutput, Prepared, cook, import_sources, material_needs, prepare, window_geometry,
 };
 pub use report::{ArtifactSource, HeuristicNote, MeshReport, QuantizationError, Report};
-pub use settings::Settings;
+pub use settings::{Settings, TextureSettings};

@@ -76,8 +76,17 @@ pub fn cook(manifest: &Manifest, settings: &Settings) -> Result<CookOutput, Cook
     report.inputs.dedup();
     clock.lap(&mut report, "textures");
 
-    // 7. Encode the meshes and assemble the TOC and bulk data.
-    let mut toc = pack::Toc {
+    // 7. Encode the meshes; assemble the TOC and bulk data.
+    let (meshes, mesh_data) = encode_meshes(
+        processed,
+        &imported,
+        import_times,
+        &manifest,
+        &needs,
+        settings,
+        &mut report,
+    );
+    let toc = pack::Toc {
         materials: tagging
             .materials
             .iter()
@@ -95,12 +104,28 @@ pub fn cook(manifest: &Manifest, settings: &Settings) -> Result<CookOutput, Cook
             colour: manifest.background.colour,
             panorama,
         },
-        meshes: Vec::new(),
+        meshes,
     };
-    let mut data = pack::PackData {
-        meshes: Vec::new(),
+    let data = pack::PackData {
+        meshes: mesh_data,
         textures: texture_data,
     };
+    clock.lap(&mut report, "assemble");
+    Ok(CookOutput { toc, data, report })
+}
+
+/// Encodes each processed mesh with the attributes its materials need; a mesh left without
+/// triangles is reported and left out.
+fn encode_meshes(
+    processed: Vec<mesh::Processed>,
+    imported: &[import::Imported],
+    import_times: Vec<Duration>,
+    manifest: &Manifest,
+    needs: &[mesh::MaterialNeeds],
+    settings: &Settings,
+    report: &mut Report,
+) -> (Vec<pack::Mesh>, Vec<pack::MeshData>) {
+    let (mut meshes, mut data) = (Vec::new(), Vec::new());
     let quantize = settings.quantize.then_some(settings.position_bits);
     for ((p, (src, import_time)), m) in processed
         .into_iter()
@@ -125,18 +150,17 @@ pub fn cook(manifest: &Manifest, settings: &Settings) -> Result<CookOutput, Cook
                 "no triangles left to cook; mesh skipped",
             ));
         } else {
-            let packed = mesh::pack_mesh(&m.name, p, &needs, quantize);
+            let packed = mesh::pack_mesh(&m.name, p, needs, quantize);
             mesh_report.dropped_attributes = packed.dropped_attributes;
             mesh_report.quantization = packed.quantization;
             mesh_report.vertex_bytes = packed.data.vertices.len();
             mesh_report.index_bytes = packed.data.indices.len();
-            toc.meshes.push(packed.mesh);
-            data.meshes.push(packed.data);
+            meshes.push(packed.mesh);
+            data.push(packed.data);
         }
         report.meshes.push(mesh_report);
     }
-    clock.lap(&mut report, "assemble");
-    Ok(CookOutput { toc, data, report })
+    (meshes, data)
 }
 
 /// Stage times for the report.
@@ -290,7 +314,7 @@ fn record_sources(
         report.inputs.push(s.path.clone());
         report.inputs.extend(s.files.iter().cloned());
     }
-    note_heuristics(imported, tagging, report);
+    report.heuristics = heuristic_notes(imported, tagging);
 }
 
 fn process_meshes(
@@ -422,7 +446,13 @@ fn floor_height(tagging: &tag::Tagging, processed: &[mesh::Processed]) -> Option
     y
 }
 
-fn note_heuristics(sources: &[import::Imported], tagging: &tag::Tagging, report: &mut Report) {
+/// The parts of each source that a heuristic tagged rather than a rule (and that have
+/// triangles), with why: the cook's `note:` lines and `cooker validate`'s `untagged` finding.
+pub(crate) fn heuristic_notes(
+    sources: &[import::Imported],
+    tagging: &tag::Tagging,
+) -> Vec<HeuristicNote> {
+    let mut notes = Vec::new();
     for (si, src) in sources.iter().enumerate() {
         let mut counts = vec![0usize; src.parts.len()];
         for &p in &src.tri_part {
@@ -433,7 +463,7 @@ fn note_heuristics(sources: &[import::Imported], tagging: &tag::Tagging, report:
                 continue;
             }
             let m = &tagging.materials[tagging.part_material[si][pi] as usize].material;
-            report.heuristics.push(HeuristicNote {
+            notes.push(HeuristicNote {
                 source: src.path.clone(),
                 names: src.parts[pi].names.describe(),
                 material: m.name.clone(),
@@ -447,4 +477,5 @@ fn note_heuristics(sources: &[import::Imported], tagging: &tag::Tagging, report:
             });
         }
     }
+    notes
 }

@@ -1,32 +1,57 @@
-//! How to cook: every knob that shapes a pack.
+//! How to cook: every knob that shapes a pack, resolved once. [`Settings::new`] takes the
+//! manifest's values; a command line then overrides fields of the result. The cook reads its
+//! knobs from here only, and every cache key is derived from the serialized form
+//! (`cache::scene_key`, `cache::texture_key`), so a knob added here reaches the keys without
+//! anyone listing it there.
 
-use crate::mesh::MeshSettings;
-use crate::{cache, manifest, mesh};
+use serde::Serialize;
 
-/// How to cook.
-#[derive(Clone, Debug)]
+use crate::manifest::{Manifest, WindowDesign};
+use crate::mesh::{MeshSettings, PositionBits};
+
+/// How to cook a scene.
+#[derive(Clone, Debug, Serialize)]
 pub struct Settings {
     pub mesh: MeshSettings,
     /// Quantize vertices (positions to `position_bits`, octahedral normals, 16-bit UVs).
     pub quantize: bool,
-    pub position_bits: mesh::PositionBits,
+    pub position_bits: PositionBits,
     /// Cook textures; off for geometry-only checks such as `cooker validate`.
-    pub textures: bool,
-    /// Reuse cooked textures from this cache, and store new ones in it.
-    pub cache: Option<cache::Cache>,
+    pub cook_textures: bool,
+    /// How textures are cooked: everything a texture's cache key takes from the settings.
+    pub textures: TextureSettings,
     /// `--window NAME=IMAGE` designs, taking precedence over the manifest's `[[window]]`s.
-    pub window_overrides: Vec<manifest::WindowDesign>,
+    pub window_overrides: Vec<WindowDesign>,
+    /// Where cooked textures are reused from and stored: it changes how long a cook takes,
+    /// never what it makes, so no key includes it.
+    #[serde(skip)]
+    pub cache: Option<crate::cache::Cache>,
 }
 
-impl Default for Settings {
-    fn default() -> Self {
+/// The knobs of the texture stage.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct TextureSettings {
+    /// Mip reduction filter (`[textures] mip_filter`).
+    pub mip_filter: texture::MipFilter,
+    /// Error budget in 8-bit sRGB steps (`[scene] max_error`, `--max-error-lsb`): per texture,
+    /// the cheapest blur and mip method whose measured error stays within it.
+    pub max_error_lsb: Option<f32>,
+}
+
+impl Settings {
+    /// The manifest's settings, every other knob at its default.
+    pub fn new(manifest: &Manifest) -> Self {
         Self {
             mesh: MeshSettings::default(),
             quantize: false,
-            position_bits: mesh::PositionBits::B16,
-            textures: true,
-            cache: None,
+            position_bits: PositionBits::B16,
+            cook_textures: true,
+            textures: TextureSettings {
+                mip_filter: manifest.textures.mip_filter,
+                max_error_lsb: manifest.scene.max_error,
+            },
             window_overrides: Vec::new(),
+            cache: None,
         }
     }
 }

@@ -7,29 +7,38 @@ use std::path::{Path, PathBuf};
 
 use rayon::prelude::*;
 
-use crate::import::ImageRef;
-use texture::{GreenAxis, MipFilter, NormalEncoding};
+use serde::Serialize;
+use texture::{GreenAxis, NormalEncoding};
 
+use crate::import::ImageRef;
 use crate::manifest::Manifest;
 use crate::tag::Tagging;
-use crate::{CookError, Report, Settings, Warning, cache};
+use crate::{CookError, Report, Settings, TextureSettings, Warning, cache};
 
-/// One texture to cook.
-#[derive(Clone, Debug, PartialEq)]
+/// One texture to cook: the image it reads and every parameter that shapes the result. The
+/// serialized job, without the image, is part of the texture's cache key; the image enters
+/// the key by its content.
+#[derive(Clone, Debug, PartialEq, Serialize)]
 enum Job {
     Colour {
+        #[serde(skip)]
         image: ImageRef,
         srgb: bool,
     },
     Normal {
+        #[serde(skip)]
         image: ImageRef,
         encoding: NormalEncoding,
         green: GreenAxis,
     },
     DerivedNormal {
+        #[serde(skip)]
         design: ImageRef,
+        /// The hammered-glass noise's seed, from the design's name.
+        seed: u64,
     },
     Projector {
+        #[serde(skip)]
         design: ImageRef,
         sigma: f32,
     },
@@ -39,7 +48,7 @@ impl Job {
     fn image_name(&self) -> String {
         match self {
             Job::Colour { image, .. } | Job::Normal { image, .. } => image.name(),
-            Job::DerivedNormal { design } | Job::Projector { design, .. } => design.name(),
+            Job::DerivedNormal { design, .. } | Job::Projector { design, .. } => design.name(),
         }
     }
 
@@ -64,7 +73,7 @@ impl Job {
     fn base_name(&self) -> String {
         let image = match self {
             Job::Colour { image, .. } | Job::Normal { image, .. } => image,
-            Job::DerivedNormal { design } | Job::Projector { design, .. } => design,
+            Job::DerivedNormal { design, .. } | Job::Projector { design, .. } => design,
         };
         let stem = match image {
             ImageRef::File(p) => p
@@ -143,6 +152,7 @@ impl Job {
             }
             | Job::DerivedNormal {
                 design: ImageRef::File(p),
+                ..
             }
             | Job::Projector {
                 design: ImageRef::File(p),
@@ -161,44 +171,15 @@ impl Job {
         }
     }
 
-    /// The cache key: the image's bytes and every parameter that shapes the result. The path
-    /// is part of it because a derived normal map's noise is seeded by the file name.
-    fn cache_key(
-        &self,
-        mip_filter: MipFilter,
-        max_error: Option<f32>,
-    ) -> Result<cache::Key, CookError> {
-        let mut k = cache::KeyBuilder::new("texture");
-        match self {
-            Job::Colour { image, srgb } => {
-                k.str("job", "colour").u64("srgb", *srgb as u64);
-                key_image(&mut k, image)?;
-            }
-            Job::Normal {
-                image,
-                encoding,
-                green,
-            } => {
-                k.str("job", "normal")
-                    .str("encoding", &format!("{encoding:?}"))
-                    .str("green", &format!("{green:?}"));
-                key_image(&mut k, image)?;
-            }
-            Job::DerivedNormal { design } => {
-                k.str("job", "derived normal").u64("seed", seed(design));
-                key_image(&mut k, design)?;
-            }
-            Job::Projector { design, sigma } => {
-                k.str("job", "projector")
-                    .u64("sigma", sigma.to_bits() as u64);
-                key_image(&mut k, design)?;
-            }
-        }
-        k.str("mip filter", &format!("{mip_filter:?}"));
-        k.u64(
-            "max error",
-            max_error.map_or(u64::MAX, |e| e.to_bits() as u64),
-        );
+    /// The cache key: the texture settings, the job's parameters and the image's content.
+    fn cache_key(&self, settings: &TextureSettings) -> Result<cache::Key, CookError> {
+        let mut k = cache::texture_key(settings);
+        k.serialized("job", self);
+        let image = match self {
+            Job::Colour { image, .. } | Job::Normal { image, .. } => image,
+            Job::DerivedNormal { design, .. } | Job::Projector { design, .. } => design,
+        };
+        key_image(&mut k, image)?;
         Ok(k.finish())
     }
 }
@@ -280,15 +261,14 @@ type Cooked = (texture::MipChain, Option<String>, crate::ArtifactSource);
 /// Cooks one texture, or reuses it from the cache.
 fn run_cached(
     job: &Job,
-    mip_filter: MipFilter,
-    max_error: Option<f32>,
+    settings: &TextureSettings,
     cache: Option<&cache::Cache>,
 ) -> Result<Cooked, CookError> {
     let Some(cache) = cache else {
-        let (c, n) = run(job, mip_filter, max_error)?;
+        let (c, n) = run(job, settings)?;
         return Ok((c, n, crate::ArtifactSource::Cooked));
     };
-    let key = job.cache_key(mip_filter, max_error)?;
+    let key = job.cache_key(settings)?;
     let mut source = crate::ArtifactSource::Cooked;
     match cache.get(&key) {
         cache::Lookup::Hit(bytes) => match decode_chain(&bytes) {
@@ -301,7 +281,7 @@ fn run_cached(
         cache::Lookup::Corrupt(why) => source = crate::ArtifactSource::Recooked(why),
         cache::Lookup::Miss => {}
     }
-    let (c, n) = run(job, mip_filter, max_error)?;
+    let (c, n) = run(job, settings)?;
     // A cache that cannot be written only costs time next cook; the cook itself succeeded.
     let _ = cache.put(&key, &encode_chain(&c, &n));
     Ok((c, n, source))
@@ -320,15 +300,15 @@ fn choice_note(what: &str, c: &crate::budget::Choice) -> String {
 
 fn run(
     job: &Job,
-    mip_filter: MipFilter,
-    max_error: Option<f32>,
+    settings: &TextureSettings,
 ) -> Result<(texture::MipChain, Option<String>), CookError> {
+    let max_error = settings.max_error_lsb;
     match job {
         Job::Colour { image, srgb } => {
             let img = decode(image)?;
             let mut opts = texture::ColourOptions {
                 srgb: *srgb,
-                filter: mip_filter,
+                filter: settings.mip_filter,
             };
             // The error budget picks from the committed table of measured errors, never from
             // timings taken now, so the pack stays deterministic.
@@ -352,9 +332,9 @@ fn run(
                 .map_err(|e| texture_error(Path::new(&image.name()), e))?;
             Ok((chain, None))
         }
-        Job::DerivedNormal { design } => {
+        Job::DerivedNormal { design, seed } => {
             let img = decode(design)?;
-            let chain = texture::derive_normal_map(&img, seed(design))
+            let chain = texture::derive_normal_map(&img, *seed)
                 .map_err(|e| texture_error(Path::new(&design.name()), e))?;
             Ok((chain, None))
         }
@@ -437,7 +417,7 @@ pub fn cook_textures(
     settings: &Settings,
     report: &mut Report,
 ) -> Result<CookedTextures, CookError> {
-    if !settings.textures {
+    if !settings.cook_textures {
         return Ok((Vec::new(), Vec::new(), None));
     }
     let mut jobs: Vec<Job> = Vec::new();
@@ -473,6 +453,7 @@ pub fn cook_textures(
                     },
                     None => Job::DerivedNormal {
                         design: w.design.clone(),
+                        seed: seed(&w.design),
                     },
                 }));
                 if lit_windows.get(mi).copied().unwrap_or(false) {
@@ -515,14 +496,7 @@ pub fn cook_textures(
     }
     let results: Vec<Result<Cooked, CookError>> = jobs
         .par_iter()
-        .map(|j| {
-            run_cached(
-                j,
-                manifest.textures.mip_filter,
-                manifest.scene.max_error,
-                settings.cache.as_ref(),
-            )
-        })
+        .map(|j| run_cached(j, &settings.textures, settings.cache.as_ref()))
         .collect();
     let mut textures = Vec::with_capacity(jobs.len());
     let mut data = Vec::with_capacity(jobs.len());

@@ -132,26 +132,15 @@ pub fn validate_scene(manifest: &Manifest) -> Result<Validation, CookError> {
         tri_material,
         windows: found,
         ..
-    } = crate::prepare(manifest, &Settings::default(), &mut report)?;
+    } = crate::prepare(manifest, &Settings::new(manifest), &mut report)?;
 
     // Tagging.
-    let mut untagged_tris = 0usize;
-    let mut untagged_names = Vec::new();
-    for (si, src) in sources.iter().enumerate() {
-        let mut counts = vec![0usize; src.parts.len()];
-        for &p in &src.tri_part {
-            counts[p as usize] += 1;
-        }
-        for (pi, d) in tagging.decisions[si].iter().enumerate() {
-            if d.is_rule() || counts[pi] == 0 {
-                continue;
-            }
-            untagged_tris += counts[pi];
-            let m = &tagging.materials[tagging.part_material[si][pi] as usize].material;
-            let how = format!("{} → {}", d.reason().unwrap_or_default(), m.class);
-            untagged_names.push(format!("{} ({how})", src.parts[pi].names.describe()));
-        }
-    }
+    let untagged = crate::pipeline::heuristic_notes(&sources, &tagging);
+    let untagged_tris: usize = untagged.iter().map(|n| n.triangles).sum();
+    let untagged_names: Vec<String> = untagged
+        .iter()
+        .map(|n| format!("{} ({} → {})", n.names, n.reason, n.class))
+        .collect();
     if untagged_tris > 0 {
         v.add(
             "untagged",
@@ -313,14 +302,11 @@ pub fn validate_scene(manifest: &Manifest) -> Result<Validation, CookError> {
             ..n
         })
         .collect();
-    let settings = Settings {
-        textures: false,
-        ..Default::default()
-    };
+    let settings = mesh::MeshSettings::default();
     let mut processed: Vec<mesh::Processed> = sources
         .iter()
         .zip(&tri_material)
-        .map(|(src, tm)| mesh::process(src, tm, &needs, &settings.mesh))
+        .map(|(src, tm)| mesh::process(src, tm, &needs, &settings))
         .collect();
     // Materials whose triangles all went to per-window materials are gone, as in the cook;
     // materials without triangles for other reasons stay, so they are reported below.

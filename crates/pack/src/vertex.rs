@@ -342,7 +342,7 @@ impl VertexLayout {
 
 /// Bits per axis of quantized positions: 16 (`Unorm16x4`, 8 bytes) or 10 and 8 (packed in 4
 /// bytes).
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize)]
 pub enum PositionBits {
     #[default]
     B16 = 16,

@@ -66,7 +66,9 @@ fn ms(d: Duration) -> String {
 
 pub fn run(args: Args) -> Outcome {
     let start = Instant::now();
-    let mut manifest = Manifest::open(&args.input)?;
+    let manifest = Manifest::open(&args.input)?;
+    // One resolved value: the manifest's settings, then this command line's.
+    let mut settings = Settings::new(&manifest);
     if let Some(b) = args.max_error {
         if !(b.is_finite() && b >= 0.0) {
             return Err(crate::exit::UsageError(format!(
@@ -74,14 +76,11 @@ pub fn run(args: Args) -> Outcome {
             ))
             .into());
         }
-        manifest.scene.max_error = Some(b);
+        settings.textures.max_error_lsb = Some(b);
     }
-    let mut settings = Settings {
-        quantize: args.quantize,
-        position_bits: args.position_bits,
-        window_overrides: cook::manifest::WindowDesign::overrides(&args.windows)?,
-        ..Default::default()
-    };
+    settings.quantize = args.quantize;
+    settings.position_bits = args.position_bits;
+    settings.window_overrides = cook::manifest::WindowDesign::overrides(&args.windows)?;
     settings.mesh.cache = if args.fifo {
         CacheMode::Fifo
     } else {
@@ -100,11 +99,7 @@ pub fn run(args: Args) -> Outcome {
         )?)
     };
     let scene_key = match &cache {
-        Some(_) => Some(scene_cache::scene_key(
-            &args.input,
-            &settings,
-            args.max_error,
-        )?),
+        Some(_) => Some(cook::cache::scene_key(&args.input, &settings)?),
         None => None,
     };
     if let (Some(cache), Some(key)) = (&cache, &scene_key) {

@@ -80,7 +80,7 @@ pub fn run(args: Args) -> Outcome {
     }
     let manifest = Manifest::from_mesh_file(&args.mesh)?;
     let mut report = cook::Report::default();
-    let prepared = cook::prepare(&manifest, &cook::Settings::default(), &mut report)?;
+    let prepared = cook::prepare(&manifest, &cook::Settings::new(&manifest), &mut report)?;
     let guess = cook::guess::guess(&prepared);
     for w in prepared
         .imported

@@ -1,9 +1,10 @@
 //! Whole-scene reuse: a second cook of an unchanged scene reads no image and runs no stage.
 //!
-//! A scene entry is keyed by the manifest's bytes and path, the settings and the versions; it
-//! records every file the cook read with its SHA-256, and the pack's length and CRC. On the next
-//! cook, if every recorded file still hashes the same, the pack is taken from the cache (or, when
-//! the output already holds exactly that pack, left alone).
+//! A scene entry is keyed by `cook::cache::scene_key` (the manifest's bytes and path, the
+//! settings and the versions); it records every file the cook read with its SHA-256, and the
+//! pack's length and CRC. On the next cook, if every recorded file still hashes the same, the
+//! pack is taken from the cache (or, when the output already holds exactly that pack, left
+//! alone).
 
 use std::path::{Path, PathBuf};
 
@@ -20,26 +21,6 @@ struct SceneEntry {
 
 fn hex(bytes: &[u8]) -> String {
     bytes.iter().map(|b| format!("{b:02x}")).collect()
-}
-
-/// The key of a scene: what is known before cooking.
-pub fn scene_key(
-    input: &Path,
-    settings: &cook::Settings,
-    max_error: Option<f32>,
-) -> Result<Key, cook::CookError> {
-    let mut k = KeyBuilder::new("scene");
-    let canonical = std::fs::canonicalize(input).unwrap_or_else(|_| input.to_path_buf());
-    k.str("path", &canonical.to_string_lossy());
-    k.file("manifest", input)?;
-    // Every setting that shapes the output; the cache itself does not.
-    let shaping = cook::Settings {
-        cache: None,
-        ..settings.clone()
-    };
-    k.str("settings", &format!("{shaping:?}"));
-    k.str("max error override", &format!("{max_error:?}"));
-    Ok(k.finish())
 }
 
 /// What a lookup found.

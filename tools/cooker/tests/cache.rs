@@ -1,5 +1,5 @@
-//! The incremental cook cache: an unchanged scene is reused whole, a changed window design
-//! re-cooks only that design's textures, and damaged entries are re-cooked, never used.
+//! The incremental cook cache: an unchanged scene is reused whole, a changed setting or window
+//! design re-cooks only what depends on it, and damaged entries are re-cooked, never used.
 
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
@@ -22,6 +22,10 @@ fn copy_dir(from: &Path, to: &Path) {
 }
 
 fn cook(scene: &Path, out: &Path, cache: &Path) -> Output {
+    cook_with(scene, out, cache, &[], "2")
+}
+
+fn cook_with(scene: &Path, out: &Path, cache: &Path, args: &[&str], threads: &str) -> Output {
     let o = Command::new(env!("CARGO_BIN_EXE_cooker"))
         .args(["cook", "-v"])
         .arg(scene)
@@ -29,6 +33,8 @@ fn cook(scene: &Path, out: &Path, cache: &Path) -> Output {
         .arg(out)
         .arg("--cache-dir")
         .arg(cache)
+        .args(args)
+        .env("RAYON_NUM_THREADS", threads)
         .output()
         .unwrap();
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
@@ -62,8 +68,9 @@ fn unchanged_scene_reused_changed_design_recooked_alone_damage_detected() {
     );
     let clean = std::fs::read(&out).unwrap();
 
-    // Unchanged: nothing is cooked, the output is left as it is.
-    let second = cook(&scene, &out, &cache);
+    // Unchanged: nothing is cooked, the output is left as it is (the thread count is not a
+    // setting: it never changes the pack).
+    let second = cook_with(&scene, &out, &cache, &[], "1");
     assert!(
         stdout(&second).contains("is up to date"),
         "{}",
@@ -78,6 +85,14 @@ fn unchanged_scene_reused_changed_design_recooked_alone_damage_detected() {
         stdout(&third)
     );
     assert!(std::fs::read(&out).unwrap() == clean);
+
+    // A mesh setting changes the scene's key but no texture's: the pack is cooked again, every
+    // texture reused.
+    let fifo = stdout(&cook_with(&scene, &out, &cache, &["--fifo"], "2"));
+    assert!(
+        !fifo.contains("up to date") && fifo.contains("textures reused, 0 cooked"),
+        "{fifo}"
+    );
 
     // One design changes: only the textures made from it are cooked again.
     let design = scene_dir.join("windows/lancet.png");

@@ -166,7 +166,7 @@ fn open_source(path: &Path) -> Result<Box<dyn Read + Send>> {
             cook::Manifest::open(path).with_context(|| format!("loading {}", path.display()))?;
         let settings = cook::Settings {
             window_overrides: WINDOW_OVERRIDES.get().cloned().unwrap_or_default(),
-            ..Default::default()
+            ..cook::Settings::new(&manifest)
         };
         let out = cook::cook(&manifest, &settings)
             .with_context(|| format!("cooking {}", path.display()))?;

@@ -34,11 +34,13 @@ pub struct Manifest {
 #[derive(Clone, Debug, Default)]
 pub struct SceneInfo {
     pub name: Option<String>,
-    /// Error budget in 8-bit sRGB LSB for blur and mip method choices.
+    /// Error budget in 8-bit sRGB LSB for blur and mip method choices. The cook reads it
+    /// from [`crate::Settings`], which takes it from here.
     pub max_error: Option<f32>,
 }
 
-/// The `[textures]` table.
+/// The `[textures]` table. The cook reads its values from [`crate::Settings`], which takes
+/// them from here.
 #[derive(Clone, Debug, Default)]
 pub struct Textures {
     pub mip_filter: texture::MipFilter,

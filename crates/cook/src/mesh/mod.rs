@@ -21,7 +21,7 @@ pub use encode::{Attributes, Encoded, PackedMesh, PositionBits, encode, pack_mes
 pub use process::{is_degenerate, process};
 
 /// Vertex cache optimizer.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize)]
 pub enum CacheMode {
     /// meshopt's full optimizer (Forsyth-like, best ACMR).
     #[default]
@@ -31,7 +31,8 @@ pub enum CacheMode {
     Fifo,
 }
 
-#[derive(Clone, Debug)]
+/// The knobs of mesh processing (part of [`crate::Settings`]).
+#[derive(Clone, Debug, serde::Serialize)]
 pub struct MeshSettings {
     pub cache: CacheMode,
     /// Reorder opaque ranges to reduce overdraw (threshold 1.05).
