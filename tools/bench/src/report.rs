@@ -254,6 +254,22 @@ fn summary(md: &mut String, r: &Results) {
                 g.max_lsb(),
                 n = r.mip_size
             );
+            let anchor = r
+                .mips
+                .iter()
+                .find(|m| !m.ours && m.filter == filter && m.space == "linear");
+            if let Some(a) = anchor {
+                let _ = writeln!(
+                    md,
+                    "- Mips {filter} in linear light against {} (one thread each, same run): {:.1} against {:.1} ms, {:.2}x its time; worst level {:.3} against {:.3} LSB.",
+                    a.method,
+                    l.time_ms,
+                    a.time_ms,
+                    l.time_ms / a.time_ms,
+                    l.max_lsb(),
+                    a.max_lsb()
+                );
+            }
         }
     }
     for mesh in dedup(r.meshes.iter().map(|m| m.mesh.clone())) {
