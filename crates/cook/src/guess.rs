@@ -136,21 +136,28 @@ impl Occupancy {
                             let q = src.positions[src.corners[t * 3 + k].p as usize];
                             DVec3::new(q[0] as f64, q[1] as f64, q[2] as f64)
                         });
-                        // A triangle inside one cell marks just that cell (cells are convex).
-                        let k = [a, b, c].map(|q| grid.cell_of(q));
-                        if k[0].is_some() && k[0] == k[1] && k[1] == k[2] {
-                            full[k[0].unwrap_or_default()] = true;
+                        // A triangle within one row of cells marks that row from its lowest
+                        // cell to its highest (rows are convex, and so are triangles).
+                        if let Some(cells) = grid.row_span([a, b, c]) {
+                            for k in cells {
+                                full[k] = true;
+                            }
                             continue;
                         }
                         // Points on the triangle at most half a cell apart mark every cell it
-                        // crosses.
+                        // crosses; they are placed in cell units (no divide per point).
                         let n = (((b - a).length().max((c - a).length()) / step).ceil() as usize)
                             .clamp(1, 4 * OCC);
+                        let [a, b, c] = [a, b, c].map(|q| (q - grid.lo) / grid.cell);
+                        let last = OCC as f64 - 1e-6;
                         for i in 0..=n {
                             for j in 0..=(n - i) {
                                 let (u, v) = (i as f64 / n as f64, j as f64 / n as f64);
-                                if let Some(k) = grid.cell_of(a + (b - a) * u + (c - a) * v) {
-                                    full[k] = true;
+                                let q = (a + (b - a) * u + (c - a) * v).min(DVec3::splat(last));
+                                if q.is_finite() && q.min_element() >= 0.0 {
+                                    let q = q.as_uvec3();
+                                    full[((q.z as usize * OCC) + q.y as usize) * OCC
+                                        + q.x as usize] = true;
                                 }
                             }
                         }
@@ -172,6 +179,24 @@ impl Occupancy {
     /// last cell.
     fn cell_of(&self, q: DVec3) -> Option<usize> {
         self.index(q.min(self.lo + self.cell * (OCC as f64 - 1e-6)))
+    }
+
+    /// When the corners' cells differ along one axis at most: the cells between them along it.
+    fn row_span(&self, t: [DVec3; 3]) -> Option<impl Iterator<Item = usize>> {
+        let k = t.map(|q| self.cell_of(q));
+        let [a, b, c] = [k[0]?, k[1]?, k[2]?];
+        let axes = |i: usize| [i % OCC, i / OCC % OCC, i / (OCC * OCC)];
+        let (a, b, c) = (axes(a), axes(b), axes(c));
+        let stride = [1, OCC, OCC * OCC];
+        let varying: Vec<usize> = (0..3).filter(|&d| a[d] != b[d] || a[d] != c[d]).collect();
+        let d = match varying[..] {
+            [] => 0,
+            [d] => d,
+            _ => return None,
+        };
+        let (lo, hi) = (a[d].min(b[d]).min(c[d]), a[d].max(b[d]).max(c[d]));
+        let base: usize = (0..3).filter(|&e| e != d).map(|e| a[e] * stride[e]).sum();
+        Some((lo..=hi).map(move |v| base + v * stride[d]))
     }
 
     fn index(&self, q: DVec3) -> Option<usize> {
