@@ -132,6 +132,17 @@ fn main() -> Result<()> {
         bench::mesh::sweep(
             &MeshConfig {
                 grid: if args.quick { 100 } else { 707 },
+                extra_grids: if args.quick {
+                    vec![(40, true)]
+                } else {
+                    vec![(224, false), (640, true)]
+                },
+                scene: (!args.quick)
+                    .then(|| {
+                        std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+                            .join("../../assets-src/scene.toml")
+                    })
+                    .filter(|p| p.is_file()),
                 runs,
                 bunny: bench::mesh::bunny_path(),
                 scratch: scratch.clone(),
