@@ -11,6 +11,7 @@ mod error;
 pub mod format;
 mod reader;
 mod stream;
+pub mod texels;
 #[doc(hidden)]
 pub mod testing;
 pub mod toc;
