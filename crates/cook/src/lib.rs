@@ -103,6 +103,9 @@ pub struct Settings {
     pub cache: Option<cache::Cache>,
     /// `--window NAME=IMAGE` designs, taking precedence over the manifest's `[[window]]`s.
     pub window_overrides: Vec<manifest::WindowDesign>,
+    /// `--texture-format`: stores every texture so, over the manifest's `[textures] format`
+    /// and every window's `texture_format`.
+    pub texture_format: Option<manifest::TextureFormatChoice>,
 }
 
 impl Default for Settings {
@@ -114,6 +117,7 @@ impl Default for Settings {
             textures: true,
             cache: None,
             window_overrides: Vec::new(),
+            texture_format: None,
         }
     }
 }

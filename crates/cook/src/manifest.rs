@@ -43,9 +43,44 @@ pub enum MipFilter {
     Lanczos3,
 }
 
+/// How textures are stored in the pack (`[textures] format`, `--texture-format`, or a
+/// window's `texture_format`).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+pub enum TextureFormatChoice {
+    /// Block-compress each texture with the cheapest encoder setting whose measured error fits
+    /// the budget; keep RGBA8 where none does.
+    #[default]
+    Auto,
+    /// Uncompressed RGBA8.
+    Rgba8,
+    /// Block-compress every texture (BC7 colour, BC5 normal maps), the most accurate setting
+    /// with a warning where none fits the budget.
+    Bc,
+}
+
+impl TextureFormatChoice {
+    pub const CHOICES: [(&'static str, TextureFormatChoice); 3] = [
+        ("auto", Self::Auto),
+        ("rgba8", Self::Rgba8),
+        ("bc", Self::Bc),
+    ];
+
+    pub fn name(self) -> &'static str {
+        Self::CHOICES
+            .iter()
+            .find(|(_, c)| *c == self)
+            .map(|(n, _)| *n)
+            .unwrap_or("auto")
+    }
+}
+
 #[derive(Clone, Debug, Default)]
 pub struct TextureSettings {
     pub mip_filter: MipFilter,
+    pub format: TextureFormatChoice,
+    /// Budget for block-compressed normal maps: mean angle in degrees (`None`: the default,
+    /// `budget::DEFAULT_NORMAL_ERROR_DEG`).
+    pub max_normal_error_deg: Option<f32>,
 }
 
 /// Where in the manifest a value came from, for errors found after parsing.
@@ -178,6 +213,8 @@ pub struct WindowDesign {
     pub normal_encoding: NormalEncoding,
     pub green: GreenAxis,
     pub blur_sigma: Option<f32>,
+    /// Overrides `[textures] format` for this window's design, normal map and projector.
+    pub texture_format: Option<TextureFormatChoice>,
     pub uv: UvMode,
     pub fit: Fit,
     /// A direction pointing into the building, overriding the guess.
@@ -209,6 +246,7 @@ impl WindowDesign {
             normal_encoding: NormalEncoding::Rgb,
             green: GreenAxis::OpenGl,
             blur_sigma: None,
+            texture_format: None,
             uv: UvMode::Auto,
             fit: Fit::Cover,
             inside: None,
@@ -305,6 +343,8 @@ struct RawScene {
 #[serde(deny_unknown_fields)]
 struct RawTextures {
     mip_filter: Option<Spanned<String>>,
+    format: Option<Spanned<String>>,
+    max_normal_error_deg: Option<Spanned<f32>>,
 }
 
 #[derive(Deserialize)]
@@ -356,6 +396,7 @@ struct RawWindow {
     normal_encoding: Option<Spanned<String>>,
     green: Option<Spanned<String>>,
     blur_sigma: Option<Spanned<f32>>,
+    texture_format: Option<Spanned<String>>,
 }
 
 #[derive(Deserialize)]
@@ -525,8 +566,22 @@ impl Manifest {
             },
             None => SceneInfo::default(),
         };
+        let raw_textures = raw.textures.unwrap_or(RawTextures {
+            mip_filter: None,
+            format: None,
+            max_normal_error_deg: None,
+        });
         let textures = TextureSettings {
-            mip_filter: match raw.textures.and_then(|t| t.mip_filter) {
+            format: match &raw_textures.format {
+                Some(f) => src.choice(f, "format", &TextureFormatChoice::CHOICES)?,
+                None => TextureFormatChoice::Auto,
+            },
+            max_normal_error_deg: raw_textures
+                .max_normal_error_deg
+                .as_ref()
+                .map(|m| src.positive(m, "max_normal_error_deg"))
+                .transpose()?,
+            mip_filter: match raw_textures.mip_filter {
                 Some(f) => src.choice(
                     &f,
                     "mip_filter",
@@ -762,6 +817,11 @@ impl Manifest {
                     .blur_sigma
                     .as_ref()
                     .map(|s| src.positive(s, "blur_sigma"))
+                    .transpose()?,
+                texture_format: w
+                    .texture_format
+                    .as_ref()
+                    .map(|f| src.choice(f, "texture_format", &TextureFormatChoice::CHOICES))
                     .transpose()?,
                 line,
             });

@@ -11,9 +11,9 @@ mod error;
 pub mod format;
 mod reader;
 mod stream;
-pub mod texels;
 #[doc(hidden)]
 pub mod testing;
+pub mod texels;
 pub mod toc;
 mod validate;
 pub mod vertex;

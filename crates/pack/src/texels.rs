@@ -25,7 +25,9 @@ pub fn decode(format: TextureFormat, width: u32, height: u32, bytes: &[u8]) -> V
     for by in 0..bh {
         for bx in 0..bw {
             let at = (by * bw + bx) * block_bytes;
-            let block = bytes.get(at..at + block_bytes).unwrap_or(&zero[..block_bytes]);
+            let block = bytes
+                .get(at..at + block_bytes)
+                .unwrap_or(&zero[..block_bytes]);
             let texels = decode_block(format, block);
             for y in 0..4 {
                 let py = by * 4 + y;
@@ -125,7 +127,10 @@ mod tests {
         let block = [200u8, 200, 0, 0, 0, 0, 0, 0];
         let out = decode(TextureFormat::Bc4, 3, 2, &block);
         assert_eq!(out.len(), 3 * 2 * 4);
-        assert!(out.chunks_exact(4).all(|t| t == [200, 0, 0, 255]), "{out:?}");
+        assert!(
+            out.chunks_exact(4).all(|t| t == [200, 0, 0, 255]),
+            "{out:?}"
+        );
     }
 
     #[test]
@@ -133,7 +138,10 @@ mod tests {
         // X = Y = 128 (about 0): Z = 1, stored 255.
         let block = [128u8, 128, 0, 0, 0, 0, 0, 0, 128, 128, 0, 0, 0, 0, 0, 0];
         let out = decode(TextureFormat::Bc5, 4, 4, &block);
-        assert!(out.chunks_exact(4).all(|t| t == [128, 128, 255, 255]), "{out:?}");
+        assert!(
+            out.chunks_exact(4).all(|t| t == [128, 128, 255, 255]),
+            "{out:?}"
+        );
         // A tilted normal keeps unit length.
         let z = rebuild_z(255, 128) as f32 / 255.0 * 2.0 - 1.0;
         assert!(z.abs() < 0.02, "{z}");

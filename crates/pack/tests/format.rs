@@ -248,7 +248,10 @@ fn block_counts_are_checked_per_mip() {
     let mut short = data.clone();
     short.textures[2][1].truncate(16);
     let e = encode(toc.clone(), &short).unwrap_err().to_string();
-    assert!(e.contains("\"odd\"") && e.contains("mip 1") && e.contains("32"), "{e}");
+    assert!(
+        e.contains("\"odd\"") && e.contains("mip 1") && e.contains("32"),
+        "{e}"
+    );
 
     // The RGBA8 size of the logical level is not a valid BC7 level either.
     let mut rgba = data.clone();
@@ -267,7 +270,11 @@ fn block_levels_decode_to_their_logical_size() {
     let (t, d) = sample_block_texture("odd", TextureRole::Colour, TextureFormat::Bc7, 9, 5);
     for (level, bytes) in d.iter().enumerate() {
         let rgba = pack::texels::decode_level(&t, level, bytes);
-        assert_eq!(rgba.len() as u64, t.level_rgba8_bytes(level), "level {level}");
+        assert_eq!(
+            rgba.len() as u64,
+            t.level_rgba8_bytes(level),
+            "level {level}"
+        );
     }
 }
 

@@ -14,10 +14,11 @@ use pack::TextureFormat;
 
 /// BC7 encoder settings, cheapest first: the ISPC compressor's profiles. Each has an opaque
 /// variant (alpha ignored) and one with alpha. Both may decode opaque texels with an alpha a
-/// few steps below 255 (some modes store alpha in 7-bit endpoints with a p-bit shared with
-/// colour); the error measure counts it like any other channel. An opaque level uses the
-/// opaque variant, except for ultra-fast, whose opaque variant has only mode 6 and leaves
-/// alpha at 254 in far more blocks than its alpha variant (see the unit test below).
+/// few steps below 255: modes 6 and 7 store alpha in endpoints with a p-bit shared with colour.
+/// A block whose 16 source texels are opaque but decode otherwise is encoded again with modes
+/// 0 and 2, which have no alpha channel (alpha decodes as 255; the compressor's mode 1/3 switch
+/// also enables mode 7, which has one), so opaque stays opaque. An opaque level uses the opaque variant, except for ultra-fast, whose opaque variant
+/// has only mode 6 and needs that repair in far more blocks than its alpha variant.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
 pub enum Bc7Profile {
     UltraFast,
@@ -48,6 +49,14 @@ impl Bc7Profile {
 
     pub fn from_name(s: &str) -> Option<Self> {
         Self::ALL.into_iter().find(|p| p.name() == s)
+    }
+
+    /// The profile restricted to the modes without alpha, for blocks that must decode opaque.
+    fn no_alpha_settings(self) -> intel_tex_2::bc7::EncodeSettings {
+        let mut s = self.settings(true);
+        s.channels = 3;
+        s.mode_selection = [true, false, false, false];
+        s
     }
 
     fn settings(self, opaque: bool) -> intel_tex_2::bc7::EncodeSettings {
@@ -165,6 +174,7 @@ pub fn compress_level(
                         stride: pw * 4,
                     };
                     intel_tex_2::bc7::compress_blocks_into(&p.settings(opaque), &s, dst);
+                    keep_opaque_blocks(p, src, pw as usize, dst);
                 }
                 Codec::Bc5 => {
                     let s = intel_tex_2::RgSurface {
@@ -189,7 +199,53 @@ pub fn compress_level(
     out
 }
 
-/// How far a compressed level is from the texels it was made from.
+/// Makes a mode-6 BC7 block decode opaque: both alpha endpoints 127 and both p-bits 1, so every
+/// interpolated alpha is 255. The p-bits are shared with colour, which moves a colour endpoint
+/// by at most one 8-bit step. Returns false for blocks of other modes.
+fn opaque_mode6(block: &mut [u8]) -> bool {
+    let mut bits = u128::from_le_bytes(block[..16].try_into().unwrap());
+    // Mode 6: bit 6 is the first set bit. Layout after the 7 mode bits: R0 R1 G0 G1 B0 B1 A0
+    // A1 (7 bits each, from bit 7), then P0 and P1 at bits 63 and 64.
+    if bits & 0x7f != 0x40 {
+        return false;
+    }
+    bits |= 0x7f << 49 | 0x7f << 56 | 1 << 63 | 1 << 64;
+    block[..16].copy_from_slice(&bits.to_le_bytes());
+    true
+}
+
+/// Repairs every BC7 block of a stripe whose source texels are all opaque but whose decode is
+/// not (see [`Bc7Profile`]): mode 6 by its endpoint bits, any other mode by encoding the block
+/// again without alpha modes. `src` is RGBA rows `width` texels wide.
+fn keep_opaque_blocks(profile: Bc7Profile, src: &[u8], width: usize, dst: &mut [u8]) {
+    let blocks_x = width / 4;
+    let row = width * 4;
+    let mut texels = [0u8; 64];
+    let mut decoded = [0u8; 64];
+    for (i, block) in dst.chunks_exact_mut(16).enumerate() {
+        let (bx, by) = (i % blocks_x, i / blocks_x);
+        for y in 0..4 {
+            let at = (by * 4 + y) * row + bx * 16;
+            texels[y * 16..y * 16 + 16].copy_from_slice(&src[at..at + 16]);
+        }
+        if texels.chunks_exact(4).any(|t| t[3] != 255) {
+            continue;
+        }
+        bcdec_rs::bc7(block, &mut decoded, 16);
+        if decoded.chunks_exact(4).all(|t| t[3] == 255) || opaque_mode6(block) {
+            continue;
+        }
+        let s = intel_tex_2::RgbaSurface {
+            data: &texels,
+            width: 4,
+            height: 4,
+            stride: 16,
+        };
+        intel_tex_2::bc7::compress_blocks_into(&profile.no_alpha_settings(), &s, block);
+    }
+}
+
+/// How far a compressed chain (or level) is from the texels it was made from.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct BlockError {
     /// Colour: RMS over every channel of every texel, in 8-bit steps (LSB) of the stored
@@ -198,31 +254,30 @@ pub struct BlockError {
     /// Colour: the largest difference of one channel, LSB. Normal maps: the 99th percentile of
     /// the angle, degrees.
     pub max: f64,
+    /// Level 0 alone, as `mean`.
+    pub level0: f64,
 }
 
-impl BlockError {
-    /// The worse of two (per field).
-    pub fn worst(self, other: BlockError) -> BlockError {
-        BlockError {
-            mean: self.mean.max(other.mean),
-            max: self.max.max(other.max),
-        }
-    }
+/// Per-texel errors of one level, to be combined over a chain.
+#[derive(Clone, Debug, Default)]
+struct Tally {
+    /// Colour: sum of squared channel differences; normals: sum of angles.
+    sum: f64,
+    /// Channels (colour) or texels (normals) counted.
+    count: u64,
+    max: u8,
+    angles: Vec<f64>,
 }
 
-/// Colour error of `decoded` against `original` (both RGBA8, same size).
-pub fn colour_error(original: &[u8], decoded: &[u8]) -> BlockError {
-    let mut sum = 0u64;
-    let mut max = 0u8;
+fn colour_tally(original: &[u8], decoded: &[u8]) -> Tally {
+    let mut t = Tally::default();
     for (&a, &b) in original.iter().zip(decoded) {
         let d = a.abs_diff(b);
-        sum += d as u64 * d as u64;
-        max = max.max(d);
+        t.sum += d as f64 * d as f64;
+        t.max = t.max.max(d);
     }
-    BlockError {
-        mean: (sum as f64 / original.len().max(1) as f64).sqrt(),
-        max: max as f64,
-    }
+    t.count = original.len() as u64;
+    t
 }
 
 fn unit_normal(t: &[u8]) -> [f64; 3] {
@@ -235,10 +290,8 @@ fn unit_normal(t: &[u8]) -> [f64; 3] {
     }
 }
 
-/// Angular error of a decoded normal map (Z rebuilt, as `pack::texels` decodes BC5) against
-/// the RGBA8 normal map it was made from.
-pub fn normal_error(original: &[u8], decoded: &[u8]) -> BlockError {
-    let mut angles: Vec<f64> = original
+fn normal_tally(original: &[u8], decoded: &[u8]) -> Tally {
+    let angles: Vec<f64> = original
         .chunks_exact(4)
         .zip(decoded.chunks_exact(4))
         .map(|(a, b)| {
@@ -247,16 +300,57 @@ pub fn normal_error(original: &[u8], decoded: &[u8]) -> BlockError {
             dot.acos().to_degrees()
         })
         .collect();
-    if angles.is_empty() {
-        return BlockError::default();
+    Tally {
+        sum: angles.iter().sum(),
+        count: angles.len() as u64,
+        max: 0,
+        angles,
     }
-    let mean = angles.iter().sum::<f64>() / angles.len() as f64;
-    let k = ((angles.len() - 1) as f64 * 0.99).round() as usize;
-    let (_, p99, _) = angles.select_nth_unstable_by(k, f64::total_cmp);
-    BlockError { mean, max: *p99 }
 }
 
-/// A compressed mip chain and its error (the worst level's).
+fn finish(tallies: &[Tally], normal: bool) -> BlockError {
+    let level_mean = |t: &Tally| {
+        let m = t.sum / t.count.max(1) as f64;
+        if normal { m } else { m.sqrt() }
+    };
+    let total = Tally {
+        sum: tallies.iter().map(|t| t.sum).sum(),
+        count: tallies.iter().map(|t| t.count).sum(),
+        ..Default::default()
+    };
+    let max = if normal {
+        let mut all: Vec<f64> = tallies
+            .iter()
+            .flat_map(|t| t.angles.iter().copied())
+            .collect();
+        if all.is_empty() {
+            0.0
+        } else {
+            let k = ((all.len() - 1) as f64 * 0.99).round() as usize;
+            *all.select_nth_unstable_by(k, f64::total_cmp).1
+        }
+    } else {
+        tallies.iter().map(|t| t.max).max().unwrap_or(0) as f64
+    };
+    BlockError {
+        mean: level_mean(&total),
+        max,
+        level0: tallies.first().map(level_mean).unwrap_or(0.0),
+    }
+}
+
+/// Colour error of `decoded` against `original` (both RGBA8, same size).
+pub fn colour_error(original: &[u8], decoded: &[u8]) -> BlockError {
+    finish(&[colour_tally(original, decoded)], false)
+}
+
+/// Angular error of a decoded normal map (Z rebuilt, as `pack::texels` decodes BC5) against
+/// the RGBA8 normal map it was made from.
+pub fn normal_error(original: &[u8], decoded: &[u8]) -> BlockError {
+    finish(&[normal_tally(original, decoded)], true)
+}
+
+/// A compressed mip chain and its error over every texel of every level.
 #[derive(Clone, Debug)]
 pub struct Compressed {
     pub levels: Vec<Vec<u8>>,
@@ -265,14 +359,15 @@ pub struct Compressed {
 
 /// Compresses every level of `chain` (RGBA8, level 0 first) as the levels of `texture`
 /// (whose format, logical and storage sizes say how), and measures each against its source.
-/// `normal` selects the angular error measure.
+/// `normal` selects the angular error measure. Levels are compressed one after another, each
+/// in parallel stripes.
 pub fn compress_chain(
     codec: Codec,
     chain: &crate::MipChain,
     texture: &pack::Texture,
     normal: bool,
 ) -> Compressed {
-    let mut error = BlockError::default();
+    let mut tallies = Vec::with_capacity(chain.levels.len());
     let levels = chain
         .levels
         .iter()
@@ -282,16 +377,18 @@ pub fn compress_chain(
             let (sw, sh) = texture.storage_level_size(k);
             let blocks = compress_level(codec, rgba, m.width, m.height, sw, sh);
             let decoded = pack::texels::decode_level(texture, k, &blocks);
-            let e = if normal {
-                normal_error(rgba, &decoded)
+            tallies.push(if normal {
+                normal_tally(rgba, &decoded)
             } else {
-                colour_error(rgba, &decoded)
-            };
-            error = error.worst(e);
+                colour_tally(rgba, &decoded)
+            });
             blocks
         })
         .collect();
-    Compressed { levels, error }
+    Compressed {
+        levels,
+        error: finish(&tallies, normal),
+    }
 }
 
 #[cfg(test)]
@@ -345,14 +442,45 @@ mod tests {
         for p in [Bc7Profile::UltraFast, Bc7Profile::VeryFast] {
             let b = compress_level(Codec::Bc7(p), &img, w, h, w, h);
             let d = pack::texels::decode(TextureFormat::Bc7, w, h, &b);
-            // Opaque alpha may come back 254 (see `Bc7Profile`), in few texels.
-            let alphas: Vec<u8> = d.chunks_exact(4).map(|t| t[3]).collect();
-            let low = alphas.iter().filter(|&&a| a != 255).count();
-            assert!(alphas.iter().all(|&a| a >= 254), "{p:?}: alpha");
-            assert!(low * 50 < alphas.len(), "{p:?}: {low} texels below 255");
+            // Opaque stays opaque (see `Bc7Profile`).
+            assert!(d.chunks_exact(4).all(|t| t[3] == 255), "{p:?}: alpha");
             let e = colour_error(&img, &d);
             assert!(e.mean < 3.0 && e.max < 10.0, "{p:?}: {e:?}");
         }
+    }
+
+    #[test]
+    fn a_mode6_block_made_opaque_keeps_its_colour_within_a_step() {
+        let img = gradient(4, 4);
+        let s = intel_tex_2::RgbaSurface {
+            data: &img,
+            width: 4,
+            height: 4,
+            stride: 16,
+        };
+        let mut block = [0u8; 16];
+        let mut settings = Bc7Profile::UltraFast.settings(true);
+        settings.mode_selection = [false, false, false, true];
+        intel_tex_2::bc7::compress_blocks_into(&settings, &s, &mut block);
+        // Force alpha endpoints below 255, as the kernels sometimes leave them.
+        let mut bits = u128::from_le_bytes(block);
+        bits &= !(1u128 << 49 | 1 << 56 | 1 << 63 | 1 << 64);
+        let mut low = bits.to_le_bytes();
+        let mut before = [0u8; 64];
+        bcdec_rs::bc7(&low, &mut before, 16);
+        assert!(before.chunks_exact(4).any(|t| t[3] < 255));
+        assert!(opaque_mode6(&mut low));
+        let mut after = [0u8; 64];
+        bcdec_rs::bc7(&low, &mut after, 16);
+        for (a, b) in before.chunks_exact(4).zip(after.chunks_exact(4)) {
+            assert_eq!(b[3], 255);
+            for c in 0..3 {
+                assert!(a[c].abs_diff(b[c]) <= 1, "{a:?} {b:?}");
+            }
+        }
+        // Another mode is left alone.
+        let mut other = [0x01u8; 16];
+        assert!(!opaque_mode6(&mut other));
     }
 
     #[test]
@@ -382,7 +510,10 @@ mod tests {
         let e = normal_error(&img, &d);
         assert!(e.mean < 0.5 && e.max < 2.0, "{e:?}");
         // A different normal map is far off: the measure can fail.
-        let flat: Vec<u8> = img.chunks_exact(4).flat_map(|_| [128, 128, 255, 255]).collect();
+        let flat: Vec<u8> = img
+            .chunks_exact(4)
+            .flat_map(|_| [128, 128, 255, 255])
+            .collect();
         assert!(normal_error(&img, &flat).mean > 3.0);
     }
 

@@ -49,7 +49,7 @@ struct Args {
     /// Skip the god-ray sweep (it needs a GPU adapter; lavapipe is enough).
     #[arg(long)]
     no_god_rays: bool,
-    /// Run only these sweeps (blur, mips, meshes, god-rays), comma-separated; the others are
+    /// Run only these sweeps (blur, mips, meshes, god-rays, compression), comma-separated; the others are
     /// left out of the report.
     #[arg(long, value_delimiter = ',')]
     only: Option<Vec<String>>,
@@ -167,6 +167,25 @@ fn main() -> Result<()> {
     if let Err(e) = &god_rays {
         eprintln!("god rays not measured: {e}");
     }
+    let compression = if wanted("compression") {
+        use texture::bc::Bc7Profile;
+        bench::compress::sweep(
+            &bench::compress::CompressConfig {
+                max_size: if args.quick { 64 } else { 1024 },
+                runs,
+                profiles: if args.quick {
+                    vec![Bc7Profile::UltraFast, Bc7Profile::VeryFast]
+                } else {
+                    Bc7Profile::ALL.to_vec()
+                },
+                scene: (!args.quick && !args.no_god_rays).then(bench::godrays::default_scene),
+                render_size: (480, 270),
+            },
+            &mut progress,
+        )?
+    } else {
+        Default::default()
+    };
     let _ = std::fs::remove_dir_all(&scratch);
     let mut results = Results {
         machine,
@@ -179,6 +198,7 @@ fn main() -> Result<()> {
         mips,
         meshes,
         god_rays,
+        compression,
     };
     if args.keep_others {
         let path = args.out.join("results.json");
