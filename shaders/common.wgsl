@@ -23,6 +23,9 @@ struct Frame {
     ambient: vec4<f32>,
     // x: window count, y: 1 when the scene has windows (interior lit only through them).
     counts: vec4<u32>,
+    // x: shadow bias (in texels of slope), y: smallest filter σ (texels), z: shadow-map
+    // layer size (texels), w: 1 when the window light is occluded by shadow maps.
+    shadow: vec4<f32>,
 }
 
 struct WindowProjector {
@@ -35,8 +38,22 @@ struct WindowProjector {
     // rgb: colour the light is multiplied by (the glass colour for a window without a
     // projector texture, white otherwise).
     tint: vec4<f32>,
-    // x: projector array layer, y: 1 when this window passes light.
+    // x: projector array layer, y: 1 when this window passes light, z: shadow-map layer,
+    // w: 1 when the window has a shadow map.
     params: vec4<u32>,
+    // Camera-relative position to the window's shadow map: (u·w, v·w, z·w, w), with (u, v)
+    // texture coordinates and z the stored depth (see `render::shadows`).
+    shadow: mat4x4<f32>,
+    // xyz: unit world direction in which the map's u grows; w: world size of a texel along
+    // it (for a lamp at ℓ = 1, the window's plane).
+    shadow_x: vec4<f32>,
+    // The same for v.
+    shadow_y: vec4<f32>,
+    // x, y: near and far ℓ; z: a lamp's distance to the window's plane (0 for the sun);
+    // w: the light's size (the sun's angular diameter in radians, a lamp's diameter).
+    shadow_depth: vec4<f32>,
+    // xyz: the sun's travel direction, or the window's inward normal for a lamp.
+    shadow_dir: vec4<f32>,
 }
 
 struct Windows {
@@ -69,6 +86,9 @@ const CLASS_OTHER: u32 = 5u;
 // One layer per distinct projector texture; the window's params.x picks it.
 @group(0) @binding(2) var projectors: texture_2d_array<f32>;
 @group(0) @binding(3) var linear_clamp: sampler;
+// One layer per shadow map: the sun's, or one per window for a lamp.
+@group(0) @binding(4) var shadow_maps: texture_depth_2d_array;
+@group(0) @binding(5) var shadow_cmp: sampler_comparison;
 
 @group(1) @binding(0) var<uniform> material: Material;
 @group(1) @binding(1) var diffuse_tex: texture_2d<f32>;

@@ -18,10 +18,134 @@ fn is_inside(p: vec3<f32>) -> bool {
     return true;
 }
 
-// Light transmitted through the windows towards `p` (1 = unfiltered light). `dpx`/`dpy` are
-// the screen derivatives of `p`; the texture-coordinate derivatives follow from them exactly,
-// so this runs only where the surface faces the light (no uniform control flow needed).
-fn transmitted(p: vec3<f32>, dpx: vec3<f32>, dpy: vec3<f32>) -> vec3<f32> {
+// Taps of the blocker search, and of the filter (only in penumbrae: lit and fully shadowed
+// points stop after the search).
+const SHADOW_TAPS: u32 = 16u;
+const FILTER_TAPS: u32 = 32u;
+// The blocker search never spans more texels than this (the cost stays bounded; a wider
+// penumbra is still filtered at its width, from the blockers found).
+const MAX_SEARCH_TEXELS: f32 = 24.0;
+const GOLDEN_ANGLE: f32 = 2.39996323;
+
+// ℓ (depth along the light, see `render::shadows`) of a stored depth.
+fn shadow_linear(w: WindowProjector, z: f32) -> f32 {
+    let n = w.shadow_depth.x;
+    let f = w.shadow_depth.y;
+    if (w.shadow_depth.z > 0.0) {
+        return f * n / (f - z * (f - n));
+    }
+    return n + z * (f - n);
+}
+
+// The stored depth of ℓ.
+fn shadow_stored(w: WindowProjector, l: f32) -> f32 {
+    let n = w.shadow_depth.x;
+    let f = w.shadow_depth.y;
+    if (w.shadow_depth.z > 0.0) {
+        return f * (l - n) / ((f - n) * max(l, 1e-6));
+    }
+    return (l - n) / (f - n);
+}
+
+// Interleaved gradient noise: turns the tap pattern per pixel, so a few taps give fine noise
+// instead of visible copies of the pattern.
+fn pixel_noise(frag: vec2<f32>) -> f32 {
+    return fract(52.9829189 * fract(dot(frag, vec2<f32>(0.06711056, 0.00583715))));
+}
+
+// How much of the light reaching `p` through window `w` is not blocked (0 to 1): percentage-
+// closer soft shadows. A blocker search finds the mean depth of what lies between `p` and the
+// light; the penumbra then follows the projector blur's physics, a Gaussian of
+// σ = (light size) × (receiver − blocker distance) / 4 (for a lamp, over the blocker's
+// distance), which the filter integrates with Gaussian-distributed comparison taps.
+// `n` is the geometric normal facing the light; `frag` the fragment's pixel position.
+fn shadow_visibility(w: WindowProjector, p: vec3<f32>, n: vec3<f32>, frag: vec2<f32>) -> f32 {
+    if (w.params.w == 0u || frame.shadow.w < 0.5) {
+        return 1.0;
+    }
+    let c = w.shadow * vec4<f32>(p, 1.0);
+    if (c.w <= 0.0) {
+        return 1.0;
+    }
+    let m = c.xyz / c.w;
+    let lamp = w.shadow_depth.z > 0.0;
+    let lr = shadow_linear(w, clamp(m.z, 0.0, 1.0));
+    // Per world unit along the light, ℓ grows by k; a lamp's texels grow with the distance.
+    var t = w.shadow_dir.xyz;
+    var k = 1.0;
+    var scale = 1.0;
+    if (lamp) {
+        t = safe_normalize(p - frame.light_pos.xyz, w.shadow_dir.xyz);
+        k = dot(w.shadow_dir.xyz, t) / w.shadow_depth.z;
+        scale = lr;
+    }
+    let tx = w.shadow_x.w * scale;
+    let ty = w.shadow_y.w * scale;
+    // Receiver-plane depth bias: how ℓ changes per texel step across the receiving surface,
+    // so taps away from `p` compare against the surface's own depth there, not `p`'s.
+    // Grazing surfaces are capped (they get little light anyway).
+    let nt = min(dot(n, t), -0.1);
+    let gx = -tx * k * dot(n, w.shadow_x.xyz) / nt;
+    let gy = -ty * k * dot(n, w.shadow_y.xyz) / nt;
+    // Slope-scaled bias: a texel's stored depth is the surface's at the texel centre, up to
+    // about a texel from where a tap lands.
+    let eps = frame.shadow.x * (abs(gx) + abs(gy) + 0.5 * min(tx, ty) * k);
+    let size = frame.shadow.z;
+    let layer = i32(w.params.z);
+    let light = w.shadow_depth.w;
+    let near = w.shadow_depth.x;
+    // The widest penumbra possible here: a blocker at the near plane.
+    var widest = light * (lr - near) * 0.25;
+    if (lamp) {
+        widest = widest / max(near, 1e-6);
+    }
+    let search = clamp(2.7 * widest / min(tx, ty), 1.5, MAX_SEARCH_TEXELS);
+    let angle = pixel_noise(frag) * 6.2831853;
+    var blockers = 0.0;
+    var sum = 0.0;
+    for (var i = 0u; i < SHADOW_TAPS; i = i + 1u) {
+        let a = f32(i) * GOLDEN_ANGLE + angle;
+        let o = vec2<f32>(cos(a), sin(a)) * sqrt((f32(i) + 0.5) / f32(SHADOW_TAPS)) * search;
+        let texel = clamp(
+            vec2<i32>(floor(m.xy * size + o)),
+            vec2<i32>(0),
+            vec2<i32>(i32(size) - 1),
+        );
+        let lb = shadow_linear(w, textureLoad(shadow_maps, texel, layer, 0));
+        if (lb < lr + gx * o.x + gy * o.y - eps) {
+            blockers = blockers + 1.0;
+            sum = sum + lb;
+        }
+    }
+    if (blockers == 0.0) {
+        return 1.0;
+    }
+    let lb = sum / blockers;
+    var sigma_world = light * max(lr - lb, 0.0) * 0.25;
+    if (lamp) {
+        sigma_world = sigma_world / max(lb, 1e-6);
+    }
+    let sigma = max(vec2<f32>(sigma_world / tx, sigma_world / ty), vec2<f32>(frame.shadow.y));
+    if (blockers == f32(SHADOW_TAPS) && 2.7 * max(sigma.x, sigma.y) <= search) {
+        return 0.0;
+    }
+    var lit = 0.0;
+    for (var i = 0u; i < FILTER_TAPS; i = i + 1u) {
+        // A 2D Gaussian's radius for the area fraction q: σ·sqrt(−2 ln(1 − q)).
+        let q = (f32(i) + 0.5) / f32(FILTER_TAPS);
+        let a = f32(i) * GOLDEN_ANGLE + angle;
+        let o = vec2<f32>(cos(a), sin(a)) * sqrt(-2.0 * log(1.0 - q)) * sigma;
+        let reference = shadow_stored(w, lr + gx * o.x + gy * o.y - eps);
+        lit = lit + textureSampleCompareLevel(shadow_maps, shadow_cmp, m.xy + o / size, layer, reference);
+    }
+    return lit / f32(FILTER_TAPS);
+}
+
+// Light transmitted through the windows towards `p` (1 = unfiltered light), shadows included.
+// `dpx`/`dpy` are the screen derivatives of `p`; the texture-coordinate derivatives follow from
+// them exactly, so this runs only where the surface faces the light (no uniform control flow
+// needed). `n` is the geometric normal facing the light, `frag` the pixel position.
+fn transmitted(p: vec3<f32>, dpx: vec3<f32>, dpy: vec3<f32>, n: vec3<f32>, frag: vec2<f32>) -> vec3<f32> {
     var total = vec3<f32>(0.0);
     let count = min(frame.counts.x, MAX_WINDOWS);
     for (var i = 0u; i < count; i = i + 1u) {
@@ -42,7 +166,10 @@ fn transmitted(p: vec3<f32>, dpx: vec3<f32>, dpy: vec3<f32>) -> vec3<f32> {
         let cy = w.projector * vec4<f32>(dpy, 0.0);
         let ddx = (cx.xy - uv * cx.w) / clip.w;
         let ddy = (cy.xy - uv * cy.w) / clip.w;
-        total = total + textureSampleGrad(projectors, linear_clamp, uv, w.params.x, ddx, ddy).rgb * w.tint.rgb;
+        let glass = textureSampleGrad(projectors, linear_clamp, uv, w.params.x, ddx, ddy).rgb * w.tint.rgb;
+        if (any(glass > vec3<f32>(0.0))) {
+            total = total + glass * shadow_visibility(w, p, n, frag);
+        }
     }
     return total;
 }
@@ -85,7 +212,7 @@ fn fs_main(vertex: VertexOut) -> @location(0) vec4<f32> {
         // face: a small step along the camera-facing normal puts the outer face outside.
         var light_filter = vec3<f32>(1.0);
         if (is_inside(in.rel + geometric * 0.01)) {
-            light_filter = transmitted(in.rel, dpx, dpy);
+            light_filter = transmitted(in.rel, dpx, dpy, geometric, in.clip.xy);
         }
         let r = reflect(-l, n);
         let shininess = max(material.specular.w, 1.0);

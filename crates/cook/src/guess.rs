@@ -87,6 +87,121 @@ impl Footprint {
 /// is the direction, among 5 elevations × 24 azimuths, through which the most window area
 /// (sampled on a 5 × 5 grid of each window's rectangle) lands on the floor, ties going to
 /// elevations near 45°. Occluders between a window and the floor are not considered.
+/// Which cells of a 64³ grid over the model hold a surface (not glass, not the backdrop):
+/// enough to tell whether a view runs down an open nave or into a pier, at the cost of one
+/// pass over the triangles, where ray casting every triangle for every trial view costs
+/// hundreds of milliseconds on a large model.
+struct Occupancy {
+    lo: DVec3,
+    cell: DVec3,
+    full: Vec<bool>,
+}
+
+const OCC: usize = 64;
+
+impl Occupancy {
+    fn new(p: &Prepared, classes: &[MaterialClass], lo: DVec3, hi: DVec3) -> Self {
+        let cell =
+            ((hi - lo) / OCC as f64).max(DVec3::splat((hi - lo).max_element() * 1e-3 + 1e-9));
+        let mut grid = Self {
+            lo,
+            cell,
+            full: vec![false; OCC * OCC * OCC],
+        };
+        let step = cell.min_element() * 0.5;
+        for (src, mats) in p.imported.iter().zip(&p.tri_material) {
+            for (t, &m) in mats.iter().enumerate() {
+                let c = classes[m as usize];
+                if c.is_window() || c == MaterialClass::Background {
+                    continue;
+                }
+                let [a, b, c] = [0, 1, 2].map(|k| {
+                    let q = src.positions[src.corners[t * 3 + k].p as usize];
+                    DVec3::new(q[0] as f64, q[1] as f64, q[2] as f64)
+                });
+                // Points on the triangle at most half a cell apart mark every cell it crosses.
+                let n = (((b - a).length().max((c - a).length()) / step).ceil() as usize)
+                    .clamp(1, 4 * OCC);
+                for i in 0..=n {
+                    for j in 0..=(n - i) {
+                        let (u, v) = (i as f64 / n as f64, j as f64 / n as f64);
+                        grid.mark(a + (b - a) * u + (c - a) * v);
+                    }
+                }
+            }
+        }
+        grid
+    }
+
+    fn index(&self, q: DVec3) -> Option<usize> {
+        let c = ((q - self.lo) / self.cell).floor();
+        if c.min_element() < 0.0 || c.max_element() >= OCC as f64 || !c.is_finite() {
+            return None;
+        }
+        Some((c.z as usize * OCC + c.y as usize) * OCC + c.x as usize)
+    }
+
+    fn mark(&mut self, q: DVec3) {
+        // A point on the far faces of the box belongs to the last cell.
+        let q = q.min(self.lo + self.cell * (OCC as f64 - 1e-6));
+        if let Some(i) = self.index(q) {
+            self.full[i] = true;
+        }
+    }
+
+    /// Distance along the unit ray from `o` to the first occupied cell (a quarter-cell march,
+    /// skipping the cell the eye is in), at most `max`.
+    fn depth(&self, o: DVec3, d: DVec3, max: f64) -> f64 {
+        let step = self.cell.min_element() * 0.25;
+        let own = self.index(o);
+        let mut t = step;
+        while t < max {
+            match self.index(o + d * t) {
+                None => return max,
+                Some(i) if Some(i) != own && self.full[i] => return t,
+                _ => {}
+            }
+            t += step;
+        }
+        max
+    }
+
+    /// How far a view from `eye` along `dir` sees: the mean depth of nine rays spread over
+    /// a 60° view, each at most `max`.
+    fn view_depth(&self, eye: DVec3, dir: DVec3, max: f64) -> f64 {
+        let side = dir.cross(DVec3::Y).normalize_or_zero();
+        let mut sum = 0.0;
+        for i in 0..9 {
+            let (x, y) = ((i % 3) as f64 - 1.0, (i / 3) as f64 - 1.0);
+            let r = (dir + side * (0.6 * x) + DVec3::Y * (0.45 * y)).normalize();
+            sum += self.depth(eye, r, max);
+        }
+        sum / 9.0
+    }
+}
+
+/// Bright enough that the floor under clear glass is near white without clipping: then
+/// coloured glass keeps its colour on the floor instead of saturating to white. Measured on
+/// the floor's brightest diffuse colour (every receiver's when there is no floor) at the sun's
+/// angle of incidence.
+fn sun_intensity(tagging: &crate::tag::Tagging, classes: &[MaterialClass], d: DVec3) -> f32 {
+    let brightest = |want: &dyn Fn(MaterialClass) -> bool| {
+        tagging
+            .materials
+            .iter()
+            .zip(classes)
+            .filter(|(_, c)| want(**c))
+            .map(|(m, _)| m.material.diffuse.iter().copied().fold(0.0f32, f32::max))
+            .fold(0.0f32, f32::max)
+    };
+    let mut albedo = brightest(&|c| c == MaterialClass::Floor);
+    if albedo <= 0.0 {
+        albedo = brightest(&|c| !c.is_window() && c != MaterialClass::Background);
+    }
+    let cos = (-d.y as f32).max(0.2);
+    (0.85 / (albedo.max(0.2) * cos)).clamp(0.5, 8.0)
+}
+
 pub fn guess(p: &Prepared) -> Guess {
     let mut notes = Vec::new();
     let classes: Vec<MaterialClass> = p
@@ -185,7 +300,7 @@ pub fn guess(p: &Prepared) -> Guess {
             angular_size: SUN_DEG.to_radians(),
         },
         colour: [1.0, 0.95, 0.85],
-        intensity: 4.0,
+        intensity: sun_intensity(&p.tagging, &classes, d),
     });
 
     // Cameras at eye height above the floor (or the model's bottom), inside its footprint.
@@ -205,25 +320,48 @@ pub fn guess(p: &Prepared) -> Guess {
         position: f3(position),
         target: f3(target),
         up: [0.0, 1.0, 0.0],
-        fov_y: 60f32.to_radians(),
+        fov_y: 60.0,
         near: (diag * 1e-4).max(0.01) as f32,
         far: (diag * 3.0) as f32,
     };
     let mut cameras = Vec::new();
-    // Along the longer horizontal axis, from one end towards the other.
+    // Along the longer horizontal axis, from near one end towards the other, placed where
+    // the view runs farthest before it meets geometry: down the middle of a nave, but beside
+    // a block or a pier standing in the middle rather than up against it.
     let long_x = hi.x - lo.x >= hi.z - lo.z;
-    let (a, b) = if long_x {
-        (
-            DVec3::new(lo.x + 0.1 * (hi.x - lo.x), eye, centre.z),
-            DVec3::new(hi.x, eye, centre.z),
-        )
+    let (along, across) = if long_x {
+        (DVec3::X, DVec3::Z)
     } else {
-        (
-            DVec3::new(centre.x, eye, lo.z + 0.1 * (hi.z - lo.z)),
-            DVec3::new(centre.x, eye, hi.z),
-        )
+        (DVec3::Z, DVec3::X)
     };
-    cameras.push(camera("nave", a, b));
+    let (len, wide) = ((hi - lo).dot(along), (hi - lo).dot(across));
+    let mut candidates = Vec::new();
+    for height in [0.12, 0.3, 0.5] {
+        for from_hi in [false, true] {
+            for side in [0.0, -0.25, 0.25] {
+                let mut a = lo + along * (len * if from_hi { 0.9 } else { 0.1 });
+                a += across * ((centre - lo).dot(across) + side * wide);
+                a.y = floor_y + ((hi.y - floor_y) * height).max(diag * 0.002);
+                let dir = if from_hi { -along } else { along };
+                candidates.push((a, dir));
+            }
+        }
+    }
+    let occupancy = Occupancy::new(p, &classes, lo, hi);
+    let depths: Vec<f64> = candidates
+        .iter()
+        .map(|&(a, dir)| occupancy.view_depth(a, dir, len))
+        .collect();
+    let mut best_view: Option<(f64, DVec3, DVec3)> = None;
+    for (&(a, dir), &depth) in candidates.iter().zip(&depths) {
+        // Near ties go to the earlier candidate: low, in the middle, from the low end.
+        if best_view.is_none_or(|v| depth > v.0 * 1.1) {
+            best_view = Some((depth, a, a + dir * len * 0.9));
+        }
+    }
+    if let Some((_, a, b)) = best_view {
+        cameras.push(camera("nave", a, b));
+    }
     let mut by_area: Vec<&crate::instances::Instance> = windows.iter().collect();
     by_area.sort_by(|x, y| y.area.total_cmp(&x.area));
     if let Some(w) = by_area.first() {

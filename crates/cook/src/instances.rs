@@ -97,17 +97,25 @@ impl UnionFind {
     }
 }
 
-/// One id per position: positions within the weld tolerance (on a grid of that size) share it.
-fn weld_ids(positions: &[[f32; 3]], tolerance: f64) -> Vec<u32> {
+/// One id per position of `tris` (others get `u32::MAX`): positions within the weld tolerance
+/// (on a grid of that size) share it.
+fn weld_ids(src: &Imported, tris: &[u32], tolerance: f64) -> Vec<u32> {
+    // Only the glass's positions: the rest of a 100k-triangle model would cost more than
+    // everything else the window stage does.
+    let mut ids = vec![u32::MAX; src.positions.len()];
     let mut cells: HashMap<[i64; 3], u32> = HashMap::new();
-    positions
-        .iter()
-        .map(|p| {
-            let key = p.map(|c| (c as f64 / tolerance).round() as i64);
-            let next = cells.len() as u32;
-            *cells.entry(key).or_insert(next)
-        })
-        .collect()
+    for &t in tris {
+        for c in &src.corners[t as usize * 3..t as usize * 3 + 3] {
+            let id = &mut ids[c.p as usize];
+            if *id == u32::MAX {
+                let key =
+                    src.positions[c.p as usize].map(|c| (c as f64 / tolerance).round() as i64);
+                let next = cells.len() as u32;
+                *id = *cells.entry(key).or_insert(next);
+            }
+        }
+    }
+    ids
 }
 
 fn triangle(src: &Imported, t: u32) -> [DVec3; 3] {
@@ -373,14 +381,18 @@ fn has_uvs(src: &Imported, tris: &[u32]) -> bool {
     varies
 }
 
-/// Every triangle that can receive window light (not glass, not the backdrop), as centroid
-/// and area, over all sources.
+/// The surfaces that can receive window light (not glass, not the backdrop), as centroid and
+/// area, over all sources: triangles gathered into cells of 1/64 of the model's size, each
+/// with its area-weighted centroid. Which side of a window faces more of them does not
+/// change, and deciding it costs as many cells as a whole model has, not triangles.
 pub fn receivers(
     sources: &[Imported],
     tri_material: &[Vec<u16>],
     classes: &[MaterialClass],
 ) -> Vec<(DVec3, f64)> {
-    let mut out = Vec::new();
+    let (lo, hi) = bounds(sources);
+    let cell = ((hi - lo).length() / 64.0).max(1e-9);
+    let mut cells: HashMap<[i64; 3], (DVec3, f64)> = HashMap::new();
     for (src, mats) in sources.iter().zip(tri_material) {
         for (t, &m) in mats.iter().enumerate() {
             let class = classes[m as usize];
@@ -389,23 +401,42 @@ pub fn receivers(
             }
             let [a, b, c] = triangle(src, t as u32);
             let area = (b - a).cross(c - a).length() * 0.5;
-            if area > 0.0 {
-                out.push(((a + b + c) / 3.0, area));
+            if area > 0.0 && area.is_finite() {
+                let centre = (a + b + c) / 3.0;
+                let key = ((centre - lo) / cell).floor().as_i64vec3().to_array();
+                let e = cells.entry(key).or_insert((DVec3::ZERO, 0.0));
+                e.0 += centre * area;
+                e.1 += area;
             }
         }
     }
-    out
+    // In cell order: the sums over them must not depend on the map's iteration order.
+    let mut out: Vec<([i64; 3], (DVec3, f64))> = cells.into_iter().collect();
+    out.sort_by_key(|(k, _)| *k);
+    out.into_iter().map(|(_, (c, a))| (c / a, a)).collect()
+}
+
+fn bounds(sources: &[Imported]) -> (DVec3, DVec3) {
+    let mut lo = DVec3::splat(f64::INFINITY);
+    let mut hi = DVec3::splat(f64::NEG_INFINITY);
+    for s in sources {
+        for p in &s.positions {
+            lo = lo.min(v3(*p));
+            hi = hi.max(v3(*p));
+        }
+    }
+    (lo, hi)
 }
 
 /// Which way is inside: an explicit point or direction, else the side the light leaves the
 /// window through, else the side facing most receiving geometry (nearer surfaces count more).
-pub fn decide_inside(
+pub fn decide_inside<'r>(
     normal: DVec3,
     centroid: DVec3,
     size: f64,
     explicit: Option<[f32; 3]>,
     light: Option<&LightKind>,
-    receivers: &[(DVec3, f64)],
+    receivers: &dyn Fn() -> &'r [(DVec3, f64)],
 ) -> (DVec3, &'static str) {
     let orient = |d: DVec3| if normal.dot(d) < 0.0 { -normal } else { normal };
     if let Some(v) = explicit {
@@ -433,7 +464,7 @@ pub fn decide_inside(
     // Each surface counts by how large it looks from the window (area × |cos| / d², with the
     // cosine taken against the window's normal); surfaces lying about in the window's own
     // plane (its wall, a reveal just behind the glass) say nothing about the sides.
-    let score: f64 = receivers
+    let score: f64 = receivers()
         .iter()
         .map(|(c, a)| {
             let d = *c - centroid;
@@ -465,16 +496,16 @@ pub fn find(
     light: Option<&LightKind>,
     inside: InsideOverride<'_>,
 ) -> Vec<Instance> {
-    let receivers = receivers(sources, tri_material, classes);
+    // Only a window with neither an override nor a light needs them, and there are as many as
+    // the model has triangles.
+    let all_receivers = std::cell::OnceCell::new();
+    let receivers = || {
+        all_receivers
+            .get_or_init(|| receivers(sources, tri_material, classes))
+            .as_slice()
+    };
     // The weld tolerance is relative to the whole model, so it means the same for every mesh.
-    let mut lo = DVec3::splat(f64::INFINITY);
-    let mut hi = DVec3::splat(f64::NEG_INFINITY);
-    for s in sources {
-        for p in &s.positions {
-            lo = lo.min(v3(*p));
-            hi = hi.max(v3(*p));
-        }
-    }
+    let (lo, hi) = bounds(sources);
     let tolerance = ((hi - lo).length() * WELD).max(1e-9);
 
     let mut out: Vec<Instance> = Vec::new();
@@ -485,7 +516,7 @@ pub fn find(
         if glass.is_empty() {
             continue;
         }
-        let weld = weld_ids(&src.positions, tolerance);
+        let weld = weld_ids(src, &glass, tolerance);
         for component in components(src, &weld, &glass) {
             let size = size_of(src, &component);
             let deviation = |tris: &[u32]| -> Option<(DVec3, DVec3, f64, f64)> {

@@ -8,7 +8,9 @@ use std::path::{Path, PathBuf};
 use rayon::prelude::*;
 
 use crate::import::ImageRef;
-use crate::manifest::{GreenAxis, Manifest, MipFilter, NormalEncoding, TextureFormatChoice};
+use texture::{GreenAxis, MipFilter, NormalEncoding};
+
+use crate::manifest::{Manifest, TextureFormatChoice};
 use crate::tag::Tagging;
 use crate::{CookError, Report, Settings, Warning, cache};
 
@@ -107,14 +109,6 @@ pub(crate) fn decode(image: &ImageRef) -> Result<image::DynamicImage, CookError>
             })
         }
         ImageRef::Raster { image, .. } => Ok(image::DynamicImage::ImageRgba8((**image).clone())),
-    }
-}
-
-fn filter(f: MipFilter) -> texture::MipFilter {
-    match f {
-        MipFilter::Box => texture::MipFilter::Box,
-        MipFilter::Kaiser => texture::MipFilter::Kaiser,
-        MipFilter::Lanczos3 => texture::MipFilter::Lanczos3,
     }
 }
 
@@ -489,7 +483,7 @@ fn run(
             let img = decode(image)?;
             let mut opts = texture::ColourOptions {
                 srgb: *srgb,
-                filter: filter(mip_filter),
+                filter: mip_filter,
             };
             // The error budget picks from the committed table of measured errors, never from
             // timings taken now, so the pack stays deterministic.
@@ -509,15 +503,7 @@ fn run(
             green,
         } => {
             let img = decode(image)?;
-            let enc = match encoding {
-                NormalEncoding::Rgb => texture::NormalEncoding::Rgb,
-                NormalEncoding::Rg => texture::NormalEncoding::Rg,
-            };
-            let g = match green {
-                GreenAxis::OpenGl => texture::GreenAxis::OpenGl,
-                GreenAxis::DirectX => texture::GreenAxis::DirectX,
-            };
-            let chain = texture::normal_mips(&img, enc, g)
+            let chain = texture::normal_mips(&img, *encoding, *green)
                 .map_err(|e| texture_error(Path::new(&image.name()), e))?;
             Ok((chain, None))
         }

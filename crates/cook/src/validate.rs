@@ -325,7 +325,7 @@ pub fn validate_scene(manifest: &Manifest) -> Result<Validation, CookError> {
     // Materials whose triangles all went to per-window materials are gone, as in the cook;
     // materials without triangles for other reasons stay, so they are reported below.
     let mut tagging = tagging;
-    crate::drop_replaced(&found.replaced, &mut tagging, &mut processed);
+    crate::prune::drop_replaced(&found.replaced, &mut tagging, &mut processed);
     let materials: Vec<pack::Material> = tagging
         .materials
         .iter()

@@ -12,9 +12,10 @@ use rayon::prelude::*;
 use crate::design::{self, Pane, UvTriangle};
 use crate::import::{ImageRef, Imported, NONE};
 use crate::instances::{self, Instance};
-use crate::manifest::{Fit, GreenAxis, Manifest, NormalEncoding, UvMode, WindowDesign};
+use crate::manifest::{Fit, Manifest, UvMode, WindowDesign};
 use crate::tag::{Decision, Tagging};
 use crate::{CookError, Report, Warning};
+use texture::{GreenAxis, NormalEncoding};
 
 /// Where a window's design came from, for reports.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -208,11 +209,12 @@ pub fn plan(
             }
         }
     }
-    // A material placed by an explicit rule keeps its class; heuristics defer to the sill.
+    // A material placed by an explicit rule keeps its class; heuristics and `class =
+    // "window"` rules defer to the sill.
     let mut by_rule = vec![false; tagging.materials.len()];
     for (si, decisions) in tagging.decisions.iter().enumerate() {
         for (pi, d) in decisions.iter().enumerate() {
-            if matches!(d, Decision::Rule(_)) {
+            if matches!(d, Decision::Rule(r) if !manifest.rules[*r].by_sill) {
                 by_rule[tagging.part_material[si][pi] as usize] = true;
             }
         }
@@ -375,10 +377,30 @@ pub fn plan(
             ));
         }
     }
-    let designs: Vec<Result<(ImageRef, DesignSource, u32), CookError>> =
-        pending.par_iter().map(make_design).collect();
-    for (p, d) in pending.iter().zip(designs) {
-        let (design, source, width) = d?;
+    // Windows rasterized from the very same inputs (repeated lancets) are made once.
+    let mut first_of: std::collections::HashMap<Vec<u32>, usize> = Default::default();
+    let same_as: Vec<usize> = pending
+        .iter()
+        .enumerate()
+        .map(|(i, p)| match p.mesh_inputs() {
+            Some(key) => *first_of.entry(key).or_insert(i),
+            None => i,
+        })
+        .collect();
+    let made: Vec<Option<Result<Design, CookError>>> = pending
+        .par_iter()
+        .enumerate()
+        .map(|(i, p)| (same_as[i] == i).then(|| make_design(p)))
+        .collect();
+    let mut designs: Vec<Option<Design>> = Vec::with_capacity(made.len());
+    for (i, d) in made.into_iter().enumerate() {
+        designs.push(match d {
+            Some(d) => Some(d?),
+            None => designs[same_as[i]].clone(),
+        });
+    }
+    let designs = share_identical(designs.into_iter().flatten().collect());
+    for (p, (design, source, width)) in pending.iter().zip(designs) {
         let plan = tagging.materials[p.material as usize]
             .window
             .as_mut()
@@ -390,6 +412,69 @@ pub fn plan(
     out.instances = found;
     Ok(out)
 }
+
+/// Windows whose rasterized designs are texel for texel the same (thirty lancets of one glass)
+/// get one image under one name, so the texture stage cooks and stores it once. The name drops
+/// the windows' `#k` numbers when they all share the prefix.
+fn share_identical(mut designs: Vec<Design>) -> Vec<Design> {
+    use std::collections::HashMap;
+    use std::hash::{Hash, Hasher};
+    let mut groups: HashMap<(u32, u32, u64), Vec<Vec<usize>>> = HashMap::new();
+    for (i, (design, source, _)) in designs.iter().enumerate() {
+        let ImageRef::Raster { image, .. } = design else {
+            continue;
+        };
+        if *source != DesignSource::Mesh {
+            continue;
+        }
+        let mut h = std::collections::hash_map::DefaultHasher::new();
+        image.as_raw().hash(&mut h);
+        let buckets = groups
+            .entry((image.width(), image.height(), h.finish()))
+            .or_default();
+        let same = |g: &Vec<usize>| match &designs[g[0]].0 {
+            ImageRef::Raster { image: first, .. } => first.as_raw() == image.as_raw(),
+            _ => false,
+        };
+        match buckets.iter_mut().find(|g| same(g)) {
+            Some(g) => g.push(i),
+            None => buckets.push(vec![i]),
+        }
+    }
+    let mut shared: Vec<Vec<usize>> = groups
+        .into_values()
+        .flatten()
+        .filter(|g| g.len() > 1)
+        .collect();
+    shared.sort();
+    for g in shared {
+        let ImageRef::Raster { name, image } = designs[g[0]].0.clone() else {
+            continue;
+        };
+        let window = |n: &str| n.strip_suffix(".design").unwrap_or(n).to_string();
+        let prefix = |n: &str| {
+            let w = window(n);
+            w.rsplit_once('#').map_or(w.clone(), |(p, _)| p.to_string())
+        };
+        let first = prefix(&name);
+        let all_same = g.iter().all(|&i| prefix(&designs[i].0.name()) == first);
+        let name = if all_same {
+            format!("{first}.design")
+        } else {
+            name
+        };
+        for &i in &g {
+            designs[i].0 = ImageRef::Raster {
+                name: name.clone(),
+                image: image.clone(),
+            };
+        }
+    }
+    designs
+}
+
+/// A window's design image, where it came from, and its width in texels.
+type Design = (ImageRef, DesignSource, u32);
 
 /// A window design still to make: what [`make_design`] needs, gathered sequentially.
 struct Pending {
@@ -405,9 +490,30 @@ struct Pending {
     came_width: f32,
 }
 
+impl Pending {
+    /// Everything a design rasterized from the mesh depends on, exactly (as bits); `None` for
+    /// a design made from an image.
+    fn mesh_inputs(&self) -> Option<Vec<u32>> {
+        if self.image.is_some() {
+            return None;
+        }
+        let mut key = vec![self.size.0, self.size.1, self.came_width.to_bits()];
+        for p in &self.panes {
+            key.extend(p.colour.map(f32::to_bits));
+            key.push(p.amount.to_bits());
+        }
+        key.push(u32::MAX);
+        for (uv, pane) in &self.tris {
+            key.extend(uv.iter().flat_map(|c| c.map(f32::to_bits)));
+            key.push(*pane as u32);
+        }
+        Some(key)
+    }
+}
+
 /// The design of one window: an image fitted and masked, or cut to the outline where it
 /// would let light through stone, or rasterized from the panes; with its width in texels.
-fn make_design(p: &Pending) -> Result<(ImageRef, DesignSource, u32), CookError> {
+fn make_design(p: &Pending) -> Result<Design, CookError> {
     let Some((img, source)) = &p.image else {
         let (w, h) = p.size;
         let img = design::mesh_design(&p.panes, &p.tris, w, h, p.came_width * w.min(h) as f32);

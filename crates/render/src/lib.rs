@@ -1,27 +1,34 @@
 //! The stained-glass renderer (wgpu), fed from a pack.
 //!
-//! The design numbers its passes 0–4; [`PassId`] has six because god rays, a full-screen pass
-//! of their own between 3 and 4, are timed and skipped separately:
-//! `Background` = 0 background alone; `WindowMask` = 1 windows coloured, everything else black;
+//! The design numbers its passes 0–4; [`PassId`] has seven because the shadow maps (drawn
+//! first, and only when stale) and god rays, a full-screen pass of their own between 3 and 4,
+//! are timed and skipped separately: `Shadows` = depth from the light for the window light's
+//! occlusion ([`shadows`], [`occlusion`]); `Background` = 0 background alone; `WindowMask` = 1 windows coloured, everything else black;
 //! `WindowNormals` = 2 window normal maps; `Lit` = 3 the lit scene with projectors through the
 //! windows; `GodRays` = the radial blur of pass 1 (no number); `Composite` = 4 refraction, god
 //! rays and tone mapping. [`Scene`] holds the GPU copy of a pack and accepts sections as they
-//! stream in; [`Renderer`] owns the targets and the frame graph, [`passes`] the passes.
+//! stream in; [`Renderer`] owns the targets and the frame graph, [`passes`] the passes;
+//! [`reference`](mod@reference) is a CPU ray tracer of the lit pass to judge them against.
 
 pub mod budget;
 mod capture;
 mod gpu;
+pub mod occlusion;
 pub mod passes;
+mod projectors;
+pub mod reference;
 mod renderer;
 mod scene;
 pub mod shaders;
+pub mod shadows;
 pub mod uniforms;
 pub mod view;
 
 pub use capture::{f16_to_f32, read_texture, target_image};
 pub use gpu::Gpu;
 pub use renderer::{
-    FrameReport, PassId, PassTime, Renderer, Settings, TargetId, TimingMethod, god_ray_falloff,
+    FrameReport, PassId, PassTime, Renderer, Settings, ShadowSettings, TargetId, TimingMethod,
+    god_ray_falloff,
 };
 pub use scene::{LoadStatus, SMALL_MIP_BYTES, Scene};
 pub use uniforms::MAX_GOD_RAY_SAMPLES;

@@ -4,9 +4,10 @@ use glam::Vec3;
 
 use crate::capture::{f16_to_f32, read_buffer, read_texture};
 use crate::passes::{
-    Colour, CompositeInputs, CompositePass, DEPTH, GeometryPass, GodRayPass, HDR, frame_layout,
-    geometry_layout, uniform_buffer,
+    Colour, CompositeInputs, CompositePass, DEPTH, GeometryPass, GodRayPass, HDR, SHADOW_VIEW_SIZE,
+    ShadowPass, frame_layout, geometry_layout, uniform_buffer,
 };
+use crate::shadows::ShadowLayout;
 use crate::uniforms;
 use crate::view::{
     GodRaySettings, LightGeometry, View, god_ray_uniforms, window_projector, window_relative_to,
@@ -17,6 +18,7 @@ use crate::{Gpu, RenderError, Scene};
 /// rays between 3 and 4 (see [`PassId::name`]).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub enum PassId {
+    Shadows,
     Background,
     WindowMask,
     WindowNormals,
@@ -26,7 +28,8 @@ pub enum PassId {
 }
 
 impl PassId {
-    pub const ALL: [PassId; 6] = [
+    pub const ALL: [PassId; 7] = [
+        Self::Shadows,
         Self::Background,
         Self::WindowMask,
         Self::WindowNormals,
@@ -37,6 +40,7 @@ impl PassId {
 
     pub fn name(self) -> &'static str {
         match self {
+            Self::Shadows => "shadow maps",
             Self::Background => "0 background",
             Self::WindowMask => "1 window mask",
             Self::WindowNormals => "2 window normals",
@@ -55,16 +59,32 @@ pub enum TargetId {
     WindowNormals,
     Lit,
     GodRays,
+    /// A grey view of the first shadow map (near the light white), [`SHADOW_VIEW_SIZE`] square.
+    ShadowMap,
 }
 
 impl TargetId {
-    pub const ALL: [TargetId; 5] = [
+    pub const ALL: [TargetId; 6] = [
         Self::Background,
         Self::WindowMask,
         Self::WindowNormals,
         Self::Lit,
         Self::GodRays,
+        Self::ShadowMap,
     ];
+
+    /// The pass that draws this target.
+    pub fn pass(self) -> PassId {
+        match self {
+            Self::Background => PassId::Background,
+            Self::WindowMask => PassId::WindowMask,
+            Self::WindowNormals => PassId::WindowNormals,
+            Self::Lit => PassId::Lit,
+            Self::GodRays => PassId::GodRays,
+            Self::ShadowMap => PassId::Shadows,
+        }
+    }
+
     pub fn file_stem(self) -> &'static str {
         match self {
             Self::Background => "pass0-background",
@@ -72,6 +92,7 @@ impl TargetId {
             Self::WindowNormals => "pass2-window-normals",
             Self::Lit => "pass3-lit",
             Self::GodRays => "god-rays",
+            Self::ShadowMap => "shadow-map",
         }
     }
 }
@@ -89,6 +110,43 @@ pub struct Settings {
     /// Skip the god-ray pass when its fade is zero. Tests turn this off to check that the
     /// shader itself outputs exactly zero then.
     pub skip_invisible_god_rays: bool,
+    pub shadows: ShadowSettings,
+}
+
+/// Occlusion of the window light by shadow maps.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ShadowSettings {
+    /// Off: the window light passes through stone, as plain projective texturing does.
+    pub enabled: bool,
+    /// Depth bias in texels of the receiving surface's slope (plus half a texel); larger
+    /// values cure acne and detach shadows from their casters.
+    pub bias: f32,
+    /// Smallest filter σ in texels: the softness even a hard edge gets.
+    pub filter: f32,
+    /// Side of the sun's map in texels; a lamp's maps (one per window) are half as wide.
+    pub map_size: u32,
+}
+
+impl Default for ShadowSettings {
+    fn default() -> Self {
+        Self {
+            enabled: true,
+            bias: 1.0,
+            filter: 0.5,
+            map_size: 2048,
+        }
+    }
+}
+
+impl ShadowSettings {
+    /// The layer size for `light`.
+    pub fn layer_size(&self, light: &pack::Light) -> u32 {
+        let size = self.map_size.clamp(16, 8192);
+        match light.kind {
+            pack::LightKind::Directional { .. } => size,
+            pack::LightKind::Point { .. } => (size / 2).max(16),
+        }
+    }
 }
 
 impl Default for Settings {
@@ -99,6 +157,7 @@ impl Default for Settings {
             exposure: 1.0,
             ambient: [0.08, 0.08, 0.09],
             skip_invisible_god_rays: true,
+            shadows: ShadowSettings::default(),
         }
     }
 }
@@ -170,6 +229,7 @@ struct Targets {
     lit: Target,
     rays: Target,
     depth: Target,
+    shadow_view: Target,
     output: Option<Target>,
 }
 
@@ -198,6 +258,12 @@ impl Targets {
             lit: target(device, "pass3 lit", size, HDR),
             rays: target(device, "god rays", rays_size, HDR),
             depth: target(device, "depth", size, DEPTH),
+            shadow_view: target(
+                device,
+                "shadow map view",
+                (SHADOW_VIEW_SIZE, SHADOW_VIEW_SIZE),
+                HDR,
+            ),
             output: output.map(|f| target(device, "output", size, f)),
         }
     }
@@ -209,6 +275,7 @@ impl Targets {
             TargetId::WindowNormals => &self.normals,
             TargetId::Lit => &self.lit,
             TargetId::GodRays => &self.rays,
+            TargetId::ShadowMap => &self.shadow_view,
         }
     }
 }
@@ -231,6 +298,8 @@ struct Recording<'a> {
 
 /// What this frame records, decided from the scene and the view.
 struct Plan {
+    /// The shadow maps are drawn this frame (they were missing or stale).
+    shadows: bool,
     windows: bool,
     refraction: bool,
     god_rays: bool,
@@ -245,8 +314,10 @@ pub struct Renderer {
     frame_layout: wgpu::BindGroupLayout,
     frame_buffer: wgpu::Buffer,
     windows_buffer: wgpu::Buffer,
-    frame_group: Option<(u64, wgpu::BindGroup)>,
+    /// The frame bind group and the (scene generation, shadow-map version) it was built for.
+    frame_group: Option<((u64, u64), wgpu::BindGroup)>,
     linear_clamp: wgpu::Sampler,
+    shadow_cmp: wgpu::Sampler,
     nearest_clamp: wgpu::Sampler,
     background: GeometryPass,
     mask: GeometryPass,
@@ -254,6 +325,10 @@ pub struct Renderer {
     lit: GeometryPass,
     rays: GodRayPass,
     composite: CompositePass,
+    shadow: ShadowPass,
+    shadow_layout: ShadowLayout,
+    /// What the maps hold: (scene id, the scene's shadow generation, settings) when drawn.
+    shadows_drawn: Option<(u64, u64, ShadowSettings)>,
     timestamps: Option<Timestamps>,
     frame_index: u32,
 }
@@ -340,12 +415,22 @@ impl Renderer {
             frame_group: None,
             linear_clamp: clamp_sampler(wgpu::FilterMode::Linear),
             nearest_clamp: clamp_sampler(wgpu::FilterMode::Nearest),
+            shadow_cmp: device.create_sampler(&wgpu::SamplerDescriptor {
+                label: Some("shadow comparison"),
+                mag_filter: wgpu::FilterMode::Linear,
+                min_filter: wgpu::FilterMode::Linear,
+                compare: Some(wgpu::CompareFunction::LessEqual),
+                ..Default::default()
+            }),
             background: GeometryPass::background(device, &layout),
             mask: GeometryPass::window_mask(device, &layout),
             normals: GeometryPass::window_normals(device, &layout),
             lit: GeometryPass::lit(device, &layout),
             rays: GodRayPass::new(device),
             composite: CompositePass::new(device, output_format),
+            shadow: ShadowPass::new(device, &scene.material_layout),
+            shadow_layout: ShadowLayout::default(),
+            shadows_drawn: None,
             timestamps,
             frame_index: 0,
         })
@@ -394,6 +479,53 @@ impl Renderer {
         )
     }
 
+    /// Forgets that the shadow maps are up to date, so the next frame draws them again (for
+    /// timing the shadow pass; they are otherwise drawn only when the light or geometry changes).
+    pub fn invalidate_shadow_maps(&mut self) {
+        self.shadows_drawn = None;
+    }
+
+    /// True when the last frame had shadow maps (drawn then or kept from before).
+    pub fn has_shadow_maps(&self) -> bool {
+        !self.shadow_layout.layers.is_empty()
+    }
+
+    /// The shadow maps' layout of the last frame: which windows have a map, and where.
+    pub fn shadow_layout(&self) -> &ShadowLayout {
+        &self.shadow_layout
+    }
+
+    /// Lays the shadow maps out for the scene's light and makes their texture fit.
+    fn update_shadows(&mut self, gpu: &Gpu, scene: &Scene) {
+        let toc = scene.toc();
+        self.shadow_layout = match (&toc.light, self.settings.shadows.enabled) {
+            (Some(light), true) if scene.has_windows() => crate::shadows::layout(
+                &toc.windows,
+                scene.window_shadows(),
+                light,
+                crate::shadows::bounds(scene.occluders()),
+                self.settings.shadows.layer_size(light),
+            ),
+            _ => ShadowLayout::default(),
+        };
+        if let Some(light) = &toc.light {
+            let size = self.settings.shadows.layer_size(light);
+            self.shadow
+                .prepare(&gpu.device, &gpu.queue, &self.shadow_layout, size);
+        }
+    }
+
+    /// What the maps' contents depend on (bias and filter width are applied when reading).
+    fn shadow_key(&self, scene: &Scene) -> (u64, u64, ShadowSettings) {
+        let s = self.settings.shadows;
+        let drawn = ShadowSettings {
+            bias: 0.0,
+            filter: 0.0,
+            ..s
+        };
+        (scene.id(), scene.shadow_generation(), drawn)
+    }
+
     fn plan(&self, scene: &Scene, view: &View) -> (Plan, Option<uniforms::GodRays>) {
         let windows = scene.has_windows();
         let refraction =
@@ -422,7 +554,21 @@ impl Renderer {
             ms: None,
             skipped: reason,
         };
+        let shadow_skip = if !self.settings.shadows.enabled {
+            Some("occlusion off")
+        } else if !windows {
+            Some("no windows")
+        } else if light.is_none() {
+            Some("no light")
+        } else if self.shadow_layout.layers.is_empty() {
+            Some("nothing can block any window's light")
+        } else if self.shadows_drawn == Some(self.shadow_key(scene)) {
+            Some("up to date: the light and the geometry have not changed")
+        } else {
+            None
+        };
         let passes = vec![
+            skip(PassId::Shadows, shadow_skip),
             skip(PassId::Background, None),
             skip(PassId::WindowMask, (!windows).then_some("no windows")),
             skip(
@@ -452,6 +598,7 @@ impl Renderer {
         ];
         (
             Plan {
+                shadows: shadow_skip.is_none(),
                 windows,
                 refraction,
                 god_rays: rays.is_some(),
@@ -492,6 +639,13 @@ impl Renderer {
                 0,
                 0,
             ],
+            shadow: [
+                self.settings.shadows.bias.max(0.0),
+                self.settings.shadows.filter.max(0.0),
+                self.shadow.binding_size() as f32,
+                (self.settings.shadows.enabled && !self.shadow_layout.layers.is_empty()) as u32
+                    as f32,
+            ],
             ..Default::default()
         };
         let mut windows = uniforms::Windows::default();
@@ -508,7 +662,7 @@ impl Renderer {
                 LightGeometry::Directional { .. } => 0.0,
             };
             frame.light_colour = c.extend(radius).to_array();
-            for (slot, w) in windows.items.iter_mut().zip(&relative) {
+            for (i, (slot, w)) in windows.items.iter_mut().zip(&relative).enumerate() {
                 let mat = &toc.materials[w.material as usize];
                 let projector = window_projector(w, &g);
                 let tex_slot = scene.projector_slot(mat.projector_texture);
@@ -529,6 +683,15 @@ impl Renderer {
                 };
                 slot.tint = tint;
                 slot.params = [layer, projector.is_some() as u32, 0, 0];
+                if let Some(Some(map)) = self.shadow_layout.windows.get(i) {
+                    slot.params[2] = map.layer;
+                    slot.params[3] = 1;
+                    slot.shadow = map.lookup_relative(view.position).to_cols_array_2d();
+                    slot.shadow_x = map.x_dir.extend(map.texel[0]).to_array();
+                    slot.shadow_y = map.y_dir.extend(map.texel[1]).to_array();
+                    slot.shadow_depth = [map.near, map.far, map.lamp_distance, map.light_size];
+                    slot.shadow_dir = map.depth_dir.extend(0.0).to_array();
+                }
             }
         } else {
             for (slot, w) in windows.items.iter_mut().zip(&relative) {
@@ -561,7 +724,9 @@ impl Renderer {
             ],
         };
         self.composite.write_uniforms(&gpu.queue, &comp);
-        if self.frame_group.as_ref().map(|(g, _)| *g) != Some(scene.generation()) {
+        let (maps, maps_version) = self.shadow.binding();
+        let key = (scene.generation(), maps_version);
+        if self.frame_group.as_ref().map(|(g, _)| *g) != Some(key) {
             let entries = [
                 wgpu::BindGroupEntry {
                     binding: 0,
@@ -579,13 +744,21 @@ impl Renderer {
                     binding: 3,
                     resource: wgpu::BindingResource::Sampler(&self.linear_clamp),
                 },
+                wgpu::BindGroupEntry {
+                    binding: 4,
+                    resource: wgpu::BindingResource::TextureView(maps),
+                },
+                wgpu::BindGroupEntry {
+                    binding: 5,
+                    resource: wgpu::BindingResource::Sampler(&self.shadow_cmp),
+                },
             ];
             let group = gpu.device.create_bind_group(&wgpu::BindGroupDescriptor {
                 label: Some("frame"),
                 layout: &self.frame_layout,
                 entries: &entries,
             });
-            self.frame_group = Some((scene.generation(), group));
+            self.frame_group = Some((key, group));
         }
     }
 
@@ -634,6 +807,11 @@ impl Renderer {
         let clear = wgpu::Color::TRANSPARENT;
         let depth = &t.depth.view;
         match pass {
+            PassId::Shadows => {
+                self.shadow.record(encoder, scene, ts);
+                self.shadow
+                    .record_view(encoder, &gpu.device, &gpu.queue, 0, &t.shadow_view.view);
+            }
             PassId::Background => {
                 let target = into(&t.background, background);
                 self.background
@@ -717,8 +895,12 @@ impl Renderer {
         output: &wgpu::TextureView,
         timing: TimingMethod,
     ) -> Result<FrameReport, RenderError> {
+        self.update_shadows(gpu, scene);
         let (mut plan, rays) = self.plan(scene, view);
         self.write_uniforms(gpu, scene, view, &plan, rays);
+        if plan.shadows {
+            self.shadows_drawn = Some(self.shadow_key(scene));
+        }
         self.frame_index = self.frame_index.wrapping_add(1);
         let recorded: Vec<PassId> = plan
             .passes
@@ -817,10 +999,10 @@ impl Renderer {
         id: TargetId,
     ) -> Result<(u32, u32, Vec<[f32; 4]>), RenderError> {
         let t = self.targets.get(id);
-        let (w, h) = if id == TargetId::GodRays {
-            self.targets.rays_size
-        } else {
-            self.targets.size
+        let (w, h) = match id {
+            TargetId::GodRays => self.targets.rays_size,
+            TargetId::ShadowMap => (SHADOW_VIEW_SIZE, SHADOW_VIEW_SIZE),
+            _ => self.targets.size,
         };
         let bytes = read_texture(&gpu.device, &gpu.queue, &t.texture, 8)?;
         let halfs: &[u16] = bytemuck::cast_slice(&bytes);

@@ -5,8 +5,17 @@
 
 use pack::{MaterialClass, SectionRole, StandardVertex, Toc, VertexLayout};
 
+use crate::occlusion::{self, WindowShadow};
+use crate::projectors::Projectors;
 use crate::uniforms;
+use crate::view::LightGeometry;
 use crate::{Gpu, RenderError};
+
+#[derive(Default)]
+struct CpuMesh {
+    positions: Option<Vec<glam::Vec3>>,
+    indices: Option<Vec<u32>>,
+}
 
 /// Mips up to this many bytes (64×64 RGBA8) count as "small": the first frame waits for them.
 pub const SMALL_MIP_BYTES: u64 = 64 * 64 * 4;
@@ -114,13 +123,21 @@ pub struct Scene {
     pub(crate) material_layout: wgpu::BindGroupLayout,
     pub(crate) placeholders: Placeholders,
     material_sampler: wgpu::Sampler,
-    /// Texture index of each projector array layer.
-    projector_slots: Vec<u32>,
     projectors: Projectors,
+    /// CPU copies of the geometry, for the load-time occlusion analysis.
+    cpu: Vec<CpuMesh>,
+    /// Opaque triangles (neither glass nor backdrop), once all geometry is in.
+    occluders: Vec<[glam::Vec3; 3]>,
+    /// Per window, whether its light needs a shadow map (for the current light).
+    window_shadows: Vec<WindowShadow>,
+    /// Bumped when the geometry or the light changes: shadow maps drawn before are stale.
+    shadow_generation: u64,
     status: LoadStatus,
     dirty: bool,
     /// Bumped whenever a texture view changes, so frame bind groups can be rebuilt.
     generation: u64,
+    /// Unique per scene, so a renderer can tell a swapped-in scene from the one it drew.
+    id: u64,
 }
 
 pub(crate) fn material_layout(device: &wgpu::Device) -> wgpu::BindGroupLayout {
@@ -227,21 +244,6 @@ impl Scene {
                 view: None,
             });
         }
-        let mut projector_slots: Vec<u32> = Vec::new();
-        for w in &toc.windows {
-            if let Some(p) = toc.materials[w.material as usize].projector_texture
-                && !projector_slots.contains(&p)
-            {
-                projector_slots.push(p);
-            }
-        }
-        let max_layers = device.limits().max_texture_array_layers as usize;
-        if projector_slots.len() > max_layers {
-            return Err(RenderError::TooManyProjectors {
-                found: projector_slots.len(),
-                max: max_layers,
-            });
-        }
         if toc.windows.len() > uniforms::MAX_WINDOWS {
             return Err(RenderError::TooManyWindows {
                 found: toc.windows.len(),
@@ -281,8 +283,11 @@ impl Scene {
             material_layout,
             placeholders,
             material_sampler,
-            projectors: Projectors::new(gpu, toc, &projector_slots),
-            projector_slots,
+            projectors: Projectors::new(gpu, toc)?,
+            cpu: toc.meshes.iter().map(|_| CpuMesh::default()).collect(),
+            occluders: Vec::new(),
+            window_shadows: vec![WindowShadow::NoLight; toc.windows.len()],
+            shadow_generation: 0,
             status: LoadStatus {
                 geometry_total: toc.meshes.len() as u32 * 2,
                 mips_total: toc.textures.iter().map(|t| t.mips.len() as u32).sum(),
@@ -290,6 +295,10 @@ impl Scene {
             },
             dirty: false,
             generation: 0,
+            id: {
+                static NEXT: std::sync::atomic::AtomicU64 = std::sync::atomic::AtomicU64::new(1);
+                NEXT.fetch_add(1, std::sync::atomic::Ordering::Relaxed)
+            },
         };
         scene.materials = toc
             .materials
@@ -419,6 +428,18 @@ impl Scene {
                         mesh: m.name.clone(),
                         reason,
                     })?;
+                let positions = match &converted {
+                    Some(v) => v.iter().map(|v| glam::Vec3::from(v.position)).collect(),
+                    None => bytes
+                        .chunks_exact(std::mem::size_of::<StandardVertex>())
+                        .map(|v| {
+                            glam::Vec3::from(
+                                bytemuck::pod_read_unaligned::<StandardVertex>(v).position,
+                            )
+                        })
+                        .collect(),
+                };
+                self.cpu[mesh as usize].positions = Some(positions);
                 let data: &[u8] = converted
                     .as_deref()
                     .map(bytemuck::cast_slice)
@@ -432,11 +453,23 @@ impl Scene {
                     });
                 self.meshes[mesh as usize].vertices = Some(buffer);
                 self.status.geometry_sections += 1;
+                self.geometry_arrived();
             }
             SectionRole::Indices { mesh } => {
                 let m = &self.toc.meshes[mesh as usize];
                 // Buffers must be a multiple of 4 bytes (an odd count of u16 indices is padded)
                 // and are kept non-empty, so a mesh without triangles needs no special case.
+                let indices = match m.index_format {
+                    pack::IndexFormat::U16 => bytes
+                        .chunks_exact(2)
+                        .map(|c| u16::from_le_bytes([c[0], c[1]]) as u32)
+                        .collect(),
+                    pack::IndexFormat::U32 => bytes
+                        .chunks_exact(4)
+                        .map(|c| u32::from_le_bytes([c[0], c[1], c[2], c[3]]))
+                        .collect(),
+                };
+                self.cpu[mesh as usize].indices = Some(indices);
                 let mut data = bytes.to_vec();
                 data.resize((bytes.len().div_ceil(4) * 4).max(4), 0);
                 let buffer = gpu
@@ -448,6 +481,7 @@ impl Scene {
                     });
                 self.meshes[mesh as usize].indices = Some(buffer);
                 self.status.geometry_sections += 1;
+                self.geometry_arrived();
             }
             SectionRole::Mip { texture, level } => {
                 let t = &self.toc.textures[texture as usize];
@@ -527,25 +561,11 @@ impl Scene {
         for (m, g) in self.materials.iter_mut().zip(groups) {
             m.bind_group = g;
         }
-        let sources: Vec<Option<ProjectorSource>> = self
-            .projector_slots
-            .iter()
-            .map(|&t| {
-                let info = &self.toc.textures[t as usize];
-                let (w, h) = info.storage_size();
-                let scale = info.uv_scale();
-                let t = &self.textures[t as usize];
-                t.resident_from
-                    .zip(t.view.as_ref())
-                    .map(|(base, view)| ProjectorSource {
-                        base,
-                        view,
-                        full: w.max(h),
-                        scale,
-                    })
-            })
-            .collect();
-        self.projectors.update(gpu, &sources);
+        let textures = &self.textures;
+        self.projectors.update(gpu, &self.toc, |t| {
+            let t = &textures[t as usize];
+            t.resident_from.zip(t.view.as_ref())
+        });
         self.generation += 1;
     }
 
@@ -559,7 +579,63 @@ impl Scene {
     /// Replaces the scene's light; the next frame's shading, projectors and god rays follow.
     /// The interactive viewer tunes colour, intensity and falloff this way without a re-cook.
     pub fn set_light(&mut self, light: Option<pack::Light>) {
+        // Colour and intensity change neither which windows need maps nor the maps.
+        let moved = self.toc.light.as_ref().map(|l| &l.kind) != light.as_ref().map(|l| &l.kind);
         self.toc.light = light;
+        if moved {
+            self.analyse_occlusion();
+        }
+    }
+
+    /// Once the last geometry section is in, gathers the opaque triangles and decides which
+    /// windows need shadow maps.
+    fn geometry_arrived(&mut self) {
+        if !self.geometry_complete() {
+            return;
+        }
+        self.occluders.clear();
+        for (m, cpu) in self.toc.meshes.iter().zip(&self.cpu) {
+            let (Some(pos), Some(idx)) = (&cpu.positions, &cpu.indices) else {
+                continue;
+            };
+            for r in &m.ranges {
+                let class = self.toc.materials[r.material as usize].class;
+                if class.is_window() || class == MaterialClass::Background {
+                    continue;
+                }
+                let first = r.first_index as usize;
+                let end = (first + r.index_count as usize).min(idx.len());
+                for t in idx[first.min(end)..end].chunks_exact(3) {
+                    // Indices were validated against the vertex count by the pack reader.
+                    let p = |i: u32| pos.get(i as usize).copied().unwrap_or(glam::Vec3::ZERO);
+                    self.occluders.push([p(t[0]), p(t[1]), p(t[2])]);
+                }
+            }
+        }
+        self.analyse_occlusion();
+    }
+
+    fn analyse_occlusion(&mut self) {
+        let light = self.toc.light.as_ref().map(LightGeometry::from_light);
+        self.window_shadows =
+            occlusion::analyse(&self.toc.windows, light.as_ref(), &self.occluders);
+        self.shadow_generation += 1;
+    }
+
+    /// Per window (in TOC order), whether its light needs a shadow map and why; decided from
+    /// the geometry once it is all in (every window reads [`WindowShadow::NoLight`] before).
+    pub fn window_shadows(&self) -> &[WindowShadow] {
+        &self.window_shadows
+    }
+
+    /// The opaque triangles (world positions) the shadow maps and the analysis see.
+    pub fn occluders(&self) -> &[[glam::Vec3; 3]] {
+        &self.occluders
+    }
+
+    /// Changes whenever shadow maps drawn earlier may be stale (geometry or light changed).
+    pub(crate) fn shadow_generation(&self) -> u64 {
+        self.shadow_generation
     }
 
     /// Records every loaded draw range with the caller's pipeline: `bind` runs before each
@@ -586,6 +662,10 @@ impl Scene {
         self.generation
     }
 
+    pub(crate) fn id(&self) -> u64 {
+        self.id
+    }
+
     pub fn geometry_complete(&self) -> bool {
         self.status.geometry_sections == self.status.geometry_total
     }
@@ -604,20 +684,16 @@ impl Scene {
 
     /// Every window's projector texture, one layer each (white where not resident yet).
     pub(crate) fn projector_array(&self) -> &wgpu::TextureView {
-        &self.projectors.view
+        self.projectors.view()
     }
 
     /// The projector layer that stays white.
     pub(crate) fn white_projector_layer(&self) -> u32 {
-        self.projector_slots.len() as u32
+        self.projectors.white_layer()
     }
 
     pub(crate) fn projector_slot(&self, texture: Option<u32>) -> Option<u32> {
-        let t = texture?;
-        self.projector_slots
-            .iter()
-            .position(|&p| p == t)
-            .map(|s| s as u32)
+        self.projectors.slot(texture)
     }
 
     /// True when some loaded range is drawn with a window material.
@@ -731,221 +807,6 @@ fn standard_vertices(
         .map(|v| layout.decode(v))
         .collect();
     Ok(Some(out))
-}
-
-/// What a projector layer is copied from: the texture's resident base level, a view of the
-/// resident levels, its stored level-0 size (the larger side) and its `uv_scale`.
-#[derive(Clone, Copy)]
-struct ProjectorSource<'a> {
-    base: u32,
-    view: &'a wgpu::TextureView,
-    full: u32,
-    scale: [f32; 2],
-}
-
-/// Projector textures gathered into one array, so the lit pass can reach any window's design
-/// with a single binding however many windows a scene has. Each layer is a resampled copy of
-/// the levels resident so far, refreshed as larger ones stream in.
-struct Projectors {
-    texture: wgpu::Texture,
-    view: wgpu::TextureView,
-    pipeline: wgpu::RenderPipeline,
-    layout: wgpu::BindGroupLayout,
-    sampler: wgpu::Sampler,
-    size: u32,
-    levels: u32,
-    /// The resident base level each layer was last copied from.
-    copied: Vec<Option<u32>>,
-}
-
-/// Layers are square. Projectors are pre-blurred (the default scene's by 6 to 7 texels at
-/// 1024), so 512 keeps their detail while quartering the copy each streamed level costs.
-const MAX_PROJECTOR_SIZE: u32 = 512;
-
-impl Projectors {
-    fn new(gpu: &Gpu, toc: &Toc, slots: &[u32]) -> Self {
-        let device = &gpu.device;
-        let size = slots
-            .iter()
-            .map(|&t| {
-                toc.textures[t as usize]
-                    .width
-                    .max(toc.textures[t as usize].height)
-            })
-            .max()
-            .unwrap_or(1)
-            .min(MAX_PROJECTOR_SIZE);
-        // One layer per projector plus a white one for windows without a projector texture.
-        let layers = slots.len() as u32 + 1;
-        // A full chain: floors seen at grazing angles minify the patterns strongly.
-        let levels = 32 - size.leading_zeros();
-        let texture = device.create_texture(&wgpu::TextureDescriptor {
-            label: Some("projectors"),
-            size: wgpu::Extent3d {
-                width: size,
-                height: size,
-                depth_or_array_layers: layers,
-            },
-            mip_level_count: levels,
-            sample_count: 1,
-            dimension: wgpu::TextureDimension::D2,
-            format: wgpu::TextureFormat::Rgba8UnormSrgb,
-            usage: wgpu::TextureUsages::TEXTURE_BINDING | wgpu::TextureUsages::RENDER_ATTACHMENT,
-            view_formats: &[],
-        });
-        let view = texture.create_view(&wgpu::TextureViewDescriptor {
-            dimension: Some(wgpu::TextureViewDimension::D2Array),
-            ..Default::default()
-        });
-        let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-            label: Some("projector copy"),
-            entries: &[
-                crate::passes::texture_entry(0),
-                crate::passes::sampler_entry(1),
-                wgpu::BindGroupLayoutEntry {
-                    binding: 2,
-                    visibility: wgpu::ShaderStages::FRAGMENT,
-                    ty: wgpu::BindingType::Buffer {
-                        ty: wgpu::BufferBindingType::Uniform,
-                        has_dynamic_offset: false,
-                        min_binding_size: None,
-                    },
-                    count: None,
-                },
-            ],
-        });
-        let pipeline = crate::passes::fullscreen_pipeline(
-            device,
-            &layout,
-            "blit.wgsl",
-            wgpu::TextureFormat::Rgba8UnormSrgb,
-        );
-        let sampler = device.create_sampler(&wgpu::SamplerDescriptor {
-            mag_filter: wgpu::FilterMode::Linear,
-            min_filter: wgpu::FilterMode::Linear,
-            mipmap_filter: wgpu::MipmapFilterMode::Linear,
-            ..Default::default()
-        });
-        let p = Self {
-            texture,
-            view,
-            pipeline,
-            layout,
-            sampler,
-            size,
-            levels,
-            copied: vec![None; layers as usize],
-        };
-        // Until a projector's first level arrives its layer is white: unfiltered light.
-        let mut encoder = device.create_command_encoder(&Default::default());
-        for layer in 0..layers {
-            for level in 0..levels {
-                p.layer_pass(&mut encoder, layer, level, true);
-            }
-        }
-        gpu.queue.submit([encoder.finish()]);
-        p
-    }
-
-    fn layer_pass<'e>(
-        &self,
-        encoder: &'e mut wgpu::CommandEncoder,
-        layer: u32,
-        level: u32,
-        clear_white: bool,
-    ) -> wgpu::RenderPass<'e> {
-        let view = self.texture.create_view(&wgpu::TextureViewDescriptor {
-            dimension: Some(wgpu::TextureViewDimension::D2),
-            base_array_layer: layer,
-            array_layer_count: Some(1),
-            base_mip_level: level,
-            mip_level_count: Some(1),
-            ..Default::default()
-        });
-        encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
-            label: Some("projector copy"),
-            color_attachments: &[Some(wgpu::RenderPassColorAttachment {
-                view: &view,
-                depth_slice: None,
-                resolve_target: None,
-                ops: wgpu::Operations {
-                    load: wgpu::LoadOp::Clear(if clear_white {
-                        wgpu::Color::WHITE
-                    } else {
-                        wgpu::Color::BLACK
-                    }),
-                    store: wgpu::StoreOp::Store,
-                },
-            })],
-            depth_stencil_attachment: None,
-            timestamp_writes: None,
-            occlusion_query_set: None,
-            multiview_mask: None,
-        })
-    }
-
-    /// Copies each layer whose source gained levels since its last copy.
-    fn update(&mut self, gpu: &Gpu, sources: &[Option<ProjectorSource>]) {
-        use wgpu::util::DeviceExt;
-        let mut encoder = gpu.device.create_command_encoder(&Default::default());
-        let mut any = false;
-        for (layer, source) in sources.iter().enumerate() {
-            let Some(ProjectorSource {
-                base,
-                view,
-                full,
-                scale,
-            }) = *source
-            else {
-                continue;
-            };
-            if self.copied[layer] == Some(base) {
-                continue;
-            }
-            for level in 0..self.levels {
-                // Source level of about this array level's size, relative to the view's base.
-                let lod =
-                    ((full as f32 / self.size as f32).log2() + level as f32 - base as f32).max(0.0);
-                let u = uniforms::Blit {
-                    lod: [lod, scale[0], scale[1], 0.0],
-                };
-                let buffer = gpu
-                    .device
-                    .create_buffer_init(&wgpu::util::BufferInitDescriptor {
-                        label: Some("projector copy"),
-                        contents: bytemuck::bytes_of(&u),
-                        usage: wgpu::BufferUsages::UNIFORM,
-                    });
-                let group = gpu.device.create_bind_group(&wgpu::BindGroupDescriptor {
-                    label: Some("projector copy"),
-                    layout: &self.layout,
-                    entries: &[
-                        wgpu::BindGroupEntry {
-                            binding: 0,
-                            resource: wgpu::BindingResource::TextureView(view),
-                        },
-                        wgpu::BindGroupEntry {
-                            binding: 1,
-                            resource: wgpu::BindingResource::Sampler(&self.sampler),
-                        },
-                        wgpu::BindGroupEntry {
-                            binding: 2,
-                            resource: buffer.as_entire_binding(),
-                        },
-                    ],
-                });
-                let mut pass = self.layer_pass(&mut encoder, layer as u32, level, false);
-                pass.set_pipeline(&self.pipeline);
-                pass.set_bind_group(0, &group, &[]);
-                pass.draw(0..3, 0..1);
-            }
-            self.copied[layer] = Some(base);
-            any = true;
-        }
-        if any {
-            gpu.queue.submit([encoder.finish()]);
-        }
-    }
 }
 
 #[cfg(test)]

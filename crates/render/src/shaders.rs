@@ -33,6 +33,11 @@ pub const FILES: &[(&str, &str)] = &[
         include_str!("../../../shaders/composite.wgsl"),
     ),
     ("blit.wgsl", include_str!("../../../shaders/blit.wgsl")),
+    ("shadow.wgsl", include_str!("../../../shaders/shadow.wgsl")),
+    (
+        "shadow_view.wgsl",
+        include_str!("../../../shaders/shadow_view.wgsl"),
+    ),
 ];
 
 /// The pass entry files; each composes into one shader module.
@@ -44,7 +49,12 @@ pub const PASSES: &[&str] = &[
     "godrays.wgsl",
     "composite.wgsl",
     "blit.wgsl",
+    "shadow.wgsl",
+    "shadow_view.wgsl",
 ];
+
+/// Passes that write depth only and have no fragment stage.
+pub const DEPTH_ONLY: &[&str] = &["shadow.wgsl"];
 
 const INCLUDE: &str = "//#include ";
 

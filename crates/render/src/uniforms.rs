@@ -22,6 +22,8 @@ pub struct Frame {
     pub light_colour: [f32; 4],
     pub ambient: [f32; 4],
     pub counts: [u32; 4],
+    /// Bias (texels), smallest filter σ (texels), layer size (texels), occlusion on (0 or 1).
+    pub shadow: [f32; 4],
 }
 
 #[repr(C)]
@@ -32,6 +34,11 @@ pub struct WindowProjector {
     pub normal: [f32; 4],
     pub tint: [f32; 4],
     pub params: [u32; 4],
+    pub shadow: [[f32; 4]; 4],
+    pub shadow_x: [f32; 4],
+    pub shadow_y: [f32; 4],
+    pub shadow_depth: [f32; 4],
+    pub shadow_dir: [f32; 4],
 }
 
 #[repr(C)]
@@ -94,6 +101,21 @@ pub struct Composite {
     pub flags: [u32; 4],
 }
 
+/// One shadow-map layer's depth pass (`shadow.wgsl`).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, Pod, Zeroable)]
+pub struct ShadowPass {
+    pub view_proj: [[f32; 4]; 4],
+    pub origin: [f32; 4],
+}
+
+/// The shadow-map view (`shadow_view.wgsl`): layer and layer size.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, Pod, Zeroable)]
+pub struct ShadowView {
+    pub params: [u32; 4],
+}
+
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, Pod, Zeroable)]
 pub struct Blit {
@@ -126,4 +148,14 @@ pub const LAYOUTS: &[(&str, &str, usize)] = &[
     ("GodRays", "GodRays", std::mem::size_of::<GodRays>()),
     ("Composite", "Composite", std::mem::size_of::<Composite>()),
     ("Blit", "Blit", std::mem::size_of::<Blit>()),
+    (
+        "ShadowPass",
+        "ShadowPass",
+        std::mem::size_of::<ShadowPass>(),
+    ),
+    (
+        "ShadowView",
+        "ShadowView",
+        std::mem::size_of::<ShadowView>(),
+    ),
 ];

@@ -11,7 +11,10 @@ use crate::resample::{MipFilter, half, reduce};
 use crate::srgb::{linear_to_srgb, unorm8};
 
 /// How a supplied normal map encodes the vector.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+#[derive(
+    Clone, Copy, Debug, Default, PartialEq, Eq, Hash, serde::Serialize, serde::Deserialize,
+)]
+#[serde(rename_all = "lowercase")]
 pub enum NormalEncoding {
     /// x, y, z in red, green, blue (`v = n·0.5 + 0.5`).
     #[default]
@@ -21,7 +24,10 @@ pub enum NormalEncoding {
 }
 
 /// Direction of the tangent-space y axis in the green channel.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+#[derive(
+    Clone, Copy, Debug, Default, PartialEq, Eq, Hash, serde::Serialize, serde::Deserialize,
+)]
+#[serde(rename_all = "lowercase")]
 pub enum GreenAxis {
     /// Green points up the texture (+v towards the image's top row): OpenGL, Blender.
     #[default]

@@ -5,8 +5,11 @@ use rayon::prelude::*;
 
 use crate::real::Real;
 
-/// Reconstruction filter for mip reduction.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+/// Reconstruction filter for mip reduction. Serde names are [`MipFilter::name`]'s.
+#[derive(
+    Clone, Copy, Debug, Default, PartialEq, Eq, Hash, serde::Serialize, serde::Deserialize,
+)]
+#[serde(rename_all = "lowercase")]
 pub enum MipFilter {
     /// Area average over each output texel's footprint (exact 2x2 for even sizes).
     #[default]

@@ -46,10 +46,10 @@ struct Args {
     /// image would take minutes per σ.
     #[arg(long, default_value_t = 1024)]
     error_region: usize,
-    /// Skip the god-ray sweep (it needs a GPU adapter; lavapipe is enough).
+    /// Skip the god-ray and shadow sweeps (they need a GPU adapter; lavapipe is enough).
     #[arg(long)]
     no_god_rays: bool,
-    /// Run only these sweeps (blur, mips, meshes, god-rays, compression), comma-separated; the others are
+    /// Run only these sweeps (blur, mips, meshes, god-rays, shadows, compression), comma-separated; the others are
     /// left out of the report.
     #[arg(long, value_delimiter = ',')]
     only: Option<Vec<String>>,
@@ -167,6 +167,39 @@ fn main() -> Result<()> {
     if let Err(e) = &god_rays {
         eprintln!("god rays not measured: {e}");
     }
+    let shadows = if args.no_god_rays || !wanted("shadows") {
+        Err("skipped".to_string())
+    } else {
+        let scenes = vec![
+            ("default".to_string(), bench::godrays::default_scene()),
+            ("pillar hall".to_string(), bench::shadows::pillar_hall()),
+        ];
+        let cfg = if args.quick {
+            bench::shadows::ShadowConfig {
+                width: 80,
+                height: 45,
+                runs,
+                timing_sizes: vec![(160, 90)],
+                map_sizes: vec![1024],
+                scenes,
+            }
+        } else {
+            bench::shadows::ShadowConfig {
+                width: 320,
+                height: 180,
+                runs,
+                timing_sizes: vec![(320, 180), (1920, 1080)],
+                map_sizes: vec![1024, 2048, 4096],
+                scenes,
+            }
+        };
+        std::fs::create_dir_all(&args.out)
+            .with_context(|| format!("creating {}", args.out.display()))?;
+        bench::shadows::sweep(&cfg, &args.out, &mut progress).map_err(|e| format!("{e:#}"))
+    };
+    if let Err(e) = &shadows {
+        eprintln!("shadows not measured: {e}");
+    }
     let compression = if wanted("compression") {
         use texture::bc::Bc7Profile;
         bench::compress::sweep(
@@ -198,6 +231,7 @@ fn main() -> Result<()> {
         mips,
         meshes,
         god_rays,
+        shadows,
         compression,
     };
     if args.keep_others {

@@ -33,6 +33,13 @@ pub struct Results {
     /// Block compression: settings × roles, and the default scene's pack both ways.
     #[serde(default)]
     pub compression: crate::compress::CompressReport,
+    /// `Err` text when the shadow sweep did not run (reports from before it read so).
+    #[serde(default = "not_measured")]
+    pub shadows: Result<crate::shadows::ShadowReport, String>,
+}
+
+fn not_measured() -> Result<crate::shadows::ShadowReport, String> {
+    Err("not measured in this run".into())
 }
 
 #[derive(Clone, Debug, Serialize, Deserialize)]
@@ -78,6 +85,10 @@ impl Results {
         if !ran.contains(&"god-rays") {
             kept.push(note("god-rays"));
             self.god_rays = earlier.god_rays;
+        }
+        if !ran.contains(&"shadows") {
+            kept.push(note("shadows"));
+            self.shadows = earlier.shadows;
         }
         if !ran.contains(&"compression") {
             kept.push(note("compression"));
@@ -271,6 +282,7 @@ pub fn write_report(dir: &Path, r: &Results) -> Result<()> {
     mip_section(dir, &mut md, r)?;
     mesh_section(dir, &mut md, r)?;
     god_ray_section(dir, &mut md, r)?;
+    shadow_section(&mut md, r);
     compression_section(dir, &mut md, r)?;
     write(dir, "README.md", &md)?;
     write(dir, "results.json", &serde_json::to_string_pretty(r)?)?;
@@ -719,6 +731,77 @@ fn god_ray_section(dir: &Path, md: &mut String, r: &Results) -> Result<()> {
     )?;
     let _ = writeln!(md, "![god rays](godrays.svg)\n");
     Ok(())
+}
+
+fn shadow_section(md: &mut String, r: &Results) {
+    let _ = writeln!(md, "## Shadows\n");
+    let s = match &r.shadows {
+        Ok(s) => s,
+        Err(e) => {
+            let _ = writeln!(md, "Not measured: {e}\n");
+            return;
+        }
+    };
+    let _ = writeln!(
+        md,
+        "The lit pass (pass 3) against the CPU ray-traced reference (`render::reference`, rules \
+         in docs/reference-tracer.md) at {}x{}, on {}: the reference takes {} rays per pixel, \
+         each with {} shadow rays over the light's disc; the GPU image is drawn at 4x the size \
+         and averaged 4 x 4 (the same 16 samples per pixel). Both are tone mapped as the \
+         composite does (exposure 1, ACES, sRGB) and compared with FLIP (nv-flip, default \
+         pixels per degree). \"Without occlusion\" is plain projective texturing, the renderer \
+         before shadow maps. Images: `shadows/`.\n",
+        s.width, s.height, s.device, s.pixel_samples, s.light_samples
+    );
+    let _ = writeln!(
+        md,
+        "| scene | camera | FLIP mean | FLIP p99 | without occlusion | reference | GPU |"
+    );
+    let _ = writeln!(md, "|---|---|---:|---:|---:|---|---|");
+    for c in &s.cameras {
+        let _ = writeln!(
+            md,
+            "| {} | {} | {:.4} | {:.4} | {:.4} | ![]({}) | ![]({}) |",
+            c.scene,
+            c.camera,
+            c.flip_mean,
+            c.flip_p99,
+            c.flip_mean_unoccluded,
+            c.reference_image,
+            c.gpu_image
+        );
+    }
+    let _ = writeln!(
+        md,
+        "\nCost ({} timing; lavapipe times are for relative comparisons only). The maps do not \
+         depend on the camera and are redrawn only when the light or the geometry changes; the \
+         rows time them every frame. Map 0 is occlusion off.\n",
+        s.timing
+    );
+    let _ = writeln!(
+        md,
+        "| scene | camera | size | map | shadow pass (ms) | lit pass (ms) | frame (ms) |"
+    );
+    let _ = writeln!(md, "|---|---|---|---:|---:|---:|---:|");
+    for t in &s.timings {
+        let _ = writeln!(
+            md,
+            "| {} | {} | {}x{} | {} | {} | {} | {} |",
+            t.scene,
+            t.camera,
+            t.width,
+            t.height,
+            t.map_size,
+            cell(t.shadow_ms, 2),
+            cell(t.lit_ms, 2),
+            cell(t.frame_ms, 2)
+        );
+    }
+    let _ = writeln!(md, "\nWindows of the default scene:\n");
+    for w in &s.default_windows {
+        let _ = writeln!(md, "- {w}");
+    }
+    md.push('\n');
 }
 
 /// The table `crates/cook/src/budget.rs` embeds: our methods only, costs relative to the first

@@ -317,9 +317,9 @@ fn print_stats(out: &cook::CookOutput, write_time: Duration) {
         bytes += mesh_bytes;
     }
     for (name, t) in &report.stages {
-        println!("stage {name:<10} {}", ms(*t));
+        println!("stage {name:<12} {}", ms(*t));
     }
-    println!("stage {:<10} {}", "write", ms(write_time));
+    println!("stage {:<12} {}", "write", ms(write_time));
     let n = tri_out.max(1) as f64;
     println!(
         "total: triangles {tri_in} -> {tri_out} acmr_in={:.3} acmr_out={:.3} bytes/triangle={:.2}",

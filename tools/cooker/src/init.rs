@@ -6,10 +6,20 @@ use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
 use cook::Manifest;
+use cook::manifest::NameKind;
 use cook::tag::Decision;
 use pack::MaterialClass;
 
 use crate::exit::{OK, Outcome, UsageError};
+
+/// Name kinds from the narrowest (one object) to the widest (a material many objects share).
+const SPECIFIC_FIRST: [NameKind; 5] = [
+    NameKind::Object,
+    NameKind::Node,
+    NameKind::Mesh,
+    NameKind::Group,
+    NameKind::Material,
+];
 
 #[derive(clap::Args)]
 pub struct Args {
@@ -109,8 +119,7 @@ pub fn run(args: Args) -> Outcome {
         t,
         "# Tagging rules, first match wins: one per name the guesses rest on."
     );
-    let mut written: Vec<(cook::manifest::NameKind, String)> = Vec::new();
-    let mut glass: Vec<String> = Vec::new();
+    let mut rules: Vec<(NameKind, String, &str, String)> = Vec::new();
     for (si, src) in prepared.imported.iter().enumerate() {
         let mut used = vec![false; src.parts.len()];
         for &p in &src.tri_part {
@@ -125,16 +134,19 @@ pub fn run(args: Args) -> Outcome {
                 .material
                 .class;
             let why = decision.reason().unwrap_or_default();
-            if class.is_window() {
-                let line = format!("{}: {why}", part.names.describe());
-                if !glass.contains(&line) {
-                    glass.push(line);
-                }
-                continue;
-            }
+            // Glass is tagged a window without saying upper or lower: each window instance
+            // is classed by its own sill height.
+            let class = if class.is_window() {
+                cook::manifest::WINDOW_BY_SILL
+            } else {
+                class.name()
+            };
+            // A guess from geometry or material properties is about this part: name it by
+            // its most specific name, so the rule does not also catch other parts that share
+            // a material ("white" is the Cornell box's floor, walls and blocks alike).
             let (kind, name) = match decision {
                 Decision::Heuristic { kind, name, .. } => (*kind, name.clone()),
-                _ => match cook::manifest::NameKind::ALL
+                _ => match SPECIFIC_FIRST
                     .iter()
                     .find_map(|&k| part.names.get(k).map(|n| (k, n.to_string())))
                 {
@@ -142,31 +154,24 @@ pub fn run(args: Args) -> Outcome {
                     None => continue,
                 },
             };
-            if written.contains(&(kind, name.clone())) {
+            if rules.iter().any(|r| r.0 == kind && r.1 == name) {
                 continue;
             }
-            written.push((kind, name.clone()));
-            let _ = writeln!(
-                t,
-                "[[rule]]\nmatch = {}\non = [{}]\nclass = {}    # {}\n",
-                quote(&literal_glob(&name)),
-                quote(kind.name()),
-                quote(class.name()),
-                why.replace('\n', " ")
-            );
+            rules.push((kind, name, class, why.replace('\n', " ")));
         }
     }
-    if !glass.is_empty() {
+    // First match wins, so rules on the narrowest names come first: an object's rule before
+    // a material rule that the object's triangles would also match.
+    rules.sort_by_key(|r| SPECIFIC_FIRST.iter().position(|&k| k == r.0));
+    for (kind, name, class, why) in &rules {
         let _ = writeln!(
             t,
-            "# Glass, left to the heuristics so each window is classed upper or lower by its sill:"
+            "[[rule]]\nmatch = {}\non = [{}]\nclass = {}    # {why}\n",
+            quote(&literal_glob(name)),
+            quote(kind.name()),
+            quote(class),
         );
-        for g in &glass {
-            let _ = writeln!(t, "#   {g}");
-        }
-        let _ = writeln!(t);
     }
-
     // Windows.
     let _ = writeln!(
         t,
@@ -235,7 +240,7 @@ pub fn run(args: Args) -> Outcome {
             quote(&c.name),
             vec3(c.position),
             vec3(c.target),
-            c.fov_y.to_degrees(),
+            c.fov_y,
             c.near,
             c.far
         );
@@ -258,7 +263,7 @@ pub fn run(args: Args) -> Outcome {
     println!(
         "wrote {}: {} rules, {windows} windows, {} floor and {} wall materials, {} cameras",
         output.display(),
-        written.len(),
+        rules.len(),
         classes(MaterialClass::Floor),
         classes(MaterialClass::Wall),
         guess.cameras.len()

@@ -182,9 +182,7 @@ fn manifest_errors_name_the_line() {
         (
             format!("[[mesh]]\nsource = {obj:?}\nscale = \"big\"\n"),
             ":3:",
-            // serde's message for the untagged scale names only its internal enum; it should
-            // say "a number or [x, y, z]".
-            "RawScale",
+            "scale: a number or [x, y, z]",
         ),
         (
             format!(

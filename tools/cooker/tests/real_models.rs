@@ -554,7 +554,31 @@ fn manifest_cook_rasterizes_the_rose_from_its_tf_colours_with_lead_and_a_project
         let z = -8.7 + 0.6 * (k - 1) as f64;
         assert!(near3(vec3(&w["centre"]), [LANCET_X as f64, 5.75, z]), "{w}");
     }
-    let lancet = extract(&pack, "glass#7.design", dir.path());
+    // Thirty lancets of one glass and one shape share one design, one normal map and one
+    // projector (the same texels, stored once).
+    for k in 1..=LANCETS {
+        let m = material(&v, &format!("glass#{k}"));
+        assert_eq!(
+            texture_name(&v, &m["diffuse_texture"]).as_deref(),
+            Some("glass.design"),
+            "glass#{k}"
+        );
+        assert_eq!(
+            texture_name(&v, &m["projector_texture"]).as_deref(),
+            Some("glass.design.projector"),
+            "glass#{k}"
+        );
+    }
+    assert_eq!(
+        texture_names(&v)
+            .iter()
+            .filter(|n| n.starts_with("glass"))
+            .count(),
+        3,
+        "{:?}",
+        texture_names(&v)
+    );
+    let lancet = extract(&pack, "glass.design", dir.path());
     let (lw, lh) = lancet.dimensions();
     let tpm = cook::manifest::DEFAULT_TEXELS_PER_METRE as f64;
     assert_eq!(
@@ -635,11 +659,11 @@ fn a_rectangular_design_on_a_pointed_lancet_throws_pointed_light() {
         window(&v, "glass#7")["design_source"],
         "image, fitted to the window"
     );
-    // The other lancets keep their own designs.
+    // The other lancets keep their (shared) designs from the mesh.
     let other = material(&v, "glass#8");
     assert_eq!(
         texture_name(&v, &other["diffuse_texture"]).as_deref(),
-        Some("glass#8.design")
+        Some("glass.design")
     );
 
     // `cover`: the square photo is cropped to the lancet's 0.4 : 2.5.
@@ -667,6 +691,58 @@ fn a_rectangular_design_on_a_pointed_lancet_throws_pointed_light() {
         );
         assert_eq!(alpha(w / 2, h / 2), 255, "{name}: the body");
         assert_eq!(alpha(w / 2, h - 10), 255, "{name}: the sill");
+    }
+}
+
+/// `fit = "contain"` keeps the whole photo and fills the rest of the lancet with clear glass;
+/// `fit = "stretch"` keeps the photo's pixels and lets the planar UVs stretch it. Both are
+/// still cut to the pointed outline.
+#[test]
+fn contain_and_stretch_fit_a_square_photo_to_a_lancet() {
+    let dir = tempfile::tempdir().unwrap();
+    sibenik(dir.path());
+    let photo = dir.path().join("photo.png");
+    image::RgbaImage::from_pixel(200, 200, image::Rgba([200, 40, 40, 255]))
+        .save(&photo)
+        .unwrap();
+    for (fit, want) in [("contain", (200, 1250)), ("stretch", (200, 200))] {
+        let scene = dir.path().join(format!("{fit}.toml"));
+        std::fs::write(
+            &scene,
+            format!(
+                "[[mesh]]\nsource = \"sibenik.obj\"\n\n[[window]]\nname = \"glass#3\"\n\
+                 design = \"photo.png\"\nfit = \"{fit}\"\n\n{SUN}"
+            ),
+        )
+        .unwrap();
+        let pack = dir.path().join(format!("{fit}.pack"));
+        cook(&scene, &pack, &[]);
+        let v = info(&pack);
+        let m = material(&v, "glass#3");
+        let name = texture_name(&v, &m["diffuse_texture"]).unwrap();
+        assert_eq!(name, "photo.fitted", "{fit}");
+        let img = extract(&pack, &name, dir.path());
+        let (w, h) = img.dimensions();
+        assert_eq!((w, h), want, "{fit}");
+        let red = |p: &image::Rgba<u8>| p[0] > 150 && p[1] < 80 && p[3] == 255;
+        // The middle of the body is the photo either way.
+        assert!(
+            red(img.get_pixel(w / 2, h / 2)),
+            "{fit}: {:?}",
+            img.get_pixel(w / 2, h / 2)
+        );
+        // Beside the point: stone, no light.
+        assert_eq!(img.get_pixel(1, 1)[3], 0, "{fit}");
+        if fit == "contain" {
+            // Clear glass above and below the photo (inside the outline, below the arch).
+            let sill = img.get_pixel(w / 2, h - 5);
+            assert!(
+                sill[3] == 255 && sill.0[..3].iter().all(|&c| c > 240),
+                "{fit}: {sill:?}"
+            );
+        } else {
+            assert!(red(img.get_pixel(w / 2, h - 5)), "{fit}");
+        }
     }
 }
 
@@ -811,6 +887,31 @@ fn german_chapel_names_frames_and_sill_heights() {
         vec3(&window(&v, "Kirchenfenster_Nord")["normal"]),
         [-1.0, 0.0, 0.0]
     ));
+
+    // A rule with `class = "window"` leaves upper/lower to the sill; a rule naming the class
+    // fixes it, whatever the sill.
+    std::fs::write(
+        &scene,
+        "[[mesh]]\nsource = \"kapelle.obj\"\n\n\
+         [[rule]]\nmatch = \"Fenster\"\nclass = \"window\"\n\n\
+         [[rule]]\nmatch = \"Kirchenfenster_*\"\nclass = \"window-lower\"\n",
+    )
+    .unwrap();
+    cook(&scene, &pack, &[]);
+    let c = classes(&info(&pack));
+    assert_eq!(c["Fenster"], "window-lower", "{c:?}");
+    assert_eq!(c["Kirchenfenster_Nord"], "window-lower", "{c:?}");
+    std::fs::write(
+        &scene,
+        "[[mesh]]\nsource = \"kapelle.obj\"\n\n\
+         [[rule]]\nmatch = \"Fenster\"\nclass = \"window\"\n\n\
+         [[rule]]\nmatch = \"Kirchen*\"\nclass = \"window\"\n",
+    )
+    .unwrap();
+    cook(&scene, &pack, &[]);
+    let c = classes(&info(&pack));
+    assert_eq!(c["Fenster"], "window-lower", "{c:?}");
+    assert_eq!(c["Kirchenfenster_Nord"], "window-upper", "{c:?}");
 }
 
 #[test]
@@ -853,6 +954,28 @@ fn bare_cornell_box_tags_floor_and_walls() {
         "the back wall and the tall block"
     );
     assert_eq!(window_count(&v), 0);
+
+    // The guessed camera looks into the room with a 60° view (the pack stores degrees) from
+    // where its view runs deepest: not up against a block.
+    let toc = pack::Pack::open(&pack).unwrap().toc().clone();
+    let cam = &toc.cameras[0];
+    assert_eq!(cam.fov_y, 60.0, "{cam:?}");
+    let [x, y, z] = cam.position;
+    assert!(
+        (0.0..556.0).contains(&x) && (0.0..548.8).contains(&y) && (0.0..559.2).contains(&z),
+        "{cam:?}"
+    );
+    let inside_block = |lo: [f32; 2], hi: [f32; 2], top: f32| {
+        (lo[0]..hi[0]).contains(&x) && (lo[1]..hi[1]).contains(&z) && y < top
+    };
+    assert!(
+        !inside_block([82.0, 65.0], [290.0, 296.0], 165.0),
+        "{cam:?}"
+    );
+    assert!(
+        !inside_block([265.0, 247.0], [472.0, 456.0], 330.0),
+        "{cam:?}"
+    );
 }
 
 /// `KEEP_FIXTURES=DIR cargo test -p cooker --test real_models keep` writes the fixtures to DIR
@@ -982,6 +1105,20 @@ fn init_writes_a_manifest_that_cooks_window_light_without_edits() {
         "{toml}"
     );
     assert!(toml.matches("[[camera]]").count() >= 2, "{toml}");
+    // Glass gets a rule too (class by sill), so every triangle is tagged by a rule and the
+    // manifest validates clean.
+    assert!(
+        toml.contains("match = \"staklo_plavo\"") && toml.contains("class = \"window\""),
+        "{toml}"
+    );
+    let checked = cooker(&[&"validate", &scene]);
+    assert_eq!(
+        checked.status.code(),
+        Some(0),
+        "{}{}",
+        text(&checked.stdout),
+        text(&checked.stderr)
+    );
     // A second init does not overwrite the first without --force.
     let again = cooker(&[&"init", &obj, &"-o", &scene]);
     assert_eq!(again.status.code(), Some(2), "{}", text(&again.stderr));

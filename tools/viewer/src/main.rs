@@ -42,9 +42,16 @@ struct Args {
     /// A camera name from the pack, or `all`.
     #[arg(long, default_value = "all")]
     camera: String,
-    /// Also write each intermediate pass.
+    /// Also write each intermediate pass (and the shadow map), and say which windows got a
+    /// shadow map and why.
     #[arg(long)]
     passes: bool,
+    /// Say which windows got a shadow map and why (also printed with --passes).
+    #[arg(short, long)]
+    verbose: bool,
+    /// Window light passes through stone, as plain projective texturing does (no shadow maps).
+    #[arg(long)]
+    no_occlusion: bool,
     /// Render N frames per camera and print the median time of each pass.
     #[arg(long, value_name = "N")]
     bench: Option<u32>,
@@ -284,6 +291,15 @@ fn print_report(
         }
     }
     println!("  {:<18} {total:8.3} ms", "total");
+    if medians
+        .iter()
+        .any(|(p, ms, _)| *p == PassId::Shadows && ms.is_some())
+    {
+        println!(
+            "  (shadow maps are redrawn only when the light or the geometry changes; the total \
+             counts them every frame)"
+        );
+    }
 }
 
 fn bench(
@@ -298,6 +314,9 @@ fn bench(
     // One untimed frame first, so pipeline compilation is not measured.
     r.render(gpu, scene, view, TimingMethod::None)?;
     for _ in 0..frames.max(1) {
+        // The maps are view-independent and kept between frames; redraw them each frame here
+        // so their cost is measured (the report says they are cached otherwise).
+        r.invalidate_shadow_maps();
         reports.push(r.render(gpu, scene, view, TimingMethod::GpuTimestamps)?);
     }
     let method = reports[0].method;
@@ -319,6 +338,24 @@ fn bench(
         .collect();
     print_report(label, method, &medians);
     Ok(())
+}
+
+/// One line per window: whether its light gets a shadow map, and why.
+fn print_window_shadows(scene: &Scene) {
+    let toc = scene.toc();
+    let decisions = scene.window_shadows();
+    let maps = decisions.iter().filter(|d| d.needs_map()).count();
+    println!(
+        "shadow maps: {maps} of {} windows' light can be blocked",
+        decisions.len()
+    );
+    for (i, (w, d)) in toc.windows.iter().zip(decisions).enumerate() {
+        let name = toc
+            .materials
+            .get(w.material as usize)
+            .map_or("?", |m| m.name.as_str());
+        println!("  window {i} ({name}): {}", d.describe());
+    }
 }
 
 /// The renderer's settings with the god-ray quality from `--max-flip` or the explicit flags
@@ -355,7 +392,8 @@ fn god_ray_settings(args: &Args) -> Result<Settings> {
 
 fn main() -> Result<()> {
     let args = Args::parse();
-    let settings = god_ray_settings(&args)?;
+    let mut settings = god_ray_settings(&args)?;
+    settings.shadows.enabled = !args.no_occlusion;
     if !args.headless {
         let outcome = interactive::run(interactive::Options {
             input: args.input.clone(),
@@ -377,6 +415,9 @@ fn main() -> Result<()> {
     let (scene, mut renderer) = load(&gpu, &args, settings)?;
 
     let toc = scene.toc();
+    if args.verbose || args.passes {
+        print_window_shadows(&scene);
+    }
     let aspect = args.size.0 as f32 / args.size.1 as f32;
     let mut views: Vec<(String, View)> = toc
         .cameras
@@ -412,18 +453,14 @@ fn main() -> Result<()> {
         println!("wrote {}", path.display());
         if args.passes {
             for id in TargetId::ALL {
-                let pass = match id {
-                    TargetId::Background => PassId::Background,
-                    TargetId::WindowMask => PassId::WindowMask,
-                    TargetId::WindowNormals => PassId::WindowNormals,
-                    TargetId::Lit => PassId::Lit,
-                    TargetId::GodRays => PassId::GodRays,
-                };
+                let pass = id.pass();
+                // The maps outlive the frame that drew them: "up to date" still has a view.
                 if let Some(why) = report
                     .passes
                     .iter()
                     .find(|p| p.pass == pass)
                     .and_then(|p| p.skipped)
+                    .filter(|_| !(id == TargetId::ShadowMap && renderer.has_shadow_maps()))
                 {
                     println!("  {} not drawn ({why})", id.file_stem());
                     continue;

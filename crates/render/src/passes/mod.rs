@@ -8,10 +8,12 @@
 mod composite;
 mod geometry;
 mod god_rays;
+mod shadow;
 
 pub use composite::{CompositeInputs, CompositePass};
 pub use geometry::GeometryPass;
 pub use god_rays::GodRayPass;
+pub use shadow::{SHADOW_VIEW_SIZE, ShadowPass};
 
 use crate::shaders;
 
@@ -55,7 +57,8 @@ pub fn sampler_entry(binding: u32) -> wgpu::BindGroupLayoutEntry {
     }
 }
 
-/// Group 0 of the geometry passes: frame and window uniforms, the projector array, a sampler.
+/// Group 0 of the geometry passes: frame and window uniforms, the projector array, a sampler,
+/// the shadow maps and their comparison sampler.
 pub(crate) fn frame_layout(device: &wgpu::Device) -> wgpu::BindGroupLayout {
     let mut entries = vec![
         uniform_entry(0, std::mem::size_of::<crate::uniforms::Frame>()),
@@ -72,6 +75,13 @@ pub(crate) fn frame_layout(device: &wgpu::Device) -> wgpu::BindGroupLayout {
         count: None,
     });
     entries.push(sampler_entry(3));
+    entries.push(shadow::depth_array_entry(4));
+    entries.push(wgpu::BindGroupLayoutEntry {
+        binding: 5,
+        visibility: wgpu::ShaderStages::FRAGMENT,
+        ty: wgpu::BindingType::Sampler(wgpu::SamplerBindingType::Comparison),
+        count: None,
+    });
     device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
         label: Some("frame"),
         entries: &entries,

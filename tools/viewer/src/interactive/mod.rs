@@ -243,6 +243,7 @@ fn key_name(code: KeyCode) -> Option<&'static str> {
         KeyCode::F5 => "f5",
         KeyCode::F6 => "f6",
         KeyCode::F7 => "f7",
+        KeyCode::F8 => "f8",
         KeyCode::F12 => "f12",
         KeyCode::KeyP => "p",
         KeyCode::Escape => "escape",
@@ -645,7 +646,11 @@ impl App {
             }
             "escape" => event_loop.exit(),
             f if f.starts_with('f') => {
-                if let Some(i) = f[1..].parse::<usize>().ok().filter(|i| (1..=7).contains(i)) {
+                if let Some(i) = f[1..]
+                    .parse::<usize>()
+                    .ok()
+                    .filter(|i| (1..=ViewMode::ALL.len()).contains(i))
+                {
                     self.controls.view = ViewMode::ALL[i - 1];
                 }
             }

@@ -94,7 +94,7 @@ pub fn panel(ui: &mut egui::Ui, c: &mut Controls, info: &Info<'_>) -> Vec<Reques
         ui.small(info.adapter);
         ui.small(concat!(
             "WASD fly, Space/E up, Q/C down, Shift fast, Ctrl slow, drag to look, ",
-            "wheel speed, 1–9 presets, F1–F7 views, F12 screenshot, H panel, Esc quit"
+            "wheel speed, 1–9 presets, F1–F8 views, F12 screenshot, H panel, Esc quit"
         ));
 
         if let Some(what) = info.loading {
@@ -212,6 +212,30 @@ pub fn panel(ui: &mut egui::Ui, c: &mut Controls, info: &Info<'_>) -> Vec<Reques
                 });
                 ui.checkbox(&mut g.jitter, "per-pixel jitter");
                 ui.label(crate::god_rays::measured_note(g));
+            });
+        egui::CollapsingHeader::new("window light occlusion (shadow maps)")
+            .default_open(true)
+            .show(ui, |ui| {
+                let s = &mut c.settings.shadows;
+                ui.checkbox(&mut s.enabled, "stone blocks the window light");
+                ui.add_enabled(
+                    s.enabled,
+                    egui::Slider::new(&mut s.bias, 0.0..=8.0).text("bias (texels of slope)"),
+                );
+                ui.add_enabled(
+                    s.enabled,
+                    egui::Slider::new(&mut s.filter, 0.0..=8.0).text("smallest filter σ (texels)"),
+                );
+                ui.horizontal(|ui| {
+                    ui.label("map size");
+                    for size in [512u32, 1024, 2048, 4096] {
+                        ui.radio_value(&mut s.map_size, size, size.to_string());
+                    }
+                });
+                ui.small(
+                    "penumbra width follows the light's size and the blocker's distance; \
+                     maps are redrawn only when the light or these settings change",
+                );
             });
         egui::CollapsingHeader::new("light and shading")
             .default_open(true)

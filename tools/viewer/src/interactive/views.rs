@@ -25,10 +25,11 @@ pub enum ViewMode {
     Lit,
     GodRays,
     MaterialIds,
+    ShadowMap,
 }
 
 impl ViewMode {
-    pub const ALL: [ViewMode; 7] = [
+    pub const ALL: [ViewMode; 8] = [
         Self::Final,
         Self::Background,
         Self::WindowMask,
@@ -36,6 +37,7 @@ impl ViewMode {
         Self::Lit,
         Self::GodRays,
         Self::MaterialIds,
+        Self::ShadowMap,
     ];
 
     pub fn label(self) -> &'static str {
@@ -47,6 +49,7 @@ impl ViewMode {
             Self::Lit => "3 lit scene",
             Self::GodRays => "god rays alone",
             Self::MaterialIds => "material IDs",
+            Self::ShadowMap => "shadow map",
         }
     }
 
@@ -60,6 +63,7 @@ impl ViewMode {
             Self::Lit => "lit",
             Self::GodRays => "rays",
             Self::MaterialIds => "ids",
+            Self::ShadowMap => "shadow",
         }
     }
 
@@ -67,7 +71,7 @@ impl ViewMode {
         Self::ALL.into_iter().find(|m| m.key() == s)
     }
 
-    /// The function key that selects this view (F1 = final … F7 = material IDs).
+    /// The function key that selects this view (F1 = final … F8 = shadow map).
     pub fn shortcut(self) -> &'static str {
         match self {
             Self::Final => "F1",
@@ -77,6 +81,7 @@ impl ViewMode {
             Self::Lit => "F5",
             Self::GodRays => "F6",
             Self::MaterialIds => "F7",
+            Self::ShadowMap => "F8",
         }
     }
 
@@ -87,6 +92,7 @@ impl ViewMode {
             Self::WindowNormals => (TargetId::WindowNormals, PassId::WindowNormals),
             Self::Lit => (TargetId::Lit, PassId::Lit),
             Self::GodRays => (TargetId::GodRays, PassId::GodRays),
+            Self::ShadowMap => (TargetId::ShadowMap, PassId::Shadows),
             Self::Final | Self::MaterialIds => return None,
         })
     }
@@ -512,11 +518,12 @@ impl Display {
         let Some((target, pass)) = mode.target() else {
             return;
         };
+        // Shadow maps are kept between frames: skipped as up to date, they still show.
         let skipped = drawn.report.is_none_or(|r| {
             r.passes
                 .iter()
                 .any(|p| p.pass == pass && p.skipped.is_some())
-        });
+        }) && !(target == TargetId::ShadowMap && drawn.renderer.has_shadow_maps());
         let shader_mode = if skipped {
             3
         } else if target == TargetId::WindowNormals {

@@ -1,0 +1,525 @@
+//! The validation pass: from the TOML shape ([`model`]) to a checked [`Manifest`]. Every error
+//! names the manifest and the line of the value at fault.
+
+use std::path::{Path, PathBuf};
+
+use toml::Spanned;
+
+use super::model;
+use super::{
+    Background, DEFAULT_CAME_WIDTH, DEFAULT_TEXELS_PER_METRE, Fit, Light, Line, Manifest,
+    MeshSource, NameKind, Rule, SceneInfo, Textures, UvMode, WINDOW_BY_SILL, WindowDesign,
+};
+use crate::CookError;
+
+/// Reads manifest text into the TOML shape, then checks it.
+pub(super) fn parse(path: &Path, text: &str) -> Result<Manifest, CookError> {
+    let src = Source { path, text };
+    let raw: model::Manifest = toml::from_str(text).map_err(|e| src.toml_error(&e))?;
+    Ok(Manifest {
+        path: path.to_path_buf(),
+        scene: scene(&src, raw.scene)?,
+        textures: match raw.textures {
+            None => Textures::default(),
+            Some(t) => Textures {
+                mip_filter: t.mip_filter.unwrap_or_default(),
+                format: t.format.unwrap_or_default(),
+                max_normal_error_deg: t
+                    .max_normal_error_deg
+                    .as_ref()
+                    .map(|m| src.positive(m, "max_normal_error_deg"))
+                    .transpose()?,
+            },
+        },
+        meshes: meshes(&src, &raw.mesh)?,
+        rules: rules(&src, &raw.rule)?,
+        windows: windows(&src, &raw.window)?,
+        light: raw.light.as_ref().map(|l| light(&src, l)).transpose()?,
+        cameras: cameras(&src, raw.camera)?,
+        background: background(&src, raw.background)?,
+        bare: false,
+    })
+}
+
+/// Resolves byte offsets in the manifest to 1-based line numbers.
+struct Source<'a> {
+    path: &'a Path,
+    text: &'a str,
+}
+
+impl Source<'_> {
+    fn line(&self, offset: usize) -> Line {
+        let end = offset.min(self.text.len());
+        Line(
+            self.text.as_bytes()[..end]
+                .iter()
+                .filter(|&&b| b == b'\n')
+                .count()
+                + 1,
+        )
+    }
+
+    /// A syntax or type error from toml. One about a value (a wrong type, a name that is no
+    /// variant) says which key it is about, since toml's own message does not.
+    fn toml_error(&self, e: &toml::de::Error) -> CookError {
+        let message = e.message().trim();
+        let message = match e.span().and_then(|s| self.key_before(s.start)) {
+            Some(key) => format!("{key}: {message}"),
+            None => message.to_string(),
+        };
+        CookError::Manifest {
+            path: self.path.to_path_buf(),
+            line: e.span().map(|s| self.line(s.start).0),
+            message,
+        }
+    }
+
+    /// The key of a `key = value` line when `offset` lies in its value.
+    fn key_before(&self, offset: usize) -> Option<&str> {
+        let line = self.text.get(..offset)?;
+        let line = &line[line.rfind('\n').map_or(0, |i| i + 1)..];
+        // The last `=` before the value: `key = value`, or a key of an inline table.
+        let (before, _) = line.rsplit_once('=')?;
+        let key = before
+            .trim_end()
+            .rsplit(|c: char| c.is_whitespace() || c == '{' || c == ',')
+            .next()?;
+        let bare = !key.is_empty()
+            && key
+                .bytes()
+                .all(|b| b.is_ascii_alphanumeric() || b"_-.".contains(&b));
+        bare.then_some(key)
+    }
+
+    fn error(&self, offset: usize, message: impl Into<String>) -> CookError {
+        self.at_line(self.line(offset), message)
+    }
+
+    fn at_line(&self, line: Line, message: impl Into<String>) -> CookError {
+        CookError::Manifest {
+            path: self.path.to_path_buf(),
+            line: Some(line.0),
+            message: message.into(),
+        }
+    }
+
+    /// An error about the manifest as a whole.
+    fn whole(&self, message: impl Into<String>) -> CookError {
+        CookError::Manifest {
+            path: self.path.to_path_buf(),
+            line: None,
+            message: message.into(),
+        }
+    }
+
+    fn err_at<T>(&self, span: &Spanned<T>, message: impl Into<String>) -> CookError {
+        self.error(span.span().start, message)
+    }
+
+    /// A path relative to the manifest that must name an existing file.
+    fn file(&self, value: &Spanned<String>, what: &str) -> Result<PathBuf, CookError> {
+        let dir = self.path.parent().unwrap_or(Path::new(""));
+        let path = dir.join(value.get_ref());
+        match std::fs::metadata(&path) {
+            Ok(m) if m.is_file() => Ok(path),
+            Ok(_) => Err(self.err_at(value, format!("{what} {:?} is not a file", value.get_ref()))),
+            Err(e) => Err(self.err_at(
+                value,
+                format!(
+                    "{what} {:?} cannot be read ({}): {e}",
+                    value.get_ref(),
+                    path.display()
+                ),
+            )),
+        }
+    }
+
+    fn files(
+        &self,
+        value: &Option<Spanned<String>>,
+        what: &str,
+    ) -> Result<Option<PathBuf>, CookError> {
+        value.as_ref().map(|v| self.file(v, what)).transpose()
+    }
+
+    fn positive(&self, value: &Spanned<f32>, what: &str) -> Result<f32, CookError> {
+        let v = *value.get_ref();
+        if v.is_finite() && v > 0.0 {
+            Ok(v)
+        } else {
+            Err(self.err_at(
+                value,
+                format!("{what} is {v} but must be a positive number"),
+            ))
+        }
+    }
+
+    fn positive_or(
+        &self,
+        value: &Option<Spanned<f32>>,
+        what: &str,
+        default: f32,
+    ) -> Result<f32, CookError> {
+        Ok(value
+            .as_ref()
+            .map(|v| self.positive(v, what))
+            .transpose()?
+            .unwrap_or(default))
+    }
+
+    /// One of the names a type gives its values (the pack's classes, colour spaces).
+    fn named<T: Copy>(
+        &self,
+        value: &Spanned<String>,
+        what: &str,
+        all: &[T],
+        name: impl Fn(T) -> &'static str,
+    ) -> Result<T, CookError> {
+        all.iter()
+            .copied()
+            .find(|&v| name(v) == value.get_ref())
+            .ok_or_else(|| {
+                let names: Vec<_> = all.iter().map(|&v| format!("{:?}", name(v))).collect();
+                self.err_at(
+                    value,
+                    format!(
+                        "{what} is {:?} but must be one of {}",
+                        value.get_ref(),
+                        names.join(", ")
+                    ),
+                )
+            })
+    }
+}
+
+fn finite3(v: [f32; 3]) -> bool {
+    v.iter().all(|x| x.is_finite())
+}
+
+fn scene(src: &Source<'_>, raw: Option<model::Scene>) -> Result<SceneInfo, CookError> {
+    let Some(s) = raw else {
+        return Ok(SceneInfo::default());
+    };
+    Ok(SceneInfo {
+        name: s.name,
+        max_error: s
+            .max_error
+            .map(|m| src.positive(&m, "max_error"))
+            .transpose()?,
+    })
+}
+
+fn meshes(src: &Source<'_>, raw: &[Spanned<model::Mesh>]) -> Result<Vec<MeshSource>, CookError> {
+    let mut meshes = Vec::new();
+    for m in raw {
+        let line = src.line(m.span().start);
+        let m = m.get_ref();
+        let source = src.file(&m.source, "mesh source")?;
+        let scale = match &m.scale {
+            None => [1.0; 3],
+            Some(s) => match s.get_ref() {
+                model::Scale::Uniform(k) => [*k; 3],
+                model::Scale::Axes(a) => *a,
+            },
+        };
+        if let Some(s) = &m.scale
+            && (!finite3(scale) || scale.contains(&0.0))
+        {
+            return Err(src.err_at(s, format!("scale {scale:?} must be finite and non-zero")));
+        }
+        let name = m.name.clone().unwrap_or_else(|| {
+            source
+                .file_stem()
+                .map(|s| s.to_string_lossy().into_owned())
+                .unwrap_or_default()
+        });
+        meshes.push(MeshSource {
+            source,
+            name,
+            translate: m.translate.unwrap_or([0.0; 3]),
+            rotate_deg: m.rotate_deg.unwrap_or([0.0; 3]),
+            scale,
+            line,
+        });
+    }
+    if meshes.is_empty() {
+        return Err(src.whole("no [[mesh]] entries: a scene needs at least one mesh source"));
+    }
+    Ok(meshes)
+}
+
+fn rules(src: &Source<'_>, raw: &[Spanned<model::Rule>]) -> Result<Vec<Rule>, CookError> {
+    let mut rules = Vec::new();
+    for r in raw {
+        let line = src.line(r.span().start);
+        let r = r.get_ref();
+        if let Err(e) = globset::GlobBuilder::new(r.pattern.get_ref()).build() {
+            return Err(src.err_at(&r.pattern, format!("invalid glob: {e}")));
+        }
+        let by_sill = r.class.get_ref() == WINDOW_BY_SILL;
+        let class = if by_sill {
+            Some(pack::MaterialClass::WindowUpper)
+        } else {
+            pack::MaterialClass::from_name(r.class.get_ref())
+        };
+        let class = class.ok_or_else(|| {
+            let names: Vec<_> = pack::MaterialClass::ALL
+                .iter()
+                .map(|c| c.name())
+                .chain([WINDOW_BY_SILL])
+                .map(|c| format!("{c:?}"))
+                .collect();
+            src.err_at(
+                &r.class,
+                format!(
+                    "class is {:?} but must be one of {}",
+                    r.class.get_ref(),
+                    names.join(", ")
+                ),
+            )
+        })?;
+        let on = match &r.on {
+            Some(on) if on.get_ref().is_empty() => {
+                return Err(src.err_at(on, "`on` is empty: the rule could never match"));
+            }
+            Some(on) => on.get_ref().clone(),
+            None => NameKind::ALL.to_vec(),
+        };
+        for (v, what) in [
+            (&r.diffuse, "diffuse"),
+            (&r.specular, "specular"),
+            (&r.emissive, "emissive"),
+        ] {
+            if let Some(c) = v
+                && !finite3(*c)
+            {
+                return Err(src.at_line(line, format!("{what} {c:?} is not finite")));
+            }
+        }
+        rules.push(Rule {
+            pattern: r.pattern.get_ref().clone(),
+            on,
+            class,
+            by_sill,
+            material: r.material.clone(),
+            diffuse: r.diffuse,
+            specular: r.specular,
+            shininess: r.shininess,
+            emissive: r.emissive,
+            texture: src.files(&r.texture, "texture")?,
+            normal_map: src.files(&r.normal_map, "normal_map")?,
+            line,
+        });
+    }
+    Ok(rules)
+}
+
+fn windows(
+    src: &Source<'_>,
+    raw: &[Spanned<model::Window>],
+) -> Result<Vec<WindowDesign>, CookError> {
+    let mut windows: Vec<WindowDesign> = Vec::new();
+    for w in raw {
+        let line = src.line(w.span().start);
+        let w = w.get_ref();
+        let name = w.name.as_ref().map(|n| n.get_ref().clone());
+        let material = w.material.as_ref().map(|n| n.get_ref().clone());
+        if name.is_none() && material.is_none() {
+            return Err(src.at_line(
+                line,
+                "a [[window]] needs `name` (a window name or glob) or `material` (a material \
+                 name or glob)",
+            ));
+        }
+        for p in [&w.name, &w.material].into_iter().flatten() {
+            if let Err(e) = globset::Glob::new(p.get_ref()) {
+                return Err(src.err_at(p, format!("invalid glob: {e}")));
+            }
+        }
+        if let Some(prev) = windows
+            .iter()
+            .find(|p| p.material.is_some() && p.material == material && p.name == name)
+        {
+            return Err(src.at_line(
+                line,
+                format!(
+                    "window {} is already described at line {}",
+                    prev.describe(),
+                    prev.line.0
+                ),
+            ));
+        }
+        let fraction = |v: &Option<Spanned<f32>>, what: &str, default: f32| match v {
+            Some(s) if !(s.get_ref().is_finite() && *s.get_ref() >= 0.0 && *s.get_ref() < 0.5) => {
+                Err(src.err_at(s, format!("{what} {} must be in [0, 0.5)", s.get_ref())))
+            }
+            Some(s) => Ok(*s.get_ref()),
+            None => Ok(default),
+        };
+        windows.push(WindowDesign {
+            name,
+            material,
+            design: src.files(&w.design, "window design")?,
+            uv: w.uv.unwrap_or(UvMode::Auto),
+            fit: w.fit.unwrap_or(Fit::Cover),
+            inside: match &w.inside {
+                Some(v) if !finite3(*v.get_ref()) || *v.get_ref() == [0.0; 3] => {
+                    return Err(src.err_at(v, "inside must be a finite, non-zero vector"));
+                }
+                v => v.as_ref().map(|v| *v.get_ref()),
+            },
+            came_width: fraction(&w.came_width, "came_width", DEFAULT_CAME_WIDTH)?,
+            texels_per_metre: src.positive_or(
+                &w.texels_per_metre,
+                "texels_per_metre",
+                DEFAULT_TEXELS_PER_METRE,
+            )?,
+            colour_space: match &w.colour_space {
+                Some(c) => src.named(
+                    c,
+                    "colour_space",
+                    &[pack::ColourSpace::Srgb, pack::ColourSpace::Linear],
+                    pack::ColourSpace::name,
+                )?,
+                None => pack::ColourSpace::Srgb,
+            },
+            normal_map: src.files(&w.normal_map, "normal_map")?,
+            normal_encoding: w.normal_encoding.unwrap_or_default(),
+            green: w.green.unwrap_or_default(),
+            blur_sigma: w
+                .blur_sigma
+                .as_ref()
+                .map(|s| src.positive(s, "blur_sigma"))
+                .transpose()?,
+            texture_format: w.texture_format,
+            line,
+        });
+    }
+    Ok(windows)
+}
+
+fn light(src: &Source<'_>, l: &Spanned<model::Light>) -> Result<Light, CookError> {
+    let raw = l.get_ref();
+    let missing = |what: &str, t: &str| src.err_at(l, format!("a {t} light needs `{what}`"));
+    let stray = |s: usize, what: &str, t: &str| {
+        src.error(s, format!("`{what}` does not apply to a {t} light"))
+    };
+    let kind = match raw.kind {
+        model::LightType::Directional => {
+            if let Some(p) = &raw.position {
+                return Err(stray(p.span().start, "position", "directional"));
+            }
+            if let Some(p) = &raw.radius {
+                return Err(stray(p.span().start, "radius", "directional"));
+            }
+            let d = raw
+                .direction
+                .as_ref()
+                .ok_or_else(|| missing("direction", "directional"))?;
+            let v = glam::Vec3::from(*d.get_ref());
+            if !v.is_finite() || v.length() < 1e-6 {
+                return Err(src.err_at(
+                    d,
+                    format!(
+                        "direction {:?} must be a finite non-zero vector",
+                        d.get_ref()
+                    ),
+                ));
+            }
+            let size = src.positive_or(&raw.angular_size_deg, "angular_size_deg", 0.53)?;
+            pack::LightKind::Directional {
+                direction: v.normalize().to_array(),
+                angular_size: size.to_radians(),
+            }
+        }
+        model::LightType::Point => {
+            if let Some(p) = &raw.direction {
+                return Err(stray(p.span().start, "direction", "point"));
+            }
+            if let Some(p) = &raw.angular_size_deg {
+                return Err(stray(p.span().start, "angular_size_deg", "point"));
+            }
+            let p = raw
+                .position
+                .as_ref()
+                .ok_or_else(|| missing("position", "point"))?;
+            if !finite3(*p.get_ref()) {
+                return Err(src.err_at(p, "position must be finite"));
+            }
+            let radius = raw
+                .radius
+                .as_ref()
+                .ok_or_else(|| missing("radius", "point"))?;
+            pack::LightKind::Point {
+                position: *p.get_ref(),
+                radius: src.positive(radius, "radius")?,
+            }
+        }
+    };
+    let colour = raw.colour.unwrap_or([1.0; 3]);
+    if !finite3(colour) || colour.iter().any(|&c| c < 0.0) {
+        return Err(src.err_at(
+            l,
+            format!("light colour {colour:?} must be finite and non-negative"),
+        ));
+    }
+    Ok(Light {
+        kind,
+        colour,
+        intensity: src.positive_or(&raw.intensity, "intensity", 1.0)?,
+    })
+}
+
+fn cameras(src: &Source<'_>, raw: Vec<model::Camera>) -> Result<Vec<pack::Camera>, CookError> {
+    let mut cameras = Vec::new();
+    for c in raw {
+        let fov_y = src.positive_or(&c.fov_y_deg, "fov_y_deg", 60.0)?;
+        if let Some(f) = &c.fov_y_deg
+            && fov_y >= 180.0
+        {
+            return Err(src.err_at(f, format!("fov_y_deg is {fov_y} but must be below 180")));
+        }
+        let near = src.positive_or(&c.near, "near", 0.05)?;
+        let far = src.positive_or(&c.far, "far", 500.0)?;
+        if far <= near {
+            let at = c
+                .far
+                .as_ref()
+                .or(c.near.as_ref())
+                .map(|s| s.span().start)
+                .unwrap_or(0);
+            return Err(src.error(
+                at,
+                format!("camera {:?}: far {far} must exceed near {near}", c.name),
+            ));
+        }
+        let up = c.up.unwrap_or([0.0, 1.0, 0.0]);
+        if !finite3(c.position) || !finite3(c.target) || !finite3(up) || c.position == c.target {
+            return Err(src.whole(format!(
+                "camera {:?}: position, target and up must be finite and position must differ \
+                 from target",
+                c.name
+            )));
+        }
+        cameras.push(pack::Camera {
+            name: c.name,
+            position: c.position,
+            target: c.target,
+            up,
+            fov_y,
+            near,
+            far,
+        });
+    }
+    Ok(cameras)
+}
+
+fn background(src: &Source<'_>, raw: Option<model::Background>) -> Result<Background, CookError> {
+    Ok(match raw {
+        Some(b) => Background {
+            colour: b.colour.unwrap_or([0.0; 3]),
+            panorama: src.files(&b.panorama, "panorama")?,
+        },
+        None => Background::default(),
+    })
+}

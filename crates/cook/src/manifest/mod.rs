@@ -1,0 +1,599 @@
+//! The scene manifest (`scene.toml`), parsed exactly as `docs/scene-manifest.md` documents it.
+//!
+//! Two steps: serde reads the TOML shape (`model.rs`: types, unknown keys, enum names), then a
+//! validation pass (`check.rs`) checks what a type cannot say (files that exist, ranges,
+//! per-type light fields). Every error names the manifest and the line: toml's spans locate
+//! the first kind, [`toml::Spanned`] values the second.
+
+mod check;
+mod model;
+
+use std::path::{Path, PathBuf};
+
+use serde::{Deserialize, Serialize};
+
+use crate::CookError;
+
+/// A parsed, checked manifest. Paths are resolved against the manifest's directory and exist.
+#[derive(Clone, Debug)]
+pub struct Manifest {
+    /// The manifest file, or the bare mesh file for [`Manifest::from_mesh_file`].
+    pub path: PathBuf,
+    pub scene: SceneInfo,
+    pub textures: Textures,
+    pub meshes: Vec<MeshSource>,
+    pub rules: Vec<Rule>,
+    pub windows: Vec<WindowDesign>,
+    pub light: Option<Light>,
+    pub cameras: Vec<Camera>,
+    pub background: Background,
+    /// True for a bare mesh cooked without a manifest: heuristics only.
+    pub bare: bool,
+}
+
+#[derive(Clone, Debug, Default)]
+pub struct SceneInfo {
+    pub name: Option<String>,
+    /// Error budget in 8-bit sRGB LSB for blur and mip method choices.
+    pub max_error: Option<f32>,
+}
+
+/// How textures are stored in the pack (`[textures] format`, `--texture-format`, or a
+/// window's `texture_format`).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash, serde::Deserialize, Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum TextureFormatChoice {
+    /// Block-compress each texture with the cheapest encoder setting whose measured error fits
+    /// the budget; keep RGBA8 where none does.
+    #[default]
+    Auto,
+    /// Uncompressed RGBA8.
+    Rgba8,
+    /// Block-compress every texture (BC7 colour, BC5 normal maps), the most accurate setting
+    /// with a warning where none fits the budget.
+    Bc,
+}
+
+impl TextureFormatChoice {
+    pub const CHOICES: [(&'static str, TextureFormatChoice); 3] = [
+        ("auto", Self::Auto),
+        ("rgba8", Self::Rgba8),
+        ("bc", Self::Bc),
+    ];
+
+    pub fn name(self) -> &'static str {
+        Self::CHOICES
+            .iter()
+            .find(|(_, c)| *c == self)
+            .map(|(n, _)| *n)
+            .unwrap_or("auto")
+    }
+}
+
+/// The `[textures]` table.
+#[derive(Clone, Debug, Default)]
+pub struct Textures {
+    pub mip_filter: texture::MipFilter,
+    pub format: TextureFormatChoice,
+    /// Budget for block-compressed normal maps: mean angle in degrees (`None`: the default,
+    /// `budget::DEFAULT_NORMAL_ERROR_DEG`).
+    pub max_normal_error_deg: Option<f32>,
+}
+
+/// Where in the manifest a value came from, for errors found after parsing.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize)]
+pub struct Line(pub usize);
+
+#[derive(Clone, Debug)]
+pub struct MeshSource {
+    pub source: PathBuf,
+    pub name: String,
+    pub translate: [f32; 3],
+    pub rotate_deg: [f32; 3],
+    pub scale: [f32; 3],
+    pub line: Line,
+}
+
+impl MeshSource {
+    /// Scale, then rotate (XYZ Euler, degrees), then translate.
+    pub fn transform(&self) -> glam::Mat4 {
+        let r = self.rotate_deg.map(f32::to_radians);
+        glam::Mat4::from_scale_rotation_translation(
+            glam::Vec3::from(self.scale),
+            glam::Quat::from_euler(glam::EulerRot::XYZ, r[0], r[1], r[2]),
+            glam::Vec3::from(self.translate),
+        )
+    }
+}
+
+/// Which source names a rule looks at.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum NameKind {
+    Material,
+    Group,
+    Object,
+    Mesh,
+    Node,
+}
+
+impl NameKind {
+    pub const ALL: [NameKind; 5] = [
+        Self::Material,
+        Self::Group,
+        Self::Object,
+        Self::Mesh,
+        Self::Node,
+    ];
+
+    pub fn name(self) -> &'static str {
+        match self {
+            Self::Material => "material",
+            Self::Group => "group",
+            Self::Object => "object",
+            Self::Mesh => "mesh",
+            Self::Node => "node",
+        }
+    }
+}
+
+/// The rule class that makes a window whose upper/lower class follows its sill.
+pub const WINDOW_BY_SILL: &str = "window";
+
+#[derive(Clone, Debug)]
+pub struct Rule {
+    pub pattern: String,
+    pub on: Vec<NameKind>,
+    pub class: pack::MaterialClass,
+    /// `class = "window"`: a window, upper or lower by its sill height (the cook decides,
+    /// per window instance), instead of a fixed class.
+    pub by_sill: bool,
+    pub material: Option<String>,
+    pub diffuse: Option<[f32; 3]>,
+    pub specular: Option<[f32; 3]>,
+    pub shininess: Option<f32>,
+    pub emissive: Option<[f32; 3]>,
+    pub texture: Option<PathBuf>,
+    pub normal_map: Option<PathBuf>,
+    pub line: Line,
+}
+
+/// Where a window's texture coordinates come from.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum UvMode {
+    /// The source's own UVs where the triangles have them, else planar.
+    #[default]
+    #[serde(rename = "source")]
+    Auto,
+    /// Always generated from the window's rectangle.
+    Planar,
+}
+
+/// How a design image of another aspect ratio fills a window's rectangle (planar UVs only).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Fit {
+    /// Fills the glass and crops the excess, as a photo fills a frame.
+    #[default]
+    Cover,
+    /// The whole design, with clear glass around it.
+    Contain,
+    /// Fills the rectangle exactly, distorting the design.
+    Stretch,
+}
+
+/// Lead came width as a fraction of a window's shorter side, when the manifest gives none.
+pub const DEFAULT_CAME_WIDTH: f32 = 0.015;
+/// Resolution of designs rasterized from the mesh, when the manifest gives none.
+pub const DEFAULT_TEXELS_PER_METRE: f32 = 128.0;
+
+/// A `[[window]]` entry: which windows it describes, and how. (Serialized into cache keys
+/// when it comes from `--window`.)
+#[derive(Clone, Debug, Serialize)]
+pub struct WindowDesign {
+    /// Glob over window names (`cooker info` lists them).
+    pub name: Option<String>,
+    /// Glob over the materials of a window's triangles (source or pack names).
+    pub material: Option<String>,
+    /// The design image; `None` rasterizes one from the panes' colours.
+    #[serde(serialize_with = "path_bytes")]
+    pub design: Option<PathBuf>,
+    pub colour_space: pack::ColourSpace,
+    #[serde(serialize_with = "path_bytes")]
+    pub normal_map: Option<PathBuf>,
+    pub normal_encoding: texture::NormalEncoding,
+    pub green: texture::GreenAxis,
+    pub blur_sigma: Option<f32>,
+    /// Overrides `[textures] format` for this window's design, normal map and projector.
+    pub texture_format: Option<TextureFormatChoice>,
+    pub uv: UvMode,
+    pub fit: Fit,
+    /// A direction pointing into the building, overriding the guess.
+    pub inside: Option<[f32; 3]>,
+    /// Lead came width, a fraction of the shorter side (designs from the mesh).
+    pub came_width: f32,
+    /// Resolution of a design rasterized from the mesh.
+    pub texels_per_metre: f32,
+    pub line: Line,
+}
+
+/// A path as its bytes: serde's own form of a path fails on one that is not UTF-8.
+fn path_bytes<S: serde::Serializer>(path: &Option<PathBuf>, s: S) -> Result<S::Ok, S::Error> {
+    path.as_ref()
+        .map(|p| p.as_os_str().as_encoded_bytes())
+        .serialize(s)
+}
+
+/// A glob as the manifest writes them; a pattern that does not compile matches only itself.
+pub fn glob_matches(pattern: &str, name: &str) -> bool {
+    match globset::Glob::new(pattern) {
+        Ok(g) => g.compile_matcher().is_match(name),
+        Err(_) => pattern == name,
+    }
+}
+
+impl WindowDesign {
+    /// A design entry for `--window NAME=IMAGE`: NAME matches window names and materials.
+    pub fn from_override(pattern: &str, design: PathBuf) -> Self {
+        Self {
+            name: Some(pattern.to_string()),
+            material: Some(pattern.to_string()),
+            design: Some(design),
+            colour_space: pack::ColourSpace::Srgb,
+            normal_map: None,
+            normal_encoding: texture::NormalEncoding::Rgb,
+            green: texture::GreenAxis::OpenGl,
+            blur_sigma: None,
+            texture_format: None,
+            uv: UvMode::Auto,
+            fit: Fit::Cover,
+            inside: None,
+            came_width: DEFAULT_CAME_WIDTH,
+            texels_per_metre: DEFAULT_TEXELS_PER_METRE,
+            line: Line(0),
+        }
+    }
+
+    /// Parses a command line's `NAME=IMAGE`.
+    pub fn parse_override(s: &str) -> Result<(String, PathBuf), String> {
+        match s.split_once('=') {
+            Some((name, image)) if !name.is_empty() && !image.is_empty() => {
+                Ok((name.to_string(), PathBuf::from(image)))
+            }
+            _ => Err(format!("{s:?} is not NAME=IMAGE")),
+        }
+    }
+
+    /// Design entries for `--window NAME=IMAGE` arguments; each image must decode, so a bad
+    /// one fails before any cooking, naming the file.
+    pub fn overrides(windows: &[(String, PathBuf)]) -> Result<Vec<WindowDesign>, CookError> {
+        windows
+            .iter()
+            .map(|(name, image)| {
+                texture::load_image(image)?;
+                Ok(Self::from_override(name, image.clone()))
+            })
+            .collect()
+    }
+
+    /// Whether this entry describes the window `name` made of `materials`.
+    pub fn matches<'a>(&self, name: &str, mut materials: impl Iterator<Item = &'a str>) -> bool {
+        self.name.as_deref().is_some_and(|p| glob_matches(p, name))
+            || self
+                .material
+                .as_deref()
+                .is_some_and(|p| materials.any(|m| glob_matches(p, m)))
+    }
+
+    /// What the entry names, for messages.
+    pub fn describe(&self) -> String {
+        match (&self.name, &self.material) {
+            (Some(n), Some(m)) if n == m => format!("{n:?}"),
+            (Some(n), _) => format!("window {n:?}"),
+            (None, Some(m)) => format!("material {m:?}"),
+            (None, None) => "nothing".into(),
+        }
+    }
+}
+
+#[derive(Clone, Debug, PartialEq)]
+pub struct Light {
+    pub kind: pack::LightKind,
+    pub colour: [f32; 3],
+    pub intensity: f32,
+}
+
+pub type Camera = pack::Camera;
+
+#[derive(Clone, Debug, Default)]
+pub struct Background {
+    pub colour: [f32; 3],
+    pub panorama: Option<PathBuf>,
+}
+
+impl Manifest {
+    /// Reads and checks a `scene.toml`.
+    pub fn load(path: &Path) -> Result<Manifest, CookError> {
+        let text = std::fs::read_to_string(path).map_err(|source| {
+            if source.kind() == std::io::ErrorKind::InvalidData {
+                CookError::Manifest {
+                    path: path.to_path_buf(),
+                    line: None,
+                    message: "not UTF-8 text".into(),
+                }
+            } else {
+                CookError::Io {
+                    path: path.to_path_buf(),
+                    source,
+                }
+            }
+        })?;
+        Self::parse(path, &text)
+    }
+
+    /// Parses manifest text; `path` resolves relative paths and names the manifest in errors.
+    pub fn parse(path: &Path, text: &str) -> Result<Manifest, CookError> {
+        check::parse(path, text)
+    }
+
+    /// A manifest for a bare OBJ/glTF file: no rules (tagging falls back to name heuristics),
+    /// no windows designs, no light or cameras.
+    pub fn from_mesh_file(path: &Path) -> Result<Manifest, CookError> {
+        std::fs::metadata(path).map_err(|source| CookError::Io {
+            path: path.to_path_buf(),
+            source,
+        })?;
+        let name = path
+            .file_stem()
+            .map(|s| s.to_string_lossy().into_owned())
+            .unwrap_or_default();
+        Ok(Manifest {
+            path: path.to_path_buf(),
+            scene: SceneInfo {
+                name: Some(name.clone()),
+                max_error: None,
+            },
+            textures: Textures::default(),
+            meshes: vec![MeshSource {
+                source: path.to_path_buf(),
+                name,
+                translate: [0.0; 3],
+                rotate_deg: [0.0; 3],
+                scale: [1.0; 3],
+                line: Line(0),
+            }],
+            rules: Vec::new(),
+            windows: Vec::new(),
+            light: None,
+            cameras: Vec::new(),
+            background: Background::default(),
+            bare: true,
+        })
+    }
+
+    /// A manifest for `path`: `.toml` files are manifests, anything else a bare mesh.
+    pub fn open(path: &Path) -> Result<Manifest, CookError> {
+        let is_toml = path
+            .extension()
+            .is_some_and(|e| e.eq_ignore_ascii_case("toml"));
+        if is_toml {
+            Self::load(path)
+        } else {
+            Self::from_mesh_file(path)
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A directory with the files the examples refer to.
+    fn dir() -> tempfile::TempDir {
+        let d = tempfile::tempdir().unwrap();
+        for f in ["corridor.obj", "lancet.png", "hammered.png"] {
+            std::fs::write(d.path().join(f), b"").unwrap();
+        }
+        d
+    }
+
+    fn parse(d: &tempfile::TempDir, text: &str) -> Result<Manifest, CookError> {
+        Manifest::parse(&d.path().join("scene.toml"), text)
+    }
+
+    fn line_of(e: CookError) -> (Option<usize>, String) {
+        match e {
+            CookError::Manifest { line, message, .. } => (line, message),
+            other => panic!("not a manifest error: {other}"),
+        }
+    }
+
+    #[test]
+    fn documented_example_parses() {
+        // The example of docs/scene-manifest.md with its file names.
+        let d = dir();
+        let text = r#"
+[scene]
+name = "corridor"
+max_error = 0.55
+
+[textures]
+mip_filter = "lanczos3"
+format = "bc"
+max_normal_error_deg = 0.5
+
+[[mesh]]
+source = "corridor.obj"
+name = "corridor"
+translate = [0.0, 1.0, 0.0]
+rotate_deg = [0.0, 90.0, 0.0]
+scale = [2.0, 2.0, 2.0]
+
+[[rule]]
+match = "Floor*"
+on = ["material"]
+class = "floor"
+material = "floor"
+diffuse = [0.6, 0.55, 0.5]
+specular = [0.05, 0.05, 0.05]
+shininess = 16.0
+emissive = [0.0, 0.0, 0.0]
+
+[[window]]
+material = "lancet_1"
+design = "lancet.png"
+colour_space = "srgb"
+normal_map = "hammered.png"
+normal_encoding = "rg"
+green = "directx"
+blur_sigma = 6.0
+texture_format = "rgba8"
+
+[light]
+type = "point"
+position = [10.0, 8.0, 0.0]
+radius = 0.25
+colour = [1.0, 0.95, 0.85]
+intensity = 4.0
+
+[[camera]]
+name = "nave"
+position = [0.0, 1.7, 18.0]
+target = [0.0, 2.5, 0.0]
+
+[background]
+colour = [0.35, 0.5, 0.8]
+"#;
+        let m = parse(&d, text).unwrap();
+        assert_eq!(m.scene.name.as_deref(), Some("corridor"));
+        assert_eq!(m.textures.mip_filter, texture::MipFilter::Lanczos3);
+        assert_eq!(m.textures.format, TextureFormatChoice::Bc);
+        assert_eq!(m.textures.max_normal_error_deg, Some(0.5));
+        assert_eq!(
+            m.windows[0].texture_format,
+            Some(TextureFormatChoice::Rgba8)
+        );
+        assert_eq!(m.meshes[0].scale, [2.0; 3]);
+        assert_eq!(m.meshes[0].line, Line(11));
+        let t = m.meshes[0].transform();
+        let p = t.transform_point3(glam::Vec3::X);
+        assert!((p - glam::Vec3::new(0.0, 1.0, -2.0)).length() < 1e-5, "{p}");
+        assert_eq!(m.rules[0].class, pack::MaterialClass::Floor);
+        assert_eq!(m.rules[0].on, vec![NameKind::Material]);
+        assert_eq!(m.windows[0].normal_encoding, texture::NormalEncoding::Rg);
+        assert_eq!(m.windows[0].green, texture::GreenAxis::DirectX);
+        assert_eq!(
+            m.light.as_ref().unwrap().kind,
+            pack::LightKind::Point {
+                position: [10.0, 8.0, 0.0],
+                radius: 0.25
+            }
+        );
+        assert_eq!(m.cameras[0].fov_y, 60.0);
+        assert_eq!(m.cameras[0].up, [0.0, 1.0, 0.0]);
+    }
+
+    #[test]
+    fn errors_name_the_line() {
+        let d = dir();
+        let mesh = "[[mesh]]\nsource = \"corridor.obj\"\n";
+        let cases = [
+            (format!("{mesh}bogus = 1\n"), 3, "unknown field"),
+            (
+                format!("{mesh}scale = \"x\"\n"),
+                3,
+                "scale: a number or [x, y, z]",
+            ),
+            (
+                format!("{mesh}[[window]]\nname = \"w\"\nuv = \"sideways\"\n"),
+                5,
+                "uv: unknown variant `sideways`, expected `source` or `planar`",
+            ),
+            (
+                format!("{mesh}[[window]]\nname = \"w\"\ncolour_space = \"rgb\"\n"),
+                5,
+                "colour_space is \"rgb\" but must be one of \"srgb\", \"linear\"",
+            ),
+            (
+                format!(
+                    "{mesh}[[camera]]\nname = \"c\"\nposition = [0.0, 0.0, 0.0]\ntarget = [0.0, 0.0, 1.0]\nup = \"y\"\n"
+                ),
+                7,
+                "up: invalid type: string \"y\"",
+            ),
+            (
+                format!("{mesh}\n[[rule]]\nmatch = \"a\"\nclass = \"ceiling\"\n"),
+                6,
+                "ceiling",
+            ),
+            (
+                format!("{mesh}\n[[rule]]\nmatch = \"a[\"\nclass = \"wall\"\n"),
+                5,
+                "glob",
+            ),
+            (
+                format!("{mesh}\n[[rule]]\nmatch = \"a\"\non = [\"texture\"]\nclass = \"wall\"\n"),
+                6,
+                "texture",
+            ),
+            (
+                "[[mesh]]\nsource = \"missing.obj\"\n".to_string(),
+                2,
+                "missing.obj",
+            ),
+            (
+                format!("{mesh}[[window]]\nmaterial = \"w\"\ndesign = \"nope.png\"\n"),
+                5,
+                "nope.png",
+            ),
+            (
+                format!("{mesh}[light]\ntype = \"directional\"\ndirection = [0.0, 0.0, 0.0]\n"),
+                5,
+                "non-zero",
+            ),
+            (
+                format!(
+                    "{mesh}[light]\ntype = \"directional\"\ndirection = [0.0, -1.0, 0.0]\nradius = 1.0\n"
+                ),
+                6,
+                "radius",
+            ),
+            (
+                format!("{mesh}[light]\ntype = \"sun\"\n"),
+                4,
+                "type: unknown variant `sun`, expected `point` or `directional`",
+            ),
+            (
+                format!(
+                    "{mesh}[[camera]]\nname = \"c\"\nposition = [0.0, 0.0, 0.0]\ntarget = [0.0, 0.0, 1.0]\nfov_y_deg = -5.0\n"
+                ),
+                7,
+                "fov_y_deg",
+            ),
+            (
+                format!("{mesh}[textures]\nmip_filter = \"cubic\"\n"),
+                4,
+                "mip_filter: unknown variant `cubic`, expected one of `box`, `kaiser`, `lanczos3`",
+            ),
+            (format!("{mesh}[scene\n"), 3, ""),
+        ];
+        for (text, line, word) in cases {
+            let (l, msg) = line_of(parse(&d, &text).unwrap_err());
+            assert_eq!(l, Some(line), "{text}\n→ {msg}");
+            assert!(msg.contains(word), "{text}\n→ {msg}");
+        }
+        let (l, msg) = line_of(parse(&d, "[scene]\nname = \"x\"\n").unwrap_err());
+        assert_eq!(l, None);
+        assert!(msg.contains("[[mesh]]"));
+    }
+
+    #[test]
+    fn manifest_errors_display_path_and_line() {
+        let d = dir();
+        let e = parse(&d, "[[mesh]]\nsource = \"corridor.obj\"\nextra = 1\n").unwrap_err();
+        assert!(!e.is_io());
+        let s = e.to_string();
+        assert!(s.contains("scene.toml:3: "), "{s}");
+    }
+}

@@ -1,0 +1,450 @@
+//! The whole pipeline, top to bottom: [`cook`] calls each stage in order, and [`prepare`]
+//! runs its front (import → tag → windows), which `cooker validate` and `cooker init` share.
+
+use std::borrow::Cow;
+use std::path::Path;
+use std::time::{Duration, Instant};
+
+use rayon::prelude::*;
+
+use crate::manifest::Manifest;
+use crate::report::{HeuristicNote, MeshReport, Report};
+use crate::{CookError, Settings, Warning, guess, import, mesh, prune, tag, textures};
+use crate::{window_plan, windows};
+
+/// A cooked scene: write it with [`CookOutput::write`] (atomically).
+#[derive(Clone, Debug)]
+pub struct CookOutput {
+    pub toc: pack::Toc,
+    pub data: pack::PackData,
+    pub report: Report,
+}
+
+impl CookOutput {
+    pub fn write(&self, path: &Path) -> Result<(), CookError> {
+        Ok(pack::write_pack(path, self.toc.clone(), &self.data)?)
+    }
+}
+
+/// The whole pipeline: sources in, a pack's TOC and data out.
+pub fn cook(manifest: &Manifest, settings: &Settings) -> Result<CookOutput, CookError> {
+    let mut report = Report::default();
+
+    // 1–3. Import every source into a triangle soup (errors name file and line); tag source
+    // names to pack materials with a class; find the windows in the geometry.
+    let prepared = prepare(manifest, settings, &mut report)?;
+    let manifest = with_guesses(manifest, &prepared, &mut report);
+    let Prepared {
+        imported,
+        import_times,
+        mut tagging,
+        tri_material,
+        windows: found,
+    } = prepared;
+    record_sources(&manifest, &imported, &tagging, &mut report);
+    let mut clock = Lap::start();
+
+    // 4. Mesh processing, one source per task; materials left without triangles are dropped.
+    let mut processed = process_meshes(&imported, &tri_material, &tagging, settings);
+    prune::unused_materials(
+        &manifest,
+        &found.replaced,
+        &mut tagging,
+        &mut processed,
+        &mut report,
+    );
+    prune::unused_source_materials(&imported, &tagging, &mut report);
+    let needs = material_needs(&tagging);
+    clock.lap(&mut report, "mesh");
+
+    // 5. Windows: frames from the geometry, and which of them light a receiving surface.
+    let (window_frames, lit_windows) = frame_windows(&manifest, &tagging, &processed, &mut report);
+    clock.lap(&mut report, "light reach");
+
+    // 6. Textures: material maps, window designs, normal maps and projectors, background.
+    let floor_y = floor_height(&tagging, &processed);
+    let (textures, texture_data, panorama) = textures::cook_textures(
+        &manifest,
+        &mut tagging,
+        &window_frames,
+        &lit_windows,
+        floor_y,
+        settings,
+        &mut report,
+    )?;
+    report.inputs.sort();
+    report.inputs.dedup();
+    clock.lap(&mut report, "textures");
+
+    // 7. Encode the meshes and assemble the TOC and bulk data.
+    let mut toc = pack::Toc {
+        materials: tagging
+            .materials
+            .iter()
+            .map(|m| m.material.clone())
+            .collect(),
+        textures,
+        windows: window_frames,
+        light: manifest.light.as_ref().map(|l| pack::Light {
+            kind: l.kind.clone(),
+            colour: l.colour,
+            intensity: l.intensity,
+        }),
+        cameras: manifest.cameras.clone(),
+        background: pack::Background {
+            colour: manifest.background.colour,
+            panorama,
+        },
+        meshes: Vec::new(),
+    };
+    let mut data = pack::PackData {
+        meshes: Vec::new(),
+        textures: texture_data,
+    };
+    let quantize = settings.quantize.then_some(settings.position_bits);
+    for ((p, (src, import_time)), m) in processed
+        .into_iter()
+        .zip(imported.iter().zip(import_times))
+        .zip(&manifest.meshes)
+    {
+        let mut mesh_report = MeshReport {
+            name: m.name.clone(),
+            source: m.source.clone(),
+            import_time,
+            polygons: src.polygons,
+            stats: p.stats.clone(),
+            vertex_bytes: 0,
+            index_bytes: 0,
+            quantization: None,
+            dropped_attributes: Vec::new(),
+        };
+        if p.indices.is_empty() {
+            report.warnings.push(Warning::new(
+                &m.source,
+                None,
+                "no triangles left to cook; mesh skipped",
+            ));
+        } else {
+            let packed = mesh::pack_mesh(&m.name, p, &needs, quantize);
+            mesh_report.dropped_attributes = packed.dropped_attributes;
+            mesh_report.quantization = packed.quantization;
+            mesh_report.vertex_bytes = packed.data.vertices.len();
+            mesh_report.index_bytes = packed.data.indices.len();
+            toc.meshes.push(packed.mesh);
+            data.meshes.push(packed.data);
+        }
+        report.meshes.push(mesh_report);
+    }
+    clock.lap(&mut report, "assemble");
+    Ok(CookOutput { toc, data, report })
+}
+
+/// Stage times for the report.
+struct Lap(Instant);
+
+impl Lap {
+    fn start() -> Self {
+        Self(Instant::now())
+    }
+
+    fn lap(&mut self, report: &mut Report, name: &'static str) {
+        let now = Instant::now();
+        report.stages.push((name, now - self.0));
+        self.0 = now;
+    }
+}
+
+/// Imports every mesh source in parallel and applies its manifest transform.
+pub fn import_sources(manifest: &Manifest) -> Result<Vec<(import::Imported, Duration)>, CookError> {
+    let results: Vec<Result<(import::Imported, Duration), CookError>> = manifest
+        .meshes
+        .par_iter()
+        .map(|m| {
+            let start = Instant::now();
+            let mut imported = import::import(&m.source)?;
+            imported.transform(m.transform());
+            Ok((imported, start.elapsed()))
+        })
+        .collect();
+    // The first error in manifest order, so the message does not depend on thread timing.
+    results.into_iter().collect()
+}
+
+/// Which materials are windows and which vertex attributes each needs. A window with a
+/// `[[window]]` design always gets a normal map (given, or derived from the design in the
+/// texture stage), so it needs tangents even though no source material names one. Texture
+/// coordinates matter only to textured materials, normals to everything but the unlit
+/// backdrop.
+pub fn material_needs(tagging: &tag::Tagging) -> Vec<mesh::MaterialNeeds> {
+    tagging
+        .materials
+        .iter()
+        .map(|m| {
+            let window = m.material.class.is_window();
+            let designed = window && m.window.is_some();
+            let tangents = m.normal_texture.is_some() || designed;
+            mesh::MaterialNeeds {
+                window,
+                tangents,
+                uvs: tangents || m.diffuse_texture.is_some(),
+                normals: tangents || m.material.class != pack::MaterialClass::Background,
+            }
+        })
+        .collect()
+}
+
+/// The front of the pipeline, shared with `cooker validate`: import, tag, then the window
+/// stage (instances, per-window materials, planar UVs, designs).
+pub struct Prepared {
+    pub imported: Vec<import::Imported>,
+    pub import_times: Vec<Duration>,
+    pub tagging: tag::Tagging,
+    /// Per source, per triangle: the pack material.
+    pub tri_material: Vec<Vec<u16>>,
+    pub windows: window_plan::Windows,
+}
+
+/// Runs import → tag → windows; see [`Prepared`].
+pub fn prepare(
+    manifest: &Manifest,
+    settings: &Settings,
+    report: &mut Report,
+) -> Result<Prepared, CookError> {
+    let start = Instant::now();
+    let sources = import_sources(manifest)?;
+    let (mut imported, import_times): (Vec<import::Imported>, Vec<Duration>) =
+        sources.into_iter().unzip();
+    let tagged = Instant::now();
+    report.stages.push(("import", tagged - start));
+    let mut tagging = tag::tag(manifest, &imported)?;
+    let mut tri_material: Vec<Vec<u16>> = imported
+        .iter()
+        .zip(&tagging.part_material)
+        .map(|(src, parts)| tri_materials(src, parts))
+        .collect();
+    let found = Instant::now();
+    report.stages.push(("tag", found - tagged));
+    let windows = window_plan::plan(
+        manifest,
+        &settings.window_overrides,
+        &mut imported,
+        &mut tagging,
+        &mut tri_material,
+        report,
+    )?;
+    report.stages.push(("windows", found.elapsed()));
+    Ok(Prepared {
+        imported,
+        import_times,
+        tagging,
+        tri_material,
+        windows,
+    })
+}
+
+fn tri_materials(src: &import::Imported, part_material: &[u16]) -> Vec<u16> {
+    src.tri_part
+        .iter()
+        .map(|&p| part_material[p as usize])
+        .collect()
+}
+
+/// A bare model says nothing of light or cameras: it gets the guesses `cooker init` writes.
+fn with_guesses<'a>(
+    manifest: &'a Manifest,
+    prepared: &Prepared,
+    report: &mut Report,
+) -> Cow<'a, Manifest> {
+    if !manifest.bare || manifest.light.is_some() {
+        return Cow::Borrowed(manifest);
+    }
+    let g = guess::guess(prepared);
+    let mut m = manifest.clone();
+    m.light = g.light;
+    if m.cameras.is_empty() {
+        m.cameras = g.cameras;
+    }
+    report.warnings.push(Warning::new(
+        &manifest.path,
+        None,
+        format!(
+            "cooking a bare mesh without a scene.toml: materials are tagged by heuristics \
+             (material transparency, names, geometry), and the light and cameras are \
+             guessed ({}); `cooker init` writes these guesses into a scene.toml to edit",
+            g.notes.join("; ")
+        ),
+    ));
+    Cow::Owned(m)
+}
+
+/// Records the files read so far, the importers' warnings and the tagging guesses.
+fn record_sources(
+    manifest: &Manifest,
+    imported: &[import::Imported],
+    tagging: &tag::Tagging,
+    report: &mut Report,
+) {
+    report.inputs.push(manifest.path.clone());
+    for s in imported {
+        report.warnings.extend(s.warnings.iter().cloned());
+        report.inputs.push(s.path.clone());
+        report.inputs.extend(s.files.iter().cloned());
+    }
+    note_heuristics(imported, tagging, report);
+}
+
+fn process_meshes(
+    imported: &[import::Imported],
+    tri_material: &[Vec<u16>],
+    tagging: &tag::Tagging,
+    settings: &Settings,
+) -> Vec<mesh::Processed> {
+    let needs = material_needs(tagging);
+    imported
+        .par_iter()
+        .zip(tri_material)
+        .map(|(src, tm)| mesh::process(src, tm, &needs, &settings.mesh))
+        .collect()
+}
+
+/// Each window's projector frame, facing the side the window stage chose, and per material
+/// whether its light lands on a receiving surface (only those get a projector cooked).
+fn frame_windows(
+    manifest: &Manifest,
+    tagging: &tag::Tagging,
+    processed: &[mesh::Processed],
+    report: &mut Report,
+) -> (Vec<pack::Window>, Vec<bool>) {
+    let light = manifest.light.as_ref().map(|l| &l.kind);
+    let mut frames = Vec::new();
+    for (mi, g) in window_geometry(tagging, processed) {
+        let name = &tagging.materials[mi as usize].material.name;
+        let inside = window_plan::inside_of(tagging, mi);
+        match windows::analyze(mi, &g, light, inside) {
+            Some(a) => frames.push(a.frame),
+            None if g.triangles.is_empty() => {}
+            None => report.warnings.push(Warning::new(
+                &manifest.path,
+                None,
+                format!("window material {name:?} has no area; no projector frame"),
+            )),
+        }
+    }
+    let mut lit = vec![false; tagging.materials.len()];
+    for f in &frames {
+        let name = &tagging.materials[f.material as usize].material.name;
+        let reaches = light
+            .is_some_and(|l| windows::light_reaches(f, l, receiving_triangles(tagging, processed)));
+        lit[f.material as usize] = reaches;
+        let designed = tagging.materials[f.material as usize].window.is_some();
+        if designed && !reaches {
+            report.skipped.push(format!(
+                "window {name:?}: {}, so no projector texture was cooked",
+                if light.is_some() {
+                    "its light reaches no floor, wall or other receiving surface"
+                } else {
+                    "the scene has no light"
+                }
+            ));
+        }
+    }
+    (frames, lit)
+}
+
+/// Gathers each window material's triangles from the processed meshes.
+pub fn window_geometry(
+    tagging: &tag::Tagging,
+    processed: &[mesh::Processed],
+) -> Vec<(u16, windows::WindowGeometry)> {
+    let mut out = Vec::new();
+    for (mi, m) in tagging.materials.iter().enumerate() {
+        if !m.material.class.is_window() {
+            continue;
+        }
+        let mut g = windows::WindowGeometry::default();
+        for p in processed {
+            for r in p.ranges.iter().filter(|r| r.material as usize == mi) {
+                let span =
+                    &p.indices[r.first_index as usize..(r.first_index + r.index_count) as usize];
+                let mut local = std::collections::HashMap::new();
+                for t in span.chunks_exact(3) {
+                    let tri = [t[0], t[1], t[2]].map(|i| {
+                        *local.entry(i).or_insert_with(|| {
+                            let v = &p.vertices[i as usize];
+                            g.positions.push(v.position);
+                            g.uvs.push(v.uv);
+                            g.positions.len() as u32 - 1
+                        })
+                    });
+                    g.triangles.push(tri);
+                }
+            }
+        }
+        out.push((mi as u16, g));
+    }
+    out
+}
+
+/// Every triangle of a surface that can receive light through a window: everything but the
+/// windows themselves and the unlit backdrop.
+fn receiving_triangles<'a>(
+    tagging: &'a tag::Tagging,
+    processed: &'a [mesh::Processed],
+) -> impl Iterator<Item = [[f32; 3]; 3]> + 'a {
+    processed.iter().flat_map(move |p| {
+        p.ranges
+            .iter()
+            .filter(move |r| {
+                let class = tagging.materials[r.material as usize].material.class;
+                !class.is_window() && class != pack::MaterialClass::Background
+            })
+            .flat_map(move |r| {
+                p.indices[r.first_index as usize..(r.first_index + r.index_count) as usize]
+                    .chunks_exact(3)
+                    .map(move |t| [t[0], t[1], t[2]].map(|i| p.vertices[i as usize].position))
+            })
+    })
+}
+
+/// The height of the floor: the lowest point of any floor-class triangle.
+fn floor_height(tagging: &tag::Tagging, processed: &[mesh::Processed]) -> Option<f32> {
+    let mut y: Option<f32> = None;
+    for p in processed {
+        for r in p.ranges.iter().filter(|r| {
+            tagging.materials[r.material as usize].material.class == pack::MaterialClass::Floor
+        }) {
+            for &i in &p.indices[r.first_index as usize..(r.first_index + r.index_count) as usize] {
+                let v = p.vertices[i as usize].position[1];
+                y = Some(y.map_or(v, |m: f32| m.min(v)));
+            }
+        }
+    }
+    y
+}
+
+fn note_heuristics(sources: &[import::Imported], tagging: &tag::Tagging, report: &mut Report) {
+    for (si, src) in sources.iter().enumerate() {
+        let mut counts = vec![0usize; src.parts.len()];
+        for &p in &src.tri_part {
+            counts[p as usize] += 1;
+        }
+        for (pi, d) in tagging.decisions[si].iter().enumerate() {
+            if d.is_rule() || counts[pi] == 0 {
+                continue;
+            }
+            let m = &tagging.materials[tagging.part_material[si][pi] as usize].material;
+            report.heuristics.push(HeuristicNote {
+                source: src.path.clone(),
+                names: src.parts[pi].names.describe(),
+                material: m.name.clone(),
+                class: m.class,
+                keyword: match d {
+                    tag::Decision::Heuristic { keyword, .. } => Some(keyword),
+                    _ => None,
+                },
+                reason: d.reason().unwrap_or_default(),
+                triangles: counts[pi],
+            });
+        }
+    }
+}

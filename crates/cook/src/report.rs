@@ -1,0 +1,70 @@
+//! What a cook did, for the command line: per-mesh numbers, tagging guesses, what was
+//! skipped, reused or re-cooked, and stage times.
+
+use std::path::PathBuf;
+use std::time::Duration;
+
+use crate::import::Warning;
+use crate::mesh::MeshStats;
+
+/// Numbers about one cooked mesh.
+#[derive(Clone, Debug)]
+pub struct MeshReport {
+    pub name: String,
+    pub source: PathBuf,
+    pub import_time: Duration,
+    /// n-gons split into triangles by the importer.
+    pub polygons: usize,
+    pub stats: MeshStats,
+    pub vertex_bytes: usize,
+    pub index_bytes: usize,
+    pub quantization: Option<QuantizationError>,
+    /// Vertex attributes left out because no material of the mesh uses them.
+    pub dropped_attributes: Vec<&'static str>,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct QuantizationError {
+    pub position: f32,
+    pub normal_deg: f32,
+    pub uv: f32,
+}
+
+/// A tagging decision made by heuristics rather than a rule.
+#[derive(Clone, Debug, PartialEq)]
+pub struct HeuristicNote {
+    pub source: PathBuf,
+    pub names: String,
+    pub material: String,
+    pub class: pack::MaterialClass,
+    /// The name keyword that decided, if a name did.
+    pub keyword: Option<&'static str>,
+    /// Why: the keyword, the material property or the geometry that decided, or that nothing
+    /// matched.
+    pub reason: String,
+    pub triangles: usize,
+}
+
+/// What happened while cooking, for the CLI.
+#[derive(Clone, Debug, Default)]
+pub struct Report {
+    /// Every file the cook read (sorted, without duplicates): what a cache entry depends on.
+    pub inputs: Vec<PathBuf>,
+    /// Per cooked artifact (texture), whether it was cooked or reused from the cache.
+    pub artifacts: Vec<(String, ArtifactSource)>,
+    pub warnings: Vec<Warning>,
+    pub meshes: Vec<MeshReport>,
+    pub heuristics: Vec<HeuristicNote>,
+    /// What the scene defines but nothing uses, so it was not cooked: one line each.
+    pub skipped: Vec<String>,
+    pub stages: Vec<(&'static str, Duration)>,
+}
+
+/// Where a cooked artifact came from.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub enum ArtifactSource {
+    Cooked,
+    Reused,
+    /// The cache entry was damaged; it was cooked again.
+    Recooked(String),
+}

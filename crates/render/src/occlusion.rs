@@ -1,0 +1,411 @@
+//! Which windows need a shadow map: decided once per light from the pack's geometry, so the
+//! pack format carries nothing new.
+//!
+//! The light through a window fills a volume: the window's rectangle swept along the light
+//! (a prism for the sun, a frustum from a lamp). Every opaque triangle is traced back along
+//! the light onto the window's rectangle, as the cooker's light-reach test does (clip to the
+//! window's side, project through the projector, clip to `[0, 1]²`), but exactly, as polygons
+//! instead of bounding boxes. Light through the window is blocked somewhere exactly when
+//!
+//! - an opaque surface on the light's side of the window covers part of the rectangle (a
+//!   buttress, the outer reveal of a deep embrasure), or
+//! - two opaque surfaces on the inner side cover a common part of it: along the rays through
+//!   that part the nearer one shadows the farther (a pier in front of the floor, the far face
+//!   of a pillar behind its near face).
+//!
+//! Surfaces merely meeting along an edge (floor and wall in a corner, the faces of one
+//! surface) cover no common area and block nothing. Surfaces parallel to the light cover no
+//! area. The test is exact up to a small tolerance, so a 5 cm mullion is never missed the way
+//! a sampled ray trace could miss it.
+
+use glam::{DVec2, DVec3};
+
+use crate::view::{LightGeometry, window_projector};
+
+/// Whether a window's light needs a shadow map, and why.
+#[derive(Clone, Debug, PartialEq)]
+pub enum WindowShadow {
+    /// Some opaque surface can block part of the light: the window gets a shadow map.
+    Occluded(Blocker),
+    /// Nothing stands between the window and what its light lands on: no shadow map.
+    Clear,
+    /// No light passes this window (a lamp on its inner side, a sun travelling outwards).
+    NoLight,
+}
+
+/// What blocks a window's light first found by the analysis (for `--passes` and `-v`).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Blocker {
+    /// A surface between the light and the window.
+    Outside,
+    /// One surface on the inner side casts a shadow on another.
+    Inside,
+}
+
+impl WindowShadow {
+    pub fn needs_map(&self) -> bool {
+        matches!(self, Self::Occluded(_))
+    }
+
+    /// One line for reports: what was decided and why.
+    pub fn describe(&self) -> &'static str {
+        match self {
+            Self::Occluded(Blocker::Outside) => {
+                "shadow map: a surface between the light and the window blocks part of its light"
+            }
+            Self::Occluded(Blocker::Inside) => {
+                "shadow map: a surface inside casts a shadow within the window's light"
+            }
+            Self::Clear => {
+                "shadow map skipped: nothing stands between the window and what its light lands on"
+            }
+            Self::NoLight => "shadow map skipped: no light passes this window",
+        }
+    }
+}
+
+/// A convex polygon on the window's `(u, v)` square with its bounds.
+struct Patch {
+    points: Vec<DVec2>,
+    lo: DVec2,
+    hi: DVec2,
+}
+
+/// Relative tolerance on the window's square: overlaps thinner than this (a shared edge, a
+/// rounding sliver) do not count.
+const EPS: f64 = 1e-6;
+
+/// Decides every window of `windows` for `light` over the opaque `triangles` (floors, walls,
+/// anything that is neither glass nor backdrop).
+pub fn analyse(
+    windows: &[pack::Window],
+    light: Option<&LightGeometry>,
+    triangles: &[[glam::Vec3; 3]],
+) -> Vec<WindowShadow> {
+    windows
+        .iter()
+        .map(|w| match light {
+            Some(l) => window_shadow(w, l, triangles),
+            None => WindowShadow::NoLight,
+        })
+        .collect()
+}
+
+/// The decision for one window.
+pub fn window_shadow(
+    w: &pack::Window,
+    light: &LightGeometry,
+    triangles: &[[glam::Vec3; 3]],
+) -> WindowShadow {
+    let Some(projector) = window_projector(w, light) else {
+        return WindowShadow::NoLight;
+    };
+    let projector = projector.as_dmat4();
+    let origin = glam::Vec3::from(w.origin).as_dvec3();
+    let normal = glam::Vec3::from(w.normal).as_dvec3().normalize_or_zero();
+    let size = (glam::Vec3::from(w.u_axis).length() + glam::Vec3::from(w.v_axis).length()) as f64;
+    // Surfaces within this distance of the window's plane are its own wall (or its glass).
+    let plane_eps = 1e-4 * size.max(1e-6);
+    let to_uv = |p: DVec3| {
+        let c = projector * p.extend(1.0);
+        DVec2::new(c.x / c.w, c.y / c.w)
+    };
+    let mut inside: Vec<Patch> = Vec::new();
+    for tri in triangles {
+        let pts = tri.map(|p| p.as_dvec3());
+        let side = pts.map(|p| (p - origin).dot(normal));
+        // Inner part: beyond the plane.
+        if let Some(p) = clip_side(&pts, &side, plane_eps).and_then(|poly| patch(&poly, &to_uv)) {
+            inside.push(p);
+        }
+        // Outer part: between the light and the plane.
+        let neg = side.map(|s| -s);
+        if let Some(mut poly) = clip_side(&pts, &neg, plane_eps) {
+            if let LightGeometry::Point { position, .. } = *light {
+                // Keep the part in front of the lamp: the lamp-side plane through the lamp.
+                let l = position.as_dvec3();
+                let d: Vec<f64> = poly.iter().map(|p| (*p - l).dot(normal)).collect();
+                poly = clip_poly(&poly, &d, plane_eps);
+            }
+            if poly.len() >= 3 && patch(&poly, &to_uv).is_some() {
+                return WindowShadow::Occluded(Blocker::Outside);
+            }
+        }
+    }
+    if overlapping(&inside) {
+        WindowShadow::Occluded(Blocker::Inside)
+    } else {
+        WindowShadow::Clear
+    }
+}
+
+/// The part of a triangle where `side > eps`, as a polygon (`None` when empty).
+fn clip_side(pts: &[DVec3; 3], side: &[f64; 3], eps: f64) -> Option<Vec<DVec3>> {
+    let poly = clip_poly(pts, side, eps);
+    (poly.len() >= 3).then_some(poly)
+}
+
+/// Sutherland–Hodgman against one plane: keeps the part with `d > eps`.
+fn clip_poly(pts: &[DVec3], d: &[f64], eps: f64) -> Vec<DVec3> {
+    let mut out = Vec::with_capacity(pts.len() + 1);
+    for k in 0..pts.len() {
+        let j = (k + 1) % pts.len();
+        let (a, b) = (pts[k], pts[j]);
+        let (da, db) = (d[k] - eps, d[j] - eps);
+        if da > 0.0 {
+            out.push(a);
+        }
+        if (da > 0.0) != (db > 0.0) {
+            let t = da / (da - db);
+            out.push(a + (b - a) * t);
+        }
+    }
+    out
+}
+
+/// A polygon traced back onto the window, clipped to the window's square; `None` when it
+/// covers no area there.
+fn patch(poly: &[DVec3], to_uv: &impl Fn(DVec3) -> DVec2) -> Option<Patch> {
+    let mut pts: Vec<DVec2> = poly.iter().map(|&p| to_uv(p)).collect();
+    if pts.iter().any(|p| !p.is_finite()) {
+        return None;
+    }
+    // Clip to the unit square, one edge at a time.
+    for (axis, keep_above, bound) in [
+        (0, true, 0.0),
+        (0, false, 1.0),
+        (1, true, 0.0),
+        (1, false, 1.0),
+    ] {
+        let d: Vec<f64> = pts
+            .iter()
+            .map(|p| {
+                let c = if axis == 0 { p.x } else { p.y };
+                if keep_above { c - bound } else { bound - c }
+            })
+            .collect();
+        pts = clip_2d(&pts, &d);
+        if pts.len() < 3 {
+            return None;
+        }
+    }
+    let area = signed_area(&pts).abs();
+    if area <= EPS * EPS {
+        return None;
+    }
+    let lo = pts
+        .iter()
+        .fold(DVec2::splat(f64::INFINITY), |a, &p| a.min(p));
+    let hi = pts
+        .iter()
+        .fold(DVec2::splat(f64::NEG_INFINITY), |a, &p| a.max(p));
+    Some(Patch {
+        points: pts,
+        lo,
+        hi,
+    })
+}
+
+fn clip_2d(pts: &[DVec2], d: &[f64]) -> Vec<DVec2> {
+    let mut out = Vec::with_capacity(pts.len() + 1);
+    for k in 0..pts.len() {
+        let j = (k + 1) % pts.len();
+        let (a, b) = (pts[k], pts[j]);
+        let (da, db) = (d[k], d[j]);
+        if da >= 0.0 {
+            out.push(a);
+        }
+        if (da >= 0.0) != (db >= 0.0) {
+            let t = da / (da - db);
+            out.push(a + (b - a) * t);
+        }
+    }
+    out
+}
+
+fn signed_area(pts: &[DVec2]) -> f64 {
+    let mut a = 0.0;
+    for k in 0..pts.len() {
+        let (p, q) = (pts[k], pts[(k + 1) % pts.len()]);
+        a += p.perp_dot(q);
+    }
+    a * 0.5
+}
+
+/// True when two convex patches share an area wider than [`EPS`] (separating axes).
+fn overlap(a: &Patch, b: &Patch) -> bool {
+    if a.hi.x <= b.lo.x + EPS
+        || b.hi.x <= a.lo.x + EPS
+        || a.hi.y <= b.lo.y + EPS
+        || b.hi.y <= a.lo.y + EPS
+    {
+        return false;
+    }
+    for poly in [&a.points, &b.points] {
+        for k in 0..poly.len() {
+            let e = poly[(k + 1) % poly.len()] - poly[k];
+            let len = e.length();
+            if len <= 1e-15 {
+                continue;
+            }
+            let axis = e.perp() / len;
+            let range = |pts: &[DVec2]| {
+                pts.iter()
+                    .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), p| {
+                        let d = p.dot(axis);
+                        (lo.min(d), hi.max(d))
+                    })
+            };
+            let (a0, a1) = range(&a.points);
+            let (b0, b1) = range(&b.points);
+            if a1.min(b1) - a0.max(b0) <= EPS {
+                return false;
+            }
+        }
+    }
+    true
+}
+
+/// Whether any two patches overlap; a grid over the square keeps it near linear.
+fn overlapping(patches: &[Patch]) -> bool {
+    const CELLS: usize = 32;
+    let mut grid: Vec<Vec<u32>> = vec![Vec::new(); CELLS * CELLS];
+    let cell = |v: f64| ((v * CELLS as f64).floor().max(0.0) as usize).min(CELLS - 1);
+    for (i, p) in patches.iter().enumerate() {
+        let (x0, x1) = (cell(p.lo.x), cell(p.hi.x));
+        let (y0, y1) = (cell(p.lo.y), cell(p.hi.y));
+        for y in y0..=y1 {
+            for x in x0..=x1 {
+                let slot = &mut grid[y * CELLS + x];
+                if slot.iter().any(|&j| overlap(p, &patches[j as usize])) {
+                    return true;
+                }
+                slot.push(i as u32);
+            }
+        }
+    }
+    false
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use glam::Vec3;
+
+    /// A 2 x 2 window in the plane z = 0, inside towards +z.
+    fn window() -> pack::Window {
+        pack::Window {
+            material: 0,
+            origin: [-1.0, 3.0, 0.0],
+            u_axis: [2.0, 0.0, 0.0],
+            v_axis: [0.0, -2.0, 0.0],
+            normal: [0.0, 0.0, 1.0],
+        }
+    }
+
+    fn quad(o: Vec3, a: Vec3, b: Vec3) -> [[Vec3; 3]; 2] {
+        [[o, o + a, o + a + b], [o, o + a + b, o + b]]
+    }
+
+    fn sun() -> LightGeometry {
+        LightGeometry::Directional {
+            towards: -Vec3::new(0.2, -0.6, 1.0).normalize(),
+        }
+    }
+
+    fn room() -> Vec<[Vec3; 3]> {
+        let mut t = Vec::new();
+        // Floor inside, a wall around the window in its plane, a back wall far inside.
+        t.extend(quad(
+            Vec3::new(-10.0, 0.0, 0.0),
+            Vec3::new(20.0, 0.0, 0.0),
+            Vec3::new(0.0, 0.0, 20.0),
+        ));
+        t.extend(quad(
+            Vec3::new(-10.0, 0.0, 0.0),
+            Vec3::new(20.0, 0.0, 0.0),
+            Vec3::new(0.0, 1.0, 0.0),
+        ));
+        t.extend(quad(
+            Vec3::new(-10.0, 0.0, 20.0),
+            Vec3::new(20.0, 0.0, 0.0),
+            Vec3::new(0.0, 8.0, 0.0),
+        ));
+        t
+    }
+
+    #[test]
+    fn floor_walls_and_corners_block_nothing() {
+        assert_eq!(
+            window_shadow(&window(), &sun(), &room()),
+            WindowShadow::Clear
+        );
+        let lamp = LightGeometry::Point {
+            position: Vec3::new(0.5, 5.0, -4.0),
+            radius: 0.1,
+        };
+        assert_eq!(
+            window_shadow(&window(), &lamp, &room()),
+            WindowShadow::Clear
+        );
+    }
+
+    #[test]
+    fn a_pillar_or_a_thin_mullion_in_the_light_is_found() {
+        // The sun's light through the window lands on the floor between z = 1 and 5.
+        for width in [0.6, 0.05] {
+            let mut t = room();
+            let (x, z) = (0.0, 2.5);
+            t.extend(quad(
+                Vec3::new(x, 0.0, z),
+                Vec3::new(width, 0.0, 0.0),
+                Vec3::new(0.0, 4.0, 0.0),
+            ));
+            assert_eq!(
+                window_shadow(&window(), &sun(), &t),
+                WindowShadow::Occluded(Blocker::Inside),
+                "pillar {width} wide"
+            );
+        }
+        // Out of the light (far to the side), it blocks nothing.
+        let mut t = room();
+        t.extend(quad(
+            Vec3::new(-8.0, 0.0, 2.5),
+            Vec3::new(0.6, 0.0, 0.0),
+            Vec3::new(0.0, 4.0, 0.0),
+        ));
+        assert_eq!(window_shadow(&window(), &sun(), &t), WindowShadow::Clear);
+    }
+
+    #[test]
+    fn a_surface_outside_in_front_of_the_window_is_found() {
+        let mut t = room();
+        // A ledge outside, 0.1 high, across the light's path to the window's lower half.
+        t.extend(quad(
+            Vec3::new(-2.0, 2.5, -1.0),
+            Vec3::new(4.0, 0.0, 0.0),
+            Vec3::new(0.0, 0.0, 0.5),
+        ));
+        assert_eq!(
+            window_shadow(&window(), &sun(), &t),
+            WindowShadow::Occluded(Blocker::Outside)
+        );
+        // Behind a lamp it blocks nothing.
+        let lamp = LightGeometry::Point {
+            position: Vec3::new(0.0, 2.0, -0.5),
+            radius: 0.1,
+        };
+        assert_eq!(window_shadow(&window(), &lamp, &t), WindowShadow::Clear);
+    }
+
+    #[test]
+    fn no_light_through_the_window() {
+        let outwards = LightGeometry::Directional {
+            towards: Vec3::new(0.2, 0.6, 1.0).normalize(),
+        };
+        assert_eq!(
+            window_shadow(&window(), &outwards, &room()),
+            WindowShadow::NoLight
+        );
+    }
+}

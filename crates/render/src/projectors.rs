@@ -1,0 +1,252 @@
+//! The projector array: every window's projector texture as one layer of a texture array.
+
+use pack::Toc;
+
+use crate::uniforms;
+use crate::{Gpu, RenderError};
+
+/// Projector textures gathered into one array, so the lit pass can reach any window's design
+/// with a single binding however many windows a scene has. Each layer is a resampled copy of
+/// the levels resident so far, refreshed as larger ones stream in.
+pub(crate) struct Projectors {
+    /// Texture index of each layer; the layer after the last stays white.
+    slots: Vec<u32>,
+    texture: wgpu::Texture,
+    view: wgpu::TextureView,
+    pipeline: wgpu::RenderPipeline,
+    layout: wgpu::BindGroupLayout,
+    sampler: wgpu::Sampler,
+    size: u32,
+    levels: u32,
+    /// The resident base level each layer was last copied from.
+    copied: Vec<Option<u32>>,
+}
+
+/// Layers are square. Projectors are pre-blurred (the default scene's by 6 to 7 texels at
+/// 1024), so 512 keeps their detail while quartering the copy each streamed level costs.
+const MAX_PROJECTOR_SIZE: u32 = 512;
+
+impl Projectors {
+    /// One layer per distinct projector texture of the TOC's windows, in window order.
+    pub(crate) fn new(gpu: &Gpu, toc: &Toc) -> Result<Self, RenderError> {
+        let device = &gpu.device;
+        let mut slots: Vec<u32> = Vec::new();
+        for w in &toc.windows {
+            if let Some(p) = toc.materials[w.material as usize].projector_texture
+                && !slots.contains(&p)
+            {
+                slots.push(p);
+            }
+        }
+        let max_layers = device.limits().max_texture_array_layers as usize;
+        if slots.len() > max_layers {
+            return Err(RenderError::TooManyProjectors {
+                found: slots.len(),
+                max: max_layers,
+            });
+        }
+        let size = slots
+            .iter()
+            .map(|&t| {
+                toc.textures[t as usize]
+                    .width
+                    .max(toc.textures[t as usize].height)
+            })
+            .max()
+            .unwrap_or(1)
+            .min(MAX_PROJECTOR_SIZE);
+        // One layer per projector plus a white one for windows without a projector texture.
+        let layers = slots.len() as u32 + 1;
+        // A full chain: floors seen at grazing angles minify the patterns strongly.
+        let levels = 32 - size.leading_zeros();
+        let texture = device.create_texture(&wgpu::TextureDescriptor {
+            label: Some("projectors"),
+            size: wgpu::Extent3d {
+                width: size,
+                height: size,
+                depth_or_array_layers: layers,
+            },
+            mip_level_count: levels,
+            sample_count: 1,
+            dimension: wgpu::TextureDimension::D2,
+            format: wgpu::TextureFormat::Rgba8UnormSrgb,
+            usage: wgpu::TextureUsages::TEXTURE_BINDING | wgpu::TextureUsages::RENDER_ATTACHMENT,
+            view_formats: &[],
+        });
+        let view = texture.create_view(&wgpu::TextureViewDescriptor {
+            dimension: Some(wgpu::TextureViewDimension::D2Array),
+            ..Default::default()
+        });
+        let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+            label: Some("projector copy"),
+            entries: &[
+                crate::passes::texture_entry(0),
+                crate::passes::sampler_entry(1),
+                wgpu::BindGroupLayoutEntry {
+                    binding: 2,
+                    visibility: wgpu::ShaderStages::FRAGMENT,
+                    ty: wgpu::BindingType::Buffer {
+                        ty: wgpu::BufferBindingType::Uniform,
+                        has_dynamic_offset: false,
+                        min_binding_size: None,
+                    },
+                    count: None,
+                },
+            ],
+        });
+        let pipeline = crate::passes::fullscreen_pipeline(
+            device,
+            &layout,
+            "blit.wgsl",
+            wgpu::TextureFormat::Rgba8UnormSrgb,
+        );
+        let sampler = device.create_sampler(&wgpu::SamplerDescriptor {
+            mag_filter: wgpu::FilterMode::Linear,
+            min_filter: wgpu::FilterMode::Linear,
+            mipmap_filter: wgpu::MipmapFilterMode::Linear,
+            ..Default::default()
+        });
+        let p = Self {
+            slots,
+            texture,
+            view,
+            pipeline,
+            layout,
+            sampler,
+            size,
+            levels,
+            copied: vec![None; layers as usize],
+        };
+        // Until a projector's first level arrives its layer is white: unfiltered light.
+        let mut encoder = device.create_command_encoder(&Default::default());
+        for layer in 0..layers {
+            for level in 0..levels {
+                p.layer_pass(&mut encoder, layer, level, true);
+            }
+        }
+        gpu.queue.submit([encoder.finish()]);
+        Ok(p)
+    }
+
+    /// The array: every window's projector texture, one layer each.
+    pub(crate) fn view(&self) -> &wgpu::TextureView {
+        &self.view
+    }
+
+    /// The layer that stays white: unfiltered light, for windows without a projector.
+    pub(crate) fn white_layer(&self) -> u32 {
+        self.slots.len() as u32
+    }
+
+    /// The layer of a projector texture.
+    pub(crate) fn slot(&self, texture: Option<u32>) -> Option<u32> {
+        let t = texture?;
+        self.slots.iter().position(|&p| p == t).map(|s| s as u32)
+    }
+
+    fn layer_pass<'e>(
+        &self,
+        encoder: &'e mut wgpu::CommandEncoder,
+        layer: u32,
+        level: u32,
+        clear_white: bool,
+    ) -> wgpu::RenderPass<'e> {
+        let view = self.texture.create_view(&wgpu::TextureViewDescriptor {
+            dimension: Some(wgpu::TextureViewDimension::D2),
+            base_array_layer: layer,
+            array_layer_count: Some(1),
+            base_mip_level: level,
+            mip_level_count: Some(1),
+            ..Default::default()
+        });
+        encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
+            label: Some("projector copy"),
+            color_attachments: &[Some(wgpu::RenderPassColorAttachment {
+                view: &view,
+                depth_slice: None,
+                resolve_target: None,
+                ops: wgpu::Operations {
+                    load: wgpu::LoadOp::Clear(if clear_white {
+                        wgpu::Color::WHITE
+                    } else {
+                        wgpu::Color::BLACK
+                    }),
+                    store: wgpu::StoreOp::Store,
+                },
+            })],
+            depth_stencil_attachment: None,
+            timestamp_writes: None,
+            occlusion_query_set: None,
+            multiview_mask: None,
+        })
+    }
+
+    /// Copies each layer whose texture gained levels since its last copy. `resident` gives a
+    /// texture's resident base level and a view of the resident levels, once it has any.
+    pub(crate) fn update<'t>(
+        &mut self,
+        gpu: &Gpu,
+        toc: &Toc,
+        resident: impl Fn(u32) -> Option<(u32, &'t wgpu::TextureView)>,
+    ) {
+        use wgpu::util::DeviceExt;
+        let mut encoder = gpu.device.create_command_encoder(&Default::default());
+        let mut any = false;
+        for (layer, &t) in self.slots.iter().enumerate() {
+            let Some((base, view)) = resident(t) else {
+                continue;
+            };
+            // Stored sizes: a block-compressed projector is padded to whole blocks, and its
+            // image covers `uv_scale` of it.
+            let info = &toc.textures[t as usize];
+            let (w, h) = info.storage_size();
+            let full = w.max(h);
+            let scale = info.uv_scale();
+            if self.copied[layer] == Some(base) {
+                continue;
+            }
+            for level in 0..self.levels {
+                // Source level of about this array level's size, relative to the view's base.
+                let lod =
+                    ((full as f32 / self.size as f32).log2() + level as f32 - base as f32).max(0.0);
+                let u = uniforms::Blit {
+                    lod: [lod, scale[0], scale[1], 0.0],
+                };
+                let buffer = gpu
+                    .device
+                    .create_buffer_init(&wgpu::util::BufferInitDescriptor {
+                        label: Some("projector copy"),
+                        contents: bytemuck::bytes_of(&u),
+                        usage: wgpu::BufferUsages::UNIFORM,
+                    });
+                let group = gpu.device.create_bind_group(&wgpu::BindGroupDescriptor {
+                    label: Some("projector copy"),
+                    layout: &self.layout,
+                    entries: &[
+                        wgpu::BindGroupEntry {
+                            binding: 0,
+                            resource: wgpu::BindingResource::TextureView(view),
+                        },
+                        wgpu::BindGroupEntry {
+                            binding: 1,
+                            resource: wgpu::BindingResource::Sampler(&self.sampler),
+                        },
+                        wgpu::BindGroupEntry {
+                            binding: 2,
+                            resource: buffer.as_entire_binding(),
+                        },
+                    ],
+                });
+                let mut pass = self.layer_pass(&mut encoder, layer as u32, level, false);
+                pass.set_pipeline(&self.pipeline);
+                pass.set_bind_group(0, &group, &[]);
+                pass.draw(0..3, 0..1);
+            }
+            self.copied[layer] = Some(base);
+            any = true;
+        }
+        if any {
+            gpu.queue.submit([encoder.finish()]);
+        }
+    }
+}

@@ -1,0 +1,382 @@
+//! Where the shadow maps look from and what they cover: plain CPU math, so tests can check it
+//! without a device.
+//!
+//! - The sun: one orthographic map, square in light space, fitted to the union of the
+//!   windows' light prisms (each window's rectangle swept along the light keeps its light-space
+//!   footprint), over the depth range of the opaque geometry.
+//! - A lamp: one perspective map per window, a spot frustum from the lamp through the window's
+//!   rectangle (with a small margin), from near the lamp to the farthest opaque geometry.
+//!
+//! Only windows whose light can be blocked ([`crate::occlusion`]) get a map.
+//!
+//! Depth along the light, ℓ, is what the lit pass compares: for the sun the distance along the
+//! travel direction in world units, for a lamp `w`, the distance from the lamp along the
+//! window's normal divided by the lamp's distance to the window's plane (1 on the glass).
+
+use glam::{DMat4, DVec3, DVec4, Mat4, Vec3};
+
+use crate::occlusion::WindowShadow;
+use crate::view::{LightGeometry, window_projector, window_relative_to};
+
+/// Fraction of the window's size added around a lamp's map, so filter taps at the edge of
+/// the light still read depths.
+const LAMP_MARGIN: f64 = 0.02;
+/// Fraction of the sun's footprint added on each side, for the same reason.
+const SUN_MARGIN: f64 = 0.02;
+
+/// One layer of the shadow-map array: what the depth pass draws with.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct MapLayer {
+    /// Positions minus [`MapLayer::origin`] to clip space.
+    pub view_proj: Mat4,
+    /// World origin of the layer's local frame (vertices are made relative to it first).
+    pub origin: DVec3,
+}
+
+/// How one window's light looks its shadow up.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct WindowMap {
+    pub layer: u32,
+    /// Positions minus `origin` to `(u·w, v·w, z·w, w)`: texture coordinates and depth.
+    pub lookup: DMat4,
+    pub origin: DVec3,
+    /// Unit world directions in which the map's texture u and v grow.
+    pub x_dir: Vec3,
+    pub y_dir: Vec3,
+    /// World size of one texel along u and v (for a lamp: on the window's plane, ℓ = 1).
+    pub texel: [f32; 2],
+    /// Depth range in ℓ.
+    pub near: f32,
+    pub far: f32,
+    /// The lamp's distance to the window's plane (world units per ℓ); 0 for the sun.
+    pub lamp_distance: f32,
+    /// The sun's travel direction, or the window's inward normal for a lamp (ℓ grows along it).
+    pub depth_dir: Vec3,
+    /// The sun's angular diameter in radians, or the lamp's diameter.
+    pub light_size: f32,
+}
+
+impl WindowMap {
+    /// The lookup for a camera at `camera`: camera-relative positions to the map (the
+    /// difference of the two origins taken in f64, rounded once).
+    pub fn lookup_relative(&self, camera: Vec3) -> Mat4 {
+        let shift = camera.as_dvec3() - self.origin;
+        (self.lookup * DMat4::from_translation(shift)).as_mat4()
+    }
+
+    /// Texture coordinates and depth (`z` in [0, 1]) of a world point, for tests.
+    pub fn project(&self, p: DVec3) -> Option<DVec3> {
+        let c = self.lookup * (p - self.origin).extend(1.0);
+        (c.w > 0.0).then(|| c.truncate() / c.w)
+    }
+
+    /// ℓ of a stored depth.
+    pub fn linear_depth(&self, z: f32) -> f32 {
+        let (n, f) = (self.near, self.far);
+        if self.lamp_distance > 0.0 {
+            f * n / (f - z * (f - n))
+        } else {
+            n + z * (f - n)
+        }
+    }
+}
+
+/// Every layer and, per window (TOC order), its map or `None` (no map: never shadowed).
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct ShadowLayout {
+    pub layers: Vec<MapLayer>,
+    pub windows: Vec<Option<WindowMap>>,
+}
+
+/// Bounds of the opaque geometry.
+pub fn bounds(triangles: &[[Vec3; 3]]) -> Option<(DVec3, DVec3)> {
+    let mut lo = DVec3::splat(f64::INFINITY);
+    let mut hi = DVec3::splat(f64::NEG_INFINITY);
+    for t in triangles {
+        for p in t {
+            lo = lo.min(p.as_dvec3());
+            hi = hi.max(p.as_dvec3());
+        }
+    }
+    (lo.is_finite() && hi.is_finite()).then_some((lo, hi))
+}
+
+fn corners((lo, hi): (DVec3, DVec3)) -> [DVec3; 8] {
+    std::array::from_fn(|k| {
+        DVec3::new(
+            if k & 1 == 0 { lo.x } else { hi.x },
+            if k & 2 == 0 { lo.y } else { hi.y },
+            if k & 4 == 0 { lo.z } else { hi.z },
+        )
+    })
+}
+
+/// Lays out the maps for `light` over `windows`, given which need one and the bounds of the
+/// opaque geometry. `size` is a layer's width in texels.
+pub fn layout(
+    windows: &[pack::Window],
+    decisions: &[WindowShadow],
+    light: &pack::Light,
+    geometry: Option<(DVec3, DVec3)>,
+    size: u32,
+) -> ShadowLayout {
+    let mut out = ShadowLayout {
+        layers: Vec::new(),
+        windows: vec![None; windows.len()],
+    };
+    let Some(bounds) = geometry else {
+        return out;
+    };
+    let geometry = LightGeometry::from_light(light);
+    let needed: Vec<usize> = (0..windows.len())
+        .filter(|&i| decisions.get(i).is_some_and(WindowShadow::needs_map))
+        .filter(|&i| window_projector(&windows[i], &geometry).is_some())
+        .collect();
+    if needed.is_empty() {
+        return out;
+    }
+    let size = size.max(1) as f64;
+    match (&light.kind, geometry) {
+        (
+            pack::LightKind::Directional { angular_size, .. },
+            LightGeometry::Directional { towards },
+        ) => {
+            let t = (-towards).as_dvec3().normalize();
+            let hint = if t.y.abs() < 0.99 { DVec3::Y } else { DVec3::X };
+            let right = t.cross(hint).normalize();
+            let up = right.cross(t);
+            let rect = |w: &pack::Window| {
+                let o = Vec3::from(w.origin).as_dvec3();
+                let (u, v) = (
+                    Vec3::from(w.u_axis).as_dvec3(),
+                    Vec3::from(w.v_axis).as_dvec3(),
+                );
+                [o, o + u, o + v, o + u + v]
+            };
+            let origin = needed
+                .iter()
+                .map(|&i| rect(&windows[i]).iter().sum::<DVec3>() / 4.0)
+                .sum::<DVec3>()
+                / needed.len() as f64;
+            let (mut x0, mut x1, mut y0, mut y1) = (
+                f64::INFINITY,
+                f64::NEG_INFINITY,
+                f64::INFINITY,
+                f64::NEG_INFINITY,
+            );
+            for &i in &needed {
+                for p in rect(&windows[i]) {
+                    let d = p - origin;
+                    x0 = x0.min(d.dot(right));
+                    x1 = x1.max(d.dot(right));
+                    y0 = y0.min(d.dot(up));
+                    y1 = y1.max(d.dot(up));
+                }
+            }
+            let extent = (x1 - x0).max(y1 - y0).max(1e-6) * (1.0 + 2.0 * SUN_MARGIN);
+            let (cx, cy) = ((x0 + x1) * 0.5, (y0 + y1) * 0.5);
+            let (mut near, mut far) = (f64::INFINITY, f64::NEG_INFINITY);
+            for p in corners(bounds) {
+                let l = (p - origin).dot(t);
+                near = near.min(l);
+                far = far.max(l);
+            }
+            let pad = (far - near).max(1e-3) * 0.01;
+            let (near, far) = (near - pad, far + pad);
+            // Rows of the lookup: u = (x − x0)/E, v = (y1 − y)/E, z = (ℓ − near)/(far − near).
+            let (xa, ya) = (cx - extent * 0.5, cy + extent * 0.5);
+            let row_u = (right / extent).extend(-xa / extent);
+            let row_v = (-up / extent).extend(ya / extent);
+            let row_z = (t / (far - near)).extend(-near / (far - near));
+            let lookup = DMat4::from_cols(row_u, row_v, row_z, DVec4::W).transpose();
+            // Clip: x = 2u − 1, y = 1 − 2v, z as is.
+            let to_clip = DMat4::from_cols(
+                DVec4::new(2.0, 0.0, 0.0, 0.0),
+                DVec4::new(0.0, -2.0, 0.0, 0.0),
+                DVec4::new(0.0, 0.0, 1.0, 0.0),
+                DVec4::new(-1.0, 1.0, 0.0, 1.0),
+            );
+            out.layers.push(MapLayer {
+                view_proj: (to_clip * lookup).as_mat4(),
+                origin,
+            });
+            let texel = (extent / size) as f32;
+            let map = WindowMap {
+                layer: 0,
+                lookup,
+                origin,
+                x_dir: right.as_vec3(),
+                y_dir: (-up).as_vec3(),
+                texel: [texel; 2],
+                near: near as f32,
+                far: far as f32,
+                lamp_distance: 0.0,
+                depth_dir: t.as_vec3(),
+                light_size: angular_size.max(0.0),
+            };
+            for &i in &needed {
+                out.windows[i] = Some(map);
+            }
+        }
+        (pack::LightKind::Point { radius, .. }, LightGeometry::Point { position, .. }) => {
+            for &i in &needed {
+                let w = &windows[i];
+                let origin = Vec3::from(w.origin).as_dvec3();
+                let local = window_relative_to(w, origin.as_vec3());
+                let lamp = LightGeometry::Point {
+                    position: (position.as_dvec3() - origin).as_vec3(),
+                    radius: *radius,
+                };
+                let Some(p) = window_projector(&local, &lamp) else {
+                    continue;
+                };
+                let p = p.as_dmat4();
+                let n = Vec3::from(w.normal).as_dvec3().normalize();
+                let a = (origin - position.as_dvec3()).dot(n);
+                let w_of = |q: DVec3| (q - position.as_dvec3()).dot(n) / a;
+                let (mut near, mut far) = (f64::INFINITY, f64::NEG_INFINITY);
+                for q in corners(bounds) {
+                    near = near.min(w_of(q));
+                    far = far.max(w_of(q));
+                }
+                // Nothing closer to the lamp than this fraction of the way to the window is
+                // drawn: depth precision would suffer, and such a blocker would be the lamp's
+                // own fitting.
+                let near = near.max(0.05);
+                let far = far.max(1.0) * 1.01;
+                let k = 1.0 / (1.0 + 2.0 * LAMP_MARGIN);
+                let m = LAMP_MARGIN * k;
+                // (u'·w, v'·w) with u' = (u + margin)·k; depth z·w = f(w − n)/(f − n).
+                let (ru, rv, rw) = (p.row(0), p.row(1), p.row(3));
+                let row_u = ru * k + rw * m;
+                let row_v = rv * k + rw * m;
+                let row_z = rw * (far / (far - near)) - DVec4::W * (far * near / (far - near));
+                let lookup = DMat4::from_cols(row_u, row_v, row_z, rw).transpose();
+                let to_clip = DMat4::from_cols(
+                    DVec4::new(2.0, 0.0, 0.0, 0.0),
+                    DVec4::new(0.0, -2.0, 0.0, 0.0),
+                    DVec4::new(0.0, 0.0, 1.0, 0.0),
+                    DVec4::new(-1.0, 1.0, 0.0, 1.0),
+                );
+                let layer = out.layers.len() as u32;
+                out.layers.push(MapLayer {
+                    view_proj: (to_clip * lookup).as_mat4(),
+                    origin,
+                });
+                let (u, v) = (Vec3::from(w.u_axis), Vec3::from(w.v_axis));
+                out.windows[i] = Some(WindowMap {
+                    layer,
+                    lookup,
+                    origin,
+                    x_dir: u.normalize_or_zero(),
+                    y_dir: v.normalize_or_zero(),
+                    texel: [
+                        (u.length() as f64 / (k * size)) as f32,
+                        (v.length() as f64 / (k * size)) as f32,
+                    ],
+                    near: near as f32,
+                    far: far as f32,
+                    lamp_distance: a as f32,
+                    depth_dir: n.as_vec3(),
+                    light_size: 2.0 * radius.max(0.0),
+                });
+            }
+        }
+        _ => {}
+    }
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::occlusion::Blocker;
+
+    fn window() -> pack::Window {
+        pack::Window {
+            material: 0,
+            origin: [-1.0, 3.0, 0.0],
+            u_axis: [2.0, 0.0, 0.0],
+            v_axis: [0.0, -2.0, 0.0],
+            normal: [0.0, 0.0, 1.0],
+        }
+    }
+
+    fn light(kind: pack::LightKind) -> pack::Light {
+        pack::Light {
+            kind,
+            colour: [1.0; 3],
+            intensity: 1.0,
+        }
+    }
+
+    const BOUNDS: (DVec3, DVec3) = (DVec3::new(-10.0, 0.0, -1.0), DVec3::new(10.0, 8.0, 20.0));
+
+    /// Points on the line of light through a window point share texture coordinates, and the
+    /// depth grows along the light; the window's corners land inside the map.
+    #[test]
+    fn maps_follow_the_light_through_the_window() {
+        let occluded = [WindowShadow::Occluded(Blocker::Inside)];
+        let sun = light(pack::LightKind::Directional {
+            direction: [0.2, -0.6, 1.0],
+            angular_size: 0.01,
+        });
+        let lamp = light(pack::LightKind::Point {
+            position: [0.5, 5.0, -4.0],
+            radius: 0.1,
+        });
+        for l in [sun, lamp] {
+            let layout = layout(&[window()], &occluded, &l, Some(BOUNDS), 1024);
+            assert_eq!(layout.layers.len(), 1);
+            let map = layout.windows[0].expect("a map");
+            let on = DVec3::new(0.3, 2.2, 0.0);
+            let travel = match l.kind {
+                pack::LightKind::Directional { direction, .. } => {
+                    Vec3::from(direction).as_dvec3().normalize()
+                }
+                pack::LightKind::Point { position, .. } => {
+                    (on - Vec3::from(position).as_dvec3()).normalize()
+                }
+            };
+            let a = map.project(on).unwrap();
+            let b = map.project(on + travel * 3.0).unwrap();
+            assert!((a.truncate() - b.truncate()).length() < 1e-6, "{a} {b}");
+            assert!(b.z > a.z && (0.0..=1.0).contains(&a.z) && (0.0..=1.0).contains(&b.z));
+            for corner in [[-1.0, 3.0], [1.0, 3.0], [-1.0, 1.0], [1.0, 1.0]] {
+                let c = map.project(DVec3::new(corner[0], corner[1], 0.0)).unwrap();
+                assert!(
+                    (0.0..=1.0).contains(&c.x) && (0.0..=1.0).contains(&c.y),
+                    "{c}"
+                );
+            }
+            // The linear depth of a stored depth matches ℓ.
+            let ell = |p: DVec3| match l.kind {
+                pack::LightKind::Directional { .. } => (p - map.origin).dot(travel),
+                pack::LightKind::Point { position, .. } => {
+                    (p - Vec3::from(position).as_dvec3()).z / map.lamp_distance as f64
+                }
+            };
+            let p = on + travel * 3.0;
+            let z = map.project(p).unwrap().z as f32;
+            let (l0, l1) = (map.linear_depth(z) as f64, ell(p));
+            assert!((l0 - l1).abs() < 1e-4 * l1.abs().max(1.0), "{l0} {l1}");
+            // The render matrix agrees with the lookup.
+            let layer = layout.layers[0];
+            let clip = layer.view_proj.as_dmat4() * (p - layer.origin).extend(1.0);
+            let ndc = clip.truncate() / clip.w;
+            let uv = map.project(p).unwrap();
+            assert!((ndc.x - (2.0 * uv.x - 1.0)).abs() < 1e-5);
+            assert!((ndc.y - (1.0 - 2.0 * uv.y)).abs() < 1e-5);
+        }
+    }
+
+    #[test]
+    fn windows_that_need_no_map_get_none() {
+        let sun = light(pack::LightKind::Directional {
+            direction: [0.2, -0.6, 1.0],
+            angular_size: 0.01,
+        });
+        let layout = layout(&[window()], &[WindowShadow::Clear], &sun, Some(BOUNDS), 64);
+        assert!(layout.layers.is_empty() && layout.windows == vec![None]);
+    }
+}
