@@ -16,6 +16,7 @@
 //! cooks sharing a cache only ever see complete entries (both write identical bytes for a key).
 
 use std::path::{Path, PathBuf};
+use std::sync::Arc;
 
 use serde::Serialize;
 use sha2::{Digest, Sha256};
@@ -93,12 +94,14 @@ impl KeyBuilder {
 }
 
 /// The key of a whole scene cooked from `manifest` (a scene.toml or a bare mesh file): the
-/// manifest's path and bytes and all the settings. The other files the cook reads are not
-/// known before it runs; the scene's entry records their hashes instead.
+/// manifest's file name and bytes and all the settings. The other files the cook reads are not
+/// known before it runs; the scene's entry lists them, relative to the manifest's folder, and
+/// their hashes complete the key of the cook's result. The folder itself is left out so that
+/// two checkouts of one scene, on one machine or two, share their entries.
 pub fn scene_key(manifest: &Path, settings: &Settings) -> Result<Key, CookError> {
     let mut k = KeyBuilder::new("scene");
-    let canonical = std::fs::canonicalize(manifest).unwrap_or_else(|_| manifest.to_path_buf());
-    k.bytes("path", canonical.as_os_str().as_encoded_bytes());
+    let name = manifest.file_name().unwrap_or(manifest.as_os_str());
+    k.bytes("file name", name.as_encoded_bytes());
     k.file("manifest", manifest)?;
     k.serialized("settings", settings);
     Ok(k.finish())
@@ -117,6 +120,23 @@ pub fn digest(bytes: &[u8]) -> [u8; 32] {
     Sha256::digest(bytes).into()
 }
 
+/// Lower-case hex of some bytes.
+pub fn hex(bytes: &[u8]) -> String {
+    bytes.iter().map(|b| format!("{b:02x}")).collect()
+}
+
+/// The bytes of a 64-digit hex string, `None` for anything else.
+pub fn parse_hex32(s: &str) -> Option<[u8; 32]> {
+    if s.len() != 64 {
+        return None;
+    }
+    let mut out = [0u8; 32];
+    for (i, o) in out.iter_mut().enumerate() {
+        *o = u8::from_str_radix(s.get(2 * i..2 * i + 2)?, 16).ok()?;
+    }
+    Some(out)
+}
+
 /// The outcome of a lookup.
 #[derive(Debug)]
 pub enum Lookup {
@@ -126,21 +146,63 @@ pub enum Lookup {
     Corrupt(String),
 }
 
-/// A cache directory.
+/// A second cache level shared between machines (a network share, an object store, a key-value
+/// server), consulted after a local miss and filled after a cook.
+///
+/// It never fails a lookup or a store: an unreachable, slow, refusing or lying server is a
+/// miss, recorded by the implementation for its summary. Everything it returns has been
+/// checked against the SHA-256 it was stored under.
+pub trait Remote: Send + Sync + std::fmt::Debug {
+    /// The payload stored for an action (a cook step's key).
+    fn get(&self, key: &Key) -> Option<Vec<u8>>;
+    /// Records an action's payload.
+    fn put(&self, key: &Key, payload: &[u8]);
+    /// A content-addressed blob.
+    fn get_blob(&self, digest: &[u8; 32]) -> Option<Vec<u8>>;
+    /// Stores a blob under its SHA-256.
+    fn put_blob(&self, digest: &[u8; 32], bytes: &[u8]);
+}
+
+/// The default local size cap: 5 GiB.
+pub const DEFAULT_MAX_SIZE: u64 = 5 << 30;
+
+/// A cache directory, optionally backed by a [`Remote`].
 #[derive(Clone, Debug)]
 pub struct Cache {
     dir: PathBuf,
+    max_size: u64,
+    remote: Option<Arc<dyn Remote>>,
 }
 
 impl Cache {
-    /// Opens (creating if needed) a cache directory.
+    /// Opens (creating if needed) a cache directory, capped at [`DEFAULT_MAX_SIZE`].
     pub fn open(dir: impl Into<PathBuf>) -> Result<Self, CookError> {
         let dir = dir.into();
         std::fs::create_dir_all(&dir).map_err(|source| CookError::Io {
             path: dir.clone(),
             source,
         })?;
-        Ok(Self { dir })
+        Ok(Self {
+            dir,
+            max_size: DEFAULT_MAX_SIZE,
+            remote: None,
+        })
+    }
+
+    /// The size [`Cache::trim`] keeps the directory under.
+    pub fn with_max_size(mut self, bytes: u64) -> Self {
+        self.max_size = bytes;
+        self
+    }
+
+    /// Consults `remote` after a local miss, and stores there too.
+    pub fn with_remote(mut self, remote: Arc<dyn Remote>) -> Self {
+        self.remote = Some(remote);
+        self
+    }
+
+    pub fn max_size(&self) -> u64 {
+        self.max_size
     }
 
     /// The default location: `$STAINED_GLASS_CACHE`, else `$XDG_CACHE_HOME/stained-glass`, else
@@ -166,31 +228,102 @@ impl Cache {
         self.dir.join(format!("{}.entry", key.hex()))
     }
 
+    fn blob_path(&self, digest: &[u8; 32]) -> PathBuf {
+        self.dir.join(format!("{}.blob", hex(digest)))
+    }
+
+    /// An action's payload: the local entry, else the remote's (then kept locally).
     pub fn get(&self, key: &Key) -> Lookup {
-        let path = self.path(key);
-        let bytes = match std::fs::read(&path) {
-            Ok(b) => b,
-            // Missing, unreadable or vanished under a concurrent writer: cook it again.
-            Err(_) => return Lookup::Miss,
-        };
-        match check_entry(&bytes) {
-            Ok(()) => Lookup::Hit(bytes[HEADER..].to_vec()),
-            Err(why) => {
-                let _ = std::fs::remove_file(&path);
-                Lookup::Corrupt(format!("{}: {why}", path.display()))
+        match read_entry(&self.path(key)) {
+            Lookup::Miss => {}
+            found => return found,
+        }
+        match self.remote.as_ref().and_then(|r| r.get(key)) {
+            Some(payload) => {
+                let _ = self.put_local(&self.path(key), &payload);
+                Lookup::Hit(payload)
             }
+            None => Lookup::Miss,
         }
     }
 
+    /// Stores an action's payload here and on the remote.
     pub fn put(&self, key: &Key, payload: &[u8]) -> Result<(), CookError> {
+        if let Some(r) = &self.remote {
+            r.put(key, payload);
+        }
+        self.put_local(&self.path(key), payload)
+    }
+
+    /// A blob by its SHA-256: the local copy, else the remote's (then kept locally).
+    pub fn get_blob(&self, digest: &[u8; 32]) -> Lookup {
+        match read_entry(&self.blob_path(digest)) {
+            Lookup::Miss => {}
+            found => return found,
+        }
+        match self.remote.as_ref().and_then(|r| r.get_blob(digest)) {
+            Some(bytes) => {
+                let _ = self.put_local(&self.blob_path(digest), &bytes);
+                Lookup::Hit(bytes)
+            }
+            None => Lookup::Miss,
+        }
+    }
+
+    /// Stores a blob here and on the remote; returns its SHA-256.
+    pub fn put_blob(&self, bytes: &[u8]) -> Result<[u8; 32], CookError> {
+        let d = digest(bytes);
+        if let Some(r) = &self.remote {
+            r.put_blob(&d, bytes);
+        }
+        self.put_local(&self.blob_path(&d), bytes)?;
+        Ok(d)
+    }
+
+    /// Whether the blob is held locally; marks it used, as a read would.
+    pub fn has_local_blob(&self, digest: &[u8; 32]) -> bool {
+        let path = self.blob_path(digest);
+        touch(&path);
+        path.exists()
+    }
+
+    fn put_local(&self, path: &Path, payload: &[u8]) -> Result<(), CookError> {
         let mut bytes = Vec::with_capacity(HEADER + payload.len());
         bytes.extend_from_slice(MAGIC);
         bytes.extend_from_slice(&(payload.len() as u64).to_le_bytes());
         bytes.extend_from_slice(&crc32fast::hash(payload).to_le_bytes());
         bytes.extend_from_slice(&[0; 4]);
         bytes.extend_from_slice(payload);
-        pack::write_atomic(&self.path(key), &bytes)?;
+        pack::write_atomic(path, &bytes)?;
         Ok(())
+    }
+}
+
+/// Marks an entry as just used, for least-recently-used eviction. Access times are unreliable
+/// (`noatime`, `relatime` mounts), so the modification time carries it.
+fn touch(path: &Path) {
+    if let Ok(f) = std::fs::File::options().write(true).open(path) {
+        let _ = f.set_modified(std::time::SystemTime::now());
+    }
+}
+
+fn read_entry(path: &Path) -> Lookup {
+    let bytes = match std::fs::read(path) {
+        Ok(b) => b,
+        // Missing, unreadable, evicted or vanished under a concurrent writer: cook it again.
+        Err(_) => return Lookup::Miss,
+    };
+    match check_entry(&bytes) {
+        Ok(()) => {
+            touch(path);
+            let mut bytes = bytes;
+            bytes.drain(..HEADER);
+            Lookup::Hit(bytes)
+        }
+        Err(why) => {
+            let _ = std::fs::remove_file(path);
+            Lookup::Corrupt(format!("{}: {why}", path.display()))
+        }
     }
 }
 
