@@ -299,6 +299,88 @@ impl Cache {
     }
 }
 
+/// What [`Cache::trim`] did.
+#[derive(Debug, Default, PartialEq, Eq)]
+pub struct Trim {
+    /// Bytes held before and after.
+    pub before: u64,
+    pub after: u64,
+    pub evicted: usize,
+    /// Another process was trimming the directory; this one left it alone.
+    pub skipped: bool,
+}
+
+/// Temp files older than this are leftovers of a writer that died before its rename.
+const STALE_TEMP: std::time::Duration = std::time::Duration::from_secs(3600);
+
+impl Cache {
+    /// Keeps the directory under its size cap by deleting the least recently used entries
+    /// (written or read longest ago), and temp files a crashed writer left.
+    ///
+    /// Safe while other cooks use the directory: one trims at a time (a lock file; another
+    /// skips rather than waits), entries are replaced by rename so a deletion never leaves a
+    /// partial one, and a reader that loses an entry to eviction sees a miss and cooks again
+    /// (an open file stays readable after its deletion).
+    pub fn trim(&self) -> Result<Trim, CookError> {
+        let io = |source| CookError::Io {
+            path: self.dir.clone(),
+            source,
+        };
+        let lock = std::fs::File::options()
+            .create(true)
+            .truncate(false)
+            .write(true)
+            .open(self.dir.join(".trim.lock"))
+            .map_err(io)?;
+        if lock.try_lock().is_err() {
+            return Ok(Trim {
+                skipped: true,
+                ..Trim::default()
+            });
+        }
+        let now = std::time::SystemTime::now();
+        let mut entries = Vec::new();
+        for e in std::fs::read_dir(&self.dir).map_err(io)? {
+            let Ok(e) = e else { continue };
+            let name = e.file_name();
+            let name = name.to_string_lossy();
+            // Vanished since the listing: another cook's rename or eviction.
+            let Ok(meta) = e.metadata() else { continue };
+            let modified = meta.modified().unwrap_or(now);
+            if name.starts_with('.') && name.contains(".tmp-") {
+                if now.duration_since(modified).unwrap_or_default() > STALE_TEMP {
+                    let _ = std::fs::remove_file(e.path());
+                }
+                continue;
+            }
+            if meta.is_file() && (name.ends_with(".entry") || name.ends_with(".blob")) {
+                entries.push((modified, meta.len(), e.path()));
+            }
+        }
+        let before: u64 = entries.iter().map(|e| e.1).sum();
+        let mut trim = Trim {
+            before,
+            after: before,
+            ..Trim::default()
+        };
+        if before <= self.max_size {
+            return Ok(trim);
+        }
+        // Oldest first; the path breaks ties so the order does not depend on the listing.
+        entries.sort();
+        for (_, len, path) in entries {
+            if trim.after <= self.max_size {
+                break;
+            }
+            if std::fs::remove_file(&path).is_ok() {
+                trim.after -= len;
+                trim.evicted += 1;
+            }
+        }
+        Ok(trim)
+    }
+}
+
 /// Marks an entry as just used, for least-recently-used eviction. Access times are unreliable
 /// (`noatime`, `relatime` mounts), so the modification time carries it.
 fn touch(path: &Path) {
@@ -613,6 +695,56 @@ mod tests {
                 "prefix {len} accepted"
             );
         }
+    }
+
+    #[test]
+    fn trim_evicts_the_least_recently_used_and_stale_temp_files() {
+        let dir = tempfile::tempdir().unwrap();
+        let c = Cache::open(dir.path()).unwrap().with_max_size(3000);
+        let t0 = std::time::SystemTime::now() - std::time::Duration::from_secs(10_000);
+        let age = |path: &Path, secs: u64| {
+            std::fs::File::options()
+                .write(true)
+                .open(path)
+                .unwrap()
+                .set_modified(t0 + std::time::Duration::from_secs(secs))
+                .unwrap();
+        };
+        for (i, name) in ["a", "b", "c", "d"].iter().enumerate() {
+            c.put(&key(name), &[i as u8; 1000]).unwrap();
+            age(&c.path(&key(name)), i as u64);
+        }
+        let blob = c.put_blob(&[9u8; 500]).unwrap();
+        age(&c.blob_path(&blob), 1);
+        // Reading "a", the oldest, makes it the most recently used.
+        assert!(matches!(c.get(&key("a")), Lookup::Hit(_)));
+        let stale = dir.path().join(".x.entry.tmp-1-0");
+        std::fs::write(&stale, b"partial").unwrap();
+        age(&stale, 0);
+        let fresh = dir.path().join(".y.entry.tmp-2-0");
+        std::fs::write(&fresh, b"being written").unwrap();
+
+        let t = c.trim().unwrap();
+        let header = HEADER as u64;
+        assert_eq!(t.before, 4 * (1000 + header) + 500 + header);
+        assert!(t.after <= 3000 && t.evicted == 3, "{t:?}");
+        // Left: the two most recently used. Evicted, oldest first: b (1), the blob (1), c (2).
+        for (name, kept) in [("a", true), ("b", false), ("c", false), ("d", true)] {
+            assert_eq!(c.path(&key(name)).exists(), kept, "{name}");
+        }
+        assert!(!c.blob_path(&blob).exists());
+        assert!(!stale.exists() && fresh.exists());
+        // Under the cap: nothing to do.
+        assert_eq!(c.trim().unwrap().evicted, 0);
+
+        // While another process holds the lock, a trim leaves everything alone.
+        let lock = std::fs::File::open(dir.path().join(".trim.lock")).unwrap();
+        lock.lock().unwrap();
+        let tiny = c.clone().with_max_size(0);
+        assert!(tiny.trim().unwrap().skipped);
+        assert!(c.path(&key("a")).exists());
+        drop(lock);
+        assert_eq!(tiny.trim().unwrap().after, 0);
     }
 
     #[test]

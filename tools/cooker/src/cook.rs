@@ -35,6 +35,11 @@ pub struct Args {
     /// Cook everything from scratch; read and write no cache.
     #[arg(long, conflicts_with = "cache_dir")]
     no_cache: bool,
+    /// The local cache's size cap: after each cook the least recently used entries beyond it
+    /// are deleted. Bytes, or with a unit: 500M, 5G, 5GiB (K, M, G, T are powers of 1024).
+    #[arg(long, value_name = "SIZE", env = "STAINED_GLASS_CACHE_MAX_SIZE",
+          default_value = "5GiB", value_parser = crate::size::parse)]
+    cache_max_size: u64,
     /// Error budget in 8-bit sRGB steps (LSB): per texture, the cheapest blur and mip method
     /// whose measured error stays within it (overrides the manifest's `[scene] max_error`).
     /// `--max-error` is the old spelling.
@@ -93,11 +98,14 @@ pub fn run(args: Args) -> Outcome {
     let cache = if args.no_cache {
         None
     } else {
-        Some(cook::cache::Cache::open(
-            args.cache_dir
-                .clone()
-                .unwrap_or_else(cook::cache::Cache::default_dir),
-        )?)
+        Some(
+            cook::cache::Cache::open(
+                args.cache_dir
+                    .clone()
+                    .unwrap_or_else(cook::cache::Cache::default_dir),
+            )?
+            .with_max_size(args.cache_max_size),
+        )
     };
     let scene_key = match &cache {
         Some(_) => Some(cook::cache::scene_key(&args.input, &settings)?),
@@ -107,6 +115,7 @@ pub fn run(args: Args) -> Outcome {
         match scene_cache::lookup(cache, key, &args.input, &args.output) {
             scene_cache::Reuse::UpToDate(t) => {
                 replay(&t, args.verbose);
+                trim(cache, args.verbose);
                 println!(
                     "{} is up to date: no input changed since it was cooked: {} (reused, {})",
                     args.output.display(),
@@ -118,6 +127,7 @@ pub fn run(args: Args) -> Outcome {
             scene_cache::Reuse::Pack(bytes, t) => {
                 pack::write_atomic(&args.output, &bytes)?;
                 replay(&t, args.verbose);
+                trim(cache, args.verbose);
                 println!(
                     "wrote {}: reused the cached pack, no input changed: {} in {}",
                     args.output.display(),
@@ -226,6 +236,9 @@ pub fn run(args: Args) -> Outcome {
     {
         eprintln!("warning: cache not updated: {e:#}");
     }
+    if let Some(cache) = &cache {
+        trim(cache, args.verbose);
+    }
     println!(
         "wrote {}: {} in {}",
         args.output.display(),
@@ -233,6 +246,21 @@ pub fn run(args: Args) -> Outcome {
         ms(start.elapsed())
     );
     Ok(OK)
+}
+
+/// Keeps the local cache under its cap; a failure only costs space, never the cook.
+fn trim(cache: &cook::cache::Cache, verbose: bool) {
+    match cache.trim() {
+        Ok(t) if t.evicted > 0 && verbose => println!(
+            "cache: {} entries evicted ({} -> {} bytes, cap {})",
+            t.evicted,
+            t.before,
+            t.after,
+            cache.max_size()
+        ),
+        Ok(_) => {}
+        Err(e) => eprintln!("warning: cache not trimmed: {e}"),
+    }
 }
 
 /// Says again what the cook of a reused pack said, and that every texture was reused.

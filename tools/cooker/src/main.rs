@@ -11,6 +11,7 @@ mod extract;
 mod info;
 mod init;
 mod scene_cache;
+mod size;
 mod transcript;
 mod validate;
 

@@ -290,3 +290,102 @@ fn a_hit_replays_what_the_cook_said_marked_as_reused() {
     assert!(!moved_err.contains(&a), "{moved_err}");
     assert_eq!(moved_said.join("\n"), said.join("\n").replace(&a, &b));
 }
+
+fn dir_size(dir: &Path) -> u64 {
+    std::fs::read_dir(dir)
+        .unwrap()
+        .map(|e| e.unwrap().metadata().unwrap().len())
+        .sum()
+}
+
+#[test]
+fn the_local_cache_keeps_under_its_cap_evicting_the_least_recently_used() {
+    let dir = tempfile::tempdir().unwrap();
+    let a = common::small_scene(&dir.path().join("a"));
+    let b_dir = dir.path().join("b");
+    let b = common::small_scene(&b_dir);
+    common::design(&b_dir.join("lit.png"), 7);
+    let cache = dir.path().join("cache");
+    let out = dir.path().join("out.pack");
+
+    // How much one scene's cook keeps.
+    cook(&a, &out, &cache);
+    let one = dir_size(&cache);
+    let cap = (one * 3 / 2).to_string();
+    let capped = ["--cache-max-size", cap.as_str()];
+
+    // A second scene does not fit beside the first: the first's entries go, the second's stay.
+    let o = cook_with(&b, &out, &cache, &capped, "2");
+    assert!(stdout(&o).contains("entries evicted"), "{}", stdout(&o));
+    assert!(dir_size(&cache) <= one * 3 / 2);
+    let again = cook_with(&b, &out, &cache, &capped, "2");
+    assert!(
+        stdout(&again).contains("is up to date"),
+        "{}",
+        stdout(&again)
+    );
+    std::fs::remove_file(&out).unwrap();
+    let evicted = cook_with(&a, &out, &cache, &capped, "2");
+    assert!(
+        !stdout(&evicted).contains("reused the cached pack"),
+        "{}",
+        stdout(&evicted)
+    );
+    let fresh = dir.path().join("fresh.pack");
+    let o = Command::new(env!("CARGO_BIN_EXE_cooker"))
+        .arg("cook")
+        .arg(&a)
+        .arg("-o")
+        .arg(&fresh)
+        .arg("--no-cache")
+        .output()
+        .unwrap();
+    assert!(o.status.success());
+    assert!(std::fs::read(&out).unwrap() == std::fs::read(&fresh).unwrap());
+
+    // Four cooks of two scenes racing on one directory under a cap that holds neither: each
+    // succeeds with its complete pack, and no temp file is left.
+    let children: Vec<_> = (0..4)
+        .map(|i| {
+            let scene = if i % 2 == 0 { &a } else { &b };
+            let c = Command::new(env!("CARGO_BIN_EXE_cooker"))
+                .arg("cook")
+                .arg(scene)
+                .arg("-o")
+                .arg(dir.path().join(format!("race{i}.pack")))
+                .arg("--cache-dir")
+                .arg(&cache)
+                .args(["--cache-max-size", "1K"])
+                .stdout(std::process::Stdio::null())
+                .stderr(std::process::Stdio::piped())
+                .spawn()
+                .unwrap();
+            (scene.clone(), i, c)
+        })
+        .collect();
+    for (scene, i, c) in children {
+        let o = c.wait_with_output().unwrap();
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        let race = std::fs::read(dir.path().join(format!("race{i}.pack"))).unwrap();
+        let want = dir.path().join("want.pack");
+        let w = Command::new(env!("CARGO_BIN_EXE_cooker"))
+            .arg("cook")
+            .arg(&scene)
+            .arg("-o")
+            .arg(&want)
+            .arg("--no-cache")
+            .output()
+            .unwrap();
+        assert!(w.status.success());
+        assert!(
+            race == std::fs::read(&want).unwrap(),
+            "race{i}.pack differs"
+        );
+    }
+    let temps: Vec<_> = std::fs::read_dir(&cache)
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .filter(|n| n.contains(".tmp-"))
+        .collect();
+    assert!(temps.is_empty(), "{temps:?}");
+}
