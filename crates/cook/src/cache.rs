@@ -16,6 +16,7 @@
 //! cooks sharing a cache only ever see complete entries (both write identical bytes for a key).
 
 use std::path::{Path, PathBuf};
+use std::sync::Arc;
 
 use serde::Serialize;
 use sha2::{Digest, Sha256};
@@ -93,12 +94,14 @@ impl KeyBuilder {
 }
 
 /// The key of a whole scene cooked from `manifest` (a scene.toml or a bare mesh file): the
-/// manifest's path and bytes and all the settings. The other files the cook reads are not
-/// known before it runs; the scene's entry records their hashes instead.
+/// manifest's file name and bytes and all the settings. The other files the cook reads are not
+/// known before it runs; the scene's entry lists them, relative to the manifest's folder, and
+/// their hashes complete the key of the cook's result. The folder itself is left out so that
+/// two checkouts of one scene, on one machine or two, share their entries.
 pub fn scene_key(manifest: &Path, settings: &Settings) -> Result<Key, CookError> {
     let mut k = KeyBuilder::new("scene");
-    let canonical = std::fs::canonicalize(manifest).unwrap_or_else(|_| manifest.to_path_buf());
-    k.bytes("path", canonical.as_os_str().as_encoded_bytes());
+    let name = manifest.file_name().unwrap_or(manifest.as_os_str());
+    k.bytes("file name", name.as_encoded_bytes());
     k.file("manifest", manifest)?;
     k.serialized("settings", settings);
     Ok(k.finish())
@@ -117,6 +120,23 @@ pub fn digest(bytes: &[u8]) -> [u8; 32] {
     Sha256::digest(bytes).into()
 }
 
+/// Lower-case hex of some bytes.
+pub fn hex(bytes: &[u8]) -> String {
+    bytes.iter().map(|b| format!("{b:02x}")).collect()
+}
+
+/// The bytes of a 64-digit hex string, `None` for anything else.
+pub fn parse_hex32(s: &str) -> Option<[u8; 32]> {
+    if s.len() != 64 {
+        return None;
+    }
+    let mut out = [0u8; 32];
+    for (i, o) in out.iter_mut().enumerate() {
+        *o = u8::from_str_radix(s.get(2 * i..2 * i + 2)?, 16).ok()?;
+    }
+    Some(out)
+}
+
 /// The outcome of a lookup.
 #[derive(Debug)]
 pub enum Lookup {
@@ -126,21 +146,63 @@ pub enum Lookup {
     Corrupt(String),
 }
 
-/// A cache directory.
+/// A second cache level shared between machines (a network share, an object store, a key-value
+/// server), consulted after a local miss and filled after a cook.
+///
+/// It never fails a lookup or a store: an unreachable, slow, refusing or lying server is a
+/// miss, recorded by the implementation for its summary. Everything it returns has been
+/// checked against the SHA-256 it was stored under.
+pub trait Remote: Send + Sync + std::fmt::Debug {
+    /// The payload stored for an action (a cook step's key).
+    fn get(&self, key: &Key) -> Option<Vec<u8>>;
+    /// Records an action's payload.
+    fn put(&self, key: &Key, payload: &[u8]);
+    /// A content-addressed blob.
+    fn get_blob(&self, digest: &[u8; 32]) -> Option<Vec<u8>>;
+    /// Stores a blob under its SHA-256.
+    fn put_blob(&self, digest: &[u8; 32], bytes: &[u8]);
+}
+
+/// The default local size cap: 5 GiB.
+pub const DEFAULT_MAX_SIZE: u64 = 5 << 30;
+
+/// A cache directory, optionally backed by a [`Remote`].
 #[derive(Clone, Debug)]
 pub struct Cache {
     dir: PathBuf,
+    max_size: u64,
+    remote: Option<Arc<dyn Remote>>,
 }
 
 impl Cache {
-    /// Opens (creating if needed) a cache directory.
+    /// Opens (creating if needed) a cache directory, capped at [`DEFAULT_MAX_SIZE`].
     pub fn open(dir: impl Into<PathBuf>) -> Result<Self, CookError> {
         let dir = dir.into();
         std::fs::create_dir_all(&dir).map_err(|source| CookError::Io {
             path: dir.clone(),
             source,
         })?;
-        Ok(Self { dir })
+        Ok(Self {
+            dir,
+            max_size: DEFAULT_MAX_SIZE,
+            remote: None,
+        })
+    }
+
+    /// The size [`Cache::trim`] keeps the directory under.
+    pub fn with_max_size(mut self, bytes: u64) -> Self {
+        self.max_size = bytes;
+        self
+    }
+
+    /// Consults `remote` after a local miss, and stores there too.
+    pub fn with_remote(mut self, remote: Arc<dyn Remote>) -> Self {
+        self.remote = Some(remote);
+        self
+    }
+
+    pub fn max_size(&self) -> u64 {
+        self.max_size
     }
 
     /// The default location: `$STAINED_GLASS_CACHE`, else `$XDG_CACHE_HOME/stained-glass`, else
@@ -166,31 +228,184 @@ impl Cache {
         self.dir.join(format!("{}.entry", key.hex()))
     }
 
+    fn blob_path(&self, digest: &[u8; 32]) -> PathBuf {
+        self.dir.join(format!("{}.blob", hex(digest)))
+    }
+
+    /// An action's payload: the local entry, else the remote's (then kept locally).
     pub fn get(&self, key: &Key) -> Lookup {
-        let path = self.path(key);
-        let bytes = match std::fs::read(&path) {
-            Ok(b) => b,
-            // Missing, unreadable or vanished under a concurrent writer: cook it again.
-            Err(_) => return Lookup::Miss,
-        };
-        match check_entry(&bytes) {
-            Ok(()) => Lookup::Hit(bytes[HEADER..].to_vec()),
-            Err(why) => {
-                let _ = std::fs::remove_file(&path);
-                Lookup::Corrupt(format!("{}: {why}", path.display()))
+        match read_entry(&self.path(key)) {
+            Lookup::Miss => {}
+            found => return found,
+        }
+        match self.remote.as_ref().and_then(|r| r.get(key)) {
+            Some(payload) => {
+                let _ = self.put_local(&self.path(key), &payload);
+                Lookup::Hit(payload)
             }
+            None => Lookup::Miss,
         }
     }
 
+    /// Stores an action's payload here and on the remote.
     pub fn put(&self, key: &Key, payload: &[u8]) -> Result<(), CookError> {
+        if let Some(r) = &self.remote {
+            r.put(key, payload);
+        }
+        self.put_local(&self.path(key), payload)
+    }
+
+    /// A blob by its SHA-256: the local copy, else the remote's (then kept locally).
+    pub fn get_blob(&self, digest: &[u8; 32]) -> Lookup {
+        match read_entry(&self.blob_path(digest)) {
+            Lookup::Miss => {}
+            found => return found,
+        }
+        match self.remote.as_ref().and_then(|r| r.get_blob(digest)) {
+            Some(bytes) => {
+                let _ = self.put_local(&self.blob_path(digest), &bytes);
+                Lookup::Hit(bytes)
+            }
+            None => Lookup::Miss,
+        }
+    }
+
+    /// Stores a blob here and on the remote; returns its SHA-256.
+    pub fn put_blob(&self, bytes: &[u8]) -> Result<[u8; 32], CookError> {
+        let d = digest(bytes);
+        if let Some(r) = &self.remote {
+            r.put_blob(&d, bytes);
+        }
+        self.put_local(&self.blob_path(&d), bytes)?;
+        Ok(d)
+    }
+
+    /// Whether the blob is held locally; marks it used, as a read would.
+    pub fn has_local_blob(&self, digest: &[u8; 32]) -> bool {
+        let path = self.blob_path(digest);
+        touch(&path);
+        path.exists()
+    }
+
+    fn put_local(&self, path: &Path, payload: &[u8]) -> Result<(), CookError> {
         let mut bytes = Vec::with_capacity(HEADER + payload.len());
         bytes.extend_from_slice(MAGIC);
         bytes.extend_from_slice(&(payload.len() as u64).to_le_bytes());
         bytes.extend_from_slice(&crc32fast::hash(payload).to_le_bytes());
         bytes.extend_from_slice(&[0; 4]);
         bytes.extend_from_slice(payload);
-        pack::write_atomic(&self.path(key), &bytes)?;
+        pack::write_atomic(path, &bytes)?;
         Ok(())
+    }
+}
+
+/// What [`Cache::trim`] did.
+#[derive(Debug, Default, PartialEq, Eq)]
+pub struct Trim {
+    /// Bytes held before and after.
+    pub before: u64,
+    pub after: u64,
+    pub evicted: usize,
+    /// Another process was trimming the directory; this one left it alone.
+    pub skipped: bool,
+}
+
+/// Temp files older than this are leftovers of a writer that died before its rename.
+const STALE_TEMP: std::time::Duration = std::time::Duration::from_secs(3600);
+
+impl Cache {
+    /// Keeps the directory under its size cap by deleting the least recently used entries
+    /// (written or read longest ago), and temp files a crashed writer left.
+    ///
+    /// Safe while other cooks use the directory: one trims at a time (a lock file; another
+    /// skips rather than waits), entries are replaced by rename so a deletion never leaves a
+    /// partial one, and a reader that loses an entry to eviction sees a miss and cooks again
+    /// (an open file stays readable after its deletion).
+    pub fn trim(&self) -> Result<Trim, CookError> {
+        let io = |source| CookError::Io {
+            path: self.dir.clone(),
+            source,
+        };
+        let lock = std::fs::File::options()
+            .create(true)
+            .truncate(false)
+            .write(true)
+            .open(self.dir.join(".trim.lock"))
+            .map_err(io)?;
+        if lock.try_lock().is_err() {
+            return Ok(Trim {
+                skipped: true,
+                ..Trim::default()
+            });
+        }
+        let now = std::time::SystemTime::now();
+        let mut entries = Vec::new();
+        for e in std::fs::read_dir(&self.dir).map_err(io)? {
+            let Ok(e) = e else { continue };
+            let name = e.file_name();
+            let name = name.to_string_lossy();
+            // Vanished since the listing: another cook's rename or eviction.
+            let Ok(meta) = e.metadata() else { continue };
+            let modified = meta.modified().unwrap_or(now);
+            if name.starts_with('.') && name.contains(".tmp-") {
+                if now.duration_since(modified).unwrap_or_default() > STALE_TEMP {
+                    let _ = std::fs::remove_file(e.path());
+                }
+                continue;
+            }
+            if meta.is_file() && (name.ends_with(".entry") || name.ends_with(".blob")) {
+                entries.push((modified, meta.len(), e.path()));
+            }
+        }
+        let before: u64 = entries.iter().map(|e| e.1).sum();
+        let mut trim = Trim {
+            before,
+            after: before,
+            ..Trim::default()
+        };
+        if before <= self.max_size {
+            return Ok(trim);
+        }
+        // Oldest first; the path breaks ties so the order does not depend on the listing.
+        entries.sort();
+        for (_, len, path) in entries {
+            if trim.after <= self.max_size {
+                break;
+            }
+            if std::fs::remove_file(&path).is_ok() {
+                trim.after -= len;
+                trim.evicted += 1;
+            }
+        }
+        Ok(trim)
+    }
+}
+
+/// Marks an entry as just used, for least-recently-used eviction. Access times are unreliable
+/// (`noatime`, `relatime` mounts), so the modification time carries it.
+fn touch(path: &Path) {
+    if let Ok(f) = std::fs::File::options().write(true).open(path) {
+        let _ = f.set_modified(std::time::SystemTime::now());
+    }
+}
+
+fn read_entry(path: &Path) -> Lookup {
+    let bytes = match std::fs::read(path) {
+        Ok(b) => b,
+        // Missing, unreadable, evicted or vanished under a concurrent writer: cook it again.
+        Err(_) => return Lookup::Miss,
+    };
+    match check_entry(&bytes) {
+        Ok(()) => {
+            touch(path);
+            let mut bytes = bytes;
+            bytes.drain(..HEADER);
+            Lookup::Hit(bytes)
+        }
+        Err(why) => {
+            let _ = std::fs::remove_file(path);
+            Lookup::Corrupt(format!("{}: {why}", path.display()))
+        }
     }
 }
 
@@ -241,6 +456,7 @@ mod tests {
             textures: TextureSettings {
                 mip_filter: MipFilter::Box,
                 max_error_lsb: None,
+                format: None,
             },
             window_overrides: Vec::new(),
             cache: None,
@@ -292,6 +508,7 @@ mod tests {
                 TextureSettings {
                     mip_filter,
                     max_error_lsb,
+                    format,
                 },
             window_overrides,
             // Not a knob; `irrelevant_things_change_no_key` checks it changes nothing.
@@ -353,6 +570,18 @@ mod tests {
             (
                 "textures.max_error_lsb",
                 changed(&|s| s.textures.max_error_lsb = Some(max_error_lsb.unwrap_or(0.5) + 1.0)),
+                true,
+            ),
+            (
+                "textures.format",
+                changed(&|s| {
+                    s.textures.format = match format {
+                        Some(crate::manifest::TextureFormatChoice::Rgba8) => {
+                            Some(crate::manifest::TextureFormatChoice::Bc)
+                        }
+                        _ => Some(crate::manifest::TextureFormatChoice::Rgba8),
+                    }
+                }),
                 true,
             ),
             (
@@ -490,6 +719,56 @@ mod tests {
                 "prefix {len} accepted"
             );
         }
+    }
+
+    #[test]
+    fn trim_evicts_the_least_recently_used_and_stale_temp_files() {
+        let dir = tempfile::tempdir().unwrap();
+        let c = Cache::open(dir.path()).unwrap().with_max_size(3000);
+        let t0 = std::time::SystemTime::now() - std::time::Duration::from_secs(10_000);
+        let age = |path: &Path, secs: u64| {
+            std::fs::File::options()
+                .write(true)
+                .open(path)
+                .unwrap()
+                .set_modified(t0 + std::time::Duration::from_secs(secs))
+                .unwrap();
+        };
+        for (i, name) in ["a", "b", "c", "d"].iter().enumerate() {
+            c.put(&key(name), &[i as u8; 1000]).unwrap();
+            age(&c.path(&key(name)), i as u64);
+        }
+        let blob = c.put_blob(&[9u8; 500]).unwrap();
+        age(&c.blob_path(&blob), 1);
+        // Reading "a", the oldest, makes it the most recently used.
+        assert!(matches!(c.get(&key("a")), Lookup::Hit(_)));
+        let stale = dir.path().join(".x.entry.tmp-1-0");
+        std::fs::write(&stale, b"partial").unwrap();
+        age(&stale, 0);
+        let fresh = dir.path().join(".y.entry.tmp-2-0");
+        std::fs::write(&fresh, b"being written").unwrap();
+
+        let t = c.trim().unwrap();
+        let header = HEADER as u64;
+        assert_eq!(t.before, 4 * (1000 + header) + 500 + header);
+        assert!(t.after <= 3000 && t.evicted == 3, "{t:?}");
+        // Left: the two most recently used. Evicted, oldest first: b (1), the blob (1), c (2).
+        for (name, kept) in [("a", true), ("b", false), ("c", false), ("d", true)] {
+            assert_eq!(c.path(&key(name)).exists(), kept, "{name}");
+        }
+        assert!(!c.blob_path(&blob).exists());
+        assert!(!stale.exists() && fresh.exists());
+        // Under the cap: nothing to do.
+        assert_eq!(c.trim().unwrap().evicted, 0);
+
+        // While another process holds the lock, a trim leaves everything alone.
+        let lock = std::fs::File::open(dir.path().join(".trim.lock")).unwrap();
+        lock.lock().unwrap();
+        let tiny = c.clone().with_max_size(0);
+        assert!(tiny.trim().unwrap().skipped);
+        assert!(c.path(&key("a")).exists());
+        drop(lock);
+        assert_eq!(tiny.trim().unwrap().after, 0);
     }
 
     #[test]

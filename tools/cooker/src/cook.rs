@@ -10,6 +10,7 @@ use cook::{CacheMode, Manifest, Settings};
 
 use crate::exit::{OK, Outcome};
 use crate::scene_cache;
+use crate::transcript::{Stream, Transcript};
 
 #[derive(clap::Args)]
 pub struct Args {
@@ -34,11 +35,23 @@ pub struct Args {
     /// Cook everything from scratch; read and write no cache.
     #[arg(long, conflicts_with = "cache_dir")]
     no_cache: bool,
+    /// The local cache's size cap: after each cook the least recently used entries beyond it
+    /// are deleted. Bytes, or with a unit: 500M, 5G, 5GiB (K, M, G, T are powers of 1024).
+    #[arg(long, value_name = "SIZE", env = "STAINED_GLASS_CACHE_MAX_SIZE",
+          default_value = "5GiB", value_parser = crate::size::parse)]
+    cache_max_size: u64,
     /// Error budget in 8-bit sRGB steps (LSB): per texture, the cheapest blur and mip method
     /// whose measured error stays within it (overrides the manifest's `[scene] max_error`).
     /// `--max-error` is the old spelling.
     #[arg(long = "max-error-lsb", alias = "max-error", value_name = "LSB")]
     max_error: Option<f32>,
+    /// How textures are stored: `auto` block-compresses each texture (BC7 colour and
+    /// projectors, BC5 normal maps) with the cheapest encoder setting whose measured error
+    /// fits the budget (`--max-error-lsb`, RMS; normal maps `[textures] max_normal_error_deg`)
+    /// and keeps RGBA8 where none does; `bc` always compresses; `rgba8` never. Overrides the
+    /// manifest's `[textures] format` and every window's `texture_format`.
+    #[arg(long, value_name = "auto|rgba8|bc", value_parser = texture_format)]
+    texture_format: Option<cook::manifest::TextureFormatChoice>,
     /// Quantize vertices (positions within the mesh's bounds, 16-bit UVs, octahedral
     /// normals); reports the error.
     #[arg(long)]
@@ -58,6 +71,14 @@ fn position_bits(s: &str) -> Result<cook::mesh::PositionBits, String> {
         .ok()
         .and_then(cook::mesh::PositionBits::from_bits)
         .ok_or_else(|| format!("{s:?} is not one of 16, 10, 8"))
+}
+
+fn texture_format(s: &str) -> Result<cook::manifest::TextureFormatChoice, String> {
+    cook::manifest::TextureFormatChoice::CHOICES
+        .iter()
+        .find(|(n, _)| *n == s)
+        .map(|&(_, c)| c)
+        .ok_or_else(|| format!("{s:?} is not one of auto, rgba8, bc"))
 }
 
 fn ms(d: Duration) -> String {
@@ -81,6 +102,7 @@ pub fn run(args: Args) -> Outcome {
     settings.quantize = args.quantize;
     settings.position_bits = args.position_bits;
     settings.window_overrides = cook::manifest::WindowDesign::overrides(&args.windows)?;
+    settings.textures.format = args.texture_format;
     settings.mesh.cache = if args.fifo {
         CacheMode::Fifo
     } else {
@@ -94,32 +116,40 @@ pub fn run(args: Args) -> Outcome {
     let cache = if args.no_cache {
         None
     } else {
-        Some(cook::cache::Cache::open(
-            args.cache_dir
-                .clone()
-                .unwrap_or_else(cook::cache::Cache::default_dir),
-        )?)
+        Some(
+            cook::cache::Cache::open(
+                args.cache_dir
+                    .clone()
+                    .unwrap_or_else(cook::cache::Cache::default_dir),
+            )?
+            .with_max_size(args.cache_max_size),
+        )
     };
     let scene_key = match &cache {
         Some(_) => Some(cook::cache::scene_key(&args.input, &settings)?),
         None => None,
     };
     if let (Some(cache), Some(key)) = (&cache, &scene_key) {
-        match scene_cache::lookup(cache, key, &args.output) {
-            scene_cache::Reuse::UpToDate => {
+        match scene_cache::lookup(cache, key, &args.input, &args.output) {
+            scene_cache::Reuse::UpToDate(t) => {
+                replay(&t, args.verbose);
+                trim(cache, args.verbose);
                 println!(
-                    "{} is up to date: no input changed since it was cooked ({})",
+                    "{} is up to date: no input changed since it was cooked: {} (reused, {})",
                     args.output.display(),
+                    t.summary,
                     ms(start.elapsed())
                 );
                 return Ok(OK);
             }
-            scene_cache::Reuse::Pack(bytes) => {
+            scene_cache::Reuse::Pack(bytes, t) => {
                 pack::write_atomic(&args.output, &bytes)?;
+                replay(&t, args.verbose);
+                trim(cache, args.verbose);
                 println!(
-                    "wrote {}: reused the cached pack, no input changed ({} bytes in {})",
+                    "wrote {}: reused the cached pack, no input changed: {} in {}",
                     args.output.display(),
-                    bytes.len(),
+                    t.summary,
                     ms(start.elapsed())
                 );
                 return Ok(OK);
@@ -145,23 +175,26 @@ pub fn run(args: Args) -> Outcome {
     }
     let out = result?;
     let report = &out.report;
+    let mut transcript = Transcript::default();
     for w in &report.warnings {
-        eprintln!("warning: {w}");
+        transcript.message(Stream::Err, format!("warning: {w}"));
     }
     for h in &report.heuristics {
-        eprintln!(
-            "note: {}: {} triangles with {} tagged {} as material {:?} ({})",
-            h.source.display(),
-            h.triangles,
-            h.names,
-            h.class,
-            h.material,
-            h.reason
+        transcript.message(
+            Stream::Err,
+            format!(
+                "note: {}: {} triangles with {} tagged {} as material {:?} ({})",
+                h.source.display(),
+                h.triangles,
+                h.names,
+                h.class,
+                h.material,
+                h.reason
+            ),
         );
     }
-
     for s in &report.skipped {
-        println!("skipped: {s}");
+        transcript.message(Stream::Out, format!("skipped: {s}"));
     }
 
     let write_start = Instant::now();
@@ -169,11 +202,6 @@ pub fn run(args: Args) -> Outcome {
     pack::write_atomic(&args.output, &bytes)
         // The pack error names the path; the context says what was being done with it.
         .context("writing the pack")?;
-    if let (Some(cache), Some(key)) = (&cache, &scene_key)
-        && let Err(e) = scene_cache::store(cache, key, &report.inputs, &bytes)
-    {
-        eprintln!("warning: cache not updated: {e}");
-    }
     let reused = report
         .artifacts
         .iter()
@@ -208,38 +236,80 @@ pub fn run(args: Args) -> Outcome {
         .iter()
         .map(|m| m.index_count as u64 / 3)
         .sum();
+    transcript.stats = stats(&out, write_time);
     if args.verbose {
-        print_stats(&out, write_time);
+        transcript.print_stats();
     }
-    let bytes = std::fs::metadata(&args.output)
-        .map(|m| m.len())
-        .unwrap_or(0);
-    println!(
-        "wrote {}: {} meshes, {triangles} triangles, {} materials, {} textures, {bytes} bytes in {}",
-        args.output.display(),
+    transcript.summary = format!(
+        "{} meshes, {triangles} triangles, {} materials, {} textures, {} bytes",
         out.toc.meshes.len(),
         out.toc.materials.len(),
         out.toc.textures.len(),
+        bytes.len()
+    );
+    transcript.textures = report.artifacts.iter().map(|(n, _)| n.clone()).collect();
+    if let (Some(cache), Some(key)) = (&cache, &scene_key)
+        && let Err(e) =
+            scene_cache::store(cache, key, &args.input, &report.inputs, &bytes, &transcript)
+    {
+        eprintln!("warning: cache not updated: {e:#}");
+    }
+    if let Some(cache) = &cache {
+        trim(cache, args.verbose);
+    }
+    println!(
+        "wrote {}: {} in {}",
+        args.output.display(),
+        transcript.summary,
         ms(start.elapsed())
     );
     Ok(OK)
 }
 
-fn print_stats(out: &cook::CookOutput, write_time: Duration) {
+/// Keeps the local cache under its cap; a failure only costs space, never the cook.
+fn trim(cache: &cook::cache::Cache, verbose: bool) {
+    match cache.trim() {
+        Ok(t) if t.evicted > 0 && verbose => println!(
+            "cache: {} entries evicted ({} -> {} bytes, cap {})",
+            t.evicted,
+            t.before,
+            t.after,
+            cache.max_size()
+        ),
+        Ok(_) => {}
+        Err(e) => eprintln!("warning: cache not trimmed: {e}"),
+    }
+}
+
+/// Says again what the cook of a reused pack said, and that every texture was reused.
+fn replay(t: &Transcript, verbose: bool) {
+    t.print_messages();
+    println!("cache: {} textures reused, 0 cooked", t.textures.len());
+    if verbose {
+        for name in &t.textures {
+            println!("  {:<8} {name}", "reused");
+        }
+        println!("cache: the pack and the statistics below are those of the cook it reuses");
+        t.print_stats();
+    }
+}
+
+fn stats(out: &cook::CookOutput, write_time: Duration) -> Vec<String> {
+    let mut lines = Vec::new();
     let report = &out.report;
     let (mut tri_in, mut tri_out, mut acmr_in, mut acmr_out, mut bytes) =
         (0usize, 0usize, 0f64, 0f64, 0usize);
     for m in &report.meshes {
         let s = &m.stats;
-        println!("mesh {:?} ({})", m.name, m.source.display());
-        println!(
+        lines.push(format!("mesh {:?} ({})", m.name, m.source.display()));
+        lines.push(format!(
             "  {:<14} {:>9} -> {:>9} triangles  {:>10}  ({} n-gons split)",
             "import",
             s.triangles_in,
             s.triangles_in,
             ms(m.import_time),
             m.polygons
-        );
+        ));
         let mut tris = s.triangles_in;
         for (name, t) in &s.stages {
             let after = if *name == "filter+group" {
@@ -260,36 +330,39 @@ fn print_stats(out: &cook::CookOutput, write_time: Duration) {
                 "dedupe" => format!("  ({} corners)", s.corners),
                 _ => String::new(),
             };
-            println!(
+            lines.push(format!(
                 "  {:<14} {:>9} -> {:>9} triangles  {:>10}{extra}",
                 name,
                 tris,
                 after,
                 ms(*t)
-            );
+            ));
             tris = after;
         }
-        println!("  acmr_in={:.3} acmr_out={:.3}", s.acmr_in, s.acmr_out);
+        lines.push(format!(
+            "  acmr_in={:.3} acmr_out={:.3}",
+            s.acmr_in, s.acmr_out
+        ));
         let mesh_bytes = m.vertex_bytes + m.index_bytes;
-        println!(
+        lines.push(format!(
             "  overfetch={:.3} vertices={} bytes/triangle={:.2} (vertices {} B, indices {} B)",
             s.overfetch,
             s.vertices_out,
             mesh_bytes as f64 / s.triangles_out.max(1) as f64,
             m.vertex_bytes,
             m.index_bytes
-        );
+        ));
         if !m.dropped_attributes.is_empty() {
-            println!(
+            lines.push(format!(
                 "  attributes dropped (no material uses them): {}",
                 m.dropped_attributes.join(", ")
-            );
+            ));
         }
         if let Some(q) = m.quantization {
-            println!(
+            lines.push(format!(
                 "  quantization error: position {:.3e} (world units), normal {:.4} deg, uv {:.3e}",
                 q.position, q.normal_deg, q.uv
-            );
+            ));
         }
         tri_in += s.triangles_in;
         tri_out += s.triangles_out;
@@ -298,14 +371,15 @@ fn print_stats(out: &cook::CookOutput, write_time: Duration) {
         bytes += mesh_bytes;
     }
     for (name, t) in &report.stages {
-        println!("stage {name:<12} {}", ms(*t));
+        lines.push(format!("stage {name:<12} {}", ms(*t)));
     }
-    println!("stage {:<12} {}", "write", ms(write_time));
+    lines.push(format!("stage {:<12} {}", "write", ms(write_time)));
     let n = tri_out.max(1) as f64;
-    println!(
+    lines.push(format!(
         "total: triangles {tri_in} -> {tri_out} acmr_in={:.3} acmr_out={:.3} bytes/triangle={:.2}",
         acmr_in / n,
         acmr_out / n,
         bytes as f64 / n
-    );
+    ));
+    lines
 }

@@ -11,6 +11,8 @@ mod extract;
 mod info;
 mod init;
 mod scene_cache;
+mod size;
+mod transcript;
 mod validate;
 
 use clap::{Parser, Subcommand};

@@ -1,73 +1,116 @@
 //! Whole-scene reuse: a second cook of an unchanged scene reads no image and runs no stage.
 //!
-//! A scene entry is keyed by `cook::cache::scene_key` (the manifest's bytes and path, the
-//! settings and the versions); it records every file the cook read with its SHA-256, and the
-//! pack's length and CRC. On the next cook, if every recorded file still hashes the same, the
-//! pack is taken from the cache (or, when the output already holds exactly that pack, left
-//! alone).
+//! Two entries per scene, as in a compiler cache's manifest mode:
+//! - under `cook::cache::scene_key` (the manifest's name and bytes, the settings, the
+//!   versions): the files the last cook read, relative to the manifest's folder;
+//! - under the result key (the scene key plus each of those files with its SHA-256): the
+//!   cooked pack's SHA-256, length and CRC, and the cook's [`Transcript`].
+//!
+//! The pack itself is a content-addressed blob. Every variant of a scene (a design changed and
+//! back) keeps its own result, and two checkouts of one scene (on one machine or, through a
+//! remote cache, on two) share them.
 
 use std::path::{Path, PathBuf};
 
-use cook::cache::{Cache, Key, KeyBuilder, Lookup, digest};
+use cook::cache::{Cache, Key, KeyBuilder, Lookup, digest, hex, parse_hex32};
 use serde::{Deserialize, Serialize};
 
+use crate::transcript::Transcript;
+
 #[derive(Serialize, Deserialize)]
-struct SceneEntry {
-    inputs: Vec<(PathBuf, String)>,
-    pack_key: String,
-    pack_len: u64,
-    pack_crc: u32,
+struct SceneInputs {
+    inputs: Vec<PathBuf>,
 }
 
-fn hex(bytes: &[u8]) -> String {
-    bytes.iter().map(|b| format!("{b:02x}")).collect()
+#[derive(Serialize, Deserialize)]
+struct SceneResult {
+    pack_sha256: String,
+    pack_len: u64,
+    pack_crc: u32,
+    transcript: Transcript,
 }
 
 /// What a lookup found.
 pub enum Reuse {
     /// The output already holds the cached pack byte for byte: nothing to write.
-    UpToDate,
+    UpToDate(Transcript),
     /// The cached pack, to be written to the output.
-    Pack(Vec<u8>),
+    Pack(Vec<u8>, Transcript),
     /// Cook it; the string says why (for `-v`).
     Cook(String),
 }
 
-pub fn lookup(cache: &Cache, key: &Key, output: &Path) -> Reuse {
-    let entry = match cache.get(key) {
+/// The folder a manifest's relative paths start from.
+fn scene_dir(manifest: &Path) -> &Path {
+    manifest.parent().unwrap_or(Path::new(""))
+}
+
+/// `path` relative to the scene's folder where it lies within it (as the manifest names it),
+/// else as it is.
+fn relative(manifest: &Path, path: &Path) -> PathBuf {
+    path.strip_prefix(scene_dir(manifest))
+        .map(Path::to_path_buf)
+        .unwrap_or_else(|_| path.to_path_buf())
+}
+
+/// The result key: the scene key and each input's path and content.
+fn result_key(scene: &Key, manifest: &Path, inputs: &[PathBuf]) -> Result<Key, String> {
+    let mut k = KeyBuilder::new("scene result");
+    k.bytes("scene", &scene.0);
+    for rel in inputs {
+        let path = scene_dir(manifest).join(rel);
+        let bytes =
+            std::fs::read(&path).map_err(|_| format!("{} cannot be read", path.display()))?;
+        k.bytes("input", rel.as_os_str().as_encoded_bytes())
+            .bytes("sha256", &digest(&bytes));
+    }
+    Ok(k.finish())
+}
+
+pub fn lookup(cache: &Cache, key: &Key, manifest: &Path, output: &Path) -> Reuse {
+    let inputs = match cache.get(key) {
         Lookup::Hit(b) => b,
         Lookup::Miss => return Reuse::Cook("not cooked before with these settings".into()),
         Lookup::Corrupt(why) => {
             return Reuse::Cook(format!("damaged cache entry, re-cooking: {why}"));
         }
     };
-    let Ok(entry) = serde_json::from_slice::<SceneEntry>(&entry) else {
+    let Ok(inputs) = serde_json::from_slice::<SceneInputs>(&inputs) else {
         return Reuse::Cook("unreadable scene entry".into());
     };
-    for (path, hash) in &entry.inputs {
-        match std::fs::read(path) {
-            Ok(bytes) if hex(&digest(&bytes)) == *hash => {}
-            Ok(_) => return Reuse::Cook(format!("{} changed", path.display())),
-            Err(_) => return Reuse::Cook(format!("{} cannot be read", path.display())),
+    let result_key = match result_key(key, manifest, &inputs.inputs) {
+        Ok(k) => k,
+        Err(why) => return Reuse::Cook(why),
+    };
+    let result = match cache.get(&result_key) {
+        Lookup::Hit(b) => b,
+        Lookup::Miss => {
+            return Reuse::Cook("an input changed since the last cook with these settings".into());
         }
-    }
-    if let Ok(existing) = std::fs::read(output)
-        && existing.len() as u64 == entry.pack_len
-        && crc32fast::hash(&existing) == entry.pack_crc
-    {
-        return Reuse::UpToDate;
-    }
-    let pack_key = (0..32)
-        .map(|i| u8::from_str_radix(entry.pack_key.get(2 * i..2 * i + 2).unwrap_or("zz"), 16));
-    let Ok(bytes) = pack_key.collect::<Result<Vec<u8>, _>>() else {
+        Lookup::Corrupt(why) => {
+            return Reuse::Cook(format!("damaged cache entry, re-cooking: {why}"));
+        }
+    };
+    let Ok(result) = serde_json::from_slice::<SceneResult>(&result) else {
         return Reuse::Cook("unreadable scene entry".into());
     };
-    let pack_key = Key(bytes.try_into().expect("32 bytes"));
-    match cache.get(&pack_key) {
+    let Some(pack_sha) = parse_hex32(&result.pack_sha256) else {
+        return Reuse::Cook("unreadable scene entry".into());
+    };
+    let transcript = result.transcript.localized(manifest);
+    if let Ok(existing) = std::fs::read(output)
+        && existing.len() as u64 == result.pack_len
+        && crc32fast::hash(&existing) == result.pack_crc
+        && cache.has_local_blob(&pack_sha)
+    {
+        return Reuse::UpToDate(transcript);
+    }
+    match cache.get_blob(&pack_sha) {
         Lookup::Hit(pack)
-            if pack.len() as u64 == entry.pack_len && crc32fast::hash(&pack) == entry.pack_crc =>
+            if pack.len() as u64 == result.pack_len
+                && crc32fast::hash(&pack) == result.pack_crc =>
         {
-            Reuse::Pack(pack)
+            Reuse::Pack(pack, transcript)
         }
         Lookup::Hit(_) => Reuse::Cook("cached pack does not match its scene entry".into()),
         Lookup::Miss => Reuse::Cook("cached pack was evicted".into()),
@@ -75,29 +118,34 @@ pub fn lookup(cache: &Cache, key: &Key, output: &Path) -> Reuse {
     }
 }
 
-/// Records a fresh cook with the hashes of the files it read. (A file edited while the cook
-/// was running is recorded with its new content; re-cook after such an edit.)
+/// Records a fresh cook: the files it read, and under their content the pack and what the
+/// cook said. (A file edited while the cook was running is recorded with its new content;
+/// re-cook after such an edit.)
 pub fn store(
     cache: &Cache,
     key: &Key,
+    manifest: &Path,
     inputs: &[PathBuf],
     pack: &[u8],
-) -> Result<(), cook::CookError> {
-    let mut hashed = Vec::with_capacity(inputs.len());
-    for p in inputs {
-        let bytes = std::fs::read(p).map_err(|source| cook::CookError::Io {
-            path: p.clone(),
-            source,
-        })?;
-        hashed.push((p.clone(), hex(&digest(&bytes))));
-    }
-    let pack_key = KeyBuilder::new("pack").bytes("pack", pack).finish();
-    cache.put(&pack_key, pack)?;
-    let entry = SceneEntry {
-        inputs: hashed,
-        pack_key: pack_key.hex(),
+    transcript: &Transcript,
+) -> Result<(), anyhow::Error> {
+    let inputs: Vec<PathBuf> = inputs.iter().map(|p| relative(manifest, p)).collect();
+    let result_key = result_key(key, manifest, &inputs).map_err(anyhow::Error::msg)?;
+    let pack_sha = cache.put_blob(pack)?;
+    let result = SceneResult {
+        pack_sha256: hex(&pack_sha),
         pack_len: pack.len() as u64,
         pack_crc: crc32fast::hash(pack),
+        transcript: transcript.portable(manifest),
     };
-    cache.put(key, &serde_json::to_vec(&entry).expect("entry serializes"))
+    // The result before the list that leads to it, so no reader follows a list to nothing.
+    cache.put(
+        &result_key,
+        &serde_json::to_vec(&result).expect("entry serializes"),
+    )?;
+    cache.put(
+        key,
+        &serde_json::to_vec(&SceneInputs { inputs }).expect("entry serializes"),
+    )?;
+    Ok(())
 }

@@ -1,6 +1,8 @@
 //! The incremental cook cache: an unchanged scene is reused whole, a changed setting or window
 //! design re-cooks only what depends on it, and damaged entries are re-cooked, never used.
 
+mod common;
+
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 
@@ -113,13 +115,20 @@ fn unchanged_scene_reused_changed_design_recooked_alone_damage_detected() {
 
     // Every cache entry damaged: all are detected, re-cooked, and the pack comes out identical
     // to a cook without a cache.
+    let mut damaged = 0;
     for e in std::fs::read_dir(&cache).unwrap() {
         let p = e.unwrap().path();
+        // Entries only: the cache also keeps its eviction lock and bookkeeping beside them.
+        if p.extension().is_none_or(|x| x != "entry") {
+            continue;
+        }
         let mut b = std::fs::read(&p).unwrap();
         let n = b.len();
         b[n - 1] ^= 0x01;
         std::fs::write(&p, b).unwrap();
+        damaged += 1;
     }
+    assert!(damaged > 0, "no cache entries found in {}", cache.display());
     let fresh = dir.path().join("fresh.pack");
     let o = Command::new(env!("CARGO_BIN_EXE_cooker"))
         .arg("cook")
@@ -194,4 +203,196 @@ fn error_budget_choice_is_reported_and_a_too_tight_budget_warns() {
     assert!(err.contains("chosen by the error budget"), "{err}");
     assert!(err.contains("tighter than any"), "{err}");
     pack::Pack::open(&out).unwrap();
+}
+
+fn stderr(o: &Output) -> String {
+    String::from_utf8_lossy(&o.stderr).into_owned()
+}
+
+/// The lines a cook says about the scene (not about the cache or the output): warnings and
+/// notes on stderr, `skipped:` lines, and with `-v` the statistics.
+fn what_the_cook_said(o: &Output) -> (String, Vec<String>) {
+    let out = stdout(o);
+    let said = out
+        .lines()
+        .filter(|l| {
+            !(l.starts_with("cache:")
+                || l.starts_with("  reused ")
+                || l.starts_with("  cooked ")
+                || l.starts_with("wrote ")
+                || l.contains(" is up to date"))
+        })
+        .map(str::to_string)
+        .collect();
+    (stderr(o), said)
+}
+
+#[test]
+fn a_hit_replays_what_the_cook_said_marked_as_reused() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = common::small_scene(&dir.path().join("a"));
+    let cache = dir.path().join("cache");
+    let out = dir.path().join("out.pack");
+    let budget = ["--max-error-lsb", "0.3"];
+
+    let cold = cook_with(&scene, &out, &cache, &budget, "2");
+    let (err, said) = what_the_cook_said(&cold);
+    assert!(err.contains("0.5 LSB is the 8-bit rounding floor"), "{err}");
+    assert!(
+        said.iter()
+            .any(|l| l.starts_with("skipped: window \"dark\"")),
+        "{said:?}"
+    );
+    assert!(said.iter().any(|l| l.contains("acmr_out=")), "{said:?}");
+    assert!(stdout(&cold).contains("0 textures reused"));
+
+    // The output is left alone: the same messages, and it says the pack was reused.
+    let up_to_date = cook_with(&scene, &out, &cache, &budget, "2");
+    assert!(stdout(&up_to_date).contains("is up to date"));
+    assert_eq!(what_the_cook_said(&up_to_date), (err.clone(), said.clone()));
+    assert!(stdout(&up_to_date).contains("textures reused, 0 cooked"));
+    assert!(
+        stdout(&up_to_date).contains("(reused,"),
+        "{}",
+        stdout(&up_to_date)
+    );
+
+    // The output is gone: written back, and again the same messages.
+    let bytes = std::fs::read(&out).unwrap();
+    std::fs::remove_file(&out).unwrap();
+    let written = cook_with(&scene, &out, &cache, &budget, "1");
+    assert!(stdout(&written).contains("reused the cached pack"));
+    assert_eq!(what_the_cook_said(&written), (err.clone(), said.clone()));
+    assert!(std::fs::read(&out).unwrap() == bytes);
+
+    // Without -v, a hit says no statistics, as a cook without -v does; the messages stay.
+    let quiet = Command::new(env!("CARGO_BIN_EXE_cooker"))
+        .arg("cook")
+        .arg(&scene)
+        .arg("-o")
+        .arg(&out)
+        .arg("--cache-dir")
+        .arg(&cache)
+        .args(budget)
+        .output()
+        .unwrap();
+    assert!(quiet.status.success());
+    assert!(!stdout(&quiet).contains("acmr_out"), "{}", stdout(&quiet));
+    assert_eq!(stderr(&quiet), err);
+
+    // Another checkout of the scene, named from another folder, reuses the same entries and
+    // its messages name its own files.
+    let other = dir.path().join("elsewhere/b");
+    copy_dir(&dir.path().join("a"), &other);
+    let moved = cook_with(&other.join("scene.toml"), &out, &cache, &budget, "2");
+    assert!(
+        stdout(&moved).contains("is up to date"),
+        "{}",
+        stdout(&moved)
+    );
+    let (moved_err, moved_said) = what_the_cook_said(&moved);
+    let a = dir.path().join("a").display().to_string();
+    let b = other.display().to_string();
+    assert_eq!(moved_err, err.replace(&a, &b));
+    assert!(!moved_err.contains(&a), "{moved_err}");
+    assert_eq!(moved_said.join("\n"), said.join("\n").replace(&a, &b));
+}
+
+fn dir_size(dir: &Path) -> u64 {
+    std::fs::read_dir(dir)
+        .unwrap()
+        .map(|e| e.unwrap().metadata().unwrap().len())
+        .sum()
+}
+
+#[test]
+fn the_local_cache_keeps_under_its_cap_evicting_the_least_recently_used() {
+    let dir = tempfile::tempdir().unwrap();
+    let a = common::small_scene(&dir.path().join("a"));
+    let b_dir = dir.path().join("b");
+    let b = common::small_scene(&b_dir);
+    common::design(&b_dir.join("lit.png"), 7);
+    let cache = dir.path().join("cache");
+    let out = dir.path().join("out.pack");
+
+    // How much one scene's cook keeps.
+    cook(&a, &out, &cache);
+    let one = dir_size(&cache);
+    let cap = (one * 3 / 2).to_string();
+    let capped = ["--cache-max-size", cap.as_str()];
+
+    // A second scene does not fit beside the first: the first's entries go, the second's stay.
+    let o = cook_with(&b, &out, &cache, &capped, "2");
+    assert!(stdout(&o).contains("entries evicted"), "{}", stdout(&o));
+    assert!(dir_size(&cache) <= one * 3 / 2);
+    let again = cook_with(&b, &out, &cache, &capped, "2");
+    assert!(
+        stdout(&again).contains("is up to date"),
+        "{}",
+        stdout(&again)
+    );
+    std::fs::remove_file(&out).unwrap();
+    let evicted = cook_with(&a, &out, &cache, &capped, "2");
+    assert!(
+        !stdout(&evicted).contains("reused the cached pack"),
+        "{}",
+        stdout(&evicted)
+    );
+    let fresh = dir.path().join("fresh.pack");
+    let o = Command::new(env!("CARGO_BIN_EXE_cooker"))
+        .arg("cook")
+        .arg(&a)
+        .arg("-o")
+        .arg(&fresh)
+        .arg("--no-cache")
+        .output()
+        .unwrap();
+    assert!(o.status.success());
+    assert!(std::fs::read(&out).unwrap() == std::fs::read(&fresh).unwrap());
+
+    // Four cooks of two scenes racing on one directory under a cap that holds neither: each
+    // succeeds with its complete pack, and no temp file is left.
+    let children: Vec<_> = (0..4)
+        .map(|i| {
+            let scene = if i % 2 == 0 { &a } else { &b };
+            let c = Command::new(env!("CARGO_BIN_EXE_cooker"))
+                .arg("cook")
+                .arg(scene)
+                .arg("-o")
+                .arg(dir.path().join(format!("race{i}.pack")))
+                .arg("--cache-dir")
+                .arg(&cache)
+                .args(["--cache-max-size", "1K"])
+                .stdout(std::process::Stdio::null())
+                .stderr(std::process::Stdio::piped())
+                .spawn()
+                .unwrap();
+            (scene.clone(), i, c)
+        })
+        .collect();
+    for (scene, i, c) in children {
+        let o = c.wait_with_output().unwrap();
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        let race = std::fs::read(dir.path().join(format!("race{i}.pack"))).unwrap();
+        let want = dir.path().join("want.pack");
+        let w = Command::new(env!("CARGO_BIN_EXE_cooker"))
+            .arg("cook")
+            .arg(&scene)
+            .arg("-o")
+            .arg(&want)
+            .arg("--no-cache")
+            .output()
+            .unwrap();
+        assert!(w.status.success());
+        assert!(
+            race == std::fs::read(&want).unwrap(),
+            "race{i}.pack differs"
+        );
+    }
+    let temps: Vec<_> = std::fs::read_dir(&cache)
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .filter(|n| n.contains(".tmp-"))
+        .collect();
+    assert!(temps.is_empty(), "{temps:?}");
 }

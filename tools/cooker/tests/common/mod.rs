@@ -42,3 +42,71 @@ pub fn assert_said_once(msg: &str) {
         }
     }
 }
+
+/// A small scene in `dir` (a floor, two windows with their designs, one of which lights
+/// nothing and is skipped), cooked in tens of milliseconds; returns the manifest's path.
+pub fn small_scene(dir: &std::path::Path) -> std::path::PathBuf {
+    std::fs::create_dir_all(dir).unwrap();
+    std::fs::write(
+        dir.join("scene.obj"),
+        "mtllib scene.mtl\n\
+         v -5 0 0\nv 5 0 0\nv 5 0 10\nv -5 0 10\n\
+         v 0 2 0\nv 1 2 0\nv 1 4 0\nv 0 4 0\n\
+         v 100 2 0\nv 101 2 0\nv 101 4 0\nv 100 4 0\n\
+         vt 0 1\nvt 1 1\nvt 1 0\nvt 0 0\n\
+         g floor\nusemtl stone\nf 1 4 3\nf 1 3 2\n\
+         g windows\nusemtl lit\nf 5/1 6/2 7/3\nf 5/1 7/3 8/4\n\
+         usemtl dark\nf 9/1 10/2 11/3\nf 9/1 11/3 12/4\n",
+    )
+    .unwrap();
+    std::fs::write(
+        dir.join("scene.mtl"),
+        "newmtl stone\nKd 0.5 0.5 0.5\nnewmtl lit\nKd 1 1 1\nnewmtl dark\nKd 1 1 1\n",
+    )
+    .unwrap();
+    std::fs::write(
+        dir.join("scene.toml"),
+        r#"
+[[mesh]]
+source = "scene.obj"
+
+[[rule]]
+match = "stone"
+class = "floor"
+
+[[rule]]
+match = "{lit,dark}"
+on = ["material"]
+class = "window-upper"
+
+[[window]]
+material = "lit"
+design = "lit.png"
+
+[[window]]
+material = "dark"
+design = "dark.png"
+
+[light]
+type = "directional"
+direction = [0.0, -1.0, 1.0]
+angular_size_deg = 0.53
+colour = [1.0, 1.0, 1.0]
+intensity = 1.0
+"#,
+    )
+    .unwrap();
+    for (name, blue) in [("lit.png", 200u8), ("dark.png", 90)] {
+        design(&dir.join(name), blue);
+    }
+    dir.join("scene.toml")
+}
+
+/// Writes a small window design; `blue` tells designs apart.
+pub fn design(path: &std::path::Path, blue: u8) {
+    image::RgbaImage::from_fn(16, 32, |x, y| {
+        image::Rgba([(x * 15) as u8, (y * 7) as u8, blue, 255])
+    })
+    .save(path)
+    .unwrap();
+}
