@@ -109,6 +109,8 @@ pub fn run(args: Args) -> Outcome {
         CacheMode::Full
     };
     settings.mesh.overdraw = args.overdraw;
+    // ACMR and overfetch are only printed with -v.
+    settings.mesh.analyze = args.verbose;
 
     // Reuse: the whole pack when no input changed, else each texture whose inputs did not.
     let cache = if args.no_cache {
