@@ -16,3 +16,4 @@ pub mod mips;
 pub mod report;
 pub mod shadows;
 pub mod svg;
+pub mod tangents;

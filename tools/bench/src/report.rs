@@ -36,6 +36,9 @@ pub struct Results {
     /// `Err` text when the shadow sweep did not run (reports from before it read so).
     #[serde(default = "not_measured")]
     pub shadows: Result<crate::shadows::ShadowReport, String>,
+    /// MikkTSpace tangents against the `mikktspace` crate (empty in reports from before it).
+    #[serde(default)]
+    pub tangents: Vec<crate::tangents::TangentRow>,
 }
 
 fn not_measured() -> Result<crate::shadows::ShadowReport, String> {
@@ -89,6 +92,10 @@ impl Results {
         if !ran.contains(&"shadows") {
             kept.push(note("shadows"));
             self.shadows = earlier.shadows;
+        }
+        if !ran.contains(&"tangents") {
+            kept.push(note("tangents"));
+            self.tangents = earlier.tangents;
         }
         if !ran.contains(&"compression") {
             kept.push(note("compression"));
@@ -281,6 +288,7 @@ pub fn write_report(dir: &Path, r: &Results) -> Result<()> {
     blur_section(dir, &mut md, r)?;
     mip_section(dir, &mut md, r)?;
     mesh_section(dir, &mut md, r)?;
+    tangent_section(&mut md, r);
     god_ray_section(dir, &mut md, r)?;
     shadow_section(&mut md, r);
     compression_section(dir, &mut md, r)?;
@@ -632,6 +640,42 @@ fn mip_section(dir: &Path, md: &mut String, r: &Results) -> Result<()> {
     )?;
     let _ = writeln!(md, "![mips](mips.svg)\n");
     Ok(())
+}
+
+fn tangent_section(md: &mut String, r: &Results) {
+    if r.tangents.is_empty() {
+        return;
+    }
+    let _ = writeln!(md, "## Tangents\n");
+    let _ = writeln!(
+        md,
+        "MikkTSpace tangents of the corners the cooker's mesh stage leaves (generated normals, \
+         deduplicated vertices, cache-optimized order): ours (`cook::mesh::tangents`) against the \
+         `mikktspace` crate on the same corners, medians. The difference is the largest of any \
+         tangent component over every corner.\n"
+    );
+    let _ = writeln!(
+        md,
+        "| mesh | triangles | runs | mikktspace crate | ours, all cores | ours, one thread | time ratio (all cores / one thread) | max difference | signs agree |"
+    );
+    let _ = writeln!(md, "|---|---|---|---|---|---|---|---|---|");
+    for t in &r.tangents {
+        let _ = writeln!(
+            md,
+            "| {} | {} | {} | {:.2} ms | {:.2} ms | {:.2} ms | {:.3} / {:.3} | {:.1e} | {} |",
+            t.mesh,
+            t.triangles,
+            t.runs,
+            t.reference_ms,
+            t.ours_ms,
+            t.ours_one_thread_ms,
+            t.ours_ms / t.reference_ms,
+            t.ours_one_thread_ms / t.reference_ms,
+            t.max_difference,
+            if t.signs_agree { "yes" } else { "no" }
+        );
+    }
+    md.push('\n');
 }
 
 fn mesh_section(dir: &Path, md: &mut String, r: &Results) -> Result<()> {

@@ -7,18 +7,24 @@
 //! (including the greedy choice on edges with more than two triangles), the same groups built
 //! in the same order (a triangle without texture-space area joins the first group that reaches
 //! it), the same sub-groups and the same arithmetic in the same order, so the tangents come
-//! out with the same bits. What differs is how: shared vertices by hashing instead of a grid
+//! out with the same bits. One quirk of the reference is not copied: its edge sort leaves the
+//! last run of edges unsorted, so there an edge can miss its partner and a group split; that
+//! run depends on its own vertex numbering and quicksort, and is a single edge whenever the
+//! last triangle's vertices are new (see the tests).
+//!
+//! What differs is how: shared vertices by hashing (partitions in parallel) instead of a grid
 //! and recursive splitting, edges by a counting sort over vertices instead of three
 //! quicksorts, per-triangle values computed once instead of once per pair in a group, no
-//! per-corner allocation, and the tangent spaces of the groups in parallel. The unit test
-//! `matches_the_reference_crate` and the property test beside it hold it to the crate.
+//! per-corner allocation, and the tangent spaces of the groups in parallel. The bench report
+//! (docs/bench, Tangents) compares the times; the tests hold it to the crate bit for bit on
+//! awkward meshes and within 1e-5 on a real model.
 //!
 //! Input is a triangle list (three corners per triangle); quads are not taken.
 
 use glam::Vec3;
 use rayon::prelude::*;
 
-use super::weld::weld;
+use super::weld::plus_zero;
 
 const NONE: u32 = u32::MAX;
 /// The triangle's texture-space area is zero: it joins any group and adds nothing to it.
@@ -97,24 +103,7 @@ pub fn generate<C: Corners>(corners: &C) -> Vec<[f32; 4]> {
     }
     let pos = |c: usize| Vec3::from(corners.position(c));
 
-    // Shared vertices: corners equal in position, normal and texture coordinate. Values are
-    // welded by their bits after -0.0 → +0.0, which is float equality except for NaN, which
-    // equals nothing in the reference: such corners stay alone.
-    let keys: Vec<[f32; 8]> = (0..corner_count)
-        .into_par_iter()
-        .map(|c| {
-            let (p, n, t) = (corners.position(c), corners.normal(c), corners.uv(c));
-            [p[0], p[1], p[2], n[0], n[1], n[2], t[0], t[1]]
-        })
-        .collect();
-    let (mut vid, mut vertex_count) = weld(&keys);
-    for (id, key) in vid.iter_mut().zip(&keys) {
-        if key.iter().any(|x| x.is_nan()) {
-            *id = vertex_count as u32;
-            vertex_count += 1;
-        }
-    }
-    drop(keys);
+    let (vid, vertex_count) = shared_vertices(corners, corner_count);
 
     // Degenerate triangles (two equal positions) are moved behind the good ones exactly as the
     // reference moves them, since the good ones' order decides groups and edge pairing.
@@ -199,27 +188,41 @@ pub fn generate<C: Corners>(corners: &C) -> Vec<[f32; 4]> {
         .collect();
 
     let neighbors = build_neighbors(&tv, vertex_count);
-    let groups = build_groups(&tv, &neighbors, &mut tris);
+    let groups = build_groups(&tv, &neighbors, &mut tris, &order);
 
-    // Tangent spaces, one group at a time: every corner belongs to at most one group.
+    // Tangent spaces, groups in parallel batches: each member of a group is one output corner,
+    // and a batch of consecutive groups owns a consecutive run of members.
     let thres_cos = ((180.0f32 * std::f64::consts::PI as f32 / 180.0) as f64).cos() as f32;
-    let results: Vec<(u32, [f32; 4])> = groups
-        .list
-        .par_iter()
-        .flat_map_iter(|g| {
-            let faces = &groups.faces[g.start as usize..(g.start + g.len) as usize];
-            let n = Vec3::from(corners.normal(
-                3 * order[faces[0] as usize] as usize + {
-                    let v = &tv[faces[0] as usize];
-                    v.iter().position(|&x| x == g.rep).unwrap_or(0)
-                },
-            ));
-            group_tspaces(faces, g, n, &tv, &tris, &order, corners, thres_cos)
-        })
-        .collect();
-    for (slot, t) in results {
-        out[slot as usize] = t;
+    let mut values = vec![[0.0f32; 4]; groups.faces.len()];
+    let per_batch = (groups.list.len() / (rayon::current_num_threads() * 16)).max(256);
+    let mut jobs = Vec::new();
+    let mut rest: &mut [[f32; 4]] = &mut values;
+    for batch in groups.list.chunks(per_batch) {
+        let len: u32 = batch.iter().map(|g| g.len).sum();
+        let (mine, others) = rest.split_at_mut(len as usize);
+        jobs.push((batch, mine));
+        rest = others;
     }
+    let ctx = Context {
+        corners,
+        tris: &tris,
+        faces: &groups.faces,
+        slots: &groups.slots,
+        thres_cos,
+    };
+    jobs.into_par_iter().for_each(|(batch, values)| {
+        let mut scratch = Scratch::default();
+        let mut at = 0;
+        for g in batch {
+            let len = g.len as usize;
+            ctx.group(g, &mut values[at..at + len], &mut scratch);
+            at += len;
+        }
+    });
+    for (&slot, v) in groups.slots.iter().zip(&values) {
+        out[slot as usize] = *v;
+    }
+    drop(values);
 
     // Degenerate triangles take the tangent of the first good corner at the same vertex.
     if degen_count > 0 {
@@ -242,6 +245,110 @@ pub fn generate<C: Corners>(corners: &C) -> Vec<[f32; 4]> {
         }
     }
     out
+}
+
+/// Shared vertices: corners equal in position, normal and texture coordinate get one id.
+/// Values compare by their bits after -0.0 → +0.0, which is float equality except for NaN,
+/// which equals nothing in the reference: such corners stay alone. Ids are labels only (no
+/// order is taken from them), so corners are split by hash into partitions welded in parallel,
+/// each with a table small enough to stay in cache.
+fn shared_vertices<C: Corners>(corners: &C, corner_count: usize) -> (Vec<u32>, usize) {
+    const PART_BITS: u32 = 8;
+    const EMPTY: u64 = u64::MAX;
+    let key = |c: usize| {
+        let (p, n, t) = (corners.position(c), corners.normal(c), corners.uv(c));
+        [p[0], p[1], p[2], n[0], n[1], n[2], t[0], t[1]].map(|x| plus_zero(x).to_bits())
+    };
+    let hashes: Vec<u64> = (0..corner_count)
+        .into_par_iter()
+        .map(|c| {
+            let k = key(c);
+            if k.iter().any(|&b| f32::from_bits(b).is_nan()) {
+                // Marked by the top partition's last value, never a real hash (see below).
+                return EMPTY;
+            }
+            let mut h = 0u64;
+            for w in k {
+                h = (h.rotate_left(5) ^ w as u64).wrapping_mul(0x51_7c_c1_b7_27_22_0a_95);
+            }
+            h ^= h >> 33;
+            h = h.wrapping_mul(0xff51_afd7_ed55_8ccd);
+            h ^= h >> 33;
+            // Real hashes stay below EMPTY.
+            (h ^ (h >> 29)).min(EMPTY - 1)
+        })
+        .collect();
+    let parts = 1usize << PART_BITS;
+    let part = |h: u64| (h >> (64 - PART_BITS)) as usize;
+    let mut start = vec![0usize; parts + 1];
+    for &h in &hashes {
+        start[part(h) + 1] += 1;
+    }
+    for i in 0..parts {
+        start[i + 1] += start[i];
+    }
+    // Each partition's corners, hashes and values side by side (corners ascending), so that
+    // welding one touches only its own memory.
+    let mut members = vec![(0u32, 0u64, [0u32; 8]); corner_count];
+    let mut fill = start.clone();
+    for (c, &h) in hashes.iter().enumerate() {
+        members[fill[part(h)]] = (c as u32, h, key(c));
+        fill[part(h)] += 1;
+    }
+    drop(fill);
+    drop(hashes);
+    // For each member, the first corner (the smallest) with its value.
+    let firsts: Vec<Vec<u32>> = (0..parts)
+        .into_par_iter()
+        .map(|p| {
+            let list = &members[start[p]..start[p + 1]];
+            let size = (list.len() * 2).next_power_of_two().max(16);
+            let mask = size - 1;
+            let mut table = vec![u32::MAX; size];
+            let mut firsts = Vec::with_capacity(list.len());
+            for (m, &(c, h, k)) in list.iter().enumerate() {
+                if h == EMPTY {
+                    firsts.push(c);
+                    continue;
+                }
+                let mut slot = h as usize & mask;
+                loop {
+                    let e = table[slot];
+                    if e == u32::MAX {
+                        table[slot] = m as u32;
+                        firsts.push(c);
+                        break;
+                    }
+                    let (first, fh, fk) = list[e as usize];
+                    if fh == h && fk == k {
+                        firsts.push(first);
+                        break;
+                    }
+                    slot = (slot + 1) & mask;
+                }
+            }
+            firsts
+        })
+        .collect();
+    let mut first = vec![0u32; corner_count];
+    for (p, f) in firsts.iter().enumerate() {
+        for (&(c, _, _), &r) in members[start[p]..start[p + 1]].iter().zip(f) {
+            first[c as usize] = r;
+        }
+    }
+    drop(members);
+    // Ids in order of first appearance, which keeps the edge sort's memory access local.
+    let mut next = 0u32;
+    for c in 0..corner_count {
+        let r = first[c] as usize;
+        first[c] = if r == c {
+            next += 1;
+            next - 1
+        } else {
+            first[r]
+        };
+    }
+    (first, next as usize)
 }
 
 /// For each triangle and edge k (corner k to corner k+1), the triangle across it or `NONE`.
@@ -312,8 +419,6 @@ fn build_neighbors(tv: &[[u32; 3]], vertex_count: usize) -> Vec<[u32; 3]> {
 }
 
 struct Group {
-    /// The shared vertex the group is around.
-    rep: u32,
     orient: bool,
     start: u32,
     len: u32,
@@ -323,16 +428,24 @@ struct Groups {
     list: Vec<Group>,
     /// Member triangles of every group, each group's contiguous.
     faces: Vec<u32>,
+    /// For each member, the input corner at the group's vertex.
+    slots: Vec<u32>,
 }
 
 /// The reference's groups: for each triangle with texture-space area and each of its corners
 /// not yet in a group, a new group around that corner's vertex, grown depth-first across edges
 /// around the vertex (left neighbour first) through triangles of the same orientation. A
 /// triangle without area takes the orientation of the first group to reach it.
-fn build_groups(tv: &[[u32; 3]], neighbors: &[[u32; 3]], tris: &mut [Tri]) -> Groups {
+fn build_groups(
+    tv: &[[u32; 3]],
+    neighbors: &[[u32; 3]],
+    tris: &mut [Tri],
+    order: &[u32],
+) -> Groups {
     let mut assigned = vec![[NONE; 3]; tv.len()];
     let mut list: Vec<Group> = Vec::new();
     let mut faces: Vec<u32> = Vec::with_capacity(tv.len() * 3);
+    let mut slots: Vec<u32> = Vec::with_capacity(tv.len() * 3);
     let mut stack: Vec<u32> = Vec::new();
     for f in 0..tv.len() {
         for i in 0..3 {
@@ -345,6 +458,7 @@ fn build_groups(tv: &[[u32; 3]], neighbors: &[[u32; 3]], tris: &mut [Tri]) -> Gr
             let start = faces.len() as u32;
             assigned[f][i] = g;
             faces.push(f as u32);
+            slots.push(3 * order[f] + i as u32);
             // Popped left first, as the reference recurses left before right.
             for nb in [neighbors[f][(i + 2) % 3], neighbors[f][i]] {
                 if nb != NONE {
@@ -369,6 +483,7 @@ fn build_groups(tv: &[[u32; 3]], neighbors: &[[u32; 3]], tris: &mut [Tri]) -> Gr
                     continue;
                 }
                 faces.push(t as u32);
+                slots.push(3 * order[t] + k as u32);
                 assigned[t][k] = g;
                 for nb in [neighbors[t][(k + 2) % 3], neighbors[t][k]] {
                     if nb != NONE {
@@ -377,109 +492,126 @@ fn build_groups(tv: &[[u32; 3]], neighbors: &[[u32; 3]], tris: &mut [Tri]) -> Gr
                 }
             }
             list.push(Group {
-                rep,
                 orient,
                 start,
                 len: faces.len() as u32 - start,
             });
         }
     }
-    Groups { list, faces }
+    Groups { list, faces, slots }
 }
 
-/// The tangent of each corner of one group: its members split into sub-groups whose projected
-/// tangent directions agree with each member's, each sub-group's tangent the angle-weighted
-/// sum over its members. Returns (output corner, tangent).
-#[allow(clippy::too_many_arguments)]
-fn group_tspaces<C: Corners>(
-    faces: &[u32],
-    g: &Group,
-    n: Vec3,
-    tv: &[[u32; 3]],
-    tris: &[Tri],
-    order: &[u32],
-    corners: &C,
+struct Context<'a, C> {
+    corners: &'a C,
+    tris: &'a [Tri],
+    faces: &'a [u32],
+    slots: &'a [u32],
     thres_cos: f32,
-) -> Vec<(u32, [f32; 4])> {
-    let k = faces.len();
-    let corner_of = |t: usize| tv[t].iter().position(|&x| x == g.rep).unwrap_or(0);
-    // Projected directions of each member: the reference recomputes them for every pair, with
-    // the same operations, so computing them once gives the same bits.
-    let os: Vec<Vec3> = faces
-        .iter()
-        .map(|&t| project(tris[t as usize].os, n))
-        .collect();
-    let ot: Vec<Vec3> = faces
-        .iter()
-        .map(|&t| project(tris[t as usize].ot, n))
-        .collect();
-    let any: Vec<bool> = faces
-        .iter()
-        .map(|&t| tris[t as usize].flag & GROUP_WITH_ANY != 0)
-        .collect();
-    let sign = if g.orient { 1.0 } else { -1.0 };
-    let mut subgroups: Vec<(Vec<u32>, Vec3)> = Vec::new();
-    let mut members: Vec<u32> = Vec::with_capacity(k);
-    let mut out = Vec::with_capacity(k);
-    for a in 0..k {
-        members.clear();
-        for b in 0..k {
-            if any[a]
-                || any[b]
-                || a == b
-                || (os[a].dot(os[b]) > thres_cos && ot[a].dot(ot[b]) > thres_cos)
-            {
-                members.push(faces[b]);
-            }
-        }
-        members.sort_unstable();
-        let tangent = match subgroups.iter().find(|(m, _)| *m == members) {
-            Some(&(_, t)) => t,
-            None => {
-                let t = eval_tspace(&members, g.rep, n, tv, tris, order, corners);
-                subgroups.push((members.clone(), t));
-                t
-            }
-        };
-        let t = faces[a] as usize;
-        let slot = 3 * order[t] as usize + corner_of(t);
-        out.push((slot as u32, [tangent.x, tangent.y, tangent.z, sign]));
-    }
-    out
 }
 
-/// Angle-weighted sum of the members' projected tangent directions at vertex `rep`, as a unit
-/// vector (or zero).
-fn eval_tspace<C: Corners>(
-    members: &[u32],
-    rep: u32,
-    n: Vec3,
-    tv: &[[u32; 3]],
-    tris: &[Tri],
-    order: &[u32],
-    corners: &C,
-) -> Vec3 {
-    let mut sum = Vec3::ZERO;
-    for &t in members {
-        let t = t as usize;
-        if tris[t].flag & GROUP_WITH_ANY != 0 {
-            continue;
+/// Buffers reused from group to group.
+#[derive(Default)]
+struct Scratch {
+    os: Vec<Vec3>,
+    ot: Vec<Vec3>,
+    any: Vec<bool>,
+    members: Vec<u32>,
+    /// Sub-groups found so far: (start, end) in `member_lists`, and their tangent.
+    subgroups: Vec<(usize, usize, Vec3)>,
+    member_lists: Vec<u32>,
+}
+
+impl<C: Corners> Context<'_, C> {
+    /// The tangent of each member of one group (`out`, in member order): the members split
+    /// into sub-groups whose projected tangent directions agree with each member's, each
+    /// sub-group's tangent the angle-weighted sum over its members.
+    fn group(&self, g: &Group, out: &mut [[f32; 4]], s: &mut Scratch) {
+        let range = g.start as usize..(g.start + g.len) as usize;
+        let faces = &self.faces[range.clone()];
+        let slots = &self.slots[range];
+        let n = Vec3::from(self.corners.normal(slots[0] as usize));
+        // Projected directions of each member: the reference recomputes them for every pair,
+        // with the same operations, so computing them once gives the same bits.
+        s.os.clear();
+        s.ot.clear();
+        s.any.clear();
+        for &t in faces {
+            let tri = &self.tris[t as usize];
+            s.os.push(project(tri.os, n));
+            s.ot.push(project(tri.ot, n));
+            s.any.push(tri.flag & GROUP_WITH_ANY != 0);
         }
-        let i = tv[t].iter().position(|&x| x == rep).unwrap_or(0);
-        let os = project(tris[t].os, n);
-        let base = 3 * order[t] as usize;
-        let p0 = Vec3::from(corners.position(base + if i > 0 { i - 1 } else { 2 }));
-        let p1 = Vec3::from(corners.position(base + i));
-        let p2 = Vec3::from(corners.position(base + if i < 2 { i + 1 } else { 0 }));
-        let v1 = p0 - p1;
-        let v2 = p2 - p1;
-        let v1 = normalize_if_not_zero(v1 - n.dot(v1) * n);
-        let v2 = normalize_if_not_zero(v2 - n.dot(v2) * n);
-        let cos = v1.dot(v2).clamp(-1.0, 1.0);
-        let angle = (cos as f64).acos() as f32;
-        sum += angle * os;
+        let sign = if g.orient { 1.0 } else { -1.0 };
+        let k = faces.len();
+        let similar = |a: usize, b: usize| {
+            s.any[a]
+                || s.any[b]
+                || a == b
+                || (s.os[a].dot(s.os[b]) > self.thres_cos && s.ot[a].dot(s.ot[b]) > self.thres_cos)
+        };
+        // Usually every member agrees with every other: one sub-group, the whole group.
+        if (0..k).all(|a| (a + 1..k).all(|b| similar(a, b))) {
+            s.members.clear();
+            s.members.extend(0..k as u32);
+            s.members.sort_unstable_by_key(|&m| faces[m as usize]);
+            let t = self.eval(&s.members, faces, slots, &s.os, n);
+            out.fill([t.x, t.y, t.z, sign]);
+            return;
+        }
+        s.subgroups.clear();
+        s.member_lists.clear();
+        for (a, out) in out.iter_mut().enumerate() {
+            s.members.clear();
+            for b in 0..k {
+                if similar(a, b) {
+                    s.members.push(b as u32);
+                }
+            }
+            s.members.sort_unstable_by_key(|&m| faces[m as usize]);
+            let found = s
+                .subgroups
+                .iter()
+                .find(|&&(from, to, _)| s.member_lists[from..to] == s.members[..]);
+            let t = match found {
+                Some(&(_, _, t)) => t,
+                None => {
+                    let t = self.eval(&s.members, faces, slots, &s.os, n);
+                    let from = s.member_lists.len();
+                    s.member_lists.extend_from_slice(&s.members);
+                    s.subgroups.push((from, s.member_lists.len(), t));
+                    t
+                }
+            };
+            *out = [t.x, t.y, t.z, sign];
+        }
     }
-    normalize_if_not_zero(sum)
+
+    /// Angle-weighted sum of the members' projected tangent directions at the group's vertex,
+    /// as a unit vector (or zero). `members` index the group's members, in ascending order of
+    /// their triangles (the reference's summation order); `faces`, `slots` and `os` describe
+    /// the whole group.
+    fn eval(&self, members: &[u32], faces: &[u32], slots: &[u32], os: &[Vec3], n: Vec3) -> Vec3 {
+        let mut sum = Vec3::ZERO;
+        for &m in members {
+            let m = m as usize;
+            if self.tris[faces[m] as usize].flag & GROUP_WITH_ANY != 0 {
+                continue;
+            }
+            let slot = slots[m] as usize;
+            let (base, i) = (slot - slot % 3, slot % 3);
+            let p0 = Vec3::from(self.corners.position(base + if i > 0 { i - 1 } else { 2 }));
+            let p1 = Vec3::from(self.corners.position(base + i));
+            let p2 = Vec3::from(self.corners.position(base + if i < 2 { i + 1 } else { 0 }));
+            let v1 = p0 - p1;
+            let v2 = p2 - p1;
+            let v1 = normalize_if_not_zero(v1 - n.dot(v1) * n);
+            let v2 = normalize_if_not_zero(v2 - n.dot(v2) * n);
+            let cos = v1.dot(v2).clamp(-1.0, 1.0);
+            let angle = (cos as f64).acos() as f32;
+            sum += angle * os[m];
+        }
+        normalize_if_not_zero(sum)
+    }
 }
 
 #[cfg(test)]
