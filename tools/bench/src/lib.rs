@@ -10,6 +10,7 @@
 pub mod blur;
 pub mod common;
 pub mod compress;
+pub mod first_frame;
 pub mod godrays;
 pub mod mesh;
 pub mod mips;

@@ -50,7 +50,7 @@ struct Args {
     /// Skip the god-ray and shadow sweeps (they need a GPU adapter; lavapipe is enough).
     #[arg(long)]
     no_god_rays: bool,
-    /// Run only these sweeps (blur, mips, meshes, tangents, god-rays, shadows, compression), comma-separated; the others are
+    /// Run only these sweeps (blur, mips, meshes, tangents, god-rays, shadows, first-frame, compression), comma-separated; the others are
     /// left out of the report.
     #[arg(long, value_delimiter = ',')]
     only: Option<Vec<String>>,
@@ -224,6 +224,21 @@ fn main() -> Result<()> {
     if let Err(e) = &shadows {
         eprintln!("shadows not measured: {e}");
     }
+    let first_frame = if args.no_god_rays || !wanted("first-frame") {
+        Vec::new()
+    } else if let Some(scene) = bench::first_frame::default_scene() {
+        bench::first_frame::sweep(
+            &bench::first_frame::FirstFrameConfig {
+                scene,
+                runs: if args.quick { 1 } else { runs.max(5) },
+                size: if args.quick { (160, 90) } else { (1280, 720) },
+                scratch: scratch.clone(),
+            },
+            &mut progress,
+        )?
+    } else {
+        Vec::new()
+    };
     let compression = if wanted("compression") {
         use texture::bc::Bc7Profile;
         bench::compress::sweep(
@@ -258,6 +273,7 @@ fn main() -> Result<()> {
         shadows,
         compression,
         tangents,
+        first_frame,
     };
     if args.keep_others {
         let path = args.out.join("results.json");

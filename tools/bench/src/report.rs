@@ -39,6 +39,10 @@ pub struct Results {
     /// MikkTSpace tangents against the `mikktspace` crate (empty in reports from before it).
     #[serde(default)]
     pub tangents: Vec<crate::tangents::TangentRow>,
+    /// The viewer's time to first frame (empty in reports from before it, or when the viewer
+    /// was not built).
+    #[serde(default)]
+    pub first_frame: Vec<crate::first_frame::FirstFrameRow>,
 }
 
 fn not_measured() -> Result<crate::shadows::ShadowReport, String> {
@@ -92,6 +96,10 @@ impl Results {
         if !ran.contains(&"shadows") {
             kept.push(note("shadows"));
             self.shadows = earlier.shadows;
+        }
+        if !ran.contains(&"first-frame") {
+            kept.push(note("first-frame"));
+            self.first_frame = earlier.first_frame;
         }
         if !ran.contains(&"tangents") {
             kept.push(note("tangents"));
@@ -291,6 +299,7 @@ pub fn write_report(dir: &Path, r: &Results) -> Result<()> {
     tangent_section(&mut md, r);
     god_ray_section(dir, &mut md, r)?;
     shadow_section(&mut md, r);
+    first_frame_section(&mut md, r);
     compression_section(dir, &mut md, r)?;
     write(dir, "README.md", &md)?;
     write(dir, "results.json", &serde_json::to_string_pretty(r)?)?;
@@ -640,6 +649,34 @@ fn mip_section(dir: &Path, md: &mut String, r: &Results) -> Result<()> {
     )?;
     let _ = writeln!(md, "![mips](mips.svg)\n");
     Ok(())
+}
+
+fn first_frame_section(md: &mut String, r: &Results) {
+    if r.first_frame.is_empty() {
+        return;
+    }
+    let _ = writeln!(md, "## Viewer first frame\n");
+    let _ = writeln!(
+        md,
+        "Whole headless viewer processes on the default scene's pack (camera `nave`), runs of \
+         both modes interleaved, medians; the clock starts when the pack starts streaming (the \
+         device is created before it). By default a CPU rasterizer draws a half-size preview \
+         first (`Gpu::first_frame_divisor`); `--no-preview` draws the whole frame first. The \
+         split is the viewer's own (`-v`) for the median run.\n"
+    );
+    let _ = writeln!(
+        md,
+        "| mode | runs | first frame | full quality | first frame's split |"
+    );
+    let _ = writeln!(md, "|---|---|---|---|---|");
+    for f in &r.first_frame {
+        let _ = writeln!(
+            md,
+            "| {} | {} | {:.0} ms | {:.0} ms | {} |",
+            f.mode, f.runs, f.first_frame_ms, f.full_quality_ms, f.split
+        );
+    }
+    md.push('\n');
 }
 
 fn tangent_section(md: &mut String, r: &Results) {
