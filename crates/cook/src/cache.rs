@@ -381,6 +381,77 @@ impl Cache {
     }
 }
 
+/// What a cache directory holds.
+#[derive(Debug, Default, PartialEq, Eq)]
+pub struct Usage {
+    pub entries: usize,
+    pub blobs: usize,
+    pub bytes: u64,
+}
+
+impl Cache {
+    /// Counts the entries and blobs held locally.
+    pub fn usage(&self) -> Result<Usage, CookError> {
+        let mut u = Usage::default();
+        for (path, len) in self.local_files()? {
+            if path.extension().is_some_and(|e| e == "blob") {
+                u.blobs += 1;
+            } else {
+                u.entries += 1;
+            }
+            u.bytes += len;
+        }
+        Ok(u)
+    }
+
+    /// Checks every local entry and blob (blobs also against their SHA-256 name), removing the
+    /// damaged ones; returns them with what was wrong, and how many were checked.
+    pub fn verify(&self) -> Result<(usize, Vec<(PathBuf, String)>), CookError> {
+        let files = self.local_files()?;
+        let mut damaged = Vec::new();
+        for (path, _) in &files {
+            match read_entry(path) {
+                Lookup::Corrupt(why) => damaged.push((path.clone(), why)),
+                Lookup::Hit(payload) if path.extension().is_some_and(|e| e == "blob") => {
+                    let name = path.file_stem().unwrap_or_default().to_string_lossy();
+                    if parse_hex32(&name) != Some(digest(&payload)) {
+                        let _ = std::fs::remove_file(path);
+                        damaged.push((
+                            path.clone(),
+                            "content does not match its SHA-256 name".into(),
+                        ));
+                    }
+                }
+                _ => {}
+            }
+        }
+        Ok((files.len(), damaged))
+    }
+
+    fn local_files(&self) -> Result<Vec<(PathBuf, u64)>, CookError> {
+        let io = |source| CookError::Io {
+            path: self.dir.clone(),
+            source,
+        };
+        let mut out = Vec::new();
+        for e in std::fs::read_dir(&self.dir).map_err(io)? {
+            let Ok(e) = e else { continue };
+            let name = e.file_name();
+            let name = name.to_string_lossy();
+            if name.starts_with('.') || !(name.ends_with(".entry") || name.ends_with(".blob")) {
+                continue;
+            }
+            if let Ok(m) = e.metadata()
+                && m.is_file()
+            {
+                out.push((e.path(), m.len()));
+            }
+        }
+        out.sort();
+        Ok(out)
+    }
+}
+
 /// Marks an entry as just used, for least-recently-used eviction. Access times are unreliable
 /// (`noatime`, `relatime` mounts), so the modification time carries it.
 fn touch(path: &Path) {
