@@ -10,106 +10,13 @@
 //! a truncated reply, a read-only token (403), two cooks racing on one key.
 
 mod common;
+mod servers;
 
 use std::io::{Read, Write};
 use std::net::{TcpListener, TcpStream};
 use std::path::{Path, PathBuf};
 use std::process::{Child, Command, Output, Stdio};
-use std::time::{Duration, Instant};
-
-/// A server process, stopped when dropped. Each runs under `timeout`, so it also stops by
-/// itself should this test process die without dropping it.
-struct Server {
-    name: &'static str,
-    child: Child,
-    log: PathBuf,
-    stopped: bool,
-}
-
-impl Server {
-    fn start(name: &'static str, program: &str, args: &[&str], dir: &Path) -> Server {
-        let path = which(program);
-        let log = dir.join(format!("{name}.log"));
-        let log_file = std::fs::File::create(&log).unwrap();
-        let child = Command::new("timeout")
-            .args(["-s", "TERM", "600"])
-            .arg(&path)
-            .args(args)
-            .current_dir(dir)
-            .stdin(Stdio::null())
-            .stdout(log_file.try_clone().unwrap())
-            .stderr(log_file)
-            .spawn()
-            .unwrap_or_else(|e| panic!("starting {name}: {e}"));
-        Server {
-            name,
-            child,
-            log,
-            stopped: false,
-        }
-    }
-
-    /// Waits until `port` accepts connections.
-    fn wait(&mut self, port: u16) {
-        let deadline = Instant::now() + Duration::from_secs(60);
-        while Instant::now() < deadline {
-            if TcpStream::connect(("127.0.0.1", port)).is_ok() {
-                return;
-            }
-            if let Ok(Some(status)) = self.child.try_wait() {
-                panic!(
-                    "{} exited ({status}) before listening on {port}: {}",
-                    self.name,
-                    std::fs::read_to_string(&self.log).unwrap_or_default()
-                );
-            }
-            std::thread::sleep(Duration::from_millis(50));
-        }
-        panic!(
-            "{} not listening on {port} after 60 s: {}",
-            self.name,
-            std::fs::read_to_string(&self.log).unwrap_or_default()
-        );
-    }
-
-    fn stop(&mut self) {
-        if std::mem::replace(&mut self.stopped, true) {
-            return;
-        }
-        // TERM, which `timeout` passes on to the server; KILL would stop only `timeout`.
-        let _ = Command::new("kill")
-            .arg(self.child.id().to_string())
-            .stderr(Stdio::null())
-            .status();
-        let _ = self.child.wait();
-    }
-}
-
-impl Drop for Server {
-    fn drop(&mut self) {
-        self.stop();
-    }
-}
-
-fn which(program: &str) -> PathBuf {
-    let found = std::env::var_os("PATH").and_then(|paths| {
-        std::env::split_paths(&paths)
-            .chain([PathBuf::from("/usr/sbin"), PathBuf::from("/sbin")])
-            .map(|d| d.join(program))
-            .find(|p| p.is_file())
-    });
-    found.unwrap_or_else(|| {
-        panic!("{program} is not installed: run scripts/install-test-deps.sh (as root)")
-    })
-}
-
-fn free_port() -> u16 {
-    TcpListener::bind("127.0.0.1:0")
-        .unwrap()
-        .local_addr()
-        .unwrap()
-        .port()
-}
+use std::time::Duration;
 
 /// A remote as the cooker is told about it: the URL, and extra arguments and variables.
 #[derive(Clone)]
@@ -398,27 +305,8 @@ fn file_share_machines_share_and_a_planted_blob_is_caught() {
 fn redis_machines_share_and_a_server_stopped_mid_cook_is_a_miss() {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
-    let port = free_port();
     let password = "redis-pw-0f3c";
-    let port_s = port.to_string();
-    let mut redis = Server::start(
-        "redis",
-        "redis-server",
-        &[
-            "--port",
-            &port_s,
-            "--bind",
-            "127.0.0.1",
-            "--save",
-            "",
-            "--appendonly",
-            "no",
-            "--requirepass",
-            password,
-        ],
-        d,
-    );
-    redis.wait(port);
+    let (mut redis, port) = servers::redis(d, password);
     let remote = Remote::plain(format!("redis://:{password}@127.0.0.1:{port}/0"));
     let scene = small_scene(&d.join("s"));
     machines_share(d, &scene, &remote, &[password]);
@@ -471,59 +359,6 @@ fn redis_machines_share_and_a_server_stopped_mid_cook_is_a_miss() {
     assert!(!required.exists());
 }
 
-/// An nginx serving WebDAV under `dir/dav`, refusing writes (403) to the bearer of the token
-/// `read-only`.
-fn nginx(dir: &Path) -> (Server, u16) {
-    let port = free_port();
-    for sub in ["dav", "tmp", "logs"] {
-        std::fs::create_dir_all(dir.join(sub)).unwrap();
-    }
-    let module = ["/usr/lib/nginx/modules/ngx_http_dav_ext_module.so"]
-        .into_iter()
-        .find(|m| Path::new(m).exists())
-        .expect("nginx's WebDAV module: run scripts/install-test-deps.sh");
-    let d = dir.display();
-    let conf = format!(
-        r#"load_module {module};
-daemon off;
-master_process off;
-worker_processes 1;
-pid {d}/nginx.pid;
-error_log {d}/logs/error.log warn;
-events {{ worker_connections 64; }}
-http {{
-  access_log off;
-  client_body_temp_path {d}/tmp;
-  proxy_temp_path {d}/tmp;
-  fastcgi_temp_path {d}/tmp;
-  uwsgi_temp_path {d}/tmp;
-  scgi_temp_path {d}/tmp;
-  client_max_body_size 0;
-  server {{
-    listen 127.0.0.1:{port};
-    root {d}/dav;
-    location / {{
-      set $deny "";
-      if ($http_authorization = "Bearer read-only") {{ set $deny "r"; }}
-      if ($request_method ~ ^(PUT|DELETE|MKCOL|COPY|MOVE)$) {{ set $deny "${{deny}}w"; }}
-      if ($deny = "rw") {{ return 403; }}
-      dav_methods PUT DELETE MKCOL COPY MOVE;
-      dav_ext_methods PROPFIND OPTIONS;
-      create_full_put_path on;
-      dav_access user:rw group:rw all:r;
-    }}
-  }}
-}}
-"#
-    );
-    std::fs::write(dir.join("nginx.conf"), conf).unwrap();
-    let conf = dir.join("nginx.conf").display().to_string();
-    let prefix = dir.display().to_string();
-    let mut s = Server::start("nginx", "nginx", &["-c", &conf, "-p", &prefix], dir);
-    s.wait(port);
-    (s, port)
-}
-
 /// Forwards connections to `upstream`, but cuts every reply off after `limit` bytes.
 fn truncating_proxy(upstream: u16, limit: usize) -> u16 {
     let listener = TcpListener::bind("127.0.0.1:0").unwrap();
@@ -566,7 +401,7 @@ fn truncating_proxy(upstream: u16, limit: usize) -> u16 {
 fn webdav_machines_share_a_truncated_reply_and_a_read_only_token() {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
-    let (_nginx, port) = nginx(&d.join("nginx"));
+    let (_nginx, port) = servers::nginx(&d.join("nginx"));
     let remote = Remote::plain(format!("http://127.0.0.1:{port}/cache/"));
     let scene = small_scene(&d.join("s"));
     machines_share(d, &scene, &remote, &[]);
@@ -622,66 +457,6 @@ fn webdav_machines_share_a_truncated_reply_and_a_read_only_token() {
     assert!(text(&o).contains("403"), "{}", text(&o));
 }
 
-/// SeaweedFS with two identities: `ci` may write, `dev` only read. Returns the S3 port.
-fn seaweed(dir: &Path) -> (Server, u16) {
-    std::fs::create_dir_all(dir.join("data")).unwrap();
-    std::fs::write(
-        dir.join("s3.json"),
-        r#"{"identities":[
-  {"name":"ci","credentials":[{"accessKey":"ci","secretKey":"ci-secret-5d1e"}],
-   "actions":["Admin","Read","Write","List","Tagging"]},
-  {"name":"dev","credentials":[{"accessKey":"dev","secretKey":"dev-secret-77aa"}],
-   "actions":["Read","List"]}]}"#,
-    )
-    .unwrap();
-    // Every port given: the defaults (gRPC ports at +10000) may collide or overflow.
-    let ports: Vec<String> = (0..10).map(|_| free_port().to_string()).collect();
-    let arg = |k: &str, v: &str| format!("-{k}={v}");
-    let args = [
-        "mini".to_string(),
-        arg("dir", &dir.join("data").display().to_string()),
-        arg("ip", "127.0.0.1"),
-        arg("ip.bind", "127.0.0.1"),
-        arg("master.telemetry", "false"),
-        arg("master.port", &ports[0]),
-        arg("volume.port", &ports[1]),
-        arg("filer.port", &ports[2]),
-        arg("s3.port", &ports[3]),
-        arg("admin.port", &ports[4]),
-        arg("master.port.grpc", &ports[5]),
-        arg("volume.port.grpc", &ports[6]),
-        arg("filer.port.grpc", &ports[7]),
-        arg("s3.port.grpc", &ports[8]),
-        arg("admin.port.grpc", &ports[9]),
-        arg("s3.port.iceberg", "0"),
-        arg("webdav", "false"),
-        arg("admin.ui", "false"),
-        arg("s3.config", &dir.join("s3.json").display().to_string()),
-        arg("bucket", "cache"),
-    ];
-    let args: Vec<&str> = args.iter().map(String::as_str).collect();
-    let mut s = Server::start("weed", "weed", &args, dir);
-    let s3: u16 = ports[3].parse().unwrap();
-    s.wait(s3);
-    // Listening comes before the bucket exists: wait for an answer about it.
-    let deadline = Instant::now() + Duration::from_secs(60);
-    loop {
-        let o = Command::new("curl")
-            .args(["-s", "-o", "/dev/null", "-w", "%{http_code}", "--aws-sigv4"])
-            .arg("aws:amz:us-east-1:s3")
-            .args(["--user", "ci:ci-secret-5d1e"])
-            .arg(format!("http://127.0.0.1:{s3}/cache/"))
-            .output()
-            .expect("curl: run scripts/install-test-deps.sh");
-        if o.stdout == b"200" {
-            break;
-        }
-        assert!(Instant::now() < deadline, "the bucket never appeared");
-        std::thread::sleep(Duration::from_millis(200));
-    }
-    (s, s3)
-}
-
 fn s3_remote(port: u16, user: &str, secret: &str) -> Remote {
     Remote {
         url: "s3://cache/stained-glass".into(),
@@ -701,7 +476,7 @@ fn s3_remote(port: u16, user: &str, secret: &str) -> Remote {
 fn s3_default_scene_shared_racing_writers_read_only_identity_and_a_planted_blob() {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
-    let (_weed, port) = seaweed(&d.join("weed"));
+    let (_weed, port) = servers::seaweed(&d.join("weed"));
     let ci = s3_remote(port, "ci", "ci-secret-5d1e");
     let scene = default_scene(&d.join("s"));
     machines_share(d, &scene, &ci, &["ci-secret-5d1e"]);
