@@ -63,26 +63,8 @@ pub fn encode_scene(
     pack::encode(toc, &data).expect("synthetic pack is valid")
 }
 
-/// A linear HDR image (the lit target, or the CPU reference) as the composite would show it
-/// without glass or god rays: exposure 1, Narkowicz's ACES fit, sRGB, 8 bits.
-pub fn tone_mapped(w: u32, h: u32, px: &[[f32; 4]]) -> image::RgbImage {
-    let aces = |x: f32| {
-        let x = x.max(0.0);
-        ((x * (2.51 * x + 0.03)) / (x * (2.43 * x + 0.59) + 0.14)).clamp(0.0, 1.0)
-    };
-    let srgb = |c: f32| {
-        let s = if c <= 0.0031308 {
-            c * 12.92
-        } else {
-            1.055 * c.powf(1.0 / 2.4) - 0.055
-        };
-        (s * 255.0).round().clamp(0.0, 255.0) as u8
-    };
-    image::RgbImage::from_fn(w, h, |x, y| {
-        let p = px[(y * w + x) as usize];
-        image::Rgb([0, 1, 2].map(|c| srgb(aces(p[c]))))
-    })
-}
+#[allow(unused_imports)] // not every test binary compares with the reference
+pub use render::reference::tone_mapped;
 
 /// Mean FLIP error (LDR) of `test` against `reference`.
 pub fn flip_mean(reference: &image::RgbImage, test: &image::RgbImage) -> f32 {

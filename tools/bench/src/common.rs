@@ -151,6 +151,17 @@ pub fn cell(v: Option<f64>, digits: usize) -> String {
     }
 }
 
+/// Mean and 99th percentile of FLIP between two 8-bit sRGB images of `w` x `h` (RGB bytes).
+pub fn flip(reference: &[u8], test: &[u8], w: u32, h: u32) -> (f64, f64) {
+    let error = nv_flip::flip(
+        nv_flip::FlipImageRgb8::with_data(w, h, reference),
+        nv_flip::FlipImageRgb8::with_data(w, h, test),
+        nv_flip::DEFAULT_PIXELS_PER_DEGREE,
+    );
+    let mut pool = nv_flip::FlipPool::from_image(&error);
+    (pool.mean() as f64, pool.get_percentile(0.99, false) as f64)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -125,16 +125,6 @@ fn rgb8_of(img: &image::RgbaImage) -> Vec<u8> {
     img.pixels().flat_map(|p| [p[0], p[1], p[2]]).collect()
 }
 
-fn flip(reference: &[u8], test: &[u8], w: u32, h: u32) -> (f64, f64) {
-    let error = nv_flip::flip(
-        nv_flip::FlipImageRgb8::with_data(w, h, reference),
-        nv_flip::FlipImageRgb8::with_data(w, h, test),
-        nv_flip::DEFAULT_PIXELS_PER_DEGREE,
-    );
-    let mut pool = nv_flip::FlipPool::from_image(&error);
-    (pool.mean() as f64, pool.get_percentile(0.99, false) as f64)
-}
-
 /// RMSE in linear light of 8-bit sRGB output against unrounded linear values.
 fn rmse_linear(test: &[u8], reference: &[Vec3]) -> f64 {
     let mut sq = 0.0f64;
@@ -279,7 +269,7 @@ pub fn sweep(cfg: &GodRayConfig, progress: &mut dyn FnMut(&str)) -> Result<GodRa
                     frame_ms.push(report.passes.iter().filter_map(|p| p.ms).sum::<f64>());
                 }
                 let out = rgb8_of(&r.read_output(&gpu)?);
-                let (flip_mean, flip_p99) = flip(&reference8, &out, w, h);
+                let (flip_mean, flip_p99) = crate::common::flip(&reference8, &out, w, h);
                 let row = GodRayRow {
                     samples,
                     resolution_scale: scale,

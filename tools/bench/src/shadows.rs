@@ -10,7 +10,7 @@
 use std::path::{Path, PathBuf};
 
 use anyhow::{Context, Result};
-use render::reference::{Reference, ReferenceSettings};
+use render::reference::{Reference, ReferenceSettings, tone_mapped};
 use render::{Gpu, PassId, Renderer, Scene, Settings, ShadowSettings, TargetId, TimingMethod};
 use serde::{Deserialize, Serialize};
 
@@ -77,36 +77,6 @@ fn cook_pack(manifest: &Path) -> Result<Vec<u8>> {
     let out = cook::cook(&m, &cook::Settings::new(&m))
         .with_context(|| format!("cooking {}", manifest.display()))?;
     pack::encode(out.toc, &out.data).context("encoding the cooked pack")
-}
-
-fn tone_mapped(w: u32, h: u32, px: &[[f32; 4]]) -> image::RgbImage {
-    let aces = |x: f32| {
-        let x = x.max(0.0);
-        ((x * (2.51 * x + 0.03)) / (x * (2.43 * x + 0.59) + 0.14)).clamp(0.0, 1.0)
-    };
-    let srgb = |c: f32| {
-        let s = if c <= 0.003_130_8 {
-            c * 12.92
-        } else {
-            1.055 * c.powf(1.0 / 2.4) - 0.055
-        };
-        (s * 255.0).round().clamp(0.0, 255.0) as u8
-    };
-    image::RgbImage::from_fn(w, h, |x, y| {
-        let p = px[(y * w + x) as usize];
-        image::Rgb([0, 1, 2].map(|c| srgb(aces(p[c]))))
-    })
-}
-
-fn flip(reference: &image::RgbImage, test: &image::RgbImage) -> (f64, f64) {
-    let (w, h) = reference.dimensions();
-    let error = nv_flip::flip(
-        nv_flip::FlipImageRgb8::with_data(w, h, reference),
-        nv_flip::FlipImageRgb8::with_data(w, h, test),
-        nv_flip::DEFAULT_PIXELS_PER_DEGREE,
-    );
-    let mut pool = nv_flip::FlipPool::from_image(&error);
-    (pool.mean() as f64, pool.get_percentile(0.99, false) as f64)
 }
 
 /// The lit pass at 4× the size, averaged 4 × 4.
@@ -180,8 +150,8 @@ pub fn sweep(
                 tone_mapped(w, h, &on),
                 tone_mapped(w, h, &off),
             );
-            let (mean, p99) = flip(&r_img, &on_img);
-            let (mean_off, _) = flip(&r_img, &off_img);
+            let (mean, p99) = crate::common::flip(&r_img, &on_img, w, h);
+            let (mean_off, _) = crate::common::flip(&r_img, &off_img, w, h);
             let stem = format!("{name}-{}", camera.name).replace(' ', "-");
             let reference_image = format!("shadows/{stem}-reference.png");
             let gpu_image = format!("shadows/{stem}-gpu.png");
