@@ -340,6 +340,17 @@ fn redis_machines_share_and_a_server_stopped_mid_cook_is_a_miss() {
     assert!(remote_counts(&t).2 > 0, "{t}");
     let fresh = reference(&big.a, &d.join("fresh.pack"));
     assert!(std::fs::read(&out).unwrap() == fresh);
+    // Nothing is lost: the local cache holds the cook, so the next one reuses it whole.
+    let again = common::command()
+        .arg("cook")
+        .arg(&big.a)
+        .arg("-o")
+        .arg(&out)
+        .arg("--cache-dir")
+        .arg(d.join("cache-s"))
+        .output()
+        .unwrap();
+    assert!(ok(&again).contains("is up to date"), "{}", text(&again));
 
     // Required: the stopped server is an error (exit 4) before the output is touched.
     let required = d.join("required.pack");
