@@ -118,7 +118,10 @@ fn main() {
             .cloned()
     };
     let runs: usize = value("--runs").map_or(if benching { 5 } else { 1 }, |r| r.parse().unwrap());
-    let out_file = value("--out").map(PathBuf::from);
+    // Relative to the workspace's root, as the command line is typed there (a bench runs in
+    // its package's folder).
+    let out_file =
+        value("--out").map(|p| Path::new(env!("CARGO_MANIFEST_DIR")).join("../..").join(p));
 
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();

@@ -122,8 +122,19 @@ pub fn run(args: Args) -> Outcome {
                 );
                 return Ok(OK);
             }
-            scene_cache::Reuse::Pack(bytes, t) => {
-                pack::write_atomic(&args.output, &bytes)?;
+            scene_cache::Reuse::Pack(bytes, t, keep) => {
+                // A pack from the remote is kept locally while the output is written: two
+                // writes of the same bytes, on the two cores.
+                std::thread::scope(|s| {
+                    if keep {
+                        s.spawn(|| {
+                            if let Err(e) = cache.keep_blob(&bytes) {
+                                eprintln!("warning: cache not updated: {e}");
+                            }
+                        });
+                    }
+                    pack::write_atomic(&args.output, &bytes)
+                })?;
                 replay(&t, args.verbose);
                 trim(cache, args.verbose);
                 crate::cache_cmd::finish_remote(remote, &args.cache)?;

@@ -292,7 +292,7 @@ impl Remote {
         }
         match self.call(self.op.read(path)) {
             Ok(b) => {
-                let v = b.to_vec();
+                let v = Vec::from(b.to_bytes());
                 self.counters
                     .bytes_down
                     .fetch_add(v.len() as u64, Ordering::Relaxed);

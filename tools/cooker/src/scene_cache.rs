@@ -34,8 +34,9 @@ struct SceneResult {
 pub enum Reuse {
     /// The output already holds the cached pack byte for byte: nothing to write.
     UpToDate(Transcript),
-    /// The cached pack, to be written to the output.
-    Pack(Vec<u8>, Transcript),
+    /// The cached pack, to be written to the output; `true` when it came from the remote and
+    /// is yet to be kept in the local cache.
+    Pack(Vec<u8>, Transcript, bool),
     /// Cook it; the string says why (for `-v`).
     Cook(String),
 }
@@ -166,12 +167,13 @@ pub fn lookup(
     {
         return Reuse::UpToDate(transcript);
     }
-    match cache.get_blob(&pack_sha) {
+    let (found, from_remote) = cache.fetch_blob(&pack_sha);
+    match found {
         Lookup::Hit(pack)
             if pack.len() as u64 == result.pack_len
                 && crc32fast::hash(&pack) == result.pack_crc =>
         {
-            Reuse::Pack(pack, transcript)
+            Reuse::Pack(pack, transcript, from_remote)
         }
         Lookup::Hit(_) => Reuse::Cook("cached pack does not match its scene entry".into()),
         Lookup::Miss => Reuse::Cook("cached pack was evicted".into()),

@@ -22,6 +22,7 @@ pub struct Server {
 impl Server {
     pub fn start(name: &'static str, program: &str, args: &[&str], dir: &Path) -> Server {
         let path = which(program);
+        std::fs::create_dir_all(dir).unwrap();
         let log = dir.join(format!("{name}.log"));
         let log_file = std::fs::File::create(&log).unwrap();
         let child = Command::new("timeout")
