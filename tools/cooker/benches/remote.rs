@@ -22,7 +22,7 @@ mod common;
 #[path = "../tests/servers/mod.rs"]
 mod servers;
 
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::process::Command;
 use std::time::{Duration, Instant};
 
