@@ -215,6 +215,7 @@ pub fn seaweed(dir: &Path) -> (Server, u16) {
         arg("s3.port.grpc", &ports[8]),
         arg("admin.port.grpc", &ports[9]),
         arg("s3.port.iceberg", "0"),
+        arg("s3.port.lance", "0"),
         arg("webdav", "false"),
         arg("admin.ui", "false"),
         arg("s3.config", &dir.join("s3.json").display().to_string()),
@@ -224,20 +225,41 @@ pub fn seaweed(dir: &Path) -> (Server, u16) {
     let mut s = Server::start("weed", "weed", &args, dir);
     let s3: u16 = ports[3].parse().unwrap();
     s.wait(s3);
-    // Listening comes before the bucket exists: wait for an answer about it.
-    let deadline = Instant::now() + Duration::from_secs(60);
+    // Listening comes before the bucket exists, and the first write allocates a volume
+    // (seconds, sometimes answered 500): wait until a write of a megabyte goes through.
+    let warm = dir.join("warm-up.bin");
+    std::fs::write(&warm, vec![7u8; 1 << 20]).unwrap();
+    let deadline = Instant::now() + Duration::from_secs(90);
     loop {
         let o = Command::new("curl")
-            .args(["-s", "-o", "/dev/null", "-w", "%{http_code}", "--aws-sigv4"])
-            .arg("aws:amz:us-east-1:s3")
-            .args(["--user", "ci:ci-secret-5d1e"])
-            .arg(format!("http://127.0.0.1:{s3}/cache/"))
+            .args([
+                "-s",
+                "-o",
+                "/dev/null",
+                "-w",
+                "%{http_code}",
+                "--max-time",
+                "30",
+            ])
+            .args([
+                "--aws-sigv4",
+                "aws:amz:us-east-1:s3",
+                "--user",
+                "ci:ci-secret-5d1e",
+            ])
+            .args(["-H", "x-amz-content-sha256: UNSIGNED-PAYLOAD", "-T"])
+            .arg(&warm)
+            .arg(format!("http://127.0.0.1:{s3}/cache/warm-up.bin"))
             .output()
             .expect("curl: run scripts/install-test-deps.sh");
         if o.stdout == b"200" {
             break;
         }
-        assert!(Instant::now() < deadline, "the bucket never appeared");
+        assert!(
+            Instant::now() < deadline,
+            "SeaweedFS never took a write: {}",
+            std::fs::read_to_string(&s.log).unwrap_or_default()
+        );
         std::thread::sleep(Duration::from_millis(200));
     }
     (s, s3)
