@@ -259,7 +259,7 @@ impl Cache {
     pub fn get_blob(&self, digest: &[u8; 32]) -> Lookup {
         let (found, from_remote) = self.fetch_blob(digest);
         if let (Lookup::Hit(bytes), true) = (&found, from_remote) {
-            let _ = self.keep_blob(bytes);
+            let _ = self.keep_blob(digest, bytes);
         }
         found
     }
@@ -278,9 +278,10 @@ impl Cache {
         }
     }
 
-    /// Stores a blob locally only (one the remote already holds).
-    pub fn keep_blob(&self, bytes: &[u8]) -> Result<(), CookError> {
-        self.put_local(&self.blob_path(&digest(bytes)), bytes)
+    /// Stores a blob, already checked against its SHA-256 `digest`, locally only (one the
+    /// remote already holds).
+    pub fn keep_blob(&self, digest: &[u8; 32], bytes: &[u8]) -> Result<(), CookError> {
+        self.put_local(&self.blob_path(digest), bytes)
     }
 
     /// Stores a blob here and on the remote; returns its SHA-256.

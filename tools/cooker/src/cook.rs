@@ -125,15 +125,16 @@ pub fn run(args: Args) -> Outcome {
             scene_cache::Reuse::Pack(bytes, t, keep) => {
                 // A pack from the remote is kept locally while the output is written: two
                 // writes of the same bytes, on the two cores.
+                let bytes = &bytes[..];
                 std::thread::scope(|s| {
-                    if keep {
-                        s.spawn(|| {
-                            if let Err(e) = cache.keep_blob(&bytes) {
+                    if let Some(sha) = keep {
+                        s.spawn(move || {
+                            if let Err(e) = cache.keep_blob(&sha, bytes) {
                                 eprintln!("warning: cache not updated: {e}");
                             }
                         });
                     }
-                    pack::write_atomic(&args.output, &bytes)
+                    pack::write_atomic(&args.output, bytes)
                 })?;
                 replay(&t, args.verbose);
                 trim(cache, args.verbose);

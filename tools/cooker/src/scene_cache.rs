@@ -34,9 +34,9 @@ struct SceneResult {
 pub enum Reuse {
     /// The output already holds the cached pack byte for byte: nothing to write.
     UpToDate(Transcript),
-    /// The cached pack, to be written to the output; `true` when it came from the remote and
-    /// is yet to be kept in the local cache.
-    Pack(Vec<u8>, Transcript, bool),
+    /// The cached pack, to be written to the output; with its SHA-256 when it came from the
+    /// remote and is yet to be kept in the local cache.
+    Pack(Vec<u8>, Transcript, Option<[u8; 32]>),
     /// Cook it; the string says why (for `-v`).
     Cook(String),
 }
@@ -169,11 +169,13 @@ pub fn lookup(
     }
     let (found, from_remote) = cache.fetch_blob(&pack_sha);
     match found {
+        // A remote blob has just been checked against this very SHA-256; a local one by its
+        // entry's CRC, so this CRC is what ties it to this result.
         Lookup::Hit(pack)
             if pack.len() as u64 == result.pack_len
-                && crc32fast::hash(&pack) == result.pack_crc =>
+                && (from_remote || crc32fast::hash(&pack) == result.pack_crc) =>
         {
-            Reuse::Pack(pack, transcript, from_remote)
+            Reuse::Pack(pack, transcript, from_remote.then_some(pack_sha))
         }
         Lookup::Hit(_) => Reuse::Cook("cached pack does not match its scene entry".into()),
         Lookup::Miss => Reuse::Cook("cached pack was evicted".into()),
