@@ -4,7 +4,8 @@
 // size, so the array's mips are the cooker's (filtered in linear light), not a re-filtering.
 
 struct Blit {
-    // x: the source level to read, relative to the source view (fractional: trilinear).
+    // x: the source level to read, relative to the source view (fractional: trilinear);
+    // yz: the share of the stored source the image covers (below 1 when padded to blocks).
     lod: vec4<f32>,
 }
 
@@ -14,5 +15,5 @@ struct Blit {
 
 @fragment
 fn fs_main(in: FullscreenOut) -> @location(0) vec4<f32> {
-    return textureSampleLevel(source, source_sampler, in.uv, blit.lod.x);
+    return textureSampleLevel(source, source_sampler, in.uv * blit.lod.yz, blit.lod.x);
 }

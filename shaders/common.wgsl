@@ -67,8 +67,11 @@ struct Material {
     specular: vec4<f32>,
     // rgb: emission, w unused.
     emissive: vec4<f32>,
-    // x: class (see `render::uniforms::class_id`), y: 1 with a normal map, z: 1 for windows.
+    // x: class (see `render::uniforms::class_id`), y: 1 with a normal map (2: a two-channel
+    // one, Z rebuilt from X and Y), z: 1 for windows.
     flags: vec4<u32>,
+    // xy: the diffuse texture's share of its stored (block-padded) size, zw: the normal map's.
+    uv_scale: vec4<f32>,
 }
 
 const CLASS_FLOOR: u32 = 0u;
@@ -130,6 +133,16 @@ fn safe_normalize(v: vec3<f32>, fallback: vec3<f32>) -> vec3<f32> {
     return fallback;
 }
 
+// A material texture at `uv`. A block-compressed texture padded to whole blocks holds the
+// image in the `scale` share of it: wrap first, then scale, with the unwrapped derivatives so
+// the wrap seam picks no smaller mip.
+fn sample_material(t: texture_2d<f32>, uv: vec2<f32>, scale: vec2<f32>) -> vec4<f32> {
+    if (all(scale == vec2<f32>(1.0))) {
+        return textureSample(t, material_sampler, uv);
+    }
+    return textureSampleGrad(t, material_sampler, fract(uv) * scale, dpdx(uv) * scale, dpdy(uv) * scale);
+}
+
 // The shading normal: the normal map (OpenGL convention, +Y up) in the tangent frame when the
 // material has one and the vertex carries a tangent, the geometric normal otherwise.
 fn shading_normal(in: VertexOut) -> vec3<f32> {
@@ -140,14 +153,17 @@ fn shading_normal(in: VertexOut) -> vec3<f32> {
     let t = safe_normalize(in.tangent.xyz - n * dot(n, in.tangent.xyz), vec3<f32>(1.0, 0.0, 0.0));
     let sign = select(1.0, -1.0, in.tangent.w < 0.0);
     let b = cross(n, t) * sign;
-    let m = textureSample(normal_tex, material_sampler, in.uv).xyz * 2.0 - 1.0;
+    var m = sample_material(normal_tex, in.uv, material.uv_scale.zw).xyz * 2.0 - 1.0;
+    if (material.flags.y == 2u) {
+        m.z = sqrt(max(1.0 - dot(m.xy, m.xy), 0.0));
+    }
     return safe_normalize(t * m.x + b * m.y + n * m.z, n);
 }
 
 fn base_colour(in: VertexOut) -> vec4<f32> {
     var c = vec4<f32>(material.diffuse.rgb, 1.0);
     if (material.diffuse.w > 0.5) {
-        c = c * textureSample(diffuse_tex, material_sampler, in.uv);
+        c = c * sample_material(diffuse_tex, in.uv, material.uv_scale.xy);
     }
     return c;
 }

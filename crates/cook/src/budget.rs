@@ -47,6 +47,41 @@ pub struct ErrorTable {
     pub mip: Vec<MipEntry>,
 }
 
+/// Block compression's default budget for colour textures without `--max-error-lsb`: RMS over
+/// every channel of every level, LSB of the stored sRGB values. On the default scene it takes
+/// ultra-fast for stone and sky and very-fast for the stained-glass designs (docs/bench).
+pub const DEFAULT_COLOUR_ERROR_LSB: f32 = 4.0;
+/// The same for projector textures. The smooth (strongly blurred) ones fit 1 LSB at level 0;
+/// the default scene's lancets (blurred by about 2 texels) need this much to compress at all,
+/// which the 12 MB goal of the default pack needs (docs/bench).
+pub const DEFAULT_PROJECTOR_ERROR_LSB: f32 = 2.5;
+/// The same for normal maps: mean angle in degrees (`[textures] max_normal_error_deg`).
+pub const DEFAULT_NORMAL_ERROR_DEG: f32 = 1.5;
+
+/// The budget a block-compressed texture of `role` must fit: mean angle in degrees for normal
+/// maps, RMS LSB otherwise. The scene's `max_error` (LSB) replaces the colour defaults.
+pub fn compression_budget(role: pack::TextureRole, max_error: Option<f32>, normal_deg: f32) -> f32 {
+    match role {
+        pack::TextureRole::Normal => normal_deg,
+        pack::TextureRole::Colour => max_error.unwrap_or(DEFAULT_COLOUR_ERROR_LSB),
+        pack::TextureRole::Projector => max_error.unwrap_or(DEFAULT_PROJECTOR_ERROR_LSB),
+    }
+}
+
+/// Encoder settings to try for a role, cheapest first (the order the bench's compression
+/// sweep measured; docs/bench). BC7's basic and slow settings cost 5 to 20 times very-fast
+/// for a fraction of a dB there, so the cook stops at very-fast; normal maps have BC5 only.
+pub fn compression_candidates(role: pack::TextureRole) -> Vec<texture::bc::Codec> {
+    use texture::bc::{Bc7Profile, Codec};
+    match role {
+        pack::TextureRole::Normal => vec![Codec::Bc5],
+        pack::TextureRole::Colour | pack::TextureRole::Projector => vec![
+            Codec::Bc7(Bc7Profile::UltraFast),
+            Codec::Bc7(Bc7Profile::VeryFast),
+        ],
+    }
+}
+
 /// The embedded table. A unit test parses it, so a malformed table never ships.
 pub fn table() -> &'static ErrorTable {
     static TABLE: OnceLock<ErrorTable> = OnceLock::new();

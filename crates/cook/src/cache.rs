@@ -563,6 +563,7 @@ mod tests {
             textures: TextureSettings {
                 mip_filter: MipFilter::Box,
                 max_error_lsb: None,
+                format: None,
             },
             window_overrides: Vec::new(),
             cache: None,
@@ -612,6 +613,7 @@ mod tests {
                 TextureSettings {
                     mip_filter,
                     max_error_lsb,
+                    format,
                 },
             window_overrides,
             // Not a knob; `irrelevant_things_change_no_key` checks it changes nothing.
@@ -673,6 +675,18 @@ mod tests {
             (
                 "textures.max_error_lsb",
                 changed(&|s| s.textures.max_error_lsb = Some(max_error_lsb.unwrap_or(0.5) + 1.0)),
+                true,
+            ),
+            (
+                "textures.format",
+                changed(&|s| {
+                    s.textures.format = match format {
+                        Some(crate::manifest::TextureFormatChoice::Rgba8) => {
+                            Some(crate::manifest::TextureFormatChoice::Bc)
+                        }
+                        _ => Some(crate::manifest::TextureFormatChoice::Rgba8),
+                    }
+                }),
                 true,
             ),
             (

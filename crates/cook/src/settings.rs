@@ -36,6 +36,9 @@ pub struct TextureSettings {
     /// Error budget in 8-bit sRGB steps (`[scene] max_error`, `--max-error-lsb`): per texture,
     /// the cheapest blur and mip method whose measured error stays within it.
     pub max_error_lsb: Option<f32>,
+    /// `--texture-format`: stores every texture so, over the manifest's `[textures] format`
+    /// and every window's `texture_format`.
+    pub format: Option<crate::manifest::TextureFormatChoice>,
 }
 
 impl Settings {
@@ -49,6 +52,7 @@ impl Settings {
             textures: TextureSettings {
                 mip_filter: manifest.textures.mip_filter,
                 max_error_lsb: manifest.scene.max_error,
+                format: None,
             },
             window_overrides: Vec::new(),
             cache: None,

@@ -11,7 +11,7 @@ use serde::Serialize;
 use texture::{GreenAxis, NormalEncoding};
 
 use crate::import::ImageRef;
-use crate::manifest::Manifest;
+use crate::manifest::{Manifest, TextureFormatChoice};
 use crate::tag::Tagging;
 use crate::{CookError, Report, Settings, TextureSettings, Warning, cache};
 
@@ -171,9 +171,12 @@ impl Job {
         }
     }
 
-    /// The cache key: the texture settings, the job's parameters and the image's content.
-    fn cache_key(&self, settings: &TextureSettings) -> Result<cache::Key, CookError> {
-        let mut k = cache::texture_key(settings);
+    /// The cache key: the texture settings, the storage choice, the job's parameters and the
+    /// image's content. The chosen format and encoder setting follow from these and the texels.
+    fn cache_key(&self, p: &Params) -> Result<cache::Key, CookError> {
+        let mut k = cache::texture_key(&p.textures);
+        k.serialized("storage", &(p.format, p.normal_budget));
+        k.str("encoder", ENCODER);
         k.serialized("job", self);
         let image = match self {
             Job::Colour { image, .. } | Job::Normal { image, .. } => image,
@@ -202,12 +205,81 @@ fn key_image(k: &mut cache::KeyBuilder, image: &ImageRef) -> Result<(), CookErro
     Ok(())
 }
 
-fn encode_chain(chain: &texture::MipChain, note: &Option<String>) -> Vec<u8> {
+/// The block encoder and its version: part of every texture's cache key, since another
+/// encoder (or version) may choose other blocks.
+const ENCODER: &str = "intel_tex_2 0.5";
+
+/// How every texture of a cook is made, apart from the job itself.
+#[derive(Clone, Debug)]
+struct Params {
+    /// Mip filter and the scene's error budget (LSB), for blur, mips and block compression.
+    textures: TextureSettings,
+    format: TextureFormatChoice,
+    /// Mean angle, degrees, for block-compressed normal maps.
+    normal_budget: f32,
+}
+
+/// A cooked texture: its logical size, the format its levels are stored in, and the levels.
+#[derive(Clone, Debug, PartialEq)]
+struct CookedTexture {
+    width: u32,
+    height: u32,
+    format: pack::TextureFormat,
+    levels: Vec<Vec<u8>>,
+}
+
+impl CookedTexture {
+    /// The pack's texture record (without name, role and sections).
+    fn describe(
+        &self,
+        name: String,
+        role: pack::TextureRole,
+        colour_space: pack::ColourSpace,
+    ) -> pack::Texture {
+        self.describe_levels(self.levels.len(), name, role, colour_space)
+    }
+
+    /// As [`CookedTexture::describe`], for `count` levels whatever `levels` holds.
+    fn describe_levels(
+        &self,
+        count: usize,
+        name: String,
+        role: pack::TextureRole,
+        colour_space: pack::ColourSpace,
+    ) -> pack::Texture {
+        let mips = (0..count)
+            .map(|k| {
+                let (width, height) = texture::level_size(self.width, self.height, k);
+                pack::MipLevel {
+                    width,
+                    height,
+                    section: 0,
+                }
+            })
+            .collect();
+        pack::Texture {
+            name,
+            role,
+            colour_space,
+            format: self.format,
+            width: self.width,
+            height: self.height,
+            mips,
+        }
+    }
+}
+
+fn encode_cooked(c: &CookedTexture, note: &Option<String>) -> Vec<u8> {
     let mut out = Vec::new();
-    out.extend_from_slice(&chain.width.to_le_bytes());
-    out.extend_from_slice(&chain.height.to_le_bytes());
-    out.extend_from_slice(&(chain.levels.len() as u32).to_le_bytes());
-    for l in &chain.levels {
+    out.extend_from_slice(&c.width.to_le_bytes());
+    out.extend_from_slice(&c.height.to_le_bytes());
+    let format = pack::TextureFormat::ALL
+        .iter()
+        .position(|f| *f == c.format)
+        .unwrap_or(0) as u32;
+    out.extend_from_slice(&format.to_le_bytes());
+    out.extend_from_slice(&(c.levels.len() as u32).to_le_bytes());
+    for l in &c.levels {
         out.extend_from_slice(&(l.len() as u64).to_le_bytes());
         out.extend_from_slice(l);
     }
@@ -217,8 +289,9 @@ fn encode_chain(chain: &texture::MipChain, note: &Option<String>) -> Vec<u8> {
     out
 }
 
-/// Decodes a cache payload; `None` when it does not hold a well-formed chain.
-fn decode_chain(bytes: &[u8]) -> Option<(texture::MipChain, Option<String>)> {
+/// Decodes a cache payload; `None` when it does not hold a well-formed texture (every level
+/// the size its format and level size call for).
+fn decode_cooked(bytes: &[u8]) -> Option<(CookedTexture, Option<String>)> {
     let mut at = 0usize;
     let mut take = |n: usize| -> Option<&[u8]> {
         let s = bytes.get(at..at.checked_add(n)?)?;
@@ -228,50 +301,51 @@ fn decode_chain(bytes: &[u8]) -> Option<(texture::MipChain, Option<String>)> {
     let u32_ = |b: &[u8]| u32::from_le_bytes(b.try_into().unwrap());
     let width = u32_(take(4)?);
     let height = u32_(take(4)?);
+    let format = *pack::TextureFormat::ALL.get(u32_(take(4)?) as usize)?;
     let n = u32_(take(4)?) as usize;
-    let mut levels = Vec::with_capacity(n.min(32));
-    let (mut w, mut h) = (width as u64, height as u64);
-    for _ in 0..n {
+    if n == 0 || n > 32 || width == 0 || height == 0 {
+        return None;
+    }
+    let mut cooked = CookedTexture {
+        width,
+        height,
+        format,
+        levels: Vec::with_capacity(n),
+    };
+    let shape = cooked.describe_levels(
+        n,
+        String::new(),
+        pack::TextureRole::Colour,
+        pack::ColourSpace::Linear,
+    );
+    for k in 0..n {
         let len = u64::from_le_bytes(take(8)?.try_into().unwrap());
-        if len != w * h * 4 {
+        if len != shape.level_bytes(k) {
             return None;
         }
-        levels.push(take(len as usize)?.to_vec());
-        w = (w / 2).max(1);
-        h = (h / 2).max(1);
+        cooked.levels.push(take(len as usize)?.to_vec());
     }
     let nlen = u64::from_le_bytes(take(8)?.try_into().unwrap()) as usize;
     let note = String::from_utf8(take(nlen)?.to_vec()).ok()?;
-    if at != bytes.len() || levels.is_empty() {
+    if at != bytes.len() {
         return None;
     }
-    Some((
-        texture::MipChain {
-            width,
-            height,
-            levels,
-        },
-        (!note.is_empty()).then_some(note),
-    ))
+    Some((cooked, (!note.is_empty()).then_some(note)))
 }
 
-/// A cooked mip chain, the texture crate's note about it, and where it came from.
-type Cooked = (texture::MipChain, Option<String>, crate::ArtifactSource);
+/// A cooked texture, the notes about it (method and encoder choices), and where it came from.
+type Cooked = (CookedTexture, Option<String>, crate::ArtifactSource);
 
 /// Cooks one texture, or reuses it from the cache.
-fn run_cached(
-    job: &Job,
-    settings: &TextureSettings,
-    cache: Option<&cache::Cache>,
-) -> Result<Cooked, CookError> {
+fn run_cached(job: &Job, p: &Params, cache: Option<&cache::Cache>) -> Result<Cooked, CookError> {
     let Some(cache) = cache else {
-        let (c, n) = run(job, settings)?;
+        let (c, n) = run_and_compress(job, p)?;
         return Ok((c, n, crate::ArtifactSource::Cooked));
     };
-    let key = job.cache_key(settings)?;
+    let key = job.cache_key(p)?;
     let mut source = crate::ArtifactSource::Cooked;
     match cache.get(&key) {
-        cache::Lookup::Hit(bytes) => match decode_chain(&bytes) {
+        cache::Lookup::Hit(bytes) => match decode_cooked(&bytes) {
             Some((c, n)) => return Ok((c, n, crate::ArtifactSource::Reused)),
             None => {
                 source =
@@ -281,10 +355,93 @@ fn run_cached(
         cache::Lookup::Corrupt(why) => source = crate::ArtifactSource::Recooked(why),
         cache::Lookup::Miss => {}
     }
-    let (c, n) = run(job, settings)?;
+    let (c, n) = run_and_compress(job, p)?;
     // A cache that cannot be written only costs time next cook; the cook itself succeeded.
-    let _ = cache.put(&key, &encode_chain(&c, &n));
+    let _ = cache.put(&key, &encode_cooked(&c, &n));
     Ok((c, n, source))
+}
+
+/// Cooks the RGBA8 chain, then stores it as the format choice says.
+fn run_and_compress(job: &Job, p: &Params) -> Result<(CookedTexture, Option<String>), CookError> {
+    let (chain, note) = run(job, &p.textures)?;
+    let (role, colour_space) = job.role();
+    let (cooked, choice) = compress(chain, role, colour_space, p);
+    let note = match (note, choice) {
+        (Some(a), Some(b)) => Some(format!("{a}; {b}")),
+        (a, b) => a.or(b),
+    };
+    Ok((cooked, note))
+}
+
+/// Stores a chain uncompressed or block-compressed: `auto` takes the cheapest encoder setting
+/// whose measured error (worst level) fits the budget, and RGBA8 when none does; `bc` takes
+/// the most accurate one when none does. Returns what was chosen and why, for the report.
+fn compress(
+    chain: texture::MipChain,
+    role: pack::TextureRole,
+    colour_space: pack::ColourSpace,
+    p: &Params,
+) -> (CookedTexture, Option<String>) {
+    let rgba8 = |chain: texture::MipChain| CookedTexture {
+        width: chain.width,
+        height: chain.height,
+        format: pack::TextureFormat::Rgba8,
+        levels: chain.levels,
+    };
+    if p.format == TextureFormatChoice::Rgba8 {
+        return (rgba8(chain), None);
+    }
+    let normal = role == pack::TextureRole::Normal;
+    let budget = crate::budget::compression_budget(role, p.textures.max_error_lsb, p.normal_budget);
+    let unit = if normal { "° mean" } else { " LSB RMS" };
+    let candidates = crate::budget::compression_candidates(role);
+    let mut best: Option<(texture::bc::Codec, texture::bc::Compressed)> = None;
+    for codec in candidates {
+        let shape = CookedTexture {
+            width: chain.width,
+            height: chain.height,
+            format: codec.format(),
+            levels: Vec::new(),
+        }
+        .describe_levels(chain.levels.len(), String::new(), role, colour_space);
+        let c = texture::bc::compress_chain(codec, &chain, &shape, normal);
+        let fits = c.error.mean <= budget as f64;
+        let better = best
+            .as_ref()
+            .is_none_or(|(_, b)| c.error.mean < b.error.mean);
+        if fits || better {
+            best = Some((codec, c));
+        }
+        if fits {
+            break;
+        }
+    }
+    let Some((codec, c)) = best else {
+        return (rgba8(chain), None);
+    };
+    let fits = c.error.mean <= budget as f64;
+    let measured = format!(
+        "measured {:.3}{unit} over the chain, {:.3} on level 0, budget {budget}{unit}",
+        c.error.mean, c.error.level0
+    );
+    if !fits && p.format == TextureFormatChoice::Auto {
+        let note = format!(
+            "kept RGBA8: no block encoder setting fits the budget (best: {} {measured})",
+            codec.name()
+        );
+        return (rgba8(chain), Some(note));
+    }
+    let mut note = format!("{} chosen by the error budget ({measured})", codec.name());
+    if !fits {
+        note.push_str("; no setting fits, the most accurate is used");
+    }
+    let cooked = CookedTexture {
+        width: chain.width,
+        height: chain.height,
+        format: codec.format(),
+        levels: c.levels,
+    };
+    (cooked, Some(note))
 }
 
 fn choice_note(what: &str, c: &crate::budget::Choice) -> String {
@@ -420,8 +577,11 @@ pub fn cook_textures(
     if !settings.cook_textures {
         return Ok((Vec::new(), Vec::new(), None));
     }
-    let mut jobs: Vec<Job> = Vec::new();
-    let mut add = |job: Job| -> u32 {
+    // Each job with the format it is stored in: a window's `texture_format` or the scene's.
+    let mut jobs: Vec<(Job, TextureFormatChoice)> = Vec::new();
+    let format = manifest.textures.format;
+    let mut add = |job: Job, format: TextureFormatChoice| -> u32 {
+        let job = (job, format);
         match jobs.iter().position(|j| *j == job) {
             Some(i) => i as u32,
             None => {
@@ -441,68 +601,92 @@ pub fn cook_textures(
         let mut r = (None, None, None);
         match design {
             Some(w) => {
-                r.0 = Some(add(Job::Colour {
-                    image: w.design.clone(),
-                    srgb: w.colour_space == pack::ColourSpace::Srgb,
-                }));
-                r.1 = Some(add(match &w.normal {
-                    Some((image, encoding, green)) => Job::Normal {
-                        image: image.clone(),
-                        encoding: *encoding,
-                        green: *green,
+                let f = w.texture_format.unwrap_or(format);
+                r.0 = Some(add(
+                    Job::Colour {
+                        image: w.design.clone(),
+                        srgb: w.colour_space == pack::ColourSpace::Srgb,
                     },
-                    None => Job::DerivedNormal {
-                        design: w.design.clone(),
-                        seed: seed(&w.design),
+                    f,
+                ));
+                r.1 = Some(add(
+                    match &w.normal {
+                        Some((image, encoding, green)) => Job::Normal {
+                            image: image.clone(),
+                            encoding: *encoding,
+                            green: *green,
+                        },
+                        None => Job::DerivedNormal {
+                            design: w.design.clone(),
+                            seed: seed(&w.design),
+                        },
                     },
-                }));
+                    f,
+                ));
                 if lit_windows.get(mi).copied().unwrap_or(false) {
                     let frame = windows.iter().find(|f| f.material as usize == mi);
                     let width = (w.design_width > 0).then_some(w.design_width);
                     let sigma = projector_sigma(w.blur_sigma, frame, light, floor_y, width);
-                    r.2 = Some(add(Job::Projector {
-                        design: w.design.clone(),
-                        sigma,
-                    }));
+                    r.2 = Some(add(
+                        Job::Projector {
+                            design: w.design.clone(),
+                            sigma,
+                        },
+                        f,
+                    ));
                 }
             }
             None => {
                 r.0 = plan
                     .diffuse_texture
                     .clone()
-                    .map(|image| add(Job::Colour { image, srgb: true }));
+                    .map(|image| add(Job::Colour { image, srgb: true }, format));
                 r.1 = plan.normal_texture.clone().map(|image| {
-                    add(Job::Normal {
-                        image,
-                        encoding: NormalEncoding::Rgb,
-                        green: GreenAxis::OpenGl,
-                    })
+                    add(
+                        Job::Normal {
+                            image,
+                            encoding: NormalEncoding::Rgb,
+                            green: GreenAxis::OpenGl,
+                        },
+                        format,
+                    )
                 });
             }
         }
         refs.push(r);
     }
     let panorama = manifest.background.panorama.clone().map(|p| {
-        add(Job::Colour {
-            image: ImageRef::File(p),
-            srgb: true,
-        })
+        add(
+            Job::Colour {
+                image: ImageRef::File(p),
+                srgb: true,
+            },
+            format,
+        )
     });
 
-    for job in &jobs {
+    for (job, _) in &jobs {
         if let Some(p) = job.file() {
             report.inputs.push(p.to_path_buf());
         }
     }
+    let params = |format: TextureFormatChoice| Params {
+        textures: settings.textures.clone(),
+        format: settings.textures.format.unwrap_or(format),
+        normal_budget: manifest
+            .textures
+            .max_normal_error_deg
+            .unwrap_or(crate::budget::DEFAULT_NORMAL_ERROR_DEG),
+    };
     let results: Vec<Result<Cooked, CookError>> = jobs
         .par_iter()
-        .map(|j| run_cached(j, &settings.textures, settings.cache.as_ref()))
+        .map(|(j, f)| run_cached(j, &params(*f), settings.cache.as_ref()))
         .collect();
     let mut textures = Vec::with_capacity(jobs.len());
     let mut data = Vec::with_capacity(jobs.len());
     let mut names: HashMap<String, usize> = HashMap::new();
-    for (job, result) in jobs.iter().zip(results) {
-        let (chain, note, source) = result?;
+    for ((job, _), result) in jobs.iter().zip(results) {
+        let (cooked, note, source) = result?;
         report
             .artifacts
             .push((job.image_name() + &job.base_name_suffix(), source));
@@ -522,26 +706,8 @@ pub fn cook_textures(
         } else {
             format!("{base}.{count}")
         };
-        let mips = (0..chain.levels.len())
-            .map(|k| {
-                let (width, height) = texture::level_size(chain.width, chain.height, k);
-                pack::MipLevel {
-                    width,
-                    height,
-                    section: 0,
-                }
-            })
-            .collect();
-        textures.push(pack::Texture {
-            name,
-            role,
-            colour_space,
-            format: pack::TextureFormat::Rgba8,
-            width: chain.width,
-            height: chain.height,
-            mips,
-        });
-        data.push(chain.levels);
+        textures.push(cooked.describe(name, role, colour_space));
+        data.push(cooked.levels);
     }
     for (plan, r) in tagging.materials.iter_mut().zip(refs) {
         plan.material.diffuse_texture = r.0;

@@ -37,6 +37,8 @@ pub struct WindowPlan {
     /// A given normal map; `None` derives one from the design.
     pub normal: Option<(ImageRef, NormalEncoding, GreenAxis)>,
     pub blur_sigma: Option<f32>,
+    /// The window's `texture_format`, overriding `[textures] format`.
+    pub texture_format: Option<crate::manifest::TextureFormatChoice>,
     /// Width of the design in texels (the projector's blur is in texels).
     pub design_width: u32,
     /// Unit normal into the building.
@@ -351,6 +353,7 @@ pub fn plan(
                     .map(|n| (ImageRef::File(n), e.normal_encoding, e.green))
             }),
             blur_sigma: entry.and_then(|e| e.blur_sigma),
+            texture_format: entry.and_then(|e| e.texture_format),
             design_width: 0,
             inside: [
                 inst.inside.x as f32,

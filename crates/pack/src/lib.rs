@@ -13,6 +13,7 @@ mod reader;
 mod stream;
 #[doc(hidden)]
 pub mod testing;
+pub mod texels;
 pub mod toc;
 mod validate;
 pub mod vertex;

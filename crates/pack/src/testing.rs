@@ -38,6 +38,29 @@ pub fn sample_texture(name: &str, role: TextureRole, w: u32, h: u32) -> (Texture
     )
 }
 
+/// Like [`sample_texture`], in a block format: whole blocks of arbitrary bytes per level.
+pub fn sample_block_texture(
+    name: &str,
+    role: TextureRole,
+    format: TextureFormat,
+    w: u32,
+    h: u32,
+) -> (Texture, Vec<Vec<u8>>) {
+    let (mut t, _) = sample_texture(name, role, w, h);
+    t.format = format;
+    if !format.allows(t.colour_space) {
+        t.colour_space = ColourSpace::Linear;
+    }
+    let data = (0..t.mips.len())
+        .map(|level| {
+            (0..t.level_bytes(level))
+                .map(|i| (i * 13 + level as u64) as u8)
+                .collect()
+        })
+        .collect();
+    (t, data)
+}
+
 pub fn material(name: &str, class: MaterialClass) -> Material {
     Material {
         name: name.into(),
@@ -94,7 +117,8 @@ pub fn sample() -> (Toc, PackData) {
         ],
     };
     let (colour, cdata) = sample_texture("rose.colour", TextureRole::Colour, 4, 2);
-    let (normal, ndata) = sample_texture("rose.normal", TextureRole::Normal, 3, 3);
+    let (normal, ndata) =
+        sample_block_texture("rose.normal", TextureRole::Normal, TextureFormat::Bc5, 3, 3);
     let mut window = material("rose", MaterialClass::WindowUpper);
     window.diffuse_texture = Some(0);
     window.normal_texture = Some(1);

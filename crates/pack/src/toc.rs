@@ -95,22 +95,74 @@ impl ColourSpace {
     }
 }
 
-/// Texel formats a pack may hold. Only 8-bit RGBA today; the enum keeps room to grow.
+/// Texel formats a pack may hold: 8-bit RGBA, or GPU block-compressed 4x4 blocks.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize)]
 pub enum TextureFormat {
+    /// Tightly packed RGBA8 rows, sRGB or linear as the colour space says.
     Rgba8,
+    /// BC7 (16 bytes a block), RGBA; sRGB or linear as the colour space says.
+    Bc7,
+    /// BC5 (16 bytes a block): two linear channels, X and Y of a tangent-space normal map
+    /// (Z is rebuilt from them).
+    Bc5,
+    /// BC4 (8 bytes a block): one linear channel.
+    Bc4,
 }
 
 impl TextureFormat {
-    pub fn bytes_per_texel(self) -> u64 {
+    pub const ALL: [TextureFormat; 4] = [Self::Rgba8, Self::Bc7, Self::Bc5, Self::Bc4];
+
+    /// The user-facing name (CLI, JSON).
+    pub fn name(self) -> &'static str {
         match self {
-            Self::Rgba8 => 4,
+            Self::Rgba8 => "rgba8",
+            Self::Bc7 => "bc7",
+            Self::Bc5 => "bc5",
+            Self::Bc4 => "bc4",
         }
+    }
+
+    /// Bytes of one 4x4 block; `None` for the uncompressed format.
+    pub fn block_bytes(self) -> Option<u64> {
+        match self {
+            Self::Rgba8 => None,
+            Self::Bc7 | Self::Bc5 => Some(16),
+            Self::Bc4 => Some(8),
+        }
+    }
+
+    pub fn is_compressed(self) -> bool {
+        self.block_bytes().is_some()
+    }
+
+    /// Bytes of a `width x height` level as stored: whole 4x4 blocks for the block formats
+    /// (a level smaller than a block still takes one).
+    pub fn level_bytes(self, width: u32, height: u32) -> u64 {
+        match self.block_bytes() {
+            None => width as u64 * height as u64 * 4,
+            Some(b) => width.div_ceil(4) as u64 * height.div_ceil(4) as u64 * b,
+        }
+    }
+
+    /// Whether a texture of this format may be in `space`: the one- and two-channel formats
+    /// hold data, never sRGB colour.
+    pub fn allows(self, space: ColourSpace) -> bool {
+        match self {
+            Self::Rgba8 | Self::Bc7 => true,
+            Self::Bc5 | Self::Bc4 => space == ColourSpace::Linear,
+        }
+    }
+}
+
+impl std::fmt::Display for TextureFormat {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(self.name())
     }
 }
 
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct MipLevel {
+    /// Logical size of the level: the texels that hold the image.
     pub width: u32,
     pub height: u32,
     /// Index into the section table of the `TextureMip` section holding this level.
@@ -124,6 +176,8 @@ pub struct Texture {
     pub role: TextureRole,
     pub colour_space: ColourSpace,
     pub format: TextureFormat,
+    /// Logical size of level 0: the image's texels. A block-compressed texture is stored
+    /// padded to [`Texture::storage_size`].
     pub width: u32,
     pub height: u32,
     /// Level 0 first (largest). Each level is `max(1, previous / 2)` on each axis.
@@ -131,9 +185,41 @@ pub struct Texture {
 }
 
 impl Texture {
+    /// Size of level 0 as stored and as a GPU texture: the logical size for RGBA8, rounded up
+    /// to whole 4x4 blocks for the block formats (the padding repeats the edge texels).
+    pub fn storage_size(&self) -> (u32, u32) {
+        if self.format.is_compressed() {
+            (self.width.div_ceil(4) * 4, self.height.div_ceil(4) * 4)
+        } else {
+            (self.width, self.height)
+        }
+    }
+
+    /// Size of a level of the GPU texture (`storage_size` halved `level` times). Its stored
+    /// bytes cover it in whole blocks, and hold the logical level (`mips[level]`) from the
+    /// top-left corner, padded with edge texels.
+    pub fn storage_level_size(&self, level: usize) -> (u32, u32) {
+        let (w, h) = self.storage_size();
+        let s = level.min(31) as u32;
+        ((w >> s).max(1), (h >> s).max(1))
+    }
+
+    /// The fraction of the stored texture the image covers on each axis: texture coordinates
+    /// in [0, 1] over the image are scaled by it to sample the stored texture.
+    pub fn uv_scale(&self) -> [f32; 2] {
+        let (w, h) = self.storage_size();
+        [self.width as f32 / w as f32, self.height as f32 / h as f32]
+    }
+
     pub fn level_bytes(&self, level: usize) -> u64 {
+        let (w, h) = self.storage_level_size(level);
+        self.format.level_bytes(w, h)
+    }
+
+    /// Bytes of level `level` as uncompressed RGBA8 of its logical size.
+    pub fn level_rgba8_bytes(&self, level: usize) -> u64 {
         let m = &self.mips[level];
-        m.width as u64 * m.height as u64 * self.format.bytes_per_texel()
+        m.width as u64 * m.height as u64 * 4
     }
 }
 

@@ -149,6 +149,13 @@ fn validate_texture(t: &Texture, what: &str) -> Result<(), Fail> {
             t.height
         )));
     }
+    if !t.format.allows(t.colour_space) {
+        return Err(Fail::toc(format!(
+            "{what}: format {} cannot hold {} colour",
+            t.format,
+            t.colour_space.name()
+        )));
+    }
     let (mut w, mut h) = (t.width, t.height);
     for (level, m) in t.mips.iter().enumerate() {
         if m.width != w || m.height != h {

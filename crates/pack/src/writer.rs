@@ -23,7 +23,8 @@ pub struct MeshData {
 #[derive(Clone, Debug, Default)]
 pub struct PackData {
     pub meshes: Vec<MeshData>,
-    /// Per texture, per mip level (level 0 first), tightly packed RGBA8 rows.
+    /// Per texture, per mip level (level 0 first), the stored bytes: tightly packed RGBA8 rows,
+    /// or 4x4 blocks in rows of blocks for the block formats (`Texture::level_bytes`).
     pub textures: Vec<Vec<Vec<u8>>>,
 }
 

@@ -3,7 +3,7 @@ use std::path::{Path, PathBuf};
 use pack::*;
 use proptest::prelude::*;
 
-use pack::testing::{sample, sample_texture};
+use pack::testing::{sample, sample_block_texture, sample_texture};
 
 fn sample_bytes() -> Vec<u8> {
     let (toc, data) = sample();
@@ -37,6 +37,22 @@ fn golden_bytes_match_this_format_version() {
     );
     // And the committed file still reads.
     Pack::from_bytes(&path, &golden).unwrap();
+}
+
+#[test]
+fn the_previous_version_golden_says_recook() {
+    let path = golden_path().with_file_name(format!("sample-v{}.pack", FORMAT_VERSION - 1));
+    let bytes = std::fs::read(&path).unwrap();
+    let e = Pack::from_bytes(&path, &bytes).unwrap_err();
+    assert_eq!(
+        e.problem(),
+        Some(&Problem::Version {
+            found: FORMAT_VERSION - 1,
+            expected: FORMAT_VERSION
+        }),
+        "{e}"
+    );
+    assert!(e.to_string().contains("re-cook"), "{e}");
 }
 
 #[test]
@@ -209,6 +225,57 @@ fn failed_write_leaves_old_file_untouched() {
         e.is_io() && e.to_string().contains("missing/out.pack"),
         "{e}"
     );
+}
+
+#[test]
+fn block_counts_are_checked_per_mip() {
+    // 9x5 in BC7: stored as 12x8, levels 12x8 (3x2 blocks), 6x4 (2x1), 3x2 (1x1), 1x1 (1x1).
+    let (t, d) = sample_block_texture("odd", TextureRole::Colour, TextureFormat::Bc7, 9, 5);
+    assert_eq!(t.storage_size(), (12, 8));
+    assert_eq!(
+        d.iter().map(|l| l.len()).collect::<Vec<_>>(),
+        vec![6 * 16, 2 * 16, 16, 16]
+    );
+    assert_eq!(t.uv_scale(), [0.75, 0.625]);
+    let (mut toc, mut data) = sample();
+    toc.textures.push(t.clone());
+    data.textures.push(d.clone());
+    let bytes = encode(toc.clone(), &data).expect("whole blocks encode");
+    let pack = Pack::from_bytes("p", &bytes).unwrap();
+    assert_eq!(pack.toc().textures[2].format, TextureFormat::Bc7);
+
+    // One block short on level 1: the writer's own validation names the texture and level.
+    let mut short = data.clone();
+    short.textures[2][1].truncate(16);
+    let e = encode(toc.clone(), &short).unwrap_err().to_string();
+    assert!(
+        e.contains("\"odd\"") && e.contains("mip 1") && e.contains("32"),
+        "{e}"
+    );
+
+    // The RGBA8 size of the logical level is not a valid BC7 level either.
+    let mut rgba = data.clone();
+    rgba.textures[2][0] = vec![0; 9 * 5 * 4];
+    assert!(encode(toc.clone(), &rgba).is_err());
+
+    // Two-channel and one-channel formats hold linear data only.
+    let mut srgb = toc.clone();
+    srgb.textures[1].colour_space = ColourSpace::Srgb;
+    let e = encode(srgb, &data).unwrap_err().to_string();
+    assert!(e.contains("bc5") && e.contains("srgb"), "{e}");
+}
+
+#[test]
+fn block_levels_decode_to_their_logical_size() {
+    let (t, d) = sample_block_texture("odd", TextureRole::Colour, TextureFormat::Bc7, 9, 5);
+    for (level, bytes) in d.iter().enumerate() {
+        let rgba = pack::texels::decode_level(&t, level, bytes);
+        assert_eq!(
+            rgba.len() as u64,
+            t.level_rgba8_bytes(level),
+            "level {level}"
+        );
+    }
 }
 
 fn arb_texture(name: String) -> impl Strategy<Value = (Texture, Vec<Vec<u8>>)> {

@@ -11,6 +11,12 @@ pub struct Gpu {
     pub queue: wgpu::Queue,
     /// True when the device was created with timestamp queries (per-pass GPU times).
     pub timestamps: bool,
+    /// True when block-compressed mips are uploaded as they are: the device samples BC1-7
+    /// and is not a CPU rasterizer. Otherwise they are decoded to RGBA8 on the CPU at load:
+    /// lavapipe has the feature but decodes blocks in software at every sample, which made
+    /// the default scene's passes about ten times slower than RGBA8 (docs/bench). Tests set it
+    /// (where the device has the feature) to take the block path on lavapipe.
+    pub block_compression: bool,
 }
 
 impl Gpu {
@@ -34,7 +40,7 @@ impl Gpu {
             ..Default::default()
         }))
         .map_err(|e| RenderError::NoAdapter(e.to_string()))?;
-        let wanted = wgpu::Features::TIMESTAMP_QUERY;
+        let wanted = wgpu::Features::TIMESTAMP_QUERY | wgpu::Features::TEXTURE_COMPRESSION_BC;
         let features = adapter.features() & wanted;
         let (device, queue) = pollster::block_on(adapter.request_device(&wgpu::DeviceDescriptor {
             label: Some("render"),
@@ -43,12 +49,15 @@ impl Gpu {
             ..Default::default()
         }))
         .map_err(|e| RenderError::Device(e.to_string()))?;
+        let block_compression = features.contains(wgpu::Features::TEXTURE_COMPRESSION_BC)
+            && adapter.get_info().device_type != wgpu::DeviceType::Cpu;
         Ok(Self {
             instance,
             adapter,
             device,
             queue,
             timestamps: features.contains(wgpu::Features::TIMESTAMP_QUERY),
+            block_compression,
         })
     }
 

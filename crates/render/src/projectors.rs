@@ -196,9 +196,12 @@ impl Projectors {
             let Some((base, view)) = resident(t) else {
                 continue;
             };
-            let full = toc.textures[t as usize]
-                .width
-                .max(toc.textures[t as usize].height);
+            // Stored sizes: a block-compressed projector is padded to whole blocks, and its
+            // image covers `uv_scale` of it.
+            let info = &toc.textures[t as usize];
+            let (w, h) = info.storage_size();
+            let full = w.max(h);
+            let scale = info.uv_scale();
             if self.copied[layer] == Some(base) {
                 continue;
             }
@@ -207,7 +210,7 @@ impl Projectors {
                 let lod =
                     ((full as f32 / self.size as f32).log2() + level as f32 - base as f32).max(0.0);
                 let u = uniforms::Blit {
-                    lod: [lod, 0.0, 0.0, 0.0],
+                    lod: [lod, scale[0], scale[1], 0.0],
                 };
                 let buffer = gpu
                     .device

@@ -34,7 +34,7 @@ impl Default for ReferenceSettings {
     }
 }
 
-/// An RGBA8 texture, level 0, decoded to linear floats.
+/// A texture's level 0 (block formats decoded), as linear floats.
 struct Image {
     width: usize,
     height: usize,
@@ -114,9 +114,10 @@ impl Reference {
             .iter()
             .map(|t| {
                 let level = t.mips.first()?;
-                let bytes = pack.section_bytes(level.section);
+                // Block formats decode to the logical level (padding dropped).
+                let bytes = pack::texels::decode_level(t, 0, pack.section_bytes(level.section));
                 let (w, h) = (level.width as usize, level.height as usize);
-                if t.format != pack::TextureFormat::Rgba8 || bytes.len() < w * h * 4 {
+                if bytes.len() < w * h * 4 {
                     return None;
                 }
                 let srgb = t.colour_space == pack::ColourSpace::Srgb;

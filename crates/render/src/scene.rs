@@ -82,6 +82,8 @@ impl Placeholders {
 
 struct GpuTexture {
     texture: wgpu::Texture,
+    /// Block-compressed levels are decoded to RGBA8 before upload (no device support).
+    decode: bool,
     loaded: Vec<bool>,
     /// The smallest level index such that it and every smaller mip are resident.
     resident_from: Option<u32>,
@@ -162,6 +164,27 @@ pub(crate) fn material_layout(device: &wgpu::Device) -> wgpu::BindGroupLayout {
     })
 }
 
+/// The GPU format a texture is created in: its own, or RGBA8 when its blocks are decoded.
+fn texture_format(t: &pack::Texture, decode: bool) -> wgpu::TextureFormat {
+    use pack::{ColourSpace as C, TextureFormat as F};
+    use wgpu::TextureFormat as W;
+    match (if decode { F::Rgba8 } else { t.format }, t.colour_space) {
+        (F::Rgba8, C::Srgb) => W::Rgba8UnormSrgb,
+        (F::Rgba8, C::Linear) => W::Rgba8Unorm,
+        (F::Bc7, C::Srgb) => W::Bc7RgbaUnormSrgb,
+        (F::Bc7, C::Linear) => W::Bc7RgbaUnorm,
+        // The pack's validation allows only linear data in these.
+        (F::Bc5, _) => W::Bc5RgUnorm,
+        (F::Bc4, _) => W::Bc4RUnorm,
+    }
+}
+
+/// True when normal map `t` reaches the shader with two channels (Z to rebuild): BC5 uploaded
+/// as blocks. Decoded BC5 already has Z.
+fn two_channel(textures: &[GpuTexture], toc: &Toc, t: u32) -> bool {
+    toc.textures[t as usize].format == pack::TextureFormat::Bc5 && !textures[t as usize].decode
+}
+
 impl Scene {
     /// Creates every GPU object the TOC describes, with no data yet. `toc` must come from a
     /// validated pack (`Pack` or `StreamReader`), which guarantees every index used here.
@@ -169,6 +192,7 @@ impl Scene {
         let device = &gpu.device;
         let max = device.limits().max_texture_dimension_2d;
         let mut textures = Vec::with_capacity(toc.textures.len());
+        let mut decode_said = false;
         for t in &toc.textures {
             if t.width > max || t.height > max {
                 return Err(RenderError::TextureTooLarge {
@@ -178,15 +202,31 @@ impl Scene {
                     max,
                 });
             }
-            let format = match t.colour_space {
-                pack::ColourSpace::Srgb => wgpu::TextureFormat::Rgba8UnormSrgb,
-                pack::ColourSpace::Linear => wgpu::TextureFormat::Rgba8Unorm,
-            };
+            let decode = t.format.is_compressed() && !gpu.block_compression;
+            if decode && !decode_said {
+                decode_said = true;
+                let info = gpu.adapter.get_info();
+                let why = if gpu
+                    .device
+                    .features()
+                    .contains(wgpu::Features::TEXTURE_COMPRESSION_BC)
+                {
+                    "samples BC textures in software"
+                } else {
+                    "cannot sample BC textures"
+                };
+                eprintln!(
+                    "note: {} {why}: decoding block-compressed mips to RGBA8 at load",
+                    info.name
+                );
+            }
+            let format = texture_format(t, decode);
+            let (width, height) = t.storage_size();
             let texture = device.create_texture(&wgpu::TextureDescriptor {
                 label: Some(&t.name),
                 size: wgpu::Extent3d {
-                    width: t.width,
-                    height: t.height,
+                    width,
+                    height,
                     depth_or_array_layers: 1,
                 },
                 mip_level_count: t.mips.len() as u32,
@@ -198,6 +238,7 @@ impl Scene {
             });
             textures.push(GpuTexture {
                 texture,
+                decode,
                 loaded: vec![false; t.mips.len()],
                 resident_from: None,
                 view: None,
@@ -274,10 +315,21 @@ impl Scene {
                     emissive: [m.emissive[0], m.emissive[1], m.emissive[2], 0.0],
                     flags: [
                         uniforms::class_id(m.class),
-                        m.normal_texture.is_some() as u32,
+                        match m.normal_texture {
+                            None => 0,
+                            Some(n) if two_channel(&scene.textures, toc, n) => 2,
+                            Some(_) => 1,
+                        },
                         m.class.is_window() as u32,
                         0,
                     ],
+                    uv_scale: {
+                        let scale = |t: Option<u32>| {
+                            t.map_or([1.0, 1.0], |t| toc.textures[t as usize].uv_scale())
+                        };
+                        let (d, n) = (scale(m.diffuse_texture), scale(m.normal_texture));
+                        [d[0], d[1], n[0], n[1]]
+                    },
                 };
                 let buffer = device.create_buffer(&wgpu::BufferDescriptor {
                     label: Some(&m.name),
@@ -433,23 +485,38 @@ impl Scene {
             }
             SectionRole::Mip { texture, level } => {
                 let t = &self.toc.textures[texture as usize];
-                let mip = &t.mips[level as usize];
+                let gt = &self.textures[texture as usize];
+                let (width, height) = t.storage_level_size(level as usize);
+                let decoded;
+                // Rows of texels, or of 4x4 blocks, and the copy's extent in texels (whole
+                // blocks for a block format: a level smaller than one is copied as one).
+                let (data, row_bytes, rows, extent) = match t.format.block_bytes() {
+                    Some(_) if gt.decode => {
+                        decoded = pack::texels::decode(t.format, width, height, bytes);
+                        (&decoded[..], width * 4, height, (width, height))
+                    }
+                    Some(b) => {
+                        let (bw, bh) = (width.div_ceil(4), height.div_ceil(4));
+                        (bytes, bw * b as u32, bh, (bw * 4, bh * 4))
+                    }
+                    None => (bytes, width * 4, height, (width, height)),
+                };
                 gpu.queue.write_texture(
                     wgpu::TexelCopyTextureInfo {
-                        texture: &self.textures[texture as usize].texture,
+                        texture: &gt.texture,
                         mip_level: level,
                         origin: wgpu::Origin3d::ZERO,
                         aspect: wgpu::TextureAspect::All,
                     },
-                    bytes,
+                    data,
                     wgpu::TexelCopyBufferLayout {
                         offset: 0,
-                        bytes_per_row: Some(mip.width * 4),
-                        rows_per_image: Some(mip.height),
+                        bytes_per_row: Some(row_bytes),
+                        rows_per_image: Some(rows),
                     },
                     wgpu::Extent3d {
-                        width: mip.width,
-                        height: mip.height,
+                        width: extent.0,
+                        height: extent.1,
                         depth_or_array_layers: 1,
                     },
                 );

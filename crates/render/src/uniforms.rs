@@ -60,6 +60,9 @@ pub struct Material {
     pub specular: [f32; 4],
     pub emissive: [f32; 4],
     pub flags: [u32; 4],
+    /// xy: the diffuse texture's `pack::Texture::uv_scale`, zw: the normal map's (1 unless a
+    /// block-compressed texture was padded to whole blocks).
+    pub uv_scale: [f32; 4],
 }
 
 #[repr(C)]
@@ -116,6 +119,7 @@ pub struct ShadowView {
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, Pod, Zeroable)]
 pub struct Blit {
+    /// x: the source level; yz: the source's `pack::Texture::uv_scale`.
     pub lod: [f32; 4],
 }
 

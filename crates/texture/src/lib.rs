@@ -22,6 +22,7 @@
 //! Error unit used by tests and benchmarks: 1 LSB is one step of the 8-bit sRGB output; error is
 //! `|our byte − unrounded sRGB encoding of an f64 linear-light reference|`, so 0.5 is the floor.
 
+pub mod bc;
 pub mod blur;
 mod error;
 mod load;

@@ -1,5 +1,5 @@
 //! Run time against error for every place the toolchain trades accuracy for speed: blur, mips,
-//! meshes, god rays and shadows, each measured against an exact reference on this machine, written as a
+//! meshes, god rays, shadows and block compression, each measured against an exact reference on this machine, written as a
 //! Markdown report with SVG plots, and the error tables the cooker's budget reads
 //! (`crates/cook/src/error_table.json`) and the renderer's god-ray budget reads
 //! (`crates/render/src/god_ray_table.json`).
@@ -9,6 +9,7 @@
 
 pub mod blur;
 pub mod common;
+pub mod compress;
 pub mod godrays;
 pub mod mesh;
 pub mod mips;

@@ -49,7 +49,7 @@ struct Args {
     /// Skip the god-ray and shadow sweeps (they need a GPU adapter; lavapipe is enough).
     #[arg(long)]
     no_god_rays: bool,
-    /// Run only these sweeps (blur, mips, meshes, god-rays, shadows), comma-separated; the others are
+    /// Run only these sweeps (blur, mips, meshes, god-rays, shadows, compression), comma-separated; the others are
     /// left out of the report.
     #[arg(long, value_delimiter = ',')]
     only: Option<Vec<String>>,
@@ -200,6 +200,25 @@ fn main() -> Result<()> {
     if let Err(e) = &shadows {
         eprintln!("shadows not measured: {e}");
     }
+    let compression = if wanted("compression") {
+        use texture::bc::Bc7Profile;
+        bench::compress::sweep(
+            &bench::compress::CompressConfig {
+                max_size: if args.quick { 64 } else { 1024 },
+                runs,
+                profiles: if args.quick {
+                    vec![Bc7Profile::UltraFast, Bc7Profile::VeryFast]
+                } else {
+                    Bc7Profile::ALL.to_vec()
+                },
+                scene: (!args.quick && !args.no_god_rays).then(bench::godrays::default_scene),
+                render_size: (480, 270),
+            },
+            &mut progress,
+        )?
+    } else {
+        Default::default()
+    };
     let _ = std::fs::remove_dir_all(&scratch);
     let mut results = Results {
         machine,
@@ -213,6 +232,7 @@ fn main() -> Result<()> {
         meshes,
         god_rays,
         shadows,
+        compression,
     };
     if args.keep_others {
         let path = args.out.join("results.json");

@@ -30,6 +30,9 @@ pub struct Results {
     pub meshes: Vec<MeshRow>,
     /// `Err` text when the god-ray sweep could not run (no adapter, say).
     pub god_rays: Result<GodRayReport, String>,
+    /// Block compression: settings × roles, and the default scene's pack both ways.
+    #[serde(default)]
+    pub compression: crate::compress::CompressReport,
     /// `Err` text when the shadow sweep did not run (reports from before it read so).
     #[serde(default = "not_measured")]
     pub shadows: Result<crate::shadows::ShadowReport, String>,
@@ -87,6 +90,10 @@ impl Results {
             kept.push(note("shadows"));
             self.shadows = earlier.shadows;
         }
+        if !ran.contains(&"compression") {
+            kept.push(note("compression"));
+            self.compression = earlier.compression;
+        }
         self.kept = kept;
     }
 }
@@ -132,6 +139,117 @@ fn scale_name(scale: f32) -> &'static str {
     }
 }
 
+fn compression_section(dir: &Path, md: &mut String, r: &Results) -> Result<()> {
+    let c = &r.compression;
+    if c.rows.is_empty() {
+        return Ok(());
+    }
+    let _ = writeln!(md, "## Block compression (BC7, BC5; `intel_tex_2` 0.5)\n");
+    let _ = writeln!(
+        md,
+        "Each role's whole mip chain compressed level by level from the exact linear-light \
+         levels, on one thread. Error as the cooker's budget measures it (`texture::bc`): for \
+         colour the RMS over every channel of every texel of every level, in 8-bit steps of the \
+         stored sRGB values; for normal maps the mean angle in degrees (Z rebuilt from BC5's X \
+         and Y). Level 0 alone beside it, and the largest channel difference (colour) or 99th \
+         percentile angle (normal maps). The cooker tries ultra-fast, then very-fast, and keeps \
+         the first whose error fits the budget (`crates/cook/src/budget.rs`).\n"
+    );
+    let _ = writeln!(
+        md,
+        "| role | image | size | setting | time (ms) | error | level 0 | max / p99 |"
+    );
+    let _ = writeln!(md, "|---|---|---|---|---:|---:|---:|---:|");
+    for row in &c.rows {
+        let unit = if row.role == "normal map" {
+            "°"
+        } else {
+            " LSB"
+        };
+        let _ = writeln!(
+            md,
+            "| {} | {} | {}x{} | {} | {:.1} | {:.3}{unit} | {:.3}{unit} | {:.2}{unit} |",
+            row.role,
+            row.image,
+            row.width,
+            row.height,
+            row.codec,
+            row.time_ms,
+            row.error,
+            row.error_level0,
+            row.error_max
+        );
+    }
+    md.push('\n');
+    let points: Vec<Point> = c
+        .rows
+        .iter()
+        .filter(|row| row.role != "normal map")
+        .map(|row| Point {
+            series: row.role.clone(),
+            label: row.codec.trim_start_matches("bc7 ").to_string(),
+            x: row.time_ms,
+            y: row.error,
+        })
+        .collect();
+    let mut roles: Vec<&str> = points.iter().map(|p| p.series.as_str()).collect();
+    roles.dedup();
+    for (i, role) in roles.iter().enumerate() {
+        let mine: Vec<Point> = points
+            .iter()
+            .filter(|p| p.series == *role)
+            .cloned()
+            .collect();
+        let title = format!("BC7, {role}: RMS error over the chain against time");
+        let name = format!("compression-{i}.svg");
+        write(
+            dir,
+            &name,
+            &crate::svg::render(&Plot {
+                title: &title,
+                x_label: "time for the whole chain, one thread (ms)",
+                y_label: "RMS error (LSB)",
+                points: &mine,
+            }),
+        )?;
+        let _ = writeln!(md, "![{title}]({name})\n");
+    }
+    if let Some(e) = &c.scene_error {
+        let _ = writeln!(md, "The default scene was not cooked both ways: {e}\n");
+    }
+    if !c.scene.is_empty() {
+        let (w, h) = c.render_size;
+        let _ = writeln!(
+            md,
+            "The default scene cooked in process with RGBA8 textures and with the default \
+             (`auto`), cold (no cache): pack size, cook time, and per camera the FLIP mean of the \
+             final render ({w}x{h}, lavapipe) against the RGBA8 pack's.\n"
+        );
+        let _ = writeln!(
+            md,
+            "| textures | pack bytes | cold cook (ms) | FLIP mean per camera |"
+        );
+        let _ = writeln!(md, "|---|---:|---:|---|");
+        for s in &c.scene {
+            let flips: Vec<String> = s
+                .flip
+                .iter()
+                .map(|(cam, f)| format!("{cam} {f:.4}"))
+                .collect();
+            let _ = writeln!(
+                md,
+                "| {} | {} | {:.0} | {} |",
+                s.format,
+                s.bytes,
+                s.cook_ms,
+                flips.join(", ")
+            );
+        }
+        md.push('\n');
+    }
+    Ok(())
+}
+
 /// Writes README.md, the SVG plots and results.json into `dir`.
 pub fn write_report(dir: &Path, r: &Results) -> Result<()> {
     std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
@@ -165,6 +283,7 @@ pub fn write_report(dir: &Path, r: &Results) -> Result<()> {
     mesh_section(dir, &mut md, r)?;
     god_ray_section(dir, &mut md, r)?;
     shadow_section(&mut md, r);
+    compression_section(dir, &mut md, r)?;
     write(dir, "README.md", &md)?;
     write(dir, "results.json", &serde_json::to_string_pretty(r)?)?;
     Ok(())

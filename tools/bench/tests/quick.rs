@@ -173,6 +173,28 @@ fn quick_bench_writes_a_sane_report_and_error_table() {
 
     // God rays: measured (lavapipe suffices), the reference composite matches the GPU's, and
     // more samples at full resolution without jitter get closer to the reference.
+    // Compression: every role measured, BC7's very-fast at least as accurate as ultra-fast on
+    // the design, errors finite and positive, BC5 on the normal map in degrees.
+    let rows = r["compression"]["rows"].as_array().unwrap();
+    let roles: std::collections::BTreeSet<&str> = rows
+        .iter()
+        .map(|row| row["role"].as_str().unwrap())
+        .collect();
+    assert_eq!(roles.len(), 4, "{roles:?}");
+    for row in rows {
+        let e = row["error"].as_f64().unwrap();
+        assert!(e.is_finite() && e > 0.0, "{row}");
+        assert!(row["time_ms"].as_f64().unwrap() > 0.0, "{row}");
+    }
+    let design = |codec: &str| {
+        rows.iter()
+            .find(|row| row["role"] == "stained-glass design" && row["codec"] == codec)
+            .unwrap()["error"]
+            .as_f64()
+            .unwrap()
+    };
+    assert!(design("bc7 very-fast") <= design("bc7 ultra-fast") * 1.05);
+    assert!(rows.iter().any(|row| row["codec"] == "bc5"));
     let g = &r["god_rays"]["Ok"];
     assert!(g.is_object(), "god rays not measured: {}", r["god_rays"]);
     assert!(f(&g["composite_check_lsb"]) <= 1.0, "{g}");
@@ -234,6 +256,7 @@ fn quick_bench_writes_a_sane_report_and_error_table() {
     assert_eq!(again["meshes"], r["meshes"]);
     assert_eq!(again["god_rays"], r["god_rays"]);
     assert_eq!(again["shadows"], r["shadows"]);
+    assert_eq!(again["compression"], r["compression"]);
     assert!(
         again["blur"]
             .as_array()
@@ -247,7 +270,10 @@ fn quick_bench_writes_a_sane_report_and_error_table() {
         .iter()
         .map(|k| k["sweep"].as_str().unwrap())
         .collect();
-    assert_eq!(kept, ["mips", "meshes", "god-rays", "shadows"]);
+    assert_eq!(
+        kept,
+        ["mips", "meshes", "god-rays", "shadows", "compression"]
+    );
     let readme = std::fs::read_to_string(out.join("README.md")).unwrap();
     assert!(readme.contains("The mips sweep is kept from an earlier run"));
     let table: cook::budget::ErrorTable =

@@ -42,6 +42,13 @@ pub struct SettingsArgs {
     /// `--max-error` is the old spelling.
     #[arg(long = "max-error-lsb", alias = "max-error", value_name = "LSB")]
     max_error: Option<f32>,
+    /// How textures are stored: `auto` block-compresses each texture (BC7 colour and
+    /// projectors, BC5 normal maps) with the cheapest encoder setting whose measured error
+    /// fits the budget (`--max-error-lsb`, RMS; normal maps `[textures] max_normal_error_deg`)
+    /// and keeps RGBA8 where none does; `bc` always compresses; `rgba8` never. Overrides the
+    /// manifest's `[textures] format` and every window's `texture_format`.
+    #[arg(long, value_name = "auto|rgba8|bc", value_parser = texture_format)]
+    texture_format: Option<cook::manifest::TextureFormatChoice>,
     /// Quantize vertices (positions within the mesh's bounds, 16-bit UVs, octahedral
     /// normals); reports the error.
     #[arg(long)]
@@ -72,6 +79,7 @@ impl SettingsArgs {
         settings.quantize = self.quantize;
         settings.position_bits = self.position_bits;
         settings.window_overrides = cook::manifest::WindowDesign::overrides(&self.windows)?;
+        settings.textures.format = self.texture_format;
         settings.mesh.cache = if self.fifo {
             CacheMode::Fifo
         } else {
@@ -87,6 +95,14 @@ fn position_bits(s: &str) -> Result<cook::mesh::PositionBits, String> {
         .ok()
         .and_then(cook::mesh::PositionBits::from_bits)
         .ok_or_else(|| format!("{s:?} is not one of 16, 10, 8"))
+}
+
+fn texture_format(s: &str) -> Result<cook::manifest::TextureFormatChoice, String> {
+    cook::manifest::TextureFormatChoice::CHOICES
+        .iter()
+        .find(|(n, _)| *n == s)
+        .map(|&(_, c)| c)
+        .ok_or_else(|| format!("{s:?} is not one of auto, rgba8, bc"))
 }
 
 fn ms(d: Duration) -> String {

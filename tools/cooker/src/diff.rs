@@ -2,7 +2,8 @@
 //!
 //! Compares two packs section by section and explains the differences: geometry (counts,
 //! largest position change, material ID changes) and, per texture and mip level, the largest
-//! error in 8-bit steps, PSNR and FLIP mean. Exit 0 when within the thresholds (identical by
+//! error in 8-bit steps, PSNR and FLIP mean of the decoded texels (whatever each pack stores
+//! them in: RGBA8 or a block format). Exit 0 when within the thresholds (identical by
 //! default), 1 otherwise, so a user's CI can gate on it.
 
 use std::collections::BTreeMap;
@@ -265,13 +266,14 @@ pub fn run(args: Args) -> Outcome {
         }
         let mut levels = Vec::new();
         for (level, m) in t.mips.iter().enumerate() {
+            // Decoded texels, so an RGBA8 pack and a block-compressed one compare.
             let d = level_diff(
                 t.role,
                 level,
                 m.width,
                 m.height,
-                a.mip_bytes(i, level),
-                b.mip_bytes(j, level),
+                &pack::texels::decode_level(t, level, a.mip_bytes(i, level)),
+                &pack::texels::decode_level(u, level, b.mip_bytes(j, level)),
             );
             if d.max_error as f64 > tolerance {
                 problems.push(format!(

@@ -22,9 +22,10 @@ pub struct Args {
     output: PathBuf,
 }
 
-/// Writes one stored texture level as an 8-bit RGBA PNG, bytes as stored: sRGB-encoded colour
-/// for `colour` and `projector` textures (a projector's colour is premultiplied by its
-/// coverage), the linear `n·0.5 + 0.5` encoding for `normal` textures.
+/// Writes one texture level as an 8-bit RGBA PNG of its logical size, block-compressed levels
+/// decoded (`pack::texels`): sRGB-encoded colour for `colour` and `projector` textures (a
+/// projector's colour is premultiplied by its coverage), the linear `n·0.5 + 0.5` encoding for
+/// `normal` textures (Z rebuilt for two-channel BC5).
 pub fn run(args: Args) -> Outcome {
     let pack = Pack::open(&args.pack)?;
     let toc = pack.toc();
@@ -53,11 +54,11 @@ pub fn run(args: Args) -> Outcome {
         ))
         .into());
     };
-    let bytes = pack.mip_bytes(index, args.mip);
+    let bytes = pack::texels::decode_level(texture, args.mip, pack.mip_bytes(index, args.mip));
     let mut png = Vec::new();
     image::codecs::png::PngEncoder::new(&mut png)
         .write_image(
-            bytes,
+            &bytes,
             level.width,
             level.height,
             image::ExtendedColorType::Rgba8,
@@ -70,14 +71,15 @@ pub fn run(args: Args) -> Outcome {
         })?;
     pack::write_atomic(&args.output, &png)?;
     println!(
-        "{}: {:?} mip {} ({}x{}, {}, {})",
+        "{}: {:?} mip {} ({}x{}, {}, {}, {})",
         args.output.display(),
         texture.name,
         args.mip,
         level.width,
         level.height,
         texture.role,
-        texture.colour_space.name()
+        texture.colour_space.name(),
+        texture.format
     );
     Ok(OK)
 }

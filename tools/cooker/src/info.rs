@@ -68,6 +68,13 @@ fn windows(toc: &pack::Toc, tris: &[u64]) -> Vec<serde_json::Value> {
         .collect()
 }
 
+/// A texture's bytes in the pack (all levels) and as uncompressed RGBA8 of its logical size.
+fn texture_bytes(t: &pack::Texture) -> (u64, u64) {
+    (0..t.mips.len()).fold((0, 0), |(s, u), k| {
+        (s + t.level_bytes(k), u + t.level_rgba8_bytes(k))
+    })
+}
+
 /// The JSON description of a pack; also what golden regression data is made of.
 pub fn describe(pack: &Pack) -> serde_json::Value {
     let toc = pack.toc();
@@ -112,13 +119,17 @@ pub fn describe(pack: &Pack) -> serde_json::Value {
         .textures
         .iter()
         .map(|t| {
+            let (stored, rgba8) = texture_bytes(t);
             json!({
                 "name": t.name,
                 "role": t.role.name(),
                 "colour_space": t.colour_space.name(),
+                "format": t.format.name(),
                 "width": t.width,
                 "height": t.height,
                 "mips": t.mips.len(),
+                "stored_bytes": stored,
+                "uncompressed_bytes": rgba8,
             })
         })
         .collect();
@@ -224,17 +235,25 @@ pub fn run(args: Args) -> Outcome {
         );
     }
     println!("textures ({}):", toc.textures.len());
+    let (mut all_stored, mut all_rgba8) = (0, 0);
     for t in &toc.textures {
+        let (stored, rgba8) = texture_bytes(t);
+        all_stored += stored;
+        all_rgba8 += rgba8;
         println!(
-            "  {:<32} {:<9} {:<6} {:>5}x{:<5} {:>2} mips",
+            "  {:<32} {:<9} {:<6} {:<5} {:>5}x{:<5} {:>2} mips {:>10} bytes ({:>10} as RGBA8)",
             t.name,
             t.role.name(),
             t.colour_space.name(),
+            t.format.name(),
             t.width,
             t.height,
-            t.mips.len()
+            t.mips.len(),
+            stored,
+            rgba8
         );
     }
+    println!("  texture bytes: {all_stored} stored, {all_rgba8} as RGBA8");
     println!(
         "windows: {}, cameras: {}",
         toc.windows.len(),

@@ -115,16 +115,20 @@ fn unchanged_scene_reused_changed_design_recooked_alone_damage_detected() {
 
     // Every cache entry damaged: all are detected, re-cooked, and the pack comes out identical
     // to a cook without a cache.
+    let mut damaged = 0;
     for e in std::fs::read_dir(&cache).unwrap() {
         let p = e.unwrap().path();
-        if !p.extension().is_some_and(|e| e == "entry" || e == "blob") {
+        // Entries only: the cache also keeps its eviction lock and bookkeeping beside them.
+        if p.extension().is_none_or(|x| x != "entry") {
             continue;
         }
         let mut b = std::fs::read(&p).unwrap();
         let n = b.len();
         b[n - 1] ^= 0x01;
         std::fs::write(&p, b).unwrap();
+        damaged += 1;
     }
+    assert!(damaged > 0, "no cache entries found in {}", cache.display());
     let fresh = dir.path().join("fresh.pack");
     let o = Command::new(env!("CARGO_BIN_EXE_cooker"))
         .arg("cook")

@@ -1,7 +1,8 @@
 //! Real image inputs through the whole cooker: a TGA and a JPEG from third-party sets as OBJ
 //! material textures, and a glTF whose base colour image is a base64 data URI. Level 0 of a
 //! cooked 8-bit sRGB texture keeps the source's bytes, so it must equal the image crate's own
-//! decode exactly; damaged inputs exit 3 naming the file.
+//! decode exactly (`--texture-format rgba8`); block-compressed, it decodes within the error
+//! budget; damaged inputs exit 3 naming the file.
 
 mod common;
 
@@ -90,12 +91,88 @@ fn mips_for(w: u64, h: u64) -> u64 {
     64 - w.max(h).leading_zeros() as u64
 }
 
+fn rms(a: &image::RgbaImage, b: &image::RgbaImage) -> f64 {
+    let sq: f64 = a
+        .as_raw()
+        .iter()
+        .zip(b.as_raw())
+        .map(|(&x, &y)| (x as f64 - y as f64).powi(2))
+        .sum();
+    (sq / a.as_raw().len() as f64).sqrt()
+}
+
+/// `--texture-format bc` stores BC7 (a quarter of the bytes, levels below 4x4 a whole block
+/// each); `extract` decodes it, `diff` compares decoded texels with the RGBA8 pack's, and
+/// `auto` keeps RGBA8 when the budget is tighter than any encoder setting reaches.
+#[test]
+fn block_compressed_textures_decode_within_the_budget() {
+    let dir = tempfile::tempdir().unwrap();
+    let obj = obj_scene(dir.path(), &[TGA]);
+    let cook = |name: &str, extra: &[&str]| {
+        let pack = dir.path().join(name);
+        let mut args: Vec<&dyn AsRef<std::ffi::OsStr>> =
+            vec![&"cook", &obj, &"-o", &pack, &"--no-cache"];
+        for e in extra {
+            args.push(e);
+        }
+        let o = cooker(&args);
+        assert_eq!(o.status.code(), Some(0), "{}", text(&o.stderr));
+        (pack, text(&o.stderr))
+    };
+    let (rgba8, _) = cook("rgba8.pack", &["--texture-format", "rgba8"]);
+    let (bc, log) = cook("bc.pack", &["--texture-format", "bc"]);
+    assert!(log.contains("bc7"), "the choice is reported: {log}");
+    let info = cooker(&[&"info", &bc, &"--json"]);
+    let v: serde_json::Value = serde_json::from_slice(&info.stdout).unwrap();
+    let t = &v["textures"][0];
+    assert_eq!(t["format"], "bc7", "{t}");
+    // 128x128 down to 1x1: 8 levels; the 2x2 and 1x1 levels are a block each.
+    let blocks: u64 = [32 * 32, 16 * 16, 8 * 8, 4 * 4, 2 * 2, 1, 1, 1]
+        .iter()
+        .sum();
+    assert_eq!(t["stored_bytes"].as_u64(), Some(blocks * 16), "{t}");
+    let texels: u64 = (0..8).map(|k| (128u64 >> k).pow(2)).sum();
+    assert_eq!(t["uncompressed_bytes"].as_u64(), Some(texels * 4), "{t}");
+
+    let name = "spnza_bricks_a_diff.crop128";
+    let exact = extract(&rgba8, name, 0, dir.path());
+    let decoded = extract(&bc, name, 0, dir.path());
+    assert_eq!(decoded.dimensions(), (128, 128));
+    let e = rms(&exact, &decoded);
+    assert!(e > 0.0 && e < 4.0, "BC7 level 0 is {e} LSB RMS from RGBA8");
+
+    let d = cooker(&[&"diff", &rgba8, &bc, &"--json"]);
+    assert_eq!(
+        d.status.code(),
+        Some(1),
+        "not identical: {}",
+        text(&d.stdout)
+    );
+    let d = cooker(&[&"diff", &rgba8, &bc, &"--tolerance-lsb", &"255"]);
+    assert_eq!(d.status.code(), Some(0), "{}", text(&d.stdout));
+
+    // No encoder setting reaches 0.1 LSB RMS on a photograph: auto keeps RGBA8 and says so.
+    let (tight, log) = cook("tight.pack", &["--max-error-lsb", "0.1"]);
+    assert!(log.contains("kept RGBA8"), "{log}");
+    let v: serde_json::Value =
+        serde_json::from_slice(&cooker(&[&"info", &tight, &"--json"]).stdout).unwrap();
+    assert_eq!(v["textures"][0]["format"], "rgba8");
+}
+
 #[test]
 fn real_tga_and_jpeg_cook_with_their_exact_bytes_at_level_0() {
     let dir = tempfile::tempdir().unwrap();
     let obj = obj_scene(dir.path(), &[TGA, JPEG]);
     let pack = dir.path().join("scene.pack");
-    let o = cooker(&[&"cook", &obj, &"-o", &pack, &"--no-cache"]);
+    let o = cooker(&[
+        &"cook",
+        &obj,
+        &"-o",
+        &pack,
+        &"--no-cache",
+        &"--texture-format",
+        &"rgba8",
+    ]);
     assert_eq!(o.status.code(), Some(0), "{}", text(&o.stderr));
     for (file, name, size) in [
         (TGA, "spnza_bricks_a_diff.crop128", 128),
@@ -181,7 +258,15 @@ fn gltf_data_uri_image_is_decoded_and_cooked() {
         &format!("data:image/png;base64,{}", base64(&png)),
     );
     let pack = dir.path().join("box.pack");
-    let o = cooker(&[&"cook", &gltf, &"-o", &pack, &"--no-cache"]);
+    let o = cooker(&[
+        &"cook",
+        &gltf,
+        &"-o",
+        &pack,
+        &"--no-cache",
+        &"--texture-format",
+        &"rgba8",
+    ]);
     let err = text(&o.stderr);
     assert_eq!(o.status.code(), Some(0), "{err}");
     assert!(!err.contains("data URI"), "no longer skipped: {err}");

@@ -19,8 +19,17 @@ pub(super) fn parse(path: &Path, text: &str) -> Result<Manifest, CookError> {
     Ok(Manifest {
         path: path.to_path_buf(),
         scene: scene(&src, raw.scene)?,
-        textures: Textures {
-            mip_filter: raw.textures.and_then(|t| t.mip_filter).unwrap_or_default(),
+        textures: match raw.textures {
+            None => Textures::default(),
+            Some(t) => Textures {
+                mip_filter: t.mip_filter.unwrap_or_default(),
+                format: t.format.unwrap_or_default(),
+                max_normal_error_deg: t
+                    .max_normal_error_deg
+                    .as_ref()
+                    .map(|m| src.positive(m, "max_normal_error_deg"))
+                    .transpose()?,
+            },
         },
         meshes: meshes(&src, &raw.mesh)?,
         rules: rules(&src, &raw.rule)?,
@@ -382,6 +391,7 @@ fn windows(
                 .as_ref()
                 .map(|s| src.positive(s, "blur_sigma"))
                 .transpose()?,
+            texture_format: w.texture_format,
             line,
         });
     }

@@ -39,11 +39,47 @@ pub struct SceneInfo {
     pub max_error: Option<f32>,
 }
 
+/// How textures are stored in the pack (`[textures] format`, `--texture-format`, or a
+/// window's `texture_format`).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash, serde::Deserialize, Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum TextureFormatChoice {
+    /// Block-compress each texture with the cheapest encoder setting whose measured error fits
+    /// the budget; keep RGBA8 where none does.
+    #[default]
+    Auto,
+    /// Uncompressed RGBA8.
+    Rgba8,
+    /// Block-compress every texture (BC7 colour, BC5 normal maps), the most accurate setting
+    /// with a warning where none fits the budget.
+    Bc,
+}
+
+impl TextureFormatChoice {
+    pub const CHOICES: [(&'static str, TextureFormatChoice); 3] = [
+        ("auto", Self::Auto),
+        ("rgba8", Self::Rgba8),
+        ("bc", Self::Bc),
+    ];
+
+    pub fn name(self) -> &'static str {
+        Self::CHOICES
+            .iter()
+            .find(|(_, c)| *c == self)
+            .map(|(n, _)| *n)
+            .unwrap_or("auto")
+    }
+}
+
 /// The `[textures]` table. The cook reads its values from [`crate::Settings`], which takes
 /// them from here.
 #[derive(Clone, Debug, Default)]
 pub struct Textures {
     pub mip_filter: texture::MipFilter,
+    pub format: TextureFormatChoice,
+    /// Budget for block-compressed normal maps: mean angle in degrees (`None`: the default,
+    /// `budget::DEFAULT_NORMAL_ERROR_DEG`).
+    pub max_normal_error_deg: Option<f32>,
 }
 
 /// Where in the manifest a value came from, for errors found after parsing.
@@ -171,6 +207,8 @@ pub struct WindowDesign {
     pub normal_encoding: texture::NormalEncoding,
     pub green: texture::GreenAxis,
     pub blur_sigma: Option<f32>,
+    /// Overrides `[textures] format` for this window's design, normal map and projector.
+    pub texture_format: Option<TextureFormatChoice>,
     pub uv: UvMode,
     pub fit: Fit,
     /// A direction pointing into the building, overriding the guess.
@@ -209,6 +247,7 @@ impl WindowDesign {
             normal_encoding: texture::NormalEncoding::Rgb,
             green: texture::GreenAxis::OpenGl,
             blur_sigma: None,
+            texture_format: None,
             uv: UvMode::Auto,
             fit: Fit::Cover,
             inside: None,
@@ -383,6 +422,8 @@ max_error = 0.55
 
 [textures]
 mip_filter = "lanczos3"
+format = "bc"
+max_normal_error_deg = 0.5
 
 [[mesh]]
 source = "corridor.obj"
@@ -409,6 +450,7 @@ normal_map = "hammered.png"
 normal_encoding = "rg"
 green = "directx"
 blur_sigma = 6.0
+texture_format = "rgba8"
 
 [light]
 type = "point"
@@ -428,8 +470,14 @@ colour = [0.35, 0.5, 0.8]
         let m = parse(&d, text).unwrap();
         assert_eq!(m.scene.name.as_deref(), Some("corridor"));
         assert_eq!(m.textures.mip_filter, texture::MipFilter::Lanczos3);
+        assert_eq!(m.textures.format, TextureFormatChoice::Bc);
+        assert_eq!(m.textures.max_normal_error_deg, Some(0.5));
+        assert_eq!(
+            m.windows[0].texture_format,
+            Some(TextureFormatChoice::Rgba8)
+        );
         assert_eq!(m.meshes[0].scale, [2.0; 3]);
-        assert_eq!(m.meshes[0].line, Line(9));
+        assert_eq!(m.meshes[0].line, Line(11));
         let t = m.meshes[0].transform();
         let p = t.transform_point3(glam::Vec3::X);
         assert!((p - glam::Vec3::new(0.0, 1.0, -2.0)).length() < 1e-5, "{p}");

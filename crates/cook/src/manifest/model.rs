@@ -36,6 +36,8 @@ pub(super) struct Scene {
 #[serde(deny_unknown_fields)]
 pub(super) struct Textures {
     pub mip_filter: Option<texture::MipFilter>,
+    pub format: Option<super::TextureFormatChoice>,
+    pub max_normal_error_deg: Option<Spanned<f32>>,
 }
 
 #[derive(Deserialize)]
@@ -89,6 +91,7 @@ pub(super) struct Window {
     pub normal_encoding: Option<texture::NormalEncoding>,
     pub green: Option<texture::GreenAxis>,
     pub blur_sigma: Option<Spanned<f32>>,
+    pub texture_format: Option<super::TextureFormatChoice>,
 }
 
 #[derive(Clone, Copy, Deserialize)]

@@ -1,0 +1,539 @@
+//! GPU block compression of finished mip levels (BC7 for colour, BC5 for normal maps, BC4
+//! for one channel) with Intel's ISPC texture compressor (`intel_tex_2`), and the error of
+//! the result against the uncompressed texels.
+//!
+//! Each level is compressed on its own from the exact (linear-light) level it replaces, never
+//! mipped after compression. A level is padded to whole 4x4 blocks by repeating its edge
+//! texels, up to the size of the GPU texture's level (`pack::Texture::storage_level_size`).
+//! Work is split into horizontal stripes of blocks, compressed in parallel; every block is
+//! encoded from its own 16 texels only, so the bytes do not depend on the thread count.
+
+use rayon::prelude::*;
+
+use pack::TextureFormat;
+
+/// BC7 encoder settings, cheapest first: the ISPC compressor's profiles. Each has an opaque
+/// variant (alpha ignored) and one with alpha. Both may decode opaque texels with an alpha a
+/// few steps below 255: modes 6 and 7 store alpha in endpoints with a p-bit shared with colour.
+/// A block whose 16 source texels are opaque but decode otherwise is encoded again with modes
+/// 0 and 2, which have no alpha channel (alpha decodes as 255; the compressor's mode 1/3 switch
+/// also enables mode 7, which has one), so opaque stays opaque. An opaque level uses the opaque variant, except for ultra-fast, whose opaque variant
+/// has only mode 6 and needs that repair in far more blocks than its alpha variant.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
+pub enum Bc7Profile {
+    UltraFast,
+    VeryFast,
+    Fast,
+    Basic,
+    Slow,
+}
+
+impl Bc7Profile {
+    pub const ALL: [Bc7Profile; 5] = [
+        Self::UltraFast,
+        Self::VeryFast,
+        Self::Fast,
+        Self::Basic,
+        Self::Slow,
+    ];
+
+    pub fn name(self) -> &'static str {
+        match self {
+            Self::UltraFast => "ultra-fast",
+            Self::VeryFast => "very-fast",
+            Self::Fast => "fast",
+            Self::Basic => "basic",
+            Self::Slow => "slow",
+        }
+    }
+
+    pub fn from_name(s: &str) -> Option<Self> {
+        Self::ALL.into_iter().find(|p| p.name() == s)
+    }
+
+    /// The profile restricted to the modes without alpha, for blocks that must decode opaque.
+    fn no_alpha_settings(self) -> intel_tex_2::bc7::EncodeSettings {
+        let mut s = self.settings(true);
+        s.channels = 3;
+        s.mode_selection = [true, false, false, false];
+        s
+    }
+
+    fn settings(self, opaque: bool) -> intel_tex_2::bc7::EncodeSettings {
+        use intel_tex_2::bc7;
+        match (self, opaque && self != Self::UltraFast) {
+            (Self::UltraFast, true) => bc7::opaque_ultra_fast_settings(),
+            (Self::VeryFast, true) => bc7::opaque_very_fast_settings(),
+            (Self::Fast, true) => bc7::opaque_fast_settings(),
+            (Self::Basic, true) => bc7::opaque_basic_settings(),
+            (Self::Slow, true) => bc7::opaque_slow_settings(),
+            (Self::UltraFast, false) => bc7::alpha_ultra_fast_settings(),
+            (Self::VeryFast, false) => bc7::alpha_very_fast_settings(),
+            (Self::Fast, false) => bc7::alpha_fast_settings(),
+            (Self::Basic, false) => bc7::alpha_basic_settings(),
+            (Self::Slow, false) => bc7::alpha_slow_settings(),
+        }
+    }
+}
+
+/// What to compress a level into.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum Codec {
+    Bc7(Bc7Profile),
+    /// X and Y of a normal map from red and green.
+    Bc5,
+    /// The red channel.
+    Bc4,
+}
+
+impl Codec {
+    pub fn format(self) -> TextureFormat {
+        match self {
+            Self::Bc7(_) => TextureFormat::Bc7,
+            Self::Bc5 => TextureFormat::Bc5,
+            Self::Bc4 => TextureFormat::Bc4,
+        }
+    }
+
+    /// `bc7 ultra-fast`, `bc5`, `bc4`.
+    pub fn name(self) -> String {
+        match self {
+            Self::Bc7(p) => format!("bc7 {}", p.name()),
+            Self::Bc5 => "bc5".into(),
+            Self::Bc4 => "bc4".into(),
+        }
+    }
+}
+
+/// Copies a tightly packed RGBA8 `width x height` image into a `pw x ph` one (each at least as
+/// large), repeating the last column and row into the padding.
+pub fn pad_edges(rgba: &[u8], width: u32, height: u32, pw: u32, ph: u32) -> Vec<u8> {
+    let (w, h, pw, ph) = (width as usize, height as usize, pw as usize, ph as usize);
+    debug_assert!(pw >= w && ph >= h && rgba.len() == w * h * 4);
+    if (w, h) == (pw, ph) {
+        return rgba.to_vec();
+    }
+    let mut out = Vec::with_capacity(pw * ph * 4);
+    for y in 0..ph {
+        let row = &rgba[y.min(h - 1) * w * 4..][..w * 4];
+        out.extend_from_slice(row);
+        let last = &row[(w - 1) * 4..];
+        for _ in w..pw {
+            out.extend_from_slice(last);
+        }
+    }
+    out
+}
+
+/// Block rows per parallel task: enough work per task to hide rayon's overhead, small enough
+/// to balance two cores on a 64-texel-high level.
+const ROWS_PER_TASK: usize = 4;
+
+/// Compresses one level: `rgba` is its `width x height` texels (logical size), stored as a
+/// `storage_width x storage_height` level (at least as large) in whole blocks.
+pub fn compress_level(
+    codec: Codec,
+    rgba: &[u8],
+    width: u32,
+    height: u32,
+    storage_width: u32,
+    storage_height: u32,
+) -> Vec<u8> {
+    let pw = storage_width.div_ceil(4) * 4;
+    let ph = storage_height.div_ceil(4) * 4;
+    let padded = pad_edges(rgba, width, height, pw, ph);
+    let channels = match codec {
+        Codec::Bc7(_) => 4,
+        Codec::Bc5 => 2,
+        Codec::Bc4 => 1,
+    };
+    let texels: Vec<u8> = if channels == 4 {
+        padded
+    } else {
+        padded
+            .chunks_exact(4)
+            .flat_map(|t| t[..channels].iter().copied())
+            .collect()
+    };
+    let opaque = channels == 4 && texels.chunks_exact(4).all(|t| t[3] == 255);
+    let block_bytes = codec.format().block_bytes().expect("block format") as usize;
+    let blocks_x = pw as usize / 4;
+    let stripe_in = pw as usize * 4 * channels;
+    let stripe_out = blocks_x * block_bytes;
+    let mut out = vec![0u8; stripe_out * ph as usize / 4];
+    out.par_chunks_mut(stripe_out * ROWS_PER_TASK)
+        .zip(texels.par_chunks(stripe_in * ROWS_PER_TASK))
+        .for_each(|(dst, src)| {
+            let rows = (src.len() / stripe_in) as u32;
+            match codec {
+                Codec::Bc7(p) => {
+                    let s = intel_tex_2::RgbaSurface {
+                        data: src,
+                        width: pw,
+                        height: rows * 4,
+                        stride: pw * 4,
+                    };
+                    intel_tex_2::bc7::compress_blocks_into(&p.settings(opaque), &s, dst);
+                    keep_opaque_blocks(p, src, pw as usize, dst);
+                }
+                Codec::Bc5 => {
+                    let s = intel_tex_2::RgSurface {
+                        data: src,
+                        width: pw,
+                        height: rows * 4,
+                        stride: pw * 2,
+                    };
+                    intel_tex_2::bc5::compress_blocks_into(&s, dst);
+                }
+                Codec::Bc4 => {
+                    let s = intel_tex_2::RSurface {
+                        data: src,
+                        width: pw,
+                        height: rows * 4,
+                        stride: pw,
+                    };
+                    intel_tex_2::bc4::compress_blocks_into(&s, dst);
+                }
+            }
+        });
+    out
+}
+
+/// Makes a mode-6 BC7 block decode opaque: both alpha endpoints 127 and both p-bits 1, so every
+/// interpolated alpha is 255. The p-bits are shared with colour, which moves a colour endpoint
+/// by at most one 8-bit step. Returns false for blocks of other modes.
+fn opaque_mode6(block: &mut [u8]) -> bool {
+    let mut bits = u128::from_le_bytes(block[..16].try_into().unwrap());
+    // Mode 6: bit 6 is the first set bit. Layout after the 7 mode bits: R0 R1 G0 G1 B0 B1 A0
+    // A1 (7 bits each, from bit 7), then P0 and P1 at bits 63 and 64.
+    if bits & 0x7f != 0x40 {
+        return false;
+    }
+    bits |= 0x7f << 49 | 0x7f << 56 | 1 << 63 | 1 << 64;
+    block[..16].copy_from_slice(&bits.to_le_bytes());
+    true
+}
+
+/// Repairs every BC7 block of a stripe whose source texels are all opaque but whose decode is
+/// not (see [`Bc7Profile`]): mode 6 by its endpoint bits, any other mode by encoding the block
+/// again without alpha modes. `src` is RGBA rows `width` texels wide.
+fn keep_opaque_blocks(profile: Bc7Profile, src: &[u8], width: usize, dst: &mut [u8]) {
+    let blocks_x = width / 4;
+    let row = width * 4;
+    let mut texels = [0u8; 64];
+    let mut decoded = [0u8; 64];
+    for (i, block) in dst.chunks_exact_mut(16).enumerate() {
+        let (bx, by) = (i % blocks_x, i / blocks_x);
+        for y in 0..4 {
+            let at = (by * 4 + y) * row + bx * 16;
+            texels[y * 16..y * 16 + 16].copy_from_slice(&src[at..at + 16]);
+        }
+        if texels.chunks_exact(4).any(|t| t[3] != 255) {
+            continue;
+        }
+        bcdec_rs::bc7(block, &mut decoded, 16);
+        if decoded.chunks_exact(4).all(|t| t[3] == 255) || opaque_mode6(block) {
+            continue;
+        }
+        let s = intel_tex_2::RgbaSurface {
+            data: &texels,
+            width: 4,
+            height: 4,
+            stride: 16,
+        };
+        intel_tex_2::bc7::compress_blocks_into(&profile.no_alpha_settings(), &s, block);
+    }
+}
+
+/// How far a compressed chain (or level) is from the texels it was made from.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct BlockError {
+    /// Colour: RMS over every channel of every texel, in 8-bit steps (LSB) of the stored
+    /// (sRGB-encoded for colour) values. Normal maps: mean angle in degrees.
+    pub mean: f64,
+    /// Colour: the largest difference of one channel, LSB. Normal maps: the 99th percentile of
+    /// the angle, degrees.
+    pub max: f64,
+    /// Level 0 alone, as `mean`.
+    pub level0: f64,
+}
+
+/// Per-texel errors of one level, to be combined over a chain.
+#[derive(Clone, Debug, Default)]
+struct Tally {
+    /// Colour: sum of squared channel differences; normals: sum of angles.
+    sum: f64,
+    /// Channels (colour) or texels (normals) counted.
+    count: u64,
+    max: u8,
+    angles: Vec<f64>,
+}
+
+fn colour_tally(original: &[u8], decoded: &[u8]) -> Tally {
+    let mut t = Tally::default();
+    for (&a, &b) in original.iter().zip(decoded) {
+        let d = a.abs_diff(b);
+        t.sum += d as f64 * d as f64;
+        t.max = t.max.max(d);
+    }
+    t.count = original.len() as u64;
+    t
+}
+
+fn unit_normal(t: &[u8]) -> [f64; 3] {
+    let v = [0, 1, 2].map(|i| t[i] as f64 / 255.0 * 2.0 - 1.0);
+    let l = (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt();
+    if l > 1e-9 {
+        v.map(|c| c / l)
+    } else {
+        [0.0, 0.0, 1.0]
+    }
+}
+
+fn normal_tally(original: &[u8], decoded: &[u8]) -> Tally {
+    let angles: Vec<f64> = original
+        .chunks_exact(4)
+        .zip(decoded.chunks_exact(4))
+        .map(|(a, b)| {
+            let (a, b) = (unit_normal(a), unit_normal(b));
+            let dot = (a[0] * b[0] + a[1] * b[1] + a[2] * b[2]).clamp(-1.0, 1.0);
+            dot.acos().to_degrees()
+        })
+        .collect();
+    Tally {
+        sum: angles.iter().sum(),
+        count: angles.len() as u64,
+        max: 0,
+        angles,
+    }
+}
+
+fn finish(tallies: &[Tally], normal: bool) -> BlockError {
+    let level_mean = |t: &Tally| {
+        let m = t.sum / t.count.max(1) as f64;
+        if normal { m } else { m.sqrt() }
+    };
+    let total = Tally {
+        sum: tallies.iter().map(|t| t.sum).sum(),
+        count: tallies.iter().map(|t| t.count).sum(),
+        ..Default::default()
+    };
+    let max = if normal {
+        let mut all: Vec<f64> = tallies
+            .iter()
+            .flat_map(|t| t.angles.iter().copied())
+            .collect();
+        if all.is_empty() {
+            0.0
+        } else {
+            let k = ((all.len() - 1) as f64 * 0.99).round() as usize;
+            *all.select_nth_unstable_by(k, f64::total_cmp).1
+        }
+    } else {
+        tallies.iter().map(|t| t.max).max().unwrap_or(0) as f64
+    };
+    BlockError {
+        mean: level_mean(&total),
+        max,
+        level0: tallies.first().map(level_mean).unwrap_or(0.0),
+    }
+}
+
+/// Colour error of `decoded` against `original` (both RGBA8, same size).
+pub fn colour_error(original: &[u8], decoded: &[u8]) -> BlockError {
+    finish(&[colour_tally(original, decoded)], false)
+}
+
+/// Angular error of a decoded normal map (Z rebuilt, as `pack::texels` decodes BC5) against
+/// the RGBA8 normal map it was made from.
+pub fn normal_error(original: &[u8], decoded: &[u8]) -> BlockError {
+    finish(&[normal_tally(original, decoded)], true)
+}
+
+/// A compressed mip chain and its error over every texel of every level.
+#[derive(Clone, Debug)]
+pub struct Compressed {
+    pub levels: Vec<Vec<u8>>,
+    pub error: BlockError,
+}
+
+/// Compresses every level of `chain` (RGBA8, level 0 first) as the levels of `texture`
+/// (whose format, logical and storage sizes say how), and measures each against its source.
+/// `normal` selects the angular error measure. Levels are compressed one after another, each
+/// in parallel stripes.
+pub fn compress_chain(
+    codec: Codec,
+    chain: &crate::MipChain,
+    texture: &pack::Texture,
+    normal: bool,
+) -> Compressed {
+    let mut tallies = Vec::with_capacity(chain.levels.len());
+    let levels = chain
+        .levels
+        .iter()
+        .enumerate()
+        .map(|(k, rgba)| {
+            let m = &texture.mips[k];
+            let (sw, sh) = texture.storage_level_size(k);
+            let blocks = compress_level(codec, rgba, m.width, m.height, sw, sh);
+            let decoded = pack::texels::decode_level(texture, k, &blocks);
+            tallies.push(if normal {
+                normal_tally(rgba, &decoded)
+            } else {
+                colour_tally(rgba, &decoded)
+            });
+            blocks
+        })
+        .collect();
+    Compressed {
+        levels,
+        error: finish(&tallies, normal),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn gradient(w: u32, h: u32) -> Vec<u8> {
+        (0..w * h)
+            .flat_map(|i| {
+                let (x, y) = (i % w, i / w);
+                [
+                    (x * 255 / w.max(2).saturating_sub(1).max(1)) as u8,
+                    (y * 255 / h.max(2).saturating_sub(1).max(1)) as u8,
+                    ((x + y) * 2).min(255) as u8,
+                    255,
+                ]
+            })
+            .collect()
+    }
+
+    #[test]
+    fn padding_repeats_edges() {
+        let img = vec![1, 2, 3, 4, 5, 6, 7, 8];
+        let p = pad_edges(&img, 2, 1, 3, 2);
+        assert_eq!(
+            p,
+            vec![
+                1, 2, 3, 4, 5, 6, 7, 8, 5, 6, 7, 8, 1, 2, 3, 4, 5, 6, 7, 8, 5, 6, 7, 8
+            ]
+        );
+    }
+
+    #[test]
+    fn sizes_follow_blocks() {
+        let img = gradient(9, 5);
+        let b = compress_level(Codec::Bc7(Bc7Profile::UltraFast), &img, 9, 5, 12, 8);
+        assert_eq!(b.len(), 3 * 2 * 16);
+        let b = compress_level(Codec::Bc5, &img, 9, 5, 12, 8);
+        assert_eq!(b.len(), 3 * 2 * 16);
+        let b = compress_level(Codec::Bc4, &img, 9, 5, 12, 8);
+        assert_eq!(b.len(), 3 * 2 * 8);
+        // A level smaller than a block is one block.
+        let b = compress_level(Codec::Bc7(Bc7Profile::UltraFast), &img[..8], 2, 1, 3, 2);
+        assert_eq!(b.len(), 16);
+    }
+
+    #[test]
+    fn opaque_stays_opaque_and_error_is_small_on_a_smooth_image() {
+        let (w, h) = (64, 32);
+        let img = gradient(w, h);
+        for p in [Bc7Profile::UltraFast, Bc7Profile::VeryFast] {
+            let b = compress_level(Codec::Bc7(p), &img, w, h, w, h);
+            let d = pack::texels::decode(TextureFormat::Bc7, w, h, &b);
+            // Opaque stays opaque (see `Bc7Profile`).
+            assert!(d.chunks_exact(4).all(|t| t[3] == 255), "{p:?}: alpha");
+            let e = colour_error(&img, &d);
+            assert!(e.mean < 3.0 && e.max < 10.0, "{p:?}: {e:?}");
+        }
+    }
+
+    #[test]
+    fn a_mode6_block_made_opaque_keeps_its_colour_within_a_step() {
+        let img = gradient(4, 4);
+        let s = intel_tex_2::RgbaSurface {
+            data: &img,
+            width: 4,
+            height: 4,
+            stride: 16,
+        };
+        let mut block = [0u8; 16];
+        let mut settings = Bc7Profile::UltraFast.settings(true);
+        settings.mode_selection = [false, false, false, true];
+        intel_tex_2::bc7::compress_blocks_into(&settings, &s, &mut block);
+        // Force alpha endpoints below 255, as the kernels sometimes leave them.
+        let mut bits = u128::from_le_bytes(block);
+        bits &= !(1u128 << 49 | 1 << 56 | 1 << 63 | 1 << 64);
+        let mut low = bits.to_le_bytes();
+        let mut before = [0u8; 64];
+        bcdec_rs::bc7(&low, &mut before, 16);
+        assert!(before.chunks_exact(4).any(|t| t[3] < 255));
+        assert!(opaque_mode6(&mut low));
+        let mut after = [0u8; 64];
+        bcdec_rs::bc7(&low, &mut after, 16);
+        for (a, b) in before.chunks_exact(4).zip(after.chunks_exact(4)) {
+            assert_eq!(b[3], 255);
+            for c in 0..3 {
+                assert!(a[c].abs_diff(b[c]) <= 1, "{a:?} {b:?}");
+            }
+        }
+        // Another mode is left alone.
+        let mut other = [0x01u8; 16];
+        assert!(!opaque_mode6(&mut other));
+    }
+
+    #[test]
+    fn colour_error_counts_every_channel() {
+        let a = [10u8, 10, 10, 10];
+        let e = colour_error(&a, &[12, 10, 10, 10]);
+        assert_eq!(e.max, 2.0);
+        assert!((e.mean - 1.0).abs() < 1e-12, "{e:?}");
+    }
+
+    #[test]
+    fn bc5_normal_error_is_small_on_a_smooth_normal_map() {
+        let (w, h) = (32u32, 32u32);
+        let img: Vec<u8> = (0..w * h)
+            .flat_map(|i| {
+                let x = ((i % w) as f64 / w as f64 - 0.5) * 0.6;
+                let y = ((i / w) as f64 / h as f64 - 0.5) * 0.6;
+                let z = (1.0 - x * x - y * y).sqrt();
+                [x, y, z]
+                    .map(|c| ((c * 0.5 + 0.5) * 255.0).round() as u8)
+                    .into_iter()
+                    .chain([255])
+            })
+            .collect();
+        let b = compress_level(Codec::Bc5, &img, w, h, w, h);
+        let d = pack::texels::decode(TextureFormat::Bc5, w, h, &b);
+        let e = normal_error(&img, &d);
+        assert!(e.mean < 0.5 && e.max < 2.0, "{e:?}");
+        // A different normal map is far off: the measure can fail.
+        let flat: Vec<u8> = img
+            .chunks_exact(4)
+            .flat_map(|_| [128, 128, 255, 255])
+            .collect();
+        assert!(normal_error(&img, &flat).mean > 3.0);
+    }
+
+    #[test]
+    fn bytes_do_not_depend_on_the_thread_count() {
+        let (w, h) = (100, 70);
+        let img: Vec<u8> = (0..w * h * 4)
+            .map(|i: u32| (i.wrapping_mul(2654435761) >> 13) as u8)
+            .collect();
+        let run = |threads: usize, codec: Codec| {
+            rayon::ThreadPoolBuilder::new()
+                .num_threads(threads)
+                .build()
+                .unwrap()
+                .install(|| compress_level(codec, &img, w, h, 100, 72))
+        };
+        for codec in [Codec::Bc7(Bc7Profile::VeryFast), Codec::Bc5, Codec::Bc4] {
+            let one = run(1, codec);
+            assert_eq!(one, run(2, codec), "{codec:?}");
+            assert_eq!(one, run(8, codec), "{codec:?}");
+        }
+    }
+}

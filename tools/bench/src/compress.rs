@@ -1,0 +1,301 @@
+//! Block-compression sweep: encoder setting × texture role, time against error, and the whole
+//! default scene cooked RGBA8 against the default (`auto`) format: pack size, cold cook time and
+//! FLIP of every camera's final render against the RGBA8 pack's.
+//!
+//! Roles: a stained-glass design (our rose), its blurred projector, a normal map (our hammered
+//! glass) and stone (Crytek Sponza's bricks from `../shared/testdata` when present, else our
+//! wall). Errors are those the cooker budgets with (`texture::bc`): RMS over every channel of
+//! every level in 8-bit steps for colour, mean angle in degrees for normal maps; level 0 alone
+//! is reported beside them. Times are whole mip chains on one thread.
+
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+use anyhow::{Context, Result};
+use serde::{Deserialize, Serialize};
+use texture::bc::{Bc7Profile, Codec};
+
+use crate::common::median;
+
+#[derive(Clone, Debug, Serialize, Deserialize)]
+pub struct CompressRow {
+    pub role: String,
+    pub image: String,
+    pub width: u32,
+    pub height: u32,
+    pub codec: String,
+    /// Median over the runs, one thread, the whole chain.
+    pub time_ms: f64,
+    /// Colour: LSB RMS over the chain; normal maps: mean degrees over the chain.
+    pub error: f64,
+    pub error_level0: f64,
+    /// Colour: largest channel difference (LSB); normal maps: 99th percentile (degrees).
+    pub error_max: f64,
+}
+
+#[derive(Clone, Debug, Serialize, Deserialize)]
+pub struct ScenePack {
+    /// `rgba8` or `auto`.
+    pub format: String,
+    pub bytes: u64,
+    /// Cold cook in process (no cache), median over the runs.
+    pub cook_ms: f64,
+    /// Per camera: FLIP mean of the final render against the RGBA8 pack's (0 for RGBA8).
+    pub flip: Vec<(String, f64)>,
+}
+
+#[derive(Clone, Debug, Default, Serialize, Deserialize)]
+pub struct CompressReport {
+    pub rows: Vec<CompressRow>,
+    pub scene: Vec<ScenePack>,
+    pub render_size: (u32, u32),
+    /// Why the scene part did not run, when it did not.
+    pub scene_error: Option<String>,
+}
+
+pub struct CompressConfig {
+    /// Crop every source to at most this square (centre), to keep quick runs quick.
+    pub max_size: u32,
+    pub runs: usize,
+    pub profiles: Vec<Bc7Profile>,
+    /// The scene to cook both ways, and the render size; `None` skips that part.
+    pub scene: Option<PathBuf>,
+    pub render_size: (u32, u32),
+}
+
+fn assets() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("../../assets-src")
+}
+
+/// The stone texture: Sponza's bricks from the team's shared test data, else our wall.
+fn stone() -> PathBuf {
+    let shared = Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("../../../shared/testdata/textures/crytek-sponza/spnza_bricks_a_diff.tga");
+    if shared.is_file() {
+        shared
+    } else {
+        assets().join("textures/wall.png")
+    }
+}
+
+fn crop(img: image::DynamicImage, max: u32) -> image::DynamicImage {
+    let (w, h) = (img.width(), img.height());
+    let (cw, ch) = (w.min(max), h.min(max));
+    img.crop_imm((w - cw) / 2, (h - ch) / 2, cw, ch)
+}
+
+fn load(path: &Path, max: u32) -> Result<image::DynamicImage> {
+    let img = texture::load_image(path).with_context(|| format!("loading {}", path.display()))?;
+    Ok(crop(img, max))
+}
+
+/// One role's source chain.
+struct Source {
+    role: &'static str,
+    image: String,
+    chain: texture::MipChain,
+    normal: bool,
+}
+
+fn sources(max: u32) -> Result<Vec<Source>> {
+    let srgb = texture::ColourOptions {
+        srgb: true,
+        filter: texture::MipFilter::Box,
+    };
+    let design_path = assets().join("windows/rose.png");
+    let design = load(&design_path, max)?;
+    let normal_path = assets().join("normals/hammered.png");
+    let stone_path = stone();
+    let name = |p: &Path| {
+        p.file_name()
+            .unwrap_or_default()
+            .to_string_lossy()
+            .into_owned()
+    };
+    // The default scene's rose projector blur, scaled to the cropped size.
+    let sigma = 6.57 * design.width() as f32 / 1024.0;
+    let (projector, _) = texture::projector(&design, &texture::ProjectorOptions::new(sigma))
+        .context("blurring the projector")?;
+    Ok(vec![
+        Source {
+            role: "stained-glass design",
+            image: name(&design_path),
+            chain: texture::colour_mips(&design, &srgb)?,
+            normal: false,
+        },
+        Source {
+            role: "projector",
+            image: format!("{} blurred, sigma {sigma:.2}", name(&design_path)),
+            chain: projector,
+            normal: false,
+        },
+        Source {
+            role: "normal map",
+            image: name(&normal_path),
+            chain: texture::normal_mips(
+                &load(&normal_path, max)?,
+                texture::NormalEncoding::Rgb,
+                texture::GreenAxis::OpenGl,
+            )?,
+            normal: true,
+        },
+        Source {
+            role: "stone",
+            image: name(&stone_path),
+            chain: texture::colour_mips(&load(&stone_path, max)?, &srgb)?,
+            normal: false,
+        },
+    ])
+}
+
+/// The pack record a chain is compressed as.
+fn shape(chain: &texture::MipChain, codec: Codec) -> pack::Texture {
+    pack::Texture {
+        name: String::new(),
+        role: pack::TextureRole::Colour,
+        colour_space: pack::ColourSpace::Linear,
+        format: codec.format(),
+        width: chain.width,
+        height: chain.height,
+        mips: (0..chain.levels.len())
+            .map(|k| {
+                let (width, height) = chain.level_size(k);
+                pack::MipLevel {
+                    width,
+                    height,
+                    section: 0,
+                }
+            })
+            .collect(),
+    }
+}
+
+pub fn sweep(cfg: &CompressConfig, progress: &mut dyn FnMut(&str)) -> Result<CompressReport> {
+    let one = rayon::ThreadPoolBuilder::new().num_threads(1).build()?;
+    let mut rows = Vec::new();
+    for s in sources(cfg.max_size)? {
+        let codecs: Vec<Codec> = if s.normal {
+            vec![Codec::Bc5]
+        } else {
+            cfg.profiles.iter().map(|&p| Codec::Bc7(p)).collect()
+        };
+        for codec in codecs {
+            let texture = shape(&s.chain, codec);
+            let mut times = Vec::new();
+            let mut last = None;
+            for _ in 0..cfg.runs.max(1) {
+                let start = Instant::now();
+                let c = one
+                    .install(|| texture::bc::compress_chain(codec, &s.chain, &texture, s.normal));
+                times.push(start.elapsed().as_secs_f64() * 1e3);
+                last = Some(c);
+            }
+            let e = last.expect("at least one run").error;
+            let row = CompressRow {
+                role: s.role.into(),
+                image: s.image.clone(),
+                width: s.chain.width,
+                height: s.chain.height,
+                codec: codec.name(),
+                time_ms: median(&mut times),
+                error: e.mean,
+                error_level0: e.level0,
+                error_max: e.max,
+            };
+            progress(&format!(
+                "compress {} {}: {:.1} ms, error {:.3} (level 0 {:.3})",
+                row.role, row.codec, row.time_ms, row.error, row.error_level0
+            ));
+            rows.push(row);
+        }
+    }
+    let mut report = CompressReport {
+        rows,
+        scene: Vec::new(),
+        render_size: cfg.render_size,
+        scene_error: None,
+    };
+    if let Some(scene) = &cfg.scene {
+        match scene_effect(scene, cfg, progress) {
+            Ok(s) => report.scene = s,
+            Err(e) => {
+                progress(&format!("compression: scene part not run: {e:#}"));
+                report.scene_error = Some(format!("{e:#}"));
+            }
+        }
+    }
+    Ok(report)
+}
+
+/// Cooks the scene both ways, renders every camera of both, and compares.
+fn scene_effect(
+    scene: &Path,
+    cfg: &CompressConfig,
+    progress: &mut dyn FnMut(&str),
+) -> Result<Vec<ScenePack>> {
+    use cook::manifest::TextureFormatChoice;
+    let manifest =
+        cook::Manifest::load(scene).with_context(|| format!("loading {}", scene.display()))?;
+    let gpu = render::Gpu::headless()?;
+    let (w, h) = cfg.render_size;
+    let mut out = Vec::new();
+    let mut reference: Vec<Vec<u8>> = Vec::new();
+    for (name, format) in [
+        ("rgba8", TextureFormatChoice::Rgba8),
+        ("auto", TextureFormatChoice::Auto),
+    ] {
+        let mut settings = cook::Settings::new(&manifest);
+        settings.textures.format = Some(format);
+        let mut times = Vec::new();
+        let mut cooked = None;
+        for _ in 0..cfg.runs.max(1) {
+            let start = Instant::now();
+            let c = cook::cook(&manifest, &settings)?;
+            let bytes = pack::encode(c.toc, &c.data)?;
+            times.push(start.elapsed().as_secs_f64() * 1e3);
+            cooked = Some(bytes);
+        }
+        let bytes = cooked.expect("at least one run");
+        let pack = pack::Pack::from_bytes(scene, &bytes)?;
+        let scene_gpu = render::Scene::from_pack(&gpu, &pack)?;
+        let mut flip = Vec::new();
+        for (i, camera) in pack.toc().cameras.iter().enumerate() {
+            let view = render::view::View::from_camera(camera, w as f32 / h as f32);
+            let mut r =
+                render::Renderer::headless(&gpu, &scene_gpu, w, h, render::Settings::default())?;
+            r.render(&gpu, &scene_gpu, &view, render::TimingMethod::None)?;
+            let rgb: Vec<u8> = r
+                .read_output(&gpu)?
+                .pixels()
+                .flat_map(|p| [p[0], p[1], p[2]])
+                .collect();
+            let f = match reference.get(i) {
+                Some(base) => {
+                    let e = nv_flip::flip(
+                        nv_flip::FlipImageRgb8::with_data(w, h, base),
+                        nv_flip::FlipImageRgb8::with_data(w, h, &rgb),
+                        nv_flip::DEFAULT_PIXELS_PER_DEGREE,
+                    );
+                    nv_flip::FlipPool::from_image(&e).mean() as f64
+                }
+                None => {
+                    reference.push(rgb);
+                    0.0
+                }
+            };
+            flip.push((camera.name.clone(), f));
+        }
+        let row = ScenePack {
+            format: name.into(),
+            bytes: bytes.len() as u64,
+            cook_ms: median(&mut times),
+            flip,
+        };
+        progress(&format!(
+            "compression, scene {name}: {} bytes, cook {:.0} ms, FLIP {:?}",
+            row.bytes, row.cook_ms, row.flip
+        ));
+        out.push(row);
+    }
+    Ok(out)
+}
