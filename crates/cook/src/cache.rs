@@ -556,6 +556,7 @@ mod tests {
                 cache: CacheMode::Full,
                 overdraw: false,
                 crease_angle_deg: 60.0,
+                analyze: true,
             },
             quantize: false,
             position_bits: PositionBits::B16,
@@ -605,6 +606,8 @@ mod tests {
                     cache: vertex_cache,
                     overdraw,
                     crease_angle_deg,
+                    // Report statistics only; `irrelevant_things_change_no_key` checks it.
+                    analyze: _,
                 },
             quantize,
             position_bits,
@@ -757,6 +760,13 @@ mod tests {
         assert!(
             keys.iter().all(|k| *k == keys[0]),
             "thread count changed a key"
+        );
+        let mut quiet = base.clone();
+        quiet.mesh.analyze = false;
+        assert_eq!(
+            scene_key(&manifest, &quiet).unwrap(),
+            keys[0].0,
+            "measuring ACMR for the report changed the key"
         );
         let cached = Settings {
             cache: Some(Cache::open(dir.path().join("cache")).unwrap()),

@@ -101,6 +101,7 @@ const OCC: usize = 64;
 
 impl Occupancy {
     fn new(p: &Prepared, classes: &[MaterialClass], lo: DVec3, hi: DVec3) -> Self {
+        use rayon::prelude::*;
         let cell =
             ((hi - lo) / OCC as f64).max(DVec3::splat((hi - lo).max_element() * 1e-3 + 1e-9));
         let mut grid = Self {
@@ -109,44 +110,102 @@ impl Occupancy {
             full: vec![false; OCC * OCC * OCC],
         };
         let step = cell.min_element() * 0.5;
-        for (src, mats) in p.imported.iter().zip(&p.tri_material) {
-            for (t, &m) in mats.iter().enumerate() {
-                let c = classes[m as usize];
-                if c.is_window() || c == MaterialClass::Background {
-                    continue;
-                }
-                let [a, b, c] = [0, 1, 2].map(|k| {
-                    let q = src.positions[src.corners[t * 3 + k].p as usize];
-                    DVec3::new(q[0] as f64, q[1] as f64, q[2] as f64)
-                });
-                // Points on the triangle at most half a cell apart mark every cell it crosses.
-                let n = (((b - a).length().max((c - a).length()) / step).ceil() as usize)
-                    .clamp(1, 4 * OCC);
-                for i in 0..=n {
-                    for j in 0..=(n - i) {
-                        let (u, v) = (i as f64 / n as f64, j as f64 / n as f64);
-                        grid.mark(a + (b - a) * u + (c - a) * v);
+        // Chunks of triangles mark grids of their own, or-ed together: the same cells whatever
+        // the split.
+        const CHUNK: usize = 1 << 14;
+        let marked = p
+            .imported
+            .iter()
+            .zip(&p.tri_material)
+            .flat_map(|(src, mats)| {
+                (0..mats.len())
+                    .step_by(CHUNK)
+                    .map(move |t0| (src, mats, t0..(t0 + CHUNK).min(mats.len())))
+            })
+            .collect::<Vec<_>>()
+            .into_par_iter()
+            .fold(
+                || vec![false; OCC * OCC * OCC],
+                |mut full, (src, mats, range)| {
+                    for t in range {
+                        let c = classes[mats[t] as usize];
+                        if c.is_window() || c == MaterialClass::Background {
+                            continue;
+                        }
+                        let [a, b, c] = [0, 1, 2].map(|k| {
+                            let q = src.positions[src.corners[t * 3 + k].p as usize];
+                            DVec3::new(q[0] as f64, q[1] as f64, q[2] as f64)
+                        });
+                        // A triangle within one row of cells marks that row from its lowest
+                        // cell to its highest (rows are convex, and so are triangles).
+                        if let Some(cells) = grid.row_span([a, b, c]) {
+                            for k in cells {
+                                full[k] = true;
+                            }
+                            continue;
+                        }
+                        // Points on the triangle at most half a cell apart mark every cell it
+                        // crosses; they are placed in cell units (no divide per point).
+                        let n = (((b - a).length().max((c - a).length()) / step).ceil() as usize)
+                            .clamp(1, 4 * OCC);
+                        let [a, b, c] = [a, b, c].map(|q| (q - grid.lo) / grid.cell);
+                        let last = OCC as f64 - 1e-6;
+                        for i in 0..=n {
+                            for j in 0..=(n - i) {
+                                let (u, v) = (i as f64 / n as f64, j as f64 / n as f64);
+                                let q = (a + (b - a) * u + (c - a) * v).min(DVec3::splat(last));
+                                if q.is_finite() && q.min_element() >= 0.0 {
+                                    let q = q.as_uvec3();
+                                    full[((q.z as usize * OCC) + q.y as usize) * OCC
+                                        + q.x as usize] = true;
+                                }
+                            }
+                        }
                     }
-                }
-            }
+                    full
+                },
+            )
+            .reduce_with(|mut a, b| {
+                a.iter_mut().zip(b).for_each(|(a, b)| *a |= b);
+                a
+            });
+        if let Some(full) = marked {
+            grid.full = full;
         }
         grid
     }
 
+    /// The cell a point on the model marks: a point on the far faces of the box belongs to the
+    /// last cell.
+    fn cell_of(&self, q: DVec3) -> Option<usize> {
+        self.index(q.min(self.lo + self.cell * (OCC as f64 - 1e-6)))
+    }
+
+    /// When the corners' cells differ along one axis at most: the cells between them along it.
+    fn row_span(&self, t: [DVec3; 3]) -> Option<impl Iterator<Item = usize>> {
+        let k = t.map(|q| self.cell_of(q));
+        let [a, b, c] = [k[0]?, k[1]?, k[2]?];
+        let axes = |i: usize| [i % OCC, i / OCC % OCC, i / (OCC * OCC)];
+        let (a, b, c) = (axes(a), axes(b), axes(c));
+        let stride = [1, OCC, OCC * OCC];
+        let varying: Vec<usize> = (0..3).filter(|&d| a[d] != b[d] || a[d] != c[d]).collect();
+        let d = match varying[..] {
+            [] => 0,
+            [d] => d,
+            _ => return None,
+        };
+        let (lo, hi) = (a[d].min(b[d]).min(c[d]), a[d].max(b[d]).max(c[d]));
+        let base: usize = (0..3).filter(|&e| e != d).map(|e| a[e] * stride[e]).sum();
+        Some((lo..=hi).map(move |v| base + v * stride[d]))
+    }
+
     fn index(&self, q: DVec3) -> Option<usize> {
-        let c = ((q - self.lo) / self.cell).floor();
-        if c.min_element() < 0.0 || c.max_element() >= OCC as f64 || !c.is_finite() {
+        let c = (q - self.lo) / self.cell;
+        // Truncation is the floor here: negative (and NaN) coordinates were turned away.
+        if !c.is_finite() || c.min_element() < 0.0 || c.max_element() >= OCC as f64 {
             return None;
         }
         Some((c.z as usize * OCC + c.y as usize) * OCC + c.x as usize)
-    }
-
-    fn mark(&mut self, q: DVec3) {
-        // A point on the far faces of the box belongs to the last cell.
-        let q = q.min(self.lo + self.cell * (OCC as f64 - 1e-6));
-        if let Some(i) = self.index(q) {
-            self.full[i] = true;
-        }
     }
 
     /// Distance along the unit ray from `o` to the first occupied cell (a quarter-cell march,

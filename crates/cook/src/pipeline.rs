@@ -33,19 +33,30 @@ pub fn cook(manifest: &Manifest, settings: &Settings) -> Result<CookOutput, Cook
     // 1–3. Import every source into a triangle soup (errors name file and line); tag source
     // names to pack materials with a class; find the windows in the geometry.
     let prepared = prepare(manifest, settings, &mut report)?;
-    let manifest = with_guesses(manifest, &prepared, &mut report);
+    let mut clock = Lap::start();
+
+    // 4. Mesh processing, one source per task, beside a bare model's guessed light and cameras
+    // (which read the same prepared geometry); materials left without triangles are dropped.
+    let (guessed, mut processed) = rayon::join(
+        || needs_guess(manifest).then(|| guess::guess(&prepared)),
+        || {
+            process_meshes(
+                &prepared.imported,
+                &prepared.tri_material,
+                &prepared.tagging,
+                settings,
+            )
+        },
+    );
+    let manifest = with_guesses(manifest, guessed, &mut report);
     let Prepared {
         imported,
         import_times,
         mut tagging,
-        tri_material,
+        tri_material: _,
         windows: found,
     } = prepared;
     record_sources(&manifest, &imported, &tagging, &mut report);
-    let mut clock = Lap::start();
-
-    // 4. Mesh processing, one source per task; materials left without triangles are dropped.
-    let mut processed = process_meshes(&imported, &tri_material, &tagging, settings);
     prune::unused_materials(
         &manifest,
         &found.replaced,
@@ -274,15 +285,19 @@ fn tri_materials(src: &import::Imported, part_material: &[u16]) -> Vec<u16> {
 }
 
 /// A bare model says nothing of light or cameras: it gets the guesses `cooker init` writes.
+fn needs_guess(manifest: &Manifest) -> bool {
+    manifest.bare && manifest.light.is_none()
+}
+
+/// The manifest with the guesses (made when [`needs_guess`]) filled in.
 fn with_guesses<'a>(
     manifest: &'a Manifest,
-    prepared: &Prepared,
+    guessed: Option<guess::Guess>,
     report: &mut Report,
 ) -> Cow<'a, Manifest> {
-    if !manifest.bare || manifest.light.is_some() {
+    let Some(g) = guessed else {
         return Cow::Borrowed(manifest);
-    }
-    let g = guess::guess(prepared);
+    };
     let mut m = manifest.clone();
     m.light = g.light;
     if m.cameras.is_empty() {

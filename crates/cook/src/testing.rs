@@ -3,6 +3,16 @@
 /// A wavy `n` x `n` height field as OBJ text, vertices in row order and triangles in row order
 /// (a plain scan order with a cache-unfriendly stride for large `n`).
 pub fn height_field_obj(n: usize) -> String {
+    height_field(n, false)
+}
+
+/// [`height_field_obj`] with a normal and texture coordinates at every vertex, each corner
+/// naming all three (`f a/a/a …`).
+pub fn height_field_obj_with_normals_and_uvs(n: usize) -> String {
+    height_field(n, true)
+}
+
+fn height_field(n: usize, attributes: bool) -> String {
     use std::fmt::Write;
     let mut s = String::with_capacity(n * n * 60);
     s.push_str("o terrain\nusemtl ground\n");
@@ -13,11 +23,37 @@ pub fn height_field_obj(n: usize) -> String {
             let _ = writeln!(s, "v {x:.6} {y:.6} {z:.6}");
         }
     }
+    if attributes {
+        for j in 0..=n {
+            for i in 0..=n {
+                let (x, z) = (i as f32 / n as f32, j as f32 / n as f32);
+                let dx = 0.05 * 37.0 * (x * 37.0).cos() * (z * 23.0).cos();
+                let dz = -0.05 * 23.0 * (x * 37.0).sin() * (z * 23.0).sin();
+                let l = (dx * dx + 1.0 + dz * dz).sqrt();
+                let _ = writeln!(s, "vn {:.6} {:.6} {:.6}", -dx / l, 1.0 / l, -dz / l);
+            }
+        }
+        for j in 0..=n {
+            for i in 0..=n {
+                let _ = writeln!(
+                    s,
+                    "vt {:.6} {:.6}",
+                    i as f32 / n as f32,
+                    j as f32 / n as f32
+                );
+            }
+        }
+    }
     for j in 0..n {
         for i in 0..n {
             let a = j * (n + 1) + i + 1;
             let (b, c, d) = (a + 1, a + n + 1, a + n + 2);
-            let _ = writeln!(s, "f {a} {c} {b}\nf {b} {c} {d}");
+            if attributes {
+                let _ = writeln!(s, "f {a}/{a}/{a} {c}/{c}/{c} {b}/{b}/{b}");
+                let _ = writeln!(s, "f {b}/{b}/{b} {c}/{c}/{c} {d}/{d}/{d}");
+            } else {
+                let _ = writeln!(s, "f {a} {c} {b}\nf {b} {c} {d}");
+            }
         }
     }
     s

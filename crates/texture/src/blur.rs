@@ -35,7 +35,10 @@
 use rayon::prelude::*;
 
 use crate::TextureError;
-use crate::srgb::{decode_premultiplied, encoder, linear_to_srgb_lsb};
+use crate::fir::{QUAD, Quad, symmetric};
+use crate::srgb::{
+    decode_premultiplied, decode_premultiplied_columns, encoder, linear_to_srgb_lsb,
+};
 
 /// Kernel truncation radius in σ. The mass beyond 5σ is 5.7e-7: under 0.002 LSB even where
 /// the sRGB curve is steepest.
@@ -50,6 +53,10 @@ const DELTA_SIGMA: f64 = 0.03;
 /// Ratio σ / k of the decimated method: keeps the Poisson aliasing term 2·exp(-2π²(σ/2k)²)
 /// near 3.5e-8.
 const DECIMATION_RATIO: f64 = 1.9;
+
+/// Where [`BlurMethod::Auto`] changes from direct to decimated: the σ where their measured times
+/// cross on 1024² and 4096² images (docs/bench has the sweep).
+pub const AUTO_DECIMATED_SIGMA: f64 = 6.5;
 
 /// The decimated method's accuracy knobs: grid ratio σ / k and kernel truncation in σ.
 #[derive(Clone, Copy, Debug)]
@@ -86,7 +93,8 @@ impl Decimation {
 /// How the blur is computed.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
 pub enum BlurMethod {
-    /// Decimated where it is exact (σ ≥ 3.8), direct otherwise.
+    /// Direct below σ = [`AUTO_DECIMATED_SIGMA`], decimated from there (where the decimated
+    /// method's cost, constant in σ, drops below the direct one's, linear in σ).
     #[default]
     Auto,
     /// Separable FIR with the truncated kernel.
@@ -135,7 +143,8 @@ impl BlurMethod {
         match self {
             Self::Box3 if s >= BOX_MIN_SIGMA => Self::Box3,
             Self::DecimatedCoarse if COARSE.k(s) >= 2 => Self::DecimatedCoarse,
-            Self::Auto | Self::Decimated if EXACT.k(s) >= 2 => Self::Decimated,
+            Self::Auto if EXACT.k(s) >= 2 && s >= AUTO_DECIMATED_SIGMA => Self::Decimated,
+            Self::Decimated if EXACT.k(s) >= 2 => Self::Decimated,
             _ => Self::Direct,
         }
     }
@@ -335,8 +344,26 @@ trait Io: Sync {
     type Out: Send + Copy + Default;
     /// Output elements per texel.
     const PER_TEXEL: usize;
+    /// Image height.
+    fn height(&self) -> usize;
     /// Texels `x0..x0 + row.len()` of row `y`.
     fn fill(&self, y: usize, x0: usize, row: &mut [Px]);
+    /// Texels `x0..x0 + out.len()` of rows `y0..y0 + 4` in columns: `out[i]` holds column
+    /// `x0 + i` of the four rows, top first; rows outside the image are zero.
+    fn fill_columns(&self, y0: isize, x0: usize, out: &mut [[f32; QUAD]], row: &mut Vec<Px>) {
+        row.resize(out.len(), [0.0; 4]);
+        for l in 0..4 {
+            let y = y0 + l as isize;
+            if (0..self.height() as isize).contains(&y) {
+                self.fill(y as usize, x0, row);
+            } else {
+                row.fill([0.0; 4]);
+            }
+            for (o, t) in out.iter_mut().zip(row.iter()) {
+                o[4 * l..4 * l + 4].copy_from_slice(t);
+            }
+        }
+    }
     fn emit(&self, row: &[Px], out: &mut [Self::Out]);
 }
 
@@ -348,6 +375,9 @@ struct F32Io<'a> {
 impl Io for F32Io<'_> {
     type Out = Px;
     const PER_TEXEL: usize = 1;
+    fn height(&self) -> usize {
+        self.src.len() / self.w
+    }
     fn fill(&self, y: usize, x0: usize, row: &mut [Px]) {
         let at = y * self.w + x0;
         row.copy_from_slice(&self.src[at..at + row.len()]);
@@ -365,6 +395,34 @@ struct Srgb8Io<'a> {
 impl Io for Srgb8Io<'_> {
     type Out = u8;
     const PER_TEXEL: usize = 4;
+    fn height(&self) -> usize {
+        self.src.len() / (4 * self.w)
+    }
+    fn fill_columns(&self, y0: isize, x0: usize, out: &mut [[f32; QUAD]], row: &mut Vec<Px>) {
+        let (w, h) = (self.w, self.height());
+        let n = out.len();
+        let rows: [Option<&[u8]>; 4] = std::array::from_fn(|l| {
+            let y = y0 + l as isize;
+            (0..h as isize)
+                .contains(&y)
+                .then(|| &self.src[(y as usize * w + x0) * 4..][..n * 4])
+        });
+        decode_premultiplied_columns(rows, out, row);
+        // Strips read a short span of each row, too short for the hardware to see the stream:
+        // fetch the next four rows' span while these are filtered.
+        #[cfg(target_arch = "x86_64")]
+        for l in 4..8 {
+            let y = y0 + l as isize;
+            if (0..h as isize).contains(&y) {
+                let span = &self.src[(y as usize * w + x0) * 4..][..n * 4];
+                for line in span.chunks(64) {
+                    use std::arch::x86_64::{_MM_HINT_T0, _mm_prefetch};
+                    // SAFETY: SSE is part of x86-64; a prefetch never faults.
+                    unsafe { _mm_prefetch::<_MM_HINT_T0>(line.as_ptr().cast()) };
+                }
+            }
+        }
+    }
     fn fill(&self, y: usize, x0: usize, row: &mut [Px]) {
         let at = (y * self.w + x0) * 4;
         decode_premultiplied(&self.src[at..at + row.len() * 4], row);
@@ -378,88 +436,89 @@ fn to_f32(k: &[f64]) -> Vec<f32> {
     k.iter().map(|&v| v as f32).collect()
 }
 
-/// Texels per strip of the direct blur: its ring of filtered rows (one per tap, 4 KiB each)
-/// stays in the L2 cache up to σ ≈ 4, and the input columns both strips' windows read twice
-/// are 2·radius per strip.
+/// Texels per strip of the direct blur: its ring of filtered rows (4 KiB per row) stays in the
+/// L2 cache up to σ ≈ 8, and the input columns both neighbours' windows read again are
+/// 2·radius per strip.
 const DIRECT_STRIP: usize = 256;
 
-/// Floats one vector block of the direct blur holds in registers per output row: 16 texels.
-const BLOCK: usize = 64;
+/// Output rows the vertical pass computes together (and the unit bands are cut in).
+const GROUP: usize = 8;
 
-/// Output rows the vertical pass computes together, so every input row it loads feeds this many
-/// sums (16 vector registers of partial sums with AVX-512).
-const VROWS: usize = 4;
+/// 64-byte aligned quads, so the passes' loads never straddle cache lines.
+#[derive(Clone, Copy)]
+#[repr(C, align(64))]
+struct Line([f32; QUAD]);
 
-/// Horizontal taps: `out[i] = Σ_t k[t] · line[i + 4t]` per float, summed in tap order from
-/// zero. `line` holds the row with its zero border, `out.len() + 4·(k.len() - 1)` floats, and
-/// `out.len()` is a multiple of [`BLOCK`].
-#[inline(always)]
-fn hpass_plain(line: &[f32], k: &[f32], out: &mut [f32]) {
-    for (b, o) in out.chunks_exact_mut(BLOCK).enumerate() {
-        let mut acc = [0.0f32; BLOCK];
-        for (t, &w) in k.iter().enumerate() {
-            let s: &[f32; BLOCK] = line[b * BLOCK + 4 * t..][..BLOCK].try_into().unwrap();
-            for j in 0..BLOCK {
-                acc[j] += w * s[j];
-            }
-        }
-        o.copy_from_slice(&acc);
-    }
+fn floats(v: &[Line]) -> &[f32] {
+    // SAFETY: `Line` is 16 floats with no padding (size 64 = alignment).
+    unsafe { std::slice::from_raw_parts(v.as_ptr().cast(), v.len() * QUAD) }
 }
 
-/// Vertical taps for [`VROWS`] output rows at once: `out[q][i] = Σ_t k[t] · rows[q + t][i]`,
-/// summed in tap order from zero. `rows` are the `k.len() + VROWS - 1` input rows the outputs
-/// reach, top to bottom; all rows are as long as the outputs, a multiple of [`BLOCK`].
+fn floats_mut(v: &mut [Line]) -> &mut [f32] {
+    // SAFETY: as in `floats`.
+    unsafe { std::slice::from_raw_parts_mut(v.as_mut_ptr().cast(), v.len() * QUAD) }
+}
+
+/// Horizontal pass on columns: `out[j]` is the filter centred on `cols[j + r]`, for `out.len()`
+/// (a multiple of [`GROUP`]) columns; `cols` holds `out.len() + 2r` columns.
 #[inline(always)]
-fn vpass_plain(rows: &[&[f32]], k: &[f32], out: &mut [f32], stride: usize) {
-    let taps = k.len();
-    debug_assert_eq!(rows.len(), taps + VROWS - 1);
-    for b in (0..stride).step_by(BLOCK) {
-        let mut acc = [[0.0f32; BLOCK]; VROWS];
-        for (j, row) in rows.iter().enumerate() {
-            let s: &[f32; BLOCK] = row[b..b + BLOCK].try_into().unwrap();
-            for (q, a) in acc.iter_mut().enumerate() {
-                // Output row q takes input row j as its tap j - q.
-                if let Some(&w) = j.checked_sub(q).and_then(|t| k.get(t)) {
-                    for i in 0..BLOCK {
-                        a[i] += w * s[i];
-                    }
-                }
-            }
-        }
-        for (q, a) in acc.iter().enumerate() {
-            out[q * stride + b..q * stride + b + BLOCK].copy_from_slice(a);
+unsafe fn hpass<Q: Quad, const B: usize>(cols: &[[f32; QUAD]], k: &[f32], out: &mut [Line]) {
+    let r = k.len() - 1;
+    assert!(cols.len() >= out.len() + 2 * r && out.len().is_multiple_of(B));
+    for j in (0..out.len()).step_by(B) {
+        let centre = cols[j + r..].as_ptr().cast::<f32>();
+        // SAFETY: quads j..j + B - 1 + 2r of `cols` exist, checked above.
+        let res = unsafe { symmetric::<Q, B>(|m| centre.wrapping_offset(m * QUAD as isize), k) };
+        for (b, v) in res.into_iter().enumerate() {
+            // SAFETY: quad j + b of `out` exists.
+            unsafe { v.store(out[j + b].0.as_mut_ptr()) };
         }
     }
 }
 
-/// The plain loops compiled for AVX-512. Rust never fuses `w * s + acc` into an FMA, so
-/// every lane computes what the plain loop computes: the bits do not depend on the CPU.
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx512f")]
-unsafe fn hpass_avx512(line: &[f32], k: &[f32], out: &mut [f32]) {
-    hpass_plain(line, k, out)
+/// The horizontal pass's columns (four rows each) back into the four rows, which start at
+/// `rows[l]` in `ring`.
+#[inline(always)]
+unsafe fn to_rows<Q: Quad>(cols: &[Line], ring: &mut [f32], rows: [usize; 4]) {
+    let n = cols.len();
+    assert!(n.is_multiple_of(4) && rows.iter().all(|&r| r + n * 4 <= ring.len()));
+    for j in (0..n).step_by(4) {
+        // SAFETY: quads j..j + 4 of `cols` exist.
+        let q = std::array::from_fn(|i| unsafe { Q::load(cols[j + i].0.as_ptr()) });
+        for (&row, v) in rows.iter().zip(Q::transpose(q)) {
+            // SAFETY: floats row + 4j..row + 4j + 16 are in `ring`, checked above.
+            unsafe { v.store(ring.as_mut_ptr().add(row + 4 * j)) };
+        }
+    }
 }
 
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx512f")]
-unsafe fn vpass_avx512(rows: &[&[f32]], k: &[f32], out: &mut [f32], stride: usize) {
-    vpass_plain(rows, k, out, stride)
+/// Vertical pass: row `b` of `tile` (`GROUP` rows of `stride` floats) is the filter centred on
+/// `rows[b + r]`; every row pointer reaches `stride` floats.
+#[inline(always)]
+unsafe fn vpass<Q: Quad, const B: usize>(
+    rows: &[*const f32],
+    k: &[f32],
+    tile: &mut [f32],
+    stride: usize,
+) {
+    let r = k.len() - 1;
+    assert!(rows.len() == 2 * r + GROUP && tile.len() >= GROUP * stride);
+    for b0 in (0..GROUP).step_by(B) {
+        let window = &rows[b0..];
+        for c in (0..stride).step_by(QUAD) {
+            // SAFETY: every row pointer reaches `stride` floats (the caller's promise).
+            let res = unsafe {
+                symmetric::<Q, B>(|m| window[(m + r as isize) as usize].wrapping_add(c), k)
+            };
+            for (b, v) in res.into_iter().enumerate() {
+                // SAFETY: row b0 + b of `tile` holds `stride` floats, checked above.
+                unsafe { v.store(tile.as_mut_ptr().add((b0 + b) * stride + c)) };
+            }
+        }
+    }
 }
 
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx2")]
-unsafe fn hpass_avx2(line: &[f32], k: &[f32], out: &mut [f32]) {
-    hpass_plain(line, k, out)
-}
-
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx2")]
-unsafe fn vpass_avx2(rows: &[&[f32]], k: &[f32], out: &mut [f32], stride: usize) {
-    vpass_plain(rows, k, out, stride)
-}
-
-/// The widest vector unit this CPU has, for the direct blur's loops.
+/// The instruction set the direct blur's loops run on. All give the same bits.
 #[derive(Clone, Copy, PartialEq, Eq, Debug)]
 enum Isa {
     Plain,
@@ -469,6 +528,37 @@ enum Isa {
     Avx512,
 }
 
+#[cfg(target_arch = "x86_64")]
+mod isa_x86 {
+    use super::*;
+    use crate::fir::x86::{Avx2, Avx512};
+
+    #[target_feature(enable = "avx512f")]
+    pub(super) unsafe fn hpass_avx512(cols: &[[f32; QUAD]], k: &[f32], out: &mut [Line]) {
+        unsafe { hpass::<Avx512, 8>(cols, k, out) }
+    }
+    #[target_feature(enable = "avx512f")]
+    pub(super) unsafe fn to_rows_avx512(cols: &[Line], ring: &mut [f32], rows: [usize; 4]) {
+        unsafe { to_rows::<Avx512>(cols, ring, rows) }
+    }
+    #[target_feature(enable = "avx512f")]
+    pub(super) unsafe fn vpass_avx512(rows: &[*const f32], k: &[f32], t: &mut [f32], s: usize) {
+        unsafe { vpass::<Avx512, 8>(rows, k, t, s) }
+    }
+    #[target_feature(enable = "avx2,fma")]
+    pub(super) unsafe fn hpass_avx2(cols: &[[f32; QUAD]], k: &[f32], out: &mut [Line]) {
+        unsafe { hpass::<Avx2, 2>(cols, k, out) }
+    }
+    #[target_feature(enable = "avx2,fma")]
+    pub(super) unsafe fn to_rows_avx2(cols: &[Line], ring: &mut [f32], rows: [usize; 4]) {
+        unsafe { to_rows::<Avx2>(cols, ring, rows) }
+    }
+    #[target_feature(enable = "avx2,fma")]
+    pub(super) unsafe fn vpass_avx2(rows: &[*const f32], k: &[f32], t: &mut [f32], s: usize) {
+        unsafe { vpass::<Avx2, 2>(rows, k, t, s) }
+    }
+}
+
 impl Isa {
     fn detect() -> Isa {
         #[cfg(target_arch = "x86_64")]
@@ -476,34 +566,51 @@ impl Isa {
             if std::is_x86_feature_detected!("avx512f") {
                 return Isa::Avx512;
             }
-            if std::is_x86_feature_detected!("avx2") {
+            if std::is_x86_feature_detected!("avx2") && std::is_x86_feature_detected!("fma") {
                 return Isa::Avx2;
             }
         }
         Isa::Plain
     }
 
-    fn hpass(self, line: &[f32], k: &[f32], out: &mut [f32]) {
-        match self {
-            // SAFETY: `detect` saw the feature on this CPU.
-            #[cfg(target_arch = "x86_64")]
-            Isa::Avx512 => unsafe { hpass_avx512(line, k, out) },
-            // SAFETY: as above.
-            #[cfg(target_arch = "x86_64")]
-            Isa::Avx2 => unsafe { hpass_avx2(line, k, out) },
-            Isa::Plain => hpass_plain(line, k, out),
+    fn hpass(self, cols: &[[f32; QUAD]], k: &[f32], out: &mut [Line]) {
+        // SAFETY: `detect` saw each instruction set on this CPU; the loops check their bounds.
+        unsafe {
+            match self {
+                #[cfg(target_arch = "x86_64")]
+                Isa::Avx512 => isa_x86::hpass_avx512(cols, k, out),
+                #[cfg(target_arch = "x86_64")]
+                Isa::Avx2 => isa_x86::hpass_avx2(cols, k, out),
+                Isa::Plain => hpass::<[f32; QUAD], 2>(cols, k, out),
+            }
         }
     }
 
-    fn vpass(self, rows: &[&[f32]], k: &[f32], out: &mut [f32], stride: usize) {
-        match self {
-            // SAFETY: `detect` saw the feature on this CPU.
-            #[cfg(target_arch = "x86_64")]
-            Isa::Avx512 => unsafe { vpass_avx512(rows, k, out, stride) },
-            // SAFETY: as above.
-            #[cfg(target_arch = "x86_64")]
-            Isa::Avx2 => unsafe { vpass_avx2(rows, k, out, stride) },
-            Isa::Plain => vpass_plain(rows, k, out, stride),
+    fn to_rows(self, cols: &[Line], ring: &mut [f32], rows: [usize; 4]) {
+        // SAFETY: as in `hpass`.
+        unsafe {
+            match self {
+                #[cfg(target_arch = "x86_64")]
+                Isa::Avx512 => isa_x86::to_rows_avx512(cols, ring, rows),
+                #[cfg(target_arch = "x86_64")]
+                Isa::Avx2 => isa_x86::to_rows_avx2(cols, ring, rows),
+                Isa::Plain => to_rows::<[f32; QUAD]>(cols, ring, rows),
+            }
+        }
+    }
+
+    /// # Safety
+    /// Every row pointer reaches `stride` readable floats.
+    unsafe fn vpass(self, rows: &[*const f32], k: &[f32], tile: &mut [f32], stride: usize) {
+        // SAFETY: as in `hpass`; the row pointers are the caller's promise.
+        unsafe {
+            match self {
+                #[cfg(target_arch = "x86_64")]
+                Isa::Avx512 => isa_x86::vpass_avx512(rows, k, tile, stride),
+                #[cfg(target_arch = "x86_64")]
+                Isa::Avx2 => isa_x86::vpass_avx2(rows, k, tile, stride),
+                Isa::Plain => vpass::<[f32; QUAD], 2>(rows, k, tile, stride),
+            }
         }
     }
 }
@@ -515,26 +622,32 @@ fn direct<I: Io>(io: &I, w: usize, h: usize, sigma: f64, out: &mut [I::Out]) {
     direct_with(Isa::detect(), io, w, h, sigma, out)
 }
 
-/// Separable FIR, horizontal pass first, both in f32 summed in tap order from zero (the zero
-/// border adds exact zeros), so every output has one value whatever the tiling or threads.
+/// The centre and one side of a symmetric kernel.
+fn half_kernel(k: &[f64]) -> Vec<f32> {
+    to_f32(&k[k.len() / 2..])
+}
+
+/// Separable FIR, horizontal pass first, each output the fused pair sum of [`crate::fir`], so
+/// every output has one value whatever the tiling, threads or instruction set.
 ///
 /// Tiled so the intermediate never leaves the cache: the image is cut into strips of
-/// [`DIRECT_STRIP`] columns (and, when there are too few strips for the threads, bands of rows); a
-/// task walks down its strip, filters each input row it reaches into a ring of rows, and as
-/// soon as [`VROWS`] output rows have all their input rows in the ring, sums them and encodes
-/// them straight into the output.
+/// [`DIRECT_STRIP`] columns (and, when there are too few strips for the threads, bands of rows).
+/// A task walks down its strip four input rows at a time: decodes them into columns, filters
+/// along the row (on columns, so every load is a whole aligned vector), turns the result back
+/// into rows in a ring, and as soon as [`GROUP`] output rows have all their input rows in the
+/// ring, filters down the columns and encodes straight into the output.
 fn direct_with<I: Io>(isa: Isa, io: &I, w: usize, h: usize, sigma: f64, out: &mut [I::Out]) {
-    let kx = to_f32(&gaussian_kernel(sigma, w - 1));
-    let ky = to_f32(&gaussian_kernel(sigma, h - 1));
-    let (rx, ry) = (kx.len() / 2, ky.len() / 2);
-    let strip = DIRECT_STRIP.min(w.next_multiple_of(BLOCK / 4));
+    let kx = half_kernel(&gaussian_kernel(sigma, w - 1));
+    let ky = half_kernel(&gaussian_kernel(sigma, h - 1));
+    let (rx, ry) = (kx.len() - 1, ky.len() - 1);
+    let strip = DIRECT_STRIP.min(w.next_multiple_of(GROUP));
     let strips = w.div_ceil(strip);
     // Bands only when strips alone cannot keep the threads busy; each band re-filters the 2·ry
     // rows above it, so bands stay many times taller than that.
     let threads = rayon::current_num_threads();
-    let max_bands = (h / (8 * ky.len()).max(VROWS)).max(1);
+    let max_bands = (h / (8 * (2 * ry + 1)).max(GROUP)).max(1);
     let bands = (2 * threads).div_ceil(strips).clamp(1, max_bands);
-    let band_rows = h.div_ceil(bands).next_multiple_of(VROWS);
+    let band_rows = h.div_ceil(bands).next_multiple_of(GROUP);
     let per = I::PER_TEXEL;
 
     // Every task's output: one slice per row of its band, the strip's columns.
@@ -549,71 +662,75 @@ fn direct_with<I: Io>(isa: Isa, io: &I, w: usize, h: usize, sigma: f64, out: &mu
         }
     }
 
-    let width = strip.next_multiple_of(BLOCK / 4);
-    let line_len = width + 2 * rx;
-    let cap = ky.len() + VROWS - 1;
-    let zero = vec![0.0f32; width * 4];
+    // Texels per row of the passes: the strip rounded up to whole groups of quads.
+    let width = strip.next_multiple_of(GROUP);
+    let stride = width * 4;
+    let cap = 2 * ry + GROUP + 4;
+    let zero = vec![Line([0.0; QUAD]); width / 4];
+    struct Scratch {
+        cols: Vec<[f32; QUAD]>,
+        filtered: Vec<Line>,
+        ring: Vec<Line>,
+        tile: Vec<Line>,
+        row: Vec<Px>,
+        inputs: Vec<*const f32>,
+    }
     tasks.into_par_iter().for_each_init(
-        || {
-            (
-                vec![[0.0f32; 4]; line_len],
-                vec![0.0f32; cap * width * 4],
-                vec![0.0f32; VROWS * width * 4],
-            )
+        || Scratch {
+            cols: vec![[0.0; QUAD]; width + 2 * rx],
+            filtered: vec![Line([0.0; QUAD]); width],
+            ring: vec![Line([0.0; QUAD]); cap * width / 4],
+            tile: vec![Line([0.0; QUAD]); GROUP * width / 4],
+            row: Vec::new(),
+            inputs: Vec::with_capacity(2 * ry + GROUP),
         },
-        |(line, ring, tile), (s, y0, mut rows)| {
+        |sc, (s, y0, mut rows)| {
+            let zero = floats(&zero).as_ptr();
             let x0 = s * strip;
             let n = strip.min(w - x0);
-            // Columns x0 - rx ..: those inside the image, and where they sit in `line`.
+            // Columns x0 - rx .. inside the image, and where they sit in `cols`.
             let (cx0, cx1) = (x0.saturating_sub(rx), (x0 + n + rx).min(w));
             let at = cx0 + rx - x0;
-            line.fill([0.0; 4]);
+            sc.cols.fill([0.0; QUAD]);
             let y1 = y0 + rows.len();
-            // Input rows y0 - ry ..; `next` is the next one to filter into the ring.
-            let mut next = y0 as i64 - ry as i64;
-            for ys in (y0..y1).step_by(VROWS) {
-                let last = (ys + VROWS - 1 + ry) as i64;
+            // The first row of the next four to filter into the ring.
+            let mut next = y0 as isize - ry as isize;
+            for ys in (y0..y1).step_by(GROUP) {
+                let last = (ys + GROUP - 1 + ry) as isize;
                 while next <= last {
-                    if (0..h as i64).contains(&next) {
-                        let slot = next.rem_euclid(cap as i64) as usize;
-                        io.fill(next as usize, cx0, &mut line[at..at + cx1 - cx0]);
-                        isa.hpass(
-                            line.as_flattened(),
-                            &kx,
-                            &mut ring[slot * width * 4..(slot + 1) * width * 4],
-                        );
+                    if next + 3 >= 0 && next < h as isize {
+                        io.fill_columns(next, cx0, &mut sc.cols[at..at + cx1 - cx0], &mut sc.row);
+                        isa.hpass(&sc.cols, &kx, &mut sc.filtered);
+                        let slot = |l: isize| (next + l).rem_euclid(cap as isize) as usize * stride;
+                        let rows = [0, 1, 2, 3].map(slot);
+                        isa.to_rows(&sc.filtered, floats_mut(&mut sc.ring), rows);
                     }
-                    next += 1;
+                    next += 4;
                 }
-                let inputs: Vec<&[f32]> = (0..cap)
-                    .map(|j| {
-                        let y = ys as i64 - ry as i64 + j as i64;
-                        if (0..h as i64).contains(&y) {
-                            let slot = y.rem_euclid(cap as i64) as usize;
-                            &ring[slot * width * 4..(slot + 1) * width * 4]
-                        } else {
-                            &zero[..]
-                        }
-                    })
-                    .collect();
-                isa.vpass(&inputs, &ky, tile, width * 4);
-                for (q, o) in rows[ys - y0..(ys + VROWS).min(y1) - y0]
+                let ring = floats(&sc.ring).as_ptr();
+                sc.inputs.clear();
+                sc.inputs.extend((0..2 * ry + GROUP).map(|m| {
+                    let y = ys as isize - ry as isize + m as isize;
+                    if (0..h as isize).contains(&y) {
+                        ring.wrapping_add(y.rem_euclid(cap as isize) as usize * stride)
+                    } else {
+                        zero
+                    }
+                }));
+                // SAFETY: every input points at a whole ring row or the zero row, `stride`
+                // floats each.
+                unsafe { isa.vpass(&sc.inputs, &ky, floats_mut(&mut sc.tile), stride) };
+                let tile = floats(&sc.tile);
+                for (q, o) in rows[ys - y0..(ys + GROUP).min(y1) - y0]
                     .iter_mut()
                     .enumerate()
                 {
-                    let t = &tile[q * width * 4..q * width * 4 + n * 4];
-                    io.emit(bytemuck_px(t), o);
+                    let t = &tile[q * stride..q * stride + n * 4];
+                    io.emit(t.as_chunks::<4>().0, o);
                 }
             }
         },
     );
-}
-
-/// Floats as texels.
-fn bytemuck_px(f: &[f32]) -> &[Px] {
-    let (px, rest) = f.as_chunks::<4>();
-    debug_assert!(rest.is_empty());
-    px
 }
 
 /// One axis of the decimated method.

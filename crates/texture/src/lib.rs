@@ -25,6 +25,7 @@
 pub mod bc;
 pub mod blur;
 mod error;
+mod fir;
 mod load;
 pub mod mips;
 pub mod normal;

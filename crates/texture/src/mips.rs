@@ -7,7 +7,7 @@ use crate::TextureError;
 use crate::pixels::{Texel, to_linear};
 use crate::real::{Real, clamp01};
 use crate::resample::{MipFilter, half, reduce};
-use crate::srgb::{encoder, unorm8};
+use crate::srgb::{decode8, encoder, unorm8};
 
 /// A texture's levels as stored in a pack: tightly packed RGBA8 rows, level 0 first, each level
 /// `max(1, previous / 2)` texels on each axis, down to 1x1 (the rule of `pack::Texture`).
@@ -102,8 +102,17 @@ pub fn colour_levels<T: Real>(
     h: u32,
     filter: MipFilter,
 ) -> Vec<Vec<[T; 4]>> {
-    let mut levels = vec![level0];
-    let (mut lw, mut lh) = (w, h);
+    extend_levels(vec![level0], w, h, filter)
+}
+
+/// The rest of the chain after `levels` (of a `w x h` texture).
+fn extend_levels<T: Real>(
+    mut levels: Vec<Vec<[T; 4]>>,
+    w: u32,
+    h: u32,
+    filter: MipFilter,
+) -> Vec<Vec<[T; 4]>> {
+    let (mut lw, mut lh) = level_size(w, h, levels.len() - 1);
     while lw > 1 || lh > 1 {
         let prev = levels.last().unwrap();
         let next = if filter == MipFilter::Box && lw % 2 == 0 && lh % 2 == 0 {
@@ -131,15 +140,50 @@ fn box2<T: Real>(src: &[[T; 4]], w: usize) -> Vec<[T; 4]> {
             &src[(2 * y + 1) * w..(2 * y + 2) * w],
         );
         for (x, o) in o.iter_mut().enumerate() {
-            let (a, b) = (weighted(r0[2 * x]), weighted(r0[2 * x + 1]));
-            let (c, d) = (weighted(r1[2 * x]), weighted(r1[2 * x + 1]));
-            let mut t = [T::default(); 4];
-            for ch in 0..4 {
-                let top = half * a[ch] + half * b[ch];
-                let bottom = half * c[ch] + half * d[ch];
-                t[ch] = half * top + half * bottom;
-            }
-            *o = unweighted(t);
+            *o = box_block(r0[2 * x], r0[2 * x + 1], r1[2 * x], r1[2 * x + 1], half);
+        }
+    });
+    out
+}
+
+/// One texel of [`box2`]: the 2x2 block `a b / c d`, alpha-weighted.
+#[inline(always)]
+fn box_block<T: Real>(a: [T; 4], b: [T; 4], c: [T; 4], d: [T; 4], half: T) -> [T; 4] {
+    let (a, b, c, d) = (weighted(a), weighted(b), weighted(c), weighted(d));
+    let mut t = [T::default(); 4];
+    for ch in 0..4 {
+        let top = half * a[ch] + half * b[ch];
+        let bottom = half * c[ch] + half * d[ch];
+        t[ch] = half * top + half * bottom;
+    }
+    unweighted(t)
+}
+
+/// Level 1 of an even-sized sRGB RGBA8 image straight from its bytes: [`box2`] of the texels
+/// [`to_linear`] would give (so the same bits), without a full-size f32 copy of level 0.
+fn box2_srgb8(src: &[u8], w: usize) -> Vec<Texel> {
+    let lut = decode8();
+    let texel = |b: &[u8]| {
+        [
+            lut[b[0] as usize],
+            lut[b[1] as usize],
+            lut[b[2] as usize],
+            b[3] as f32 / 255.0,
+        ]
+    };
+    let w2 = w / 2;
+    let mut out = vec![[0.0f32; 4]; w2 * (src.len() / (8 * w))];
+    out.par_chunks_mut(w2).enumerate().for_each(|(y, o)| {
+        let r0 = &src[2 * y * w * 4..(2 * y + 1) * w * 4];
+        let r1 = &src[(2 * y + 1) * w * 4..(2 * y + 2) * w * 4];
+        for ((o, t0), t1) in o.iter_mut().zip(r0.chunks_exact(8)).zip(r1.chunks_exact(8)) {
+            *o = box_block(
+                texel(&t0[..4]),
+                texel(&t0[4..]),
+                texel(&t1[..4]),
+                texel(&t1[4..]),
+                0.5,
+            );
         }
     });
     out
@@ -172,8 +216,16 @@ pub fn encode_level(level: &[Texel], srgb: bool) -> Vec<u8> {
 pub fn colour_mips(img: &DynamicImage, opts: &ColourOptions) -> Result<MipChain, TextureError> {
     let (w, h) = (img.width(), img.height());
     check_size(w, h)?;
-    let level0 = to_linear(img, opts.srgb);
-    let levels = colour_levels::<f32>(level0, w, h, opts.filter);
+    let levels = match img {
+        // Level 0 is the source's bytes (below), so the chain starts from level 1.
+        DynamicImage::ImageRgba8(src)
+            if opts.srgb && opts.filter == MipFilter::Box && w % 2 == 0 && h % 2 == 0 =>
+        {
+            let level1 = box2_srgb8(src.as_raw(), w as usize);
+            extend_levels(vec![Vec::new(), level1], w, h, opts.filter)
+        }
+        _ => colour_levels::<f32>(to_linear(img, opts.srgb), w, h, opts.filter),
+    };
     let levels = levels
         .iter()
         .enumerate()

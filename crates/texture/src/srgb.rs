@@ -409,52 +409,149 @@ fn decode8_planes() -> &'static Planes {
 #[target_feature(enable = "avx512f,avx512bw,avx512vbmi")]
 unsafe fn decode_premultiplied_vbmi(bytes: &[u8], out: &mut [[f32; 4]]) {
     use std::arch::x86_64::*;
-    let planes = decode8_planes();
-    // SAFETY (all four loads): each plane is 256 aligned bytes.
-    let table = |k: usize, half: usize| unsafe {
-        _mm512_load_si512(planes.0[k][half * 64..].as_ptr().cast())
-    };
-    let t: [[__m512i; 4]; 4] = std::array::from_fn(|k| std::array::from_fn(|h| table(k, h)));
+    let t = unsafe { plane_tables() };
     let transpose = _mm512_setr_epi32(0, 4, 8, 12, 1, 5, 9, 13, 2, 6, 10, 14, 3, 7, 11, 15);
-    let alpha: __mmask16 = 0x8888;
-    let scale = _mm512_set1_ps(1.0 / 255.0);
     let groups = out.len().min(bytes.len() / 4) / 16;
     for g in 0..groups {
         // SAFETY: bytes 64g..64g + 64 are in `bytes`.
         let v = unsafe { _mm512_loadu_si512(bytes.as_ptr().add(64 * g).cast()) };
-        // Texel 4k + l moves to dword 4l + k.
+        // Texel 4k + l moves to dword 4l + k, so result k is texels 4k..4k + 4.
         let p = _mm512_permutexvar_epi32(transpose, v);
-        let high = _mm512_movepi8_mask(p);
+        // SAFETY: AVX-512 F, BW and VBMI are enabled here.
+        let r = unsafe { decode_lanes(p, &t) };
+        for (k, v) in r.into_iter().enumerate() {
+            // SAFETY: texels 16g + 4k..16g + 4k + 4 are in `out`.
+            unsafe { _mm512_storeu_ps(out.as_mut_ptr().add(16 * g + 4 * k).cast(), v) };
+        }
+    }
+    decode_premultiplied_plain(&bytes[64 * groups..], &mut out[16 * groups..]);
+}
+
+/// [`decode_premultiplied`] of up to four rows into columns: `out[i]` holds texel `i` of each
+/// row in turn (16 floats), a missing row as zeros. `row` is scratch.
+pub(crate) fn decode_premultiplied_columns(
+    rows: [Option<&[u8]>; 4],
+    out: &mut [[f32; 16]],
+    row: &mut Vec<[f32; 4]>,
+) {
+    #[cfg(target_arch = "x86_64")]
+    if std::is_x86_feature_detected!("avx512vbmi") && std::is_x86_feature_detected!("avx512bw") {
+        // SAFETY: the CPU supports AVX-512 VBMI and BW (and so F), checked just above.
+        unsafe { decode_columns_vbmi(rows, out) };
+        return;
+    }
+    row.resize(out.len(), [0.0; 4]);
+    for (l, bytes) in rows.into_iter().enumerate() {
+        match bytes {
+            Some(b) => decode_premultiplied(b, row),
+            None => row.fill([0.0; 4]),
+        }
+        for (o, t) in out.iter_mut().zip(row.iter()) {
+            o[4 * l..4 * l + 4].copy_from_slice(t);
+        }
+    }
+}
+
+/// Sixteen texels of one row through the byte planes: the four quads of `v`'s dwords
+/// `4l + k` (`k` = 0..4) for each 128-bit lane `l`, premultiplied.
+#[cfg(target_arch = "x86_64")]
+#[inline(always)]
+unsafe fn decode_lanes(
+    v: std::arch::x86_64::__m512i,
+    t: &[[std::arch::x86_64::__m512i; 4]; 4],
+) -> [std::arch::x86_64::__m512; 4] {
+    use std::arch::x86_64::*;
+    // SAFETY (the whole body): called only from functions that enable AVX-512 F, BW and VBMI.
+    unsafe {
+        let high = _mm512_movepi8_mask(v);
         let plane = |k: usize| {
-            let lo = _mm512_permutex2var_epi8(t[k][0], p, t[k][1]);
-            let hi = _mm512_permutex2var_epi8(t[k][2], p, t[k][3]);
+            let lo = _mm512_permutex2var_epi8(t[k][0], v, t[k][1]);
+            let hi = _mm512_permutex2var_epi8(t[k][2], v, t[k][3]);
             _mm512_mask_blend_epi8(high, lo, hi)
         };
         let (p0, p1, p2, p3) = (plane(0), plane(1), plane(2), plane(3));
         let (lo01, hi01) = (_mm512_unpacklo_epi8(p0, p1), _mm512_unpackhi_epi8(p0, p1));
         let (lo23, hi23) = (_mm512_unpacklo_epi8(p2, p3), _mm512_unpackhi_epi8(p2, p3));
-        // Result k, lane l: dword 4l + k, which is texel 4k + l.
+        // Result k, lane l: dword 4l + k.
         let r = [
             _mm512_unpacklo_epi16(lo01, lo23),
             _mm512_unpackhi_epi16(lo01, lo23),
             _mm512_unpacklo_epi16(hi01, hi23),
             _mm512_unpackhi_epi16(hi01, hi23),
         ];
-        let a = _mm512_mul_ps(_mm512_cvtepi32_ps(_mm512_srli_epi32::<24>(p)), scale);
+        let scale = _mm512_set1_ps(1.0 / 255.0);
+        let a = _mm512_mul_ps(_mm512_cvtepi32_ps(_mm512_srli_epi32::<24>(v)), scale);
         let a = [
             _mm512_permute_ps::<0x00>(a),
             _mm512_permute_ps::<0x55>(a),
             _mm512_permute_ps::<0xAA>(a),
             _mm512_permute_ps::<0xFF>(a),
         ];
-        for k in 0..4 {
+        let alpha: __mmask16 = 0x8888;
+        std::array::from_fn(|k| {
             let c = _mm512_castsi512_ps(r[k]);
-            let v = _mm512_mask_blend_ps(alpha, _mm512_mul_ps(c, a[k]), a[k]);
-            // SAFETY: texels 16g + 4k..16g + 4k + 4 are in `out`.
-            unsafe { _mm512_storeu_ps(out.as_mut_ptr().add(16 * g + 4 * k).cast(), v) };
+            _mm512_mask_blend_ps(alpha, _mm512_mul_ps(c, a[k]), a[k])
+        })
+    }
+}
+
+#[cfg(target_arch = "x86_64")]
+#[inline(always)]
+unsafe fn plane_tables() -> [[std::arch::x86_64::__m512i; 4]; 4] {
+    use std::arch::x86_64::*;
+    let planes = decode8_planes();
+    // SAFETY: each plane is 256 bytes, 64-byte aligned; AVX-512F is enabled by every caller.
+    std::array::from_fn(|k| {
+        std::array::from_fn(|h| unsafe { _mm512_load_si512(planes.0[k][h * 64..].as_ptr().cast()) })
+    })
+}
+
+/// Four texels of each of four rows at a time: one row per 128-bit lane, so the byte planes'
+/// lookups come out as columns directly.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx512f,avx512bw,avx512vbmi")]
+unsafe fn decode_columns_vbmi(rows: [Option<&[u8]>; 4], out: &mut [[f32; 16]]) {
+    use std::arch::x86_64::*;
+    let t = unsafe { plane_tables() };
+    let n = out.len();
+    assert!(rows.iter().flatten().all(|r| r.len() >= n * 4));
+    let load = |l: usize, g: usize| match rows[l] {
+        // SAFETY: bytes 16g..16g + 16 of the row exist, checked above.
+        Some(r) => unsafe { _mm_loadu_si128(r.as_ptr().add(16 * g).cast()) },
+        None => _mm_setzero_si128(),
+    };
+    for g in 0..n / 4 {
+        let v = _mm512_castsi128_si512(load(0, g));
+        let v = _mm512_inserti32x4::<1>(v, load(1, g));
+        let v = _mm512_inserti32x4::<2>(v, load(2, g));
+        let v = _mm512_inserti32x4::<3>(v, load(3, g));
+        // SAFETY: AVX-512 F, BW and VBMI are enabled here.
+        let cols = unsafe { decode_lanes(v, &t) };
+        for (k, c) in cols.into_iter().enumerate() {
+            // SAFETY: quad 4g + k of `out` exists.
+            unsafe { _mm512_storeu_ps(out[4 * g + k].as_mut_ptr(), c) };
         }
     }
-    decode_premultiplied_plain(&bytes[64 * groups..], &mut out[16 * groups..]);
+    // The last texels one at a time.
+    let lut = decode8();
+    for (i, o) in out.iter_mut().enumerate().skip(n / 4 * 4) {
+        for (l, r) in rows.iter().enumerate() {
+            let px = match r {
+                Some(r) => {
+                    let b = &r[4 * i..4 * i + 4];
+                    let a = b[3] as f32 * (1.0 / 255.0);
+                    [
+                        lut[b[0] as usize] * a,
+                        lut[b[1] as usize] * a,
+                        lut[b[2] as usize] * a,
+                        a,
+                    ]
+                }
+                None => [0.0; 4],
+            };
+            o[4 * l..4 * l + 4].copy_from_slice(&px);
+        }
+    }
 }
 
 /// Four texels at a time, the same products as the plain loop.

@@ -164,6 +164,31 @@ fn libblur(src: &[u8], side: u32, sigma: f32, mode: libblur::ConvolutionMode) ->
     Ok(dst)
 }
 
+/// libblur's own linear-light route, like for like with ours: sRGB bytes to linear u16, its
+/// exact Gaussian on u16, back to sRGB bytes (straight alpha; the sweep's image is opaque).
+fn libblur_linear(src: &[u8], side: u32, sigma: f32) -> Result<Vec<u8>> {
+    use libblur::{
+        BlurImage, BlurImageMut, ConvolutionMode, EdgeMode, EdgeMode2D, FastBlurChannels,
+        GaussianBlurParams, ThreadingPolicy, TransferFunction,
+    };
+    let err = |e: libblur::BlurError| anyhow::anyhow!("libblur: {e:?}");
+    let s = BlurImage::borrow(src, side, side, FastBlurChannels::Channels4);
+    let linear = s.linearize(TransferFunction::Srgb, true).map_err(err)?;
+    let mut blurred = BlurImageMut::<u16>::alloc(side, side, FastBlurChannels::Channels4);
+    let ksize = ((sigma * 8.0).round() as u32) | 1;
+    libblur::gaussian_blur_u16(
+        &linear,
+        &mut blurred,
+        GaussianBlurParams::new(ksize.max(3), sigma as f64),
+        EdgeMode2D::new(EdgeMode::Clamp),
+        ThreadingPolicy::Adaptive,
+        ConvolutionMode::Exact,
+    )
+    .map_err(err)?;
+    let out = blurred.gamma8(TransferFunction::Srgb, true).map_err(err)?;
+    Ok(out.data.borrow().to_vec())
+}
+
 /// An external blur command, or `None` when it is not installed.
 struct External {
     name: &'static str,
@@ -295,6 +320,31 @@ pub fn sweep(cfg: &BlurConfig, progress: &mut dyn FnMut(&str)) -> Result<Vec<Blu
         };
         let gamma_ref =
             (inner.size > 0).then(|| region_reference(&bytes_f64, n, inner, sigma as f64));
+        // The same route in linear light: measured against our reference, away from the edges
+        // (libblur clamps there).
+        let linear_ref =
+            (inner.size > 0).then(|| region_reference(&linear, n, inner, sigma as f64));
+        let (ms, out) = median_ms(cfg.runs, || libblur_linear(&src, side, sigma));
+        let out = out?;
+        let e = linear_ref
+            .as_ref()
+            .map(|r| error_lsb(&region_bytes(&out, n, inner), r));
+        progress(&format!(
+            "blur {n}² σ={sigma} libblur exact u16, linear light: {ms:.1} ms, max {:?} LSB",
+            e.map(|e| e.max)
+        ));
+        rows.push(BlurRow {
+            sigma,
+            method: "libblur exact u16, linear light".into(),
+            ours: false,
+            reference: "linear".into(),
+            time_ms: Some(ms),
+            runs: cfg.runs,
+            max_lsb: e.map(|e| e.max),
+            rms_lsb: e.map(|e| e.rms),
+            note: "sRGB decode to u16, blur, encode (straight alpha; the image is opaque)".into(),
+        });
+        drop(linear_ref);
         let mut anchor = |name: &str, ms: f64, out: &[u8], note: String| {
             let e = gamma_ref.as_ref().and_then(|g| {
                 interior_error(&region_bytes(out, n, inner), g, inner.size, inner.size, 0)

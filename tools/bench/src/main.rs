@@ -38,7 +38,8 @@ struct Args {
     /// Side of the square blur image (default 4096, 256 with --quick).
     #[arg(long)]
     blur_size: Option<usize>,
-    /// σ values to sweep, comma-separated (default 1,2,4,8,16,32,64; 1,2,4,8 with --quick).
+    /// σ values to sweep, comma-separated (default 0.5,1,2,2.2,4,8,16,32,64, 2.2 being the
+    /// default scene's projectors; 1,2,4,8 with --quick).
     #[arg(long, value_delimiter = ',')]
     sigmas: Option<Vec<f32>>,
     /// Blur error is measured over a square region this many texels wide (the top-left corner
@@ -82,7 +83,7 @@ fn main() -> Result<()> {
         if args.quick {
             vec![1.0, 2.0, 4.0, 8.0]
         } else {
-            vec![1.0, 2.0, 4.0, 8.0, 16.0, 32.0, 64.0]
+            vec![0.5, 1.0, 2.0, 2.2, 4.0, 8.0, 16.0, 32.0, 64.0]
         }
     });
     let scratch = std::env::temp_dir().join(format!("bench-scratch-{}", std::process::id()));
@@ -131,6 +132,17 @@ fn main() -> Result<()> {
         bench::mesh::sweep(
             &MeshConfig {
                 grid: if args.quick { 100 } else { 707 },
+                extra_grids: if args.quick {
+                    vec![(40, true)]
+                } else {
+                    vec![(224, false), (640, true)]
+                },
+                scene: (!args.quick)
+                    .then(|| {
+                        std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+                            .join("../../assets-src/scene.toml")
+                    })
+                    .filter(|p| p.is_file()),
                 runs,
                 bunny: bench::mesh::bunny_path(),
                 scratch: scratch.clone(),

@@ -42,6 +42,10 @@ pub struct MeshRow {
 pub struct MeshConfig {
     /// Side of the generated height field in quads (2·n² triangles).
     pub grid: usize,
+    /// More height fields timed as whole processes only: (side, with normals and UVs).
+    pub extra_grids: Vec<(usize, bool)>,
+    /// A scene manifest (beside its `corridor.obj`) timed as a whole process.
+    pub scene: Option<PathBuf>,
     pub runs: usize,
     pub bunny: Option<PathBuf>,
     pub scratch: PathBuf,
@@ -175,95 +179,145 @@ fn measure(
             "mesh {name} ({tris} tris) {label}: {process_ms:.1} ms, acmr {acmr:.3}, 16-bit error {e16:.2e}"
         ));
     }
-    // Our whole cook as a user runs it, timed the same way as the gltfpack anchor: process
-    // start, OBJ parsing, processing and writing the output.
-    let end_to_end = |label: &str, bits: u32, ms: f64, note: &str| MeshRow {
-        mesh: name.to_string(),
-        triangles: src.triangle_count(),
-        vertices: 0,
-        cache: label.into(),
-        position_bits: bits,
-        modelled: false,
-        time_ms: Some(ms),
-        acmr: None,
-        overfetch: None,
-        bytes_per_triangle: None,
-        max_position_error: None,
-        relative_position_error: None,
-        note: note.into(),
-    };
+    rows.extend(end_to_end(
+        name,
+        path,
+        path,
+        src.triangle_count(),
+        cfg,
+        progress,
+    )?);
+    Ok(rows)
+}
+
+/// One whole-process contender: a label, the program and its arguments, the position bits
+/// of what it writes, and a note.
+struct Contender {
+    label: &'static str,
+    program: PathBuf,
+    args: Vec<std::ffi::OsString>,
+    bits: u32,
+    note: &'static str,
+}
+
+/// Whole processes side by side, as a user runs them: `cooker cook` (float, and `--quantize`)
+/// on `cooker_input`, native gltfpack (`-noq`, and its quantized default) and the npm build
+/// when installed on `gltfpack_input`. The runs are interleaved (one of each per round) so a
+/// slow spell of the machine hits every contender alike; each row is the median of its runs.
+pub fn end_to_end(
+    name: &str,
+    cooker_input: &Path,
+    gltfpack_input: &Path,
+    triangles: usize,
+    cfg: &MeshConfig,
+    progress: &mut dyn FnMut(&str),
+) -> Result<Vec<MeshRow>> {
+    let os = |s: &str| std::ffi::OsString::from(s);
+    let mut contenders = Vec::new();
     if let Some(cooker) = cooker_binary() {
         let out = cfg.scratch.join("cooker-out.pack");
+        let base = vec![
+            os("cook"),
+            cooker_input.as_os_str().to_owned(),
+            os("-o"),
+            out.as_os_str().to_owned(),
+            os("--no-cache"),
+        ];
+        let note = "includes the source's parsing, process start and the atomic pack write (fsync)";
         for (label, flags, bits) in [
             ("cooker (end to end)", &[][..], 32),
-            ("cooker --fifo (end to end)", &["--fifo"][..], 32),
             ("cooker --quantize (end to end)", &["--quantize"][..], 16),
         ] {
-            let ms = time_process(cfg.runs, || {
-                let mut c = Command::new(&cooker);
-                c.arg("cook").arg(path).arg("-o").arg(&out);
-                c.arg("--no-cache").args(flags);
-                c
-            })?;
-            rows.push(end_to_end(
+            let mut args = base.clone();
+            args.extend(flags.iter().map(|f| os(f)));
+            contenders.push(Contender {
                 label,
+                program: cooker.clone(),
+                args,
                 bits,
-                ms,
-                "includes OBJ parsing, process start and the atomic pack write (fsync)",
-            ));
+                note,
+            });
         }
-        let _ = std::fs::remove_file(&out);
     }
-    // Native gltfpack, when the machine has it: it quantizes by default, so its like-for-like
-    // row is `cooker --quantize` of this same run. Only run, never linked or needed to build.
+    let glb = cfg.scratch.join("gltfpack-out.glb");
+    let gltfpack_args = |flags: &[&str]| {
+        let mut a = vec![
+            os("-i"),
+            gltfpack_input.as_os_str().to_owned(),
+            os("-o"),
+            glb.as_os_str().to_owned(),
+        ];
+        a.extend(flags.iter().map(|f| os(f)));
+        a
+    };
     match native_gltfpack() {
+        // Native gltfpack quantizes by default, so its like-for-like row is `cooker
+        // --quantize`; `-noq` is the float one. Only run, never linked or needed to build.
         Some(native) => {
-            let out = cfg.scratch.join("gltfpack-native-out.glb");
-            for (label, flags, bits, note) in [
-                (
-                    "gltfpack native (end to end)",
-                    &[][..],
-                    14,
-                    "native build, default settings (quantized): compare with cooker --quantize",
-                ),
-                (
-                    "gltfpack native -noq (end to end)",
-                    &["-noq"][..],
-                    32,
-                    "native build, float attributes: compare with cooker",
-                ),
-            ] {
-                let ms = time_process(cfg.runs, || {
-                    let mut c = Command::new(&native);
-                    c.arg("-i").arg(path).arg("-o").arg(&out).args(flags);
-                    c
-                })?;
-                rows.push(end_to_end(label, bits, ms, note));
-            }
-            let _ = std::fs::remove_file(&out);
+            contenders.push(Contender {
+                label: "gltfpack native -noq (end to end)",
+                program: native.clone(),
+                args: gltfpack_args(&["-noq"]),
+                bits: 32,
+                note: "native build, float attributes: compare with cooker",
+            });
+            contenders.push(Contender {
+                label: "gltfpack native (end to end)",
+                program: native,
+                args: gltfpack_args(&[]),
+                bits: 14,
+                note: "native build, default settings (quantized): compare with cooker --quantize",
+            });
         }
         None => progress(&format!(
             "mesh {name}: no native gltfpack (GLTFPACK_NATIVE or ../shared/anchors/gltfpack): \
              its rows are skipped"
         )),
     }
-    if let Some(gltfpack) = which("gltfpack") {
-        let out = cfg.scratch.join("gltfpack-out.glb");
-        let ms = time_process(cfg.runs, || {
-            let mut c = Command::new(&gltfpack);
-            c.arg("-i").arg(path).arg("-o").arg(&out);
-            c
-        })?;
-        let _ = std::fs::remove_file(&out);
-        rows.push(end_to_end(
-            "gltfpack (end to end)",
-            14,
-            ms,
-            "includes OBJ parsing, process start and writing the .glb; the npm build is \
-             WebAssembly under Node.js (about 4.6x slower than native gltfpack)",
-        ));
+    if let Some(npm) = which("gltfpack") {
+        contenders.push(Contender {
+            label: "gltfpack (end to end)",
+            program: npm,
+            args: gltfpack_args(&[]),
+            bits: 14,
+            note: "the npm build: WebAssembly under Node.js",
+        });
     }
-    Ok(rows)
+    let mut times: Vec<Vec<f64>> = vec![Vec::new(); contenders.len()];
+    for _ in 0..cfg.runs.max(1) {
+        for (c, t) in contenders.iter().zip(&mut times) {
+            t.push(time_process(1, || {
+                let mut cmd = Command::new(&c.program);
+                cmd.args(&c.args);
+                cmd
+            })?);
+        }
+    }
+    let _ = std::fs::remove_file(cfg.scratch.join("cooker-out.pack"));
+    let _ = std::fs::remove_file(&glb);
+    Ok(contenders
+        .iter()
+        .zip(&mut times)
+        .map(|(c, t)| {
+            let ms = median(t);
+            progress(&format!("mesh {name}: {} {ms:.1} ms", c.label));
+            MeshRow {
+                mesh: name.to_string(),
+                triangles,
+                vertices: 0,
+                cache: c.label.into(),
+                position_bits: c.bits,
+                modelled: false,
+                time_ms: Some(ms),
+                acmr: None,
+                overfetch: None,
+                bytes_per_triangle: None,
+                max_position_error: None,
+                relative_position_error: None,
+                note: format!("{}; median of {} interleaved runs", c.note, t.len()),
+            }
+        })
+        .collect())
 }
 
 /// Median wall time of `runs` runs of a process, which must succeed.
@@ -324,6 +378,39 @@ pub fn sweep(cfg: &MeshConfig, progress: &mut dyn FnMut(&str)) -> Result<Vec<Mes
     let _ = std::fs::remove_file(&grid);
     if let Some(b) = &cfg.bunny {
         rows.extend(measure("Stanford bunny", b, cfg, progress)?);
+    }
+    // Whole processes only: a mesh the size of the dragon the issue timed (100k triangles,
+    // no normals or texture coordinates), a large one with both, and the textured default
+    // scene (gltfpack gets its OBJ and copies the images; ours cooks every texture).
+    for (n, attributes) in cfg.extra_grids.iter().copied() {
+        let file = cfg.scratch.join(format!("grid-{n}-{attributes}.obj"));
+        let text = if attributes {
+            cook::testing::height_field_obj_with_normals_and_uvs(n)
+        } else {
+            cook::testing::height_field_obj(n)
+        };
+        std::fs::write(&file, text).with_context(|| format!("writing {}", file.display()))?;
+        let name = if attributes {
+            format!("generated {n}x{n} height field with normals and UVs")
+        } else {
+            format!("generated {n}x{n} height field")
+        };
+        rows.extend(end_to_end(&name, &file, &file, 2 * n * n, cfg, progress)?);
+        let _ = std::fs::remove_file(&file);
+    }
+    if let Some(scene) = &cfg.scene {
+        let obj = scene.with_file_name("corridor.obj");
+        if obj.is_file() {
+            let tris = cook::import::import(&obj).map_or(0, |m| m.triangle_count());
+            rows.extend(end_to_end(
+                "default scene (textured)",
+                scene,
+                &obj,
+                tris,
+                cfg,
+                progress,
+            )?);
+        }
     }
     Ok(rows)
 }

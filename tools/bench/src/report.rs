@@ -373,6 +373,22 @@ fn summary(md: &mut String, r: &Results) {
                 g.max_lsb(),
                 n = r.mip_size
             );
+            let anchor = r
+                .mips
+                .iter()
+                .find(|m| !m.ours && m.filter == filter && m.space == "linear");
+            if let Some(a) = anchor {
+                let _ = writeln!(
+                    md,
+                    "- Mips {filter} in linear light against {} (one thread each, same run): {:.1} against {:.1} ms, {:.2}x its time; worst level {:.3} against {:.3} LSB.",
+                    a.method,
+                    l.time_ms,
+                    a.time_ms,
+                    l.time_ms / a.time_ms,
+                    l.max_lsb(),
+                    a.max_lsb()
+                );
+            }
         }
     }
     for mesh in dedup(r.meshes.iter().map(|m| m.mesh.clone())) {
@@ -397,6 +413,9 @@ fn summary(md: &mut String, r: &Results) {
                 f.relative_position_error.unwrap_or(f64::NAN)
             );
         }
+    }
+    for line in end_to_end_lines(r) {
+        let _ = writeln!(md, "- {line}");
     }
     if let Ok(g) = &r.god_rays {
         let default = render::view::GodRaySettings::default();
@@ -430,6 +449,46 @@ fn summary(md: &mut String, r: &Results) {
         }
     }
     md.push('\n');
+}
+
+/// Per mesh: the cooker against native gltfpack, whole processes of the same run, float
+/// against `-noq` and `--quantize` against gltfpack's default.
+fn end_to_end_lines(r: &Results) -> Vec<String> {
+    let mut lines = Vec::new();
+    for mesh in dedup(r.meshes.iter().map(|m| m.mesh.clone())) {
+        let time = |c: &str| {
+            r.meshes
+                .iter()
+                .find(|m| m.mesh == mesh && m.cache == c)
+                .and_then(|m| m.time_ms.map(|t| (t, m.triangles)))
+        };
+        let pairs = [
+            (
+                "cooker (end to end)",
+                "gltfpack native -noq (end to end)",
+                "float",
+            ),
+            (
+                "cooker --quantize (end to end)",
+                "gltfpack native (end to end)",
+                "quantized",
+            ),
+        ];
+        let parts: Vec<String> = pairs
+            .iter()
+            .filter_map(|(ours, theirs, what)| {
+                let ((a, _), (b, _)) = (time(ours)?, time(theirs)?);
+                Some(format!("{what} {a:.1} against {b:.1} ms ({:.2}x)", a / b))
+            })
+            .collect();
+        if let (false, Some((_, tris))) = (parts.is_empty(), time("cooker (end to end)")) {
+            lines.push(format!(
+                "Whole `cooker cook` against native gltfpack, {mesh} ({tris} triangles), interleaved runs: {}.",
+                parts.join("; ")
+            ));
+        }
+    }
+    lines
 }
 
 fn dedup(it: impl Iterator<Item = String>) -> Vec<String> {
@@ -633,6 +692,9 @@ fn mesh_section(dir: &Path, md: &mut String, r: &Results) -> Result<()> {
                 })
             })
             .collect();
+        if points.is_empty() {
+            continue;
+        }
         let name = format!("meshes-{i}.svg");
         let title = format!("{mesh}: ACMR against time (16-bit positions)");
         write(

@@ -113,6 +113,8 @@ pub fn run(args: Args) -> Outcome {
     let start = Instant::now();
     let manifest = Manifest::open(&args.input)?;
     let mut settings = args.settings.resolve(&manifest)?;
+    // ACMR and overfetch are only printed with -v.
+    settings.mesh.analyze = args.verbose;
 
     // Reuse: the whole pack when no input changed, else each texture whose inputs did not.
     let (cache, remote) = match args.cache.open()? {

@@ -48,7 +48,73 @@ fn text(t: &[u8]) -> String {
 }
 
 fn parse_f32(t: &[u8]) -> Option<f32> {
-    std::str::from_utf8(t).ok()?.parse().ok()
+    simple_f32(t).or_else(|| std::str::from_utf8(t).ok()?.parse().ok())
+}
+
+/// Powers of ten a float holds exactly (5^10 < 2^24).
+const POW10: [f32; 11] = [1e0, 1e1, 1e2, 1e3, 1e4, 1e5, 1e6, 1e7, 1e8, 1e9, 1e10];
+
+/// The common case of [`parse_f32`] without the general algorithm: a decimal (sign, digits,
+/// point, digits, exponent, in `str::parse`'s grammar) whose digits form an integer `m` below
+/// 2^24 and whose decimal exponent `e` is within ±10. Then `m` and `10^|e|` are exact floats
+/// and one multiply or divide rounds once, correctly: the value `str::parse` gives. Anything
+/// else is `None`, left to `str::parse` (which also rejects what is not a number).
+fn simple_f32(t: &[u8]) -> Option<f32> {
+    let (negative, mut rest) = match t {
+        [b'-', r @ ..] => (true, r),
+        [b'+', r @ ..] => (false, r),
+        _ => (false, t),
+    };
+    let mut m: u64 = 0;
+    let (mut digits, mut point, mut fraction) = (0usize, false, 0i32);
+    while let [b, r @ ..] = rest {
+        match *b {
+            b'0'..=b'9' => {
+                m = m * 10 + (b - b'0') as u64;
+                digits += 1;
+                fraction += i32::from(point);
+                if m >= 1 << 24 {
+                    return None;
+                }
+            }
+            b'.' if !point => point = true,
+            _ => break,
+        }
+        rest = r;
+    }
+    if digits == 0 {
+        return None;
+    }
+    let mut exponent = 0i32;
+    if let [b'e' | b'E', r @ ..] = rest {
+        let (sign, mut r) = match r {
+            [b'-', r @ ..] => (-1, r),
+            [b'+', r @ ..] => (1, r),
+            _ => (1, r),
+        };
+        let mut any = false;
+        while let [b @ b'0'..=b'9', rr @ ..] = r {
+            exponent = (exponent * 10 + (b - b'0') as i32).min(1000);
+            any = true;
+            r = rr;
+        }
+        if !any {
+            return None;
+        }
+        exponent *= sign;
+        rest = r;
+    }
+    if !rest.is_empty() {
+        return None;
+    }
+    let e = exponent - fraction;
+    let v = m as f32;
+    let v = match e {
+        0..=10 => v * POW10[e as usize],
+        -10..=-1 => v / POW10[(-e) as usize],
+        _ => return None,
+    };
+    Some(if negative { -v } else { v })
 }
 
 /// The same integers `str::parse::<i64>` accepts (optional sign, decimal digits, no
@@ -105,8 +171,239 @@ struct State {
     parts: HashMap<PartKey, u32>,
 }
 
-/// Parses OBJ text. `path` names the file in errors and locates `mtllib` files.
+/// From this size on a file is read in chunks on every thread.
+const PARALLEL_BYTES: usize = 8 << 20;
+
+/// Bytes per chunk, at least (a chunk ends at a line's end).
+const CHUNK_BYTES: usize = 1 << 20;
+
+/// A statement other than a vertex attribute or a face, in file order.
+enum Statement {
+    Group(Option<String>),
+    Object(Option<String>),
+    Usemtl(String),
+    Mtllib(Vec<u8>),
+    Line,
+    Point,
+    Unknown(String),
+}
+
+/// A face as read: its corners' raw indices (`i64::MIN` for an absent field) and how many of
+/// each attribute its chunk had defined before it.
+struct Face {
+    line: u32,
+    len: u32,
+    start: usize,
+    defined: [u32; 3],
+    /// Cut short by a field that is not an index: its corners are only checked.
+    broken: bool,
+}
+
+/// What one run of lines holds, read without knowing the lines before it: attribute arrays,
+/// faces with unresolved indices, the other statements (each with the number of faces before
+/// it), and the first error that stopped the reading, if any.
+#[derive(Default)]
+struct Chunk {
+    lines: usize,
+    positions: Vec<[f32; 3]>,
+    uvs: Vec<[f32; 2]>,
+    normals: Vec<[f32; 3]>,
+    raw: Vec<[i64; 3]>,
+    faces: Vec<Face>,
+    /// Triangles its faces of three or more corners make (`n - 2` each).
+    triangles: usize,
+    statements: Vec<(usize, usize, Statement)>,
+    error: Option<(usize, String)>,
+}
+
+const ABSENT: i64 = i64::MIN;
+
+/// Reads a chunk's lines, numbered from 1 within the chunk.
+fn read_chunk(bytes: &[u8]) -> Chunk {
+    let mut c = Chunk::default();
+    for (index, raw) in bytes.split(|&b| b == b'\n').enumerate() {
+        c.lines = index + 1;
+        if let Err(message) = read_line(&mut c, index + 1, raw) {
+            c.error = Some((index + 1, message));
+            // The lines after it still count for the chunks after this one.
+            c.lines = bytes.iter().filter(|&&b| b == b'\n').count() + 1;
+            break;
+        }
+    }
+    c
+}
+
+fn read_line(c: &mut Chunk, line_no: usize, raw: &[u8]) -> Result<(), String> {
+    let line = trim(raw);
+    if line.is_empty() || line[0] == b'#' {
+        return Ok(());
+    }
+    let mut it = tokens(line);
+    let keyword = it.next().unwrap_or_default();
+    let rest = trim(&line[keyword.len()..]);
+    let statement = match keyword {
+        b"v" => {
+            let mut p = [0.0f32; 3];
+            for (k, v) in p.iter_mut().enumerate() {
+                let t = it
+                    .next()
+                    .ok_or_else(|| format!("vertex has {k} coordinates, needs 3"))?;
+                *v = parse_f32(t)
+                    .ok_or_else(|| format!("vertex coordinate {:?} is not a number", text(t)))?;
+                if !v.is_finite() {
+                    return Err(format!("vertex coordinate {:?} is not finite", text(t)));
+                }
+            }
+            c.positions.push(p);
+            return Ok(());
+        }
+        b"vt" => {
+            let mut uv = [0.0f32; 2];
+            for (k, v) in uv.iter_mut().enumerate() {
+                match it.next() {
+                    Some(t) => {
+                        *v = parse_f32(t).filter(|v| v.is_finite()).ok_or_else(|| {
+                            format!("texture coordinate {:?} is not a finite number", text(t))
+                        })?
+                    }
+                    None if k == 0 => return Err("texture coordinate has no values".into()),
+                    None => {}
+                }
+            }
+            // OBJ puts v = 0 at the bottom of an image; the pack, glTF and the GPU put it at
+            // the top row.
+            c.uvs.push([uv[0], 1.0 - uv[1]]);
+            return Ok(());
+        }
+        b"vn" => {
+            let mut n = [0.0f32; 3];
+            for (k, v) in n.iter_mut().enumerate() {
+                let t = it
+                    .next()
+                    .ok_or_else(|| format!("normal has {k} components, needs 3"))?;
+                *v = parse_f32(t).filter(|v| v.is_finite()).ok_or_else(|| {
+                    format!("normal component {:?} is not a finite number", text(t))
+                })?;
+            }
+            c.normals.push(n);
+            return Ok(());
+        }
+        b"f" => {
+            let start = c.raw.len();
+            for t in it {
+                match read_corner(t) {
+                    Ok(corner) => c.raw.push(corner),
+                    Err((partial, message)) => {
+                        // Line by line, the indices before the bad field are checked first:
+                        // keep them as a face that makes no triangles, for that check.
+                        c.raw.push(partial);
+                        c.faces.push(Face {
+                            line: line_no as u32,
+                            len: (c.raw.len() - start) as u32,
+                            start,
+                            defined: [c.positions.len(), c.uvs.len(), c.normals.len()]
+                                .map(|n| n as u32),
+                            broken: true,
+                        });
+                        return Err(message);
+                    }
+                }
+            }
+            let len = c.raw.len() - start;
+            c.triangles += len.saturating_sub(2);
+            // A chunk is far below 4 GiB, so its line and attribute counts fit.
+            c.faces.push(Face {
+                line: line_no as u32,
+                len: len as u32,
+                start,
+                defined: [c.positions.len(), c.uvs.len(), c.normals.len()].map(|n| n as u32),
+                broken: false,
+            });
+            return Ok(());
+        }
+        b"l" => Statement::Line,
+        b"p" => Statement::Point,
+        b"g" => Statement::Group((!rest.is_empty()).then(|| text(rest))),
+        b"o" => Statement::Object((!rest.is_empty()).then(|| text(rest))),
+        b"usemtl" => Statement::Usemtl(text(rest)),
+        b"mtllib" => Statement::Mtllib(rest.to_vec()),
+        // Smoothing groups, free-form geometry and display attributes: normals are generated
+        // with a crease angle instead, and the rest has no meaning here.
+        b"s" | b"vp" | b"cstype" | b"deg" | b"bmat" | b"step" | b"curv" | b"curv2" | b"surf"
+        | b"parm" | b"trim" | b"hole" | b"scrv" | b"sp" | b"end" | b"con" | b"mg" | b"lod"
+        | b"bevel" | b"c_interp" | b"d_interp" | b"usemap" | b"maplib" | b"shadow_obj"
+        | b"trace_obj" | b"ctech" | b"stech" => return Ok(()),
+        other => Statement::Unknown(text(other)),
+    };
+    c.statements.push((c.faces.len(), line_no, statement));
+    Ok(())
+}
+
+/// A face corner's fields as integers, unresolved; on an error, the fields read before it.
+fn read_corner(tok: &[u8]) -> Result<[i64; 3], ([i64; 3], String)> {
+    let mut fields = tok.split(|&b| b == b'/');
+    let mut out = [ABSENT; 3];
+    for (k, what) in ["vertex", "texture coordinate", "normal"]
+        .iter()
+        .enumerate()
+    {
+        match fields.next() {
+            Some(f) if !f.is_empty() || k == 0 => match parse_i64(f) {
+                Some(i) => out[k] = i,
+                None => {
+                    return Err((out, format!("{what} index {:?} is not an integer", text(f))));
+                }
+            },
+            _ => {}
+        }
+    }
+    if fields.next().is_some() {
+        return Err((
+            out,
+            format!("face corner {:?} has more than 3 fields", text(tok)),
+        ));
+    }
+    Ok(out)
+}
+
+/// Splits `bytes` into runs of whole lines of about `chunk_bytes` or more, enough for every
+/// thread.
+fn chunks(bytes: &[u8], chunk_bytes: usize) -> Vec<&[u8]> {
+    let pieces = (bytes.len() / chunk_bytes.max(1)).clamp(1, 4 * rayon::current_num_threads());
+    let size = bytes.len().div_ceil(pieces).max(1);
+    let mut out = Vec::with_capacity(pieces);
+    let mut rest = bytes;
+    while !rest.is_empty() {
+        let cut = if rest.len() <= size {
+            rest.len()
+        } else {
+            rest[size..]
+                .iter()
+                .position(|&b| b == b'\n')
+                .map_or(rest.len(), |i| size + i + 1)
+        };
+        out.push(&rest[..cut]);
+        rest = &rest[cut..];
+    }
+    if out.is_empty() {
+        out.push(bytes);
+    }
+    out
+}
+
+/// Parses OBJ text. `path` names the file in errors and locates `mtllib` files. Files of
+/// [`PARALLEL_BYTES`] or more are split (see [`parse_chunked`]).
 pub fn parse(path: &Path, bytes: &[u8]) -> Result<Imported, CookError> {
+    if bytes.len() >= PARALLEL_BYTES {
+        parse_chunked(path, bytes, CHUNK_BYTES)
+    } else {
+        parse_lines(path, bytes)
+    }
+}
+
+/// Parses OBJ text line by line: the reference [`parse_chunked`] must agree with, and what
+/// files too small to split run (splitting costs more than it saves there).
+fn parse_lines(path: &Path, bytes: &[u8]) -> Result<Imported, CookError> {
     let mut out = Imported {
         path: path.to_path_buf(),
         ..Default::default()
@@ -353,6 +650,383 @@ pub fn parse(path: &Path, bytes: &[u8]) -> Result<Imported, CookError> {
     Ok(out)
 }
 
+fn parse_corner(path: &Path, line: usize, tok: &[u8], out: &Imported) -> Result<Corner, CookError> {
+    let mut fields = tok.split(|&b| b == b'/');
+    let p = fields.next().unwrap_or_default();
+    let p = resolve_text(path, line, p, out.positions.len(), "vertex")?;
+    let t = match fields.next() {
+        Some(f) if !f.is_empty() => {
+            resolve_text(path, line, f, out.uvs.len(), "texture coordinate")?
+        }
+        _ => NONE,
+    };
+    let n = match fields.next() {
+        Some(f) if !f.is_empty() => resolve_text(path, line, f, out.normals.len(), "normal")?,
+        _ => NONE,
+    };
+    if fields.next().is_some() {
+        return Err(bad(
+            path,
+            line,
+            format!("face corner {:?} has more than 3 fields", text(tok)),
+        ));
+    }
+    Ok(Corner { p, t, n })
+}
+
+/// [`resolve`] of an index as written.
+fn resolve_text(
+    path: &Path,
+    line: usize,
+    raw: &[u8],
+    count: usize,
+    what: &str,
+) -> Result<u32, CookError> {
+    let i = parse_i64(raw).ok_or_else(|| {
+        bad(
+            path,
+            line,
+            format!("{what} index {:?} is not an integer", text(raw)),
+        )
+    })?;
+    resolve(path, line, i, count, what)
+}
+
+/// Large files are read in chunks of lines on every thread (vertex attributes and faces with
+/// their indices as written), then put together in file order: names and material libraries
+/// one statement after another, then each chunk's faces resolved against everything defined
+/// before them. The result, errors and warnings are those of [`parse_lines`] (the first error
+/// in the file wins) whatever the chunking.
+fn parse_chunked(path: &Path, bytes: &[u8], chunk_bytes: usize) -> Result<Imported, CookError> {
+    use rayon::prelude::*;
+    let pieces = chunks(bytes, chunk_bytes);
+    let chunks: Vec<Chunk> = if pieces.len() == 1 {
+        vec![read_chunk(pieces[0])]
+    } else {
+        pieces.par_iter().map(|b| read_chunk(b)).collect()
+    };
+    // Line numbers in the file: each chunk but the last ends with a newline, which its line
+    // count includes as an empty last line.
+    let mut offset = Vec::with_capacity(chunks.len());
+    let mut next = 0;
+    for c in &chunks {
+        offset.push(next);
+        next += c.lines.saturating_sub(1);
+    }
+
+    let mut out = Imported {
+        path: path.to_path_buf(),
+        ..Default::default()
+    };
+    let mut chunks = chunks;
+    let total = |f: fn(&Chunk) -> usize| chunks.iter().map(f).sum::<usize>();
+    let totals = [
+        total(|c| c.positions.len()),
+        total(|c| c.uvs.len()),
+        total(|c| c.normals.len()),
+    ];
+    // The first chunk's arrays become the file's, the others are appended.
+    out.positions = std::mem::take(&mut chunks[0].positions);
+    out.uvs = std::mem::take(&mut chunks[0].uvs);
+    out.normals = std::mem::take(&mut chunks[0].normals);
+    out.positions.reserve_exact(totals[0] - out.positions.len());
+    out.uvs.reserve_exact(totals[1] - out.uvs.len());
+    out.normals.reserve_exact(totals[2] - out.normals.len());
+    // What each chunk's lines see defined before them.
+    let mut before = vec![[0; 3]];
+    for c in &chunks[1..] {
+        before.push([out.positions.len(), out.uvs.len(), out.normals.len()]);
+        out.positions.extend_from_slice(&c.positions);
+        out.uvs.extend_from_slice(&c.uvs);
+        out.normals.extend_from_slice(&c.normals);
+    }
+    let chunks = chunks;
+    // The first error in the file: a chunk stops at its own, so no later line matters.
+    let mut first_error = chunks
+        .iter()
+        .zip(&offset)
+        .find_map(|(c, o)| c.error.as_ref().map(|(line, m)| (o + line, m)))
+        .map(|(line, m)| (line, bad(path, line, m.clone())));
+
+    // Names, parts and material libraries, statement by statement in file order. Each
+    // chunk's faces get their part by runs: `runs[c]` holds (first face, part) pairs.
+    let mut state = State::default();
+    let mut material_ids: HashMap<String, u32> = HashMap::new();
+    let mut missing_textures: Vec<(String, Warning)> = Vec::new();
+    let mut unknown_materials: Vec<(String, usize)> = Vec::new();
+    let mut skipped_lines = (0usize, 0usize, 0usize); // (line elements, points, first line)
+    let mut unknown_keywords: Vec<(String, usize)> = Vec::new();
+    let mut empty_groups: Vec<String> = Vec::new();
+    let mut group_faces: Option<(String, usize)> = None;
+    let mut runs: Vec<Vec<(usize, u32)>> = Vec::with_capacity(chunks.len());
+    'chunks: for (c, offset) in chunks.iter().zip(&offset) {
+        let mut chunk_runs = Vec::new();
+        let mut face = 0;
+        let mut statements = c.statements.iter().peekable();
+        loop {
+            let next = statements.peek().map_or(c.faces.len(), |s| s.0);
+            // Faces up to the next statement: one part for the run (made by its first face
+            // with three corners, as line by line), and counted for their group.
+            let whole = c.faces[face..next]
+                .iter()
+                .filter(|f| f.len >= 3 && !f.broken)
+                .count();
+            if whole > 0 {
+                if let Some((_, n)) = &mut group_faces {
+                    *n += whole;
+                }
+                chunk_runs.push((face, current_part(&mut state, &mut out, &material_ids)));
+            }
+            face = next;
+            let Some((_, line_no, statement)) = statements.next() else {
+                break;
+            };
+            let line_no = offset + line_no;
+            if first_error.as_ref().is_some_and(|(l, _)| *l < line_no) {
+                runs.push(chunk_runs);
+                break 'chunks;
+            }
+            match statement {
+                Statement::Line | Statement::Point => {
+                    if skipped_lines.0 + skipped_lines.1 == 0 {
+                        skipped_lines.2 = line_no;
+                    }
+                    if matches!(statement, Statement::Line) {
+                        skipped_lines.0 += 1
+                    } else {
+                        skipped_lines.1 += 1
+                    }
+                }
+                Statement::Group(name) => {
+                    if let Some((name, 0)) = group_faces.take() {
+                        empty_groups.push(name);
+                    }
+                    group_faces = name.clone().map(|n| (n, 0));
+                    state.group = name.clone();
+                    state.part = None;
+                }
+                Statement::Object(name) => {
+                    state.object = name.clone();
+                    state.part = None;
+                }
+                Statement::Usemtl(name) => {
+                    if !name.is_empty()
+                        && !material_ids.contains_key(name)
+                        && !unknown_materials.iter().any(|(n, _)| n == name)
+                    {
+                        unknown_materials.push((name.clone(), line_no));
+                    }
+                    state.material = (!name.is_empty()).then(|| name.clone());
+                    state.part = None;
+                }
+                Statement::Mtllib(rest) => {
+                    if let Err(e) = load_mtllib(
+                        path,
+                        line_no,
+                        rest,
+                        &mut out,
+                        &mut material_ids,
+                        &mut missing_textures,
+                    ) {
+                        first_error = Some((line_no, e));
+                        runs.push(chunk_runs);
+                        break 'chunks;
+                    }
+                }
+                Statement::Unknown(k) => {
+                    if !unknown_keywords.iter().any(|(n, _)| n == k) {
+                        unknown_keywords.push((k.clone(), line_no));
+                    }
+                }
+            }
+        }
+        runs.push(chunk_runs);
+    }
+    if let Some((name, 0)) = group_faces.take() {
+        empty_groups.push(name);
+    }
+
+    // Every chunk's faces, resolved and triangulated on its own thread straight into its
+    // share of the output.
+    struct Resolved {
+        polygons: usize,
+        short: Vec<usize>,
+        error: Option<(usize, CookError)>,
+    }
+    let positions = &out.positions;
+    let triangles: usize = chunks.iter().map(|c| c.triangles).sum();
+    let mut corners: Vec<Corner> = Vec::with_capacity(3 * triangles);
+    let mut tri_part: Vec<u32> = Vec::with_capacity(triangles);
+    let mut shares = Vec::with_capacity(chunks.len());
+    {
+        let (mut cs, mut ps) = (
+            &mut corners.spare_capacity_mut()[..3 * triangles],
+            &mut tri_part.spare_capacity_mut()[..triangles],
+        );
+        for c in &chunks {
+            let (c3, c_rest) = cs.split_at_mut(3 * c.triangles);
+            let (p1, p_rest) = ps.split_at_mut(c.triangles);
+            shares.push((c3, p1));
+            (cs, ps) = (c_rest, p_rest);
+        }
+    }
+    let resolved: Vec<Resolved> = chunks
+        .par_iter()
+        .zip(shares)
+        .zip(&before)
+        .zip(&runs)
+        .zip(&offset)
+        .map(|((((c, (c3, p1)), before), runs), &offset)| {
+            let mut r = Resolved {
+                polygons: 0,
+                short: Vec::new(),
+                error: None,
+            };
+            let mut face: Vec<Corner> = Vec::new();
+            let mut poly: Vec<[f32; 3]> = Vec::new();
+            let mut tris: Vec<[u32; 3]> = Vec::new();
+            let (mut run, mut at) = (0, 0);
+            for (i, f) in c.faces.iter().enumerate() {
+                let line = offset + f.line as usize;
+                let defined: [usize; 3] =
+                    std::array::from_fn(|k| before[k] + f.defined[k] as usize);
+                face.clear();
+                for raw in &c.raw[f.start..f.start + f.len as usize] {
+                    match resolve_corner(path, line, raw, defined) {
+                        Ok(corner) => face.push(corner),
+                        Err(e) => {
+                            r.error = Some((line, e));
+                            return r;
+                        }
+                    }
+                }
+                if f.broken {
+                    continue;
+                }
+                if face.len() < 3 {
+                    r.short.push(line);
+                    continue;
+                }
+                while run + 1 < runs.len() && runs[run + 1].0 <= i {
+                    run += 1;
+                }
+                let part = runs.get(run).map_or(0, |r| r.1);
+                let mut put = |t: [Corner; 3]| {
+                    for (k, corner) in t.into_iter().enumerate() {
+                        c3[3 * at + k].write(corner);
+                    }
+                    p1[at].write(part);
+                    at += 1;
+                };
+                if face.len() == 3 {
+                    put([face[0], face[1], face[2]]);
+                } else {
+                    r.polygons += 1;
+                    poly.clear();
+                    poly.extend(face.iter().map(|c| positions[c.p as usize]));
+                    tris.clear();
+                    triangulate(&poly, &mut tris);
+                    for t in &tris {
+                        put(t.map(|i| face[i as usize]));
+                    }
+                }
+            }
+            assert_eq!(at, c.triangles, "a chunk's triangles fill its share");
+            r
+        })
+        .collect();
+    let mut resolved = resolved;
+    let earliest = resolved
+        .iter()
+        .enumerate()
+        .filter_map(|(i, r)| r.error.as_ref().map(|(line, _)| (*line, i)))
+        .min();
+    // On the line a chunk stopped at, an index checked before the bad field comes first.
+    if let Some((line, i)) = earliest
+        && first_error.as_ref().is_none_or(|(l, _)| line <= *l)
+    {
+        first_error = resolved[i].error.take();
+    }
+    if let Some((_, e)) = first_error {
+        return Err(e);
+    }
+    // SAFETY: no chunk failed (an error returned above, and a chunk stopped early by a
+    // syntax error or a material library has its error there too), so every chunk wrote
+    // exactly its share, checked by the assertion: all `triangles` entries are written.
+    unsafe {
+        corners.set_len(3 * triangles);
+        tri_part.set_len(triangles);
+    }
+    out.corners = corners;
+    out.tri_part = tri_part;
+    let mut short_faces: Vec<usize> = Vec::new();
+    for r in resolved {
+        out.polygons += r.polygons;
+        short_faces.extend(r.short);
+    }
+
+    // Unknown `usemtl` names stay names for tagging; only shading falls back to a default.
+    unknown_materials.retain(|(n, _)| !material_ids.contains_key(n));
+    for (name, line) in unknown_materials {
+        out.warnings.push(Warning::new(
+            path,
+            Some(line),
+            format!("material {name:?} is not defined in any mtllib; using default shading"),
+        ));
+    }
+    if skipped_lines.0 + skipped_lines.1 > 0 {
+        out.warnings.push(Warning::new(
+            path,
+            Some(skipped_lines.2),
+            format!(
+                "{} line and {} point elements ignored: only faces are cooked",
+                skipped_lines.0, skipped_lines.1
+            ),
+        ));
+    }
+    if let Some(&first) = short_faces.first() {
+        out.warnings.push(Warning::new(
+            path,
+            Some(first),
+            format!(
+                "{} faces with fewer than 3 vertices ignored",
+                short_faces.len()
+            ),
+        ));
+    }
+    if !empty_groups.is_empty() {
+        out.warnings.push(Warning::new(
+            path,
+            None,
+            format!("groups without faces: {}", empty_groups.join(", ")),
+        ));
+    }
+    for (k, line) in unknown_keywords {
+        out.warnings.push(Warning::new(
+            path,
+            Some(line),
+            format!("unknown statement {k:?} ignored"),
+        ));
+    }
+    if out.tri_part.is_empty() {
+        out.warnings
+            .push(Warning::new(path, None, "no faces: nothing to cook"));
+    }
+    // A missing texture matters only to a material some face uses.
+    let mut used = vec![false; out.materials.len()];
+    for &p in &out.tri_part {
+        if let Some(m) = out.parts[p as usize].material {
+            used[m as usize] = true;
+        }
+    }
+    for (name, w) in missing_textures {
+        if material_ids.get(&name).is_some_and(|&i| used[i as usize]) {
+            out.warnings.push(w);
+        }
+    }
+    Ok(out)
+}
+
 fn current_part(state: &mut State, out: &mut Imported, material_ids: &HashMap<String, u32>) -> u32 {
     if let Some(p) = state.part {
         return p;
@@ -383,20 +1057,28 @@ fn current_part(state: &mut State, out: &mut Imported, material_ids: &HashMap<St
     id
 }
 
-fn resolve(
+/// A face corner's indices, each checked against what is defined before its line.
+fn resolve_corner(
     path: &Path,
     line: usize,
-    raw: &[u8],
-    count: usize,
-    what: &str,
-) -> Result<u32, CookError> {
-    let i = parse_i64(raw).ok_or_else(|| {
-        bad(
-            path,
-            line,
-            format!("{what} index {:?} is not an integer", text(raw)),
-        )
-    })?;
+    raw: &[i64; 3],
+    defined: [usize; 3],
+) -> Result<Corner, CookError> {
+    // Only a broken face's last corner can lack its vertex: nothing to check then.
+    let p = match raw[0] {
+        ABSENT => NONE,
+        i => resolve(path, line, i, defined[0], "vertex")?,
+    };
+    let other = |k: usize, what: &str| match raw[k] {
+        ABSENT => Ok(NONE),
+        i => resolve(path, line, i, defined[k], what),
+    };
+    let t = other(1, "texture coordinate")?;
+    let n = other(2, "normal")?;
+    Ok(Corner { p, t, n })
+}
+
+fn resolve(path: &Path, line: usize, i: i64, count: usize, what: &str) -> Result<u32, CookError> {
     let resolved = if i > 0 {
         i - 1
     } else if i < 0 {
@@ -428,28 +1110,6 @@ fn plural(what: &str, n: usize) -> String {
         (w, 1) => format!("{w} is"),
         (w, _) => format!("{w}s are"),
     }
-}
-
-fn parse_corner(path: &Path, line: usize, tok: &[u8], out: &Imported) -> Result<Corner, CookError> {
-    let mut fields = tok.split(|&b| b == b'/');
-    let p = fields.next().unwrap_or_default();
-    let p = resolve(path, line, p, out.positions.len(), "vertex")?;
-    let t = match fields.next() {
-        Some(f) if !f.is_empty() => resolve(path, line, f, out.uvs.len(), "texture coordinate")?,
-        _ => NONE,
-    };
-    let n = match fields.next() {
-        Some(f) if !f.is_empty() => resolve(path, line, f, out.normals.len(), "normal")?,
-        _ => NONE,
-    };
-    if fields.next().is_some() {
-        return Err(bad(
-            path,
-            line,
-            format!("face corner {:?} has more than 3 fields", text(tok)),
-        ));
-    }
-    Ok(Corner { p, t, n })
 }
 
 /// Finds a file named in an MTL or `mtllib` statement: the whole rest of the line first (names
@@ -649,6 +1309,122 @@ mod tests {
             prop_assert_eq!(parse_i64(s.as_bytes()), s.parse::<i64>().ok());
             let t = n.to_string();
             prop_assert_eq!(parse_i64(t.as_bytes()), Some(n));
+        }
+    }
+
+    proptest! {
+        #[test]
+        fn floats_parse_as_std_does(
+            s in "[-+]?[0-9]{0,9}(\\.[0-9]{0,9})?([eE][-+]?[0-9]{0,3})?|[-+0-9.eE a]{0,6}",
+            v in any::<f32>(),
+        ) {
+            prop_assert_eq!(
+                parse_f32(s.as_bytes()).map(f32::to_bits),
+                s.parse::<f32>().ok().map(f32::to_bits)
+            );
+            let t = v.to_string();
+            prop_assert_eq!(parse_f32(t.as_bytes()).map(f32::to_bits), Some(v.to_bits()));
+        }
+    }
+
+    #[test]
+    fn simple_floats_are_the_correctly_rounded_ones() {
+        // Every 7-digit mantissa at a few exponents, against str::parse.
+        for m in (0..=9_999_999u32).step_by(7) {
+            for e in [-10, -7, -3, 0, 4] {
+                let t = format!("{m}e{e}");
+                assert_eq!(
+                    simple_f32(t.as_bytes()).map(f32::to_bits),
+                    t.parse::<f32>()
+                        .ok()
+                        .map(f32::to_bits)
+                        .filter(|_| m < 1 << 24),
+                    "{t}"
+                );
+            }
+        }
+    }
+
+    /// Everything an import says, for comparing two parses.
+    fn summary(r: Result<Imported, CookError>) -> String {
+        match r {
+            Ok(m) => format!(
+                "{:?}\n{:?}\n{:?}\n{:?}\n{:?}\n{:?}\n{}\n{:?}\n{:?}",
+                m.positions
+                    .iter()
+                    .flatten()
+                    .map(|v| v.to_bits())
+                    .collect::<Vec<_>>(),
+                m.uvs
+                    .iter()
+                    .flatten()
+                    .map(|v| v.to_bits())
+                    .collect::<Vec<_>>(),
+                m.normals
+                    .iter()
+                    .flatten()
+                    .map(|v| v.to_bits())
+                    .collect::<Vec<_>>(),
+                m.corners,
+                m.tri_part,
+                m.parts,
+                m.polygons,
+                m.warnings.iter().map(|w| w.to_string()).collect::<Vec<_>>(),
+                m.materials,
+            ),
+            Err(e) => format!("error: {e}"),
+        }
+    }
+
+    fn obj_line() -> impl Strategy<Value = String> {
+        let index = prop_oneof![
+            (1i64..12).prop_map(|i| i.to_string()),
+            (-12i64..0).prop_map(|i| i.to_string()),
+            Just("0".to_string()),
+            Just("x".to_string()),
+        ];
+        let corner = prop_oneof![
+            index.clone(),
+            (index.clone(), index.clone()).prop_map(|(a, b)| format!("{a}/{b}")),
+            (index.clone(), index.clone()).prop_map(|(a, b)| format!("{a}//{b}")),
+            (index.clone(), index.clone(), index).prop_map(|(a, b, c)| format!("{a}/{b}/{c}")),
+        ];
+        let number = prop_oneof![
+            (-1000i32..1000).prop_map(|i| format!("{}", i as f32 / 7.0)),
+            Just("1e3".to_string()),
+            Just("nan".to_string()),
+        ];
+        prop_oneof![
+            6 => prop::collection::vec(number.clone(), 3).prop_map(|v| format!("v {}", v.join(" "))),
+            2 => prop::collection::vec(number.clone(), 2).prop_map(|v| format!("vt {}", v.join(" "))),
+            2 => prop::collection::vec(number, 3).prop_map(|v| format!("vn {}", v.join(" "))),
+            8 => prop::collection::vec(corner, 2..6).prop_map(|v| format!("f {}", v.join(" "))),
+            1 => "[abc]{0,2}".prop_map(|n| format!("g {n}")),
+            1 => "[ab]{1}".prop_map(|n| format!("o {n}")),
+            1 => "[xy]{0,1}".prop_map(|n| format!("usemtl {n}")),
+            1 => Just("l 1 2".to_string()),
+            1 => Just("p 1".to_string()),
+            1 => Just("# comment".to_string()),
+            1 => Just("frobnicate 3".to_string()),
+            1 => Just("".to_string()),
+        ]
+    }
+
+    proptest! {
+        #![proptest_config(ProptestConfig::with_cases(300))]
+        /// Split into chunks of a few lines, an OBJ reads as it does line by line, errors and
+        /// warnings included.
+        #[test]
+        fn chunked_parse_agrees_with_line_by_line(
+            lines in prop::collection::vec(obj_line(), 0..60),
+            chunk in 1usize..200,
+        ) {
+            let text = lines.join("\n");
+            let path = Path::new("test.obj");
+            prop_assert_eq!(
+                summary(parse_chunked(path, text.as_bytes(), chunk)),
+                summary(parse_lines(path, text.as_bytes()))
+            );
         }
     }
 

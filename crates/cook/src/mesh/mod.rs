@@ -39,6 +39,10 @@ pub struct MeshSettings {
     pub overdraw: bool,
     /// Faces meeting at a sharper angle than this keep separate generated normals.
     pub crease_angle_deg: f32,
+    /// Measure ACMR and overfetch for the report (three passes over the indices; the output
+    /// does not depend on it).
+    #[serde(skip)]
+    pub analyze: bool,
 }
 
 impl Default for MeshSettings {
@@ -47,6 +51,7 @@ impl Default for MeshSettings {
             cache: CacheMode::Full,
             overdraw: false,
             crease_angle_deg: 60.0,
+            analyze: true,
         }
     }
 }

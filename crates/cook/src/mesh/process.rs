@@ -417,7 +417,7 @@ pub fn process(
             }),
         }
     }
-    stats.acmr_in = if indices.is_empty() {
+    stats.acmr_in = if indices.is_empty() || !settings.analyze {
         0.0
     } else {
         meshopt::analyze_vertex_cache(&indices, vertices.len(), 16, 0, 0).acmr
@@ -451,7 +451,7 @@ pub fn process(
 
     stats.triangles_out = indices.len() / 3;
     stats.vertices_out = vertices.len();
-    if !indices.is_empty() {
+    if !indices.is_empty() && settings.analyze {
         stats.acmr_out = meshopt::analyze_vertex_cache(&indices, vertices.len(), 16, 0, 0).acmr;
         stats.overfetch = meshopt::analyze_vertex_fetch(
             &indices,
