@@ -114,6 +114,7 @@ impl Builder {
             u_axis: a.to_array(),
             v_axis: b.to_array(),
             normal: normal.to_array(),
+            source_materials: Vec::new(),
         });
     }
 
@@ -370,6 +371,7 @@ fn god_ray_falloff_matches_hand_computed_values() {
         u_axis: u,
         v_axis: v,
         normal: [0.0, 0.0, 1.0],
+        source_materials: Vec::new(),
     };
     let mut toc = Toc {
         windows: vec![

@@ -389,6 +389,7 @@ fn scene_at(
             u_axis: ua.to_array(),
             v_axis: va.to_array(),
             normal: [0.0, 0.0, 1.0],
+            source_materials: Vec::new(),
         });
     }
     b.toc.light = light.map(|l| Light {

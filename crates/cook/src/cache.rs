@@ -257,17 +257,31 @@ impl Cache {
 
     /// A blob by its SHA-256: the local copy, else the remote's (then kept locally).
     pub fn get_blob(&self, digest: &[u8; 32]) -> Lookup {
+        let (found, from_remote) = self.fetch_blob(digest);
+        if let (Lookup::Hit(bytes), true) = (&found, from_remote) {
+            let _ = self.keep_blob(digest, bytes);
+        }
+        found
+    }
+
+    /// A blob by its SHA-256, the local copy else the remote's, and whether it came from the
+    /// remote: then the caller keeps it locally ([`Cache::keep_blob`]) when it suits it, say
+    /// while it writes the same bytes elsewhere.
+    pub fn fetch_blob(&self, digest: &[u8; 32]) -> (Lookup, bool) {
         match read_entry(&self.blob_path(digest)) {
             Lookup::Miss => {}
-            found => return found,
+            found => return (found, false),
         }
         match self.remote.as_ref().and_then(|r| r.get_blob(digest)) {
-            Some(bytes) => {
-                let _ = self.put_local(&self.blob_path(digest), &bytes);
-                Lookup::Hit(bytes)
-            }
-            None => Lookup::Miss,
+            Some(bytes) => (Lookup::Hit(bytes), true),
+            None => (Lookup::Miss, false),
         }
+    }
+
+    /// Stores a blob, already checked against its SHA-256 `digest`, locally only (one the
+    /// remote already holds).
+    pub fn keep_blob(&self, digest: &[u8; 32], bytes: &[u8]) -> Result<(), CookError> {
+        self.put_local(&self.blob_path(digest), bytes)
     }
 
     /// Stores a blob here and on the remote; returns its SHA-256.
@@ -287,15 +301,38 @@ impl Cache {
         path.exists()
     }
 
+    /// Writes an entry to a temp file and renames it into place. Unlike a pack, an entry is
+    /// not synced to disk first: after a crash a torn entry fails its checksum and is cooked
+    /// again, so the sync would buy nothing and costs a cache hit the disk's write latency.
     fn put_local(&self, path: &Path, payload: &[u8]) -> Result<(), CookError> {
-        let mut bytes = Vec::with_capacity(HEADER + payload.len());
-        bytes.extend_from_slice(MAGIC);
-        bytes.extend_from_slice(&(payload.len() as u64).to_le_bytes());
-        bytes.extend_from_slice(&crc32fast::hash(payload).to_le_bytes());
-        bytes.extend_from_slice(&[0; 4]);
-        bytes.extend_from_slice(payload);
-        pack::write_atomic(path, &bytes)?;
-        Ok(())
+        let mut header = Vec::with_capacity(HEADER);
+        header.extend_from_slice(MAGIC);
+        header.extend_from_slice(&(payload.len() as u64).to_le_bytes());
+        header.extend_from_slice(&crc32fast::hash(payload).to_le_bytes());
+        header.extend_from_slice(&[0; 4]);
+        static COUNTER: std::sync::atomic::AtomicU64 = std::sync::atomic::AtomicU64::new(0);
+        let n = COUNTER.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+        let name = path.file_name().unwrap_or_default().to_string_lossy();
+        // Unique per process and call; trim recognizes (and ages out) the `.tmp-` names.
+        let tmp = path.with_file_name(format!(".{name}.tmp-{}-{n}", std::process::id()));
+        let result = (|| {
+            use std::io::Write;
+            let mut f = std::fs::OpenOptions::new()
+                .write(true)
+                .create_new(true)
+                .open(&tmp)?;
+            f.write_all(&header)?;
+            f.write_all(payload)?;
+            drop(f);
+            std::fs::rename(&tmp, path)
+        })();
+        result.map_err(|source| {
+            let _ = std::fs::remove_file(&tmp);
+            CookError::Io {
+                path: path.to_path_buf(),
+                source,
+            }
+        })
     }
 }
 
@@ -378,6 +415,77 @@ impl Cache {
             }
         }
         Ok(trim)
+    }
+}
+
+/// What a cache directory holds.
+#[derive(Debug, Default, PartialEq, Eq)]
+pub struct Usage {
+    pub entries: usize,
+    pub blobs: usize,
+    pub bytes: u64,
+}
+
+impl Cache {
+    /// Counts the entries and blobs held locally.
+    pub fn usage(&self) -> Result<Usage, CookError> {
+        let mut u = Usage::default();
+        for (path, len) in self.local_files()? {
+            if path.extension().is_some_and(|e| e == "blob") {
+                u.blobs += 1;
+            } else {
+                u.entries += 1;
+            }
+            u.bytes += len;
+        }
+        Ok(u)
+    }
+
+    /// Checks every local entry and blob (blobs also against their SHA-256 name), removing the
+    /// damaged ones; returns them with what was wrong, and how many were checked.
+    pub fn verify(&self) -> Result<(usize, Vec<(PathBuf, String)>), CookError> {
+        let files = self.local_files()?;
+        let mut damaged = Vec::new();
+        for (path, _) in &files {
+            match read_entry(path) {
+                Lookup::Corrupt(why) => damaged.push((path.clone(), why)),
+                Lookup::Hit(payload) if path.extension().is_some_and(|e| e == "blob") => {
+                    let name = path.file_stem().unwrap_or_default().to_string_lossy();
+                    if parse_hex32(&name) != Some(digest(&payload)) {
+                        let _ = std::fs::remove_file(path);
+                        damaged.push((
+                            path.clone(),
+                            "content does not match its SHA-256 name".into(),
+                        ));
+                    }
+                }
+                _ => {}
+            }
+        }
+        Ok((files.len(), damaged))
+    }
+
+    fn local_files(&self) -> Result<Vec<(PathBuf, u64)>, CookError> {
+        let io = |source| CookError::Io {
+            path: self.dir.clone(),
+            source,
+        };
+        let mut out = Vec::new();
+        for e in std::fs::read_dir(&self.dir).map_err(io)? {
+            let Ok(e) = e else { continue };
+            let name = e.file_name();
+            let name = name.to_string_lossy();
+            if name.starts_with('.') || !(name.ends_with(".entry") || name.ends_with(".blob")) {
+                continue;
+            }
+            if let Ok(m) = e.metadata()
+                && m.is_file()
+            {
+                out.push((e.path(), m.len()));
+            }
+        }
+        out.sort();
+        Ok(out)
     }
 }
 

@@ -360,7 +360,13 @@ fn frame_windows(
         let name = &tagging.materials[mi as usize].material.name;
         let inside = window_plan::inside_of(tagging, mi);
         match windows::analyze(mi, &g, light, inside) {
-            Some(a) => frames.push(a.frame),
+            Some(mut a) => {
+                a.frame.source_materials = match &tagging.materials[mi as usize].window {
+                    Some(plan) => plan.materials.clone(),
+                    None => vec![name.clone()],
+                };
+                frames.push(a.frame)
+            }
             None if g.triangles.is_empty() => {}
             None => report.warnings.push(Warning::new(
                 &manifest.path,

@@ -135,6 +135,7 @@ pub fn analyze(
             u_axis: f3(u_axis),
             v_axis: f3(v_axis),
             normal: f3(normal),
+            source_materials: Vec::new(),
         },
         max_plane_distance: max_d as f32,
         plane_tolerance: (diag * 1e-3).max(1e-5) as f32,
@@ -297,6 +298,7 @@ mod tests {
             u_axis: [1.0, 0.0, 0.0],
             v_axis: [0.0, -1.0, 0.0],
             normal: [0.0, 0.0, 1.0],
+            source_materials: Vec::new(),
         }
     }
 

@@ -132,6 +132,7 @@ pub fn sample() -> (Toc, PackData) {
             u_axis: [1.0, 0.0, 0.0],
             v_axis: [0.0, 1.0, 0.0],
             normal: [0.0, 0.0, -1.0],
+            source_materials: vec!["rose-red".into(), "rose-blue".into()],
         }],
         light: Some(Light {
             kind: LightKind::Directional {

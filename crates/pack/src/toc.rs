@@ -289,6 +289,10 @@ pub struct Window {
     pub v_axis: [f32; 3],
     /// Unit normal pointing into the building (away from the light's side).
     pub normal: [f32; 3],
+    /// The materials the window's glass had in the source model, as named there (a rose window
+    /// cut from four coloured glasses lists all four); `validate` and `info` report them, since
+    /// the pack material is the cook's own per-window name.
+    pub source_materials: Vec<String>,
 }
 
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]

@@ -460,6 +460,7 @@ mod tests {
             u_axis: [2.0, 0.0, 0.0],
             v_axis: [0.0, 2.0, 0.0],
             normal: [0.0, 0.0, -1.0],
+            source_materials: Vec::new(),
         }
     }
 

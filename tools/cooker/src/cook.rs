@@ -22,24 +22,21 @@ pub struct Args {
     /// Print per-stage statistics: triangles, ACMR, overfetch, bytes per triangle, time.
     #[arg(short, long)]
     verbose: bool,
+    #[command(flatten)]
+    settings: SettingsArgs,
+    #[command(flatten)]
+    cache: crate::cache_cmd::CacheArgs,
+}
+
+/// The command line's settings, which override the manifest's.
+#[derive(clap::Args)]
+pub struct SettingsArgs {
     /// Fast mode: FIFO vertex cache optimization instead of the full optimizer.
     #[arg(long)]
     fifo: bool,
     /// Also reorder opaque ranges to reduce overdraw.
     #[arg(long)]
     overdraw: bool,
-    /// Where cooked artifacts are kept between cooks (default: $STAINED_GLASS_CACHE, else
-    /// $XDG_CACHE_HOME/stained-glass, else ~/.cache/stained-glass).
-    #[arg(long, value_name = "DIR")]
-    cache_dir: Option<PathBuf>,
-    /// Cook everything from scratch; read and write no cache.
-    #[arg(long, conflicts_with = "cache_dir")]
-    no_cache: bool,
-    /// The local cache's size cap: after each cook the least recently used entries beyond it
-    /// are deleted. Bytes, or with a unit: 500M, 5G, 5GiB (K, M, G, T are powers of 1024).
-    #[arg(long, value_name = "SIZE", env = "STAINED_GLASS_CACHE_MAX_SIZE",
-          default_value = "5GiB", value_parser = crate::size::parse)]
-    cache_max_size: u64,
     /// Error budget in 8-bit sRGB steps (LSB): per texture, the cheapest blur and mip method
     /// whose measured error stays within it (overrides the manifest's `[scene] max_error`).
     /// `--max-error` is the old spelling.
@@ -66,6 +63,33 @@ pub struct Args {
     windows: Vec<(String, PathBuf)>,
 }
 
+impl SettingsArgs {
+    /// One resolved value: the manifest's settings, then this command line's.
+    pub fn resolve(&self, manifest: &Manifest) -> anyhow::Result<Settings> {
+        let mut settings = Settings::new(manifest);
+        if let Some(b) = self.max_error {
+            if !(b.is_finite() && b >= 0.0) {
+                return Err(crate::exit::UsageError(format!(
+                    "--max-error-lsb must be a finite number >= 0, got {b}"
+                ))
+                .into());
+            }
+            settings.textures.max_error_lsb = Some(b);
+        }
+        settings.quantize = self.quantize;
+        settings.position_bits = self.position_bits;
+        settings.window_overrides = cook::manifest::WindowDesign::overrides(&self.windows)?;
+        settings.textures.format = self.texture_format;
+        settings.mesh.cache = if self.fifo {
+            CacheMode::Fifo
+        } else {
+            CacheMode::Full
+        };
+        settings.mesh.overdraw = self.overdraw;
+        Ok(settings)
+    }
+}
+
 fn position_bits(s: &str) -> Result<cook::mesh::PositionBits, String> {
     s.parse::<u32>()
         .ok()
@@ -88,52 +112,26 @@ fn ms(d: Duration) -> String {
 pub fn run(args: Args) -> Outcome {
     let start = Instant::now();
     let manifest = Manifest::open(&args.input)?;
-    // One resolved value: the manifest's settings, then this command line's.
-    let mut settings = Settings::new(&manifest);
-    if let Some(b) = args.max_error {
-        if !(b.is_finite() && b >= 0.0) {
-            return Err(crate::exit::UsageError(format!(
-                "--max-error-lsb must be a finite number >= 0, got {b}"
-            ))
-            .into());
-        }
-        settings.textures.max_error_lsb = Some(b);
-    }
-    settings.quantize = args.quantize;
-    settings.position_bits = args.position_bits;
-    settings.window_overrides = cook::manifest::WindowDesign::overrides(&args.windows)?;
-    settings.textures.format = args.texture_format;
-    settings.mesh.cache = if args.fifo {
-        CacheMode::Fifo
-    } else {
-        CacheMode::Full
-    };
-    settings.mesh.overdraw = args.overdraw;
+    let mut settings = args.settings.resolve(&manifest)?;
     // ACMR and overfetch are only printed with -v.
     settings.mesh.analyze = args.verbose;
 
     // Reuse: the whole pack when no input changed, else each texture whose inputs did not.
-    let cache = if args.no_cache {
-        None
-    } else {
-        Some(
-            cook::cache::Cache::open(
-                args.cache_dir
-                    .clone()
-                    .unwrap_or_else(cook::cache::Cache::default_dir),
-            )?
-            .with_max_size(args.cache_max_size),
-        )
+    let (cache, remote) = match args.cache.open()? {
+        Some((c, r)) => (Some(c), r),
+        None => (None, None),
     };
+    let remote = remote.as_deref();
     let scene_key = match &cache {
         Some(_) => Some(cook::cache::scene_key(&args.input, &settings)?),
         None => None,
     };
     if let (Some(cache), Some(key)) = (&cache, &scene_key) {
-        match scene_cache::lookup(cache, key, &args.input, &args.output) {
+        match scene_cache::lookup(cache, key, &args.input, &settings, &args.output) {
             scene_cache::Reuse::UpToDate(t) => {
                 replay(&t, args.verbose);
                 trim(cache, args.verbose);
+                crate::cache_cmd::finish_remote(remote, &args.cache)?;
                 println!(
                     "{} is up to date: no input changed since it was cooked: {} (reused, {})",
                     args.output.display(),
@@ -142,10 +140,23 @@ pub fn run(args: Args) -> Outcome {
                 );
                 return Ok(OK);
             }
-            scene_cache::Reuse::Pack(bytes, t) => {
-                pack::write_atomic(&args.output, &bytes)?;
+            scene_cache::Reuse::Pack(bytes, t, keep) => {
+                // A pack from the remote is kept locally while the output is written: two
+                // writes of the same bytes, on the two cores.
+                let bytes = &bytes[..];
+                std::thread::scope(|s| {
+                    if let Some(sha) = keep {
+                        s.spawn(move || {
+                            if let Err(e) = cache.keep_blob(&sha, bytes) {
+                                eprintln!("warning: cache not updated: {e}");
+                            }
+                        });
+                    }
+                    pack::write_atomic(&args.output, bytes)
+                })?;
                 replay(&t, args.verbose);
                 trim(cache, args.verbose);
+                crate::cache_cmd::finish_remote(remote, &args.cache)?;
                 println!(
                     "wrote {}: reused the cached pack, no input changed: {} in {}",
                     args.output.display(),
@@ -197,6 +208,8 @@ pub fn run(args: Args) -> Outcome {
         transcript.message(Stream::Out, format!("skipped: {s}"));
     }
 
+    // A remote that must answer and did not fails the cook before it touches the output.
+    crate::cache_cmd::check_remote(remote, &args.cache)?;
     let write_start = Instant::now();
     let bytes = pack::encode(out.toc.clone(), &out.data)?;
     pack::write_atomic(&args.output, &bytes)
@@ -249,14 +262,24 @@ pub fn run(args: Args) -> Outcome {
     );
     transcript.textures = report.artifacts.iter().map(|(n, _)| n.clone()).collect();
     if let (Some(cache), Some(key)) = (&cache, &scene_key)
-        && let Err(e) =
-            scene_cache::store(cache, key, &args.input, &report.inputs, &bytes, &transcript)
+        && let Err(e) = scene_cache::store(
+            cache,
+            scene_cache::Cooked {
+                key,
+                manifest: &args.input,
+                settings: &settings,
+                inputs: &report.inputs,
+                pack: &bytes,
+                transcript: &transcript,
+            },
+        )
     {
         eprintln!("warning: cache not updated: {e:#}");
     }
     if let Some(cache) = &cache {
         trim(cache, args.verbose);
     }
+    crate::cache_cmd::finish_remote(remote, &args.cache)?;
     println!(
         "wrote {}: {} in {}",
         args.output.display(),

@@ -21,6 +21,13 @@ pub fn code_for(e: &anyhow::Error) -> i32 {
         if cause.downcast_ref::<UsageError>().is_some() {
             return USAGE;
         }
+        // The remote cache failed where it had to answer: an I/O failure, not bad input.
+        if cause
+            .downcast_ref::<crate::cache_cmd::RemoteFailure>()
+            .is_some()
+        {
+            return IO;
+        }
         if let Some(p) = cause.downcast_ref::<pack::PackError>() {
             return if p.is_io() { IO } else { INVALID_INPUT };
         }

@@ -53,6 +53,7 @@ fn windows(toc: &pack::Toc, tris: &[u64]) -> Vec<serde_json::Value> {
             json!({
                 "name": m.name,
                 "material": w.material,
+                "source_materials": w.source_materials,
                 "class": m.class.name(),
                 "triangles": tris.get(w.material as usize).copied().unwrap_or(0),
                 "centre": centre.to_array(),
@@ -263,5 +264,17 @@ pub fn run(args: Args) -> Outcome {
             .collect::<Vec<_>>()
             .join(", ")
     );
+    for w in &toc.windows {
+        let m = &toc.materials[w.material as usize];
+        let len = |a: [f32; 3]| glam::Vec3::from(a).length();
+        println!(
+            "  {:<32} {:<12} {:>6.2} x {:<6.2} m  glass: {}",
+            m.name,
+            m.class.name(),
+            len(w.u_axis),
+            len(w.v_axis),
+            w.source_materials.join(", ")
+        );
+    }
     Ok(OK)
 }

@@ -4,12 +4,14 @@
 //! 3 invalid input (a malformed source file or pack); 4 an operating-system I/O error.
 //! A panic (101) is a bug.
 
+mod cache_cmd;
 mod cook;
 mod diff;
 mod exit;
 mod extract;
 mod info;
 mod init;
+mod remote;
 mod scene_cache;
 mod size;
 mod transcript;
@@ -38,6 +40,8 @@ enum Command {
     Diff(diff::Args),
     /// Write one cooked texture level as an 8-bit PNG (the stored bytes).
     Extract(extract::Args),
+    /// Inspect the cook cache: stats, verify, explain why a scene would be cooked.
+    Cache(cache_cmd::Args),
 }
 
 fn main() {
@@ -60,6 +64,7 @@ fn main() {
         Command::Validate(args) => validate::run(args),
         Command::Diff(args) => diff::run(args),
         Command::Extract(args) => extract::run(args),
+        Command::Cache(args) => cache_cmd::run(args),
     };
     std::process::exit(exit::report(result));
 }

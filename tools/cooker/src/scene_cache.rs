@@ -34,8 +34,9 @@ struct SceneResult {
 pub enum Reuse {
     /// The output already holds the cached pack byte for byte: nothing to write.
     UpToDate(Transcript),
-    /// The cached pack, to be written to the output.
-    Pack(Vec<u8>, Transcript),
+    /// The cached pack, to be written to the output; with its SHA-256 when it came from the
+    /// remote and is yet to be kept in the local cache.
+    Pack(Vec<u8>, Transcript, Option<[u8; 32]>),
     /// Cook it; the string says why (for `-v`).
     Cook(String),
 }
@@ -53,35 +54,94 @@ fn relative(manifest: &Path, path: &Path) -> PathBuf {
         .unwrap_or_else(|_| path.to_path_buf())
 }
 
-/// The result key: the scene key and each input's path and content.
-fn result_key(scene: &Key, manifest: &Path, inputs: &[PathBuf]) -> Result<Key, String> {
-    let mut k = KeyBuilder::new("scene result");
-    k.bytes("scene", &scene.0);
-    for rel in inputs {
-        let path = scene_dir(manifest).join(rel);
-        let bytes =
-            std::fs::read(&path).map_err(|_| format!("{} cannot be read", path.display()))?;
-        k.bytes("input", rel.as_os_str().as_encoded_bytes())
-            .bytes("sha256", &digest(&bytes));
-    }
-    Ok(k.finish())
+/// Each input with the SHA-256 of its content now.
+pub fn hash_inputs(
+    manifest: &Path,
+    inputs: &[PathBuf],
+) -> Result<Vec<(PathBuf, [u8; 32])>, String> {
+    inputs
+        .iter()
+        .map(|rel| {
+            let path = scene_dir(manifest).join(rel);
+            let bytes =
+                std::fs::read(&path).map_err(|_| format!("{} cannot be read", path.display()))?;
+            Ok((rel.clone(), digest(&bytes)))
+        })
+        .collect()
 }
 
-pub fn lookup(cache: &Cache, key: &Key, manifest: &Path, output: &Path) -> Reuse {
-    let inputs = match cache.get(key) {
-        Lookup::Hit(b) => b,
-        Lookup::Miss => return Reuse::Cook("not cooked before with these settings".into()),
-        Lookup::Corrupt(why) => {
-            return Reuse::Cook(format!("damaged cache entry, re-cooking: {why}"));
-        }
+/// The result key: the scene key and each input's path and content.
+pub fn result_key(scene: &Key, hashed: &[(PathBuf, [u8; 32])]) -> Key {
+    let mut k = KeyBuilder::new("scene result");
+    k.bytes("scene", &scene.0);
+    for (rel, sha) in hashed {
+        k.bytes("input", rel.as_os_str().as_encoded_bytes())
+            .bytes("sha256", sha);
+    }
+    k.finish()
+}
+
+/// The inputs the last cook of a scene key read, relative to the manifest's folder: from the
+/// local cache, else the remote.
+pub fn inputs_of(cache: &Cache, key: &Key) -> Result<Vec<PathBuf>, String> {
+    match cache.get(key) {
+        Lookup::Hit(b) => serde_json::from_slice::<SceneInputs>(&b)
+            .map(|i| i.inputs)
+            .map_err(|_| "unreadable scene entry".into()),
+        Lookup::Miss => Err("not cooked before with these settings".into()),
+        Lookup::Corrupt(why) => Err(format!("damaged cache entry, re-cooking: {why}")),
+    }
+}
+
+/// What the last cook of a scene on this machine was made from, for `cooker cache explain`.
+#[derive(Serialize, Deserialize)]
+pub struct Record {
+    pub manifest_sha256: String,
+    pub settings: serde_json::Value,
+    pub inputs: Vec<(PathBuf, String)>,
+}
+
+/// Where the record of the scene at `manifest` is kept (by its canonical path: the record is
+/// about this checkout).
+pub fn record_path(cache: &Cache, manifest: &Path) -> PathBuf {
+    let canonical = std::fs::canonicalize(manifest).unwrap_or_else(|_| manifest.to_path_buf());
+    let name = hex(&digest(canonical.as_os_str().as_encoded_bytes()));
+    cache.dir().join("scenes").join(format!("{name}.json"))
+}
+
+fn write_record(
+    cache: &Cache,
+    manifest: &Path,
+    settings: &cook::Settings,
+    hashed: &[(PathBuf, [u8; 32])],
+) -> Result<(), anyhow::Error> {
+    let record = Record {
+        manifest_sha256: hex(&digest(&std::fs::read(manifest)?)),
+        settings: serde_json::to_value(settings)?,
+        inputs: hashed.iter().map(|(p, h)| (p.clone(), hex(h))).collect(),
     };
-    let Ok(inputs) = serde_json::from_slice::<SceneInputs>(&inputs) else {
-        return Reuse::Cook("unreadable scene entry".into());
-    };
-    let result_key = match result_key(key, manifest, &inputs.inputs) {
-        Ok(k) => k,
+    let path = record_path(cache, manifest);
+    std::fs::create_dir_all(path.parent().expect("in the scenes folder"))?;
+    pack::write_atomic(&path, &serde_json::to_vec_pretty(&record)?)?;
+    Ok(())
+}
+
+pub fn lookup(
+    cache: &Cache,
+    key: &Key,
+    manifest: &Path,
+    settings: &cook::Settings,
+    output: &Path,
+) -> Reuse {
+    let inputs = match inputs_of(cache, key) {
+        Ok(i) => i,
         Err(why) => return Reuse::Cook(why),
     };
+    let hashed = match hash_inputs(manifest, &inputs) {
+        Ok(h) => h,
+        Err(why) => return Reuse::Cook(why),
+    };
+    let result_key = result_key(key, &hashed);
     let result = match cache.get(&result_key) {
         Lookup::Hit(b) => b,
         Lookup::Miss => {
@@ -98,6 +158,8 @@ pub fn lookup(cache: &Cache, key: &Key, manifest: &Path, output: &Path) -> Reuse
         return Reuse::Cook("unreadable scene entry".into());
     };
     let transcript = result.transcript.localized(manifest);
+    // What this checkout's pack is made of, for `cooker cache explain`, however it was had.
+    let _ = write_record(cache, manifest, settings, &hashed);
     if let Ok(existing) = std::fs::read(output)
         && existing.len() as u64 == result.pack_len
         && crc32fast::hash(&existing) == result.pack_crc
@@ -105,12 +167,15 @@ pub fn lookup(cache: &Cache, key: &Key, manifest: &Path, output: &Path) -> Reuse
     {
         return Reuse::UpToDate(transcript);
     }
-    match cache.get_blob(&pack_sha) {
+    let (found, from_remote) = cache.fetch_blob(&pack_sha);
+    match found {
+        // A remote blob has just been checked against this very SHA-256; a local one by its
+        // entry's CRC, so this CRC is what ties it to this result.
         Lookup::Hit(pack)
             if pack.len() as u64 == result.pack_len
-                && crc32fast::hash(&pack) == result.pack_crc =>
+                && (from_remote || crc32fast::hash(&pack) == result.pack_crc) =>
         {
-            Reuse::Pack(pack, transcript)
+            Reuse::Pack(pack, transcript, from_remote.then_some(pack_sha))
         }
         Lookup::Hit(_) => Reuse::Cook("cached pack does not match its scene entry".into()),
         Lookup::Miss => Reuse::Cook("cached pack was evicted".into()),
@@ -121,16 +186,28 @@ pub fn lookup(cache: &Cache, key: &Key, manifest: &Path, output: &Path) -> Reuse
 /// Records a fresh cook: the files it read, and under their content the pack and what the
 /// cook said. (A file edited while the cook was running is recorded with its new content;
 /// re-cook after such an edit.)
-pub fn store(
-    cache: &Cache,
-    key: &Key,
-    manifest: &Path,
-    inputs: &[PathBuf],
-    pack: &[u8],
-    transcript: &Transcript,
-) -> Result<(), anyhow::Error> {
+pub struct Cooked<'a> {
+    pub key: &'a Key,
+    pub manifest: &'a Path,
+    pub settings: &'a cook::Settings,
+    pub inputs: &'a [PathBuf],
+    pub pack: &'a [u8],
+    pub transcript: &'a Transcript,
+}
+
+pub fn store(cache: &Cache, c: Cooked) -> Result<(), anyhow::Error> {
+    let Cooked {
+        key,
+        manifest,
+        settings,
+        inputs,
+        pack,
+        transcript,
+    } = c;
     let inputs: Vec<PathBuf> = inputs.iter().map(|p| relative(manifest, p)).collect();
-    let result_key = result_key(key, manifest, &inputs).map_err(anyhow::Error::msg)?;
+    let hashed = hash_inputs(manifest, &inputs).map_err(anyhow::Error::msg)?;
+    let result_key = result_key(key, &hashed);
+    write_record(cache, manifest, settings, &hashed)?;
     let pack_sha = cache.put_blob(pack)?;
     let result = SceneResult {
         pack_sha256: hex(&pack_sha),

@@ -298,10 +298,13 @@ fn a_hit_replays_what_the_cook_said_marked_as_reused() {
     assert_eq!(moved_said.join("\n"), said.join("\n").replace(&a, &b));
 }
 
+/// The bytes of the cache's entries and blobs (what the cap counts).
 fn dir_size(dir: &Path) -> u64 {
     std::fs::read_dir(dir)
         .unwrap()
-        .map(|e| e.unwrap().metadata().unwrap().len())
+        .map(|e| e.unwrap().path())
+        .filter(|p| p.extension().is_some_and(|e| e == "entry" || e == "blob"))
+        .map(|p| p.metadata().unwrap().len())
         .sum()
 }
 
@@ -395,4 +398,46 @@ fn the_local_cache_keeps_under_its_cap_evicting_the_least_recently_used() {
         .filter(|n| n.contains(".tmp-"))
         .collect();
     assert!(temps.is_empty(), "{temps:?}");
+}
+
+#[test]
+fn explain_names_the_setting_or_input_that_changed() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = common::small_scene(&dir.path().join("a"));
+    let cache = dir.path().join("cache");
+    let out = dir.path().join("out.pack");
+    cook(&scene, &out, &cache);
+    let explain = |args: &[&str]| {
+        let o = Command::new(env!("CARGO_BIN_EXE_cooker"))
+            .args(["cache", "explain"])
+            .arg(&scene)
+            .arg("--cache-dir")
+            .arg(&cache)
+            .args(args)
+            .output()
+            .unwrap();
+        assert!(o.status.success(), "{}", stderr(&o));
+        stdout(&o)
+    };
+    let same = explain(&[]);
+    assert!(
+        same.contains("a cook would reuse the cached pack"),
+        "{same}"
+    );
+    let fifo = explain(&["--fifo", "--max-error-lsb", "2"]);
+    assert!(fifo.contains("a cook would cook it"), "{fifo}");
+    assert!(
+        fifo.contains("setting mesh.cache: \"Full\" -> \"Fifo\""),
+        "{fifo}"
+    );
+    assert!(
+        fifo.contains("setting textures.max_error_lsb: null -> 2.0"),
+        "{fifo}"
+    );
+    assert!(!fifo.contains("lit.png"), "{fifo}");
+    common::design(&dir.path().join("a/lit.png"), 1);
+    let edited = explain(&[]);
+    assert!(edited.contains("a cook would cook it"), "{edited}");
+    assert!(edited.contains("lit.png changed"), "{edited}");
+    assert!(!edited.contains("setting "), "{edited}");
 }

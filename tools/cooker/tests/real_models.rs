@@ -498,6 +498,17 @@ fn manifest_cook_rasterizes_the_rose_from_its_tf_colours_with_lead_and_a_project
     assert_eq!(w["design"].as_str(), Some(design.as_str()));
     assert_eq!(w["projector_texture"].as_str(), Some(projector.as_str()));
     assert_eq!(w["triangles"], 16);
+    // The glasses it was cut from, by their names in the model's MTL.
+    let mut glasses: Vec<&str> = w["source_materials"]
+        .as_array()
+        .expect("source materials")
+        .iter()
+        .map(|n| n.as_str().expect("a name"))
+        .collect();
+    glasses.sort_unstable();
+    let mut want: Vec<&str> = ROSE.iter().map(|(name, _, _)| *name).collect();
+    want.sort_unstable();
+    assert_eq!(glasses, want, "{w}");
     assert!((f(&w["width"]) - 3.0).abs() < 1e-4 && (f(&w["height"]) - 3.0).abs() < 1e-4);
     assert!(near3(vec3(&w["normal"]), [0.0, 0.0, 1.0]), "{w}");
     assert!(near3(vec3(&w["centre"]), [0.0, 6.0, -9.95]), "{w}");
@@ -548,6 +559,7 @@ fn manifest_cook_rasterizes_the_rose_from_its_tf_colours_with_lead_and_a_project
         assert_eq!(w["design_source"], "mesh colours", "{w}");
         assert!(w["projector_texture"].is_string(), "{w}");
         assert_eq!(w["triangles"], 3, "{w}");
+        assert_eq!(w["source_materials"], serde_json::json!(["glass"]), "{w}");
         assert!((f(&w["width"]) - 0.4).abs() < 1e-4, "{w}");
         assert!((f(&w["height"]) - 2.5).abs() < 1e-4, "{w}");
         assert!(near3(vec3(&w["normal"]), [1.0, 0.0, 0.0]), "{w}");

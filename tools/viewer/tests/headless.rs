@@ -90,6 +90,7 @@ fn tiny_pack() -> Vec<u8> {
             u_axis: [2.0, 0.0, 0.0],
             v_axis: [0.0, -2.0, 0.0],
             normal: [0.0, 0.0, 1.0],
+            source_materials: Vec::new(),
         }],
         light: Some(Light {
             kind: LightKind::Directional {

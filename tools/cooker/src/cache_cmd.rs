@@ -1,0 +1,382 @@
+//! The cache options every command that cooks shares, and `cooker cache stats|verify|explain`.
+
+use std::path::PathBuf;
+use std::sync::Arc;
+use std::time::Duration;
+
+use cook::Manifest;
+use cook::cache::{Cache, Lookup, hex, scene_key};
+
+use crate::exit::{FOUND_PROBLEMS, OK, Outcome};
+use crate::remote::{self, Remote, human};
+use crate::scene_cache;
+
+#[derive(clap::Args, Clone, Debug)]
+pub struct CacheArgs {
+    /// Where cooked artifacts are kept between cooks (default: $STAINED_GLASS_CACHE, else
+    /// $XDG_CACHE_HOME/stained-glass, else ~/.cache/stained-glass).
+    #[arg(long, value_name = "DIR")]
+    pub cache_dir: Option<PathBuf>,
+    /// Cook everything from scratch; read and write no cache, local or remote.
+    #[arg(long, conflicts_with = "cache_dir")]
+    pub no_cache: bool,
+    /// The local cache's size cap: after each cook the least recently used entries beyond it
+    /// are deleted. Bytes, or with a unit: 500M, 5G, 5GiB (K, M, G, T are powers of 1024).
+    #[arg(long, value_name = "SIZE", env = "STAINED_GLASS_CACHE_MAX_SIZE",
+          default_value = "5GiB", value_parser = crate::size::parse)]
+    pub cache_max_size: u64,
+    /// A remote cache shared by machines, consulted after a local miss: file:///share/dir,
+    /// redis://host:6379/0, http(s)://host/dav/ (WebDAV), s3://bucket/prefix.
+    #[arg(long, value_name = "URL", env = "STAINED_GLASS_CACHE_URL")]
+    pub cache_url: Option<String>,
+    /// The S3 endpoint (default: $AWS_ENDPOINT_URL_S3, $AWS_ENDPOINT_URL, else AWS).
+    #[arg(long, value_name = "URL")]
+    pub cache_endpoint: Option<String>,
+    /// Only read the remote cache. Without this or --cache-write, only CI writes (when $CI is
+    /// set), so workstations never fill the shared cache with their local edits.
+    #[arg(long, conflicts_with = "cache_write")]
+    pub cache_read_only: bool,
+    /// Write to the remote cache, even outside CI.
+    #[arg(long)]
+    pub cache_write: bool,
+    /// A remote failure (unreachable, refused, timed out) is an error instead of a miss: for CI
+    /// jobs that must hit. Exit code 4.
+    #[arg(long)]
+    pub cache_remote_required: bool,
+    /// The longest wait for one remote request, in seconds.
+    #[arg(long, value_name = "SECONDS", default_value = "60")]
+    pub cache_timeout: f64,
+}
+
+/// The remote cache failed and `--cache-remote-required` was given.
+#[derive(Debug, thiserror::Error)]
+#[error("remote cache {url}: {what} (--cache-remote-required)")]
+pub struct RemoteFailure {
+    pub url: String,
+    pub what: String,
+}
+
+/// Whether this runs in CI, by the variable CI services set.
+fn in_ci() -> bool {
+    std::env::var("CI").is_ok_and(|v| !v.is_empty() && v != "false" && v != "0")
+}
+
+impl CacheArgs {
+    /// The local cache and, when a URL is set, the remote behind it; `None` with `--no-cache`.
+    pub fn open(&self) -> anyhow::Result<Option<(Cache, Option<Arc<Remote>>)>> {
+        if self.no_cache {
+            return Ok(None);
+        }
+        let mut cache = Cache::open(self.cache_dir.clone().unwrap_or_else(Cache::default_dir))?
+            .with_max_size(self.cache_max_size);
+        let remote = match self.cache_url.as_deref().filter(|u| !u.is_empty()) {
+            Some(url) => {
+                if !(self.cache_timeout.is_finite() && self.cache_timeout > 0.0) {
+                    return Err(crate::exit::UsageError(format!(
+                        "--cache-timeout must be a number of seconds > 0, got {}",
+                        self.cache_timeout
+                    ))
+                    .into());
+                }
+                let opened = Remote::open(&remote::Options {
+                    url: url.to_string(),
+                    endpoint: self.cache_endpoint.clone(),
+                    read_only: self.cache_read_only || !(self.cache_write || in_ci()),
+                    required: self.cache_remote_required,
+                    timeout: Duration::from_secs_f64(self.cache_timeout),
+                });
+                match opened {
+                    Ok(r) => {
+                        let r = Arc::new(r);
+                        cache = cache.with_remote(r.clone());
+                        Some(r)
+                    }
+                    Err(e)
+                        if self.cache_remote_required
+                            || e.downcast_ref::<crate::exit::UsageError>().is_some() =>
+                    {
+                        return Err(RemoteFailure {
+                            url: remote::redact(url),
+                            what: format!("{e:#}"),
+                        }
+                        .into());
+                    }
+                    Err(e) => {
+                        eprintln!(
+                            "warning: remote cache {}: {e:#}; cooking locally",
+                            remote::redact(url)
+                        );
+                        None
+                    }
+                }
+            }
+            None => None,
+        };
+        Ok(Some((cache, remote)))
+    }
+}
+
+/// With `--cache-remote-required`, any remote error so far fails the command.
+pub fn check_remote(remote: Option<&Remote>, args: &CacheArgs) -> anyhow::Result<()> {
+    if let Some(r) = remote
+        && args.cache_remote_required
+    {
+        let s = r.summary();
+        if s.errors > 0 {
+            return Err(RemoteFailure {
+                url: r.shown().to_string(),
+                what: format!(
+                    "{} failed requests, the first: {}",
+                    s.errors,
+                    s.first_error.unwrap_or_default()
+                ),
+            }
+            .into());
+        }
+    }
+    Ok(())
+}
+
+/// Says what the remote did in this run; with `--cache-remote-required`, fails on errors.
+pub fn finish_remote(remote: Option<&Remote>, args: &CacheArgs) -> anyhow::Result<()> {
+    let Some(r) = remote else { return Ok(()) };
+    let s = r.summary();
+    let mut line = format!(
+        "remote cache {}: {} hits, {} misses, {} errors, {} down, {} up",
+        r.shown(),
+        s.hits,
+        s.misses,
+        s.errors,
+        human(s.bytes_down),
+        human(s.bytes_up)
+    );
+    if !s.corrupt.is_empty() {
+        line.push_str(&format!(", {} damaged blobs not used", s.corrupt.len()));
+    }
+    if args.cache_read_only || !(args.cache_write || in_ci()) {
+        line.push_str(" (read-only)");
+    }
+    println!("{line}");
+    check_remote(remote, args)
+}
+
+#[derive(clap::Args)]
+pub struct Args {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(clap::Subcommand)]
+enum Command {
+    /// What the local cache holds (entries, blobs, bytes against the cap) and the remote's.
+    Stats {
+        #[command(flatten)]
+        cache: CacheArgs,
+    },
+    /// Check every entry: local ones against their checksums (damaged ones are removed),
+    /// remote blobs against their SHA-256 names. Exit 1 when any is damaged.
+    Verify {
+        #[command(flatten)]
+        cache: CacheArgs,
+    },
+    /// Why a cook of the scene would miss: which input or setting changed since the last
+    /// cook of it recorded here, or which cache level holds its result.
+    Explain {
+        /// The scene (scene.toml or a mesh file), as it would be cooked.
+        input: PathBuf,
+        #[command(flatten)]
+        settings: crate::cook::SettingsArgs,
+        #[command(flatten)]
+        cache: CacheArgs,
+    },
+}
+
+pub fn run(args: Args) -> Outcome {
+    match args.command {
+        Command::Stats { cache } => stats(&cache),
+        Command::Verify { cache } => verify(&cache),
+        Command::Explain {
+            input,
+            settings,
+            cache,
+        } => explain(&input, &settings, &cache),
+    }
+}
+
+fn open(args: &CacheArgs) -> anyhow::Result<(Cache, Option<Arc<Remote>>)> {
+    args.open()?.ok_or_else(|| {
+        crate::exit::UsageError("--no-cache leaves no cache to look at".into()).into()
+    })
+}
+
+fn stats(args: &CacheArgs) -> Outcome {
+    let (cache, remote) = open(args)?;
+    let u = cache.usage()?;
+    println!(
+        "local cache {}: {} entries, {} blobs, {} of {} ({:.1}%)",
+        cache.dir().display(),
+        u.entries,
+        u.blobs,
+        human(u.bytes),
+        human(cache.max_size()),
+        100.0 * u.bytes as f64 / cache.max_size().max(1) as f64
+    );
+    if let Some(r) = remote {
+        for prefix in ["ac/", "cas/"] {
+            let objects = r.list(prefix)?;
+            let bytes: u64 = objects.iter().map(|o| o.1).sum();
+            println!(
+                "remote cache {}: {prefix}: {} objects, {}",
+                r.shown(),
+                objects.len(),
+                human(bytes)
+            );
+        }
+    }
+    Ok(OK)
+}
+
+fn verify(args: &CacheArgs) -> Outcome {
+    let (cache, remote) = open(args)?;
+    let (checked, damaged) = cache.verify()?;
+    for (path, why) in &damaged {
+        println!("damaged: {}: {why} (removed)", path.display());
+    }
+    println!(
+        "local cache {}: {checked} checked, {} damaged",
+        cache.dir().display(),
+        damaged.len()
+    );
+    let mut bad = damaged.len();
+    if let Some(r) = remote {
+        let blobs = r.list("cas/")?;
+        let mut remote_bad = 0;
+        for (path, _) in &blobs {
+            if let Err(why) = r.verify_blob(path) {
+                println!("damaged: {} {path}: {why}", r.shown());
+                remote_bad += 1;
+            }
+        }
+        println!(
+            "remote cache {}: {} blobs checked, {remote_bad} damaged",
+            r.shown(),
+            blobs.len()
+        );
+        bad += remote_bad;
+    }
+    Ok(if bad == 0 { OK } else { FOUND_PROBLEMS })
+}
+
+/// The leaves of a JSON value that differ between `old` and `new`, as `path: old -> new`.
+fn changed_leaves(prefix: &str, old: &serde_json::Value, new: &serde_json::Value) -> Vec<String> {
+    use serde_json::Value;
+    match (old, new) {
+        (Value::Object(a), Value::Object(b)) => {
+            let mut keys: Vec<&String> = a.keys().chain(b.keys()).collect();
+            keys.sort();
+            keys.dedup();
+            keys.into_iter()
+                .flat_map(|k| {
+                    let path = if prefix.is_empty() {
+                        k.clone()
+                    } else {
+                        format!("{prefix}.{k}")
+                    };
+                    changed_leaves(
+                        &path,
+                        a.get(k).unwrap_or(&Value::Null),
+                        b.get(k).unwrap_or(&Value::Null),
+                    )
+                })
+                .collect()
+        }
+        (a, b) if a == b => Vec::new(),
+        (a, b) => vec![format!("{prefix}: {a} -> {b}")],
+    }
+}
+
+fn explain(
+    input: &std::path::Path,
+    settings: &crate::cook::SettingsArgs,
+    args: &CacheArgs,
+) -> Outcome {
+    let manifest = Manifest::open(input)?;
+    let settings = settings.resolve(&manifest)?;
+    let (cache, remote) = open(args)?;
+    let local = Cache::open(cache.dir())?;
+    let key = scene_key(input, &settings)?;
+    println!("scene {}: key {}", input.display(), key.hex());
+    let level = |k: &cook::cache::Key| {
+        let here = matches!(local.get(k), Lookup::Hit(_));
+        let there = remote.as_ref().is_some_and(|r| r.has_action(k));
+        match (here, there) {
+            (true, true) => "held locally and remotely",
+            (true, false) => "held locally",
+            (false, true) => "held remotely",
+            (false, false) => "held nowhere",
+        }
+    };
+    let mut reusable = false;
+    // Where the entry is, before a lookup copies a remote one here.
+    let scene_level = level(&key);
+    match scene_cache::inputs_of(&cache, &key) {
+        Ok(inputs) => {
+            println!("  the manifest and settings were cooked before ({scene_level})");
+            match scene_cache::hash_inputs(input, &inputs) {
+                Ok(hashed) => {
+                    let result = scene_cache::result_key(&key, &hashed);
+                    let where_ = level(&result);
+                    println!("  with these {} inputs: result {}", hashed.len(), where_);
+                    reusable = where_ != "held nowhere";
+                }
+                Err(why) => println!("  {why}"),
+            }
+        }
+        Err(why) => println!("  {why}"),
+    }
+    if reusable {
+        println!("a cook would reuse the cached pack");
+        return Ok(OK);
+    }
+    let path = scene_cache::record_path(&cache, input);
+    let Ok(record) = std::fs::read(&path)
+        .map_err(|_| ())
+        .and_then(|b| serde_json::from_slice::<scene_cache::Record>(&b).map_err(|_| ()))
+    else {
+        println!(
+            "a cook would cook it: no earlier cook of {} is recorded in {}",
+            input.display(),
+            cache.dir().display()
+        );
+        return Ok(OK);
+    };
+    let mut why = Vec::new();
+    let manifest_sha = hex(&cook::cache::digest(&std::fs::read(input)?));
+    if manifest_sha != record.manifest_sha256 {
+        why.push(format!("{} changed", input.display()));
+    }
+    for c in changed_leaves("", &record.settings, &serde_json::to_value(&settings)?) {
+        why.push(format!("setting {c}"));
+    }
+    let dir = input.parent().unwrap_or(std::path::Path::new(""));
+    for (rel, sha) in &record.inputs {
+        let path = dir.join(rel);
+        match std::fs::read(&path) {
+            Ok(b) if hex(&cook::cache::digest(&b)) == *sha => {}
+            Ok(_) => why.push(format!("{} changed", path.display())),
+            Err(_) => why.push(format!("{} cannot be read", path.display())),
+        }
+    }
+    if why.is_empty() {
+        println!(
+            "a cook would cook it: nothing changed since the last cook recorded here, but its \
+             entries are gone (evicted, or never stored)"
+        );
+    } else {
+        println!("a cook would cook it; since the last cook recorded here:");
+        for w in why {
+            println!("  {w}");
+        }
+    }
+    Ok(OK)
+}
