@@ -28,7 +28,7 @@ pub struct FirstFrameConfig {
     pub scratch: PathBuf,
 }
 
-/// A binary built beside this one (`cargo build --release -p viewer -p cooker`), if any.
+/// A binary built beside this one (`cargo build --release -p viewer`), if any.
 fn sibling(name: &str) -> Option<PathBuf> {
     let exe = std::env::current_exe().ok()?;
     let p = exe.with_file_name(format!("{name}{}", std::env::consts::EXE_SUFFIX));
@@ -40,28 +40,20 @@ fn number_after(text: &str, prefix: &str) -> Option<f64> {
     rest.split_whitespace().next()?.parse().ok()
 }
 
-/// Empty when the viewer or cooker binary is not built beside the bench.
+/// Empty when the viewer is not built beside the bench.
 pub fn sweep(cfg: &FirstFrameConfig, progress: &mut dyn FnMut(&str)) -> Result<Vec<FirstFrameRow>> {
-    let (Some(viewer), Some(cooker)) = (sibling("viewer"), sibling("cooker")) else {
-        progress("first frame: viewer or cooker not built beside the bench, skipped");
+    let Some(viewer) = sibling("viewer") else {
+        progress("first frame: no viewer built beside the bench, skipped");
         return Ok(Vec::new());
     };
     std::fs::create_dir_all(&cfg.scratch)?;
     let pack = cfg.scratch.join("first-frame.pack");
-    let out = Command::new(&cooker)
-        .arg("cook")
-        .arg(&cfg.scene)
-        .arg("-o")
-        .arg(&pack)
-        .arg("--no-cache")
-        .output()
-        .context("running the cooker")?;
-    anyhow::ensure!(
-        out.status.success(),
-        "cooking {} failed: {}",
-        cfg.scene.display(),
-        String::from_utf8_lossy(&out.stderr)
-    );
+    let manifest = cook::Manifest::open(&cfg.scene)
+        .with_context(|| format!("loading {}", cfg.scene.display()))?;
+    let cooked = cook::cook(&manifest, &cook::Settings::new(&manifest))
+        .with_context(|| format!("cooking {}", cfg.scene.display()))?;
+    let bytes = pack::encode(cooked.toc, &cooked.data).context("encoding the pack")?;
+    std::fs::write(&pack, bytes).with_context(|| format!("writing {}", pack.display()))?;
     let modes: [(&str, &[&str]); 2] = [("default", &[]), ("--no-preview", &["--no-preview"])];
     let mut runs: Vec<Vec<(f64, f64, String)>> = vec![Vec::new(); modes.len()];
     for i in 0..cfg.runs.max(1) {
