@@ -78,7 +78,16 @@ fn texture(
     let levels = match codec {
         None => chain.levels.clone(),
         Some(c) => {
-            let out = texture::bc::compress_chain(c, chain, &t, role == TextureRole::Normal);
+            let out = texture::bc::compress_chain(
+                c,
+                chain,
+                &t,
+                if role == TextureRole::Normal {
+                    texture::bc::Measure::Normal
+                } else {
+                    texture::bc::Measure::Rgba
+                },
+            );
             t.format = c.format();
             out.levels
         }

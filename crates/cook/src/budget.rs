@@ -51,10 +51,10 @@ pub struct ErrorTable {
 /// every channel of every level, LSB of the stored sRGB values. On the default scene it takes
 /// ultra-fast for stone and sky and very-fast for the stained-glass designs (docs/bench).
 pub const DEFAULT_COLOUR_ERROR_LSB: f32 = 4.0;
-/// The same for projector textures. The smooth (strongly blurred) ones fit 1 LSB at level 0;
-/// the default scene's lancets (blurred by about 2 texels) need this much to compress at all,
-/// which the 12 MB goal of the default pack needs (docs/bench).
-pub const DEFAULT_PROJECTOR_ERROR_LSB: f32 = 2.5;
+/// The same for projector textures, over red, green and blue (renderers never sample their
+/// alpha). Stored at most `pack::PROJECTOR_MAX_SIZE` on a side, RGBA8 costs what BC7 at the
+/// design's full size did, so a projector BC7 cannot keep within this stays RGBA8 (docs/bench).
+pub const DEFAULT_PROJECTOR_ERROR_LSB: f32 = 1.0;
 /// The same for normal maps: mean angle in degrees (`[textures] max_normal_error_deg`).
 pub const DEFAULT_NORMAL_ERROR_DEG: f32 = 1.5;
 

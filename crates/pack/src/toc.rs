@@ -279,6 +279,11 @@ pub struct Mesh {
     pub ranges: Vec<DrawRange>,
 }
 
+/// The longest side, in texels, at which renderers sample projector textures: cookers store no
+/// larger level (projectors are blurred, so this keeps their detail), and renderers resample
+/// any projector to at most this size.
+pub const PROJECTOR_MAX_SIZE: u32 = 512;
+
 /// The plane a window's design is mapped onto: `world = origin + u * u_axis + v * v_axis` for
 /// texture coordinates `(u, v)` in [0, 1]. The renderer builds the projector from it.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]

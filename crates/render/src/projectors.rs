@@ -22,9 +22,9 @@ pub(crate) struct Projectors {
     copied: Vec<Option<u32>>,
 }
 
-/// Layers are square. Projectors are pre-blurred (the default scene's by 6 to 7 texels at
-/// 1024), so 512 keeps their detail while quartering the copy each streamed level costs.
-const MAX_PROJECTOR_SIZE: u32 = 512;
+/// Layers are square, at most the format's projector size: projectors are pre-blurred, so
+/// that keeps their detail while bounding the copy each streamed level costs.
+const MAX_PROJECTOR_SIZE: u32 = pack::PROJECTOR_MAX_SIZE;
 
 impl Projectors {
     /// One layer per distinct projector texture of the TOC's windows, in window order.

@@ -269,15 +269,29 @@ struct Tally {
     angles: Vec<f64>,
 }
 
-fn colour_tally(original: &[u8], decoded: &[u8]) -> Tally {
+fn colour_tally(original: &[u8], decoded: &[u8], channels: usize) -> Tally {
     let mut t = Tally::default();
-    for (&a, &b) in original.iter().zip(decoded) {
-        let d = a.abs_diff(b);
-        t.sum += d as f64 * d as f64;
-        t.max = t.max.max(d);
+    for (a, b) in original.chunks_exact(4).zip(decoded.chunks_exact(4)) {
+        for c in 0..channels {
+            let d = a[c].abs_diff(b[c]);
+            t.sum += d as f64 * d as f64;
+            t.max = t.max.max(d);
+        }
     }
-    t.count = original.len() as u64;
+    t.count = (original.len() / 4 * channels) as u64;
     t
+}
+
+/// What a chain's error is measured in, by what the renderer reads from it.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Measure {
+    /// RMS over all four channels, 8-bit steps.
+    Rgba,
+    /// RMS over red, green and blue (a texture whose alpha is never sampled, such as a
+    /// projector's), 8-bit steps.
+    Rgb,
+    /// Mean angle in degrees between unit normals (Z rebuilt).
+    Normal,
 }
 
 fn unit_normal(t: &[u8]) -> [f64; 3] {
@@ -341,7 +355,7 @@ fn finish(tallies: &[Tally], normal: bool) -> BlockError {
 
 /// Colour error of `decoded` against `original` (both RGBA8, same size).
 pub fn colour_error(original: &[u8], decoded: &[u8]) -> BlockError {
-    finish(&[colour_tally(original, decoded)], false)
+    finish(&[colour_tally(original, decoded, 4)], false)
 }
 
 /// Angular error of a decoded normal map (Z rebuilt, as `pack::texels` decodes BC5) against
@@ -359,14 +373,15 @@ pub struct Compressed {
 
 /// Compresses every level of `chain` (RGBA8, level 0 first) as the levels of `texture`
 /// (whose format, logical and storage sizes say how), and measures each against its source.
-/// `normal` selects the angular error measure. Levels are compressed one after another, each
-/// in parallel stripes.
+/// `measure` selects the error measure. Levels are compressed one after another, each in
+/// parallel stripes.
 pub fn compress_chain(
     codec: Codec,
     chain: &crate::MipChain,
     texture: &pack::Texture,
-    normal: bool,
+    measure: Measure,
 ) -> Compressed {
+    let normal = measure == Measure::Normal;
     let mut tallies = Vec::with_capacity(chain.levels.len());
     let levels = chain
         .levels
@@ -377,10 +392,10 @@ pub fn compress_chain(
             let (sw, sh) = texture.storage_level_size(k);
             let blocks = compress_level(codec, rgba, m.width, m.height, sw, sh);
             let decoded = pack::texels::decode_level(texture, k, &blocks);
-            tallies.push(if normal {
-                normal_tally(rgba, &decoded)
-            } else {
-                colour_tally(rgba, &decoded)
+            tallies.push(match measure {
+                Measure::Normal => normal_tally(rgba, &decoded),
+                Measure::Rgba => colour_tally(rgba, &decoded, 4),
+                Measure::Rgb => colour_tally(rgba, &decoded, 3),
             });
             blocks
         })

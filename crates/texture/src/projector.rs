@@ -19,6 +19,10 @@ pub struct ProjectorOptions {
     /// When set, the stored texture may start below the design's resolution (dropping leading
     /// levels) as long as sampling it bilinearly stays within this many LSB of the full blur.
     pub max_error_lsb: Option<f32>,
+    /// When set, leading levels are dropped until the stored level 0 is at most this many
+    /// texels on its longer side: the size a renderer samples projectors at
+    /// (`pack::PROJECTOR_MAX_SIZE`), so larger levels would only be bytes never read.
+    pub max_size: Option<u32>,
     pub method: BlurMethod,
 }
 
@@ -27,6 +31,7 @@ impl ProjectorOptions {
         Self {
             sigma_texels,
             max_error_lsb: None,
+            max_size: None,
             method: BlurMethod::Auto,
         }
     }
@@ -127,6 +132,20 @@ pub fn projector(
             }
             keep = k;
             max_error = Some(e);
+        }
+    }
+    if let Some(cap) = opts.max_size {
+        let first = keep;
+        while keep + 1 < encoded.len() && {
+            let (lw, lh) = level_size(w, h, keep);
+            lw.max(lh) > cap
+        } {
+            keep += 1;
+        }
+        if keep > first {
+            // Against the full-resolution blur, like the budget's levels: what the cap costs.
+            let (lw, lh) = level_size(w, h, keep);
+            max_error = Some(upsampled_error(&encoded[keep], lw, lh, &levels[0], w, h));
         }
     }
     let (sw, sh) = level_size(w, h, keep);

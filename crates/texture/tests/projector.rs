@@ -51,6 +51,7 @@ fn heavy_blur_is_stored_smaller_only_within_the_budget() {
     let opts = |budget| ProjectorOptions {
         sigma_texels: 24.0,
         max_error_lsb: budget,
+        max_size: None,
         method: BlurMethod::Auto,
     };
     let (full, _) = projector(&img, &opts(None)).unwrap();
@@ -73,10 +74,31 @@ fn heavy_blur_is_stored_smaller_only_within_the_budget() {
         &ProjectorOptions {
             sigma_texels: 1.0,
             max_error_lsb: Some(3.0),
+            max_size: None,
             method: BlurMethod::Auto,
         },
     )
     .unwrap();
+    assert_eq!(report.dropped_levels, 0);
+}
+
+#[test]
+fn a_size_cap_stores_the_first_level_that_fits_it_and_says_what_it_costs() {
+    let (w, h) = (100, 40);
+    let img = rgba_image(w, h, design(w, h, 6));
+    let mut opts = ProjectorOptions::new(3.0);
+    let (full, _) = projector(&img, &opts).unwrap();
+    opts.max_size = Some(30);
+    let (capped, report) = projector(&img, &opts).unwrap();
+    // 100 -> 50 -> 25: two levels dropped, the rest of the chain unchanged.
+    assert_eq!((capped.width, capped.height), (25, 10));
+    assert_eq!(report.dropped_levels, 2, "{report}");
+    assert_eq!(capped.levels[..], full.levels[2..]);
+    assert!(report.max_error_lsb.is_some_and(|e| e > 0.5), "{report}");
+    // A cap the design already fits changes nothing.
+    opts.max_size = Some(100);
+    let (same, report) = projector(&img, &opts).unwrap();
+    assert_eq!(same, full);
     assert_eq!(report.dropped_levels, 0);
 }
 
@@ -87,6 +109,7 @@ fn bad_budget_is_an_error() {
         let opts = ProjectorOptions {
             sigma_texels: 1.0,
             max_error_lsb: Some(b),
+            max_size: None,
             method: BlurMethod::Auto,
         };
         assert!(

@@ -33,6 +33,9 @@ pub struct CompressRow {
     pub error_max: f64,
 }
 
+/// A value per camera, by name.
+pub type PerCamera = Vec<(String, f64)>;
+
 #[derive(Clone, Debug, Serialize, Deserialize)]
 pub struct ScenePack {
     /// `rgba8` or `auto`.
@@ -51,6 +54,10 @@ pub struct CompressReport {
     pub render_size: (u32, u32),
     /// Why the scene part did not run, when it did not.
     pub scene_error: Option<String>,
+    /// Per camera: FLIP mean of the RGBA8 pack's render against itself with every channel one
+    /// 8-bit step brighter, the scale the scene's FLIP numbers are read against.
+    #[serde(default)]
+    pub flip_one_step: Vec<(String, f64)>,
 }
 
 pub struct CompressConfig {
@@ -94,7 +101,7 @@ struct Source {
     role: &'static str,
     image: String,
     chain: texture::MipChain,
-    normal: bool,
+    measure: texture::bc::Measure,
 }
 
 fn sources(max: u32) -> Result<Vec<Source>> {
@@ -114,20 +121,26 @@ fn sources(max: u32) -> Result<Vec<Source>> {
     };
     // The default scene's rose projector blur, scaled to the cropped size.
     let sigma = 6.57 * design.width() as f32 / 1024.0;
-    let (projector, _) = texture::projector(&design, &texture::ProjectorOptions::new(sigma))
-        .context("blurring the projector")?;
+    // As the cooker stores it: no larger than renderers sample it, alpha (never sampled) opaque.
+    let mut opts = texture::ProjectorOptions::new(sigma);
+    opts.max_size = Some(pack::PROJECTOR_MAX_SIZE);
+    let (mut projector, _) =
+        texture::projector(&design, &opts).context("blurring the projector")?;
+    for level in &mut projector.levels {
+        level.iter_mut().skip(3).step_by(4).for_each(|a| *a = 255);
+    }
     Ok(vec![
         Source {
             role: "stained-glass design",
             image: name(&design_path),
             chain: texture::colour_mips(&design, &srgb)?,
-            normal: false,
+            measure: texture::bc::Measure::Rgba,
         },
         Source {
             role: "projector",
             image: format!("{} blurred, sigma {sigma:.2}", name(&design_path)),
             chain: projector,
-            normal: false,
+            measure: texture::bc::Measure::Rgb,
         },
         Source {
             role: "normal map",
@@ -137,13 +150,13 @@ fn sources(max: u32) -> Result<Vec<Source>> {
                 texture::NormalEncoding::Rgb,
                 texture::GreenAxis::OpenGl,
             )?,
-            normal: true,
+            measure: texture::bc::Measure::Normal,
         },
         Source {
             role: "stone",
             image: name(&stone_path),
             chain: texture::colour_mips(&load(&stone_path, max)?, &srgb)?,
-            normal: false,
+            measure: texture::bc::Measure::Rgba,
         },
     ])
 }
@@ -174,7 +187,7 @@ pub fn sweep(cfg: &CompressConfig, progress: &mut dyn FnMut(&str)) -> Result<Com
     let one = rayon::ThreadPoolBuilder::new().num_threads(1).build()?;
     let mut rows = Vec::new();
     for s in sources(cfg.max_size)? {
-        let codecs: Vec<Codec> = if s.normal {
+        let codecs: Vec<Codec> = if s.measure == texture::bc::Measure::Normal {
             vec![Codec::Bc5]
         } else {
             cfg.profiles.iter().map(|&p| Codec::Bc7(p)).collect()
@@ -186,7 +199,7 @@ pub fn sweep(cfg: &CompressConfig, progress: &mut dyn FnMut(&str)) -> Result<Com
             for _ in 0..cfg.runs.max(1) {
                 let start = Instant::now();
                 let c = one
-                    .install(|| texture::bc::compress_chain(codec, &s.chain, &texture, s.normal));
+                    .install(|| texture::bc::compress_chain(codec, &s.chain, &texture, s.measure));
                 times.push(start.elapsed().as_secs_f64() * 1e3);
                 last = Some(c);
             }
@@ -214,10 +227,14 @@ pub fn sweep(cfg: &CompressConfig, progress: &mut dyn FnMut(&str)) -> Result<Com
         scene: Vec::new(),
         render_size: cfg.render_size,
         scene_error: None,
+        flip_one_step: Vec::new(),
     };
     if let Some(scene) = &cfg.scene {
         match scene_effect(scene, cfg, progress) {
-            Ok(s) => report.scene = s,
+            Ok((s, step)) => {
+                report.scene = s;
+                report.flip_one_step = step;
+            }
             Err(e) => {
                 progress(&format!("compression: scene part not run: {e:#}"));
                 report.scene_error = Some(format!("{e:#}"));
@@ -227,12 +244,22 @@ pub fn sweep(cfg: &CompressConfig, progress: &mut dyn FnMut(&str)) -> Result<Com
     Ok(report)
 }
 
-/// Cooks the scene both ways, renders every camera of both, and compares.
+fn flip_mean(w: u32, h: u32, a: &[u8], b: &[u8]) -> f64 {
+    let e = nv_flip::flip(
+        nv_flip::FlipImageRgb8::with_data(w, h, a),
+        nv_flip::FlipImageRgb8::with_data(w, h, b),
+        nv_flip::DEFAULT_PIXELS_PER_DEGREE,
+    );
+    nv_flip::FlipPool::from_image(&e).mean() as f64
+}
+
+/// Cooks the scene both ways, renders every camera of both, and compares; also returns what
+/// one 8-bit step on every channel of the RGBA8 renders measures.
 fn scene_effect(
     scene: &Path,
     cfg: &CompressConfig,
     progress: &mut dyn FnMut(&str),
-) -> Result<Vec<ScenePack>> {
+) -> Result<(Vec<ScenePack>, PerCamera)> {
     use cook::manifest::TextureFormatChoice;
     let manifest =
         cook::Manifest::load(scene).with_context(|| format!("loading {}", scene.display()))?;
@@ -240,6 +267,7 @@ fn scene_effect(
     let (w, h) = cfg.render_size;
     let mut out = Vec::new();
     let mut reference: Vec<Vec<u8>> = Vec::new();
+    let mut one_step = Vec::new();
     for (name, format) in [
         ("rgba8", TextureFormatChoice::Rgba8),
         ("auto", TextureFormatChoice::Auto),
@@ -270,15 +298,10 @@ fn scene_effect(
                 .flat_map(|p| [p[0], p[1], p[2]])
                 .collect();
             let f = match reference.get(i) {
-                Some(base) => {
-                    let e = nv_flip::flip(
-                        nv_flip::FlipImageRgb8::with_data(w, h, base),
-                        nv_flip::FlipImageRgb8::with_data(w, h, &rgb),
-                        nv_flip::DEFAULT_PIXELS_PER_DEGREE,
-                    );
-                    nv_flip::FlipPool::from_image(&e).mean() as f64
-                }
+                Some(base) => flip_mean(w, h, base, &rgb),
                 None => {
+                    let brighter: Vec<u8> = rgb.iter().map(|v| v.saturating_add(1)).collect();
+                    one_step.push((camera.name.clone(), flip_mean(w, h, &rgb, &brighter)));
                     reference.push(rgb);
                     0.0
                 }
@@ -297,5 +320,5 @@ fn scene_effect(
         ));
         out.push(row);
     }
-    Ok(out)
+    Ok((out, one_step))
 }

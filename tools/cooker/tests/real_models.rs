@@ -550,7 +550,12 @@ fn manifest_cook_rasterizes_the_rose_from_its_tf_colours_with_lead_and_a_project
     assert_eq!(p.dimensions(), img.dimensions());
     let red = *p.get_pixel(210, 90);
     assert!(red[0] > 200 && red[1] < 120 && red[2] < 120, "{red:?}");
-    assert_eq!(p.get_pixel(2, 2)[3], 0);
+    // No light in the corners (a projector's alpha is never sampled: its colour is the light).
+    assert!(
+        p.get_pixel(2, 2).0[..3].iter().all(|&c| c <= 1),
+        "{:?}",
+        p.get_pixel(2, 2)
+    );
 
     // The lancets, with no [[window]], get designs from their Kd; all thirty are lit, in
     // the order of the file, 0.6 m apart, facing into the nave (+x).
@@ -683,7 +688,14 @@ fn a_rectangular_design_on_a_pointed_lancet_throws_pointed_light() {
         let img = extract(&pack, name, dir.path());
         let (w, h) = img.dimensions();
         assert_eq!((w, h), (48, 300), "{name}");
-        let alpha = |x: u32, y: u32| img.get_pixel(x, y)[3];
+        // A design's glass is its alpha; a projector's light is its (premultiplied) colour,
+        // since renderers never sample its alpha: the photo's red is 230.
+        let is_projector = name == &projector;
+        let full = if is_projector { 230 } else { 255 };
+        let light = |x: u32, y: u32| {
+            let p = img.get_pixel(x, y);
+            if is_projector { p[0] } else { p[3] }
+        };
         // Beside the point (the top fifth is the arch): stone, no light.
         for (x, y) in [
             (1, 1),
@@ -693,16 +705,25 @@ fn a_rectangular_design_on_a_pointed_lancet_throws_pointed_light() {
             (4, 30),
             (w - 5, 30),
         ] {
-            assert_eq!(alpha(x, y), 0, "{name}: ({x}, {y}) beside the point");
+            assert!(
+                light(x, y) <= 1,
+                "{name}: ({x}, {y}) beside the point: {}",
+                light(x, y)
+            );
         }
         // The point itself and the body are glass.
         assert!(
-            alpha(w / 2, 30) > 128,
+            light(w / 2, 30) > full / 2,
             "{name}: the point {}",
-            alpha(w / 2, 30)
+            light(w / 2, 30)
         );
-        assert_eq!(alpha(w / 2, h / 2), 255, "{name}: the body");
-        assert_eq!(alpha(w / 2, h - 10), 255, "{name}: the sill");
+        for (what, y) in [("the body", h / 2), ("the sill", h - 10)] {
+            assert!(
+                light(w / 2, y).abs_diff(full) <= 3,
+                "{name}: {what} {}",
+                light(w / 2, y)
+            );
+        }
     }
 }
 
