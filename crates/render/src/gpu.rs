@@ -70,6 +70,19 @@ impl Gpu {
         )
     }
 
+    /// The first frame of a scene is drawn at the output size divided by this, and shown
+    /// scaled up until the next frame. On a CPU rasterizer a frame's cost grows with its pixels
+    /// and is most of the time to first frame (scene and pipeline creation and the uploads are
+    /// small beside it: `viewer -v` prints the split), so there a quarter of the pixels comes
+    /// first; a GPU draws the whole frame in milliseconds, so there the divisor is 1.
+    pub fn first_frame_divisor(&self) -> u32 {
+        if self.adapter.get_info().device_type == wgpu::DeviceType::Cpu {
+            2
+        } else {
+            1
+        }
+    }
+
     /// Blocks until the GPU has finished all submitted work.
     pub fn wait(&self) -> Result<(), RenderError> {
         self.device

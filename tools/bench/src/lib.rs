@@ -10,9 +10,11 @@
 pub mod blur;
 pub mod common;
 pub mod compress;
+pub mod first_frame;
 pub mod godrays;
 pub mod mesh;
 pub mod mips;
 pub mod report;
 pub mod shadows;
 pub mod svg;
+pub mod tangents;

@@ -1,6 +1,6 @@
 //! `bench [--quick] [--out docs/bench] [--runs N] [--emit-table PATH] [--emit-god-ray-table PATH]`:
 //! measures run time
-//! against error for blur, mips, meshes and god rays on this machine and writes the report.
+//! against error for blur, mips, meshes, tangents and god rays on this machine and writes the report.
 
 use std::path::PathBuf;
 
@@ -50,7 +50,7 @@ struct Args {
     /// Skip the god-ray and shadow sweeps (they need a GPU adapter; lavapipe is enough).
     #[arg(long)]
     no_god_rays: bool,
-    /// Run only these sweeps (blur, mips, meshes, god-rays, shadows, compression), comma-separated; the others are
+    /// Run only these sweeps (blur, mips, meshes, tangents, god-rays, shadows, first-frame, compression), comma-separated; the others are
     /// left out of the report.
     #[arg(long, value_delimiter = ',')]
     only: Option<Vec<String>>,
@@ -152,6 +152,18 @@ fn main() -> Result<()> {
     } else {
         Vec::new()
     };
+    let tangents = if wanted("tangents") {
+        bench::tangents::sweep(
+            &bench::tangents::TangentConfig {
+                grid: if args.quick { 40 } else { 640 },
+                runs: runs.max(if args.quick { 1 } else { 5 }),
+                model: bench::tangents::spot_path(),
+            },
+            &mut progress,
+        )?
+    } else {
+        Vec::new()
+    };
     let god_rays = if args.no_god_rays || !wanted("god-rays") {
         Err("skipped".to_string())
     } else {
@@ -212,6 +224,23 @@ fn main() -> Result<()> {
     if let Err(e) = &shadows {
         eprintln!("shadows not measured: {e}");
     }
+    // Not in --quick: it runs the viewer binary, which the test suite's bench run may find
+    // stale beside it.
+    let first_frame = if args.quick || args.no_god_rays || !wanted("first-frame") {
+        Vec::new()
+    } else if let Some(scene) = bench::first_frame::default_scene() {
+        bench::first_frame::sweep(
+            &bench::first_frame::FirstFrameConfig {
+                scene,
+                runs: runs.max(5),
+                size: (1280, 720),
+                scratch: scratch.clone(),
+            },
+            &mut progress,
+        )?
+    } else {
+        Vec::new()
+    };
     let compression = if wanted("compression") {
         use texture::bc::Bc7Profile;
         bench::compress::sweep(
@@ -245,6 +274,8 @@ fn main() -> Result<()> {
         god_rays,
         shadows,
         compression,
+        tangents,
+        first_frame,
     };
     if args.keep_others {
         let path = args.out.join("results.json");

@@ -36,6 +36,13 @@ pub struct Results {
     /// `Err` text when the shadow sweep did not run (reports from before it read so).
     #[serde(default = "not_measured")]
     pub shadows: Result<crate::shadows::ShadowReport, String>,
+    /// MikkTSpace tangents against the `mikktspace` crate (empty in reports from before it).
+    #[serde(default)]
+    pub tangents: Vec<crate::tangents::TangentRow>,
+    /// The viewer's time to first frame (empty in reports from before it, or when the viewer
+    /// was not built).
+    #[serde(default)]
+    pub first_frame: Vec<crate::first_frame::FirstFrameRow>,
 }
 
 fn not_measured() -> Result<crate::shadows::ShadowReport, String> {
@@ -89,6 +96,14 @@ impl Results {
         if !ran.contains(&"shadows") {
             kept.push(note("shadows"));
             self.shadows = earlier.shadows;
+        }
+        if !ran.contains(&"first-frame") {
+            kept.push(note("first-frame"));
+            self.first_frame = earlier.first_frame;
+        }
+        if !ran.contains(&"tangents") {
+            kept.push(note("tangents"));
+            self.tangents = earlier.tangents;
         }
         if !ran.contains(&"compression") {
             kept.push(note("compression"));
@@ -295,8 +310,10 @@ pub fn write_report(dir: &Path, r: &Results) -> Result<()> {
     blur_section(dir, &mut md, r)?;
     mip_section(dir, &mut md, r)?;
     mesh_section(dir, &mut md, r)?;
+    tangent_section(&mut md, r);
     god_ray_section(dir, &mut md, r)?;
     shadow_section(&mut md, r);
+    first_frame_section(&mut md, r);
     compression_section(dir, &mut md, r)?;
     write(dir, "README.md", &md)?;
     write(dir, "results.json", &serde_json::to_string_pretty(r)?)?;
@@ -646,6 +663,70 @@ fn mip_section(dir: &Path, md: &mut String, r: &Results) -> Result<()> {
     )?;
     let _ = writeln!(md, "![mips](mips.svg)\n");
     Ok(())
+}
+
+fn first_frame_section(md: &mut String, r: &Results) {
+    if r.first_frame.is_empty() {
+        return;
+    }
+    let _ = writeln!(md, "## Viewer first frame\n");
+    let _ = writeln!(
+        md,
+        "Whole headless viewer processes on the default scene's pack (camera `nave`), runs of \
+         both modes interleaved, medians; the clock starts when the pack starts streaming (the \
+         device is created before it). By default a CPU rasterizer draws a half-size preview \
+         first (`Gpu::first_frame_divisor`); `--no-preview` draws the whole frame first. The \
+         split is the viewer's own (`-v`) for the median run.\n"
+    );
+    let _ = writeln!(
+        md,
+        "| mode | runs | first frame | full quality | first frame's split |"
+    );
+    let _ = writeln!(md, "|---|---|---|---|---|");
+    for f in &r.first_frame {
+        let _ = writeln!(
+            md,
+            "| {} | {} | {:.0} ms | {:.0} ms | {} |",
+            f.mode, f.runs, f.first_frame_ms, f.full_quality_ms, f.split
+        );
+    }
+    md.push('\n');
+}
+
+fn tangent_section(md: &mut String, r: &Results) {
+    if r.tangents.is_empty() {
+        return;
+    }
+    let _ = writeln!(md, "## Tangents\n");
+    let _ = writeln!(
+        md,
+        "MikkTSpace tangents of the corners the cooker's mesh stage leaves (generated normals, \
+         deduplicated vertices, cache-optimized order): ours (`cook::mesh::tangents`) against the \
+         `mikktspace` crate on the same corners, medians. The difference is the largest of any \
+         tangent component over every corner.\n"
+    );
+    let _ = writeln!(
+        md,
+        "| mesh | triangles | runs | mikktspace crate | ours, all cores | ours, one thread | time ratio (all cores / one thread) | max difference | signs agree |"
+    );
+    let _ = writeln!(md, "|---|---|---|---|---|---|---|---|---|");
+    for t in &r.tangents {
+        let _ = writeln!(
+            md,
+            "| {} | {} | {} | {:.2} ms | {:.2} ms | {:.2} ms | {:.3} / {:.3} | {:.1e} | {} |",
+            t.mesh,
+            t.triangles,
+            t.runs,
+            t.reference_ms,
+            t.ours_ms,
+            t.ours_one_thread_ms,
+            t.ours_ms / t.reference_ms,
+            t.ours_one_thread_ms / t.reference_ms,
+            t.max_difference,
+            if t.signs_agree { "yes" } else { "no" }
+        );
+    }
+    md.push('\n');
 }
 
 fn mesh_section(dir: &Path, md: &mut String, r: &Results) -> Result<()> {

@@ -144,6 +144,12 @@ fn quick_bench_writes_a_sane_report_and_error_table() {
 
     // Meshes: optimizing the vertex cache never makes ACMR worse than the source order, and
     // 16-bit positions stay within half a quantization step of the extent.
+    let tangents = r["tangents"].as_array().unwrap();
+    assert_eq!(tangents.len(), 2, "Spot and the height field: {tangents:?}");
+    for t in tangents {
+        assert!(t["max_difference"].as_f64().unwrap() <= 1e-5, "{t}");
+        assert_eq!(t["signs_agree"], true, "{t}");
+    }
     let meshes = r["meshes"].as_array().unwrap();
     for mesh in ["generated 100x100 height field", "Stanford bunny"] {
         let row = |cache: &str, bits: u64| {
@@ -259,6 +265,7 @@ fn quick_bench_writes_a_sane_report_and_error_table() {
     assert_eq!(again["god_rays"], r["god_rays"]);
     assert_eq!(again["shadows"], r["shadows"]);
     assert_eq!(again["compression"], r["compression"]);
+    assert_eq!(again["tangents"], r["tangents"]);
     assert!(
         again["blur"]
             .as_array()
@@ -274,7 +281,15 @@ fn quick_bench_writes_a_sane_report_and_error_table() {
         .collect();
     assert_eq!(
         kept,
-        ["mips", "meshes", "god-rays", "shadows", "compression"]
+        [
+            "mips",
+            "meshes",
+            "god-rays",
+            "shadows",
+            "first-frame",
+            "tangents",
+            "compression"
+        ]
     );
     let readme = std::fs::read_to_string(out.join("README.md")).unwrap();
     assert!(readme.contains("The mips sweep is kept from an earlier run"));

@@ -46,9 +46,14 @@ struct Args {
     /// shadow map and why.
     #[arg(long)]
     passes: bool,
-    /// Say which windows got a shadow map and why (also printed with --passes).
+    /// Say which windows got a shadow map and why (also printed with --passes), and where the
+    /// first frame's time went.
     #[arg(short, long)]
     verbose: bool,
+    /// Draw the first frame at full size even on a CPU rasterizer, which otherwise draws a
+    /// half-size preview first.
+    #[arg(long)]
+    no_preview: bool,
     /// Window light passes through stone, as plain projective texturing does (no shadow maps).
     #[arg(long)]
     no_occlusion: bool,
@@ -202,36 +207,73 @@ fn load(gpu: &Gpu, args: &Args, settings: Settings) -> Result<(Scene, Renderer)>
     let rx = stream(args.input.clone(), source);
     let mut scene: Option<(Scene, Renderer, View)> = None;
     let mut first_frame = false;
+    // Where the first frame's time goes, for `-v`: waiting for the reader, scene and renderer
+    // creation (pipelines), uploads, and the frame itself.
+    let mut waited = Duration::ZERO;
+    let mut uploads = Duration::ZERO;
+    let mut created = Duration::ZERO;
     loop {
-        match rx.recv().context("pack reader thread ended unexpectedly")? {
+        let wait = Instant::now();
+        let message = rx.recv().context("pack reader thread ended unexpectedly")?;
+        if !first_frame {
+            waited += wait.elapsed();
+        }
+        match message {
             Message::Toc(toc) => {
+                let create = Instant::now();
                 let s = Scene::new(gpu, &toc)?;
-                let r = Renderer::headless(gpu, &s, args.size.0, args.size.1, settings)?;
-                let view = match toc.cameras.first() {
-                    Some(c) => r.view_for(c),
-                    None => {
-                        let (lo, hi) = s.bounds();
-                        View::framing(lo, hi, args.size.0 as f32 / args.size.1 as f32)
-                    }
+                let div = if args.no_preview {
+                    1
+                } else {
+                    gpu.first_frame_divisor()
                 };
+                let (w, h) = ((args.size.0 / div).max(1), (args.size.1 / div).max(1));
+                let r = Renderer::headless(gpu, &s, w, h, settings)?;
+                created = create.elapsed();
+                let view = first_view(&s, &r);
                 scene = Some((s, r, view));
             }
             Message::Section(section) => {
                 let (s, r, view) = scene.as_mut().context("section before the TOC")?;
+                let upload = Instant::now();
                 s.upload_section(gpu, &section)?;
+                if !first_frame {
+                    uploads += upload.elapsed();
+                }
                 if !first_frame && s.ready_for_first_frame() {
+                    let frame = Instant::now();
                     s.refresh(gpu);
                     r.render(gpu, s, view, TimingMethod::None)?;
                     gpu.wait()?;
                     first_frame = true;
                     let st = s.status();
+                    let (w, h) = r.size();
+                    let preview = if (w, h) == args.size {
+                        String::new()
+                    } else {
+                        format!("{w}x{h} preview, ")
+                    };
                     println!(
-                        "first frame after {:.1} ms (geometry + {}/{} mips, {} bytes uploaded)",
+                        "first frame after {:.1} ms ({preview}geometry + {}/{} mips, {} bytes uploaded)",
                         ms(start.elapsed()),
                         st.mips_loaded,
                         st.mips_total,
                         st.bytes_uploaded
                     );
+                    if r.size() != args.size {
+                        r.resize(gpu, args.size.0, args.size.1);
+                        *view = first_view(s, r);
+                    }
+                    if args.verbose {
+                        println!(
+                            "first frame: waiting for the reader {:.1} ms, scene and renderer \
+                             (pipelines) {:.1} ms, uploads {:.1} ms, frame {:.1} ms",
+                            ms(waited),
+                            ms(created),
+                            ms(uploads),
+                            ms(frame.elapsed())
+                        );
+                    }
                 }
             }
             Message::Done => break,
@@ -250,6 +292,18 @@ fn load(gpu: &Gpu, args: &Args, settings: Settings) -> Result<(Scene, Renderer)>
         s.status().bytes_uploaded
     );
     Ok((s, r))
+}
+
+/// The pack's first camera at the renderer's aspect ratio, or a view framing the scene.
+fn first_view(scene: &Scene, renderer: &Renderer) -> View {
+    match scene.toc().cameras.first() {
+        Some(c) => renderer.view_for(c),
+        None => {
+            let (lo, hi) = scene.bounds();
+            let (w, h) = renderer.size();
+            View::framing(lo, hi, w as f32 / h as f32)
+        }
+    }
 }
 
 fn file_name(camera: &str) -> String {
@@ -403,6 +457,7 @@ fn main() -> Result<()> {
             settings,
             watch: args.watch,
             vsync: !args.no_vsync,
+            no_preview: args.no_preview,
             script: args.script.clone(),
         })?;
         match outcome {
@@ -410,8 +465,15 @@ fn main() -> Result<()> {
             interactive::Outcome::NoDisplay(why) => println!("{why}: rendering headless"),
         }
     }
+    let gpu_start = Instant::now();
     let gpu = Gpu::headless()?;
     println!("adapter: {}", gpu.describe());
+    if args.verbose {
+        println!(
+            "instance, adapter and device: {:.1} ms",
+            ms(gpu_start.elapsed())
+        );
+    }
     let (scene, mut renderer) = load(&gpu, &args, settings)?;
 
     let toc = scene.toc();

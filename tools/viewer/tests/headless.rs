@@ -189,6 +189,53 @@ fn writes_every_camera_and_pass() {
     let _ = std::fs::remove_dir_all(&dir);
 }
 
+/// On lavapipe (a CPU rasterizer) the first frame is a half-size preview, which changes no
+/// image written; `--no-preview` draws it at full size.
+#[test]
+fn first_frame_preview_leaves_the_images_alone() {
+    let dir = scratch("first-frame");
+    let pack_path = dir.join("tiny.pack");
+    std::fs::write(&pack_path, tiny_pack()).unwrap();
+    let run = |name: &str, extra: &[&str]| {
+        let out = dir.join(name);
+        let mut args = vec![
+            pack_path.as_os_str(),
+            "--headless".as_ref(),
+            "--out".as_ref(),
+            out.as_os_str(),
+            "--size".as_ref(),
+            "64x36".as_ref(),
+            "-v".as_ref(),
+        ];
+        args.extend(extra.iter().map(std::ffi::OsStr::new));
+        let o = viewer(&args);
+        let stdout = String::from_utf8_lossy(&o.stdout).into_owned();
+        assert!(
+            o.status.success(),
+            "{stdout}{}",
+            String::from_utf8_lossy(&o.stderr)
+        );
+        (out, stdout)
+    };
+    let (preview, said) = run("preview", &[]);
+    let (full, said_full) = run("full", &["--no-preview"]);
+    let cpu = said.contains("Cpu");
+    assert_eq!(said.contains("32x18 preview"), cpu, "{said}");
+    assert!(!said_full.contains(" preview, "), "{said_full}");
+    for text in [&said, &said_full] {
+        assert!(
+            text.contains("scene and renderer (pipelines)") && text.contains("instance, adapter"),
+            "{text}"
+        );
+    }
+    for cam in ["near_view", "far"] {
+        let a = std::fs::read(preview.join(format!("{cam}.png"))).unwrap();
+        let b = std::fs::read(full.join(format!("{cam}.png"))).unwrap();
+        assert!(a == b, "{cam}.png differs with the preview");
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
 #[test]
 fn names_the_problem_on_bad_input() {
     let dir = scratch("bad");

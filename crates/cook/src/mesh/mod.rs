@@ -7,10 +7,11 @@
 //! part of the vertex.
 //!
 //! `process.rs` turns a soup into optimized buffers, `weld.rs` merges equal values by their
-//! bits, `encode.rs` writes the pack's vertex layout and index format.
+//! bits, `tangents.rs` computes MikkTSpace tangents, `encode.rs` writes the pack's vertex layout and index format.
 
 mod encode;
 mod process;
+pub mod tangents;
 mod weld;
 
 use std::time::Duration;

@@ -278,18 +278,18 @@ fn dedupe_with_tangents(
         .map(|(k, _)| k as u32)
         .collect();
     if !tangent_faces.is_empty() {
-        let mut g = Mikk {
-            verts: &mut corners,
+        let view = TangentCorners {
+            verts: &corners,
             faces: &tangent_faces,
         };
-        mikktspace::generate_tangents(&mut g);
-        for &f in &tangent_faces {
-            for v in &mut corners[f as usize * 3..f as usize * 3 + 3] {
-                if !v.tangent.iter().all(|c| c.is_finite()) {
-                    v.tangent = [1.0, 0.0, 0.0, 1.0];
-                }
-                v.tangent = v.tangent.map(plus_zero);
-            }
+        let tangents = super::tangents::generate(&view);
+        for (c, t) in tangents.into_iter().enumerate() {
+            let v = &mut corners[tangent_faces[c / 3] as usize * 3 + c % 3];
+            v.tangent = if t.iter().all(|x| x.is_finite()) {
+                t.map(plus_zero)
+            } else {
+                [1.0, 0.0, 0.0, 1.0]
+            };
         }
     }
     let (unique, remap) = meshopt::generate_vertex_remap(&corners, None);
@@ -298,30 +298,31 @@ fn dedupe_with_tangents(
     (vertices, indices, tangent_faces.len())
 }
 
-struct Mikk<'a> {
-    verts: &'a mut [StandardVertex],
+/// The corners of the triangles that need tangents.
+struct TangentCorners<'a> {
+    verts: &'a [StandardVertex],
     /// Triangles (corner offsets / 3) that need tangents.
     faces: &'a [u32],
 }
 
-impl mikktspace::Geometry for Mikk<'_> {
-    fn num_faces(&self) -> usize {
-        self.faces.len()
+impl TangentCorners<'_> {
+    fn vertex(&self, c: usize) -> &StandardVertex {
+        &self.verts[self.faces[c / 3] as usize * 3 + c % 3]
     }
-    fn num_vertices_of_face(&self, _: usize) -> usize {
-        3
+}
+
+impl super::tangents::Corners for TangentCorners<'_> {
+    fn corner_count(&self) -> usize {
+        self.faces.len() * 3
     }
-    fn position(&self, face: usize, vert: usize) -> [f32; 3] {
-        self.verts[self.faces[face] as usize * 3 + vert].position
+    fn position(&self, c: usize) -> [f32; 3] {
+        self.vertex(c).position
     }
-    fn normal(&self, face: usize, vert: usize) -> [f32; 3] {
-        self.verts[self.faces[face] as usize * 3 + vert].normal
+    fn normal(&self, c: usize) -> [f32; 3] {
+        self.vertex(c).normal
     }
-    fn tex_coord(&self, face: usize, vert: usize) -> [f32; 2] {
-        self.verts[self.faces[face] as usize * 3 + vert].uv
-    }
-    fn set_tangent_encoded(&mut self, tangent: [f32; 4], face: usize, vert: usize) {
-        self.verts[self.faces[face] as usize * 3 + vert].tangent = tangent;
+    fn uv(&self, c: usize) -> [f32; 2] {
+        self.vertex(c).uv
     }
 }
 

@@ -42,6 +42,8 @@ pub struct Options {
     pub settings: Settings,
     pub watch: bool,
     pub vsync: bool,
+    /// Draw the first frame at full size even on a CPU rasterizer.
+    pub no_preview: bool,
     /// Test hook: a `;`-separated list of steps (see `script.rs`).
     pub script: Option<String>,
 }
@@ -546,11 +548,18 @@ impl App {
         shown.scene.refresh(gpu);
         if shown.renderer.is_none() && shown.scene.ready_for_first_frame() {
             let (w, h) = win.display.size();
+            // The very first frame may be a smaller preview (see `Gpu::first_frame_divisor`);
+            // the frame after it is drawn at full size.
+            let div = if self.first_frame_ms.is_none() && !self.options.no_preview {
+                gpu.first_frame_divisor()
+            } else {
+                1
+            };
             let renderer = Renderer::new(
                 gpu,
                 &shown.scene,
-                w,
-                h,
+                (w / div).max(1),
+                (h / div).max(1),
                 views::DISPLAY_FORMAT,
                 false,
                 self.controls.settings,
@@ -862,11 +871,21 @@ impl App {
             if self.first_frame_ms.is_none() {
                 let ms = self.started.elapsed().as_secs_f64() * 1e3;
                 let st = shown.scene.status();
+                let (w, h) = renderer.size();
+                let preview = if (w, h) == win.display.size() {
+                    String::new()
+                } else {
+                    format!("{w}x{h} preview, ")
+                };
                 println!(
-                    "first frame after {ms:.1} ms (geometry + {}/{} mips)",
+                    "first frame after {ms:.1} ms ({preview}geometry + {}/{} mips)",
                     st.mips_loaded, st.mips_total
                 );
                 self.first_frame_ms = Some(ms);
+            }
+            if renderer.size() != win.display.size() {
+                let (w, h) = win.display.size();
+                renderer.resize(gpu, w, h);
             }
         }
 

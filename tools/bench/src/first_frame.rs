@@ -1,0 +1,117 @@
+//! Time to the viewer's first frame and to full quality, whole headless processes on the
+//! default scene's pack: as it draws by default (a half-size preview first on a CPU
+//! rasterizer) against `--no-preview` (the whole frame first), runs interleaved.
+
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+use anyhow::{Context, Result};
+use serde::{Deserialize, Serialize};
+
+use crate::common::median;
+
+#[derive(Clone, Debug, Serialize, Deserialize)]
+pub struct FirstFrameRow {
+    /// `default` or `--no-preview`.
+    pub mode: String,
+    pub runs: usize,
+    pub first_frame_ms: f64,
+    pub full_quality_ms: f64,
+    /// The viewer's own `-v` split of its first frame, from the median run's output.
+    pub split: String,
+}
+
+pub struct FirstFrameConfig {
+    pub scene: PathBuf,
+    pub runs: usize,
+    pub size: (u32, u32),
+    pub scratch: PathBuf,
+}
+
+/// A binary built beside this one (`cargo build --release -p viewer`), if any.
+fn sibling(name: &str) -> Option<PathBuf> {
+    let exe = std::env::current_exe().ok()?;
+    let p = exe.with_file_name(format!("{name}{}", std::env::consts::EXE_SUFFIX));
+    p.is_file().then_some(p)
+}
+
+fn number_after(text: &str, prefix: &str) -> Option<f64> {
+    let rest = &text[text.find(prefix)? + prefix.len()..];
+    rest.split_whitespace().next()?.parse().ok()
+}
+
+/// Empty when the viewer is not built beside the bench.
+pub fn sweep(cfg: &FirstFrameConfig, progress: &mut dyn FnMut(&str)) -> Result<Vec<FirstFrameRow>> {
+    let Some(viewer) = sibling("viewer") else {
+        progress("first frame: no viewer built beside the bench, skipped");
+        return Ok(Vec::new());
+    };
+    std::fs::create_dir_all(&cfg.scratch)?;
+    let pack = cfg.scratch.join("first-frame.pack");
+    let manifest = cook::Manifest::open(&cfg.scene)
+        .with_context(|| format!("loading {}", cfg.scene.display()))?;
+    let cooked = cook::cook(&manifest, &cook::Settings::new(&manifest))
+        .with_context(|| format!("cooking {}", cfg.scene.display()))?;
+    let bytes = pack::encode(cooked.toc, &cooked.data).context("encoding the pack")?;
+    std::fs::write(&pack, bytes).with_context(|| format!("writing {}", pack.display()))?;
+    let modes: [(&str, &[&str]); 2] = [("default", &[]), ("--no-preview", &["--no-preview"])];
+    let mut runs: Vec<Vec<(f64, f64, String)>> = vec![Vec::new(); modes.len()];
+    for i in 0..cfg.runs.max(1) {
+        for (m, (name, extra)) in modes.iter().enumerate() {
+            progress(&format!("first frame: {name}, run {}", i + 1));
+            let out = Command::new(&viewer)
+                .arg(&pack)
+                .args(["--headless", "--camera", "nave", "-v", "--size"])
+                .arg(format!("{}x{}", cfg.size.0, cfg.size.1))
+                .arg("--out")
+                .arg(cfg.scratch.join("first-frame-images"))
+                .args(*extra)
+                .output()
+                .context("running the viewer")?;
+            let text = String::from_utf8_lossy(&out.stdout).into_owned();
+            anyhow::ensure!(
+                out.status.success(),
+                "viewer failed: {}",
+                String::from_utf8_lossy(&out.stderr)
+            );
+            let first = number_after(&text, "first frame after ").context("no first frame time")?;
+            let full =
+                number_after(&text, "full quality after ").context("no full quality time")?;
+            let line = |prefix: &str| {
+                text.lines()
+                    .find(|l| l.starts_with(prefix))
+                    .unwrap_or_default()
+                    .trim_start_matches(prefix)
+                    .to_string()
+            };
+            let split = format!(
+                "before it: instance, adapter and device {}; then {}",
+                line("instance, adapter and device: "),
+                line("first frame: ")
+            );
+            runs[m].push((first, full, split));
+        }
+    }
+    Ok(modes
+        .iter()
+        .zip(runs)
+        .map(|((name, _), mut r)| {
+            let mut firsts: Vec<f64> = r.iter().map(|x| x.0).collect();
+            let mut fulls: Vec<f64> = r.iter().map(|x| x.1).collect();
+            r.sort_by(|a, b| a.0.total_cmp(&b.0));
+            FirstFrameRow {
+                mode: name.to_string(),
+                runs: r.len(),
+                first_frame_ms: median(&mut firsts),
+                full_quality_ms: median(&mut fulls),
+                split: r[r.len() / 2].2.clone(),
+            }
+        })
+        .collect())
+}
+
+/// The default scene beside the checkout.
+pub fn default_scene() -> Option<PathBuf> {
+    let p = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../assets-src/scene.toml");
+    p.is_file().then_some(p)
+}
