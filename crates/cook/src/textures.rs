@@ -395,20 +395,8 @@ fn compress(
     let measure = match role {
         pack::TextureRole::Normal => texture::bc::Measure::Normal,
         pack::TextureRole::Colour => texture::bc::Measure::Rgba,
+        // Renderers read a projector's colour only (the light it lets through).
         pack::TextureRole::Projector => texture::bc::Measure::Rgb,
-    };
-    // Renderers read a projector's colour only (the light it lets through), so it is encoded
-    // opaque: BC7's modes without alpha give colour all the bits.
-    let opaque;
-    let source = if role == pack::TextureRole::Projector {
-        let mut c = chain.clone();
-        for level in &mut c.levels {
-            level.iter_mut().skip(3).step_by(4).for_each(|a| *a = 255);
-        }
-        opaque = c;
-        &opaque
-    } else {
-        &chain
     };
     let budget = crate::budget::compression_budget(role, p.textures.max_error_lsb, p.normal_budget);
     let unit = if normal { "° mean" } else { " LSB RMS" };
@@ -422,7 +410,7 @@ fn compress(
             levels: Vec::new(),
         }
         .describe_levels(chain.levels.len(), String::new(), role, colour_space);
-        let c = texture::bc::compress_chain(codec, source, &shape, measure);
+        let c = texture::bc::compress_chain(codec, &chain, &shape, measure);
         let fits = c.error.mean <= budget as f64;
         let better = best
             .as_ref()

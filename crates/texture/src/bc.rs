@@ -287,8 +287,9 @@ fn colour_tally(original: &[u8], decoded: &[u8], channels: usize) -> Tally {
 pub enum Measure {
     /// RMS over all four channels, 8-bit steps.
     Rgba,
-    /// RMS over red, green and blue (a texture whose alpha is never sampled, such as a
-    /// projector's), 8-bit steps.
+    /// RMS over red, green and blue, 8-bit steps, for a texture whose alpha is never sampled
+    /// (a projector's): it is encoded opaque, so BC7's modes without alpha give colour all the
+    /// bits.
     Rgb,
     /// Mean angle in degrees between unit normals (Z rebuilt).
     Normal,
@@ -390,7 +391,16 @@ pub fn compress_chain(
         .map(|(k, rgba)| {
             let m = &texture.mips[k];
             let (sw, sh) = texture.storage_level_size(k);
-            let blocks = compress_level(codec, rgba, m.width, m.height, sw, sh);
+            let opaque;
+            let source = if measure == Measure::Rgb {
+                let mut level = rgba.clone();
+                level.iter_mut().skip(3).step_by(4).for_each(|a| *a = 255);
+                opaque = level;
+                &opaque
+            } else {
+                rgba
+            };
+            let blocks = compress_level(codec, source, m.width, m.height, sw, sh);
             let decoded = pack::texels::decode_level(texture, k, &blocks);
             tallies.push(match measure {
                 Measure::Normal => normal_tally(rgba, &decoded),

@@ -121,14 +121,11 @@ fn sources(max: u32) -> Result<Vec<Source>> {
     };
     // The default scene's rose projector blur, scaled to the cropped size.
     let sigma = 6.57 * design.width() as f32 / 1024.0;
-    // As the cooker stores it: no larger than renderers sample it, alpha (never sampled) opaque.
+    // As the cooker stores it: no larger than renderers sample it (and encoded opaque, by its
+    // measure below).
     let mut opts = texture::ProjectorOptions::new(sigma);
     opts.max_size = Some(pack::PROJECTOR_MAX_SIZE);
-    let (mut projector, _) =
-        texture::projector(&design, &opts).context("blurring the projector")?;
-    for level in &mut projector.levels {
-        level.iter_mut().skip(3).step_by(4).for_each(|a| *a = 255);
-    }
+    let (projector, _) = texture::projector(&design, &opts).context("blurring the projector")?;
     Ok(vec![
         Source {
             role: "stained-glass design",
@@ -244,15 +241,6 @@ pub fn sweep(cfg: &CompressConfig, progress: &mut dyn FnMut(&str)) -> Result<Com
     Ok(report)
 }
 
-fn flip_mean(w: u32, h: u32, a: &[u8], b: &[u8]) -> f64 {
-    let e = nv_flip::flip(
-        nv_flip::FlipImageRgb8::with_data(w, h, a),
-        nv_flip::FlipImageRgb8::with_data(w, h, b),
-        nv_flip::DEFAULT_PIXELS_PER_DEGREE,
-    );
-    nv_flip::FlipPool::from_image(&e).mean() as f64
-}
-
 /// Cooks the scene both ways, renders every camera of both, and compares; also returns what
 /// one 8-bit step on every channel of the RGBA8 renders measures.
 fn scene_effect(
@@ -298,10 +286,13 @@ fn scene_effect(
                 .flat_map(|p| [p[0], p[1], p[2]])
                 .collect();
             let f = match reference.get(i) {
-                Some(base) => flip_mean(w, h, base, &rgb),
+                Some(base) => crate::common::flip(base, &rgb, w, h).0,
                 None => {
                     let brighter: Vec<u8> = rgb.iter().map(|v| v.saturating_add(1)).collect();
-                    one_step.push((camera.name.clone(), flip_mean(w, h, &rgb, &brighter)));
+                    one_step.push((
+                        camera.name.clone(),
+                        crate::common::flip(&rgb, &brighter, w, h).0,
+                    ));
                     reference.push(rgb);
                     0.0
                 }
