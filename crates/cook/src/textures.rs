@@ -177,6 +177,8 @@ impl Job {
         let mut k = cache::texture_key(&p.textures);
         k.serialized("storage", &(p.format, p.normal_budget));
         k.str("encoder", ENCODER);
+        // Since cache version 2, chains for block storage are mipped from a padded level 0.
+        k.str("block padding", "level 0 padded, then mipped");
         k.serialized("job", self);
         let image = match self {
             Job::Colour { image, .. } | Job::Normal { image, .. } => image,
@@ -361,12 +363,23 @@ fn run_cached(job: &Job, p: &Params, cache: Option<&cache::Cache>) -> Result<Coo
     Ok((c, n, source))
 }
 
-/// Cooks the RGBA8 chain, then stores it as the format choice says.
+/// Cooks the RGBA8 chain, then stores it as the format choice says. A chain that may be
+/// block-compressed is cooked from level 0 padded to whole blocks (`texture::bc`), so the one
+/// `uv_scale` a renderer applies fits every level; it is cooked again unpadded when it stays
+/// RGBA8.
 fn run_and_compress(job: &Job, p: &Params) -> Result<(CookedTexture, Option<String>), CookError> {
-    let (chain, note) = run(job, &p.textures)?;
+    let pad = p.format != TextureFormatChoice::Rgba8;
+    let (mut chain, size, note) = run(job, &p.textures, pad)?;
+    let padded = (chain.width, chain.height) != size;
+    // The padded chain can run a level longer (64x60 against 62x58); the logical size says how
+    // many levels the texture has, and the GPU texture has as many of the padded size.
+    chain.levels.truncate(texture::level_count(size.0, size.1));
     let (role, colour_space) = job.role();
-    let (cooked, choice) = compress(chain, role, colour_space, p);
-    let note = match (note, choice) {
+    let (mut cooked, mut choice) = compress(chain, size, role, colour_space, p);
+    if padded && cooked.format == pack::TextureFormat::Rgba8 {
+        cooked.levels = run(job, &p.textures, false)?.0.levels;
+    }
+    let note = match (note, choice.take()) {
         (Some(a), Some(b)) => Some(format!("{a}; {b}")),
         (a, b) => a.or(b),
     };
@@ -378,13 +391,14 @@ fn run_and_compress(job: &Job, p: &Params) -> Result<(CookedTexture, Option<Stri
 /// the most accurate one when none does. Returns what was chosen and why, for the report.
 fn compress(
     chain: texture::MipChain,
+    (width, height): (u32, u32),
     role: pack::TextureRole,
     colour_space: pack::ColourSpace,
     p: &Params,
 ) -> (CookedTexture, Option<String>) {
     let rgba8 = |chain: texture::MipChain| CookedTexture {
-        width: chain.width,
-        height: chain.height,
+        width,
+        height,
         format: pack::TextureFormat::Rgba8,
         levels: chain.levels,
     };
@@ -404,8 +418,8 @@ fn compress(
     let mut best: Option<(texture::bc::Codec, texture::bc::Compressed)> = None;
     for codec in candidates {
         let shape = CookedTexture {
-            width: chain.width,
-            height: chain.height,
+            width,
+            height,
             format: codec.format(),
             levels: Vec::new(),
         }
@@ -442,8 +456,8 @@ fn compress(
         note.push_str("; no setting fits, the most accurate is used");
     }
     let cooked = CookedTexture {
-        width: chain.width,
-        height: chain.height,
+        width,
+        height,
         format: codec.format(),
         levels: c.levels,
     };
@@ -461,14 +475,26 @@ fn choice_note(what: &str, c: &crate::budget::Choice) -> String {
     n
 }
 
-fn run(
-    job: &Job,
-    settings: &TextureSettings,
-) -> Result<(texture::MipChain, Option<String>), CookError> {
+/// A job's RGBA8 chain, the image's size (the chain's own unless padded) and notes.
+type Chain = (texture::MipChain, (u32, u32), Option<String>);
+
+/// Cooks a job's RGBA8 chain. With `pad`, level 0 is grown to whole 4x4 blocks before the
+/// lower levels are made from it.
+fn run(job: &Job, settings: &TextureSettings, pad: bool) -> Result<Chain, CookError> {
     let max_error = settings.max_error_lsb;
+    let padded = |img: image::DynamicImage| {
+        let size = (img.width(), img.height());
+        let (pw, ph) = texture::bc::block_padded_size(size.0, size.1);
+        let img = if pad && (pw, ph) != size {
+            texture::pixels::pad_image(&img, pw, ph)
+        } else {
+            img
+        };
+        (img, size)
+    };
     match job {
         Job::Colour { image, srgb } => {
-            let img = decode(image)?;
+            let (img, size) = padded(decode(image)?);
             let mut opts = texture::ColourOptions {
                 srgb: *srgb,
                 filter: settings.mip_filter,
@@ -483,29 +509,36 @@ fn run(
             });
             let chain = texture::colour_mips(&img, &opts)
                 .map_err(|e| texture_error(Path::new(&image.name()), e))?;
-            Ok((chain, note))
+            Ok((chain, size, note))
         }
         Job::Normal {
             image,
             encoding,
             green,
         } => {
-            let img = decode(image)?;
+            let (img, size) = padded(decode(image)?);
             let chain = texture::normal_mips(&img, *encoding, *green)
                 .map_err(|e| texture_error(Path::new(&image.name()), e))?;
-            Ok((chain, None))
+            Ok((chain, size, None))
         }
         Job::DerivedNormal { design, seed } => {
             let img = decode(design)?;
-            let chain = texture::derive_normal_map(&img, *seed)
+            let size = (img.width(), img.height());
+            let (pw, ph) = if pad {
+                texture::bc::block_padded_size(size.0, size.1)
+            } else {
+                size
+            };
+            let chain = texture::derive_normal_map_padded(&img, *seed, pw, ph)
                 .map_err(|e| texture_error(Path::new(&design.name()), e))?;
-            Ok((chain, None))
+            Ok((chain, size, None))
         }
         Job::Projector { design, sigma } => {
             let img = decode(design)?;
             let mut opts = texture::ProjectorOptions::new(*sigma);
             opts.max_error_lsb = max_error;
             opts.max_size = Some(pack::PROJECTOR_MAX_SIZE);
+            opts.block_pad = pad;
             let choice = max_error.map(|b| {
                 let c = crate::budget::choose_blur(b, *sigma);
                 opts.method = c.blur_method().unwrap_or(opts.method);
@@ -517,7 +550,7 @@ fn run(
                 Some(c) => format!("{report}; {c}"),
                 None => report.to_string(),
             };
-            Ok((chain, Some(note)))
+            Ok((chain, (report.width, report.height), Some(note)))
         }
     }
 }

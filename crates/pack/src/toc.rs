@@ -186,7 +186,8 @@ pub struct Texture {
 
 impl Texture {
     /// Size of level 0 as stored and as a GPU texture: the logical size for RGBA8, rounded up
-    /// to whole 4x4 blocks for the block formats (the padding repeats the edge texels).
+    /// to whole 4x4 blocks for the block formats (the padding repeats the edge texels, and
+    /// smaller levels are the mips of the padded level 0; docs/pack-format.md).
     pub fn storage_size(&self) -> (u32, u32) {
         if self.format.is_compressed() {
             (self.width.div_ceil(4) * 4, self.height.div_ceil(4) * 4)
@@ -196,8 +197,7 @@ impl Texture {
     }
 
     /// Size of a level of the GPU texture (`storage_size` halved `level` times). Its stored
-    /// bytes cover it in whole blocks, and hold the logical level (`mips[level]`) from the
-    /// top-left corner, padded with edge texels.
+    /// bytes cover it in whole blocks; the logical level (`mips[level]`) is its top-left part.
     pub fn storage_level_size(&self, level: usize) -> (u32, u32) {
         let (w, h) = self.storage_size();
         let s = level.min(31) as u32;

@@ -105,6 +105,14 @@ impl Codec {
     }
 }
 
+/// The size a `width x height` level 0 is padded to for block storage: whole 4x4 blocks
+/// (`pack::Texture::storage_size`). A chain cooked from level 0 padded to this size, rather
+/// than each logical level padded on its own, keeps the image in the same share
+/// (`pack::Texture::uv_scale`) of every level, so a renderer's one scale fits them all.
+pub fn block_padded_size(width: u32, height: u32) -> (u32, u32) {
+    (width.div_ceil(4) * 4, height.div_ceil(4) * 4)
+}
+
 /// Copies a tightly packed RGBA8 `width x height` image into a `pw x ph` one (each at least as
 /// large), repeating the last column and row into the padding.
 pub fn pad_edges(rgba: &[u8], width: u32, height: u32, pw: u32, ph: u32) -> Vec<u8> {
@@ -373,9 +381,12 @@ pub struct Compressed {
 }
 
 /// Compresses every level of `chain` (RGBA8, level 0 first) as the levels of `texture`
-/// (whose format, logical and storage sizes say how), and measures each against its source.
-/// `measure` selects the error measure. Levels are compressed one after another, each in
-/// parallel stripes.
+/// (whose format, logical and storage sizes say how), and measures each against its source
+/// over the level's logical size. `chain` is either the logical chain (`texture.mips` sizes;
+/// each level padded with its edge texels) or one cooked from level 0 already padded to
+/// `texture.storage_size()` ([`block_padded_size`]), whose levels are then the storage levels
+/// and keep the image in the same share of every level. `measure` selects the error measure.
+/// Levels are compressed one after another, each in parallel stripes.
 pub fn compress_chain(
     codec: Codec,
     chain: &crate::MipChain,
@@ -400,12 +411,20 @@ pub fn compress_chain(
             } else {
                 rgba
             };
-            let blocks = compress_level(codec, source, m.width, m.height, sw, sh);
+            let (cw, ch) = chain.level_size(k);
+            let blocks = compress_level(codec, source, cw, ch, sw, sh);
             let decoded = pack::texels::decode_level(texture, k, &blocks);
+            let logical;
+            let original = if (cw, ch) == (m.width, m.height) {
+                rgba
+            } else {
+                logical = pack::texels::crop(rgba, cw, m.width, m.height);
+                &logical
+            };
             tallies.push(match measure {
-                Measure::Normal => normal_tally(rgba, &decoded),
-                Measure::Rgba => colour_tally(rgba, &decoded, 4),
-                Measure::Rgb => colour_tally(rgba, &decoded, 3),
+                Measure::Normal => normal_tally(original, &decoded),
+                Measure::Rgba => colour_tally(original, &decoded, 4),
+                Measure::Rgb => colour_tally(original, &decoded, 3),
             });
             blocks
         })

@@ -43,6 +43,9 @@ pub use load::{MAX_DECODE_BYTES, MAX_SIDE, load_image};
 pub use mips::{
     ColourOptions, MipChain, colour_mips, colour_mips_reference, level_count, level_size,
 };
-pub use normal::{FALLBACK_NORMAL, GreenAxis, NormalEncoding, derive_normal_map, normal_mips};
+pub use normal::{
+    FALLBACK_NORMAL, GreenAxis, NormalEncoding, derive_normal_map, derive_normal_map_padded,
+    normal_mips,
+};
 pub use projector::{ProjectorOptions, ProjectorReport, projector, sigma_from_light};
 pub use resample::MipFilter;

@@ -255,7 +255,25 @@ pub fn height_to_normals(height: &[f32], w: u32, h: u32) -> Vec<[f32; 4]> {
 /// seeded value noise. Deterministic for a given image and seed, on any number of threads.
 /// Stored like [`normal_mips`].
 pub fn derive_normal_map(design: &DynamicImage, seed: u64) -> Result<MipChain, TextureError> {
+    derive_normal_map_padded(design, seed, design.width(), design.height())
+}
+
+/// As [`derive_normal_map`], with level 0 grown to `pw x ph` by repeating its last column and
+/// row before the lower levels are made from it (`crate::bc::block_padded_size`).
+pub fn derive_normal_map_padded(
+    design: &DynamicImage,
+    seed: u64,
+    pw: u32,
+    ph: u32,
+) -> Result<MipChain, TextureError> {
     let (w, h) = (design.width(), design.height());
     let height = design_height(design, seed)?;
-    Ok(chain(height_to_normals(&height, w, h), w, h))
+    let level0 = height_to_normals(&height, w, h);
+    let (pw, ph) = (pw.max(w), ph.max(h));
+    let level0 = if (pw, ph) == (w, h) {
+        level0
+    } else {
+        crate::pixels::pad_texels(&level0, w, h, pw, ph, None)
+    };
+    Ok(chain(level0, pw, ph))
 }

@@ -68,6 +68,71 @@ pub fn to_linear(img: &DynamicImage, srgb: bool) -> Vec<Texel> {
     }
 }
 
+/// `img` grown to `width x height` (each at least its own) by repeating its last column and
+/// row, in its own pixel format, so the padded texels decode exactly like the edge's.
+pub fn pad_image(img: &DynamicImage, width: u32, height: u32) -> DynamicImage {
+    use image::{ImageBuffer, Pixel};
+    fn pad<P: Pixel>(
+        i: &ImageBuffer<P, Vec<P::Subpixel>>,
+        w: u32,
+        h: u32,
+    ) -> ImageBuffer<P, Vec<P::Subpixel>> {
+        let (iw, ih) = (i.width(), i.height());
+        ImageBuffer::from_fn(w.max(iw), h.max(ih), |x, y| {
+            *i.get_pixel(x.min(iw - 1), y.min(ih - 1))
+        })
+    }
+    if (img.width(), img.height()) == (width, height) || img.width() == 0 || img.height() == 0 {
+        return img.clone();
+    }
+    match img {
+        DynamicImage::ImageLuma8(i) => DynamicImage::ImageLuma8(pad(i, width, height)),
+        DynamicImage::ImageLumaA8(i) => DynamicImage::ImageLumaA8(pad(i, width, height)),
+        DynamicImage::ImageRgb8(i) => DynamicImage::ImageRgb8(pad(i, width, height)),
+        DynamicImage::ImageRgba8(i) => DynamicImage::ImageRgba8(pad(i, width, height)),
+        DynamicImage::ImageLuma16(i) => DynamicImage::ImageLuma16(pad(i, width, height)),
+        DynamicImage::ImageLumaA16(i) => DynamicImage::ImageLumaA16(pad(i, width, height)),
+        DynamicImage::ImageRgb16(i) => DynamicImage::ImageRgb16(pad(i, width, height)),
+        DynamicImage::ImageRgba16(i) => DynamicImage::ImageRgba16(pad(i, width, height)),
+        DynamicImage::ImageRgb32F(i) => DynamicImage::ImageRgb32F(pad(i, width, height)),
+        DynamicImage::ImageRgba32F(i) => DynamicImage::ImageRgba32F(pad(i, width, height)),
+        other => DynamicImage::ImageRgba32F(pad(&other.to_rgba32f(), width, height)),
+    }
+}
+
+/// A `w x h` level grown to `pw x ph` (each at least its own): the new texels are `fill`, or
+/// repeat the last column and row when `fill` is `None`.
+pub fn pad_texels(
+    level: &[Texel],
+    w: u32,
+    h: u32,
+    pw: u32,
+    ph: u32,
+    fill: Option<Texel>,
+) -> Vec<Texel> {
+    let (w, h, pw, ph) = (
+        w as usize,
+        h as usize,
+        pw.max(w) as usize,
+        ph.max(h) as usize,
+    );
+    debug_assert_eq!(level.len(), w * h);
+    let mut out = Vec::with_capacity(pw * ph);
+    for y in 0..ph {
+        if y >= h
+            && let Some(f) = fill
+        {
+            out.resize(out.len() + pw, f);
+            continue;
+        }
+        let row = &level[y.min(h - 1) * w..][..w];
+        out.extend_from_slice(row);
+        let f = fill.unwrap_or(row[w - 1]);
+        out.resize(out.len() + pw - w, f);
+    }
+    out
+}
+
 fn grey(v: f32, a: f32) -> Texel {
     [v, v, v, a]
 }

@@ -24,6 +24,11 @@ pub struct ProjectorOptions {
     /// (`pack::PROJECTOR_MAX_SIZE`), so larger levels would only be bytes never read.
     pub max_size: Option<u32>,
     pub method: BlurMethod,
+    /// Grow the stored level 0 with transparent black (the blur's own zero border) to whole
+    /// 4x4 blocks before the lower levels are made from it, for block storage
+    /// (`crate::bc::block_padded_size`). The chain is then the padded size; the report's size
+    /// stays the image's.
+    pub block_pad: bool,
 }
 
 impl ProjectorOptions {
@@ -33,6 +38,7 @@ impl ProjectorOptions {
             max_error_lsb: None,
             max_size: None,
             method: BlurMethod::Auto,
+            block_pad: false,
         }
     }
 }
@@ -159,10 +165,23 @@ pub fn projector(
         dropped_levels: keep as u32,
         max_error_lsb: max_error,
     };
-    let chain = MipChain {
-        width: sw,
-        height: sh,
-        levels: encoded.into_iter().skip(keep).collect(),
+    let (pw, ph) = crate::bc::block_padded_size(sw, sh);
+    let chain = if opts.block_pad && (pw, ph) != (sw, sh) {
+        let padded = crate::pixels::pad_texels(&levels[keep], sw, sh, pw, ph, Some([0.0; 4]));
+        MipChain {
+            width: pw,
+            height: ph,
+            levels: premultiplied_levels(padded, pw, ph)
+                .iter()
+                .map(|l| encode_premultiplied(l))
+                .collect(),
+        }
+    } else {
+        MipChain {
+            width: sw,
+            height: sh,
+            levels: encoded.into_iter().skip(keep).collect(),
+        }
     };
     Ok((chain, report))
 }

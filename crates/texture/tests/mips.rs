@@ -218,3 +218,21 @@ mod properties {
         }
     }
 }
+
+#[test]
+fn pad_image_repeats_the_edge_in_the_source_format() {
+    let grey16 = image::ImageBuffer::<image::Luma<u16>, Vec<u16>>::from_fn(5, 3, |x, y| {
+        image::Luma([(x * 1000 + y * 7) as u16])
+    });
+    let padded = texture::pixels::pad_image(&image::DynamicImage::ImageLuma16(grey16), 8, 4);
+    let image::DynamicImage::ImageLuma16(p) = &padded else {
+        panic!("format changed: {:?}", padded.color());
+    };
+    assert_eq!(p.dimensions(), (8, 4));
+    for (x, y, v) in p.enumerate_pixels() {
+        assert_eq!(v[0], (x.min(4) * 1000 + y.min(2) * 7) as u16, "({x}, {y})");
+    }
+    // A block-sized image comes back as it is.
+    let rgba = image::DynamicImage::ImageRgba8(image::RgbaImage::new(8, 4));
+    assert_eq!(texture::pixels::pad_image(&rgba, 8, 4), rgba);
+}

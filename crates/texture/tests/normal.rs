@@ -143,3 +143,22 @@ mod properties {
         }
     }
 }
+
+#[test]
+fn padded_derived_normal_map_repeats_its_edge_and_keeps_level_zero() {
+    let (w, h) = (37, 22);
+    let img = common::rgba_image(w, h, common::design(w, h, 6));
+    let plain = texture::derive_normal_map(&img, 7).unwrap();
+    let padded = texture::derive_normal_map_padded(&img, 7, 40, 24).unwrap();
+    assert_eq!((padded.width, padded.height), (40, 24));
+    assert_eq!(padded.levels.len(), texture::level_count(40, 24));
+    let at = |c: &texture::MipChain, x: usize, y: usize| {
+        c.levels[0][(y * c.width as usize + x) * 4..][..4].to_vec()
+    };
+    for y in 0..24 {
+        for x in 0..40 {
+            let expected = at(&plain, x.min(36), y.min(21));
+            assert_eq!(at(&padded, x, y), expected, "({x}, {y})");
+        }
+    }
+}

@@ -53,6 +53,7 @@ fn heavy_blur_is_stored_smaller_only_within_the_budget() {
         max_error_lsb: budget,
         max_size: None,
         method: BlurMethod::Auto,
+        block_pad: false,
     };
     let (full, _) = projector(&img, &opts(None)).unwrap();
     // The zero border's falloff is the steepest detail left, and limits how far it can go.
@@ -76,6 +77,7 @@ fn heavy_blur_is_stored_smaller_only_within_the_budget() {
             max_error_lsb: Some(3.0),
             max_size: None,
             method: BlurMethod::Auto,
+            block_pad: false,
         },
     )
     .unwrap();
@@ -111,6 +113,7 @@ fn bad_budget_is_an_error() {
             max_error_lsb: Some(b),
             max_size: None,
             method: BlurMethod::Auto,
+            block_pad: false,
         };
         assert!(
             projector(&img, &opts)
@@ -133,4 +136,34 @@ fn blur_error_on_a_512_design() {
         let e = error_lsb(&ours, &reference_blur(&reference_input, w, h, sigma as f64));
         assert!(e.max <= 0.55, "sigma {sigma}: {e:?}");
     }
+}
+
+#[test]
+fn block_padded_projector_keeps_the_image_and_mips_the_padded_level() {
+    // 61x43 with one level dropped: stored 30x21, padded to 32x24 with the blur's zero border.
+    let (w, h) = (61, 43);
+    let img = rgba_image(w, h, design(w, h, 8));
+    let mut opts = ProjectorOptions::new(3.0);
+    opts.max_size = Some(32);
+    let (plain, report) = projector(&img, &opts).unwrap();
+    opts.block_pad = true;
+    let (padded, padded_report) = projector(&img, &opts).unwrap();
+    assert_eq!(report, padded_report);
+    assert_eq!((report.width, report.height), (30, 21));
+    assert_eq!((padded.width, padded.height), (32, 24));
+    for y in 0..24usize {
+        for x in 0..32usize {
+            let p = &padded.levels[0][(y * 32 + x) * 4..][..4];
+            if x < 30 && y < 21 {
+                assert_eq!(p, &plain.levels[0][(y * 30 + x) * 4..][..4], "({x}, {y})");
+            } else {
+                assert_eq!(p, [0; 4], "padding at ({x}, {y})");
+            }
+        }
+    }
+    // Level 1 is the padded level 0 halved: 16x12, each texel the box of its four.
+    assert_eq!(padded.level_size(1), (16, 12));
+    assert_eq!(padded.levels[1].len(), 16 * 12 * 4);
+    let corner = &padded.levels[1][(11 * 16 + 15) * 4..][..4];
+    assert_eq!(corner, [0; 4], "all four source texels are padding");
 }

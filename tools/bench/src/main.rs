@@ -253,7 +253,9 @@ fn main() -> Result<()> {
                     Bc7Profile::ALL.to_vec()
                 },
                 scene: (!args.quick && !args.no_god_rays).then(bench::godrays::default_scene),
-                render_size: (480, 270),
+                // The viewer's default size: a smaller frame samples only the small mip
+                // levels, where block compression errs most.
+                render_size: (1280, 720),
             },
             &mut progress,
         )?
