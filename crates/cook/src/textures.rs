@@ -177,8 +177,6 @@ impl Job {
         let mut k = cache::texture_key(&p.textures);
         k.serialized("storage", &(p.format, p.normal_budget));
         k.str("encoder", ENCODER);
-        // Since cache version 2, chains for block storage are mipped from a padded level 0.
-        k.str("block padding", "level 0 padded, then mipped");
         k.serialized("job", self);
         let image = match self {
             Job::Colour { image, .. } | Job::Normal { image, .. } => image,
@@ -731,10 +729,10 @@ pub fn cook_textures(
             .artifacts
             .push((job.image_name() + &job.base_name_suffix(), source));
         if let Some(n) = note {
-            report.warnings.push(Warning::new(
+            report.notes.push(Warning::new(
                 &manifest.path,
                 None,
-                format!("note: {}: {n}", job.image_name()),
+                format!("{}: {n}", job.image_name()),
             ));
         }
         let (role, colour_space) = job.role();

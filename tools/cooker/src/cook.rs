@@ -190,6 +190,9 @@ pub fn run(args: Args) -> Outcome {
     for w in &report.warnings {
         transcript.message(Stream::Err, format!("warning: {w}"));
     }
+    for n in &report.notes {
+        transcript.message(Stream::Err, format!("note: {n}"));
+    }
     for h in &report.heuristics {
         transcript.message(
             Stream::Err,

@@ -127,7 +127,7 @@ mod tests {
         let t = Transcript {
             messages: vec![(
                 Stream::Err,
-                "warning: a/scene.toml: note: a/w.png (not /x/a/w.png, nor ba/w.png)".into(),
+                "note: a/scene.toml: a/w.png (not /x/a/w.png, nor ba/w.png)".into(),
             )],
             stats: vec!["mesh \"m\" (a/m.obj)".into()],
             summary: "1 meshes".into(),
@@ -143,7 +143,7 @@ mod tests {
         let elsewhere = stored.localized(Path::new("/ci/b/scene.toml"));
         assert_eq!(
             elsewhere.messages[0].1,
-            "warning: /ci/b/scene.toml: note: /ci/b/w.png (not /x/a/w.png, nor ba/w.png)"
+            "note: /ci/b/scene.toml: /ci/b/w.png (not /x/a/w.png, nor ba/w.png)"
         );
         assert_eq!(elsewhere.stats[0], "mesh \"m\" (/ci/b/m.obj)");
         assert_eq!(elsewhere.textures[0], "/ci/b/w.png (colour)");

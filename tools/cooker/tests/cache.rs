@@ -202,6 +202,13 @@ fn error_budget_choice_is_reported_and_a_too_tight_budget_warns() {
     assert!(o.status.success(), "{err}");
     assert!(err.contains("chosen by the error budget"), "{err}");
     assert!(err.contains("tighter than any"), "{err}");
+    // Choices are notes, not warnings.
+    for line in err
+        .lines()
+        .filter(|l| l.contains("chosen by the error budget"))
+    {
+        assert!(line.starts_with("note: "), "{line}");
+    }
     pack::Pack::open(&out).unwrap();
 }
 

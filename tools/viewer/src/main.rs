@@ -157,6 +157,9 @@ fn stream(path: PathBuf, source: Box<dyn Read + Send>) -> mpsc::Receiver<Message
     rx
 }
 
+/// `-v`: the cook's notes (blur, mip and encoder choices) are printed too.
+static VERBOSE: std::sync::atomic::AtomicBool = std::sync::atomic::AtomicBool::new(false);
+
 /// `--window` designs, set once from the command line; every re-cook (`--watch`) uses them.
 static WINDOW_OVERRIDES: std::sync::OnceLock<Vec<cook::manifest::WindowDesign>> =
     std::sync::OnceLock::new();
@@ -177,6 +180,11 @@ fn open_source(path: &Path) -> Result<Box<dyn Read + Send>> {
             .with_context(|| format!("cooking {}", path.display()))?;
         for w in &out.report.warnings {
             eprintln!("warning: {w}");
+        }
+        if VERBOSE.load(std::sync::atomic::Ordering::Relaxed) {
+            for n in &out.report.notes {
+                eprintln!("note: {n}");
+            }
         }
         let bytes = pack::encode(out.toc, &out.data).context("encoding the cooked pack")?;
         println!(
@@ -446,6 +454,7 @@ fn god_ray_settings(args: &Args) -> Result<Settings> {
 
 fn main() -> Result<()> {
     let args = Args::parse();
+    VERBOSE.store(args.verbose, std::sync::atomic::Ordering::Relaxed);
     let mut settings = god_ray_settings(&args)?;
     settings.shadows.enabled = !args.no_occlusion;
     if !args.headless {
