@@ -19,6 +19,9 @@ mod validate;
 
 use clap::{Parser, Subcommand};
 
+#[global_allocator]
+static ALLOCATOR: mimalloc::MiMalloc = mimalloc::MiMalloc;
+
 #[derive(Parser)]
 #[command(name = "cooker", version, about = "Stained-glass asset cooker")]
 struct Cli {
