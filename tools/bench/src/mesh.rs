@@ -320,10 +320,14 @@ pub fn end_to_end(
         .collect())
 }
 
-/// Median wall time of `runs` runs of a process, which must succeed.
+/// Median wall time of `runs` runs of a process, which must succeed. Dirty pages are written
+/// back before each run (`sync`): the cooker's fsync commits the file system's journal, which
+/// on ext4 also waits for every other file's unwritten data, so without it the cooker would pay
+/// for the output the previous contender (gltfpack, which does not fsync) left in memory.
 fn time_process(runs: usize, command: impl Fn() -> Command) -> Result<f64> {
     let mut times = Vec::new();
     for _ in 0..runs.max(1) {
+        let _ = Command::new("sync").status();
         let mut c = command();
         let start = Instant::now();
         let out = c
