@@ -22,7 +22,8 @@ pub struct CookOutput {
 
 impl CookOutput {
     pub fn write(&self, path: &Path) -> Result<(), CookError> {
-        Ok(pack::write_pack(path, self.toc.clone(), &self.data)?)
+        pack::write_pack(path, self.toc.clone(), &self.data)?;
+        Ok(())
     }
 }
 

@@ -30,8 +30,18 @@ pub struct PackData {
 
 /// Encodes a pack in memory. Overwrites every section index in `toc`; validates the result with
 /// the reader's own checks, so an invalid pack is never produced.
-pub fn encode(mut toc: Toc, data: &PackData) -> Result<Vec<u8>, PackError> {
-    let memory = Path::new("<pack being written>");
+pub fn encode(toc: Toc, data: &PackData) -> Result<Vec<u8>, PackError> {
+    let out = assemble(toc, data)?;
+    crate::reader::validate_bytes(&out).map_err(|e| e.with_path(Path::new(IN_MEMORY)))?;
+    Ok(out)
+}
+
+/// What a pack not yet on disk is called in errors.
+const IN_MEMORY: &str = "<pack being written>";
+
+/// The pack's bytes, not yet validated.
+fn assemble(mut toc: Toc, data: &PackData) -> Result<Vec<u8>, PackError> {
+    let memory = Path::new(IN_MEMORY);
     if data.meshes.len() != toc.meshes.len() || data.textures.len() != toc.textures.len() {
         return Err(crate::error::Fail::toc(format!(
             "writer got data for {} meshes and {} textures, TOC has {} and {}",
@@ -108,13 +118,23 @@ pub fn encode(mut toc: Toc, data: &PackData) -> Result<Vec<u8>, PackError> {
         out.extend_from_slice(bytes);
     }
     debug_assert_eq!(out.len() as u64, cursor);
-    crate::reader::validate_bytes(&out).map_err(|e| e.with_path(memory))?;
     Ok(out)
 }
 
 /// Writes `bytes` to `path` atomically: a temp file in the same directory, fsync, then rename.
 /// A failure at any point leaves whatever was at `path` untouched.
 pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<(), PackError> {
+    write_atomic_checked(path, bytes, || Ok(()))
+}
+
+/// [`write_atomic`], running `check` while the temporary file is written and synced (on
+/// another thread), and renaming it into place only when `check` succeeds too: the fsync's
+/// wait overlaps the check's work, and a failed check leaves `path` untouched.
+pub fn write_atomic_checked(
+    path: &Path,
+    bytes: &[u8],
+    check: impl FnOnce() -> Result<(), PackError>,
+) -> Result<(), PackError> {
     let io = |source| PackError::Io {
         path: path.to_path_buf(),
         source,
@@ -138,26 +158,38 @@ pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<(), PackError> {
         name.to_string_lossy(),
         std::process::id()
     ));
-    let result = (|| {
+    let write = || -> std::io::Result<()> {
         let mut f = std::fs::OpenOptions::new()
             .write(true)
             .create_new(true)
             .open(&tmp)?;
         f.write_all(bytes)?;
-        f.sync_all()?;
-        drop(f);
-        std::fs::rename(&tmp, path)
-    })();
-    if let Err(e) = result {
+        f.sync_all()
+    };
+    let (written, checked) = std::thread::scope(|s| {
+        let writer = s.spawn(write);
+        let checked = check();
+        let written = writer
+            .join()
+            .unwrap_or_else(|_| Err(std::io::Error::other("the pack writer thread panicked")));
+        (written, checked)
+    });
+    let result = checked.and_then(|()| {
+        written
+            .and_then(|()| std::fs::rename(&tmp, path))
+            .map_err(io)
+    });
+    if result.is_err() {
         let _ = std::fs::remove_file(&tmp);
-        return Err(io(e));
     }
-    Ok(())
+    result
 }
 
-/// Encodes and writes a pack atomically.
-pub fn write_pack(path: &Path, toc: Toc, data: &PackData) -> Result<(), PackError> {
-    let bytes = encode(toc, data).map_err(|e| match e {
+/// Encodes and writes a pack atomically, validating it with the reader's checks while the
+/// file is written and synced; the pack is renamed into place only when valid. Returns the
+/// pack's bytes.
+pub fn write_pack(path: &Path, toc: Toc, data: &PackData) -> Result<Vec<u8>, PackError> {
+    let named = |e: PackError| match e {
         PackError::Invalid {
             offset, problem, ..
         } => PackError::Invalid {
@@ -166,6 +198,12 @@ pub fn write_pack(path: &Path, toc: Toc, data: &PackData) -> Result<(), PackErro
             problem,
         },
         other => other,
+    };
+    let bytes = assemble(toc, data).map_err(named)?;
+    write_atomic_checked(path, &bytes, || {
+        crate::reader::validate_bytes(&bytes)
+            .map(drop)
+            .map_err(|e| named(e.with_path(path)))
     })?;
-    write_atomic(path, &bytes)
+    Ok(bytes)
 }
