@@ -284,8 +284,12 @@ pub fn end_to_end(
         });
     }
     let mut times: Vec<Vec<f64>> = vec![Vec::new(); contenders.len()];
-    for _ in 0..cfg.runs.max(1) {
-        for (c, t) in contenders.iter().zip(&mut times) {
+    for round in 0..cfg.runs.max(1) {
+        // Each round starts with the next contender: whatever the first run after the
+        // previous round pays (a fresh file's pages, the VM's memory) is shared out.
+        let n = contenders.len();
+        for i in (0..n).map(|i| (i + round) % n) {
+            let (c, t) = (&contenders[i], &mut times[i]);
             t.push(time_process(1, || {
                 let mut cmd = Command::new(&c.program);
                 cmd.args(&c.args);
