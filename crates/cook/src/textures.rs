@@ -269,7 +269,36 @@ impl CookedTexture {
     }
 }
 
-fn encode_cooked(c: &CookedTexture, note: &Option<String>) -> Vec<u8> {
+/// What a texture job says about itself: its choices (a note) and where it fell short of the
+/// budget (a warning), each `; `-joined.
+#[derive(Clone, Debug, Default, PartialEq)]
+struct Said {
+    note: Option<String>,
+    warning: Option<String>,
+}
+
+impl Said {
+    fn note(note: impl Into<String>) -> Self {
+        Self {
+            note: Some(note.into()),
+            warning: None,
+        }
+    }
+
+    /// Both, `self`'s first.
+    fn and(self, other: Said) -> Said {
+        let join = |a: Option<String>, b: Option<String>| match (a, b) {
+            (Some(a), Some(b)) => Some(format!("{a}; {b}")),
+            (a, b) => a.or(b),
+        };
+        Said {
+            note: join(self.note, other.note),
+            warning: join(self.warning, other.warning),
+        }
+    }
+}
+
+fn encode_cooked(c: &CookedTexture, said: &Said) -> Vec<u8> {
     let mut out = Vec::new();
     out.extend_from_slice(&c.width.to_le_bytes());
     out.extend_from_slice(&c.height.to_le_bytes());
@@ -283,15 +312,17 @@ fn encode_cooked(c: &CookedTexture, note: &Option<String>) -> Vec<u8> {
         out.extend_from_slice(&(l.len() as u64).to_le_bytes());
         out.extend_from_slice(l);
     }
-    let note = note.as_deref().unwrap_or("");
-    out.extend_from_slice(&(note.len() as u64).to_le_bytes());
-    out.extend_from_slice(note.as_bytes());
+    for text in [&said.note, &said.warning] {
+        let text = text.as_deref().unwrap_or("");
+        out.extend_from_slice(&(text.len() as u64).to_le_bytes());
+        out.extend_from_slice(text.as_bytes());
+    }
     out
 }
 
 /// Decodes a cache payload; `None` when it does not hold a well-formed texture (every level
 /// the size its format and level size call for).
-fn decode_cooked(bytes: &[u8]) -> Option<(CookedTexture, Option<String>)> {
+fn decode_cooked(bytes: &[u8]) -> Option<(CookedTexture, Said)> {
     let mut at = 0usize;
     let mut take = |n: usize| -> Option<&[u8]> {
         let s = bytes.get(at..at.checked_add(n)?)?;
@@ -325,16 +356,24 @@ fn decode_cooked(bytes: &[u8]) -> Option<(CookedTexture, Option<String>)> {
         }
         cooked.levels.push(take(len as usize)?.to_vec());
     }
-    let nlen = u64::from_le_bytes(take(8)?.try_into().unwrap()) as usize;
-    let note = String::from_utf8(take(nlen)?.to_vec()).ok()?;
+    let mut text = || -> Option<Option<String>> {
+        let len = u64::from_le_bytes(take(8)?.try_into().unwrap()) as usize;
+        let t = String::from_utf8(take(len)?.to_vec()).ok()?;
+        Some((!t.is_empty()).then_some(t))
+    };
+    let said = Said {
+        note: text()?,
+        warning: text()?,
+    };
     if at != bytes.len() {
         return None;
     }
-    Some((cooked, (!note.is_empty()).then_some(note)))
+    Some((cooked, said))
 }
 
-/// A cooked texture, the notes about it (method and encoder choices), and where it came from.
-type Cooked = (CookedTexture, Option<String>, crate::ArtifactSource);
+/// A cooked texture, what its job said (method and encoder choices, budget misses), and where
+/// it came from.
+type Cooked = (CookedTexture, Said, crate::ArtifactSource);
 
 /// Cooks one texture, or reuses it from the cache.
 fn run_cached(job: &Job, p: &Params, cache: Option<&cache::Cache>) -> Result<Cooked, CookError> {
@@ -365,23 +404,19 @@ fn run_cached(job: &Job, p: &Params, cache: Option<&cache::Cache>) -> Result<Coo
 /// block-compressed is cooked from level 0 padded to whole blocks (`texture::bc`), so the one
 /// `uv_scale` a renderer applies fits every level; it is cooked again unpadded when it stays
 /// RGBA8.
-fn run_and_compress(job: &Job, p: &Params) -> Result<(CookedTexture, Option<String>), CookError> {
+fn run_and_compress(job: &Job, p: &Params) -> Result<(CookedTexture, Said), CookError> {
     let pad = p.format != TextureFormatChoice::Rgba8;
-    let (mut chain, size, note) = run(job, &p.textures, pad)?;
+    let (mut chain, size, said) = run(job, &p.textures, pad)?;
     let padded = (chain.width, chain.height) != size;
     // The padded chain can run a level longer (64x60 against 62x58); the logical size says how
     // many levels the texture has, and the GPU texture has as many of the padded size.
     chain.levels.truncate(texture::level_count(size.0, size.1));
     let (role, colour_space) = job.role();
-    let (mut cooked, mut choice) = compress(chain, size, role, colour_space, p);
+    let (mut cooked, stored) = compress(chain, size, role, colour_space, p);
     if padded && cooked.format == pack::TextureFormat::Rgba8 {
         cooked.levels = run(job, &p.textures, false)?.0.levels;
     }
-    let note = match (note, choice.take()) {
-        (Some(a), Some(b)) => Some(format!("{a}; {b}")),
-        (a, b) => a.or(b),
-    };
-    Ok((cooked, note))
+    Ok((cooked, said.and(stored)))
 }
 
 /// Stores a chain uncompressed or block-compressed: `auto` takes the cheapest encoder setting
@@ -393,7 +428,7 @@ fn compress(
     role: pack::TextureRole,
     colour_space: pack::ColourSpace,
     p: &Params,
-) -> (CookedTexture, Option<String>) {
+) -> (CookedTexture, Said) {
     let rgba8 = |chain: texture::MipChain| CookedTexture {
         width,
         height,
@@ -401,7 +436,7 @@ fn compress(
         levels: chain.levels,
     };
     if p.format == TextureFormatChoice::Rgba8 {
-        return (rgba8(chain), None);
+        return (rgba8(chain), Said::default());
     }
     let normal = role == pack::TextureRole::Normal;
     let measure = match role {
@@ -435,7 +470,7 @@ fn compress(
         }
     }
     let Some((codec, c)) = best else {
-        return (rgba8(chain), None);
+        return (rgba8(chain), Said::default());
     };
     let fits = c.error.mean <= budget as f64;
     let measured = format!(
@@ -447,11 +482,15 @@ fn compress(
             "kept RGBA8: no block encoder setting fits the budget (best: {} {measured})",
             codec.name()
         );
-        return (rgba8(chain), Some(note));
+        return (rgba8(chain), Said::note(note));
     }
-    let mut note = format!("{} chosen by the error budget ({measured})", codec.name());
+    let note = format!("{} chosen by the error budget ({measured})", codec.name());
+    let mut said = Said::note(note);
     if !fits {
-        note.push_str("; no setting fits, the most accurate is used");
+        said.warning = Some(format!(
+            "no block encoder setting fits the budget; {} is the most accurate ({measured})",
+            codec.name()
+        ));
     }
     let cooked = CookedTexture {
         width,
@@ -459,22 +498,21 @@ fn compress(
         format: codec.format(),
         levels: c.levels,
     };
-    (cooked, Some(note))
+    (cooked, said)
 }
 
-fn choice_note(what: &str, c: &crate::budget::Choice) -> String {
-    let mut n = format!(
-        "{what} method {} chosen by the error budget (measured max error {:.3} LSB)",
-        c.method, c.expected_error
-    );
-    if let Some(w) = &c.warning {
-        n.push_str(&format!("; {w}"));
+fn choice_note(what: &str, c: &crate::budget::Choice) -> Said {
+    Said {
+        note: Some(format!(
+            "{what} method {} chosen by the error budget (measured max error {:.3} LSB)",
+            c.method, c.expected_error
+        )),
+        warning: c.warning.as_ref().map(|w| format!("{what}: {w}")),
     }
-    n
 }
 
-/// A job's RGBA8 chain, the image's size (the chain's own unless padded) and notes.
-type Chain = (texture::MipChain, (u32, u32), Option<String>);
+/// A job's RGBA8 chain, the image's size (the chain's own unless padded) and what it said.
+type Chain = (texture::MipChain, (u32, u32), Said);
 
 /// Cooks a job's RGBA8 chain. With `pad`, level 0 is grown to whole 4x4 blocks before the
 /// lower levels are made from it.
@@ -499,7 +537,7 @@ fn run(job: &Job, settings: &TextureSettings, pad: bool) -> Result<Chain, CookEr
             };
             // The error budget picks from the committed table of measured errors, never from
             // timings taken now, so the pack stays deterministic.
-            let note = max_error.map(|b| {
+            let said = max_error.map_or_else(Said::default, |b| {
                 let c = crate::budget::choose_mip(b, Some(opts.filter.name()));
                 opts.filter = c.mip_filter().unwrap_or(opts.filter);
                 opts.srgb = *srgb && c.linear_light;
@@ -507,7 +545,7 @@ fn run(job: &Job, settings: &TextureSettings, pad: bool) -> Result<Chain, CookEr
             });
             let chain = texture::colour_mips(&img, &opts)
                 .map_err(|e| texture_error(Path::new(&image.name()), e))?;
-            Ok((chain, size, note))
+            Ok((chain, size, said))
         }
         Job::Normal {
             image,
@@ -517,7 +555,7 @@ fn run(job: &Job, settings: &TextureSettings, pad: bool) -> Result<Chain, CookEr
             let (img, size) = padded(decode(image)?);
             let chain = texture::normal_mips(&img, *encoding, *green)
                 .map_err(|e| texture_error(Path::new(&image.name()), e))?;
-            Ok((chain, size, None))
+            Ok((chain, size, Said::default()))
         }
         Job::DerivedNormal { design, seed } => {
             let img = decode(design)?;
@@ -529,7 +567,7 @@ fn run(job: &Job, settings: &TextureSettings, pad: bool) -> Result<Chain, CookEr
             };
             let chain = texture::derive_normal_map_padded(&img, *seed, pw, ph)
                 .map_err(|e| texture_error(Path::new(&design.name()), e))?;
-            Ok((chain, size, None))
+            Ok((chain, size, Said::default()))
         }
         Job::Projector { design, sigma } => {
             let img = decode(design)?;
@@ -537,18 +575,15 @@ fn run(job: &Job, settings: &TextureSettings, pad: bool) -> Result<Chain, CookEr
             opts.max_error_lsb = max_error;
             opts.max_size = Some(pack::PROJECTOR_MAX_SIZE);
             opts.block_pad = pad;
-            let choice = max_error.map(|b| {
+            let choice = max_error.map_or_else(Said::default, |b| {
                 let c = crate::budget::choose_blur(b, *sigma);
                 opts.method = c.blur_method().unwrap_or(opts.method);
                 choice_note("blur", &c)
             });
             let (chain, report) = texture::projector(&img, &opts)
                 .map_err(|e| texture_error(Path::new(&design.name()), e))?;
-            let note = match choice {
-                Some(c) => format!("{report}; {c}"),
-                None => report.to_string(),
-            };
-            Ok((chain, (report.width, report.height), Some(note)))
+            let said = Said::note(report.to_string()).and(choice);
+            Ok((chain, (report.width, report.height), said))
         }
     }
 }
@@ -724,17 +759,19 @@ pub fn cook_textures(
     let mut data = Vec::with_capacity(jobs.len());
     let mut names: HashMap<String, usize> = HashMap::new();
     for ((job, _), result) in jobs.iter().zip(results) {
-        let (cooked, note, source) = result?;
+        let (cooked, said, source) = result?;
         report
             .artifacts
             .push((job.image_name() + &job.base_name_suffix(), source));
-        if let Some(n) = note {
-            report.notes.push(Warning::new(
+        let about = |text: String| {
+            Warning::new(
                 &manifest.path,
                 None,
-                format!("{}: {n}", job.image_name()),
-            ));
-        }
+                format!("{}: {text}", job.image_name()),
+            )
+        };
+        report.notes.extend(said.note.map(about));
+        report.warnings.extend(said.warning.map(about));
         let (role, colour_space) = job.role();
         let base = job.base_name();
         let count = names.entry(base.clone()).or_insert(0);
@@ -753,4 +790,44 @@ pub fn cook_textures(
         plan.material.projector_texture = r.2;
     }
     Ok((textures, data, panorama))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A cache payload gives back the texture and both its note and its warning, and a payload
+    /// cut short or with a byte too many is refused.
+    #[test]
+    fn cooked_payload_round_trips_notes_and_warnings() {
+        let cooked = CookedTexture {
+            width: 6,
+            height: 5,
+            format: pack::TextureFormat::Bc7,
+            levels: vec![vec![1; 2 * 2 * 16], vec![2; 16], vec![3; 16]],
+        };
+        for said in [
+            Said::default(),
+            Said::note("bc7 very-fast chosen"),
+            Said {
+                note: None,
+                warning: Some("tighter than any".into()),
+            },
+            Said::note("a").and(Said {
+                note: Some("b".into()),
+                warning: Some("c".into()),
+            }),
+        ] {
+            let bytes = encode_cooked(&cooked, &said);
+            assert_eq!(decode_cooked(&bytes), Some((cooked.clone(), said.clone())));
+            assert_eq!(decode_cooked(&bytes[..bytes.len() - 1]), None);
+            let mut longer = bytes.clone();
+            longer.push(0);
+            assert_eq!(decode_cooked(&longer), None);
+        }
+        assert_eq!(
+            Said::note("a").and(Said::note("b")).note.as_deref(),
+            Some("a; b")
+        );
+    }
 }
