@@ -87,6 +87,18 @@ fn extract(pack: &Path, name: &str, mip: u32, dir: &Path) -> image::RgbaImage {
     image::open(&out).unwrap().to_rgba8()
 }
 
+/// `cooker cook obj -o pack --no-cache extra…`, which must succeed; the pack and its stderr.
+fn cook_obj(obj: &Path, pack: &Path, extra: &[&str]) -> (PathBuf, String) {
+    let mut args: Vec<&dyn AsRef<std::ffi::OsStr>> =
+        vec![&"cook", &obj, &"-o", &pack, &"--no-cache"];
+    for e in extra {
+        args.push(e);
+    }
+    let o = cooker(&args);
+    assert_eq!(o.status.code(), Some(0), "{}", text(&o.stderr));
+    (pack.to_path_buf(), text(&o.stderr))
+}
+
 fn mips_for(w: u64, h: u64) -> u64 {
     64 - w.max(h).leading_zeros() as u64
 }
@@ -108,17 +120,7 @@ fn rms(a: &image::RgbaImage, b: &image::RgbaImage) -> f64 {
 fn block_compressed_textures_decode_within_the_budget() {
     let dir = tempfile::tempdir().unwrap();
     let obj = obj_scene(dir.path(), &[TGA]);
-    let cook = |name: &str, extra: &[&str]| {
-        let pack = dir.path().join(name);
-        let mut args: Vec<&dyn AsRef<std::ffi::OsStr>> =
-            vec![&"cook", &obj, &"-o", &pack, &"--no-cache"];
-        for e in extra {
-            args.push(e);
-        }
-        let o = cooker(&args);
-        assert_eq!(o.status.code(), Some(0), "{}", text(&o.stderr));
-        (pack, text(&o.stderr))
-    };
+    let cook = |name: &str, extra: &[&str]| cook_obj(&obj, &dir.path().join(name), extra);
     let (rgba8, _) = cook("rgba8.pack", &["--texture-format", "rgba8"]);
     let (bc, log) = cook("bc.pack", &["--texture-format", "bc"]);
     assert!(log.contains("bc7"), "the choice is reported: {log}");
@@ -171,17 +173,7 @@ fn odd_sized_texture_is_padded_only_when_block_compressed() {
     let crop = image::open(data(TGA)).unwrap().crop_imm(3, 5, 61, 43);
     crop.save(src.join("odd.png")).unwrap();
     let obj = obj_scene(dir.path(), &[src.join("odd.png").to_str().unwrap()]);
-    let cook = |name: &str, extra: &[&str]| {
-        let pack = dir.path().join(name);
-        let mut args: Vec<&dyn AsRef<std::ffi::OsStr>> =
-            vec![&"cook", &obj, &"-o", &pack, &"--no-cache"];
-        for e in extra {
-            args.push(e);
-        }
-        let o = cooker(&args);
-        assert_eq!(o.status.code(), Some(0), "{}", text(&o.stderr));
-        (pack, text(&o.stderr))
-    };
+    let cook = |name: &str, extra: &[&str]| cook_obj(&obj, &dir.path().join(name), extra);
     let (rgba8, _) = cook("rgba8.pack", &["--texture-format", "rgba8"]);
     let (bc, _) = cook("bc.pack", &["--texture-format", "bc"]);
     let (w, h, mips) = texture_info(&bc, "odd");
