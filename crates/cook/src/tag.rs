@@ -253,45 +253,82 @@ pub struct PartGeometry {
 }
 
 /// Per part of `src`: [`PartGeometry`]; and the source's height range and total area.
+///
+/// Sums run over fixed runs of triangles in parallel, each run's sums per part (a part's
+/// triangles are mostly consecutive, so a run holds few), then are added up run by run in
+/// order: the same sums on any number of threads.
 pub fn part_geometry(src: &Imported) -> (Vec<PartGeometry>, [f64; 2], f64) {
-    let mut out = vec![
-        PartGeometry {
-            y_range: [f64::INFINITY, f64::NEG_INFINITY],
-            ..Default::default()
-        };
-        src.parts.len()
-    ];
+    use rayon::prelude::*;
+    const RUN: usize = 16384;
+    let empty = PartGeometry {
+        y_range: [f64::INFINITY, f64::NEG_INFINITY],
+        ..Default::default()
+    };
+    let triangles = src.tri_part.len().min(src.corners.len() / 3);
+    let runs: Vec<(Vec<(u32, PartGeometry)>, f64)> = (0..triangles.div_ceil(RUN))
+        .into_par_iter()
+        .map(|r| {
+            let span = r * RUN..((r + 1) * RUN).min(triangles);
+            let mut sums: Vec<(u32, PartGeometry)> = Vec::new();
+            // Where each part's sums are, for runs that mix many parts.
+            let mut at: HashMap<u32, usize> = HashMap::new();
+            let mut total = 0.0;
+            for (t, &part) in src.corners[span.start * 3..span.end * 3]
+                .chunks_exact(3)
+                .zip(&src.tri_part[span])
+            {
+                let [a, b, c] = [t[0], t[1], t[2]].map(|k| {
+                    let p = src.positions[k.p as usize];
+                    glam::DVec3::new(p[0] as f64, p[1] as f64, p[2] as f64)
+                });
+                let n = (b - a).cross(c - a);
+                let area = n.length() * 0.5;
+                if area.is_nan() || area <= 0.0 {
+                    continue;
+                }
+                let up = (n.y / (2.0 * area)).abs();
+                let i = match sums.last() {
+                    Some((p, _)) if *p == part => sums.len() - 1,
+                    _ => *at.entry(part).or_insert_with(|| {
+                        sums.push((part, empty));
+                        sums.len() - 1
+                    }),
+                };
+                let g = &mut sums[i].1;
+                g.area += area;
+                if up > 0.9 {
+                    g.horizontal += area;
+                }
+                if up < 0.26 {
+                    g.vertical += area;
+                }
+                g.mean_y += area * (a.y + b.y + c.y) / 3.0;
+                for y in [a.y, b.y, c.y] {
+                    g.y_range[0] = g.y_range[0].min(y);
+                    g.y_range[1] = g.y_range[1].max(y);
+                }
+                total += area;
+            }
+            (sums, total)
+        })
+        .collect();
+    let mut out = vec![empty; src.parts.len()];
     let mut range = [f64::INFINITY, f64::NEG_INFINITY];
     let mut total = 0.0;
-    for (t, &part) in src.corners.chunks_exact(3).zip(&src.tri_part) {
-        let [a, b, c] = [t[0], t[1], t[2]].map(|k| {
-            let p = src.positions[k.p as usize];
-            glam::DVec3::new(p[0] as f64, p[1] as f64, p[2] as f64)
-        });
-        let n = (b - a).cross(c - a);
-        let area = n.length() * 0.5;
-        if area.is_nan() || area <= 0.0 {
-            continue;
+    for (sums, run_total) in runs {
+        for (part, s) in sums {
+            let g = &mut out[part as usize];
+            g.area += s.area;
+            g.horizontal += s.horizontal;
+            g.vertical += s.vertical;
+            g.mean_y += s.mean_y;
+            g.y_range = [
+                g.y_range[0].min(s.y_range[0]),
+                g.y_range[1].max(s.y_range[1]),
+            ];
+            range = [range[0].min(s.y_range[0]), range[1].max(s.y_range[1])];
         }
-        let up = (n.y / (2.0 * area)).abs();
-        let g = &mut out[part as usize];
-        g.area += area;
-        if up > 0.9 {
-            g.horizontal += area;
-        }
-        if up < 0.26 {
-            g.vertical += area;
-        }
-        g.mean_y += area * (a.y + b.y + c.y) / 3.0;
-        for y in [a.y, b.y, c.y] {
-            g.y_range[0] = g.y_range[0].min(y);
-            g.y_range[1] = g.y_range[1].max(y);
-        }
-        total += area;
-        for y in [a.y, b.y, c.y] {
-            range[0] = range[0].min(y);
-            range[1] = range[1].max(y);
-        }
+        total += run_total;
     }
     for g in &mut out {
         if g.area > 0.0 {
@@ -532,6 +569,58 @@ mod tests {
     use super::*;
     use crate::import::{Names, Part};
     use std::path::Path;
+
+    /// Fixed runs summed in order: the same bits on one thread as on two, within rounding of
+    /// one sequential sum, for triangles whose parts interleave (a run holding many parts).
+    #[test]
+    fn part_geometry_is_thread_count_independent_and_matches_a_plain_sum() {
+        let n = 50_000usize;
+        let mut positions = Vec::new();
+        let mut tris = Vec::new();
+        for i in 0..n {
+            let (x, y, z) = (
+                i as f32 * 0.37 % 11.0,
+                (i % 97) as f32 * 0.1,
+                (i % 13) as f32,
+            );
+            let b = positions.len() as u32;
+            positions.extend([
+                [x, y, z],
+                [x + 1.0, y + (i % 3) as f32, z],
+                [x, y + 0.5, z + 1.0],
+            ]);
+            tris.push([b, b + 1, b + 2]);
+        }
+        let mut src = crate::mesh::soup(positions, tris);
+        src.parts = (0..300)
+            .map(|_| Part {
+                names: Names::default(),
+                material: None,
+            })
+            .collect();
+        src.tri_part = (0..n).map(|i| ((i * 7919) % 300) as u32).collect();
+        let on = |threads| {
+            rayon::ThreadPoolBuilder::new()
+                .num_threads(threads)
+                .build()
+                .unwrap()
+                .install(|| part_geometry(&src))
+        };
+        let one = on(1);
+        assert_eq!(one, on(2));
+        let mut area = vec![0.0f64; 300];
+        for (t, &part) in src.corners.chunks_exact(3).zip(&src.tri_part) {
+            let [a, b, c] = [t[0], t[1], t[2]].map(|k| {
+                let p = src.positions[k.p as usize];
+                glam::DVec3::new(p[0] as f64, p[1] as f64, p[2] as f64)
+            });
+            area[part as usize] += (b - a).cross(c - a).length() * 0.5;
+        }
+        for (g, want) in one.0.iter().zip(&area) {
+            assert!((g.area - want).abs() <= 1e-9 * want, "{} {want}", g.area);
+        }
+        assert!((one.2 - area.iter().sum::<f64>()).abs() <= 1e-9 * one.2);
+    }
 
     fn source(names: &[(&str, Option<&str>)]) -> Imported {
         let mut s = Imported {
