@@ -7,23 +7,13 @@
 //!
 //! `cargo bench -p cooker --bench recook`
 
+#[path = "../tests/common/mod.rs"]
+mod common;
+
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
 use criterion::{Criterion, criterion_group, criterion_main};
-
-fn copy_dir(from: &Path, to: &Path) {
-    std::fs::create_dir_all(to).unwrap();
-    for e in std::fs::read_dir(from).unwrap() {
-        let p = e.unwrap().path();
-        let dest = to.join(p.file_name().unwrap());
-        if p.is_dir() {
-            copy_dir(&p, &dest);
-        } else {
-            std::fs::copy(&p, &dest).unwrap();
-        }
-    }
-}
 
 struct Scene {
     _dir: tempfile::TempDir,
@@ -36,7 +26,7 @@ impl Scene {
     fn new() -> Self {
         let dir = tempfile::tempdir().unwrap();
         let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../assets-src");
-        copy_dir(&root, &dir.path().join("scene"));
+        common::copy_dir(&root, &dir.path().join("scene"));
         let s = Scene {
             scene: dir.path().join("scene/scene.toml"),
             out: dir.path().join("out.pack"),

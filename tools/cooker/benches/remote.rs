@@ -26,19 +26,6 @@ use std::path::Path;
 use std::process::Command;
 use std::time::{Duration, Instant};
 
-fn copy_dir(from: &Path, to: &Path) {
-    std::fs::create_dir_all(to).unwrap();
-    for e in std::fs::read_dir(from).unwrap() {
-        let p = e.unwrap().path();
-        let dest = to.join(p.file_name().unwrap());
-        if p.is_dir() {
-            copy_dir(&p, &dest);
-        } else {
-            std::fs::copy(&p, &dest).unwrap();
-        }
-    }
-}
-
 /// A backend: how to name a fresh, empty remote for run `i`, and the cooker's extra
 /// arguments and variables.
 struct Backend {
@@ -129,7 +116,7 @@ fn main() {
     let d = dir.path();
     let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("../..");
     let scene = if benching {
-        copy_dir(&root.join("assets-src"), &d.join("scene"));
+        common::copy_dir(&root.join("assets-src"), &d.join("scene"));
         d.join("scene/scene.toml")
     } else {
         common::small_scene(&d.join("scene"))

@@ -10,19 +10,6 @@ fn root() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("../..")
 }
 
-fn copy_dir(from: &Path, to: &Path) {
-    std::fs::create_dir_all(to).unwrap();
-    for e in std::fs::read_dir(from).unwrap() {
-        let p = e.unwrap().path();
-        let dest = to.join(p.file_name().unwrap());
-        if p.is_dir() {
-            copy_dir(&p, &dest);
-        } else {
-            std::fs::copy(&p, &dest).unwrap();
-        }
-    }
-}
-
 fn cook(scene: &Path, out: &Path, cache: &Path) -> Output {
     cook_with(scene, out, cache, &[], "2")
 }
@@ -57,7 +44,7 @@ fn lines_starting<'a>(text: &'a str, word: &str) -> Vec<&'a str> {
 fn unchanged_scene_reused_changed_design_recooked_alone_damage_detected() {
     let dir = tempfile::tempdir().unwrap();
     let scene_dir = dir.path().join("scene");
-    copy_dir(&root().join("assets-src"), &scene_dir);
+    common::copy_dir(&root().join("assets-src"), &scene_dir);
     let scene = scene_dir.join("scene.toml");
     let cache = dir.path().join("cache");
     let out = dir.path().join("out.pack");
@@ -295,7 +282,7 @@ fn a_hit_replays_what_the_cook_said_marked_as_reused() {
     // Another checkout of the scene, named from another folder, reuses the same entries and
     // its messages name its own files.
     let other = dir.path().join("elsewhere/b");
-    copy_dir(&dir.path().join("a"), &other);
+    common::copy_dir(&dir.path().join("a"), &other);
     let moved = cook_with(&other.join("scene.toml"), &out, &cache, &budget, "2");
     assert!(
         stdout(&moved).contains("is up to date"),

@@ -99,19 +99,6 @@ fn lines_with<'a>(t: &'a str, start: &str) -> Vec<&'a str> {
         .collect()
 }
 
-fn copy_dir(from: &Path, to: &Path) {
-    std::fs::create_dir_all(to).unwrap();
-    for e in std::fs::read_dir(from).unwrap() {
-        let p = e.unwrap().path();
-        let dest = to.join(p.file_name().unwrap());
-        if p.is_dir() {
-            copy_dir(&p, &dest);
-        } else {
-            std::fs::copy(&p, &dest).unwrap();
-        }
-    }
-}
-
 fn root() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("../..")
 }
@@ -126,8 +113,8 @@ struct Scene {
 }
 
 fn default_scene(dir: &Path) -> Scene {
-    copy_dir(&root().join("assets-src"), &dir.join("a"));
-    copy_dir(&root().join("assets-src"), &dir.join("machine-b/scene"));
+    common::copy_dir(&root().join("assets-src"), &dir.join("a"));
+    common::copy_dir(&root().join("assets-src"), &dir.join("machine-b/scene"));
     Scene {
         a: dir.join("a/scene.toml"),
         b: dir.join("machine-b/scene/scene.toml"),

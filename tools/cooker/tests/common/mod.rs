@@ -11,6 +11,20 @@ pub fn command() -> Command {
     Command::new(env!("CARGO_BIN_EXE_cooker"))
 }
 
+/// Copies the folder `from` into `to` (created), recursively.
+pub fn copy_dir(from: &std::path::Path, to: &std::path::Path) {
+    std::fs::create_dir_all(to).unwrap();
+    for e in std::fs::read_dir(from).unwrap() {
+        let p = e.unwrap().path();
+        let dest = to.join(p.file_name().unwrap());
+        if p.is_dir() {
+            copy_dir(&p, &dest);
+        } else {
+            std::fs::copy(&p, &dest).unwrap();
+        }
+    }
+}
+
 /// Runs the cooker with `args` and waits for it.
 pub fn cooker(args: &[&dyn AsRef<OsStr>]) -> Output {
     let mut c = command();
