@@ -82,41 +82,9 @@ fn cooked_corners(src: &cook::import::Imported) -> Corners {
     }
 }
 
-fn reference(c: &Corners) -> Vec<[f32; 4]> {
-    struct G<'a> {
-        c: &'a Corners,
-        out: Vec<[f32; 4]>,
-    }
-    impl mikktspace::Geometry for G<'_> {
-        fn num_faces(&self) -> usize {
-            self.c.positions.len() / 3
-        }
-        fn num_vertices_of_face(&self, _: usize) -> usize {
-            3
-        }
-        fn position(&self, f: usize, v: usize) -> [f32; 3] {
-            self.c.positions[f * 3 + v]
-        }
-        fn normal(&self, f: usize, v: usize) -> [f32; 3] {
-            self.c.normals[f * 3 + v]
-        }
-        fn tex_coord(&self, f: usize, v: usize) -> [f32; 2] {
-            self.c.uvs[f * 3 + v]
-        }
-        fn set_tangent_encoded(&mut self, t: [f32; 4], f: usize, v: usize) {
-            self.out[f * 3 + v] = t;
-        }
-    }
-    let mut g = G {
-        c,
-        out: vec![[0.0; 4]; c.positions.len()],
-    };
-    mikktspace::generate_tangents(&mut g);
-    g.out
-}
-
 fn measure(name: &str, c: &Corners, runs: usize) -> Result<TangentRow> {
-    let (reference_ms, theirs) = median_ms(runs, || reference(c));
+    let (reference_ms, theirs) = median_ms(runs, || cook::mesh::tangents::reference(&c.arrays()));
+    let theirs = theirs.with_context(|| format!("the mikktspace crate failed on {name}"))?;
     let (ours_ms, ours) = median_ms(runs, || generate(&c.arrays()));
     let one = rayon::ThreadPoolBuilder::new()
         .num_threads(1)

@@ -614,6 +614,41 @@ impl<C: Corners> Context<'_, C> {
     }
 }
 
+/// The `mikktspace` crate's tangents for the same corners, as `set_tangent_encoded` gives
+/// them (tests and the bench hold ours to it); `None` when the crate reports failure.
+#[cfg(any(test, feature = "reference-tangents"))]
+pub fn reference(c: &CornerArrays) -> Option<Vec<[f32; 4]>> {
+    struct G<'a> {
+        c: &'a CornerArrays<'a>,
+        out: Vec<[f32; 4]>,
+    }
+    impl mikktspace::Geometry for G<'_> {
+        fn num_faces(&self) -> usize {
+            self.c.positions.len() / 3
+        }
+        fn num_vertices_of_face(&self, _: usize) -> usize {
+            3
+        }
+        fn position(&self, f: usize, v: usize) -> [f32; 3] {
+            self.c.positions[f * 3 + v]
+        }
+        fn normal(&self, f: usize, v: usize) -> [f32; 3] {
+            self.c.normals[f * 3 + v]
+        }
+        fn tex_coord(&self, f: usize, v: usize) -> [f32; 2] {
+            self.c.uvs[f * 3 + v]
+        }
+        fn set_tangent_encoded(&mut self, t: [f32; 4], f: usize, v: usize) {
+            self.out[f * 3 + v] = t;
+        }
+    }
+    let mut g = G {
+        c,
+        out: vec![[f32::NAN; 4]; c.positions.len()],
+    };
+    mikktspace::generate_tangents(&mut g).then_some(g.out)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -659,36 +694,7 @@ mod tests {
     }
 
     fn reference_as_is(c: &CornerArrays) -> Vec<[f32; 4]> {
-        struct G<'a> {
-            c: &'a CornerArrays<'a>,
-            out: Vec<[f32; 4]>,
-        }
-        impl mikktspace::Geometry for G<'_> {
-            fn num_faces(&self) -> usize {
-                self.c.positions.len() / 3
-            }
-            fn num_vertices_of_face(&self, _: usize) -> usize {
-                3
-            }
-            fn position(&self, f: usize, v: usize) -> [f32; 3] {
-                self.c.positions[f * 3 + v]
-            }
-            fn normal(&self, f: usize, v: usize) -> [f32; 3] {
-                self.c.normals[f * 3 + v]
-            }
-            fn tex_coord(&self, f: usize, v: usize) -> [f32; 2] {
-                self.c.uvs[f * 3 + v]
-            }
-            fn set_tangent_encoded(&mut self, t: [f32; 4], f: usize, v: usize) {
-                self.out[f * 3 + v] = t;
-            }
-        }
-        let mut g = G {
-            c,
-            out: vec![[f32::NAN; 4]; c.positions.len()],
-        };
-        assert!(mikktspace::generate_tangents(&mut g));
-        g.out
+        super::reference(c).expect("the mikktspace crate generates tangents")
     }
 
     fn assert_close(ours: &[[f32; 4]], theirs: &[[f32; 4]]) {
