@@ -124,7 +124,7 @@ fn assemble(mut toc: Toc, data: &PackData) -> Result<Vec<u8>, PackError> {
 /// Writes `bytes` to `path` atomically: a temp file in the same directory, fsync, then rename.
 /// A failure at any point leaves whatever was at `path` untouched.
 pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<(), PackError> {
-    write_atomic_checked(path, bytes, || Ok(()))
+    atomic(path, bytes, None)
 }
 
 /// [`write_atomic`], running `check` while the temporary file is written and synced (on
@@ -133,8 +133,17 @@ pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<(), PackError> {
 pub fn write_atomic_checked(
     path: &Path,
     bytes: &[u8],
-    check: impl FnOnce() -> Result<(), PackError>,
+    check: impl FnOnce() -> Result<(), PackError> + Send,
 ) -> Result<(), PackError> {
+    atomic(path, bytes, Some(Box::new(check)))
+}
+
+/// A check to run while the temporary file is written; see [`write_atomic_checked`].
+type Check<'a> = Box<dyn FnOnce() -> Result<(), PackError> + Send + 'a>;
+
+/// The temporary file, written and synced (beside `check` when there is one), renamed to
+/// `path` only when both succeed.
+fn atomic(path: &Path, bytes: &[u8], check: Option<Check<'_>>) -> Result<(), PackError> {
     let io = |source| PackError::Io {
         path: path.to_path_buf(),
         source,
@@ -166,14 +175,18 @@ pub fn write_atomic_checked(
         f.write_all(bytes)?;
         f.sync_all()
     };
-    let (written, checked) = std::thread::scope(|s| {
-        let writer = s.spawn(write);
-        let checked = check();
-        let written = writer
-            .join()
-            .unwrap_or_else(|_| Err(std::io::Error::other("the pack writer thread panicked")));
-        (written, checked)
-    });
+    let (written, checked) = match check {
+        // Nothing to overlap with: no thread.
+        None => (write(), Ok(())),
+        Some(check) => std::thread::scope(|s| {
+            let writer = s.spawn(write);
+            let checked = check();
+            let written = writer
+                .join()
+                .unwrap_or_else(|_| Err(std::io::Error::other("the pack writer thread panicked")));
+            (written, checked)
+        }),
+    };
     let result = checked.and_then(|()| {
         written
             .and_then(|()| std::fs::rename(&tmp, path))
