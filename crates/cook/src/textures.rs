@@ -518,10 +518,18 @@ type Chain = (texture::MipChain, (u32, u32), Said);
 /// lower levels are made from it.
 fn run(job: &Job, settings: &TextureSettings, pad: bool) -> Result<Chain, CookError> {
     let max_error = settings.max_error_lsb;
+    // The size level 0 is cooked at.
+    let storage = |(w, h): (u32, u32)| {
+        if pad {
+            texture::bc::block_padded_size(w, h)
+        } else {
+            (w, h)
+        }
+    };
     let padded = |img: image::DynamicImage| {
         let size = (img.width(), img.height());
-        let (pw, ph) = texture::bc::block_padded_size(size.0, size.1);
-        let img = if pad && (pw, ph) != size {
+        let (pw, ph) = storage(size);
+        let img = if (pw, ph) != size {
             texture::pixels::pad_image(&img, pw, ph)
         } else {
             img
@@ -560,11 +568,7 @@ fn run(job: &Job, settings: &TextureSettings, pad: bool) -> Result<Chain, CookEr
         Job::DerivedNormal { design, seed } => {
             let img = decode(design)?;
             let size = (img.width(), img.height());
-            let (pw, ph) = if pad {
-                texture::bc::block_padded_size(size.0, size.1)
-            } else {
-                size
-            };
+            let (pw, ph) = storage(size);
             let chain = texture::derive_normal_map_padded(&img, *seed, pw, ph)
                 .map_err(|e| texture_error(Path::new(&design.name()), e))?;
             Ok((chain, size, Said::default()))
