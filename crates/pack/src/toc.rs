@@ -184,13 +184,19 @@ pub struct Texture {
     pub mips: Vec<MipLevel>,
 }
 
+/// A `width x height` level 0 rounded up to whole 4x4 blocks: the stored size of a
+/// block-compressed texture ([`Texture::storage_size`]).
+pub fn block_padded_size(width: u32, height: u32) -> (u32, u32) {
+    (width.div_ceil(4) * 4, height.div_ceil(4) * 4)
+}
+
 impl Texture {
     /// Size of level 0 as stored and as a GPU texture: the logical size for RGBA8, rounded up
     /// to whole 4x4 blocks for the block formats (the padding repeats the edge texels, and
     /// smaller levels are the mips of the padded level 0; docs/pack-format.md).
     pub fn storage_size(&self) -> (u32, u32) {
         if self.format.is_compressed() {
-            (self.width.div_ceil(4) * 4, self.height.div_ceil(4) * 4)
+            block_padded_size(self.width, self.height)
         } else {
             (self.width, self.height)
         }

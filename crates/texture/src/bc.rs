@@ -109,9 +109,7 @@ impl Codec {
 /// (`pack::Texture::storage_size`). A chain cooked from level 0 padded to this size, rather
 /// than each logical level padded on its own, keeps the image in the same share
 /// (`pack::Texture::uv_scale`) of every level, so a renderer's one scale fits them all.
-pub fn block_padded_size(width: u32, height: u32) -> (u32, u32) {
-    (width.div_ceil(4) * 4, height.div_ceil(4) * 4)
-}
+pub use pack::block_padded_size;
 
 /// Copies a tightly packed RGBA8 `width x height` image into a `pw x ph` one (each at least as
 /// large), repeating the last column and row into the padding.
@@ -147,8 +145,7 @@ pub fn compress_level(
     storage_width: u32,
     storage_height: u32,
 ) -> Vec<u8> {
-    let pw = storage_width.div_ceil(4) * 4;
-    let ph = storage_height.div_ceil(4) * 4;
+    let (pw, ph) = block_padded_size(storage_width, storage_height);
     let padded = pad_edges(rgba, width, height, pw, ph);
     let channels = match codec {
         Codec::Bc7(_) => 4,
