@@ -44,6 +44,7 @@ impl Builder {
                 ColourSpace::Srgb
             },
             format: TextureFormat::Rgba8,
+            supercompression: pack::Supercompression::None,
             width: 4,
             height: 4,
             mips: sizes

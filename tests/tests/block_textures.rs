@@ -63,6 +63,7 @@ fn texture(
             ColourSpace::Srgb
         },
         format: codec.map_or(TextureFormat::Rgba8, Codec::format),
+        supercompression: pack::Supercompression::None,
         width,
         height,
         mips: (0..chain.levels.len())

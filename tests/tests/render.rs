@@ -106,6 +106,7 @@ impl Builder {
                 ColourSpace::Srgb
             },
             format: TextureFormat::Rgba8,
+            supercompression: pack::Supercompression::None,
             width: size,
             height: size,
             mips,

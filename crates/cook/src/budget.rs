@@ -57,12 +57,28 @@ pub const DEFAULT_COLOUR_ERROR_LSB: f32 = 4.0;
 pub const DEFAULT_PROJECTOR_ERROR_LSB: f32 = 1.0;
 /// The same for normal maps: mean angle in degrees (`[textures] max_normal_error_deg`).
 pub const DEFAULT_NORMAL_ERROR_DEG: f32 = 1.5;
+/// The same for window designs (`[textures] max_design_error_lsb`). The designs are what the
+/// viewer shows brightest, and they feed the god rays and the refraction: stored in BC7, even
+/// where only level 0 is (levels 1 up exact), the default scene's final renders differ from the
+/// RGBA8 pack's by FLIP 0.004-0.013, and with every level in BC7 by 0.011-0.016, over the
+/// 0.01 goal, while BC7 very-fast measures 1.3-2.6 LSB RMS on them. So by default they stay
+/// RGBA8, zstd-supercompressed (docs/bench/README.md, "Compression").
+pub const DEFAULT_DESIGN_ERROR_LSB: f32 = 1.0;
 
-/// The budget a block-compressed texture of `role` must fit: mean angle in degrees for normal
-/// maps, RMS LSB otherwise. The scene's `max_error` (LSB) replaces the colour defaults.
-pub fn compression_budget(role: pack::TextureRole, max_error: Option<f32>, normal_deg: f32) -> f32 {
+/// The budget a block-compressed texture of `role` (`design`: a window's design) must fit:
+/// mean angle in degrees for normal maps, RMS LSB otherwise. The scene's `max_error` (LSB)
+/// replaces the colour defaults; `design_lsb` replaces it for designs.
+pub fn compression_budget(
+    (role, design): (pack::TextureRole, bool),
+    max_error: Option<f32>,
+    design_lsb: Option<f32>,
+    normal_deg: f32,
+) -> f32 {
     match role {
         pack::TextureRole::Normal => normal_deg,
+        pack::TextureRole::Colour if design => {
+            design_lsb.or(max_error).unwrap_or(DEFAULT_DESIGN_ERROR_LSB)
+        }
         pack::TextureRole::Colour => max_error.unwrap_or(DEFAULT_COLOUR_ERROR_LSB),
         pack::TextureRole::Projector => max_error.unwrap_or(DEFAULT_PROJECTOR_ERROR_LSB),
     }

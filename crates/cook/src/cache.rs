@@ -566,6 +566,7 @@ mod tests {
                 mip_filter: MipFilter::Box,
                 max_error_lsb: None,
                 format: None,
+                supercompression: None,
             },
             window_overrides: Vec::new(),
             cache: None,
@@ -618,6 +619,7 @@ mod tests {
                     mip_filter,
                     max_error_lsb,
                     format,
+                    supercompression,
                 },
             window_overrides,
             // Not a knob; `irrelevant_things_change_no_key` checks it changes nothing.
@@ -689,6 +691,16 @@ mod tests {
                             Some(crate::manifest::TextureFormatChoice::Bc)
                         }
                         _ => Some(crate::manifest::TextureFormatChoice::Rgba8),
+                    }
+                }),
+                true,
+            ),
+            (
+                "textures.supercompression",
+                changed(&|s| {
+                    s.textures.supercompression = match supercompression {
+                        Some(pack::Supercompression::None) => Some(pack::Supercompression::Zstd),
+                        _ => Some(pack::Supercompression::None),
                     }
                 }),
                 true,

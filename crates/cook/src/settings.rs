@@ -39,6 +39,8 @@ pub struct TextureSettings {
     /// `--texture-format`: stores every texture so, over the manifest's `[textures] format`
     /// and every window's `texture_format`.
     pub format: Option<crate::manifest::TextureFormatChoice>,
+    /// `--supercompression`: over the manifest's `[textures] supercompression`.
+    pub supercompression: Option<pack::Supercompression>,
 }
 
 impl Settings {
@@ -53,6 +55,7 @@ impl Settings {
                 mip_filter: manifest.textures.mip_filter,
                 max_error_lsb: manifest.scene.max_error,
                 format: None,
+                supercompression: None,
             },
             window_overrides: Vec::new(),
             cache: None,

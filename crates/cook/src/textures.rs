@@ -24,6 +24,8 @@ enum Job {
         #[serde(skip)]
         image: ImageRef,
         srgb: bool,
+        /// A window's design: what the viewer looks at, so it has its own error budget.
+        design: bool,
     },
     Normal {
         #[serde(skip)]
@@ -175,7 +177,15 @@ impl Job {
     /// image's content. The chosen format and encoder setting follow from these and the texels.
     fn cache_key(&self, p: &Params) -> Result<cache::Key, CookError> {
         let mut k = cache::texture_key(&p.textures);
-        k.serialized("storage", &(p.format, p.normal_budget));
+        k.serialized(
+            "storage",
+            &(
+                p.format,
+                p.normal_budget,
+                p.design_budget,
+                p.supercompression,
+            ),
+        );
         k.str("encoder", ENCODER);
         k.serialized("job", self);
         let image = match self {
@@ -217,6 +227,9 @@ struct Params {
     format: TextureFormatChoice,
     /// Mean angle, degrees, for block-compressed normal maps.
     normal_budget: f32,
+    /// `[textures] max_design_error_lsb`, for window designs.
+    design_budget: Option<f32>,
+    supercompression: pack::Supercompression,
 }
 
 /// A cooked texture: its logical size, the format its levels are stored in, and the levels.
@@ -225,6 +238,8 @@ struct CookedTexture {
     width: u32,
     height: u32,
     format: pack::TextureFormat,
+    supercompression: pack::Supercompression,
+    /// As stored: in `format`, then compressed as `supercompression` says.
     levels: Vec<Vec<u8>>,
 }
 
@@ -262,6 +277,7 @@ impl CookedTexture {
             role,
             colour_space,
             format: self.format,
+            supercompression: self.supercompression,
             width: self.width,
             height: self.height,
             mips,
@@ -307,6 +323,11 @@ fn encode_cooked(c: &CookedTexture, said: &Said) -> Vec<u8> {
         .position(|f| *f == c.format)
         .unwrap_or(0) as u32;
     out.extend_from_slice(&format.to_le_bytes());
+    let supercompression = pack::Supercompression::ALL
+        .iter()
+        .position(|s| *s == c.supercompression)
+        .unwrap_or(0) as u32;
+    out.extend_from_slice(&supercompression.to_le_bytes());
     out.extend_from_slice(&(c.levels.len() as u32).to_le_bytes());
     for l in &c.levels {
         out.extend_from_slice(&(l.len() as u64).to_le_bytes());
@@ -321,7 +342,7 @@ fn encode_cooked(c: &CookedTexture, said: &Said) -> Vec<u8> {
 }
 
 /// Decodes a cache payload; `None` when it does not hold a well-formed texture (every level
-/// the size its format and level size call for).
+/// the size its format and level size call for, or a zstd frame that says so).
 fn decode_cooked(bytes: &[u8]) -> Option<(CookedTexture, Said)> {
     let mut at = 0usize;
     let mut take = |n: usize| -> Option<&[u8]> {
@@ -333,6 +354,7 @@ fn decode_cooked(bytes: &[u8]) -> Option<(CookedTexture, Said)> {
     let width = u32_(take(4)?);
     let height = u32_(take(4)?);
     let format = *pack::TextureFormat::ALL.get(u32_(take(4)?) as usize)?;
+    let supercompression = *pack::Supercompression::ALL.get(u32_(take(4)?) as usize)?;
     let n = u32_(take(4)?) as usize;
     if n == 0 || n > 32 || width == 0 || height == 0 {
         return None;
@@ -341,6 +363,7 @@ fn decode_cooked(bytes: &[u8]) -> Option<(CookedTexture, Said)> {
         width,
         height,
         format,
+        supercompression,
         levels: Vec::with_capacity(n),
     };
     let shape = cooked.describe_levels(
@@ -351,10 +374,11 @@ fn decode_cooked(bytes: &[u8]) -> Option<(CookedTexture, Said)> {
     );
     for k in 0..n {
         let len = u64::from_le_bytes(take(8)?.try_into().unwrap());
-        if len != shape.level_bytes(k) {
-            return None;
-        }
-        cooked.levels.push(take(len as usize)?.to_vec());
+        let level = take(usize::try_from(len).ok()?)?;
+        supercompression
+            .check_declared(level, shape.level_bytes(k))
+            .ok()?;
+        cooked.levels.push(level.to_vec());
     }
     let mut text = || -> Option<Option<String>> {
         let len = u64::from_le_bytes(take(8)?.try_into().unwrap()) as usize;
@@ -412,11 +436,27 @@ fn run_and_compress(job: &Job, p: &Params) -> Result<(CookedTexture, Said), Cook
     // many levels the texture has, and the GPU texture has as many of the padded size.
     chain.levels.truncate(texture::level_count(size.0, size.1));
     let (role, colour_space) = job.role();
-    let (mut cooked, stored) = compress(chain, size, role, colour_space, p);
+    let design = matches!(job, Job::Colour { design: true, .. });
+    let (mut cooked, stored) = compress(chain, size, (role, design), colour_space, p);
     if padded && cooked.format == pack::TextureFormat::Rgba8 {
         cooked.levels = run(job, &p.textures, false)?.0.levels;
     }
+    supercompress(&mut cooked, p.supercompression);
     Ok((cooked, said.and(stored)))
+}
+
+/// Compresses the levels losslessly when that makes them smaller in all (tiny or noisy
+/// levels may not be; the texture is then stored as it is).
+fn supercompress(cooked: &mut CookedTexture, with: pack::Supercompression) {
+    if with == pack::Supercompression::None {
+        return;
+    }
+    let stored: Vec<Vec<u8>> = cooked.levels.par_iter().map(|l| with.compress(l)).collect();
+    let size = |levels: &[Vec<u8>]| levels.iter().map(Vec::len).sum::<usize>();
+    if size(&stored) < size(&cooked.levels) {
+        cooked.levels = stored;
+        cooked.supercompression = with;
+    }
 }
 
 /// Stores a chain uncompressed or block-compressed: `auto` takes the cheapest encoder setting
@@ -425,7 +465,7 @@ fn run_and_compress(job: &Job, p: &Params) -> Result<(CookedTexture, Said), Cook
 fn compress(
     chain: texture::MipChain,
     (width, height): (u32, u32),
-    role: pack::TextureRole,
+    (role, design): (pack::TextureRole, bool),
     colour_space: pack::ColourSpace,
     p: &Params,
 ) -> (CookedTexture, Said) {
@@ -433,6 +473,7 @@ fn compress(
         width,
         height,
         format: pack::TextureFormat::Rgba8,
+        supercompression: pack::Supercompression::None,
         levels: chain.levels,
     };
     if p.format == TextureFormatChoice::Rgba8 {
@@ -445,7 +486,12 @@ fn compress(
         // Renderers read a projector's colour only (the light it lets through).
         pack::TextureRole::Projector => texture::bc::Measure::Rgb,
     };
-    let budget = crate::budget::compression_budget(role, p.textures.max_error_lsb, p.normal_budget);
+    let budget = crate::budget::compression_budget(
+        (role, design),
+        p.textures.max_error_lsb,
+        p.design_budget,
+        p.normal_budget,
+    );
     let unit = if normal { "° mean" } else { " LSB RMS" };
     let candidates = crate::budget::compression_candidates(role);
     let mut best: Option<(texture::bc::Codec, texture::bc::Compressed)> = None;
@@ -454,6 +500,7 @@ fn compress(
             width,
             height,
             format: codec.format(),
+            supercompression: pack::Supercompression::None,
             levels: Vec::new(),
         }
         .describe_levels(chain.levels.len(), String::new(), role, colour_space);
@@ -496,6 +543,7 @@ fn compress(
         width,
         height,
         format: codec.format(),
+        supercompression: pack::Supercompression::None,
         levels: c.levels,
     };
     (cooked, said)
@@ -537,7 +585,7 @@ fn run(job: &Job, settings: &TextureSettings, pad: bool) -> Result<Chain, CookEr
         (img, size)
     };
     match job {
-        Job::Colour { image, srgb } => {
+        Job::Colour { image, srgb, .. } => {
             let (img, size) = padded(decode(image)?);
             let mut opts = texture::ColourOptions {
                 srgb: *srgb,
@@ -683,6 +731,7 @@ pub fn cook_textures(
                     Job::Colour {
                         image: w.design.clone(),
                         srgb: w.colour_space == pack::ColourSpace::Srgb,
+                        design: true,
                     },
                     f,
                 ));
@@ -714,10 +763,16 @@ pub fn cook_textures(
                 }
             }
             None => {
-                r.0 = plan
-                    .diffuse_texture
-                    .clone()
-                    .map(|image| add(Job::Colour { image, srgb: true }, format));
+                r.0 = plan.diffuse_texture.clone().map(|image| {
+                    add(
+                        Job::Colour {
+                            image,
+                            srgb: true,
+                            design: false,
+                        },
+                        format,
+                    )
+                });
                 r.1 = plan.normal_texture.clone().map(|image| {
                     add(
                         Job::Normal {
@@ -737,6 +792,7 @@ pub fn cook_textures(
             Job::Colour {
                 image: ImageRef::File(p),
                 srgb: true,
+                design: false,
             },
             format,
         )
@@ -754,6 +810,11 @@ pub fn cook_textures(
             .textures
             .max_normal_error_deg
             .unwrap_or(crate::budget::DEFAULT_NORMAL_ERROR_DEG),
+        design_budget: manifest.textures.max_design_error_lsb,
+        supercompression: settings
+            .textures
+            .supercompression
+            .unwrap_or(manifest.textures.supercompression),
     };
     let results: Vec<Result<Cooked, CookError>> = jobs
         .par_iter()
@@ -804,13 +865,24 @@ mod tests {
     /// cut short or with a byte too many is refused.
     #[test]
     fn cooked_payload_round_trips_notes_and_warnings() {
-        let cooked = CookedTexture {
+        let bc7 = CookedTexture {
             width: 6,
             height: 5,
             format: pack::TextureFormat::Bc7,
+            supercompression: pack::Supercompression::None,
             levels: vec![vec![1; 2 * 2 * 16], vec![2; 16], vec![3; 16]],
         };
-        for said in [
+        let mut zstd = bc7.clone();
+        supercompress(&mut zstd, pack::Supercompression::Zstd);
+        assert_eq!(zstd.supercompression, pack::Supercompression::Zstd);
+        // A frame that declares another level size is refused like a level of the wrong size.
+        let mut wrong = zstd.clone();
+        wrong.levels[1] = pack::Supercompression::Zstd.compress(&[2; 32]);
+        assert_eq!(
+            decode_cooked(&encode_cooked(&wrong, &Said::default())),
+            None
+        );
+        for (cooked, said) in [
             Said::default(),
             Said::note("bc7 very-fast chosen"),
             Said {
@@ -821,7 +893,10 @@ mod tests {
                 note: Some("b".into()),
                 warning: Some("c".into()),
             }),
-        ] {
+        ]
+        .into_iter()
+        .flat_map(|said| [(bc7.clone(), said.clone()), (zstd.clone(), said)])
+        {
             let bytes = encode_cooked(&cooked, &said);
             assert_eq!(decode_cooked(&bytes), Some((cooked.clone(), said.clone())));
             assert_eq!(decode_cooked(&bytes[..bytes.len() - 1]), None);

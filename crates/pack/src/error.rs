@@ -91,6 +91,8 @@ pub enum Problem {
     TocDecode(String),
     #[error("table of contents is invalid: {0}")]
     Toc(String),
+    #[error("{what} cannot be decompressed: {reason}")]
+    Supercompression { what: String, reason: String },
     #[error("unexpected end of stream while reading {what}")]
     Truncated { what: String },
 }

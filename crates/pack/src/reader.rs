@@ -6,7 +6,7 @@ use std::path::{Path, PathBuf};
 use crate::error::{Fail, PackError};
 use crate::format::{HEADER_SIZE, Header, SectionEntry, check_section, decode_table};
 use crate::toc::{IndexFormat, Mesh, Toc};
-use crate::validate::{SectionRole, decode_toc, validate_content, validate_toc};
+use crate::validate::{SectionRole, decode_content, decode_toc, validate_toc};
 
 /// Heap bytes aligned to 16, so sections cast with bytemuck like mapped ones do.
 #[derive(Clone, Default)]
@@ -70,6 +70,9 @@ pub struct Pack {
     sections: Vec<SectionEntry>,
     roles: Vec<SectionRole>,
     toc: Toc,
+    /// Per section: the decoded level of a supercompressed texture, decoded (and so checked)
+    /// once when the pack is opened.
+    decoded: Vec<Option<AlignedBytes>>,
 }
 
 struct Parsed {
@@ -77,6 +80,7 @@ struct Parsed {
     sections: Vec<SectionEntry>,
     roles: Vec<SectionRole>,
     toc: Toc,
+    decoded: Vec<Option<AlignedBytes>>,
 }
 
 fn parse(bytes: &[u8]) -> Result<Parsed, Fail> {
@@ -102,19 +106,24 @@ fn parse(bytes: &[u8]) -> Result<Parsed, Fail> {
         toc_entry.offset,
     )?;
     let roles = validate_toc(&toc, &sections)?;
-    for (s, &role) in sections.iter().zip(&roles) {
-        validate_content(&toc, role, &bytes[s.offset as usize..s.end() as usize]).map_err(|f| {
-            Fail {
-                offset: f.offset.or(Some(s.offset)),
-                problem: f.problem,
-            }
-        })?;
-    }
+    let decoded = sections
+        .iter()
+        .zip(&roles)
+        .map(|(s, &role)| {
+            decode_content(&toc, role, &bytes[s.offset as usize..s.end() as usize]).map_err(|f| {
+                Fail {
+                    offset: f.offset.or(Some(s.offset)),
+                    problem: f.problem,
+                }
+            })
+        })
+        .collect::<Result<_, _>>()?;
     Ok(Parsed {
         header,
         sections,
         roles,
         toc,
+        decoded,
     })
 }
 
@@ -167,6 +176,7 @@ impl Pack {
             sections: p.sections,
             roles: p.roles,
             toc: p.toc,
+            decoded: p.decoded,
         }
     }
 
@@ -192,9 +202,18 @@ impl Pack {
         }
     }
 
+    /// A section's bytes as stored in the file (a supercompressed level's zstd frame).
     pub fn section_bytes(&self, index: u32) -> &[u8] {
         let s = &self.sections[index as usize];
         &self.bytes()[s.offset as usize..s.end() as usize]
+    }
+
+    /// A section's content: the stored bytes, or a supercompressed level's decoded bytes.
+    pub fn section_data(&self, index: u32) -> &[u8] {
+        match &self.decoded[index as usize] {
+            Some(d) => d,
+            None => self.section_bytes(index),
+        }
     }
 
     pub fn vertex_bytes(&self, mesh: &Mesh) -> &[u8] {
@@ -215,7 +234,8 @@ impl Pack {
         }
     }
 
+    /// A level's bytes in its texture's format (decoded if supercompressed).
     pub fn mip_bytes(&self, texture: usize, level: usize) -> &[u8] {
-        self.section_bytes(self.toc.textures[texture].mips[level].section)
+        self.section_data(self.toc.textures[texture].mips[level].section)
     }
 }

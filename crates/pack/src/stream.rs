@@ -9,7 +9,7 @@ use crate::error::{Fail, PackError, Problem};
 use crate::format::{HEADER_SIZE, Header, SectionEntry, check_section, decode_table};
 use crate::reader::AlignedBytes;
 use crate::toc::Toc;
-use crate::validate::{SectionRole, decode_toc, validate_content, validate_toc};
+use crate::validate::{SectionRole, decode_content, decode_toc, validate_toc};
 
 const EAGER_ALLOCATION: u64 = 64 << 20;
 
@@ -18,6 +18,7 @@ const EAGER_ALLOCATION: u64 = 64 << 20;
 pub struct StreamSection {
     pub index: u32,
     pub role: SectionRole,
+    /// The section's content: a supercompressed texture level arrives decoded.
     pub bytes: AlignedBytes,
 }
 
@@ -154,7 +155,7 @@ impl<R: Read> StreamReader<R> {
         // The table was checked against the declared file length, and the TOC's size against its
         // own limit; a bulk section's length is only trusted once the TOC has vouched for it.
         let what = format!("section {index} ({})", entry.kind.name());
-        let bytes = if entry.length <= EAGER_ALLOCATION {
+        let mut bytes = if entry.length <= EAGER_ALLOCATION {
             let mut bytes = AlignedBytes::zeroed(entry.length as usize);
             read_exact_or(&mut self.source, bytes.as_mut_slice(), &what)?;
             bytes
@@ -181,10 +182,13 @@ impl<R: Read> StreamReader<R> {
         } else {
             let role = self.roles[index];
             let toc = self.toc.as_ref().expect("TOC is section 0");
-            validate_content(toc, role, &bytes).map_err(|f| Fail {
+            let decoded = decode_content(toc, role, &bytes).map_err(|f| Fail {
                 offset: f.offset.or(Some(entry.offset)),
                 problem: f.problem,
             })?;
+            if let Some(decoded) = decoded {
+                bytes = decoded;
+            }
             role
         };
         self.next += 1;

@@ -30,6 +30,7 @@ pub fn sample_texture(name: &str, role: TextureRole, w: u32, h: u32) -> (Texture
             role,
             colour_space,
             format: TextureFormat::Rgba8,
+            supercompression: Supercompression::None,
             width: w,
             height: h,
             mips,
@@ -59,6 +60,12 @@ pub fn sample_block_texture(
         })
         .collect();
     (t, data)
+}
+
+/// Stores a sample texture's levels with `s`: returns the sections' bytes.
+pub fn supercompress(t: &mut Texture, s: Supercompression, levels: &[Vec<u8>]) -> Vec<Vec<u8>> {
+    t.supercompression = s;
+    levels.iter().map(|l| s.compress(l)).collect()
 }
 
 pub fn material(name: &str, class: MaterialClass) -> Material {
@@ -117,8 +124,9 @@ pub fn sample() -> (Toc, PackData) {
         ],
     };
     let (colour, cdata) = sample_texture("rose.colour", TextureRole::Colour, 4, 2);
-    let (normal, ndata) =
+    let (mut normal, ndata) =
         sample_block_texture("rose.normal", TextureRole::Normal, TextureFormat::Bc5, 3, 3);
+    let ndata = supercompress(&mut normal, Supercompression::Zstd, &ndata);
     let mut window = material("rose", MaterialClass::WindowUpper);
     window.diffuse_texture = Some(0);
     window.normal_texture = Some(1);

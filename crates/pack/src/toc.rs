@@ -160,6 +160,85 @@ impl std::fmt::Display for TextureFormat {
     }
 }
 
+/// A lossless compression of a texture's stored levels on top of their format, undone when the
+/// pack is read (KTX2 calls this supercompression). Each level is its own zstd frame, so levels
+/// stream and decode one by one.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Supercompression {
+    /// The section holds the level's bytes as they are (zero-copy from a mapped pack).
+    #[default]
+    None,
+    /// The section holds one zstd frame whose content is the level's bytes.
+    Zstd,
+}
+
+/// zstd level of [`Supercompression::compress`]: levels 9 to 19 take 1.5 to 20 times as long
+/// for 1 % more (docs/bench/README.md, "Supercompression").
+pub const ZSTD_LEVEL: i32 = 9;
+
+impl Supercompression {
+    pub const ALL: [Supercompression; 2] = [Self::None, Self::Zstd];
+
+    /// The user-facing name (CLI, JSON).
+    pub fn name(self) -> &'static str {
+        match self {
+            Self::None => "none",
+            Self::Zstd => "zstd",
+        }
+    }
+
+    /// A level's stored bytes as they go into its section. zstd output depends only on the
+    /// input and the level, so packs stay byte-identical whatever the thread count.
+    pub fn compress(self, level: &[u8]) -> Vec<u8> {
+        match self {
+            Self::None => level.to_vec(),
+            Self::Zstd => zstd::bulk::compress(level, ZSTD_LEVEL)
+                .expect("zstd compresses any input into a vector of its bound"),
+        }
+    }
+
+    /// Checks that a section declares a level of `expected` bytes, before any memory is
+    /// given to decoding it: a zstd frame states its content size in its header.
+    pub fn check_declared(self, section: &[u8], expected: u64) -> Result<(), String> {
+        let declared = match self {
+            Self::None => section.len() as u64,
+            Self::Zstd => match zstd::zstd_safe::get_frame_content_size(section) {
+                Ok(Some(n)) => n,
+                Ok(None) => return Err("the zstd frame does not declare its size".into()),
+                Err(_) => return Err("not a zstd frame".into()),
+            },
+        };
+        if declared != expected {
+            return Err(format!(
+                "it holds {declared} bytes, but the level is {expected}"
+            ));
+        }
+        Ok(())
+    }
+
+    /// A section's bytes back as the level's stored bytes, `out.len()` of them: the whole
+    /// section must decode to exactly that many.
+    pub fn decompress_into(self, section: &[u8], out: &mut [u8]) -> Result<(), String> {
+        self.check_declared(section, out.len() as u64)?;
+        match self {
+            Self::None => out.copy_from_slice(section),
+            Self::Zstd => {
+                let n = zstd::bulk::Decompressor::new()
+                    .and_then(|mut d| d.decompress_to_buffer(section, out))
+                    .map_err(|e| format!("zstd: {e}"))?;
+                if n != out.len() {
+                    return Err(format!(
+                        "the zstd data decodes to {n} bytes, but the level is {}",
+                        out.len()
+                    ));
+                }
+            }
+        }
+        Ok(())
+    }
+}
+
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct MipLevel {
     /// Logical size of the level: the texels that hold the image.
@@ -176,6 +255,8 @@ pub struct Texture {
     pub role: TextureRole,
     pub colour_space: ColourSpace,
     pub format: TextureFormat,
+    /// How each level's section is compressed on top of `format`.
+    pub supercompression: Supercompression,
     /// Logical size of level 0: the image's texels. A block-compressed texture is stored
     /// padded to [`Texture::storage_size`].
     pub width: u32,
@@ -217,6 +298,7 @@ impl Texture {
         [self.width as f32 / w as f32, self.height as f32 / h as f32]
     }
 
+    /// Bytes of level `level` in `format` (after undoing any supercompression).
     pub fn level_bytes(&self, level: usize) -> u64 {
         let (w, h) = self.storage_level_size(level);
         self.format.level_bytes(w, h)

@@ -1,9 +1,9 @@
 //! Semantic validation of a decoded TOC against the section table, and of bulk data against
 //! the TOC. Everything a consumer indexes with is checked here, before use.
 
-use crate::error::Fail;
+use crate::error::{Fail, Problem};
 use crate::format::{MAX_TEXTURE_SIZE, SectionEntry, SectionKind};
-use crate::toc::{AttributeFormat, IndexFormat, Mesh, Semantic, Texture, Toc};
+use crate::toc::{AttributeFormat, IndexFormat, Mesh, Semantic, Supercompression, Texture, Toc};
 
 /// What a bulk section holds, as the TOC assigns it.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -52,7 +52,7 @@ fn expect_section(
     index: u32,
     kind: SectionKind,
     role: SectionRole,
-    length: u64,
+    length: Option<u64>,
     what: &str,
 ) -> Result<(), Fail> {
     let entry = table.get(index as usize).ok_or_else(|| {
@@ -68,7 +68,11 @@ fn expect_section(
             kind.name()
         )));
     }
-    if entry.length != length {
+    // A supercompressed level's section is as long as its frame; its content is checked
+    // against the level's size when it is decoded (`decode_content`).
+    if let Some(length) = length
+        && entry.length != length
+    {
         return Err(Fail::toc(format!(
             "{what}: section {index} is {} bytes but must be {length}",
             entry.length
@@ -245,7 +249,7 @@ pub fn validate_toc(toc: &Toc, table: &[SectionEntry]) -> Result<Vec<SectionRole
             mesh.vertex_section,
             SectionKind::Vertices,
             SectionRole::Vertices { mesh: mi as u32 },
-            mesh.vertex_count as u64 * mesh.layout.stride as u64,
+            Some(mesh.vertex_count as u64 * mesh.layout.stride as u64),
             &format!("{what} vertices"),
         )?;
         expect_section(
@@ -254,7 +258,7 @@ pub fn validate_toc(toc: &Toc, table: &[SectionEntry]) -> Result<Vec<SectionRole
             mesh.index_section,
             SectionKind::Indices,
             SectionRole::Indices { mesh: mi as u32 },
-            mesh.index_count as u64 * mesh.index_format.size(),
+            Some(mesh.index_count as u64 * mesh.index_format.size()),
             &format!("{what} indices"),
         )?;
     }
@@ -289,7 +293,7 @@ pub fn validate_toc(toc: &Toc, table: &[SectionEntry]) -> Result<Vec<SectionRole
                     texture: ti as u32,
                     level: level as u32,
                 },
-                t.level_bytes(level),
+                (t.supercompression == Supercompression::None).then(|| t.level_bytes(level)),
                 &format!("{what} mip {level}"),
             )?;
         }
@@ -424,11 +428,37 @@ pub fn validate_indices(toc: &Toc, mesh: u32, bytes: &[u8]) -> Result<(), Fail> 
     Ok(())
 }
 
-/// Checks a bulk section's content according to its role.
-pub fn validate_content(toc: &Toc, role: SectionRole, bytes: &[u8]) -> Result<(), Fail> {
+/// Checks a bulk section's content according to its role, and undoes a texture level's
+/// supercompression: `Some` holds the level's bytes when the section does not.
+pub(crate) fn decode_content(
+    toc: &Toc,
+    role: SectionRole,
+    bytes: &[u8],
+) -> Result<Option<crate::AlignedBytes>, Fail> {
     match role {
-        SectionRole::Vertices { mesh } => validate_vertices(toc, mesh, bytes),
-        SectionRole::Indices { mesh } => validate_indices(toc, mesh, bytes),
-        SectionRole::Toc | SectionRole::Mip { .. } => Ok(()),
+        SectionRole::Vertices { mesh } => validate_vertices(toc, mesh, bytes).map(|()| None),
+        SectionRole::Indices { mesh } => validate_indices(toc, mesh, bytes).map(|()| None),
+        SectionRole::Toc => Ok(None),
+        SectionRole::Mip { texture, level } => {
+            let t = &toc.textures[texture as usize];
+            if t.supercompression == Supercompression::None {
+                return Ok(None);
+            }
+            let fail = |reason| {
+                Fail::from(Problem::Supercompression {
+                    what: format!("texture {texture} ({:?}) mip {level}", t.name),
+                    reason,
+                })
+            };
+            let expected = t.level_bytes(level as usize);
+            t.supercompression
+                .check_declared(bytes, expected)
+                .map_err(fail)?;
+            let mut out = crate::AlignedBytes::zeroed(expected as usize);
+            t.supercompression
+                .decompress_into(bytes, out.as_mut_slice())
+                .map_err(fail)?;
+            Ok(Some(out))
+        }
     }
 }

@@ -24,7 +24,8 @@ pub struct MeshData {
 pub struct PackData {
     pub meshes: Vec<MeshData>,
     /// Per texture, per mip level (level 0 first), the stored bytes: tightly packed RGBA8 rows,
-    /// or 4x4 blocks in rows of blocks for the block formats (`Texture::level_bytes`).
+    /// or 4x4 blocks in rows of blocks for the block formats (`Texture::level_bytes`), each
+    /// level compressed as the texture's `supercompression` says.
     pub textures: Vec<Vec<Vec<u8>>>,
 }
 
@@ -53,7 +54,8 @@ fn assemble(mut toc: Toc, data: &PackData) -> Result<Vec<u8>, PackError> {
         .with_path(memory));
     }
     // Streaming order: TOC, geometry, then mips by size (smallest first), ties by texture and
-    // level so the order is total and deterministic.
+    // level so the order is total and deterministic. The size is the level's in its format, so
+    // supercompression never puts a texture's large level before its small ones.
     let mut blobs: Vec<(SectionKind, &[u8])> = Vec::new();
     for (mesh, d) in toc.meshes.iter_mut().zip(&data.meshes) {
         mesh.vertex_section = blobs.len() as u32 + 1;
@@ -71,8 +73,8 @@ fn assemble(mut toc: Toc, data: &PackData) -> Result<Vec<u8>, PackError> {
             ))
             .with_path(memory));
         }
-        for (level, bytes) in levels.iter().enumerate() {
-            mips.push((bytes.len() as u64, ti, level));
+        for level in 0..levels.len() {
+            mips.push((toc.textures[ti].level_bytes(level), ti, level));
         }
     }
     mips.sort_by(|a, b| a.0.cmp(&b.0).then(a.1.cmp(&b.1)).then(b.2.cmp(&a.2)));

@@ -115,7 +115,7 @@ impl Reference {
             .map(|t| {
                 let level = t.mips.first()?;
                 // Block formats decode to the logical level (padding dropped).
-                let bytes = pack::texels::decode_level(t, 0, pack.section_bytes(level.section));
+                let bytes = pack::texels::decode_level(t, 0, pack.section_data(level.section));
                 let (w, h) = (level.width as usize, level.height as usize);
                 if bytes.len() < w * h * 4 {
                     return None;

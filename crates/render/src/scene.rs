@@ -356,7 +356,7 @@ impl Scene {
     pub fn from_pack(gpu: &Gpu, pack: &pack::Pack) -> Result<Self, RenderError> {
         let mut scene = Self::new(gpu, pack.toc())?;
         for (i, role) in pack.roles().iter().enumerate().skip(1) {
-            scene.upload(gpu, *role, pack.section_bytes(i as u32))?;
+            scene.upload(gpu, *role, pack.section_data(i as u32))?;
         }
         scene.refresh(gpu);
         Ok(scene)

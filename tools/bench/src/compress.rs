@@ -165,6 +165,7 @@ fn shape(chain: &texture::MipChain, codec: Codec) -> pack::Texture {
         role: pack::TextureRole::Colour,
         colour_space: pack::ColourSpace::Linear,
         format: codec.format(),
+        supercompression: pack::Supercompression::None,
         width: chain.width,
         height: chain.height,
         mips: (0..chain.levels.len())

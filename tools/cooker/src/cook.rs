@@ -44,11 +44,17 @@ pub struct SettingsArgs {
     max_error: Option<f32>,
     /// How textures are stored: `auto` block-compresses each texture (BC7 colour and
     /// projectors, BC5 normal maps) with the cheapest encoder setting whose measured error
-    /// fits the budget (`--max-error-lsb`, RMS; normal maps `[textures] max_normal_error_deg`)
-    /// and keeps RGBA8 where none does; `bc` always compresses; `rgba8` never. Overrides the
-    /// manifest's `[textures] format` and every window's `texture_format`.
+    /// fits the budget (`--max-error-lsb`, RMS; window designs `[textures]
+    /// max_design_error_lsb`, normal maps `max_normal_error_deg`) and keeps RGBA8 where none
+    /// does; `bc` always compresses; `rgba8` never. Overrides the manifest's `[textures]
+    /// format` and every window's `texture_format`.
     #[arg(long, value_name = "auto|rgba8|bc", value_parser = texture_format)]
     texture_format: Option<cook::manifest::TextureFormatChoice>,
+    /// Lossless compression of each stored texture level on top of its format (`zstd`, the
+    /// default, or `none` for levels a reader can map without decoding). Overrides the
+    /// manifest's `[textures] supercompression`.
+    #[arg(long, value_name = "zstd|none", value_parser = supercompression)]
+    supercompression: Option<pack::Supercompression>,
     /// Quantize vertices (positions within the mesh's bounds, 16-bit UVs, octahedral
     /// normals); reports the error.
     #[arg(long)]
@@ -80,6 +86,7 @@ impl SettingsArgs {
         settings.position_bits = self.position_bits;
         settings.window_overrides = cook::manifest::WindowDesign::overrides(&self.windows)?;
         settings.textures.format = self.texture_format;
+        settings.textures.supercompression = self.supercompression;
         settings.mesh.cache = if self.fifo {
             CacheMode::Fifo
         } else {
@@ -103,6 +110,13 @@ fn texture_format(s: &str) -> Result<cook::manifest::TextureFormatChoice, String
         .find(|(n, _)| *n == s)
         .map(|&(_, c)| c)
         .ok_or_else(|| format!("{s:?} is not one of auto, rgba8, bc"))
+}
+
+fn supercompression(s: &str) -> Result<pack::Supercompression, String> {
+    pack::Supercompression::ALL
+        .into_iter()
+        .find(|c| c.name() == s)
+        .ok_or_else(|| format!("{s:?} is not one of zstd, none"))
 }
 
 fn ms(d: Duration) -> String {

@@ -69,11 +69,36 @@ fn windows(toc: &pack::Toc, tris: &[u64]) -> Vec<serde_json::Value> {
         .collect()
 }
 
-/// A texture's bytes in the pack (all levels) and as uncompressed RGBA8 of its logical size.
-fn texture_bytes(t: &pack::Texture) -> (u64, u64) {
-    (0..t.mips.len()).fold((0, 0), |(s, u), k| {
-        (s + t.level_bytes(k), u + t.level_rgba8_bytes(k))
-    })
+/// A texture's bytes, all levels: in the pack's file (after supercompression), in its format
+/// (what a GPU holds), and as uncompressed RGBA8 of its logical size.
+struct TextureBytes {
+    stored: u64,
+    format: u64,
+    rgba8: u64,
+}
+
+fn texture_bytes(pack: &Pack, t: &pack::Texture) -> TextureBytes {
+    let sections = pack.sections();
+    (0..t.mips.len()).fold(
+        TextureBytes {
+            stored: 0,
+            format: 0,
+            rgba8: 0,
+        },
+        |b, k| TextureBytes {
+            stored: b.stored + sections[t.mips[k].section as usize].length,
+            format: b.format + t.level_bytes(k),
+            rgba8: b.rgba8 + t.level_rgba8_bytes(k),
+        },
+    )
+}
+
+/// `bc7`, or `bc7+zstd` for a supercompressed texture.
+fn storage_name(t: &pack::Texture) -> String {
+    match t.supercompression {
+        pack::Supercompression::None => t.format.name().to_string(),
+        s => format!("{}+{}", t.format.name(), s.name()),
+    }
 }
 
 /// The JSON description of a pack; also what golden regression data is made of.
@@ -120,17 +145,19 @@ pub fn describe(pack: &Pack) -> serde_json::Value {
         .textures
         .iter()
         .map(|t| {
-            let (stored, rgba8) = texture_bytes(t);
+            let bytes = texture_bytes(pack, t);
             json!({
                 "name": t.name,
                 "role": t.role.name(),
                 "colour_space": t.colour_space.name(),
                 "format": t.format.name(),
+                "supercompression": t.supercompression.name(),
                 "width": t.width,
                 "height": t.height,
                 "mips": t.mips.len(),
-                "stored_bytes": stored,
-                "uncompressed_bytes": rgba8,
+                "stored_bytes": bytes.stored,
+                "format_bytes": bytes.format,
+                "uncompressed_bytes": bytes.rgba8,
             })
         })
         .collect();
@@ -236,25 +263,28 @@ pub fn run(args: Args) -> Outcome {
         );
     }
     println!("textures ({}):", toc.textures.len());
-    let (mut all_stored, mut all_rgba8) = (0, 0);
+    let (mut all_stored, mut all_format, mut all_rgba8) = (0, 0, 0);
     for t in &toc.textures {
-        let (stored, rgba8) = texture_bytes(t);
-        all_stored += stored;
-        all_rgba8 += rgba8;
+        let b = texture_bytes(&pack, t);
+        all_stored += b.stored;
+        all_format += b.format;
+        all_rgba8 += b.rgba8;
         println!(
-            "  {:<32} {:<9} {:<6} {:<5} {:>5}x{:<5} {:>2} mips {:>10} bytes ({:>10} as RGBA8)",
+            "  {:<32} {:<9} {:<6} {:<10} {:>5}x{:<5} {:>2} mips {:>10} bytes ({:>10} in {}, {:>10} as RGBA8)",
             t.name,
             t.role.name(),
             t.colour_space.name(),
-            t.format.name(),
+            storage_name(t),
             t.width,
             t.height,
             t.mips.len(),
-            stored,
-            rgba8
+            b.stored,
+            b.format,
+            t.format.name(),
+            b.rgba8
         );
     }
-    println!("  texture bytes: {all_stored} stored, {all_rgba8} as RGBA8");
+    println!("  texture bytes: {all_stored} stored, {all_format} on the GPU, {all_rgba8} as RGBA8");
     println!(
         "windows: {}, cameras: {}",
         toc.windows.len(),

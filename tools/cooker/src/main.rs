@@ -47,7 +47,19 @@ enum Command {
     Cache(cache_cmd::Args),
 }
 
+/// Rust ignores SIGPIPE, so a closed stdout (`cooker info p.pack | head`) made the next
+/// `println!` panic; like other Unix tools, stop quietly instead.
+fn default_sigpipe() {
+    // SAFETY: called first thing in main, before any other thread exists; SIG_DFL is a valid
+    // disposition for SIGPIPE.
+    #[cfg(unix)]
+    unsafe {
+        libc::signal(libc::SIGPIPE, libc::SIG_DFL);
+    }
+}
+
 fn main() {
+    default_sigpipe();
     let cli = match Cli::try_parse() {
         Ok(cli) => cli,
         Err(e) => {

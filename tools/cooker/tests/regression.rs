@@ -70,19 +70,44 @@ fn default_scene_is_deterministic_and_matches_golden() {
         );
     }
 
-    // The default cook compresses: BC7 colour, BC5 normal maps, RGBA8 only where no setting
-    // fits the budget; the whole pack within the 12 MB.
+    // The default cook compresses: BC7 stone and sky, BC5 normal maps, RGBA8 where no setting
+    // fits the budget (the window designs, whose budget is 1 LSB, and the projectors), every
+    // texture zstd-supercompressed; the whole pack within the 12 MB.
     let auto = info_json(&packs[0]);
-    let formats: Vec<&str> = auto["textures"]
+    let formats: std::collections::BTreeMap<&str, String> = auto["textures"]
         .as_array()
         .unwrap()
         .iter()
-        .map(|t| t["format"].as_str().unwrap())
+        .map(|t| {
+            (
+                t["name"].as_str().unwrap(),
+                format!(
+                    "{}+{}",
+                    t["format"].as_str().unwrap(),
+                    t["supercompression"].as_str().unwrap()
+                ),
+            )
+        })
         .collect();
-    assert!(
-        formats.iter().filter(|f| **f == "bc7").count() >= 5 && formats.contains(&"bc5"),
-        "{formats:?}"
-    );
+    for (names, want) in [
+        (&["floor", "wall", "sky"][..], "bc7+zstd"),
+        (
+            &["hammered.normal", "reeded.normal", "mosaic.derived-normal"],
+            "bc5+zstd",
+        ),
+        (
+            &["lancet", "border", "mosaic", "rose", "rose.projector"],
+            "rgba8+zstd",
+        ),
+    ] {
+        for name in names {
+            assert_eq!(
+                formats.get(name).map(String::as_str),
+                Some(want),
+                "{name}: {formats:?}"
+            );
+        }
+    }
     let size = auto["file_length"].as_u64().unwrap();
     assert!(size <= 12_000_000, "default pack is {size} bytes");
 

@@ -453,6 +453,14 @@ fn god_ray_settings(args: &Args) -> Result<Settings> {
 }
 
 fn main() -> Result<()> {
+    // Rust ignores SIGPIPE, so a closed stdout (`viewer p.pack --headless | head`) made the
+    // next `println!` panic; like other Unix tools, stop quietly instead.
+    // SAFETY: first thing in main, before any other thread exists; SIG_DFL is a valid
+    // disposition for SIGPIPE.
+    #[cfg(unix)]
+    unsafe {
+        libc::signal(libc::SIGPIPE, libc::SIG_DFL);
+    }
     let args = Args::parse();
     VERBOSE.store(args.verbose, std::sync::atomic::Ordering::Relaxed);
     let mut settings = god_ray_settings(&args)?;

@@ -29,6 +29,14 @@ pub(super) fn parse(path: &Path, text: &str) -> Result<Manifest, CookError> {
                     .as_ref()
                     .map(|m| src.positive(m, "max_normal_error_deg"))
                     .transpose()?,
+                max_design_error_lsb: t
+                    .max_design_error_lsb
+                    .as_ref()
+                    .map(|m| src.positive(m, "max_design_error_lsb"))
+                    .transpose()?,
+                supercompression: t
+                    .supercompression
+                    .unwrap_or(Textures::default().supercompression),
             },
         },
         meshes: meshes(&src, &raw.mesh)?,

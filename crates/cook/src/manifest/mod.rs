@@ -73,13 +73,30 @@ impl TextureFormatChoice {
 
 /// The `[textures]` table. The cook reads its values from [`crate::Settings`], which takes
 /// them from here.
-#[derive(Clone, Debug, Default)]
+#[derive(Clone, Debug)]
 pub struct Textures {
     pub mip_filter: texture::MipFilter,
     pub format: TextureFormatChoice,
     /// Budget for block-compressed normal maps: mean angle in degrees (`None`: the default,
     /// `budget::DEFAULT_NORMAL_ERROR_DEG`).
     pub max_normal_error_deg: Option<f32>,
+    /// Budget for block-compressed window designs, RMS LSB (`None`: `[scene] max_error`, else
+    /// `budget::DEFAULT_DESIGN_ERROR_LSB`).
+    pub max_design_error_lsb: Option<f32>,
+    /// Lossless compression of every texture's levels in the pack (default zstd).
+    pub supercompression: pack::Supercompression,
+}
+
+impl Default for Textures {
+    fn default() -> Self {
+        Self {
+            mip_filter: texture::MipFilter::default(),
+            format: TextureFormatChoice::default(),
+            max_normal_error_deg: None,
+            max_design_error_lsb: None,
+            supercompression: pack::Supercompression::Zstd,
+        }
+    }
 }
 
 /// Where in the manifest a value came from, for errors found after parsing.

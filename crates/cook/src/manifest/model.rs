@@ -38,6 +38,8 @@ pub(super) struct Textures {
     pub mip_filter: Option<texture::MipFilter>,
     pub format: Option<super::TextureFormatChoice>,
     pub max_normal_error_deg: Option<Spanned<f32>>,
+    pub max_design_error_lsb: Option<Spanned<f32>>,
+    pub supercompression: Option<pack::Supercompression>,
 }
 
 #[derive(Deserialize)]
