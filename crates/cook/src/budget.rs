@@ -58,11 +58,12 @@ pub const DEFAULT_PROJECTOR_ERROR_LSB: f32 = 1.0;
 /// The same for normal maps: mean angle in degrees (`[textures] max_normal_error_deg`).
 pub const DEFAULT_NORMAL_ERROR_DEG: f32 = 1.5;
 /// The same for window designs (`[textures] max_design_error_lsb`). The designs are what the
-/// viewer shows brightest, and they feed the god rays and the refraction: stored in BC7, even
-/// where only level 0 is (levels 1 up exact), the default scene's final renders differ from the
-/// RGBA8 pack's by FLIP 0.004-0.013, and with every level in BC7 by 0.011-0.016, over the
-/// 0.01 goal, while BC7 very-fast measures 1.3-2.6 LSB RMS on them. So by default they stay
-/// RGBA8, zstd-supercompressed (docs/bench/README.md, "Compression").
+/// viewer shows brightest, and they feed the god rays and the refraction. Measured on the
+/// default scene at 1280x720 (FLIP mean of the final renders against the RGBA8 pack's, goal
+/// 0.01): designs in BC7 very-fast (1.2-2.0 LSB RMS) 0.016-0.031; the same texels with the
+/// unpadded mip geometry 0.011-0.016; only level 0 in BC7 0.004-0.013; designs exact
+/// 0.007-0.009. No BC7 setting is below 1 LSB on them, so by default they stay RGBA8 (with
+/// zstd smaller than BC7: docs/bench/README.md, "Block compression").
 pub const DEFAULT_DESIGN_ERROR_LSB: f32 = 1.0;
 
 /// The budget a block-compressed texture of `role` (`design`: a window's design) must fit:
@@ -289,6 +290,24 @@ pub fn choose_mip_in(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn designs_have_their_own_budget_which_the_specific_setting_overrides() {
+        use pack::TextureRole::{Colour, Normal, Projector};
+        let b = |role, design, max, design_lsb| {
+            compression_budget((role, design), max, design_lsb, 1.5)
+        };
+        assert_eq!(b(Colour, true, None, None), DEFAULT_DESIGN_ERROR_LSB);
+        assert_eq!(b(Colour, false, None, None), DEFAULT_COLOUR_ERROR_LSB);
+        assert_eq!(b(Projector, false, None, None), DEFAULT_PROJECTOR_ERROR_LSB);
+        assert_eq!(b(Normal, false, Some(9.0), Some(9.0)), 1.5);
+        // `[scene] max_error` / `--max-error-lsb` sets every LSB budget...
+        assert_eq!(b(Colour, true, Some(3.0), None), 3.0);
+        assert_eq!(b(Colour, false, Some(3.0), None), 3.0);
+        // ...except where `[textures] max_design_error_lsb` names the designs' own.
+        assert_eq!(b(Colour, true, Some(3.0), Some(0.5)), 0.5);
+        assert_eq!(b(Colour, false, Some(3.0), Some(0.5)), 3.0);
+    }
 
     fn blur(method: &str, sigma: f32, err: f32, cost: f32) -> BlurEntry {
         BlurEntry {

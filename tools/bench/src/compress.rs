@@ -33,14 +33,31 @@ pub struct CompressRow {
     pub error_max: f64,
 }
 
+/// zstd on top of a role's stored chain: what the pack's supercompression costs and saves.
+#[derive(Clone, Debug, Serialize, Deserialize)]
+pub struct ZstdRow {
+    pub role: String,
+    /// The chain's format before zstd: `rgba8`, `bc7 very-fast` or `bc5`.
+    pub stored: String,
+    pub level: i32,
+    pub raw_bytes: u64,
+    pub bytes: u64,
+    /// Median over the runs, one thread, every level of the chain.
+    pub compress_ms: f64,
+    pub decompress_ms: f64,
+}
+
 /// A value per camera, by name.
 pub type PerCamera = Vec<(String, f64)>;
 
 #[derive(Clone, Debug, Serialize, Deserialize)]
 pub struct ScenePack {
-    /// `rgba8` or `auto`.
+    /// How the textures were stored: `rgba8`, `auto`, and variants.
     pub format: String,
     pub bytes: u64,
+    /// The textures' bytes in their formats: what a GPU holds once they are decoded from zstd.
+    #[serde(default)]
+    pub gpu_texture_bytes: u64,
     /// Cold cook in process (no cache), median over the runs.
     pub cook_ms: f64,
     /// Per camera: FLIP mean of the final render against the RGBA8 pack's (0 for RGBA8).
@@ -50,6 +67,8 @@ pub struct ScenePack {
 #[derive(Clone, Debug, Default, Serialize, Deserialize)]
 pub struct CompressReport {
     pub rows: Vec<CompressRow>,
+    #[serde(default)]
+    pub zstd: Vec<ZstdRow>,
     pub scene: Vec<ScenePack>,
     pub render_size: (u32, u32),
     /// Why the scene part did not run, when it did not.
@@ -65,6 +84,8 @@ pub struct CompressConfig {
     pub max_size: u32,
     pub runs: usize,
     pub profiles: Vec<Bc7Profile>,
+    /// zstd levels to try on each role's RGBA8 and block-compressed chains.
+    pub zstd_levels: Vec<i32>,
     /// The scene to cook both ways, and the render size; `None` skips that part.
     pub scene: Option<PathBuf>,
     pub render_size: (u32, u32),
@@ -181,10 +202,67 @@ fn shape(chain: &texture::MipChain, codec: Codec) -> pack::Texture {
     }
 }
 
+/// zstd at `level` over every level of `chain`, on this thread: bytes, then the medians of the
+/// compress and decompress times.
+fn zstd_chain(levels: &[Vec<u8>], level: i32, runs: usize) -> Result<(u64, f64, f64)> {
+    let (mut enc, mut dec) = (Vec::new(), Vec::new());
+    let mut bytes = 0;
+    for _ in 0..runs.max(1) {
+        let start = Instant::now();
+        let frames = levels
+            .iter()
+            .map(|l| zstd::bulk::compress(l, level))
+            .collect::<std::io::Result<Vec<_>>>()?;
+        enc.push(start.elapsed().as_secs_f64() * 1e3);
+        bytes = frames.iter().map(|f| f.len() as u64).sum();
+        let start = Instant::now();
+        for (f, l) in frames.iter().zip(levels) {
+            let mut out = vec![0u8; l.len()];
+            let n = zstd::bulk::decompress_to_buffer(f, &mut out)?;
+            anyhow::ensure!(out[..n] == l[..], "zstd round trip differs");
+        }
+        dec.push(start.elapsed().as_secs_f64() * 1e3);
+    }
+    Ok((bytes, median(&mut enc), median(&mut dec)))
+}
+
 pub fn sweep(cfg: &CompressConfig, progress: &mut dyn FnMut(&str)) -> Result<CompressReport> {
     let one = rayon::ThreadPoolBuilder::new().num_threads(1).build()?;
     let mut rows = Vec::new();
+    let mut zstd_rows = Vec::new();
     for s in sources(cfg.max_size)? {
+        // The chain as the cooker would store it without block compression, and with the
+        // setting the cooker reaches for first on each role.
+        let codec = if s.measure == texture::bc::Measure::Normal {
+            Codec::Bc5
+        } else {
+            Codec::Bc7(Bc7Profile::VeryFast)
+        };
+        let blocks =
+            texture::bc::compress_chain(codec, &s.chain, &shape(&s.chain, codec), s.measure);
+        for (stored, levels) in [
+            ("rgba8".to_string(), &s.chain.levels),
+            (codec.name(), &blocks.levels),
+        ] {
+            let raw_bytes = levels.iter().map(|l| l.len() as u64).sum();
+            for &level in &cfg.zstd_levels {
+                let (bytes, compress_ms, decompress_ms) =
+                    one.install(|| zstd_chain(levels, level, cfg.runs))?;
+                progress(&format!(
+                    "zstd {} {stored} level {level}: {raw_bytes} -> {bytes} bytes, {compress_ms:.1} / {decompress_ms:.1} ms",
+                    s.role
+                ));
+                zstd_rows.push(ZstdRow {
+                    role: s.role.into(),
+                    stored: stored.clone(),
+                    level,
+                    raw_bytes,
+                    bytes,
+                    compress_ms,
+                    decompress_ms,
+                });
+            }
+        }
         let codecs: Vec<Codec> = if s.measure == texture::bc::Measure::Normal {
             vec![Codec::Bc5]
         } else {
@@ -222,6 +300,7 @@ pub fn sweep(cfg: &CompressConfig, progress: &mut dyn FnMut(&str)) -> Result<Com
     }
     let mut report = CompressReport {
         rows,
+        zstd: zstd_rows,
         scene: Vec::new(),
         render_size: cfg.render_size,
         scene_error: None,
@@ -242,27 +321,62 @@ pub fn sweep(cfg: &CompressConfig, progress: &mut dyn FnMut(&str)) -> Result<Com
     Ok(report)
 }
 
-/// Cooks the scene both ways, renders every camera of both, and compares; also returns what
-/// one 8-bit step on every channel of the RGBA8 renders measures.
+/// Cooks the scene with RGBA8 textures (the reference), the default and its variants, renders
+/// every camera of each, and compares; also returns what one 8-bit step on every channel of
+/// the RGBA8 renders measures.
 fn scene_effect(
     scene: &Path,
     cfg: &CompressConfig,
     progress: &mut dyn FnMut(&str),
 ) -> Result<(Vec<ScenePack>, PerCamera)> {
     use cook::manifest::TextureFormatChoice;
-    let manifest =
+    use pack::Supercompression;
+    let loaded =
         cook::Manifest::load(scene).with_context(|| format!("loading {}", scene.display()))?;
     let gpu = render::Gpu::headless()?;
     let (w, h) = cfg.render_size;
     let mut out = Vec::new();
     let mut reference: Vec<Vec<u8>> = Vec::new();
     let mut one_step = Vec::new();
-    for (name, format) in [
-        ("rgba8", TextureFormatChoice::Rgba8),
-        ("auto", TextureFormatChoice::Auto),
-    ] {
+    // (name, format, supercompression, design budget in LSB)
+    let variants: [(&str, TextureFormatChoice, Supercompression, Option<f32>); 5] = [
+        (
+            "rgba8, no zstd",
+            TextureFormatChoice::Rgba8,
+            Supercompression::None,
+            None,
+        ),
+        (
+            "rgba8",
+            TextureFormatChoice::Rgba8,
+            Supercompression::Zstd,
+            None,
+        ),
+        (
+            "auto (the default)",
+            TextureFormatChoice::Auto,
+            Supercompression::Zstd,
+            None,
+        ),
+        (
+            "auto, no zstd",
+            TextureFormatChoice::Auto,
+            Supercompression::None,
+            None,
+        ),
+        (
+            "auto, designs in BC7 too (max_design_error_lsb = 4)",
+            TextureFormatChoice::Auto,
+            Supercompression::Zstd,
+            Some(4.0),
+        ),
+    ];
+    for (name, format, supercompression, design_lsb) in variants {
+        let mut manifest = loaded.clone();
+        manifest.textures.max_design_error_lsb = design_lsb;
         let mut settings = cook::Settings::new(&manifest);
         settings.textures.format = Some(format);
+        settings.textures.supercompression = Some(supercompression);
         let mut times = Vec::new();
         let mut cooked = None;
         for _ in 0..cfg.runs.max(1) {
@@ -300,9 +414,16 @@ fn scene_effect(
             };
             flip.push((camera.name.clone(), f));
         }
+        let gpu_texture_bytes = pack
+            .toc()
+            .textures
+            .iter()
+            .map(|t| (0..t.mips.len()).map(|k| t.level_bytes(k)).sum::<u64>())
+            .sum();
         let row = ScenePack {
             format: name.into(),
             bytes: bytes.len() as u64,
+            gpu_texture_bytes,
             cook_ms: median(&mut times),
             flip,
         };

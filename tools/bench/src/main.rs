@@ -252,6 +252,11 @@ fn main() -> Result<()> {
                 } else {
                     Bc7Profile::ALL.to_vec()
                 },
+                zstd_levels: if args.quick {
+                    vec![pack::ZSTD_LEVEL]
+                } else {
+                    vec![1, 3, pack::ZSTD_LEVEL, 19]
+                },
                 scene: (!args.quick && !args.no_god_rays).then(bench::godrays::default_scene),
                 // The viewer's default size: a smaller frame samples only the small mip
                 // levels, where block compression errs most.

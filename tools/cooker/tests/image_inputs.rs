@@ -164,6 +164,79 @@ fn block_compressed_textures_decode_within_the_budget() {
     assert_eq!(v["textures"][0]["format"], "rgba8");
 }
 
+/// zstd on top of the format (the default) is lossless: `--supercompression none` stores the
+/// same levels uncompressed, larger, and `diff` and `extract` see the same texels in both.
+#[test]
+fn supercompression_is_lossless_and_can_be_turned_off() {
+    let dir = tempfile::tempdir().unwrap();
+    let obj = obj_scene(dir.path(), &[TGA]);
+    let cook = |name: &str, extra: &[&str]| cook_obj(&obj, &dir.path().join(name), extra);
+    for format in ["rgba8", "bc"] {
+        let (zstd, _) = cook(
+            &format!("{format}-zstd.pack"),
+            &["--texture-format", format],
+        );
+        let (plain, _) = cook(
+            &format!("{format}-plain.pack"),
+            &["--texture-format", format, "--supercompression", "none"],
+        );
+        let info = |p: &Path| -> serde_json::Value {
+            serde_json::from_slice(&cooker(&[&"info", &p, &"--json"]).stdout).unwrap()
+        };
+        let (z, p) = (info(&zstd), info(&plain));
+        let (tz, tp) = (&z["textures"][0], &p["textures"][0]);
+        assert_eq!(
+            (&tz["supercompression"], &tp["supercompression"]),
+            (&"zstd".into(), &"none".into())
+        );
+        assert_eq!(tz["format_bytes"], tp["format_bytes"], "{tz} {tp}");
+        assert_eq!(tp["stored_bytes"], tp["format_bytes"], "{tp}");
+        assert!(
+            tz["stored_bytes"].as_u64() < tp["stored_bytes"].as_u64(),
+            "{format}: {tz} against {tp}"
+        );
+        // Byte for byte they differ; texel for texel, and section by section content, not.
+        let d = cooker(&[&"diff", &plain, &zstd]);
+        assert_eq!(d.status.code(), Some(1), "{format}: {}", text(&d.stdout));
+        assert!(
+            text(&d.stdout).contains("supercompression"),
+            "{}",
+            text(&d.stdout)
+        );
+        let d = cooker(&[&"diff", &plain, &zstd, &"--tolerance-lsb", &"0"]);
+        assert_eq!(d.status.code(), Some(0), "{format}: {}", text(&d.stdout));
+        // Only the TOC (which records the supercompression) differs; every level's content
+        // is the same.
+        assert!(
+            text(&d.stdout).contains(" compared, 1 differ") && text(&d.stdout).contains("toc "),
+            "{format}: {}",
+            text(&d.stdout)
+        );
+        let name = "spnza_bricks_a_diff.crop128";
+        for level in [0, 3] {
+            assert_eq!(
+                extract(&plain, name, level, dir.path()),
+                extract(&zstd, name, level, dir.path()),
+                "{format} level {level}"
+            );
+        }
+    }
+    let o = cooker(&[
+        &"cook",
+        &obj,
+        &"-o",
+        &dir.path().join("x.pack"),
+        &"--supercompression",
+        &"lz4",
+    ]);
+    assert_eq!(o.status.code(), Some(2), "{}", text(&o.stderr));
+    assert!(
+        text(&o.stderr).contains("zstd, none"),
+        "{}",
+        text(&o.stderr)
+    );
+}
+
 /// An image whose size is not a multiple of 4 (61x43, cropped from the TGA): block-compressed,
 /// it keeps its logical size and level count (the padded 64x44 would have one more), decodes
 /// within the budget at every level; kept RGBA8 by a budget no encoder reaches, it is

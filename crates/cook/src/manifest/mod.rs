@@ -441,6 +441,8 @@ max_error = 0.55
 mip_filter = "lanczos3"
 format = "bc"
 max_normal_error_deg = 0.5
+max_design_error_lsb = 2.5
+supercompression = "none"
 
 [[mesh]]
 source = "corridor.obj"
@@ -488,13 +490,24 @@ colour = [0.35, 0.5, 0.8]
         assert_eq!(m.scene.name.as_deref(), Some("corridor"));
         assert_eq!(m.textures.mip_filter, texture::MipFilter::Lanczos3);
         assert_eq!(m.textures.format, TextureFormatChoice::Bc);
+        assert_eq!(m.textures.max_design_error_lsb, Some(2.5));
+        assert_eq!(m.textures.supercompression, pack::Supercompression::None);
+        // Without the keys: no design budget of its own, zstd.
+        let mesh = "[[mesh]]\nsource = \"corridor.obj\"\n";
+        let bare = parse(&d, &format!("[textures]\nformat = \"auto\"\n{mesh}")).unwrap();
+        assert_eq!(bare.textures.max_design_error_lsb, None);
+        assert_eq!(bare.textures.supercompression, pack::Supercompression::Zstd);
+        for bad in ["supercompression = \"lz4\"", "max_design_error_lsb = -1"] {
+            let e = parse(&d, &format!("[textures]\n{bad}\n{mesh}")).unwrap_err();
+            assert!(e.to_string().contains(":2"), "{bad}: {e}");
+        }
         assert_eq!(m.textures.max_normal_error_deg, Some(0.5));
         assert_eq!(
             m.windows[0].texture_format,
             Some(TextureFormatChoice::Rgba8)
         );
         assert_eq!(m.meshes[0].scale, [2.0; 3]);
-        assert_eq!(m.meshes[0].line, Line(11));
+        assert_eq!(m.meshes[0].line, Line(13));
         let t = m.meshes[0].transform();
         let p = t.transform_point3(glam::Vec3::X);
         assert!((p - glam::Vec3::new(0.0, 1.0, -2.0)).length() < 1e-5, "{p}");
