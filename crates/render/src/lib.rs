@@ -30,7 +30,7 @@ pub use renderer::{
     FrameReport, PassId, PassTime, Renderer, Settings, ShadowSettings, TargetId, TimingMethod,
     god_ray_falloff,
 };
-pub use scene::{LoadStatus, SMALL_MIP_BYTES, Scene};
+pub use scene::{LoadStatus, SMALL_MIP_BYTES, Scene, Upload};
 pub use uniforms::MAX_GOD_RAY_SAMPLES;
 pub use view::{GodRaySettings, LightGeometry, View};
 

@@ -186,6 +186,42 @@ fn decode_blocks(format: pack::TextureFormat, width: u32, height: u32, bytes: &[
     out
 }
 
+/// A streamed section ready to upload: a level of a block-compressed texture comes with its
+/// RGBA8 texels where the device samples no block formats (or, like lavapipe, only in
+/// software), decoded by [`Upload::prepare`] on the caller's thread. The viewer prepares on
+/// its pack reader thread, so decoding overlaps the first frame and the other uploads instead
+/// of running between them.
+#[derive(Debug)]
+pub struct Upload {
+    pub section: pack::StreamSection,
+    rgba: Option<Vec<u8>>,
+}
+
+impl Upload {
+    /// `decode_blocks`: the device's [`Gpu::block_compression`] is false.
+    pub fn prepare(toc: &pack::Toc, section: pack::StreamSection, decode_blocks: bool) -> Self {
+        let rgba = match section.role {
+            SectionRole::Mip { texture, level } if decode_blocks => {
+                let t = &toc.textures[texture as usize];
+                t.format.is_compressed().then(|| {
+                    let (width, height) = t.storage_level_size(level as usize);
+                    self::decode_blocks(t.format, width, height, &section.bytes)
+                })
+            }
+            _ => None,
+        };
+        Self { section, rgba }
+    }
+
+    /// Nothing decoded: the section as the reader gave it.
+    pub fn as_read(section: pack::StreamSection) -> Self {
+        Self {
+            section,
+            rgba: None,
+        }
+    }
+}
+
 /// The GPU format a texture is created in: its own, or RGBA8 when its blocks are decoded.
 fn texture_format(t: &pack::Texture, decode: bool) -> wgpu::TextureFormat {
     use pack::{ColourSpace as C, TextureFormat as F};
@@ -423,13 +459,14 @@ impl Scene {
         })
     }
 
-    /// Uploads one streamed section (validated by the pack reader).
-    pub fn upload_section(
-        &mut self,
-        gpu: &Gpu,
-        section: &pack::StreamSection,
-    ) -> Result<(), RenderError> {
-        self.upload(gpu, section.role, &section.bytes)
+    /// Uploads one streamed section (validated by the pack reader), decoded ahead or not.
+    pub fn upload_section(&mut self, gpu: &Gpu, upload: &Upload) -> Result<(), RenderError> {
+        self.upload_decoded(
+            gpu,
+            upload.section.role,
+            &upload.section.bytes,
+            upload.rgba.as_deref(),
+        )
     }
 
     /// Uploads the bytes of one section with the role the TOC gave it. Call [`Scene::refresh`]
@@ -439,6 +476,18 @@ impl Scene {
         gpu: &Gpu,
         role: SectionRole,
         bytes: &[u8],
+    ) -> Result<(), RenderError> {
+        self.upload_decoded(gpu, role, bytes, None)
+    }
+
+    /// [`Scene::upload`], with a block-compressed level's RGBA8 texels when they were decoded
+    /// ahead ([`Upload::prepare`]); a texture the device samples as blocks ignores them.
+    fn upload_decoded(
+        &mut self,
+        gpu: &Gpu,
+        role: SectionRole,
+        bytes: &[u8],
+        rgba: Option<&[u8]>,
     ) -> Result<(), RenderError> {
         use wgpu::util::DeviceExt;
         match role {
@@ -514,8 +563,14 @@ impl Scene {
                 // blocks for a block format: a level smaller than one is copied as one).
                 let (data, row_bytes, rows, extent) = match t.format.block_bytes() {
                     Some(_) if gt.decode => {
-                        decoded = decode_blocks(t.format, width, height, bytes);
-                        (&decoded[..], width * 4, height, (width, height))
+                        let texels = match rgba {
+                            Some(texels) => texels,
+                            None => {
+                                decoded = decode_blocks(t.format, width, height, bytes);
+                                &decoded[..]
+                            }
+                        };
+                        (texels, width * 4, height, (width, height))
                     }
                     Some(b) => {
                         let (bw, bh) = (width.div_ceil(4), height.div_ceil(4));
@@ -852,6 +907,42 @@ mod tests {
                     "{format} {w}x{h}"
                 );
             }
+        }
+    }
+
+    #[test]
+    fn uploads_prepared_ahead_carry_the_decoded_blocks_only_where_asked() {
+        let (toc, data) = pack::testing::sample();
+        let bytes = pack::encode(toc, &data).unwrap();
+        for decode in [false, true] {
+            let mut reader =
+                pack::StreamReader::new("<sample>", std::io::Cursor::new(bytes.clone())).unwrap();
+            let mut decoded_levels = 0;
+            while let Some(section) = reader.next_section().unwrap() {
+                let toc = reader.toc().unwrap().clone();
+                let role = section.role;
+                let stored = section.bytes.to_vec();
+                let upload = Upload::prepare(&toc, section, decode);
+                match role {
+                    SectionRole::Mip { texture, level }
+                        if decode && toc.textures[texture as usize].format.is_compressed() =>
+                    {
+                        let t = &toc.textures[texture as usize];
+                        let (w, h) = t.storage_level_size(level as usize);
+                        assert_eq!(
+                            upload.rgba.as_deref(),
+                            Some(&pack::texels::decode(t.format, w, h, &stored)[..]),
+                            "texture {texture} level {level}"
+                        );
+                        decoded_levels += 1;
+                    }
+                    _ => assert!(
+                        upload.rgba.is_none(),
+                        "{role:?} decoded with decode={decode}"
+                    ),
+                }
+            }
+            assert_eq!(decoded_levels > 0, decode);
         }
     }
 

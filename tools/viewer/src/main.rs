@@ -15,7 +15,7 @@ use anyhow::{Context, Result, bail};
 use clap::Parser;
 use render::{
     FrameReport, GodRaySettings, Gpu, PassId, Renderer, Scene, Settings, TargetId, TimingMethod,
-    View,
+    Upload, View,
 };
 
 #[derive(Parser, Debug)]
@@ -126,13 +126,18 @@ fn parse_size(s: &str) -> Result<(u32, u32), String> {
 
 enum Message {
     Toc(pack::Toc),
-    Section(pack::StreamSection),
+    Section(Upload),
     Done,
     Failed(pack::PackError),
 }
 
-/// Reads sections on a thread so uploads and the first frame overlap the file read.
-fn stream(path: PathBuf, source: Box<dyn Read + Send>) -> mpsc::Receiver<Message> {
+/// Reads sections on a thread so uploads and the first frame overlap the file read, and the
+/// decoding of block-compressed levels where the device cannot sample them (`decode_blocks`).
+fn stream(
+    path: PathBuf,
+    source: Box<dyn Read + Send>,
+    decode_blocks: bool,
+) -> mpsc::Receiver<Message> {
     let (tx, rx) = mpsc::sync_channel(16);
     std::thread::spawn(move || {
         let result = (|| -> Result<(), pack::PackError> {
@@ -143,7 +148,13 @@ fn stream(path: PathBuf, source: Box<dyn Read + Send>) -> mpsc::Receiver<Message
                     if tx.send(Message::Toc(toc)).is_err() {
                         return Ok(());
                     }
-                } else if tx.send(Message::Section(section)).is_err() {
+                } else if tx
+                    .send(Message::Section(match reader.toc() {
+                        Some(toc) => Upload::prepare(toc, section, decode_blocks),
+                        None => Upload::as_read(section),
+                    }))
+                    .is_err()
+                {
                     return Ok(());
                 }
             }
@@ -212,7 +223,7 @@ fn load(gpu: &Gpu, args: &Args, settings: Settings) -> Result<(Scene, Renderer)>
     let _ = WINDOW_OVERRIDES.set(cook::manifest::WindowDesign::overrides(&args.windows)?);
     let source = open_source(&args.input)?;
     let start = Instant::now();
-    let rx = stream(args.input.clone(), source);
+    let rx = stream(args.input.clone(), source, !gpu.block_compression);
     let mut scene: Option<(Scene, Renderer, View)> = None;
     let mut first_frame = false;
     // Where the first frame's time goes, for `-v`: waiting for the reader, scene and renderer

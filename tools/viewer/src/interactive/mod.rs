@@ -437,8 +437,11 @@ impl App {
         if let Phase::Opening(rx) = &load.phase {
             match rx.try_recv() {
                 Ok(Ok(source)) => {
-                    load.phase =
-                        Phase::Streaming(crate::stream(self.options.input.clone(), source));
+                    load.phase = Phase::Streaming(crate::stream(
+                        self.options.input.clone(),
+                        source,
+                        !gpu.block_compression,
+                    ));
                 }
                 Ok(Err(e)) => {
                     let is_reload = load.is_reload;
