@@ -63,8 +63,9 @@ fn decode_block(format: TextureFormat, block: &[u8]) -> [[u8; 4]; 16] {
         TextureFormat::Bc5 => {
             let mut rg = [0u8; 32];
             bcdec_rs::bc5(block, &mut rg, 8, false);
+            let z = rebuilt_z_table();
             for (t, c) in texels.iter_mut().zip(rg.chunks_exact(2)) {
-                *t = [c[0], c[1], rebuild_z(c[0], c[1]), 255];
+                *t = [c[0], c[1], z[(c[0] as usize) << 8 | c[1] as usize], 255];
             }
         }
         TextureFormat::Bc4 => {
@@ -76,6 +77,19 @@ fn decode_block(format: TextureFormat, block: &[u8]) -> [[u8; 4]; 16] {
         }
     }
     texels
+}
+
+/// [`rebuild_z`] of every (x, y), at `x << 8 | y`: decoding a normal map looks Z up instead of
+/// taking a square root per texel, which was most of a BC5 level's decode time.
+fn rebuilt_z_table() -> &'static [u8; 1 << 16] {
+    static TABLE: std::sync::OnceLock<Box<[u8; 1 << 16]>> = std::sync::OnceLock::new();
+    TABLE.get_or_init(|| {
+        let mut t = Box::new([0u8; 1 << 16]);
+        for (i, z) in t.iter_mut().enumerate() {
+            *z = rebuild_z((i >> 8) as u8, i as u8);
+        }
+        t
+    })
 }
 
 /// The Z of a unit tangent-space normal from its stored X and Y (`v * 2 - 1` each), encoded
@@ -114,6 +128,20 @@ pub fn crop(rgba: &[u8], stride_texels: u32, width: u32, height: u32) -> Vec<u8>
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn the_z_table_is_rebuild_z_everywhere() {
+        let table = rebuilt_z_table();
+        for x in 0..=255u8 {
+            for y in 0..=255u8 {
+                assert_eq!(
+                    table[(x as usize) << 8 | y as usize],
+                    rebuild_z(x, y),
+                    "{x} {y}"
+                );
+            }
+        }
+    }
 
     #[test]
     fn rgba8_is_passed_through() {
