@@ -198,28 +198,26 @@ pub struct Upload {
 }
 
 impl Upload {
-    /// `decode_blocks`: the device's [`Gpu::block_compression`] is false.
-    pub fn prepare(toc: &pack::Toc, section: pack::StreamSection, decode_blocks: bool) -> Self {
+    /// `block_compression`: the device's [`Gpu::block_compression`].
+    pub fn prepare(toc: &pack::Toc, section: pack::StreamSection, block_compression: bool) -> Self {
         let rgba = match section.role {
-            SectionRole::Mip { texture, level } if decode_blocks => {
+            SectionRole::Mip { texture, level } => {
                 let t = &toc.textures[texture as usize];
-                t.format.is_compressed().then(|| {
+                decoded_on_cpu(t, block_compression).then(|| {
                     let (width, height) = t.storage_level_size(level as usize);
-                    self::decode_blocks(t.format, width, height, &section.bytes)
+                    decode_blocks(t.format, width, height, &section.bytes)
                 })
             }
             _ => None,
         };
         Self { section, rgba }
     }
+}
 
-    /// Nothing decoded: the section as the reader gave it.
-    pub fn as_read(section: pack::StreamSection) -> Self {
-        Self {
-            section,
-            rgba: None,
-        }
-    }
+/// Whether a texture's blocks are decoded to RGBA8 on the CPU rather than sampled as they are:
+/// the one rule for [`Scene::new`] (the GPU texture's format) and [`Upload::prepare`].
+fn decoded_on_cpu(t: &pack::Texture, block_compression: bool) -> bool {
+    t.format.is_compressed() && !block_compression
 }
 
 /// The GPU format a texture is created in: its own, or RGBA8 when its blocks are decoded.
@@ -260,7 +258,7 @@ impl Scene {
                     max,
                 });
             }
-            let decode = t.format.is_compressed() && !gpu.block_compression;
+            let decode = decoded_on_cpu(t, gpu.block_compression);
             if decode && !decode_said {
                 decode_said = true;
                 let info = gpu.adapter.get_info();
@@ -919,10 +917,10 @@ mod tests {
                 pack::StreamReader::new("<sample>", std::io::Cursor::new(bytes.clone())).unwrap();
             let mut decoded_levels = 0;
             while let Some(section) = reader.next_section().unwrap() {
-                let toc = reader.toc().unwrap().clone();
+                let toc = reader.toc().unwrap();
                 let role = section.role;
                 let stored = section.bytes.to_vec();
-                let upload = Upload::prepare(&toc, section, decode);
+                let upload = Upload::prepare(toc, section, !decode);
                 match role {
                     SectionRole::Mip { texture, level }
                         if decode && toc.textures[texture as usize].format.is_compressed() =>

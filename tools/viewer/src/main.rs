@@ -132,11 +132,12 @@ enum Message {
 }
 
 /// Reads sections on a thread so uploads and the first frame overlap the file read, and the
-/// decoding of block-compressed levels where the device cannot sample them (`decode_blocks`).
+/// decoding of block-compressed levels where the device does not sample them
+/// (`block_compression`: the device's [`Gpu::block_compression`]).
 fn stream(
     path: PathBuf,
     source: Box<dyn Read + Send>,
-    decode_blocks: bool,
+    block_compression: bool,
 ) -> mpsc::Receiver<Message> {
     let (tx, rx) = mpsc::sync_channel(16);
     std::thread::spawn(move || {
@@ -148,14 +149,12 @@ fn stream(
                     if tx.send(Message::Toc(toc)).is_err() {
                         return Ok(());
                     }
-                } else if tx
-                    .send(Message::Section(match reader.toc() {
-                        Some(toc) => Upload::prepare(toc, section, decode_blocks),
-                        None => Upload::as_read(section),
-                    }))
-                    .is_err()
-                {
-                    return Ok(());
+                } else {
+                    let toc = reader.toc().expect("TOC decoded with section 0");
+                    let upload = Upload::prepare(toc, section, block_compression);
+                    if tx.send(Message::Section(upload)).is_err() {
+                        return Ok(());
+                    }
                 }
             }
             Ok(())
@@ -223,7 +222,7 @@ fn load(gpu: &Gpu, args: &Args, settings: Settings) -> Result<(Scene, Renderer)>
     let _ = WINDOW_OVERRIDES.set(cook::manifest::WindowDesign::overrides(&args.windows)?);
     let source = open_source(&args.input)?;
     let start = Instant::now();
-    let rx = stream(args.input.clone(), source, !gpu.block_compression);
+    let rx = stream(args.input.clone(), source, gpu.block_compression);
     let mut scene: Option<(Scene, Renderer, View)> = None;
     let mut first_frame = false;
     // Where the first frame's time goes, for `-v`: waiting for the reader, scene and renderer

@@ -440,7 +440,7 @@ impl App {
                     load.phase = Phase::Streaming(crate::stream(
                         self.options.input.clone(),
                         source,
-                        !gpu.block_compression,
+                        gpu.block_compression,
                     ));
                 }
                 Ok(Err(e)) => {
