@@ -22,7 +22,7 @@ mod writer;
 pub use error::{PackError, Problem};
 pub use format::{FORMAT_VERSION, SectionEntry, SectionKind};
 pub use reader::{AlignedBytes, Pack};
-pub use stream::{StreamReader, StreamSection};
+pub use stream::{RawSection, StreamReader, StreamSection};
 pub use toc::*;
 pub use validate::{SectionRole, encode_toc};
 pub use writer::{MeshData, PackData, encode, write_atomic, write_pack};

@@ -118,6 +118,20 @@ impl<R: Read> StreamReader<R> {
     /// The next validated section, or `None` after the last one (when the stream has also been
     /// checked to end there).
     pub fn next_section(&mut self) -> Result<Option<StreamSection>, PackError> {
+        match self.next_raw()? {
+            Some(raw) => {
+                let toc = self.toc.as_ref().expect("the TOC is section 0");
+                raw.decode(toc).map(Some)
+            }
+            None => Ok(None),
+        }
+    }
+
+    /// [`StreamReader::next_section`] up to its content's decoding: the section is read, its
+    /// checksum checked and (section 0) the TOC validated; [`RawSection::decode`] does the rest
+    /// (zstd, the content's checks), so a reader can decode sections in parallel and keep
+    /// their order itself.
+    pub fn next_raw(&mut self) -> Result<Option<RawSection>, PackError> {
         let path = self.path.clone();
         self.read_next().map_err(|e| match e {
             ReadFail::Io(source) => PackError::Io { path, source },
@@ -125,7 +139,7 @@ impl<R: Read> StreamReader<R> {
         })
     }
 
-    fn read_next(&mut self) -> Result<Option<StreamSection>, ReadFail> {
+    fn read_next(&mut self) -> Result<Option<RawSection>, ReadFail> {
         if self.finished {
             return Ok(None);
         }
@@ -155,7 +169,7 @@ impl<R: Read> StreamReader<R> {
         // The table was checked against the declared file length, and the TOC's size against its
         // own limit; a bulk section's length is only trusted once the TOC has vouched for it.
         let what = format!("section {index} ({})", entry.kind.name());
-        let mut bytes = if entry.length <= EAGER_ALLOCATION {
+        let bytes = if entry.length <= EAGER_ALLOCATION {
             let mut bytes = AlignedBytes::zeroed(entry.length as usize);
             read_exact_or(&mut self.source, bytes.as_mut_slice(), &what)?;
             bytes
@@ -180,22 +194,54 @@ impl<R: Read> StreamReader<R> {
             self.toc = Some(toc);
             SectionRole::Toc
         } else {
-            let role = self.roles[index];
-            let toc = self.toc.as_ref().expect("TOC is section 0");
-            let decoded = decode_content(toc, role, &bytes).map_err(|f| Fail {
-                offset: f.offset.or(Some(entry.offset)),
-                problem: f.problem,
-            })?;
-            if let Some(decoded) = decoded {
-                bytes = decoded;
-            }
-            role
+            self.roles[index]
         };
         self.next += 1;
-        Ok(Some(StreamSection {
-            index: index as u32,
-            role,
-            bytes,
+        Ok(Some(RawSection {
+            path: self.path.clone(),
+            offset: entry.offset,
+            section: StreamSection {
+                index: index as u32,
+                role,
+                bytes,
+            },
         }))
+    }
+}
+
+/// A section as [`StreamReader::next_raw`] hands it out: checked, its content not decoded yet.
+#[derive(Debug)]
+pub struct RawSection {
+    path: PathBuf,
+    offset: u64,
+    section: StreamSection,
+}
+
+impl RawSection {
+    pub fn role(&self) -> SectionRole {
+        self.section.role
+    }
+
+    /// Decodes and checks the content (a supercompressed level is decompressed) against `toc`,
+    /// the stream's validated TOC ([`StreamReader::toc`]).
+    pub fn decode(self, toc: &Toc) -> Result<StreamSection, PackError> {
+        let Self {
+            path,
+            offset,
+            mut section,
+        } = self;
+        if section.role != SectionRole::Toc {
+            let decoded = decode_content(toc, section.role, &section.bytes).map_err(|f| {
+                Fail {
+                    offset: f.offset.or(Some(offset)),
+                    problem: f.problem,
+                }
+                .with_path(&path)
+            })?;
+            if let Some(decoded) = decoded {
+                section.bytes = decoded;
+            }
+        }
+        Ok(section)
     }
 }

@@ -4,7 +4,8 @@
 //! Block formats decode through `bcdec_rs`. A two-channel (BC5) normal map decodes to X and Y
 //! in red and green, the rebuilt Z (`sqrt(1 - x² - y²)`, encoded as `z * 0.5 + 0.5`) in blue
 //! and an opaque alpha, so it reads like an RGBA8 normal map. One channel (BC4) decodes to red
-//! with zero green and blue, as a GPU samples it.
+//! with zero green and blue, as a GPU samples it. [`decode_native`] keeps the stored channels
+//! instead (RG for BC5, R for BC4), for a GPU that rebuilds Z itself.
 
 use crate::toc::{Texture, TextureFormat};
 
@@ -12,7 +13,36 @@ use crate::toc::{Texture, TextureFormat};
 /// the block formats), to tightly packed RGBA8 of `width x height`. The caller has checked the
 /// length (`TextureFormat::level_bytes`); a short input decodes the missing blocks as zero.
 pub fn decode(format: TextureFormat, width: u32, height: u32, bytes: &[u8]) -> Vec<u8> {
+    let native = decode_native(format, width, height, bytes);
+    match format {
+        TextureFormat::Rgba8 | TextureFormat::Bc7 => native,
+        TextureFormat::Bc5 => {
+            let z = rebuilt_z_table();
+            native
+                .chunks_exact(2)
+                .flat_map(|c| [c[0], c[1], z[(c[0] as usize) << 8 | c[1] as usize], 255])
+                .collect()
+        }
+        TextureFormat::Bc4 => native.iter().flat_map(|&c| [c, 0, 0, 255]).collect(),
+    }
+}
+
+/// Bytes per texel of a level decoded by [`decode_native`]: the channels the format stores
+/// (RGBA for RGBA8 and BC7, RG for BC5, R for BC4), as a GPU samples them.
+pub fn native_channels(format: TextureFormat) -> usize {
+    match format {
+        TextureFormat::Rgba8 | TextureFormat::Bc7 => 4,
+        TextureFormat::Bc5 => 2,
+        TextureFormat::Bc4 => 1,
+    }
+}
+
+/// [`decode`] to the format's own channels ([`native_channels`]) instead of RGBA8: a reader
+/// that decodes for a GPU without block formats uploads BC5 as RG8 and BC4 as R8, half and a
+/// quarter of the bytes, and rebuilds Z in the shader as it does for BC5 blocks.
+pub fn decode_native(format: TextureFormat, width: u32, height: u32, bytes: &[u8]) -> Vec<u8> {
     let (w, h) = (width as usize, height as usize);
+    let c = native_channels(format);
     let Some(block_bytes) = format.block_bytes() else {
         let mut out = bytes.to_vec();
         out.resize(w * h * 4, 0);
@@ -20,27 +50,26 @@ pub fn decode(format: TextureFormat, width: u32, height: u32, bytes: &[u8]) -> V
     };
     let block_bytes = block_bytes as usize;
     let (bw, bh) = (w.div_ceil(4), h.div_ceil(4));
-    let mut out = vec![0u8; w * h * 4];
+    let pitch = w * c;
+    let mut out = vec![0u8; pitch * h];
     let zero = [0u8; 16];
+    let mut edge = [0u8; 64];
     for by in 0..bh {
         for bx in 0..bw {
             let at = (by * bw + bx) * block_bytes;
             let block = bytes
                 .get(at..at + block_bytes)
                 .unwrap_or(&zero[..block_bytes]);
-            let texels = decode_block(format, block);
-            for y in 0..4 {
-                let py = by * 4 + y;
-                if py >= h {
-                    break;
-                }
-                for x in 0..4 {
-                    let px = bx * 4 + x;
-                    if px >= w {
-                        break;
-                    }
-                    let o = (py * w + px) * 4;
-                    out[o..o + 4].copy_from_slice(&texels[y * 4 + x]);
+            let (x0, y0) = (bx * 4, by * 4);
+            if x0 + 4 <= w && y0 + 4 <= h {
+                // Whole blocks decode straight into the image: no copy through a block buffer.
+                decode_block(format, block, &mut out[y0 * pitch + x0 * c..], pitch);
+            } else {
+                decode_block(format, block, &mut edge, 4 * c);
+                let cols = (w - x0).min(4) * c;
+                for y in 0..(h - y0).min(4) {
+                    let o = (y0 + y) * pitch + x0 * c;
+                    out[o..o + cols].copy_from_slice(&edge[y * 4 * c..y * 4 * c + cols]);
                 }
             }
         }
@@ -48,35 +77,14 @@ pub fn decode(format: TextureFormat, width: u32, height: u32, bytes: &[u8]) -> V
     out
 }
 
-/// One 4x4 block to RGBA8 texels, row by row.
-fn decode_block(format: TextureFormat, block: &[u8]) -> [[u8; 4]; 16] {
-    let mut texels = [[0u8; 4]; 16];
+/// One 4x4 block into `dst`, rows `pitch` bytes apart, in [`native_channels`] per texel.
+fn decode_block(format: TextureFormat, block: &[u8], dst: &mut [u8], pitch: usize) {
     match format {
         TextureFormat::Rgba8 => unreachable!("not a block format"),
-        TextureFormat::Bc7 => {
-            let mut rgba = [0u8; 64];
-            bcdec_rs::bc7(block, &mut rgba, 16);
-            for (t, c) in texels.iter_mut().zip(rgba.chunks_exact(4)) {
-                t.copy_from_slice(c);
-            }
-        }
-        TextureFormat::Bc5 => {
-            let mut rg = [0u8; 32];
-            bcdec_rs::bc5(block, &mut rg, 8, false);
-            let z = rebuilt_z_table();
-            for (t, c) in texels.iter_mut().zip(rg.chunks_exact(2)) {
-                *t = [c[0], c[1], z[(c[0] as usize) << 8 | c[1] as usize], 255];
-            }
-        }
-        TextureFormat::Bc4 => {
-            let mut r = [0u8; 16];
-            bcdec_rs::bc4(block, &mut r, 4, false);
-            for (t, &c) in texels.iter_mut().zip(&r) {
-                *t = [c, 0, 0, 255];
-            }
-        }
+        TextureFormat::Bc7 => bcdec_rs::bc7(block, dst, pitch),
+        TextureFormat::Bc5 => bcdec_rs::bc5(block, dst, pitch, false),
+        TextureFormat::Bc4 => bcdec_rs::bc4(block, dst, pitch, false),
     }
-    texels
 }
 
 /// [`rebuild_z`] of every (x, y), at `x << 8 | y`: decoding a normal map looks Z up instead of
@@ -173,6 +181,53 @@ mod tests {
         // A tilted normal keeps unit length.
         let z = rebuild_z(255, 128) as f32 / 255.0 * 2.0 - 1.0;
         assert!(z.abs() < 0.02, "{z}");
+    }
+
+    /// Whole blocks decode in place and edge blocks through a buffer: both must give what each
+    /// block decodes to on its own, at sizes with partial blocks on both edges.
+    #[test]
+    fn native_decode_matches_block_by_block() {
+        let mut seed = 0x2545_f491_u32;
+        let mut next = || {
+            seed ^= seed << 13;
+            seed ^= seed >> 17;
+            seed ^= seed << 5;
+            seed as u8
+        };
+        for format in [TextureFormat::Bc7, TextureFormat::Bc5, TextureFormat::Bc4] {
+            let c = native_channels(format);
+            let bb = format.block_bytes().unwrap() as usize;
+            for (w, h) in [(13usize, 7usize), (8, 8), (1, 1), (4, 9), (6, 4)] {
+                let (bw, bh) = (w.div_ceil(4), h.div_ceil(4));
+                let bytes: Vec<u8> = (0..bw * bh * bb).map(|_| next()).collect();
+                let out = decode_native(format, w as u32, h as u32, &bytes);
+                assert_eq!(out.len(), w * h * c);
+                let rgba = decode(format, w as u32, h as u32, &bytes);
+                for by in 0..bh {
+                    for bx in 0..bw {
+                        let mut one = [0u8; 64];
+                        let block = &bytes[(by * bw + bx) * bb..][..bb];
+                        decode_block(format, block, &mut one, 4 * c);
+                        for y in 0..4.min(h - by * 4) {
+                            for x in 0..4.min(w - bx * 4) {
+                                let (px, py) = (bx * 4 + x, by * 4 + y);
+                                let want = &one[(y * 4 + x) * c..][..c];
+                                assert_eq!(
+                                    &out[(py * w + px) * c..][..c],
+                                    want,
+                                    "{format:?} {w}x{h} ({px}, {py})"
+                                );
+                                assert_eq!(
+                                    &rgba[(py * w + px) * 4..][..c],
+                                    want,
+                                    "{format:?} {w}x{h} ({px}, {py})"
+                                );
+                            }
+                        }
+                    }
+                }
+            }
+        }
     }
 
     #[test]

@@ -100,6 +100,34 @@ fn round_trip_mmap_and_stream() {
     );
 }
 
+/// A reader that decodes sections on other threads reads them raw and decodes them in any
+/// order, getting what the reader in file order hands out.
+#[test]
+fn raw_sections_decode_in_any_order_like_streamed_ones() {
+    let bytes = sample_bytes();
+    let mut stream = StreamReader::new("p", std::io::Cursor::new(&bytes)).unwrap();
+    let mut want = Vec::new();
+    while let Some(s) = stream.next_section().unwrap() {
+        want.push((s.index, s.role, s.bytes.to_vec()));
+    }
+    let mut stream = StreamReader::new("p", std::io::Cursor::new(&bytes)).unwrap();
+    let mut raws = Vec::new();
+    while let Some(raw) = stream.next_raw().unwrap() {
+        raws.push(raw);
+    }
+    let toc = stream.toc().unwrap().clone();
+    let mut got: Vec<_> = raws
+        .into_iter()
+        .rev()
+        .map(|raw| {
+            let s = raw.decode(&toc).unwrap();
+            (s.index, s.role, s.bytes.to_vec())
+        })
+        .collect();
+    got.reverse();
+    assert_eq!(got, want);
+}
+
 fn read_all_stream(bytes: &[u8]) -> Result<(), PackError> {
     let mut s = StreamReader::new("p", std::io::Cursor::new(bytes))?;
     while s.next_section()?.is_some() {}

@@ -6,9 +6,10 @@
 mod god_rays;
 mod interactive;
 
+use std::collections::VecDeque;
 use std::io::Read;
 use std::path::{Path, PathBuf};
-use std::sync::mpsc;
+use std::sync::{Arc, mpsc};
 use std::time::{Duration, Instant};
 
 use anyhow::{Context, Result, bail};
@@ -131,9 +132,12 @@ enum Message {
     Failed(pack::PackError),
 }
 
-/// Reads sections on a thread so uploads and the first frame overlap the file read, and the
-/// decoding of block-compressed levels where the device does not sample them
-/// (`block_compression`: the device's [`Gpu::block_compression`]).
+/// Reads sections on a thread so uploads and the first frame overlap the file read. Their
+/// decoding (zstd, and block-compressed levels where the device does not sample them:
+/// `block_compression` is the device's [`Gpu::block_compression`]) runs on the thread pool, a
+/// few sections at once, and the sections are handed over in file order: on a CPU rasterizer
+/// the large levels after the first frame were decoded one by one while the drawing thread
+/// waited for them.
 fn stream(
     path: PathBuf,
     source: Box<dyn Read + Send>,
@@ -141,20 +145,60 @@ fn stream(
 ) -> mpsc::Receiver<Message> {
     let (tx, rx) = mpsc::sync_channel(16);
     std::thread::spawn(move || {
+        type Job = mpsc::Receiver<Result<Upload, pack::PackError>>;
+        let in_flight = 2 * rayon::current_num_threads();
+        // Hands the oldest job's section over; false when the receiver has gone.
+        let forward = |job: Job| -> Result<bool, pack::PackError> {
+            let upload = job
+                .recv()
+                .expect("a decoding job answers unless it panicked")?;
+            Ok(tx.send(Message::Section(upload)).is_ok())
+        };
         let result = (|| -> Result<(), pack::PackError> {
             let mut reader = pack::StreamReader::new(&path, source)?;
-            while let Some(section) = reader.next_section()? {
-                if section.role == pack::SectionRole::Toc {
-                    let toc = reader.toc().cloned().expect("TOC decoded with section 0");
-                    if tx.send(Message::Toc(toc)).is_err() {
+            let mut toc: Option<Arc<pack::Toc>> = None;
+            let mut pending: VecDeque<Job> = VecDeque::new();
+            loop {
+                let raw = match reader.next_raw() {
+                    Ok(Some(raw)) => raw,
+                    Ok(None) => break,
+                    Err(e) => {
+                        // Sections before the bad one still arrive, and an error in one of
+                        // them is the one to report, as a reader in file order would.
+                        while let Some(job) = pending.pop_front() {
+                            if !forward(job)? {
+                                return Ok(());
+                            }
+                        }
+                        return Err(e);
+                    }
+                };
+                let Some(toc) = &toc else {
+                    let t = reader.toc().cloned().expect("TOC decoded with section 0");
+                    toc = Some(Arc::new(t.clone()));
+                    if tx.send(Message::Toc(t)).is_err() {
                         return Ok(());
                     }
-                } else {
-                    let toc = reader.toc().expect("TOC decoded with section 0");
-                    let upload = Upload::prepare(toc, section, block_compression);
-                    if tx.send(Message::Section(upload)).is_err() {
+                    continue;
+                };
+                let (done, job) = mpsc::sync_channel(1);
+                let toc = Arc::clone(toc);
+                rayon::spawn(move || {
+                    let upload = raw
+                        .decode(&toc)
+                        .map(|section| Upload::prepare(&toc, section, block_compression));
+                    let _ = done.send(upload);
+                });
+                pending.push_back(job);
+                while pending.len() > in_flight {
+                    if !forward(pending.pop_front().expect("more than in_flight"))? {
                         return Ok(());
                     }
+                }
+            }
+            while let Some(job) = pending.pop_front() {
+                if !forward(job)? {
+                    return Ok(());
                 }
             }
             Ok(())
@@ -230,11 +274,16 @@ fn load(gpu: &Gpu, args: &Args, settings: Settings) -> Result<(Scene, Renderer)>
     let mut waited = Duration::ZERO;
     let mut uploads = Duration::ZERO;
     let mut created = Duration::ZERO;
+    // And from the first frame to full quality: waiting for the reader, uploads, the last frame.
+    let mut waited_after = Duration::ZERO;
+    let mut uploads_after = Duration::ZERO;
     loop {
         let wait = Instant::now();
         let message = rx.recv().context("pack reader thread ended unexpectedly")?;
         if !first_frame {
             waited += wait.elapsed();
+        } else {
+            waited_after += wait.elapsed();
         }
         match message {
             Message::Toc(toc) => {
@@ -257,6 +306,8 @@ fn load(gpu: &Gpu, args: &Args, settings: Settings) -> Result<(Scene, Renderer)>
                 s.upload_section(gpu, &section)?;
                 if !first_frame {
                     uploads += upload.elapsed();
+                } else {
+                    uploads_after += upload.elapsed();
                 }
                 if !first_frame && s.ready_for_first_frame() {
                     let frame = Instant::now();
@@ -301,6 +352,7 @@ fn load(gpu: &Gpu, args: &Args, settings: Settings) -> Result<(Scene, Renderer)>
         }
     }
     let (mut s, mut r, view) = scene.context("empty pack")?;
+    let last_frame = Instant::now();
     s.refresh(gpu);
     r.render(gpu, &s, &view, TimingMethod::None)?;
     gpu.wait()?;
@@ -309,6 +361,15 @@ fn load(gpu: &Gpu, args: &Args, settings: Settings) -> Result<(Scene, Renderer)>
         ms(start.elapsed()),
         s.status().bytes_uploaded
     );
+    if args.verbose {
+        println!(
+            "full quality: after the first frame, waiting for the reader {:.1} ms, uploads {:.1} ms, \
+             last frame {:.1} ms",
+            ms(waited_after),
+            ms(uploads_after),
+            ms(last_frame.elapsed())
+        );
+    }
     Ok((s, r))
 }
 
