@@ -4,6 +4,7 @@
 //! 3 invalid input (a malformed source file or pack); 4 an operating-system I/O error.
 //! A panic (101) is a bug.
 
+mod alloc;
 mod cache_cmd;
 mod cook;
 mod diff;
@@ -18,9 +19,6 @@ mod transcript;
 mod validate;
 
 use clap::{Parser, Subcommand};
-
-#[global_allocator]
-static ALLOCATOR: mimalloc::MiMalloc = mimalloc::MiMalloc;
 
 #[derive(Parser)]
 #[command(name = "cooker", version, about = "Stained-glass asset cooker")]
@@ -59,6 +57,7 @@ fn default_sigpipe() {
 }
 
 fn main() {
+    alloc::tune();
     default_sigpipe();
     let cli = match Cli::try_parse() {
         Ok(cli) => cli,

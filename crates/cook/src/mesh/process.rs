@@ -162,7 +162,8 @@ fn corner_normals(
         .map(|r| {
             let (first, last) = (r * RUN, ((r + 1) * RUN).min(welded));
             let span = start[first] as usize..start[last] as usize;
-            let mut local: Vec<[f32; 3]> = Vec::new();
+            // About one cluster per position.
+            let mut local: Vec<[f32; 3]> = Vec::with_capacity(last - first);
             let mut local_ids: Vec<u32> = Vec::with_capacity(span.len());
             let mut reps: Vec<Vec3> = Vec::new();
             let mut sums: Vec<Vec3> = Vec::new();
@@ -252,9 +253,12 @@ fn dedupe_by_key(
     // through a flat array replaces a hash map: no hashing, and the probe is one cache line.
     // It measured more than twice as fast as an FxHash map on the bunny.
     let mut head = vec![END; welded];
-    let mut next: Vec<u32> = Vec::new();
-    let mut vertex_keys: Vec<(u32, u32, u16)> = Vec::new();
-    let mut vertices = Vec::new();
+    // Every used position has at least one vertex and few have more: sized once, these grow
+    // without reallocating (each doubling touched fresh pages, which the kernel zeroes).
+    let expected = welded + welded / 16;
+    let mut next: Vec<u32> = Vec::with_capacity(expected);
+    let mut vertex_keys: Vec<(u32, u32, u16)> = Vec::with_capacity(expected);
+    let mut vertices = Vec::with_capacity(expected);
     let mut indices = Vec::with_capacity(keep.len() * 3);
     for (&t, normals) in keep.iter().zip(corner_normal.chunks_exact(3)) {
         let m = tri_material[t as usize];
