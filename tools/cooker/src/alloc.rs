@@ -4,13 +4,9 @@
 //! By default glibc maps every block from 128 KiB up on its own and unmaps it when freed, so
 //! each large temporary of the mesh pipeline (per-corner ids, weights, the vertex buffers) was
 //! page-faulted and zeroed afresh, in 4 KiB pages. Here blocks up to 32 MiB come from one heap
-//! that is never trimmed, so freed memory is reused, and the heap's first 64 MiB ask for
-//! transparent huge pages (one fault per 2 MiB), which is all a mesh of 100k triangles needs.
-//! Beyond that, huge pages made large cooks bimodal: on a machine whose free memory is
-//! fragmented the kernel compacts memory at the fault (the 819k-triangle grid: 338–558 ms,
-//! system time 0.04–0.24 s, against a steady 425–450 ms with 4 KiB pages there). One arena
-//! serves every thread: the worker threads allocate little, and a second arena would touch
-//! memory of its own.
+//! that is never trimmed, so freed memory is reused, and the heap asks for transparent huge
+//! pages (one fault per 2 MiB). One arena serves every thread: the worker threads allocate
+//! little, and a second arena would touch memory of its own.
 //!
 //! Measured against mimalloc, which the cooker linked before (it reused little of what it
 //! freed: the bunny's cook allocated 47 MB in all with 15 MB live at most, and touched 82 MB
@@ -19,8 +15,6 @@
 const HUGE_PAGE: usize = 2 << 20;
 /// The heap's first size: what a 1M-triangle mesh's cook allocates at most.
 const INITIAL: usize = 512 << 20;
-/// How much of it asks for huge pages.
-const ADVISED: usize = 64 << 20;
 
 /// Call first thing in `main`, before any thread starts.
 #[cfg(all(target_os = "linux", target_env = "gnu"))]
@@ -42,9 +36,8 @@ pub fn tune() {
         libc::mallopt(libc::M_TOP_PAD, 64 << 20);
         let end = libc::sbrk(0) as usize;
         let from = start.next_multiple_of(HUGE_PAGE);
-        let to = end.min(from + ADVISED);
-        if to > from {
-            libc::madvise(from as *mut libc::c_void, to - from, libc::MADV_HUGEPAGE);
+        if end > from {
+            libc::madvise(from as *mut libc::c_void, end - from, libc::MADV_HUGEPAGE);
         }
     }
 }
