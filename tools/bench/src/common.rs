@@ -162,9 +162,114 @@ pub fn flip(reference: &[u8], test: &[u8], w: u32, h: u32) -> (f64, f64) {
     (pool.mean() as f64, pool.get_percentile(0.99, false) as f64)
 }
 
+/// The hidden first argument under which a bench process runs one command for another:
+/// `bench --measure-child RESULT PROGRAM ARGS...`.
+pub const MEASURE_CHILD: &str = "--measure-child";
+
+/// Runs `cmd` to its end like `Command::output`, and also returns its own wall time in ms and
+/// its peak resident memory in bytes. A child's `ru_maxrss` starts from the memory of the
+/// process that spawned it (Linux carries the old image's high-water mark across `exec`), and
+/// the bench holds hundreds of MB, so the command is started by a fresh, small bench process
+/// ([`measure_child`]) that reports both numbers through a file.
+pub fn output_with_peak_rss(
+    cmd: &mut std::process::Command,
+) -> anyhow::Result<(std::process::Output, f64, u64)> {
+    use anyhow::Context;
+    let result = tempfile_path("measure");
+    let mut outer = std::process::Command::new(std::env::current_exe()?);
+    outer
+        .arg(MEASURE_CHILD)
+        .arg(&result)
+        .arg(cmd.get_program())
+        .args(cmd.get_args());
+    for (k, v) in cmd.get_envs() {
+        match v {
+            Some(v) => outer.env(k, v),
+            None => outer.env_remove(k),
+        };
+    }
+    if let Some(dir) = cmd.get_current_dir() {
+        outer.current_dir(dir);
+    }
+    let out = outer
+        .stdin(std::process::Stdio::null())
+        .output()
+        .with_context(|| format!("running {:?}", cmd.get_program()))?;
+    let text = std::fs::read_to_string(&result);
+    let _ = std::fs::remove_file(&result);
+    let text = text.with_context(|| format!("no measurement of {:?}", cmd.get_program()))?;
+    let mut it = text.split_whitespace();
+    let ms: f64 = it.next().context("no time")?.parse()?;
+    let rss: u64 = it.next().context("no peak memory")?.parse()?;
+    Ok((out, ms, rss))
+}
+
+fn tempfile_path(what: &str) -> std::path::PathBuf {
+    use std::sync::atomic::{AtomicUsize, Ordering};
+    static NEXT: AtomicUsize = AtomicUsize::new(0);
+    std::env::temp_dir().join(format!(
+        "bench-{what}-{}-{}",
+        std::process::id(),
+        NEXT.fetch_add(1, Ordering::Relaxed)
+    ))
+}
+
+/// The `--measure-child` side: runs `args` (`RESULT PROGRAM ARGS...`) with this process's
+/// standard streams, writes "<wall ms> <peak RSS bytes>" to RESULT and returns the exit code
+/// to leave with.
+pub fn measure_child(args: &[std::ffi::OsString]) -> anyhow::Result<i32> {
+    use anyhow::Context;
+    let [result, program, rest @ ..] = args else {
+        anyhow::bail!("{MEASURE_CHILD} RESULT PROGRAM [ARGS...]");
+    };
+    let start = Instant::now();
+    let child = std::process::Command::new(program)
+        .args(rest)
+        .spawn()
+        .with_context(|| format!("running {program:?}"))?;
+    let mut status = 0;
+    // SAFETY: an all-zero rusage is valid; wait4 reaps this child, which std never waits for.
+    let mut usage: libc::rusage = unsafe { std::mem::zeroed() };
+    if unsafe { libc::wait4(child.id() as libc::pid_t, &mut status, 0, &mut usage) } < 0 {
+        return Err(std::io::Error::last_os_error().into());
+    }
+    let ms = start.elapsed().as_secs_f64() * 1e3;
+    std::fs::write(result, format!("{ms} {}", usage.ru_maxrss as u64 * 1024))?;
+    Ok(if libc::WIFEXITED(status) {
+        libc::WEXITSTATUS(status)
+    } else {
+        128 + libc::WTERMSIG(status)
+    })
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_child_run_for_its_peak_memory_keeps_its_output_and_status() {
+        let dir = std::env::temp_dir().join(format!("bench-measure-test-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let result = dir.join("result");
+        let args: Vec<std::ffi::OsString> = [
+            result.as_os_str(),
+            "sh".as_ref(),
+            "-c".as_ref(),
+            "exit 3".as_ref(),
+        ]
+        .iter()
+        .map(|s| s.to_os_string())
+        .collect();
+        assert_eq!(measure_child(&args).unwrap(), 3);
+        let text = std::fs::read_to_string(&result).unwrap();
+        let mut it = text.split_whitespace();
+        let ms: f64 = it.next().unwrap().parse().unwrap();
+        let peak: u64 = it.next().unwrap().parse().unwrap();
+        assert!(ms > 0.0, "{text}");
+        // sh needs a few MB; the test process's own memory must not count.
+        assert!(peak > 100_000 && peak < 64 << 20, "{peak}");
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
 
     #[test]
     fn median_of_odd_and_even_counts() {

@@ -19,6 +19,11 @@ pub struct FirstFrameRow {
     pub full_quality_ms: f64,
     /// The viewer's own `-v` split of its first frame, from the median run's output.
     pub split: String,
+    /// Peak resident memory of the viewer process, MB (median), and the pack's size.
+    #[serde(default)]
+    pub peak_rss_mb: Option<f64>,
+    #[serde(default)]
+    pub pack_mb: Option<f64>,
 }
 
 pub struct FirstFrameConfig {
@@ -53,21 +58,25 @@ pub fn sweep(cfg: &FirstFrameConfig, progress: &mut dyn FnMut(&str)) -> Result<V
     let cooked = cook::cook(&manifest, &cook::Settings::new(&manifest))
         .with_context(|| format!("cooking {}", cfg.scene.display()))?;
     let bytes = pack::encode(cooked.toc, &cooked.data).context("encoding the pack")?;
+    let pack_mb = bytes.len() as f64 / 1e6;
     std::fs::write(&pack, bytes).with_context(|| format!("writing {}", pack.display()))?;
     let modes: [(&str, &[&str]); 2] = [("default", &[]), ("--no-preview", &["--no-preview"])];
     let mut runs: Vec<Vec<(f64, f64, String)>> = vec![Vec::new(); modes.len()];
+    let mut peaks: Vec<Vec<f64>> = vec![Vec::new(); modes.len()];
     for i in 0..cfg.runs.max(1) {
         for (m, (name, extra)) in modes.iter().enumerate() {
             progress(&format!("first frame: {name}, run {}", i + 1));
-            let out = Command::new(&viewer)
-                .arg(&pack)
-                .args(["--headless", "--camera", "nave", "-v", "--size"])
-                .arg(format!("{}x{}", cfg.size.0, cfg.size.1))
-                .arg("--out")
-                .arg(cfg.scratch.join("first-frame-images"))
-                .args(*extra)
-                .output()
-                .context("running the viewer")?;
+            let (out, _, peak) = crate::common::output_with_peak_rss(
+                Command::new(&viewer)
+                    .arg(&pack)
+                    .args(["--headless", "--camera", "nave", "-v", "--size"])
+                    .arg(format!("{}x{}", cfg.size.0, cfg.size.1))
+                    .arg("--out")
+                    .arg(cfg.scratch.join("first-frame-images"))
+                    .args(*extra),
+            )
+            .context("running the viewer")?;
+            peaks[m].push(peak as f64 / 1e6);
             let text = String::from_utf8_lossy(&out.stdout).into_owned();
             anyhow::ensure!(
                 out.status.success(),
@@ -85,17 +94,18 @@ pub fn sweep(cfg: &FirstFrameConfig, progress: &mut dyn FnMut(&str)) -> Result<V
                     .to_string()
             };
             let split = format!(
-                "before it: instance, adapter and device {}; then {}",
+                "before it: instance, adapter and device {}; then {}; to full quality: {}",
                 line("instance, adapter and device: "),
-                line("first frame: ")
+                line("first frame: "),
+                line("full quality: ")
             );
             runs[m].push((first, full, split));
         }
     }
     Ok(modes
         .iter()
-        .zip(runs)
-        .map(|((name, _), mut r)| {
+        .zip(runs.into_iter().zip(&mut peaks))
+        .map(|((name, _), (mut r, peak))| {
             let mut firsts: Vec<f64> = r.iter().map(|x| x.0).collect();
             let mut fulls: Vec<f64> = r.iter().map(|x| x.1).collect();
             r.sort_by(|a, b| a.0.total_cmp(&b.0));
@@ -105,6 +115,8 @@ pub fn sweep(cfg: &FirstFrameConfig, progress: &mut dyn FnMut(&str)) -> Result<V
                 first_frame_ms: median(&mut firsts),
                 full_quality_ms: median(&mut fulls),
                 split: r[r.len() / 2].2.clone(),
+                peak_rss_mb: Some(median(peak)),
+                pack_mb: Some(pack_mb),
             }
         })
         .collect())

@@ -65,6 +65,13 @@ struct Args {
 }
 
 fn main() -> Result<()> {
+    let raw: Vec<std::ffi::OsString> = std::env::args_os().collect();
+    if raw
+        .get(1)
+        .is_some_and(|a| a == bench::common::MEASURE_CHILD)
+    {
+        std::process::exit(bench::common::measure_child(&raw[2..])?);
+    }
     let args = Args::parse();
     if !args.native_gpu
         && std::env::var_os("VK_DRIVER_FILES").is_none()

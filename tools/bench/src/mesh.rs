@@ -36,6 +36,9 @@ pub struct MeshRow {
     pub max_position_error: Option<f64>,
     /// The same over the bounding box's largest extent.
     pub relative_position_error: Option<f64>,
+    /// Peak resident memory of a whole-process row, in MB (median over its runs).
+    #[serde(default)]
+    pub peak_rss_mb: Option<f64>,
     pub note: String,
 }
 
@@ -148,6 +151,7 @@ fn measure(
             bytes_per_triangle: Some(per_tri(float_stride)),
             max_position_error: Some(0.0),
             relative_position_error: Some(0.0),
+            peak_rss_mb: None,
             note: note.to_string(),
         };
         rows.push(base.clone());
@@ -284,27 +288,34 @@ pub fn end_to_end(
         });
     }
     let mut times: Vec<Vec<f64>> = vec![Vec::new(); contenders.len()];
+    let mut peaks: Vec<Vec<f64>> = vec![Vec::new(); contenders.len()];
     for round in 0..cfg.runs.max(1) {
         // Each round starts with the next contender: whatever the first run after the
         // previous round pays (a fresh file's pages, the VM's memory) is shared out.
         let n = contenders.len();
         for i in (0..n).map(|i| (i + round) % n) {
-            let (c, t) = (&contenders[i], &mut times[i]);
-            t.push(time_process(1, || {
+            let c = &contenders[i];
+            let (ms, peak) = time_process(1, || {
                 let mut cmd = Command::new(&c.program);
                 cmd.args(&c.args);
                 cmd
-            })?);
+            })?;
+            times[i].push(ms);
+            peaks[i].push(peak);
         }
     }
     let _ = std::fs::remove_file(cfg.scratch.join("cooker-out.pack"));
     let _ = std::fs::remove_file(&glb);
     Ok(contenders
         .iter()
-        .zip(&mut times)
-        .map(|(c, t)| {
+        .zip(times.iter_mut().zip(&mut peaks))
+        .map(|(c, (t, peak))| {
             let ms = median(t);
-            progress(&format!("mesh {name}: {} {ms:.1} ms", c.label));
+            let peak = median(peak);
+            progress(&format!(
+                "mesh {name}: {} {ms:.1} ms, peak RSS {peak:.1} MB",
+                c.label
+            ));
             MeshRow {
                 mesh: name.to_string(),
                 triangles,
@@ -318,6 +329,7 @@ pub fn end_to_end(
                 bytes_per_triangle: None,
                 max_position_error: None,
                 relative_position_error: None,
+                peak_rss_mb: Some(peak),
                 note: format!("{}; median of {} interleaved runs", c.note, t.len()),
             }
         })
@@ -328,16 +340,15 @@ pub fn end_to_end(
 /// back before each run (`sync`): the cooker's fsync commits the file system's journal, which
 /// on ext4 also waits for every other file's unwritten data, so without it the cooker would pay
 /// for the output the previous contender (gltfpack, which does not fsync) left in memory.
-fn time_process(runs: usize, command: impl Fn() -> Command) -> Result<f64> {
+fn time_process(runs: usize, command: impl Fn() -> Command) -> Result<(f64, f64)> {
     let mut times = Vec::new();
+    let mut peaks = Vec::new();
     for _ in 0..runs.max(1) {
         let _ = Command::new("sync").status();
         let mut c = command();
-        let start = Instant::now();
-        let out = c
-            .output()
-            .with_context(|| format!("running {:?}", c.get_program()))?;
-        times.push(start.elapsed().as_secs_f64() * 1e3);
+        let (out, ms, peak) = crate::common::output_with_peak_rss(&mut c)?;
+        times.push(ms);
+        peaks.push(peak as f64 / 1e6);
         anyhow::ensure!(
             out.status.success(),
             "{:?} failed: {}",
@@ -345,7 +356,7 @@ fn time_process(runs: usize, command: impl Fn() -> Command) -> Result<f64> {
             String::from_utf8_lossy(&out.stderr)
         );
     }
-    Ok(median(&mut times))
+    Ok((median(&mut times), median(&mut peaks)))
 }
 
 /// The `cooker` binary built beside this one (`cargo build --release -p cooker`), if any.

@@ -709,17 +709,22 @@ fn first_frame_section(md: &mut String, r: &Results) {
          both modes interleaved, medians; the clock starts when the pack starts streaming (the \
          device is created before it). By default a CPU rasterizer draws a half-size preview \
          first (`Gpu::first_frame_divisor`); `--no-preview` draws the whole frame first. The \
-         split is the viewer's own (`-v`) for the median run.\n"
+         split is the viewer's own (`-v`) for the median run. Peak resident memory is the \
+         whole process's (lavapipe's render targets and threads included).\n"
     );
     let _ = writeln!(
         md,
-        "| mode | runs | first frame | full quality | first frame's split |"
+        "| mode | runs | first frame | full quality | peak RSS | split |"
     );
-    let _ = writeln!(md, "|---|---|---|---|---|");
+    let _ = writeln!(md, "|---|---|---|---|---|---|");
     for f in &r.first_frame {
+        let memory = match (f.peak_rss_mb, f.pack_mb) {
+            (Some(m), Some(p)) => format!("{m:.0} MB ({:.0}x the {p:.1} MB pack)", m / p),
+            _ => String::new(),
+        };
         let _ = writeln!(
             md,
-            "| {} | {} | {:.0} ms | {:.0} ms | {} |",
+            "| {} | {} | {:.0} ms | {:.0} ms | {memory} | {} |",
             f.mode, f.runs, f.first_frame_ms, f.full_quality_ms, f.split
         );
     }
@@ -779,19 +784,23 @@ fn mesh_section(dir: &Path, md: &mut String, r: &Results) -> Result<()> {
     );
     let _ = writeln!(
         md,
-        "| mesh | triangles | cache | position bits | time (ms) | ACMR | overfetch | bytes/triangle | max position error | relative | note |"
+        "| mesh | triangles | cache | position bits | time (ms) | peak RSS (MB) | ACMR | overfetch | bytes/triangle | max position error | relative | note |"
     );
-    let _ = writeln!(md, "|---|---:|---|---:|---:|---:|---:|---:|---:|---:|---|");
+    let _ = writeln!(
+        md,
+        "|---|---:|---|---:|---:|---:|---:|---:|---:|---:|---:|---|"
+    );
     for m in &r.meshes {
         let _ = writeln!(
             md,
-            "| {} | {} | {} | {}{} | {} | {} | {} | {} | {} | {} | {} |",
+            "| {} | {} | {} | {}{} | {} | {} | {} | {} | {} | {} | {} | {} |",
             m.mesh,
             m.triangles,
             m.cache,
             m.position_bits,
             if m.modelled { " (modelled)" } else { "" },
             cell(m.time_ms, 2),
+            cell(m.peak_rss_mb, 1),
             cell(m.acmr, 3),
             cell(m.overfetch, 3),
             cell(m.bytes_per_triangle, 2),
