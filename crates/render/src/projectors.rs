@@ -182,26 +182,23 @@ impl Projectors {
     }
 
     /// Copies each layer whose texture gained levels since its last copy. `resident` gives a
-    /// texture's resident base level and a view of the resident levels, once it has any.
+    /// texture's resident base level and a view of the resident levels, once it has any, with
+    /// the GPU texture's size and the share of it the image covers.
     pub(crate) fn update<'t>(
         &mut self,
         gpu: &Gpu,
-        toc: &Toc,
-        resident: impl Fn(u32) -> Option<(u32, &'t wgpu::TextureView)>,
+        resident: impl Fn(u32) -> Option<(u32, &'t wgpu::TextureView, (u32, u32), [f32; 2])>,
     ) {
         use wgpu::util::DeviceExt;
         let mut encoder = gpu.device.create_command_encoder(&Default::default());
         let mut any = false;
         for (layer, &t) in self.slots.iter().enumerate() {
-            let Some((base, view)) = resident(t) else {
+            // GPU sizes (`scene::gpu_extent`): a projector sampled as blocks is padded to whole
+            // blocks, and its image covers `scale` of it.
+            let Some((base, view, (w, h), scale)) = resident(t) else {
                 continue;
             };
-            // Stored sizes: a block-compressed projector is padded to whole blocks, and its
-            // image covers `uv_scale` of it.
-            let info = &toc.textures[t as usize];
-            let (w, h) = info.storage_size();
             let full = w.max(h);
-            let scale = info.uv_scale();
             if self.copied[layer] == Some(base) {
                 continue;
             }

@@ -203,14 +203,37 @@ impl Upload {
         let rgba = match section.role {
             SectionRole::Mip { texture, level } => {
                 let t = &toc.textures[texture as usize];
-                decoded_on_cpu(t, block_compression).then(|| {
-                    let (width, height) = t.storage_level_size(level as usize);
-                    decode_blocks(t.format, width, height, &section.bytes)
-                })
+                decoded_on_cpu(t, block_compression)
+                    .then(|| decode_logical(t, level as usize, &section.bytes))
             }
             _ => None,
         };
         Self { section, rgba }
+    }
+}
+
+/// Level `level` of block texture `t` decoded to RGBA8 of the level's logical size: the block
+/// padding is dropped, so a decoded texture is an RGBA8 texture of the image's own size and
+/// samples without the padded path's coordinate scaling (on lavapipe the padded textures made
+/// the window normals pass about a quarter slower).
+fn decode_logical(t: &pack::Texture, level: usize, bytes: &[u8]) -> Vec<u8> {
+    let (width, height) = t.storage_level_size(level);
+    let texels = decode_blocks(t.format, width, height, bytes);
+    let m = &t.mips[level];
+    if (m.width, m.height) == (width, height) {
+        texels
+    } else {
+        pack::texels::crop(&texels, width, m.width, m.height)
+    }
+}
+
+/// The GPU texture's size, and the share of it the image covers on each axis: the stored,
+/// block-padded size for blocks sampled as they are; the image's own when decoded.
+pub(crate) fn gpu_extent(t: &pack::Texture, decode: bool) -> ((u32, u32), [f32; 2]) {
+    if decode {
+        ((t.width, t.height), [1.0, 1.0])
+    } else {
+        (t.storage_size(), t.uv_scale())
     }
 }
 
@@ -277,7 +300,7 @@ impl Scene {
                 );
             }
             let format = texture_format(t, decode);
-            let (width, height) = t.storage_size();
+            let ((width, height), _) = gpu_extent(t, decode);
             let texture = device.create_texture(&wgpu::TextureDescriptor {
                 label: Some(&t.name),
                 size: wgpu::Extent3d {
@@ -381,7 +404,13 @@ impl Scene {
                     ],
                     uv_scale: {
                         let scale = |t: Option<u32>| {
-                            t.map_or([1.0, 1.0], |t| toc.textures[t as usize].uv_scale())
+                            t.map_or([1.0, 1.0], |t| {
+                                gpu_extent(
+                                    &toc.textures[t as usize],
+                                    scene.textures[t as usize].decode,
+                                )
+                                .1
+                            })
                         };
                         let (d, n) = (scale(m.diffuse_texture), scale(m.normal_texture));
                         [d[0], d[1], n[0], n[1]]
@@ -564,11 +593,12 @@ impl Scene {
                         let texels = match rgba {
                             Some(texels) => texels,
                             None => {
-                                decoded = decode_blocks(t.format, width, height, bytes);
+                                decoded = decode_logical(t, level as usize, bytes);
                                 &decoded[..]
                             }
                         };
-                        (texels, width * 4, height, (width, height))
+                        let m = &t.mips[level as usize];
+                        (texels, m.width * 4, m.height, (m.width, m.height))
                     }
                     Some(b) => {
                         let (bw, bh) = (width.div_ceil(4), height.div_ceil(4));
@@ -637,9 +667,13 @@ impl Scene {
             m.bind_group = g;
         }
         let textures = &self.textures;
-        self.projectors.update(gpu, &self.toc, |t| {
+        let toc = &self.toc;
+        self.projectors.update(gpu, |t| {
+            let (size, scale) = gpu_extent(&toc.textures[t as usize], textures[t as usize].decode);
             let t = &textures[t as usize];
-            t.resident_from.zip(t.view.as_ref())
+            t.resident_from
+                .zip(t.view.as_ref())
+                .map(|(base, view)| (base, view, size, scale))
         });
         self.generation += 1;
     }
@@ -926,10 +960,9 @@ mod tests {
                         if decode && toc.textures[texture as usize].format.is_compressed() =>
                     {
                         let t = &toc.textures[texture as usize];
-                        let (w, h) = t.storage_level_size(level as usize);
                         assert_eq!(
                             upload.rgba.as_deref(),
-                            Some(&pack::texels::decode(t.format, w, h, &stored)[..]),
+                            Some(&pack::texels::decode_level(t, level as usize, &stored)[..]),
                             "texture {texture} level {level}"
                         );
                         decoded_levels += 1;
