@@ -109,7 +109,6 @@ impl Occupancy {
             cell,
             full: vec![false; OCC * OCC * OCC],
         };
-        let step = cell.min_element() * 0.5;
         // Chunks of triangles mark grids of their own, or-ed together: the same cells whatever
         // the split.
         const CHUNK: usize = 1 << 14;
@@ -144,11 +143,16 @@ impl Occupancy {
                             }
                             continue;
                         }
-                        // Points on the triangle at most half a cell apart mark every cell it
-                        // crosses; they are placed in cell units (no divide per point).
-                        let n = (((b - a).length().max((c - a).length()) / step).ceil() as usize)
-                            .clamp(1, 4 * OCC);
+                        // Points on the triangle at most half a cell apart on every axis mark
+                        // every cell it crosses; they are placed in cell units (no divide per
+                        // point), and counted in them: cells are flat where the bounds are (a
+                        // height field's), and a count from the smallest cell side sampled
+                        // such a mesh's steep triangles at a hundred times the points.
                         let [a, b, c] = [a, b, c].map(|q| (q - grid.lo) / grid.cell);
+                        let n = (((b - a).abs().max_element().max((c - a).abs().max_element())
+                            / 0.5)
+                            .ceil() as usize)
+                            .clamp(1, 4 * OCC);
                         let last = OCC as f64 - 1e-6;
                         for i in 0..=n {
                             for j in 0..=(n - i) {

@@ -223,6 +223,20 @@ const ABSENT: i64 = i64::MIN;
 /// Reads a chunk's lines, numbered from 1 within the chunk.
 fn read_chunk(bytes: &[u8]) -> Chunk {
     let mut c = Chunk::default();
+    // Sized from the lines' keywords first (a triangle's three corners each; a polygon grows
+    // the corners), so the large vectors do not grow: each doubling touched fresh memory,
+    // and its page faults were a tenth of a 100k-triangle cook.
+    let (mut positions, mut faces) = (0, 0);
+    for line in bytes.split(|&b| b == b'\n') {
+        match line {
+            [b'v', b' ' | b'\t', ..] => positions += 1,
+            [b'f', b' ' | b'\t', ..] => faces += 1,
+            _ => {}
+        }
+    }
+    c.positions.reserve(positions);
+    c.faces.reserve(faces);
+    c.raw.reserve(3 * faces);
     for (index, raw) in bytes.split(|&b| b == b'\n').enumerate() {
         c.lines = index + 1;
         if let Err(message) = read_line(&mut c, index + 1, raw) {
