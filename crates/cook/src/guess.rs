@@ -192,10 +192,10 @@ impl Occupancy {
         let axes = |i: usize| [i % OCC, i / OCC % OCC, i / (OCC * OCC)];
         let (a, b, c) = (axes(a), axes(b), axes(c));
         let stride = [1, OCC, OCC * OCC];
-        let varying: Vec<usize> = (0..3).filter(|&d| a[d] != b[d] || a[d] != c[d]).collect();
-        let d = match varying[..] {
-            [] => 0,
-            [d] => d,
+        let mut varying = (0..3).filter(|&d| a[d] != b[d] || a[d] != c[d]);
+        let d = match (varying.next(), varying.next()) {
+            (None, _) => 0,
+            (Some(d), None) => d,
             _ => return None,
         };
         let (lo, hi) = (a[d].min(b[d]).min(c[d]), a[d].max(b[d]).max(c[d]));
