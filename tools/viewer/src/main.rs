@@ -533,6 +533,18 @@ fn main() -> Result<()> {
         libc::signal(libc::SIGPIPE, libc::SIG_DFL);
     }
     let args = Args::parse();
+    if args.headless
+        && std::env::var_os("XDG_RUNTIME_DIR").is_none()
+        && std::env::var_os("NODEVICE_SELECT").is_none()
+    {
+        // Mesa's device-select layer, which the Vulkan loader turns on by itself, connects to
+        // a Wayland display to put its GPU first; without XDG_RUNTIME_DIR libwayland printed
+        // "error: XDG_RUNTIME_DIR is invalid" twice, which read like a failure. Headless, no
+        // display's GPU is to be preferred, and this is the layer's own switch.
+        // SAFETY: no other thread exists yet (only the arguments were parsed), so nothing
+        // reads the environment concurrently.
+        unsafe { std::env::set_var("NODEVICE_SELECT", "1") };
+    }
     VERBOSE.store(args.verbose, std::sync::atomic::Ordering::Relaxed);
     let mut settings = god_ray_settings(&args)?;
     settings.shadows.enabled = !args.no_occlusion;
