@@ -4,8 +4,7 @@
 //! Block formats decode through `bcdec_rs`. A two-channel (BC5) normal map decodes to X and Y
 //! in red and green, the rebuilt Z (`sqrt(1 - x² - y²)`, encoded as `z * 0.5 + 0.5`) in blue
 //! and an opaque alpha, so it reads like an RGBA8 normal map. One channel (BC4) decodes to red
-//! with zero green and blue, as a GPU samples it. [`decode_native`] keeps the stored channels
-//! instead (RG for BC5, R for BC4), for a GPU that rebuilds Z itself.
+//! with zero green and blue, as a GPU samples it.
 
 use crate::toc::{Texture, TextureFormat};
 
@@ -28,8 +27,8 @@ pub fn decode(format: TextureFormat, width: u32, height: u32, bytes: &[u8]) -> V
 }
 
 /// Bytes per texel of a level decoded by [`decode_native`]: the channels the format stores
-/// (RGBA for RGBA8 and BC7, RG for BC5, R for BC4), as a GPU samples them.
-pub fn native_channels(format: TextureFormat) -> usize {
+/// (RGBA for RGBA8 and BC7, RG for BC5, R for BC4).
+fn native_channels(format: TextureFormat) -> usize {
     match format {
         TextureFormat::Rgba8 | TextureFormat::Bc7 => 4,
         TextureFormat::Bc5 => 2,
@@ -37,10 +36,9 @@ pub fn native_channels(format: TextureFormat) -> usize {
     }
 }
 
-/// [`decode`] to the format's own channels ([`native_channels`]) instead of RGBA8: a reader
-/// that decodes for a GPU without block formats uploads BC5 as RG8 and BC4 as R8, half and a
-/// quarter of the bytes, and rebuilds Z in the shader as it does for BC5 blocks.
-pub fn decode_native(format: TextureFormat, width: u32, height: u32, bytes: &[u8]) -> Vec<u8> {
+/// [`decode`]'s first step: the level in the format's own channels ([`native_channels`]),
+/// which `decode` then widens to RGBA8.
+fn decode_native(format: TextureFormat, width: u32, height: u32, bytes: &[u8]) -> Vec<u8> {
     let (w, h) = (width as usize, height as usize);
     let c = native_channels(format);
     let Some(block_bytes) = format.block_bytes() else {

@@ -147,12 +147,19 @@ fn stream(
     std::thread::spawn(move || {
         type Job = mpsc::Receiver<Result<Upload, pack::PackError>>;
         let in_flight = 2 * rayon::current_num_threads();
-        // Hands the oldest job's section over; false when the receiver has gone.
-        let forward = |job: Job| -> Result<bool, pack::PackError> {
-            let upload = job
-                .recv()
-                .expect("a decoding job answers unless it panicked")?;
-            Ok(tx.send(Message::Section(upload)).is_ok())
+        // Hands the oldest jobs' sections over until at most `keep` are pending; false when
+        // the receiver has gone.
+        let forward = |pending: &mut VecDeque<Job>, keep: usize| -> Result<bool, pack::PackError> {
+            while pending.len() > keep {
+                let job = pending.pop_front().expect("more than keep pending");
+                let upload = job
+                    .recv()
+                    .expect("a decoding job answers unless it panicked")?;
+                if tx.send(Message::Section(upload)).is_err() {
+                    return Ok(false);
+                }
+            }
+            Ok(true)
         };
         let result = (|| -> Result<(), pack::PackError> {
             let mut reader = pack::StreamReader::new(&path, source)?;
@@ -165,11 +172,7 @@ fn stream(
                     Err(e) => {
                         // Sections before the bad one still arrive, and an error in one of
                         // them is the one to report, as a reader in file order would.
-                        while let Some(job) = pending.pop_front() {
-                            if !forward(job)? {
-                                return Ok(());
-                            }
-                        }
+                        forward(&mut pending, 0)?;
                         return Err(e);
                     }
                 };
@@ -190,17 +193,11 @@ fn stream(
                     let _ = done.send(upload);
                 });
                 pending.push_back(job);
-                while pending.len() > in_flight {
-                    if !forward(pending.pop_front().expect("more than in_flight"))? {
-                        return Ok(());
-                    }
-                }
-            }
-            while let Some(job) = pending.pop_front() {
-                if !forward(job)? {
+                if !forward(&mut pending, in_flight)? {
                     return Ok(());
                 }
             }
+            forward(&mut pending, 0)?;
             Ok(())
         })();
         let _ = tx.send(match result {
