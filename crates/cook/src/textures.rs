@@ -494,7 +494,16 @@ fn compress(
     );
     let unit = if normal { "° mean" } else { " LSB RMS" };
     let candidates = crate::budget::compression_candidates(role);
+    // `auto` keeps RGBA8 when no setting fits, so a setting may stop encoding as soon as its
+    // error is certain to exceed the budget; `bc` stores the closest one, so each is finished.
+    let give_up_above = if p.format == TextureFormatChoice::Auto {
+        budget as f64
+    } else {
+        f64::INFINITY
+    };
     let mut best: Option<(texture::bc::Codec, texture::bc::Compressed)> = None;
+    // What each setting that did not fit measured, for the note when none does.
+    let mut misses: Vec<String> = Vec::new();
     for codec in candidates {
         let shape = CookedTexture {
             width,
@@ -504,8 +513,29 @@ fn compress(
             levels: Vec::new(),
         }
         .describe_levels(chain.levels.len(), String::new(), role, colour_space);
-        let c = texture::bc::compress_chain(codec, &chain, &shape, measure);
+        let c =
+            match texture::bc::compress_chain_within(codec, &chain, &shape, measure, give_up_above)
+            {
+                Ok(c) => c,
+                Err(over) => {
+                    misses.push(format!(
+                        "{} at least {:.3}{unit} over the chain from its {} smallest level(s)",
+                        codec.name(),
+                        over.at_least,
+                        over.levels
+                    ));
+                    continue;
+                }
+            };
         let fits = c.error.mean <= budget as f64;
+        if !fits {
+            misses.push(format!(
+                "{} {:.3}{unit} over the chain, {:.3} on level 0",
+                codec.name(),
+                c.error.mean,
+                c.error.level0
+            ));
+        }
         let better = best
             .as_ref()
             .is_none_or(|(_, b)| c.error.mean < b.error.mean);
@@ -516,21 +546,26 @@ fn compress(
             break;
         }
     }
+    let fits = best
+        .as_ref()
+        .is_some_and(|(_, c)| c.error.mean <= budget as f64);
+    if !fits && p.format == TextureFormatChoice::Auto {
+        if misses.is_empty() {
+            return (rgba8(chain), Said::default());
+        }
+        let note = format!(
+            "kept RGBA8: no block encoder setting fits the budget of {budget}{unit} ({})",
+            misses.join("; ")
+        );
+        return (rgba8(chain), Said::note(note));
+    }
     let Some((codec, c)) = best else {
         return (rgba8(chain), Said::default());
     };
-    let fits = c.error.mean <= budget as f64;
     let measured = format!(
         "measured {:.3}{unit} over the chain, {:.3} on level 0, budget {budget}{unit}",
         c.error.mean, c.error.level0
     );
-    if !fits && p.format == TextureFormatChoice::Auto {
-        let note = format!(
-            "kept RGBA8: no block encoder setting fits the budget (best: {} {measured})",
-            codec.name()
-        );
-        return (rgba8(chain), Said::note(note));
-    }
     let note = format!("{} chosen by the error budget ({measured})", codec.name());
     let mut said = Said::note(note);
     if !fits {

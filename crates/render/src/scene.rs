@@ -517,6 +517,8 @@ impl Scene {
         rgba: Option<&[u8]>,
     ) -> Result<(), RenderError> {
         use wgpu::util::DeviceExt;
+        // What reached the GPU: a level decoded on the CPU uploads its texels, not its blocks.
+        let mut uploaded = bytes.len();
         match role {
             SectionRole::Toc => {}
             SectionRole::Vertices { mesh } => {
@@ -606,6 +608,7 @@ impl Scene {
                     }
                     None => (bytes, width * 4, height, (width, height)),
                 };
+                uploaded = data.len();
                 gpu.queue.write_texture(
                     wgpu::TexelCopyTextureInfo {
                         texture: &gt.texture,
@@ -639,7 +642,7 @@ impl Scene {
                 self.status.mips_loaded += 1;
             }
         }
-        self.status.bytes_uploaded += bytes.len() as u64;
+        self.status.bytes_uploaded += uploaded as u64;
         Ok(())
     }
 

@@ -390,46 +390,95 @@ pub fn compress_chain(
     texture: &pack::Texture,
     measure: Measure,
 ) -> Compressed {
+    match compress_chain_within(codec, chain, texture, measure, f64::INFINITY) {
+        Ok(c) => c,
+        Err(_) => unreachable!("no error exceeds an infinite budget"),
+    }
+}
+
+/// The chain's error already exceeds the budget: `at_least` is a lower bound of its error over
+/// the whole chain (same unit as [`BlockError::mean`]), reached by the `levels` smallest levels.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct OverBudget {
+    pub at_least: f64,
+    pub levels: usize,
+}
+
+/// [`compress_chain`], giving up as soon as the chain's error is certain to exceed `budget`
+/// (compared with [`BlockError::mean`]). Levels go smallest first: their errors add up over the
+/// whole chain's texel count, which is known before any is encoded, so the sum so far bounds
+/// the result from below, and a setting that fails usually fails on the quarter of the texels
+/// below level 0. What it returns when it fits is what [`compress_chain`] returns, bit for bit.
+pub fn compress_chain_within(
+    codec: Codec,
+    chain: &crate::MipChain,
+    texture: &pack::Texture,
+    measure: Measure,
+    budget: f64,
+) -> Result<Compressed, OverBudget> {
     let normal = measure == Measure::Normal;
-    let mut tallies = Vec::with_capacity(chain.levels.len());
-    let levels = chain
-        .levels
-        .iter()
-        .enumerate()
-        .map(|(k, rgba)| {
+    let per_texel = match measure {
+        Measure::Normal => 1,
+        Measure::Rgba => 4,
+        Measure::Rgb => 3,
+    };
+    let total: u64 = (0..chain.levels.len())
+        .map(|k| {
             let m = &texture.mips[k];
-            let (sw, sh) = texture.storage_level_size(k);
-            let opaque;
-            let source = if measure == Measure::Rgb {
-                let mut level = rgba.clone();
-                level.iter_mut().skip(3).step_by(4).for_each(|a| *a = 255);
-                opaque = level;
-                &opaque
-            } else {
-                rgba
-            };
-            let (cw, ch) = chain.level_size(k);
-            let blocks = compress_level(codec, source, cw, ch, sw, sh);
-            let decoded = pack::texels::decode_level(texture, k, &blocks);
-            let logical;
-            let original = if (cw, ch) == (m.width, m.height) {
-                rgba
-            } else {
-                logical = pack::texels::crop(rgba, cw, m.width, m.height);
-                &logical
-            };
-            tallies.push(match measure {
-                Measure::Normal => normal_tally(original, &decoded),
-                Measure::Rgba => colour_tally(original, &decoded, 4),
-                Measure::Rgb => colour_tally(original, &decoded, 3),
-            });
-            blocks
+            m.width as u64 * m.height as u64 * per_texel
         })
-        .collect();
-    Compressed {
+        .sum();
+    let bound = |sum: f64| {
+        let m = sum / total.max(1) as f64;
+        if normal { m } else { m.sqrt() }
+    };
+    let mut levels = vec![Vec::new(); chain.levels.len()];
+    let mut tallies: Vec<Tally> = (0..chain.levels.len()).map(|_| Tally::default()).collect();
+    let mut sum = 0.0;
+    for (done, k) in (0..chain.levels.len()).rev().enumerate() {
+        let rgba = &chain.levels[k];
+        let m = &texture.mips[k];
+        let (sw, sh) = texture.storage_level_size(k);
+        let opaque;
+        let source = if measure == Measure::Rgb {
+            let mut level = rgba.clone();
+            level.iter_mut().skip(3).step_by(4).for_each(|a| *a = 255);
+            opaque = level;
+            &opaque
+        } else {
+            rgba
+        };
+        let (cw, ch) = chain.level_size(k);
+        let blocks = compress_level(codec, source, cw, ch, sw, sh);
+        let decoded = pack::texels::decode_level(texture, k, &blocks);
+        let logical;
+        let original = if (cw, ch) == (m.width, m.height) {
+            rgba
+        } else {
+            logical = pack::texels::crop(rgba, cw, m.width, m.height);
+            &logical
+        };
+        let tally = match measure {
+            Measure::Normal => normal_tally(original, &decoded),
+            Measure::Rgba => colour_tally(original, &decoded, 4),
+            Measure::Rgb => colour_tally(original, &decoded, 3),
+        };
+        sum += tally.sum;
+        tallies[k] = tally;
+        levels[k] = blocks;
+        // The last level gives the exact error, which the caller compares; before it, a margin
+        // keeps float summation order from ever turning down what the full sum would accept.
+        if k > 0 && bound(sum) > budget * (1.0 + 1e-9) {
+            return Err(OverBudget {
+                at_least: bound(sum),
+                levels: done + 1,
+            });
+        }
+    }
+    Ok(Compressed {
         levels,
         error: finish(&tallies, normal),
-    }
+    })
 }
 
 #[cfg(test)]
@@ -575,6 +624,71 @@ mod tests {
             let one = run(1, codec);
             assert_eq!(one, run(2, codec), "{codec:?}");
             assert_eq!(one, run(8, codec), "{codec:?}");
+        }
+    }
+
+    /// A noisy 64x48 chain (7 levels) in `codec`'s shape, for the budgeted encoder.
+    fn noisy_chain(codec: Codec) -> (crate::MipChain, pack::Texture) {
+        let (w, h) = (64u32, 48u32);
+        let noise: Vec<u8> = (0..w * h * 4)
+            .map(|i: u32| (i.wrapping_mul(2654435761) >> 13) as u8)
+            .collect();
+        let img = image::DynamicImage::ImageRgba8(image::RgbaImage::from_raw(w, h, noise).unwrap());
+        let chain = crate::colour_mips(&img, &crate::ColourOptions::default()).unwrap();
+        let texture = pack::Texture {
+            name: String::new(),
+            role: pack::TextureRole::Colour,
+            colour_space: pack::ColourSpace::Srgb,
+            format: codec.format(),
+            supercompression: pack::Supercompression::None,
+            width: w,
+            height: h,
+            mips: (0..chain.levels.len())
+                .map(|k| {
+                    let (width, height) = chain.level_size(k);
+                    pack::MipLevel {
+                        width,
+                        height,
+                        section: 0,
+                    }
+                })
+                .collect(),
+        };
+        (chain, texture)
+    }
+
+    #[test]
+    fn a_budget_stops_early_and_only_when_the_chain_must_exceed_it() {
+        for (codec, measure) in [
+            (Codec::Bc7(Bc7Profile::UltraFast), Measure::Rgba),
+            (Codec::Bc7(Bc7Profile::UltraFast), Measure::Rgb),
+            (Codec::Bc5, Measure::Normal),
+        ] {
+            let (chain, texture) = noisy_chain(codec);
+            let full = compress_chain(codec, &chain, &texture, measure);
+            let e = full.error.mean;
+            assert!(e > 0.0, "{codec:?}");
+            // At or above the full error: the same levels and error, bit for bit.
+            for budget in [e, e * 1.01, f64::INFINITY] {
+                let within = compress_chain_within(codec, &chain, &texture, measure, budget)
+                    .unwrap_or_else(|o| panic!("{codec:?} {measure:?} gave up at {o:?}"));
+                assert_eq!(within.levels, full.levels);
+                assert_eq!(within.error, full.error);
+            }
+            // Far below it: it stops before level 0, with a true lower bound above the budget.
+            let budget = e * 0.05;
+            let over = compress_chain_within(codec, &chain, &texture, measure, budget)
+                .expect_err("a budget a twentieth of the error must be exceeded");
+            assert!(
+                over.at_least > budget && over.at_least <= e,
+                "{over:?}, error {e}"
+            );
+            assert!(over.levels < chain.levels.len(), "{over:?}");
+            // Just below it: never accepted, though it may take every level to know.
+            match compress_chain_within(codec, &chain, &texture, measure, e * 0.999) {
+                Ok(c) => assert_eq!(c.error, full.error),
+                Err(o) => assert!(o.at_least <= e, "{o:?}"),
+            }
         }
     }
 }

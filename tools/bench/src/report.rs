@@ -706,11 +706,14 @@ fn first_frame_section(md: &mut String, r: &Results) {
     let _ = writeln!(
         md,
         "Whole headless viewer processes on the default scene's pack (camera `nave`), runs of \
-         both modes interleaved, medians; the clock starts when the pack starts streaming (the \
+         every mode interleaved, medians; the clock starts when the pack starts streaming (the \
          device is created before it). By default a CPU rasterizer draws a half-size preview \
          first (`Gpu::first_frame_divisor`); `--no-preview` draws the whole frame first. The \
          split is the viewer's own (`-v`) for the median run. Peak resident memory is the \
-         whole process's (lavapipe's render targets and threads included).\n"
+         whole process's (lavapipe's render targets and threads included). The last row is the pack \
+         the texture-compression issue started from (RGBA8 textures, no zstd), drawn in the \
+         default mode in the same rounds: the compressed pack's decoding must not make full \
+         quality later than it.\n"
     );
     let _ = writeln!(
         md,
