@@ -430,7 +430,7 @@ fn run_cached(job: &Job, p: &Params, cache: Option<&cache::Cache>) -> Result<Coo
 /// RGBA8.
 fn run_and_compress(job: &Job, p: &Params) -> Result<(CookedTexture, Said), CookError> {
     let pad = p.format != TextureFormatChoice::Rgba8;
-    let (mut chain, size, said) = run(job, &p.textures, pad)?;
+    let (mut chain, size, said, unpadded) = run(job, &p.textures, pad)?;
     let padded = (chain.width, chain.height) != size;
     // The padded chain can run a level longer (64x60 against 62x58); the logical size says how
     // many levels the texture has, and the GPU texture has as many of the padded size.
@@ -439,7 +439,10 @@ fn run_and_compress(job: &Job, p: &Params) -> Result<(CookedTexture, Said), Cook
     let design = matches!(job, Job::Colour { design: true, .. });
     let (mut cooked, stored) = compress(chain, size, (role, design), colour_space, p);
     if padded && cooked.format == pack::TextureFormat::Rgba8 {
-        cooked.levels = run(job, &p.textures, false)?.0.levels;
+        cooked.levels = match unpadded {
+            Some(chain) => chain.levels,
+            None => run(job, &p.textures, false)?.0.levels,
+        };
     }
     supercompress(&mut cooked, p.supercompression);
     Ok((cooked, said.and(stored)))
@@ -594,8 +597,9 @@ fn choice_note(what: &str, c: &crate::budget::Choice) -> Said {
     }
 }
 
-/// A job's RGBA8 chain, the image's size (the chain's own unless padded) and what it said.
-type Chain = (texture::MipChain, (u32, u32), Said);
+/// A job's RGBA8 chain, the image's size (the chain's own unless padded), what it said, and
+/// the chain without padding when the job made that too on the way (a projector does).
+type Chain = (texture::MipChain, (u32, u32), Said, Option<texture::MipChain>);
 
 /// Cooks a job's RGBA8 chain. With `pad`, level 0 is grown to whole 4x4 blocks before the
 /// lower levels are made from it.
@@ -636,7 +640,7 @@ fn run(job: &Job, settings: &TextureSettings, pad: bool) -> Result<Chain, CookEr
             });
             let chain = texture::colour_mips(&img, &opts)
                 .map_err(|e| texture_error(Path::new(&image.name()), e))?;
-            Ok((chain, size, said))
+            Ok((chain, size, said, None))
         }
         Job::Normal {
             image,
@@ -646,7 +650,7 @@ fn run(job: &Job, settings: &TextureSettings, pad: bool) -> Result<Chain, CookEr
             let (img, size) = padded(decode(image)?);
             let chain = texture::normal_mips(&img, *encoding, *green)
                 .map_err(|e| texture_error(Path::new(&image.name()), e))?;
-            Ok((chain, size, Said::default()))
+            Ok((chain, size, Said::default(), None))
         }
         Job::DerivedNormal { design, seed } => {
             let img = decode(design)?;
@@ -654,7 +658,7 @@ fn run(job: &Job, settings: &TextureSettings, pad: bool) -> Result<Chain, CookEr
             let (pw, ph) = storage(size);
             let chain = texture::derive_normal_map_padded(&img, *seed, pw, ph)
                 .map_err(|e| texture_error(Path::new(&design.name()), e))?;
-            Ok((chain, size, Said::default()))
+            Ok((chain, size, Said::default(), None))
         }
         Job::Projector { design, sigma } => {
             let img = decode(design)?;
@@ -667,10 +671,10 @@ fn run(job: &Job, settings: &TextureSettings, pad: bool) -> Result<Chain, CookEr
                 opts.method = c.blur_method().unwrap_or(opts.method);
                 choice_note("blur", &c)
             });
-            let (chain, report) = texture::projector(&img, &opts)
+            let (chain, unpadded, report) = texture::projector_with_unpadded(&img, &opts)
                 .map_err(|e| texture_error(Path::new(&design.name()), e))?;
             let said = Said::note(report.to_string()).and(choice);
-            Ok((chain, (report.width, report.height), said))
+            Ok((chain, (report.width, report.height), said, unpadded))
         }
     }
 }

@@ -47,5 +47,7 @@ pub use normal::{
     FALLBACK_NORMAL, GreenAxis, NormalEncoding, derive_normal_map, derive_normal_map_padded,
     normal_mips,
 };
-pub use projector::{ProjectorOptions, ProjectorReport, projector, sigma_from_light};
+pub use projector::{
+    ProjectorOptions, ProjectorReport, projector, projector_with_unpadded, sigma_from_light,
+};
 pub use resample::MipFilter;

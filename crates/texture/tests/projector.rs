@@ -167,3 +167,26 @@ fn block_padded_projector_keeps_the_image_and_mips_the_padded_level() {
     let corner = &padded.levels[1][(11 * 16 + 15) * 4..][..4];
     assert_eq!(corner, [0; 4], "all four source texels are padding");
 }
+
+#[test]
+fn the_unpadded_chain_of_a_padded_projector_is_the_plain_projector() {
+    for (w, h) in [(61, 43), (64, 44)] {
+        let img = rgba_image(w, h, design(w, h, 5));
+        let opts = |block_pad| ProjectorOptions {
+            block_pad,
+            ..ProjectorOptions::new(2.5)
+        };
+        let (plain, plain_report) = projector(&img, &opts(false)).unwrap();
+        let (padded, unpadded, report) =
+            texture::projector_with_unpadded(&img, &opts(true)).unwrap();
+        assert_eq!(report, plain_report);
+        if (w % 4, h % 4) == (0, 0) {
+            // Already whole blocks: one chain, and it is the plain one.
+            assert_eq!(unpadded, None);
+            assert_eq!(padded, plain);
+        } else {
+            assert_eq!((padded.width, padded.height), (64, 44));
+            assert_eq!(unpadded, Some(plain));
+        }
+    }
+}
