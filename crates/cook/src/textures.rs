@@ -599,7 +599,12 @@ fn choice_note(what: &str, c: &crate::budget::Choice) -> Said {
 
 /// A job's RGBA8 chain, the image's size (the chain's own unless padded), what it said, and
 /// the chain without padding when the job made that too on the way (a projector does).
-type Chain = (texture::MipChain, (u32, u32), Said, Option<texture::MipChain>);
+type Chain = (
+    texture::MipChain,
+    (u32, u32),
+    Said,
+    Option<texture::MipChain>,
+);
 
 /// Cooks a job's RGBA8 chain. With `pad`, level 0 is grown to whole 4x4 blocks before the
 /// lower levels are made from it.

@@ -234,6 +234,42 @@ fn bilinear_axis(from: u32, to: u32) -> Vec<(usize, usize, f32)> {
         .collect()
 }
 
+/// Upper bounds of the sRGB encode's slope (in LSB per unit of linear light), per bin of
+/// linear values: a colour's exact error costs two `powf`s, and only texels that might beat
+/// the largest error found so far need them.
+struct EncodeSlopes([f64; EncodeSlopes::BINS]);
+
+impl EncodeSlopes {
+    const BINS: usize = 1024;
+
+    fn get() -> &'static EncodeSlopes {
+        static SLOPES: std::sync::OnceLock<EncodeSlopes> = std::sync::OnceLock::new();
+        SLOPES.get_or_init(|| {
+            // The encode's slope falls everywhere on [0, 1] (12.92 on the linear toe, just
+            // under it where the power curve takes over), so a bin's value at its lower edge
+            // bounds it over the whole bin and above.
+            let slope = |x: f64| {
+                255.0
+                    * if x <= 0.003_130_8 {
+                        12.92
+                    } else {
+                        1.055 / 2.4 * x.powf(1.0 / 2.4 - 1.0)
+                    }
+            };
+            EncodeSlopes(std::array::from_fn(|b| slope(b as f64 / Self::BINS as f64)))
+        })
+    }
+
+    /// At least |encode(v) - encode(r)| in LSB, for v and r in [0, 1]: by the mean value
+    /// theorem it is the slope somewhere between them times |v - r|, and the slope there is
+    /// at most the bound of the lower one's bin. The margin covers the rounding of `powf`.
+    fn bound(&self, v: f64, r: f64) -> f64 {
+        let low = v.min(r);
+        let bin = ((low * Self::BINS as f64) as usize).min(Self::BINS - 1);
+        self.0[bin] * (v - r).abs() * (1.0 + 1e-9) + 1e-9
+    }
+}
+
 /// Max error (LSB) of an RGBA8 level sampled bilinearly in linear light (as through an sRGB
 /// view) at every texel of a `w x h` reference, against that reference unrounded.
 pub fn upsampled_error(
@@ -256,6 +292,7 @@ pub fn upsampled_error(
     };
     let xs = bilinear_axis(lw, w);
     let ys = bilinear_axis(lh, h);
+    let slopes = EncodeSlopes::get();
     reference
         .par_chunks(w as usize)
         .zip(ys.par_iter())
@@ -268,7 +305,11 @@ pub fn upsampled_error(
                     let bottom = c[ch] + (d[ch] - c[ch]) * fx;
                     let v = (top + (bottom - top) * fy) as f64;
                     let e = if ch < 3 {
-                        linear_to_srgb_lsb(v) - linear_to_srgb_lsb(r[ch] as f64)
+                        let (v, r) = (v.clamp(0.0, 1.0), (r[ch] as f64).clamp(0.0, 1.0));
+                        if slopes.bound(v, r) <= max {
+                            continue;
+                        }
+                        linear_to_srgb_lsb(v) - linear_to_srgb_lsb(r)
                     } else {
                         (v - r[3].clamp(0.0, 1.0) as f64) * 255.0
                     };
@@ -278,4 +319,82 @@ pub fn upsampled_error(
             max
         })
         .reduce(|| 0.0, f64::max)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Every texel and channel through the exact encode: what `upsampled_error` must equal.
+    fn exhaustive(bytes: &[u8], lw: u32, lh: u32, reference: &[[f32; 4]], w: u32) -> f64 {
+        let lut = decode8();
+        let xs = bilinear_axis(lw, w);
+        let ys = bilinear_axis(lh, reference.len() as u32 / w);
+        let texel = |x: usize, y: usize, ch: usize| {
+            let b = bytes[(y * lw as usize + x) * 4 + ch];
+            if ch < 3 {
+                lut[b as usize]
+            } else {
+                b as f32 / 255.0
+            }
+        };
+        let mut max = 0.0f64;
+        for (row, &(y0, y1, fy)) in reference.chunks(w as usize).zip(&ys) {
+            for (r, &(x0, x1, fx)) in row.iter().zip(&xs) {
+                for ch in 0..4 {
+                    let top = texel(x0, y0, ch) + (texel(x1, y0, ch) - texel(x0, y0, ch)) * fx;
+                    let bottom = texel(x0, y1, ch) + (texel(x1, y1, ch) - texel(x0, y1, ch)) * fx;
+                    let v = (top + (bottom - top) * fy) as f64;
+                    let e = if ch < 3 {
+                        linear_to_srgb_lsb(v) - linear_to_srgb_lsb(r[ch] as f64)
+                    } else {
+                        (v - r[3].clamp(0.0, 1.0) as f64) * 255.0
+                    };
+                    max = max.max(e.abs());
+                }
+            }
+        }
+        max
+    }
+
+    #[test]
+    fn skipping_texels_by_the_slope_bound_changes_no_maximum() {
+        let (w, h) = (37u32, 29u32);
+        let mut seed = 0x9e37_79b9_u32;
+        let mut next = move || {
+            seed ^= seed << 13;
+            seed ^= seed >> 17;
+            seed ^= seed << 5;
+            seed as f32 / u32::MAX as f32
+        };
+        // Dark values (the steep toe of the encode), mid tones, and values just outside [0, 1].
+        for scale in [0.004f32, 0.05, 1.0, 1.02] {
+            let reference: Vec<[f32; 4]> = (0..w * h)
+                .map(|_| std::array::from_fn(|_| next() * scale - 0.01))
+                .collect();
+            let (lw, lh) = (half(w), half(h));
+            let level: Vec<u8> = (0..lw * lh * 4).map(|_| (next() * 255.0) as u8).collect();
+            let rounded: Vec<u8> = reference
+                .iter()
+                .flat_map(|t| encode_premultiplied(&[t.map(|c| c.clamp(0.0, 1.0))]))
+                .collect();
+            for (bytes, lw, lh) in [(&level, lw, lh), (&rounded, w, h)] {
+                let fast = upsampled_error(bytes, lw, lh, &reference, w, h);
+                let exact = exhaustive(bytes, lw, lh, &reference, w);
+                assert_eq!(fast.to_bits(), exact.to_bits(), "scale {scale}, {lw}x{lh}");
+            }
+        }
+    }
+
+    #[test]
+    fn the_slope_bound_holds_on_a_fine_grid() {
+        let slopes = EncodeSlopes::get();
+        for i in 0..=20_000u32 {
+            for j in [0u32, 1, 7, 100, 5_000, 20_000] {
+                let (v, r) = (i as f64 / 20_000.0, j as f64 / 20_000.0);
+                let exact = (linear_to_srgb_lsb(v) - linear_to_srgb_lsb(r)).abs();
+                assert!(slopes.bound(v, r) >= exact, "{v} {r}");
+            }
+        }
+    }
 }

@@ -12,7 +12,8 @@ use std::time::Instant;
 use anyhow::{Context, Result, bail};
 use serde::{Deserialize, Serialize};
 use texture::blur::{
-    BlurMethod, blur_srgb8_into, error_lsb, kernel_radius, reference_blur, srgb8_to_premultiplied_f64,
+    BlurMethod, blur_srgb8_into, error_lsb, kernel_radius, reference_blur,
+    srgb8_to_premultiplied_f64,
 };
 
 use crate::common::median_ms;
