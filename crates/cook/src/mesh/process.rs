@@ -675,7 +675,7 @@ mod tests {
     fn a_large_range_is_ordered_in_two_halves_without_losing_cache_efficiency() {
         let s = scrambled_sphere(150, 180);
         let n = s.triangle_count();
-        assert!(n >= CACHE_SPLIT_TRIANGLES && n % 7919 != 0, "{n}");
+        assert!(n >= CACHE_SPLIT_TRIANGLES && !n.is_multiple_of(7919), "{n}");
         let run = |threads: usize| {
             rayon::ThreadPoolBuilder::new()
                 .num_threads(threads)
