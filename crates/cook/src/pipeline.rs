@@ -56,6 +56,7 @@ pub fn cook(manifest: &Manifest, settings: &Settings) -> Result<CookOutput, Cook
         mut tagging,
         tri_material: _,
         windows: found,
+        images,
     } = prepared;
     record_sources(&manifest, &imported, &tagging, &mut report);
     prune::unused_materials(
@@ -82,8 +83,10 @@ pub fn cook(manifest: &Manifest, settings: &Settings) -> Result<CookOutput, Cook
         &lit_windows,
         floor_y,
         settings,
+        &images,
         &mut report,
     )?;
+    drop(images);
     report.inputs.sort();
     report.inputs.dedup();
     clock.lap(&mut report, "textures");
@@ -238,6 +241,8 @@ pub struct Prepared {
     /// Per source, per triangle: the pack material.
     pub tri_material: Vec<Vec<u16>>,
     pub windows: window_plan::Windows,
+    /// Image files the window stage decoded, for the texture jobs to reuse.
+    pub images: textures::DecodedImages,
 }
 
 /// Runs import → tag → windows; see [`Prepared`].
@@ -260,12 +265,14 @@ pub fn prepare(
         .collect();
     let found = Instant::now();
     report.stages.push(("tag", found - tagged));
+    let images = textures::DecodedImages::default();
     let windows = window_plan::plan(
         manifest,
         &settings.window_overrides,
         &mut imported,
         &mut tagging,
         &mut tri_material,
+        &images,
         report,
     )?;
     report.stages.push(("windows", found.elapsed()));
@@ -275,6 +282,7 @@ pub fn prepare(
         tagging,
         tri_material,
         windows,
+        images,
     })
 }
 

@@ -4,6 +4,7 @@
 
 use std::collections::HashMap;
 use std::path::{Path, PathBuf};
+use std::sync::{Arc, Mutex};
 
 use rayon::prelude::*;
 
@@ -123,6 +124,44 @@ pub(crate) fn decode(image: &ImageRef) -> Result<image::DynamicImage, CookError>
     }
 }
 
+/// Image files decoded once per cook. A window design is read by the window stage (once per
+/// window that shows it) and by its colour, projector and derived-normal jobs; the default
+/// scene decoded its four design PNGs 25 times. Other images (embedded, made by the cook)
+/// are decoded where they are used, as before.
+#[derive(Default)]
+pub struct DecodedImages {
+    files: Mutex<HashMap<PathBuf, Arc<Mutex<Option<Arc<image::DynamicImage>>>>>>,
+}
+
+impl std::fmt::Debug for DecodedImages {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let files = self.files.lock().unwrap_or_else(|e| e.into_inner());
+        f.debug_list().entries(files.keys()).finish()
+    }
+}
+
+impl DecodedImages {
+    /// The image, decoded by the first caller; callers wanting the same file meanwhile wait for
+    /// that decode rather than repeat it. A file that fails to decode is not remembered, so
+    /// every caller reports the error as it would have.
+    pub(crate) fn get(&self, image: &ImageRef) -> Result<Arc<image::DynamicImage>, CookError> {
+        let ImageRef::File(path) = image else {
+            return decode(image).map(Arc::new);
+        };
+        let slot = {
+            let mut files = self.files.lock().unwrap_or_else(|e| e.into_inner());
+            Arc::clone(files.entry(path.clone()).or_default())
+        };
+        let mut slot = slot.lock().unwrap_or_else(|e| e.into_inner());
+        if let Some(img) = &*slot {
+            return Ok(Arc::clone(img));
+        }
+        let img = Arc::new(decode(image)?);
+        *slot = Some(Arc::clone(&img));
+        Ok(img)
+    }
+}
+
 /// Deterministic per-design seed for the derived normal map's hammered-glass noise: the
 /// file name, or the name of a design made by the cook.
 fn seed(design: &ImageRef) -> u64 {
@@ -221,7 +260,9 @@ const ENCODER: &str = "intel_tex_2 0.5";
 
 /// How every texture of a cook is made, apart from the job itself.
 #[derive(Clone, Debug)]
-struct Params {
+struct Params<'a> {
+    /// Source images, decoded once per cook.
+    images: &'a DecodedImages,
     /// Mip filter and the scene's error budget (LSB), for blur, mips and block compression.
     textures: TextureSettings,
     format: TextureFormatChoice,
@@ -430,7 +471,7 @@ fn run_cached(job: &Job, p: &Params, cache: Option<&cache::Cache>) -> Result<Coo
 /// RGBA8.
 fn run_and_compress(job: &Job, p: &Params) -> Result<(CookedTexture, Said), CookError> {
     let pad = p.format != TextureFormatChoice::Rgba8;
-    let (mut chain, size, said, unpadded) = run(job, &p.textures, pad)?;
+    let (mut chain, size, said, unpadded) = run(job, &p.textures, pad, p.images)?;
     let padded = (chain.width, chain.height) != size;
     // The padded chain can run a level longer (64x60 against 62x58); the logical size says how
     // many levels the texture has, and the GPU texture has as many of the padded size.
@@ -441,7 +482,7 @@ fn run_and_compress(job: &Job, p: &Params) -> Result<(CookedTexture, Said), Cook
     if padded && cooked.format == pack::TextureFormat::Rgba8 {
         cooked.levels = match unpadded {
             Some(chain) => chain.levels,
-            None => run(job, &p.textures, false)?.0.levels,
+            None => run(job, &p.textures, false, p.images)?.0.levels,
         };
     }
     supercompress(&mut cooked, p.supercompression);
@@ -608,7 +649,12 @@ type Chain = (
 
 /// Cooks a job's RGBA8 chain. With `pad`, level 0 is grown to whole 4x4 blocks before the
 /// lower levels are made from it.
-fn run(job: &Job, settings: &TextureSettings, pad: bool) -> Result<Chain, CookError> {
+fn run(
+    job: &Job,
+    settings: &TextureSettings,
+    pad: bool,
+    images: &DecodedImages,
+) -> Result<Chain, CookError> {
     let max_error = settings.max_error_lsb;
     // The size level 0 is cooked at.
     let storage = |(w, h): (u32, u32)| {
@@ -618,11 +664,11 @@ fn run(job: &Job, settings: &TextureSettings, pad: bool) -> Result<Chain, CookEr
             (w, h)
         }
     };
-    let padded = |img: image::DynamicImage| {
+    let padded = |img: Arc<image::DynamicImage>| {
         let size = (img.width(), img.height());
         let (pw, ph) = storage(size);
         let img = if (pw, ph) != size {
-            texture::pixels::pad_image(&img, pw, ph)
+            Arc::new(texture::pixels::pad_image(&img, pw, ph))
         } else {
             img
         };
@@ -630,7 +676,7 @@ fn run(job: &Job, settings: &TextureSettings, pad: bool) -> Result<Chain, CookEr
     };
     match job {
         Job::Colour { image, srgb, .. } => {
-            let (img, size) = padded(decode(image)?);
+            let (img, size) = padded(images.get(image)?);
             let mut opts = texture::ColourOptions {
                 srgb: *srgb,
                 filter: settings.mip_filter,
@@ -652,13 +698,13 @@ fn run(job: &Job, settings: &TextureSettings, pad: bool) -> Result<Chain, CookEr
             encoding,
             green,
         } => {
-            let (img, size) = padded(decode(image)?);
+            let (img, size) = padded(images.get(image)?);
             let chain = texture::normal_mips(&img, *encoding, *green)
                 .map_err(|e| texture_error(Path::new(&image.name()), e))?;
             Ok((chain, size, Said::default(), None))
         }
         Job::DerivedNormal { design, seed } => {
-            let img = decode(design)?;
+            let img = images.get(design)?;
             let size = (img.width(), img.height());
             let (pw, ph) = storage(size);
             let chain = texture::derive_normal_map_padded(&img, *seed, pw, ph)
@@ -666,7 +712,7 @@ fn run(job: &Job, settings: &TextureSettings, pad: bool) -> Result<Chain, CookEr
             Ok((chain, size, Said::default(), None))
         }
         Job::Projector { design, sigma } => {
-            let img = decode(design)?;
+            let img = images.get(design)?;
             let mut opts = texture::ProjectorOptions::new(*sigma);
             opts.max_error_lsb = max_error;
             opts.max_size = Some(pack::PROJECTOR_MAX_SIZE);
@@ -741,6 +787,7 @@ pub fn cook_textures(
     lit_windows: &[bool],
     floor_y: Option<f32>,
     settings: &Settings,
+    images: &DecodedImages,
     report: &mut Report,
 ) -> Result<CookedTextures, CookError> {
     if !settings.cook_textures {
@@ -848,6 +895,7 @@ pub fn cook_textures(
         }
     }
     let params = |format: TextureFormatChoice| Params {
+        images,
         textures: settings.textures.clone(),
         format: settings.textures.format.unwrap_or(format),
         normal_budget: manifest
@@ -904,6 +952,30 @@ pub fn cook_textures(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn an_image_file_is_decoded_once_per_cook_and_a_bad_one_fails_every_time() {
+        let dir = std::env::temp_dir().join(format!("decoded-images-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let good = dir.join("design.png");
+        image::RgbaImage::from_pixel(5, 3, image::Rgba([10, 20, 30, 255]))
+            .save(&good)
+            .unwrap();
+        let bad = dir.join("broken.png");
+        std::fs::write(&bad, b"\x89PNG\r\n\x1a\n not really").unwrap();
+        let images = DecodedImages::default();
+        let (a, b) = rayon::join(
+            || images.get(&ImageRef::File(good.clone())).unwrap(),
+            || images.get(&ImageRef::File(good.clone())).unwrap(),
+        );
+        assert!(Arc::ptr_eq(&a, &b), "one decode, shared");
+        assert_eq!((a.width(), a.height()), (5, 3));
+        for _ in 0..2 {
+            let e = images.get(&ImageRef::File(bad.clone())).unwrap_err();
+            assert!(e.to_string().contains("broken.png"), "{e}");
+        }
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
 
     /// A cache payload gives back the texture and both its note and its warning, and a payload
     /// cut short or with a byte too many is refused.

@@ -57,8 +57,11 @@ pub struct Windows {
     pub replaced: Vec<u16>,
 }
 
-fn decode_rgba(image: &ImageRef) -> Result<image::RgbaImage, CookError> {
-    Ok(crate::textures::decode(image)?.into_rgba8())
+fn decode_rgba(
+    images: &crate::textures::DecodedImages,
+    image: &ImageRef,
+) -> Result<image::RgbaImage, CookError> {
+    Ok(images.get(image)?.to_rgba8())
 }
 
 /// The instance's triangles in texture space, each with its pane (index into `panes`), and
@@ -126,6 +129,7 @@ pub fn plan(
     sources: &mut [Imported],
     tagging: &mut Tagging,
     tri_material: &mut [Vec<u16>],
+    images: &crate::textures::DecodedImages,
     report: &mut Report,
 ) -> Result<Windows, CookError> {
     let entries: Vec<&WindowDesign> = overrides.iter().chain(&manifest.windows).collect();
@@ -390,7 +394,7 @@ pub fn plan(
     let made: Vec<Option<Result<Design, CookError>>> = pending
         .par_iter()
         .enumerate()
-        .map(|(i, p)| (same_as[i] == i).then(|| make_design(p)))
+        .map(|(i, p)| (same_as[i] == i).then(|| make_design(p, images)))
         .collect();
     let mut designs: Vec<Option<Design>> = Vec::with_capacity(made.len());
     for (i, d) in made.into_iter().enumerate() {
@@ -513,7 +517,7 @@ impl Pending {
 
 /// The design of one window: an image fitted and masked, or cut to the outline where it
 /// would let light through stone, or rasterized from the panes; with its width in texels.
-fn make_design(p: &Pending) -> Result<Design, CookError> {
+fn make_design(p: &Pending, images: &crate::textures::DecodedImages) -> Result<Design, CookError> {
     let Some((img, source)) = &p.image else {
         let (w, h) = p.size;
         let img = design::mesh_design(&p.panes, &p.tris, w, h, p.came_width * w.min(h) as f32);
@@ -534,7 +538,7 @@ fn make_design(p: &Pending) -> Result<Design, CookError> {
     };
     let name = format!("{stem}.{}", if p.planar { "fitted" } else { "masked" });
     if p.planar {
-        let mut canvas = design::fit_design(&decode_rgba(img)?, p.fit, p.aspect);
+        let mut canvas = design::fit_design(&decode_rgba(images, img)?, p.fit, p.aspect);
         let mask = design::coverage(&p.tris, canvas.width(), canvas.height());
         design::apply_mask(&mut canvas, &mask);
         let width = canvas.width();
@@ -542,7 +546,7 @@ fn make_design(p: &Pending) -> Result<Design, CookError> {
     }
     // With the model's own UVs the design is used as it is, unless it would let light
     // through where the window has no glass.
-    let mut pixels = decode_rgba(img)?;
+    let mut pixels = decode_rgba(images, img)?;
     let width = pixels.width();
     let mask = design::coverage(&p.tris, width, pixels.height());
     if design::light_outside(&pixels, &mask) {
