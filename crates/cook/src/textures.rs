@@ -130,8 +130,11 @@ pub(crate) fn decode(image: &ImageRef) -> Result<image::DynamicImage, CookError>
 /// are decoded where they are used, as before.
 #[derive(Default)]
 pub struct DecodedImages {
-    files: Mutex<HashMap<PathBuf, Arc<Mutex<Option<Arc<image::DynamicImage>>>>>>,
+    files: Mutex<HashMap<PathBuf, DecodeSlot>>,
 }
+
+/// One file's decoded image, filled by the first caller while later ones wait on the lock.
+type DecodeSlot = Arc<Mutex<Option<Arc<image::DynamicImage>>>>;
 
 impl std::fmt::Debug for DecodedImages {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
@@ -780,6 +783,7 @@ pub type CookedTextures = (Vec<pack::Texture>, Vec<Vec<Vec<u8>>>, Option<u32>);
 
 /// Cooks every texture the materials, windows and background use; fills each material's
 /// texture references and returns the pack's texture table and mip data.
+#[allow(clippy::too_many_arguments)]
 pub fn cook_textures(
     manifest: &Manifest,
     tagging: &mut Tagging,
