@@ -25,8 +25,9 @@ use crate::{CookError, Settings, TextureSettings};
 
 const MAGIC: &[u8; 8] = b"SGCACHE\x01";
 /// Bump when the meaning of keys or payloads changes. 3: block-compressed chains of odd sizes
-/// are mipped from a padded level 0, and cooks' notes are no longer warnings.
-pub const CACHE_VERSION: u32 = 3;
+/// are mipped from a padded level 0, and cooks' notes are no longer warnings. 4: packs stream
+/// mips by texel count, and a texture kept RGBA8 notes what each encoder setting reached.
+pub const CACHE_VERSION: u32 = 4;
 const HEADER: usize = 8 + 8 + 4 + 4;
 
 /// A cache key: SHA-256 over an artifact's inputs.

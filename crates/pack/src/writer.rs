@@ -54,8 +54,11 @@ fn assemble(mut toc: Toc, data: &PackData) -> Result<Vec<u8>, PackError> {
         .with_path(memory));
     }
     // Streaming order: TOC, geometry, then mips by size (smallest first), ties by texture and
-    // level so the order is total and deterministic. The size is the level's in its format, so
-    // supercompression never puts a texture's large level before its small ones.
+    // level so the order is total and deterministic. The size is the level's texel count (as
+    // RGBA8 bytes), so supercompression never puts a texture's large level before its small
+    // ones, and every texture gains resolution together whatever its format: ordered by stored
+    // bytes, BC7 levels (a quarter of RGBA8's) came a level early, and a block-compressed
+    // pack's first frame waited for more of them than an uncompressed pack's did.
     let mut blobs: Vec<(SectionKind, &[u8])> = Vec::new();
     for (mesh, d) in toc.meshes.iter_mut().zip(&data.meshes) {
         mesh.vertex_section = blobs.len() as u32 + 1;
@@ -74,7 +77,7 @@ fn assemble(mut toc: Toc, data: &PackData) -> Result<Vec<u8>, PackError> {
             .with_path(memory));
         }
         for level in 0..levels.len() {
-            mips.push((toc.textures[ti].level_bytes(level), ti, level));
+            mips.push((toc.textures[ti].level_rgba8_bytes(level), ti, level));
         }
     }
     mips.sort_by(|a, b| a.0.cmp(&b.0).then(a.1.cmp(&b.1)).then(b.2.cmp(&a.2)));

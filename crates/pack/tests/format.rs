@@ -81,7 +81,7 @@ fn round_trip_mmap_and_stream() {
         roles.push(s.role);
     }
     assert_eq!(stream.toc(), Some(&toc));
-    // Streaming order: TOC, geometry, then every texture's levels smallest first.
+    // Streaming order: TOC, geometry, then every texture's levels by texel count.
     assert_eq!(roles[0], SectionRole::Toc);
     assert!(matches!(roles[1], SectionRole::Vertices { .. }));
     assert!(matches!(roles[2], SectionRole::Indices { .. }));
@@ -89,7 +89,7 @@ fn round_trip_mmap_and_stream() {
         .iter()
         .map(|r| match *r {
             SectionRole::Mip { texture, level } => {
-                toc.textures[texture as usize].level_bytes(level as usize)
+                toc.textures[texture as usize].level_rgba8_bytes(level as usize)
             }
             _ => panic!("geometry after mips"),
         })

@@ -520,6 +520,23 @@ fn god_ray_settings(args: &Args) -> Result<Settings> {
     Ok(settings)
 }
 
+/// glibc maps every block from 128 KiB up on its own and unmaps it when freed, so each
+/// streamed section's buffers (the file's bytes, zstd's output, decoded texels) were faulted
+/// in and zeroed afresh by the kernel, on a CPU rasterizer's cores. Blocks up to 64 MiB now
+/// come from heaps that are never trimmed, so freed buffers are reused; two arenas keep the
+/// reader and the rasterizer's threads from contending for one. The default scene on
+/// lavapipe, 20 interleaved rounds: full quality 973 -> 947 ms, peak RSS 251 -> 258 MB.
+fn tune_allocator() {
+    // SAFETY: called first thing in main, before any other thread exists; mallopt only
+    // changes allocator parameters.
+    #[cfg(all(target_os = "linux", target_env = "gnu"))]
+    unsafe {
+        libc::mallopt(libc::M_MMAP_THRESHOLD, 64 << 20);
+        libc::mallopt(libc::M_TRIM_THRESHOLD, i32::MAX);
+        libc::mallopt(libc::M_ARENA_MAX, 2);
+    }
+}
+
 fn main() -> Result<()> {
     // Rust ignores SIGPIPE, so a closed stdout (`viewer p.pack --headless | head`) made the
     // next `println!` panic; like other Unix tools, stop quietly instead.
@@ -529,6 +546,7 @@ fn main() -> Result<()> {
     unsafe {
         libc::signal(libc::SIGPIPE, libc::SIG_DFL);
     }
+    tune_allocator();
     let args = Args::parse();
     if args.headless
         && std::env::var_os("XDG_RUNTIME_DIR").is_none()
