@@ -396,6 +396,34 @@ pub fn compress_chain(
     }
 }
 
+/// The TOC entry of `chain` stored with `codec`: a colour texture whose levels are the chain's
+/// sizes, for compressing and measuring a chain outside a cook (benchmarks, tests).
+pub fn chain_shape(
+    chain: &crate::MipChain,
+    codec: Codec,
+    colour_space: pack::ColourSpace,
+) -> pack::Texture {
+    pack::Texture {
+        name: String::new(),
+        role: pack::TextureRole::Colour,
+        colour_space,
+        format: codec.format(),
+        supercompression: pack::Supercompression::None,
+        width: chain.width,
+        height: chain.height,
+        mips: (0..chain.levels.len())
+            .map(|k| {
+                let (width, height) = chain.level_size(k);
+                pack::MipLevel {
+                    width,
+                    height,
+                    section: 0,
+                }
+            })
+            .collect(),
+    }
+}
+
 /// The chain's error already exceeds the budget: `at_least` is a lower bound of its error over
 /// the whole chain (same unit as [`BlockError::mean`]), reached by the `levels` smallest levels.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -635,25 +663,7 @@ mod tests {
             .collect();
         let img = image::DynamicImage::ImageRgba8(image::RgbaImage::from_raw(w, h, noise).unwrap());
         let chain = crate::colour_mips(&img, &crate::ColourOptions::default()).unwrap();
-        let texture = pack::Texture {
-            name: String::new(),
-            role: pack::TextureRole::Colour,
-            colour_space: pack::ColourSpace::Srgb,
-            format: codec.format(),
-            supercompression: pack::Supercompression::None,
-            width: w,
-            height: h,
-            mips: (0..chain.levels.len())
-                .map(|k| {
-                    let (width, height) = chain.level_size(k);
-                    pack::MipLevel {
-                        width,
-                        height,
-                        section: 0,
-                    }
-                })
-                .collect(),
-        };
+        let texture = chain_shape(&chain, codec, pack::ColourSpace::Srgb);
         (chain, texture)
     }
 

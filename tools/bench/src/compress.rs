@@ -181,25 +181,7 @@ fn sources(max: u32) -> Result<Vec<Source>> {
 
 /// The pack record a chain is compressed as.
 fn shape(chain: &texture::MipChain, codec: Codec) -> pack::Texture {
-    pack::Texture {
-        name: String::new(),
-        role: pack::TextureRole::Colour,
-        colour_space: pack::ColourSpace::Linear,
-        format: codec.format(),
-        supercompression: pack::Supercompression::None,
-        width: chain.width,
-        height: chain.height,
-        mips: (0..chain.levels.len())
-            .map(|k| {
-                let (width, height) = chain.level_size(k);
-                pack::MipLevel {
-                    width,
-                    height,
-                    section: 0,
-                }
-            })
-            .collect(),
-    }
+    texture::bc::chain_shape(chain, codec, pack::ColourSpace::Linear)
 }
 
 /// zstd at `level` over every level of `chain`, on this thread: bytes, then the medians of the
