@@ -328,11 +328,14 @@ fn normal_tally(original: &[u8], decoded: &[u8]) -> Tally {
     }
 }
 
+/// A tally's error: its mean angle for normals, the root of its mean square for colour.
+fn tally_error(sum: f64, count: u64, normal: bool) -> f64 {
+    let m = sum / count.max(1) as f64;
+    if normal { m } else { m.sqrt() }
+}
+
 fn finish(tallies: &[Tally], normal: bool) -> BlockError {
-    let level_mean = |t: &Tally| {
-        let m = t.sum / t.count.max(1) as f64;
-        if normal { m } else { m.sqrt() }
-    };
+    let level_mean = |t: &Tally| tally_error(t.sum, t.count, normal);
     let total = Tally {
         sum: tallies.iter().map(|t| t.sum).sum(),
         count: tallies.iter().map(|t| t.count).sum(),
@@ -456,10 +459,7 @@ pub fn compress_chain_within(
             m.width as u64 * m.height as u64 * per_texel
         })
         .sum();
-    let bound = |sum: f64| {
-        let m = sum / total.max(1) as f64;
-        if normal { m } else { m.sqrt() }
-    };
+    let bound = |sum: f64| tally_error(sum, total, normal);
     let mut levels = vec![Vec::new(); chain.levels.len()];
     let mut tallies: Vec<Tally> = (0..chain.levels.len()).map(|_| Tally::default()).collect();
     let mut sum = 0.0;

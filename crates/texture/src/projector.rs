@@ -9,7 +9,7 @@ use crate::mips::{MipChain, check_size, level_size};
 use crate::pixels::to_linear;
 use crate::real::clamp01;
 use crate::resample::{MipFilter, half, reduce};
-use crate::srgb::{decode8, encoder, linear_to_srgb_lsb};
+use crate::srgb::{decode8, encoder, linear_to_srgb_lsb, linear_to_srgb_lsb_slope};
 
 /// How a projector texture is cooked.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -245,18 +245,11 @@ impl EncodeSlopes {
     fn get() -> &'static EncodeSlopes {
         static SLOPES: std::sync::OnceLock<EncodeSlopes> = std::sync::OnceLock::new();
         SLOPES.get_or_init(|| {
-            // The encode's slope falls everywhere on [0, 1] (12.92 on the linear toe, just
-            // under it where the power curve takes over), so a bin's value at its lower edge
-            // bounds it over the whole bin and above.
-            let slope = |x: f64| {
-                255.0
-                    * if x <= 0.003_130_8 {
-                        12.92
-                    } else {
-                        1.055 / 2.4 * x.powf(1.0 / 2.4 - 1.0)
-                    }
-            };
-            EncodeSlopes(std::array::from_fn(|b| slope(b as f64 / Self::BINS as f64)))
+            // The slope never rises on [0, 1], so a bin's value at its lower edge bounds it
+            // over the whole bin and above.
+            EncodeSlopes(std::array::from_fn(|b| {
+                linear_to_srgb_lsb_slope(b as f64 / Self::BINS as f64)
+            }))
         })
     }
 

@@ -27,6 +27,18 @@ pub fn linear_to_srgb_lsb(l: f64) -> f64 {
     linear_to_srgb(l) * 255.0
 }
 
+/// The slope of [`linear_to_srgb_lsb`] at `l` in [0, 1]: 12.92 × 255 on the linear toe, then
+/// the power curve's, which starts just under it and falls from there, so the slope never
+/// rises as `l` grows.
+pub(crate) fn linear_to_srgb_lsb_slope(l: f64) -> f64 {
+    255.0
+        * if l <= 0.003_130_8 {
+            12.92
+        } else {
+            1.055 / 2.4 * l.powf(1.0 / 2.4 - 1.0)
+        }
+}
+
 /// Linear value of every 8-bit sRGB code.
 pub fn decode8() -> &'static [f32; 256] {
     static T: OnceLock<Box<[f32; 256]>> = OnceLock::new();

@@ -369,8 +369,6 @@ impl super::tangents::Corners for TangentCorners<'_> {
     }
 }
 
-/// Processes one imported source whose triangles carry pack material IDs (`tri_material`,
-/// parallel to `src.tri_part`).
 /// Draw ranges of at least this many triangles are cut in two for the vertex cache optimizer.
 ///
 /// The optimizer is one serial pass over a range and the largest single step of a cook (13-17
@@ -390,31 +388,14 @@ fn ordered_bits(f: f32) -> u32 {
 
 /// Every draw range's indices, as the pieces the vertex cache optimizer orders one by one: a
 /// range of [`CACHE_SPLIT_TRIANGLES`] or more is reordered into two halves by the median of its
-/// triangles' centroids along the mesh's longest axis (source order kept within each half), so the
-/// halves touch along one plane only.
+/// triangles' centroids along `axis` (the mesh's longest: a cut across it is the shortest for
+/// most shapes), source order kept within each half, so the halves touch along one plane only.
 fn cache_pieces<'a>(
     indices: &'a mut [u32],
     ranges: &[pack::DrawRange],
     vertices: &[StandardVertex],
+    axis: usize,
 ) -> Vec<&'a mut [u32]> {
-    // The longest axis of the whole mesh: a cut across it is the shortest for most shapes.
-    let longest_axis = || {
-        let (lo, hi) = vertices
-            .iter()
-            .fold((Vec3::INFINITY, Vec3::NEG_INFINITY), |(lo, hi), v| {
-                let p = Vec3::from(v.position);
-                (lo.min(p), hi.max(p))
-            });
-        let extent = hi - lo;
-        if extent.x >= extent.y && extent.x >= extent.z {
-            0
-        } else if extent.y >= extent.z {
-            1
-        } else {
-            2
-        }
-    };
-    let mut axis = None;
     let mut pieces = Vec::new();
     let mut rest = indices;
     for r in ranges {
@@ -425,7 +406,6 @@ fn cache_pieces<'a>(
             pieces.push(range);
             continue;
         }
-        let axis = *axis.get_or_insert_with(longest_axis);
         // Triangles keyed by the sum of their corners' coordinates along the axis, ties by
         // source position, packed into one integer so the median is cheap.
         let keys: Vec<u64> = range
@@ -436,10 +416,11 @@ fn cache_pieces<'a>(
                 (u64::from(ordered_bits(along)) << 32) | t as u64
             })
             .collect();
+        // Keys are distinct, so exactly `first` of them lie below the median.
+        let first = triangles / 2;
         let mut scratch = keys.clone();
-        let pivot = *scratch.select_nth_unstable(triangles / 2).1;
+        let pivot = *scratch.select_nth_unstable(first).1;
         let source = range.to_vec();
-        let first = keys.iter().filter(|&&k| k < pivot).count();
         let mut at = [0, first * 3];
         for (&k, c) in keys.iter().zip(source.chunks_exact(3)) {
             let side = usize::from(k >= pivot);
@@ -453,6 +434,8 @@ fn cache_pieces<'a>(
     pieces
 }
 
+/// Processes one imported source whose triangles carry pack material IDs (`tri_material`,
+/// parallel to `src.tri_part`).
 pub fn process(
     src: &Imported,
     tri_material: &[u16],
@@ -548,7 +531,29 @@ pub fn process(
     } else {
         meshopt::analyze_vertex_cache(&indices, vertices.len(), 16, 0, 0).acmr
     };
-    cache_pieces(&mut indices, &ranges, &vertices)
+    // Every deduplicated vertex is referenced, so these are the bounds of what vertex fetch
+    // keeps; the vertex cache's cut needs them first.
+    let mut bounds_min = [f32::INFINITY; 3];
+    let mut bounds_max = [f32::NEG_INFINITY; 3];
+    for v in &vertices {
+        for k in 0..3 {
+            bounds_min[k] = bounds_min[k].min(v.position[k]);
+            bounds_max[k] = bounds_max[k].max(v.position[k]);
+        }
+    }
+    if vertices.is_empty() {
+        bounds_min = [0.0; 3];
+        bounds_max = [0.0; 3];
+    }
+    let extent = Vec3::from(bounds_max) - Vec3::from(bounds_min);
+    let longest_axis = if extent.x >= extent.y && extent.x >= extent.z {
+        0
+    } else if extent.y >= extent.z {
+        1
+    } else {
+        2
+    };
+    cache_pieces(&mut indices, &ranges, &vertices, longest_axis)
         .into_par_iter()
         .for_each(|span| match settings.cache {
             CacheMode::Full => meshopt::optimize_vertex_cache_in_place(span, vertices.len()),
@@ -584,18 +589,6 @@ pub fn process(
             std::mem::size_of::<StandardVertex>(),
         )
         .overfetch;
-    }
-    let mut bounds_min = [f32::INFINITY; 3];
-    let mut bounds_max = [f32::NEG_INFINITY; 3];
-    for v in &vertices {
-        for k in 0..3 {
-            bounds_min[k] = bounds_min[k].min(v.position[k]);
-            bounds_max[k] = bounds_max[k].max(v.position[k]);
-        }
-    }
-    if vertices.is_empty() {
-        bounds_min = [0.0; 3];
-        bounds_max = [0.0; 3];
     }
     stats.stages = timer.stages;
     Processed {
