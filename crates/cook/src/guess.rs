@@ -32,12 +32,14 @@ struct Footprint {
 }
 
 impl Footprint {
-    fn new(tris: &[[DVec3; 3]]) -> Option<Self> {
+    /// `tris` yields the floor's triangles, twice (bounds, then the raster): held as 72-byte
+    /// corners, a 100k-triangle floor was the largest block of a bare mesh's cook.
+    fn new<I: Iterator<Item = [DVec3; 3]>>(tris: impl Fn() -> I) -> Option<Self> {
         let mut lo = DVec2::splat(f64::INFINITY);
         let mut hi = DVec2::splat(f64::NEG_INFINITY);
         let mut y = 0.0;
         let mut area = 0.0;
-        for t in tris {
+        for t in tris() {
             for p in t {
                 lo = lo.min(p.xz());
                 hi = hi.max(p.xz());
@@ -51,8 +53,7 @@ impl Footprint {
         }
         let cell = (hi - lo) / GRID as f64;
         // The footprint in [0, 1]², rasterized like a window's outline.
-        let flat: Vec<crate::design::UvTriangle> = tris
-            .iter()
+        let flat: Vec<crate::design::UvTriangle> = tris()
             .map(|t| {
                 (
                     t.map(|p| ((p.xz() - lo) / (hi - lo)).as_vec2().to_array()),
@@ -280,15 +281,20 @@ pub fn guess(p: &Prepared) -> Guess {
         .flatten()
         .filter(|&&m| classes[m as usize] == MaterialClass::Floor)
         .count();
-    let mut floor_tris = Vec::with_capacity(floors);
+    // (source, triangle) of each floor triangle.
+    let mut floor_tris: Vec<[u32; 2]> = Vec::with_capacity(floors);
     let mut lo = DVec3::splat(f64::INFINITY);
     let mut hi = DVec3::splat(f64::NEG_INFINITY);
-    for (src, mats) in p.imported.iter().zip(&p.tri_material) {
+    let corners = |s: usize, t: usize| {
+        let src = &p.imported[s];
+        [0, 1, 2].map(|k| {
+            let q = src.positions[src.corners[t * 3 + k].p as usize];
+            DVec3::new(q[0] as f64, q[1] as f64, q[2] as f64)
+        })
+    };
+    for (s, mats) in p.tri_material.iter().enumerate() {
         for (t, &m) in mats.iter().enumerate() {
-            let tri = [0, 1, 2].map(|k| {
-                let q = src.positions[src.corners[t * 3 + k].p as usize];
-                DVec3::new(q[0] as f64, q[1] as f64, q[2] as f64)
-            });
+            let tri = corners(s, t);
             if classes[m as usize] == MaterialClass::Background {
                 continue;
             }
@@ -297,7 +303,8 @@ pub fn guess(p: &Prepared) -> Guess {
                 hi = hi.max(q);
             }
             if classes[m as usize] == MaterialClass::Floor {
-                floor_tris.push(tri);
+                // Imports index corners with u32, so both fit.
+                floor_tris.push([s as u32, t as u32]);
             }
         }
     }
@@ -309,7 +316,11 @@ pub fn guess(p: &Prepared) -> Guess {
         };
     }
     let diag = (hi - lo).length().max(1e-6);
-    let floor = Footprint::new(&floor_tris);
+    let floor = Footprint::new(|| {
+        floor_tris
+            .iter()
+            .map(|&[s, t]| corners(s as usize, t as usize))
+    });
     let windows = &p.windows.instances;
 
     // The sun: the most window area landing on the floor.
