@@ -154,11 +154,19 @@ impl Occupancy {
                             / 0.5)
                             .ceil() as usize)
                             .clamp(1, 4 * OCC);
-                        let last = OCC as f64 - 1e-6;
+                        let last = DVec3::splat(OCC as f64 - 1e-6);
+                        // The fractions i / n once per triangle and each row's start once:
+                        // the same operations in the same order as per point (the same
+                        // cells), with the two divisions and a multiply out of the inner loop.
+                        let mut frac = [0.0f64; 4 * OCC + 1];
+                        for (i, f) in frac[..=n].iter_mut().enumerate() {
+                            *f = i as f64 / n as f64;
+                        }
+                        let (ab, ac) = (b - a, c - a);
                         for i in 0..=n {
-                            for j in 0..=(n - i) {
-                                let (u, v) = (i as f64 / n as f64, j as f64 / n as f64);
-                                let q = (a + (b - a) * u + (c - a) * v).min(DVec3::splat(last));
+                            let row = a + ab * frac[i];
+                            for &v in &frac[..=n - i] {
+                                let q = (row + ac * v).min(last);
                                 if q.is_finite() && q.min_element() >= 0.0 {
                                     let q = q.as_uvec3();
                                     full[((q.z as usize * OCC) + q.y as usize) * OCC
