@@ -7,6 +7,7 @@ use glam::{DVec2, DVec3, Vec3Swizzles};
 use pack::MaterialClass;
 
 use crate::Prepared;
+use crate::instances::triangle;
 use crate::manifest::{Camera, Light};
 use crate::windows::f3;
 
@@ -132,10 +133,7 @@ impl Occupancy {
                         if c.is_window() || c == MaterialClass::Background {
                             continue;
                         }
-                        let [a, b, c] = [0, 1, 2].map(|k| {
-                            let q = src.positions[src.corners[t * 3 + k].p as usize];
-                            DVec3::new(q[0] as f64, q[1] as f64, q[2] as f64)
-                        });
+                        let [a, b, c] = triangle(src, t as u32);
                         // A triangle within one row of cells marks that row from its lowest
                         // cell to its highest (rows are convex, and so are triangles).
                         if let Some(cells) = grid.row_span([a, b, c]) {
@@ -293,16 +291,9 @@ pub fn guess(p: &Prepared) -> Guess {
     let mut floor_tris: Vec<[u32; 2]> = Vec::with_capacity(floors);
     let mut lo = DVec3::splat(f64::INFINITY);
     let mut hi = DVec3::splat(f64::NEG_INFINITY);
-    let corners = |s: usize, t: usize| {
-        let src = &p.imported[s];
-        [0, 1, 2].map(|k| {
-            let q = src.positions[src.corners[t * 3 + k].p as usize];
-            DVec3::new(q[0] as f64, q[1] as f64, q[2] as f64)
-        })
-    };
-    for (s, mats) in p.tri_material.iter().enumerate() {
+    for (s, (src, mats)) in p.imported.iter().zip(&p.tri_material).enumerate() {
         for (t, &m) in mats.iter().enumerate() {
-            let tri = corners(s, t);
+            let tri = triangle(src, t as u32);
             if classes[m as usize] == MaterialClass::Background {
                 continue;
             }
@@ -327,7 +318,7 @@ pub fn guess(p: &Prepared) -> Guess {
     let floor = Footprint::new(|| {
         floor_tris
             .iter()
-            .map(|&[s, t]| corners(s as usize, t as usize))
+            .map(|&[s, t]| triangle(&p.imported[s as usize], t))
     });
     let windows = &p.windows.instances;
 

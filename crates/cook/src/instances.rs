@@ -118,7 +118,8 @@ fn weld_ids(src: &Imported, tris: &[u32], tolerance: f64) -> Vec<u32> {
     ids
 }
 
-fn triangle(src: &Imported, t: u32) -> [DVec3; 3] {
+/// Triangle `t` of `src`, its corners in f64.
+pub(crate) fn triangle(src: &Imported, t: u32) -> [DVec3; 3] {
     let c = &src.corners[t as usize * 3..t as usize * 3 + 3];
     [c[0], c[1], c[2]].map(|k| v3(src.positions[k.p as usize]))
 }

@@ -317,8 +317,10 @@ fn read_line(c: &mut Chunk, line_no: usize, raw: &[u8]) -> Result<(), String> {
             let start32 = u32::try_from(start)
                 .map_err(|_| "more than 4 billion face corners in one run of lines".to_string())?;
             for t in it {
-                let read = read_corner(t);
-                let (Ok(fields) | Err((fields, _))) = &read;
+                let (fields, error) = match read_corner(t) {
+                    Ok(fields) => (fields, None),
+                    Err((fields, message)) => (fields, Some(message)),
+                };
                 let at = 3 * c.raw.len();
                 let mut corner = [ABSENT; 3];
                 for (k, field) in fields.iter().enumerate() {
@@ -333,21 +335,18 @@ fn read_line(c: &mut Chunk, line_no: usize, raw: &[u8]) -> Result<(), String> {
                     }
                 }
                 c.raw.push(corner);
-                match read {
-                    Ok(_) => {}
-                    Err((_, message)) => {
-                        // Line by line, the indices before the bad field are checked first:
-                        // keep them as a face that makes no triangles, for that check.
-                        c.faces.push(Face {
-                            line: line_no as u32,
-                            len: (c.raw.len() - start) as u32,
-                            start: start32,
-                            defined: [c.positions.len(), c.uvs.len(), c.normals.len()]
-                                .map(|n| n as u32),
-                            broken: true,
-                        });
-                        return Err(message);
-                    }
+                if let Some(message) = error {
+                    // Line by line, the indices before the bad field are checked first:
+                    // keep them as a face that makes no triangles, for that check.
+                    c.faces.push(Face {
+                        line: line_no as u32,
+                        len: (c.raw.len() - start) as u32,
+                        start: start32,
+                        defined: [c.positions.len(), c.uvs.len(), c.normals.len()]
+                            .map(|n| n as u32),
+                        broken: true,
+                    });
+                    return Err(message);
                 }
             }
             let len = c.raw.len() - start;
