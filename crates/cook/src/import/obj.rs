@@ -14,20 +14,41 @@ use crate::CookError;
 use crate::triangulate::triangulate;
 
 pub fn import(path: &Path) -> Result<Imported, CookError> {
-    let bytes = std::fs::read(path).map_err(|source| CookError::Io {
+    use std::io::Read;
+    let io = |source| CookError::Io {
         path: path.to_path_buf(),
         source,
-    })?;
-    // UTF-16 (what some Windows tools save) would parse as a stream of unknown statements and
-    // cook to nothing; say what it is instead.
-    if bytes.starts_with(&[0xFF, 0xFE]) || bytes.starts_with(&[0xFE, 0xFF]) || bytes.contains(&0) {
-        return Err(bad(
+    };
+    let mut file = std::fs::File::open(path).map_err(io)?;
+    let size = file.metadata().map_err(io)?.len();
+    if size >= PARALLEL_BYTES as u64 {
+        // A file under one block is read into a buffer of its own size.
+        let block = BLOCK_BYTES.min(
+            usize::try_from(size)
+                .unwrap_or(usize::MAX)
+                .saturating_add(1),
+        );
+        return parse_stream(path, &mut file, CHUNK_BYTES, block);
+    }
+    let mut bytes = Vec::with_capacity(size as usize);
+    file.read_to_end(&mut bytes).map_err(io)?;
+    if let Some(e) = not_text(path, &bytes, true) {
+        return Err(e);
+    }
+    parse(path, &bytes)
+}
+
+/// UTF-16 (what some Windows tools save) would parse as a stream of unknown statements and
+/// cook to nothing; says what it is instead. `start`: `bytes` begin the file.
+fn not_text(path: &Path, bytes: &[u8], start: bool) -> Option<CookError> {
+    let bom = start && (bytes.starts_with(&[0xFF, 0xFE]) || bytes.starts_with(&[0xFE, 0xFF]));
+    (bom || bytes.contains(&0)).then(|| {
+        bad(
             path,
             1,
             "the file is UTF-16 or binary, not an ASCII/UTF-8 OBJ: save it as UTF-8",
-        ));
-    }
-    parse(path, &bytes)
+        )
+    })
 }
 
 fn bad(path: &Path, line: usize, message: impl Into<String>) -> CookError {
@@ -741,13 +762,130 @@ fn resolve_text(
 /// before them. The result, errors and warnings are those of [`parse_lines`] (the first error
 /// in the file wins) whatever the chunking.
 fn parse_chunked(path: &Path, bytes: &[u8], chunk_bytes: usize) -> Result<Imported, CookError> {
-    use rayon::prelude::*;
-    let pieces = chunks(bytes, chunk_bytes);
-    let chunks: Vec<Chunk> = if pieces.len() == 1 {
-        vec![read_chunk(pieces[0])]
-    } else {
-        pieces.par_iter().map(|b| read_chunk(b)).collect()
+    let mut gathered = Gathered::default();
+    gathered.read(&chunks(bytes, chunk_bytes));
+    assemble(path, gathered)
+}
+
+/// Bytes read from a file per block when it is streamed: the file is never held whole (an
+/// 85 MB OBJ held 85 MB through its whole import), and the block buffers are reused, so
+/// their pages are touched once.
+const BLOCK_BYTES: usize = 4 << 20;
+
+/// Parses an OBJ read from `reader` block by block: each block's whole lines are split into
+/// chunks of about `chunk_bytes` and read on every thread while the next block is read in.
+/// The same result as [`parse_chunked`] on the whole text.
+fn parse_stream(
+    path: &Path,
+    reader: &mut (impl std::io::Read + Send),
+    chunk_bytes: usize,
+    block_bytes: usize,
+) -> Result<Imported, CookError> {
+    let io = |source| CookError::Io {
+        path: path.to_path_buf(),
+        source,
     };
+    let block_bytes = block_bytes.max(1);
+    // Appends up to `block_bytes` to `buf`; true at the end of the file.
+    let fill = |reader: &mut dyn std::io::Read, buf: &mut Vec<u8>| -> std::io::Result<bool> {
+        let start = buf.len();
+        std::io::Read::read_to_end(&mut std::io::Read::take(reader, block_bytes as u64), buf)?;
+        Ok(buf.len() - start < block_bytes)
+    };
+    let mut gathered = Gathered::default();
+    let mut block: Vec<u8> = Vec::with_capacity(block_bytes);
+    let mut next: Vec<u8> = Vec::with_capacity(block_bytes);
+    let mut end = fill(reader, &mut block).map_err(io)?;
+    let mut start = true;
+    loop {
+        if let Some(e) = not_text(path, &block, start) {
+            return Err(e);
+        }
+        start = false;
+        // Whole lines only; a line longer than a block reads on into the next.
+        let cut = if end {
+            block.len()
+        } else {
+            match block.iter().rposition(|&b| b == b'\n') {
+                Some(i) => i + 1,
+                None => {
+                    end = fill(reader, &mut block).map_err(io)?;
+                    continue;
+                }
+            }
+        };
+        next.clear();
+        next.extend_from_slice(&block[cut..]);
+        let text = &block[..cut];
+        let (read, ()) = if end {
+            (Ok(true), gathered.read(&chunks(text, chunk_bytes)))
+        } else {
+            rayon::join(
+                || fill(reader, &mut next),
+                || gathered.read(&chunks(text, chunk_bytes)),
+            )
+        };
+        if end {
+            break;
+        }
+        end = read.map_err(io)?;
+        std::mem::swap(&mut block, &mut next);
+    }
+    assemble(path, gathered)
+}
+
+/// Chunks in file order, each one's attribute arrays moved into the file's as it comes, so
+/// they are not held twice.
+#[derive(Default)]
+struct Gathered {
+    chunks: Vec<Chunk>,
+    positions: Vec<[f32; 3]>,
+    uvs: Vec<[f32; 2]>,
+    normals: Vec<[f32; 3]>,
+    /// How many of each attribute the chunks before each one define.
+    before: Vec<[usize; 3]>,
+}
+
+impl Gathered {
+    /// Reads consecutive runs of whole lines (one thread each) and appends them.
+    fn read(&mut self, pieces: &[&[u8]]) {
+        use rayon::prelude::*;
+        let chunks: Vec<Chunk> = if pieces.len() == 1 {
+            vec![read_chunk(pieces[0])]
+        } else {
+            pieces.par_iter().map(|b| read_chunk(b)).collect()
+        };
+        for mut c in chunks {
+            self.before
+                .push([self.positions.len(), self.uvs.len(), self.normals.len()]);
+            append(&mut self.positions, &mut c.positions);
+            append(&mut self.uvs, &mut c.uvs);
+            append(&mut self.normals, &mut c.normals);
+            self.chunks.push(c);
+        }
+    }
+}
+
+/// Moves `from` onto the end of `to`, freeing it (taken whole while `to` is empty).
+fn append<T: Copy>(to: &mut Vec<T>, from: &mut Vec<T>) {
+    if to.is_empty() {
+        std::mem::swap(to, from);
+    } else {
+        to.extend_from_slice(from);
+    }
+    *from = Vec::new();
+}
+
+/// The file from its chunks: statements in order, then faces resolved and triangulated.
+fn assemble(path: &Path, gathered: Gathered) -> Result<Imported, CookError> {
+    use rayon::prelude::*;
+    let Gathered {
+        chunks,
+        positions,
+        uvs,
+        normals,
+        before,
+    } = gathered;
     // Line numbers in the file: each chunk but the last ends with a newline, which its line
     // count includes as an empty last line.
     let mut offset = Vec::with_capacity(chunks.len());
@@ -759,31 +897,11 @@ fn parse_chunked(path: &Path, bytes: &[u8], chunk_bytes: usize) -> Result<Import
 
     let mut out = Imported {
         path: path.to_path_buf(),
+        positions,
+        uvs,
+        normals,
         ..Default::default()
     };
-    let mut chunks = chunks;
-    let total = |f: fn(&Chunk) -> usize| chunks.iter().map(f).sum::<usize>();
-    let totals = [
-        total(|c| c.positions.len()),
-        total(|c| c.uvs.len()),
-        total(|c| c.normals.len()),
-    ];
-    // The first chunk's arrays become the file's, the others are appended.
-    out.positions = std::mem::take(&mut chunks[0].positions);
-    out.uvs = std::mem::take(&mut chunks[0].uvs);
-    out.normals = std::mem::take(&mut chunks[0].normals);
-    out.positions.reserve_exact(totals[0] - out.positions.len());
-    out.uvs.reserve_exact(totals[1] - out.uvs.len());
-    out.normals.reserve_exact(totals[2] - out.normals.len());
-    // What each chunk's lines see defined before them.
-    let mut before = vec![[0; 3]];
-    for c in &chunks[1..] {
-        before.push([out.positions.len(), out.uvs.len(), out.normals.len()]);
-        out.positions.extend_from_slice(&c.positions);
-        out.uvs.extend_from_slice(&c.uvs);
-        out.normals.extend_from_slice(&c.normals);
-    }
-    let chunks = chunks;
     // The first error in the file: a chunk stops at its own, so no later line matters.
     let mut first_error = chunks
         .iter()
@@ -1494,6 +1612,56 @@ mod tests {
                 summary(parse_lines(path, text.as_bytes()))
             );
         }
+    }
+
+    proptest! {
+        #![proptest_config(ProptestConfig::with_cases(300))]
+        /// Streamed in blocks of a few bytes (lines longer than a block carried into the
+        /// next), an OBJ reads as it does line by line; a NUL anywhere is the binary-file error.
+        #[test]
+        fn streamed_parse_agrees_with_line_by_line(
+            lines in prop::collection::vec(obj_line(), 0..60),
+            chunk in 1usize..200,
+            block in 1usize..300,
+            nul in prop::option::of(0usize..60),
+        ) {
+            let mut text = lines.join("\n");
+            if let Some(at) = nul {
+                text.insert(text.len().min(at * 7), '\0');
+            }
+            let path = Path::new("test.obj");
+            let mut reader = std::io::Cursor::new(text.as_bytes());
+            let want = match not_text(path, text.as_bytes(), true) {
+                Some(e) => Err(e),
+                None => parse_lines(path, text.as_bytes()),
+            };
+            prop_assert_eq!(
+                summary(parse_stream(path, &mut reader, chunk, block)),
+                summary(want)
+            );
+        }
+    }
+
+    #[test]
+    fn a_large_obj_is_streamed_from_its_file() {
+        // Over PARALLEL_BYTES, with a CRLF line and a face far from its vertices.
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("big.obj");
+        let mut text = String::from("v 0 0 0\r\nv 1 0 0\nv 0 1 0\n");
+        while text.len() < PARALLEL_BYTES + 1000 {
+            text.push_str("# padding of comments, to be read in more than one block\n");
+        }
+        text.push_str("f 1 2 3\nf -3 -2 -1");
+        std::fs::write(&path, &text).unwrap();
+        assert_eq!(
+            summary(import(&path)),
+            summary(parse_lines(&path, text.as_bytes()))
+        );
+        let m = import(&path).unwrap();
+        assert_eq!(m.triangle_count(), 2);
+        std::fs::write(&path, format!("{text}\n\0")).unwrap();
+        let e = import(&path).unwrap_err().to_string();
+        assert!(e.contains("big.obj:1: the file is UTF-16 or binary"), "{e}");
     }
 
     fn parse_str(s: &str) -> Result<Imported, CookError> {
