@@ -82,12 +82,27 @@ impl KeyBuilder {
 
     /// Hashes a file's content (not its name or timestamps: a touched but unchanged file still
     /// hits).
+    ///
+    /// Read in pieces, as [`bytes`](Self::bytes) would hash it whole: a bare mesh is its own
+    /// manifest, and holding an 85 MB OBJ to hash it cost a cache hit more time in fresh
+    /// pages than the hash itself.
     pub fn file(&mut self, label: &str, path: &Path) -> Result<&mut Self, CookError> {
-        let bytes = std::fs::read(path).map_err(|source| CookError::Io {
+        let io = |source| CookError::Io {
             path: path.to_path_buf(),
             source,
-        })?;
-        Ok(self.bytes(label, &bytes))
+        };
+        let mut file = std::fs::File::open(path).map_err(io)?;
+        let len = file.metadata().map_err(io)?.len();
+        self.0.update((label.len() as u64).to_le_bytes());
+        self.0.update(label.as_bytes());
+        self.0.update(len.to_le_bytes());
+        let read = hash_stream(&mut file, &mut self.0).map_err(io)?;
+        if read != len {
+            return Err(io(std::io::Error::other(format!(
+                "it changed while it was read ({len} bytes, then {read})"
+            ))));
+        }
+        Ok(self)
     }
 
     pub fn finish(&self) -> Key {
@@ -120,6 +135,30 @@ pub fn texture_key(settings: &TextureSettings) -> KeyBuilder {
 /// SHA-256 of some bytes, for recording what an artifact depended on.
 pub fn digest(bytes: &[u8]) -> [u8; 32] {
     Sha256::digest(bytes).into()
+}
+
+/// SHA-256 of a file's content, read in pieces (see [`KeyBuilder::file`]).
+pub fn digest_file(path: &Path) -> std::io::Result<[u8; 32]> {
+    let mut hasher = Sha256::new();
+    hash_stream(&mut std::fs::File::open(path)?, &mut hasher)?;
+    Ok(hasher.finalize().into())
+}
+
+/// Feeds everything `reader` holds to `hasher` through one reused buffer; the bytes read.
+fn hash_stream(reader: &mut impl std::io::Read, hasher: &mut Sha256) -> std::io::Result<u64> {
+    let mut buf = vec![0u8; 256 << 10];
+    let mut total = 0u64;
+    loop {
+        match reader.read(&mut buf) {
+            Ok(0) => return Ok(total),
+            Ok(n) => {
+                hasher.update(&buf[..n]);
+                total += n as u64;
+            }
+            Err(e) if e.kind() == std::io::ErrorKind::Interrupted => {}
+            Err(e) => return Err(e),
+        }
+    }
 }
 
 /// Lower-case hex of some bytes.
@@ -797,6 +836,24 @@ mod tests {
         assert_eq!(scene_key(&manifest, &base).unwrap(), keys[0].0);
         std::fs::write(&manifest, [&text[..], b"\n"].concat()).unwrap();
         assert_ne!(scene_key(&manifest, &base).unwrap(), keys[0].0);
+    }
+
+    #[test]
+    fn a_file_hashes_as_its_bytes_do() {
+        // Over several reads of the streaming buffer, and not a multiple of it.
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("big.obj");
+        let bytes: Vec<u8> = (0..700_001u32).map(|i| (i * 31 % 251) as u8).collect();
+        std::fs::write(&path, &bytes).unwrap();
+        let mut from_file = KeyBuilder::new("test");
+        from_file.file("f", &path).unwrap();
+        let mut from_bytes = KeyBuilder::new("test");
+        from_bytes.bytes("f", &bytes);
+        assert_eq!(from_file.finish(), from_bytes.finish());
+        assert_eq!(digest_file(&path).unwrap(), digest(&bytes));
+        let missing = dir.path().join("gone.obj");
+        let e = KeyBuilder::new("test").file("f", &missing).err().unwrap();
+        assert!(e.to_string().contains("gone.obj"), "{e}");
     }
 
     fn key(s: &str) -> Key {

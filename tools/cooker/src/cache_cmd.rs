@@ -351,7 +351,7 @@ fn explain(
         return Ok(OK);
     };
     let mut why = Vec::new();
-    let manifest_sha = hex(&cook::cache::digest(&std::fs::read(input)?));
+    let manifest_sha = hex(&cook::cache::digest_file(input)?);
     if manifest_sha != record.manifest_sha256 {
         why.push(format!("{} changed", input.display()));
     }
@@ -361,8 +361,8 @@ fn explain(
     let dir = input.parent().unwrap_or(std::path::Path::new(""));
     for (rel, sha) in &record.inputs {
         let path = dir.join(rel);
-        match std::fs::read(&path) {
-            Ok(b) if hex(&cook::cache::digest(&b)) == *sha => {}
+        match cook::cache::digest_file(&path) {
+            Ok(got) if hex(&got) == *sha => {}
             Ok(_) => why.push(format!("{} changed", path.display())),
             Err(_) => why.push(format!("{} cannot be read", path.display())),
         }

@@ -12,7 +12,7 @@
 
 use std::path::{Path, PathBuf};
 
-use cook::cache::{Cache, Key, KeyBuilder, Lookup, digest, hex, parse_hex32};
+use cook::cache::{Cache, Key, KeyBuilder, Lookup, digest, digest_file, hex, parse_hex32};
 use serde::{Deserialize, Serialize};
 
 use crate::transcript::Transcript;
@@ -63,9 +63,9 @@ pub fn hash_inputs(
         .iter()
         .map(|rel| {
             let path = scene_dir(manifest).join(rel);
-            let bytes =
-                std::fs::read(&path).map_err(|_| format!("{} cannot be read", path.display()))?;
-            Ok((rel.clone(), digest(&bytes)))
+            let sha =
+                digest_file(&path).map_err(|_| format!("{} cannot be read", path.display()))?;
+            Ok((rel.clone(), sha))
         })
         .collect()
 }
@@ -115,8 +115,14 @@ fn write_record(
     settings: &cook::Settings,
     hashed: &[(PathBuf, [u8; 32])],
 ) -> Result<(), anyhow::Error> {
+    // The manifest is one of the inputs: its hash is not taken twice.
+    let own = relative(manifest, manifest);
+    let manifest_sha = match hashed.iter().find(|(rel, _)| *rel == own) {
+        Some((_, sha)) => *sha,
+        None => digest_file(manifest)?,
+    };
     let record = Record {
-        manifest_sha256: hex(&digest(&std::fs::read(manifest)?)),
+        manifest_sha256: hex(&manifest_sha),
         settings: serde_json::to_value(settings)?,
         inputs: hashed.iter().map(|(p, h)| (p.clone(), hex(h))).collect(),
     };
