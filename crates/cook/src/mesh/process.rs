@@ -73,22 +73,10 @@ impl Timer {
     }
 }
 
-/// A normal for every corner (3 per kept triangle), as an index into a table of unit normals.
-///
-/// Source normals are used as they are. Missing ones are generated, angle-weighted, around
-/// each position (welded by value, so unwelded sources still smooth): the corners around a
-/// position fall into clusters, each corner joining the first cluster whose first face lies
-/// within the crease angle of its own face, so hard edges stay hard and a smooth surface gets
-/// one normal per position. Returns (per-corner ids, table, corners generated).
-fn corner_normals(
-    src: &Imported,
-    canon: &[u32],
-    welded: usize,
-    keep: &[u32],
-    tris: &[[u32; 3]],
-    face_normals: &[Vec3],
-    crease_cos: f32,
-) -> (Vec<u32>, Vec<[f32; 3]>, usize) {
+/// Each kept corner's source normal, welded by value: (per-corner ids into the table, with
+/// [`NONE`] where the source has none or a zero one; the table of unit normals; how many
+/// corners have none).
+fn source_normals(src: &Imported, keep: &[u32]) -> (Vec<u32>, Vec<[f32; 3]>, usize) {
     let units: Vec<[f32; 3]> = src
         .normals
         .iter()
@@ -116,9 +104,43 @@ fn corner_normals(
             }
         }
     }
+    (ids, table, missing)
+}
+
+/// A normal for every corner (3 per kept triangle), as an index into a table of unit normals:
+/// the [`source_normals`], and the missing ones generated.
+///
+/// Missing normals are generated, angle-weighted, around each position (welded by value, so
+/// unwelded sources still smooth): the corners around a position fall into clusters, each
+/// corner joining the first cluster whose first face lies within the crease angle of its own
+/// face, so hard edges stay hard and a smooth surface gets one normal per position. Returns
+/// (per-corner ids, table, corners generated).
+fn corner_normals(
+    src: &Imported,
+    canon: &[u32],
+    welded: usize,
+    keep: &[u32],
+    source: (Vec<u32>, Vec<[f32; 3]>, usize),
+    crease_cos: f32,
+) -> (Vec<u32>, Vec<[f32; 3]>, usize) {
+    let (mut ids, mut table, missing) = source;
     if missing == 0 {
         return (ids, table, 0);
     }
+    let tris: Vec<[u32; 3]> = keep
+        .iter()
+        .map(|&t| {
+            let c = &src.corners[t as usize * 3..t as usize * 3 + 3];
+            [c[0].p, c[1].p, c[2].p]
+        })
+        .collect();
+    let face_normals: Vec<Vec3> = tris
+        .par_iter()
+        .map(|t| {
+            let [a, b, c] = t.map(|i| Vec3::from(src.positions[i as usize]));
+            unit((b - a).cross(c - a))
+        })
+        .collect();
 
     // Corners needing a normal, grouped by welded position (counting sort keeps corner order).
     let mut start = vec![0u32; welded + 1];
@@ -240,6 +262,7 @@ fn dedupe_by_key(
     src: &Imported,
     canon: &[u32],
     welded: usize,
+    uv: Option<&[u32]>,
     keep: &[u32],
     tri_material: &[u16],
     needs: &[MaterialNeeds],
@@ -247,7 +270,6 @@ fn dedupe_by_key(
     normal_table: &[[f32; 3]],
 ) -> (Vec<StandardVertex>, Vec<u32>) {
     const END: u32 = u32::MAX;
-    let (uv, _) = weld(&src.uvs);
     // Every key starts with its welded position, and a position has only a handful of
     // distinct vertices (one per normal, UV seam or material), so a chain per position found
     // through a flat array replaces a hash map: no hashing, and the probe is one cache line.
@@ -266,10 +288,9 @@ fn dedupe_by_key(
         let corners = &src.corners[t as usize * 3..t as usize * 3 + 3];
         for (&c, &n) in corners.iter().zip(normals) {
             let p = canon[c.p as usize] as usize;
-            let uv_id = if c.t == NONE || !need.uvs {
-                NONE
-            } else {
-                uv[c.t as usize]
+            let uv_id = match uv {
+                Some(uv) if c.t != NONE && need.uvs => uv[c.t as usize],
+                _ => NONE,
             };
             let normal_id = if need.normals { n } else { NONE };
             let key = (uv_id, normal_id, m);
@@ -464,29 +485,27 @@ pub fn process(
     });
     timer.lap("filter+group");
 
-    let tris: Vec<[u32; 3]> = keep
-        .iter()
-        .map(|&t| {
-            let c = &src.corners[t as usize * 3..t as usize * 3 + 3];
-            [c[0].p, c[1].p, c[2].p]
-        })
-        .collect();
-    let face_normals: Vec<Vec3> = tris
-        .par_iter()
-        .map(|t| {
-            let [a, b, c] = t.map(|i| Vec3::from(src.positions[i as usize]));
-            unit((b - a).cross(c - a))
-        })
-        .collect();
     let crease = settings.crease_angle_deg.to_radians().cos();
-    let (canon, welded) = weld(&src.positions);
+    let any_tangents = needs.iter().any(|n| n.tangents);
+    // Texture coordinates are welded only for the path that keys vertices by them, and only
+    // when some material samples a texture (else they are zeroed before deduplication).
+    let weld_uvs = !any_tangents && needs.iter().any(|n| n.uvs);
+    // The three welds are independent serial passes over hash tables.
+    let ((canon, welded), (source, uv_ids)) = rayon::join(
+        || weld(&src.positions),
+        || {
+            rayon::join(
+                || source_normals(src, &keep),
+                || weld_uvs.then(|| weld(&src.uvs).0),
+            )
+        },
+    );
     let (corner_normal, normal_table, generated) =
-        corner_normals(src, &canon, welded, &keep, &tris, &face_normals, crease);
+        corner_normals(src, &canon, welded, &keep, source, crease);
     stats.normals_generated = generated;
     stats.corners = keep.len() * 3;
     timer.lap("normals");
 
-    let any_tangents = needs.iter().any(|n| n.tangents);
     let (vertices, mut indices) = if any_tangents {
         let (v, i, tangent_triangles) = dedupe_with_tangents(
             src,
@@ -504,6 +523,7 @@ pub fn process(
             src,
             &canon,
             welded,
+            uv_ids.as_deref(),
             &keep,
             tri_material,
             needs,
@@ -515,8 +535,8 @@ pub fn process(
     };
 
     // Dropped as soon as they are spent: the vertex cache and fetch steps that follow are the
-    // peak of a large mesh's cook, and these held 36 MB of the 819k-triangle grid's there.
-    drop((tris, face_normals, canon, corner_normal, normal_table));
+    // peak of a large mesh's cook.
+    drop((canon, uv_ids, corner_normal, normal_table));
     let mut ranges: Vec<pack::DrawRange> = Vec::new();
     for (k, &t) in keep.iter().enumerate() {
         let m = tri_material[t as usize];
