@@ -369,37 +369,39 @@ fn read_line(c: &mut Chunk, line_no: usize, raw: &[u8]) -> Result<(), String> {
             // A chunk ends at a line's end, so only one line of gigabytes could overflow.
             let start32 = u32::try_from(start)
                 .map_err(|_| "more than 4 billion face corners in one run of lines".to_string())?;
-            for t in it {
-                let (fields, error) = match read_corner(t) {
-                    Ok(fields) => (fields, None),
-                    Err((fields, message)) => (fields, Some(message)),
-                };
-                let at = 3 * c.raw.len();
-                let mut corner = [ABSENT; 3];
-                for (k, field) in fields.iter().enumerate() {
-                    if let Some(i) = *field {
-                        corner[k] = match i32::try_from(i) {
-                            Ok(n) if n > WIDE => n,
-                            _ => {
-                                c.wide.push((at + k, i));
-                                WIDE
-                            }
-                        };
+            if !plain_corners(&mut c.raw, rest) {
+                for t in it {
+                    let (fields, error) = match read_corner(t) {
+                        Ok(fields) => (fields, None),
+                        Err((fields, message)) => (fields, Some(message)),
+                    };
+                    let at = 3 * c.raw.len();
+                    let mut corner = [ABSENT; 3];
+                    for (k, field) in fields.iter().enumerate() {
+                        if let Some(i) = *field {
+                            corner[k] = match i32::try_from(i) {
+                                Ok(n) if n > WIDE => n,
+                                _ => {
+                                    c.wide.push((at + k, i));
+                                    WIDE
+                                }
+                            };
+                        }
                     }
-                }
-                c.raw.push(corner);
-                if let Some(message) = error {
-                    // Line by line, the indices before the bad field are checked first:
-                    // keep them as a face that makes no triangles, for that check.
-                    c.faces.push(Face {
-                        line: line_no as u32,
-                        len: (c.raw.len() - start) as u32,
-                        start: start32,
-                        defined: [c.positions.len(), c.uvs.len(), c.normals.len()]
-                            .map(|n| n as u32),
-                        broken: true,
-                    });
-                    return Err(message);
+                    c.raw.push(corner);
+                    if let Some(message) = error {
+                        // Line by line, the indices before the bad field are checked first:
+                        // keep them as a face that makes no triangles, for that check.
+                        c.faces.push(Face {
+                            line: line_no as u32,
+                            len: (c.raw.len() - start) as u32,
+                            start: start32,
+                            defined: [c.positions.len(), c.uvs.len(), c.normals.len()]
+                                .map(|n| n as u32),
+                            broken: true,
+                        });
+                        return Err(message);
+                    }
                 }
             }
             let len = c.raw.len() - start;
@@ -430,6 +432,66 @@ fn read_line(c: &mut Chunk, line_no: usize, raw: &[u8]) -> Result<(), String> {
     };
     c.statements.push((c.faces.len(), line_no, statement));
     Ok(())
+}
+
+/// Reads a face's corners (`rest`, trimmed) onto `raw` when they are all plain: fields of up
+/// to 9 digits with an optional minus, an empty texture coordinate or normal field absent.
+/// These are what [`read_corner`] would read, straight from the bytes with no token or field
+/// splitting (the face lines are most of a mesh's text). Anything else (a plus sign, longer
+/// numbers, a fourth field, a bad character) leaves `raw` as it was and returns false, for
+/// the general path to read or to report.
+fn plain_corners(raw: &mut Vec<[i32; 3]>, rest: &[u8]) -> bool {
+    let start = raw.len();
+    let n = rest.len();
+    let mut i = 0;
+    let fail = |raw: &mut Vec<[i32; 3]>| {
+        raw.truncate(start);
+        false
+    };
+    while i < n {
+        let mut corner = [ABSENT; 3];
+        for (k, field) in corner.iter_mut().enumerate() {
+            if k > 0 {
+                if rest[i..].first() != Some(&b'/') {
+                    break;
+                }
+                i += 1;
+            }
+            let negative = rest[i..].first() == Some(&b'-');
+            i += usize::from(negative);
+            let first = i;
+            let mut v: i32 = 0;
+            while let Some(d) = rest
+                .get(i)
+                .map(|b| b.wrapping_sub(b'0'))
+                .filter(|&d| d <= 9)
+            {
+                if i - first == 9 {
+                    return fail(raw);
+                }
+                v = v * 10 + i32::from(d);
+                i += 1;
+            }
+            if i == first {
+                if negative || k == 0 {
+                    return fail(raw);
+                }
+                continue;
+            }
+            *field = if negative { -v } else { v };
+        }
+        match rest.get(i) {
+            None => {}
+            Some(b) if b.is_ascii_whitespace() => {
+                while rest.get(i).is_some_and(|b| b.is_ascii_whitespace()) {
+                    i += 1;
+                }
+            }
+            Some(_) => return fail(raw),
+        }
+        raw.push(corner);
+    }
+    true
 }
 
 /// A corner's vertex, texture coordinate and normal indices as written, where present.
@@ -1604,6 +1666,14 @@ mod tests {
                 "9223372036854775807",
                 "-9223372036854775808",
                 "9223372036854775808",
+                // Where plain corners end: 9 digits, 10, signs, leading zeros.
+                "000000003",
+                "0000000003",
+                "-000000003",
+                "+3",
+                "-",
+                "--2",
+                "",
             ])
             .prop_map(str::to_string),
         ];
@@ -1622,7 +1692,10 @@ mod tests {
             6 => prop::collection::vec(number.clone(), 3).prop_map(|v| format!("v {}", v.join(" "))),
             2 => prop::collection::vec(number.clone(), 2).prop_map(|v| format!("vt {}", v.join(" "))),
             2 => prop::collection::vec(number, 3).prop_map(|v| format!("vn {}", v.join(" "))),
-            8 => prop::collection::vec(corner, 2..6).prop_map(|v| format!("f {}", v.join(" "))),
+            8 => prop::collection::vec(corner.clone(), 2..6).prop_map(|v| format!("f {}", v.join(" "))),
+            // Corners with other spacing and trailing fields, read by the plain path or not.
+            2 => prop::collection::vec((prop_oneof![corner, prop::sample::select(vec!["/1", "-/1", "1/-", "/", "1/+2", "-1//-1", "1/1/1"]).prop_map(str::to_string)], prop::sample::select(vec![" ", "  ", "\t", " \r", "/", "//", "/1/2/3 "])), 1..5)
+                .prop_map(|v| format!("f {}", v.into_iter().map(|(c, s)| c + s).collect::<String>())),
             1 => "[abc]{0,2}".prop_map(|n| format!("g {n}")),
             1 => "[ab]{1}".prop_map(|n| format!("o {n}")),
             1 => "[xy]{0,1}".prop_map(|n| format!("usemtl {n}")),
