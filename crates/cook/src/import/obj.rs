@@ -319,6 +319,10 @@ fn read_line(c: &mut Chunk, line_no: usize, raw: &[u8]) -> Result<(), String> {
     let rest = trim(&line[keyword.len()..]);
     let statement = match keyword {
         b"v" => {
+            if let Some(p) = plain_floats(rest) {
+                c.positions.push(p);
+                return Ok(());
+            }
             let mut p = [0.0f32; 3];
             for (k, v) in p.iter_mut().enumerate() {
                 let t = it
@@ -334,6 +338,10 @@ fn read_line(c: &mut Chunk, line_no: usize, raw: &[u8]) -> Result<(), String> {
             return Ok(());
         }
         b"vt" => {
+            if let Some([u, v]) = plain_floats(rest) {
+                c.uvs.push([u, 1.0 - v]);
+                return Ok(());
+            }
             let mut uv = [0.0f32; 2];
             for (k, v) in uv.iter_mut().enumerate() {
                 match it.next() {
@@ -352,6 +360,10 @@ fn read_line(c: &mut Chunk, line_no: usize, raw: &[u8]) -> Result<(), String> {
             return Ok(());
         }
         b"vn" => {
+            if let Some(n) = plain_floats(rest) {
+                c.normals.push(n);
+                return Ok(());
+            }
             let mut n = [0.0f32; 3];
             for (k, v) in n.iter_mut().enumerate() {
                 let t = it
@@ -432,6 +444,25 @@ fn read_line(c: &mut Chunk, line_no: usize, raw: &[u8]) -> Result<(), String> {
     };
     c.statements.push((c.faces.len(), line_no, statement));
     Ok(())
+}
+
+/// The first `N` numbers of an attribute line's values (`rest`, trimmed) when [`simple_f32`]
+/// reads them all (then they are finite), found without a token iterator; `None` for the
+/// general path to read, or to report (too few values, other number forms).
+fn plain_floats<const N: usize>(rest: &[u8]) -> Option<[f32; N]> {
+    let mut out = [0.0f32; N];
+    let mut i = 0;
+    for v in &mut out {
+        while rest.get(i).is_some_and(|b| b.is_ascii_whitespace()) {
+            i += 1;
+        }
+        let first = i;
+        while rest.get(i).is_some_and(|b| !b.is_ascii_whitespace()) {
+            i += 1;
+        }
+        *v = simple_f32(&rest[first..i])?;
+    }
+    Some(out)
 }
 
 /// Reads a face's corners (`rest`, trimmed) onto `raw` when they are all plain: fields of up
@@ -1691,7 +1722,23 @@ mod tests {
         prop_oneof![
             6 => prop::collection::vec(number.clone(), 3).prop_map(|v| format!("v {}", v.join(" "))),
             2 => prop::collection::vec(number.clone(), 2).prop_map(|v| format!("vt {}", v.join(" "))),
-            2 => prop::collection::vec(number, 3).prop_map(|v| format!("vn {}", v.join(" "))),
+            2 => prop::collection::vec(number.clone(), 3).prop_map(|v| format!("vn {}", v.join(" "))),
+            // Attribute lines of other lengths, spacing and number forms, plain or not.
+            3 => (
+                prop::sample::select(vec!["v", "vt", "vn"]),
+                prop::collection::vec(
+                    (
+                        prop_oneof![
+                            number,
+                            prop::sample::select(vec!["inf", "-0", "+.5", "5.", "1e40", "1e-45", "0x1", "1e", "16777217", "123456789012", "x"])
+                                .prop_map(str::to_string),
+                        ],
+                        prop::sample::select(vec![" ", "  ", "\t", " \r"]),
+                    ),
+                    0..5,
+                ),
+            )
+                .prop_map(|(k, v)| format!("{k} {}", v.into_iter().map(|(n, s)| n + s).collect::<String>())),
             8 => prop::collection::vec(corner.clone(), 2..6).prop_map(|v| format!("f {}", v.join(" "))),
             // Corners with other spacing and trailing fields, read by the plain path or not.
             2 => prop::collection::vec((prop_oneof![corner, prop::sample::select(vec!["/1", "-/1", "1/-", "/", "1/+2", "-1//-1", "1/1/1"]).prop_map(str::to_string)], prop::sample::select(vec![" ", "  ", "\t", " \r", "/", "//", "/1/2/3 "])), 1..5)
