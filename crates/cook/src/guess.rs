@@ -148,29 +148,34 @@ impl Occupancy {
                         // height field's), and a count from the smallest cell side sampled
                         // such a mesh's steep triangles at a hundred times the points.
                         let [a, b, c] = [a, b, c].map(|q| (q - grid.lo) / grid.cell);
-                        let n = (((b - a).abs().max_element().max((c - a).abs().max_element())
-                            / 0.5)
-                            .ceil() as usize)
-                            .clamp(1, 4 * OCC);
-                        let last = DVec3::splat(OCC as f64 - 1e-6);
-                        // The fractions i / n once per triangle and each row's start once:
-                        // the same operations in the same order as per point (the same
-                        // cells), with the two divisions and a multiply out of the inner loop.
-                        let mut frac = [0.0f64; 4 * OCC + 1];
-                        for (i, f) in frac[..=n].iter_mut().enumerate() {
-                            *f = i as f64 / n as f64;
-                        }
                         let (ab, ac) = (b - a, c - a);
-                        for i in 0..=n {
-                            let row = a + ab * frac[i];
-                            for &v in &frac[..=n - i] {
-                                let q = (row + ac * v).min(last);
-                                if q.is_finite() && q.min_element() >= 0.0 {
-                                    let q = q.as_uvec3();
-                                    full[((q.z as usize * OCC) + q.y as usize) * OCC
-                                        + q.x as usize] = true;
-                                }
+                        // Rows across ab, points along ac within each row, each edge cut into
+                        // steps of at most half a cell on every axis: a height field's
+                        // triangles are steep along one edge only, and one count for both
+                        // edges sampled them at several times the points.
+                        let steps = |e: DVec3| {
+                            ((e.abs().max_element() / 0.5).ceil() as usize).clamp(1, 4 * OCC)
+                        };
+                        let (n, m) = (steps(ab), steps(ac));
+                        let last = DVec3::splat(OCC as f64 - 1e-6);
+                        let mut mark = |q: DVec3| {
+                            let q = q.min(last);
+                            if q.is_finite() && q.min_element() >= 0.0 {
+                                let q = q.as_uvec3();
+                                full[((q.z as usize * OCC) + q.y as usize) * OCC + q.x as usize] =
+                                    true;
                             }
+                        };
+                        for i in 0..=n {
+                            let s = i as f64 / n as f64;
+                            let row = a + ab * s;
+                            // The row reaches bc at ac · (1 - s); its last point is there.
+                            let reach = 1.0 - s;
+                            let points = (m as f64 * reach).floor() as usize;
+                            for j in 0..=points {
+                                mark(row + ac * (j as f64 / m as f64));
+                            }
+                            mark(row + ac * reach);
                         }
                     }
                     full
