@@ -285,30 +285,16 @@ pub fn guess(p: &Prepared) -> Guess {
         .iter()
         .map(|m| m.material.class)
         .collect();
-    // Counted first: grown by doubling, a floor of 100k triangles touched 9 MB more.
-    let floors = p
-        .tri_material
-        .iter()
-        .flatten()
-        .filter(|&&m| classes[m as usize] == MaterialClass::Floor)
-        .count();
-    // (source, triangle) of each floor triangle.
-    let mut floor_tris: Vec<[u32; 2]> = Vec::with_capacity(floors);
     let mut lo = DVec3::splat(f64::INFINITY);
     let mut hi = DVec3::splat(f64::NEG_INFINITY);
-    for (s, (src, mats)) in p.imported.iter().zip(&p.tri_material).enumerate() {
+    for (src, mats) in p.imported.iter().zip(&p.tri_material) {
         for (t, &m) in mats.iter().enumerate() {
-            let tri = triangle(src, t as u32);
             if classes[m as usize] == MaterialClass::Background {
                 continue;
             }
-            for q in tri {
+            for q in triangle(src, t as u32) {
                 lo = lo.min(q);
                 hi = hi.max(q);
-            }
-            if classes[m as usize] == MaterialClass::Floor {
-                // Imports index corners with u32, so both fit.
-                floor_tris.push([s as u32, t as u32]);
             }
         }
     }
@@ -320,10 +306,20 @@ pub fn guess(p: &Prepared) -> Guess {
         };
     }
     let diag = (hi - lo).length().max(1e-6);
+    // The floor's triangles are found by their class at each pass over them, not listed:
+    // the list of a large floor's ids (8 bytes a triangle) was held beside mesh processing,
+    // at the peak of a large mesh's cook.
+    let class_of = classes.as_slice();
     let floor = Footprint::new(|| {
-        floor_tris
+        p.imported
             .iter()
-            .map(|&[s, t]| triangle(&p.imported[s as usize], t))
+            .zip(&p.tri_material)
+            .flat_map(move |(src, mats)| {
+                mats.iter()
+                    .enumerate()
+                    .filter(move |&(_, &m)| class_of[m as usize] == MaterialClass::Floor)
+                    .map(move |(t, _)| triangle(src, t as u32))
+            })
     });
     let windows = &p.windows.instances;
 
