@@ -1013,11 +1013,16 @@ fn assemble(path: &Path, gathered: Gathered) -> Result<Imported, CookError> {
     use rayon::prelude::*;
     let Gathered {
         chunks,
-        positions,
-        uvs,
-        normals,
+        mut positions,
+        mut uvs,
+        mut normals,
         before,
     } = gathered;
+    // Grown by doubling as blocks came in: the spare capacity goes back to the heap for the
+    // mesh stage's arrays, rather than fresh pages.
+    positions.shrink_to_fit();
+    uvs.shrink_to_fit();
+    normals.shrink_to_fit();
     // Line numbers in the file: each chunk but the last ends with a newline, which its line
     // count includes as an empty last line.
     let mut offset = Vec::with_capacity(chunks.len());
