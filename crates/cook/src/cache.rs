@@ -56,11 +56,16 @@ impl KeyBuilder {
     }
 
     pub fn bytes(&mut self, label: &str, bytes: &[u8]) -> &mut Self {
-        self.0.update((label.len() as u64).to_le_bytes());
-        self.0.update(label.as_bytes());
-        self.0.update((bytes.len() as u64).to_le_bytes());
+        self.frame(label, bytes.len() as u64);
         self.0.update(bytes);
         self
+    }
+
+    /// What precedes a part's bytes: its label and its length, each with its length.
+    fn frame(&mut self, label: &str, len: u64) {
+        self.0.update((label.len() as u64).to_le_bytes());
+        self.0.update(label.as_bytes());
+        self.0.update(len.to_le_bytes());
     }
 
     pub fn str(&mut self, label: &str, s: &str) -> &mut Self {
@@ -93,9 +98,7 @@ impl KeyBuilder {
         };
         let mut file = std::fs::File::open(path).map_err(io)?;
         let len = file.metadata().map_err(io)?.len();
-        self.0.update((label.len() as u64).to_le_bytes());
-        self.0.update(label.as_bytes());
-        self.0.update(len.to_le_bytes());
+        self.frame(label, len);
         let read = hash_stream(&mut file, &mut self.0).map_err(io)?;
         if read != len {
             return Err(io(std::io::Error::other(format!(
