@@ -168,7 +168,7 @@ impl Occupancy {
         if !c.is_finite() || c.min_element() < 0.0 || c.max_element() >= OCC as f64 {
             return None;
         }
-        Some((c.z as usize * OCC + c.y as usize) * OCC + c.x as usize)
+        Some(cell_index(c.x as usize, c.y as usize, c.z as usize))
     }
 
     /// Distance along the unit ray from `o` to the first occupied cell (a quarter-cell march,
@@ -209,6 +209,15 @@ struct Polygon {
 }
 
 impl Polygon {
+    fn new(corners: &[DVec3]) -> Self {
+        let mut q = [DVec3::ZERO; 7];
+        q[..corners.len()].copy_from_slice(corners);
+        Self {
+            q,
+            len: corners.len(),
+        }
+    }
+
     fn points(&self) -> &[DVec3] {
         &self.q[..self.len]
     }
@@ -216,10 +225,7 @@ impl Polygon {
     /// The part on one side of the plane `q[axis] = at`: above it when `above`, else below.
     /// Corners on the plane stay, and new ones are put on it exactly.
     fn clip(&self, axis: usize, at: f64, above: bool) -> Self {
-        let mut out = Self {
-            q: [DVec3::ZERO; 7],
-            len: 0,
-        };
+        let mut out = Self::new(&[]);
         let side = |q: DVec3| if above { q[axis] - at } else { at - q[axis] };
         for (i, &a) in self.points().iter().enumerate() {
             let b = self.q[(i + 1) % self.len];
@@ -290,19 +296,10 @@ fn mark_cells(full: &mut [bool], t: [DVec3; 3]) {
         }
         *q = c.max(DVec3::ZERO).min(top);
     }
-    // Non-negative, so truncation is the floor.
-    let lo = p[0]
-        .min(p[1])
-        .min(p[2])
-        .as_uvec3()
-        .to_array()
-        .map(|c| c as usize);
-    let hi = p[0]
-        .max(p[1])
-        .max(p[2])
-        .as_uvec3()
-        .to_array()
-        .map(|c| c as usize);
+    // The cell of a corner of the bounds: non-negative, so truncation is the floor.
+    let cell = |q: DVec3| q.as_uvec3().to_array().map(|c| c as usize);
+    let lo = cell(p[0].min(p[1]).min(p[2]));
+    let hi = cell(p[0].max(p[1]).max(p[2]));
     let count = |axis: usize| hi[axis] - lo[axis];
     let d = (0..3).max_by_key(|&axis| count(axis)).unwrap_or(0);
     let (u, v) = ((d + 1) % 3, (d + 2) % 3);
@@ -316,11 +313,7 @@ fn mark_cells(full: &mut [bool], t: [DVec3; 3]) {
         }
         return;
     }
-    let mut tri = Polygon {
-        q: [DVec3::ZERO; 7],
-        len: 3,
-    };
-    tri.q[..3].copy_from_slice(&p);
+    let tri = Polygon::new(&p);
     let (u0, u1) = (lo[u], hi[u]);
     for i in u0..=u1 {
         let cut = tri.layer(u, i, u0, u1);
