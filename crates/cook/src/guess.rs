@@ -109,10 +109,32 @@ impl Footprint {
 struct Occupancy {
     lo: DVec3,
     cell: DVec3,
-    full: Vec<bool>,
+    full: Cells,
 }
 
 const OCC: usize = 64;
+
+/// Which of the 64³ cells are marked: a bit each, a 64-bit word per row along x. Each chunk
+/// of triangles clears, fills and merges 32 KB where a byte a cell was 256 KB; that was most
+/// of a small model's guess.
+#[derive(Clone)]
+struct Cells(Vec<u64>);
+
+const _: () = assert!(OCC == u64::BITS as usize, "a row of cells is one word");
+
+impl Cells {
+    fn new() -> Self {
+        Self(vec![0; OCC * OCC])
+    }
+
+    fn get(&self, i: usize) -> bool {
+        self.0[i / OCC] >> (i % OCC) & 1 == 1
+    }
+
+    fn set(&mut self, [x, y, z]: [usize; 3]) {
+        self.0[z * OCC + y] |= 1 << x;
+    }
+}
 
 impl Occupancy {
     fn new(p: &Prepared, classes: &[MaterialClass], lo: DVec3, hi: DVec3) -> Self {
@@ -122,7 +144,7 @@ impl Occupancy {
         let mut grid = Self {
             lo,
             cell,
-            full: vec![false; OCC * OCC * OCC],
+            full: Cells::new(),
         };
         // Chunks of triangles mark grids of their own, or-ed together: the same cells whatever
         // the split.
@@ -138,22 +160,19 @@ impl Occupancy {
             })
             .collect::<Vec<_>>()
             .into_par_iter()
-            .fold(
-                || vec![false; OCC * OCC * OCC],
-                |mut full, (src, mats, range)| {
-                    for t in range {
-                        let c = classes[mats[t] as usize];
-                        if c.is_window() || c == MaterialClass::Background {
-                            continue;
-                        }
-                        let [a, b, c] = triangle(src, t as u32);
-                        mark_cells(&mut full, [a, b, c].map(|q| (q - grid.lo) / grid.cell));
+            .fold(Cells::new, |mut full, (src, mats, range)| {
+                for t in range {
+                    let c = classes[mats[t] as usize];
+                    if c.is_window() || c == MaterialClass::Background {
+                        continue;
                     }
-                    full
-                },
-            )
+                    let [a, b, c] = triangle(src, t as u32);
+                    mark_cells(&mut full, [a, b, c].map(|q| (q - grid.lo) / grid.cell));
+                }
+                full
+            })
             .reduce_with(|mut a, b| {
-                a.iter_mut().zip(b).for_each(|(a, b)| *a |= b);
+                a.0.iter_mut().zip(b.0).for_each(|(a, b)| *a |= b);
                 a
             });
         if let Some(full) = marked {
@@ -180,7 +199,7 @@ impl Occupancy {
         while t < max {
             match self.index(o + d * t) {
                 None => return max,
-                Some(i) if Some(i) != own && self.full[i] => return t,
+                Some(i) if Some(i) != own && self.full.get(i) => return t,
                 _ => {}
             }
             t += step;
@@ -287,7 +306,7 @@ fn cell_index(x: usize, y: usize, z: usize) -> usize {
 /// across, cut at most twice, and most triangles of a large mesh lie in one column and need no
 /// cut. On a bare 100k-triangle height field this takes 8 ms on one thread where points half
 /// a cell apart took 12, and those missed 5 % of the cells (corners clipped between points).
-fn mark_cells(full: &mut [bool], t: [DVec3; 3]) {
+fn mark_cells(full: &mut Cells, t: [DVec3; 3]) {
     let top = DVec3::splat(OCC as f64 - 1e-6);
     let mut p = [DVec3::ZERO; 3];
     for (q, c) in p.iter_mut().zip(t) {
@@ -309,7 +328,7 @@ fn mark_cells(full: &mut [bool], t: [DVec3; 3]) {
         // highest: most triangles of a large mesh.
         for k in lo[d]..=hi[d] {
             coord[d] = k;
-            full[cell_index(coord[0], coord[1], coord[2])] = true;
+            full.set(coord);
         }
         return;
     }
@@ -333,7 +352,7 @@ fn mark_cells(full: &mut [bool], t: [DVec3; 3]) {
             let (d0, d1) = part.layers(d);
             for k in d0..=d1 {
                 coord[d] = k;
-                full[cell_index(coord[0], coord[1], coord[2])] = true;
+                full.set(coord);
             }
         }
     }
@@ -578,9 +597,9 @@ mod tests {
     use proptest::prelude::*;
 
     fn marked(t: [DVec3; 3]) -> Vec<bool> {
-        let mut full = vec![false; OCC * OCC * OCC];
+        let mut full = Cells::new();
         mark_cells(&mut full, t);
-        full
+        (0..OCC * OCC * OCC).map(|i| full.get(i)).collect()
     }
 
     fn cell(q: DVec3) -> [usize; 3] {

@@ -81,31 +81,37 @@ const POW10: [f32; 11] = [1e0, 1e1, 1e2, 1e3, 1e4, 1e5, 1e6, 1e7, 1e8, 1e9, 1e10
 /// and one multiply or divide rounds once, correctly: the value `str::parse` gives. Anything
 /// else is `None`, left to `str::parse` (which also rejects what is not a number).
 fn simple_f32(t: &[u8]) -> Option<f32> {
-    let (negative, mut rest) = match t {
+    let (negative, rest) = match t {
         [b'-', r @ ..] => (true, r),
         [b'+', r @ ..] => (false, r),
         _ => (false, t),
     };
+    // Integer digits, then fraction digits, each a loop of its own: one test a byte.
+    let digit = |i: usize| rest.get(i).map_or(10, |b| b.wrapping_sub(b'0'));
     let mut m: u64 = 0;
-    let (mut digits, mut point, mut fraction) = (0usize, false, 0i32);
-    while let [b, r @ ..] = rest {
-        match *b {
-            b'0'..=b'9' => {
-                m = m * 10 + (b - b'0') as u64;
-                digits += 1;
-                fraction += i32::from(point);
-                if m >= 1 << 24 {
-                    return None;
-                }
-            }
-            b'.' if !point => point = true,
-            _ => break,
-        }
-        rest = r;
+    let mut i = 0;
+    while let d @ 0..=9 = digit(i) {
+        m = m.wrapping_mul(10).wrapping_add(d as u64);
+        i += 1;
     }
-    if digits == 0 {
+    let mut digits = i;
+    let mut fraction = 0i32;
+    if rest.get(i) == Some(&b'.') {
+        i += 1;
+        let first = i;
+        while let d @ 0..=9 = digit(i) {
+            m = m.wrapping_mul(10).wrapping_add(d as u64);
+            i += 1;
+        }
+        digits += i - first;
+        fraction = (i - first) as i32;
+    }
+    // Up to 19 digits cannot wrap a u64, and `m` only grows digit by digit, so one test at
+    // the end rejects what any prefix over 2^24 would have.
+    if digits == 0 || digits > 19 || m >= 1 << 24 {
         return None;
     }
+    let mut rest = &rest[i..];
     let mut exponent = 0i32;
     if let [b'e' | b'E', r @ ..] = rest {
         let (sign, mut r) = match r {
@@ -1631,7 +1637,7 @@ mod tests {
     proptest! {
         #[test]
         fn floats_parse_as_std_does(
-            s in "[-+]?[0-9]{0,9}(\\.[0-9]{0,9})?([eE][-+]?[0-9]{0,3})?|[-+0-9.eE a]{0,6}",
+            s in "[-+]?[0-9]{0,9}(\\.[0-9]{0,9})?([eE][-+]?[0-9]{0,3})?|[-+0-9.eE a]{0,6}|0{10,30}[1-9]?\\.?[0-9]{0,4}",
             v in any::<f32>(),
         ) {
             prop_assert_eq!(
