@@ -432,6 +432,40 @@ impl Io for Srgb8Io<'_> {
     }
 }
 
+/// sRGB RGBA8 with straight alpha, decoded as [`crate::pixels::to_linear`] decodes it and then
+/// premultiplied: colour from [`crate::srgb::decode8`] times `a / 255`, the same bits as that
+/// full-size f32 copy, which this reads without (a 4096² design's copy is 256 MiB). Not
+/// [`Srgb8Io`]'s vector decode: it multiplies by 1/255, a different last bit for half the codes.
+struct Straight8Io<'a> {
+    src: &'a [u8],
+    w: usize,
+}
+
+impl Io for Straight8Io<'_> {
+    type Out = Px;
+    const PER_TEXEL: usize = 1;
+    fn height(&self) -> usize {
+        self.src.len() / (4 * self.w)
+    }
+    fn fill(&self, y: usize, x0: usize, row: &mut [Px]) {
+        let lut = crate::srgb::decode8();
+        let at = (y * self.w + x0) * 4;
+        let bytes = &self.src[at..at + row.len() * 4];
+        for (t, b) in row.iter_mut().zip(bytes.chunks_exact(4)) {
+            let a = b[3] as f32 / 255.0;
+            *t = [
+                lut[b[0] as usize] * a,
+                lut[b[1] as usize] * a,
+                lut[b[2] as usize] * a,
+                a,
+            ];
+        }
+    }
+    fn emit(&self, row: &[Px], out: &mut [Px]) {
+        out.copy_from_slice(row);
+    }
+}
+
 fn to_f32(k: &[f64]) -> Vec<f32> {
     k.iter().map(|&v| v as f32).collect()
 }
@@ -1074,6 +1108,29 @@ pub fn blur_linear(
     );
     let mut out = vec![[0.0f32; 4]; w * h];
     run(&F32Io { src, w }, w, h, s, method, &mut out);
+    Ok(out)
+}
+
+/// [`blur_linear`] of an sRGB RGBA8 image with straight alpha (`w x h`, row-major) after
+/// [`crate::pixels::to_linear`] and premultiplying, the same bits, read from the bytes as the
+/// passes go instead of from a full-size f32 copy.
+pub fn blur_rgba8_to_linear(
+    src: &[u8],
+    w: u32,
+    h: u32,
+    sigma: f32,
+    method: BlurMethod,
+) -> Result<Vec<[f32; 4]>, TextureError> {
+    let s = check_sigma(sigma)?;
+    crate::mips::check_size(w, h)?;
+    let (w, h) = (w as usize, h as usize);
+    assert_eq!(
+        src.len(),
+        w * h * 4,
+        "blur_rgba8_to_linear: buffer does not match {w}x{h}"
+    );
+    let mut out = vec![[0.0f32; 4]; w * h];
+    run(&Straight8Io { src, w }, w, h, s, method, &mut out);
     Ok(out)
 }
 

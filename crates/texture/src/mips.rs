@@ -6,7 +6,7 @@ use rayon::prelude::*;
 use crate::TextureError;
 use crate::pixels::{Texel, to_linear};
 use crate::real::{Real, clamp01};
-use crate::resample::{MipFilter, half, reduce};
+use crate::resample::{MipFilter, half, reduce, walk_chain};
 use crate::srgb::{decode8, encoder, unorm8};
 
 /// A texture's levels as stored in a pack: tightly packed RGBA8 rows, level 0 first, each level
@@ -102,30 +102,32 @@ pub fn colour_levels<T: Real>(
     h: u32,
     filter: MipFilter,
 ) -> Vec<Vec<[T; 4]>> {
-    extend_levels(vec![level0], w, h, filter)
+    let mut levels = Vec::new();
+    each_level(level0, 0, w, h, filter, |l| levels.push(l));
+    levels
 }
 
-/// The rest of the chain after `levels` (of a `w x h` texture).
-fn extend_levels<T: Real>(
-    mut levels: Vec<Vec<[T; 4]>>,
+/// Level `first`'s texels and every coarser level of a `w x h` texture, in order, each handed
+/// to `emit` once the next is filtered from it (see [`walk_chain`]).
+fn each_level<T: Real>(
+    level: Vec<[T; 4]>,
+    first: usize,
     w: u32,
     h: u32,
     filter: MipFilter,
-) -> Vec<Vec<[T; 4]>> {
-    let (mut lw, mut lh) = level_size(w, h, levels.len() - 1);
-    while lw > 1 || lh > 1 {
-        let prev = levels.last().unwrap();
-        let next = if filter == MipFilter::Box && lw % 2 == 0 && lh % 2 == 0 {
-            box2(prev, lw as usize)
+    emit: impl FnMut(Vec<[T; 4]>),
+) {
+    let (lw, lh) = level_size(w, h, first);
+    let next = |level: &[[T; 4]], lw: u32, lh: u32| {
+        if filter == MipFilter::Box && lw.is_multiple_of(2) && lh.is_multiple_of(2) {
+            box2(level, lw as usize)
         } else {
-            let mut next = reduce(prev, lw, lh, filter, weighted);
+            let mut next = reduce(level, lw, lh, filter, weighted);
             next.par_iter_mut().for_each(|t| *t = unweighted(*t));
             next
-        };
-        levels.push(next);
-        (lw, lh) = (half(lw), half(lh));
-    }
-    levels
+        }
+    };
+    walk_chain(level, lw, lh, next, emit);
 }
 
 /// The box reduction of even sizes in one pass, with the same operations in the same order as
@@ -216,26 +218,24 @@ pub fn encode_level(level: &[Texel], srgb: bool) -> Vec<u8> {
 pub fn colour_mips(img: &DynamicImage, opts: &ColourOptions) -> Result<MipChain, TextureError> {
     let (w, h) = (img.width(), img.height());
     check_size(w, h)?;
-    let levels = match img {
-        // Level 0 is the source's bytes (below), so the chain starts from level 1.
-        DynamicImage::ImageRgba8(src)
-            if opts.srgb && opts.filter == MipFilter::Box && w % 2 == 0 && h % 2 == 0 =>
-        {
-            let level1 = box2_srgb8(src.as_raw(), w as usize);
-            extend_levels(vec![Vec::new(), level1], w, h, opts.filter)
+    let mut levels = Vec::new();
+    // Each level is encoded as soon as the next is filtered from it, and its f32 copy dropped:
+    // the f32 chain of a 4096² image was 341 MiB held whole.
+    match crate::pixels::rgba8_bytes(img) {
+        // Level 0 is the source's bytes: decoding then re-encoding 8-bit sRGB gives back every
+        // code (a unit test checks the tables). Level 1 comes from them directly, without a
+        // full-size f32 copy of level 0.
+        Some(bytes) if opts.srgb && opts.filter == MipFilter::Box && w % 2 == 0 && h % 2 == 0 => {
+            let level1 = box2_srgb8(&bytes, w as usize);
+            levels.push(bytes.into_owned());
+            each_level(level1, 1, w, h, opts.filter, |l| {
+                levels.push(encode_level(&l, opts.srgb))
+            });
         }
-        _ => colour_levels::<f32>(to_linear(img, opts.srgb), w, h, opts.filter),
-    };
-    let levels = levels
-        .iter()
-        .enumerate()
-        .map(|(i, l)| match img {
-            // Decoding then re-encoding 8-bit sRGB gives back every code (a unit test checks
-            // the tables), so level 0 is the source's bytes.
-            DynamicImage::ImageRgba8(src) if i == 0 && opts.srgb => src.as_raw().clone(),
-            _ => encode_level(l, opts.srgb),
-        })
-        .collect();
+        _ => each_level(to_linear(img, opts.srgb), 0, w, h, opts.filter, |l| {
+            levels.push(encode_level(&l, opts.srgb))
+        }),
+    }
     Ok(MipChain {
         width: w,
         height: h,

@@ -7,7 +7,7 @@ use rayon::prelude::*;
 use crate::TextureError;
 use crate::mips::{MipChain, check_size};
 use crate::pixels::{to_linear, to_unorm_rgb};
-use crate::resample::{MipFilter, half, reduce};
+use crate::resample::{MipFilter, reduce, walk_chain};
 use crate::srgb::{linear_to_srgb, unorm8};
 
 /// How a supplied normal map encodes the vector.
@@ -87,15 +87,15 @@ pub fn decode_normals(
 /// Filters unit vectors down a full chain (box, polyphase for odd sizes) and renormalizes every
 /// level. Level `i` holds unit vectors (xyz; w unused) before quantization.
 pub fn normal_levels(level0: Vec<[f32; 4]>, w: u32, h: u32) -> Vec<Vec<[f32; 4]>> {
-    let mut levels = vec![level0];
-    let (mut lw, mut lh) = (w, h);
-    while lw > 1 || lh > 1 {
-        let mut next = reduce(levels.last().unwrap(), lw, lh, MipFilter::Box, |t| t);
-        next.par_iter_mut().for_each(|t| *t = normalize(*t));
-        levels.push(next);
-        (lw, lh) = (half(lw), half(lh));
-    }
+    let mut levels = Vec::new();
+    walk_chain(level0, w, h, next_normals, |l| levels.push(l));
     levels
+}
+
+fn next_normals(level: &[[f32; 4]], w: u32, h: u32) -> Vec<[f32; 4]> {
+    let mut next = reduce(level, w, h, MipFilter::Box, |t| t);
+    next.par_iter_mut().for_each(|t| *t = normalize(*t));
+    next
 }
 
 fn encode_normals(level: &[[f32; 4]]) -> Vec<u8> {
@@ -113,10 +113,10 @@ fn encode_normals(level: &[[f32; 4]]) -> Vec<u8> {
 }
 
 fn chain(level0: Vec<[f32; 4]>, w: u32, h: u32) -> MipChain {
-    let levels = normal_levels(level0, w, h)
-        .iter()
-        .map(|l| encode_normals(l))
-        .collect();
+    let mut levels = Vec::new();
+    walk_chain(level0, w, h, next_normals, |l| {
+        levels.push(encode_normals(&l))
+    });
     MipChain {
         width: w,
         height: h,
@@ -201,6 +201,8 @@ pub fn design_height(design: &DynamicImage, seed: u64) -> Result<Vec<f32>, Textu
         .par_iter()
         .map(|&t| [lead_score(t), 0.0, 0.0, 0.0])
         .collect();
+    // Not held through the blur: four floats a texel of a design that is no longer read.
+    drop(lin);
     let side = w.min(h) as f32;
     // The came's rounded profile: the lead mask softened over about a texel of a 512² design.
     let came_sigma = (side / 400.0).clamp(0.75, 4.0);

@@ -133,6 +133,19 @@ pub fn pad_texels(
     out
 }
 
+/// An 8-bit image's texels as RGBA8 bytes (borrowed when it is RGBA8 already): grey expands to
+/// RGB and missing alpha is opaque, so [`to_linear`] gives the same texels from either. `None`
+/// for 16-bit and float images.
+pub fn rgba8_bytes(img: &DynamicImage) -> Option<std::borrow::Cow<'_, [u8]>> {
+    match img {
+        DynamicImage::ImageRgba8(i) => Some(std::borrow::Cow::Borrowed(i.as_raw())),
+        DynamicImage::ImageRgb8(_) | DynamicImage::ImageLuma8(_) | DynamicImage::ImageLumaA8(_) => {
+            Some(std::borrow::Cow::Owned(img.to_rgba8().into_raw()))
+        }
+        _ => None,
+    }
+}
+
 fn grey(v: f32, a: f32) -> Texel {
     [v, v, v, a]
 }

@@ -4,11 +4,11 @@ use image::DynamicImage;
 use rayon::prelude::*;
 
 use crate::TextureError;
-use crate::blur::{BlurMethod, blur_linear, check_sigma};
+use crate::blur::{BlurMethod, blur_linear, blur_rgba8_to_linear, check_sigma};
 use crate::mips::{MipChain, check_size, level_size};
 use crate::pixels::to_linear;
 use crate::real::clamp01;
-use crate::resample::{MipFilter, half, reduce};
+use crate::resample::{MipFilter, reduce, walk_chain};
 use crate::srgb::{decode8, encoder, linear_to_srgb_lsb, linear_to_srgb_lsb_slope};
 
 /// How a projector texture is cooked.
@@ -124,12 +124,17 @@ pub fn projector_with_unpadded(
     {
         return Err(TextureError::InvalidBudget { budget: b });
     }
-    let premul: Vec<[f32; 4]> = to_linear(design, true)
-        .into_par_iter()
-        .map(|t| [t[0] * t[3], t[1] * t[3], t[2] * t[3], t[3]])
-        .collect();
-    let blurred = blur_linear(&premul, w, h, opts.sigma_texels, opts.method)?;
-    drop(premul);
+    let blurred = match crate::pixels::rgba8_bytes(design) {
+        // 8-bit designs (nearly all) are decoded inside the passes: no f32 copy of the design.
+        Some(bytes) => blur_rgba8_to_linear(&bytes, w, h, opts.sigma_texels, opts.method)?,
+        None => {
+            let mut premul = to_linear(design, true);
+            premul
+                .par_iter_mut()
+                .for_each(|t| *t = [t[0] * t[3], t[1] * t[3], t[2] * t[3], t[3]]);
+            blur_linear(&premul, w, h, opts.sigma_texels, opts.method)?
+        }
+    };
     let levels = premultiplied_levels(blurred, w, h);
     let encoded: Vec<Vec<u8>> = levels.iter().map(|l| encode_premultiplied(l)).collect();
 
@@ -200,14 +205,13 @@ pub fn projector_with_unpadded(
 
 /// Box mip chain of premultiplied linear RGBA (already alpha-weighted, so plain filtering).
 pub fn premultiplied_levels(level0: Vec<[f32; 4]>, w: u32, h: u32) -> Vec<Vec<[f32; 4]>> {
-    let mut levels = vec![level0];
-    let (mut lw, mut lh) = (w, h);
-    while lw > 1 || lh > 1 {
-        let mut next = reduce(levels.last().unwrap(), lw, lh, MipFilter::Box, |t| t);
+    let next = |level: &[[f32; 4]], w: u32, h: u32| {
+        let mut next = reduce(level, w, h, MipFilter::Box, |t| t);
         next.par_iter_mut().for_each(|t| *t = t.map(clamp01));
-        levels.push(next);
-        (lw, lh) = (half(lw), half(lh));
-    }
+        next
+    };
+    let mut levels = Vec::new();
+    walk_chain(level0, w, h, next, |l| levels.push(l));
     levels
 }
 
@@ -317,6 +321,7 @@ pub fn upsampled_error(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::resample::half;
 
     /// Every texel and channel through the exact encode: what `upsampled_error` must equal.
     fn exhaustive(bytes: &[u8], lw: u32, lh: u32, reference: &[[f32; 4]], w: u32) -> f64 {

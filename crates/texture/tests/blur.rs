@@ -178,3 +178,31 @@ mod properties {
         }
     }
 }
+
+/// The projector's input read from the bytes is the f32 copy it replaced, bit for bit: every
+/// alpha, both exact methods and both approximations.
+#[test]
+fn bytes_blur_like_their_decoded_premultiplied_copy() {
+    let (w, h) = (61, 45);
+    let mut rng = Rng(7);
+    let bytes: Vec<u8> = (0..w * h * 4).map(|_| rng.byte()).collect();
+    let img = common::rgba_image(w, h, bytes.clone());
+    let mut premul = texture::pixels::to_linear(&img, true);
+    for t in &mut premul {
+        *t = [t[0] * t[3], t[1] * t[3], t[2] * t[3], t[3]];
+    }
+    for sigma in [0.5f32, 2.2, 9.0] {
+        for method in [
+            BlurMethod::Direct,
+            BlurMethod::Decimated,
+            BlurMethod::DecimatedCoarse,
+            BlurMethod::Box3,
+        ] {
+            let copy = blur_linear(&premul, w as u32, h as u32, sigma, method).unwrap();
+            let read =
+                blur::blur_rgba8_to_linear(&bytes, w as u32, h as u32, sigma, method).unwrap();
+            let bits = |v: &[[f32; 4]]| v.iter().flatten().map(|f| f.to_bits()).collect::<Vec<_>>();
+            assert!(bits(&copy) == bits(&read), "sigma {sigma} {method:?}");
+        }
+    }
+}

@@ -236,3 +236,43 @@ fn pad_image_repeats_the_edge_in_the_source_format() {
     let rgba = image::DynamicImage::ImageRgba8(image::RgbaImage::new(8, 4));
     assert_eq!(texture::pixels::pad_image(&rgba, 8, 4), rgba);
 }
+
+/// 8-bit sources other than RGBA8 take the byte path (level 1 straight from the bytes, no f32
+/// copy of level 0) and the chain is the one the f32 path gives, level by level, byte for byte.
+#[test]
+fn grey_and_rgb_sources_give_the_f32_chain() {
+    let mut rng = Rng(3);
+    for (w, h) in [(64u32, 48u32), (37, 21)] {
+        let images = [
+            DynamicImage::ImageRgb8(image::ImageBuffer::from_fn(w, h, |_, _| {
+                image::Rgb([rng.byte(), rng.byte(), rng.byte()])
+            })),
+            DynamicImage::ImageLuma8(image::ImageBuffer::from_fn(w, h, |_, _| {
+                image::Luma([rng.byte()])
+            })),
+            DynamicImage::ImageLumaA8(image::ImageBuffer::from_fn(w, h, |_, _| {
+                image::LumaA([rng.byte(), rng.byte()])
+            })),
+        ];
+        for img in &images {
+            for filter in [MipFilter::Box, MipFilter::Kaiser] {
+                let opts = ColourOptions { srgb: true, filter };
+                let f32_chain: Vec<Vec<u8>> = texture::mips::colour_levels::<f32>(
+                    texture::pixels::to_linear(img, true),
+                    w,
+                    h,
+                    filter,
+                )
+                .iter()
+                .map(|l| texture::mips::encode_level(l, true))
+                .collect();
+                let chain = colour_mips(img, &opts).unwrap();
+                assert!(
+                    chain.levels == f32_chain,
+                    "{w}x{h} {:?} {filter:?}",
+                    img.color()
+                );
+            }
+        }
+    }
+}
