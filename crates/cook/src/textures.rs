@@ -131,6 +131,9 @@ pub(crate) fn decode(image: &ImageRef) -> Result<image::DynamicImage, CookError>
 #[derive(Default)]
 pub struct DecodedImages {
     files: Mutex<HashMap<PathBuf, DecodeSlot>>,
+    /// Uses still to come, per file, where the texture stage has said: a file is let go after
+    /// its last job, not held to the end of the stage (a 4096² design is 48 MiB decoded).
+    uses: Mutex<HashMap<PathBuf, usize>>,
 }
 
 /// One file's decoded image, filled by the first caller while later ones wait on the lock.
@@ -162,6 +165,28 @@ impl DecodedImages {
         let img = Arc::new(decode(image)?);
         *slot = Some(Arc::clone(&img));
         Ok(img)
+    }
+
+    /// Counts one use to come of each file in `paths`.
+    fn expect_uses<'a>(&self, paths: impl Iterator<Item = &'a Path>) {
+        let mut uses = self.uses.lock().unwrap_or_else(|e| e.into_inner());
+        for p in paths {
+            *uses.entry(p.to_path_buf()).or_default() += 1;
+        }
+    }
+
+    /// One counted use of `path` is over; after the last, the decoded image is let go (a
+    /// caller still holding it keeps it until done). A later `get` would decode it again.
+    fn done_with(&self, path: &Path) {
+        let mut uses = self.uses.lock().unwrap_or_else(|e| e.into_inner());
+        if let Some(n) = uses.get_mut(path) {
+            *n -= 1;
+            if *n == 0 {
+                uses.remove(path);
+                let mut files = self.files.lock().unwrap_or_else(|e| e.into_inner());
+                files.remove(path);
+            }
+        }
     }
 }
 
@@ -912,9 +937,16 @@ pub fn cook_textures(
             .supercompression
             .unwrap_or(manifest.textures.supercompression),
     };
+    images.expect_uses(jobs.iter().filter_map(|(j, _)| j.file()));
     let results: Vec<Result<Cooked, CookError>> = jobs
         .par_iter()
-        .map(|(j, f)| run_cached(j, &params(*f), settings.cache.as_ref()))
+        .map(|(j, f)| {
+            let cooked = run_cached(j, &params(*f), settings.cache.as_ref());
+            if let Some(p) = j.file() {
+                images.done_with(p);
+            }
+            cooked
+        })
         .collect();
     let mut textures = Vec::with_capacity(jobs.len());
     let mut data = Vec::with_capacity(jobs.len());
@@ -978,6 +1010,20 @@ mod tests {
             let e = images.get(&ImageRef::File(bad.clone())).unwrap_err();
             assert!(e.to_string().contains("broken.png"), "{e}");
         }
+        // Kept through its counted uses, let go after the last one.
+        images.expect_uses([good.as_path(), good.as_path()].into_iter());
+        images.done_with(&good);
+        let c = images.get(&ImageRef::File(good.clone())).unwrap();
+        assert!(
+            Arc::ptr_eq(&a, &c),
+            "still held after the first of two uses"
+        );
+        images.done_with(&good);
+        let d = images.get(&ImageRef::File(good.clone())).unwrap();
+        assert!(
+            !Arc::ptr_eq(&a, &d),
+            "let go after the last use, so decoded afresh"
+        );
         std::fs::remove_dir_all(&dir).unwrap();
     }
 
