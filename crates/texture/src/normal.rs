@@ -191,18 +191,60 @@ fn lead_score(t: [f32; 4]) -> f32 {
     lead.max(no_glass)
 }
 
+/// [`lead_score`] of 8-bit sRGB texels, remembered in a small direct-mapped table by colour.
+struct ScoreMemo {
+    slots: Vec<Option<(u32, f32)>>,
+}
+
+impl Default for ScoreMemo {
+    fn default() -> Self {
+        Self {
+            slots: vec![None; 1 << 12],
+        }
+    }
+}
+
+impl ScoreMemo {
+    fn score(&mut self, rgba: [u8; 4]) -> f32 {
+        let key = u32::from_le_bytes(rgba);
+        let slot = (key.wrapping_mul(0x9E37_79B1) >> 20) as usize;
+        match self.slots[slot] {
+            Some((k, score)) if k == key => score,
+            _ => {
+                let lut = crate::srgb::decode8();
+                let score = lead_score([
+                    lut[rgba[0] as usize],
+                    lut[rgba[1] as usize],
+                    lut[rgba[2] as usize],
+                    rgba[3] as f32 / 255.0,
+                ]);
+                self.slots[slot] = Some((key, score));
+                score
+            }
+        }
+    }
+}
+
 /// Height field of a design, in texels: lead came raised with a rounded profile, glass with a
 /// low hammered relief.
 pub fn design_height(design: &DynamicImage, seed: u64) -> Result<Vec<f32>, TextureError> {
     let (w, h) = (design.width(), design.height());
     check_size(w, h)?;
-    let lin = to_linear(design, true);
-    let mask: Vec<[f32; 4]> = lin
-        .par_iter()
-        .map(|&t| [lead_score(t), 0.0, 0.0, 0.0])
-        .collect();
-    // Not held through the blur: four floats a texel of a design that is no longer read.
-    drop(lin);
+    let mask: Vec<[f32; 4]> = match crate::pixels::rgba8_bytes(design) {
+        // A design has few colours (flat panes of glass), and the score is a function of a
+        // texel's four bytes: remembered per colour, it is computed once a pane, not four
+        // powers a texel. The texels are `to_linear`'s, read from the bytes without its copy.
+        Some(bytes) => bytes
+            .par_chunks_exact(4)
+            .map_init(ScoreMemo::default, |memo, b| {
+                [memo.score([b[0], b[1], b[2], b[3]]), 0.0, 0.0, 0.0]
+            })
+            .collect(),
+        None => to_linear(design, true)
+            .par_iter()
+            .map(|&t| [lead_score(t), 0.0, 0.0, 0.0])
+            .collect(),
+    };
     let side = w.min(h) as f32;
     // The came's rounded profile: the lead mask softened over about a texel of a 512² design.
     let came_sigma = (side / 400.0).clamp(0.75, 4.0);
