@@ -433,7 +433,7 @@ impl Io for Srgb8Io<'_> {
 }
 
 /// sRGB RGBA8 with straight alpha, decoded as [`crate::pixels::to_linear`] decodes it and then
-/// premultiplied: colour from [`crate::srgb::decode8`] times `a / 255`, the same bits as that
+/// premultiplied ([`crate::pixels::texel8`] times its alpha), the same bits as that
 /// full-size f32 copy, which this reads without (a 4096² design's copy is 256 MiB). Not
 /// [`Srgb8Io`]'s vector decode: it multiplies by 1/255, a different last bit for half the codes.
 struct Straight8Io<'a> {
@@ -448,17 +448,11 @@ impl Io for Straight8Io<'_> {
         self.src.len() / (4 * self.w)
     }
     fn fill(&self, y: usize, x0: usize, row: &mut [Px]) {
-        let lut = crate::srgb::decode8();
         let at = (y * self.w + x0) * 4;
         let bytes = &self.src[at..at + row.len() * 4];
-        for (t, b) in row.iter_mut().zip(bytes.chunks_exact(4)) {
-            let a = b[3] as f32 / 255.0;
-            *t = [
-                lut[b[0] as usize] * a,
-                lut[b[1] as usize] * a,
-                lut[b[2] as usize] * a,
-                a,
-            ];
+        for (t, px) in row.iter_mut().zip(bytes.chunks_exact(4)) {
+            let [r, g, b, a] = crate::pixels::texel8([px[0], px[1], px[2], px[3]]);
+            *t = [r * a, g * a, b * a, a];
         }
     }
     fn emit(&self, row: &[Px], out: &mut [Px]) {

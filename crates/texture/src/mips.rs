@@ -7,7 +7,7 @@ use crate::TextureError;
 use crate::pixels::{Texel, to_linear};
 use crate::real::{Real, clamp01};
 use crate::resample::{MipFilter, half, reduce, walk_chain};
-use crate::srgb::{decode8, encoder, unorm8};
+use crate::srgb::{encoder, unorm8};
 
 /// A texture's levels as stored in a pack: tightly packed RGBA8 rows, level 0 first, each level
 /// `max(1, previous / 2)` texels on each axis, down to 1x1 (the rule of `pack::Texture`).
@@ -164,15 +164,7 @@ fn box_block<T: Real>(a: [T; 4], b: [T; 4], c: [T; 4], d: [T; 4], half: T) -> [T
 /// Level 1 of an even-sized sRGB RGBA8 image straight from its bytes: [`box2`] of the texels
 /// [`to_linear`] would give (so the same bits), without a full-size f32 copy of level 0.
 fn box2_srgb8(src: &[u8], w: usize) -> Vec<Texel> {
-    let lut = decode8();
-    let texel = |b: &[u8]| {
-        [
-            lut[b[0] as usize],
-            lut[b[1] as usize],
-            lut[b[2] as usize],
-            b[3] as f32 / 255.0,
-        ]
-    };
+    let texel = |b: &[u8]| crate::pixels::texel8([b[0], b[1], b[2], b[3]]);
     let w2 = w / 2;
     let mut out = vec![[0.0f32; 4]; w2 * (src.len() / (8 * w))];
     out.par_chunks_mut(w2).enumerate().for_each(|(y, o)| {
@@ -221,11 +213,16 @@ pub fn colour_mips(img: &DynamicImage, opts: &ColourOptions) -> Result<MipChain,
     let mut levels = Vec::new();
     // Each level is encoded as soon as the next is filtered from it, and its f32 copy dropped:
     // the f32 chain of a 4096² image was 341 MiB held whole.
-    match crate::pixels::rgba8_bytes(img) {
+    let from_bytes =
+        opts.srgb && opts.filter == MipFilter::Box && w.is_multiple_of(2) && h.is_multiple_of(2);
+    match from_bytes
+        .then(|| crate::pixels::rgba8_bytes(img))
+        .flatten()
+    {
         // Level 0 is the source's bytes: decoding then re-encoding 8-bit sRGB gives back every
         // code (a unit test checks the tables). Level 1 comes from them directly, without a
         // full-size f32 copy of level 0.
-        Some(bytes) if opts.srgb && opts.filter == MipFilter::Box && w % 2 == 0 && h % 2 == 0 => {
+        Some(bytes) => {
             let level1 = box2_srgb8(&bytes, w as usize);
             levels.push(bytes.into_owned());
             each_level(level1, 1, w, h, opts.filter, |l| {

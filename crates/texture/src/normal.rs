@@ -211,13 +211,7 @@ impl ScoreMemo {
         match self.slots[slot] {
             Some((k, score)) if k == key => score,
             _ => {
-                let lut = crate::srgb::decode8();
-                let score = lead_score([
-                    lut[rgba[0] as usize],
-                    lut[rgba[1] as usize],
-                    lut[rgba[2] as usize],
-                    rgba[3] as f32 / 255.0,
-                ]);
+                let score = lead_score(crate::pixels::texel8(rgba));
                 self.slots[slot] = Some((key, score));
                 score
             }

@@ -133,6 +133,19 @@ pub fn pad_texels(
     out
 }
 
+/// One sRGB RGBA8 texel as [`to_linear`] decodes it: colour from [`decode8`], alpha `a / 255`.
+/// Paths that read 8-bit texels without that copy go through this, so their bits stay its.
+#[inline(always)]
+pub fn texel8(b: [u8; 4]) -> Texel {
+    let lut = decode8();
+    [
+        lut[b[0] as usize],
+        lut[b[1] as usize],
+        lut[b[2] as usize],
+        b[3] as f32 / 255.0,
+    ]
+}
+
 /// An 8-bit image's texels as RGBA8 bytes (borrowed when it is RGBA8 already): grey expands to
 /// RGB and missing alpha is opaque, so [`to_linear`] gives the same texels from either. `None`
 /// for 16-bit and float images.
