@@ -130,35 +130,15 @@ fn each_level<T: Real>(
     walk_chain(level, lw, lh, next, emit);
 }
 
-/// The box reduction of even sizes in one pass, with the same operations in the same order as
-/// the separable path (so the same bits): each 2x2 block, alpha-weighted.
+/// The alpha-weighted box reduction of even sizes in one pass ([`crate::resample::box2`]).
 fn box2<T: Real>(src: &[[T; 4]], w: usize) -> Vec<[T; 4]> {
-    let w2 = w / 2;
-    let half = T::of(0.5);
-    let mut out = vec![[T::default(); 4]; w2 * (src.len() / w / 2)];
-    out.par_chunks_mut(w2).enumerate().for_each(|(y, o)| {
-        let (r0, r1) = (
-            &src[2 * y * w..(2 * y + 1) * w],
-            &src[(2 * y + 1) * w..(2 * y + 2) * w],
-        );
-        for (x, o) in o.iter_mut().enumerate() {
-            *o = box_block(r0[2 * x], r0[2 * x + 1], r1[2 * x], r1[2 * x + 1], half);
-        }
-    });
-    out
+    crate::resample::box2(src, w, weighted, unweighted)
 }
 
 /// One texel of [`box2`]: the 2x2 block `a b / c d`, alpha-weighted.
 #[inline(always)]
-fn box_block<T: Real>(a: [T; 4], b: [T; 4], c: [T; 4], d: [T; 4], half: T) -> [T; 4] {
-    let (a, b, c, d) = (weighted(a), weighted(b), weighted(c), weighted(d));
-    let mut t = [T::default(); 4];
-    for ch in 0..4 {
-        let top = half * a[ch] + half * b[ch];
-        let bottom = half * c[ch] + half * d[ch];
-        t[ch] = half * top + half * bottom;
-    }
-    unweighted(t)
+fn box_block<T: Real>(a: [T; 4], b: [T; 4], c: [T; 4], d: [T; 4]) -> [T; 4] {
+    unweighted(crate::resample::box_block([a, b, c, d].map(weighted)))
 }
 
 /// Level 1 of an even-sized sRGB RGBA8 image straight from its bytes: [`box2`] of the texels
@@ -176,7 +156,6 @@ fn box2_srgb8(src: &[u8], w: usize) -> Vec<Texel> {
                 texel(&t0[4..]),
                 texel(&t1[..4]),
                 texel(&t1[4..]),
-                0.5,
             );
         }
     });

@@ -224,26 +224,26 @@ impl ScoreMemo {
 pub fn design_height(design: &DynamicImage, seed: u64) -> Result<Vec<f32>, TextureError> {
     let (w, h) = (design.width(), design.height());
     check_size(w, h)?;
-    let mask: Vec<[f32; 4]> = match crate::pixels::rgba8_bytes(design) {
+    let mask: Vec<f32> = match crate::pixels::rgba8_bytes(design) {
         // A design has few colours (flat panes of glass), and the score is a function of a
         // texel's four bytes: remembered per colour, it is computed once a pane, not four
         // powers a texel. The texels are `to_linear`'s, read from the bytes without its copy.
         Some(bytes) => bytes
             .par_chunks_exact(4)
             .map_init(ScoreMemo::default, |memo, b| {
-                [memo.score([b[0], b[1], b[2], b[3]]), 0.0, 0.0, 0.0]
+                memo.score([b[0], b[1], b[2], b[3]])
             })
             .collect(),
         None => to_linear(design, true)
             .par_iter()
-            .map(|&t| [lead_score(t), 0.0, 0.0, 0.0])
+            .map(|&t| lead_score(t))
             .collect(),
     };
     let side = w.min(h) as f32;
     // The came's rounded profile: the lead mask softened over about a texel of a 512² design.
     let came_sigma = (side / 400.0).clamp(0.75, 4.0);
     let came_height = 2.0 * came_sigma;
-    let soft = crate::blur::blur_linear(&mask, w, h, came_sigma, crate::BlurMethod::Auto)?;
+    let soft = blur_plane(&mask, w, h, came_sigma)?;
     // Hammer dimples a few percent of the window across; two octaves, slopes about 0.1.
     let cell = (side / 24.0).clamp(3.0, 64.0);
     let glass_amp = 0.05 * cell;
@@ -252,13 +252,56 @@ pub fn design_height(design: &DynamicImage, seed: u64) -> Result<Vec<f32>, Textu
         .into_par_iter()
         .map(|i| {
             let (x, y) = ((i % wu) as f32, (i / wu) as f32);
-            let m = mask[i][0];
+            let m = mask[i];
             let relief =
                 value_noise(seed, x, y, cell) + 0.5 * value_noise(seed ^ 0x5EED, x, y, cell * 0.5);
             // The blurred mask can exceed the hard mask's support; clamp keeps it a height.
-            came_height * soft[i][0].clamp(0.0, 1.0) + glass_amp * relief * (1.0 - m)
+            came_height * soft[i].clamp(0.0, 1.0) + glass_amp * relief * (1.0 - m)
         })
         .collect())
+}
+
+/// The blur of one channel (`w x h`, zero border) with the bits [`crate::blur::blur_linear`]
+/// gives it as the first channel of four (σ below the decimated method's, so the blur is
+/// direct). The blur filters four channels at once: here they carry four bands of rows, each
+/// with the rows the kernel reaches beyond it, so the work and memory are a quarter of a
+/// texel a channel and three zero channels. Every output is the same sum of the same taps in
+/// the same order as in the whole image: a band's rows outside the image are zero, as the
+/// whole image's border is.
+fn blur_plane(plane: &[f32], w: u32, h: u32, sigma: f32) -> Result<Vec<f32>, TextureError> {
+    let method = crate::BlurMethod::Auto;
+    let r = crate::blur::kernel_radius(sigma as f64);
+    let (wu, hu) = (w as usize, h as usize);
+    if method.resolve_sized(sigma, w, h) != crate::BlurMethod::Direct || hu <= r {
+        // Bands would change the kernel (cut at the image's height) or the method.
+        let quads: Vec<[f32; 4]> = plane.iter().map(|&m| [m, 0.0, 0.0, 0.0]).collect();
+        let soft = crate::blur::blur_linear(&quads, w, h, sigma, method)?;
+        return Ok(soft.into_iter().map(|t| t[0]).collect());
+    }
+    let band = hu.div_ceil(4);
+    let rows = band + 2 * r;
+    // Row `y` of band `b` is image row `b·band + y - r`.
+    let source = |b: usize, y: usize| (b * band + y).checked_sub(r).filter(|&row| row < hu);
+    let mut bands = vec![[0.0f32; 4]; wu * rows];
+    bands.par_chunks_mut(wu).enumerate().for_each(|(y, out)| {
+        for b in 0..4 {
+            if let Some(row) = source(b, y) {
+                for (o, &m) in out.iter_mut().zip(&plane[row * wu..(row + 1) * wu]) {
+                    o[b] = m;
+                }
+            }
+        }
+    });
+    let soft = crate::blur::blur_linear(&bands, w, rows as u32, sigma, method)?;
+    drop(bands);
+    let mut out = vec![0.0f32; wu * hu];
+    out.par_chunks_mut(wu).enumerate().for_each(|(row, o)| {
+        let (b, y) = (row / band, row % band + r);
+        for (o, t) in o.iter_mut().zip(&soft[y * wu..(y + 1) * wu]) {
+            *o = t[b];
+        }
+    });
+    Ok(out)
 }
 
 /// Tangent-space normals (OpenGL convention) of a height field by central differences,
@@ -307,6 +350,7 @@ pub fn derive_normal_map_padded(
     let (w, h) = (design.width(), design.height());
     let height = design_height(design, seed)?;
     let level0 = height_to_normals(&height, w, h);
+    drop(height);
     let (pw, ph) = (pw.max(w), ph.max(h));
     let level0 = if (pw, ph) == (w, h) {
         level0
@@ -314,4 +358,39 @@ pub fn derive_normal_map_padded(
         crate::pixels::pad_texels(&level0, w, h, pw, ph, None)
     };
     Ok(chain(level0, pw, ph))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::testing::Rng;
+
+    /// Bands of rows in the four channels give the bits of the plane blurred as the first
+    /// channel of four: heights not a multiple of four, a plane too short for bands, and the
+    /// came's whole range of σ.
+    #[test]
+    fn banded_blur_is_the_first_channel_of_the_whole_one() {
+        let mut rng = Rng(11);
+        for (w, h) in [(37u32, 61u32), (64, 64), (23, 5), (50, 2), (9, 131)] {
+            let plane: Vec<f32> = (0..w * h)
+                .map(|_| match rng.byte() % 3 {
+                    0 => 0.0,
+                    1 => 1.0,
+                    _ => rng.byte() as f32 / 255.0,
+                })
+                .collect();
+            let quads: Vec<[f32; 4]> = plane.iter().map(|&m| [m, 0.0, 0.0, 0.0]).collect();
+            for sigma in [0.75f32, 1.6, 2.3, 4.0] {
+                let whole =
+                    crate::blur::blur_linear(&quads, w, h, sigma, crate::BlurMethod::Auto).unwrap();
+                let banded = blur_plane(&plane, w, h, sigma).unwrap();
+                let bits =
+                    |v: &mut dyn Iterator<Item = f32>| v.map(f32::to_bits).collect::<Vec<_>>();
+                assert!(
+                    bits(&mut whole.iter().map(|t| t[0])) == bits(&mut banded.iter().copied()),
+                    "{w}x{h} sigma {sigma}"
+                );
+            }
+        }
+    }
 }
