@@ -132,7 +132,8 @@ impl Cells {
     }
 
     fn set(&mut self, [x, y, z]: [usize; 3]) {
-        self.0[z * OCC + y] |= 1 << x;
+        let i = cell_index(x, y, z);
+        self.0[i / OCC] |= 1 << (i % OCC);
     }
 }
 

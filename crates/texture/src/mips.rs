@@ -6,7 +6,7 @@ use rayon::prelude::*;
 use crate::TextureError;
 use crate::pixels::{Texel, to_linear};
 use crate::real::{Real, clamp01};
-use crate::resample::{MipFilter, half, reduce, walk_chain};
+use crate::resample::{MipFilter, half, next_level, walk_chain};
 use crate::srgb::{encoder, unorm8};
 
 /// A texture's levels as stored in a pack: tightly packed RGBA8 rows, level 0 first, each level
@@ -119,20 +119,9 @@ fn each_level<T: Real>(
 ) {
     let (lw, lh) = level_size(w, h, first);
     let next = |level: &[[T; 4]], lw: u32, lh: u32| {
-        if filter == MipFilter::Box && lw.is_multiple_of(2) && lh.is_multiple_of(2) {
-            box2(level, lw as usize)
-        } else {
-            let mut next = reduce(level, lw, lh, filter, weighted);
-            next.par_iter_mut().for_each(|t| *t = unweighted(*t));
-            next
-        }
+        next_level(level, lw, lh, filter, weighted, unweighted)
     };
     walk_chain(level, lw, lh, next, emit);
-}
-
-/// The alpha-weighted box reduction of even sizes in one pass ([`crate::resample::box2`]).
-fn box2<T: Real>(src: &[[T; 4]], w: usize) -> Vec<[T; 4]> {
-    crate::resample::box2(src, w, weighted, unweighted)
 }
 
 /// One texel of [`box2`]: the 2x2 block `a b / c d`, alpha-weighted.

@@ -8,7 +8,7 @@ use crate::blur::{BlurMethod, blur_linear, blur_rgba8_to_linear, check_sigma};
 use crate::mips::{MipChain, check_size, level_size};
 use crate::pixels::to_linear;
 use crate::real::clamp01;
-use crate::resample::{MipFilter, box2, reduce, walk_chain};
+use crate::resample::{MipFilter, next_level, walk_chain};
 use crate::srgb::{decode8, encoder, linear_to_srgb_lsb, linear_to_srgb_lsb_slope};
 
 /// How a projector texture is cooked.
@@ -206,12 +206,7 @@ pub fn projector_with_unpadded(
 /// Box mip chain of premultiplied linear RGBA (already alpha-weighted, so plain filtering).
 pub fn premultiplied_levels(level0: Vec<[f32; 4]>, w: u32, h: u32) -> Vec<Vec<[f32; 4]>> {
     let next = |level: &[[f32; 4]], w: u32, h: u32| {
-        if w.is_multiple_of(2) && h.is_multiple_of(2) {
-            return box2(level, w as usize, |t| t, |t| t.map(clamp01));
-        }
-        let mut next = reduce(level, w, h, MipFilter::Box, |t| t);
-        next.par_iter_mut().for_each(|t| *t = t.map(clamp01));
-        next
+        next_level(level, w, h, MipFilter::Box, |t| t, |t| t.map(clamp01))
     };
     let mut levels = Vec::new();
     walk_chain(level0, w, h, next, |l| levels.push(l));

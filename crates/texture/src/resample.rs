@@ -55,6 +55,25 @@ pub(crate) fn walk_chain<T>(
     emit(level);
 }
 
+/// One mip step, `w x h` → `half(w) x half(h)`: every texel through `pre`, filtered, then
+/// through `post`. A box on even sizes runs in one pass ([`box2`]), anything else through the
+/// separable [`reduce`]; the same bits either way for the values filtering meets (see `box2`).
+pub(crate) fn next_level<T: Real>(
+    level: &[[T; 4]],
+    w: u32,
+    h: u32,
+    filter: MipFilter,
+    pre: impl Fn([T; 4]) -> [T; 4] + Sync,
+    post: impl Fn([T; 4]) -> [T; 4] + Sync,
+) -> Vec<[T; 4]> {
+    if filter == MipFilter::Box && w.is_multiple_of(2) && h.is_multiple_of(2) {
+        return box2(level, w as usize, pre, post);
+    }
+    let mut next = reduce(level, w, h, filter, pre);
+    next.par_iter_mut().for_each(|t| *t = post(*t));
+    next
+}
+
 /// The box reduction of an even-sized level (`w` texels a row) in one pass: each 2x2 block
 /// through `pre`, averaged by [`box_block`], then through `post`. The same bits as [`reduce`]
 /// with [`MipFilter::Box`] and `pre` followed by `post` on each texel, without its half-size

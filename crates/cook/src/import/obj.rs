@@ -86,25 +86,23 @@ fn simple_f32(t: &[u8]) -> Option<f32> {
         [b'+', r @ ..] => (false, r),
         _ => (false, t),
     };
-    // Integer digits, then fraction digits, each a loop of its own: one test a byte.
-    let digit = |i: usize| rest.get(i).map_or(10, |b| b.wrapping_sub(b'0'));
-    let mut m: u64 = 0;
-    let mut i = 0;
-    while let d @ 0..=9 = digit(i) {
-        m = m.wrapping_mul(10).wrapping_add(d as u64);
-        i += 1;
-    }
-    let mut digits = i;
-    let mut fraction = 0i32;
-    if rest.get(i) == Some(&b'.') {
-        i += 1;
-        let first = i;
-        while let d @ 0..=9 = digit(i) {
+    // Integer digits, then fraction digits, each a run of its own: one test a byte. `scan`
+    // appends the digits from `i` on to `m`, and returns where they end.
+    let scan = |mut i: usize, mut m: u64| {
+        while let Some(d @ 0..=9) = rest.get(i).map(|b| b.wrapping_sub(b'0')) {
             m = m.wrapping_mul(10).wrapping_add(d as u64);
             i += 1;
         }
-        digits += i - first;
-        fraction = (i - first) as i32;
+        (i, m)
+    };
+    let (mut i, mut m) = scan(0, 0);
+    let mut digits = i;
+    let mut fraction = 0i32;
+    if rest.get(i) == Some(&b'.') {
+        let (end, with_fraction) = scan(i + 1, m);
+        fraction = (end - i - 1) as i32;
+        digits += end - i - 1;
+        (i, m) = (end, with_fraction);
     }
     // Up to 19 digits cannot wrap a u64, and `m` only grows digit by digit, so one test at
     // the end rejects what any prefix over 2^24 would have.
