@@ -46,6 +46,20 @@ fn fast_acos(x: f32) -> f32 {
     if x < 0.0 { std::f32::consts::PI - r } else { r }
 }
 
+/// [`unit`] of four vectors, lane by lane (the same bits) so that the square roots and
+/// divisions vectorize.
+fn units(v: [Vec3; 4]) -> [Vec3; 4] {
+    let len = v.map(|v| v.length());
+    std::array::from_fn(|i| {
+        let l = len[i];
+        if l > 0.0 && l.is_finite() {
+            v[i] / l
+        } else {
+            Vec3::ZERO
+        }
+    })
+}
+
 /// True when the triangle has no area: repeated corners or collinear positions.
 pub fn is_degenerate(a: [f32; 3], b: [f32; 3], c: [f32; 3]) -> bool {
     let [a, b, c] = [a, b, c].map(Vec3::from);
@@ -127,26 +141,41 @@ fn corner_normals(
     if missing == 0 {
         return (ids, table, 0);
     }
-    let tris: Vec<[u32; 3]> = keep
-        .iter()
-        .map(|&t| {
-            let c = &src.corners[t as usize * 3..t as usize * 3 + 3];
-            [c[0].p, c[1].p, c[2].p]
-        })
-        .collect();
-    let face_normals: Vec<Vec3> = tris
-        .par_iter()
-        .map(|t| {
-            let [a, b, c] = t.map(|i| Vec3::from(src.positions[i as usize]));
-            unit((b - a).cross(c - a))
-        })
-        .collect();
-
+    // One pass over the triangles: their welded positions, unit face normals and corner
+    // angles. Each chunk takes its angles' cosines first and their arc cosines in a second
+    // loop: one triangle's three polynomials are chains of dependent operations, and a loop
+    // over the chunk's cosines vectorizes and overlaps them.
+    const CHUNK: usize = 1024;
+    let mut welded_at = vec![0u32; keep.len() * 3];
+    let mut face_normals = vec![Vec3::ZERO; keep.len()];
+    let mut weights = vec![0.0f32; keep.len() * 3];
+    welded_at
+        .par_chunks_mut(3 * CHUNK)
+        .zip(face_normals.par_chunks_mut(CHUNK))
+        .zip(weights.par_chunks_mut(3 * CHUNK))
+        .zip(keep.par_chunks(CHUNK))
+        .for_each(|(((at, faces), w), tris)| {
+            for (k, &t) in tris.iter().enumerate() {
+                let c = &src.corners[t as usize * 3..t as usize * 3 + 3];
+                let p = [c[0].p, c[1].p, c[2].p];
+                at[3 * k..3 * k + 3].copy_from_slice(&p.map(|i| canon[i as usize]));
+                let [a, b, d] = p.map(|i| Vec3::from(src.positions[i as usize]));
+                // The face normal and each edge normalized once, lane by lane so that the
+                // square roots and divisions vectorize; negating a unit vector is exact, so
+                // these are the same angles as normalizing both edges at every corner.
+                let [n, ab, bd, da] = units([(b - a).cross(d - a), b - a, d - b, a - d]);
+                faces[k] = n;
+                w[3 * k..3 * k + 3].copy_from_slice(&[-ab.dot(da), -bd.dot(ab), -da.dot(bd)]);
+            }
+            for w in w.iter_mut() {
+                *w = fast_acos(*w);
+            }
+        });
     // Corners needing a normal, grouped by welded position (counting sort keeps corner order).
     let mut start = vec![0u32; welded + 1];
-    for (k, &id) in ids.iter().enumerate() {
+    for (&id, &c) in ids.iter().zip(&welded_at) {
         if id == NONE {
-            start[canon[tris[k / 3][k % 3] as usize] as usize + 1] += 1;
+            start[c as usize + 1] += 1;
         }
     }
     for i in 0..welded {
@@ -154,26 +183,14 @@ fn corner_normals(
     }
     let mut fill = start.clone();
     let mut adj = vec![0u32; missing];
-    for (k, &id) in ids.iter().enumerate() {
+    for (k, (&id, &c)) in ids.iter().zip(&welded_at).enumerate() {
         if id == NONE {
-            let c = canon[tris[k / 3][k % 3] as usize] as usize;
-            adj[fill[c] as usize] = k as u32;
-            fill[c] += 1;
+            adj[fill[c as usize] as usize] = k as u32;
+            fill[c as usize] += 1;
         }
     }
     drop(fill);
-    let mut weights = vec![0.0f32; tris.len() * 3];
-    weights
-        .par_chunks_mut(3)
-        .zip(tris.par_iter())
-        .for_each(|(w, t)| {
-            let [a, b, c] = t.map(|i| Vec3::from(src.positions[i as usize]));
-            // Each edge normalized once; negating a unit vector is exact, so these are the
-            // same angles as normalizing both edges at every corner.
-            let (ab, bc, ca) = (unit(b - a), unit(c - b), unit(a - c));
-            let angle = |u: Vec3, v: Vec3| fast_acos(-u.dot(v));
-            w.copy_from_slice(&[angle(ab, ca), angle(bc, ab), angle(ca, bc)]);
-        });
+    drop(welded_at);
     // Per position: cluster its corners, sum each cluster. Positions are independent, so runs
     // of them are clustered in parallel, each into its own table and slots (indices into it);
     // the tables are then appended in position order, so the ids are those of one pass in
