@@ -124,14 +124,16 @@ fn each_level<T: Real>(
     walk_chain(level, lw, lh, next, emit);
 }
 
-/// One texel of [`box2`]: the 2x2 block `a b / c d`, alpha-weighted.
+/// One texel of the colour chain's [`crate::resample::box2`] (alpha-weighted before, unweighted
+/// after): the 2x2 block `a b / c d`.
 #[inline(always)]
 fn box_block<T: Real>(a: [T; 4], b: [T; 4], c: [T; 4], d: [T; 4]) -> [T; 4] {
     unweighted(crate::resample::box_block([a, b, c, d].map(weighted)))
 }
 
-/// Level 1 of an even-sized sRGB RGBA8 image straight from its bytes: [`box2`] of the texels
-/// [`to_linear`] would give (so the same bits), without a full-size f32 copy of level 0.
+/// Level 1 of an even-sized sRGB RGBA8 image straight from its bytes: the colour chain's
+/// [`crate::resample::box2`] of the texels [`to_linear`] would give (so the same bits), without
+/// a full-size f32 copy of level 0.
 fn box2_srgb8(src: &[u8], w: usize) -> Vec<Texel> {
     let texel = |b: &[u8]| crate::pixels::texel8([b[0], b[1], b[2], b[3]]);
     let w2 = w / 2;
