@@ -38,26 +38,36 @@ pub fn cook(manifest: &Manifest, settings: &Settings) -> Result<CookOutput, Cook
 
     // 4. Mesh processing, one source per task, beside a bare model's guessed light and cameras
     // (which read the same prepared geometry); materials left without triangles are dropped.
-    let (guessed, mut processed) = rayon::join(
+    let mesh_needs = material_needs(&prepared.tagging);
+    let (guessed, deduplicated) = rayon::join(
         || needs_guess(manifest).then(|| guess::guess(&prepared)),
         || {
-            process_meshes(
-                &prepared.imported,
-                &prepared.tri_material,
-                &prepared.tagging,
-                settings,
-            )
+            (prepared.imported.par_iter())
+                .zip(&prepared.tri_material)
+                .map(|(src, tm)| mesh::deduplicate(src, tm, &mesh_needs, &settings.mesh))
+                .collect::<Vec<_>>()
         },
     );
     let manifest = with_guesses(manifest, guessed, &mut report);
     let Prepared {
-        imported,
+        mut imported,
         import_times,
         mut tagging,
-        tri_material: _,
+        tri_material,
         windows: found,
         images,
     } = prepared;
+    // Nothing reads the imported triangles and attributes again: let them go before the
+    // vertex cache step, the peak of a large mesh's cook (a 1M-triangle OBJ's corners alone
+    // are 36 MB).
+    drop(tri_material);
+    for src in &mut imported {
+        src.release_geometry();
+    }
+    let mut processed: Vec<mesh::Processed> = deduplicated
+        .into_par_iter()
+        .map(|d| mesh::optimize(d, &mesh_needs, &settings.mesh))
+        .collect();
     record_sources(&manifest, &imported, &tagging, &mut report);
     prune::unused_materials(
         &manifest,
@@ -339,20 +349,6 @@ fn record_sources(
         report.inputs.extend(s.files.iter().cloned());
     }
     report.heuristics = heuristic_notes(imported, tagging);
-}
-
-fn process_meshes(
-    imported: &[import::Imported],
-    tri_material: &[Vec<u16>],
-    tagging: &tag::Tagging,
-    settings: &Settings,
-) -> Vec<mesh::Processed> {
-    let needs = material_needs(tagging);
-    imported
-        .par_iter()
-        .zip(tri_material)
-        .map(|(src, tm)| mesh::process(src, tm, &needs, &settings.mesh))
-        .collect()
 }
 
 /// Each window's projector frame, facing the side the window stage chose, and per material

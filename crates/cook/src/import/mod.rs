@@ -236,6 +236,15 @@ impl Imported {
         self.tri_part.len()
     }
 
+    /// Frees the triangles' corners and attribute arrays once the mesh stage has read them;
+    /// names, parts and the per-triangle part stay (pruning and the report read them).
+    pub fn release_geometry(&mut self) {
+        self.positions = Vec::new();
+        self.normals = Vec::new();
+        self.uvs = Vec::new();
+        self.corners = Vec::new();
+    }
+
     /// Applies an affine transform to positions and normals; a mirroring transform also flips
     /// the winding so front faces stay front faces.
     pub fn transform(&mut self, m: glam::Mat4) {

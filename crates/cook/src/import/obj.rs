@@ -227,15 +227,26 @@ enum Statement {
     Unknown(String),
 }
 
-/// A face as read: where its corners' indices start in [`Chunk::raw`], and how many of each
-/// attribute its chunk had defined before it.
+/// A face as read: its line in the chunk and its number of corners, which follow the previous
+/// face's in [`Chunk::raw`]. Eight bytes: a large OBJ's faces are held until the file's end.
+#[derive(Clone, Copy)]
 struct Face {
     line: u32,
+    /// The corner count, with [`BROKEN`] set for a face cut short by a field that is not an
+    /// index (its corners are only checked).
     len: u32,
-    start: u32,
-    defined: [u32; 3],
-    /// Cut short by a field that is not an index: its corners are only checked.
-    broken: bool,
+}
+
+const BROKEN: u32 = 1 << 31;
+
+impl Face {
+    fn corners(self) -> usize {
+        (self.len & !BROKEN) as usize
+    }
+
+    fn broken(self) -> bool {
+        self.len & BROKEN != 0
+    }
 }
 
 /// What one run of lines holds, read without knowing the lines before it: attribute arrays,
@@ -248,13 +259,19 @@ struct Chunk {
     uvs: Vec<[f32; 2]>,
     normals: Vec<[f32; 3]>,
     /// Each face corner's indices as written ([`ABSENT`] for a missing field, [`WIDE`] for
-    /// one in `wide`). i32 rather than i64: the chunks are the peak of a large OBJ's cook,
-    /// and the 819k-triangle grid's peak heap went from 230 to 197 MB.
-    raw: Vec<[i32; 3]>,
-    /// The indices that do not fit in `raw`, by their place in it (3 × corner + field). Only
+    /// one in `wide`): only the vertex index a corner until a corner has more
+    /// (`three_fields`), then all three. The chunks are the import's peak: i32 rather than i64 took the
+    /// 819k-triangle grid's peak heap from 230 to 197 MB, and a file of bare positions holds
+    /// 4 bytes a corner rather than 12.
+    raw: Vec<i32>,
+    three_fields: bool,
+    /// The indices that do not fit in `raw`, by corner and field (3 × corner + field). Only
     /// an error message reads them: no file has 2^31 vertices to reach.
     wide: Vec<(usize, i64)>,
     faces: Vec<Face>,
+    /// How many of each attribute the chunk defines before its faces, as runs: (first face,
+    /// counts), a run starting where the counts change.
+    defined: Vec<(u32, [u32; 3])>,
     /// Triangles its faces of three or more corners make (`n - 2` each).
     triangles: usize,
     statements: Vec<(usize, usize, Statement)>,
@@ -264,23 +281,87 @@ struct Chunk {
 const ABSENT: i32 = i32::MIN;
 const WIDE: i32 = i32::MIN + 1;
 
+/// Appends a corner's fields to `raw`, one or three of them a corner; the first corner with a
+/// texture coordinate or normal index (at a chunk's first face, in most files that have them)
+/// widens the corners before it from one field to three.
+#[inline(always)]
+fn push_corner(raw: &mut Vec<i32>, three_fields: &mut bool, corner: [i32; 3]) {
+    if *three_fields {
+        raw.extend_from_slice(&corner);
+    } else if corner[1] == ABSENT && corner[2] == ABSENT {
+        raw.push(corner[0]);
+    } else {
+        let mut wide = Vec::with_capacity(3 * raw.capacity().max(raw.len() + 1));
+        for &p in raw.iter() {
+            wide.extend_from_slice(&[p, ABSENT, ABSENT]);
+        }
+        *raw = wide;
+        *three_fields = true;
+        raw.extend_from_slice(&corner);
+    }
+}
+
+impl Chunk {
+    fn stride(&self) -> usize {
+        if self.three_fields { 3 } else { 1 }
+    }
+
+    fn corner_count(&self) -> usize {
+        self.raw.len() / self.stride()
+    }
+
+    /// Corner `i`'s three fields.
+    fn corner(&self, i: usize) -> [i32; 3] {
+        if self.three_fields {
+            let r = &self.raw[3 * i..3 * i + 3];
+            [r[0], r[1], r[2]]
+        } else {
+            [self.raw[i], ABSENT, ABSENT]
+        }
+    }
+
+    fn push_corner(&mut self, corner: [i32; 3]) {
+        push_corner(&mut self.raw, &mut self.three_fields, corner);
+    }
+
+    /// Ends a face of the corners pushed since `corners_before`.
+    fn push_face(&mut self, line: usize, corners_before: usize, broken: bool) {
+        let counts = [self.positions.len(), self.uvs.len(), self.normals.len()].map(|n| n as u32);
+        if self.defined.last().is_none_or(|d| d.1 != counts) {
+            self.defined.push((self.faces.len() as u32, counts));
+        }
+        let len = (self.corner_count() - corners_before) as u32;
+        self.faces.push(Face {
+            line: line as u32,
+            len: if broken { len | BROKEN } else { len },
+        });
+    }
+}
+
 /// Reads a chunk's lines, numbered from 1 within the chunk.
 fn read_chunk(bytes: &[u8]) -> Chunk {
     let mut c = Chunk::default();
     // Sized from the lines' keywords first (a triangle's three corners each; a polygon grows
     // the corners), so the large vectors do not grow: each doubling touched fresh memory,
     // and its page faults were a tenth of a 100k-triangle cook.
-    let (mut positions, mut faces) = (0, 0);
+    // A first face with more than vertex indices sets three fields a corner from the start.
+    let (mut positions, mut faces, mut three_fields) = (0, 0, false);
     for line in lines(bytes) {
         match line {
             [b'v', b' ' | b'\t', ..] => positions += 1,
-            [b'f', b' ' | b'\t', ..] => faces += 1,
+            [b'f', b' ' | b'\t', ..] => {
+                if faces == 0 && memchr::memchr(b'/', line).is_some() {
+                    three_fields = true;
+                }
+                faces += 1;
+            }
             _ => {}
         }
     }
     c.positions.reserve(positions);
     c.faces.reserve(faces);
-    c.raw.reserve(3 * faces);
+    c.three_fields = three_fields;
+    c.raw.reserve(3 * c.stride() * faces);
     for (index, raw) in lines(bytes).enumerate() {
         c.lines = index + 1;
         if let Err(message) = read_line(&mut c, index + 1, raw) {
@@ -381,17 +462,20 @@ fn read_line(c: &mut Chunk, line_no: usize, raw: &[u8]) -> Result<(), String> {
             return Ok(());
         }
         b"f" => {
-            let start = c.raw.len();
+            let start = c.corner_count();
             // A chunk ends at a line's end, so only one line of gigabytes could overflow.
-            let start32 = u32::try_from(start)
-                .map_err(|_| "more than 4 billion face corners in one run of lines".to_string())?;
-            if !plain_corners(&mut c.raw, rest) {
+            if u32::try_from(start).is_err() || c.faces.len() >= BROKEN as usize {
+                return Err(
+                    "more than 2 billion faces or 4 billion corners in one run of lines".into(),
+                );
+            }
+            if !plain_corners(c, rest) {
                 for t in it {
                     let (fields, error) = match read_corner(t) {
                         Ok(fields) => (fields, None),
                         Err((fields, message)) => (fields, Some(message)),
                     };
-                    let at = 3 * c.raw.len();
+                    let at = 3 * c.corner_count();
                     let mut corner = [ABSENT; 3];
                     for (k, field) in fields.iter().enumerate() {
                         if let Some(i) = *field {
@@ -404,32 +488,18 @@ fn read_line(c: &mut Chunk, line_no: usize, raw: &[u8]) -> Result<(), String> {
                             };
                         }
                     }
-                    c.raw.push(corner);
+                    c.push_corner(corner);
                     if let Some(message) = error {
                         // Line by line, the indices before the bad field are checked first:
                         // keep them as a face that makes no triangles, for that check.
-                        c.faces.push(Face {
-                            line: line_no as u32,
-                            len: (c.raw.len() - start) as u32,
-                            start: start32,
-                            defined: [c.positions.len(), c.uvs.len(), c.normals.len()]
-                                .map(|n| n as u32),
-                            broken: true,
-                        });
+                        c.push_face(line_no, start, true);
                         return Err(message);
                     }
                 }
             }
-            let len = c.raw.len() - start;
-            c.triangles += len.saturating_sub(2);
+            c.triangles += (c.corner_count() - start).saturating_sub(2);
             // A chunk is far below 4 GiB, so its line and attribute counts fit.
-            c.faces.push(Face {
-                line: line_no as u32,
-                len: len as u32,
-                start: start32,
-                defined: [c.positions.len(), c.uvs.len(), c.normals.len()].map(|n| n as u32),
-                broken: false,
-            });
+            c.push_face(line_no, start, false);
             return Ok(());
         }
         b"l" => Statement::Line,
@@ -469,20 +539,29 @@ fn plain_floats<const N: usize>(rest: &[u8]) -> Option<[f32; N]> {
     Some(out)
 }
 
-/// Reads a face's corners (`rest`, trimmed) onto `raw` when they are all plain: fields of up
-/// to 9 digits with an optional minus, an empty texture coordinate or normal field absent.
-/// These are what [`read_corner`] would read, straight from the bytes with no token or field
-/// splitting (the face lines are most of a mesh's text). Anything else (a plus sign, longer
-/// numbers, a fourth field, a bad character) leaves `raw` as it was and returns false, for
-/// the general path to read or to report.
-fn plain_corners(raw: &mut Vec<[i32; 3]>, rest: &[u8]) -> bool {
-    let start = raw.len();
+/// Reads a face's corners (`rest`, trimmed) onto the chunk's when they are all plain: fields
+/// of up to 9 digits with an optional minus, an empty texture coordinate or normal field
+/// absent. These are what [`read_corner`] would read, straight from the bytes with no token or
+/// field splitting (the face lines are most of a mesh's text). Anything else (a plus sign,
+/// longer numbers, a fourth field, a bad character) leaves the corners as they were and
+/// returns false, for the general path to read or to report.
+fn plain_corners(c: &mut Chunk, rest: &[u8]) -> bool {
+    // The vector and its width as locals: through `c` the loop reloaded them every corner
+    // (the 819k-triangle grid's import was 5 % slower).
+    let mut three_fields = c.three_fields;
+    let start = c.corner_count();
+    let read = plain_corners_onto(&mut c.raw, &mut three_fields, rest);
+    c.three_fields = three_fields;
+    // A widening on the way stays: the corners before `start` are the same in three fields.
+    if !read {
+        c.raw.truncate(start * c.stride());
+    }
+    read
+}
+
+fn plain_corners_onto(raw: &mut Vec<i32>, three_fields: &mut bool, rest: &[u8]) -> bool {
     let n = rest.len();
     let mut i = 0;
-    let fail = |raw: &mut Vec<[i32; 3]>| {
-        raw.truncate(start);
-        false
-    };
     while i < n {
         let mut corner = [ABSENT; 3];
         for (k, field) in corner.iter_mut().enumerate() {
@@ -502,14 +581,14 @@ fn plain_corners(raw: &mut Vec<[i32; 3]>, rest: &[u8]) -> bool {
                 .filter(|&d| d <= 9)
             {
                 if i - first == 9 {
-                    return fail(raw);
+                    return false;
                 }
                 v = v * 10 + i32::from(d);
                 i += 1;
             }
             if i == first {
                 if negative || k == 0 {
-                    return fail(raw);
+                    return false;
                 }
                 continue;
             }
@@ -522,9 +601,9 @@ fn plain_corners(raw: &mut Vec<[i32; 3]>, rest: &[u8]) -> bool {
                     i += 1;
                 }
             }
-            Some(_) => return fail(raw),
+            Some(_) => return false,
         }
-        raw.push(corner);
+        push_corner(raw, three_fields, corner);
     }
     true
 }
@@ -915,15 +994,20 @@ fn parse_stream(
         source,
     };
     let block_bytes = block_bytes.max(1);
-    // Appends up to `block_bytes` to `buf`; true at the end of the file.
+    // Appends up to `block_bytes` to `buf`; true at the end of the file. Room is made first,
+    // exactly: left to `read_to_end`, a buffer holding a carried-over line doubled to twice
+    // the block.
     let fill = |reader: &mut dyn std::io::Read, buf: &mut Vec<u8>| -> std::io::Result<bool> {
         let start = buf.len();
+        buf.reserve_exact(block_bytes);
         std::io::Read::read_to_end(&mut std::io::Read::take(reader, block_bytes as u64), buf)?;
         Ok(buf.len() - start < block_bytes)
     };
     let mut gathered = Gathered::default();
-    let mut block: Vec<u8> = Vec::with_capacity(block_bytes);
-    let mut next: Vec<u8> = Vec::with_capacity(block_bytes);
+    // With room for a line carried over, so that the buffers are not grown block after block.
+    let room = block_bytes + (64 << 10);
+    let mut block: Vec<u8> = Vec::with_capacity(room);
+    let mut next: Vec<u8> = Vec::with_capacity(room);
     let mut end = fill(reader, &mut block).map_err(io)?;
     // The bytes of `block` already checked: a line carried over, or read on, is not checked
     // again (a file of one long line would be, block after block).
@@ -1071,7 +1155,7 @@ fn assemble(path: &Path, gathered: Gathered) -> Result<Imported, CookError> {
             // with three corners, as line by line), and counted for their group.
             let whole = c.faces[face..next]
                 .iter()
-                .filter(|f| f.len >= 3 && !f.broken)
+                .filter(|f| f.corners() >= 3 && !f.broken())
                 .count();
             if whole > 0 {
                 if let Some((_, n)) = &mut group_faces {
@@ -1188,13 +1272,19 @@ fn assemble(path: &Path, gathered: Gathered) -> Result<Imported, CookError> {
             let mut poly: Vec<[f32; 3]> = Vec::new();
             let mut tris: Vec<[u32; 3]> = Vec::new();
             let (mut run, mut at) = (0, 0);
-            for (i, f) in c.faces.iter().enumerate() {
+            let (mut counts, mut start) = (0, 0);
+            for (i, &f) in c.faces.iter().enumerate() {
                 let line = offset + f.line as usize;
+                while counts + 1 < c.defined.len() && c.defined[counts + 1].0 as usize <= i {
+                    counts += 1;
+                }
                 let defined: [usize; 3] =
-                    std::array::from_fn(|k| before[k] + f.defined[k] as usize);
+                    std::array::from_fn(|k| before[k] + c.defined[counts].1[k] as usize);
                 face.clear();
-                let start = f.start as usize;
-                for (at, raw) in (start..).zip(&c.raw[start..start + f.len as usize]) {
+                let corners = start..start + f.corners();
+                start = corners.end;
+                for at in corners {
+                    let raw = c.corner(at);
                     let index = |k: usize| match raw[k] {
                         ABSENT => None,
                         WIDE => Some(
@@ -1214,7 +1304,7 @@ fn assemble(path: &Path, gathered: Gathered) -> Result<Imported, CookError> {
                         }
                     }
                 }
-                if f.broken {
+                if f.broken() {
                     continue;
                 }
                 if face.len() < 3 {

@@ -68,6 +68,7 @@ pub fn is_degenerate(a: [f32; 3], b: [f32; 3], c: [f32; 3]) -> bool {
     n.length_squared().partial_cmp(&0.0) != Some(std::cmp::Ordering::Greater)
 }
 
+#[derive(Debug)]
 struct Timer {
     last: Instant,
     stages: Vec<(&'static str, Duration)>,
@@ -473,13 +474,40 @@ fn cache_pieces<'a>(
 }
 
 /// Processes one imported source whose triangles carry pack material IDs (`tri_material`,
-/// parallel to `src.tri_part`).
+/// parallel to `src.tri_part`): [`deduplicate`], then [`optimize`].
 pub fn process(
     src: &Imported,
     tri_material: &[u16],
     needs: &[MaterialNeeds],
     settings: &MeshSettings,
 ) -> Processed {
+    optimize(
+        deduplicate(src, tri_material, needs, settings),
+        needs,
+        settings,
+    )
+}
+
+/// A source's indexed vertices, grouped into draw ranges, before the orderings: the last
+/// step that reads the imported triangles. A caller that holds them for nothing else drops
+/// them before [`optimize`], whose vertex cache step is the peak of a large mesh's cook.
+#[derive(Debug)]
+pub struct Deduplicated {
+    vertices: Vec<StandardVertex>,
+    indices: Vec<u32>,
+    ranges: Vec<pack::DrawRange>,
+    stats: MeshStats,
+    timer: Timer,
+}
+
+/// Drops degenerate triangles, groups the rest by material, finds each corner's normal and
+/// deduplicates the corners into vertices.
+pub fn deduplicate(
+    src: &Imported,
+    tri_material: &[u16],
+    needs: &[MaterialNeeds],
+    settings: &MeshSettings,
+) -> Deduplicated {
     let mut timer = Timer::new();
     let mut stats = MeshStats {
         triangles_in: src.triangle_count(),
@@ -523,7 +551,7 @@ pub fn process(
     stats.corners = keep.len() * 3;
     timer.lap("normals");
 
-    let (vertices, mut indices) = if any_tangents {
+    let (vertices, indices) = if any_tangents {
         let (v, i, tangent_triangles) = dedupe_with_tangents(
             src,
             &keep,
@@ -566,7 +594,27 @@ pub fn process(
             }),
         }
     }
-    drop(keep);
+    Deduplicated {
+        vertices,
+        indices,
+        ranges,
+        stats,
+        timer,
+    }
+}
+
+/// Orders the triangles for the vertex cache (and overdraw, when asked) and the vertices for
+/// fetch, dropping unreferenced ones.
+pub fn optimize(d: Deduplicated, needs: &[MaterialNeeds], settings: &MeshSettings) -> Processed {
+    let Deduplicated {
+        vertices,
+        mut indices,
+        ranges,
+        mut stats,
+        mut timer,
+    } = d;
+    // The stages here are timed from now: the caller may have waited between the two halves.
+    timer.last = Instant::now();
     stats.acmr_in = if indices.is_empty() || !settings.analyze {
         0.0
     } else {
