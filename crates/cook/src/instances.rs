@@ -12,7 +12,7 @@ use std::collections::HashMap;
 use glam::{DVec2, DVec3};
 use pack::{LightKind, MaterialClass};
 
-use crate::import::{Imported, NONE};
+use crate::import::{Corner, Imported, NONE};
 use crate::windows::v3;
 
 /// Relative weld tolerance: positions closer than this fraction of the model's diagonal are
@@ -105,11 +105,10 @@ fn weld_ids(src: &Imported, tris: &[u32], tolerance: f64) -> Vec<u32> {
     let mut ids = vec![u32::MAX; src.positions.len()];
     let mut cells: HashMap<[i64; 3], u32> = HashMap::new();
     for &t in tris {
-        for c in &src.corners[t as usize * 3..t as usize * 3 + 3] {
-            let id = &mut ids[c.p as usize];
+        for p in src.corners.triangle_positions(t as usize) {
+            let id = &mut ids[p as usize];
             if *id == u32::MAX {
-                let key =
-                    src.positions[c.p as usize].map(|c| (c as f64 / tolerance).round() as i64);
+                let key = src.positions[p as usize].map(|c| (c as f64 / tolerance).round() as i64);
                 let next = cells.len() as u32;
                 *id = *cells.entry(key).or_insert(next);
             }
@@ -120,8 +119,7 @@ fn weld_ids(src: &Imported, tris: &[u32], tolerance: f64) -> Vec<u32> {
 
 /// Triangle `t` of `src`, its corners in f64.
 pub(crate) fn triangle(src: &Imported, t: u32) -> [DVec3; 3] {
-    let c = &src.corners[t as usize * 3..t as usize * 3 + 3];
-    [c[0], c[1], c[2]].map(|k| v3(src.positions[k.p as usize]))
+    (src.corners.triangle_positions(t as usize)).map(|k| v3(src.positions[k as usize]))
 }
 
 /// Area-weighted plane of some triangles: centroid, unit normal (sign of the largest
@@ -173,7 +171,7 @@ fn components(src: &Imported, weld: &[u32], tris: &[u32]) -> Vec<Vec<u32>> {
     let mut local: HashMap<u32, u32> = HashMap::new();
     for &t in tris {
         for k in 0..3 {
-            let w = weld[src.corners[t as usize * 3 + k].p as usize];
+            let w = weld[src.corners.p(t as usize * 3 + k) as usize];
             let n = local.len() as u32;
             local.entry(w).or_insert(n);
         }
@@ -181,7 +179,7 @@ fn components(src: &Imported, weld: &[u32], tris: &[u32]) -> Vec<Vec<u32>> {
     let mut uf = UnionFind::new(local.len());
     for &t in tris {
         let ids: Vec<u32> = (0..3)
-            .map(|k| local[&weld[src.corners[t as usize * 3 + k].p as usize]])
+            .map(|k| local[&weld[src.corners.p(t as usize * 3 + k) as usize]])
             .collect();
         uf.union(ids[0], ids[1]);
         uf.union(ids[0], ids[2]);
@@ -189,7 +187,7 @@ fn components(src: &Imported, weld: &[u32], tris: &[u32]) -> Vec<Vec<u32>> {
     let mut groups: Vec<(u32, Vec<u32>)> = Vec::new();
     let mut slot: HashMap<u32, usize> = HashMap::new();
     for &t in tris {
-        let w = weld[src.corners[t as usize * 3].p as usize];
+        let w = weld[src.corners.p(t as usize * 3) as usize];
         let root = uf.find(local[&w]);
         let i = *slot.entry(root).or_insert_with(|| {
             groups.push((t, Vec::new()));
@@ -368,7 +366,7 @@ fn has_uvs(src: &Imported, tris: &[u32]) -> bool {
     let mut varies = false;
     for &t in tris {
         for k in 0..3 {
-            let c = src.corners[t as usize * 3 + k];
+            let c = src.corners.get(t as usize * 3 + k);
             if c.t == NONE {
                 return false;
             }
@@ -609,9 +607,16 @@ pub fn write_planar_uvs(src: &mut Imported, instance: &Instance) {
     for &t in &instance.triangles {
         for k in 0..3 {
             let c = t as usize * 3 + k;
-            let p = v3(src.positions[src.corners[c].p as usize]);
+            let p = v3(src.positions[src.corners.p(c) as usize]);
             src.uvs.push(instance.planar_uv(p));
-            src.corners[c].t = src.uvs.len() as u32 - 1;
+            let t = src.uvs.len() as u32 - 1;
+            src.corners.set(
+                c,
+                Corner {
+                    t,
+                    ..src.corners.get(c)
+                },
+            );
         }
     }
 }
@@ -725,8 +730,8 @@ mod tests {
         let floor = quads(&[([-4., 0., -60.], [8., 0., 0.], [0., 0., 62.], 1)]);
         let n = src.positions.len() as u32;
         src.positions.extend(&floor.positions);
-        for c in &floor.corners {
-            src.corners.push(Corner { p: c.p + n, ..*c });
+        for c in floor.corners.iter() {
+            src.corners.push(Corner { p: c.p + n, ..c });
         }
         src.tri_part.extend([1, 1]);
         src.parts.push(Part {

@@ -273,12 +273,12 @@ pub fn part_geometry(src: &Imported) -> (Vec<PartGeometry>, [f64; 2], f64) {
             // Where each part's sums are, for runs that mix many parts.
             let mut at: HashMap<u32, usize> = HashMap::new();
             let mut total = 0.0;
-            for (t, &part) in src.corners[span.start * 3..span.end * 3]
+            for (t, &part) in src.corners.positions()[span.start * 3..span.end * 3]
                 .chunks_exact(3)
                 .zip(&src.tri_part[span])
             {
                 let [a, b, c] = [t[0], t[1], t[2]].map(|k| {
-                    let p = src.positions[k.p as usize];
+                    let p = src.positions[k as usize];
                     glam::DVec3::new(p[0] as f64, p[1] as f64, p[2] as f64)
                 });
                 let n = (b - a).cross(c - a);
@@ -609,9 +609,9 @@ mod tests {
         let one = on(1);
         assert_eq!(one, on(2));
         let mut area = vec![0.0f64; 300];
-        for (t, &part) in src.corners.chunks_exact(3).zip(&src.tri_part) {
+        for (t, &part) in src.corners.positions().chunks_exact(3).zip(&src.tri_part) {
             let [a, b, c] = [t[0], t[1], t[2]].map(|k| {
-                let p = src.positions[k.p as usize];
+                let p = src.positions[k as usize];
                 glam::DVec3::new(p[0] as f64, p[1] as f64, p[2] as f64)
             });
             area[part as usize] += (b - a).cross(c - a).length() * 0.5;

@@ -211,8 +211,9 @@ pub fn validate_scene(manifest: &Manifest) -> Result<Validation, CookError> {
     for src in &sources {
         let tris = src
             .corners
+            .positions()
             .chunks_exact(3)
-            .map(|c| [c[0], c[1], c[2]].map(|c| src.positions[c.p as usize]));
+            .map(|c| [c[0], c[1], c[2]].map(|p| src.positions[p as usize]));
         let (degenerate, duplicate) = degenerate_and_duplicates(tris);
         if degenerate > 0 {
             v.add(

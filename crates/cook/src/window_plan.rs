@@ -100,8 +100,7 @@ fn uv_triangles(
                 panes.len() - 1
             }
         };
-        let c = &src.corners[t as usize * 3..t as usize * 3 + 3];
-        let uv = [c[0], c[1], c[2]].map(|k| {
+        let uv = src.corners.triangle(t as usize).map(|k| {
             if k.t == NONE {
                 [0.0; 2]
             } else {
@@ -204,7 +203,7 @@ pub fn plan(
         for (t, &m) in mats.iter().enumerate() {
             let class = classes[m as usize];
             for k in 0..3 {
-                let y = src.positions[src.corners[t * 3 + k].p as usize][1] as f64;
+                let y = src.positions[src.corners.p(t * 3 + k) as usize][1] as f64;
                 match class {
                     MaterialClass::Floor => floor = floor.min(y),
                     MaterialClass::Wall => wall_top = wall_top.max(y),
@@ -238,8 +237,9 @@ pub fn plan(
             .triangles
             .iter()
             .flat_map(|&t| {
-                let c = &sources[inst.source].corners[t as usize * 3..t as usize * 3 + 3];
-                [c[0], c[1], c[2]].map(|k| sources[inst.source].positions[k.p as usize][1] as f64)
+                let s = &sources[inst.source];
+                (s.corners.triangle_positions(t as usize))
+                    .map(|k| s.positions[k as usize][1] as f64)
             })
             .fold(f64::INFINITY, f64::min);
         let class = if by_rule[dominant as usize] || !floor.is_finite() {

@@ -9,7 +9,7 @@
 use std::collections::HashMap;
 use std::path::{Path, PathBuf};
 
-use super::{Corner, ImageRef, Imported, NONE, Names, Part, SourceMaterial, Warning};
+use super::{Corner, Corners, ImageRef, Imported, NONE, Names, Part, SourceMaterial, Warning};
 use crate::CookError;
 use crate::triangulate::triangulate;
 
@@ -265,6 +265,8 @@ struct Chunk {
     /// 4 bytes a corner rather than 12.
     raw: Vec<i32>,
     three_fields: bool,
+    /// Whether any corner has each field (the vertex index always).
+    has_field: [bool; 3],
     /// The indices that do not fit in `raw`, by corner and field (3 × corner + field). Only
     /// an error message reads them: no file has 2^31 vertices to reach.
     wide: Vec<(usize, i64)>,
@@ -369,6 +371,12 @@ fn read_chunk(bytes: &[u8]) -> Chunk {
             // The lines after it still count for the chunks after this one.
             c.lines = memchr::memchr_iter(b'\n', bytes).count() + 1;
             break;
+        }
+    }
+    c.has_field[0] = true;
+    if c.three_fields {
+        for k in 1..3 {
+            c.has_field[k] = c.raw.chunks_exact(3).any(|f| f[k] != ABSENT);
         }
     }
     c
@@ -786,7 +794,9 @@ fn parse_lines(path: &Path, bytes: &[u8]) -> Result<Imported, CookError> {
                 }
                 let part = current_part(&mut state, &mut out, &material_ids);
                 if face.len() == 3 {
-                    out.corners.extend_from_slice(&face);
+                    for &c in &face {
+                        out.corners.push(c);
+                    }
                     out.tri_part.push(part);
                 } else {
                     out.polygons += 1;
@@ -795,7 +805,9 @@ fn parse_lines(path: &Path, bytes: &[u8]) -> Result<Imported, CookError> {
                     tris.clear();
                     triangulate(&poly, &mut tris);
                     for t in &tris {
-                        out.corners.extend(t.iter().map(|&i| face[i as usize]));
+                        for &i in t {
+                            out.corners.push(face[i as usize]);
+                        }
                         out.tri_part.push(part);
                     }
                 }
@@ -1241,19 +1253,30 @@ fn assemble(path: &Path, gathered: Gathered) -> Result<Imported, CookError> {
     }
     let positions = &out.positions;
     let triangles: usize = chunks.iter().map(|c| c.triangles).sum();
-    let mut corners: Vec<Corner> = Vec::with_capacity(3 * triangles);
+    // A field no corner of the file has is not stored at all.
+    let lens: [usize; 3] = std::array::from_fn(|field| {
+        let has = field == 0 || chunks.iter().any(|c| c.has_field[field]);
+        if has { 3 * triangles } else { 0 }
+    });
+    let mut corner_fields: [Vec<u32>; 3] = lens.map(Vec::with_capacity);
     let mut tri_part: Vec<u32> = Vec::with_capacity(triangles);
     let mut shares = Vec::with_capacity(chunks.len());
     {
-        let (mut cs, mut ps) = (
-            &mut corners.spare_capacity_mut()[..3 * triangles],
-            &mut tri_part.spare_capacity_mut()[..triangles],
-        );
+        let mut rest = std::array::from_fn::<_, 3, _>(|_| Default::default());
+        for ((r, f), &len) in rest.iter_mut().zip(&mut corner_fields).zip(&lens) {
+            *r = &mut f.spare_capacity_mut()[..len];
+        }
+        let mut ps = &mut tri_part.spare_capacity_mut()[..triangles];
         for c in &chunks {
-            let (c3, c_rest) = cs.split_at_mut(3 * c.triangles);
+            let share = rest.each_mut().map(|f| {
+                let n = if f.is_empty() { 0 } else { 3 * c.triangles };
+                let (mine, others) = std::mem::take(f).split_at_mut(n);
+                *f = others;
+                mine
+            });
             let (p1, p_rest) = ps.split_at_mut(c.triangles);
-            shares.push((c3, p1));
-            (cs, ps) = (c_rest, p_rest);
+            shares.push((share, p1));
+            ps = p_rest;
         }
     }
     let resolved: Vec<Resolved> = chunks
@@ -1262,7 +1285,7 @@ fn assemble(path: &Path, gathered: Gathered) -> Result<Imported, CookError> {
         .zip(&before)
         .zip(&runs)
         .zip(&offset)
-        .map(|((((c, (c3, p1)), before), runs), &offset)| {
+        .map(|((((c, (mut c3, p1)), before), runs), &offset)| {
             let mut r = Resolved {
                 polygons: 0,
                 short: Vec::new(),
@@ -1317,7 +1340,11 @@ fn assemble(path: &Path, gathered: Gathered) -> Result<Imported, CookError> {
                 let part = runs.get(run).map_or(0, |r| r.1);
                 let mut put = |t: [Corner; 3]| {
                     for (k, corner) in t.into_iter().enumerate() {
-                        c3[3 * at + k].write(corner);
+                        for (field, value) in c3.iter_mut().zip([corner.p, corner.t, corner.n]) {
+                            if let Some(slot) = field.get_mut(3 * at + k) {
+                                slot.write(value);
+                            }
+                        }
                     }
                     p1[at].write(part);
                     at += 1;
@@ -1358,10 +1385,13 @@ fn assemble(path: &Path, gathered: Gathered) -> Result<Imported, CookError> {
     // syntax error or a material library has its error there too), so every chunk wrote
     // exactly its share, checked by the assertion: all `triangles` entries are written.
     unsafe {
-        corners.set_len(3 * triangles);
+        for (f, len) in corner_fields.iter_mut().zip(lens) {
+            f.set_len(len);
+        }
         tri_part.set_len(triangles);
     }
-    out.corners = corners;
+    let [p, t, n] = corner_fields;
+    out.corners = Corners::from_fields(p, t, n);
     out.tri_part = tri_part;
     let mut short_faces: Vec<usize> = Vec::new();
     for r in resolved {

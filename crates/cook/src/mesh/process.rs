@@ -10,7 +10,7 @@ use rayon::prelude::*;
 
 use super::weld::{plus_zero, weld};
 use super::{CacheMode, MaterialNeeds, MeshSettings, MeshStats, Processed};
-use crate::import::{Imported, NONE};
+use crate::import::{Corner, Imported, NONE};
 
 /// `v` scaled to unit length, or zero when it has none. Divides by the length where glam's
 /// `normalize_or_zero` multiplies by its reciprocal: that rounds differently, and the cooked
@@ -102,14 +102,18 @@ fn source_normals(src: &Imported, keep: &[u32]) -> (Vec<u32>, Vec<[f32; 3]>, usi
     for (n, &id) in units.iter().zip(&source_id) {
         table[id as usize] = n.map(plus_zero);
     }
+    let corner_n = src.corners.normal_indices();
+    if corner_n.is_empty() {
+        return (vec![NONE; keep.len() * 3], table, keep.len() * 3);
+    }
     let mut ids: Vec<u32> = Vec::with_capacity(keep.len() * 3);
     let mut missing = 0usize;
     for &t in keep {
-        for c in &src.corners[t as usize * 3..t as usize * 3 + 3] {
-            let id = if c.n == NONE {
+        for &n in &corner_n[t as usize * 3..t as usize * 3 + 3] {
+            let id = if n == NONE {
                 NONE
             } else {
-                source_id[c.n as usize]
+                source_id[n as usize]
             };
             if id == NONE || Vec3::from(table[id as usize]).length_squared() == 0.0 {
                 ids.push(NONE);
@@ -157,8 +161,7 @@ fn corner_normals(
         .zip(keep.par_chunks(CHUNK))
         .for_each(|(((at, faces), w), tris)| {
             for (k, &t) in tris.iter().enumerate() {
-                let c = &src.corners[t as usize * 3..t as usize * 3 + 3];
-                let p = [c[0].p, c[1].p, c[2].p];
+                let p = src.corners.triangle_positions(t as usize);
                 at[3 * k..3 * k + 3].copy_from_slice(&p.map(|i| canon[i as usize]));
                 let [a, b, d] = p.map(|i| Vec3::from(src.positions[i as usize]));
                 // The face normal and each edge normalized once, lane by lane so that the
@@ -300,11 +303,24 @@ fn dedupe_by_key(
     let mut vertex_keys: Vec<(u32, u32, u16)> = Vec::with_capacity(expected);
     let mut vertices = Vec::with_capacity(expected);
     let mut indices = Vec::with_capacity(keep.len() * 3);
+    // Field by field: a bare mesh's corners have no texture-coordinate indices to read, and
+    // without welded ones (no material samples a texture) none is read.
+    let corner_p = src.corners.positions();
+    let corner_t = if uv.is_some() {
+        src.corners.uv_indices()
+    } else {
+        &[]
+    };
     for (&t, normals) in keep.iter().zip(corner_normal.chunks_exact(3)) {
         let m = tri_material[t as usize];
         let need = needs[m as usize];
-        let corners = &src.corners[t as usize * 3..t as usize * 3 + 3];
-        for (&c, &n) in corners.iter().zip(normals) {
+        let base = t as usize * 3;
+        for (k, &n) in normals.iter().enumerate() {
+            let c = Corner {
+                p: corner_p[base + k],
+                t: corner_t.get(base + k).copied().unwrap_or(NONE),
+                n: NONE,
+            };
             let p = canon[c.p as usize] as usize;
             let uv_id = match uv {
                 Some(uv) if c.t != NONE && need.uvs => uv[c.t as usize],
@@ -343,7 +359,7 @@ fn dedupe_with_tangents(
     for (k, &t) in keep.iter().enumerate() {
         let m = tri_material[t as usize];
         for j in 0..3 {
-            let c = src.corners[t as usize * 3 + j];
+            let c = src.corners.get(t as usize * 3 + j);
             corners.push(vertex(
                 src,
                 c,
@@ -516,9 +532,9 @@ pub fn deduplicate(
 
     // Drop degenerate triangles before anything divides by their area.
     let mut keep: Vec<u32> = Vec::with_capacity(src.triangle_count());
-    for (ti, c) in src.corners.chunks_exact(3).enumerate() {
-        let [a, b, d] = [c[0], c[1], c[2]].map(|c| src.positions[c.p as usize]);
-        if c[0].p != c[1].p && c[1].p != c[2].p && c[0].p != c[2].p && !is_degenerate(a, b, d) {
+    for (ti, c) in src.corners.positions().chunks_exact(3).enumerate() {
+        let [a, b, d] = [c[0], c[1], c[2]].map(|p| src.positions[p as usize]);
+        if c[0] != c[1] && c[1] != c[2] && c[0] != c[2] && !is_degenerate(a, b, d) {
             keep.push(ti as u32);
         }
     }
@@ -789,8 +805,9 @@ mod tests {
         assert_eq!(by_key.len(), n);
         let source: Vec<u32> = s
             .corners
+            .positions()
             .chunks_exact(3)
-            .flat_map(|c| by_key[&key([0, 1, 2].map(|i| s.positions[c[i].p as usize]))])
+            .flat_map(|c| by_key[&key([0, 1, 2].map(|i| s.positions[c[i] as usize]))])
             .collect();
         // Within half a percent of ordering the whole range as one piece.
         let acmr = |i: &[u32]| meshopt::analyze_vertex_cache(i, p.vertices.len(), 16, 0, 0).acmr;
