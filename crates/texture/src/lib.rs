@@ -11,7 +11,7 @@
 //! - [`normal_mips`]: supplied normal maps (RGB or RG, OpenGL or DirectX green), filtered and
 //!   renormalized at every level; a texel whose normals cancel becomes (0, 0, 1).
 //! - [`derive_normal_map`]: a normal map from a design: lead came raised, hammered glass.
-//! - [`projector`]: the design blurred by a Gaussian in linear light (see [`blur`] for the
+//! - [`projector()`]: the design blurred by a Gaussian in linear light (see [`blur`] for the
 //!   method and its accuracy) with a zero border, σ from [`sigma_from_light`].
 //!
 //! Every [`MipChain`] holds RGBA8 levels, level 0 first, each `max(1, previous / 2)` texels on

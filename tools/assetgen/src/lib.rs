@@ -1,6 +1,6 @@
 //! Generates `assets-src/`: the default stained-glass corridor scene, deterministically.
 //!
-//! [`generate`] builds every file in memory (pure function of [`Options`]); [`write`] puts
+//! [`generate`] builds every file in memory (pure function of [`Options`]); [`write()`] puts
 //! them on disk atomically; [`tree_hash`] fingerprints a folder so a test can tell whether the
 //! committed assets are what the generator makes today.
 

@@ -215,7 +215,7 @@ fn tempfile_path(what: &str) -> std::path::PathBuf {
 }
 
 /// The `--measure-child` side: runs `args` (`RESULT PROGRAM ARGS...`) with this process's
-/// standard streams, writes "<wall ms> <peak RSS bytes>" to RESULT and returns the exit code
+/// standard streams, writes "`<wall ms> <peak RSS bytes>`" to RESULT and returns the exit code
 /// to leave with.
 pub fn measure_child(args: &[std::ffi::OsString]) -> anyhow::Result<i32> {
     use anyhow::Context;

@@ -671,8 +671,8 @@ fn chunks(bytes: &[u8], chunk_bytes: usize) -> Vec<&[u8]> {
     out
 }
 
-/// Parses OBJ text. `path` names the file in errors and locates `mtllib` files. Files of
-/// [`PARALLEL_BYTES`] or more are split (see [`parse_chunked`]).
+/// Parses OBJ text. `path` names the file in errors and locates `mtllib` files. Large texts
+/// are split into runs of lines read on every thread, with the same result.
 pub fn parse(path: &Path, bytes: &[u8]) -> Result<Imported, CookError> {
     if bytes.len() >= PARALLEL_BYTES {
         parse_chunked(path, bytes, CHUNK_BYTES)
