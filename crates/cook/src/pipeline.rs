@@ -58,8 +58,8 @@ pub fn cook(manifest: &Manifest, settings: &Settings) -> Result<CookOutput, Cook
         images,
     } = prepared;
     // Nothing reads the imported triangles and attributes again: let them go before the
-    // vertex cache step, the peak of a large mesh's cook (a 1M-triangle OBJ's corners alone
-    // are 36 MB).
+    // vertex cache step, which would otherwise be the peak of a large mesh's cook (a
+    // 1M-triangle OBJ's corners are 12 MB, 36 MB with texture coordinates and normals).
     drop(tri_material);
     for src in &mut imported {
         src.release_geometry();

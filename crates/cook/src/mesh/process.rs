@@ -506,7 +506,7 @@ pub fn process(
 
 /// A source's indexed vertices, grouped into draw ranges, before the orderings: the last
 /// step that reads the imported triangles. A caller that holds them for nothing else drops
-/// them before [`optimize`], whose vertex cache step is the peak of a large mesh's cook.
+/// them before [`optimize`], whose vertex cache step allocates as much again.
 #[derive(Debug)]
 pub struct Deduplicated {
     vertices: Vec<StandardVertex>,
