@@ -1,7 +1,8 @@
 //! What a bare model does not say: a sun whose light, through the windows, lands on the floor,
-//! and a few cameras inside the building. `cooker init` writes these into a starter manifest,
-//! and a bare `cooker cook model.obj` uses them directly, so a model from another tool shows
-//! stained-glass light without hand edits.
+//! and a few cameras inside the building (for a model without a floor, an object rather than a
+//! building, first a view of all of it from outside). `cooker init` writes these into a
+//! starter manifest, and a bare `cooker cook model.obj` uses them directly, so a model from
+//! another tool shows stained-glass light without hand edits.
 
 use glam::{DVec2, DVec3, Vec3Swizzles};
 use pack::MaterialClass;
@@ -381,6 +382,9 @@ fn sun_intensity(tagging: &crate::tag::Tagging, classes: &[MaterialClass], d: DV
     (0.85 / (albedo.max(0.2) * cos)).clamp(0.5, 8.0)
 }
 
+/// The guessed cameras' vertical field of view.
+const FOV_Y_DEG: f64 = 60.0;
+
 pub fn guess(p: &Prepared) -> Guess {
     let mut notes = Vec::new();
     let classes: Vec<MaterialClass> = p
@@ -462,7 +466,7 @@ pub fn guess(p: &Prepared) -> Guess {
             }
         }
     }
-    let light = match best {
+    let sun = match best {
         Some((_, d)) => {
             notes.push(format!(
                 "sun direction [{:.3}, {:.3}, {:.3}]: the most window light lands on the floor",
@@ -471,7 +475,8 @@ pub fn guess(p: &Prepared) -> Guess {
             Some(d)
         }
         None if windows.is_empty() => {
-            notes.push("no windows found: a default sun, which lights nothing through glass".into());
+            notes
+                .push("no windows found: a default sun, which lights nothing through glass".into());
             Some(DVec3::new(-0.4, -0.8, 0.45).normalize())
         }
         None => {
@@ -479,10 +484,12 @@ pub fn guess(p: &Prepared) -> Guess {
                 "no sun direction lands window light on a floor (no floor found, or the windows face away): a default sun through the largest window".into(),
             );
             let w = windows.iter().max_by(|a, b| a.area.total_cmp(&b.area));
-            Some(w.map_or(DVec3::new(-0.4, -0.8, 0.45), |w| (w.inside - DVec3::Y).normalize()))
+            Some(w.map_or(DVec3::new(-0.4, -0.8, 0.45), |w| {
+                (w.inside - DVec3::Y).normalize()
+            }))
         }
-    }
-    .map(|d| Light {
+    };
+    let light = sun.map(|d| Light {
         kind: pack::LightKind::Directional {
             direction: f3(d),
             angular_size: SUN_DEG.to_radians(),
@@ -508,11 +515,22 @@ pub fn guess(p: &Prepared) -> Guess {
         position: f3(position),
         target: f3(target),
         up: [0.0, 1.0, 0.0],
-        fov_y: 60.0,
+        fov_y: FOV_Y_DEG as f32,
         near: (diag * 1e-4).max(0.01) as f32,
         far: (diag * 3.0) as f32,
     };
     let mut cameras = Vec::new();
+    // A model without a floor is an object rather than a building to walk through (a statue,
+    // a bunny): first a view of all of it from outside, from above on its sunlit side, at the
+    // distance where its bounding sphere fills the height of the view. The view inside its
+    // bounds follows, for a building whose floor was not recognised.
+    if floor.is_none() {
+        let toward_sun = sun.map_or(DVec3::ZERO, |d| DVec3::new(-d.x, 0.0, -d.z));
+        let dir = (toward_sun.normalize_or(DVec3::Z) + DVec3::Y * 0.6).normalize();
+        let middle = (lo + hi) * 0.5;
+        let distance = diag * 0.5 / (FOV_Y_DEG.to_radians() * 0.5).sin();
+        cameras.push(camera("overview", middle + dir * distance, middle));
+    }
     // Along the longer horizontal axis, from near one end towards the other, placed where
     // the view runs farthest before it meets geometry: down the middle of a nave, but beside
     // a block or a pier standing in the middle rather than up against it.
@@ -596,6 +614,67 @@ pub fn guess(p: &Prepared) -> Guess {
 mod tests {
     use super::*;
     use proptest::prelude::*;
+
+    fn guessed_cameras(model: &std::path::Path) -> Vec<Camera> {
+        let manifest = crate::manifest::Manifest::from_mesh_file(model).unwrap();
+        crate::pipeline::cook(&manifest, &crate::Settings::new(&manifest))
+            .unwrap()
+            .toc
+            .cameras
+    }
+
+    /// Spot (a cow: no floor, an object) is first seen whole from outside: every corner of its
+    /// bounds lies in the cone of half the field of view around the view direction, which
+    /// the view's frustum contains at any aspect of 1 or wider.
+    #[test]
+    fn an_object_without_a_floor_is_first_seen_whole_from_outside() {
+        let spot = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+            .join("../../tests/data/third_party/classic/spot.obj");
+        let cameras = guessed_cameras(&spot);
+        assert_eq!(cameras[0].name, "overview", "{cameras:?}");
+        assert!(cameras.iter().any(|c| c.name == "nave"));
+        let c = &cameras[0];
+        let src = crate::import::import(&spot).unwrap();
+        let (mut lo, mut hi) = (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY));
+        for p in &src.positions {
+            let p = DVec3::new(p[0] as f64, p[1] as f64, p[2] as f64);
+            (lo, hi) = (lo.min(p), hi.max(p));
+        }
+        let eye = DVec3::new(
+            c.position[0] as f64,
+            c.position[1] as f64,
+            c.position[2] as f64,
+        );
+        let target = DVec3::new(c.target[0] as f64, c.target[1] as f64, c.target[2] as f64);
+        let inside = |q: DVec3| q.cmpge(lo).all() && q.cmple(hi).all();
+        assert!(!inside(eye), "the camera is inside the model's bounds");
+        let view = (target - eye).normalize();
+        let half = (c.fov_y as f64).to_radians() * 0.5;
+        for k in 0..8 {
+            let corner = DVec3::new(
+                if k & 1 == 0 { lo.x } else { hi.x },
+                if k & 2 == 0 { lo.y } else { hi.y },
+                if k & 4 == 0 { lo.z } else { hi.z },
+            );
+            let angle = view.angle_between(corner - eye);
+            assert!(
+                angle <= half + 1e-6,
+                "corner {corner} is {angle} rad off the view"
+            );
+            assert!((corner - eye).length() > c.near as f64);
+        }
+    }
+
+    /// A model with a floor is a building: its first camera looks down it from inside.
+    #[test]
+    fn a_model_with_a_floor_is_seen_from_inside() {
+        let dir = tempfile::tempdir().unwrap();
+        let grid = dir.path().join("grid.obj");
+        std::fs::write(&grid, crate::testing::height_field_obj(20)).unwrap();
+        let cameras = guessed_cameras(&grid);
+        assert_eq!(cameras[0].name, "nave", "{cameras:?}");
+        assert!(cameras.iter().all(|c| c.name != "overview"));
+    }
 
     fn marked(t: [DVec3; 3]) -> Vec<bool> {
         let mut full = Cells::new();
