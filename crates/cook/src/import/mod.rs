@@ -113,32 +113,16 @@ impl Corners {
         &self.n
     }
 
-    /// Whether any corner has a texture-coordinate index.
-    pub fn has_uvs(&self) -> bool {
-        !self.t.is_empty()
-    }
-
-    /// Whether any corner has a normal index.
-    pub fn has_normals(&self) -> bool {
-        !self.n.is_empty()
-    }
-
     pub fn push(&mut self, c: Corner) {
-        let before = self.p.len();
         self.p.push(c.p);
-        for (field, value) in [(&mut self.t, c.t), (&mut self.n, c.n)] {
-            // A field in use is as long as the corners before it; one taken up by this corner
-            // is filled with NONE for them.
-            if !field.is_empty() || value != NONE {
-                field.resize(before, NONE);
-                field.push(value);
-            }
-        }
+        self.set(self.p.len() - 1, c);
     }
 
     pub fn set(&mut self, i: usize, c: Corner) {
         self.p[i] = c.p;
         for (field, value) in [(&mut self.t, c.t), (&mut self.n, c.n)] {
+            // A field in use is one per corner; one taken up by this corner is filled with
+            // NONE for the others.
             if !field.is_empty() || value != NONE {
                 field.resize(self.p.len(), NONE);
                 field[i] = value;
@@ -152,10 +136,6 @@ impl Corners {
                 field.swap(i, j);
             }
         }
-    }
-
-    pub fn reserve(&mut self, additional: usize) {
-        self.p.reserve(additional);
     }
 }
 
@@ -474,14 +454,14 @@ mod tests {
                 got.set(i, Corner { t: t.unwrap_or(NONE), ..got.get(i) });
             }
             prop_assert_eq!(got.iter().collect::<Vec<_>>(), want.clone());
-            prop_assert_eq!(got.has_normals(), want.iter().any(|c| c.n != NONE));
+            prop_assert_eq!(!got.normal_indices().is_empty(), want.iter().any(|c| c.n != NONE));
             if want.iter().any(|c| c.t != NONE) {
-                prop_assert!(got.has_uvs());
+                prop_assert!(!got.uv_indices().is_empty());
             }
             let fields = |f: fn(&Corner) -> u32| want.iter().map(f).collect::<Vec<_>>();
             let whole = Corners::from_fields(fields(|c| c.p), fields(|c| c.t), fields(|c| c.n));
             prop_assert_eq!(whole.iter().collect::<Vec<_>>(), want.clone());
-            prop_assert_eq!(whole.has_uvs(), want.iter().any(|c| c.t != NONE));
+            prop_assert_eq!(!whole.uv_indices().is_empty(), want.iter().any(|c| c.t != NONE));
         }
     }
 }

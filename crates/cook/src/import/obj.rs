@@ -265,7 +265,8 @@ struct Chunk {
     /// 4 bytes a corner rather than 12.
     raw: Vec<i32>,
     three_fields: bool,
-    /// Whether any corner has each field (the vertex index always).
+    /// Whether any corner has the texture-coordinate (1) and normal (2) field; every corner
+    /// has the vertex index (0), which the file stores whatever this says.
     has_field: [bool; 3],
     /// The indices that do not fit in `raw`, by corner and field (3 × corner + field). Only
     /// an error message reads them: no file has 2^31 vertices to reach.
@@ -373,7 +374,6 @@ fn read_chunk(bytes: &[u8]) -> Chunk {
             break;
         }
     }
-    c.has_field[0] = true;
     if c.three_fields {
         for k in 1..3 {
             c.has_field[k] = c.raw.chunks_exact(3).any(|f| f[k] != ABSENT);
