@@ -57,17 +57,22 @@ pub fn cook(manifest: &Manifest, settings: &Settings) -> Result<CookOutput, Cook
         windows: found,
         images,
     } = prepared;
-    // Nothing reads the imported triangles and attributes again: let them go before the
-    // vertex cache step, which would otherwise be the peak of a large mesh's cook (a
-    // 1M-triangle OBJ's corners are 12 MB, 36 MB with texture coordinates and normals).
+    // Nothing reads the imported triangles again, nor the attributes after the orderings: let
+    // them go, the corners before the vertex cache step, which would otherwise be the peak of
+    // a large mesh's cook (a 1M-triangle OBJ's corners are 12 MB, 36 MB with texture
+    // coordinates and normals).
     drop(tri_material);
     for src in &mut imported {
-        src.release_geometry();
+        src.release_corners();
     }
     let mut processed: Vec<mesh::Processed> = deduplicated
         .into_par_iter()
-        .map(|d| mesh::optimize(d, &mesh_needs, &settings.mesh))
+        .zip(imported.par_iter())
+        .map(|(d, src)| mesh::optimize(d, src, &mesh_needs, &settings.mesh))
         .collect();
+    for src in &mut imported {
+        src.release_geometry();
+    }
     record_sources(&manifest, &imported, &tagging, &mut report);
     prune::unused_materials(
         &manifest,

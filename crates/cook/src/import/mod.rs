@@ -362,6 +362,13 @@ impl Imported {
         self.tri_part.len()
     }
 
+    /// Frees the triangles' corners and source normals once the mesh stage has deduplicated
+    /// them (its orderings still read the positions and texture coordinates).
+    pub fn release_corners(&mut self) {
+        self.normals = Vec::new();
+        self.corners = Corners::default();
+    }
+
     /// Frees the triangles' corners and attribute arrays once the mesh stage has read them;
     /// names, parts and the per-triangle part stay (pruning and the report read them).
     pub fn release_geometry(&mut self) {

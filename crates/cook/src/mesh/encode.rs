@@ -94,32 +94,45 @@ pub fn pack_mesh(
 ) -> PackedMesh {
     let attrs = Attributes::for_materials(needs, p.ranges.iter().map(|r| r.material));
     let e = encode(&p.vertices, p.bounds_min, p.bounds_max, attrs, quantize);
+    let vertex_count = p.vertices.len();
+    // The whole vertices are spent: let them go before the index bytes are written beside the
+    // index buffer (on a large mesh these are the cook's last peak).
+    let Processed {
+        vertices,
+        indices,
+        ranges,
+        bounds_min,
+        bounds_max,
+        ..
+    } = p;
+    drop(vertices);
+    let index_count = indices.len() as u32;
     let quantization = quantize.map(|_| QuantizationError {
         position: e.max_position_error,
         normal_deg: e.max_normal_error_deg,
         uv: e.max_uv_error,
     });
-    let (index_format, indices) = if p.vertices.len() <= u16::MAX as usize + 1 {
-        let v: Vec<u16> = p.indices.iter().map(|&i| i as u16).collect();
+    let (index_format, indices) = if vertex_count <= u16::MAX as usize + 1 {
+        let v: Vec<u16> = indices.iter().map(|&i| i as u16).collect();
         (pack::IndexFormat::U16, bytemuck::cast_slice(&v).to_vec())
     } else {
         (
             pack::IndexFormat::U32,
-            bytemuck::cast_slice(&p.indices).to_vec(),
+            bytemuck::cast_slice(&indices).to_vec(),
         )
     };
     PackedMesh {
         mesh: pack::Mesh {
             name: name.to_string(),
             layout: e.layout,
-            vertex_count: p.vertices.len() as u32,
-            index_count: p.indices.len() as u32,
+            vertex_count: vertex_count as u32,
+            index_count,
             index_format,
             vertex_section: 0,
             index_section: 0,
-            bounds_min: p.bounds_min,
-            bounds_max: p.bounds_max,
-            ranges: p.ranges,
+            bounds_min,
+            bounds_max,
+            ranges,
         },
         data: pack::MeshData {
             vertices: e.bytes,

@@ -2,6 +2,7 @@
 //! where missing, tangents where a normal map needs them, vertices deduplicated, then
 //! meshopt's vertex cache, overdraw and fetch optimizations.
 
+use std::sync::atomic::{AtomicU32, Ordering};
 use std::time::{Duration, Instant};
 
 use glam::Vec3;
@@ -10,7 +11,7 @@ use rayon::prelude::*;
 
 use super::weld::{plus_zero, weld};
 use super::{CacheMode, MaterialNeeds, MeshSettings, MeshStats, Processed};
-use crate::import::{Corner, Imported, NONE};
+use crate::import::{Imported, NONE};
 
 /// `v` scaled to unit length, or zero when it has none. Divides by the length where glam's
 /// `normalize_or_zero` multiplies by its reciprocal: that rounds differently, and the cooked
@@ -142,44 +143,53 @@ fn corner_normals(
     source: (Vec<u32>, Vec<[f32; 3]>, usize),
     crease_cos: f32,
 ) -> (Vec<u32>, Vec<[f32; 3]>, usize) {
-    let (mut ids, mut table, missing) = source;
+    let (ids, mut table, missing) = source;
     if missing == 0 {
         return (ids, table, 0);
     }
-    // One pass over the triangles: their welded positions, unit face normals and corner
-    // angles. Each chunk takes its angles' cosines first and their arc cosines in a second
-    // loop: one triangle's three polynomials are chains of dependent operations, and a loop
-    // over the chunk's cosines vectorizes and overlaps them.
+    // One pass over the triangles: their corner angles. Each chunk takes its angles' cosines
+    // first and their arc cosines in a second loop: one triangle's three polynomials are
+    // chains of dependent operations, and a loop over the chunk's cosines vectorizes and
+    // overlaps them.
     const CHUNK: usize = 1024;
-    let mut welded_at = vec![0u32; keep.len() * 3];
-    let mut face_normals = vec![Vec3::ZERO; keep.len()];
     let mut weights = vec![0.0f32; keep.len() * 3];
-    welded_at
+    weights
         .par_chunks_mut(3 * CHUNK)
-        .zip(face_normals.par_chunks_mut(CHUNK))
-        .zip(weights.par_chunks_mut(3 * CHUNK))
         .zip(keep.par_chunks(CHUNK))
-        .for_each(|(((at, faces), w), tris)| {
+        .for_each(|(w, tris)| {
             for (k, &t) in tris.iter().enumerate() {
                 let p = src.corners.triangle_positions(t as usize);
-                at[3 * k..3 * k + 3].copy_from_slice(&p.map(|i| canon[i as usize]));
                 let [a, b, d] = p.map(|i| Vec3::from(src.positions[i as usize]));
-                // The face normal and each edge normalized once, lane by lane so that the
-                // square roots and divisions vectorize; negating a unit vector is exact, so
-                // these are the same angles as normalizing both edges at every corner.
-                let [n, ab, bd, da] = units([(b - a).cross(d - a), b - a, d - b, a - d]);
-                faces[k] = n;
+                // Each edge normalized once, lane by lane so that the square roots and
+                // divisions vectorize; negating a unit vector is exact, so these are the same
+                // angles as normalizing both edges at every corner.
+                let [ab, bd, da, _] = units([b - a, d - b, a - d, Vec3::ZERO]);
                 w[3 * k..3 * k + 3].copy_from_slice(&[-ab.dot(da), -bd.dot(ab), -da.dot(bd)]);
             }
             for w in w.iter_mut() {
                 *w = fast_acos(*w);
             }
         });
+    // A corner's unit face normal, found again at each of its triangle's corners: an array
+    // of them (12 bytes a triangle) was the largest single part of the stage's peak, and the
+    // triangle's positions are loaded for the corner's position anyway.
+    let face_normal = |k: u32| {
+        let p = src
+            .corners
+            .triangle_positions(keep[k as usize / 3] as usize);
+        let [a, b, d] = p.map(|i| Vec3::from(src.positions[i as usize]));
+        unit((b - a).cross(d - a))
+    };
     // Corners needing a normal, grouped by welded position (counting sort keeps corner order).
+    // Each pass looks the welded positions up again rather than keeping them: an array of
+    // them beside `adj` was another id per corner at the stage's peak.
     let mut start = vec![0u32; welded + 1];
-    for (&id, &c) in ids.iter().zip(&welded_at) {
-        if id == NONE {
-            start[c as usize + 1] += 1;
+    for (&t, ids) in keep.iter().zip(ids.chunks_exact(3)) {
+        let at = src.corners.triangle_positions(t as usize);
+        for j in 0..3 {
+            if ids[j] == NONE {
+                start[canon[at[j] as usize] as usize + 1] += 1;
+            }
         }
     }
     for i in 0..welded {
@@ -187,27 +197,33 @@ fn corner_normals(
     }
     let mut fill = start.clone();
     let mut adj = vec![0u32; missing];
-    for (k, (&id, &c)) in ids.iter().zip(&welded_at).enumerate() {
-        if id == NONE {
-            adj[fill[c as usize] as usize] = k as u32;
-            fill[c as usize] += 1;
+    for (ti, (&t, ids)) in keep.iter().zip(ids.chunks_exact(3)).enumerate() {
+        let at = src.corners.triangle_positions(t as usize);
+        for j in 0..3 {
+            if ids[j] == NONE {
+                let c = canon[at[j] as usize] as usize;
+                adj[fill[c] as usize] = (3 * ti + j) as u32;
+                fill[c] += 1;
+            }
         }
     }
     drop(fill);
-    drop(welded_at);
     // Per position: cluster its corners, sum each cluster. Positions are independent, so runs
-    // of them are clustered in parallel, each into its own table and slots (indices into it);
-    // the tables are then appended in position order, so the ids are those of one pass in
-    // position order whatever the thread count.
+    // of them are clustered in parallel, each into its own table; a corner's slot in its run's
+    // table goes straight into `ids` (each corner lies around one position, so no two runs
+    // write one slot), and the tables are then appended in position order and each run's slots
+    // offset by the entries before it: the ids of one pass in position order whatever the
+    // thread count. Per-run slot lists would have held another id per generated corner (12 MB
+    // on a 1M-triangle mesh) at the stage's peak.
     const RUN: usize = 4096;
-    let runs: Vec<(Vec<[f32; 3]>, Vec<u32>)> = (0..welded.div_ceil(RUN))
+    // In place (`AtomicU32` is a `u32`'s size and alignment), and back after the runs.
+    let slots: Vec<AtomicU32> = ids.into_iter().map(AtomicU32::new).collect();
+    let runs: Vec<Vec<[f32; 3]>> = (0..welded.div_ceil(RUN))
         .into_par_iter()
         .map(|r| {
             let (first, last) = (r * RUN, ((r + 1) * RUN).min(welded));
-            let span = start[first] as usize..start[last] as usize;
             // About one cluster per position.
             let mut local: Vec<[f32; 3]> = Vec::with_capacity(last - first);
-            let mut local_ids: Vec<u32> = Vec::with_capacity(span.len());
             let mut reps: Vec<Vec3> = Vec::new();
             let mut sums: Vec<Vec3> = Vec::new();
             for c in first..last {
@@ -219,7 +235,7 @@ fn corner_normals(
                 sums.clear();
                 let base = local.len() as u32;
                 for &k in corners {
-                    let f = face_normals[k as usize / 3];
+                    let f = face_normal(k);
                     let slot = match reps.iter().position(|r| r.dot(f) >= crease_cos) {
                         Some(s) => s,
                         None => {
@@ -229,7 +245,7 @@ fn corner_normals(
                         }
                     };
                     sums[slot] += f * weights[k as usize];
-                    local_ids.push(base + slot as u32);
+                    slots[k as usize].store(base + slot as u32, Ordering::Relaxed);
                 }
                 for (s, r) in sums.iter().zip(&reps) {
                     let n = unit(*s);
@@ -240,15 +256,17 @@ fn corner_normals(
                     });
                 }
             }
-            (local, local_ids)
+            local
         })
         .collect();
-    let mut at = 0usize;
-    for (local, local_ids) in runs {
+    drop(weights);
+    let mut ids: Vec<u32> = slots.into_iter().map(AtomicU32::into_inner).collect();
+    table.reserve_exact(runs.iter().map(Vec::len).sum());
+    for (r, local) in runs.into_iter().enumerate() {
         let base = table.len() as u32;
-        for &id in &local_ids {
-            ids[adj[at] as usize] = base + id;
-            at += 1;
+        let (first, last) = (r * RUN, ((r + 1) * RUN).min(welded));
+        for &k in &adj[start[first] as usize..start[last] as usize] {
+            ids[k as usize] += base;
         }
         table.extend_from_slice(&local);
     }
@@ -275,9 +293,79 @@ fn vertex(
     }
 }
 
+/// A deduplicated vertex before its values are gathered: its first corner's source position
+/// and texture coordinate ([`NONE`] where its material samples no texture), its normal's id
+/// in the normal table ([`NONE`] where its material is unshaded) and its material. 16 bytes
+/// where a [`StandardVertex`] is 52: the vertices of a large mesh are held through its
+/// deduplication and orderings this way and gathered once, in fetch order.
+#[derive(Clone, Copy, Debug)]
+struct VertexRef {
+    p: u32,
+    t: u32,
+    n: u32,
+    m: u16,
+}
+
+/// A source's deduplicated vertices, between [`deduplicate`] and [`optimize`].
+#[derive(Debug)]
+enum Vertices {
+    /// Whole vertices: the tangent path builds one per corner before deduplicating.
+    Values(Vec<StandardVertex>),
+    /// References into the source's positions and texture coordinates and into `normals`.
+    Refs {
+        refs: Vec<VertexRef>,
+        normals: Vec<[f32; 3]>,
+    },
+}
+
+impl Vertices {
+    fn len(&self) -> usize {
+        match self {
+            Vertices::Values(v) => v.len(),
+            Vertices::Refs { refs, .. } => refs.len(),
+        }
+    }
+
+    fn position(&self, src: &Imported, i: usize) -> [f32; 3] {
+        match self {
+            Vertices::Values(v) => v[i].position,
+            Vertices::Refs { refs, .. } => src.positions[refs[i].p as usize].map(plus_zero),
+        }
+    }
+
+    /// The vertices `order` names, in that order.
+    fn gather(self, src: &Imported, order: &[u32]) -> Vec<StandardVertex> {
+        match self {
+            Vertices::Values(v) => order.par_iter().map(|&i| v[i as usize]).collect(),
+            Vertices::Refs { refs, normals } => order
+                .par_iter()
+                .map(|&i| {
+                    let r = refs[i as usize];
+                    StandardVertex {
+                        position: src.positions[r.p as usize].map(plus_zero),
+                        normal: if r.n == NONE {
+                            [0.0; 3]
+                        } else {
+                            normals[r.n as usize]
+                        },
+                        uv: if r.t == NONE {
+                            [0.0; 2]
+                        } else {
+                            src.uvs[r.t as usize].map(plus_zero)
+                        },
+                        tangent: [0.0; 4],
+                        material: [r.m, 0],
+                    }
+                })
+                .collect(),
+        }
+    }
+}
+
 /// Deduplicates corners by their welded attribute ids (position, texture coordinate,
 /// normal, material), without materializing a vertex per corner: the same result as
-/// comparing whole vertices, since every attribute is welded by value.
+/// comparing whole vertices, since every attribute is welded by value. Each corner's vertex
+/// id overwrites its normal id in `corner_normal`, which becomes the index buffer.
 #[allow(clippy::too_many_arguments)]
 fn dedupe_by_key(
     src: &Imported,
@@ -287,9 +375,8 @@ fn dedupe_by_key(
     keep: &[u32],
     tri_material: &[u16],
     needs: &[MaterialNeeds],
-    corner_normal: &[u32],
-    normal_table: &[[f32; 3]],
-) -> (Vec<StandardVertex>, Vec<u32>) {
+    corner_normal: Vec<u32>,
+) -> (Vec<VertexRef>, Vec<u32>) {
     const END: u32 = u32::MAX;
     // Every key starts with its welded position, and a position has only a handful of
     // distinct vertices (one per normal, UV seam or material), so a chain per position found
@@ -300,9 +387,8 @@ fn dedupe_by_key(
     // without reallocating (each doubling touched fresh pages, which the kernel zeroes).
     let expected = welded + welded / 16;
     let mut next: Vec<u32> = Vec::with_capacity(expected);
-    let mut vertex_keys: Vec<(u32, u32, u16)> = Vec::with_capacity(expected);
-    let mut vertices = Vec::with_capacity(expected);
-    let mut indices = Vec::with_capacity(keep.len() * 3);
+    let mut refs: Vec<VertexRef> = Vec::with_capacity(expected);
+    let mut indices = corner_normal;
     // Field by field: a bare mesh's corners have no texture-coordinate indices to read, and
     // without welded ones (no material samples a texture) none is read.
     let corner_p = src.corners.positions();
@@ -311,38 +397,46 @@ fn dedupe_by_key(
     } else {
         &[]
     };
-    for (&t, normals) in keep.iter().zip(corner_normal.chunks_exact(3)) {
+    let uv_id = |t: u32| match uv {
+        Some(uv) if t != NONE => uv[t as usize],
+        _ => NONE,
+    };
+    for (&t, ids) in keep.iter().zip(indices.chunks_exact_mut(3)) {
         let m = tri_material[t as usize];
         let need = needs[m as usize];
         let base = t as usize * 3;
-        for (k, &n) in normals.iter().enumerate() {
-            let c = Corner {
-                p: corner_p[base + k],
-                t: corner_t.get(base + k).copied().unwrap_or(NONE),
-                n: NONE,
-            };
-            let p = canon[c.p as usize] as usize;
-            let uv_id = match uv {
-                Some(uv) if c.t != NONE && need.uvs => uv[c.t as usize],
+        for (k, slot) in ids.iter_mut().enumerate() {
+            let cp = corner_p[base + k];
+            let ct = match corner_t.get(base + k) {
+                Some(&ct) if need.uvs => ct,
                 _ => NONE,
             };
-            let normal_id = if need.normals { n } else { NONE };
-            let key = (uv_id, normal_id, m);
+            let p = canon[cp as usize] as usize;
+            let uv_key = uv_id(ct);
+            let normal_id = if need.normals { *slot } else { NONE };
             let mut id = head[p];
-            while id != END && vertex_keys[id as usize] != key {
+            while id != END && {
+                let r = &refs[id as usize];
+                r.n != normal_id || r.m != m || uv_id(r.t) != uv_key
+            } {
                 id = next[id as usize];
             }
             if id == END {
-                id = vertices.len() as u32;
-                vertices.push(vertex(src, c, normal_table[n as usize], m, need));
-                vertex_keys.push(key);
+                id = refs.len() as u32;
+                refs.push(VertexRef {
+                    p: cp,
+                    // The first corner's own coordinate is gathered; its welded id keys it.
+                    t: if uv_key == NONE { NONE } else { ct },
+                    n: normal_id,
+                    m,
+                });
                 next.push(head[p]);
                 head[p] = id;
             }
-            indices.push(id);
+            *slot = id;
         }
     }
-    (vertices, indices)
+    (refs, indices)
 }
 
 /// The general path when some material has a normal map: one vertex per corner, MikkTSpace
@@ -443,13 +537,13 @@ fn ordered_bits(f: f32) -> u32 {
 
 /// Every draw range's indices, as the pieces the vertex cache optimizer orders one by one: a
 /// range of [`CACHE_SPLIT_TRIANGLES`] or more is reordered into two halves by the median of its
-/// triangles' centroids along `axis` (the mesh's longest: a cut across it is the shortest for
-/// most shapes), source order kept within each half, so the halves touch along one plane only.
+/// triangles' centroids along one axis, `along` giving a vertex's coordinate (the caller takes
+/// the mesh's longest: a cut across it is the shortest for most shapes), source order kept
+/// within each half, so the halves touch along one plane only.
 fn cache_pieces<'a>(
     indices: &'a mut [u32],
     ranges: &[pack::DrawRange],
-    vertices: &[StandardVertex],
-    axis: usize,
+    along: impl Fn(u32) -> f32 + Sync,
 ) -> Vec<&'a mut [u32]> {
     let mut pieces = Vec::new();
     let mut rest = indices;
@@ -464,11 +558,11 @@ fn cache_pieces<'a>(
         // Triangles keyed by the sum of their corners' coordinates along the axis, ties by
         // source position, packed into one integer so the median is cheap.
         let keys: Vec<u64> = range
-            .chunks_exact(3)
+            .par_chunks_exact(3)
             .enumerate()
             .map(|(t, c)| {
-                let along: f32 = c.iter().map(|&i| vertices[i as usize].position[axis]).sum();
-                (u64::from(ordered_bits(along)) << 32) | t as u64
+                let sum: f32 = c.iter().map(|&i| along(i)).sum();
+                (u64::from(ordered_bits(sum)) << 32) | t as u64
             })
             .collect();
         // Keys are distinct, so exactly `first` of them lie below the median.
@@ -499,6 +593,7 @@ pub fn process(
 ) -> Processed {
     optimize(
         deduplicate(src, tri_material, needs, settings),
+        src,
         needs,
         settings,
     )
@@ -506,10 +601,11 @@ pub fn process(
 
 /// A source's indexed vertices, grouped into draw ranges, before the orderings: the last
 /// step that reads the imported triangles. A caller that holds them for nothing else drops
-/// them before [`optimize`], whose vertex cache step allocates as much again.
+/// them before [`optimize`] (which reads the source's positions and texture coordinates
+/// still), whose vertex cache step allocates as much again.
 #[derive(Debug)]
 pub struct Deduplicated {
-    vertices: Vec<StandardVertex>,
+    vertices: Vertices,
     indices: Vec<u32>,
     ranges: Vec<pack::DrawRange>,
     stats: MeshStats,
@@ -578,9 +674,9 @@ pub fn deduplicate(
         );
         stats.tangent_triangles = tangent_triangles;
         timer.lap("tangents+dedupe");
-        (v, i)
+        (Vertices::Values(v), i)
     } else {
-        let (v, i) = dedupe_by_key(
+        let (refs, i) = dedupe_by_key(
             src,
             &canon,
             welded,
@@ -588,16 +684,20 @@ pub fn deduplicate(
             &keep,
             tri_material,
             needs,
-            &corner_normal,
-            &normal_table,
+            corner_normal,
         );
         timer.lap("dedupe");
-        (v, i)
+        (
+            Vertices::Refs {
+                refs,
+                normals: normal_table,
+            },
+            i,
+        )
     };
-
     // Dropped as soon as they are spent: the vertex cache and fetch steps that follow are the
     // peak of a large mesh's cook.
-    drop((canon, uv_ids, corner_normal, normal_table));
+    drop((canon, uv_ids));
     let mut ranges: Vec<pack::DrawRange> = Vec::new();
     for (k, &t) in keep.iter().enumerate() {
         let m = tri_material[t as usize];
@@ -620,8 +720,14 @@ pub fn deduplicate(
 }
 
 /// Orders the triangles for the vertex cache (and overdraw, when asked) and the vertices for
-/// fetch, dropping unreferenced ones.
-pub fn optimize(d: Deduplicated, needs: &[MaterialNeeds], settings: &MeshSettings) -> Processed {
+/// fetch, dropping unreferenced ones. `src` is the source [`deduplicate`] read: its corners
+/// may be gone, its positions and texture coordinates are read here.
+pub fn optimize(
+    d: Deduplicated,
+    src: &Imported,
+    needs: &[MaterialNeeds],
+    settings: &MeshSettings,
+) -> Processed {
     let Deduplicated {
         vertices,
         mut indices,
@@ -638,15 +744,26 @@ pub fn optimize(d: Deduplicated, needs: &[MaterialNeeds], settings: &MeshSetting
     };
     // Every deduplicated vertex is referenced, so these are the bounds of what vertex fetch
     // keeps; the vertex cache's cut needs them first.
-    let mut bounds_min = [f32::INFINITY; 3];
-    let mut bounds_max = [f32::NEG_INFINITY; 3];
-    for v in &vertices {
-        for k in 0..3 {
-            bounds_min[k] = bounds_min[k].min(v.position[k]);
-            bounds_max[k] = bounds_max[k].max(v.position[k]);
-        }
-    }
-    if vertices.is_empty() {
+    // In parallel: min and max are exact and ignore NaN either way round, so the split
+    // cannot change the result.
+    let empty = || ([f32::INFINITY; 3], [f32::NEG_INFINITY; 3]);
+    let (mut bounds_min, mut bounds_max) = (0..vertices.len())
+        .into_par_iter()
+        .fold(empty, |(mut lo, mut hi), i| {
+            let p = vertices.position(src, i);
+            for k in 0..3 {
+                lo[k] = lo[k].min(p[k]);
+                hi[k] = hi[k].max(p[k]);
+            }
+            (lo, hi)
+        })
+        .reduce(empty, |(a_lo, a_hi), (b_lo, b_hi)| {
+            (
+                std::array::from_fn(|k| a_lo[k].min(b_lo[k])),
+                std::array::from_fn(|k| a_hi[k].max(b_hi[k])),
+            )
+        });
+    if vertices.len() == 0 {
         bounds_min = [0.0; 3];
         bounds_max = [0.0; 3];
     }
@@ -658,7 +775,8 @@ pub fn optimize(d: Deduplicated, needs: &[MaterialNeeds], settings: &MeshSetting
     } else {
         2
     };
-    cache_pieces(&mut indices, &ranges, &vertices, longest_axis)
+    let along = |i: u32| vertices.position(src, i as usize)[longest_axis];
+    cache_pieces(&mut indices, &ranges, along)
         .into_par_iter()
         .for_each(|span| match settings.cache {
             CacheMode::Full => meshopt::optimize_vertex_cache_in_place(span, vertices.len()),
@@ -668,10 +786,11 @@ pub fn optimize(d: Deduplicated, needs: &[MaterialNeeds], settings: &MeshSetting
         });
     timer.lap("vertex cache");
     if settings.overdraw {
-        let bytes: &[u8] = bytemuck::cast_slice(&vertices);
-        if let Ok(adapter) =
-            meshopt::VertexDataAdapter::new(bytes, std::mem::size_of::<StandardVertex>(), 0)
-        {
+        let positions: Vec<[f32; 3]> = (0..vertices.len())
+            .map(|i| vertices.position(src, i))
+            .collect();
+        let bytes: &[u8] = bytemuck::cast_slice(&positions);
+        if let Ok(adapter) = meshopt::VertexDataAdapter::new(bytes, 12, 0) {
             for r in ranges.iter().filter(|r| !needs[r.material as usize].window) {
                 let span =
                     &mut indices[r.first_index as usize..(r.first_index + r.index_count) as usize];
@@ -680,8 +799,22 @@ pub fn optimize(d: Deduplicated, needs: &[MaterialNeeds], settings: &MeshSetting
         }
         timer.lap("overdraw");
     }
-    // Drops unreferenced vertices too; the returned buffer is exactly the used ones.
-    let vertices = meshopt::optimize_vertex_fetch(&mut indices, &vertices);
+    // Vertices in the order the indices first reference them (meshopt's vertex fetch order),
+    // unreferenced ones dropped; gathered only now, so a mesh without tangents holds its
+    // 52-byte vertices once, exactly as many as it keeps.
+    let mut remap = vec![u32::MAX; vertices.len()];
+    let mut order: Vec<u32> = Vec::with_capacity(vertices.len());
+    for i in indices.iter_mut() {
+        let r = &mut remap[*i as usize];
+        if *r == u32::MAX {
+            *r = order.len() as u32;
+            order.push(*i);
+        }
+        *i = *r;
+    }
+    drop(remap);
+    let vertices = vertices.gather(src, &order);
+    drop(order);
     timer.lap("vertex fetch");
 
     stats.triangles_out = indices.len() / 3;
@@ -884,18 +1017,22 @@ mod tests {
 
     proptest! {
         /// Arbitrary (often degenerate) soups: every output triangle is non-degenerate, every
-        /// index is in range, ranges tile the index buffer and vertices agree with their range.
+        /// index is in range, ranges tile the index buffer and vertices agree with their range;
+        /// the kept triangles' positions come out (reordered) and the vertices are in the order
+        /// the indices first use them, every one used. With a normal-mapped
+        /// material the whole-vertex path runs, without one the by-reference path.
         #[test]
         fn arbitrary_soups_process_cleanly(
             pts in prop::collection::vec(prop::array::uniform3(prop::sample::select(vec![-1.0f32, -0.0, 0.0, 0.5, 1.0, 2.0])), 1..12),
             raw in prop::collection::vec((0u32..12, 0u32..12, 0u32..12, 0u16..3), 0..40),
             fifo in any::<bool>(),
+            tangents in any::<bool>(),
         ) {
             let n = pts.len() as u32;
             let tris: Vec<[u32; 3]> = raw.iter().map(|&(a, b, c, _)| [a % n, b % n, c % n]).collect();
             let mats: Vec<u16> = raw.iter().map(|r| r.3).collect();
             let s = soup(pts.clone(), tris.clone());
-            let needs = [OPAQUE, WINDOW, MaterialNeeds { tangents: true, ..OPAQUE }];
+            let needs = [OPAQUE, WINDOW, MaterialNeeds { tangents, uvs: tangents, ..OPAQUE }];
             let settings = MeshSettings { cache: if fifo { CacheMode::Fifo } else { CacheMode::Full }, overdraw: true, ..Default::default() };
             let p = process(&s, &mats, &needs, &settings);
             let expected = tris.iter().filter(|t| {
@@ -926,6 +1063,23 @@ mod tests {
                 let l = Vec3::from(v.normal).length_squared();
                 prop_assert!((l - 1.0).abs() < 1e-3, "normal {:?}", v.normal);
             }
+            let bits = |p: [f32; 3]| p.map(|c| plus_zero(c).to_bits());
+            let mut kept: Vec<[[u32; 3]; 3]> = tris.iter().filter(|t| {
+                let [a, b, c] = t.map(|i| pts[i as usize]);
+                t[0] != t[1] && t[1] != t[2] && t[0] != t[2] && !is_degenerate(a, b, c)
+            }).map(|t| t.map(|i| bits(pts[i as usize]))).collect();
+            let mut out: Vec<[[u32; 3]; 3]> = p.indices.chunks_exact(3)
+                .map(|t| [t[0], t[1], t[2]].map(|i| bits(p.vertices[i as usize].position)))
+                .collect();
+            kept.sort_unstable();
+            out.sort_unstable();
+            prop_assert_eq!(kept, out);
+            let mut first_use = 0u32;
+            for &i in &p.indices {
+                prop_assert!(i <= first_use, "vertex {} used before vertex {}", i, first_use);
+                first_use = first_use.max(i + 1);
+            }
+            prop_assert_eq!(first_use as usize, p.vertices.len());
         }
     }
 }
