@@ -178,30 +178,34 @@ fn corner_normals(
     // Corners needing a normal, grouped by welded position (counting sort keeps corner order).
     // Each pass looks the welded positions up again rather than keeping them: an array of
     // them beside `adj` was another id per corner at the stage's peak.
-    let mut start = vec![0u32; welded + 1];
-    for (&t, ids) in keep.iter().zip(ids.chunks_exact(3)) {
-        let at = src.corners.triangle_positions(t as usize);
-        for j in 0..3 {
-            if ids[j] == NONE {
-                start[canon[at[j] as usize] as usize + 1] += 1;
+    // A generic fn rather than a closure taking `dyn FnMut`: the call per corner inlines.
+    fn each_missing(
+        src: &Imported,
+        keep: &[u32],
+        ids: &[u32],
+        canon: &[u32],
+        mut f: impl FnMut(usize, usize),
+    ) {
+        for (ti, (&t, ids)) in keep.iter().zip(ids.chunks_exact(3)).enumerate() {
+            let at = src.corners.triangle_positions(t as usize);
+            for (j, (&id, &p)) in ids.iter().zip(&at).enumerate() {
+                if id == NONE {
+                    f(3 * ti + j, canon[p as usize] as usize);
+                }
             }
         }
     }
+    let mut start = vec![0u32; welded + 1];
+    each_missing(src, keep, &ids, canon, |_, c| start[c + 1] += 1);
     for i in 0..welded {
         start[i + 1] += start[i];
     }
     let mut fill = start.clone();
     let mut adj = vec![0u32; missing];
-    for (ti, (&t, ids)) in keep.iter().zip(ids.chunks_exact(3)).enumerate() {
-        let at = src.corners.triangle_positions(t as usize);
-        for j in 0..3 {
-            if ids[j] == NONE {
-                let c = canon[at[j] as usize] as usize;
-                adj[fill[c] as usize] = (3 * ti + j) as u32;
-                fill[c] += 1;
-            }
-        }
-    }
+    each_missing(src, keep, &ids, canon, |k, c| {
+        adj[fill[c] as usize] = k as u32;
+        fill[c] += 1;
+    });
     drop(fill);
     // Per position: cluster its corners, sum each cluster. Positions are independent, so runs
     // of them are clustered in parallel, each into its own table; a corner's slot in its run's
@@ -268,26 +272,6 @@ fn corner_normals(
     (ids, table, missing)
 }
 
-fn vertex(
-    src: &Imported,
-    c: crate::import::Corner,
-    normal: [f32; 3],
-    material: u16,
-    need: MaterialNeeds,
-) -> StandardVertex {
-    StandardVertex {
-        position: src.positions[c.p as usize].map(plus_zero),
-        normal: if need.normals { normal } else { [0.0; 3] },
-        uv: if c.t == NONE || !need.uvs {
-            [0.0; 2]
-        } else {
-            src.uvs[c.t as usize].map(plus_zero)
-        },
-        tangent: [0.0; 4],
-        material: [material, 0],
-    }
-}
-
 /// A deduplicated vertex before its values are gathered: its first corner's source position
 /// and texture coordinate ([`NONE`] where its material samples no texture), its normal's id
 /// in the normal table ([`NONE`] where its material is unshaded) and its material. 16 bytes
@@ -299,6 +283,27 @@ struct VertexRef {
     t: u32,
     n: u32,
     m: u16,
+}
+
+impl VertexRef {
+    /// The whole vertex: -0.0 made +0.0 (as welding compares them), a [`NONE`] attribute zero.
+    fn gather(self, src: &Imported, normals: &[[f32; 3]]) -> StandardVertex {
+        StandardVertex {
+            position: src.positions[self.p as usize].map(plus_zero),
+            normal: if self.n == NONE {
+                [0.0; 3]
+            } else {
+                normals[self.n as usize]
+            },
+            uv: if self.t == NONE {
+                [0.0; 2]
+            } else {
+                src.uvs[self.t as usize].map(plus_zero)
+            },
+            tangent: [0.0; 4],
+            material: [self.m, 0],
+        }
+    }
 }
 
 /// A source's deduplicated vertices, between [`deduplicate`] and [`optimize`].
@@ -334,24 +339,7 @@ impl Vertices {
             Vertices::Values(v) => order.par_iter().map(|&i| v[i as usize]).collect(),
             Vertices::Refs { refs, normals } => order
                 .par_iter()
-                .map(|&i| {
-                    let r = refs[i as usize];
-                    StandardVertex {
-                        position: src.positions[r.p as usize].map(plus_zero),
-                        normal: if r.n == NONE {
-                            [0.0; 3]
-                        } else {
-                            normals[r.n as usize]
-                        },
-                        uv: if r.t == NONE {
-                            [0.0; 2]
-                        } else {
-                            src.uvs[r.t as usize].map(plus_zero)
-                        },
-                        tangent: [0.0; 4],
-                        material: [r.m, 0],
-                    }
-                })
+                .map(|&i| refs[i as usize].gather(src, &normals))
                 .collect(),
         }
     }
@@ -447,15 +435,20 @@ fn dedupe_with_tangents(
     let mut corners: Vec<StandardVertex> = Vec::with_capacity(keep.len() * 3);
     for (k, &t) in keep.iter().enumerate() {
         let m = tri_material[t as usize];
+        let need = needs[m as usize];
         for j in 0..3 {
             let c = src.corners.get(t as usize * 3 + j);
-            corners.push(vertex(
-                src,
-                c,
-                normal_table[corner_normal[k * 3 + j] as usize],
+            let r = VertexRef {
+                p: c.p,
+                t: if need.uvs { c.t } else { NONE },
+                n: if need.normals {
+                    corner_normal[k * 3 + j]
+                } else {
+                    NONE
+                },
                 m,
-                needs[m as usize],
-            ));
+            };
+            corners.push(r.gather(src, normal_table));
         }
     }
     let tangent_faces: Vec<u32> = keep
@@ -1030,11 +1023,11 @@ mod tests {
             let needs = [OPAQUE, WINDOW, MaterialNeeds { tangents, uvs: tangents, ..OPAQUE }];
             let settings = MeshSettings { cache: if fifo { CacheMode::Fifo } else { CacheMode::Full }, overdraw: true, ..Default::default() };
             let p = process(&s, &mats, &needs, &settings);
-            let expected = tris.iter().filter(|t| {
+            let kept: Vec<&[u32; 3]> = tris.iter().filter(|t| {
                 let [a, b, c] = t.map(|i| pts[i as usize]);
                 t[0] != t[1] && t[1] != t[2] && t[0] != t[2] && !is_degenerate(a, b, c)
-            }).count();
-            prop_assert_eq!(p.indices.len(), expected * 3);
+            }).collect();
+            prop_assert_eq!(p.indices.len(), kept.len() * 3);
             prop_assert!(p.indices.iter().all(|&i| (i as usize) < p.vertices.len()));
             let mut next = 0;
             let mut seen_window = false;
@@ -1059,10 +1052,8 @@ mod tests {
                 prop_assert!((l - 1.0).abs() < 1e-3, "normal {:?}", v.normal);
             }
             let bits = |p: [f32; 3]| p.map(|c| plus_zero(c).to_bits());
-            let mut kept: Vec<[[u32; 3]; 3]> = tris.iter().filter(|t| {
-                let [a, b, c] = t.map(|i| pts[i as usize]);
-                t[0] != t[1] && t[1] != t[2] && t[0] != t[2] && !is_degenerate(a, b, c)
-            }).map(|t| t.map(|i| bits(pts[i as usize]))).collect();
+            let mut kept: Vec<[[u32; 3]; 3]> =
+                kept.iter().map(|t| t.map(|i| bits(pts[i as usize]))).collect();
             let mut out: Vec<[[u32; 3]; 3]> = p.indices.chunks_exact(3)
                 .map(|t| [t[0], t[1], t[2]].map(|i| bits(p.vertices[i as usize].position)))
                 .collect();
