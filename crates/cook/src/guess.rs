@@ -371,9 +371,10 @@ fn cell_index(x: usize, y: usize, z: usize) -> usize {
 /// The third axis is the one it spans the most layers of, so the cuts are fewest: a height
 /// field's triangles, in cells flattened to its bounds, are tall slivers a fraction of a cell
 /// across, cut at most twice, and most triangles of a large mesh lie in one column and need no
-/// cut. On a bare 100k-triangle height field this takes 8 ms on one thread where points half
-/// a cell apart took 12, and those missed 5 % of the cells (corners clipped between points).
-/// A triangle whose box of cells holds no `wanted` cell is left out.
+/// cut. On a bare 100k-triangle height field, cutting every triangle took 8 ms on one thread
+/// where points half a cell apart took 12, and those missed 5 % of the cells (corners clipped
+/// between points). A triangle whose box of cells holds no `wanted` cell is left out: there,
+/// all but 9 % of them.
 fn mark_cells(full: &mut Cells, wanted: &Cells, t: [DVec3; 3]) {
     let top = DVec3::splat(OCC as f64 - 1e-6);
     let mut p = [DVec3::ZERO; 3];
