@@ -269,10 +269,13 @@ impl Occupancy {
         self.march(o, d, max, |i| self.full.get(i))
     }
 
-    /// Nine rays spread over a 60° view along `dir`.
+    /// How many rays a view casts: a 3 × 3 fan.
+    const RAYS: usize = 9;
+
+    /// The rays spread over a 60° view along `dir`.
     fn rays(dir: DVec3) -> impl Iterator<Item = DVec3> {
         let side = dir.cross(DVec3::Y).normalize_or_zero();
-        (0..9).map(move |i| {
+        (0..Self::RAYS).map(move |i| {
             let (x, y) = ((i % 3) as f64 - 1.0, (i / 3) as f64 - 1.0);
             (dir + side * (0.6 * x) + DVec3::Y * (0.45 * y)).normalize()
         })
@@ -284,7 +287,7 @@ impl Occupancy {
         Self::rays(dir)
             .map(|r| self.depth(eye, r, max))
             .sum::<f64>()
-            / 9.0
+            / Self::RAYS as f64
     }
 }
 
