@@ -425,7 +425,7 @@ pub fn window_geometry(
                 for t in span.chunks_exact(3) {
                     let tri = [t[0], t[1], t[2]].map(|i| {
                         *local.entry(i).or_insert_with(|| {
-                            let v = &p.vertices[i as usize];
+                            let v = p.vertices.get(i as usize);
                             g.positions.push(v.position);
                             g.uvs.push(v.uv);
                             g.positions.len() as u32 - 1
@@ -456,7 +456,7 @@ fn receiving_triangles<'a>(
             .flat_map(move |r| {
                 p.indices[r.first_index as usize..(r.first_index + r.index_count) as usize]
                     .chunks_exact(3)
-                    .map(move |t| [t[0], t[1], t[2]].map(|i| p.vertices[i as usize].position))
+                    .map(move |t| [t[0], t[1], t[2]].map(|i| p.vertices.positions[i as usize]))
             })
     })
 }
@@ -469,7 +469,7 @@ fn floor_height(tagging: &tag::Tagging, processed: &[mesh::Processed]) -> Option
             tagging.materials[r.material as usize].material.class == pack::MaterialClass::Floor
         }) {
             for &i in &p.indices[r.first_index as usize..(r.first_index + r.index_count) as usize] {
-                let v = p.vertices[i as usize].position[1];
+                let v = p.vertices.positions[i as usize][1];
                 y = Some(y.map_or(v, |m: f32| m.min(v)));
             }
         }

@@ -90,8 +90,8 @@ fn renumber(keep: &[bool], tagging: &mut tag::Tagging, processed: &mut [mesh::Pr
         }
     }
     for p in processed.iter_mut() {
-        for v in &mut p.vertices {
-            v.material[0] = remap[v.material[0] as usize];
+        for m in &mut p.vertices.materials {
+            *m = remap[*m as usize];
         }
         p.ranges.retain(|r| r.index_count > 0);
         for r in &mut p.ranges {

@@ -323,9 +323,9 @@ pub fn validate_scene(manifest: &Manifest) -> Result<Validation, CookError> {
         .zip(&manifest.meshes)
         .map(|(p, m)| MeshView {
             name: m.name.clone(),
-            positions: p.vertices.iter().map(|v| v.position).collect(),
             uvs: p.vertices.iter().map(|v| v.uv).collect(),
-            materials: p.vertices.iter().map(|v| v.material[0]).collect(),
+            positions: p.vertices.positions,
+            materials: p.vertices.materials,
             indices: p.indices,
             ranges: p.ranges,
         })

@@ -407,6 +407,24 @@ pub fn encode(
     bounds_max: [f32; 3],
     encoding: Encoding,
 ) -> Encoded {
+    encode_each(
+        vertices.len(),
+        |i| vertices[i],
+        bounds_min,
+        bounds_max,
+        encoding,
+    )
+}
+
+/// [`encode`] of the `count` vertices `vertex` gives, each built as it is written: a caller
+/// that holds its vertices another way (attribute by attribute) never holds them whole.
+pub fn encode_each(
+    count: usize,
+    vertex: impl Fn(usize) -> StandardVertex,
+    bounds_min: [f32; 3],
+    bounds_max: [f32; 3],
+    encoding: Encoding,
+) -> Encoded {
     use AttributeFormat as F;
     use Semantic as S;
     let Encoding {
@@ -432,9 +450,8 @@ pub fn encode(
             VertexLayout::packed(&attributes, [0.0; 3], [1.0; 3])
         }
         Some(bits) => {
-            let uv_unorm = vertices
-                .iter()
-                .all(|v| v.uv.iter().all(|&c| (0.0..=1.0).contains(&c)));
+            let uv_unorm =
+                (0..count).all(|i| vertex(i).uv.iter().all(|&c| (0.0..=1.0).contains(&c)));
             attributes.push((S::Position, bits.format()));
             if normal {
                 attributes.push((S::Normal, F::Snorm16x2));
@@ -459,9 +476,10 @@ pub fn encode(
         }
     };
     let stride = layout.stride as usize;
-    let mut bytes = Vec::with_capacity(vertices.len() * stride);
+    let mut bytes = Vec::with_capacity(count * stride);
     let (mut perr, mut nerr, mut uverr) = (0.0f32, 0.0f32, 0.0f32);
-    for v in vertices {
+    for i in 0..count {
+        let v = &vertex(i);
         let at = bytes.len();
         layout.write(v, &mut bytes);
         if quantize.is_none() {

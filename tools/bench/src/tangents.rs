@@ -74,7 +74,7 @@ fn cooked_corners(src: &cook::import::Imported) -> Corners {
             ..MeshSettings::default()
         },
     );
-    let v = |i: &u32| p.vertices[*i as usize];
+    let v = |i: &u32| p.vertices.get(*i as usize);
     Corners {
         positions: p.indices.iter().map(|i| v(i).position).collect(),
         normals: p.indices.iter().map(|i| v(i).normal).collect(),

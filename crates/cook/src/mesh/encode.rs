@@ -3,9 +3,7 @@
 
 pub use pack::vertex::{Encoded, PositionBits};
 
-use pack::StandardVertex;
-
-use super::{MaterialNeeds, Processed};
+use super::{MaterialNeeds, Processed, VertexArrays};
 use crate::report::QuantizationError;
 
 /// Which optional vertex attributes a mesh stores; position and material ID always are.
@@ -59,7 +57,7 @@ impl Attributes {
 /// Encodes vertices with the attributes `attrs` keeps, quantized when `quantize` gives the
 /// position bits; the layouts are [`pack::vertex::encode`]'s.
 pub fn encode(
-    vertices: &[StandardVertex],
+    vertices: &VertexArrays,
     bounds_min: [f32; 3],
     bounds_max: [f32; 3],
     attrs: Attributes,
@@ -71,7 +69,13 @@ pub fn encode(
         tangent: attrs.tangent,
         quantize,
     };
-    pack::vertex::encode(vertices, bounds_min, bounds_max, encoding)
+    pack::vertex::encode_each(
+        vertices.len(),
+        |i| vertices.get(i),
+        bounds_min,
+        bounds_max,
+        encoding,
+    )
 }
 
 /// One processed mesh as the pack stores it, with what the report says about it.

@@ -2,7 +2,6 @@
 //! where missing, tangents where a normal map needs them, vertices deduplicated, then
 //! meshopt's vertex cache, overdraw and fetch optimizations.
 
-use std::sync::atomic::{AtomicU32, Ordering};
 use std::time::{Duration, Instant};
 
 use glam::Vec3;
@@ -10,7 +9,7 @@ use pack::StandardVertex;
 use rayon::prelude::*;
 
 use super::weld::{plus_zero, weld};
-use super::{CacheMode, MaterialNeeds, MeshSettings, MeshStats, Processed};
+use super::{CacheMode, MaterialNeeds, MeshSettings, MeshStats, Processed, VertexArrays};
 use crate::import::{Imported, NONE};
 
 /// `v` scaled to unit length, or zero when it has none. Divides by the length where glam's
@@ -90,8 +89,8 @@ impl Timer {
 }
 
 /// Each kept corner's source normal, welded by value: (per-corner ids into the table, with
-/// [`NONE`] where the source has none or a zero one; the table of unit normals; how many
-/// corners have none).
+/// [`NONE`] where the source has none or a zero one, or empty when no corner has one; the
+/// table of unit normals; how many corners have none).
 fn source_normals(src: &Imported, keep: &[u32]) -> (Vec<u32>, Vec<[f32; 3]>, usize) {
     let units: Vec<[f32; 3]> = src
         .normals
@@ -105,7 +104,9 @@ fn source_normals(src: &Imported, keep: &[u32]) -> (Vec<u32>, Vec<[f32; 3]>, usi
     }
     let corner_n = src.corners.normal_indices();
     if corner_n.is_empty() {
-        return (vec![NONE; keep.len() * 3], table, keep.len() * 3);
+        // Not an array of NONE: [`corner_normals`] writes the ids once the clustering's
+        // per-triangle arrays are gone, so a bare mesh never holds both.
+        return (Vec::new(), table, keep.len() * 3);
     }
     let mut ids: Vec<u32> = Vec::with_capacity(keep.len() * 3);
     let mut missing = 0usize;
@@ -177,64 +178,73 @@ fn corner_normals(
         });
     // Corners needing a normal, grouped by welded position (counting sort keeps corner order).
     // Each pass looks the welded positions up again rather than keeping them: an array of
-    // them beside `adj` was another id per corner at the stage's peak.
+    // them beside `adj` was another id per corner at the stage's peak. `ids` is empty when
+    // every corner needs one.
     // A generic fn rather than a closure taking `dyn FnMut`: the call per corner inlines.
-    fn each_missing(
-        src: &Imported,
-        keep: &[u32],
-        ids: &[u32],
-        canon: &[u32],
-        mut f: impl FnMut(usize, usize),
-    ) {
-        for (ti, (&t, ids)) in keep.iter().zip(ids.chunks_exact(3)).enumerate() {
+    fn each_corner(src: &Imported, keep: &[u32], canon: &[u32], mut f: impl FnMut(usize, usize)) {
+        for (ti, &t) in keep.iter().enumerate() {
             let at = src.corners.triangle_positions(t as usize);
-            for (j, (&id, &p)) in ids.iter().zip(&at).enumerate() {
-                if id == NONE {
-                    f(3 * ti + j, canon[p as usize] as usize);
-                }
+            for (j, &p) in at.iter().enumerate() {
+                f(3 * ti + j, canon[p as usize] as usize);
             }
         }
     }
+    let wants = |ids: &[u32], k: usize| ids.get(k).is_none_or(|&id| id == NONE);
     let mut start = vec![0u32; welded + 1];
-    each_missing(src, keep, &ids, canon, |_, c| start[c + 1] += 1);
+    each_corner(src, keep, canon, |k, c| {
+        if wants(&ids, k) {
+            start[c + 1] += 1;
+        }
+    });
     for i in 0..welded {
         start[i + 1] += start[i];
     }
     let mut fill = start.clone();
     let mut adj = vec![0u32; missing];
-    each_missing(src, keep, &ids, canon, |k, c| {
-        adj[fill[c] as usize] = k as u32;
-        fill[c] += 1;
+    each_corner(src, keep, canon, |k, c| {
+        if wants(&ids, k) {
+            adj[fill[c] as usize] = k as u32;
+            fill[c] += 1;
+        }
     });
-    drop(fill);
     // Per position: cluster its corners, sum each cluster. Positions are independent, so runs
-    // of them are clustered in parallel, each into its own table; a corner's slot in its run's
-    // table goes straight into `ids` (each corner lies around one position, so no two runs
-    // write one slot), and the tables are then appended in position order and each run's slots
-    // offset by the entries before it: the ids of one pass in position order whatever the
-    // thread count. Per-run slot lists would have held another id per generated corner (12 MB
-    // on a 1M-triangle mesh) at the stage's peak.
+    // of them are clustered in parallel, each into its own table, and each corner's slot in
+    // its run's table overwrites the corner's own entry in `adj` (a run owns its positions'
+    // stretch of it). The tables are then appended in position order: the normals of one
+    // pass in position order whatever the thread count. The slots go to the corners only
+    // after the face normals and weights are let go, so that a bare mesh's per-corner ids are
+    // not held beside them (12 MB of a 1M-triangle mesh's peak).
     const RUN: usize = 4096;
-    // In place (`AtomicU32` is a `u32`'s size and alignment), and back after the runs.
-    let slots: Vec<AtomicU32> = ids.into_iter().map(AtomicU32::new).collect();
-    let runs: Vec<Vec<[f32; 3]>> = (0..welded.div_ceil(RUN))
+    let mut stretches: Vec<&mut [u32]> = Vec::with_capacity(welded.div_ceil(RUN));
+    let mut rest = adj.as_mut_slice();
+    for r in 0..welded.div_ceil(RUN) {
+        let (first, last) = (r * RUN, ((r + 1) * RUN).min(welded));
+        let (head, tail) = rest.split_at_mut((start[last] - start[first]) as usize);
+        stretches.push(head);
+        rest = tail;
+    }
+    let runs: Vec<Vec<[f32; 3]>> = stretches
         .into_par_iter()
-        .map(|r| {
+        .enumerate()
+        .map(|(r, stretch)| {
             let (first, last) = (r * RUN, ((r + 1) * RUN).min(welded));
+            let offset = start[first] as usize;
             // About one cluster per position.
             let mut local: Vec<[f32; 3]> = Vec::with_capacity(last - first);
             let mut reps: Vec<Vec3> = Vec::new();
             let mut sums: Vec<Vec3> = Vec::new();
             for c in first..last {
-                let corners = &adj[start[c] as usize..start[c + 1] as usize];
+                let corners =
+                    &mut stretch[start[c] as usize - offset..start[c + 1] as usize - offset];
                 if corners.is_empty() {
                     continue;
                 }
                 reps.clear();
                 sums.clear();
                 let base = local.len() as u32;
-                for &k in corners {
-                    let f = face_normals[k as usize / 3];
+                for entry in corners {
+                    let k = *entry as usize;
+                    let f = face_normals[k / 3];
                     let slot = match reps.iter().position(|r| r.dot(f) >= crease_cos) {
                         Some(s) => s,
                         None => {
@@ -243,8 +253,8 @@ fn corner_normals(
                             reps.len() - 1
                         }
                     };
-                    sums[slot] += f * weights[k as usize];
-                    slots[k as usize].store(base + slot as u32, Ordering::Relaxed);
+                    sums[slot] += f * weights[k];
+                    *entry = base + slot as u32;
                 }
                 for (s, r) in sums.iter().zip(&reps) {
                     let n = unit(*s);
@@ -259,16 +269,33 @@ fn corner_normals(
         })
         .collect();
     drop((weights, face_normals));
-    let mut ids: Vec<u32> = slots.into_iter().map(AtomicU32::into_inner).collect();
+    // Each run's first slot in the whole table.
+    let mut bases = Vec::with_capacity(runs.len());
     table.reserve_exact(runs.iter().map(Vec::len).sum());
-    for (r, local) in runs.into_iter().enumerate() {
-        let base = table.len() as u32;
-        let (first, last) = (r * RUN, ((r + 1) * RUN).min(welded));
-        for &k in &adj[start[first] as usize..start[last] as usize] {
-            ids[k as usize] += base;
-        }
+    for local in runs {
+        bases.push(table.len() as u32);
         table.extend_from_slice(&local);
     }
+    // The corners in the order that filled `adj`, so each finds its entry again.
+    fill[..welded].copy_from_slice(&start[..welded]);
+    let mut id_of = |c: usize| {
+        let id = adj[fill[c] as usize] + bases[c / RUN];
+        fill[c] += 1;
+        id
+    };
+    let ids = if ids.is_empty() {
+        let mut out = Vec::with_capacity(missing);
+        each_corner(src, keep, canon, |_, c| out.push(id_of(c)));
+        out
+    } else {
+        let mut ids = ids;
+        each_corner(src, keep, canon, |k, c| {
+            if ids[k] == NONE {
+                ids[k] = id_of(c);
+            }
+        });
+        ids
+    };
     (ids, table, missing)
 }
 
@@ -289,19 +316,31 @@ impl VertexRef {
     /// The whole vertex: -0.0 made +0.0 (as welding compares them), a [`NONE`] attribute zero.
     fn gather(self, src: &Imported, normals: &[[f32; 3]]) -> StandardVertex {
         StandardVertex {
-            position: src.positions[self.p as usize].map(plus_zero),
-            normal: if self.n == NONE {
-                [0.0; 3]
-            } else {
-                normals[self.n as usize]
-            },
-            uv: if self.t == NONE {
-                [0.0; 2]
-            } else {
-                src.uvs[self.t as usize].map(plus_zero)
-            },
+            position: self.position(src),
+            normal: self.normal(normals),
+            uv: self.uv(src),
             tangent: [0.0; 4],
             material: [self.m, 0],
+        }
+    }
+
+    fn position(self, src: &Imported) -> [f32; 3] {
+        src.positions[self.p as usize].map(plus_zero)
+    }
+
+    fn normal(self, normals: &[[f32; 3]]) -> [f32; 3] {
+        if self.n == NONE {
+            [0.0; 3]
+        } else {
+            normals[self.n as usize]
+        }
+    }
+
+    fn uv(self, src: &Imported) -> [f32; 2] {
+        if self.t == NONE {
+            [0.0; 2]
+        } else {
+            src.uvs[self.t as usize].map(plus_zero)
         }
     }
 }
@@ -329,18 +368,40 @@ impl Vertices {
     fn position(&self, src: &Imported, i: usize) -> [f32; 3] {
         match self {
             Vertices::Values(v) => v[i].position,
-            Vertices::Refs { refs, .. } => src.positions[refs[i].p as usize].map(plus_zero),
+            Vertices::Refs { refs, .. } => refs[i].position(src),
         }
     }
 
-    /// The vertices `order` names, in that order.
-    fn gather(self, src: &Imported, order: &[u32]) -> Vec<StandardVertex> {
+    /// The vertices `order` names, in that order, attribute by attribute: an attribute no
+    /// reference has is left out.
+    fn gather(self, src: &Imported, order: &[u32]) -> VertexArrays {
         match self {
-            Vertices::Values(v) => order.par_iter().map(|&i| v[i as usize]).collect(),
-            Vertices::Refs { refs, normals } => order
-                .par_iter()
-                .map(|&i| refs[i as usize].gather(src, &normals))
-                .collect(),
+            Vertices::Values(v) => order.iter().map(|&i| v[i as usize]).collect(),
+            Vertices::Refs { refs, normals } => {
+                fn column<T: Send>(
+                    order: &[u32],
+                    refs: &[VertexRef],
+                    f: impl Fn(VertexRef) -> T + Sync,
+                ) -> Vec<T> {
+                    order.par_iter().map(|&i| f(refs[i as usize])).collect()
+                }
+                let any = |f: fn(&VertexRef) -> u32| refs.iter().any(|r| f(r) != NONE);
+                VertexArrays {
+                    positions: column(order, &refs, |r| r.position(src)),
+                    normals: if any(|r| r.n) {
+                        column(order, &refs, |r| r.normal(&normals))
+                    } else {
+                        Vec::new()
+                    },
+                    uvs: if any(|r| r.t) {
+                        column(order, &refs, |r| r.uv(src))
+                    } else {
+                        Vec::new()
+                    },
+                    tangents: Vec::new(),
+                    materials: column(order, &refs, |r| r.m),
+                }
+            }
         }
     }
 }
@@ -854,7 +915,7 @@ mod tests {
         );
         for r in &p.ranges {
             for &i in &p.indices[r.first_index as usize..(r.first_index + r.index_count) as usize] {
-                assert_eq!(p.vertices[i as usize].material[0], r.material);
+                assert_eq!(p.vertices.materials[i as usize], r.material);
             }
         }
         // Generated normals of a flat quad are exactly +Z.
@@ -920,7 +981,7 @@ mod tests {
             .chunks_exact(3)
             .map(|t| {
                 let t = [t[0], t[1], t[2]];
-                (key(t.map(|i| p.vertices[i as usize].position)), t)
+                (key(t.map(|i| p.vertices.positions[i as usize])), t)
             })
             .collect();
         assert_eq!(by_key.len(), n);
@@ -1038,15 +1099,15 @@ mod tests {
                 prop_assert!(!seen_window || w, "opaque range after a window range");
                 seen_window |= w;
                 for &i in &p.indices[r.first_index as usize..(r.first_index + r.index_count) as usize] {
-                    prop_assert_eq!(p.vertices[i as usize].material[0], r.material);
+                    prop_assert_eq!(p.vertices.materials[i as usize], r.material);
                 }
             }
             prop_assert_eq!(next as usize, p.indices.len());
             for t in p.indices.chunks_exact(3) {
-                let [a, b, c] = [t[0], t[1], t[2]].map(|i| p.vertices[i as usize].position);
+                let [a, b, c] = [t[0], t[1], t[2]].map(|i| p.vertices.positions[i as usize]);
                 prop_assert!(!is_degenerate(a, b, c));
             }
-            for v in &p.vertices {
+            for v in p.vertices.iter() {
                 prop_assert!(v.normal.iter().chain(&v.tangent).all(|c| c.is_finite()));
                 let l = Vec3::from(v.normal).length_squared();
                 prop_assert!((l - 1.0).abs() < 1e-3, "normal {:?}", v.normal);
@@ -1055,7 +1116,7 @@ mod tests {
             let mut kept: Vec<[[u32; 3]; 3]> =
                 kept.iter().map(|t| t.map(|i| bits(pts[i as usize]))).collect();
             let mut out: Vec<[[u32; 3]; 3]> = p.indices.chunks_exact(3)
-                .map(|t| [t[0], t[1], t[2]].map(|i| bits(p.vertices[i as usize].position)))
+                .map(|t| [t[0], t[1], t[2]].map(|i| bits(p.vertices.positions[i as usize])))
                 .collect();
             kept.sort_unstable();
             out.sort_unstable();

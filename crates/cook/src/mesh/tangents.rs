@@ -726,7 +726,7 @@ mod tests {
             &needs,
             &crate::mesh::MeshSettings::default(),
         );
-        let corner = |i: &u32| p.vertices[*i as usize];
+        let corner = |i: &u32| p.vertices.get(*i as usize);
         let positions: Vec<[f32; 3]> = p.indices.iter().map(|i| corner(i).position).collect();
         let normals: Vec<[f32; 3]> = p.indices.iter().map(|i| corner(i).normal).collect();
         let uvs: Vec<[f32; 2]> = p.indices.iter().map(|i| corner(i).uv).collect();
