@@ -151,17 +151,26 @@ fn corner_normals(
     // One pass over the triangles: their unit face normals and corner angles. Each chunk takes
     // its angles' cosines first and their arc cosines in a second loop: one triangle's three
     // polynomials are chains of dependent operations, and a loop over the chunk's cosines
-    // vectorizes and overlaps them. (Finding a corner's face normal again at the corner, with
-    // no per-triangle array, saved 12 MB of heap on a 1M-triangle mesh but 1.5 MB of peak RSS,
-    // and cost the bunny's normals 1.2 ms.)
+    // vectorizes and overlaps them. A large mesh finds each corner's face normal again at the
+    // corner instead of keeping them (the same bits): the 1M-triangle grid's 12 MB array was
+    // its cook's peak of memory, while on the bunny it saved 1.2 ms of normals.
     const CHUNK: usize = 1024;
-    let mut face_normals = vec![Vec3::ZERO; keep.len()];
+    let face_normal = |t: u32| {
+        let p = src.corners.triangle_positions(t as usize);
+        let [a, b, d] = p.map(|i| Vec3::from(src.positions[i as usize]));
+        unit((b - a).cross(d - a))
+    };
+    let keep_faces = keep.len() < KEPT_FACE_NORMALS;
+    let mut face_normals = vec![Vec3::ZERO; if keep_faces { keep.len() } else { 0 }];
     let mut weights = vec![0.0f32; keep.len() * 3];
-    face_normals
-        .par_chunks_mut(CHUNK)
-        .zip(weights.par_chunks_mut(3 * CHUNK))
+    // Empty chunks where the face normals are not kept.
+    let mut face_chunks: Vec<&mut [Vec3]> = face_normals.chunks_mut(CHUNK).collect();
+    face_chunks.resize_with(keep.len().div_ceil(CHUNK), Default::default);
+    weights
+        .par_chunks_mut(3 * CHUNK)
         .zip(keep.par_chunks(CHUNK))
-        .for_each(|((faces, w), tris)| {
+        .zip(face_chunks)
+        .for_each(|((w, tris), faces)| {
             for (k, &t) in tris.iter().enumerate() {
                 let p = src.corners.triangle_positions(t as usize);
                 let [a, b, d] = p.map(|i| Vec3::from(src.positions[i as usize]));
@@ -169,7 +178,9 @@ fn corner_normals(
                 // square roots and divisions vectorize; negating a unit vector is exact, so
                 // these are the same angles as normalizing both edges at every corner.
                 let [n, ab, bd, da] = units([(b - a).cross(d - a), b - a, d - b, a - d]);
-                faces[k] = n;
+                if let Some(f) = faces.get_mut(k) {
+                    *f = n;
+                }
                 w[3 * k..3 * k + 3].copy_from_slice(&[-ab.dot(da), -bd.dot(ab), -da.dot(bd)]);
             }
             for w in w.iter_mut() {
@@ -207,6 +218,7 @@ fn corner_normals(
             fill[c] += 1;
         }
     });
+    drop(fill);
     // Per position: cluster its corners, sum each cluster. Positions are independent, so runs
     // of them are clustered in parallel, each into its own table, and each corner's slot in
     // its run's table overwrites the corner's own entry in `adj` (a run owns its positions'
@@ -244,7 +256,10 @@ fn corner_normals(
                 let base = local.len() as u32;
                 for entry in corners {
                     let k = *entry as usize;
-                    let f = face_normals[k / 3];
+                    let f = match face_normals.get(k / 3) {
+                        Some(&f) => f,
+                        None => face_normal(keep[k / 3]),
+                    };
                     let slot = match reps.iter().position(|r| r.dot(f) >= crease_cos) {
                         Some(s) => s,
                         None => {
@@ -277,7 +292,7 @@ fn corner_normals(
         table.extend_from_slice(&local);
     }
     // The corners in the order that filled `adj`, so each finds its entry again.
-    fill[..welded].copy_from_slice(&start[..welded]);
+    let mut fill = start;
     let mut id_of = |c: usize| {
         let id = adj[fill[c] as usize] + bases[c / RUN];
         fill[c] += 1;
@@ -298,6 +313,10 @@ fn corner_normals(
     };
     (ids, table, missing)
 }
+
+/// Generated normals keep an array of face normals for meshes of fewer triangles than this
+/// (3 MB), and find them again at each corner for larger ones.
+const KEPT_FACE_NORMALS: usize = 256 * 1024;
 
 /// A deduplicated vertex before its values are gathered: its first corner's source position
 /// and texture coordinate ([`NONE`] where its material samples no texture), its normal's id
@@ -614,10 +633,10 @@ fn cache_pieces<'a>(
                 (u64::from(ordered_bits(sum)) << 32) | t as u64
             })
             .collect();
-        // Keys are distinct, so exactly `first` of them lie below the median.
+        // Keys are distinct, so exactly `first` of them lie below the median. The selection's
+        // copy goes before the indices' copy comes.
         let first = triangles / 2;
-        let mut scratch = keys.clone();
-        let pivot = *scratch.select_nth_unstable(first).1;
+        let pivot = *keys.clone().select_nth_unstable(first).1;
         let source = range.to_vec();
         let mut at = [0, first * 3];
         for (&k, c) in keys.iter().zip(source.chunks_exact(3)) {
