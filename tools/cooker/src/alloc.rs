@@ -50,3 +50,29 @@ pub fn tune() {
 
 #[cfg(not(all(target_os = "linux", target_env = "gnu")))]
 pub fn tune() {}
+
+/// Gives the pages of the heap's free blocks back to the system. The heap is never trimmed
+/// while a cook runs (see above), so its resident size is the most it ever held, and a
+/// large block asked for later that fits no freed block lands above all of it: the pack's
+/// bytes, assembled last, took the 1M-triangle grid's peak RSS from 80 to 102 MB in most
+/// runs. Called once the cook's temporaries are gone, that block reuses pages the trim gave
+/// back instead. Only where the free blocks below the heap's top hold more than
+/// [`TRIM_ABOVE`]: a page given back is zeroed again when touched, and trimming the 100k grid's
+/// few free MB cost it 3 ms.
+#[cfg(all(target_os = "linux", target_env = "gnu"))]
+pub fn release_free() {
+    // SAFETY: mallinfo2 reads the allocator's counters; malloc_trim only returns pages of free
+    // heap blocks to the system.
+    unsafe {
+        let info = libc::mallinfo2();
+        if info.fordblks.saturating_sub(info.keepcost) > TRIM_ABOVE {
+            libc::malloc_trim(0);
+        }
+    }
+}
+
+/// Free heap bytes (below the top) worth giving back before the pack is assembled.
+const TRIM_ABOVE: usize = 32 << 20;
+
+#[cfg(not(all(target_os = "linux", target_env = "gnu")))]
+pub fn release_free() {}

@@ -228,6 +228,7 @@ pub fn run(args: Args) -> Outcome {
     // A remote that must answer and did not fails the cook before it touches the output.
     crate::cache_cmd::check_remote(remote, &args.cache)?;
     let write_start = Instant::now();
+    crate::alloc::release_free();
     // Validated while the file is written and synced; renamed into place only when valid.
     let bytes = pack::write_pack(&args.output, out.toc.clone(), &out.data)
         // The pack error names the path; the context says what was being done with it.

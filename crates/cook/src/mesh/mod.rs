@@ -137,6 +137,26 @@ impl VertexArrays {
         (0..self.len()).map(|i| self.get(i))
     }
 
+    /// The vertices `order` names, in that order; each attribute's old array goes as its new
+    /// one is made.
+    pub fn permuted(self, order: &[u32]) -> Self {
+        use rayon::prelude::*;
+        fn column<T: Copy + Send + Sync>(v: Vec<T>, order: &[u32]) -> Vec<T> {
+            if v.is_empty() {
+                v
+            } else {
+                order.par_iter().map(|&i| v[i as usize]).collect()
+            }
+        }
+        Self {
+            positions: column(self.positions, order),
+            normals: column(self.normals, order),
+            uvs: column(self.uvs, order),
+            tangents: column(self.tangents, order),
+            materials: column(self.materials, order),
+        }
+    }
+
     /// Drops each optional attribute whose every value is zero (+0.0: a -0.0 is kept, so that
     /// [`Self::get`] gives back the very bits).
     fn drop_zero_attributes(&mut self) {

@@ -283,7 +283,16 @@ fn corner_normals(
             local
         })
         .collect();
-    drop((weights, face_normals));
+    drop(face_normals);
+    // Every corner needs one: the weights' block, spent, takes the ids. A new block of that
+    // size landed above the heap in some runs of the 1M-triangle grid (its peak RSS 75 or 86
+    // MB, as the threads' smaller blocks happened to fall).
+    let mut out: Vec<u32> = if ids.is_empty() {
+        bytemuck::allocation::cast_vec(weights)
+    } else {
+        drop(weights);
+        Vec::new()
+    };
     // Each run's first slot in the whole table.
     let mut bases = Vec::with_capacity(runs.len());
     table.reserve_exact(runs.iter().map(Vec::len).sum());
@@ -299,8 +308,7 @@ fn corner_normals(
         id
     };
     let ids = if ids.is_empty() {
-        let mut out = Vec::with_capacity(missing);
-        each_corner(src, keep, canon, |_, c| out.push(id_of(c)));
+        each_corner(src, keep, canon, |k, c| out[k] = id_of(c));
         out
     } else {
         let mut ids = ids;
@@ -374,6 +382,9 @@ enum Vertices {
         refs: Vec<VertexRef>,
         normals: Vec<[f32; 3]>,
     },
+    /// Gathered, attribute by attribute ([`Deduplicated::gather`]): the source's attributes
+    /// may be gone.
+    Arrays(VertexArrays),
 }
 
 impl Vertices {
@@ -381,13 +392,7 @@ impl Vertices {
         match self {
             Vertices::Values(v) => v.len(),
             Vertices::Refs { refs, .. } => refs.len(),
-        }
-    }
-
-    fn position(&self, src: &Imported, i: usize) -> [f32; 3] {
-        match self {
-            Vertices::Values(v) => v[i].position,
-            Vertices::Refs { refs, .. } => refs[i].position(src),
+            Vertices::Arrays(a) => a.len(),
         }
     }
 
@@ -396,6 +401,7 @@ impl Vertices {
     fn gather(self, src: &Imported, order: &[u32]) -> VertexArrays {
         match self {
             Vertices::Values(v) => order.iter().map(|&i| v[i as usize]).collect(),
+            Vertices::Arrays(a) => a.permuted(order),
             Vertices::Refs { refs, normals } => {
                 fn column<T: Send>(
                     order: &[u32],
@@ -680,6 +686,27 @@ pub struct Deduplicated {
     timer: Timer,
 }
 
+impl Deduplicated {
+    /// The vertices' values, read from `src` now (attribute by attribute, an attribute no
+    /// vertex has left out), so that the source's positions and texture coordinates can go
+    /// before [`optimize`]: the 1M-triangle grid's references, normal table and positions were
+    /// 20 MB beside the vertex cache step's tables, where its gathered vertices are 13 MB.
+    /// Gathered already, they are as they were.
+    pub fn gather(self, src: &Imported) -> Self {
+        let vertices = match self.vertices {
+            Vertices::Arrays(a) => a,
+            v => {
+                let order: Vec<u32> = (0..v.len() as u32).collect();
+                v.gather(src, &order)
+            }
+        };
+        Self {
+            vertices: Vertices::Arrays(vertices),
+            ..self
+        }
+    }
+}
+
 /// Drops degenerate triangles, groups the rest by material, finds each corner's normal and
 /// deduplicates the corners into vertices.
 pub fn deduplicate(
@@ -788,8 +815,8 @@ pub fn deduplicate(
 }
 
 /// Orders the triangles for the vertex cache (and overdraw, when asked) and the vertices for
-/// fetch, dropping unreferenced ones. `src` is the source [`deduplicate`] read: its corners
-/// may be gone, its positions and texture coordinates are read here.
+/// fetch, dropping unreferenced ones. `src` is the source [`deduplicate`] read, whose
+/// attributes are read here unless the caller has gathered them ([`Deduplicated::gather`]).
 pub fn optimize(
     d: Deduplicated,
     src: &Imported,
@@ -802,7 +829,10 @@ pub fn optimize(
         ranges,
         mut stats,
         mut timer,
-    } = d;
+    } = d.gather(src);
+    let Vertices::Arrays(vertices) = vertices else {
+        unreachable!("gather gives arrays")
+    };
     // The stages here are timed from now: the caller may have waited between the two halves.
     timer.last = Instant::now();
     stats.acmr_in = if indices.is_empty() || !settings.analyze {
@@ -818,7 +848,7 @@ pub fn optimize(
     let (mut bounds_min, mut bounds_max) = (0..vertices.len())
         .into_par_iter()
         .fold(empty, |(mut lo, mut hi), i| {
-            let p = vertices.position(src, i);
+            let p = vertices.positions[i];
             for k in 0..3 {
                 lo[k] = lo[k].min(p[k]);
                 hi[k] = hi[k].max(p[k]);
@@ -831,7 +861,7 @@ pub fn optimize(
                 std::array::from_fn(|k| a_hi[k].max(b_hi[k])),
             )
         });
-    if vertices.len() == 0 {
+    if vertices.is_empty() {
         bounds_min = [0.0; 3];
         bounds_max = [0.0; 3];
     }
@@ -843,7 +873,7 @@ pub fn optimize(
     } else {
         2
     };
-    let along = |i: u32| vertices.position(src, i as usize)[longest_axis];
+    let along = |i: u32| vertices.positions[i as usize][longest_axis];
     cache_pieces(&mut indices, &ranges, along)
         .into_par_iter()
         .for_each(|span| match settings.cache {
@@ -854,10 +884,7 @@ pub fn optimize(
         });
     timer.lap("vertex cache");
     if settings.overdraw {
-        let positions: Vec<[f32; 3]> = (0..vertices.len())
-            .map(|i| vertices.position(src, i))
-            .collect();
-        let bytes: &[u8] = bytemuck::cast_slice(&positions);
+        let bytes: &[u8] = bytemuck::cast_slice(&vertices.positions);
         if let Ok(adapter) = meshopt::VertexDataAdapter::new(bytes, 12, 0) {
             for r in ranges.iter().filter(|r| !needs[r.material as usize].window) {
                 let span =
@@ -881,7 +908,7 @@ pub fn optimize(
         *i = *r;
     }
     drop(remap);
-    let vertices = vertices.gather(src, &order);
+    let vertices = vertices.permuted(&order);
     drop(order);
     timer.lap("vertex fetch");
 
