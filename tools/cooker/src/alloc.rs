@@ -4,9 +4,10 @@
 //! By default glibc maps every block from 128 KiB up on its own and unmaps it when freed, so
 //! each large temporary of the mesh pipeline (per-corner ids, weights, the vertex buffers) was
 //! page-faulted and zeroed afresh, in 4 KiB pages. Here blocks up to 32 MiB come from one heap
-//! that is never trimmed, so freed memory is reused, and the heap asks for transparent huge
-//! pages (one fault per 2 MiB). One arena serves every thread: the worker threads allocate
-//! little, and a second arena would touch memory of its own.
+//! that is not trimmed while the cook runs (only once, before the pack is assembled: see
+//! [`release_free`]), so freed memory is reused, and the heap asks for transparent huge pages
+//! (one fault per 2 MiB). One arena serves every thread: the worker threads allocate little,
+//! and a second arena would touch memory of its own.
 //!
 //! Huge pages make a large cook's time depend on the machine: where free memory is
 //! fragmented the kernel compacts it at the fault (the 819k-triangle grid took 338–558 ms,
