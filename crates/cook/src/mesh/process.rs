@@ -135,7 +135,8 @@ fn source_normals(src: &Imported, keep: &[u32]) -> (Vec<u32>, Vec<[f32; 3]>, usi
 /// unwelded sources still smooth): the corners around a position fall into clusters, each
 /// corner joining the first cluster whose first face lies within the crease angle of its own
 /// face, so hard edges stay hard and a smooth surface gets one normal per position. Returns
-/// (per-corner ids, table, corners generated).
+/// (per-corner ids, table, corners generated). `keep_faces`: hold the face normals in an
+/// array rather than find them again at each corner (the same bits either way).
 fn corner_normals(
     src: &Imported,
     canon: &[u32],
@@ -143,6 +144,7 @@ fn corner_normals(
     keep: &[u32],
     source: (Vec<u32>, Vec<[f32; 3]>, usize),
     crease_cos: f32,
+    keep_faces: bool,
 ) -> (Vec<u32>, Vec<[f32; 3]>, usize) {
     let (ids, mut table, missing) = source;
     if missing == 0 {
@@ -160,7 +162,6 @@ fn corner_normals(
         let [a, b, d] = p.map(|i| Vec3::from(src.positions[i as usize]));
         unit((b - a).cross(d - a))
     };
-    let keep_faces = keep.len() < KEPT_FACE_NORMALS;
     let mut face_normals = vec![Vec3::ZERO; if keep_faces { keep.len() } else { 0 }];
     let mut weights = vec![0.0f32; keep.len() * 3];
     // Empty chunks where the face normals are not kept.
@@ -752,8 +753,15 @@ pub fn deduplicate(
             )
         },
     );
-    let (corner_normal, normal_table, generated) =
-        corner_normals(src, &canon, welded, &keep, source, crease);
+    let (corner_normal, normal_table, generated) = corner_normals(
+        src,
+        &canon,
+        welded,
+        &keep,
+        source,
+        crease,
+        keep.len() < KEPT_FACE_NORMALS,
+    );
     stats.normals_generated = generated;
     stats.corners = keep.len() * 3;
     timer.lap("normals");
@@ -1111,6 +1119,34 @@ mod tests {
     }
 
     proptest! {
+        /// Generated normals are the same bits whether the face normals are held in an array
+        /// (small meshes) or found again at each corner (large ones).
+        #[test]
+        fn face_normals_found_again_are_the_held_ones(
+            pts in prop::collection::vec(prop::array::uniform3(-4.0f32..4.0), 3..10),
+            raw in prop::collection::vec((0u32..10, 0u32..10, 0u32..10), 1..40),
+            crease_deg in 0.0f32..180.0,
+        ) {
+            let n = pts.len() as u32;
+            let tris: Vec<[u32; 3]> = raw.iter().map(|&(a, b, c)| [a % n, b % n, c % n]).collect();
+            let s = soup(pts, tris);
+            let keep: Vec<u32> = (0..s.triangle_count() as u32)
+                .filter(|&t| {
+                    let [a, b, c] = s.corners.triangle_positions(t as usize);
+                    a != b && b != c && a != c
+                        && !is_degenerate(s.positions[a as usize], s.positions[b as usize], s.positions[c as usize])
+                })
+                .collect();
+            let (canon, welded) = weld(&s.positions);
+            let crease = crease_deg.to_radians().cos();
+            let run = |held| corner_normals(&s, &canon, welded, &keep, source_normals(&s, &keep), crease, held);
+            let (held, found) = (run(true), run(false));
+            prop_assert_eq!(&held.0, &found.0);
+            prop_assert_eq!(held.2, found.2);
+            let bits = |t: &[[f32; 3]]| t.iter().flatten().map(|x| x.to_bits()).collect::<Vec<_>>();
+            prop_assert_eq!(bits(&held.1), bits(&found.1));
+        }
+
         /// Arbitrary (often degenerate) soups: every output triangle is non-degenerate, every
         /// index is in range, ranges tile the index buffer and vertices agree with their range;
         /// the kept triangles' positions come out (reordered) and the vertices are in the order
