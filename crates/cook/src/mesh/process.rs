@@ -288,11 +288,12 @@ fn corner_normals(
     // Every corner needs one: the weights' block, spent, takes the ids. A new block of that
     // size landed above the heap in some runs of the 1M-triangle grid (its peak RSS 75 or 86
     // MB, as the threads' smaller blocks happened to fall).
-    let mut out: Vec<u32> = if ids.is_empty() {
+    let every = ids.is_empty();
+    let mut ids: Vec<u32> = if every {
         bytemuck::allocation::cast_vec(weights)
     } else {
         drop(weights);
-        Vec::new()
+        ids
     };
     // Each run's first slot in the whole table.
     let mut bases = Vec::with_capacity(runs.len());
@@ -308,18 +309,12 @@ fn corner_normals(
         fill[c] += 1;
         id
     };
-    let ids = if ids.is_empty() {
-        each_corner(src, keep, canon, |k, c| out[k] = id_of(c));
-        out
-    } else {
-        let mut ids = ids;
-        each_corner(src, keep, canon, |k, c| {
-            if ids[k] == NONE {
-                ids[k] = id_of(c);
-            }
-        });
-        ids
-    };
+    // The weights' bits are no ids: with `every`, each entry is written, none read.
+    each_corner(src, keep, canon, |k, c| {
+        if every || ids[k] == NONE {
+            ids[k] = id_of(c);
+        }
+    });
     (ids, table, missing)
 }
 
@@ -389,43 +384,28 @@ enum Vertices {
 }
 
 impl Vertices {
-    fn len(&self) -> usize {
+    /// The vertices in their order, attribute by attribute: an attribute no reference has is
+    /// left out. Gathered already, they are as they were.
+    fn into_arrays(self, src: &Imported) -> VertexArrays {
         match self {
-            Vertices::Values(v) => v.len(),
-            Vertices::Refs { refs, .. } => refs.len(),
-            Vertices::Arrays(a) => a.len(),
-        }
-    }
-
-    /// The vertices `order` names, in that order, attribute by attribute: an attribute no
-    /// reference has is left out.
-    fn gather(self, src: &Imported, order: &[u32]) -> VertexArrays {
-        match self {
-            Vertices::Values(v) => order.iter().map(|&i| v[i as usize]).collect(),
-            Vertices::Arrays(a) => a.permuted(order),
+            Vertices::Values(v) => v.into_iter().collect(),
+            Vertices::Arrays(a) => a,
             Vertices::Refs { refs, normals } => {
-                fn column<T: Send>(
-                    order: &[u32],
-                    refs: &[VertexRef],
-                    f: impl Fn(VertexRef) -> T + Sync,
-                ) -> Vec<T> {
-                    order.par_iter().map(|&i| f(refs[i as usize])).collect()
-                }
                 let any = |f: fn(&VertexRef) -> u32| refs.iter().any(|r| f(r) != NONE);
                 VertexArrays {
-                    positions: column(order, &refs, |r| r.position(src)),
+                    positions: refs.par_iter().map(|r| r.position(src)).collect(),
                     normals: if any(|r| r.n) {
-                        column(order, &refs, |r| r.normal(&normals))
+                        refs.par_iter().map(|r| r.normal(&normals)).collect()
                     } else {
                         Vec::new()
                     },
                     uvs: if any(|r| r.t) {
-                        column(order, &refs, |r| r.uv(src))
+                        refs.par_iter().map(|r| r.uv(src)).collect()
                     } else {
                         Vec::new()
                     },
                     tangents: Vec::new(),
-                    materials: column(order, &refs, |r| r.m),
+                    materials: refs.par_iter().map(|r| r.m).collect(),
                 }
             }
         }
@@ -694,15 +674,8 @@ impl Deduplicated {
     /// 20 MB beside the vertex cache step's tables, where its gathered vertices are 13 MB.
     /// Gathered already, they are as they were.
     pub fn gather(self, src: &Imported) -> Self {
-        let vertices = match self.vertices {
-            Vertices::Arrays(a) => a,
-            v => {
-                let order: Vec<u32> = (0..v.len() as u32).collect();
-                v.gather(src, &order)
-            }
-        };
         Self {
-            vertices: Vertices::Arrays(vertices),
+            vertices: Vertices::Arrays(self.vertices.into_arrays(src)),
             ..self
         }
     }
@@ -837,10 +810,8 @@ pub fn optimize(
         ranges,
         mut stats,
         mut timer,
-    } = d.gather(src);
-    let Vertices::Arrays(vertices) = vertices else {
-        unreachable!("gather gives arrays")
-    };
+    } = d;
+    let vertices = vertices.into_arrays(src);
     // The stages here are timed from now: the caller may have waited between the two halves.
     timer.last = Instant::now();
     stats.acmr_in = if indices.is_empty() || !settings.analyze {
