@@ -33,7 +33,10 @@ pub fn cook(manifest: &Manifest, settings: &Settings) -> Result<CookOutput, Cook
 
     // 1–3. Import every source into a triangle soup (errors name file and line); tag source
     // names to pack materials with a class; find the windows in the geometry.
-    let prepared = prepare(manifest, settings, &mut report)?;
+    let mut prepared = prepare(manifest, settings, &mut report)?;
+    for src in &mut prepared.imported {
+        src.release_parts();
+    }
     let mut clock = Lap::start();
 
     // 4. Mesh processing, one source per task, beside a bare model's guessed light and cameras
@@ -490,10 +493,7 @@ pub(crate) fn heuristic_notes(
 ) -> Vec<HeuristicNote> {
     let mut notes = Vec::new();
     for (si, src) in sources.iter().enumerate() {
-        let mut counts = vec![0usize; src.parts.len()];
-        for &p in &src.tri_part {
-            counts[p as usize] += 1;
-        }
+        let counts = src.part_triangles();
         for (pi, d) in tagging.decisions[si].iter().enumerate() {
             if d.is_rule() || counts[pi] == 0 {
                 continue;

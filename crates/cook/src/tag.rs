@@ -420,10 +420,7 @@ pub fn tag(manifest: &Manifest, sources: &[Imported]) -> Result<Tagging, CookErr
 
     for (si, src) in sources.iter().enumerate() {
         let mut used = vec![false; src.materials.len()];
-        let mut part_counts = vec![0usize; src.parts.len()];
-        for &p in &src.tri_part {
-            part_counts[p as usize] += 1;
-        }
+        let part_counts = src.part_triangles();
         let geometry = part_geometry(src);
         let mut mats = Vec::with_capacity(src.parts.len());
         let mut decisions = Vec::with_capacity(src.parts.len());

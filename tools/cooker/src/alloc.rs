@@ -57,22 +57,37 @@ pub fn tune() {}
 /// large block asked for later that fits no freed block lands above all of it: the pack's
 /// bytes, assembled last, took the 1M-triangle grid's peak RSS from 80 to 102 MB in most
 /// runs. Called once the cook's temporaries are gone, that block reuses pages the trim gave
-/// back instead. Only where the free blocks below the heap's top hold more than
-/// [`TRIM_ABOVE`]: a page given back is zeroed again when touched, and trimming the 100k grid's
-/// few free MB cost it 3 ms.
+/// back instead. Only where more than [`TRIM_ABOVE`] is resident but free: a page given back
+/// is zeroed again when touched, and trimming the 100k grid's few free MB cost it 3 ms.
+///
+/// Resident but free, not free below the heap's top: what a cook freed last (its vertex
+/// cache step's tables) is part of the top block, and the 1M grid's free blocks below it
+/// were 18 MB in some runs and 35 in others, as the threads' blocks fell; untrimmed, its
+/// pack's bytes then took its peak from 75 to 81 MB.
 #[cfg(all(target_os = "linux", target_env = "gnu"))]
 pub fn release_free() {
-    // SAFETY: mallinfo2 reads the allocator's counters; malloc_trim only returns pages of free
-    // heap blocks to the system.
-    unsafe {
-        let info = libc::mallinfo2();
-        if info.fordblks.saturating_sub(info.keepcost) > TRIM_ABOVE {
+    // SAFETY: mallinfo2 reads the allocator's counters.
+    let info = unsafe { libc::mallinfo2() };
+    let live = info.uordblks + info.hblkhd;
+    if resident().is_some_and(|r| r.saturating_sub(live) > TRIM_ABOVE) {
+        // SAFETY: malloc_trim only returns pages of free heap blocks to the system.
+        unsafe {
             libc::malloc_trim(0);
         }
     }
 }
 
-/// Free heap bytes (below the top) worth giving back before the pack is assembled.
+/// The process's resident bytes, from `/proc/self/statm` (its second field, in pages).
+#[cfg(all(target_os = "linux", target_env = "gnu"))]
+fn resident() -> Option<usize> {
+    let statm = std::fs::read_to_string("/proc/self/statm").ok()?;
+    let pages: usize = statm.split_whitespace().nth(1)?.parse().ok()?;
+    // SAFETY: sysconf only reads a system constant.
+    let page = unsafe { libc::sysconf(libc::_SC_PAGESIZE) };
+    Some(pages * usize::try_from(page).ok()?)
+}
+
+/// Resident but free heap bytes worth giving back before the pack is assembled.
 const TRIM_ABOVE: usize = 32 << 20;
 
 #[cfg(not(all(target_os = "linux", target_env = "gnu")))]

@@ -348,6 +348,9 @@ pub struct Imported {
     pub corners: Corners,
     /// Per triangle: index into `parts`.
     pub tri_part: Vec<u32>,
+    /// Triangles per part, counted when the geometry was released
+    /// ([`Imported::release_geometry`]); empty before.
+    pub(crate) released_part_triangles: Vec<usize>,
     pub parts: Vec<Part>,
     pub materials: Vec<SourceMaterial>,
     pub warnings: Vec<Warning>,
@@ -359,7 +362,7 @@ pub struct Imported {
 
 impl Imported {
     pub fn triangle_count(&self) -> usize {
-        self.tri_part.len()
+        self.corners.len() / 3
     }
 
     /// Frees the triangles' corners and source normals once the mesh stage has deduplicated
@@ -369,13 +372,33 @@ impl Imported {
         self.corners = Corners::default();
     }
 
+    /// Frees the per-triangle parts once each triangle's pack material is known; each part's
+    /// triangle count stays (tagging notes and the report read it). They were 4 MB of the
+    /// 1M-triangle grid's generated normals, its cook's peak of memory.
+    pub fn release_parts(&mut self) {
+        self.released_part_triangles = self.part_triangles();
+        self.tri_part = Vec::new();
+    }
+
     /// Frees the triangles' corners and attribute arrays once the mesh stage has read them;
-    /// names, parts and the per-triangle part stay (pruning and the report read them).
+    /// names and parts stay (pruning and the report read them).
     pub fn release_geometry(&mut self) {
         self.positions = Vec::new();
         self.normals = Vec::new();
         self.uvs = Vec::new();
         self.corners = Corners::default();
+    }
+
+    /// How many triangles each part has.
+    pub fn part_triangles(&self) -> Vec<usize> {
+        if self.tri_part.is_empty() && !self.released_part_triangles.is_empty() {
+            return self.released_part_triangles.clone();
+        }
+        let mut counts = vec![0usize; self.parts.len()];
+        for &p in &self.tri_part {
+            counts[p as usize] += 1;
+        }
+        counts
     }
 
     /// Applies an affine transform to positions and normals; a mirroring transform also flips

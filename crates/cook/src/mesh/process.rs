@@ -68,6 +68,75 @@ pub fn is_degenerate(a: [f32; 3], b: [f32; 3], c: [f32; 3]) -> bool {
     n.length_squared().partial_cmp(&0.0) != Some(std::cmp::Ordering::Greater)
 }
 
+/// The triangles a cook keeps, in draw order. Most meshes drop none and are in material order
+/// already (one material, or grouped by their source), and those are held as a count: the
+/// 1M-triangle grid's list was 4 MB at its cook's peak of memory.
+#[derive(Debug)]
+enum Kept {
+    /// Source triangles `0..n`, in order.
+    All(usize),
+    /// Source triangle indices.
+    List(Vec<u32>),
+}
+
+impl Kept {
+    /// Every non-degenerate triangle, grouped by material with windows last (stable, so
+    /// source order is kept within a material).
+    fn find(src: &Imported, tri_material: &[u16], needs: &[MaterialNeeds]) -> Self {
+        // The list is made at the first triangle dropped, if one is.
+        let mut list: Option<Vec<u32>> = None;
+        for (ti, c) in src.corners.positions().chunks_exact(3).enumerate() {
+            let [a, b, d] = [c[0], c[1], c[2]].map(|p| src.positions[p as usize]);
+            let kept = c[0] != c[1] && c[1] != c[2] && c[0] != c[2] && !is_degenerate(a, b, d);
+            match (&mut list, kept) {
+                (Some(l), true) => l.push(ti as u32),
+                (Some(_), false) => {}
+                (None, true) => {}
+                (None, false) => {
+                    let mut l = Vec::with_capacity(src.triangle_count());
+                    l.extend(0..ti as u32);
+                    list = Some(l);
+                }
+            }
+        }
+        let key = |t: u32| {
+            let m = tri_material[t as usize];
+            (needs[m as usize].window, m)
+        };
+        match list {
+            None if (0..src.triangle_count() as u32).is_sorted_by_key(key) => {
+                Kept::All(src.triangle_count())
+            }
+            list => {
+                let mut list = list.unwrap_or_else(|| (0..src.triangle_count() as u32).collect());
+                list.sort_by_key(|&t| key(t));
+                Kept::List(list)
+            }
+        }
+    }
+
+    fn len(&self) -> usize {
+        match self {
+            Kept::All(n) => *n,
+            Kept::List(l) => l.len(),
+        }
+    }
+
+    /// The `k`th kept triangle's source index.
+    #[inline]
+    fn get(&self, k: usize) -> u32 {
+        match self {
+            Kept::All(_) => k as u32,
+            Kept::List(l) => l[k],
+        }
+    }
+
+    /// The kept triangles' source indices, in order.
+    fn iter(&self) -> impl Iterator<Item = u32> + '_ {
+        (0..self.len()).map(|k| self.get(k))
+    }
+}
+
 #[derive(Debug)]
 struct Timer {
     last: Instant,
@@ -91,7 +160,7 @@ impl Timer {
 /// Each kept corner's source normal, welded by value: (per-corner ids into the table, with
 /// [`NONE`] where the source has none or a zero one, or empty when no corner has one; the
 /// table of unit normals; how many corners have none).
-fn source_normals(src: &Imported, keep: &[u32]) -> (Vec<u32>, Vec<[f32; 3]>, usize) {
+fn source_normals(src: &Imported, keep: &Kept) -> (Vec<u32>, Vec<[f32; 3]>, usize) {
     let units: Vec<[f32; 3]> = src
         .normals
         .iter()
@@ -110,7 +179,7 @@ fn source_normals(src: &Imported, keep: &[u32]) -> (Vec<u32>, Vec<[f32; 3]>, usi
     }
     let mut ids: Vec<u32> = Vec::with_capacity(keep.len() * 3);
     let mut missing = 0usize;
-    for &t in keep {
+    for t in keep.iter() {
         for &n in &corner_n[t as usize * 3..t as usize * 3 + 3] {
             let id = if n == NONE {
                 NONE
@@ -141,7 +210,7 @@ fn corner_normals(
     src: &Imported,
     canon: &[u32],
     welded: usize,
-    keep: &[u32],
+    keep: &Kept,
     source: (Vec<u32>, Vec<[f32; 3]>, usize),
     crease_cos: f32,
     keep_faces: bool,
@@ -169,10 +238,11 @@ fn corner_normals(
     face_chunks.resize_with(keep.len().div_ceil(CHUNK), Default::default);
     weights
         .par_chunks_mut(3 * CHUNK)
-        .zip(keep.par_chunks(CHUNK))
         .zip(face_chunks)
-        .for_each(|((w, tris), faces)| {
-            for (k, &t) in tris.iter().enumerate() {
+        .enumerate()
+        .for_each(|(chunk, (w, faces))| {
+            for k in 0..w.len() / 3 {
+                let t = keep.get(chunk * CHUNK + k);
                 let p = src.corners.triangle_positions(t as usize);
                 let [a, b, d] = p.map(|i| Vec3::from(src.positions[i as usize]));
                 // The face normal and each edge normalized once, lane by lane so that the
@@ -193,8 +263,8 @@ fn corner_normals(
     // them beside `adj` was another id per corner at the stage's peak. `ids` is empty when
     // every corner needs one.
     // A generic fn rather than a closure taking `dyn FnMut`: the call per corner inlines.
-    fn each_corner(src: &Imported, keep: &[u32], canon: &[u32], mut f: impl FnMut(usize, usize)) {
-        for (ti, &t) in keep.iter().enumerate() {
+    fn each_corner(src: &Imported, keep: &Kept, canon: &[u32], mut f: impl FnMut(usize, usize)) {
+        for (ti, t) in keep.iter().enumerate() {
             let at = src.corners.triangle_positions(t as usize);
             for (j, &p) in at.iter().enumerate() {
                 f(3 * ti + j, canon[p as usize] as usize);
@@ -259,7 +329,7 @@ fn corner_normals(
                     let k = *entry as usize;
                     let f = match face_normals.get(k / 3) {
                         Some(&f) => f,
-                        None => face_normal(keep[k / 3]),
+                        None => face_normal(keep.get(k / 3)),
                     };
                     let slot = match reps.iter().position(|r| r.dot(f) >= crease_cos) {
                         Some(s) => s,
@@ -297,10 +367,10 @@ fn corner_normals(
     };
     // Each run's first slot in the whole table.
     let mut bases = Vec::with_capacity(runs.len());
-    table.reserve_exact(runs.iter().map(Vec::len).sum());
-    for local in runs {
-        bases.push(table.len() as u32);
-        table.extend_from_slice(&local);
+    let mut slots = table.len() as u32;
+    for local in &runs {
+        bases.push(slots);
+        slots += local.len() as u32;
     }
     // The corners in the order that filled `adj`, so each finds its entry again.
     let mut fill = start;
@@ -315,6 +385,13 @@ fn corner_normals(
             ids[k] = id_of(c);
         }
     });
+    // The runs' tables are joined only once `adj` is gone, whose block the whole table can
+    // take: the 1M-triangle grid's were 12 MB beside it.
+    drop((adj, fill));
+    table.reserve_exact(slots as usize - table.len());
+    for local in runs {
+        table.extend_from_slice(&local);
+    }
     (ids, table, missing)
 }
 
@@ -422,7 +499,7 @@ fn dedupe_by_key(
     canon: &[u32],
     welded: usize,
     uv: Option<&[u32]>,
-    keep: &[u32],
+    keep: &Kept,
     tri_material: &[u16],
     needs: &[MaterialNeeds],
     corner_normal: Vec<u32>,
@@ -451,7 +528,7 @@ fn dedupe_by_key(
         Some(uv) if t != NONE => uv[t as usize],
         _ => NONE,
     };
-    for (&t, ids) in keep.iter().zip(indices.chunks_exact_mut(3)) {
+    for (t, ids) in keep.iter().zip(indices.chunks_exact_mut(3)) {
         let m = tri_material[t as usize];
         let need = needs[m as usize];
         let base = t as usize * 3;
@@ -493,14 +570,14 @@ fn dedupe_by_key(
 /// tangents on the triangles that need them, then deduplication of whole vertices.
 fn dedupe_with_tangents(
     src: &Imported,
-    keep: &[u32],
+    keep: &Kept,
     tri_material: &[u16],
     needs: &[MaterialNeeds],
     corner_normal: &[u32],
     normal_table: &[[f32; 3]],
 ) -> (Vec<StandardVertex>, Vec<u32>, usize) {
     let mut corners: Vec<StandardVertex> = Vec::with_capacity(keep.len() * 3);
-    for (k, &t) in keep.iter().enumerate() {
+    for (k, t) in keep.iter().enumerate() {
         let m = tri_material[t as usize];
         let need = needs[m as usize];
         for j in 0..3 {
@@ -521,7 +598,7 @@ fn dedupe_with_tangents(
     let tangent_faces: Vec<u32> = keep
         .iter()
         .enumerate()
-        .filter(|&(_, &t)| needs[tri_material[t as usize] as usize].tangents)
+        .filter(|&(_, t)| needs[tri_material[t as usize] as usize].tangents)
         .map(|(k, _)| k as u32)
         .collect();
     if !tangent_faces.is_empty() {
@@ -595,11 +672,34 @@ fn ordered_bits(f: f32) -> u32 {
 /// triangles' centroids along one axis, `along` giving a vertex's coordinate (the caller takes
 /// the mesh's longest: a cut across it is the shortest for most shapes), source order kept
 /// within each half, so the halves touch along one plane only.
+///
+/// Each piece's vertices are renumbered `0..` in the order the piece first uses them, and
+/// each piece comes with its table from those ids back to the vertices' own. meshopt's
+/// optimizer allocates, clears and scores arrays over every id below the vertex count it is
+/// given, whatever a piece uses: each half of the 1M-triangle grid held 6 MB for the other
+/// half's vertices at the cook's peak of memory, and a mesh of many materials paid a pass
+/// over all its vertices for every draw range. Its result does not depend on the vertices'
+/// numbering (a property test checks it), so packs are unchanged; the FIFO optimizer's does
+/// (after a dead end it takes the lowest-numbered vertex left), and numbered in order of
+/// first use, a piece's vertices lead it back to where the piece's triangles begin.
 fn cache_pieces<'a>(
     indices: &'a mut [u32],
     ranges: &[pack::DrawRange],
+    vertex_count: usize,
     along: impl Fn(u32) -> f32 + Sync,
-) -> Vec<&'a mut [u32]> {
+) -> Vec<(&'a mut [u32], Vec<u32>)> {
+    // Each vertex's id in the lower and the upper piece of its range (a vertex on a cut is
+    // in both); one table a side for every range, each range's entries reset after it (a
+    // vertex belongs to one material, so to one range).
+    let mut local = [vec![u32::MAX; vertex_count], vec![u32::MAX; vertex_count]];
+    fn renumber(local: &mut [u32], i: u32, global: &mut Vec<u32>) -> u32 {
+        let l = &mut local[i as usize];
+        if *l == u32::MAX {
+            *l = global.len() as u32;
+            global.push(i);
+        }
+        *l
+    }
     let mut pieces = Vec::new();
     let mut rest = indices;
     for r in ranges {
@@ -607,33 +707,59 @@ fn cache_pieces<'a>(
         rest = tail;
         let triangles = range.len() / 3;
         if triangles < CACHE_SPLIT_TRIANGLES {
-            pieces.push(range);
+            let mut global = Vec::new();
+            for i in range.iter_mut() {
+                *i = renumber(&mut local[0], *i, &mut global);
+            }
+            for &g in &global {
+                local[0][g as usize] = u32::MAX;
+            }
+            pieces.push((range, global));
             continue;
         }
         // Triangles keyed by the sum of their corners' coordinates along the axis, ties by
         // source position, packed into one integer so the median is cheap.
-        let keys: Vec<u64> = range
+        let key = |t: usize, c: &[u32]| {
+            let sum: f32 = c.iter().map(|&i| along(i)).sum();
+            (u64::from(ordered_bits(sum)) << 32) | t as u64
+        };
+        let mut keys: Vec<u64> = range
             .par_chunks_exact(3)
             .enumerate()
-            .map(|(t, c)| {
-                let sum: f32 = c.iter().map(|&i| along(i)).sum();
-                (u64::from(ordered_bits(sum)) << 32) | t as u64
-            })
+            .map(|(t, c)| key(t, c))
             .collect();
-        // Keys are distinct, so exactly `first` of them lie below the median. The selection's
-        // copy goes before the indices' copy comes.
+        // Keys are distinct, so exactly `first` of them lie below the median. The selection
+        // reorders the keys, so each triangle's key is found again below: a copy of the keys
+        // in their order, and of the whole range to partition from, were 20 MB of the
+        // 1M-triangle grid's peak.
         let first = triangles / 2;
-        let pivot = *keys.clone().select_nth_unstable(first).1;
-        let source = range.to_vec();
-        let mut at = [0, first * 3];
-        for (&k, c) in keys.iter().zip(source.chunks_exact(3)) {
-            let side = usize::from(k >= pivot);
-            range[at[side]..at[side] + 3].copy_from_slice(c);
-            at[side] += 3;
-        }
+        let pivot = *keys.select_nth_unstable(first).1;
+        drop(keys);
+        // Stable partition, each side gathered and renumbered on its own core.
+        let side = |upper: bool, local: &mut [u32]| {
+            let mut out: Vec<u32> =
+                Vec::with_capacity(3 * if upper { triangles - first } else { first });
+            let mut global = Vec::new();
+            for (t, c) in range.chunks_exact(3).enumerate() {
+                if (key(t, c) >= pivot) == upper {
+                    out.extend(c.iter().map(|&i| renumber(local, i, &mut global)));
+                }
+            }
+            for &g in &global {
+                local[g as usize] = u32::MAX;
+            }
+            (out, global)
+        };
+        let [l0, l1] = &mut local;
+        let ((lower, lower_ids), (upper, upper_ids)) =
+            rayon::join(|| side(false, l0), || side(true, l1));
+        debug_assert_eq!(lower.len(), first * 3);
         let (a, b) = range.split_at_mut(first * 3);
-        pieces.push(a);
-        pieces.push(b);
+        a.copy_from_slice(&lower);
+        b.copy_from_slice(&upper);
+        drop((lower, upper));
+        pieces.push((a, lower_ids));
+        pieces.push((b, upper_ids));
     }
     pieces
 }
@@ -695,20 +821,9 @@ pub fn deduplicate(
         ..Default::default()
     };
 
-    // Drop degenerate triangles before anything divides by their area.
-    let mut keep: Vec<u32> = Vec::with_capacity(src.triangle_count());
-    for (ti, c) in src.corners.positions().chunks_exact(3).enumerate() {
-        let [a, b, d] = [c[0], c[1], c[2]].map(|p| src.positions[p as usize]);
-        if c[0] != c[1] && c[1] != c[2] && c[0] != c[2] && !is_degenerate(a, b, d) {
-            keep.push(ti as u32);
-        }
-    }
+    // Degenerate triangles go before anything divides by their area.
+    let keep = Kept::find(src, tri_material, needs);
     stats.degenerate_dropped = src.triangle_count() - keep.len();
-    // Group by material, windows last; stable, so source order is kept within a material.
-    keep.sort_by_key(|&t| {
-        let m = tri_material[t as usize];
-        (needs[m as usize].window, m)
-    });
     timer.lap("filter+group");
 
     let crease = settings.crease_angle_deg.to_radians().cos();
@@ -775,7 +890,7 @@ pub fn deduplicate(
     // peak of a large mesh's cook.
     drop((canon, uv_ids));
     let mut ranges: Vec<pack::DrawRange> = Vec::new();
-    for (k, &t) in keep.iter().enumerate() {
+    for (k, t) in keep.iter().enumerate() {
         let m = tri_material[t as usize];
         match ranges.last_mut() {
             Some(r) if r.material == m => r.index_count += 3,
@@ -853,12 +968,17 @@ pub fn optimize(
         2
     };
     let along = |i: u32| vertices.positions[i as usize][longest_axis];
-    cache_pieces(&mut indices, &ranges, along)
+    cache_pieces(&mut indices, &ranges, vertices.len(), along)
         .into_par_iter()
-        .for_each(|span| match settings.cache {
-            CacheMode::Full => meshopt::optimize_vertex_cache_in_place(span, vertices.len()),
-            CacheMode::Fifo => {
-                meshopt::optimize_vertex_cache_fifo_in_place(span, vertices.len(), 16)
+        .for_each(|(span, global)| {
+            match settings.cache {
+                CacheMode::Full => meshopt::optimize_vertex_cache_in_place(span, global.len()),
+                CacheMode::Fifo => {
+                    meshopt::optimize_vertex_cache_fifo_in_place(span, global.len(), 16)
+                }
+            }
+            for i in span.iter_mut() {
+                *i = global[*i as usize];
             }
         });
     timer.lap("vertex cache");
@@ -1090,6 +1210,60 @@ mod tests {
     }
 
     proptest! {
+        /// meshopt's vertex cache order does not depend on how the vertices are numbered, so
+        /// each piece is ordered on its own ids (`cache_pieces`): the order on vertices
+        /// renumbered by any permutation is the same triangles, renumbered. (Not the FIFO
+        /// optimizer's: after a dead end it takes the lowest-numbered vertex left.)
+        #[test]
+        fn the_vertex_cache_order_ignores_vertex_numbering(
+            raw in prop::collection::vec((0u32..40, 0u32..40, 0u32..40), 1..120),
+            perm_seed in any::<u64>(),
+        ) {
+            let indices: Vec<u32> = raw.iter().flat_map(|&(a, b, c)| [a, b, c]).collect();
+            let mut perm: Vec<u32> = (0..40).collect();
+            let mut state = perm_seed | 1;
+            for i in (1..perm.len()).rev() {
+                state ^= state << 13;
+                state ^= state >> 7;
+                state ^= state << 17;
+                perm.swap(i, (state % (i as u64 + 1)) as usize);
+            }
+            let order = |mut i: Vec<u32>, count: usize| {
+                meshopt::optimize_vertex_cache_in_place(&mut i, count);
+                i
+            };
+            let renamed: Vec<u32> = indices.iter().map(|&i| perm[i as usize]).collect();
+            let want: Vec<u32> = order(indices, 40).iter().map(|&i| perm[i as usize]).collect();
+            prop_assert_eq!(order(renamed, 40), want);
+        }
+
+        /// The kept triangles are the non-degenerate ones, stably grouped by material with
+        /// windows last, whether held as a count or as a list.
+        #[test]
+        fn kept_triangles_are_the_filtered_and_grouped_ones(
+            pts in prop::collection::vec(prop::array::uniform3(prop::sample::select(vec![-1.0f32, 0.0, 1.0, 2.0])), 3..8),
+            raw in prop::collection::vec((0u32..8, 0u32..8, 0u32..8, 0u16..3), 0..30),
+        ) {
+            let n = pts.len() as u32;
+            let tris: Vec<[u32; 3]> = raw.iter().map(|&(a, b, c, _)| [a % n, b % n, c % n]).collect();
+            let mats: Vec<u16> = raw.iter().map(|r| r.3).collect();
+            let s = soup(pts, tris);
+            let needs = [OPAQUE, WINDOW, OPAQUE];
+            let mut want: Vec<u32> = (0..s.triangle_count() as u32)
+                .filter(|&t| {
+                    let [a, b, c] = s.corners.triangle_positions(t as usize);
+                    a != b && b != c && a != c
+                        && !is_degenerate(s.positions[a as usize], s.positions[b as usize], s.positions[c as usize])
+                })
+                .collect();
+            want.sort_by_key(|&t| (needs[mats[t as usize] as usize].window, mats[t as usize]));
+            let kept = Kept::find(&s, &mats, &needs);
+            let identity = want.iter().enumerate().all(|(k, &t)| k as u32 == t)
+                && want.len() == s.triangle_count();
+            prop_assert_eq!(matches!(kept, Kept::All(_)), identity);
+            prop_assert_eq!(kept.iter().collect::<Vec<_>>(), want);
+        }
+
         /// Generated normals are the same bits whether the face normals are held in an array
         /// (small meshes) or found again at each corner (large ones).
         #[test]
@@ -1101,13 +1275,13 @@ mod tests {
             let n = pts.len() as u32;
             let tris: Vec<[u32; 3]> = raw.iter().map(|&(a, b, c)| [a % n, b % n, c % n]).collect();
             let s = soup(pts, tris);
-            let keep: Vec<u32> = (0..s.triangle_count() as u32)
+            let keep = Kept::List((0..s.triangle_count() as u32)
                 .filter(|&t| {
                     let [a, b, c] = s.corners.triangle_positions(t as usize);
                     a != b && b != c && a != c
                         && !is_degenerate(s.positions[a as usize], s.positions[b as usize], s.positions[c as usize])
                 })
-                .collect();
+                .collect());
             let (canon, welded) = weld(&s.positions);
             let crease = crease_deg.to_radians().cos();
             let run = |held| corner_normals(&s, &canon, welded, &keep, source_normals(&s, &keep), crease, held);
