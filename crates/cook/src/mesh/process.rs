@@ -736,12 +736,17 @@ fn cache_pieces<'a>(
         let pivot = *keys.select_nth_unstable(first).1;
         drop(keys);
         // Stable partition, each side gathered and renumbered on its own core.
+        let above: Vec<bool> = range
+            .par_chunks_exact(3)
+            .enumerate()
+            .map(|(t, c)| key(t, c) >= pivot)
+            .collect();
         let side = |upper: bool, local: &mut [u32]| {
             let mut out: Vec<u32> =
                 Vec::with_capacity(3 * if upper { triangles - first } else { first });
             let mut global = Vec::new();
-            for (t, c) in range.chunks_exact(3).enumerate() {
-                if (key(t, c) >= pivot) == upper {
+            for (c, &a) in range.chunks_exact(3).zip(&above) {
+                if a == upper {
                     out.extend(c.iter().map(|&i| renumber(local, i, &mut global)));
                 }
             }
@@ -753,6 +758,7 @@ fn cache_pieces<'a>(
         let [l0, l1] = &mut local;
         let ((lower, lower_ids), (upper, upper_ids)) =
             rayon::join(|| side(false, l0), || side(true, l1));
+        drop(above);
         debug_assert_eq!(lower.len(), first * 3);
         let (a, b) = range.split_at_mut(first * 3);
         a.copy_from_slice(&lower);
