@@ -17,7 +17,7 @@
 //!
 //! Measured against mimalloc, which the cooker linked before (it reused little of what it
 //! freed: the bunny's cook allocated 47 MB in all with 15 MB live at most, and touched 82 MB
-//! in huge pages), in README's Benchmarks section.
+//! in huge pages), in docs/performance.md.
 
 const HUGE_PAGE: usize = 2 << 20;
 /// The heap's first size: what a 1M-triangle mesh's cook allocates at most.
