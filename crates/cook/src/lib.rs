@@ -33,5 +33,7 @@ pub use mesh::{CacheMode, MeshSettings, MeshStats};
 pub use pipeline::{
     CookOutput, Prepared, cook, import_sources, material_needs, prepare, window_geometry,
 };
-pub use report::{ArtifactSource, HeuristicNote, MeshReport, QuantizationError, Report};
+pub use report::{
+    ArtifactSource, HeuristicNote, MeshReport, QuantizationError, Report, Stage, peak_rss,
+};
 pub use settings::{Settings, TextureSettings};

@@ -211,7 +211,7 @@ impl Lap {
 
     fn lap(&mut self, report: &mut Report, name: &'static str) {
         let now = Instant::now();
-        report.stages.push((name, now - self.0));
+        report.stage(name, now - self.0);
         self.0 = now;
     }
 }
@@ -279,7 +279,7 @@ pub fn prepare(
     let (mut imported, import_times): (Vec<import::Imported>, Vec<Duration>) =
         sources.into_iter().unzip();
     let tagged = Instant::now();
-    report.stages.push(("import", tagged - start));
+    report.stage("import", tagged - start);
     let mut tagging = tag::tag(manifest, &imported)?;
     let mut tri_material: Vec<Vec<u16>> = imported
         .iter()
@@ -287,7 +287,7 @@ pub fn prepare(
         .map(|(src, parts)| tri_materials(src, parts))
         .collect();
     let found = Instant::now();
-    report.stages.push(("tag", found - tagged));
+    report.stage("tag", found - tagged);
     let images = textures::DecodedImages::default();
     let windows = window_plan::plan(
         manifest,
@@ -298,7 +298,7 @@ pub fn prepare(
         &images,
         report,
     )?;
-    report.stages.push(("windows", found.elapsed()));
+    report.stage("windows", found.elapsed());
     Ok(Prepared {
         imported,
         import_times,

@@ -60,7 +60,55 @@ pub struct Report {
     pub heuristics: Vec<HeuristicNote>,
     /// What the scene defines but nothing uses, so it was not cooked: one line each.
     pub skipped: Vec<String>,
-    pub stages: Vec<(&'static str, Duration)>,
+    pub stages: Vec<Stage>,
+}
+
+/// One stage of a cook, in order.
+#[derive(Clone, Debug)]
+pub struct Stage {
+    pub name: &'static str,
+    pub time: Duration,
+    /// The process's peak resident memory so far, in bytes, read as the stage ended: the
+    /// stage that raised it is the first whose figure is the final one. `None` where the
+    /// system does not say.
+    pub peak_rss: Option<u64>,
+}
+
+impl Report {
+    pub(crate) fn stage(&mut self, name: &'static str, time: Duration) {
+        self.stages.push(Stage {
+            name,
+            time,
+            peak_rss: peak_rss(),
+        });
+    }
+}
+
+/// The process's peak resident memory so far, in bytes (`getrusage`: a system call, no file
+/// to read, so every stage can afford it).
+#[cfg(any(target_os = "linux", target_os = "macos"))]
+pub fn peak_rss() -> Option<u64> {
+    let mut usage = std::mem::MaybeUninit::<libc::rusage>::uninit();
+    // SAFETY: getrusage writes the whole struct when it returns 0, and reads nothing.
+    let usage = unsafe {
+        if libc::getrusage(libc::RUSAGE_SELF, usage.as_mut_ptr()) != 0 {
+            return None;
+        }
+        usage.assume_init()
+    };
+    let max = u64::try_from(usage.ru_maxrss).ok()?;
+    // Linux counts kilobytes, macOS bytes.
+    Some(if cfg!(target_os = "linux") {
+        max * 1024
+    } else {
+        max
+    })
+}
+
+/// The process's peak resident memory so far: not known on this system.
+#[cfg(not(any(target_os = "linux", target_os = "macos")))]
+pub fn peak_rss() -> Option<u64> {
+    None
 }
 
 /// Where a cooked artifact came from.
@@ -70,4 +118,21 @@ pub enum ArtifactSource {
     Reused,
     /// The cache entry was damaged; it was cooked again.
     Recooked(String),
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The peak counts memory once it is touched, and never falls.
+    #[cfg(any(target_os = "linux", target_os = "macos"))]
+    #[test]
+    fn peak_rss_counts_touched_memory() {
+        let before = peak_rss().expect("this system reports peak memory");
+        let block = std::hint::black_box(vec![1u8; 64 << 20]);
+        let after = peak_rss().unwrap();
+        drop(block);
+        assert!(after >= 64 << 20 && after >= before, "{before} -> {after}");
+        assert!(peak_rss().unwrap() >= after);
+    }
 }

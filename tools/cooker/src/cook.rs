@@ -411,10 +411,27 @@ fn stats(out: &cook::CookOutput, write_time: Duration) -> Vec<String> {
         acmr_out += s.acmr_out as f64 * s.triangles_out as f64;
         bytes += mesh_bytes;
     }
-    for (name, t) in &report.stages {
-        lines.push(format!("stage {name:<12} {}", ms(*t)));
+    // Each stage's time and the process's peak memory once it ended: the first stage showing
+    // the final figure is the one that set it.
+    let peak = |bytes: Option<u64>| {
+        bytes.map_or_else(String::new, |b| {
+            format!("  peak RSS {:.1} MB", b as f64 / 1e6)
+        })
+    };
+    for st in &report.stages {
+        lines.push(format!(
+            "stage {:<12} {:>10}{}",
+            st.name,
+            ms(st.time),
+            peak(st.peak_rss)
+        ));
     }
-    lines.push(format!("stage {:<12} {}", "write", ms(write_time)));
+    lines.push(format!(
+        "stage {:<12} {:>10}{}",
+        "write",
+        ms(write_time),
+        peak(cook::peak_rss())
+    ));
     let n = tri_out.max(1) as f64;
     lines.push(format!(
         "total: triangles {tri_in} -> {tri_out} acmr_in={:.3} acmr_out={:.3} bytes/triangle={:.2}",

@@ -69,6 +69,29 @@ fn cook_verbose_reports_stages_and_acmr() {
         stdout.contains("overfetch=") && stdout.contains("bytes/triangle="),
         "{stdout}"
     );
+    // Every stage, write last, with the peak memory so far: never falling, and at least the
+    // bunny's 1.4 MB pack, which the write held whole.
+    let peaks: Vec<(String, f64)> = stdout
+        .lines()
+        .filter_map(|l| l.strip_prefix("stage "))
+        .map(|l| {
+            let (name, rest) = l.split_at(12);
+            let mb = rest.split("peak RSS ").nth(1).expect(l);
+            (
+                name.trim().to_string(),
+                mb.trim_end_matches(" MB").parse().expect(l),
+            )
+        })
+        .collect();
+    let names: Vec<&str> = peaks.iter().map(|(n, _)| n.as_str()).collect();
+    assert_eq!(names.first(), Some(&"import"), "{stdout}");
+    assert_eq!(names.last(), Some(&"write"), "{stdout}");
+    assert!(
+        names.contains(&"mesh") && names.contains(&"textures"),
+        "{stdout}"
+    );
+    assert!(peaks.windows(2).all(|w| w[0].1 <= w[1].1), "{stdout}");
+    assert!(peaks.last().unwrap().1 >= 1.4, "{stdout}");
     assert!(
         text(&o.stderr).contains("cooking a bare mesh without a scene.toml")
             && text(&o.stderr).contains("`cooker init`"),
