@@ -689,9 +689,15 @@ fn cache_pieces<'a>(
     along: impl Fn(u32) -> f32 + Sync,
 ) -> Vec<(&'a mut [u32], Vec<u32>)> {
     // Each vertex's id in the lower and the upper piece of its range (a vertex on a cut is
-    // in both); one table a side for every range, each range's entries reset after it (a
-    // vertex belongs to one material, so to one range).
-    let mut local = [vec![u32::MAX; vertex_count], vec![u32::MAX; vertex_count]];
+    // in both); one table a side for every range, each range's entries reset after it. The
+    // upper side's only where some range is cut.
+    let cut = |r: &pack::DrawRange| r.index_count as usize / 3 >= CACHE_SPLIT_TRIANGLES;
+    let upper_table = if ranges.iter().any(cut) {
+        vertex_count
+    } else {
+        0
+    };
+    let mut local = [vec![u32::MAX; vertex_count], vec![u32::MAX; upper_table]];
     fn renumber(local: &mut [u32], i: u32, global: &mut Vec<u32>) -> u32 {
         let l = &mut local[i as usize];
         if *l == u32::MAX {
@@ -706,7 +712,7 @@ fn cache_pieces<'a>(
         let (range, tail) = rest.split_at_mut(r.index_count as usize);
         rest = tail;
         let triangles = range.len() / 3;
-        if triangles < CACHE_SPLIT_TRIANGLES {
+        if !cut(r) {
             let mut global = Vec::new();
             for i in range.iter_mut() {
                 *i = renumber(&mut local[0], *i, &mut global);
