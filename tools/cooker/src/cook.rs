@@ -418,20 +418,11 @@ fn stats(out: &cook::CookOutput, write_time: Duration) -> Vec<String> {
             format!("  peak RSS {:.1} MB", b as f64 / 1e6)
         })
     };
-    for st in &report.stages {
-        lines.push(format!(
-            "stage {:<12} {:>10}{}",
-            st.name,
-            ms(st.time),
-            peak(st.peak_rss)
-        ));
+    let write = ("write", write_time, cook::peak_rss());
+    let stages = report.stages.iter().map(|s| (s.name, s.time, s.peak_rss));
+    for (name, time, rss) in stages.chain([write]) {
+        lines.push(format!("stage {name:<12} {:>10}{}", ms(time), peak(rss)));
     }
-    lines.push(format!(
-        "stage {:<12} {:>10}{}",
-        "write",
-        ms(write_time),
-        peak(cook::peak_rss())
-    ));
     let n = tri_out.max(1) as f64;
     lines.push(format!(
         "total: triangles {tri_in} -> {tri_out} acmr_in={:.3} acmr_out={:.3} bytes/triangle={:.2}",

@@ -121,12 +121,9 @@ pub fn run(args: Args) -> Outcome {
     );
     let mut rules: Vec<(NameKind, String, &str, String)> = Vec::new();
     for (si, src) in prepared.imported.iter().enumerate() {
-        let mut used = vec![false; src.parts.len()];
-        for &p in &src.tri_part {
-            used[p as usize] = true;
-        }
+        let counts = src.part_triangles();
         for (pi, part) in src.parts.iter().enumerate() {
-            if !used[pi] {
+            if counts[pi] == 0 {
                 continue;
             }
             let decision = &prepared.tagging.decisions[si][pi];

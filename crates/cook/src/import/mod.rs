@@ -348,8 +348,8 @@ pub struct Imported {
     pub corners: Corners,
     /// Per triangle: index into `parts`.
     pub tri_part: Vec<u32>,
-    /// Triangles per part, counted when the geometry was released
-    /// ([`Imported::release_geometry`]); empty before.
+    /// Triangles per part, counted when the per-triangle parts were released
+    /// ([`Imported::release_parts`]); empty before.
     pub(crate) released_part_triangles: Vec<usize>,
     pub parts: Vec<Part>,
     pub materials: Vec<SourceMaterial>,
@@ -391,7 +391,7 @@ impl Imported {
 
     /// How many triangles each part has.
     pub fn part_triangles(&self) -> Vec<usize> {
-        if self.tri_part.is_empty() && !self.released_part_triangles.is_empty() {
+        if !self.released_part_triangles.is_empty() {
             return self.released_part_triangles.clone();
         }
         let mut counts = vec![0usize; self.parts.len()];

@@ -90,13 +90,12 @@ impl Kept {
             let kept = c[0] != c[1] && c[1] != c[2] && c[0] != c[2] && !is_degenerate(a, b, d);
             match (&mut list, kept) {
                 (Some(l), true) => l.push(ti as u32),
-                (Some(_), false) => {}
-                (None, true) => {}
                 (None, false) => {
                     let mut l = Vec::with_capacity(src.triangle_count());
                     l.extend(0..ti as u32);
                     list = Some(l);
                 }
+                _ => {}
             }
         }
         let key = |t: u32| {
@@ -1287,13 +1286,7 @@ mod tests {
             let n = pts.len() as u32;
             let tris: Vec<[u32; 3]> = raw.iter().map(|&(a, b, c)| [a % n, b % n, c % n]).collect();
             let s = soup(pts, tris);
-            let keep = Kept::List((0..s.triangle_count() as u32)
-                .filter(|&t| {
-                    let [a, b, c] = s.corners.triangle_positions(t as usize);
-                    a != b && b != c && a != c
-                        && !is_degenerate(s.positions[a as usize], s.positions[b as usize], s.positions[c as usize])
-                })
-                .collect());
+            let keep = Kept::find(&s, &vec![0; s.triangle_count()], &[OPAQUE]);
             let (canon, welded) = weld(&s.positions);
             let crease = crease_deg.to_radians().cos();
             let run = |held| corner_normals(&s, &canon, welded, &keep, source_normals(&s, &keep), crease, held);
