@@ -80,12 +80,12 @@ const EPS: f64 = 1e-6;
 pub fn analyse(
     windows: &[pack::Window],
     light: Option<&LightGeometry>,
-    triangles: &[[glam::Vec3; 3]],
+    triangles: impl Iterator<Item = [glam::Vec3; 3]> + Clone,
 ) -> Vec<WindowShadow> {
     windows
         .iter()
         .map(|w| match light {
-            Some(l) => window_shadow(w, l, triangles),
+            Some(l) => window_shadow(w, l, triangles.clone()),
             None => WindowShadow::NoLight,
         })
         .collect()
@@ -95,7 +95,7 @@ pub fn analyse(
 pub fn window_shadow(
     w: &pack::Window,
     light: &LightGeometry,
-    triangles: &[[glam::Vec3; 3]],
+    triangles: impl IntoIterator<Item = [glam::Vec3; 3]>,
 ) -> WindowShadow {
     let Some(projector) = window_projector(w, light) else {
         return WindowShadow::NoLight;
@@ -338,17 +338,14 @@ mod tests {
     #[test]
     fn floor_walls_and_corners_block_nothing() {
         assert_eq!(
-            window_shadow(&window(), &sun(), &room()),
+            window_shadow(&window(), &sun(), room()),
             WindowShadow::Clear
         );
         let lamp = LightGeometry::Point {
             position: Vec3::new(0.5, 5.0, -4.0),
             radius: 0.1,
         };
-        assert_eq!(
-            window_shadow(&window(), &lamp, &room()),
-            WindowShadow::Clear
-        );
+        assert_eq!(window_shadow(&window(), &lamp, room()), WindowShadow::Clear);
     }
 
     #[test]
@@ -363,7 +360,7 @@ mod tests {
                 Vec3::new(0.0, 4.0, 0.0),
             ));
             assert_eq!(
-                window_shadow(&window(), &sun(), &t),
+                window_shadow(&window(), &sun(), t.iter().copied()),
                 WindowShadow::Occluded(Blocker::Inside),
                 "pillar {width} wide"
             );
@@ -375,7 +372,10 @@ mod tests {
             Vec3::new(0.6, 0.0, 0.0),
             Vec3::new(0.0, 4.0, 0.0),
         ));
-        assert_eq!(window_shadow(&window(), &sun(), &t), WindowShadow::Clear);
+        assert_eq!(
+            window_shadow(&window(), &sun(), t.iter().copied()),
+            WindowShadow::Clear
+        );
     }
 
     #[test]
@@ -388,7 +388,7 @@ mod tests {
             Vec3::new(0.0, 0.0, 0.5),
         ));
         assert_eq!(
-            window_shadow(&window(), &sun(), &t),
+            window_shadow(&window(), &sun(), t.iter().copied()),
             WindowShadow::Occluded(Blocker::Outside)
         );
         // Behind a lamp it blocks nothing.
@@ -396,7 +396,10 @@ mod tests {
             position: Vec3::new(0.0, 2.0, -0.5),
             radius: 0.1,
         };
-        assert_eq!(window_shadow(&window(), &lamp, &t), WindowShadow::Clear);
+        assert_eq!(
+            window_shadow(&window(), &lamp, t.iter().copied()),
+            WindowShadow::Clear
+        );
     }
 
     #[test]
@@ -405,7 +408,7 @@ mod tests {
             towards: Vec3::new(0.2, 0.6, 1.0).normalize(),
         };
         assert_eq!(
-            window_shadow(&window(), &outwards, &room()),
+            window_shadow(&window(), &outwards, room()),
             WindowShadow::NoLight
         );
     }

@@ -503,7 +503,7 @@ impl Renderer {
                 &toc.windows,
                 scene.window_shadows(),
                 light,
-                crate::shadows::bounds(scene.occluders()),
+                scene.occluder_bounds(),
                 self.settings.shadows.layer_size(light),
             ),
             _ => ShadowLayout::default(),

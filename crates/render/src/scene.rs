@@ -128,10 +128,14 @@ pub struct Scene {
     pub(crate) placeholders: Placeholders,
     material_sampler: wgpu::Sampler,
     projectors: Projectors,
-    /// CPU copies of the geometry, for the load-time occlusion analysis.
+    /// CPU copies of the geometry, for the occlusion analysis (at load and when the light
+    /// moves); kept only when the pack has windows, which nothing is analysed for otherwise.
+    /// The analysis reads the opaque triangles through them rather than from a list of its
+    /// own: 36 bytes a triangle, 38 MB of the 1M-triangle grid's viewer.
     cpu: Vec<CpuMesh>,
-    /// Opaque triangles (neither glass nor backdrop), once all geometry is in.
-    occluders: Vec<[glam::Vec3; 3]>,
+    /// Bounds of the opaque triangles (neither glass nor backdrop), once all geometry is in
+    /// and only where there are windows.
+    occluder_bounds: Option<(glam::DVec3, glam::DVec3)>,
     /// Per window, whether its light needs a shadow map (for the current light).
     window_shadows: Vec<WindowShadow>,
     /// Bumped when the geometry or the light changes: shadow maps drawn before are stale.
@@ -368,7 +372,7 @@ impl Scene {
             material_sampler,
             projectors: Projectors::new(gpu, toc)?,
             cpu: toc.meshes.iter().map(|_| CpuMesh::default()).collect(),
-            occluders: Vec::new(),
+            occluder_bounds: None,
             window_shadows: vec![WindowShadow::NoLight; toc.windows.len()],
             shadow_generation: 0,
             status: LoadStatus {
@@ -520,41 +524,57 @@ impl Scene {
         bytes: &[u8],
         rgba: Option<&[u8]>,
     ) -> Result<(), RenderError> {
-        use wgpu::util::DeviceExt;
         // What reached the GPU: a level decoded on the CPU uploads its texels, not its blocks.
         let mut uploaded = bytes.len();
         match role {
             SectionRole::Toc => {}
             SectionRole::Vertices { mesh } => {
                 let m = &self.toc.meshes[mesh as usize];
-                let converted = standard_vertices(&m.layout, bytes, m.vertex_count as usize)
-                    .map_err(|reason| RenderError::VertexLayout {
-                        mesh: m.name.clone(),
-                        reason,
-                    })?;
-                let positions = match &converted {
-                    Some(v) => v.iter().map(|v| glam::Vec3::from(v.position)).collect(),
-                    None => bytes
-                        .chunks_exact(std::mem::size_of::<StandardVertex>())
-                        .map(|v| {
-                            glam::Vec3::from(
-                                bytemuck::pod_read_unaligned::<StandardVertex>(v).position,
-                            )
-                        })
-                        .collect(),
+                let count = m.vertex_count as usize;
+                let standard = m.layout == VertexLayout::standard();
+                let vertex_error = |reason| RenderError::VertexLayout {
+                    mesh: m.name.clone(),
+                    reason,
                 };
-                self.cpu[mesh as usize].positions = Some(positions);
-                let data: &[u8] = converted
-                    .as_deref()
-                    .map(bytemuck::cast_slice)
-                    .unwrap_or(bytes);
-                let buffer = gpu
-                    .device
-                    .create_buffer_init(&wgpu::util::BufferInitDescriptor {
-                        label: Some(&m.name),
-                        contents: if data.is_empty() { &[0u8; 4] } else { data },
-                        usage: wgpu::BufferUsages::VERTEX,
-                    });
+                let size = if standard {
+                    bytes.len()
+                } else {
+                    check_vertex_bytes(&m.layout, bytes, count).map_err(vertex_error)?;
+                    count * std::mem::size_of::<StandardVertex>()
+                };
+                // Converted straight into the buffer's mapping: a converted copy beside it was
+                // 26 MB of the 1M-triangle grid's viewer.
+                let buffer = mapped_buffer(gpu, &m.name, size, wgpu::BufferUsages::VERTEX);
+                let keep = !self.toc.windows.is_empty();
+                let positions = {
+                    let mut mapped = buffer
+                        .slice(..)
+                        .get_mapped_range_mut()
+                        .expect("a buffer mapped at creation");
+                    if standard {
+                        mapped.slice(..bytes.len()).copy_from_slice(bytes);
+                        keep.then(|| {
+                            bytes
+                                .chunks_exact(std::mem::size_of::<StandardVertex>())
+                                .map(|v| {
+                                    glam::Vec3::from(
+                                        bytemuck::pod_read_unaligned::<StandardVertex>(v).position,
+                                    )
+                                })
+                                .collect()
+                        })
+                    } else {
+                        let mut positions = keep.then(|| Vec::with_capacity(count));
+                        convert_vertices(&m.layout, bytes, mapped.slice(..), |v| {
+                            if let Some(p) = &mut positions {
+                                p.push(glam::Vec3::from(v.position));
+                            }
+                        });
+                        positions
+                    }
+                };
+                buffer.unmap();
+                self.cpu[mesh as usize].positions = positions;
                 self.meshes[mesh as usize].vertices = Some(buffer);
                 self.status.geometry_sections += 1;
                 self.geometry_arrived();
@@ -563,7 +583,7 @@ impl Scene {
                 let m = &self.toc.meshes[mesh as usize];
                 // Buffers must be a multiple of 4 bytes (an odd count of u16 indices is padded)
                 // and are kept non-empty, so a mesh without triangles needs no special case.
-                let indices = match m.index_format {
+                let indices = (!self.toc.windows.is_empty()).then(|| match m.index_format {
                     pack::IndexFormat::U16 => bytes
                         .chunks_exact(2)
                         .map(|c| u16::from_le_bytes([c[0], c[1]]) as u32)
@@ -572,17 +592,19 @@ impl Scene {
                         .chunks_exact(4)
                         .map(|c| u32::from_le_bytes([c[0], c[1], c[2], c[3]]))
                         .collect(),
-                };
-                self.cpu[mesh as usize].indices = Some(indices);
-                let mut data = bytes.to_vec();
-                data.resize((bytes.len().div_ceil(4) * 4).max(4), 0);
-                let buffer = gpu
-                    .device
-                    .create_buffer_init(&wgpu::util::BufferInitDescriptor {
-                        label: Some(&m.name),
-                        contents: &data,
-                        usage: wgpu::BufferUsages::INDEX,
-                    });
+                });
+                self.cpu[mesh as usize].indices = indices;
+                let buffer = mapped_buffer(gpu, &m.name, bytes.len(), wgpu::BufferUsages::INDEX);
+                {
+                    let mut mapped = buffer
+                        .slice(..)
+                        .get_mapped_range_mut()
+                        .expect("a buffer mapped at creation");
+                    let (mut data, mut padding) = mapped.slice(..).split_at(bytes.len());
+                    data.copy_from_slice(bytes);
+                    padding.fill(0);
+                }
+                buffer.unmap();
                 self.meshes[mesh as usize].indices = Some(buffer);
                 self.status.geometry_sections += 1;
                 self.geometry_arrived();
@@ -709,33 +731,45 @@ impl Scene {
         if !self.geometry_complete() {
             return;
         }
-        self.occluders.clear();
-        for (m, cpu) in self.toc.meshes.iter().zip(&self.cpu) {
-            let (Some(pos), Some(idx)) = (&cpu.positions, &cpu.indices) else {
-                continue;
-            };
-            for r in &m.ranges {
-                let class = self.toc.materials[r.material as usize].class;
-                if class.is_window() || class == MaterialClass::Background {
-                    continue;
-                }
-                let first = r.first_index as usize;
-                let end = (first + r.index_count as usize).min(idx.len());
-                for t in idx[first.min(end)..end].chunks_exact(3) {
-                    // Indices were validated against the vertex count by the pack reader.
-                    let p = |i: u32| pos.get(i as usize).copied().unwrap_or(glam::Vec3::ZERO);
-                    self.occluders.push([p(t[0]), p(t[1]), p(t[2])]);
-                }
-            }
-        }
+        self.occluder_bounds = crate::shadows::bounds(self.occluders());
         self.analyse_occlusion();
     }
 
     fn analyse_occlusion(&mut self) {
         let light = self.toc.light.as_ref().map(LightGeometry::from_light);
         self.window_shadows =
-            occlusion::analyse(&self.toc.windows, light.as_ref(), &self.occluders);
+            occlusion::analyse(&self.toc.windows, light.as_ref(), self.occluders());
         self.shadow_generation += 1;
+    }
+
+    /// The opaque triangles (neither glass nor backdrop) in world positions, read through the
+    /// CPU copies: none where the pack has no windows.
+    fn occluders(&self) -> impl Iterator<Item = [glam::Vec3; 3]> + Clone + '_ {
+        let materials = &self.toc.materials;
+        self.toc
+            .meshes
+            .iter()
+            .zip(&self.cpu)
+            .filter_map(|(m, cpu)| Some((m, cpu.positions.as_deref()?, cpu.indices.as_deref()?)))
+            .flat_map(move |(m, pos, idx)| {
+                m.ranges
+                    .iter()
+                    .filter(move |r| {
+                        let class = materials[r.material as usize].class;
+                        !(class.is_window() || class == MaterialClass::Background)
+                    })
+                    .flat_map(move |r| {
+                        let first = r.first_index as usize;
+                        let end = (first + r.index_count as usize).min(idx.len());
+                        idx[first.min(end)..end].chunks_exact(3).map(move |t| {
+                            // Indices were validated against the vertex count by the pack
+                            // reader.
+                            let p =
+                                |i: u32| pos.get(i as usize).copied().unwrap_or(glam::Vec3::ZERO);
+                            [p(t[0]), p(t[1]), p(t[2])]
+                        })
+                    })
+            })
     }
 
     /// Per window (in TOC order), whether its light needs a shadow map and why; decided from
@@ -744,9 +778,10 @@ impl Scene {
         &self.window_shadows
     }
 
-    /// The opaque triangles (world positions) the shadow maps and the analysis see.
-    pub fn occluders(&self) -> &[[glam::Vec3; 3]] {
-        &self.occluders
+    /// The bounds of the opaque triangles (world positions) the shadow maps and the analysis
+    /// see; `None` before all geometry is in, and where the pack has no windows.
+    pub fn occluder_bounds(&self) -> Option<(glam::DVec3, glam::DVec3)> {
+        self.occluder_bounds
     }
 
     /// Changes whenever shadow maps drawn earlier may be stale (geometry or light changed).
@@ -900,29 +935,45 @@ pub(crate) fn vertex_layout() -> wgpu::VertexBufferLayout<'static> {
     }
 }
 
-/// Converts vertices of any layout the pack allows into [`StandardVertex`]; `None` when the
-/// layout already is the standard one (uploaded as is).
-fn standard_vertices(
-    layout: &VertexLayout,
-    bytes: &[u8],
-    count: usize,
-) -> Result<Option<Vec<StandardVertex>>, String> {
-    if *layout == VertexLayout::standard() {
-        return Ok(None);
-    }
+/// A buffer of `size` bytes (rounded up to a multiple of 4, and at least 4, so a mesh without
+/// triangles needs no special case), mapped for its contents to be written once.
+fn mapped_buffer(gpu: &Gpu, label: &str, size: usize, usage: wgpu::BufferUsages) -> wgpu::Buffer {
+    gpu.device.create_buffer(&wgpu::BufferDescriptor {
+        label: Some(label),
+        size: (size.div_ceil(4) * 4).max(4) as u64,
+        usage,
+        mapped_at_creation: true,
+    })
+}
+
+/// Whether `bytes` hold `count` vertices of `layout`.
+fn check_vertex_bytes(layout: &VertexLayout, bytes: &[u8], count: usize) -> Result<(), String> {
     let stride = layout.stride as usize;
-    if bytes.len() < stride * count {
+    if stride == 0 || bytes.len() < stride * count {
         return Err(format!(
             "{} bytes for {count} vertices of stride {stride}",
             bytes.len()
         ));
     }
-    let out = bytes
-        .chunks_exact(stride)
-        .take(count)
-        .map(|v| layout.decode(v))
-        .collect();
-    Ok(Some(out))
+    Ok(())
+}
+
+/// Converts the vertices of `bytes` (of any layout the pack allows, checked by
+/// [`check_vertex_bytes`]) into [`StandardVertex`]es written to `out`, front to back (a
+/// mapping may be write-combined memory, which must not be read), handing each to `each`.
+fn convert_vertices(
+    layout: &VertexLayout,
+    bytes: &[u8],
+    out: wgpu::WriteOnly<'_, [u8]>,
+    mut each: impl FnMut(&StandardVertex),
+) {
+    const SIZE: usize = std::mem::size_of::<StandardVertex>();
+    let (slots, _) = out.into_chunks::<SIZE>();
+    for (v, slot) in bytes.chunks_exact(layout.stride as usize).zip(slots) {
+        let v = layout.decode(v);
+        slot.write(bytemuck::cast::<StandardVertex, [u8; SIZE]>(v));
+        each(&v);
+    }
 }
 
 #[cfg(test)]
@@ -1026,7 +1077,17 @@ mod tests {
             bytes.extend_from_slice(&q.to_le_bytes());
         }
         bytes.extend_from_slice(&[3, 0, 0, 0]);
-        let v = standard_vertices(&layout, &bytes, 1).unwrap().unwrap()[0];
+        check_vertex_bytes(&layout, &bytes, 1).unwrap();
+        let mut out = [0u8; std::mem::size_of::<StandardVertex>()];
+        let mut seen = Vec::new();
+        convert_vertices(
+            &layout,
+            &bytes,
+            wgpu::WriteOnly::from_mut(&mut out[..]),
+            |v| seen.push(*v),
+        );
+        let v: StandardVertex = bytemuck::pod_read_unaligned(&out);
+        assert_eq!(seen, [v], "each vertex is handed over as written");
         let p = glam::Vec3::from(v.position);
         assert!(
             (p - glam::Vec3::new(-2.0, 3.0, 1.0 + 2.0 * 32768.0 / 65535.0)).length() < 1e-5,
@@ -1043,12 +1104,7 @@ mod tests {
             "{vt}"
         );
         assert!((v.uv[0] - 16384.0 / 65535.0).abs() < 1e-6 && v.uv[1] == 1.0);
-        // The standard layout is uploaded as is, and short data is an error, not a panic.
-        assert!(
-            standard_vertices(&VertexLayout::standard(), &[0; 52], 1)
-                .unwrap()
-                .is_none()
-        );
-        assert!(standard_vertices(&layout, &bytes[..20], 1).is_err());
+        // Short data is an error, not a panic.
+        assert!(check_vertex_bytes(&layout, &bytes[..20], 1).is_err());
     }
 }

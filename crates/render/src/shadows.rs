@@ -89,7 +89,7 @@ pub struct ShadowLayout {
 }
 
 /// Bounds of the opaque geometry.
-pub fn bounds(triangles: &[[Vec3; 3]]) -> Option<(DVec3, DVec3)> {
+pub fn bounds(triangles: impl IntoIterator<Item = [Vec3; 3]>) -> Option<(DVec3, DVec3)> {
     let mut lo = DVec3::splat(f64::INFINITY);
     let mut hi = DVec3::splat(f64::NEG_INFINITY);
     for t in triangles {
