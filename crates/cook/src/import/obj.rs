@@ -510,6 +510,19 @@ fn read_line(c: &mut Chunk, line_no: usize, raw: &[u8]) -> Result<(), String> {
             c.push_face(line_no, start, false);
             return Ok(());
         }
+        other => match statement(other, rest) {
+            Some(s) => s,
+            None => return Ok(()),
+        },
+    };
+    c.statements.push((c.faces.len(), line_no, statement));
+    Ok(())
+}
+
+/// The statement a line of `keyword` and `rest` (trimmed) makes, other than an attribute or a
+/// face; `None` for one that is skipped without a word.
+fn statement(keyword: &[u8], rest: &[u8]) -> Option<Statement> {
+    Some(match keyword {
         b"l" => Statement::Line,
         b"p" => Statement::Point,
         b"g" => Statement::Group((!rest.is_empty()).then(|| text(rest))),
@@ -521,11 +534,165 @@ fn read_line(c: &mut Chunk, line_no: usize, raw: &[u8]) -> Result<(), String> {
         b"s" | b"vp" | b"cstype" | b"deg" | b"bmat" | b"step" | b"curv" | b"curv2" | b"surf"
         | b"parm" | b"trim" | b"hole" | b"scrv" | b"sp" | b"end" | b"con" | b"mg" | b"lod"
         | b"bevel" | b"c_interp" | b"d_interp" | b"usemap" | b"maplib" | b"shadow_obj"
-        | b"trace_obj" | b"ctech" | b"stech" => return Ok(()),
+        | b"trace_obj" | b"ctech" | b"stech" => return None,
         other => Statement::Unknown(text(other)),
-    };
-    c.statements.push((c.faces.len(), line_no, statement));
-    Ok(())
+    })
+}
+
+/// What a file's statements leave, applied in file order by both readers: the names in
+/// effect, the materials its libraries define, and what to warn of.
+#[derive(Default)]
+struct Statements {
+    state: State,
+    material_ids: HashMap<String, u32>,
+    missing_textures: Vec<(String, Warning)>,
+    unknown_materials: Vec<(String, usize)>,
+    /// (line elements, points, first line)
+    skipped_lines: (usize, usize, usize),
+    unknown_keywords: Vec<(String, usize)>,
+    empty_groups: Vec<String>,
+    /// The group in effect and its faces so far.
+    group_faces: Option<(String, usize)>,
+    short_faces: Vec<usize>,
+}
+
+impl Statements {
+    /// The part of the next `faces` whole faces, which count for their group.
+    fn part(&mut self, faces: usize, out: &mut Imported) -> u32 {
+        if let Some((_, n)) = &mut self.group_faces {
+            *n += faces;
+        }
+        current_part(&mut self.state, out, &self.material_ids)
+    }
+
+    /// Applies statement `s` of line `line` of the file at `path`; the error is a material
+    /// library's.
+    fn apply(
+        &mut self,
+        path: &Path,
+        line: usize,
+        s: &Statement,
+        out: &mut Imported,
+    ) -> Result<(), CookError> {
+        match s {
+            Statement::Line | Statement::Point => {
+                let skipped = &mut self.skipped_lines;
+                if skipped.0 + skipped.1 == 0 {
+                    skipped.2 = line;
+                }
+                if matches!(s, Statement::Line) {
+                    skipped.0 += 1
+                } else {
+                    skipped.1 += 1
+                }
+            }
+            Statement::Group(name) => {
+                if let Some((name, 0)) = self.group_faces.take() {
+                    self.empty_groups.push(name);
+                }
+                self.group_faces = name.clone().map(|n| (n, 0));
+                self.state.group = name.clone();
+                self.state.part = None;
+            }
+            Statement::Object(name) => {
+                self.state.object = name.clone();
+                self.state.part = None;
+            }
+            Statement::Usemtl(name) => {
+                if !name.is_empty()
+                    && !self.material_ids.contains_key(name)
+                    && !self.unknown_materials.iter().any(|(n, _)| n == name)
+                {
+                    self.unknown_materials.push((name.clone(), line));
+                }
+                self.state.material = (!name.is_empty()).then(|| name.clone());
+                self.state.part = None;
+            }
+            Statement::Mtllib(rest) => load_mtllib(
+                path,
+                line,
+                rest,
+                out,
+                &mut self.material_ids,
+                &mut self.missing_textures,
+            )?,
+            Statement::Unknown(k) => {
+                if !self.unknown_keywords.iter().any(|(n, _)| n == k) {
+                    self.unknown_keywords.push((k.clone(), line));
+                }
+            }
+        }
+        Ok(())
+    }
+
+    /// Once the whole file is read: its warnings, onto `out`'s.
+    fn warn(mut self, path: &Path, out: &mut Imported) {
+        if let Some((name, 0)) = self.group_faces.take() {
+            self.empty_groups.push(name);
+        }
+        // Unknown `usemtl` names stay names for tagging; only shading falls back to a default.
+        let material_ids = &self.material_ids;
+        self.unknown_materials
+            .retain(|(n, _)| !material_ids.contains_key(n));
+        for (name, line) in self.unknown_materials {
+            out.warnings.push(Warning::new(
+                path,
+                Some(line),
+                format!("material {name:?} is not defined in any mtllib; using default shading"),
+            ));
+        }
+        let skipped = self.skipped_lines;
+        if skipped.0 + skipped.1 > 0 {
+            out.warnings.push(Warning::new(
+                path,
+                Some(skipped.2),
+                format!(
+                    "{} line and {} point elements ignored: only faces are cooked",
+                    skipped.0, skipped.1
+                ),
+            ));
+        }
+        if let Some(&first) = self.short_faces.first() {
+            out.warnings.push(Warning::new(
+                path,
+                Some(first),
+                format!(
+                    "{} faces with fewer than 3 vertices ignored",
+                    self.short_faces.len()
+                ),
+            ));
+        }
+        if !self.empty_groups.is_empty() {
+            out.warnings.push(Warning::new(
+                path,
+                None,
+                format!("groups without faces: {}", self.empty_groups.join(", ")),
+            ));
+        }
+        for (k, line) in self.unknown_keywords {
+            out.warnings.push(Warning::new(
+                path,
+                Some(line),
+                format!("unknown statement {k:?} ignored"),
+            ));
+        }
+        if out.tri_part.is_empty() {
+            out.warnings
+                .push(Warning::new(path, None, "no faces: nothing to cook"));
+        }
+        // A missing texture matters only to a material some face uses.
+        let mut used = vec![false; out.materials.len()];
+        for &p in &out.tri_part {
+            if let Some(m) = out.parts[p as usize].material {
+                used[m as usize] = true;
+            }
+        }
+        for (name, w) in self.missing_textures {
+            if material_ids.get(&name).is_some_and(|&i| used[i as usize]) {
+                out.warnings.push(w);
+            }
+        }
+    }
 }
 
 /// The first `N` numbers of an attribute line's values (`rest`, trimmed) when [`simple_f32`]
@@ -688,15 +855,7 @@ fn parse_lines(path: &Path, bytes: &[u8]) -> Result<Imported, CookError> {
         path: path.to_path_buf(),
         ..Default::default()
     };
-    let mut state = State::default();
-    let mut material_ids: HashMap<String, u32> = HashMap::new();
-    let mut missing_textures: Vec<(String, Warning)> = Vec::new();
-    let mut unknown_materials: Vec<(String, usize)> = Vec::new();
-    let mut skipped_lines = (0usize, 0usize, 0usize); // (line elements, points, first line)
-    let mut short_faces: Vec<usize> = Vec::new();
-    let mut unknown_keywords: Vec<(String, usize)> = Vec::new();
-    let mut empty_groups: Vec<String> = Vec::new();
-    let mut group_faces: Option<(String, usize)> = None;
+    let mut statements = Statements::default();
     let mut face: Vec<Corner> = Vec::new();
     let mut poly: Vec<[f32; 3]> = Vec::new();
     let mut tris: Vec<[u32; 3]> = Vec::new();
@@ -786,13 +945,10 @@ fn parse_lines(path: &Path, bytes: &[u8]) -> Result<Imported, CookError> {
                     face.push(parse_corner(path, line_no, t, &out)?);
                 }
                 if face.len() < 3 {
-                    short_faces.push(line_no);
+                    statements.short_faces.push(line_no);
                     continue;
                 }
-                if let Some((_, n)) = &mut group_faces {
-                    *n += 1;
-                }
-                let part = current_part(&mut state, &mut out, &material_ids);
+                let part = statements.part(1, &mut out);
                 if face.len() == 3 {
                     for &c in &face {
                         out.corners.push(c);
@@ -812,125 +968,14 @@ fn parse_lines(path: &Path, bytes: &[u8]) -> Result<Imported, CookError> {
                     }
                 }
             }
-            b"l" | b"p" => {
-                if skipped_lines.0 + skipped_lines.1 == 0 {
-                    skipped_lines.2 = line_no;
-                }
-                if keyword == b"l" {
-                    skipped_lines.0 += 1
-                } else {
-                    skipped_lines.1 += 1
-                }
-            }
-            b"g" => {
-                if let Some((name, 0)) = group_faces.take() {
-                    empty_groups.push(name);
-                }
-                let name = (!rest.is_empty()).then(|| text(rest));
-                group_faces = name.clone().map(|n| (n, 0));
-                state.group = name;
-                state.part = None;
-            }
-            b"o" => {
-                state.object = (!rest.is_empty()).then(|| text(rest));
-                state.part = None;
-            }
-            b"usemtl" => {
-                let name = text(rest);
-                if !name.is_empty()
-                    && !material_ids.contains_key(&name)
-                    && !unknown_materials.iter().any(|(n, _)| *n == name)
-                {
-                    unknown_materials.push((name.clone(), line_no));
-                }
-                state.material = (!name.is_empty()).then_some(name);
-                state.part = None;
-            }
-            b"mtllib" => load_mtllib(
-                path,
-                line_no,
-                rest,
-                &mut out,
-                &mut material_ids,
-                &mut missing_textures,
-            )?,
-            // Smoothing groups, free-form geometry and display attributes: normals are
-            // generated with a crease angle instead, and the rest has no meaning here.
-            b"s" | b"vp" | b"cstype" | b"deg" | b"bmat" | b"step" | b"curv" | b"curv2"
-            | b"surf" | b"parm" | b"trim" | b"hole" | b"scrv" | b"sp" | b"end" | b"con" | b"mg"
-            | b"lod" | b"bevel" | b"c_interp" | b"d_interp" | b"usemap" | b"maplib"
-            | b"shadow_obj" | b"trace_obj" | b"ctech" | b"stech" => {}
             other => {
-                let k = text(other);
-                if !unknown_keywords.iter().any(|(n, _)| *n == k) {
-                    unknown_keywords.push((k, line_no));
+                if let Some(s) = statement(other, rest) {
+                    statements.apply(path, line_no, &s, &mut out)?;
                 }
             }
         }
     }
-    if let Some((name, 0)) = group_faces.take() {
-        empty_groups.push(name);
-    }
-
-    // Unknown `usemtl` names stay names for tagging; only shading falls back to a default.
-    unknown_materials.retain(|(n, _)| !material_ids.contains_key(n));
-    for (name, line) in unknown_materials {
-        out.warnings.push(Warning::new(
-            path,
-            Some(line),
-            format!("material {name:?} is not defined in any mtllib; using default shading"),
-        ));
-    }
-    if skipped_lines.0 + skipped_lines.1 > 0 {
-        out.warnings.push(Warning::new(
-            path,
-            Some(skipped_lines.2),
-            format!(
-                "{} line and {} point elements ignored: only faces are cooked",
-                skipped_lines.0, skipped_lines.1
-            ),
-        ));
-    }
-    if let Some(&first) = short_faces.first() {
-        out.warnings.push(Warning::new(
-            path,
-            Some(first),
-            format!(
-                "{} faces with fewer than 3 vertices ignored",
-                short_faces.len()
-            ),
-        ));
-    }
-    if !empty_groups.is_empty() {
-        out.warnings.push(Warning::new(
-            path,
-            None,
-            format!("groups without faces: {}", empty_groups.join(", ")),
-        ));
-    }
-    for (k, line) in unknown_keywords {
-        out.warnings.push(Warning::new(
-            path,
-            Some(line),
-            format!("unknown statement {k:?} ignored"),
-        ));
-    }
-    if out.tri_part.is_empty() {
-        out.warnings
-            .push(Warning::new(path, None, "no faces: nothing to cook"));
-    }
-    // A missing texture matters only to a material some face uses.
-    let mut used = vec![false; out.materials.len()];
-    for &p in &out.tri_part {
-        if let Some(m) = out.parts[p as usize].material {
-            used[m as usize] = true;
-        }
-    }
-    for (name, w) in missing_textures {
-        if material_ids.get(&name).is_some_and(|&i| used[i as usize]) {
-            out.warnings.push(w);
-        }
-    }
+    statements.warn(path, &mut out);
     Ok(out)
 }
 
@@ -1088,16 +1133,7 @@ struct Assembler<'p> {
     started: bool,
     /// The file's first error: no batch after it is read.
     error: Option<CookError>,
-    state: State,
-    material_ids: HashMap<String, u32>,
-    missing_textures: Vec<(String, Warning)>,
-    unknown_materials: Vec<(String, usize)>,
-    /// (line elements, points, first line)
-    skipped_lines: (usize, usize, usize),
-    unknown_keywords: Vec<(String, usize)>,
-    empty_groups: Vec<String>,
-    group_faces: Option<(String, usize)>,
-    short_faces: Vec<usize>,
+    statements: Statements,
 }
 
 impl<'p> Assembler<'p> {
@@ -1113,15 +1149,7 @@ impl<'p> Assembler<'p> {
             lines_before: 0,
             started: false,
             error: None,
-            state: State::default(),
-            material_ids: HashMap::new(),
-            missing_textures: Vec::new(),
-            unknown_materials: Vec::new(),
-            skipped_lines: (0, 0, 0),
-            unknown_keywords: Vec::new(),
-            empty_groups: Vec::new(),
-            group_faces: None,
-            short_faces: Vec::new(),
+            statements: Statements::default(),
         }
     }
 
@@ -1187,13 +1215,7 @@ impl<'p> Assembler<'p> {
                     .filter(|f| f.corners() >= 3 && !f.broken())
                     .count();
                 if whole > 0 {
-                    if let Some((_, n)) = &mut self.group_faces {
-                        *n += whole;
-                    }
-                    chunk_runs.push((
-                        face,
-                        current_part(&mut self.state, &mut self.out, &self.material_ids),
-                    ));
+                    chunk_runs.push((face, self.statements.part(whole, &mut self.out)));
                 }
                 face = next;
                 let Some((_, line_no, statement)) = statements.next() else {
@@ -1204,59 +1226,13 @@ impl<'p> Assembler<'p> {
                     runs.push(chunk_runs);
                     break 'chunks;
                 }
-                match statement {
-                    Statement::Line | Statement::Point => {
-                        let skipped = &mut self.skipped_lines;
-                        if skipped.0 + skipped.1 == 0 {
-                            skipped.2 = line_no;
-                        }
-                        if matches!(statement, Statement::Line) {
-                            skipped.0 += 1
-                        } else {
-                            skipped.1 += 1
-                        }
-                    }
-                    Statement::Group(name) => {
-                        if let Some((name, 0)) = self.group_faces.take() {
-                            self.empty_groups.push(name);
-                        }
-                        self.group_faces = name.clone().map(|n| (n, 0));
-                        self.state.group = name.clone();
-                        self.state.part = None;
-                    }
-                    Statement::Object(name) => {
-                        self.state.object = name.clone();
-                        self.state.part = None;
-                    }
-                    Statement::Usemtl(name) => {
-                        if !name.is_empty()
-                            && !self.material_ids.contains_key(name)
-                            && !self.unknown_materials.iter().any(|(n, _)| n == name)
-                        {
-                            self.unknown_materials.push((name.clone(), line_no));
-                        }
-                        self.state.material = (!name.is_empty()).then(|| name.clone());
-                        self.state.part = None;
-                    }
-                    Statement::Mtllib(rest) => {
-                        if let Err(e) = load_mtllib(
-                            path,
-                            line_no,
-                            rest,
-                            &mut self.out,
-                            &mut self.material_ids,
-                            &mut self.missing_textures,
-                        ) {
-                            first_error = Some((line_no, e));
-                            runs.push(chunk_runs);
-                            break 'chunks;
-                        }
-                    }
-                    Statement::Unknown(k) => {
-                        if !self.unknown_keywords.iter().any(|(n, _)| n == k) {
-                            self.unknown_keywords.push((k.clone(), line_no));
-                        }
-                    }
+                if let Err(e) = self
+                    .statements
+                    .apply(path, line_no, statement, &mut self.out)
+                {
+                    first_error = Some((line_no, e));
+                    runs.push(chunk_runs);
+                    break 'chunks;
                 }
             }
             runs.push(chunk_runs);
@@ -1422,21 +1398,17 @@ impl<'p> Assembler<'p> {
         }
         for r in resolved {
             self.out.polygons += r.polygons;
-            self.short_faces.extend(r.short);
+            self.statements.short_faces.extend(r.short);
         }
         Ok(())
     }
 
     /// The file, or its first error.
-    fn finish(mut self) -> Result<Imported, CookError> {
+    fn finish(self) -> Result<Imported, CookError> {
         if let Some(e) = self.error {
             return Err(e);
         }
-        let path = self.path;
         let mut out = self.out;
-        if let Some((name, 0)) = self.group_faces.take() {
-            self.empty_groups.push(name);
-        }
         // Sized ahead as blocks came in: the spare capacity goes back to the heap for the
         // mesh stage's arrays.
         out.positions.shrink_to_fit();
@@ -1448,69 +1420,7 @@ impl<'p> Assembler<'p> {
             f.shrink_to_fit();
         }
         out.corners = Corners::from_fields(p, t, n);
-
-        // Unknown `usemtl` names stay names for tagging; only shading falls back to a default.
-        let material_ids = &self.material_ids;
-        self.unknown_materials
-            .retain(|(n, _)| !material_ids.contains_key(n));
-        for (name, line) in self.unknown_materials {
-            out.warnings.push(Warning::new(
-                path,
-                Some(line),
-                format!("material {name:?} is not defined in any mtllib; using default shading"),
-            ));
-        }
-        let skipped = self.skipped_lines;
-        if skipped.0 + skipped.1 > 0 {
-            out.warnings.push(Warning::new(
-                path,
-                Some(skipped.2),
-                format!(
-                    "{} line and {} point elements ignored: only faces are cooked",
-                    skipped.0, skipped.1
-                ),
-            ));
-        }
-        if let Some(&first) = self.short_faces.first() {
-            out.warnings.push(Warning::new(
-                path,
-                Some(first),
-                format!(
-                    "{} faces with fewer than 3 vertices ignored",
-                    self.short_faces.len()
-                ),
-            ));
-        }
-        if !self.empty_groups.is_empty() {
-            out.warnings.push(Warning::new(
-                path,
-                None,
-                format!("groups without faces: {}", self.empty_groups.join(", ")),
-            ));
-        }
-        for (k, line) in self.unknown_keywords {
-            out.warnings.push(Warning::new(
-                path,
-                Some(line),
-                format!("unknown statement {k:?} ignored"),
-            ));
-        }
-        if out.tri_part.is_empty() {
-            out.warnings
-                .push(Warning::new(path, None, "no faces: nothing to cook"));
-        }
-        // A missing texture matters only to a material some face uses.
-        let mut used = vec![false; out.materials.len()];
-        for &p in &out.tri_part {
-            if let Some(m) = out.parts[p as usize].material {
-                used[m as usize] = true;
-            }
-        }
-        for (name, w) in self.missing_textures {
-            if material_ids.get(&name).is_some_and(|&i| used[i as usize]) {
-                out.warnings.push(w);
-            }
-        }
+        self.statements.warn(self.path, &mut out);
         Ok(out)
     }
 }
@@ -1966,6 +1876,20 @@ mod tests {
         ]
     }
 
+    /// [`summary`] of `text` streamed in chunks of `chunk` and blocks of `block` bytes, with
+    /// `size` bytes expected (its own length if `None`).
+    fn streamed(text: &str, size: Option<u64>, chunk: usize, block: usize) -> String {
+        let mut reader = std::io::Cursor::new(text.as_bytes());
+        let size = size.unwrap_or(text.len() as u64);
+        summary(parse_stream(
+            Path::new("test.obj"),
+            &mut reader,
+            size,
+            chunk,
+            block,
+        ))
+    }
+
     proptest! {
         #![proptest_config(ProptestConfig::with_cases(300))]
         /// Split into chunks of a few lines, an OBJ reads as it does line by line, errors and
@@ -1998,21 +1922,11 @@ mod tests {
                 text.insert(text.len().min(at * 7), '\0');
             }
             let path = Path::new("test.obj");
-            let mut reader = std::io::Cursor::new(text.as_bytes());
             let want = match not_text(path, text.as_bytes(), true) {
                 Some(e) => Err(e),
                 None => parse_lines(path, text.as_bytes()),
             };
-            prop_assert_eq!(
-                summary(parse_stream(
-                    path,
-                    &mut reader,
-                    size.unwrap_or(text.len() as u64),
-                    chunk,
-                    block
-                )),
-                summary(want)
-            );
+            prop_assert_eq!(streamed(&text, size, chunk, block), summary(want));
         }
     }
 
@@ -2075,20 +1989,9 @@ mod tests {
             size in prop::option::of(0u64..20_000),
         ) {
             let text = valid_obj(&ops);
-            let path = Path::new("test.obj");
-            let mut reader = std::io::Cursor::new(text.as_bytes());
-            let want = parse_lines(path, text.as_bytes());
+            let want = parse_lines(Path::new("test.obj"), text.as_bytes());
             prop_assert!(want.is_ok(), "{:?}", want.err());
-            prop_assert_eq!(
-                summary(parse_stream(
-                    path,
-                    &mut reader,
-                    size.unwrap_or(text.len() as u64),
-                    chunk,
-                    block
-                )),
-                summary(want)
-            );
+            prop_assert_eq!(streamed(&text, size, chunk, block), summary(want));
         }
     }
 
