@@ -1,6 +1,7 @@
 //! Time to the viewer's first frame and to full quality, whole headless processes on the
 //! default scene's pack: as it draws by default (a half-size preview first on a CPU
-//! rasterizer) against `--no-preview` (the whole frame first), runs interleaved.
+//! rasterizer) against `--no-preview` (the whole frame first), runs interleaved; and the
+//! large generated mesh's pack, for the viewer's peak memory on a mesh of a million triangles.
 
 use std::path::{Path, PathBuf};
 use std::process::Command;
@@ -12,7 +13,8 @@ use crate::common::median;
 
 #[derive(Clone, Debug, Serialize, Deserialize)]
 pub struct FirstFrameRow {
-    /// `default`, `--no-preview`, or the RGBA8 pack without zstd in the default mode.
+    /// `default`, `--no-preview`, the RGBA8 pack without zstd in the default mode, or the
+    /// generated grid's pack in the default mode.
     pub mode: String,
     pub runs: usize,
     pub first_frame_ms: f64,
@@ -31,6 +33,8 @@ pub struct FirstFrameConfig {
     pub runs: usize,
     pub size: (u32, u32),
     pub scratch: PathBuf,
+    /// The generated height field's side, as the meshes sweep's (`grid` x `grid` quads).
+    pub grid: usize,
 }
 
 /// A binary built beside this one (`cargo build --release -p viewer`), if any.
@@ -71,10 +75,29 @@ pub fn sweep(cfg: &FirstFrameConfig, progress: &mut dyn FnMut(&str)) -> Result<V
         std::fs::write(&path, &bytes).with_context(|| format!("writing {}", path.display()))?;
         packs.push((path, bytes.len() as f64 / 1e6));
     }
-    let modes: [(&str, usize, &[&str]); 3] = [
+    // A bare mesh cooked as `cooker cook` cooks one: a guessed sun and cameras.
+    let grid_obj = cfg.scratch.join(format!("first-frame-grid-{}.obj", cfg.grid));
+    std::fs::write(&grid_obj, cook::testing::height_field_obj(cfg.grid))
+        .with_context(|| format!("writing {}", grid_obj.display()))?;
+    let grid_manifest = cook::Manifest::open(&grid_obj)
+        .with_context(|| format!("loading {}", grid_obj.display()))?;
+    let cooked = cook::cook(&grid_manifest, &cook::Settings::new(&grid_manifest))
+        .with_context(|| format!("cooking {}", grid_obj.display()))?;
+    let _ = std::fs::remove_file(&grid_obj);
+    let bytes = pack::encode(cooked.toc, &cooked.data).context("encoding the pack")?;
+    let grid_pack = cfg.scratch.join("first-frame-grid.pack");
+    std::fs::write(&grid_pack, &bytes)
+        .with_context(|| format!("writing {}", grid_pack.display()))?;
+    packs.push((grid_pack, bytes.len() as f64 / 1e6));
+    let grid_mode = format!(
+        "{}-triangle generated grid's pack (default mode)",
+        2 * cfg.grid * cfg.grid
+    );
+    let modes: [(&str, usize, &[&str]); 4] = [
         ("default", 0, &[]),
         ("--no-preview", 0, &["--no-preview"]),
         ("RGBA8 pack, no zstd (default mode)", 1, &[]),
+        (&grid_mode, 2, &[]),
     ];
     let mut runs: Vec<Vec<(f64, f64, String)>> = vec![Vec::new(); modes.len()];
     let mut peaks: Vec<Vec<f64>> = vec![Vec::new(); modes.len()];

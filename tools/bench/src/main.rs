@@ -242,6 +242,7 @@ fn main() -> Result<()> {
                 runs: runs.max(5),
                 size: (1280, 720),
                 scratch: scratch.clone(),
+                grid: 707,
             },
             &mut progress,
         )?

@@ -710,10 +710,12 @@ fn first_frame_section(md: &mut String, r: &Results) {
          device is created before it). By default a CPU rasterizer draws a half-size preview \
          first (`Gpu::first_frame_divisor`); `--no-preview` draws the whole frame first. The \
          split is the viewer's own (`-v`) for the median run. Peak resident memory is the \
-         whole process's (lavapipe's render targets and threads included). The last row is the pack \
+         whole process's (lavapipe's render targets and threads included). The third row is the pack \
          the texture-compression issue started from (RGBA8 textures, no zstd), drawn in the \
          default mode in the same rounds: the compressed pack's decoding must not make full \
-         quality later than it.\n"
+         quality later than it. The generated grid's row is the meshes sweep's largest mesh, \
+         cooked bare (a guessed sun and cameras, no windows), for the viewer's memory on a \
+         mesh of a million triangles.\n"
     );
     let _ = writeln!(
         md,
