@@ -76,7 +76,9 @@ pub fn sweep(cfg: &FirstFrameConfig, progress: &mut dyn FnMut(&str)) -> Result<V
         packs.push((path, bytes.len() as f64 / 1e6));
     }
     // A bare mesh cooked as `cooker cook` cooks one: a guessed sun and cameras.
-    let grid_obj = cfg.scratch.join(format!("first-frame-grid-{}.obj", cfg.grid));
+    let grid_obj = cfg
+        .scratch
+        .join(format!("first-frame-grid-{}.obj", cfg.grid));
     std::fs::write(&grid_obj, cook::testing::height_field_obj(cfg.grid))
         .with_context(|| format!("writing {}", grid_obj.display()))?;
     let grid_manifest = cook::Manifest::open(&grid_obj)

@@ -1429,10 +1429,17 @@ impl<'p> Assembler<'p> {
 /// the rest of the file is expected to hold as many for its size as this batch. A vector
 /// grown by doubling instead left each old block behind as a hole in the heap (the
 /// 819k-triangle grid's import peaked at 104 MB resident rather than 93 MB); one sized too
-/// large wastes only pages never touched.
+/// large wastes only pages never touched. Where that expects less than half as much again as
+/// `v` holds (a file longer than its size said), `v` grows as a vector does, so that it is not
+/// copied batch after batch.
 fn reserve_ahead<T>(v: &mut Vec<T>, more: usize, ahead: f64) {
-    if more > v.capacity() - v.len() && !(v.is_empty() && ahead == 0.0) {
-        let extra = (more as f64 * ahead).min(usize::MAX as f64 / 2.0) as usize;
+    if more <= v.capacity() - v.len() || (v.is_empty() && ahead == 0.0) {
+        return;
+    }
+    let extra = (more as f64 * ahead).min(usize::MAX as f64 / 2.0) as usize;
+    if more.saturating_add(extra) < v.len() / 2 {
+        v.reserve(more);
+    } else {
         v.reserve_exact(more.saturating_add(extra));
     }
 }
@@ -1993,6 +2000,26 @@ mod tests {
             prop_assert!(want.is_ok(), "{:?}", want.err());
             prop_assert_eq!(streamed(&text, size, chunk, block), summary(want));
         }
+    }
+
+    #[test]
+    fn arrays_are_sized_ahead_and_grow_geometrically_past_the_expected_size() {
+        let mut v: Vec<u32> = Vec::new();
+        // A batch of 1000 with three times its bytes still to come: room for 4000.
+        reserve_ahead(&mut v, 1000, 3.0);
+        assert!(v.capacity() >= 4000, "{}", v.capacity());
+        v.resize(4000, 0);
+        // Past it (a file longer than its size said), not copied batch after batch.
+        let (mut copies, mut capacity) = (0, v.capacity());
+        for _ in 0..1000 {
+            reserve_ahead(&mut v, 1000, 0.0);
+            v.extend(std::iter::repeat_n(0, 1000));
+            if v.capacity() != capacity {
+                copies += 1;
+                capacity = v.capacity();
+            }
+        }
+        assert!(copies <= 10, "{copies} copies");
     }
 
     #[test]
