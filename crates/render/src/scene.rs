@@ -544,36 +544,37 @@ impl Scene {
                 };
                 // Converted straight into the buffer's mapping: a converted copy beside it was
                 // 26 MB of the 1M-triangle grid's viewer.
-                let buffer = mapped_buffer(gpu, &m.name, size, wgpu::BufferUsages::VERTEX);
-                let keep = !self.toc.windows.is_empty();
-                let positions = {
-                    let mut mapped = buffer
-                        .slice(..)
-                        .get_mapped_range_mut()
-                        .expect("a buffer mapped at creation");
-                    if standard {
-                        mapped.slice(..bytes.len()).copy_from_slice(bytes);
-                        keep.then(|| {
-                            bytes
-                                .chunks_exact(std::mem::size_of::<StandardVertex>())
-                                .map(|v| {
-                                    glam::Vec3::from(
-                                        bytemuck::pod_read_unaligned::<StandardVertex>(v).position,
-                                    )
-                                })
-                                .collect()
-                        })
-                    } else {
-                        let mut positions = keep.then(|| Vec::with_capacity(count));
-                        convert_vertices(&m.layout, bytes, mapped.slice(..), |v| {
-                            if let Some(p) = &mut positions {
-                                p.push(glam::Vec3::from(v.position));
-                            }
-                        });
-                        positions
-                    }
-                };
-                buffer.unmap();
+                let keep = self.keeps_cpu_geometry();
+                let (buffer, positions) = mapped_buffer(
+                    gpu,
+                    &m.name,
+                    size,
+                    wgpu::BufferUsages::VERTEX,
+                    |mut mapped| {
+                        if standard {
+                            mapped.slice(..bytes.len()).copy_from_slice(bytes);
+                            keep.then(|| {
+                                bytes
+                                    .chunks_exact(std::mem::size_of::<StandardVertex>())
+                                    .map(|v| {
+                                        glam::Vec3::from(
+                                            bytemuck::pod_read_unaligned::<StandardVertex>(v)
+                                                .position,
+                                        )
+                                    })
+                                    .collect()
+                            })
+                        } else {
+                            let mut positions = keep.then(|| Vec::with_capacity(count));
+                            convert_vertices(&m.layout, bytes, mapped, |v| {
+                                if let Some(p) = &mut positions {
+                                    p.push(glam::Vec3::from(v.position));
+                                }
+                            });
+                            positions
+                        }
+                    },
+                );
                 self.cpu[mesh as usize].positions = positions;
                 self.meshes[mesh as usize].vertices = Some(buffer);
                 self.status.geometry_sections += 1;
@@ -581,9 +582,7 @@ impl Scene {
             }
             SectionRole::Indices { mesh } => {
                 let m = &self.toc.meshes[mesh as usize];
-                // Buffers must be a multiple of 4 bytes (an odd count of u16 indices is padded)
-                // and are kept non-empty, so a mesh without triangles needs no special case.
-                let indices = (!self.toc.windows.is_empty()).then(|| match m.index_format {
+                let indices = self.keeps_cpu_geometry().then(|| match m.index_format {
                     pack::IndexFormat::U16 => bytes
                         .chunks_exact(2)
                         .map(|c| u16::from_le_bytes([c[0], c[1]]) as u32)
@@ -594,17 +593,18 @@ impl Scene {
                         .collect(),
                 });
                 self.cpu[mesh as usize].indices = indices;
-                let buffer = mapped_buffer(gpu, &m.name, bytes.len(), wgpu::BufferUsages::INDEX);
-                {
-                    let mut mapped = buffer
-                        .slice(..)
-                        .get_mapped_range_mut()
-                        .expect("a buffer mapped at creation");
-                    let (mut data, mut padding) = mapped.slice(..).split_at(bytes.len());
-                    data.copy_from_slice(bytes);
-                    padding.fill(0);
-                }
-                buffer.unmap();
+                // An odd count of u16 indices leaves padding (see `mapped_buffer`).
+                let (buffer, ()) = mapped_buffer(
+                    gpu,
+                    &m.name,
+                    bytes.len(),
+                    wgpu::BufferUsages::INDEX,
+                    |mapped| {
+                        let (mut data, mut padding) = mapped.split_at(bytes.len());
+                        data.copy_from_slice(bytes);
+                        padding.fill(0);
+                    },
+                );
                 self.meshes[mesh as usize].indices = Some(buffer);
                 self.status.geometry_sections += 1;
                 self.geometry_arrived();
@@ -847,6 +847,12 @@ impl Scene {
         self.projectors.slot(texture)
     }
 
+    /// Whether the geometry is kept on the CPU for the occlusion analysis: only where the pack
+    /// has windows, which nothing is analysed for otherwise.
+    fn keeps_cpu_geometry(&self) -> bool {
+        !self.toc.windows.is_empty()
+    }
+
     /// True when some loaded range is drawn with a window material.
     pub fn has_windows(&self) -> bool {
         self.draws()
@@ -935,15 +941,31 @@ pub(crate) fn vertex_layout() -> wgpu::VertexBufferLayout<'static> {
     }
 }
 
-/// A buffer of `size` bytes (rounded up to a multiple of 4, and at least 4, so a mesh without
-/// triangles needs no special case), mapped for its contents to be written once.
-fn mapped_buffer(gpu: &Gpu, label: &str, size: usize, usage: wgpu::BufferUsages) -> wgpu::Buffer {
-    gpu.device.create_buffer(&wgpu::BufferDescriptor {
+/// A buffer of `size` bytes (rounded up to a multiple of 4, as buffers must be, and at least 4,
+/// so a mesh without triangles needs no special case), its contents written once by `write`
+/// straight into its mapping, and what `write` returned.
+fn mapped_buffer<R>(
+    gpu: &Gpu,
+    label: &str,
+    size: usize,
+    usage: wgpu::BufferUsages,
+    write: impl FnOnce(wgpu::WriteOnly<'_, [u8]>) -> R,
+) -> (wgpu::Buffer, R) {
+    let buffer = gpu.device.create_buffer(&wgpu::BufferDescriptor {
         label: Some(label),
         size: (size.div_ceil(4) * 4).max(4) as u64,
         usage,
         mapped_at_creation: true,
-    })
+    });
+    let written = {
+        let mut mapped = buffer
+            .slice(..)
+            .get_mapped_range_mut()
+            .expect("a buffer mapped at creation");
+        write(mapped.slice(..))
+    };
+    buffer.unmap();
+    (buffer, written)
 }
 
 /// Whether `bytes` hold `count` vertices of `layout`.

@@ -1109,8 +1109,6 @@ fn parse_stream(
         end = read.map_err(io)?;
         std::mem::swap(&mut block, &mut next);
     }
-    drop(block);
-    drop(next);
     assembler.finish()
 }
 
@@ -1259,11 +1257,9 @@ impl<'p> Assembler<'p> {
         let lens: [usize; 3] = self.stored.map(|s| if s { 3 * triangles } else { 0 });
         for (f, &len) in self.fields.iter_mut().zip(&lens) {
             reserve_ahead(f, len, ahead);
-            f.reserve(len);
         }
         let tri_part = &mut self.out.tri_part;
         reserve_ahead(tri_part, triangles, ahead);
-        tri_part.reserve(triangles);
         let mut shares = Vec::with_capacity(resolving.len());
         {
             let mut rest = std::array::from_fn::<_, 3, _>(|_| Default::default());
@@ -1433,7 +1429,7 @@ impl<'p> Assembler<'p> {
 /// `v` holds (a file longer than its size said), `v` grows as a vector does, so that it is not
 /// copied batch after batch.
 fn reserve_ahead<T>(v: &mut Vec<T>, more: usize, ahead: f64) {
-    if more <= v.capacity() - v.len() || (v.is_empty() && ahead == 0.0) {
+    if more <= v.capacity() - v.len() {
         return;
     }
     let extra = (more as f64 * ahead).min(usize::MAX as f64 / 2.0) as usize;
@@ -1444,9 +1440,9 @@ fn reserve_ahead<T>(v: &mut Vec<T>, more: usize, ahead: f64) {
     }
 }
 
-/// Moves `from` onto the end of `to`, freeing it (taken whole while `to` holds no memory).
+/// Moves `from` onto the end of `to`, freeing it (taken whole while `to` is empty).
 fn append<T: Copy>(to: &mut Vec<T>, from: &mut Vec<T>) {
-    if to.capacity() == 0 {
+    if to.is_empty() {
         std::mem::swap(to, from);
     } else {
         to.extend_from_slice(from);
