@@ -36,24 +36,16 @@ struct Footprint {
 }
 
 impl Footprint {
-    /// `tris` yields the floor's triangles, twice (bounds, then the raster): held as 72-byte
-    /// corners, a 100k-triangle floor was the largest block of a bare mesh's cook. `raster`:
-    /// whether [`Footprint::land`] will be asked (the raster was a quarter of the guess's time
-    /// on a bare 100k-triangle floor).
-    fn new<I: Iterator<Item = [DVec3; 3]>>(tris: impl Fn() -> I, raster: bool) -> Option<Self> {
-        let mut lo = DVec2::splat(f64::INFINITY);
-        let mut hi = DVec2::splat(f64::NEG_INFINITY);
-        let mut y = 0.0;
-        let mut area = 0.0;
-        for t in tris() {
-            for p in t {
-                lo = lo.min(p.xz());
-                hi = hi.max(p.xz());
-            }
-            let a = (t[1] - t[0]).cross(t[2] - t[0]).length() * 0.5;
-            y += a * (t[0].y + t[1].y + t[2].y) / 3.0;
-            area += a;
-        }
+    /// `sum`: the floor's triangles summed up; `tris` yields them again for the raster:
+    /// held as 72-byte corners, a 100k-triangle floor was the largest block of a bare mesh's
+    /// cook. `raster`: whether [`Footprint::land`] will be asked (the raster was a quarter of
+    /// the guess's time on a bare 100k-triangle floor).
+    fn new<I: Iterator<Item = [DVec3; 3]>>(
+        sum: &FloorSum,
+        tris: impl Fn() -> I,
+        raster: bool,
+    ) -> Option<Self> {
+        let FloorSum { lo, hi, y, area } = *sum;
         if area.is_nan() || area <= 0.0 || hi.x.is_nan() || hi.x <= lo.x || hi.y <= lo.y {
             return None;
         }
@@ -96,6 +88,38 @@ impl Footprint {
             "a footprint without its raster asked to land a ray"
         );
         covered.copied().unwrap_or(false).then_some(hit)
+    }
+}
+
+/// The floor's horizontal bounds, area and area-weighted height, summed triangle by triangle
+/// in the same pass as the model's bounds: a second pass over a 100k-triangle floor took
+/// 2.8 ms, a third of the guess.
+#[derive(Clone, Copy)]
+struct FloorSum {
+    lo: DVec2,
+    hi: DVec2,
+    y: f64,
+    area: f64,
+}
+
+impl FloorSum {
+    fn new() -> Self {
+        Self {
+            lo: DVec2::splat(f64::INFINITY),
+            hi: DVec2::splat(f64::NEG_INFINITY),
+            y: 0.0,
+            area: 0.0,
+        }
+    }
+
+    fn add(&mut self, t: [DVec3; 3]) {
+        for p in t {
+            self.lo = self.lo.min(p.xz());
+            self.hi = self.hi.max(p.xz());
+        }
+        let a = (t[1] - t[0]).cross(t[2] - t[0]).length() * 0.5;
+        self.y += a * (t[0].y + t[1].y + t[2].y) / 3.0;
+        self.area += a;
     }
 }
 
@@ -222,9 +246,8 @@ impl Occupancy {
                     if c.is_window() || c == MaterialClass::Background {
                         continue;
                     }
-                    let [a, b, c] = triangle(src, t as u32);
-                    let t = [a, b, c].map(|q| (q - grid.lo) / grid.cell);
-                    mark_cells(&mut full, wanted, t);
+                    let q = triangle(src, t as u32).map(|q| (q - grid.lo) / grid.cell);
+                    mark_cells(&mut full, wanted, q);
                 }
                 full
             })
@@ -246,22 +269,58 @@ impl Occupancy {
         Some(cell_index(c.x as usize, c.y as usize, c.z as usize))
     }
 
-    /// Walks the unit ray from `o` in quarter-cell steps, skipping the cell the eye is in,
-    /// until `stop` holds for a cell (the distance there), the ray leaves the grid or `max`
-    /// (then `max`). Depths and the cells they may read both come from here.
+    /// Walks the unit ray from `o` cell by cell (each cell it passes through, in order),
+    /// skipping the cell the eye is in, until `stop` holds for a cell (the distance at which
+    /// the ray enters it), the ray leaves the grid or passes `max` (then `max`). Depths and the
+    /// cells they may read both come from here. Quarter-cell steps took 4 ms of a bare 100k
+    /// height field's guess: its cells are flat, and the steps followed the thinnest side.
     fn march(&self, o: DVec3, d: DVec3, max: f64, mut stop: impl FnMut(usize) -> bool) -> f64 {
-        let step = self.cell.min_element() * 0.25;
-        let own = self.index(o);
-        let mut t = step;
-        while t < max {
-            match self.index(o + d * t) {
-                None => return max,
-                Some(i) if Some(i) != own && stop(i) => return t,
-                _ => {}
+        let Some(own) = self.index(o) else {
+            return max;
+        };
+        let mut at = [own % OCC, own / OCC % OCC, own / (OCC * OCC)];
+        let c = (o - self.lo) / self.cell;
+        // Per axis: the distance along the ray to its next cell face, and between faces.
+        let mut next = [f64::INFINITY; 3];
+        let mut every = [f64::INFINITY; 3];
+        for k in 0..3 {
+            if d[k] > 0.0 {
+                next[k] = (at[k] as f64 + 1.0 - c[k]) * self.cell[k] / d[k];
+                every[k] = self.cell[k] / d[k];
+            } else if d[k] < 0.0 {
+                next[k] = (c[k] - at[k] as f64) * self.cell[k] / -d[k];
+                every[k] = self.cell[k] / -d[k];
             }
-            t += step;
         }
-        max
+        loop {
+            let k = if next[0] <= next[1] && next[0] <= next[2] {
+                0
+            } else if next[1] <= next[2] {
+                1
+            } else {
+                2
+            };
+            let t = next[k];
+            // Also ends a ray along no axis (every face infinitely far) or a NaN one.
+            if t.is_nan() || t >= max {
+                return max;
+            }
+            if d[k] > 0.0 {
+                if at[k] + 1 >= OCC {
+                    return max;
+                }
+                at[k] += 1;
+            } else {
+                let Some(a) = at[k].checked_sub(1) else {
+                    return max;
+                };
+                at[k] = a;
+            }
+            next[k] += every[k];
+            if stop(cell_index(at[0], at[1], at[2])) {
+                return t;
+            }
+        }
     }
 
     /// Distance along the unit ray from `o` to the first occupied cell, at most `max`.
@@ -468,14 +527,20 @@ pub fn guess(p: &Prepared) -> Guess {
         .collect();
     let mut lo = DVec3::splat(f64::INFINITY);
     let mut hi = DVec3::splat(f64::NEG_INFINITY);
+    let mut floor_sum = FloorSum::new();
     for (src, mats) in p.imported.iter().zip(&p.tri_material) {
         for (t, &m) in mats.iter().enumerate() {
-            if classes[m as usize] == MaterialClass::Background {
+            let class = classes[m as usize];
+            if class == MaterialClass::Background {
                 continue;
             }
-            for q in triangle(src, t as u32) {
+            let tri = triangle(src, t as u32);
+            for q in tri {
                 lo = lo.min(q);
                 hi = hi.max(q);
+            }
+            if class == MaterialClass::Floor {
+                floor_sum.add(tri);
             }
         }
     }
@@ -493,6 +558,7 @@ pub fn guess(p: &Prepared) -> Guess {
     let class_of = classes.as_slice();
     let windows = &p.windows.instances;
     let floor = Footprint::new(
+        &floor_sum,
         || {
             p.imported
                 .iter()
@@ -507,7 +573,6 @@ pub fn guess(p: &Prepared) -> Guess {
         !windows.is_empty(),
     );
 
-    // The sun: the most window area landing on the floor.
     let mut best: Option<(f64, DVec3)> = None;
     if let Some(fp) = &floor {
         for el in [25.0f64, 35.0, 45.0, 55.0, 65.0] {
@@ -806,6 +871,57 @@ mod tests {
                     whole.view_depth(eye, dir, 12.0).to_bits(),
                     part.view_depth(eye, dir, 12.0).to_bits()
                 );
+            }
+        }
+
+        /// The march passes every cell that a dense walk along the ray finds, in the walk's
+        /// order, each next to the one before, and says the ray enters a cell where the walk
+        /// first finds it (within one step of the walk).
+        #[test]
+        fn marching_passes_every_cell_the_ray_crosses(
+            eye in prop::array::uniform3(0.0f64..1.0),
+            dir in prop::array::uniform3(-1.0f64..1.0),
+            max in 0.5f64..30.0,
+        ) {
+            let dir = DVec3::from(dir);
+            prop_assume!(dir.length() > 0.1);
+            let d = dir.normalize();
+            // Cells of three different sizes.
+            let (lo, hi) = (DVec3::new(-1.0, 2.0, 0.5), DVec3::new(9.0, 3.0, 7.5));
+            let grid = Occupancy::empty(lo, hi);
+            let eye = lo + DVec3::from(eye) * (hi - lo);
+            let mut passed = Vec::new();
+            grid.march(eye, d, max, |i| {
+                passed.push(i);
+                false
+            });
+            let at = |i: usize| [i % OCC, i / OCC % OCC, i / (OCC * OCC)].map(|c| c as i64);
+            for w in passed.windows(2) {
+                let (a, b) = (at(w[0]), at(w[1]));
+                let steps: i64 = (0..3).map(|k| (a[k] - b[k]).abs()).sum();
+                prop_assert_eq!(steps, 1, "{:?} to {:?}", a, b);
+            }
+            let step = 1e-3;
+            let own = grid.index(eye);
+            let mut walk: Vec<(usize, f64)> = Vec::new();
+            let mut t = step;
+            while t < max - step {
+                match grid.index(eye + d * t) {
+                    None => break,
+                    Some(i) if Some(i) != own && walk.last().map(|w| w.0) != Some(i) => {
+                        walk.push((i, t))
+                    }
+                    _ => {}
+                }
+                t += step;
+            }
+            let mut rest = passed.iter();
+            for &(cell, _) in &walk {
+                prop_assert!(rest.any(|&p| p == cell), "cell {:?} not passed", at(cell));
+            }
+            if let Some(&(first, t)) = walk.first() {
+                let entry = grid.march(eye, d, max, |i| i == first);
+                prop_assert!(entry <= t + 1e-9 && entry > t - step - 1e-9, "{entry} against {t}");
             }
         }
 
