@@ -197,9 +197,11 @@ pub fn plan(
         }
     }
 
-    // Heights for upper/lower: floor and wall top from the tagged geometry.
+    // Heights for upper/lower: floor and wall top from the tagged geometry (a pass over every
+    // triangle, which a model without windows does without).
     let (mut floor, mut wall_top) = (f64::INFINITY, f64::NEG_INFINITY);
-    for (src, mats) in sources.iter().zip(tri_material.iter()) {
+    let with_windows = if found.is_empty() { 0 } else { sources.len() };
+    for (src, mats) in sources.iter().zip(tri_material.iter()).take(with_windows) {
         for (t, &m) in mats.iter().enumerate() {
             let class = classes[m as usize];
             for k in 0..3 {
