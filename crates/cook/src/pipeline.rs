@@ -43,7 +43,12 @@ pub fn cook(manifest: &Manifest, settings: &Settings) -> Result<CookOutput, Cook
     // (which read the same prepared geometry); materials left without triangles are dropped.
     let mesh_needs = material_needs(&prepared.tagging);
     let (guessed, deduplicated) = rayon::join(
-        || needs_guess(manifest).then(|| guess::guess(&prepared)),
+        || {
+            needs_guess(manifest).then(|| {
+                let start = Instant::now();
+                (guess::guess(&prepared), start.elapsed())
+            })
+        },
         || {
             (prepared.imported.par_iter())
                 .zip(&prepared.tri_material)
@@ -51,7 +56,8 @@ pub fn cook(manifest: &Manifest, settings: &Settings) -> Result<CookOutput, Cook
                 .collect::<Vec<_>>()
         },
     );
-    let manifest = with_guesses(manifest, guessed, &mut report);
+    report.guess_time = guessed.as_ref().map(|g| g.1);
+    let manifest = with_guesses(manifest, guessed.map(|g| g.0), &mut report);
     let Prepared {
         mut imported,
         import_times,

@@ -61,6 +61,9 @@ pub struct Report {
     /// What the scene defines but nothing uses, so it was not cooked: one line each.
     pub skipped: Vec<String>,
     pub stages: Vec<Stage>,
+    /// How long a bare model's guessed light and cameras took, on another core during the
+    /// mesh stage (its normals and dedupe): `None` where nothing was guessed.
+    pub guess_time: Option<Duration>,
 }
 
 /// One stage of a cook, in order.

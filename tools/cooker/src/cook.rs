@@ -422,6 +422,12 @@ fn stats(out: &cook::CookOutput, write_time: Duration) -> Vec<String> {
     let stages = report.stages.iter().map(|s| (s.name, s.time, s.peak_rss));
     for (name, time, rss) in stages.chain([write]) {
         lines.push(format!("stage {name:<12} {:>10}{}", ms(time), peak(rss)));
+        if let ("mesh", Some(t)) = (name, report.guess_time) {
+            lines.push(format!(
+                "  guessed light and cameras {:>10} (beside the mesh stage's normals and dedupe)",
+                ms(t)
+            ));
+        }
     }
     let n = tri_out.max(1) as f64;
     lines.push(format!(

@@ -92,6 +92,19 @@ fn cook_verbose_reports_stages_and_acmr() {
     );
     assert!(peaks.windows(2).all(|w| w[0].1 <= w[1].1), "{stdout}");
     assert!(peaks.last().unwrap().1 >= 1.4, "{stdout}");
+    // A bare mesh's guessed views are timed, on the line after the mesh stage they ran beside.
+    let after_mesh = stdout
+        .lines()
+        .skip_while(|l| !l.starts_with("stage mesh"))
+        .nth(1)
+        .unwrap_or_default();
+    assert!(
+        after_mesh
+            .trim_start()
+            .starts_with("guessed light and cameras")
+            && after_mesh.contains(" ms"),
+        "{stdout}"
+    );
     assert!(
         text(&o.stderr).contains("cooking a bare mesh without a scene.toml")
             && text(&o.stderr).contains("`cooker init`"),
