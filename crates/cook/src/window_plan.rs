@@ -119,6 +119,30 @@ fn raster(name: String, image: image::RgbaImage) -> ImageRef {
     }
 }
 
+/// The lowest floor and highest wall corner of the tagged geometry (infinite where there is
+/// none).
+fn floor_and_wall_top(
+    sources: &[Imported],
+    tri_material: &[Vec<u16>],
+    classes: &[MaterialClass],
+) -> (f64, f64) {
+    let (mut floor, mut wall_top) = (f64::INFINITY, f64::NEG_INFINITY);
+    for (src, mats) in sources.iter().zip(tri_material) {
+        for (t, &m) in mats.iter().enumerate() {
+            let class = classes[m as usize];
+            for k in 0..3 {
+                let y = src.positions[src.corners.p(t * 3 + k) as usize][1] as f64;
+                match class {
+                    MaterialClass::Floor => floor = floor.min(y),
+                    MaterialClass::Wall => wall_top = wall_top.max(y),
+                    _ => {}
+                }
+            }
+        }
+    }
+    (floor, wall_top)
+}
+
 /// Runs the window stage: see the module documentation. `overrides` are `--window` entries,
 /// which come before the manifest's. `tri_material` (per source, per triangle) is updated to
 /// the per-window materials.
@@ -197,23 +221,12 @@ pub fn plan(
         }
     }
 
-    // Heights for upper/lower: floor and wall top from the tagged geometry (a pass over every
-    // triangle, which a model without windows does without).
-    let (mut floor, mut wall_top) = (f64::INFINITY, f64::NEG_INFINITY);
-    let with_windows = if found.is_empty() { 0 } else { sources.len() };
-    for (src, mats) in sources.iter().zip(tri_material.iter()).take(with_windows) {
-        for (t, &m) in mats.iter().enumerate() {
-            let class = classes[m as usize];
-            for k in 0..3 {
-                let y = src.positions[src.corners.p(t * 3 + k) as usize][1] as f64;
-                match class {
-                    MaterialClass::Floor => floor = floor.min(y),
-                    MaterialClass::Wall => wall_top = wall_top.max(y),
-                    _ => {}
-                }
-            }
-        }
-    }
+    // Heights for upper/lower, a pass over every triangle that a model without windows skips.
+    let (floor, wall_top) = if found.is_empty() {
+        (f64::INFINITY, f64::NEG_INFINITY)
+    } else {
+        floor_and_wall_top(sources, tri_material, &classes)
+    };
     // A material placed by an explicit rule keeps its class; heuristics and `class =
     // "window"` rules defer to the sill.
     let mut by_rule = vec![false; tagging.materials.len()];
