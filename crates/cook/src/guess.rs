@@ -544,7 +544,8 @@ pub fn guess(p: &Prepared) -> Guess {
             }
         }
     }
-    if !lo.is_finite() {
+    // Every corner at one point: only degenerate triangles, which the mesh stage drops.
+    if !lo.is_finite() || lo == hi {
         return Guess {
             light: None,
             cameras: Vec::new(),
@@ -654,7 +655,10 @@ pub fn guess(p: &Prepared) -> Guess {
         target: f3(target),
         up: [0.0, 1.0, 0.0],
         fov_y: FOV_Y_DEG as f32,
-        near: (diag * 1e-4).max(0.01) as f32,
+        // The 0.01 floor keeps the near plane of a small model (a bunny in metres) where it
+        // was; a tenth of the model's size caps it, so a model in large units (a statue
+        // in kilometres) keeps its near plane in front of the far one.
+        near: (diag * 1e-4).max(0.01).min(diag * 0.1) as f32,
         far: (diag * 3.0) as f32,
     };
     let mut cameras = Vec::new();
@@ -741,6 +745,9 @@ pub fn guess(p: &Prepared) -> Guess {
             }
         }
     }
+    // A model far from the origin for its size can put a view's eye and target on the same
+    // f32 point, which looks nowhere.
+    cameras.retain(|c| c.position != c.target);
     Guess {
         light,
         cameras,
@@ -812,6 +819,46 @@ mod tests {
         let cameras = guessed_cameras(&grid);
         assert_eq!(cameras[0].name, "nave", "{cameras:?}");
         assert!(cameras.iter().all(|c| c.name != "overview"));
+    }
+
+    /// Cameras the pack accepts, whatever the model's unit: the Cornell box (550 units across)
+    /// at 1e-6 of its size had its views' near planes behind their far ones, and the cook
+    /// failed at the pack's validation. A model whose corners are all one point gets no views.
+    #[test]
+    fn views_are_valid_at_any_scale() {
+        let dir = tempfile::tempdir().unwrap();
+        let source = std::fs::read_to_string(
+            std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+                .join("../../tests/data/third_party/cornell_box/cornell_box.obj"),
+        )
+        .unwrap();
+        for scale in [1e-6, 1e-3, 1.0, 1e4] {
+            let scaled: String = source
+                .lines()
+                .map(|l| match l.strip_prefix("v ") {
+                    Some(v) => {
+                        let c: Vec<f64> =
+                            v.split_whitespace().map(|x| x.parse().unwrap()).collect();
+                        format!("v {} {} {}\n", c[0] * scale, c[1] * scale, c[2] * scale)
+                    }
+                    None if l.starts_with("mtllib") => String::new(),
+                    None => format!("{l}\n"),
+                })
+                .collect();
+            let model = dir.path().join(format!("box-{scale}.obj"));
+            std::fs::write(&model, scaled).unwrap();
+            let cameras = guessed_cameras(&model);
+            assert!(!cameras.is_empty(), "scale {scale}");
+            for c in &cameras {
+                assert!(
+                    c.near > 0.0 && c.far > c.near && c.position != c.target,
+                    "scale {scale}: {c:?}"
+                );
+            }
+        }
+        let point = dir.path().join("point.obj");
+        std::fs::write(&point, "v 1 2 3\nv 1 2 3\nv 1 2 3\nf 1 2 3\n").unwrap();
+        assert!(guessed_cameras(&point).is_empty());
     }
 
     fn marked(t: [DVec3; 3]) -> Vec<bool> {

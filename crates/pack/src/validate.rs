@@ -338,7 +338,14 @@ pub fn validate_toc(toc: &Toc, table: &[SectionEntry]) -> Result<Vec<SectionRole
         // Written as positive tests so NaN fails them.
         let fov_ok = c.fov_y > 0.0 && c.fov_y < 180.0;
         let depth_ok = c.near > 0.0 && c.far > c.near && c.far.is_finite();
-        if !finite(&c.position) || !finite(&c.target) || !finite(&c.up) || !fov_ok || !depth_ok {
+        let looks = c.position != c.target;
+        if !finite(&c.position)
+            || !finite(&c.target)
+            || !finite(&c.up)
+            || !fov_ok
+            || !depth_ok
+            || !looks
+        {
             return Err(Fail::toc(format!(
                 "camera {:?} has invalid parameters",
                 c.name

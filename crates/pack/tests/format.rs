@@ -233,6 +233,26 @@ fn writer_refuses_out_of_range_indices_and_material_ids() {
 }
 
 #[test]
+fn writer_refuses_cameras_that_cannot_view() {
+    let broken: [fn(&mut Camera); 4] = [
+        |c| c.far = c.near,
+        |c| c.near = 0.0,
+        |c| c.target = c.position,
+        |c| c.fov_y = f32::NAN,
+    ];
+    for (i, breaks) in broken.iter().enumerate() {
+        let (mut toc, data) = sample();
+        breaks(&mut toc.cameras[0]);
+        let e = encode(toc, &data).unwrap_err();
+        assert!(
+            e.to_string()
+                .contains("camera \"nave\" has invalid parameters"),
+            "{i}: {e}"
+        );
+    }
+}
+
+#[test]
 fn failed_write_leaves_old_file_untouched() {
     let dir = tempfile::tempdir().unwrap();
     let path = dir.path().join("out.pack");
