@@ -54,7 +54,19 @@ fn literal_glob(s: &str) -> String {
 }
 
 fn vec3(v: [f32; 3]) -> String {
-    format!("[{:.4}, {:.4}, {:.4}]", v[0], v[1], v[2])
+    vec3_to(v, 1e-4)
+}
+
+/// `v` with the decimals that resolve `quantum`, four at least: a model in large units (the
+/// Cornell box at 1e-8 of its size, 5.5e-6 across) had its views' eyes and targets rounded
+/// onto one point at four decimals, and the manifest refused them.
+fn vec3_to(v: [f32; 3], quantum: f32) -> String {
+    let d = if quantum > 0.0 && quantum.is_finite() {
+        (-quantum.log10()).ceil().clamp(4.0, 12.0) as usize
+    } else {
+        4
+    };
+    format!("[{:.d$}, {:.d$}, {:.d$}]", v[0], v[1], v[2])
 }
 
 /// The path to write for `mesh` in a manifest in `dir`: relative when the mesh lies under it.
@@ -231,12 +243,14 @@ pub fn run(args: Args) -> Outcome {
         }
     }
     for c in &guess.cameras {
+        // A thousandth of the model's size (a guessed view's far plane is three times it).
+        let quantum = c.far * 3e-4;
         let _ = writeln!(
             t,
             "[[camera]]\nname = {}\nposition = {}\ntarget = {}\nfov_y_deg = {:.1}\nnear = {}\nfar = {}\n",
             quote(&c.name),
-            vec3(c.position),
-            vec3(c.target),
+            vec3_to(c.position, quantum),
+            vec3_to(c.target, quantum),
             c.fov_y,
             c.near,
             c.far

@@ -1113,6 +1113,63 @@ fn the_manifest_documentation_matches_the_code() {
     }
 }
 
+/// `init` then `cook` works for a model in any unit: at 1e-8 of its size (5.5e-6 across) the
+/// Cornell box's guessed views were written at four decimals, eye and target on one point, and
+/// the manifest refused them.
+#[test]
+fn init_and_cook_work_for_a_model_in_large_units() {
+    let dir = tempfile::tempdir().unwrap();
+    let source = std::fs::read_to_string(third_party("cornell_box/cornell_box.obj")).unwrap();
+    let scaled: String = source
+        .lines()
+        .map(|l| match l.strip_prefix("v ") {
+            Some(v) => {
+                let c: Vec<f64> = v.split_whitespace().map(|x| x.parse().unwrap()).collect();
+                format!("v {} {} {}\n", c[0] * 1e-8, c[1] * 1e-8, c[2] * 1e-8)
+            }
+            None => format!("{l}\n"),
+        })
+        .collect();
+    let obj = dir.path().join("tiny_box.obj");
+    std::fs::write(&obj, scaled).unwrap();
+    std::fs::copy(
+        third_party("cornell_box/cornell_box.mtl"),
+        dir.path().join("cornell_box.mtl"),
+    )
+    .unwrap();
+    cook(&obj, &dir.path().join("bare.pack"), &[]);
+    let scene = dir.path().join("scene.toml");
+    let o = cooker(&[&"init", &obj, &"-o", &scene]);
+    assert!(o.status.success(), "{}", text(&o.stderr));
+    let toml = std::fs::read_to_string(&scene).unwrap();
+    let points = |key: &str| -> Vec<[f64; 3]> {
+        toml.lines()
+            .filter_map(|l| l.strip_prefix(key))
+            .map(|v| {
+                let v: Vec<f64> = v
+                    .trim_matches(|c| " =[]".contains(c))
+                    .split(',')
+                    .map(|x| x.trim().parse().unwrap())
+                    .collect();
+                [v[0], v[1], v[2]]
+            })
+            .collect()
+    };
+    let (eyes, targets) = (points("position"), points("target"));
+    assert!(!eyes.is_empty() && eyes.len() == targets.len(), "{toml}");
+    // Each view looks along at least a tenth of the box.
+    for (e, t) in eyes.iter().zip(&targets) {
+        let d = (0..3).map(|k| (e[k] - t[k]).powi(2)).sum::<f64>().sqrt();
+        assert!(d > 0.55e-6, "{toml}");
+    }
+    let v = info(&{
+        let pack = dir.path().join("scene.pack");
+        cook(&scene, &pack, &[]);
+        pack
+    });
+    assert_eq!(v["cameras"].as_array().unwrap().len(), eyes.len(), "{v:#}");
+}
+
 /// The first use: `cooker init model.obj && cooker cook scene.toml` with no hand edits
 /// gives stained-glass light: a manifest that parses, a sun whose light lands on the floor
 /// through the windows (so the cook makes their projectors), and cameras inside.
