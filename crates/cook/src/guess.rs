@@ -45,7 +45,9 @@ impl Footprint {
         tris: impl Fn() -> I,
         raster: bool,
     ) -> Option<Self> {
-        let FloorSum { lo, hi, y, area } = *sum;
+        let FloorSum {
+            lo, hi, y, area, ..
+        } = *sum;
         if area.is_nan() || area <= 0.0 || hi.x.is_nan() || hi.x <= lo.x || hi.y <= lo.y {
             return None;
         }
@@ -100,6 +102,8 @@ struct FloorSum {
     hi: DVec2,
     y: f64,
     area: f64,
+    /// Twice the area facing along each axis, either way: a floor of a Z-up model faces z.
+    facing: DVec3,
 }
 
 impl FloorSum {
@@ -109,6 +113,7 @@ impl FloorSum {
             hi: DVec2::splat(f64::NEG_INFINITY),
             y: 0.0,
             area: 0.0,
+            facing: DVec3::ZERO,
         }
     }
 
@@ -117,9 +122,11 @@ impl FloorSum {
             self.lo = self.lo.min(p.xz());
             self.hi = self.hi.max(p.xz());
         }
-        let a = (t[1] - t[0]).cross(t[2] - t[0]).length() * 0.5;
+        let n = (t[1] - t[0]).cross(t[2] - t[0]);
+        let a = n.length() * 0.5;
         self.y += a * (t[0].y + t[1].y + t[2].y) / 3.0;
         self.area += a;
+        self.facing += n.abs();
     }
 }
 
@@ -574,6 +581,17 @@ pub fn guess(p: &Prepared) -> Guess {
         !windows.is_empty(),
     );
 
+    // Y is up here, as in glTF; many CAD and architecture tools write OBJ files Z-up, whose
+    // floor then stands on its edge and catches no sun.
+    if floor_sum.facing.z > 2.0 * floor_sum.facing.y {
+        notes.push(
+            "the floor faces along z, not up (y): the model looks Z-up; in a scene.toml, \
+             `rotate_deg = [-90.0, 0.0, 0.0]` on its [[mesh]] stands it up"
+                .into(),
+        );
+    }
+
+    // The sun: the most window area landing on the floor.
     let mut best: Option<(f64, DVec3)> = None;
     if let Some(fp) = &floor {
         for el in [25.0f64, 35.0, 45.0, 55.0, 65.0] {
@@ -859,6 +877,49 @@ mod tests {
         let point = dir.path().join("point.obj");
         std::fs::write(&point, "v 1 2 3\nv 1 2 3\nv 1 2 3\nf 1 2 3\n").unwrap();
         assert!(guessed_cameras(&point).is_empty());
+    }
+
+    /// A room whose floor faces z is said to look Z-up; the same room y-up is not.
+    #[test]
+    fn a_z_up_model_is_pointed_out() {
+        let dir = tempfile::tempdir().unwrap();
+        let notes = |z_up: bool| {
+            let v = |x: f64, y: f64, z: f64| {
+                if z_up {
+                    format!("v {x} {} {y}\n", -z)
+                } else {
+                    format!("v {x} {y} {z}\n")
+                }
+            };
+            let mut obj = String::new();
+            // Floor 10 x 20, and two walls 8 high along its long sides.
+            for (x, y, z) in [
+                (-5., 0., -10.),
+                (5., 0., -10.),
+                (5., 0., 10.),
+                (-5., 0., 10.),
+            ] {
+                obj += &v(x, y, z);
+            }
+            for side in [-5.0, 5.0] {
+                for (y, z) in [(0., -10.), (0., 10.), (8., 10.), (8., -10.)] {
+                    obj += &v(side, y, z);
+                }
+            }
+            obj += "usemtl floor\nf 1 4 3 2\nusemtl wall\nf 5 6 7 8\nf 9 12 11 10\n";
+            let model = dir.path().join(format!("room-{z_up}.obj"));
+            std::fs::write(&model, obj).unwrap();
+            let manifest = crate::manifest::Manifest::from_mesh_file(&model).unwrap();
+            let out = crate::pipeline::cook(&manifest, &crate::Settings::new(&manifest)).unwrap();
+            out.report
+                .warnings
+                .iter()
+                .map(|w| w.message.clone())
+                .collect::<Vec<_>>()
+                .join("\n")
+        };
+        assert!(notes(true).contains("looks Z-up"), "{}", notes(true));
+        assert!(!notes(false).contains("Z-up"), "{}", notes(false));
     }
 
     fn marked(t: [DVec3; 3]) -> Vec<bool> {
