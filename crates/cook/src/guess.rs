@@ -267,13 +267,20 @@ impl Occupancy {
         }
     }
 
-    fn index(&self, q: DVec3) -> Option<usize> {
+    /// The cell holding `q`, if the grid does.
+    fn cell(&self, q: DVec3) -> Option<[usize; 3]> {
         let c = (q - self.lo) / self.cell;
         // Truncation is the floor here: negative (and NaN) coordinates were turned away.
         if !c.is_finite() || c.min_element() < 0.0 || c.max_element() >= OCC as f64 {
             return None;
         }
-        Some(cell_index(c.x as usize, c.y as usize, c.z as usize))
+        Some([c.x as usize, c.y as usize, c.z as usize])
+    }
+
+    /// The [`cell_index`] of the cell holding `q`, for tests that walk a ray point by point.
+    #[cfg(test)]
+    fn index(&self, q: DVec3) -> Option<usize> {
+        self.cell(q).map(|[x, y, z]| cell_index(x, y, z))
     }
 
     /// Walks the unit ray from `o` cell by cell (each cell it passes through, in order),
@@ -282,10 +289,9 @@ impl Occupancy {
     /// cells they may read both come from here. Quarter-cell steps took 4 ms of a bare 100k
     /// height field's guess: its cells are flat, and the steps followed the thinnest side.
     fn march(&self, o: DVec3, d: DVec3, max: f64, mut stop: impl FnMut(usize) -> bool) -> f64 {
-        let Some(own) = self.index(o) else {
+        let Some(mut at) = self.cell(o) else {
             return max;
         };
-        let mut at = [own % OCC, own / OCC % OCC, own / (OCC * OCC)];
         let c = (o - self.lo) / self.cell;
         // Per axis: the distance along the ray to its next cell face, and between faces.
         let mut next = [f64::INFINITY; 3];
@@ -432,6 +438,12 @@ impl Polygon {
 /// Cell units: `OCC` cells per axis, the model's bounds at 0 and `OCC`.
 fn cell_index(x: usize, y: usize, z: usize) -> usize {
     (z * OCC + y) * OCC + x
+}
+
+/// The cell at [`cell_index`] `i`.
+#[cfg(test)]
+fn cell_coords(i: usize) -> [usize; 3] {
+    [i % OCC, i / OCC % OCC, i / (OCC * OCC)]
 }
 
 /// Marks exactly the cells a triangle (corners in cell units) passes through: it is cut into
@@ -845,26 +857,17 @@ mod tests {
     #[test]
     fn views_are_valid_at_any_scale() {
         let dir = tempfile::tempdir().unwrap();
-        let source = std::fs::read_to_string(
-            std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
-                .join("../../tests/data/third_party/cornell_box/cornell_box.obj"),
+        let box_dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+            .join("../../tests/data/third_party/cornell_box");
+        let source = std::fs::read_to_string(box_dir.join("cornell_box.obj")).unwrap();
+        std::fs::copy(
+            box_dir.join("cornell_box.mtl"),
+            dir.path().join("cornell_box.mtl"),
         )
         .unwrap();
         for scale in [1e-6, 1e-3, 1.0, 1e4] {
-            let scaled: String = source
-                .lines()
-                .map(|l| match l.strip_prefix("v ") {
-                    Some(v) => {
-                        let c: Vec<f64> =
-                            v.split_whitespace().map(|x| x.parse().unwrap()).collect();
-                        format!("v {} {} {}\n", c[0] * scale, c[1] * scale, c[2] * scale)
-                    }
-                    None if l.starts_with("mtllib") => String::new(),
-                    None => format!("{l}\n"),
-                })
-                .collect();
             let model = dir.path().join(format!("box-{scale}.obj"));
-            std::fs::write(&model, scaled).unwrap();
+            std::fs::write(&model, crate::testing::scaled_obj(&source, scale)).unwrap();
             let cameras = guessed_cameras(&model);
             assert!(!cameras.is_empty(), "scale {scale}");
             for c in &cameras {
@@ -1003,7 +1006,7 @@ mod tests {
                 passed.push(i);
                 false
             });
-            let at = |i: usize| [i % OCC, i / OCC % OCC, i / (OCC * OCC)].map(|c| c as i64);
+            let at = |i: usize| cell_coords(i).map(|c| c as i64);
             for w in passed.windows(2) {
                 let (a, b) = (at(w[0]), at(w[1]));
                 let steps: i64 = (0..3).map(|k| (a[k] - b[k]).abs()).sum();
@@ -1064,7 +1067,7 @@ mod tests {
                 }
             }
             for i in (0..full.len()).filter(|&i| full[i]) {
-                let [x, y, z] = [i % OCC, i / OCC % OCC, i / (OCC * OCC)];
+                let [x, y, z] = cell_coords(i);
                 let near = (0..27).any(|k| {
                     let c = [x + k % 3, y + k / 3 % 3, z + k / 9].map(|v| v as isize - 1);
                     c.iter().all(|&v| (0..OCC as isize).contains(&v))

@@ -12,6 +12,24 @@ pub fn height_field_obj_with_normals_and_uvs(n: usize) -> String {
     height_field(n, true)
 }
 
+/// OBJ text `source` with every vertex position scaled by `scale`: the same model in other
+/// units.
+pub fn scaled_obj(source: &str, scale: f64) -> String {
+    source
+        .lines()
+        .map(|l| match l.strip_prefix("v ") {
+            Some(v) => {
+                let c: Vec<f64> = v
+                    .split_whitespace()
+                    .map(|x| x.parse().expect("a vertex line of numbers"))
+                    .collect();
+                format!("v {} {} {}\n", c[0] * scale, c[1] * scale, c[2] * scale)
+            }
+            None => format!("{l}\n"),
+        })
+        .collect()
+}
+
 fn height_field(n: usize, attributes: bool) -> String {
     use std::fmt::Write;
     let mut s = String::with_capacity(n * n * 60);

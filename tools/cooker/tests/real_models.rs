@@ -1120,18 +1120,8 @@ fn the_manifest_documentation_matches_the_code() {
 fn init_and_cook_work_for_a_model_in_large_units() {
     let dir = tempfile::tempdir().unwrap();
     let source = std::fs::read_to_string(third_party("cornell_box/cornell_box.obj")).unwrap();
-    let scaled: String = source
-        .lines()
-        .map(|l| match l.strip_prefix("v ") {
-            Some(v) => {
-                let c: Vec<f64> = v.split_whitespace().map(|x| x.parse().unwrap()).collect();
-                format!("v {} {} {}\n", c[0] * 1e-8, c[1] * 1e-8, c[2] * 1e-8)
-            }
-            None => format!("{l}\n"),
-        })
-        .collect();
     let obj = dir.path().join("tiny_box.obj");
-    std::fs::write(&obj, scaled).unwrap();
+    std::fs::write(&obj, cook::testing::scaled_obj(&source, 1e-8)).unwrap();
     std::fs::copy(
         third_party("cornell_box/cornell_box.mtl"),
         dir.path().join("cornell_box.mtl"),
