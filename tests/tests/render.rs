@@ -1,10 +1,10 @@
-//! Headless renders of small synthetic packs on whatever adapter wgpu finds (lavapipe in CI:
-//! `VK_DRIVER_FILES=/usr/share/vulkan/icd.d/lvp_icd.x86_64.json`). No adapter is a failure,
-//! not a skip. Images are compared with committed references using FLIP; `BLESS=1` rewrites
-//! the references, and a missing reference fails.
+//! Headless renders of small synthetic packs on lavapipe, whatever GPU the machine has
+//! ([`common::lavapipe`]): the committed references were rendered there. No lavapipe is a
+//! failure, not a skip. Images are compared with the references using FLIP; `BLESS=1` rewrites
+//! them, and a missing reference fails.
 
 mod common;
-use common::{gpu, load};
+use common::{lavapipe, load};
 
 use std::path::{Path, PathBuf};
 
@@ -538,7 +538,7 @@ fn skipped(report: &render::FrameReport, pass: PassId) -> bool {
 
 #[test]
 fn sun_through_window_matches_reference() {
-    let gpu = gpu();
+    let gpu = lavapipe();
     let scene = load(&gpu, &scene(Some(LightSetup::Sun), true, true));
     let (r, report) = render_camera(&gpu, &scene, 0, Settings::default());
     assert!(
@@ -566,7 +566,7 @@ fn sun_through_window_matches_reference() {
 
 #[test]
 fn lamp_through_window_matches_reference() {
-    let gpu = gpu();
+    let gpu = lavapipe();
     let scene = load(&gpu, &scene(Some(LightSetup::Lamp), true, true));
     let (r, _) = render_camera(
         &gpu,
@@ -591,7 +591,7 @@ fn lamp_through_window_matches_reference() {
 
 #[test]
 fn scene_without_windows_skips_window_passes() {
-    let gpu = gpu();
+    let gpu = lavapipe();
     let scene = load(&gpu, &scene(Some(LightSetup::Sun), false, false));
     let (r, report) = render_camera(&gpu, &scene, 0, Settings::default());
     for p in [PassId::WindowMask, PassId::WindowNormals, PassId::GodRays] {
@@ -606,7 +606,7 @@ fn scene_without_windows_skips_window_passes() {
 
 #[test]
 fn window_without_normal_map_skips_refraction() {
-    let gpu = gpu();
+    let gpu = lavapipe();
     let scene = load(&gpu, &scene(Some(LightSetup::Sun), true, false));
     let (r, report) = render_camera(&gpu, &scene, 0, Settings::default());
     assert!(skipped(&report, PassId::WindowNormals), "{report:?}");
@@ -628,7 +628,7 @@ fn sum_rgb(px: &[[f32; 4]]) -> f64 {
 fn sweep(setup: LightSetup, eye: Vec3) {
     const SW: u32 = 160;
     const SH: u32 = 90;
-    let gpu = gpu();
+    let gpu = lavapipe();
     let scene = load(&gpu, &scene(Some(setup), true, true));
     let settings = Settings {
         skip_invisible_god_rays: false,
@@ -726,7 +726,7 @@ fn god_rays_are_stable_at_every_angle_to_a_lamp() {
 fn god_rays_match_cpu_reference() {
     const SW: u32 = 64;
     const SH: u32 = 36;
-    let gpu = gpu();
+    let gpu = lavapipe();
     let scene = load(&gpu, &scene(Some(LightSetup::Sun), true, true));
     let rays = GodRaySettings {
         samples: 48,
@@ -782,7 +782,7 @@ fn god_rays_match_cpu_reference() {
 
 #[test]
 fn sample_count_changes_accuracy_not_look() {
-    let gpu = gpu();
+    let gpu = lavapipe();
     let scene = load(&gpu, &scene(Some(LightSetup::Sun), true, true));
     let mut energies = Vec::new();
     for samples in [16, 64, 256] {
@@ -821,7 +821,7 @@ fn sample_count_changes_accuracy_not_look() {
 
 #[test]
 fn streamed_pack_draws_early_and_ends_identical() {
-    let gpu = gpu();
+    let gpu = lavapipe();
     let bytes = scene(Some(LightSetup::Sun), true, true);
     // Kept for trying the viewer on: `viewer target/tmp/render/synthetic-sun.pack --headless`.
     std::fs::write(out_dir().join("synthetic-sun.pack"), &bytes).unwrap();
@@ -902,7 +902,7 @@ fn image_difference(a: &image::RgbaImage, b: &image::RgbaImage) -> (f32, f32, u8
 /// rendering: FLIP mean up to 0.32, striped walls from the inside/outside test flipping).
 #[test]
 fn far_from_origin_renders_like_the_origin() {
-    let gpu = gpu();
+    let gpu = lavapipe();
     let settings = Settings {
         god_rays: GodRaySettings {
             jitter: false,

@@ -28,6 +28,28 @@ impl Gpu {
         Self::new(instance, None)
     }
 
+    /// A device without a window on the first adapter `wanted` accepts, among those the
+    /// environment allows (as [`headless`](Self::headless)); `what` names it in the error
+    /// ("no {what} adapter"). For
+    /// images compared closely with renders made on one rasterizer: another GPU filters
+    /// textures and rasterizes edges differently by tens of 8-bit steps.
+    pub fn headless_matching(
+        what: &str,
+        wanted: impl Fn(&wgpu::AdapterInfo) -> bool,
+    ) -> Result<Self, RenderError> {
+        let instance =
+            wgpu::Instance::new(wgpu::InstanceDescriptor::new_without_display_handle_from_env());
+        let adapters = pollster::block_on(instance.enumerate_adapters(wgpu::Backends::all()));
+        let found: Vec<String> = adapters.iter().map(|a| a.get_info().name).collect();
+        let Some(adapter) = adapters.into_iter().find(|a| wanted(&a.get_info())) else {
+            return Err(RenderError::AdapterNotFound {
+                wanted: what.to_owned(),
+                found,
+            });
+        };
+        Self::on_adapter(instance, adapter)
+    }
+
     /// A device on an adapter that can present to `surface` when one is given.
     pub fn new(
         instance: wgpu::Instance,
@@ -40,6 +62,10 @@ impl Gpu {
             ..Default::default()
         }))
         .map_err(|e| RenderError::NoAdapter(e.to_string()))?;
+        Self::on_adapter(instance, adapter)
+    }
+
+    fn on_adapter(instance: wgpu::Instance, adapter: wgpu::Adapter) -> Result<Self, RenderError> {
         let wanted = wgpu::Features::TIMESTAMP_QUERY | wgpu::Features::TEXTURE_COMPRESSION_BC;
         let features = adapter.features() & wanted;
         let (device, queue) = pollster::block_on(adapter.request_device(&wgpu::DeviceDescriptor {

@@ -41,6 +41,8 @@ pub enum RenderError {
         "no GPU adapter found ({0}); on a machine without a GPU install lavapipe (mesa-vulkan-drivers)"
     )]
     NoAdapter(String),
+    #[error("no {wanted} adapter among those found: {found:?}")]
+    AdapterNotFound { wanted: String, found: Vec<String> },
     #[error("GPU device error: {0}")]
     Device(String),
     #[error("texture {name:?} is {width}x{height}, but this device allows at most {max}")]
