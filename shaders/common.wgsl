@@ -170,10 +170,6 @@ fn base_colour(in: VertexOut) -> vec4<f32> {
     return c;
 }
 
-fn is_window() -> bool {
-    return material.flags.z != 0u;
-}
-
 // Background surfaces (sky, distant mountains) are a painted backdrop: shown unlit, as their
 // colour plus emission, identically in pass 0 and pass 3.
 fn background_radiance(in: VertexOut) -> vec3<f32> {

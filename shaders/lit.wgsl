@@ -174,15 +174,24 @@ fn transmitted(p: vec3<f32>, dpx: vec3<f32>, dpy: vec3<f32>, n: vec3<f32>, frag:
     return total;
 }
 
+// Windows are black in this pass (the composite adds what they let through).
+@fragment
+fn fs_window(vertex: VertexOut) -> @location(0) vec4<f32> {
+    return vec4<f32>(0.0, 0.0, 0.0, 1.0);
+}
+
+// Background surfaces, unlit as in pass 0.
+@fragment
+fn fs_background(vertex: VertexOut) -> @location(0) vec4<f32> {
+    return vec4<f32>(background_radiance(facing_camera(vertex)), 1.0);
+}
+
+// Every other surface. Windows and the background have shaders of their own rather than
+// branches on the material: lavapipe runs both sides of such a branch, so every lit texel paid
+// for the background's texture sample as well.
 @fragment
 fn fs_main(vertex: VertexOut) -> @location(0) vec4<f32> {
     let in = facing_camera(vertex);
-    if (is_window()) {
-        return vec4<f32>(0.0, 0.0, 0.0, 1.0);
-    }
-    if (material.flags.x == CLASS_BACKGROUND) {
-        return vec4<f32>(background_radiance(in), 1.0);
-    }
     let albedo = base_colour(in).rgb;
     let n = shading_normal(in);
     let geometric = safe_normalize(in.normal, n);

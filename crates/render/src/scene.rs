@@ -881,21 +881,28 @@ impl Scene {
             })
     }
 
-    /// Records the draws whose material passes `filter`; group 1 is the material.
-    pub(crate) fn draw(
+    /// Records the draws a pass takes, each with the pipeline `pipeline_for` gives its
+    /// material's class (`None`: not drawn); group 1 is the material. The order is the scene's
+    /// whichever pipelines draw, so surfaces at equal depth resolve alike in every pass.
+    pub(crate) fn draw<'p>(
         &self,
         pass: &mut wgpu::RenderPass<'_>,
-        filter: impl Fn(MaterialClass) -> bool,
+        pipeline_for: impl Fn(MaterialClass) -> Option<&'p wgpu::RenderPipeline>,
     ) {
-        for (mi, m) in self.meshes.iter().enumerate() {
+        let mut current: Option<&wgpu::RenderPipeline> = None;
+        for m in &self.meshes {
             let (Some(vb), Some(ib)) = (&m.vertices, &m.indices) else {
                 continue;
             };
             let mut bound = false;
             for r in &m.ranges {
                 let mat = &self.materials[r.material as usize];
-                if !filter(mat.class) {
+                let Some(pipeline) = pipeline_for(mat.class) else {
                     continue;
+                };
+                if !current.is_some_and(|c| std::ptr::eq(c, pipeline)) {
+                    pass.set_pipeline(pipeline);
+                    current = Some(pipeline);
                 }
                 if !bound {
                     pass.set_vertex_buffer(0, vb.slice(..));
@@ -905,7 +912,6 @@ impl Scene {
                 pass.set_bind_group(1, &mat.bind_group, &[]);
                 pass.draw_indexed(r.first_index..r.first_index + r.index_count, 0, 0..1);
             }
-            let _ = mi;
         }
     }
 

@@ -6,56 +6,89 @@ use super::{Colour, DEPTH, HDR, begin};
 use crate::scene::vertex_layout;
 use crate::{Scene, shaders};
 
-/// One geometry pass: its pipeline and which materials it draws.
+/// One geometry pass: its pipelines, and which draws each material class with.
 pub struct GeometryPass {
     label: &'static str,
-    pipeline: wgpu::RenderPipeline,
-    draws: fn(MaterialClass) -> bool,
+    pipelines: Vec<wgpu::RenderPipeline>,
+    /// The index in `pipelines` a class is drawn with; `None`: not drawn in this pass.
+    pick: fn(MaterialClass) -> Option<usize>,
 }
 
 impl GeometryPass {
     /// Pass 0: background-class geometry alone into its own target, unoccluded (refraction
     /// reads it).
     pub(crate) fn background(device: &wgpu::Device, layout: &wgpu::PipelineLayout) -> Self {
-        Self::new(device, layout, "pass0 background", "background.wgsl", |c| {
-            c == MaterialClass::Background
-        })
+        Self::new(
+            device,
+            layout,
+            "pass0 background",
+            "background.wgsl",
+            &["fs_main"],
+            |c| (c == MaterialClass::Background).then_some(0),
+        )
     }
 
     /// Pass 1: window colour, everything else black; also lays down the depth passes 2–3 reuse.
     pub(crate) fn window_mask(device: &wgpu::Device, layout: &wgpu::PipelineLayout) -> Self {
-        Self::new(device, layout, "pass1 window mask", "windows.wgsl", |_| {
-            true
-        })
+        Self::new(
+            device,
+            layout,
+            "pass1 window mask",
+            "windows.wgsl",
+            &["fs_main", "fs_occluder"],
+            |c| Some(if c.is_window() { 0 } else { 1 }),
+        )
     }
 
-    /// Pass 2: window normal-map perturbation in view space, everything else zero.
+    /// Pass 2: window normal-map perturbation in view space, everything else zero (the clear
+    /// value: only windows are drawn, against pass 1's depth).
     pub(crate) fn window_normals(device: &wgpu::Device, layout: &wgpu::PipelineLayout) -> Self {
         Self::new(
             device,
             layout,
             "pass2 window normals",
             "normals.wgsl",
-            |_| true,
+            &["fs_main"],
+            |c| c.is_window().then_some(0),
         )
     }
 
     /// Pass 3: the lit scene, windows black, projectors through the windows.
     pub(crate) fn lit(device: &wgpu::Device, layout: &wgpu::PipelineLayout) -> Self {
-        Self::new(device, layout, "pass3 lit", "lit.wgsl", |_| true)
+        Self::new(
+            device,
+            layout,
+            "pass3 lit",
+            "lit.wgsl",
+            &["fs_main", "fs_window", "fs_background"],
+            |c| {
+                Some(match c {
+                    c if c.is_window() => 1,
+                    MaterialClass::Background => 2,
+                    _ => 0,
+                })
+            },
+        )
     }
 
+    /// A pass whose pipelines share `shader`'s vertex stage (so every pass computes the same
+    /// depths) and differ in their fragment entry points.
     fn new(
         device: &wgpu::Device,
         layout: &wgpu::PipelineLayout,
         label: &'static str,
         shader: &'static str,
-        draws: fn(MaterialClass) -> bool,
+        fragments: &[&str],
+        pick: fn(MaterialClass) -> Option<usize>,
     ) -> Self {
+        let module = shaders::module(device, shader);
         Self {
             label,
-            pipeline: geometry_pipeline(device, layout, shader),
-            draws,
+            pipelines: fragments
+                .iter()
+                .map(|f| geometry_pipeline(device, layout, shader, &module, f))
+                .collect(),
+            pick,
         }
     }
 
@@ -85,9 +118,8 @@ impl GeometryPass {
             stencil_ops: None,
         };
         let mut rp = begin(encoder, self.label, target, Some(depth), timestamps);
-        rp.set_pipeline(&self.pipeline);
         rp.set_bind_group(0, frame, &[]);
-        scene.draw(&mut rp, self.draws);
+        scene.draw(&mut rp, |c| (self.pick)(c).map(|i| &self.pipelines[i]));
     }
 }
 
@@ -95,13 +127,14 @@ fn geometry_pipeline(
     device: &wgpu::Device,
     layout: &wgpu::PipelineLayout,
     shader: &'static str,
+    module: &wgpu::ShaderModule,
+    fragment: &str,
 ) -> wgpu::RenderPipeline {
-    let module = shaders::module(device, shader);
     device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
         label: Some(shader),
         layout: Some(layout),
         vertex: wgpu::VertexState {
-            module: &module,
+            module,
             entry_point: Some("vs_main"),
             compilation_options: Default::default(),
             buffers: &[Some(vertex_layout())],
@@ -123,8 +156,8 @@ fn geometry_pipeline(
         }),
         multisample: Default::default(),
         fragment: Some(wgpu::FragmentState {
-            module: &module,
-            entry_point: Some("fs_main"),
+            module,
+            entry_point: Some(fragment),
             compilation_options: Default::default(),
             targets: &[Some(HDR.into())],
         }),

@@ -233,9 +233,8 @@ impl ShadowPass {
                 occlusion_query_set: None,
                 multiview_mask: None,
             });
-            rp.set_pipeline(&self.pipeline);
             rp.set_bind_group(0, group, &[]);
-            scene.draw(&mut rp, casts_shadow);
+            scene.draw(&mut rp, |c| casts_shadow(c).then_some(&self.pipeline));
         }
     }
 
