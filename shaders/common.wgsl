@@ -7,6 +7,9 @@
 // subtraction, vertex minus camera, rounds once.
 
 const MAX_WINDOWS: u32 = 64u;
+// 32-bit words of a bit set of windows.
+const WINDOW_WORDS: u32 = 2u;
+const_assert MAX_WINDOWS <= 32u * WINDOW_WORDS;
 
 struct Frame {
     // Camera-relative position to clip space (no translation).

@@ -141,34 +141,59 @@ fn shadow_visibility(w: WindowProjector, p: vec3<f32>, n: vec3<f32>, frag: vec2<
     return lit / f32(FILTER_TAPS);
 }
 
+// Whether window `i` passes light and `p` lies inside the building from it, within the
+// window's projection. Plain arithmetic: no texture is read.
+fn projects_onto(i: u32, p: vec3<f32>) -> bool {
+    let w = windows.items[i];
+    if (w.params.y == 0u || dot(p - w.origin.xyz, w.normal.xyz) <= 0.0) {
+        return false; // no light through this window, or p is on the light's side of it
+    }
+    let clip = w.projector * vec4<f32>(p, 1.0);
+    if (clip.w <= 0.0) {
+        return false; // behind the light
+    }
+    let uv = clip.xy / clip.w;
+    return all(uv >= vec2<f32>(0.0)) && all(uv <= vec2<f32>(1.0));
+}
+
 // Light transmitted through the windows towards `p` (1 = unfiltered light), shadows included.
 // `dpx`/`dpy` are the screen derivatives of `p`; the texture-coordinate derivatives follow from
 // them exactly, so this runs only where the surface faces the light (no uniform control flow
 // needed). `n` is the geometric normal facing the light, `frag` the pixel position.
+//
+// The windows whose projection holds `p` are found first, as bits; the projector samples and
+// shadow-map taps then loop over those alone, in window order. A CPU rasterizer (lavapipe)
+// runs a loop's body for all its lanes until every lane is done, a `continue` included, so
+// one loop over every window read every window's textures at every texel.
 fn transmitted(p: vec3<f32>, dpx: vec3<f32>, dpy: vec3<f32>, n: vec3<f32>, frag: vec2<f32>) -> vec3<f32> {
-    var total = vec3<f32>(0.0);
+    var reach = array<u32, WINDOW_WORDS>();
     let count = min(frame.counts.x, MAX_WINDOWS);
     for (var i = 0u; i < count; i = i + 1u) {
-        let w = windows.items[i];
-        if (w.params.y == 0u || dot(p - w.origin.xyz, w.normal.xyz) <= 0.0) {
-            continue; // no light through this window, or p is on the light's side of it
+        if (projects_onto(i, p)) {
+            reach[i / 32u] = reach[i / 32u] | (1u << (i % 32u));
         }
-        let clip = w.projector * vec4<f32>(p, 1.0);
-        if (clip.w <= 0.0) {
-            continue; // behind the light
-        }
-        // Divide per fragment: u/w interpolated linearly would be wrong.
-        let uv = clip.xy / clip.w;
-        if (uv.x < 0.0 || uv.x > 1.0 || uv.y < 0.0 || uv.y > 1.0) {
-            continue;
-        }
-        let cx = w.projector * vec4<f32>(dpx, 0.0);
-        let cy = w.projector * vec4<f32>(dpy, 0.0);
-        let ddx = (cx.xy - uv * cx.w) / clip.w;
-        let ddy = (cy.xy - uv * cy.w) / clip.w;
-        let glass = textureSampleGrad(projectors, linear_clamp, uv, w.params.x, ddx, ddy).rgb * w.tint.rgb;
-        if (any(glass > vec3<f32>(0.0))) {
-            total = total + glass * shadow_visibility(w, p, n, frag);
+    }
+    var total = vec3<f32>(0.0);
+    for (var word = 0u; word < WINDOW_WORDS; word = word + 1u) {
+        var bits = reach[word];
+        loop {
+            if (bits == 0u) {
+                break;
+            }
+            let i = word * 32u + firstTrailingBit(bits);
+            bits = bits & (bits - 1u);
+            let w = windows.items[i];
+            // Divide per fragment: u/w interpolated linearly would be wrong.
+            let clip = w.projector * vec4<f32>(p, 1.0);
+            let uv = clip.xy / clip.w;
+            let cx = w.projector * vec4<f32>(dpx, 0.0);
+            let cy = w.projector * vec4<f32>(dpy, 0.0);
+            let ddx = (cx.xy - uv * cx.w) / clip.w;
+            let ddy = (cy.xy - uv * cy.w) / clip.w;
+            let glass = textureSampleGrad(projectors, linear_clamp, uv, w.params.x, ddx, ddy).rgb * w.tint.rgb;
+            if (any(glass > vec3<f32>(0.0))) {
+                total = total + glass * shadow_visibility(w, p, n, frag);
+            }
         }
     }
     return total;
