@@ -181,7 +181,7 @@ colour = [0.1, 0.2, 0.3]
 
     // The light quad has neither UVs nor a design: it gets planar UVs and a design from its
     // own colour, so only MTL "blue", used by no face, is a finding.
-    let v = cook::validate::validate_scene(&m).unwrap();
+    let v = cook::validate::validate_scene(&m, cook::UpAxis::Y).unwrap();
     let mut codes: Vec<&str> = v.findings.iter().map(|f| f.code).collect();
     codes.sort();
     assert_eq!(codes, vec!["unused-material"], "{:#?}", v.findings);
@@ -226,6 +226,7 @@ fn bare_cornell_box_uses_heuristics_and_says_so() {
     );
     let v = cook::validate::validate_scene(
         &Manifest::open(&data("cornell_box/cornell_box.obj")).unwrap(),
+        cook::UpAxis::Y,
     )
     .unwrap();
     let untagged = v
@@ -660,7 +661,7 @@ direction = [0.0, -0.5, 1.0]
         "glass_1"
     );
     assert!(out.report.heuristics.is_empty());
-    let v = cook::validate::validate_scene(&m).unwrap();
+    let v = cook::validate::validate_scene(&m, cook::UpAxis::Y).unwrap();
     assert!(v.is_clean(), "{:#?}", v.findings);
     assert!(cook::validate::validate_pack(&pack).is_clean());
 }
@@ -676,7 +677,7 @@ fn window_problems_are_found() {
     )
     .unwrap();
     let m = Manifest::open(&dir.path().join("w.obj")).unwrap();
-    let v = cook::validate::validate_scene(&m).unwrap();
+    let v = cook::validate::validate_scene(&m, cook::UpAxis::Y).unwrap();
     let codes: Vec<&str> = v.findings.iter().map(|f| f.code).collect();
     // Bent by half its size, the window is split along its planes (each a window of its own,
     // with a design from its colour, so no window-no-design); the UVs beyond 1 stay a finding.

@@ -612,6 +612,7 @@ mod tests {
                 supercompression: None,
             },
             window_overrides: Vec::new(),
+            up: crate::UpAxis::Y,
             cache: None,
         }
     }
@@ -665,6 +666,7 @@ mod tests {
                     supercompression,
                 },
             window_overrides,
+            up,
             // Not a knob; `irrelevant_things_change_no_key` checks it changes nothing.
             cache: _,
         } = base.clone();
@@ -757,12 +759,28 @@ mod tests {
                 }),
                 false,
             ),
+            (
+                "up",
+                changed(&|s| {
+                    s.up = match up {
+                        crate::UpAxis::Y => crate::UpAxis::Z,
+                        crate::UpAxis::Z => crate::UpAxis::Y,
+                    }
+                }),
+                false,
+            ),
         ];
-        // And at run time: every field the settings serialize has a case.
+        // `up` at its default is left out, so keys made before it existed still hold.
+        assert!(!serde_json::to_string(&base).unwrap().contains("\"up\""));
+        // And at run time: every field the settings serialize has a case. A field left out
+        // at its default (`up`) is serialized by its case.
         let mut fields = Vec::new();
-        leaves("", &serde_json::to_value(&base).unwrap(), &mut fields);
+        for s in std::iter::once(&base).chain(cases.iter().map(|c| &c.1)) {
+            leaves("", &serde_json::to_value(s).unwrap(), &mut fields);
+        }
         let mut named: Vec<String> = cases.iter().map(|c| c.0.to_string()).collect();
         fields.sort();
+        fields.dedup();
         named.sort();
         assert_eq!(fields, named, "each setting needs a case here");
 

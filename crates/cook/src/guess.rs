@@ -597,8 +597,8 @@ pub fn guess(p: &Prepared) -> Guess {
     // floor then stands on its edge and catches no sun.
     if floor_sum.facing.z > 2.0 * floor_sum.facing.y {
         notes.push(
-            "the floor faces along z, not up (y): the model looks Z-up; in a scene.toml, \
-             `rotate_deg = [-90.0, 0.0, 0.0]` on its [[mesh]] stands it up"
+            "the floor faces along z, not up (y): the model looks Z-up; `--up z` stands it \
+             up (in a scene.toml, `rotate_deg = [-90.0, 0.0, 0.0]` on its [[mesh]])"
                 .into(),
         );
     }

@@ -36,4 +36,4 @@ pub use pipeline::{
 pub use report::{
     ArtifactSource, HeuristicNote, MeshReport, QuantizationError, Report, Stage, peak_rss,
 };
-pub use settings::{Settings, TextureSettings};
+pub use settings::{Settings, TextureSettings, UpAxis};

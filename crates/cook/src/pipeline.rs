@@ -222,15 +222,23 @@ impl Lap {
     }
 }
 
-/// Imports every mesh source in parallel and applies its manifest transform.
-pub fn import_sources(manifest: &Manifest) -> Result<Vec<(import::Imported, Duration)>, CookError> {
+/// Imports every mesh source in parallel and applies its manifest transform; a bare model's
+/// is the turn that stands it up (`up`).
+pub fn import_sources(
+    manifest: &Manifest,
+    up: crate::UpAxis,
+) -> Result<Vec<(import::Imported, Duration)>, CookError> {
     let results: Vec<Result<(import::Imported, Duration), CookError>> = manifest
         .meshes
         .par_iter()
         .map(|m| {
             let start = Instant::now();
             let mut imported = import::import(&m.source)?;
-            imported.transform(m.transform());
+            imported.transform(if manifest.bare {
+                up.to_y_up()
+            } else {
+                m.transform()
+            });
             Ok((imported, start.elapsed()))
         })
         .collect();
@@ -281,7 +289,7 @@ pub fn prepare(
     report: &mut Report,
 ) -> Result<Prepared, CookError> {
     let start = Instant::now();
-    let sources = import_sources(manifest)?;
+    let sources = import_sources(manifest, settings.up)?;
     let (mut imported, import_times): (Vec<import::Imported>, Vec<Duration>) =
         sources.into_iter().unzip();
     let tagged = Instant::now();

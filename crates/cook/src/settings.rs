@@ -22,6 +22,10 @@ pub struct Settings {
     pub textures: TextureSettings,
     /// `--window NAME=IMAGE` designs, taking precedence over the manifest's `[[window]]`s.
     pub window_overrides: Vec<WindowDesign>,
+    /// A bare model's up axis (`--up`); a scene.toml turns its meshes with `rotate_deg`.
+    /// Left out of the keys at its default, so keys made before it existed still hold.
+    #[serde(skip_serializing_if = "UpAxis::is_y")]
+    pub up: UpAxis,
     /// Where cooked textures are reused from and stored: it changes how long a cook takes,
     /// never what it makes, so no key includes it.
     #[serde(skip)]
@@ -58,7 +62,47 @@ impl Settings {
                 supercompression: None,
             },
             window_overrides: Vec::new(),
+            up: UpAxis::Y,
             cache: None,
+        }
+    }
+}
+
+/// Which axis of a bare model points up. The pipeline takes Y, as glTF does; many CAD and
+/// architecture tools (SketchUp, Revit, 3ds Max without its flip) write OBJ files Z-up, whose
+/// floor would stand on its edge and catch no sun.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize)]
+pub enum UpAxis {
+    #[default]
+    Y,
+    Z,
+}
+
+impl UpAxis {
+    fn is_y(&self) -> bool {
+        *self == Self::Y
+    }
+
+    /// The turn that stands a model with this up axis on Y: for Z, (x, y, z) -> (x, z, −y),
+    /// a −90° turn about x as `rotate_deg = [-90, 0, 0]` makes it, but with exact entries, so
+    /// coordinates are moved, not rounded.
+    pub fn to_y_up(self) -> glam::Mat4 {
+        match self {
+            Self::Y => glam::Mat4::IDENTITY,
+            Self::Z => glam::Mat4::from_cols(
+                glam::Vec4::X,
+                glam::Vec4::NEG_Z,
+                glam::Vec4::Y,
+                glam::Vec4::W,
+            ),
+        }
+    }
+
+    pub fn parse(s: &str) -> Option<Self> {
+        match s {
+            "y" | "Y" => Some(Self::Y),
+            "z" | "Z" => Some(Self::Z),
+            _ => None,
         }
     }
 }

@@ -31,6 +31,10 @@ pub struct Args {
     /// Replace an existing manifest.
     #[arg(long)]
     force: bool,
+    /// The model's up axis, as `cooker cook --up`: with `z` the manifest turns the model with
+    /// `rotate_deg`, and the guesses are made on it turned.
+    #[arg(long, value_name = "y|z", default_value = "y", value_parser = crate::cook::up_axis)]
+    up: cook::UpAxis,
 }
 
 fn quote(s: &str) -> String {
@@ -92,7 +96,11 @@ pub fn run(args: Args) -> Outcome {
     }
     let manifest = Manifest::from_mesh_file(&args.mesh)?;
     let mut report = cook::Report::default();
-    let prepared = cook::prepare(&manifest, &cook::Settings::new(&manifest), &mut report)?;
+    let settings = cook::Settings {
+        up: args.up,
+        ..cook::Settings::new(&manifest)
+    };
+    let prepared = cook::prepare(&manifest, &settings, &mut report)?;
     let guess = cook::guess::guess(&prepared);
     for w in prepared
         .imported
@@ -122,9 +130,16 @@ pub fn run(args: Args) -> Outcome {
     let _ = writeln!(t, "[scene]\nname = {}\n", quote(&stem));
     let _ = writeln!(
         t,
-        "[[mesh]]\nsource = {}\n",
+        "[[mesh]]\nsource = {}",
         quote(&relative(&args.mesh, dir))
     );
+    if args.up == cook::UpAxis::Z {
+        let _ = writeln!(
+            t,
+            "# Z-up: this turn stands it up.\nrotate_deg = [-90.0, 0.0, 0.0]"
+        );
+    }
+    let _ = writeln!(t);
 
     // Rules: one per deciding name, in the order the parts appear.
     let _ = writeln!(

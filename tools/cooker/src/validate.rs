@@ -13,6 +13,9 @@ pub struct Args {
     /// Print one JSON object: `findings` ({code, message}) and `materials`.
     #[arg(long)]
     json: bool,
+    /// The up axis of a bare model, as `cooker cook --up`.
+    #[arg(long, value_name = "y|z", default_value = "y", value_parser = crate::cook::up_axis)]
+    up: cook::UpAxis,
 }
 
 pub fn run(args: Args) -> Outcome {
@@ -22,8 +25,17 @@ pub fn run(args: Args) -> Outcome {
         .map(|e| e.to_string_lossy().to_ascii_lowercase())
         .unwrap_or_default();
     let validation = if matches!(ext.as_str(), "toml" | "obj" | "gltf" | "glb") {
-        cook::validate::validate_scene(&Manifest::open(&args.input)?)?
+        let manifest = Manifest::open(&args.input)?;
+        crate::cook::check_up(args.up, &manifest)?;
+        cook::validate::validate_scene(&manifest, args.up)?
     } else {
+        if args.up != cook::UpAxis::Y {
+            return Err(crate::exit::UsageError(format!(
+                "--up turns a bare model; {} is a cooked pack",
+                args.input.display()
+            ))
+            .into());
+        }
         cook::validate::validate_pack(&pack::Pack::open(&args.input)?)
     };
     if args.json {

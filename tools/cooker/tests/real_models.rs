@@ -1217,3 +1217,114 @@ fn init_writes_a_manifest_that_cooks_window_light_without_edits() {
     assert!(lit >= 15, "{lit} of {} windows lit", window_count(&v));
     assert!(v["cameras"].as_array().unwrap().len() >= 2, "{v:#}");
 }
+
+/// A Z-up export (SketchUp, Revit and 3ds Max write OBJ files so): the nave with every
+/// (x, y, z) written as (x, −z, y). A bare cook says it looks Z-up; `--up z` cooks it as the
+/// Y-up file: the same tags, the same windows in the same places with their projectors, the
+/// same sun. `validate --up z` tags it so too, and `init --up z` writes the turn into its
+/// manifest. `--up` with a manifest is a usage error.
+#[test]
+fn a_z_up_export_cooks_with_up_z_like_the_y_up_model() {
+    let dir = tempfile::tempdir().unwrap();
+    let obj = sibenik(dir.path());
+    let z_dir = dir.path().join("z");
+    std::fs::create_dir(&z_dir).unwrap();
+    let z_obj = z_dir.join("sibenik.obj");
+    let turned: String = std::fs::read_to_string(&obj)
+        .unwrap()
+        .lines()
+        .map(|l| match l.split_once(' ') {
+            Some((kind @ ("v" | "vn"), rest)) => {
+                let c: Vec<f64> = rest
+                    .split_whitespace()
+                    .map(|x| x.parse().unwrap())
+                    .collect();
+                format!("{kind} {} {} {}\n", c[0], -c[2], c[1])
+            }
+            _ => format!("{l}\n"),
+        })
+        .collect();
+    std::fs::write(&z_obj, turned).unwrap();
+    std::fs::copy(dir.path().join("sibenik.mtl"), z_dir.join("sibenik.mtl")).unwrap();
+
+    let y_pack = dir.path().join("y.pack");
+    cook(&obj, &y_pack, &[]);
+    let plain = cook(&z_obj, &z_dir.join("plain.pack"), &[]);
+    assert!(
+        plain.contains("looks Z-up") && plain.contains("--up z"),
+        "{plain}"
+    );
+    let z_pack = z_dir.join("z.pack");
+    let said = cook(&z_obj, &z_pack, &[&"--up", &"z"]);
+    assert!(!said.contains("Z-up"), "{said}");
+
+    let (y, z) = (info(&y_pack), info(&z_pack));
+    assert_eq!(classes(&y), classes(&z));
+    assert_eq!(window_count(&y), window_count(&z));
+    for (a, b) in windows(&y).iter().zip(windows(&z)) {
+        assert_eq!(a["name"], b["name"]);
+        assert_eq!(a["projector_texture"], b["projector_texture"], "{a} / {b}");
+        for key in ["centre", "normal"] {
+            for k in 0..3 {
+                let (p, q) = (a[key][k].as_f64().unwrap(), b[key][k].as_f64().unwrap());
+                assert!((p - q).abs() < 1e-4, "{key} of {}: {a} / {b}", a["name"]);
+            }
+        }
+    }
+    assert_eq!(y["light"], z["light"]);
+
+    let o = cooker(&[&"validate", &z_obj, &"--up", &"z", &"--json"]);
+    let v: Value = serde_json::from_slice(&o.stdout).unwrap();
+    let tagged = |v: &Value| -> Vec<(String, String)> {
+        v["materials"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|m| (m["name"].to_string(), m["class"].to_string()))
+            .collect()
+    };
+    let o_y = cooker(&[&"validate", &obj, &"--json"]);
+    assert_eq!(o.status.code(), o_y.status.code());
+    assert_eq!(
+        tagged(&v),
+        tagged(&serde_json::from_slice(&o_y.stdout).unwrap())
+    );
+
+    // `init` on each, then a cook of each manifest: the same windows throw light.
+    let from_init = |model: &Path, up: &str| {
+        let scene = model.with_file_name("scene.toml");
+        let o = cooker(&[&"init", &model, &"--up", &up, &"-o", &scene]);
+        assert!(o.status.success(), "{}", text(&o.stderr));
+        let pack = model.with_file_name("scene.pack");
+        cook(&scene, &pack, &[]);
+        (std::fs::read_to_string(&scene).unwrap(), info(&pack))
+    };
+    let (toml, z_init) = from_init(&z_obj, "z");
+    assert!(toml.contains("rotate_deg = [-90.0, 0.0, 0.0]"), "{toml}");
+    let (_, y_init) = from_init(&obj, "y");
+    let lit = |v: &Value| -> Vec<Value> {
+        windows(v)
+            .iter()
+            .filter(|w| !w["projector_texture"].is_null())
+            .map(|w| w["name"].clone())
+            .collect()
+    };
+    assert!(lit(&y_init).len() >= 15, "{y_init:#}");
+    assert_eq!(lit(&z_init), lit(&y_init));
+    let scene = z_dir.join("scene.toml");
+
+    let o = cooker(&[
+        &"cook",
+        &scene,
+        &"-o",
+        &z_dir.join("no.pack"),
+        &"--up",
+        &"z",
+    ]);
+    assert_eq!(o.status.code(), Some(2), "{}", text(&o.stderr));
+    assert!(
+        text(&o.stderr).contains("rotate_deg"),
+        "{}",
+        text(&o.stderr)
+    );
+}

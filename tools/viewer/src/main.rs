@@ -31,6 +31,9 @@ struct Args {
     /// or a glob); repeatable, as `cooker cook --window`.
     #[arg(long = "window", value_name = "NAME=IMAGE", value_parser = cook::manifest::WindowDesign::parse_override)]
     windows: Vec<(String, PathBuf)>,
+    /// The up axis of a bare model, as `cooker cook --up`: `z` stands up a Z-up model.
+    #[arg(long, value_name = "y|z", default_value = "y", value_parser = up_axis)]
+    up: cook::UpAxis,
     /// Render to files instead of opening a window (the only mode without a display).
     #[arg(long)]
     headless: bool,
@@ -211,9 +214,18 @@ fn stream(
 /// `-v`: the cook's notes (blur, mip and encoder choices) are printed too.
 static VERBOSE: std::sync::atomic::AtomicBool = std::sync::atomic::AtomicBool::new(false);
 
-/// `--window` designs, set once from the command line; every re-cook (`--watch`) uses them.
-static WINDOW_OVERRIDES: std::sync::OnceLock<Vec<cook::manifest::WindowDesign>> =
-    std::sync::OnceLock::new();
+/// How a scene.toml or model is cooked (`--window`, `--up`): set once from the command line,
+/// before either mode starts; every cook and re-cook (`--watch`) uses it.
+struct CookOptions {
+    windows: Vec<cook::manifest::WindowDesign>,
+    up: cook::UpAxis,
+}
+
+static COOK_OPTIONS: std::sync::OnceLock<CookOptions> = std::sync::OnceLock::new();
+
+fn up_axis(s: &str) -> Result<cook::UpAxis, String> {
+    cook::UpAxis::parse(s).ok_or_else(|| format!("{s:?} is not one of y, z"))
+}
 
 fn open_source(path: &Path) -> Result<Box<dyn Read + Send>> {
     let is_pack = path
@@ -223,8 +235,19 @@ fn open_source(path: &Path) -> Result<Box<dyn Read + Send>> {
         let start = Instant::now();
         let manifest =
             cook::Manifest::open(path).with_context(|| format!("loading {}", path.display()))?;
+        let (window_overrides, up) = COOK_OPTIONS
+            .get()
+            .map_or((Vec::new(), cook::UpAxis::Y), |o| (o.windows.clone(), o.up));
+        if up != cook::UpAxis::Y && !manifest.bare {
+            anyhow::bail!(
+                "--up turns a bare model; {} is a scene manifest: give its [[mesh]] \
+                 `rotate_deg = [-90.0, 0.0, 0.0]` instead",
+                path.display()
+            );
+        }
         let settings = cook::Settings {
-            window_overrides: WINDOW_OVERRIDES.get().cloned().unwrap_or_default(),
+            window_overrides,
+            up,
             ..cook::Settings::new(&manifest)
         };
         let out = cook::cook(&manifest, &settings)
@@ -260,7 +283,6 @@ fn ms(d: Duration) -> f64 {
 /// small mips are in and reporting both times.
 fn load(gpu: &Gpu, args: &Args, settings: Settings) -> Result<(Scene, Renderer)> {
     // Cooking (for a scene.toml) is reported on its own; the clock starts with the stream.
-    let _ = WINDOW_OVERRIDES.set(cook::manifest::WindowDesign::overrides(&args.windows)?);
     let source = open_source(&args.input)?;
     let start = Instant::now();
     let rx = stream(args.input.clone(), source, gpu.block_compression);
@@ -561,6 +583,12 @@ fn main() -> Result<()> {
         unsafe { std::env::set_var("NODEVICE_SELECT", "1") };
     }
     VERBOSE.store(args.verbose, std::sync::atomic::Ordering::Relaxed);
+    // Before either mode: the interactive viewer cooks through `open_source` too (it ignored
+    // `--window` when only the headless path set it).
+    let _ = COOK_OPTIONS.set(CookOptions {
+        windows: cook::manifest::WindowDesign::overrides(&args.windows)?,
+        up: args.up,
+    });
     let mut settings = god_ray_settings(&args)?;
     settings.shadows.enabled = !args.no_occlusion;
     if !args.headless {
