@@ -199,3 +199,100 @@ fn without_a_display_the_viewer_renders_headless_and_says_so() {
         run.log
     );
 }
+
+/// A Z-up room of one glass window, as a CAD tool would export it.
+fn z_up_room(dir: &Path) -> PathBuf {
+    let mut obj = String::from("mtllib room.mtl\n");
+    let mut quad = |mtl: &str, corners: [[f32; 3]; 4]| {
+        obj += &format!("usemtl {mtl}\n");
+        for [x, y, z] in corners {
+            // Y-up (x, y, z) written Z-up.
+            obj += &format!("v {x} {} {y}\n", -z);
+        }
+        obj += "f -4 -3 -2 -1\n";
+    };
+    quad(
+        "floor",
+        [
+            [-5., 0., -10.],
+            [-5., 0., 10.],
+            [5., 0., 10.],
+            [5., 0., -10.],
+        ],
+    );
+    quad(
+        "wall",
+        [
+            [-5., 0., -10.],
+            [-5., 0., 10.],
+            [-5., 8., 10.],
+            [-5., 8., -10.],
+        ],
+    );
+    quad(
+        "wall",
+        [[5., 0., -10.], [5., 8., -10.], [5., 8., 10.], [5., 0., 10.]],
+    );
+    quad(
+        "glass",
+        [
+            [-4.99, 2., -2.],
+            [-4.99, 2., 2.],
+            [-4.99, 6., 2.],
+            [-4.99, 6., -2.],
+        ],
+    );
+    std::fs::write(
+        dir.join("room.mtl"),
+        "newmtl glass\nKd 0.2 0.8 0.2\nTf 0.2 0.8 0.2\nd 0.3\n",
+    )
+    .unwrap();
+    let path = dir.join("room.obj");
+    std::fs::write(&path, obj).unwrap();
+    path
+}
+
+/// The window cooks a model with the command line's `--window` designs and `--up` axis, as the
+/// headless path does (it ignored `--window` while only the headless path set them): the
+/// screenshot with a red design is redder than with a blue one, and the turned room says
+/// nothing about looking Z-up.
+#[test]
+fn window_cooks_a_model_with_the_command_lines_designs_and_up_axis() {
+    let _guard = XVFB.lock().unwrap_or_else(|e| e.into_inner());
+    let dir = tempfile::tempdir().unwrap();
+    let room = z_up_room(dir.path());
+    let mut redness = Vec::new();
+    for (name, colour) in [("red", [230u8, 20, 20, 255]), ("blue", [20, 20, 230, 255])] {
+        let design = dir.path().join(format!("{name}.png"));
+        image::RgbaImage::from_pixel(16, 16, image::Rgba(colour))
+            .save(&design)
+            .unwrap();
+        let shot = dir.path().join(format!("{name}-shot.png"));
+        // The guessed `lit-floor` view, where the window's light lands.
+        let script = format!("camera 2; wait 5; shot {}; quit", shot.display());
+        let window = format!("glass={}", design.display());
+        let args = [
+            room.as_os_str(),
+            "--up".as_ref(),
+            "z".as_ref(),
+            "--window".as_ref(),
+            window.as_ref(),
+            "--size".as_ref(),
+            "320x180".as_ref(),
+            "--script".as_ref(),
+            script.as_ref(),
+        ];
+        let run = viewer(&args, true, dir.path());
+        assert!(run.status.success(), "{}:\n{}", run.status, run.log);
+        assert!(!run.log.contains("Z-up"), "{}", run.log);
+        let img = load(&shot, &run.log);
+        let (r, b) = img.pixels().fold((0u64, 0u64), |(r, b), p| {
+            (r + p.0[0] as u64, b + p.0[2] as u64)
+        });
+        redness.push(r as f64 - b as f64);
+    }
+    assert!(
+        redness[0] > redness[1] + 1000.0,
+        "red and blue designs gave the same window: {redness:?}"
+    );
+}
