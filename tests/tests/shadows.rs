@@ -335,6 +335,17 @@ fn cook_hall(hall: &Hall, dir: &Path) -> Vec<u8> {
     pack::encode(out.toc, &out.data).unwrap()
 }
 
+/// The ray-traced reference of a cooked hall, and its settings without ambient light (as
+/// [`no_ambient`] for the GPU).
+fn hall_reference(bytes: &[u8]) -> (Reference, ReferenceSettings) {
+    let pack = pack::Pack::from_bytes("<hall>", bytes).unwrap();
+    let settings = ReferenceSettings {
+        ambient: [0.0; 3],
+        ..Default::default()
+    };
+    (Reference::from_pack(&pack), settings)
+}
+
 fn no_ambient() -> Settings {
     Settings {
         ambient: [0.0; 3],
@@ -486,12 +497,7 @@ fn pillar_in_the_skylight_casts_a_shadow_like_the_reference() {
         &[WindowShadow::Occluded(Blocker::Inside)],
         "the pillar stands in the skylight's light"
     );
-    let pack = pack::Pack::from_bytes("<hall>", &bytes).unwrap();
-    let reference = Reference::from_pack(&pack);
-    let rs = ReferenceSettings {
-        ambient: [0.0; 3],
-        ..Default::default()
-    };
+    let (reference, rs) = hall_reference(&bytes);
 
     // Seen from above: the shadow behind the pillar's middle, and a point beside it.
     let size = (160, 160);
@@ -637,12 +643,7 @@ fn light_from_every_one_of_many_windows_reaches_the_floor() {
     let scene = common::load(&gpu, &bytes);
     let windows = scene.toc().windows.clone();
     assert_eq!(windows.len(), 49, "one window per skylight");
-    let pack = pack::Pack::from_bytes("<hall>", &bytes).unwrap();
-    let reference = Reference::from_pack(&pack);
-    let rs = ReferenceSettings {
-        ambient: [0.0; 3],
-        ..Default::default()
-    };
+    let (reference, rs) = hall_reference(&bytes);
     let size = (160, 160);
     let (on, view) = lit_supersampled(&gpu, &scene, 0, size, no_ambient());
     let traced = reference.render_lit(&view, size.0, size.1, &rs);

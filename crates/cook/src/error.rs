@@ -27,6 +27,13 @@ pub enum CookError {
     /// `--window NAME=…` names no window of the scene.
     #[error("--window {pattern:?} matches no window; the scene's windows are: {}", if known.is_empty() { "(none)".to_string() } else { known.join(", ") })]
     UnknownWindow { pattern: String, known: Vec<String> },
+    /// `--up` with a scene manifest, which turns its meshes itself.
+    #[error(
+        "--up turns a bare model; {} is a scene manifest: give its [[mesh]] \
+         `rotate_deg = [-90.0, 0.0, 0.0]` instead",
+        path.display()
+    )]
+    UpAxisOfManifest { path: PathBuf },
     /// A source file (mesh, material library, image) is malformed.
     #[error("{}{}: {message}", path.display(), line.map(|l| format!(":{l}")).unwrap_or_default())]
     Source {
@@ -46,7 +53,8 @@ impl CookError {
             CookError::Texture(t) => t.is_io(),
             CookError::Manifest { .. }
             | CookError::Source { .. }
-            | CookError::UnknownWindow { .. } => false,
+            | CookError::UnknownWindow { .. }
+            | CookError::UpAxisOfManifest { .. } => false,
         }
     }
 
@@ -55,7 +63,8 @@ impl CookError {
         match self {
             CookError::Io { path, .. }
             | CookError::Manifest { path, .. }
-            | CookError::Source { path, .. } => Some(path),
+            | CookError::Source { path, .. }
+            | CookError::UpAxisOfManifest { path } => Some(path),
             CookError::Texture(t) => t.path(),
             CookError::Pack(_) | CookError::UnknownWindow { .. } => None,
         }

@@ -288,6 +288,7 @@ pub fn prepare(
     settings: &Settings,
     report: &mut Report,
 ) -> Result<Prepared, CookError> {
+    settings.check(manifest)?;
     let start = Instant::now();
     let sources = import_sources(manifest, settings.up)?;
     let (mut imported, import_times): (Vec<import::Imported>, Vec<Duration>) =

@@ -48,6 +48,16 @@ pub struct TextureSettings {
 }
 
 impl Settings {
+    /// Whether these settings fit `manifest`: `up` turns a bare model only.
+    pub fn check(&self, manifest: &Manifest) -> Result<(), crate::CookError> {
+        if self.up != UpAxis::Y && !manifest.bare {
+            return Err(crate::CookError::UpAxisOfManifest {
+                path: manifest.path.clone(),
+            });
+        }
+        Ok(())
+    }
+
     /// The manifest's settings, every other knob at its default.
     pub fn new(manifest: &Manifest) -> Self {
         Self {
@@ -98,11 +108,12 @@ impl UpAxis {
         }
     }
 
-    pub fn parse(s: &str) -> Option<Self> {
+    /// `--up` on a command line: y or z.
+    pub fn from_arg(s: &str) -> Result<Self, String> {
         match s {
-            "y" | "Y" => Some(Self::Y),
-            "z" | "Z" => Some(Self::Z),
-            _ => None,
+            "y" | "Y" => Ok(Self::Y),
+            "z" | "Z" => Ok(Self::Z),
+            _ => Err(format!("{s:?} is not one of y, z")),
         }
     }
 }

@@ -70,26 +70,8 @@ pub struct SettingsArgs {
     /// The up axis of a bare model: `z` stands up a Z-up model (SketchUp, Revit, 3ds Max
     /// exports) as the pipeline, Y-up like glTF, needs it. A scene.toml turns its meshes with
     /// `rotate_deg` instead.
-    #[arg(long, value_name = "y|z", default_value = "y", value_parser = up_axis)]
+    #[arg(long, value_name = "y|z", default_value = "y", value_parser = cook::UpAxis::from_arg)]
     up: cook::UpAxis,
-}
-
-/// `--up`: y or z.
-pub(crate) fn up_axis(s: &str) -> Result<cook::UpAxis, String> {
-    cook::UpAxis::parse(s).ok_or_else(|| format!("{s:?} is not one of y, z"))
-}
-
-/// `--up` turns a bare model only: a manifest turns its meshes itself.
-pub(crate) fn check_up(up: cook::UpAxis, manifest: &Manifest) -> anyhow::Result<()> {
-    if up != cook::UpAxis::Y && !manifest.bare {
-        return Err(crate::exit::UsageError(format!(
-            "--up turns a bare model; {} is a scene manifest: give its [[mesh]] \
-             `rotate_deg = [-90.0, 0.0, 0.0]` instead",
-            manifest.path.display()
-        ))
-        .into());
-    }
-    Ok(())
 }
 
 impl SettingsArgs {
@@ -116,8 +98,8 @@ impl SettingsArgs {
             CacheMode::Full
         };
         settings.mesh.overdraw = self.overdraw;
-        check_up(self.up, manifest)?;
         settings.up = self.up;
+        settings.check(manifest)?;
         Ok(settings)
     }
 }

@@ -32,7 +32,10 @@ pub fn code_for(e: &anyhow::Error) -> i32 {
             return if p.is_io() { IO } else { INVALID_INPUT };
         }
         if let Some(c) = cause.downcast_ref::<cook::CookError>() {
-            if matches!(c, cook::CookError::UnknownWindow { .. }) {
+            if matches!(
+                c,
+                cook::CookError::UnknownWindow { .. } | cook::CookError::UpAxisOfManifest { .. }
+            ) {
                 return USAGE;
             }
             return if c.is_io() { IO } else { INVALID_INPUT };

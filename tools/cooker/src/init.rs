@@ -33,7 +33,7 @@ pub struct Args {
     force: bool,
     /// The model's up axis, as `cooker cook --up`: with `z` the manifest turns the model with
     /// `rotate_deg`, and the guesses are made on it turned.
-    #[arg(long, value_name = "y|z", default_value = "y", value_parser = crate::cook::up_axis)]
+    #[arg(long, value_name = "y|z", default_value = "y", value_parser = cook::UpAxis::from_arg)]
     up: cook::UpAxis,
 }
 

@@ -14,7 +14,7 @@ pub struct Args {
     #[arg(long)]
     json: bool,
     /// The up axis of a bare model, as `cooker cook --up`.
-    #[arg(long, value_name = "y|z", default_value = "y", value_parser = crate::cook::up_axis)]
+    #[arg(long, value_name = "y|z", default_value = "y", value_parser = cook::UpAxis::from_arg)]
     up: cook::UpAxis,
 }
 
@@ -25,9 +25,7 @@ pub fn run(args: Args) -> Outcome {
         .map(|e| e.to_string_lossy().to_ascii_lowercase())
         .unwrap_or_default();
     let validation = if matches!(ext.as_str(), "toml" | "obj" | "gltf" | "glb") {
-        let manifest = Manifest::open(&args.input)?;
-        crate::cook::check_up(args.up, &manifest)?;
-        cook::validate::validate_scene(&manifest, args.up)?
+        cook::validate::validate_scene(&Manifest::open(&args.input)?, args.up)?
     } else {
         if args.up != cook::UpAxis::Y {
             return Err(crate::exit::UsageError(format!(

@@ -1313,18 +1313,17 @@ fn a_z_up_export_cooks_with_up_z_like_the_y_up_model() {
     assert_eq!(lit(&z_init), lit(&y_init));
     let scene = z_dir.join("scene.toml");
 
-    let o = cooker(&[
-        &"cook",
-        &scene,
-        &"-o",
-        &z_dir.join("no.pack"),
-        &"--up",
-        &"z",
-    ]);
-    assert_eq!(o.status.code(), Some(2), "{}", text(&o.stderr));
-    assert!(
-        text(&o.stderr).contains("rotate_deg"),
-        "{}",
-        text(&o.stderr)
-    );
+    let no_pack = z_dir.join("no.pack");
+    for o in [
+        cooker(&[&"cook", &scene, &"-o", &no_pack, &"--up", &"z"]),
+        cooker(&[&"validate", &scene, &"--up", &"z"]),
+    ] {
+        assert_eq!(o.status.code(), Some(2), "{}", text(&o.stderr));
+        assert!(
+            text(&o.stderr).contains("rotate_deg"),
+            "{}",
+            text(&o.stderr)
+        );
+    }
+    assert!(!no_pack.exists());
 }

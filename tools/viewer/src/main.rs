@@ -32,7 +32,7 @@ struct Args {
     #[arg(long = "window", value_name = "NAME=IMAGE", value_parser = cook::manifest::WindowDesign::parse_override)]
     windows: Vec<(String, PathBuf)>,
     /// The up axis of a bare model, as `cooker cook --up`: `z` stands up a Z-up model.
-    #[arg(long, value_name = "y|z", default_value = "y", value_parser = up_axis)]
+    #[arg(long, value_name = "y|z", default_value = "y", value_parser = cook::UpAxis::from_arg)]
     up: cook::UpAxis,
     /// Render to files instead of opening a window (the only mode without a display).
     #[arg(long)]
@@ -223,10 +223,6 @@ struct CookOptions {
 
 static COOK_OPTIONS: std::sync::OnceLock<CookOptions> = std::sync::OnceLock::new();
 
-fn up_axis(s: &str) -> Result<cook::UpAxis, String> {
-    cook::UpAxis::parse(s).ok_or_else(|| format!("{s:?} is not one of y, z"))
-}
-
 fn open_source(path: &Path) -> Result<Box<dyn Read + Send>> {
     let is_pack = path
         .extension()
@@ -238,13 +234,6 @@ fn open_source(path: &Path) -> Result<Box<dyn Read + Send>> {
         let (window_overrides, up) = COOK_OPTIONS
             .get()
             .map_or((Vec::new(), cook::UpAxis::Y), |o| (o.windows.clone(), o.up));
-        if up != cook::UpAxis::Y && !manifest.bare {
-            anyhow::bail!(
-                "--up turns a bare model; {} is a scene manifest: give its [[mesh]] \
-                 `rotate_deg = [-90.0, 0.0, 0.0]` instead",
-                path.display()
-            );
-        }
         let settings = cook::Settings {
             window_overrides,
             up,
