@@ -191,16 +191,19 @@ fn cook_hall(hall: &Hall, dir: &Path) -> Vec<u8> {
             Vec3::NEG_Y,
         );
     };
+    // The wall at x = −6 is whole unless its windows are the opening.
+    if hall.opening != Opening::WallWindows {
+        wall(
+            &mut obj,
+            Vec3::new(-h, 0.0, -h),
+            Vec3::Z * 2.0 * h,
+            Vec3::Y * top,
+            Vec3::X,
+        );
+    }
     match hall.opening {
         Opening::Skylight => {
             let s = 1.5;
-            wall(
-                &mut obj,
-                Vec3::new(-h, 0.0, -h),
-                Vec3::Z * 2.0 * h,
-                Vec3::Y * top,
-                Vec3::X,
-            );
             roof(&mut obj, -h, h, -h, -s);
             roof(&mut obj, -h, h, s, h);
             roof(&mut obj, -h, -s, -s, s);
@@ -214,13 +217,6 @@ fn cook_hall(hall: &Hall, dir: &Path) -> Vec<u8> {
             );
         }
         Opening::SkylightGrid => {
-            wall(
-                &mut obj,
-                Vec3::new(-h, 0.0, -h),
-                Vec3::Z * 2.0 * h,
-                Vec3::Y * top,
-                Vec3::X,
-            );
             // Full-width strips between the rows of holes, pieces between the holes of a row.
             let mut z = -h;
             for (row, &cz) in GRID_CENTRES.iter().enumerate() {
