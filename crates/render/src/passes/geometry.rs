@@ -82,12 +82,21 @@ impl GeometryPass {
         pick: fn(MaterialClass) -> Option<usize>,
     ) -> Self {
         let module = shaders::module(device, shader);
+        // Side by side, as the passes are (`Renderer::new`).
+        let pipelines = std::thread::scope(|s| {
+            let module = &module;
+            let handles: Vec<_> = fragments
+                .iter()
+                .map(|f| s.spawn(move || geometry_pipeline(device, layout, shader, module, f)))
+                .collect();
+            handles
+                .into_iter()
+                .map(|h| h.join().unwrap_or_else(|p| std::panic::resume_unwind(p)))
+                .collect()
+        });
         Self {
             label,
-            pipelines: fragments
-                .iter()
-                .map(|f| geometry_pipeline(device, layout, shader, &module, f))
-                .collect(),
+            pipelines,
             pick,
         }
     }
