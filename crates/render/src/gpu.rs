@@ -23,22 +23,19 @@ impl Gpu {
     /// A device without a window. Honours `WGPU_BACKEND`, `WGPU_ADAPTER_NAME` and the Vulkan
     /// loader's `VK_DRIVER_FILES` (force lavapipe for reproducible images).
     pub fn headless() -> Result<Self, RenderError> {
-        let instance =
-            wgpu::Instance::new(wgpu::InstanceDescriptor::new_without_display_handle_from_env());
-        Self::new(instance, None)
+        Self::new(headless_instance(), None)
     }
 
     /// A device without a window on the first adapter `wanted` accepts, among those the
     /// environment allows (as [`headless`](Self::headless)); `what` names it in the error
-    /// ("no {what} adapter"). For
-    /// images compared closely with renders made on one rasterizer: another GPU filters
-    /// textures and rasterizes edges differently by tens of 8-bit steps.
+    /// ("no {what} adapter"). For images compared closely with renders made on one
+    /// rasterizer: another GPU filters textures and rasterizes edges differently by tens of
+    /// 8-bit steps.
     pub fn headless_matching(
         what: &str,
         wanted: impl Fn(&wgpu::AdapterInfo) -> bool,
     ) -> Result<Self, RenderError> {
-        let instance =
-            wgpu::Instance::new(wgpu::InstanceDescriptor::new_without_display_handle_from_env());
+        let instance = headless_instance();
         let adapters = pollster::block_on(instance.enumerate_adapters(wgpu::Backends::all()));
         let found: Vec<String> = adapters.iter().map(|a| a.get_info().name).collect();
         let Some(adapter) = adapters.into_iter().find(|a| wanted(&a.get_info())) else {
@@ -116,4 +113,9 @@ impl Gpu {
             .map(|_| ())
             .map_err(|e| RenderError::Device(e.to_string()))
     }
+}
+
+/// An instance for devices without a window, with the backends the environment allows.
+fn headless_instance() -> wgpu::Instance {
+    wgpu::Instance::new(wgpu::InstanceDescriptor::new_without_display_handle_from_env())
 }

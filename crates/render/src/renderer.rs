@@ -5,7 +5,7 @@ use glam::Vec3;
 use crate::capture::{f16_to_f32, read_buffer, read_texture};
 use crate::passes::{
     Colour, CompositeInputs, CompositePass, DEPTH, GeometryPass, GodRayPass, HDR, SHADOW_VIEW_SIZE,
-    ShadowPass, frame_layout, geometry_layout, uniform_buffer,
+    ShadowPass, frame_layout, geometry_layout, joined, uniform_buffer,
 };
 use crate::shadows::ShadowLayout;
 use crate::uniforms;
@@ -408,9 +408,6 @@ impl Renderer {
             let rays = s.spawn(|| GodRayPass::new(device));
             let composite = s.spawn(|| CompositePass::new(device, output_format));
             let shadow = ShadowPass::new(device, &scene.material_layout);
-            fn joined<T>(h: std::thread::ScopedJoinHandle<'_, T>) -> T {
-                h.join().unwrap_or_else(|p| std::panic::resume_unwind(p))
-            }
             (
                 joined(background),
                 joined(mask),

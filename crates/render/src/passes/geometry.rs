@@ -2,7 +2,7 @@
 
 use pack::MaterialClass;
 
-use super::{Colour, DEPTH, HDR, begin};
+use super::{Colour, DEPTH, HDR, begin, joined};
 use crate::scene::vertex_layout;
 use crate::{Scene, shaders};
 
@@ -89,10 +89,7 @@ impl GeometryPass {
                 .iter()
                 .map(|f| s.spawn(move || geometry_pipeline(device, layout, shader, module, f)))
                 .collect();
-            handles
-                .into_iter()
-                .map(|h| h.join().unwrap_or_else(|p| std::panic::resume_unwind(p)))
-                .collect()
+            handles.into_iter().map(joined).collect()
         });
         Self {
             label,
