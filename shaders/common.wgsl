@@ -34,7 +34,8 @@ struct Frame {
 struct WindowProjector {
     // Maps a camera-relative position to (u*w, v*w, 0, w) on the window's design.
     projector: mat4x4<f32>,
-    // xyz: a point of the window plane (camera-relative), w unused.
+    // xyz: a point of the window plane (camera-relative); w: how far behind the glass the
+    // wall it sits on lies, when that wall was never cut open (0 otherwise).
     origin: vec4<f32>,
     // xyz: unit normal pointing into the building.
     normal: vec4<f32>,
@@ -61,6 +62,9 @@ struct WindowProjector {
 
 struct Windows {
     items: array<WindowProjector, MAX_WINDOWS>,
+    // The sun's map over all the opaque geometry (shadow fields only; params.w = 1 when
+    // present): whether a point outside a window's plane sees the sun (see `fs_main`).
+    direct: WindowProjector,
 }
 
 struct Material {

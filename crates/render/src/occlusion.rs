@@ -139,6 +139,210 @@ pub fn window_shadow(
     }
 }
 
+/// How far behind a window's glass (on the light's side, as a fraction of the window's longer
+/// side) an uncut wall still counts as the wall the glass sits on. Glazing is often modelled
+/// as a pane a few centimetres in front of a wall that was never cut open; taken literally,
+/// that wall blocks all the window's light, and the church is dark.
+pub const BACKING_DEPTH: f64 = 0.1;
+/// `|cos|` of the angle between a wall's and a window's normals above which they are parallel.
+const PARALLEL_COS: f64 = 0.999;
+/// How far around a backed window's rectangle (a fraction of its sides) its wall reaches.
+const BACKING_AROUND: f64 = 0.25;
+/// Share of a window's rectangle its uncut wall must cover. A wall with the opening cut out
+/// covers only the corners the glass leaves (a pointed lancet's: a tenth, a rose's: a fifth).
+const BACKED_COVER: f64 = 0.5;
+
+/// A window's rectangle for the backing test: `(s, t)` on it along its axes, `d` along its
+/// inward normal.
+#[derive(Clone, Copy, Debug)]
+struct Frame {
+    window: u32,
+    origin: DVec3,
+    normal: DVec3,
+    /// Rows of the inverse Gram matrix of the axes applied to them: `(p - origin)·dual_s = s`.
+    dual_s: DVec3,
+    dual_t: DVec3,
+    /// The slab `d ∈ [-depth, eps]` the wall must lie in.
+    depth: f64,
+    eps: f64,
+    /// How far behind the glass the wall covering it lies (its farthest corner).
+    wall: f64,
+}
+
+impl Frame {
+    fn new(window: u32, w: &pack::Window) -> Option<Self> {
+        let (u, v) = (
+            glam::Vec3::from(w.u_axis).as_dvec3(),
+            glam::Vec3::from(w.v_axis).as_dvec3(),
+        );
+        let normal = glam::Vec3::from(w.normal).as_dvec3().normalize_or_zero();
+        let (uu, uv, vv) = (u.dot(u), u.dot(v), v.dot(v));
+        let det = uu * vv - uv * uv;
+        if det.is_nan() || det <= 1e-12 * uu * vv || normal == DVec3::ZERO {
+            return None;
+        }
+        let size = uu.sqrt().max(vv.sqrt());
+        Some(Self {
+            window,
+            origin: glam::Vec3::from(w.origin).as_dvec3(),
+            normal,
+            dual_s: (u * vv - v * uv) / det,
+            dual_t: (v * uu - u * uv) / det,
+            depth: BACKING_DEPTH * size,
+            eps: 1e-4 * size,
+            wall: 0.0,
+        })
+    }
+
+    /// The share of the rectangle, grown by `grow` (a fraction of its sides) all round, that
+    /// `tri` covers seen straight on, when `tri` (with unit normal `n`) is parallel to the
+    /// window and lies in the slab behind it; `None` otherwise.
+    fn behind(&self, tri: &[DVec3; 3], n: DVec3, grow: f64) -> Option<f64> {
+        if n.dot(self.normal).abs() < PARALLEL_COS {
+            return None;
+        }
+        let in_slab = |p: &DVec3| {
+            let d = (*p - self.origin).dot(self.normal);
+            (-self.depth..=self.eps).contains(&d)
+        };
+        if !tri.iter().all(in_slab) {
+            return None;
+        }
+        let to_st = |p: DVec3| {
+            let r = p - self.origin;
+            (DVec2::new(r.dot(self.dual_s), r.dot(self.dual_t)) + grow) / (1.0 + 2.0 * grow)
+        };
+        patch(tri, &to_st).map(|p| signed_area(&p.points).abs() * (1.0 + 2.0 * grow).powi(2))
+    }
+}
+
+/// The windows whose glass sits on an uncut wall, and how to tell that wall's triangles.
+///
+/// Such a window's wall is taken as cut open behind its glass: its triangles are left out of
+/// every shadow map and of the analysis above, and the reference tracer lets a ray that
+/// crossed the window's glass through them. The cooker's light reach and sun guess already
+/// look at the building's inner side only, so the viewer now agrees with them.
+#[derive(Clone, Debug, Default)]
+pub struct Backings {
+    /// Frames of the backed windows only (the first 64: the lit pass projects no more).
+    frames: Vec<Frame>,
+}
+
+impl Backings {
+    /// Finds the backed windows among `windows` over the opaque `triangles`.
+    pub fn find(
+        windows: &[pack::Window],
+        triangles: impl IntoIterator<Item = [glam::Vec3; 3]>,
+    ) -> Self {
+        let frames: Vec<Frame> = windows
+            .iter()
+            .take(64)
+            .enumerate()
+            .filter_map(|(i, w)| Frame::new(i as u32, w))
+            .collect();
+        if frames.is_empty() {
+            return Self::default();
+        }
+        let mut cover = vec![0.0f64; frames.len()];
+        let mut frames = frames;
+        for tri in triangles {
+            let Some((pts, n)) = unit_normal(tri) else {
+                continue;
+            };
+            for (f, c) in frames.iter_mut().zip(&mut cover) {
+                if let Some(a) = f.behind(&pts, n, 0.0) {
+                    *c += a;
+                    for p in pts {
+                        f.wall = f.wall.max(-(p - f.origin).dot(f.normal));
+                    }
+                }
+            }
+        }
+        Self {
+            frames: frames
+                .into_iter()
+                .zip(cover)
+                .filter(|&(_, c)| c >= BACKED_COVER)
+                .map(|(f, _)| f)
+                .collect(),
+        }
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.frames.is_empty()
+    }
+
+    /// Whether window `i` (TOC order) sits on an uncut wall.
+    pub fn backed(&self, i: usize) -> bool {
+        self.wall(i).is_some()
+    }
+
+    /// How far behind window `i`'s glass its uncut wall lies (`None`: not backed). The lit
+    /// pass counts the space between the two as inside, so the floor strip there is not lit
+    /// as the outside is.
+    pub fn wall(&self, i: usize) -> Option<f64> {
+        self.frames
+            .iter()
+            .find(|f| f.window as usize == i)
+            .map(|f| f.wall)
+    }
+
+    /// The backed windows (bit `i` for window `i`) whose wall `tri` is part of: parallel to
+    /// the window, in the slab behind it, and covering part of its rectangle seen straight on,
+    /// grown by [`BACKING_AROUND`]: a wall built of tiles has some meeting the rectangle at
+    /// its edge only, which slanted light still traces onto the glass.
+    pub fn mask(&self, tri: [glam::Vec3; 3]) -> u64 {
+        if self.frames.is_empty() {
+            return 0;
+        }
+        let Some((pts, n)) = unit_normal(tri) else {
+            return 0;
+        };
+        self.frames
+            .iter()
+            .filter(|f| f.behind(&pts, n, BACKING_AROUND).is_some())
+            .fold(0, |m, f| m | 1 << f.window)
+    }
+}
+
+/// Whether any of the opaque `triangles` reaches beyond some window's plane (past the uncut
+/// wall a backed window sits on): the lit pass takes such points for the outside, so the sun's
+/// direct map ([`crate::shadows::ShadowLayout::direct`]) must say whether the sun reaches them.
+/// A wall in the windows' planes alone never needs it.
+pub fn beyond_windows(
+    windows: &[pack::Window],
+    backings: &Backings,
+    triangles: impl IntoIterator<Item = [glam::Vec3; 3]>,
+) -> bool {
+    let planes: Vec<(DVec3, DVec3, f64)> = windows
+        .iter()
+        .take(64)
+        .enumerate()
+        .map(|(i, w)| {
+            (
+                glam::Vec3::from(w.origin).as_dvec3(),
+                glam::Vec3::from(w.normal).as_dvec3().normalize_or_zero(),
+                // The lit pass's own tolerance (`is_inside` in lit.wgsl).
+                1e-3 + backings.wall(i).unwrap_or(0.0),
+            )
+        })
+        .collect();
+    triangles.into_iter().any(|t| {
+        t.iter().any(|p| {
+            let p = p.as_dvec3();
+            planes.iter().any(|(o, n, tol)| (p - *o).dot(*n) < -tol)
+        })
+    })
+}
+
+/// A triangle in f64 and its unit normal; `None` when it has no area.
+fn unit_normal(tri: [glam::Vec3; 3]) -> Option<([DVec3; 3], DVec3)> {
+    let pts = tri.map(|p| p.as_dvec3());
+    let n = (pts[1] - pts[0]).cross(pts[2] - pts[0]);
+    let len = n.length();
+    (len > 0.0 && len.is_finite()).then(|| (pts, n / len))
+}
+
 /// The part of a triangle where `side > eps`, as a polygon (`None` when empty).
 fn clip_side(pts: &[DVec3; 3], side: &[f64; 3], eps: f64) -> Option<Vec<DVec3>> {
     let poly = clip_poly(pts, side, eps);
@@ -400,6 +604,168 @@ mod tests {
             window_shadow(&window(), &lamp, t.iter().copied()),
             WindowShadow::Clear
         );
+    }
+
+    /// The room with the window's wall at `behind` (on the light's side, z < 0) either whole
+    /// or cut open where the window is, and `extra` triangles.
+    fn walled_room(behind: f32, cut: bool, extra: &[[Vec3; 3]]) -> Vec<[Vec3; 3]> {
+        let mut t = room();
+        let z = -behind;
+        if cut {
+            // Around the opening x in [-1, 1], y in [1, 3].
+            t.extend(quad(
+                Vec3::new(-10.0, 0.0, z),
+                Vec3::new(9.0, 0.0, 0.0),
+                Vec3::new(0.0, 8.0, 0.0),
+            ));
+            t.extend(quad(
+                Vec3::new(1.0, 0.0, z),
+                Vec3::new(9.0, 0.0, 0.0),
+                Vec3::new(0.0, 8.0, 0.0),
+            ));
+            t.extend(quad(
+                Vec3::new(-1.0, 0.0, z),
+                Vec3::new(2.0, 0.0, 0.0),
+                Vec3::new(0.0, 1.0, 0.0),
+            ));
+            t.extend(quad(
+                Vec3::new(-1.0, 3.0, z),
+                Vec3::new(2.0, 0.0, 0.0),
+                Vec3::new(0.0, 5.0, 0.0),
+            ));
+        } else {
+            t.extend(quad(
+                Vec3::new(-10.0, 0.0, z),
+                Vec3::new(20.0, 0.0, 0.0),
+                Vec3::new(0.0, 8.0, 0.0),
+            ));
+        }
+        t.extend_from_slice(extra);
+        t
+    }
+
+    /// What the viewer analyses: the opaque triangles less the backed windows' walls.
+    fn decide(w: &pack::Window, tris: &[[Vec3; 3]]) -> (bool, WindowShadow) {
+        let b = Backings::find(std::slice::from_ref(w), tris.iter().copied());
+        let casting = tris.iter().copied().filter(|&t| b.mask(t) == 0);
+        (b.backed(0), window_shadow(w, &sun(), casting))
+    }
+
+    #[test]
+    fn glass_on_an_uncut_wall_lets_its_light_through() {
+        // Taken literally, the wall 5 cm behind the glass blocks all of it.
+        let whole = walled_room(0.05, false, &[]);
+        assert_eq!(
+            window_shadow(&window(), &sun(), whole.iter().copied()),
+            WindowShadow::Occluded(Blocker::Outside)
+        );
+        assert_eq!(decide(&window(), &whole), (true, WindowShadow::Clear));
+        // The wall in the glass's own plane, too.
+        assert!(decide(&window(), &walled_room(0.0, false, &[])).0);
+        // A pillar inside still casts its shadow.
+        let pillar = quad(
+            Vec3::new(0.0, 0.0, 2.5),
+            Vec3::new(0.6, 0.0, 0.0),
+            Vec3::new(0.0, 4.0, 0.0),
+        );
+        assert_eq!(
+            decide(&window(), &walled_room(0.05, false, &pillar)),
+            (true, WindowShadow::Occluded(Blocker::Inside))
+        );
+        // The wall's triangles are told apart from the rest (the low wall in the glass's
+        // plane below the window is one with it).
+        let b = Backings::find(std::slice::from_ref(&window()), whole.iter().copied());
+        let masked = |tris: &[[Vec3; 3]], b: &Backings| {
+            tris.iter()
+                .filter(|t| b.mask(**t) == 1)
+                .map(|t| t[0].z)
+                .collect::<Vec<f32>>()
+        };
+        assert_eq!(masked(&whole, &b), [0.0, 0.0, -0.05, -0.05]);
+        // The same wall built of 1 m tiles: those meeting the rectangle grown by a quarter
+        // all round, and no others.
+        let mut tiles = room();
+        for i in -10..10 {
+            for j in 0..8 {
+                tiles.extend(quad(Vec3::new(i as f32, j as f32, -0.05), Vec3::X, Vec3::Y));
+            }
+        }
+        let b = Backings::find(std::slice::from_ref(&window()), tiles.iter().copied());
+        assert!(b.backed(0));
+        // Tiles x in [-2, 2), y in [0, 4): 16 tiles, 32 triangles less the two that only
+        // touch the grown rectangle (x in (-1.5, 1.5), y in (0.5, 3.5)) at a corner.
+        let tiles_masked = masked(&tiles, &b);
+        assert_eq!(tiles_masked.iter().filter(|&&z| z < 0.0).count(), 30);
+        let casting = tiles.iter().copied().filter(|&t| b.mask(t) == 0);
+        assert_eq!(
+            window_shadow(&window(), &sun(), casting),
+            WindowShadow::Clear
+        );
+    }
+
+    #[test]
+    fn walls_cut_open_far_behind_or_only_partly_covering_still_block() {
+        // The opening cut: the wall covers none of the rectangle, so the window is not
+        // backed, and the wall 5 cm out shades the glass's edge from the slanted sun.
+        assert_eq!(
+            decide(&window(), &walled_room(0.05, true, &[])),
+            (false, WindowShadow::Occluded(Blocker::Outside))
+        );
+        assert_eq!(
+            decide(&window(), &walled_room(0.0, true, &[])),
+            (false, WindowShadow::Clear)
+        );
+        // An uncut wall farther behind than a tenth of the window's size is a real blocker.
+        assert_eq!(
+            decide(&window(), &walled_room(0.5, false, &[])),
+            (false, WindowShadow::Occluded(Blocker::Outside))
+        );
+        // Stone tracery 3 cm outside the glass, parallel to it, covering a third of the
+        // rectangle in three bars: not an uncut wall, so the bars block light.
+        let mut bars = Vec::new();
+        for x in [-0.9f32, -0.1, 0.7] {
+            bars.extend(quad(
+                Vec3::new(x, 1.0, -0.03),
+                Vec3::new(0.22, 0.0, 0.0),
+                Vec3::new(0.0, 2.0, 0.0),
+            ));
+        }
+        assert_eq!(
+            decide(&window(), &walled_room(0.05, true, &bars)),
+            (false, WindowShadow::Occluded(Blocker::Outside))
+        );
+        // A board behind the whole window, within the slab, tilted 4° from the glass: not the
+        // wall it sits on (tilted 1°, it is).
+        let board = |deg: f32| {
+            let rise = 2.2 * deg.to_radians().tan();
+            quad(
+                Vec3::new(-1.1, 0.9, -0.02),
+                Vec3::new(2.2, 0.0, 0.0),
+                Vec3::new(0.0, 2.2, -rise),
+            )
+        };
+        assert!(!decide(&window(), &walled_room(0.05, true, &board(4.0))).0);
+        assert!(decide(&window(), &walled_room(0.05, true, &board(1.0))).0);
+    }
+
+    #[test]
+    fn geometry_beyond_a_windows_plane_is_found() {
+        let none = Backings::default();
+        // The room: a wall in the window's plane, everything else inside.
+        assert!(!beyond_windows(&[window()], &none, room()));
+        // A floor running on outside.
+        let mut t = room();
+        t.extend(quad(
+            Vec3::new(-10.0, 0.0, -5.0),
+            Vec3::new(20.0, 0.0, 0.0),
+            Vec3::new(0.0, 0.0, 5.0),
+        ));
+        assert!(beyond_windows(&[window()], &none, t.iter().copied()));
+        // The uncut wall a backed window sits on is not beyond it.
+        let whole = walled_room(0.05, false, &[]);
+        let b = Backings::find(std::slice::from_ref(&window()), whole.iter().copied());
+        assert!(beyond_windows(&[window()], &none, whole.iter().copied()));
+        assert!(!beyond_windows(&[window()], &b, whole.iter().copied()));
     }
 
     #[test]

@@ -77,6 +77,10 @@ struct Triangle {
     uv: [Vec2; 3],
     tangent: [Vec4; 3],
     material: u16,
+    /// Glass: the windows (bit per window, TOC order) it is the glass of. Opaque: the backed
+    /// windows whose uncut wall it is part of ([`crate::occlusion::Backings`]), which it lets
+    /// through a ray that crossed their glass.
+    windows: u64,
 }
 
 struct Hit {
@@ -141,7 +145,7 @@ impl Reference {
                 })
             })
             .collect();
-        let materials = toc
+        let materials: Vec<Material> = toc
             .materials
             .iter()
             .map(|m| Material {
@@ -202,9 +206,30 @@ impl Reference {
                         uv: [0, 1, 2].map(|k| Vec2::from(v[k].uv)),
                         tangent: [0, 1, 2].map(|k| Vec4::from(v[k].tangent)),
                         material: r.material,
+                        windows: 0,
                     });
                 }
             }
+        }
+        let casts =
+            |t: &Triangle| crate::passes::casts_shadow(materials[t.material as usize].class);
+        let backings = crate::occlusion::Backings::find(
+            &toc.windows,
+            triangles.iter().filter(|t| casts(t)).map(|t| t.p),
+        );
+        for t in &mut triangles {
+            t.windows = if materials[t.material as usize].class.is_window() {
+                toc.windows
+                    .iter()
+                    .take(64)
+                    .enumerate()
+                    .filter(|(_, w)| w.material == t.material)
+                    .fold(0, |m, (i, _)| m | 1 << i)
+            } else if casts(t) {
+                backings.mask(t.p)
+            } else {
+                0
+            };
         }
         let bvh = Bvh::build(&triangles);
         Self {
@@ -373,8 +398,13 @@ impl Reference {
 
     /// Light surviving along a shadow ray: zero at an opaque surface, times the glass's
     /// colour and coverage at each pane it crosses (order does not matter for a product).
+    /// A backed window's uncut wall stops only the rays that did not cross that window's
+    /// glass.
     fn through(&self, origin: Vec3, dir: Vec3, max_t: f32) -> Vec3 {
         let mut light = Vec3::ONE;
+        // Windows whose glass the ray crossed, and the walls it met that might let it through.
+        let mut crossed = 0u64;
+        let mut walls: Vec<u64> = Vec::new();
         let blocked = self
             .bvh
             .visit(origin, dir, max_t, &self.triangles, &mut |tri, _, b| {
@@ -384,8 +414,13 @@ impl Reference {
                     return max_t;
                 }
                 if !mat.class.is_window() {
-                    return -1.0;
+                    if tri.windows == 0 {
+                        return -1.0;
+                    }
+                    walls.push(tri.windows);
+                    return max_t;
                 }
+                crossed |= tri.windows;
                 let glass = match self.texture(mat.texture) {
                     Some(img) => {
                         let uv = tri.uv[0] * (1.0 - b.x - b.y) + tri.uv[1] * b.x + tri.uv[2] * b.y;
@@ -397,7 +432,11 @@ impl Reference {
                 light *= glass;
                 max_t
             });
-        if blocked { Vec3::ZERO } else { light }
+        if blocked || walls.iter().any(|&w| w & crossed == 0) {
+            Vec3::ZERO
+        } else {
+            light
+        }
     }
 
     fn closest(&self, origin: Vec3, dir: Vec3) -> Option<Hit> {

@@ -407,7 +407,7 @@ impl Renderer {
             let lit = s.spawn(|| GeometryPass::lit(device, layout));
             let rays = s.spawn(|| GodRayPass::new(device));
             let composite = s.spawn(|| CompositePass::new(device, output_format));
-            let shadow = ShadowPass::new(device, &scene.material_layout);
+            let shadow = ShadowPass::new(device);
             (
                 joined(background),
                 joined(mask),
@@ -526,6 +526,7 @@ impl Renderer {
                 scene.window_shadows(),
                 light,
                 scene.occluder_bounds(),
+                scene.beyond_windows(),
                 self.settings.shadows.layer_size(light),
             ),
             _ => ShadowLayout::default(),
@@ -689,7 +690,8 @@ impl Renderer {
                 let projector = window_projector(w, &g);
                 let tex_slot = scene.projector_slot(mat.projector_texture);
                 slot.projector = projector.unwrap_or(glam::Mat4::ZERO).to_cols_array_2d();
-                slot.origin = Vec3::from(w.origin).extend(0.0).to_array();
+                let wall = scene.backing_wall(i).unwrap_or(0.0) as f32;
+                slot.origin = Vec3::from(w.origin).extend(wall).to_array();
                 slot.normal = Vec3::from(w.normal)
                     .normalize_or_zero()
                     .extend(0.0)
@@ -706,18 +708,16 @@ impl Renderer {
                 slot.tint = tint;
                 slot.params = [layer, projector.is_some() as u32, 0, 0];
                 if let Some(Some(map)) = self.shadow_layout.windows.get(i) {
-                    slot.params[2] = map.layer;
-                    slot.params[3] = 1;
-                    slot.shadow = map.lookup_relative(view.position).to_cols_array_2d();
-                    slot.shadow_x = map.x_dir.extend(map.texel[0]).to_array();
-                    slot.shadow_y = map.y_dir.extend(map.texel[1]).to_array();
-                    slot.shadow_depth = [map.near, map.far, map.lamp_distance, map.light_size];
-                    slot.shadow_dir = map.depth_dir.extend(0.0).to_array();
+                    map_slot(slot, map, view.position);
                 }
             }
+            if let Some(map) = &self.shadow_layout.direct {
+                map_slot(&mut windows.direct, map, view.position);
+            }
         } else {
-            for (slot, w) in windows.items.iter_mut().zip(&relative) {
-                slot.origin = Vec3::from(w.origin).extend(0.0).to_array();
+            for (i, (slot, w)) in windows.items.iter_mut().zip(&relative).enumerate() {
+                let wall = scene.backing_wall(i).unwrap_or(0.0) as f32;
+                slot.origin = Vec3::from(w.origin).extend(wall).to_array();
                 slot.normal = Vec3::from(w.normal)
                     .normalize_or_zero()
                     .extend(0.0)
@@ -1034,6 +1034,17 @@ impl Renderer {
             .collect();
         Ok((w, h, px))
     }
+}
+
+/// Points `slot`'s shadow fields at `map`, for a camera at `camera`.
+fn map_slot(slot: &mut uniforms::WindowProjector, map: &crate::shadows::WindowMap, camera: Vec3) {
+    slot.params[2] = map.layer;
+    slot.params[3] = 1;
+    slot.shadow = map.lookup_relative(camera).to_cols_array_2d();
+    slot.shadow_x = map.x_dir.extend(map.texel[0]).to_array();
+    slot.shadow_y = map.y_dir.extend(map.texel[1]).to_array();
+    slot.shadow_depth = [map.near, map.far, map.lamp_distance, map.light_size];
+    slot.shadow_dir = map.depth_dir.extend(0.0).to_array();
 }
 
 /// A point light's inverse-square falloff where its light enters: averaged over the window

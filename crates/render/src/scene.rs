@@ -15,6 +15,9 @@ use crate::{Gpu, RenderError};
 struct CpuMesh {
     positions: Option<Vec<glam::Vec3>>,
     indices: Option<Vec<u32>>,
+    /// Opaque triangles (by their first index) that are part of a backed window's uncut wall
+    /// ([`occlusion::Backings`]), ascending: they cast no shadow.
+    backing: Vec<u32>,
 }
 
 /// Mips up to this many bytes as RGBA8 (64×64 texels) count as "small": the first frame waits
@@ -99,6 +102,13 @@ struct GpuMesh {
     indices: Option<wgpu::Buffer>,
     index_format: wgpu::IndexFormat,
     ranges: Vec<pack::DrawRange>,
+    /// The triangles that cast shadows (u32 indices) and their index count, once all
+    /// geometry is in and where the pack has windows: the opaque ones less any backed
+    /// window's uncut wall, drawn into the shadow maps in one call.
+    casters: Option<(wgpu::Buffer, u32)>,
+    /// Where some backed window's uncut wall is in this mesh: all its opaque triangles, for
+    /// the sun's direct map (which that wall still blocks).
+    opaque: Option<(wgpu::Buffer, u32)>,
 }
 
 pub(crate) struct GpuMaterial {
@@ -138,6 +148,10 @@ pub struct Scene {
     occluder_bounds: Option<(glam::DVec3, glam::DVec3)>,
     /// Per window, whether its light needs a shadow map (for the current light).
     window_shadows: Vec<WindowShadow>,
+    /// The windows whose glass sits on an uncut wall, once all geometry is in.
+    backings: occlusion::Backings,
+    /// Whether opaque geometry reaches beyond a window's plane ([`occlusion::beyond_windows`]).
+    beyond_windows: bool,
     /// Bumped when the geometry or the light changes: shadow maps drawn before are stale.
     shadow_generation: u64,
     status: LoadStatus,
@@ -360,6 +374,8 @@ impl Scene {
                     pack::IndexFormat::U32 => wgpu::IndexFormat::Uint32,
                 },
                 ranges: m.ranges.clone(),
+                casters: None,
+                opaque: None,
             })
             .collect();
         let mut scene = Self {
@@ -374,6 +390,8 @@ impl Scene {
             cpu: toc.meshes.iter().map(|_| CpuMesh::default()).collect(),
             occluder_bounds: None,
             window_shadows: vec![WindowShadow::NoLight; toc.windows.len()],
+            backings: occlusion::Backings::default(),
+            beyond_windows: false,
             shadow_generation: 0,
             status: LoadStatus {
                 geometry_total: toc.meshes.len() as u32 * 2,
@@ -578,7 +596,7 @@ impl Scene {
                 self.cpu[mesh as usize].positions = positions;
                 self.meshes[mesh as usize].vertices = Some(buffer);
                 self.status.geometry_sections += 1;
-                self.geometry_arrived();
+                self.geometry_arrived(gpu);
             }
             SectionRole::Indices { mesh } => {
                 let m = &self.toc.meshes[mesh as usize];
@@ -607,7 +625,7 @@ impl Scene {
                 );
                 self.meshes[mesh as usize].indices = Some(buffer);
                 self.status.geometry_sections += 1;
-                self.geometry_arrived();
+                self.geometry_arrived(gpu);
             }
             SectionRole::Mip { texture, level } => {
                 let t = &self.toc.textures[texture as usize];
@@ -725,51 +743,151 @@ impl Scene {
         }
     }
 
-    /// Once the last geometry section is in, gathers the opaque triangles and decides which
-    /// windows need shadow maps.
-    fn geometry_arrived(&mut self) {
+    /// Once the last geometry section is in, gathers the opaque triangles, finds the windows
+    /// sitting on uncut walls, uploads what casts shadows and decides which windows need
+    /// shadow maps.
+    fn geometry_arrived(&mut self, gpu: &Gpu) {
         if !self.geometry_complete() {
             return;
         }
-        self.occluder_bounds = crate::shadows::bounds(self.occluders());
+        self.occluder_bounds = crate::shadows::bounds(self.occluders().map(|(_, _, t)| t));
+        self.backings =
+            occlusion::Backings::find(&self.toc.windows, self.occluders().map(|(_, _, t)| t));
+        self.beyond_windows = occlusion::beyond_windows(
+            &self.toc.windows,
+            &self.backings,
+            self.occluders().map(|(_, _, t)| t),
+        );
+        let mut backing = vec![Vec::new(); self.cpu.len()];
+        if !self.backings.is_empty() {
+            for (mesh, tri, t) in self.occluders() {
+                if self.backings.mask(t) != 0 {
+                    backing[mesh].push(tri);
+                }
+            }
+        }
+        for (cpu, mut b) in self.cpu.iter_mut().zip(backing) {
+            b.sort_unstable();
+            cpu.backing = b;
+        }
+        let gather = |tris: &mut dyn Iterator<Item = (usize, u32, [glam::Vec3; 3])>| {
+            let mut out: Vec<Vec<u32>> = vec![Vec::new(); self.cpu.len()];
+            for (mesh, tri, _) in tris {
+                let idx = self.cpu[mesh].indices.as_deref().unwrap_or(&[]);
+                let first = tri as usize;
+                out[mesh].extend_from_slice(&idx[first..first + 3]);
+            }
+            out
+        };
+        let casters = gather(&mut self.casting());
+        let opaque = if self.backings.is_empty() {
+            vec![Vec::new(); self.cpu.len()]
+        } else {
+            gather(&mut self.occluders())
+        };
+        let upload = |name: &str, c: Vec<u32>| {
+            (!c.is_empty()).then(|| {
+                let bytes: &[u8] = bytemuck::cast_slice(&c);
+                let (buffer, ()) = mapped_buffer(
+                    gpu,
+                    name,
+                    bytes.len(),
+                    wgpu::BufferUsages::INDEX,
+                    |mut mapped| mapped.slice(..bytes.len()).copy_from_slice(bytes),
+                );
+                (buffer, c.len() as u32)
+            })
+        };
+        for (((m, gm), c), o) in self
+            .toc
+            .meshes
+            .iter()
+            .zip(&mut self.meshes)
+            .zip(casters)
+            .zip(opaque)
+        {
+            let walls = o.len() > c.len();
+            gm.casters = upload(&format!("{} shadow casters", m.name), c);
+            gm.opaque = if walls {
+                upload(&format!("{} opaque", m.name), o)
+            } else {
+                None
+            };
+        }
         self.analyse_occlusion();
     }
 
     fn analyse_occlusion(&mut self) {
         let light = self.toc.light.as_ref().map(LightGeometry::from_light);
-        self.window_shadows =
-            occlusion::analyse(&self.toc.windows, light.as_ref(), self.occluders());
+        self.window_shadows = occlusion::analyse(
+            &self.toc.windows,
+            light.as_ref(),
+            self.casting().map(|(_, _, t)| t),
+        );
         self.shadow_generation += 1;
     }
 
-    /// The opaque triangles (neither glass nor backdrop) in world positions, read through the
-    /// CPU copies: none where the pack has no windows.
-    fn occluders(&self) -> impl Iterator<Item = [glam::Vec3; 3]> + Clone + '_ {
+    /// The opaque triangles (neither glass nor backdrop) in world positions, with their mesh
+    /// and first index, read through the CPU copies: none where the pack has no
+    /// windows.
+    fn occluders(&self) -> impl Iterator<Item = (usize, u32, [glam::Vec3; 3])> + Clone + '_ {
         let materials = &self.toc.materials;
         self.toc
             .meshes
             .iter()
             .zip(&self.cpu)
-            .filter_map(|(m, cpu)| Some((m, cpu.positions.as_deref()?, cpu.indices.as_deref()?)))
-            .flat_map(move |(m, pos, idx)| {
+            .enumerate()
+            .filter_map(|(i, (m, cpu))| {
+                Some((i, m, cpu.positions.as_deref()?, cpu.indices.as_deref()?))
+            })
+            .flat_map(move |(i, m, pos, idx)| {
                 m.ranges
                     .iter()
                     .filter(move |r| {
-                        let class = materials[r.material as usize].class;
-                        !(class.is_window() || class == MaterialClass::Background)
+                        crate::passes::casts_shadow(materials[r.material as usize].class)
                     })
                     .flat_map(move |r| {
                         let first = r.first_index as usize;
                         let end = (first + r.index_count as usize).min(idx.len());
-                        idx[first.min(end)..end].chunks_exact(3).map(move |t| {
-                            // Indices were validated against the vertex count by the pack
-                            // reader.
-                            let p =
-                                |i: u32| pos.get(i as usize).copied().unwrap_or(glam::Vec3::ZERO);
-                            [p(t[0]), p(t[1]), p(t[2])]
-                        })
+                        let first = first.min(end);
+                        idx[first..end]
+                            .chunks_exact(3)
+                            .enumerate()
+                            .map(move |(k, t)| {
+                                // Indices were validated against the vertex count by the pack
+                                // reader.
+                                let p = |i: u32| {
+                                    pos.get(i as usize).copied().unwrap_or(glam::Vec3::ZERO)
+                                };
+                                (i, (first + 3 * k) as u32, [p(t[0]), p(t[1]), p(t[2])])
+                            })
                     })
             })
+    }
+
+    /// [`Scene::occluders`] less the backed windows' uncut walls: what casts shadows.
+    fn casting(&self) -> impl Iterator<Item = (usize, u32, [glam::Vec3; 3])> + Clone + '_ {
+        self.occluders()
+            .filter(|(mesh, tri, _)| self.cpu[*mesh].backing.binary_search(tri).is_err())
+    }
+
+    /// Per window (TOC order), whether its glass sits on an uncut wall, which then casts no
+    /// shadow ([`occlusion::Backings`]); all false before the geometry is in.
+    pub fn backed_windows(&self) -> Vec<bool> {
+        (0..self.toc.windows.len())
+            .map(|i| self.backings.backed(i))
+            .collect()
+    }
+
+    /// Whether opaque geometry reaches beyond a window's plane, where the lit pass asks the
+    /// sun's direct map; false before the geometry is in.
+    pub fn beyond_windows(&self) -> bool {
+        self.beyond_windows
+    }
+
+    /// How far behind window `i`'s glass its uncut wall lies, if it sits on one.
+    pub(crate) fn backing_wall(&self, i: usize) -> Option<f64> {
+        self.backings.wall(i)
     }
 
     /// Per window (in TOC order), whether its light needs a shadow map and why; decided from
@@ -787,6 +905,31 @@ impl Scene {
     /// Changes whenever shadow maps drawn earlier may be stale (geometry or light changed).
     pub(crate) fn shadow_generation(&self) -> u64 {
         self.shadow_generation
+    }
+
+    /// Records the shadow casters of every mesh ([`Scene::casting`]), or with `uncut_walls`
+    /// all the opaque triangles, with `pipeline`, one draw a mesh; nothing before all geometry
+    /// is in.
+    pub(crate) fn draw_casters(
+        &self,
+        pass: &mut wgpu::RenderPass<'_>,
+        pipeline: &wgpu::RenderPipeline,
+        uncut_walls: bool,
+    ) {
+        pass.set_pipeline(pipeline);
+        for m in &self.meshes {
+            let indices = if uncut_walls {
+                m.opaque.as_ref().or(m.casters.as_ref())
+            } else {
+                m.casters.as_ref()
+            };
+            let (Some(vb), Some((ib, count))) = (&m.vertices, indices) else {
+                continue;
+            };
+            pass.set_vertex_buffer(0, vb.slice(..));
+            pass.set_index_buffer(ib.slice(..), wgpu::IndexFormat::Uint32);
+            pass.draw_indexed(0..*count, 0, 0..1);
+        }
     }
 
     /// Records every loaded draw range with the caller's pipeline: `bind` runs before each

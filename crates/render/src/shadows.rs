@@ -31,6 +31,9 @@ pub struct MapLayer {
     pub view_proj: Mat4,
     /// World origin of the layer's local frame (vertices are made relative to it first).
     pub origin: DVec3,
+    /// Whether the backed windows' uncut walls are drawn too ([`crate::occlusion::Backings`]):
+    /// they stop the direct sun ([`ShadowLayout::direct`]), not the light through the glass.
+    pub uncut_walls: bool,
 }
 
 /// How one window's light looks its shadow up.
@@ -86,6 +89,12 @@ impl WindowMap {
 pub struct ShadowLayout {
     pub layers: Vec<MapLayer>,
     pub windows: Vec<Option<WindowMap>>,
+    /// The sun's map over all the opaque geometry: whether a point on the outer side of a
+    /// window's plane sees the sun directly. A window's plane runs on through the building
+    /// (the nave beyond a transept's window, the chapels beside an aisle's), so the outer
+    /// side of it is not the outside; without this map such floors were lit by the full sun
+    /// under their roof. `None` for a lamp, whose light stays unblocked there.
+    pub direct: Option<WindowMap>,
 }
 
 /// Bounds of the opaque geometry.
@@ -113,21 +122,37 @@ fn corners((lo, hi): (DVec3, DVec3)) -> [DVec3; 8] {
 
 /// Lays out the maps for `light` over `windows`, given which need one and the bounds of the
 /// opaque geometry. `size` is a layer's width in texels.
+/// `beyond`: whether opaque geometry reaches beyond a window's plane, so the sun's direct map
+/// is needed ([`crate::occlusion::beyond_windows`]).
 pub fn layout(
     windows: &[pack::Window],
     decisions: &[WindowShadow],
     light: &pack::Light,
     geometry: Option<(DVec3, DVec3)>,
+    beyond: bool,
     size: u32,
 ) -> ShadowLayout {
     let mut out = ShadowLayout {
         layers: Vec::new(),
         windows: vec![None; windows.len()],
+        direct: None,
     };
     let Some(bounds) = geometry else {
         return out;
     };
     let geometry = LightGeometry::from_light(light);
+    if let (
+        pack::LightKind::Directional { angular_size, .. },
+        LightGeometry::Directional { towards },
+    ) = (&light.kind, geometry)
+        && !windows.is_empty()
+        && beyond
+    {
+        let sun = Sun::new(towards, *angular_size);
+        let all = corners(bounds);
+        let centre = (bounds.0 + bounds.1) * 0.5;
+        out.direct = Some(sun.map(&mut out.layers, centre, &all, bounds, size, true));
+    }
     let needed: Vec<usize> = (0..windows.len())
         .filter(|&i| decisions.get(i).is_some_and(WindowShadow::needs_map))
         .filter(|&i| window_projector(&windows[i], &geometry).is_some())
@@ -135,16 +160,11 @@ pub fn layout(
     if needed.is_empty() {
         return out;
     }
-    let size = size.max(1) as f64;
     match (&light.kind, geometry) {
         (
             pack::LightKind::Directional { angular_size, .. },
             LightGeometry::Directional { towards },
         ) => {
-            let t = (-towards).as_dvec3().normalize();
-            let hint = if t.y.abs() < 0.99 { DVec3::Y } else { DVec3::X };
-            let right = t.cross(hint).normalize();
-            let up = right.cross(t);
             let rect = |w: &pack::Window| {
                 let o = Vec3::from(w.origin).as_dvec3();
                 let (u, v) = (
@@ -153,67 +173,16 @@ pub fn layout(
                 );
                 [o, o + u, o + v, o + u + v]
             };
-            let origin = needed
-                .iter()
-                .map(|&i| rect(&windows[i]).iter().sum::<DVec3>() / 4.0)
-                .sum::<DVec3>()
-                / needed.len() as f64;
-            let (mut x0, mut x1, mut y0, mut y1) = (
-                f64::INFINITY,
-                f64::NEG_INFINITY,
-                f64::INFINITY,
-                f64::NEG_INFINITY,
-            );
-            for &i in &needed {
-                for p in rect(&windows[i]) {
-                    let d = p - origin;
-                    x0 = x0.min(d.dot(right));
-                    x1 = x1.max(d.dot(right));
-                    y0 = y0.min(d.dot(up));
-                    y1 = y1.max(d.dot(up));
-                }
-            }
-            let extent = (x1 - x0).max(y1 - y0).max(1e-6) * (1.0 + 2.0 * SUN_MARGIN);
-            let (cx, cy) = ((x0 + x1) * 0.5, (y0 + y1) * 0.5);
-            let (mut near, mut far) = (f64::INFINITY, f64::NEG_INFINITY);
-            for p in corners(bounds) {
-                let l = (p - origin).dot(t);
-                near = near.min(l);
-                far = far.max(l);
-            }
-            let pad = (far - near).max(1e-3) * 0.01;
-            let (near, far) = (near - pad, far + pad);
-            // Rows of the lookup: u = (x − x0)/E, v = (y1 − y)/E, z = (ℓ − near)/(far − near).
-            let (xa, ya) = (cx - extent * 0.5, cy + extent * 0.5);
-            let row_u = (right / extent).extend(-xa / extent);
-            let row_v = (-up / extent).extend(ya / extent);
-            let row_z = (t / (far - near)).extend(-near / (far - near));
-            let lookup = DMat4::from_cols(row_u, row_v, row_z, DVec4::W).transpose();
-            // Clip: x = 2u − 1, y = 1 − 2v, z as is.
-            let to_clip = DMat4::from_cols(
-                DVec4::new(2.0, 0.0, 0.0, 0.0),
-                DVec4::new(0.0, -2.0, 0.0, 0.0),
-                DVec4::new(0.0, 0.0, 1.0, 0.0),
-                DVec4::new(-1.0, 1.0, 0.0, 1.0),
-            );
-            out.layers.push(MapLayer {
-                view_proj: (to_clip * lookup).as_mat4(),
+            let points: Vec<DVec3> = needed.iter().flat_map(|&i| rect(&windows[i])).collect();
+            let origin = points.iter().sum::<DVec3>() / points.len() as f64;
+            let map = Sun::new(towards, *angular_size).map(
+                &mut out.layers,
                 origin,
-            });
-            let texel = (extent / size) as f32;
-            let map = WindowMap {
-                layer: 0,
-                lookup,
-                origin,
-                x_dir: right.as_vec3(),
-                y_dir: (-up).as_vec3(),
-                texel: [texel; 2],
-                near: near as f32,
-                far: far as f32,
-                lamp_distance: 0.0,
-                depth_dir: t.as_vec3(),
-                light_size: angular_size.max(0.0),
-            };
+                &points,
+                bounds,
+                size,
+                false,
+            );
             for &i in &needed {
                 out.windows[i] = Some(map);
             }
@@ -252,16 +221,11 @@ pub fn layout(
                 let row_v = rv * k + rw * m;
                 let row_z = rw * (far / (far - near)) - DVec4::W * (far * near / (far - near));
                 let lookup = DMat4::from_cols(row_u, row_v, row_z, rw).transpose();
-                let to_clip = DMat4::from_cols(
-                    DVec4::new(2.0, 0.0, 0.0, 0.0),
-                    DVec4::new(0.0, -2.0, 0.0, 0.0),
-                    DVec4::new(0.0, 0.0, 1.0, 0.0),
-                    DVec4::new(-1.0, 1.0, 0.0, 1.0),
-                );
                 let layer = out.layers.len() as u32;
                 out.layers.push(MapLayer {
-                    view_proj: (to_clip * lookup).as_mat4(),
+                    view_proj: (LOOKUP_TO_CLIP * lookup).as_mat4(),
                     origin,
+                    uncut_walls: false,
                 });
                 let (u, v) = (Vec3::from(w.u_axis), Vec3::from(w.v_axis));
                 out.windows[i] = Some(WindowMap {
@@ -271,8 +235,8 @@ pub fn layout(
                     x_dir: u.normalize_or_zero(),
                     y_dir: v.normalize_or_zero(),
                     texel: [
-                        (u.length() as f64 / (k * size)) as f32,
-                        (v.length() as f64 / (k * size)) as f32,
+                        (u.length() as f64 / (k * size.max(1) as f64)) as f32,
+                        (v.length() as f64 / (k * size.max(1) as f64)) as f32,
                     ],
                     near: near as f32,
                     far: far as f32,
@@ -285,6 +249,104 @@ pub fn layout(
         _ => {}
     }
     out
+}
+
+/// Clip x = 2u − 1, y = 1 − 2v, z as is, from a lookup's (u, v, z, w).
+const LOOKUP_TO_CLIP: DMat4 = DMat4::from_cols(
+    DVec4::new(2.0, 0.0, 0.0, 0.0),
+    DVec4::new(0.0, -2.0, 0.0, 0.0),
+    DVec4::new(0.0, 0.0, 1.0, 0.0),
+    DVec4::new(-1.0, 1.0, 0.0, 1.0),
+);
+
+/// The sun's frame: its travel direction and two axes across it.
+struct Sun {
+    travel: DVec3,
+    right: DVec3,
+    up: DVec3,
+    angular_size: f32,
+}
+
+impl Sun {
+    fn new(towards: Vec3, angular_size: f32) -> Self {
+        let travel = (-towards).as_dvec3().normalize();
+        let hint = if travel.y.abs() < 0.99 {
+            DVec3::Y
+        } else {
+            DVec3::X
+        };
+        let right = travel.cross(hint).normalize();
+        let up = right.cross(travel);
+        Self {
+            travel,
+            right,
+            up,
+            angular_size,
+        }
+    }
+
+    /// An orthographic map, square across the light, covering `points` (seen along the
+    /// light) over the depth range of `bounds`; pushed onto `layers`.
+    fn map(
+        &self,
+        layers: &mut Vec<MapLayer>,
+        origin: DVec3,
+        points: &[DVec3],
+        bounds: (DVec3, DVec3),
+        size: u32,
+        uncut_walls: bool,
+    ) -> WindowMap {
+        let (right, up, t) = (self.right, self.up, self.travel);
+        let (mut x0, mut x1, mut y0, mut y1) = (
+            f64::INFINITY,
+            f64::NEG_INFINITY,
+            f64::INFINITY,
+            f64::NEG_INFINITY,
+        );
+        for p in points {
+            let d = *p - origin;
+            x0 = x0.min(d.dot(right));
+            x1 = x1.max(d.dot(right));
+            y0 = y0.min(d.dot(up));
+            y1 = y1.max(d.dot(up));
+        }
+        let extent = (x1 - x0).max(y1 - y0).max(1e-6) * (1.0 + 2.0 * SUN_MARGIN);
+        let (cx, cy) = ((x0 + x1) * 0.5, (y0 + y1) * 0.5);
+        let (mut near, mut far) = (f64::INFINITY, f64::NEG_INFINITY);
+        for p in corners(bounds) {
+            let l = (p - origin).dot(t);
+            near = near.min(l);
+            far = far.max(l);
+        }
+        let pad = (far - near).max(1e-3) * 0.01;
+        let (near, far) = (near - pad, far + pad);
+        // Rows of the lookup: u = (x − x0)/E, v = (y1 − y)/E, z = (ℓ − near)/(far − near).
+        let (xa, ya) = (cx - extent * 0.5, cy + extent * 0.5);
+        let row_u = (right / extent).extend(-xa / extent);
+        let row_v = (-up / extent).extend(ya / extent);
+        let row_z = (t / (far - near)).extend(-near / (far - near));
+        let lookup = DMat4::from_cols(row_u, row_v, row_z, DVec4::W).transpose();
+        let layer = layers.len() as u32;
+        layers.push(MapLayer {
+            view_proj: (LOOKUP_TO_CLIP * lookup).as_mat4(),
+            origin,
+            uncut_walls,
+        });
+        let texel = (extent / size.max(1) as f64) as f32;
+        WindowMap {
+            layer,
+            lookup,
+            origin,
+            x_dir: right.as_vec3(),
+            y_dir: (-up).as_vec3(),
+            texel: [texel; 2],
+            near: near as f32,
+            far: far as f32,
+            lamp_distance: 0.0,
+            depth_dir: t.as_vec3(),
+            light_size: self.angular_size.max(0.0),
+        }
+    }
 }
 
 #[cfg(test)]
@@ -327,7 +389,7 @@ mod tests {
             radius: 0.1,
         });
         for l in [sun, lamp] {
-            let layout = layout(&[window()], &occluded, &l, Some(BOUNDS), 1024);
+            let layout = layout(&[window()], &occluded, &l, Some(BOUNDS), false, 1024);
             assert_eq!(layout.layers.len(), 1);
             let map = layout.windows[0].expect("a map");
             let on = DVec3::new(0.3, 2.2, 0.0);
@@ -377,7 +439,58 @@ mod tests {
             direction: [0.2, -0.6, 1.0],
             angular_size: 0.01,
         });
-        let layout = layout(&[window()], &[WindowShadow::Clear], &sun, Some(BOUNDS), 64);
+        let layout = layout(
+            &[window()],
+            &[WindowShadow::Clear],
+            &sun,
+            Some(BOUNDS),
+            false,
+            64,
+        );
         assert!(layout.layers.is_empty() && layout.windows == vec![None]);
+    }
+
+    /// With geometry beyond a window's plane the sun gets a map over all of it, drawn with the
+    /// uncut walls, besides the windows' own; a lamp gets none.
+    #[test]
+    fn the_suns_direct_map_covers_all_the_geometry() {
+        let sun = light(pack::LightKind::Directional {
+            direction: [0.2, -0.6, 1.0],
+            angular_size: 0.01,
+        });
+        let occluded = [WindowShadow::Occluded(Blocker::Inside)];
+        let layout = layout(&[window()], &occluded, &sun, Some(BOUNDS), true, 1024);
+        assert_eq!(layout.layers.len(), 2);
+        let direct = layout.direct.expect("a direct map");
+        let own = layout.windows[0].expect("the window's map");
+        assert_ne!(direct.layer, own.layer);
+        assert!(layout.layers[direct.layer as usize].uncut_walls);
+        assert!(!layout.layers[own.layer as usize].uncut_walls);
+        for c in corners(BOUNDS) {
+            let p = direct.project(c).unwrap();
+            for v in [p.x, p.y, p.z] {
+                assert!((0.0..=1.0).contains(&v), "{c} lands at {p}");
+            }
+        }
+        // Without windows needing maps, the direct map alone.
+        let alone = layout_clear(&sun);
+        assert_eq!((alone.layers.len(), alone.windows[0]), (1, None));
+        assert!(alone.direct.is_some());
+        let lamp = light(pack::LightKind::Point {
+            position: [0.5, 5.0, -4.0],
+            radius: 0.1,
+        });
+        assert!(layout_clear(&lamp).direct.is_none());
+    }
+
+    fn layout_clear(l: &pack::Light) -> ShadowLayout {
+        layout(
+            &[window()],
+            &[WindowShadow::Clear],
+            l,
+            Some(BOUNDS),
+            true,
+            64,
+        )
     }
 }

@@ -490,12 +490,18 @@ fn print_window_shadows(scene: &Scene) {
         "shadow maps: {maps} of {} windows' light can be blocked",
         decisions.len()
     );
+    let backed = scene.backed_windows();
     for (i, (w, d)) in toc.windows.iter().zip(decisions).enumerate() {
         let name = toc
             .materials
             .get(w.material as usize)
             .map_or("?", |m| m.name.as_str());
-        println!("  window {i} ({name}): {}", d.describe());
+        let wall = if backed.get(i).copied().unwrap_or(false) {
+            " (its glass sits on a wall not cut open behind it: that wall is taken as open)"
+        } else {
+            ""
+        };
+        println!("  window {i} ({name}): {}{wall}", d.describe());
     }
 }
 

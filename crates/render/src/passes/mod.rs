@@ -13,6 +13,7 @@ mod shadow;
 pub use composite::{CompositeInputs, CompositePass};
 pub use geometry::GeometryPass;
 pub use god_rays::GodRayPass;
+pub(crate) use shadow::casts_shadow;
 pub use shadow::{SHADOW_VIEW_SIZE, ShadowPass};
 
 use crate::shaders;

@@ -20,6 +20,8 @@ pub(crate) struct Maps {
     /// All layers, for the lit pass.
     pub view: wgpu::TextureView,
     layers: Vec<(wgpu::TextureView, wgpu::Buffer, wgpu::BindGroup)>,
+    /// Per layer, whether it draws the backed windows' uncut walls too.
+    uncut_walls: Vec<bool>,
     pub size: u32,
     /// Bumped when the texture is recreated, so bind groups holding it are rebuilt.
     pub version: u64,
@@ -44,7 +46,7 @@ pub(crate) fn casts_shadow(class: MaterialClass) -> bool {
 }
 
 impl ShadowPass {
-    pub(crate) fn new(device: &wgpu::Device, material: &wgpu::BindGroupLayout) -> Self {
+    pub(crate) fn new(device: &wgpu::Device) -> Self {
         let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: Some("shadow pass"),
             entries: &[uniform_entry(
@@ -53,10 +55,9 @@ impl ShadowPass {
             )],
         });
         let module = shaders::module(device, "shadow.wgsl");
-        // The material group is bound by `Scene::draw` for every range; the shader ignores it.
         let pl = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
             label: Some("shadow pass"),
-            bind_group_layouts: &[Some(&layout), Some(material)],
+            bind_group_layouts: &[Some(&layout)],
             immediate_size: 0,
         });
         let pipeline = device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
@@ -164,11 +165,13 @@ impl ShadowPass {
             self.maps = Some(Maps {
                 view,
                 layers: per_layer,
+                uncut_walls: Vec::new(),
                 size,
                 version: self.versions,
             });
         }
-        let maps = self.maps.as_ref().expect("created above");
+        let maps = self.maps.as_mut().expect("created above");
+        maps.uncut_walls = layout.layers.iter().map(|l| l.uncut_walls).collect();
         for (layer, (_, buffer, _)) in layout.layers.iter().zip(&maps.layers) {
             let u = uniforms::ShadowPass {
                 view_proj: layer.view_proj.to_cols_array_2d(),
@@ -234,7 +237,8 @@ impl ShadowPass {
                 multiview_mask: None,
             });
             rp.set_bind_group(0, group, &[]);
-            scene.draw(&mut rp, |c| casts_shadow(c).then_some(&self.pipeline));
+            let uncut_walls = maps.uncut_walls.get(i).copied().unwrap_or(false);
+            scene.draw_casters(&mut rp, &self.pipeline, uncut_walls);
         }
     }
 
