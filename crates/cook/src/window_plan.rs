@@ -244,6 +244,12 @@ pub fn plan(
         }
     }
 
+    // Designs rasterized from the mesh are sized in texels per metre; the model's unit comes
+    // from its windows' sizes.
+    let unit = design::unit_from_windows(found.iter().map(|i| i.width().max(i.height())));
+    let default_texels =
+        crate::manifest::DEFAULT_TEXELS_PER_METRE * unit.map_or(1.0, |u| u.0) as f32;
+    let mut unit_used = false;
     let mut out = Windows::default();
     let mut pending: Vec<Pending> = Vec::new();
     for inst in &found {
@@ -319,6 +325,13 @@ pub fn plan(
         if let Some((ImageRef::File(p), _)) = &image {
             report.inputs.push(p.clone());
         }
+        let texels = match entry.and_then(|e| e.texels_per_metre) {
+            Some(t) => t,
+            None => {
+                unit_used |= image.is_none();
+                default_texels
+            }
+        };
         pending.push(Pending {
             material,
             name: inst.name.clone(),
@@ -328,13 +341,7 @@ pub fn plan(
             planar,
             fit: entry.map_or(Fit::Cover, |e| e.fit),
             aspect: inst.width() / inst.height().max(1e-12),
-            size: design::design_size(
-                inst.width(),
-                inst.height(),
-                entry.map_or(crate::manifest::DEFAULT_TEXELS_PER_METRE, |e| {
-                    e.texels_per_metre
-                }),
-            ),
+            size: design::design_size(inst.width(), inst.height(), texels),
             came_width: entry.map_or(crate::manifest::DEFAULT_CAME_WIDTH, |e| e.came_width),
         });
         let src_names: Vec<String> = {
@@ -395,6 +402,23 @@ pub fn plan(
                 ),
             ));
         }
+    }
+    if let (true, Some((_, name))) = (unit_used, unit) {
+        let mut sides: Vec<f64> = found.iter().map(|i| i.width().max(i.height())).collect();
+        sides.sort_by(f64::total_cmp);
+        report.notes.push(Warning::new(
+            &manifest.path,
+            None,
+            format!(
+                "the windows are {}–{} units long (median {}): taken as {name}, so designs \
+                 drawn from the mesh get {default_texels} texels per unit ({} per metre); set \
+                 texels_per_metre on a [[window]] to choose",
+                round3(sides[0]),
+                round3(sides[sides.len() - 1]),
+                round3(sides[sides.len() / 2]),
+                crate::manifest::DEFAULT_TEXELS_PER_METRE,
+            ),
+        ));
     }
     // Windows rasterized from the very same inputs (repeated lancets) are made once.
     let mut first_of: std::collections::HashMap<Vec<u32>, usize> = Default::default();
@@ -573,6 +597,11 @@ fn make_design(p: &Pending, images: &crate::textures::DecodedImages) -> Result<D
 }
 
 /// The inside normal of a window material, if the window stage planned it.
+/// Rounded to 3 decimals, for messages (250 rather than 250.0000).
+fn round3(x: f64) -> f64 {
+    (x * 1000.0).round() / 1000.0
+}
+
 pub fn inside_of(tagging: &Tagging, material: u16) -> Option<DVec3> {
     let w = tagging.materials.get(material as usize)?.window.as_ref()?;
     Some(DVec3::new(

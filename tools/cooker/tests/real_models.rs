@@ -463,6 +463,86 @@ fn bare_sibenik_cook_finds_the_mtl_beside_the_obj_and_tags_croatian_names() {
     assert!(note("glass").contains("\"glass\""), "{}", note("glass"));
 }
 
+/// `sibenik.obj`'s positions times `scale`, written as `name` beside it (with its MTL).
+fn rescaled(obj: &Path, scale: f32, name: &str) -> PathBuf {
+    let text = std::fs::read_to_string(obj).unwrap();
+    let out: String = text
+        .lines()
+        .map(|l| match l.strip_prefix("v ") {
+            Some(rest) => {
+                let p: Vec<f32> = rest
+                    .split_whitespace()
+                    .map(|t| t.parse().unwrap())
+                    .collect();
+                format!("v {} {} {}\n", p[0] * scale, p[1] * scale, p[2] * scale)
+            }
+            None => format!("{l}\n"),
+        })
+        .collect();
+    let path = obj.with_file_name(name);
+    std::fs::write(&path, out).unwrap();
+    std::fs::copy(obj.with_extension("mtl"), path.with_extension("mtl")).unwrap();
+    path
+}
+
+/// The same cathedral exported in centimetres (3ds Max) or millimetres (Revit) gets the
+/// same designs as in metres: at 128 texels per *unit* every design hit the 1024-texel cap,
+/// and the centimetre cook took 5.6x as long for a 4.9x larger pack. The cook says which unit
+/// it took; `texels_per_metre` in a manifest still decides.
+#[test]
+fn a_model_in_centimetres_or_millimetres_gets_the_designs_it_would_in_metres() {
+    let dir = tempfile::tempdir().unwrap();
+    let obj = sibenik(dir.path());
+    let sizes = |pack: &Path| -> Vec<(String, u64, u64)> {
+        info(pack)["textures"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|t| {
+                (
+                    t["name"].as_str().unwrap().to_string(),
+                    t["width"].as_u64().unwrap(),
+                    t["height"].as_u64().unwrap(),
+                )
+            })
+            .collect()
+    };
+    let metres = dir.path().join("m.pack");
+    let said = cook(&obj, &metres, &[]);
+    assert!(!said.contains("taken as"), "{said}");
+    let expected = sizes(&metres);
+    assert!(
+        expected
+            .iter()
+            .any(|(n, w, h)| n == "glass.design" && (*w, *h) == (51, 320)),
+        "{expected:?}"
+    );
+    for (scale, unit) in [(100.0, "centimetres"), (1000.0, "millimetres")] {
+        let scaled = rescaled(&obj, scale, &format!("sibenik_{unit}.obj"));
+        let pack = dir.path().join(format!("{unit}.pack"));
+        let said = cook(&scaled, &pack, &[]);
+        assert!(said.contains(&format!("taken as {unit}")), "{said}");
+        assert_eq!(sizes(&pack), expected, "{unit}");
+    }
+    // An explicit resolution is per scene unit, as given.
+    let scaled = dir.path().join("sibenik_centimetres.obj");
+    let manifest = dir.path().join("cm.toml");
+    std::fs::write(
+        &manifest,
+        "[[mesh]]\nsource = \"sibenik_centimetres.obj\"\n\n\
+         [[window]]\nmaterial = \"glass\"\ntexels_per_metre = 2.56\n",
+    )
+    .unwrap();
+    let pack = dir.path().join("cm-explicit.pack");
+    let said = cook(&manifest, &pack, &[]);
+    assert!(scaled.exists());
+    let lancet = sizes(&pack)
+        .into_iter()
+        .find(|(n, _, _)| n == "glass.design")
+        .unwrap();
+    assert_eq!((lancet.1, lancet.2), (102, 640), "{said}");
+}
+
 #[test]
 fn manifest_cook_rasterizes_the_rose_from_its_tf_colours_with_lead_and_a_projector() {
     let dir = tempfile::tempdir().unwrap();
@@ -1059,7 +1139,7 @@ fn the_manifest_documentation_matches_the_code() {
     assert_eq!(w.inside, Some([1.0, 0.0, 0.0]));
     // The example shows the defaults.
     assert_eq!(w.came_width, cook::manifest::DEFAULT_CAME_WIDTH);
-    assert_eq!(w.texels_per_metre, cook::manifest::DEFAULT_TEXELS_PER_METRE);
+    assert_eq!(w.texels_per_metre, None);
     assert!(w.matches("lancet_3", std::iter::empty()));
     assert!(w.matches("rose", ["lead", "glass"].into_iter()));
     assert!(!w.matches("rose", ["staklo"].into_iter()));

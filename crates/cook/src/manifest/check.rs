@@ -7,8 +7,8 @@ use toml::Spanned;
 
 use super::model;
 use super::{
-    Background, DEFAULT_CAME_WIDTH, DEFAULT_TEXELS_PER_METRE, Fit, Light, Line, Manifest,
-    MeshSource, NameKind, Rule, SceneInfo, Textures, UvMode, WINDOW_BY_SILL, WindowDesign,
+    Background, DEFAULT_CAME_WIDTH, Fit, Light, Line, Manifest, MeshSource, NameKind, Rule,
+    SceneInfo, Textures, UvMode, WINDOW_BY_SILL, WindowDesign,
 };
 use crate::CookError;
 
@@ -377,11 +377,11 @@ fn windows(
                 v => v.as_ref().map(|v| *v.get_ref()),
             },
             came_width: fraction(&w.came_width, "came_width", DEFAULT_CAME_WIDTH)?,
-            texels_per_metre: src.positive_or(
-                &w.texels_per_metre,
-                "texels_per_metre",
-                DEFAULT_TEXELS_PER_METRE,
-            )?,
+            texels_per_metre: w
+                .texels_per_metre
+                .as_ref()
+                .map(|v| src.positive(v, "texels_per_metre"))
+                .transpose()?,
             colour_space: match &w.colour_space {
                 Some(c) => src.named(
                     c,

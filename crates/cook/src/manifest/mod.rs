@@ -232,9 +232,18 @@ pub struct WindowDesign {
     pub inside: Option<[f32; 3]>,
     /// Lead came width, a fraction of the shorter side (designs from the mesh).
     pub came_width: f32,
-    /// Resolution of a design rasterized from the mesh.
-    pub texels_per_metre: f32,
+    /// Resolution of a design rasterized from the mesh, in texels per scene unit as given;
+    /// `None`: [`DEFAULT_TEXELS_PER_METRE`] per metre, the model's unit told from its windows'
+    /// sizes ([`crate::design::unit_from_windows`]).
+    #[serde(serialize_with = "texels_or_default")]
+    pub texels_per_metre: Option<f32>,
     pub line: Line,
+}
+
+/// `texels_per_metre` as the f32 the cache keys held before it was optional (the default when
+/// unset), so keys of cooks that do not set it are unchanged.
+fn texels_or_default<S: serde::Serializer>(v: &Option<f32>, s: S) -> Result<S::Ok, S::Error> {
+    s.serialize_f32(v.unwrap_or(DEFAULT_TEXELS_PER_METRE))
 }
 
 /// A path as its bytes: serde's own form of a path fails on one that is not UTF-8.
@@ -269,7 +278,7 @@ impl WindowDesign {
             fit: Fit::Cover,
             inside: None,
             came_width: DEFAULT_CAME_WIDTH,
-            texels_per_metre: DEFAULT_TEXELS_PER_METRE,
+            texels_per_metre: None,
             line: Line(0),
         }
     }
