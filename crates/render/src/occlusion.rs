@@ -80,10 +80,13 @@ const EPS: f64 = 1e-6;
 pub fn analyse(
     windows: &[pack::Window],
     light: Option<&LightGeometry>,
-    triangles: impl Iterator<Item = [glam::Vec3; 3]> + Clone,
+    triangles: impl Iterator<Item = [glam::Vec3; 3]> + Clone + Send + Sync,
 ) -> Vec<WindowShadow> {
+    use rayon::prelude::*;
+    // One window a thread: the default scene's 13 took 8–12 ms one after another, on the
+    // way to the first frame.
     windows
-        .iter()
+        .par_iter()
         .map(|w| match light {
             Some(l) => window_shadow(w, l, triangles.clone()),
             None => WindowShadow::NoLight,
