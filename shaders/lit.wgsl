@@ -141,23 +141,32 @@ fn shadow_visibility(w: WindowProjector, p: vec3<f32>, n: vec3<f32>, frag: vec2<
     return lit / f32(FILTER_TAPS);
 }
 
-// How much of the sun reaches `p` directly (0 to 1), in its map over all the opaque geometry
+// How much of the light reaches `p` directly (0 to 1), in its map over all the opaque geometry
 // (`windows.direct`): one comparison, filtered over 2 x 2 texels by the sampler, from a point
 // lifted off the surface along its normal `n` (facing the light) by a texel and a half, against
 // its own depth less a quarter texel. The slope-scaled bias of `shadow_visibility` lit the
 // floor along the foot of every wall beyond a window's plane (the wall's depth there is
 // within the bias of the floor's); comparing with the receiving plane instead darkened the
-// floor along the sunlit foot of a wall. The sun's own penumbra is left out: such points are a
-// small part of a view from inside.
+// floor along the sunlit foot of a wall. The light's own penumbra is left out: such points are
+// a small part of a view from inside.
 fn direct_visibility(p: vec3<f32>, n: vec3<f32>) -> f32 {
     let w = windows.direct;
     if (frame.shadow.w < 0.5) {
         return 1.0;
     }
-    let texel = min(w.shadow_x.w, w.shadow_y.w);
+    // A texel's world size at `p`, and ℓ per world unit along the light (as in
+    // `shadow_visibility`: a lamp's texels grow with ℓ, and its ℓ is a ratio of distances).
+    var texel = min(w.shadow_x.w, w.shadow_y.w);
+    var k = 1.0;
+    if (w.shadow_depth.z > 0.0) {
+        let c0 = w.shadow * vec4<f32>(p, 1.0);
+        texel = texel * shadow_linear(w, clamp(c0.z / c0.w, 0.0, 1.0));
+        let t = safe_normalize(p - frame.light_pos.xyz, w.shadow_dir.xyz);
+        k = dot(w.shadow_dir.xyz, t) / w.shadow_depth.z;
+    }
     let c = w.shadow * vec4<f32>(p + n * (1.5 * texel), 1.0);
     let m = c.xyz / c.w;
-    let l = shadow_linear(w, clamp(m.z, 0.0, 1.0)) - 0.25 * texel;
+    let l = shadow_linear(w, clamp(m.z, 0.0, 1.0)) - 0.25 * texel * k;
     return textureSampleCompareLevel(shadow_maps, shadow_cmp, m.xy, i32(w.params.z), shadow_stored(w, l));
 }
 

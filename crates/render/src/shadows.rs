@@ -93,7 +93,9 @@ pub struct ShadowLayout {
     /// window's plane sees the sun directly. A window's plane runs on through the building
     /// (the nave beyond a transept's window, the chapels beside an aisle's), so the outer
     /// side of it is not the outside; without this map such floors were lit by the full sun
-    /// under their roof. `None` for a lamp, whose light stays unblocked there.
+    /// under their roof. For a lamp, a perspective map through a frame facing it
+    /// ([`lamp_frame`]); `None` where none fits (the lamp among the geometry), and its light
+    /// stays unblocked there.
     pub direct: Option<WindowMap>,
 }
 
@@ -153,6 +155,23 @@ pub fn layout(
         let centre = (bounds.0 + bounds.1) * 0.5;
         out.direct = Some(sun.map(&mut out.layers, centre, &all, bounds, size, true));
     }
+    if let (pack::LightKind::Point { radius, .. }, LightGeometry::Point { position, .. }) =
+        (&light.kind, geometry)
+        && !windows.is_empty()
+        && beyond
+    {
+        out.direct = lamp_frame(position, bounds).and_then(|frame| {
+            lamp_map(
+                &mut out.layers,
+                &frame,
+                position,
+                *radius,
+                bounds,
+                size,
+                true,
+            )
+        });
+    }
     let needed: Vec<usize> = (0..windows.len())
         .filter(|&i| decisions.get(i).is_some_and(WindowShadow::needs_map))
         .filter(|&i| window_projector(&windows[i], &geometry).is_some())
@@ -189,66 +208,136 @@ pub fn layout(
         }
         (pack::LightKind::Point { radius, .. }, LightGeometry::Point { position, .. }) => {
             for &i in &needed {
-                let w = &windows[i];
-                let origin = Vec3::from(w.origin).as_dvec3();
-                let local = window_relative_to(w, origin.as_vec3());
-                let lamp = LightGeometry::Point {
-                    position: (position.as_dvec3() - origin).as_vec3(),
-                    radius: *radius,
-                };
-                let Some(p) = window_projector(&local, &lamp) else {
-                    continue;
-                };
-                let p = p.as_dmat4();
-                let n = Vec3::from(w.normal).as_dvec3().normalize();
-                let a = (origin - position.as_dvec3()).dot(n);
-                let w_of = |q: DVec3| (q - position.as_dvec3()).dot(n) / a;
-                let (mut near, mut far) = (f64::INFINITY, f64::NEG_INFINITY);
-                for q in corners(bounds) {
-                    near = near.min(w_of(q));
-                    far = far.max(w_of(q));
-                }
-                // Nothing closer to the lamp than this fraction of the way to the window is
-                // drawn: depth precision would suffer, and such a blocker would be the lamp's
-                // own fitting.
-                let near = near.max(0.05);
-                let far = far.max(1.0) * 1.01;
-                let k = 1.0 / (1.0 + 2.0 * LAMP_MARGIN);
-                let m = LAMP_MARGIN * k;
-                // (u'·w, v'·w) with u' = (u + margin)·k; depth z·w = f(w − n)/(f − n).
-                let (ru, rv, rw) = (p.row(0), p.row(1), p.row(3));
-                let row_u = ru * k + rw * m;
-                let row_v = rv * k + rw * m;
-                let row_z = rw * (far / (far - near)) - DVec4::W * (far * near / (far - near));
-                let lookup = DMat4::from_cols(row_u, row_v, row_z, rw).transpose();
-                let layer = out.layers.len() as u32;
-                out.layers.push(MapLayer {
-                    view_proj: (LOOKUP_TO_CLIP * lookup).as_mat4(),
-                    origin,
-                    uncut_walls: false,
-                });
-                let (u, v) = (Vec3::from(w.u_axis), Vec3::from(w.v_axis));
-                out.windows[i] = Some(WindowMap {
-                    layer,
-                    lookup,
-                    origin,
-                    x_dir: u.normalize_or_zero(),
-                    y_dir: v.normalize_or_zero(),
-                    texel: [
-                        (u.length() as f64 / (k * size.max(1) as f64)) as f32,
-                        (v.length() as f64 / (k * size.max(1) as f64)) as f32,
-                    ],
-                    near: near as f32,
-                    far: far as f32,
-                    lamp_distance: a as f32,
-                    depth_dir: n.as_vec3(),
-                    light_size: 2.0 * radius.max(0.0),
-                });
+                out.windows[i] = lamp_map(
+                    &mut out.layers,
+                    &windows[i],
+                    position,
+                    *radius,
+                    bounds,
+                    size,
+                    false,
+                );
             }
         }
         _ => {}
     }
     out
+}
+
+/// A lamp's perspective map through window `w`'s rectangle (with a margin), from near the lamp
+/// to the farthest of `bounds`; pushed onto `layers`. `None` when the lamp does not face it.
+fn lamp_map(
+    layers: &mut Vec<MapLayer>,
+    w: &pack::Window,
+    position: Vec3,
+    radius: f32,
+    bounds: (DVec3, DVec3),
+    size: u32,
+    uncut_walls: bool,
+) -> Option<WindowMap> {
+    let origin = Vec3::from(w.origin).as_dvec3();
+    let local = window_relative_to(w, origin.as_vec3());
+    let lamp = LightGeometry::Point {
+        position: (position.as_dvec3() - origin).as_vec3(),
+        radius,
+    };
+    let p = window_projector(&local, &lamp)?.as_dmat4();
+    let n = Vec3::from(w.normal).as_dvec3().normalize();
+    let a = (origin - position.as_dvec3()).dot(n);
+    let w_of = |q: DVec3| (q - position.as_dvec3()).dot(n) / a;
+    let (mut near, mut far) = (f64::INFINITY, f64::NEG_INFINITY);
+    for q in corners(bounds) {
+        near = near.min(w_of(q));
+        far = far.max(w_of(q));
+    }
+    // Nothing closer to the lamp than this fraction of the way to the window is drawn: depth
+    // precision would suffer, and such a blocker would be the lamp's own fitting.
+    let near = near.max(0.05);
+    let far = far.max(1.0) * 1.01;
+    let k = 1.0 / (1.0 + 2.0 * LAMP_MARGIN);
+    let m = LAMP_MARGIN * k;
+    // (u'·w, v'·w) with u' = (u + margin)·k; depth z·w = f(w − n)/(f − n).
+    let (ru, rv, rw) = (p.row(0), p.row(1), p.row(3));
+    let row_u = ru * k + rw * m;
+    let row_v = rv * k + rw * m;
+    let row_z = rw * (far / (far - near)) - DVec4::W * (far * near / (far - near));
+    let lookup = DMat4::from_cols(row_u, row_v, row_z, rw).transpose();
+    let layer = layers.len() as u32;
+    layers.push(MapLayer {
+        view_proj: (LOOKUP_TO_CLIP * lookup).as_mat4(),
+        origin,
+        uncut_walls,
+    });
+    let (u, v) = (Vec3::from(w.u_axis), Vec3::from(w.v_axis));
+    Some(WindowMap {
+        layer,
+        lookup,
+        origin,
+        x_dir: u.normalize_or_zero(),
+        y_dir: v.normalize_or_zero(),
+        texel: [
+            (u.length() as f64 / (k * size.max(1) as f64)) as f32,
+            (v.length() as f64 / (k * size.max(1) as f64)) as f32,
+        ],
+        near: near as f32,
+        far: far as f32,
+        lamp_distance: a as f32,
+        depth_dir: n.as_vec3(),
+        light_size: 2.0 * radius.max(0.0),
+    })
+}
+
+/// A rectangle facing the lamp at `position`, as far from it as the nearest corner of `bounds`
+/// along the way to their centre, through which the lamp sees all of `bounds`: the frame of
+/// its map over all the geometry. `None` when no such frame is sensible: the lamp among the
+/// geometry, or the geometry wider than 160° seen from it.
+fn lamp_frame(position: Vec3, bounds: (DVec3, DVec3)) -> Option<pack::Window> {
+    let lamp = position.as_dvec3();
+    let inside = lamp.cmpge(bounds.0).all() && lamp.cmple(bounds.1).all();
+    let axis = ((bounds.0 + bounds.1) * 0.5 - lamp).normalize_or_zero();
+    if inside || axis == DVec3::ZERO {
+        return None;
+    }
+    let all = corners(bounds);
+    let along: Vec<f64> = all.iter().map(|c| (*c - lamp).dot(axis)).collect();
+    let a = along.iter().copied().fold(f64::INFINITY, f64::min);
+    let farthest = along.iter().copied().fold(0.0, f64::max);
+    if a.is_nan() || a <= 1e-6 * farthest {
+        return None;
+    }
+    let hint = if axis.y.abs() < 0.99 {
+        DVec3::Y
+    } else {
+        DVec3::X
+    };
+    let right = axis.cross(hint).normalize();
+    let up = right.cross(axis);
+    let (mut x0, mut x1, mut y0, mut y1) = (
+        f64::INFINITY,
+        f64::NEG_INFINITY,
+        f64::INFINITY,
+        f64::NEG_INFINITY,
+    );
+    for (c, l) in all.iter().zip(&along) {
+        let q = (*c - lamp) * (a / l);
+        x0 = x0.min(q.dot(right));
+        x1 = x1.max(q.dot(right));
+        y0 = y0.min(q.dot(up));
+        y1 = y1.max(q.dot(up));
+    }
+    // tan 80°: wider, the perspective's far texels would be too coarse to say anything.
+    if x0.abs().max(x1.abs()).max(y0.abs()).max(y1.abs()) > 5.67 * a {
+        return None;
+    }
+    let corner = lamp + axis * a + right * x0 + up * y1;
+    Some(pack::Window {
+        material: 0,
+        origin: corner.as_vec3().to_array(),
+        u_axis: (right * (x1 - x0)).as_vec3().to_array(),
+        v_axis: (-up * (y1 - y0)).as_vec3().to_array(),
+        normal: axis.as_vec3().to_array(),
+        source_materials: Vec::new(),
+    })
 }
 
 /// Clip x = 2u − 1, y = 1 − 2v, z as is, from a lookup's (u, v, z, w).
@@ -450,8 +539,8 @@ mod tests {
         assert!(layout.layers.is_empty() && layout.windows == vec![None]);
     }
 
-    /// With geometry beyond a window's plane the sun gets a map over all of it, drawn with the
-    /// uncut walls, besides the windows' own; a lamp gets none.
+    /// With geometry beyond a window's plane the light gets a map over all of it, drawn with
+    /// the uncut walls, besides the windows' own.
     #[test]
     fn the_suns_direct_map_covers_all_the_geometry() {
         let sun = light(pack::LightKind::Directional {
@@ -476,11 +565,24 @@ mod tests {
         let alone = layout_clear(&sun);
         assert_eq!((alone.layers.len(), alone.windows[0]), (1, None));
         assert!(alone.direct.is_some());
-        let lamp = light(pack::LightKind::Point {
-            position: [0.5, 5.0, -4.0],
-            radius: 0.1,
-        });
-        assert!(layout_clear(&lamp).direct.is_none());
+        // A lamp outside the geometry's bounds: a perspective map that sees all of it; among
+        // the geometry, none.
+        let lamp = |position| {
+            light(pack::LightKind::Point {
+                position,
+                radius: 0.1,
+            })
+        };
+        let outside = layout_clear(&lamp([0.5, 5.0, -4.0]));
+        let direct = outside.direct.expect("a lamp's direct map");
+        assert!(direct.lamp_distance > 0.0 && outside.layers[direct.layer as usize].uncut_walls);
+        for c in corners(BOUNDS) {
+            let p = direct.project(c).unwrap();
+            for v in [p.x, p.y, p.z] {
+                assert!((0.0..=1.0).contains(&v), "{c} lands at {p}");
+            }
+        }
+        assert!(layout_clear(&lamp([0.5, 5.0, 4.0])).direct.is_none());
     }
 
     fn layout_clear(l: &pack::Light) -> ShadowLayout {
