@@ -643,6 +643,11 @@ fn main() -> Result<()> {
     std::fs::create_dir_all(&args.out)
         .with_context(|| format!("creating {}", args.out.display()))?;
     for (name, view) in &views {
+        if args.passes {
+            // The shadow-map view is drawn with the maps: kept from a frame drawn at another
+            // size (the preview), it was black.
+            renderer.invalidate_shadow_maps();
+        }
         let report = renderer.render(&gpu, &scene, view, TimingMethod::None)?;
         let stem = file_name(name);
         let path = args.out.join(format!("{stem}.png"));

@@ -177,6 +177,15 @@ fn writes_every_camera_and_pass() {
         }
         // No normal maps: pass 2 is skipped and says so instead of writing a stale image.
         assert!(!out.join(format!("{cam}-pass2-window-normals.png")).exists());
+        // The floor runs on beyond the window's plane: the sun's map over it is drawn, and
+        // its view shows it (it was black, kept from the half-size preview's frame).
+        let map = image::open(out.join(format!("{cam}-shadow-map.png")))
+            .unwrap()
+            .into_luma8();
+        assert!(
+            map.pixels().any(|p| p.0[0] > 0),
+            "{cam}-shadow-map.png is black"
+        );
     }
     assert!(
         stdout.contains("first frame after") && stdout.contains("full quality after"),
