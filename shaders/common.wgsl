@@ -62,8 +62,8 @@ struct WindowProjector {
 
 struct Windows {
     items: array<WindowProjector, MAX_WINDOWS>,
-    // The sun's map over all the opaque geometry (shadow fields only; params.w = 1 when
-    // present): whether a point outside a window's plane sees the sun (see `fs_main`).
+    // The light's map over all the opaque geometry (shadow fields only; params.w = 1 when
+    // present): whether a point outside a window's plane sees the light (see `fs_main`).
     direct: WindowProjector,
 }
 

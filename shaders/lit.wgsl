@@ -273,9 +273,9 @@ fn fs_main(vertex: VertexOut) -> @location(0) vec4<f32> {
     if (n_dot_l > 0.0 && dot(geometric, l) > 0.0) {
         // Surfaces lying in a window's plane (the wall around it) are judged by the side they
         // face: a small step along the camera-facing normal puts the outer face outside.
-        // Outside a window's plane, the sun's direct map says whether the point is outside
+        // Outside a window's plane, the light's direct map says whether the point is outside
         // the building: the plane runs on through it (a transept's window's plane through the
-        // nave), and a roof over the point stops the sun.
+        // nave), and a roof over the point stops the light.
         var light_filter = vec3<f32>(1.0);
         if (is_inside(in.rel + geometric * 0.01)) {
             light_filter = transmitted(in.rel, dpx, dpy, geometric, in.clip.xy);

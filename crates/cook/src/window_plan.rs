@@ -246,7 +246,9 @@ pub fn plan(
 
     // Designs rasterized from the mesh are sized in texels per metre; the model's unit comes
     // from its windows' sizes.
-    let unit = design::unit_from_windows(found.iter().map(|i| i.width().max(i.height())));
+    let mut sides: Vec<f64> = found.iter().map(|i| i.width().max(i.height())).collect();
+    sides.sort_by(f64::total_cmp);
+    let unit = design::unit_from_windows(sides.iter().copied());
     let default_texels =
         crate::manifest::DEFAULT_TEXELS_PER_METRE * unit.map_or(1.0, |u| u.0) as f32;
     let mut unit_used = false;
@@ -404,8 +406,6 @@ pub fn plan(
         }
     }
     if let (true, Some((_, name))) = (unit_used, unit) {
-        let mut sides: Vec<f64> = found.iter().map(|i| i.width().max(i.height())).collect();
-        sides.sort_by(f64::total_cmp);
         report.notes.push(Warning::new(
             &manifest.path,
             None,
@@ -596,12 +596,12 @@ fn make_design(p: &Pending, images: &crate::textures::DecodedImages) -> Result<D
     }
 }
 
-/// The inside normal of a window material, if the window stage planned it.
 /// Rounded to 3 decimals, for messages (250 rather than 250.0000).
 fn round3(x: f64) -> f64 {
     (x * 1000.0).round() / 1000.0
 }
 
+/// The inside normal of a window material, if the window stage planned it.
 pub fn inside_of(tagging: &Tagging, material: u16) -> Option<DVec3> {
     let w = tagging.materials.get(material as usize)?.window.as_ref()?;
     Some(DVec3::new(

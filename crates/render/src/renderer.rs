@@ -677,6 +677,16 @@ impl Renderer {
             .iter()
             .map(|w| window_relative_to(w, view.position))
             .collect();
+        // Where each window's plane is, whatever the light: the lit pass tells inside from
+        // outside by them.
+        for (i, (slot, w)) in windows.items.iter_mut().zip(&relative).enumerate() {
+            let wall = scene.backing_wall(i).unwrap_or(0.0) as f32;
+            slot.origin = Vec3::from(w.origin).extend(wall).to_array();
+            slot.normal = Vec3::from(w.normal)
+                .normalize_or_zero()
+                .extend(0.0)
+                .to_array();
+        }
         if let (Some(l), Some(g)) = (light, geometry) {
             frame.light_pos = g.homogeneous().to_array();
             let c = Vec3::from(l.colour) * l.intensity;
@@ -690,12 +700,6 @@ impl Renderer {
                 let projector = window_projector(w, &g);
                 let tex_slot = scene.projector_slot(mat.projector_texture);
                 slot.projector = projector.unwrap_or(glam::Mat4::ZERO).to_cols_array_2d();
-                let wall = scene.backing_wall(i).unwrap_or(0.0) as f32;
-                slot.origin = Vec3::from(w.origin).extend(wall).to_array();
-                slot.normal = Vec3::from(w.normal)
-                    .normalize_or_zero()
-                    .extend(0.0)
-                    .to_array();
                 // A window without a projector texture (a pack cooked without textures) still
                 // passes light, tinted by its glass colour through the array's white layer.
                 let (layer, tint) = match tex_slot {
@@ -713,15 +717,6 @@ impl Renderer {
             }
             if let Some(map) = &self.shadow_layout.direct {
                 map_slot(&mut windows.direct, map, view.position);
-            }
-        } else {
-            for (i, (slot, w)) in windows.items.iter_mut().zip(&relative).enumerate() {
-                let wall = scene.backing_wall(i).unwrap_or(0.0) as f32;
-                slot.origin = Vec3::from(w.origin).extend(wall).to_array();
-                slot.normal = Vec3::from(w.normal)
-                    .normalize_or_zero()
-                    .extend(0.0)
-                    .to_array();
             }
         }
         gpu.queue

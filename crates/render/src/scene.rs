@@ -107,7 +107,7 @@ struct GpuMesh {
     /// window's uncut wall, drawn into the shadow maps in one call.
     casters: Option<(wgpu::Buffer, u32)>,
     /// Where some backed window's uncut wall is in this mesh: all its opaque triangles, for
-    /// the sun's direct map (which that wall still blocks).
+    /// the light's direct map (which that wall still blocks).
     opaque: Option<(wgpu::Buffer, u32)>,
 }
 
@@ -758,33 +758,32 @@ impl Scene {
             &self.backings,
             self.occluders().map(|(_, _, t)| t),
         );
-        let mut backing = vec![Vec::new(); self.cpu.len()];
-        if !self.backings.is_empty() {
-            for (mesh, tri, t) in self.occluders() {
+        // One pass: each opaque triangle into the casters, or, where it is part of a backed
+        // window's uncut wall, into the mesh's list of those; with such walls, every opaque
+        // triangle into the direct map's list as well.
+        let n = self.cpu.len();
+        let (mut casters, mut opaque, mut backing) = (
+            vec![Vec::new(); n],
+            vec![Vec::new(); n],
+            vec![Vec::new(); n],
+        );
+        let walls = !self.backings.is_empty();
+        for (mesh, tri, t) in self.occluders() {
+            let idx = self.cpu[mesh].indices.as_deref().unwrap_or(&[]);
+            let corners = &idx[tri as usize..tri as usize + 3];
+            if walls {
+                opaque[mesh].extend_from_slice(corners);
                 if self.backings.mask(t) != 0 {
                     backing[mesh].push(tri);
+                    continue;
                 }
             }
+            casters[mesh].extend_from_slice(corners);
         }
         for (cpu, mut b) in self.cpu.iter_mut().zip(backing) {
             b.sort_unstable();
             cpu.backing = b;
         }
-        let gather = |tris: &mut dyn Iterator<Item = (usize, u32, [glam::Vec3; 3])>| {
-            let mut out: Vec<Vec<u32>> = vec![Vec::new(); self.cpu.len()];
-            for (mesh, tri, _) in tris {
-                let idx = self.cpu[mesh].indices.as_deref().unwrap_or(&[]);
-                let first = tri as usize;
-                out[mesh].extend_from_slice(&idx[first..first + 3]);
-            }
-            out
-        };
-        let casters = gather(&mut self.casting());
-        let opaque = if self.backings.is_empty() {
-            vec![Vec::new(); self.cpu.len()]
-        } else {
-            gather(&mut self.occluders())
-        };
         let upload = |name: &str, c: Vec<u32>| {
             (!c.is_empty()).then(|| {
                 let bytes: &[u8] = bytemuck::cast_slice(&c);
@@ -880,7 +879,7 @@ impl Scene {
     }
 
     /// Whether opaque geometry reaches beyond a window's plane, where the lit pass asks the
-    /// sun's direct map; false before the geometry is in.
+    /// light's direct map; false before the geometry is in.
     pub fn beyond_windows(&self) -> bool {
         self.beyond_windows
     }

@@ -13,7 +13,7 @@
 //! travel direction in world units, for a lamp `w`, the distance from the lamp along the
 //! window's normal divided by the lamp's distance to the window's plane (1 on the glass).
 
-use glam::{DMat4, DVec3, DVec4, Mat4, Vec3};
+use glam::{DMat4, DVec2, DVec3, DVec4, Mat4, Vec3};
 
 use crate::occlusion::WindowShadow;
 use crate::view::{LightGeometry, window_projector, window_relative_to};
@@ -89,8 +89,8 @@ impl WindowMap {
 pub struct ShadowLayout {
     pub layers: Vec<MapLayer>,
     pub windows: Vec<Option<WindowMap>>,
-    /// The sun's map over all the opaque geometry: whether a point on the outer side of a
-    /// window's plane sees the sun directly. A window's plane runs on through the building
+    /// The light's map over all the opaque geometry: whether a point on the outer side of a
+    /// window's plane sees the light directly. A window's plane runs on through the building
     /// (the nave beyond a transept's window, the chapels beside an aisle's), so the outer
     /// side of it is not the outside; without this map such floors were lit by the full sun
     /// under their roof. For a lamp, a perspective map through a frame facing it
@@ -124,7 +124,7 @@ fn corners((lo, hi): (DVec3, DVec3)) -> [DVec3; 8] {
 
 /// Lays out the maps for `light` over `windows`, given which need one and the bounds of the
 /// opaque geometry. `size` is a layer's width in texels.
-/// `beyond`: whether opaque geometry reaches beyond a window's plane, so the sun's direct map
+/// `beyond`: whether opaque geometry reaches beyond a window's plane, so the light's direct map
 /// is needed ([`crate::occlusion::beyond_windows`]).
 pub fn layout(
     windows: &[pack::Window],
@@ -143,34 +143,31 @@ pub fn layout(
         return out;
     };
     let geometry = LightGeometry::from_light(light);
-    if let (
-        pack::LightKind::Directional { angular_size, .. },
-        LightGeometry::Directional { towards },
-    ) = (&light.kind, geometry)
-        && !windows.is_empty()
-        && beyond
-    {
-        let sun = Sun::new(towards, *angular_size);
-        let all = corners(bounds);
-        let centre = (bounds.0 + bounds.1) * 0.5;
-        out.direct = Some(sun.map(&mut out.layers, centre, &all, bounds, size, true));
-    }
-    if let (pack::LightKind::Point { radius, .. }, LightGeometry::Point { position, .. }) =
-        (&light.kind, geometry)
-        && !windows.is_empty()
-        && beyond
-    {
-        out.direct = lamp_frame(position, bounds).and_then(|frame| {
-            lamp_map(
-                &mut out.layers,
-                &frame,
-                position,
-                *radius,
-                bounds,
-                size,
-                true,
-            )
-        });
+    if beyond && !windows.is_empty() {
+        out.direct = match (&light.kind, geometry) {
+            (
+                pack::LightKind::Directional { angular_size, .. },
+                LightGeometry::Directional { towards },
+            ) => {
+                let centre = (bounds.0 + bounds.1) * 0.5;
+                let sun = Sun::new(towards, *angular_size);
+                Some(sun.map(
+                    &mut out.layers,
+                    centre,
+                    &corners(bounds),
+                    bounds,
+                    size,
+                    true,
+                ))
+            }
+            (pack::LightKind::Point { radius, .. }, LightGeometry::Point { position, .. }) => {
+                lamp_frame(position, bounds).and_then(|frame| {
+                    let layers = &mut out.layers;
+                    lamp_map(layers, &frame, position, *radius, bounds, size, true)
+                })
+            }
+            _ => None,
+        };
     }
     let needed: Vec<usize> = (0..windows.len())
         .filter(|&i| decisions.get(i).is_some_and(WindowShadow::needs_map))
@@ -305,36 +302,20 @@ fn lamp_frame(position: Vec3, bounds: (DVec3, DVec3)) -> Option<pack::Window> {
     if a.is_nan() || a <= 1e-6 * farthest {
         return None;
     }
-    let hint = if axis.y.abs() < 0.99 {
-        DVec3::Y
-    } else {
-        DVec3::X
-    };
-    let right = axis.cross(hint).normalize();
-    let up = right.cross(axis);
-    let (mut x0, mut x1, mut y0, mut y1) = (
-        f64::INFINITY,
-        f64::NEG_INFINITY,
-        f64::INFINITY,
-        f64::NEG_INFINITY,
-    );
-    for (c, l) in all.iter().zip(&along) {
-        let q = (*c - lamp) * (a / l);
-        x0 = x0.min(q.dot(right));
-        x1 = x1.max(q.dot(right));
-        y0 = y0.min(q.dot(up));
-        y1 = y1.max(q.dot(up));
-    }
+    let (right, up) = across(axis);
+    // The corners seen from the lamp, on the frame's plane.
+    let seen = all.iter().zip(&along).map(|(c, l)| (*c - lamp) * (a / l));
+    let (lo, hi) = spread(seen, right, up);
     // tan 80°: wider, the perspective's far texels would be too coarse to say anything.
-    if x0.abs().max(x1.abs()).max(y0.abs()).max(y1.abs()) > 5.67 * a {
+    if lo.abs().max(hi.abs()).max_element() > 5.67 * a {
         return None;
     }
-    let corner = lamp + axis * a + right * x0 + up * y1;
+    let corner = lamp + axis * a + right * lo.x + up * hi.y;
     Some(pack::Window {
         material: 0,
         origin: corner.as_vec3().to_array(),
-        u_axis: (right * (x1 - x0)).as_vec3().to_array(),
-        v_axis: (-up * (y1 - y0)).as_vec3().to_array(),
+        u_axis: (right * (hi.x - lo.x)).as_vec3().to_array(),
+        v_axis: (-up * (hi.y - lo.y)).as_vec3().to_array(),
         normal: axis.as_vec3().to_array(),
         source_materials: Vec::new(),
     })
@@ -348,6 +329,29 @@ const LOOKUP_TO_CLIP: DMat4 = DMat4::from_cols(
     DVec4::new(-1.0, 1.0, 0.0, 1.0),
 );
 
+/// Two unit axes across `dir` (a unit vector), the second as near to world up as the first
+/// allows.
+fn across(dir: DVec3) -> (DVec3, DVec3) {
+    let hint = if dir.y.abs() < 0.99 {
+        DVec3::Y
+    } else {
+        DVec3::X
+    };
+    let right = dir.cross(hint).normalize();
+    (right, right.cross(dir))
+}
+
+/// The smallest and largest `(p·right, p·up)` of `points`.
+fn spread(points: impl IntoIterator<Item = DVec3>, right: DVec3, up: DVec3) -> (DVec2, DVec2) {
+    points.into_iter().fold(
+        (DVec2::splat(f64::INFINITY), DVec2::splat(f64::NEG_INFINITY)),
+        |(lo, hi), p| {
+            let q = DVec2::new(p.dot(right), p.dot(up));
+            (lo.min(q), hi.max(q))
+        },
+    )
+}
+
 /// The sun's frame: its travel direction and two axes across it.
 struct Sun {
     travel: DVec3,
@@ -359,13 +363,7 @@ struct Sun {
 impl Sun {
     fn new(towards: Vec3, angular_size: f32) -> Self {
         let travel = (-towards).as_dvec3().normalize();
-        let hint = if travel.y.abs() < 0.99 {
-            DVec3::Y
-        } else {
-            DVec3::X
-        };
-        let right = travel.cross(hint).normalize();
-        let up = right.cross(travel);
+        let (right, up) = across(travel);
         Self {
             travel,
             right,
@@ -386,21 +384,9 @@ impl Sun {
         uncut_walls: bool,
     ) -> WindowMap {
         let (right, up, t) = (self.right, self.up, self.travel);
-        let (mut x0, mut x1, mut y0, mut y1) = (
-            f64::INFINITY,
-            f64::NEG_INFINITY,
-            f64::INFINITY,
-            f64::NEG_INFINITY,
-        );
-        for p in points {
-            let d = *p - origin;
-            x0 = x0.min(d.dot(right));
-            x1 = x1.max(d.dot(right));
-            y0 = y0.min(d.dot(up));
-            y1 = y1.max(d.dot(up));
-        }
-        let extent = (x1 - x0).max(y1 - y0).max(1e-6) * (1.0 + 2.0 * SUN_MARGIN);
-        let (cx, cy) = ((x0 + x1) * 0.5, (y0 + y1) * 0.5);
+        let (lo, hi) = spread(points.iter().map(|p| *p - origin), right, up);
+        let extent = (hi - lo).max_element().max(1e-6) * (1.0 + 2.0 * SUN_MARGIN);
+        let (cx, cy) = ((lo.x + hi.x) * 0.5, (lo.y + hi.y) * 0.5);
         let (mut near, mut far) = (f64::INFINITY, f64::NEG_INFINITY);
         for p in corners(bounds) {
             let l = (p - origin).dot(t);

@@ -45,7 +45,7 @@ pub struct WindowProjector {
 #[derive(Clone, Copy, Debug, Pod, Zeroable)]
 pub struct Windows {
     pub items: [WindowProjector; MAX_WINDOWS],
-    /// The sun's direct map ([`crate::shadows::ShadowLayout::direct`]) in the shadow fields
+    /// The light's direct map ([`crate::shadows::ShadowLayout::direct`]) in the shadow fields
     /// (`params.w` = 1 when there is one); the rest unused.
     pub direct: WindowProjector,
 }
