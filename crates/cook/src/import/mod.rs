@@ -24,37 +24,81 @@ pub struct Corner {
 }
 
 /// Triangle corners, three per triangle, stored field by field: the texture-coordinate or
-/// normal indices are held only when some corner has one. A bare scan's corners take 4 bytes
-/// each rather than 12, and a large mesh's corners are held from its import to the end of its
-/// deduplication (a 1M-triangle OBJ's were 36 MB of its cook's peak).
-#[derive(Clone, Debug, Default, PartialEq, Eq)]
+/// normal indices are held only when some corner has one, and not at all when every corner's
+/// equals its position index. A bare scan's corners take 4 bytes each rather than 12, and a
+/// large mesh's corners are held from its import to the end of its deduplication (a
+/// 1M-triangle OBJ's were 36 MB of its cook's peak). glTF has one index for every attribute,
+/// and many OBJ writers number them alike (`f 7/7/7`): their corners take 4 bytes too (the
+/// 819k-triangle grid's import peaked at 76.8 MB with all three fields held).
+#[derive(Clone, Debug, Default, Eq)]
 pub struct Corners {
     p: Vec<u32>,
-    /// Empty, or one per corner ([`NONE`] where a corner has none); so is `n`.
-    t: Vec<u32>,
-    n: Vec<u32>,
+    t: Indices,
+    n: Indices,
+}
+
+/// How a corner field other than the position index is held.
+#[derive(Clone, Debug, Default, PartialEq, Eq)]
+pub enum Indices {
+    /// No corner has one.
+    #[default]
+    Absent,
+    /// Every corner's is its position index.
+    Positions,
+    /// One per corner, [`NONE`] where a corner has none.
+    Own(Vec<u32>),
+}
+
+impl Indices {
+    /// `field` (empty, or one per corner of `p`) held as it needs: absent when it holds only
+    /// [`NONE`], not held when it is `p` over again.
+    pub(crate) fn of(field: Vec<u32>, p: &[u32]) -> Self {
+        if field.iter().all(|&i| i == NONE) {
+            Indices::Absent
+        } else if field == p {
+            Indices::Positions
+        } else {
+            Indices::Own(field)
+        }
+    }
+
+    fn slice<'a>(&'a self, p: &'a [u32]) -> &'a [u32] {
+        match self {
+            Indices::Absent => &[],
+            Indices::Positions => p,
+            Indices::Own(v) => v,
+        }
+    }
+}
+
+impl PartialEq for Corners {
+    /// Equal corners, however each field is held.
+    fn eq(&self, other: &Self) -> bool {
+        self.p == other.p
+            && self.uv_indices() == other.uv_indices()
+            && self.normal_indices() == other.normal_indices()
+    }
 }
 
 impl Corners {
-    /// From whole fields; `t` and `n` are each empty or as long as `p`, and one that holds
-    /// only [`NONE`] is dropped.
+    /// From whole fields; `t` and `n` are each empty or as long as `p`.
     pub fn from_fields(p: Vec<u32>, t: Vec<u32>, n: Vec<u32>) -> Self {
         assert!(
             (t.is_empty() || t.len() == p.len()) && (n.is_empty() || n.len() == p.len()),
             "a corner field is empty or one per corner"
         );
-        let keep = |f: Vec<u32>| {
-            if f.iter().all(|&i| i == NONE) {
-                Vec::new()
-            } else {
-                f
+        let (t, n) = (Indices::of(t, &p), Indices::of(n, &p));
+        Self::from_indices(p, t, n)
+    }
+
+    /// From the position indices and the other two fields as held.
+    pub fn from_indices(p: Vec<u32>, t: Indices, n: Indices) -> Self {
+        for f in [&t, &n] {
+            if let Indices::Own(v) = f {
+                assert_eq!(v.len(), p.len(), "a corner field is one per corner");
             }
-        };
-        Self {
-            p,
-            t: keep(t),
-            n: keep(n),
         }
+        Self { p, t, n }
     }
 
     pub fn len(&self) -> usize {
@@ -78,10 +122,16 @@ impl Corners {
 
     #[inline]
     pub fn get(&self, i: usize) -> Corner {
+        let p = self.p[i];
+        let field = |f: &Indices| match f {
+            Indices::Absent => NONE,
+            Indices::Positions => p,
+            Indices::Own(v) => v[i],
+        };
         Corner {
-            p: self.p[i],
-            t: self.t.get(i).copied().unwrap_or(NONE),
-            n: self.n.get(i).copied().unwrap_or(NONE),
+            p,
+            t: field(&self.t),
+            n: field(&self.n),
         }
     }
 
@@ -105,12 +155,12 @@ impl Corners {
     /// Every corner's texture-coordinate index ([`NONE`] where it has none), or empty when no
     /// corner has one.
     pub fn uv_indices(&self) -> &[u32] {
-        &self.t
+        self.t.slice(&self.p)
     }
 
     /// Every corner's normal index, as [`Self::uv_indices`].
     pub fn normal_indices(&self) -> &[u32] {
-        &self.n
+        self.n.slice(&self.p)
     }
 
     pub fn push(&mut self, c: Corner) {
@@ -120,20 +170,36 @@ impl Corners {
 
     pub fn set(&mut self, i: usize, c: Corner) {
         self.p[i] = c.p;
+        let (p, len) = (&self.p, self.p.len());
         for (field, value) in [(&mut self.t, c.t), (&mut self.n, c.n)] {
-            // A field in use is one per corner; one taken up by this corner is filled with
-            // NONE for the others.
-            if !field.is_empty() || value != NONE {
-                field.resize(self.p.len(), NONE);
-                field[i] = value;
+            match field {
+                Indices::Absent if value == NONE => {}
+                // The first corner decides whether a field can follow the positions.
+                Indices::Absent if len == 1 && value == c.p => *field = Indices::Positions,
+                Indices::Absent => {
+                    let mut v = vec![NONE; len];
+                    v[i] = value;
+                    *field = Indices::Own(v);
+                }
+                Indices::Positions if value == c.p => {}
+                Indices::Positions => {
+                    let mut v = p.clone();
+                    v[i] = value;
+                    *field = Indices::Own(v);
+                }
+                Indices::Own(v) => {
+                    v.resize(len, NONE);
+                    v[i] = value;
+                }
             }
         }
     }
 
     pub fn swap(&mut self, i: usize, j: usize) {
-        for field in [&mut self.p, &mut self.t, &mut self.n] {
-            if !field.is_empty() {
-                field.swap(i, j);
+        self.p.swap(i, j);
+        for field in [&mut self.t, &mut self.n] {
+            if let Indices::Own(v) = field {
+                v.swap(i, j);
             }
         }
     }
@@ -459,20 +525,26 @@ mod tests {
 
     proptest! {
         /// Pushed, set and swapped, the field-by-field corners read back as a plain vector of
-        /// corners does, and hold a texture-coordinate or normal field only while some corner
-        /// has one.
+        /// corners does, hold a texture-coordinate or normal field only while some corner
+        /// has one, and do not hold one that is the position indices over again.
         #[test]
         fn corners_read_back_as_pushed(
             pushed in prop::collection::vec((0u32..9, prop::option::of(0u32..9), prop::option::of(0u32..9)), 0..40),
             edits in prop::collection::vec((0usize..40, 0usize..40, prop::option::of(0u32..9)), 0..10),
+            same in (any::<bool>(), any::<bool>()),
         ) {
+            // Fields that follow the positions, as glTF's and many OBJ writers' do.
             let corner = |(p, t, n): (u32, Option<u32>, Option<u32>)| Corner {
                 p,
-                t: t.unwrap_or(NONE),
-                n: n.unwrap_or(NONE),
+                t: if same.0 { p } else { t.unwrap_or(NONE) },
+                n: if same.1 { p } else { n.unwrap_or(NONE) },
             };
             let mut want: Vec<Corner> = pushed.iter().map(|&c| corner(c)).collect();
             let mut got: Corners = want.iter().copied().collect();
+            if !want.is_empty() {
+                prop_assert_eq!(same.0, got.t == Indices::Positions);
+                prop_assert_eq!(same.1, got.n == Indices::Positions);
+            }
             for (i, j, t) in edits {
                 if want.is_empty() {
                     break;
@@ -491,6 +563,9 @@ mod tests {
             let fields = |f: fn(&Corner) -> u32| want.iter().map(f).collect::<Vec<_>>();
             let whole = Corners::from_fields(fields(|c| c.p), fields(|c| c.t), fields(|c| c.n));
             prop_assert_eq!(whole.iter().collect::<Vec<_>>(), want.clone());
+            let follows = |f: fn(&Corner) -> u32| !want.is_empty() && want.iter().all(|c| f(c) == c.p);
+            prop_assert_eq!(whole.t == Indices::Positions, follows(|c| c.t));
+            prop_assert_eq!(whole.n == Indices::Positions, follows(|c| c.n));
             prop_assert_eq!(!whole.uv_indices().is_empty(), want.iter().any(|c| c.t != NONE));
         }
     }
