@@ -30,7 +30,9 @@ fn role_name(pack: &Pack, role: SectionRole) -> String {
     }
 }
 
-/// Each window: its material, size and placement in metres, and its textures. A design made
+/// Each window: its material, size and placement in the scene's units (a pack does not
+/// record them: metres for the default scene, whatever a bare model was drawn in), and its
+/// textures. A design made
 /// by the cook is named `<window>.design` (rasterized from the mesh's pane colours),
 /// `<image>.fitted` (an image fitted to planar texture coordinates) or `<image>.masked` (an
 /// image cut to the window's outline).
@@ -298,7 +300,7 @@ pub fn run(args: Args) -> Outcome {
         let m = &toc.materials[w.material as usize];
         let len = |a: [f32; 3]| glam::Vec3::from(a).length();
         println!(
-            "  {:<32} {:<12} {:>6.2} x {:<6.2} m  glass: {}",
+            "  {:<32} {:<12} {:>6.2} x {:<6.2} units  glass: {}",
             m.name,
             m.class.name(),
             len(w.u_axis),

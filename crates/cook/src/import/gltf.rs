@@ -13,7 +13,7 @@ use std::sync::Arc;
 use gltf::accessor::{DataType, Dimensions};
 use gltf::mesh::Mode;
 
-use super::{Corner, ImageRef, Imported, NONE, Names, Part, SourceMaterial, Warning};
+use super::{ImageRef, Imported, NONE, Names, Part, SourceMaterial, Warning};
 use crate::CookError;
 
 fn bad(path: &Path, message: impl Into<String>) -> CookError {
@@ -61,6 +61,37 @@ fn check_glb_header(path: &Path, bytes: &[u8]) -> Result<(), CookError> {
     Ok(())
 }
 
+/// The document, and a GLB's binary chunk in the file's own buffer: gltf's parser copies the
+/// chunk out of the file, and both were held through the import (a 20 MB GLB's import peaked
+/// at 100 MB of heap).
+fn parse(mut bytes: Vec<u8>) -> Result<(gltf::Document, Option<Vec<u8>>), gltf::Error> {
+    if !bytes.starts_with(b"glTF") {
+        let json = gltf::json::deserialize::from_slice(&bytes)?;
+        return Ok((gltf::Document::from_json_without_validation(json), None));
+    }
+    let glb = gltf::binary::Glb::from_slice(&bytes)?;
+    let json = gltf::json::deserialize::from_slice(&glb.json)?;
+    // Where the chunk lies in the file: `Glb::from_slice` borrows it from there.
+    let within = |b: &[u8]| {
+        let start = (b.as_ptr() as usize).checked_sub(bytes.as_ptr() as usize)?;
+        (start + b.len() <= bytes.len()).then_some(start..start + b.len())
+    };
+    let bin = glb
+        .bin
+        .as_deref()
+        .map(|b| within(b).ok_or_else(|| b.to_vec()));
+    drop(glb);
+    let blob = bin.map(|at| match at {
+        Ok(r) => {
+            bytes.truncate(r.end);
+            bytes.drain(..r.start);
+            bytes
+        }
+        Err(copy) => copy,
+    });
+    Ok((gltf::Document::from_json_without_validation(json), blob))
+}
+
 pub fn import(path: &Path) -> Result<Imported, CookError> {
     let bytes = std::fs::read(path).map_err(|source| CookError::Io {
         path: path.to_path_buf(),
@@ -81,8 +112,7 @@ pub fn import(path: &Path) -> Result<Imported, CookError> {
         e @ gltf::Error::Validation(_) => bad(path, e.to_string()),
         other => bad(path, format!("invalid glTF: {other}")),
     };
-    let gltf::Gltf { document, blob } =
-        gltf::Gltf::from_slice_without_validation(&bytes).map_err(convert)?;
+    let (document, blob) = parse(bytes).map_err(convert)?;
     // gltf-json's validation indexes the POSITION accessor before checking it exists (an
     // out-of-bounds panic found by fuzzing): check every attribute index first.
     let json = document.into_json();
@@ -581,9 +611,11 @@ fn add_primitive(
             format!("index {k} is {i}, out of range for a primitive of {vcount} vertices"),
         ));
     }
-    let tris: Vec<[u32; 3]> = match prim.mode() {
+    // Each triangle's corners, three indices a triangle: a list's own indices, strips and
+    // fans unrolled.
+    let mut corners: Vec<u32> = match prim.mode() {
         Mode::TriangleStrip => (2..indices.len())
-            .map(|i| {
+            .flat_map(|i| {
                 if i % 2 == 0 {
                     [indices[i - 2], indices[i - 1], indices[i]]
                 } else {
@@ -592,7 +624,7 @@ fn add_primitive(
             })
             .collect(),
         Mode::TriangleFan => (2..indices.len())
-            .map(|i| [indices[0], indices[i - 1], indices[i]])
+            .flat_map(|i| [indices[0], indices[i - 1], indices[i]])
             .collect(),
         _ => {
             if !indices.len().is_multiple_of(3) {
@@ -606,10 +638,9 @@ fn add_primitive(
                     ),
                 ));
             }
-            indices
-                .chunks_exact(3)
-                .map(|c| [c[0], c[1], c[2]])
-                .collect()
+            let mut list = indices;
+            list.truncate(list.len() / 3 * 3);
+            list
         }
     };
 
@@ -619,36 +650,53 @@ fn add_primitive(
     if out.positions.len() + vcount >= NONE as usize {
         return Err(bad(path, "more than 2^32 vertices"));
     }
-    out.positions.extend(
-        positions
-            .iter()
-            .map(|&p| world.transform_point3(glam::Vec3::from(p)).to_array()),
-    );
-    if let Some(n) = &normals {
-        let nm = glam::Mat3::from_mat4(world).inverse().transpose();
-        out.normals.extend(
-            n.iter()
-                .map(|&v| (nm * glam::Vec3::from(v)).normalize_or_zero().to_array()),
-        );
+    let (has_normals, has_uvs) = (normals.is_some(), uvs.is_some());
+    // Transformed where they were read, and taken whole by the first primitive: a copy of
+    // each array beside it was the large mesh's import peak.
+    let mut positions = positions;
+    for p in &mut positions {
+        *p = world.transform_point3(glam::Vec3::from(*p)).to_array();
     }
-    if let Some(t) = &uvs {
-        out.uvs.extend_from_slice(t);
+    append(&mut out.positions, positions);
+    if let Some(mut n) = normals {
+        let nm = glam::Mat3::from_mat4(world).inverse().transpose();
+        for v in &mut n {
+            *v = (nm * glam::Vec3::from(*v)).normalize_or_zero().to_array();
+        }
+        append(&mut out.normals, n);
+    }
+    if let Some(t) = uvs {
+        append(&mut out.uvs, t);
     }
     let mirror = glam::Mat3::from_mat4(world).determinant() < 0.0;
-    for mut t in tris {
+    for t in corners.as_chunks_mut::<3>().0 {
         if mirror {
             t.swap(1, 2);
         }
         for i in t {
-            out.corners.push(Corner {
-                p: base_p + i,
-                t: if uvs.is_some() { base_t + i } else { NONE },
-                n: if normals.is_some() { base_n + i } else { NONE },
-            });
+            *i += base_p;
         }
-        out.tri_part.push(part);
     }
+    let triangles = corners.len() / 3;
+    // The indices become the corners' position indices in place (the whole array for the
+    // first primitive); the other fields follow them.
+    out.corners.append_shared(
+        corners,
+        base_p,
+        has_uvs.then_some(base_t),
+        has_normals.then_some(base_n),
+    );
+    out.tri_part.resize(out.tri_part.len() + triangles, part);
     Ok(())
+}
+
+/// Moves `more` onto the end of `to`, taking it whole while `to` is empty.
+fn append<T>(to: &mut Vec<T>, mut more: Vec<T>) {
+    if to.is_empty() {
+        *to = more;
+    } else {
+        to.append(&mut more);
+    }
 }
 
 fn percent_decode(s: &str) -> String {

@@ -163,6 +163,49 @@ impl Corners {
         self.n.slice(&self.p)
     }
 
+    /// Appends corners whose position indices are `p` and whose texture-coordinate and normal
+    /// indices are each a position index less `p_base` plus the field's base (`None`: the
+    /// corners have none), as glTF's one index for every attribute gives them. Taken whole
+    /// when there are no corners yet.
+    pub fn append_shared(
+        &mut self,
+        p: Vec<u32>,
+        p_base: u32,
+        t_base: Option<u32>,
+        n_base: Option<u32>,
+    ) {
+        if p.is_empty() {
+            return;
+        }
+        let start = self.p.len();
+        if start == 0 {
+            self.p = p;
+        } else {
+            self.p.extend_from_slice(&p);
+        }
+        let positions = &self.p;
+        for (field, base) in [(&mut self.t, t_base), (&mut self.n, n_base)] {
+            let follows = base == Some(p_base);
+            match field {
+                Indices::Absent if base.is_none() => {}
+                Indices::Absent if start == 0 && follows => *field = Indices::Positions,
+                Indices::Positions if follows => {}
+                _ => {
+                    let mut v = match std::mem::take(field) {
+                        Indices::Absent => vec![NONE; start],
+                        Indices::Positions => positions[..start].to_vec(),
+                        Indices::Own(v) => v,
+                    };
+                    v.extend(positions[start..].iter().map(|&i| match base {
+                        Some(b) => i - p_base + b,
+                        None => NONE,
+                    }));
+                    *field = Indices::Own(v);
+                }
+            }
+        }
+    }
+
     pub fn push(&mut self, c: Corner) {
         self.p.push(c.p);
         self.set(self.p.len() - 1, c);
@@ -524,6 +567,41 @@ mod tests {
     use proptest::prelude::*;
 
     proptest! {
+        /// Appended primitive by primitive as glTF's shared indices, the corners read back as
+        /// pushed one by one, and a field is held only where it does not follow the positions.
+        #[test]
+        fn shared_indices_append_as_pushed(
+            prims in prop::collection::vec(
+                (prop::collection::vec(0u32..6, 0..12), any::<bool>(), any::<bool>()),
+                0..5,
+            ),
+        ) {
+            let (mut appended, mut pushed) = (Corners::default(), Corners::default());
+            let mut bases = [0u32; 3];
+            for (indices, uvs, normals) in prims {
+                let [p, t, n] = bases;
+                let t = uvs.then_some(t);
+                let n = normals.then_some(n);
+                for &i in &indices {
+                    pushed.push(Corner {
+                        p: p + i,
+                        t: t.map_or(NONE, |t| t + i),
+                        n: n.map_or(NONE, |n| n + i),
+                    });
+                }
+                appended.append_shared(indices.iter().map(|&i| p + i).collect(), p, t, n);
+                // Six vertices a primitive, each attribute's array grown only by those that have it.
+                bases = [p + 6, t.map_or(bases[1], |t| t + 6), n.map_or(bases[2], |n| n + 6)];
+            }
+            prop_assert_eq!(appended.iter().collect::<Vec<_>>(), pushed.iter().collect::<Vec<_>>());
+            for (held, field) in [(&appended.t, appended.uv_indices()), (&appended.n, appended.normal_indices())] {
+                if let Indices::Own(v) = held {
+                    prop_assert!(v != appended.positions(), "a field that follows the positions is held");
+                }
+                prop_assert_eq!(field.len() == appended.len() || field.is_empty(), true);
+            }
+        }
+
         /// Pushed, set and swapped, the field-by-field corners read back as a plain vector of
         /// corners does, hold a texture-coordinate or normal field only while some corner
         /// has one, and do not hold one that is the position indices over again.
@@ -541,9 +619,13 @@ mod tests {
             };
             let mut want: Vec<Corner> = pushed.iter().map(|&c| corner(c)).collect();
             let mut got: Corners = want.iter().copied().collect();
-            if !want.is_empty() {
-                prop_assert_eq!(same.0, got.t == Indices::Positions);
-                prop_assert_eq!(same.1, got.n == Indices::Positions);
+            let follows = |want: &[Corner], f: fn(&Corner) -> u32| {
+                !want.is_empty() && want.iter().all(|c| f(c) == c.p)
+            };
+            prop_assert_eq!(follows(&want, |c| c.t), got.t == Indices::Positions);
+            prop_assert_eq!(follows(&want, |c| c.n), got.n == Indices::Positions);
+            if same.0 && !want.is_empty() {
+                prop_assert_eq!(&got.t, &Indices::Positions);
             }
             for (i, j, t) in edits {
                 if want.is_empty() {
@@ -563,9 +645,8 @@ mod tests {
             let fields = |f: fn(&Corner) -> u32| want.iter().map(f).collect::<Vec<_>>();
             let whole = Corners::from_fields(fields(|c| c.p), fields(|c| c.t), fields(|c| c.n));
             prop_assert_eq!(whole.iter().collect::<Vec<_>>(), want.clone());
-            let follows = |f: fn(&Corner) -> u32| !want.is_empty() && want.iter().all(|c| f(c) == c.p);
-            prop_assert_eq!(whole.t == Indices::Positions, follows(|c| c.t));
-            prop_assert_eq!(whole.n == Indices::Positions, follows(|c| c.n));
+            prop_assert_eq!(whole.t == Indices::Positions, follows(&want, |c| c.t));
+            prop_assert_eq!(whole.n == Indices::Positions, follows(&want, |c| c.n));
             prop_assert_eq!(!whole.uv_indices().is_empty(), want.iter().any(|c| c.t != NONE));
         }
     }
