@@ -415,6 +415,29 @@ pub fn sweep(cfg: &MeshConfig, progress: &mut dyn FnMut(&str)) -> Result<Vec<Mes
             format!("generated {n}x{n} height field")
         };
         rows.extend(end_to_end(&name, &file, &file, 2 * n * n, cfg, progress)?);
+        // The same mesh as a GLB (glTF's one index per vertex, a binary buffer): written by
+        // native gltfpack, the one GLB writer at hand, when it is there.
+        if attributes && let Some(native) = native_gltfpack() {
+            let glb = cfg.scratch.join(format!("grid-{n}.glb"));
+            let written = Command::new(native)
+                .args([
+                    std::ffi::OsStr::new("-noq"),
+                    "-i".as_ref(),
+                    file.as_os_str(),
+                ])
+                .args(["-o".as_ref(), glb.as_os_str()])
+                .output()
+                .is_ok_and(|o| o.status.success());
+            if written {
+                let name = format!("{name}, as GLB");
+                rows.extend(end_to_end(&name, &glb, &glb, 2 * n * n, cfg, progress)?);
+            } else {
+                progress(&format!(
+                    "mesh {name}: gltfpack did not write the GLB; its rows are skipped"
+                ));
+            }
+            let _ = std::fs::remove_file(&glb);
+        }
         let _ = std::fs::remove_file(&file);
     }
     if let Some(scene) = &cfg.scene {
