@@ -163,6 +163,16 @@ impl Corners {
         self.n.slice(&self.p)
     }
 
+    /// Takes the normal indices out, as they are held; the corners have none after.
+    pub fn take_normal_indices(&mut self) -> Indices {
+        std::mem::take(&mut self.n)
+    }
+
+    /// Lets the texture-coordinate indices go; the corners have none after.
+    pub fn drop_uv_indices(&mut self) {
+        self.t = Indices::Absent;
+    }
+
     /// Appends corners whose position indices are `p` and whose texture-coordinate and normal
     /// indices are each a position index less `p_base` plus the field's base (`None`: the
     /// corners have none), as glTF's one index for every attribute gives them. Taken whole

@@ -19,7 +19,7 @@ use std::time::Duration;
 use pack::StandardVertex;
 
 pub use encode::{Attributes, Encoded, PackedMesh, PositionBits, encode, pack_mesh};
-pub use process::{Deduplicated, deduplicate, is_degenerate, optimize, process};
+pub use process::{Deduplicated, SourceNormals, deduplicate, is_degenerate, optimize, process};
 
 /// Vertex cache optimizer.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize)]
