@@ -815,11 +815,11 @@ fn cache_pieces<'a>(
             .enumerate()
             .map(|(t, c)| key(t, c))
             .collect();
-        // Keys are distinct, so exactly `ends[j - 1]` of them lie below pivot j. The selection
+        // Keys are distinct, so exactly `ends[j]` of them lie below `pivots[j]`. The selection
         // reorders the keys, so each triangle's key is found again below: a copy of the keys
         // in their order, and of the whole range to partition from, were 20 MB of the
         // 1M-triangle grid's peak.
-        // Pieces are numbered in a byte; a range of over 65M triangles has larger ones.
+        // Pieces are numbered in a byte; a range of over 51M triangles has larger ones.
         let count = triangles
             .div_ceil(piece_triangles)
             .clamp(2, u8::MAX as usize);
