@@ -13,7 +13,7 @@ use std::sync::Arc;
 use gltf::accessor::{DataType, Dimensions};
 use gltf::mesh::Mode;
 
-use super::{ImageRef, Imported, NONE, Names, Part, SourceMaterial, Warning};
+use super::{ImageRef, Imported, NONE, Names, Part, SourceMaterial, Warning, append};
 use crate::CookError;
 
 fn bad(path: &Path, message: impl Into<String>) -> CookError {
@@ -688,15 +688,6 @@ fn add_primitive(
     );
     out.tri_part.resize(out.tri_part.len() + triangles, part);
     Ok(())
-}
-
-/// Moves `more` onto the end of `to`, taking it whole while `to` is empty.
-fn append<T>(to: &mut Vec<T>, mut more: Vec<T>) {
-    if to.is_empty() {
-        *to = more;
-    } else {
-        to.append(&mut more);
-    }
 }
 
 fn percent_decode(s: &str) -> String {

@@ -258,6 +258,16 @@ impl Corners {
     }
 }
 
+/// Moves `more` onto the end of `to`, taking it whole while `to` is empty (an import's first
+/// chunk or primitive), so a one-piece model's arrays are never copied.
+fn append<T>(to: &mut Vec<T>, mut more: Vec<T>) {
+    if to.is_empty() {
+        *to = more;
+    } else {
+        to.append(&mut more);
+    }
+}
+
 impl FromIterator<Corner> for Corners {
     fn from_iter<I: IntoIterator<Item = Corner>>(iter: I) -> Self {
         let mut out = Self::default();

@@ -11,6 +11,7 @@ use std::path::{Path, PathBuf};
 
 use super::{
     Corner, Corners, ImageRef, Imported, Indices, NONE, Names, Part, SourceMaterial, Warning,
+    append,
 };
 use crate::CookError;
 use crate::triangulate::triangulate;
@@ -1192,9 +1193,9 @@ impl<'p> Assembler<'p> {
         for c in &mut chunks {
             let out = &mut self.out;
             before.push([out.positions.len(), out.uvs.len(), out.normals.len()]);
-            append(&mut out.positions, &mut c.positions);
-            append(&mut out.uvs, &mut c.uvs);
-            append(&mut out.normals, &mut c.normals);
+            append(&mut out.positions, std::mem::take(&mut c.positions));
+            append(&mut out.uvs, std::mem::take(&mut c.uvs));
+            append(&mut out.normals, std::mem::take(&mut c.normals));
             offset.push(self.lines_before);
             self.lines_before += c.lines.saturating_sub(1);
         }
@@ -1471,16 +1472,6 @@ fn reserve_ahead<T>(v: &mut Vec<T>, more: usize, ahead: f64) {
     } else {
         v.reserve_exact(more.saturating_add(extra));
     }
-}
-
-/// Moves `from` onto the end of `to`, freeing it (taken whole while `to` is empty).
-fn append<T: Copy>(to: &mut Vec<T>, from: &mut Vec<T>) {
-    if to.is_empty() {
-        std::mem::swap(to, from);
-    } else {
-        to.extend_from_slice(from);
-    }
-    *from = Vec::new();
 }
 
 fn current_part(state: &mut State, out: &mut Imported, material_ids: &HashMap<String, u32>) -> u32 {
