@@ -27,7 +27,9 @@ const MAGIC: &[u8; 8] = b"SGCACHE\x01";
 /// Bump when the meaning of keys or payloads changes. 3: block-compressed chains of odd sizes
 /// are mipped from a padded level 0, and cooks' notes are no longer warnings. 4: packs stream
 /// mips by texel count, and a texture kept RGBA8 notes what each encoder setting reached.
-pub const CACHE_VERSION: u32 = 4;
+/// 5: draw ranges of over 400k triangles are ordered for the vertex cache in pieces of at most
+/// 200k (other meshes' packs are unchanged, but a shared cache must not mix the two).
+pub const CACHE_VERSION: u32 = 5;
 const HEADER: usize = 8 + 8 + 4 + 4;
 
 /// A cache key: SHA-256 over an artifact's inputs.
