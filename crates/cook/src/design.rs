@@ -171,9 +171,10 @@ pub fn mesh_design(panes: &[Pane], tris: &[UvTriangle], w: u32, h: u32, came: f3
 /// longer sides, `long_sides` (scene units), is a window's size in metres (up to 30), in
 /// centimetres (up to 1000: 3ds Max, or an inch model, whose designs then come out 2.5x
 /// coarser), or in millimetres (Revit, ArchiCAD; a window is 1–5 m, 100–500 cm, 1000–5000
-/// mm). Models carry no unit (OBJ) or one that exporters get wrong, and designs rasterized at 128 texels per *unit* of a centimetre model
-/// all hit the 1024-texel cap: the Šibenik stand-in written in centimetres cooked 5.6x slower
-/// into a 4.9x larger pack. `None` for metres (or no windows).
+/// mm). Models carry no unit (OBJ) or one that exporters get wrong, and designs rasterized at
+/// 128 texels per *unit* of a centimetre model all hit the 1024-texel cap: the Šibenik
+/// stand-in written in centimetres cooked 5.6x slower into a 4.9x larger pack. `None` for
+/// metres (or no windows).
 pub fn unit_from_windows(long_sides: impl IntoIterator<Item = f64>) -> Option<(f64, &'static str)> {
     let mut sides: Vec<f64> = long_sides
         .into_iter()

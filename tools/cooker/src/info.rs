@@ -32,10 +32,9 @@ fn role_name(pack: &Pack, role: SectionRole) -> String {
 
 /// Each window: its material, size and placement in the scene's units (a pack does not
 /// record them: metres for the default scene, whatever a bare model was drawn in), and its
-/// textures. A design made
-/// by the cook is named `<window>.design` (rasterized from the mesh's pane colours),
-/// `<image>.fitted` (an image fitted to planar texture coordinates) or `<image>.masked` (an
-/// image cut to the window's outline).
+/// textures. A design made by the cook is named `<window>.design` (rasterized from the mesh's
+/// pane colours), `<image>.fitted` (an image fitted to planar texture coordinates) or
+/// `<image>.masked` (an image cut to the window's outline).
 fn windows(toc: &pack::Toc, tris: &[u64]) -> Vec<serde_json::Value> {
     let tex = |i: Option<u32>| i.map(|i| toc.textures[i as usize].name.clone());
     toc.windows

@@ -535,7 +535,7 @@ fn add_primitive(
     let pos_acc = prim
         .get(&gltf::Semantic::Positions)
         .ok_or_else(|| bad(path, "a triangle primitive has no POSITION attribute"))?;
-    let positions = ctx.floats::<3>(&pos_acc, "POSITION")?;
+    let mut positions = ctx.floats::<3>(&pos_acc, "POSITION")?;
     if let Some(i) = positions
         .iter()
         .position(|p| !p.iter().all(|c| c.is_finite()))
@@ -653,7 +653,6 @@ fn add_primitive(
     let (has_normals, has_uvs) = (normals.is_some(), uvs.is_some());
     // Transformed where they were read, and taken whole by the first primitive: a copy of
     // each array beside it was the large mesh's import peak.
-    let mut positions = positions;
     for p in &mut positions {
         *p = world.transform_point3(glam::Vec3::from(*p)).to_array();
     }

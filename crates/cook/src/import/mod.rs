@@ -62,12 +62,28 @@ impl Indices {
         }
     }
 
-    fn slice<'a>(&'a self, p: &'a [u32]) -> &'a [u32] {
+    /// The field's index for every corner, given the position indices `p`; empty when
+    /// absent.
+    pub(crate) fn slice<'a>(&'a self, p: &'a [u32]) -> &'a [u32] {
         match self {
             Indices::Absent => &[],
             Indices::Positions => p,
             Indices::Own(v) => v,
         }
+    }
+
+    /// The field held one per corner of `p` (the corners so far), as it reads now.
+    fn own(&mut self, p: &[u32]) -> &mut Vec<u32> {
+        let v = match std::mem::take(self) {
+            Indices::Absent => vec![NONE; p.len()],
+            Indices::Positions => p.to_vec(),
+            Indices::Own(v) => v,
+        };
+        *self = Indices::Own(v);
+        let Indices::Own(v) = self else {
+            unreachable!("just set")
+        };
+        v
     }
 }
 
@@ -163,6 +179,11 @@ impl Corners {
         self.n.slice(&self.p)
     }
 
+    /// The normal indices as they are held.
+    pub fn normal_field(&self) -> &Indices {
+        &self.n
+    }
+
     /// Takes the normal indices out, as they are held; the corners have none after.
     pub fn take_normal_indices(&mut self) -> Indices {
         std::mem::take(&mut self.n)
@@ -200,18 +221,12 @@ impl Corners {
                 Indices::Absent if base.is_none() => {}
                 Indices::Absent if start == 0 && follows => *field = Indices::Positions,
                 Indices::Positions if follows => {}
-                _ => {
-                    let mut v = match std::mem::take(field) {
-                        Indices::Absent => vec![NONE; start],
-                        Indices::Positions => positions[..start].to_vec(),
-                        Indices::Own(v) => v,
-                    };
-                    v.extend(positions[start..].iter().map(|&i| match base {
+                _ => field
+                    .own(&positions[..start])
+                    .extend(positions[start..].iter().map(|&i| match base {
                         Some(b) => i - p_base + b,
                         None => NONE,
-                    }));
-                    *field = Indices::Own(v);
-                }
+                    })),
             }
         }
     }
@@ -229,18 +244,10 @@ impl Corners {
                 Indices::Absent if value == NONE => {}
                 // The first corner decides whether a field can follow the positions.
                 Indices::Absent if len == 1 && value == c.p => *field = Indices::Positions,
-                Indices::Absent => {
-                    let mut v = vec![NONE; len];
-                    v[i] = value;
-                    *field = Indices::Own(v);
-                }
                 Indices::Positions if value == c.p => {}
-                Indices::Positions => {
-                    let mut v = p.clone();
-                    v[i] = value;
-                    *field = Indices::Own(v);
-                }
-                Indices::Own(v) => {
+                // A pushed corner is already in `p`, one past an owned field's end.
+                _ => {
+                    let v = field.own(p);
                     v.resize(len, NONE);
                     v[i] = value;
                 }
@@ -618,7 +625,7 @@ mod tests {
                 if let Indices::Own(v) = held {
                     prop_assert!(v != appended.positions(), "a field that follows the positions is held");
                 }
-                prop_assert_eq!(field.len() == appended.len() || field.is_empty(), true);
+                prop_assert!(field.len() == appended.len() || field.is_empty());
             }
         }
 

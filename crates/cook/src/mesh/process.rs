@@ -169,10 +169,7 @@ impl SourceNormals {
     pub fn copy(src: &Imported) -> Self {
         Self {
             values: src.normals.clone(),
-            corners: Indices::of(
-                src.corners.normal_indices().to_vec(),
-                src.corners.positions(),
-            ),
+            corners: src.corners.normal_field().clone(),
         }
     }
 }
@@ -253,10 +250,7 @@ fn source_normals(
             ids
         }
         held => {
-            let corner_n = match &held {
-                Indices::Own(v) => v.as_slice(),
-                _ => src.corners.positions(),
-            };
+            let corner_n = held.slice(src.corners.positions());
             (keep.iter())
                 .flat_map(|t| [0, 1, 2].map(|j| corner_n[3 * t as usize + j]))
                 .map(&mut id_of)
