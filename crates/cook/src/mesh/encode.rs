@@ -54,8 +54,12 @@ impl Attributes {
     }
 }
 
+/// Vertices per piece of the vertex buffer written on one thread.
+const PIECE: usize = 16 * 1024;
+
 /// Encodes vertices with the attributes `attrs` keeps, quantized when `quantize` gives the
-/// position bits; the layouts are [`pack::vertex::encode`]'s.
+/// position bits; the layouts are [`pack::vertex::encode`]'s. Written in pieces side by side:
+/// quantizing the 819k-triangle grid's vertices one after another took 38 ms.
 pub fn encode(
     vertices: &VertexArrays,
     bounds_min: [f32; 3],
@@ -63,19 +67,35 @@ pub fn encode(
     attrs: Attributes,
     quantize: Option<PositionBits>,
 ) -> Encoded {
+    use rayon::prelude::*;
     let encoding = pack::vertex::Encoding {
         normal: attrs.normal,
         uv: attrs.uv,
         tangent: attrs.tangent,
         quantize,
     };
-    pack::vertex::encode_each(
-        vertices.len(),
-        |i| vertices.get(i),
-        bounds_min,
-        bounds_max,
-        encoding,
-    )
+    // A mesh without texture coordinates reads them as zeros, which fit unorm.
+    let uv_unorm = quantize.is_some()
+        && attrs.uv
+        && vertices
+            .uvs
+            .par_iter()
+            .all(|&uv| pack::vertex::unorm_uv(uv));
+    let layout = pack::vertex::layout(encoding, uv_unorm, bounds_min, bounds_max);
+    let stride = layout.stride as usize;
+    let mut bytes = vec![0; vertices.len() * stride];
+    let error = bytes
+        .par_chunks_mut(PIECE * stride)
+        .enumerate()
+        .map(|(k, out)| pack::vertex::write_vertices(&layout, k * PIECE, |i| vertices.get(i), out))
+        .reduce(Default::default, pack::vertex::QuantizationError::max);
+    Encoded {
+        layout,
+        bytes,
+        max_position_error: error.position,
+        max_normal_error_deg: error.normal_deg,
+        max_uv_error: error.uv,
+    }
 }
 
 /// One processed mesh as the pack stores it, with what the report says about it.
