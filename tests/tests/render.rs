@@ -453,6 +453,10 @@ fn out_dir() -> PathBuf {
 /// only) moves some pixels by far more.
 const MAX_LSB: u8 = 4;
 
+/// Pixels one step apart that pass as the host CPU's rounding (see [`check_image`]): at most
+/// one in this many, 5 %, twice what the last-bit differences between CPUs reach.
+const ROUNDING_PIXELS_PER: usize = 20;
+
 /// Compares with `data/reference/<name>.png` using FLIP (mean and 99th percentile) and the
 /// largest channel difference, [`MAX_LSB`].
 fn check_image(name: &str, image: &image::RgbaImage, max_mean: f32, max_p99: f32) {
@@ -494,7 +498,16 @@ fn check_image(name: &str, image: &image::RgbaImage, max_mean: f32, max_p99: f32
         .map(|(a, b)| a.abs_diff(*b))
         .max()
         .unwrap_or(0);
-    if !(mean <= max_mean && p99 <= max_p99 && max_lsb <= MAX_LSB) {
+    let differing = (reference.pixels().zip(actual.pixels()))
+        .filter(|(a, b)| a != b)
+        .count();
+    // lavapipe compiles the shaders for the host CPU, and its results differ in the last bit
+    // between instruction sets: references blessed on an AMD EPYC render on an Intel Xeon with
+    // AVX-512 with 1.6-2.4 % of pixels one step apart, which FLIP's mean and p99 count (0.0012-
+    // 0.0017 and 0.012-0.014 where these scenes allow 0.001 and 0.01). Such rounding is no
+    // change of the picture; anything more is held to the FLIP bounds.
+    let rounding = max_lsb <= 1 && differing * ROUNDING_PIXELS_PER <= (w * h) as usize;
+    if !(rounding || mean <= max_mean && p99 <= max_p99 && max_lsb <= MAX_LSB) {
         image.save(&actual_path).unwrap();
         let diff = error.apply_color_lut(&nv_flip::magma_lut());
         let diff_path = out_dir().join(format!("{name}-diff.png"));
@@ -509,7 +522,9 @@ fn check_image(name: &str, image: &image::RgbaImage, max_mean: f32, max_p99: f32
             diff_path.display()
         );
     }
-    eprintln!("{name}: FLIP mean {mean:.5}, p99 {p99:.5}, {max_lsb} LSB");
+    eprintln!(
+        "{name}: FLIP mean {mean:.5}, p99 {p99:.5}, {max_lsb} LSB, {differing} pixels differ"
+    );
 }
 
 fn render_camera(
