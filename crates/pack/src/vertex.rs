@@ -413,35 +413,24 @@ pub fn encode(
     bounds_max: [f32; 3],
     encoding: Encoding,
 ) -> Encoded {
-    encode_each(
-        vertices.len(),
-        |i| vertices[i],
-        bounds_min,
-        bounds_max,
-        encoding,
-    )
+    let uv_unorm =
+        encoding.quantize.is_some() && encoding.uv && vertices.iter().all(|v| unorm_uv(v.uv));
+    let layout = layout(encoding, uv_unorm, bounds_min, bounds_max);
+    let mut bytes = vec![0; vertices.len() * layout.stride as usize];
+    let error = write_vertices(&layout, 0, |i| vertices[i], &mut bytes);
+    Encoded::new(layout, bytes, error)
 }
 
-/// [`encode`] of the `count` vertices `vertex` gives, each built as it is written: a caller
-/// that holds its vertices another way (attribute by attribute) never holds them whole.
-pub fn encode_each(
-    count: usize,
-    vertex: impl Fn(usize) -> StandardVertex,
-    bounds_min: [f32; 3],
-    bounds_max: [f32; 3],
-    encoding: Encoding,
-) -> Encoded {
-    let uv_unorm =
-        encoding.quantize.is_some() && encoding.uv && (0..count).all(|i| unorm_uv(vertex(i).uv));
-    let layout = layout(encoding, uv_unorm, bounds_min, bounds_max);
-    let mut bytes = vec![0; count * layout.stride as usize];
-    let error = write_vertices(&layout, 0, vertex, &mut bytes);
-    Encoded {
-        layout,
-        bytes,
-        max_position_error: error.position,
-        max_normal_error_deg: error.normal_deg,
-        max_uv_error: error.uv,
+impl Encoded {
+    /// Vertices `write_vertices` wrote in `layout`, with what quantizing them cost.
+    pub fn new(layout: VertexLayout, bytes: Vec<u8>, error: QuantizationError) -> Self {
+        Self {
+            layout,
+            bytes,
+            max_position_error: error.position,
+            max_normal_error_deg: error.normal_deg,
+            max_uv_error: error.uv,
+        }
     }
 }
 

@@ -89,13 +89,7 @@ pub fn encode(
         .enumerate()
         .map(|(k, out)| pack::vertex::write_vertices(&layout, k * PIECE, |i| vertices.get(i), out))
         .reduce(Default::default, pack::vertex::QuantizationError::max);
-    Encoded {
-        layout,
-        bytes,
-        max_position_error: error.position,
-        max_normal_error_deg: error.normal_deg,
-        max_uv_error: error.uv,
-    }
+    Encoded::new(layout, bytes, error)
 }
 
 /// One processed mesh as the pack stores it, with what the report says about it.
