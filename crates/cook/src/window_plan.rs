@@ -57,11 +57,14 @@ pub struct Windows {
     pub replaced: Vec<u16>,
 }
 
-fn decode_rgba(
-    images: &crate::textures::DecodedImages,
-    image: &ImageRef,
-) -> Result<image::RgbaImage, CookError> {
-    Ok(images.get(image)?.to_rgba8())
+/// A decoded design's texels as RGBA8: borrowed, since the cook holds 8-bit images as RGBA8
+/// already (`textures::DecodedImages`), and converted only for 16-bit and float ones. Each
+/// window showing a design read it, and copied it whole, even where nothing was masked.
+fn rgba(img: &image::DynamicImage) -> std::borrow::Cow<'_, image::RgbaImage> {
+    match img.as_rgba8() {
+        Some(pixels) => std::borrow::Cow::Borrowed(pixels),
+        None => std::borrow::Cow::Owned(img.to_rgba8()),
+    }
 }
 
 /// The instance's triangles in texture space, each with its pane (index into `panes`), and
@@ -577,7 +580,7 @@ fn make_design(p: &Pending, images: &crate::textures::DecodedImages) -> Result<D
     };
     let name = format!("{stem}.{}", if p.planar { "fitted" } else { "masked" });
     if p.planar {
-        let mut canvas = design::fit_design(&decode_rgba(images, img)?, p.fit, p.aspect);
+        let mut canvas = design::fit_design(&rgba(&*images.get(img)?), p.fit, p.aspect);
         let mask = design::coverage(&p.tris, canvas.width(), canvas.height());
         design::apply_mask(&mut canvas, &mask);
         let width = canvas.width();
@@ -585,10 +588,12 @@ fn make_design(p: &Pending, images: &crate::textures::DecodedImages) -> Result<D
     }
     // With the model's own UVs the design is used as it is, unless it would let light
     // through where the window has no glass.
-    let mut pixels = decode_rgba(images, img)?;
+    let decoded = images.get(img)?;
+    let pixels = rgba(&decoded);
     let width = pixels.width();
     let mask = design::coverage(&p.tris, width, pixels.height());
     if design::light_outside(&pixels, &mask) {
+        let mut pixels = pixels.into_owned();
         design::apply_mask(&mut pixels, &mask);
         Ok((raster(name, pixels), *source, width))
     } else {
