@@ -647,7 +647,7 @@ impl Isa {
 type Task<'a, T> = (usize, usize, Vec<&'a mut [T]>);
 
 fn direct<I: Io>(io: &I, w: usize, h: usize, sigma: f64, out: &mut [I::Out]) {
-    direct_with(Isa::detect(), io, w, h, sigma, out)
+    direct_with(Isa::detect(), io, w, h, sigma, 0..h, out)
 }
 
 /// The centre and one side of a symmetric kernel.
@@ -664,7 +664,18 @@ fn half_kernel(k: &[f64]) -> Vec<f32> {
 /// along the row (on columns, so every load is a whole aligned vector), turns the result back
 /// into rows in a ring, and as soon as [`GROUP`] output rows have all their input rows in the
 /// ring, filters down the columns and encodes straight into the output.
-fn direct_with<I: Io>(isa: Isa, io: &I, w: usize, h: usize, sigma: f64, out: &mut [I::Out]) {
+///
+/// `out` holds output rows `rows` only: a band of the image, the same bits as those rows of
+/// the whole (every band already starts its ring `ry` rows above its first row).
+fn direct_with<I: Io>(
+    isa: Isa,
+    io: &I,
+    w: usize,
+    h: usize,
+    sigma: f64,
+    rows: std::ops::Range<usize>,
+    out: &mut [I::Out],
+) {
     let kx = half_kernel(&gaussian_kernel(sigma, w - 1));
     let ky = half_kernel(&gaussian_kernel(sigma, h - 1));
     let (rx, ry) = (kx.len() - 1, ky.len() - 1);
@@ -673,15 +684,17 @@ fn direct_with<I: Io>(isa: Isa, io: &I, w: usize, h: usize, sigma: f64, out: &mu
     // Bands only when strips alone cannot keep the threads busy; each band re-filters the 2·ry
     // rows above it, so bands stay many times taller than that.
     let threads = rayon::current_num_threads();
-    let max_bands = (h / (8 * (2 * ry + 1)).max(GROUP)).max(1);
+    let n_rows = rows.len();
+    let max_bands = (n_rows / (8 * (2 * ry + 1)).max(GROUP)).max(1);
     let bands = (2 * threads).div_ceil(strips).clamp(1, max_bands);
-    let band_rows = h.div_ceil(bands).next_multiple_of(GROUP);
+    let band_rows = n_rows.div_ceil(bands).next_multiple_of(GROUP);
     let per = I::PER_TEXEL;
+    assert!(rows.end <= h && out.len() == n_rows * w * per);
 
     // Every task's output: one slice per row of its band, the strip's columns.
     let mut tasks: Vec<Task<I::Out>> = (0..bands)
-        .flat_map(|b| (0..strips).map(move |s| (s, b * band_rows, Vec::new())))
-        .filter(|&(_, y0, _)| y0 < h)
+        .flat_map(|b| (0..strips).map(move |s| (s, rows.start + b * band_rows, Vec::new())))
+        .filter(|&(_, y0, _)| y0 < rows.end)
         .collect();
     for (y, row) in out.chunks_mut(w * per).enumerate() {
         let band = y / band_rows;
@@ -839,99 +852,125 @@ impl Axis {
 }
 
 fn decimated<I: Io>(io: &I, w: usize, h: usize, sigma: f64, dec: Decimation, out: &mut [I::Out]) {
-    let k = dec.k(sigma);
-    let tau = sigma / std::f64::consts::SQRT_2;
-    let mut g1 = kernel_at(tau, dec.radius_sigmas, usize::MAX);
-    if dec.balance {
-        for residue in 0..k {
-            let class = || g1.iter().skip(residue).step_by(k);
-            let sum: f64 = class().sum();
-            if sum > 0.0 {
-                let scale = 1.0 / (k as f64 * sum);
-                g1.iter_mut()
-                    .skip(residue)
-                    .step_by(k)
-                    .for_each(|g| *g *= scale);
+    let grid = Grid::new(io, w, h, sigma, dec);
+    grid.rows(io, 0..h, out);
+}
+
+/// The decimated method's coarse grid (its first stage), from which [`Grid::rows`] interpolates
+/// any fine rows: `1/k²` of the image, so a caller can hold it and take the blur a band at a
+/// time.
+struct Grid {
+    w: usize,
+    k: usize,
+    ax: Axis,
+    ay: Axis,
+    b: Vec<Px>,
+}
+
+impl Grid {
+    fn new<I: Io>(io: &I, w: usize, h: usize, sigma: f64, dec: Decimation) -> Grid {
+        let k = dec.k(sigma);
+        let tau = sigma / std::f64::consts::SQRT_2;
+        let mut g1 = kernel_at(tau, dec.radius_sigmas, usize::MAX);
+        if dec.balance {
+            for residue in 0..k {
+                let class = || g1.iter().skip(residue).step_by(k);
+                let sum: f64 = class().sum();
+                if sum > 0.0 {
+                    let scale = 1.0 / (k as f64 * sum);
+                    g1.iter_mut()
+                        .skip(residue)
+                        .step_by(k)
+                        .for_each(|g| *g *= scale);
+                }
             }
         }
-    }
-    let g1 = to_f32(&g1);
-    let r1 = g1.len() / 2;
-    let ax = Axis::new(w, k, tau, dec.radius_sigmas);
-    let ay = Axis::new(h, k, tau, dec.radius_sigmas);
-    let (mx, my) = (ax.count, ay.count);
-    let fir = ax.stage1(&g1);
+        let g1 = to_f32(&g1);
+        let r1 = g1.len() / 2;
+        let ax = Axis::new(w, k, tau, dec.radius_sigmas);
+        let ay = Axis::new(h, k, tau, dec.radius_sigmas);
+        let (mx, my) = (ax.count, ay.count);
+        let fir = ax.stage1(&g1);
 
-    // Stage 1 along x, then along y at the coarse rows, streamed: each task takes a band of
-    // coarse rows and computes the fine rows its kernel windows reach, once each, into a ring
-    // of 2·r1 + 1 rows. A full-height intermediate (mx × h texels, 64 MiB at 4096² and σ = 8)
-    // cost more in page faults than the blur itself; bands recompute only the few rows their
-    // windows share. Every coarse row sums the same terms in the same order as before, so the
-    // result does not depend on the banding or the thread count.
-    let mut b = vec![[0.0f32; 4]; mx * my];
-    let taps = g1.len();
-    let bands = (rayon::current_num_threads() * 2).clamp(1, my.max(1));
-    let band_rows = my.div_ceil(bands).max(1);
-    let first_row = |m: usize| (m * k) as i64 - ay.rt as i64 - r1 as i64;
-    b.par_chunks_mut(mx * band_rows).enumerate().for_each_init(
-        || {
-            (
-                vec![[0.0f32; 4]; w],
-                fir.scratch(mx),
-                vec![[0.0f32; 4]; mx * taps],
-            )
-        },
-        |(row, phases, ring), (band, out_rows)| {
-            let m0 = band * band_rows;
-            // The next fine row to compute into the ring.
-            let mut next = first_row(m0).max(0) as usize;
-            for (i, o) in out_rows.chunks_mut(mx).enumerate() {
-                let lo = first_row(m0 + i);
-                let hi = (lo + taps as i64).min(h as i64);
-                // Rows between windows (a step k wider than the kernel) are never needed.
-                next = next.max(lo.max(0) as usize);
-                while (next as i64) < hi {
-                    let slot = next % taps;
-                    io.fill(next, 0, row);
-                    fir.apply(row, phases, &mut ring[slot * mx..(slot + 1) * mx]);
-                    next += 1;
-                }
-                let terms: Vec<(f32, &[Px])> = g1
-                    .iter()
-                    .enumerate()
-                    .filter_map(|(t, &g)| {
-                        let y = usize::try_from(lo + t as i64).ok().filter(|&y| y < h)?;
-                        let slot = y % taps;
-                        Some((g, &ring[slot * mx..(slot + 1) * mx]))
-                    })
-                    .collect();
-                wsum(o, &terms);
-            }
-        },
-    );
-    // Stage 2: interpolate y back to fine rows, then x to fine columns.
-    out.par_chunks_mut(w * I::PER_TEXEL)
-        .enumerate()
-        .for_each_init(
+        // Stage 1 along x, then along y at the coarse rows, streamed: each task takes a band of
+        // coarse rows and computes the fine rows its kernel windows reach, once each, into a ring
+        // of 2·r1 + 1 rows. A full-height intermediate (mx × h texels, 64 MiB at 4096² and σ = 8)
+        // cost more in page faults than the blur itself; bands recompute only the few rows their
+        // windows share. Every coarse row sums the same terms in the same order as before, so the
+        // result does not depend on the banding or the thread count.
+        let mut b = vec![[0.0f32; 4]; mx * my];
+        let taps = g1.len();
+        let bands = (rayon::current_num_threads() * 2).clamp(1, my.max(1));
+        let band_rows = my.div_ceil(bands).max(1);
+        let first_row = |m: usize| (m * k) as i64 - ay.rt as i64 - r1 as i64;
+        b.par_chunks_mut(mx * band_rows).enumerate().for_each_init(
             || {
                 (
-                    vec![[0.0f32; 4]; mx],
                     vec![[0.0f32; 4]; w],
-                    vec![[0.0f32; 4]; w.div_ceil(k)],
+                    fir.scratch(mx),
+                    vec![[0.0f32; 4]; mx * taps],
                 )
             },
-            |(c, row, tmp), (y, o)| {
-                let (m0, ws) = ay.interp(y);
-                let terms: Vec<(f32, &[Px])> = ws
-                    .iter()
-                    .enumerate()
-                    .map(|(i, &t)| (t, &b[(m0 + i) * mx..(m0 + i + 1) * mx]))
-                    .collect();
-                wsum(c, &terms);
-                ax.interp_row(c, tmp, row);
-                io.emit(row, o);
+            |(row, phases, ring), (band, out_rows)| {
+                let m0 = band * band_rows;
+                // The next fine row to compute into the ring.
+                let mut next = first_row(m0).max(0) as usize;
+                for (i, o) in out_rows.chunks_mut(mx).enumerate() {
+                    let lo = first_row(m0 + i);
+                    let hi = (lo + taps as i64).min(h as i64);
+                    // Rows between windows (a step k wider than the kernel) are never needed.
+                    next = next.max(lo.max(0) as usize);
+                    while (next as i64) < hi {
+                        let slot = next % taps;
+                        io.fill(next, 0, row);
+                        fir.apply(row, phases, &mut ring[slot * mx..(slot + 1) * mx]);
+                        next += 1;
+                    }
+                    let terms: Vec<(f32, &[Px])> = g1
+                        .iter()
+                        .enumerate()
+                        .filter_map(|(t, &g)| {
+                            let y = usize::try_from(lo + t as i64).ok().filter(|&y| y < h)?;
+                            let slot = y % taps;
+                            Some((g, &ring[slot * mx..(slot + 1) * mx]))
+                        })
+                        .collect();
+                    wsum(o, &terms);
+                }
             },
         );
+        Grid { w, k, ax, ay, b }
+    }
+
+    /// Stage 2 for fine rows `rows` into `out` (those rows only): interpolate y back to fine rows,
+    /// then x to fine columns. Each row on its own, so a band has the whole image's bits.
+    fn rows<I: Io>(&self, io: &I, rows: std::ops::Range<usize>, out: &mut [I::Out]) {
+        let Grid { w, k, ax, ay, b } = self;
+        let (w, k, mx) = (*w, *k, ax.count);
+        assert_eq!(out.len(), rows.len() * w * I::PER_TEXEL);
+        out.par_chunks_mut(w * I::PER_TEXEL)
+            .zip(rows)
+            .for_each_init(
+                || {
+                    (
+                        vec![[0.0f32; 4]; mx],
+                        vec![[0.0f32; 4]; w],
+                        vec![[0.0f32; 4]; w.div_ceil(k)],
+                    )
+                },
+                |(c, row, tmp), (o, y)| {
+                    let (m0, ws) = ay.interp(y);
+                    let terms: Vec<(f32, &[Px])> = ws
+                        .iter()
+                        .enumerate()
+                        .map(|(i, &t)| (t, &b[(m0 + i) * mx..(m0 + i + 1) * mx]))
+                        .collect();
+                    wsum(c, &terms);
+                    ax.interp_row(c, tmp, row);
+                    io.emit(row, o);
+                },
+            );
+    }
 }
 
 /// One extended box: weight 1 on `-r..=r` and `alpha` at ±(r+1), scaled by `norm` to sum to
@@ -1128,6 +1167,79 @@ pub fn blur_rgba8_to_linear(
     Ok(out)
 }
 
+/// [`blur_rgba8_to_linear`] a band of rows at a time, the same bits as those rows of the whole
+/// blur: a caller that needs the blur only a band at a time holds a band, not the image (a
+/// 1024² design's blur is 17 MB of f32). The decimated methods hold their coarse grid, `1/k²`
+/// of the image; the direct one holds nothing, each band starting its passes `r` rows early.
+pub struct RowBlur<'a> {
+    src: &'a [u8],
+    w: usize,
+    h: usize,
+    sigma: f64,
+    grid: Option<Grid>,
+}
+
+impl<'a> RowBlur<'a> {
+    /// `None` for [`BlurMethod::Box3`], whose passes run down whole columns.
+    pub fn new(
+        src: &'a [u8],
+        w: u32,
+        h: u32,
+        sigma: f32,
+        method: BlurMethod,
+    ) -> Result<Option<Self>, TextureError> {
+        let s = check_sigma(sigma)?;
+        crate::mips::check_size(w, h)?;
+        let (w, h) = (w as usize, h as usize);
+        assert_eq!(
+            src.len(),
+            w * h * 4,
+            "RowBlur: buffer does not match {w}x{h}"
+        );
+        let io = Straight8Io { src, w };
+        let grid = match method.resolve_sized(sigma, w as u32, h as u32) {
+            BlurMethod::Decimated => Some(Grid::new(&io, w, h, s, EXACT)),
+            BlurMethod::DecimatedCoarse => Some(Grid::new(&io, w, h, s, COARSE)),
+            BlurMethod::Box3 => return Ok(None),
+            _ => None,
+        };
+        Ok(Some(RowBlur {
+            src,
+            w,
+            h,
+            sigma: s,
+            grid,
+        }))
+    }
+
+    /// Rows `rows` of the blur (within the image).
+    pub fn rows(&self, rows: std::ops::Range<u32>) -> Vec<[f32; 4]> {
+        let rows = rows.start as usize..rows.end as usize;
+        assert!(
+            rows.start <= rows.end && rows.end <= self.h,
+            "RowBlur: rows {rows:?}"
+        );
+        let io = Straight8Io {
+            src: self.src,
+            w: self.w,
+        };
+        let mut out = vec![[0.0f32; 4]; rows.len() * self.w];
+        match &self.grid {
+            Some(grid) => grid.rows(&io, rows, &mut out),
+            None => direct_with(
+                Isa::detect(),
+                &io,
+                self.w,
+                self.h,
+                self.sigma,
+                rows,
+                &mut out,
+            ),
+        }
+        out
+    }
+}
+
 /// Blurs sRGB RGBA8 with straight alpha (`w x h`, row-major) in linear light with premultiplied
 /// alpha; returns RGBA8 holding the sRGB encoding of the blurred *premultiplied* colour (the
 /// light a window lets through) and linear alpha. The end-to-end operation the benchmarks time.
@@ -1245,12 +1357,50 @@ mod tests {
                 .iter()
                 .map(|&isa| {
                     let mut out = vec![0u8; w * h * 4];
-                    direct_with(isa, &io, w, h, sigma, &mut out);
+                    direct_with(isa, &io, w, h, sigma, 0..h, &mut out);
                     out
                 })
                 .collect();
             for (isa, r) in isas.iter().zip(&results) {
                 assert!(r == &results[0], "{isa:?} differs at {w}x{h} σ={sigma}");
+            }
+        }
+    }
+
+    #[test]
+    fn bands_of_the_blur_are_those_rows_of_the_whole() {
+        let panes = crate::testing::Panes {
+            width: 11,
+            height: 7,
+            lead: 2,
+        };
+        let cases = [
+            (301u32, 97u32, 1.3f32, BlurMethod::Direct),
+            (64, 300, 2.2, BlurMethod::Direct),
+            (9, 40, 5.5, BlurMethod::Direct),
+            (520, 33, 0.4, BlurMethod::Direct),
+            (333, 120, 6.6, BlurMethod::Decimated),
+            (80, 257, 19.0, BlurMethod::Decimated),
+            (129, 64, 9.4, BlurMethod::DecimatedCoarse),
+        ];
+        for (w, h, sigma, method) in cases {
+            let src = crate::testing::design(w as usize, h as usize, 5, panes);
+            let whole = blur_rgba8_to_linear(&src, w, h, sigma, method).unwrap();
+            let blur = RowBlur::new(&src, w, h, sigma, method).unwrap().unwrap();
+            for band in [1u32, 7, 16, 50, h] {
+                let mut y0 = 0;
+                while y0 < h {
+                    let y1 = (y0 + band).min(h);
+                    let rows = blur.rows(y0..y1);
+                    let expect = &whole[(y0 * w) as usize..(y1 * w) as usize];
+                    assert!(
+                        rows.iter()
+                            .zip(expect)
+                            .all(|(a, b)| a.map(f32::to_bits) == b.map(f32::to_bits)),
+                        "{w}x{h} σ={sigma} {method:?}: rows {y0}..{y1} differ"
+                    );
+                    y0 = y1;
+                }
             }
         }
     }

@@ -153,6 +153,32 @@ fn box2_srgb8(src: &[u8], w: usize) -> Vec<Texel> {
     out
 }
 
+/// Level 1 of an odd-width, even-height sRGB RGBA8 image, the colour chain's box reduction of
+/// [`to_linear`]'s texels (the same bits), from bands of rows decoded one at a time: with an
+/// even height every output row is a pair of input rows, so a band's rows are its own, and
+/// a band is all the f32 held (a 687x1024 design's whole copy was 11 MB).
+fn reduce_srgb8_rows(src: &[u8], w: u32, h: u32) -> Vec<Texel> {
+    const BAND: usize = 64;
+    let row_bytes = w as usize * 4;
+    let mut out = Vec::with_capacity((w / 2 * h / 2) as usize);
+    for band in src.chunks(BAND * row_bytes) {
+        let texels: Vec<Texel> = band
+            .par_chunks_exact(4)
+            .map(|b| crate::pixels::texel8([b[0], b[1], b[2], b[3]]))
+            .collect();
+        let rows = (band.len() / row_bytes) as u32;
+        out.extend(next_level(
+            &texels,
+            w,
+            rows,
+            MipFilter::Box,
+            weighted,
+            unweighted,
+        ));
+    }
+    out
+}
+
 /// Encodes straight linear RGBA to RGBA8 (sRGB or plain unorm colour, unorm alpha).
 pub fn encode_level(level: &[Texel], srgb: bool) -> Vec<u8> {
     let mut out = vec![0u8; level.len() * 4];
@@ -183,8 +209,7 @@ pub fn colour_mips(img: &DynamicImage, opts: &ColourOptions) -> Result<MipChain,
     let mut levels = Vec::new();
     // Each level is encoded as soon as the next is filtered from it, and its f32 copy dropped:
     // the f32 chain of a 4096² image was 341 MiB held whole.
-    let from_bytes =
-        opts.srgb && opts.filter == MipFilter::Box && w.is_multiple_of(2) && h.is_multiple_of(2);
+    let from_bytes = opts.srgb && opts.filter == MipFilter::Box && h.is_multiple_of(2);
     match from_bytes
         .then(|| crate::pixels::rgba8_bytes(img))
         .flatten()
@@ -193,7 +218,11 @@ pub fn colour_mips(img: &DynamicImage, opts: &ColourOptions) -> Result<MipChain,
         // code (a unit test checks the tables). Level 1 comes from them directly, without a
         // full-size f32 copy of level 0.
         Some(bytes) => {
-            let level1 = box2_srgb8(&bytes, w as usize);
+            let level1 = if w.is_multiple_of(2) {
+                box2_srgb8(&bytes, w as usize)
+            } else {
+                reduce_srgb8_rows(&bytes, w, h)
+            };
             levels.push(bytes.into_owned());
             each_level(level1, 1, w, h, opts.filter, |l| {
                 levels.push(encode_level(&l, opts.srgb))
@@ -223,4 +252,37 @@ pub fn colour_mips_reference(
         .map(|t| t.map(|v| v as f64))
         .collect();
     Ok(colour_levels::<f64>(level0, w, h, opts.filter))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The chain from an 8-bit source's bytes must be the chain of its f32 decode, whichever
+    /// way level 1 is made (whole rows, or bands of rows for an odd width).
+    #[test]
+    fn a_chain_from_bytes_is_the_chain_of_the_decoded_texels() {
+        let panes = crate::testing::Panes {
+            width: 7,
+            height: 5,
+            lead: 1,
+        };
+        for (w, h) in [
+            (37u32, 130u32),
+            (129, 200),
+            (5, 2),
+            (1, 256),
+            (64, 66),
+            (3, 129),
+        ] {
+            let bytes = crate::testing::design(w as usize, h as usize, 9, panes);
+            let img = DynamicImage::ImageRgba8(image::RgbaImage::from_raw(w, h, bytes).unwrap());
+            let chain = colour_mips(&img, &ColourOptions::default()).unwrap();
+            let mut expect = Vec::new();
+            each_level(to_linear(&img, true), 0, w, h, MipFilter::Box, |l| {
+                expect.push(encode_level(&l, true))
+            });
+            assert_eq!(chain.levels, expect, "{w}x{h}");
+        }
+    }
 }

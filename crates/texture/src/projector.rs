@@ -4,11 +4,11 @@ use image::DynamicImage;
 use rayon::prelude::*;
 
 use crate::TextureError;
-use crate::blur::{BlurMethod, blur_linear, blur_rgba8_to_linear, check_sigma};
+use crate::blur::{BlurMethod, RowBlur, blur_linear, blur_rgba8_to_linear, check_sigma};
 use crate::mips::{MipChain, check_size, level_size};
 use crate::pixels::to_linear;
 use crate::real::clamp01;
-use crate::resample::{MipFilter, next_level, walk_chain};
+use crate::resample::{MipFilter, half, next_level, walk_chain};
 use crate::srgb::{decode8, encoder, linear_to_srgb_lsb, linear_to_srgb_lsb_slope};
 
 /// How a projector texture is cooked.
@@ -116,6 +116,16 @@ pub fn projector_with_unpadded(
     design: &DynamicImage,
     opts: &ProjectorOptions,
 ) -> Result<(MipChain, Option<MipChain>, ProjectorReport), TextureError> {
+    cook_projector(design, opts, true)
+}
+
+/// [`projector_with_unpadded`]; `stream` lets a large design's blur be streamed in bands (the
+/// tests turn it off to check that streaming changes no bit).
+fn cook_projector(
+    design: &DynamicImage,
+    opts: &ProjectorOptions,
+    stream: bool,
+) -> Result<(MipChain, Option<MipChain>, ProjectorReport), TextureError> {
     let (w, h) = (design.width(), design.height());
     check_size(w, h)?;
     check_sigma(opts.sigma_texels)?;
@@ -124,52 +134,57 @@ pub fn projector_with_unpadded(
     {
         return Err(TextureError::InvalidBudget { budget: b });
     }
-    let blurred = match crate::pixels::rgba8_bytes(design) {
-        // 8-bit designs (nearly all) are decoded inside the passes: no f32 copy of the design.
-        Some(bytes) => blur_rgba8_to_linear(&bytes, w, h, opts.sigma_texels, opts.method)?,
+    let bytes = crate::pixels::rgba8_bytes(design);
+    // A design larger than the cap never has its level 0 stored, so its full-size blur is
+    // needed only as the reference the stored levels are measured against: stream it in bands
+    // (once for the levels, again for each level measured) rather than hold it whole, 17 MB of
+    // f32 for a 1024² design. Even heights only, where each band's half-size rows are its own.
+    let streamed = match &bytes {
+        Some(b)
+            if stream && h.is_multiple_of(2) && opts.max_size.is_some_and(|cap| w.max(h) > cap) =>
+        {
+            RowBlur::new(b, w, h, opts.sigma_texels, opts.method)?.map(|blur| Streamed {
+                blur,
+                w,
+                h,
+            })
+        }
+        _ => None,
+    };
+    // Levels `first..` of the blur's chain, in f32 and encoded.
+    let (first, levels) = match &streamed {
+        Some(s) => (1, premultiplied_levels(s.half(), half(w), h / 2)),
         None => {
-            let mut premul = to_linear(design, true);
-            premul
-                .par_iter_mut()
-                .for_each(|t| *t = [t[0] * t[3], t[1] * t[3], t[2] * t[3], t[3]]);
-            blur_linear(&premul, w, h, opts.sigma_texels, opts.method)?
+            let blurred = match &bytes {
+                // 8-bit designs (nearly all) are decoded inside the passes: no f32 copy.
+                Some(bytes) => blur_rgba8_to_linear(bytes, w, h, opts.sigma_texels, opts.method)?,
+                None => {
+                    let mut premul = to_linear(design, true);
+                    premul
+                        .par_iter_mut()
+                        .for_each(|t| *t = [t[0] * t[3], t[1] * t[3], t[2] * t[3], t[3]]);
+                    blur_linear(&premul, w, h, opts.sigma_texels, opts.method)?
+                }
+            };
+            (0, premultiplied_levels(blurred, w, h))
         }
     };
-    let levels = premultiplied_levels(blurred, w, h);
     let encoded: Vec<Vec<u8>> = levels.iter().map(|l| encode_premultiplied(l)).collect();
-
-    let mut keep = 0;
-    let mut max_error = None;
-    if let Some(budget) = opts.max_error_lsb {
-        max_error = Some(upsampled_error(&encoded[0], w, h, &levels[0], w, h));
-        for (k, level) in encoded.iter().enumerate().skip(1) {
-            // A level coarser than σ cannot hold the blurred detail; don't spend a pass on it.
-            if (1u64 << k) as f32 > opts.sigma_texels {
-                break;
-            }
-            let (lw, lh) = level_size(w, h, k);
-            let e = upsampled_error(level, lw, lh, &levels[0], w, h);
-            if e > budget as f64 {
-                break;
-            }
-            keep = k;
-            max_error = Some(e);
+    let n = first + levels.len();
+    let error = |k: usize| -> f64 {
+        let (lw, lh) = level_size(w, h, k);
+        match &streamed {
+            Some(s) if k == 0 => s.max_over_bands(|band, y0, y1| {
+                let bh = y1 - y0;
+                upsampled_error(&encode_premultiplied(band), w, bh, band, w, bh)
+            }),
+            Some(s) => s.max_over_bands(|band, y0, _| {
+                upsampled_error_rows(&encoded[k - first], lw, lh, band, y0, w, h)
+            }),
+            None => upsampled_error(&encoded[k], lw, lh, &levels[0], w, h),
         }
-    }
-    if let Some(cap) = opts.max_size {
-        let first = keep;
-        while keep + 1 < encoded.len() && {
-            let (lw, lh) = level_size(w, h, keep);
-            lw.max(lh) > cap
-        } {
-            keep += 1;
-        }
-        if keep > first {
-            // Against the full-resolution blur, like the budget's levels: what the cap costs.
-            let (lw, lh) = level_size(w, h, keep);
-            max_error = Some(upsampled_error(&encoded[keep], lw, lh, &levels[0], w, h));
-        }
-    }
+    };
+    let (keep, max_error) = choose_level(opts, w, h, n, error);
     let (sw, sh) = level_size(w, h, keep);
     let report = ProjectorReport {
         sigma_texels: opts.sigma_texels,
@@ -185,10 +200,11 @@ pub fn projector_with_unpadded(
     let unpadded = MipChain {
         width: sw,
         height: sh,
-        levels: encoded.into_iter().skip(keep).collect(),
+        levels: encoded.into_iter().skip(keep - first).collect(),
     };
     if opts.block_pad && (pw, ph) != (sw, sh) {
-        let padded = crate::pixels::pad_texels(&levels[keep], sw, sh, pw, ph, Some([0.0; 4]));
+        let padded =
+            crate::pixels::pad_texels(&levels[keep - first], sw, sh, pw, ph, Some([0.0; 4]));
         let chain = MipChain {
             width: pw,
             height: ph,
@@ -200,6 +216,94 @@ pub fn projector_with_unpadded(
         Ok((chain, Some(unpadded), report))
     } else {
         Ok((unpadded, None, report))
+    }
+}
+
+/// Which level the stored chain starts at, and its error: the lowest level whose error stays
+/// within the budget, among those σ leaves detail for, then lower still to fit the size cap.
+/// `error(k)` measures level `k` against the full-resolution blur.
+fn choose_level(
+    opts: &ProjectorOptions,
+    w: u32,
+    h: u32,
+    n: usize,
+    mut error: impl FnMut(usize) -> f64,
+) -> (usize, Option<f64>) {
+    let mut keep = 0;
+    let mut max_error = None;
+    if let Some(budget) = opts.max_error_lsb {
+        for k in 1..n {
+            // A level coarser than σ cannot hold the blurred detail; don't spend a pass on it.
+            if (1u64 << k) as f32 > opts.sigma_texels {
+                break;
+            }
+            let e = error(k);
+            if e > budget as f64 {
+                break;
+            }
+            keep = k;
+            max_error = Some(e);
+        }
+    }
+    if let Some(cap) = opts.max_size {
+        let first = keep;
+        while keep + 1 < n && {
+            let (lw, lh) = level_size(w, h, keep);
+            lw.max(lh) > cap
+        } {
+            keep += 1;
+        }
+        if keep > first {
+            // Against the full-resolution blur, like the budget's levels: what the cap costs.
+            return (keep, Some(error(keep)));
+        }
+    }
+    if opts.max_error_lsb.is_some() && max_error.is_none() {
+        max_error = Some(error(0));
+    }
+    (keep, max_error)
+}
+
+/// The blur of an 8-bit design, a band of rows at a time.
+struct Streamed<'a> {
+    blur: RowBlur<'a>,
+    w: u32,
+    h: u32,
+}
+
+impl Streamed<'_> {
+    /// Rows per band: 2 MiB of f32 at 1024 texels a row; even, so each band halves on its own.
+    const BAND: u32 = 128;
+
+    fn bands(&self) -> impl Iterator<Item = (u32, u32)> + use<> {
+        let h = self.h;
+        (0..h)
+            .step_by(Self::BAND as usize)
+            .map(move |y0| (y0, (y0 + Self::BAND).min(h)))
+    }
+
+    /// The blur's level 1, [`premultiplied_levels`]' bits, from band after band.
+    fn half(&self) -> Vec<[f32; 4]> {
+        let mut out = Vec::with_capacity((half(self.w) * half(self.h)) as usize);
+        for (y0, y1) in self.bands() {
+            let band = self.blur.rows(y0..y1);
+            out.extend(next_level(
+                &band,
+                self.w,
+                y1 - y0,
+                MipFilter::Box,
+                |t| t,
+                |t| t.map(clamp01),
+            ));
+        }
+        out
+    }
+
+    /// The largest of `f(band, y0, y1)` over the bands of rows `y0..y1`.
+    fn max_over_bands(&self, f: impl Fn(&[[f32; 4]], u32, u32) -> f64) -> f64 {
+        self.bands()
+            .map(|(y0, y1)| f(&self.blur.rows(y0..y1), y0, y1))
+            .fold(0.0, f64::max)
     }
 }
 
@@ -275,6 +379,19 @@ pub fn upsampled_error(
     w: u32,
     h: u32,
 ) -> f64 {
+    upsampled_error_rows(bytes, lw, lh, reference, 0, w, h)
+}
+
+/// [`upsampled_error`] over rows `y0..` of the reference only, which `reference` holds.
+fn upsampled_error_rows(
+    bytes: &[u8],
+    lw: u32,
+    lh: u32,
+    reference: &[[f32; 4]],
+    y0: u32,
+    w: u32,
+    h: u32,
+) -> f64 {
     let lut = decode8();
     let texel = |x: usize, y: usize| -> [f32; 4] {
         let b = &bytes[(y * lw as usize + x) * 4..][..4];
@@ -290,7 +407,7 @@ pub fn upsampled_error(
     let slopes = EncodeSlopes::get();
     reference
         .par_chunks(w as usize)
-        .zip(ys.par_iter())
+        .zip(ys[y0 as usize..].par_iter())
         .map(|(row, &(y0, y1, fy))| {
             let mut max = 0.0f64;
             for (r, &(x0, x1, fx)) in row.iter().zip(&xs) {
@@ -378,6 +495,60 @@ mod tests {
                 let fast = upsampled_error(bytes, lw, lh, &reference, w, h);
                 let exact = exhaustive(bytes, lw, lh, &reference, w);
                 assert_eq!(fast.to_bits(), exact.to_bits(), "scale {scale}, {lw}x{lh}");
+            }
+        }
+    }
+
+    #[test]
+    fn streaming_a_large_design_changes_no_bit() {
+        let panes = crate::testing::Panes {
+            width: 9,
+            height: 5,
+            lead: 2,
+        };
+        // Direct and decimated blurs, odd widths, and an odd height (not streamed).
+        let cases = [
+            (300u32, 260u32, 2.2f32),
+            (258, 40, 0.7),
+            (96, 388, 4.5),
+            (329, 200, 2.2),
+            (301, 256, 6.6),
+            (260, 130, 9.4),
+            (200, 301, 3.0),
+        ];
+        for (w, h, sigma) in cases {
+            let design = DynamicImage::ImageRgba8(
+                image::RgbaImage::from_raw(
+                    w,
+                    h,
+                    crate::testing::design(w as usize, h as usize, 3, panes),
+                )
+                .unwrap(),
+            );
+            for (budget, cap, pad) in [
+                (Some(1.0), Some(128), true),
+                (Some(0.2), Some(256), false),
+                (None, Some(100), true),
+                (Some(8.0), Some(32), false),
+            ] {
+                let opts = ProjectorOptions {
+                    max_error_lsb: budget,
+                    max_size: cap,
+                    block_pad: pad,
+                    ..ProjectorOptions::new(sigma)
+                };
+                let streamed = cook_projector(&design, &opts, true).unwrap();
+                let whole = cook_projector(&design, &opts, false).unwrap();
+                assert_eq!(
+                    streamed.0.levels, whole.0.levels,
+                    "{w}x{h} σ={sigma} {opts:?}"
+                );
+                assert_eq!(
+                    streamed.1.map(|c| c.levels),
+                    whole.1.map(|c| c.levels),
+                    "{w}x{h} σ={sigma} {opts:?}"
+                );
+                assert_eq!(streamed.2, whole.2, "{w}x{h} σ={sigma} {opts:?}");
             }
         }
     }
