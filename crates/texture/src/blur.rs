@@ -1123,6 +1123,23 @@ fn run<I: Io>(io: &I, w: usize, h: usize, sigma: f64, method: BlurMethod, out: &
     }
 }
 
+/// σ checked and the size as `usize`, for a `w x h` buffer of `len` elements, `per` a texel
+/// (a caller's buffer of another size is a bug, not bad input).
+fn checked(
+    sigma: f32,
+    w: u32,
+    h: u32,
+    len: usize,
+    per: usize,
+    what: &str,
+) -> Result<(f64, usize, usize), TextureError> {
+    let s = check_sigma(sigma)?;
+    crate::mips::check_size(w, h)?;
+    let (w, h) = (w as usize, h as usize);
+    assert_eq!(len, w * h * per, "{what}: buffer does not match {w}x{h}");
+    Ok((s, w, h))
+}
+
 /// Blurs premultiplied linear RGBA (`w x h`, row-major) with σ in texels.
 pub fn blur_linear(
     src: &[[f32; 4]],
@@ -1131,14 +1148,7 @@ pub fn blur_linear(
     sigma: f32,
     method: BlurMethod,
 ) -> Result<Vec<[f32; 4]>, TextureError> {
-    let s = check_sigma(sigma)?;
-    crate::mips::check_size(w, h)?;
-    let (w, h) = (w as usize, h as usize);
-    assert_eq!(
-        src.len(),
-        w * h,
-        "blur_linear: buffer does not match {w}x{h}"
-    );
+    let (s, w, h) = checked(sigma, w, h, src.len(), 1, "blur_linear")?;
     let mut out = vec![[0.0f32; 4]; w * h];
     run(&F32Io { src, w }, w, h, s, method, &mut out);
     Ok(out)
@@ -1154,14 +1164,7 @@ pub fn blur_rgba8_to_linear(
     sigma: f32,
     method: BlurMethod,
 ) -> Result<Vec<[f32; 4]>, TextureError> {
-    let s = check_sigma(sigma)?;
-    crate::mips::check_size(w, h)?;
-    let (w, h) = (w as usize, h as usize);
-    assert_eq!(
-        src.len(),
-        w * h * 4,
-        "blur_rgba8_to_linear: buffer does not match {w}x{h}"
-    );
+    let (s, w, h) = checked(sigma, w, h, src.len(), 4, "blur_rgba8_to_linear")?;
     let mut out = vec![[0.0f32; 4]; w * h];
     run(&Straight8Io { src, w }, w, h, s, method, &mut out);
     Ok(out)
@@ -1188,14 +1191,7 @@ impl<'a> RowBlur<'a> {
         sigma: f32,
         method: BlurMethod,
     ) -> Result<Option<Self>, TextureError> {
-        let s = check_sigma(sigma)?;
-        crate::mips::check_size(w, h)?;
-        let (w, h) = (w as usize, h as usize);
-        assert_eq!(
-            src.len(),
-            w * h * 4,
-            "RowBlur: buffer does not match {w}x{h}"
-        );
+        let (s, w, h) = checked(sigma, w, h, src.len(), 4, "RowBlur")?;
         let io = Straight8Io { src, w };
         let grid = match method.resolve_sized(sigma, w as u32, h as u32) {
             BlurMethod::Decimated => Some(Grid::new(&io, w, h, s, EXACT)),
@@ -1265,12 +1261,11 @@ pub fn blur_srgb8_into(
     method: BlurMethod,
     out: &mut [u8],
 ) -> Result<(), TextureError> {
-    let s = check_sigma(sigma)?;
-    crate::mips::check_size(w, h)?;
-    let (w, h) = (w as usize, h as usize);
-    assert!(
-        src.len() == w * h * 4 && out.len() == w * h * 4,
-        "blur_srgb8: buffers do not match {w}x{h}"
+    let (s, w, h) = checked(sigma, w, h, src.len(), 4, "blur_srgb8")?;
+    assert_eq!(
+        out.len(),
+        src.len(),
+        "blur_srgb8: output does not match {w}x{h}"
     );
     run(&Srgb8Io { src, w }, w, h, s, method, out);
     Ok(())
