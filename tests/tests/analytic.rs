@@ -77,6 +77,7 @@ impl Builder {
             diffuse_texture: None,
             normal_texture: None,
             projector_texture: None,
+            projector_margin: [0.0; 2],
         });
         self.toc.materials.len() as u16 - 1
     }

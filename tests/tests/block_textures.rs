@@ -113,6 +113,7 @@ fn material(
         diffuse_texture: diffuse,
         normal_texture: normal,
         projector_texture: None,
+        projector_margin: [0.0; 2],
     }
 }
 

@@ -136,6 +136,7 @@ impl Builder {
             diffuse_texture: tex,
             normal_texture: normal,
             projector_texture: projector,
+            projector_margin: [0.0; 2],
         });
         self.toc.materials.len() as u16 - 1
     }

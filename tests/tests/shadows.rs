@@ -597,11 +597,11 @@ fn pillar_in_the_skylight_casts_a_shadow_like_the_reference() {
         );
     }
 
-    // Against the reference, from the two viewpoints a visitor would take. The close-up from
-    // above is dominated by the edges of the skylight's patch, whose blur the cooked projector
-    // keeps inside the window's rectangle (the reference blurs it across the edge): its FLIP
-    // is in the bench report, not gated here.
-    for camera in [0, 2] {
+    // Against the reference, from the two viewpoints a visitor would take (gated), and the
+    // close-up from above (printed only: 0.104, against 0.123 before the projectors carried
+    // the penumbra past the skylight's edge; the rest is the patch's own blur and the pillar's
+    // shadow seen large).
+    for camera in [0, 1, 2] {
         let size = (160, 120);
         let (px, view) = lit_supersampled(&gpu, &scene, camera, size, no_ambient());
         let traced = reference.render_lit(&view, size.0, size.1, &rs);
@@ -621,7 +621,10 @@ fn pillar_in_the_skylight_casts_a_shadow_like_the_reference() {
             "hall camera {}: FLIP mean {flip:.4} (without occlusion {flip_off:.4})",
             hall.cameras[camera].0
         );
-        assert!(flip <= 0.05, "camera {camera}: FLIP mean {flip}");
+        assert!(
+            camera == 1 || flip <= 0.05,
+            "camera {camera}: FLIP mean {flip}"
+        );
     }
 }
 
@@ -685,10 +688,12 @@ fn light_from_every_one_of_many_windows_reaches_the_floor() {
         seen.len() >= 20 && seen.iter().filter(|&&i| i >= 32).count() >= 5,
         "the camera sees the light of windows {seen:?}"
     );
-    // No FLIP bound on the whole image: each patch's outline is hard on the GPU, which stops
-    // a window's light at the edge of its projection, while the reference spreads the sun's
-    // penumbra across it (half a penumbra, 3.5 cm here, beyond the edge): at these small
-    // patches the outlines alone read FLIP mean 0.06–0.10.
+    // The whole image too, outlines included: each projector carries the sun's penumbra past
+    // its window's edge (half a penumbra, 3.5 cm here) as the reference traces it: FLIP mean
+    // 0.026. While the light stopped at the edge of the projection it read 0.101.
+    let flip = compare("skylight-grid", size, &traced, &on);
+    eprintln!("skylight grid from above: FLIP mean {flip:.4}");
+    assert!(flip <= 0.05, "FLIP mean {flip}");
 }
 
 #[test]

@@ -29,7 +29,7 @@ const MAGIC: &[u8; 8] = b"SGCACHE\x01";
 /// mips by texel count, and a texture kept RGBA8 notes what each encoder setting reached.
 /// 5: draw ranges of over 400k triangles are ordered for the vertex cache in pieces of at most
 /// 200k (other meshes' packs are unchanged, but a shared cache must not mix the two).
-pub const CACHE_VERSION: u32 = 5;
+pub const CACHE_VERSION: u32 = 6;
 const HEADER: usize = 8 + 8 + 4 + 4;
 
 /// A cache key: SHA-256 over an artifact's inputs.

@@ -522,6 +522,7 @@ pub fn tag(manifest: &Manifest, sources: &[Imported]) -> Result<Tagging, CookErr
                             diffuse_texture: None,
                             normal_texture: None,
                             projector_texture: None,
+                            projector_margin: [0.0; 2],
                         },
                         diffuse_texture: base.diffuse_texture,
                         normal_texture: base.normal_texture,

@@ -44,6 +44,8 @@ enum Job {
         #[serde(skip)]
         design: ImageRef,
         sigma: f32,
+        /// Texels of margin on each side (`texture::projector_margin`).
+        margin: u32,
     },
 }
 
@@ -752,9 +754,14 @@ fn run(
                 .map_err(|e| texture_error(Path::new(&design.name()), e))?;
             Ok((chain, size, Said::default(), None))
         }
-        Job::Projector { design, sigma } => {
+        Job::Projector {
+            design,
+            sigma,
+            margin,
+        } => {
             let img = images.get(design)?;
             let mut opts = texture::ProjectorOptions::new(*sigma);
+            opts.margin = *margin;
             opts.max_error_lsb = max_error;
             opts.max_size = Some(pack::PROJECTOR_MAX_SIZE);
             opts.block_pad = pad;
@@ -849,14 +856,16 @@ pub fn cook_textures(
         }
     };
     // Job indices per material: (diffuse, normal, projector).
-    let mut refs: Vec<(Option<u32>, Option<u32>, Option<u32>)> = Vec::new();
+    // Each material's diffuse, normal and projector texture, and its projector's margin.
+    type Refs = (Option<u32>, Option<u32>, Option<u32>, [f32; 2]);
+    let mut refs: Vec<Refs> = Vec::new();
     let light = manifest.light.as_ref().map(|l| &l.kind);
     for (mi, plan) in tagging.materials.iter().enumerate() {
         let design = plan
             .window
             .as_deref()
             .filter(|_| plan.material.class.is_window());
-        let mut r = (None, None, None);
+        let mut r: Refs = (None, None, None, [0.0; 2]);
         match design {
             Some(w) => {
                 let f = w.texture_format.unwrap_or(format);
@@ -884,15 +893,22 @@ pub fn cook_textures(
                 ));
                 if lit_windows.get(mi).copied().unwrap_or(false) {
                     let frame = windows.iter().find(|f| f.material as usize == mi);
-                    let width = (w.design_width > 0).then_some(w.design_width);
+                    let (dw, dh) = w.design_size;
+                    let width = (dw > 0).then_some(dw);
                     let sigma = projector_sigma(w.blur_sigma, frame, light, floor_y, width);
+                    let margin = texture::projector_margin(sigma, dw, dh);
                     r.2 = Some(add(
                         Job::Projector {
                             design: w.design.clone(),
                             sigma,
+                            margin,
                         },
                         f,
                     ));
+                    // The texture spans the design and its margin: in frame units, m / size.
+                    if dw > 0 && dh > 0 {
+                        r.3 = [margin as f32 / dw as f32, margin as f32 / dh as f32];
+                    }
                 }
             }
             None => {
@@ -994,6 +1010,7 @@ pub fn cook_textures(
         plan.material.diffuse_texture = r.0;
         plan.material.normal_texture = r.1;
         plan.material.projector_texture = r.2;
+        plan.material.projector_margin = if r.2.is_some() { r.3 } else { [0.0; 2] };
     }
     Ok((textures, data, panorama))
 }

@@ -39,8 +39,8 @@ pub struct WindowPlan {
     pub blur_sigma: Option<f32>,
     /// The window's `texture_format`, overriding `[textures] format`.
     pub texture_format: Option<crate::manifest::TextureFormatChoice>,
-    /// Width of the design in texels (the projector's blur is in texels).
-    pub design_width: u32,
+    /// Size of the design in texels (the projector's blur and margin are in texels).
+    pub design_size: (u32, u32),
     /// Unit normal into the building.
     pub inside: [f32; 3],
     /// The source materials of the window's glass.
@@ -385,7 +385,7 @@ pub fn plan(
             }),
             blur_sigma: entry.and_then(|e| e.blur_sigma),
             texture_format: entry.and_then(|e| e.texture_format),
-            design_width: 0,
+            design_size: (0, 0),
             inside: [
                 inst.inside.x as f32,
                 inst.inside.y as f32,
@@ -446,12 +446,12 @@ pub fn plan(
         });
     }
     let designs = share_identical(designs.into_iter().flatten().collect());
-    for (p, (design, source, width)) in pending.iter().zip(designs) {
+    for (p, (design, source, size)) in pending.iter().zip(designs) {
         let plan = tagging.materials[p.material as usize]
             .window
             .as_mut()
             .expect("planned above");
-        plan.design_width = width;
+        plan.design_size = size;
         plan.design = design;
         plan.source = source;
     }
@@ -519,8 +519,8 @@ fn share_identical(mut designs: Vec<Design>) -> Vec<Design> {
     designs
 }
 
-/// A window's design image, where it came from, and its width in texels.
-type Design = (ImageRef, DesignSource, u32);
+/// A window's design image, where it came from, and its size in texels.
+type Design = (ImageRef, DesignSource, (u32, u32));
 
 /// A window design still to make: what [`make_design`] needs, gathered sequentially.
 struct Pending {
@@ -558,7 +558,7 @@ impl Pending {
 }
 
 /// The design of one window: an image fitted and masked, or cut to the outline where it
-/// would let light through stone, or rasterized from the panes; with its width in texels.
+/// would let light through stone, or rasterized from the panes; with its size in texels.
 fn make_design(p: &Pending, images: &crate::textures::DecodedImages) -> Result<Design, CookError> {
     let Some((img, source)) = &p.image else {
         let (w, h) = p.size;
@@ -566,7 +566,7 @@ fn make_design(p: &Pending, images: &crate::textures::DecodedImages) -> Result<D
         return Ok((
             raster(format!("{}.design", p.name), img),
             DesignSource::Mesh,
-            w,
+            (w, h),
         ));
     };
     // Named after the image, so windows that mask a design the same way share one texture
@@ -583,21 +583,21 @@ fn make_design(p: &Pending, images: &crate::textures::DecodedImages) -> Result<D
         let mut canvas = design::fit_design(&rgba(&*images.get(img)?), p.fit, p.aspect);
         let mask = design::coverage(&p.tris, canvas.width(), canvas.height());
         design::apply_mask(&mut canvas, &mask);
-        let width = canvas.width();
-        return Ok((raster(name, canvas), *source, width));
+        let size = canvas.dimensions();
+        return Ok((raster(name, canvas), *source, size));
     }
     // With the model's own UVs the design is used as it is, unless it would let light
     // through where the window has no glass.
     let decoded = images.get(img)?;
     let pixels = rgba(&decoded);
-    let width = pixels.width();
-    let mask = design::coverage(&p.tris, width, pixels.height());
+    let size = pixels.dimensions();
+    let mask = design::coverage(&p.tris, size.0, size.1);
     if design::light_outside(&pixels, &mask) {
         let mut pixels = pixels.into_owned();
         design::apply_mask(&mut pixels, &mask);
-        Ok((raster(name, pixels), *source, width))
+        Ok((raster(name, pixels), *source, size))
     } else {
-        Ok((img.clone(), *source, width))
+        Ok((img.clone(), *source, size))
     }
 }
 

@@ -79,6 +79,7 @@ pub fn material(name: &str, class: MaterialClass) -> Material {
         diffuse_texture: None,
         normal_texture: None,
         projector_texture: None,
+        projector_margin: [0.0; 2],
     }
 }
 
@@ -130,6 +131,8 @@ pub fn sample() -> (Toc, PackData) {
     let mut window = material("rose", MaterialClass::WindowUpper);
     window.diffuse_texture = Some(0);
     window.normal_texture = Some(1);
+    window.projector_texture = Some(0);
+    window.projector_margin = [0.25, 0.125];
     let toc = Toc {
         meshes: vec![mesh],
         materials: vec![material("floor", MaterialClass::Floor), window],

@@ -334,7 +334,15 @@ pub struct Material {
     pub normal_texture: Option<u32>,
     /// Windows only: the blurred design projected onto receiving surfaces.
     pub projector_texture: Option<u32>,
+    /// How far the projector texture reaches past the window's frame on each side, as a
+    /// fraction of the frame's u and v extent: it spans frame coordinates `-m .. 1 + m`, so
+    /// the light's penumbra can spread past the window's edge. Zero without a projector.
+    pub projector_margin: [f32; 2],
 }
+
+/// The largest projector margin a pack may give, in frames (far beyond any the cooker writes:
+/// its margin is at most the design's longer side).
+pub const MAX_PROJECTOR_MARGIN: f32 = 4096.0;
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize)]
 pub enum IndexFormat {

@@ -275,6 +275,16 @@ pub fn validate_toc(toc: &Toc, table: &[SectionEntry]) -> Result<Vec<SectionRole
         tex_ok(m.diffuse_texture, &what)?;
         tex_ok(m.normal_texture, &what)?;
         tex_ok(m.projector_texture, &what)?;
+        let margin_ok = |v: f32| (0.0..=crate::toc::MAX_PROJECTOR_MARGIN).contains(&v);
+        if !m.projector_margin.iter().all(|&v| margin_ok(v))
+            || (m.projector_texture.is_none() && m.projector_margin != [0.0; 2])
+        {
+            return Err(Fail::toc(format!(
+                "{what}: projector margin {:?} is not in 0..={} or has no projector texture",
+                m.projector_margin,
+                crate::toc::MAX_PROJECTOR_MARGIN
+            )));
+        }
     }
 
     for (ti, t) in toc.textures.iter().enumerate() {

@@ -461,6 +461,10 @@ proptest! {
         toc.textures = texs.iter().map(|t| t.0.clone()).collect();
         toc.materials[1].diffuse_texture = None;
         toc.materials[1].normal_texture = None;
+        if ntex == 0 {
+            toc.materials[1].projector_texture = None;
+            toc.materials[1].projector_margin = [0.0; 2];
+        }
         let stored = toc
             .textures
             .iter_mut()
@@ -497,4 +501,32 @@ proptest! {
         prop_assert_eq!(encode(got.clone(), &data).unwrap(), bytes.clone());
         read_all_stream(&bytes).unwrap();
     }
+}
+
+/// A projector margin must be a finite, non-negative fraction within bounds, and only where
+/// the material has a projector texture: a reader builds its projection from it.
+#[test]
+fn bad_projector_margins_are_rejected() {
+    for (margin, projector) in [
+        ([f32::NAN, 0.0], true),
+        ([0.0, -0.01], true),
+        ([f32::INFINITY, 0.1], true),
+        ([MAX_PROJECTOR_MARGIN * 2.0, 0.1], true),
+        ([0.1, 0.1], false),
+    ] {
+        let (mut toc, data) = sample();
+        let m = &mut toc.materials[1];
+        m.projector_margin = margin;
+        if !projector {
+            m.projector_texture = None;
+        }
+        let e = encode(toc, &data).unwrap_err();
+        assert!(
+            e.to_string().contains("projector margin"),
+            "{margin:?}: {e}"
+        );
+    }
+    let (mut toc, data) = sample();
+    toc.materials[1].projector_margin = [MAX_PROJECTOR_MARGIN, 0.0];
+    encode(toc, &data).expect("the largest margin is valid");
 }

@@ -521,8 +521,10 @@ impl Renderer {
     fn update_shadows(&mut self, gpu: &Gpu, scene: &Scene) {
         let toc = scene.toc();
         self.shadow_layout = match (&toc.light, self.settings.shadows.enabled) {
+            // Over the projectors' frames: a map must cover the light's penumbra past a
+            // window's edge as far as its projector carries it.
             (Some(light), true) if scene.has_windows() => crate::shadows::layout(
-                &toc.windows,
+                &crate::view::projector_frames(toc),
                 scene.window_shadows(),
                 light,
                 scene.occluder_bounds(),
@@ -688,6 +690,10 @@ impl Renderer {
                 .to_array();
         }
         if let (Some(l), Some(g)) = (light, geometry) {
+            let projector_frames: Vec<pack::Window> = crate::view::projector_frames(toc)
+                .iter()
+                .map(|w| window_relative_to(w, view.position))
+                .collect();
             frame.light_pos = g.homogeneous().to_array();
             let c = Vec3::from(l.colour) * l.intensity;
             let radius = match g {
@@ -695,7 +701,7 @@ impl Renderer {
                 LightGeometry::Directional { .. } => 0.0,
             };
             frame.light_colour = c.extend(radius).to_array();
-            for (i, (slot, w)) in windows.items.iter_mut().zip(&relative).enumerate() {
+            for (i, (slot, w)) in windows.items.iter_mut().zip(&projector_frames).enumerate() {
                 let mat = &toc.materials[w.material as usize];
                 let projector = window_projector(w, &g);
                 let tex_slot = scene.projector_slot(mat.projector_texture);

@@ -818,8 +818,10 @@ impl Scene {
 
     fn analyse_occlusion(&mut self) {
         let light = self.toc.light.as_ref().map(LightGeometry::from_light);
+        // Over the projectors' frames: what stands in the light's penumbra past a window's
+        // edge (the sides of a deep opening) must shadow it too.
         self.window_shadows = occlusion::analyse(
-            &self.toc.windows,
+            &crate::view::projector_frames(&self.toc),
             light.as_ref(),
             self.casting().map(|(_, _, t)| t),
         );

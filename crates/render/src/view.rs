@@ -208,6 +208,38 @@ pub fn window_relative_to(w: &pack::Window, origin: Vec3) -> pack::Window {
     }
 }
 
+/// The frame a window's projector texture spans: the window's frame grown on each side by its
+/// material's projector margin (`pack::Material::projector_margin`, in frame units), so the
+/// light's penumbra past the window's edge lands on the texture's margin. Built in f64.
+pub fn projector_frame(w: &pack::Window, margin: [f32; 2]) -> pack::Window {
+    let (u, v) = (
+        Vec3::from(w.u_axis).as_dvec3(),
+        Vec3::from(w.v_axis).as_dvec3(),
+    );
+    let (mu, mv) = (margin[0] as f64, margin[1] as f64);
+    let origin = Vec3::from(w.origin).as_dvec3() - u * mu - v * mv;
+    pack::Window {
+        origin: origin.as_vec3().to_array(),
+        u_axis: (u * (1.0 + 2.0 * mu)).as_vec3().to_array(),
+        v_axis: (v * (1.0 + 2.0 * mv)).as_vec3().to_array(),
+        ..w.clone()
+    }
+}
+
+/// Every window's [`projector_frame`], in window order.
+pub fn projector_frames(toc: &pack::Toc) -> Vec<pack::Window> {
+    toc.windows
+        .iter()
+        .map(|w| {
+            let margin = toc
+                .materials
+                .get(w.material as usize)
+                .map_or([0.0; 2], |m| m.projector_margin);
+            projector_frame(w, margin)
+        })
+        .collect()
+}
+
 /// The matrix mapping a world position to `(u·w, v·w, 0, w)` on a window's design as seen
 /// from the light: a perspective projector from a point light's position, an orthographic one
 /// along a directional light. For points on the window `w = 1` and `(u, v)` are the design's

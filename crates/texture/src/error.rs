@@ -33,6 +33,14 @@ pub enum TextureError {
     InvalidSigma { sigma: f32 },
     #[error("error budget {budget} LSB is invalid: it must be finite and >= 0")]
     InvalidBudget { budget: f32 },
+    #[error(
+        "projector margin of {margin} texels is wider than the {width}x{height} design's longer side"
+    )]
+    MarginTooWide {
+        margin: u32,
+        width: u32,
+        height: u32,
+    },
 }
 
 impl TextureError {

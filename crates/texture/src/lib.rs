@@ -48,6 +48,7 @@ pub use normal::{
     normal_mips,
 };
 pub use projector::{
-    ProjectorOptions, ProjectorReport, projector, projector_with_unpadded, sigma_from_light,
+    MARGIN_SIGMAS, ProjectorOptions, ProjectorReport, projector, projector_margin,
+    projector_with_unpadded, sigma_from_light,
 };
 pub use resample::MipFilter;

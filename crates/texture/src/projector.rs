@@ -29,6 +29,11 @@ pub struct ProjectorOptions {
     /// (`crate::bc::block_padded_size`). The chain is then the padded size; the report's size
     /// stays the image's.
     pub block_pad: bool,
+    /// Texels of transparent border added on each side of the design before the blur, so the
+    /// light can spread past the window's edge as the light's penumbra does
+    /// ([`projector_margin`]); the stored texture spans the design and its margin. The size cap
+    /// applies to the design's part of a level.
+    pub margin: u32,
 }
 
 impl ProjectorOptions {
@@ -39,6 +44,7 @@ impl ProjectorOptions {
             max_size: None,
             method: BlurMethod::Auto,
             block_pad: false,
+            margin: 0,
         }
     }
 }
@@ -56,6 +62,8 @@ pub struct ProjectorReport {
     pub height: u32,
     /// Leading levels dropped because the blur left nothing they would show.
     pub dropped_levels: u32,
+    /// The margin on each side, in design texels ([`ProjectorOptions::margin`]).
+    pub margin: u32,
     /// With a budget: max error (LSB) of the stored texture, sampled bilinearly at the design's
     /// resolution, against the unrounded full-resolution blur.
     pub max_error_lsb: Option<f64>,
@@ -71,6 +79,9 @@ impl std::fmt::Display for ProjectorReport {
             self.width,
             self.height
         )?;
+        if self.margin > 0 {
+            write!(f, " with a margin of {} texels", self.margin)?;
+        }
         if self.dropped_levels > 0 {
             write!(
                 f,
@@ -83,6 +94,33 @@ impl std::fmt::Display for ProjectorReport {
         }
         Ok(())
     }
+}
+
+/// How far a window's blurred light reaches past its design's edge, in σ: the light of an
+/// edge has fallen to 0.5·erfc(4/√2) = 3.2e-5 of its level there, under 0.1 LSB of sRGB8 even
+/// where the curve is steepest, so it rounds to black.
+pub const MARGIN_SIGMAS: f32 = 4.0;
+
+/// Texels of margin for a `w x h` design blurred with σ texels: [`MARGIN_SIGMAS`]·σ, and at most
+/// the design's longer side (a blur that wide spreads the light into a faint glow, and the
+/// texture would otherwise grow without bound).
+pub fn projector_margin(sigma_texels: f32, w: u32, h: u32) -> u32 {
+    if sigma_texels > 0.0 && sigma_texels.is_finite() {
+        ((MARGIN_SIGMAS * sigma_texels).ceil() as u32).min(w.max(h))
+    } else {
+        0
+    }
+}
+
+/// `bytes` (RGBA8, `w x h`) inside a border of `m` transparent texels on each side.
+fn pad_bytes(bytes: &[u8], w: u32, h: u32, m: u32) -> Vec<u8> {
+    let (w, h, m) = (w as usize, h as usize, m as usize);
+    let row = (w + 2 * m) * 4;
+    let mut out = vec![0u8; row * (h + 2 * m)];
+    for (y, src) in bytes.chunks_exact(w * 4).enumerate() {
+        out[(y + m) * row + m * 4..][..w * 4].copy_from_slice(src);
+    }
+    out
 }
 
 /// σ in window texels of the penumbra a light casts: a light of angular size θ (the sun: about
@@ -126,22 +164,37 @@ fn cook_projector(
     opts: &ProjectorOptions,
     stream: bool,
 ) -> Result<(MipChain, Option<MipChain>, ProjectorReport), TextureError> {
-    let (w, h) = (design.width(), design.height());
-    check_size(w, h)?;
+    let (dw, dh) = (design.width(), design.height());
+    check_size(dw, dh)?;
     check_sigma(opts.sigma_texels)?;
     if let Some(b) = opts.max_error_lsb
         && !(b.is_finite() && b >= 0.0)
     {
         return Err(TextureError::InvalidBudget { budget: b });
     }
-    let bytes = crate::pixels::rgba8_bytes(design);
+    let m = opts.margin;
+    if m > dw.max(dh) {
+        return Err(TextureError::MarginTooWide {
+            margin: m,
+            width: dw,
+            height: dh,
+        });
+    }
+    // The blurred image: the design and its margin.
+    let (w, h) = (dw + 2 * m, dh + 2 * m);
+    let bytes = crate::pixels::rgba8_bytes(design).map(|b| match m {
+        0 => b,
+        _ => std::borrow::Cow::Owned(pad_bytes(&b, dw, dh, m)),
+    });
     // A design larger than the cap never has its level 0 stored, so its full-size blur is
     // needed only as the reference the stored levels are measured against: stream it in bands
     // (once for the levels, again for each level measured) rather than hold it whole, 17 MB of
     // f32 for a 1024² design. Even heights only, where each band's half-size rows are its own.
     let streamed = match &bytes {
         Some(b)
-            if stream && h.is_multiple_of(2) && opts.max_size.is_some_and(|cap| w.max(h) > cap) =>
+            if stream
+                && h.is_multiple_of(2)
+                && opts.max_size.is_some_and(|cap| dw.max(dh) > cap) =>
         {
             RowBlur::new(b, w, h, opts.sigma_texels, opts.method)?.map(|blur| Streamed {
                 blur,
@@ -163,6 +216,14 @@ fn cook_projector(
                     premul
                         .par_iter_mut()
                         .for_each(|t| *t = [t[0] * t[3], t[1] * t[3], t[2] * t[3], t[3]]);
+                    if m > 0 {
+                        let mut framed = vec![[0.0f32; 4]; (w * h) as usize];
+                        for (y, row) in premul.chunks_exact(dw as usize).enumerate() {
+                            let at = (y + m as usize) * w as usize + m as usize;
+                            framed[at..at + dw as usize].copy_from_slice(row);
+                        }
+                        premul = framed;
+                    }
                     blur_linear(&premul, w, h, opts.sigma_texels, opts.method)?
                 }
             };
@@ -189,11 +250,12 @@ fn cook_projector(
     let report = ProjectorReport {
         sigma_texels: opts.sigma_texels,
         method: opts.method.resolve_sized(opts.sigma_texels, w, h),
-        design_width: w,
-        design_height: h,
+        design_width: dw,
+        design_height: dh,
         width: sw,
         height: sh,
         dropped_levels: keep as u32,
+        margin: m,
         max_error_lsb: max_error,
     };
     let (pw, ph) = crate::bc::block_padded_size(sw, sh);
@@ -247,10 +309,12 @@ fn choose_level(
     }
     if let Some(cap) = opts.max_size {
         let first = keep;
-        while keep + 1 < n && {
-            let (lw, lh) = level_size(w, h, keep);
-            lw.max(lh) > cap
-        } {
+        // The design's part of level k: the level less its margin, m / 2^k on each side.
+        let design_part = |k: usize| {
+            let (lw, lh) = level_size(w, h, k);
+            lw.max(lh) as f64 - 2.0 * opts.margin as f64 / (1u64 << k) as f64
+        };
+        while keep + 1 < n && design_part(keep) > cap as f64 {
             keep += 1;
         }
         if keep > first {
@@ -535,6 +599,11 @@ mod tests {
                     max_error_lsb: budget,
                     max_size: cap,
                     block_pad: pad,
+                    margin: if pad {
+                        projector_margin(sigma, w, h)
+                    } else {
+                        0
+                    },
                     ..ProjectorOptions::new(sigma)
                 };
                 let streamed = cook_projector(&design, &opts, true).unwrap();
@@ -550,6 +619,98 @@ mod tests {
                 );
                 assert_eq!(streamed.2, whole.2, "{w}x{h} σ={sigma} {opts:?}");
             }
+        }
+    }
+
+    /// A margin is the design framed in transparent texels: the same texture as cooking the
+    /// framed design without one, from 8-bit and 16-bit designs alike (with the cap counting
+    /// the design's part only).
+    #[test]
+    fn a_margin_is_the_design_framed_in_transparent_texels() {
+        let panes = crate::testing::Panes {
+            width: 6,
+            height: 4,
+            lead: 1,
+        };
+        let (w, h, sigma) = (70u32, 44u32, 2.2f32);
+        let m = projector_margin(sigma, w, h);
+        assert_eq!(m, 9);
+        let bytes = crate::testing::design(w as usize, h as usize, 4, panes);
+        let framed = pad_bytes(&bytes, w, h, m);
+        let img8 = DynamicImage::ImageRgba8(image::RgbaImage::from_raw(w, h, bytes).unwrap());
+        let framed8 = DynamicImage::ImageRgba8(
+            image::RgbaImage::from_raw(w + 2 * m, h + 2 * m, framed).unwrap(),
+        );
+        for (design, framed) in [
+            (img8.clone(), framed8.clone()),
+            (
+                DynamicImage::ImageRgba16(img8.to_rgba16()),
+                DynamicImage::ImageRgba16(framed8.to_rgba16()),
+            ),
+        ] {
+            let opts = ProjectorOptions {
+                max_error_lsb: Some(1.0),
+                ..ProjectorOptions::new(sigma)
+            };
+            let with = projector(&design, &ProjectorOptions { margin: m, ..opts }).unwrap();
+            let without = projector(&framed, &opts).unwrap();
+            assert_eq!(with.0.levels, without.0.levels);
+            assert_eq!((with.1.width, with.1.height), (w + 2 * m, h + 2 * m));
+            assert_eq!(with.1.margin, m);
+            assert_eq!((with.1.design_width, with.1.design_height), (w, h));
+        }
+        // The cap counts the design's part: 70 texels wide fit a cap of 70 with any margin.
+        let capped = |cap| {
+            let opts = ProjectorOptions {
+                max_size: Some(cap),
+                margin: m,
+                ..ProjectorOptions::new(sigma)
+            };
+            projector(&img8, &opts).unwrap().1.dropped_levels
+        };
+        assert_eq!((capped(70), capped(69), capped(35)), (0, 1, 1));
+        let wide = ProjectorOptions {
+            margin: 71,
+            ..ProjectorOptions::new(sigma)
+        };
+        assert!(matches!(
+            projector(&img8, &wide),
+            Err(TextureError::MarginTooWide { margin: 71, .. })
+        ));
+    }
+
+    /// An opaque white design's light spreads into the margin and has faded to black at its
+    /// outer edge: the margin holds the whole penumbra.
+    #[test]
+    fn the_light_fades_to_black_across_the_margin() {
+        for sigma in [0.8f32, 2.2, 7.5] {
+            let (w, h) = (64u32, 40u32);
+            let img = DynamicImage::ImageRgba8(image::RgbaImage::from_pixel(
+                w,
+                h,
+                image::Rgba([255, 255, 255, 255]),
+            ));
+            let m = projector_margin(sigma, w, h);
+            let opts = ProjectorOptions {
+                margin: m,
+                ..ProjectorOptions::new(sigma)
+            };
+            let (chain, _) = projector(&img, &opts).unwrap();
+            let fw = (w + 2 * m) as usize;
+            let row = |y: usize| &chain.levels[0][y * fw * 4..(y + 1) * fw * 4];
+            // Along the middle row: black at the outer edge, light just outside the design.
+            let mid = row((h / 2 + m) as usize);
+            assert_eq!(&mid[..4], &[0, 0, 0, 0], "σ={sigma}");
+            let outside = (m as usize - 1) * 4;
+            assert!(
+                mid[outside] > 0 && mid[outside + 3] > 0,
+                "σ={sigma}: {:?}",
+                &mid[outside..outside + 4]
+            );
+            assert!(
+                row(0).iter().all(|&b| b == 0),
+                "σ={sigma}: light on the outer edge"
+            );
         }
     }
 

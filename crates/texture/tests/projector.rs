@@ -54,6 +54,7 @@ fn heavy_blur_is_stored_smaller_only_within_the_budget() {
         max_size: None,
         method: BlurMethod::Auto,
         block_pad: false,
+        margin: 0,
     };
     let (full, _) = projector(&img, &opts(None)).unwrap();
     // The zero border's falloff is the steepest detail left, and limits how far it can go.
@@ -78,6 +79,7 @@ fn heavy_blur_is_stored_smaller_only_within_the_budget() {
             max_size: None,
             method: BlurMethod::Auto,
             block_pad: false,
+            margin: 0,
         },
     )
     .unwrap();
@@ -114,6 +116,7 @@ fn bad_budget_is_an_error() {
             max_size: None,
             method: BlurMethod::Auto,
             block_pad: false,
+            margin: 0,
         };
         assert!(
             projector(&img, &opts)

@@ -65,6 +65,7 @@ fn windows(toc: &pack::Toc, tris: &[u64]) -> Vec<serde_json::Value> {
                 "design_source": source,
                 "normal_texture": tex(m.normal_texture),
                 "projector_texture": tex(m.projector_texture),
+                "projector_margin": m.projector_margin,
             })
         })
         .collect()
@@ -139,6 +140,7 @@ pub fn describe(pack: &Pack) -> serde_json::Value {
                 "diffuse_texture": tex(m.diffuse_texture),
                 "normal_texture": tex(m.normal_texture),
                 "projector_texture": tex(m.projector_texture),
+                "projector_margin": m.projector_margin,
             })
         })
         .collect();

@@ -28,6 +28,7 @@ fn tiny_pack() -> Vec<u8> {
         diffuse_texture: None,
         normal_texture: None,
         projector_texture: None,
+        projector_margin: [0.0; 2],
     };
     let v = |p: [f32; 3], n: [f32; 3], m: u16| StandardVertex {
         position: p,
