@@ -436,21 +436,35 @@ impl Io for Srgb8Io<'_> {
 /// premultiplied ([`crate::pixels::texel8`] times its alpha), the same bits as that
 /// full-size f32 copy, which this reads without (a 4096² design's copy is 256 MiB). Not
 /// [`Srgb8Io`]'s vector decode: it multiplies by 1/255, a different last bit for half the codes.
+///
+/// The image (`w` texels a row) sits in a frame of `m` transparent texels on each side, which
+/// reads as zero: the bits of a framed copy, without the copy.
 struct Straight8Io<'a> {
     src: &'a [u8],
     w: usize,
+    m: usize,
 }
 
 impl Io for Straight8Io<'_> {
     type Out = Px;
     const PER_TEXEL: usize = 1;
     fn height(&self) -> usize {
-        self.src.len() / (4 * self.w)
+        self.src.len() / (4 * self.w) + 2 * self.m
     }
     fn fill(&self, y: usize, x0: usize, row: &mut [Px]) {
-        let at = (y * self.w + x0) * 4;
-        let bytes = &self.src[at..at + row.len() * 4];
-        for (t, px) in row.iter_mut().zip(bytes.chunks_exact(4)) {
+        let (w, m) = (self.w, self.m);
+        // The image's columns within the row, in frame coordinates.
+        let (lo, hi) = (x0.max(m), (x0 + row.len()).min(m + w));
+        let inside = y >= m && y < self.height() - m && lo < hi;
+        if m > 0 {
+            row.fill([0.0; 4]);
+        }
+        if !inside {
+            return;
+        }
+        let at = ((y - m) * w + lo - m) * 4;
+        let bytes = &self.src[at..at + (hi - lo) * 4];
+        for (t, px) in row[lo - x0..hi - x0].iter_mut().zip(bytes.chunks_exact(4)) {
             let [r, g, b, a] = crate::pixels::texel8([px[0], px[1], px[2], px[3]]);
             *t = [r * a, g * a, b * a, a];
         }
@@ -1164,9 +1178,25 @@ pub fn blur_rgba8_to_linear(
     sigma: f32,
     method: BlurMethod,
 ) -> Result<Vec<[f32; 4]>, TextureError> {
-    let (s, w, h) = checked(sigma, w, h, src.len(), 4, "blur_rgba8_to_linear")?;
+    blur_rgba8_framed_to_linear(src, w, h, 0, sigma, method)
+}
+
+/// [`blur_rgba8_to_linear`] of the image in a frame of `margin` transparent texels on each side:
+/// `(w + 2·margin) x (h + 2·margin)` texels, the bits of blurring a framed copy.
+pub fn blur_rgba8_framed_to_linear(
+    src: &[u8],
+    w: u32,
+    h: u32,
+    margin: u32,
+    sigma: f32,
+    method: BlurMethod,
+) -> Result<Vec<[f32; 4]>, TextureError> {
+    let (s, dw, _) = checked(sigma, w, h, src.len(), 4, "blur_rgba8_framed_to_linear")?;
+    let m = margin as usize;
+    let io = Straight8Io { src, w: dw, m };
+    let (w, h) = (dw + 2 * m, io.height());
     let mut out = vec![[0.0f32; 4]; w * h];
-    run(&Straight8Io { src, w }, w, h, s, method, &mut out);
+    run(&io, w, h, s, method, &mut out);
     Ok(out)
 }
 
@@ -1175,7 +1205,8 @@ pub fn blur_rgba8_to_linear(
 /// 1024² design's blur is 17 MB of f32). The decimated methods hold their coarse grid, `1/k²`
 /// of the image; the direct one holds nothing, each band starting its passes `r` rows early.
 pub struct RowBlur<'a> {
-    src: &'a [u8],
+    io: Straight8Io<'a>,
+    /// The framed image's size.
     w: usize,
     h: usize,
     sigma: f64,
@@ -1183,16 +1214,21 @@ pub struct RowBlur<'a> {
 }
 
 impl<'a> RowBlur<'a> {
-    /// `None` for [`BlurMethod::Box3`], whose passes run down whole columns.
+    /// The blur of `src` (`w x h`) in a frame of `margin` transparent texels, as
+    /// [`blur_rgba8_framed_to_linear`]; rows count from the frame's top. `None` for
+    /// [`BlurMethod::Box3`], whose passes run down whole columns.
     pub fn new(
         src: &'a [u8],
         w: u32,
         h: u32,
+        margin: u32,
         sigma: f32,
         method: BlurMethod,
     ) -> Result<Option<Self>, TextureError> {
-        let (s, w, h) = checked(sigma, w, h, src.len(), 4, "RowBlur")?;
-        let io = Straight8Io { src, w };
+        let (s, dw, _) = checked(sigma, w, h, src.len(), 4, "RowBlur")?;
+        let m = margin as usize;
+        let io = Straight8Io { src, w: dw, m };
+        let (w, h) = (dw + 2 * m, io.height());
         let grid = match method.resolve_sized(sigma, w as u32, h as u32) {
             BlurMethod::Decimated => Some(Grid::new(&io, w, h, s, EXACT)),
             BlurMethod::DecimatedCoarse => Some(Grid::new(&io, w, h, s, COARSE)),
@@ -1200,7 +1236,7 @@ impl<'a> RowBlur<'a> {
             _ => None,
         };
         Ok(Some(RowBlur {
-            src,
+            io,
             w,
             h,
             sigma: s,
@@ -1215,16 +1251,13 @@ impl<'a> RowBlur<'a> {
             rows.start <= rows.end && rows.end <= self.h,
             "RowBlur: rows {rows:?}"
         );
-        let io = Straight8Io {
-            src: self.src,
-            w: self.w,
-        };
+        let io = &self.io;
         let mut out = vec![[0.0f32; 4]; rows.len() * self.w];
         match &self.grid {
-            Some(grid) => grid.rows(&io, rows, &mut out),
+            Some(grid) => grid.rows(io, rows, &mut out),
             None => direct_with(
                 Isa::detect(),
-                &io,
+                io,
                 self.w,
                 self.h,
                 self.sigma,
@@ -1381,7 +1414,7 @@ mod tests {
         for (w, h, sigma, method) in cases {
             let src = crate::testing::design(w as usize, h as usize, 5, panes);
             let whole = blur_rgba8_to_linear(&src, w, h, sigma, method).unwrap();
-            let blur = RowBlur::new(&src, w, h, sigma, method).unwrap().unwrap();
+            let blur = RowBlur::new(&src, w, h, 0, sigma, method).unwrap().unwrap();
             for band in [1u32, 7, 16, 50, h] {
                 let mut y0 = 0;
                 while y0 < h {
@@ -1396,6 +1429,55 @@ mod tests {
                     );
                     y0 = y1;
                 }
+            }
+        }
+    }
+}
+
+#[cfg(test)]
+mod framed_tests {
+    use super::*;
+
+    /// A frame of transparent texels read as zero is the framed copy, by every method.
+    #[test]
+    fn a_frame_blurs_as_a_framed_copy() {
+        let panes = crate::testing::Panes {
+            width: 5,
+            height: 7,
+            lead: 1,
+        };
+        let (w, h, m) = (37usize, 23usize, 9usize);
+        let src = crate::testing::design(w, h, 3, panes);
+        let fw = w + 2 * m;
+        let mut framed = vec![0u8; fw * (h + 2 * m) * 4];
+        for (y, row) in src.chunks_exact(w * 4).enumerate() {
+            framed[((y + m) * fw + m) * 4..][..w * 4].copy_from_slice(row);
+        }
+        for (method, sigma) in [
+            (BlurMethod::Direct, 2.2f32),
+            (BlurMethod::Decimated, 7.0),
+            (BlurMethod::DecimatedCoarse, 9.0),
+            (BlurMethod::Box3, 3.0),
+        ] {
+            let a = blur_rgba8_framed_to_linear(&src, w as u32, h as u32, m as u32, sigma, method)
+                .unwrap();
+            let (fw, fh) = (fw as u32, (h + 2 * m) as u32);
+            let b = blur_rgba8_to_linear(&framed, fw, fh, sigma, method).unwrap();
+            assert!(
+                a.iter()
+                    .zip(&b)
+                    .all(|(x, y)| x.map(f32::to_bits) == y.map(f32::to_bits)),
+                "{method:?}"
+            );
+            if let Some(rows) =
+                RowBlur::new(&src, w as u32, h as u32, m as u32, sigma, method).unwrap()
+            {
+                assert!(
+                    rows.rows(5..fh)
+                        .iter()
+                        .zip(&b[5 * fw as usize..])
+                        .all(|(x, y)| x == y)
+                );
             }
         }
     }

@@ -4,7 +4,7 @@ use image::DynamicImage;
 use rayon::prelude::*;
 
 use crate::TextureError;
-use crate::blur::{BlurMethod, RowBlur, blur_linear, blur_rgba8_to_linear, check_sigma};
+use crate::blur::{BlurMethod, RowBlur, blur_linear, blur_rgba8_framed_to_linear, check_sigma};
 use crate::mips::{MipChain, check_size, level_size};
 use crate::pixels::to_linear;
 use crate::real::clamp01;
@@ -112,17 +112,6 @@ pub fn projector_margin(sigma_texels: f32, w: u32, h: u32) -> u32 {
     }
 }
 
-/// `bytes` (RGBA8, `w x h`) inside a border of `m` transparent texels on each side.
-fn pad_bytes(bytes: &[u8], w: u32, h: u32, m: u32) -> Vec<u8> {
-    let (w, h, m) = (w as usize, h as usize, m as usize);
-    let row = (w + 2 * m) * 4;
-    let mut out = vec![0u8; row * (h + 2 * m)];
-    for (y, src) in bytes.chunks_exact(w * 4).enumerate() {
-        out[(y + m) * row + m * 4..][..w * 4].copy_from_slice(src);
-    }
-    out
-}
-
 /// σ in window texels of the penumbra a light casts: a light of angular size θ (the sun: about
 /// 0.53° = 0.00925 rad; a point light: its radius over its distance) through a window onto a
 /// floor `distance` behind it gives a penumbra θ·d wide, taken as 4σ. `texels_per_unit` is the
@@ -182,10 +171,7 @@ fn cook_projector(
     }
     // The blurred image: the design and its margin.
     let (w, h) = (dw + 2 * m, dh + 2 * m);
-    let bytes = crate::pixels::rgba8_bytes(design).map(|b| match m {
-        0 => b,
-        _ => std::borrow::Cow::Owned(pad_bytes(&b, dw, dh, m)),
-    });
+    let bytes = crate::pixels::rgba8_bytes(design);
     // A design larger than the cap never has its level 0 stored, so its full-size blur is
     // needed only as the reference the stored levels are measured against: stream it in bands
     // (once for the levels, again for each level measured) rather than hold it whole, 17 MB of
@@ -196,7 +182,7 @@ fn cook_projector(
                 && h.is_multiple_of(2)
                 && opts.max_size.is_some_and(|cap| dw.max(dh) > cap) =>
         {
-            RowBlur::new(b, w, h, opts.sigma_texels, opts.method)?.map(|blur| Streamed {
+            RowBlur::new(b, dw, dh, m, opts.sigma_texels, opts.method)?.map(|blur| Streamed {
                 blur,
                 w,
                 h,
@@ -210,7 +196,9 @@ fn cook_projector(
         None => {
             let blurred = match &bytes {
                 // 8-bit designs (nearly all) are decoded inside the passes: no f32 copy.
-                Some(bytes) => blur_rgba8_to_linear(bytes, w, h, opts.sigma_texels, opts.method)?,
+                Some(bytes) => {
+                    blur_rgba8_framed_to_linear(bytes, dw, dh, m, opts.sigma_texels, opts.method)?
+                }
                 None => {
                     let mut premul = to_linear(design, true);
                     premul
@@ -500,6 +488,17 @@ fn upsampled_error_rows(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// `bytes` (RGBA8, `w x h`) inside a border of `m` transparent texels on each side.
+    fn pad_bytes(bytes: &[u8], w: u32, h: u32, m: u32) -> Vec<u8> {
+        let (w, h, m) = (w as usize, h as usize, m as usize);
+        let row = (w + 2 * m) * 4;
+        let mut out = vec![0u8; row * (h + 2 * m)];
+        for (y, src) in bytes.chunks_exact(w * 4).enumerate() {
+            out[(y + m) * row + m * 4..][..w * 4].copy_from_slice(src);
+        }
+        out
+    }
     use crate::resample::half;
 
     /// Every texel and channel through the exact encode: what `upsampled_error` must equal.
