@@ -359,7 +359,7 @@ pub struct Material {
 }
 
 /// The largest projector margin a pack may give, in frames (far beyond any the cooker writes:
-/// its margin is at most the design's longer side).
+/// its margin is at most half the design's longer side).
 pub const MAX_PROJECTOR_MARGIN: f32 = 4096.0;
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize)]

@@ -102,11 +102,11 @@ impl std::fmt::Display for ProjectorReport {
 pub const MARGIN_SIGMAS: f32 = 4.0;
 
 /// Texels of margin for a `w x h` design blurred with σ texels: [`MARGIN_SIGMAS`]·σ, and at most
-/// the design's longer side (a blur that wide spreads the light into a faint glow, and the
-/// texture would otherwise grow without bound).
+/// half the design's longer side, so the blurred image is at most four times the design's
+/// area (a blur that wide spreads the light into a faint glow; its far tail is cut).
 pub fn projector_margin(sigma_texels: f32, w: u32, h: u32) -> u32 {
     if sigma_texels > 0.0 && sigma_texels.is_finite() {
-        ((MARGIN_SIGMAS * sigma_texels).ceil() as u32).min(w.max(h))
+        ((MARGIN_SIGMAS * sigma_texels).ceil() as u32).min(w.max(h) / 2)
     } else {
         0
     }
@@ -634,6 +634,9 @@ mod tests {
         let (w, h, sigma) = (70u32, 44u32, 2.2f32);
         let m = projector_margin(sigma, w, h);
         assert_eq!(m, 9);
+        // At most half the longer side; none without a blur.
+        let at = |s| projector_margin(s, w, h);
+        assert_eq!((at(1e4), at(0.0), at(f32::NAN)), (35, 0, 0));
         let bytes = crate::testing::design(w as usize, h as usize, 4, panes);
         let framed = pad_bytes(&bytes, w, h, m);
         let img8 = DynamicImage::ImageRgba8(image::RgbaImage::from_raw(w, h, bytes).unwrap());
