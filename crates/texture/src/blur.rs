@@ -322,8 +322,14 @@ impl RowFir {
         // for σ = 9e4 texels on a 1024² design.
         if self.taps.len() > 4 * (row.len() + out.len()) {
             self.apply_per_output(row, out);
-            return;
+        } else {
+            self.apply_per_tap(row, phases, out);
         }
+    }
+
+    /// Every tap over every output, tap after tap: long contiguous multiply-adds ([`wsum`]),
+    /// each phase of the row laid out once.
+    fn apply_per_tap(&self, row: &[Px], phases: &mut [Vec<Px>], out: &mut [Px]) {
         let n = out.len();
         for (s, xs) in phases.iter_mut().enumerate() {
             for (i, v) in xs.iter_mut().enumerate() {
@@ -1440,31 +1446,12 @@ mod tests {
             let n = ax.count;
             assert!(
                 fir.taps.len() > 4 * (len + n),
-                "the case must take the per-output loop"
+                "apply takes the per-output loop for these"
             );
             let mut taps_major = vec![[0.0f32; 4]; n];
-            let mut phases = fir.scratch(n);
-            // The tap-major loop, as `apply` runs it for narrower kernels.
-            let terms: Vec<(f32, &[Px])> = {
-                for (s, xs) in phases.iter_mut().enumerate() {
-                    for (i, v) in xs.iter_mut().enumerate() {
-                        let j = (fir.k * i + s) as i64 - fir.pad as i64;
-                        *v = if j >= 0 && (j as usize) < len {
-                            row[j as usize]
-                        } else {
-                            [0.0; 4]
-                        };
-                    }
-                }
-                fir.taps
-                    .iter()
-                    .enumerate()
-                    .map(|(t, &w)| (w, &phases[t % fir.k][t / fir.k..t / fir.k + n]))
-                    .collect()
-            };
-            wsum(&mut taps_major, &terms);
+            fir.apply_per_tap(&row, &mut fir.scratch(n), &mut taps_major);
             let mut per_output = vec![[0.0f32; 4]; n];
-            fir.apply(&row, &mut fir.scratch(n), &mut per_output);
+            fir.apply_per_output(&row, &mut per_output);
             assert!(
                 taps_major
                     .iter()
