@@ -501,6 +501,42 @@ mod tests {
         (c.w > 0.0).then(|| Vec2::new(c.x / c.w, c.y / c.w))
     }
 
+    /// A point at frame coordinates `(u, v)` samples the texture of margin `m` at
+    /// `(u + m) / (1 + 2m)`, as the pack format says, under either kind of light.
+    #[test]
+    fn a_projector_frame_maps_the_window_into_its_margin() {
+        let margin = [0.25f32, 0.1];
+        let grown = projector_frame(&window(), margin);
+        let lights = [
+            LightGeometry::Point {
+                position: Vec3::new(0.5, 3.0, 4.0),
+                radius: 0.1,
+            },
+            LightGeometry::Directional {
+                towards: Vec3::new(0.2, 0.3, 1.0).normalize(),
+            },
+        ];
+        for light in lights {
+            let m = window_projector(&grown, &light).expect("light outside");
+            for (u, v) in [(0.0f32, 0.0f32), (1.0, 1.0), (0.3, 0.8), (-0.25, 1.1)] {
+                let on = Vec3::new(-1.0, 1.0, 0.0)
+                    + Vec3::new(2.0, 0.0, 0.0) * u
+                    + Vec3::new(0.0, 2.0, 0.0) * v;
+                let want = Vec2::new(
+                    (u + margin[0]) / (1.0 + 2.0 * margin[0]),
+                    (v + margin[1]) / (1.0 + 2.0 * margin[1]),
+                );
+                let got = project(m, on).unwrap();
+                assert!(
+                    (got - want).length() < 1e-5,
+                    "({u}, {v}): {got} against {want}"
+                );
+            }
+        }
+        // Without a margin the frame is the window's.
+        assert_eq!(projector_frame(&window(), [0.0; 2]), window());
+    }
+
     #[test]
     fn point_projector_follows_the_ray_through_the_window() {
         let lp = Vec3::new(0.5, 3.0, 4.0);
