@@ -524,7 +524,7 @@ impl Renderer {
             // Over the projectors' frames: a map must cover the light's penumbra past a
             // window's edge as far as its projector carries it.
             (Some(light), true) if scene.has_windows() => crate::shadows::layout(
-                &crate::view::projector_frames(toc),
+                scene.projector_frames(),
                 scene.window_shadows(),
                 light,
                 scene.occluder_bounds(),
@@ -690,7 +690,8 @@ impl Renderer {
                 .to_array();
         }
         if let (Some(l), Some(g)) = (light, geometry) {
-            let projector_frames: Vec<pack::Window> = crate::view::projector_frames(toc)
+            let projector_frames: Vec<pack::Window> = scene
+                .projector_frames()
                 .iter()
                 .map(|w| window_relative_to(w, view.position))
                 .collect();

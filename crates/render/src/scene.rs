@@ -138,6 +138,10 @@ pub struct Scene {
     pub(crate) placeholders: Placeholders,
     material_sampler: wgpu::Sampler,
     projectors: Projectors,
+    /// Every window's projector frame ([`crate::view::projector_frames`]): the TOC's windows
+    /// and materials never change after load, and the occlusion analysis, the shadow layout
+    /// and every frame's projectors read them.
+    projector_frames: Vec<pack::Window>,
     /// CPU copies of the geometry, for the occlusion analysis (at load and when the light
     /// moves); kept only when the pack has windows, which nothing is analysed for otherwise.
     /// The analysis reads the opaque triangles through them rather than from a list of its
@@ -387,6 +391,7 @@ impl Scene {
             placeholders,
             material_sampler,
             projectors: Projectors::new(gpu, toc)?,
+            projector_frames: crate::view::projector_frames(toc),
             cpu: toc.meshes.iter().map(|_| CpuMesh::default()).collect(),
             occluder_bounds: None,
             window_shadows: vec![WindowShadow::NoLight; toc.windows.len()],
@@ -821,7 +826,7 @@ impl Scene {
         // Over the projectors' frames: what stands in the light's penumbra past a window's
         // edge (the sides of a deep opening) must shadow it too.
         self.window_shadows = occlusion::analyse(
-            &crate::view::projector_frames(&self.toc),
+            &self.projector_frames,
             light.as_ref(),
             self.casting().map(|(_, _, t)| t),
         );
@@ -889,6 +894,11 @@ impl Scene {
     /// How far behind window `i`'s glass its uncut wall lies, if it sits on one.
     pub(crate) fn backing_wall(&self, i: usize) -> Option<f64> {
         self.backings.wall(i)
+    }
+
+    /// Every window's projector frame, in window order.
+    pub fn projector_frames(&self) -> &[pack::Window] {
+        &self.projector_frames
     }
 
     /// Per window (in TOC order), whether its light needs a shadow map and why; decided from

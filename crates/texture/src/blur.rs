@@ -359,7 +359,7 @@ impl RowFir {
             let lo = (-shift).clamp(0, self.taps.len() as i64) as usize;
             let hi = (row.len() as i64 - shift).clamp(0, self.taps.len() as i64) as usize;
             let mut acc = [0.0f32; 4];
-            for t in lo..hi.max(lo) {
+            for t in lo..hi {
                 let (w, x) = (self.taps[t], row[(t as i64 + shift) as usize]);
                 for c in 0..4 {
                     acc[c] += w * x[c];
@@ -1277,6 +1277,11 @@ impl<'a> RowBlur<'a> {
         }))
     }
 
+    /// The framed image's width and height.
+    pub fn size(&self) -> (u32, u32) {
+        (self.w as u32, self.h as u32)
+    }
+
     /// Rows `rows` of the blur (within the image).
     pub fn rows(&self, rows: std::ops::Range<u32>) -> Vec<[f32; 4]> {
         let rows = rows.start as usize..rows.end as usize;
@@ -1517,10 +1522,7 @@ mod framed_tests {
         let (w, h, m) = (37usize, 23usize, 9usize);
         let src = crate::testing::design(w, h, 3, panes);
         let fw = w + 2 * m;
-        let mut framed = vec![0u8; fw * (h + 2 * m) * 4];
-        for (y, row) in src.chunks_exact(w * 4).enumerate() {
-            framed[((y + m) * fw + m) * 4..][..w * 4].copy_from_slice(row);
-        }
+        let framed = crate::testing::framed(&src, w, h, m);
         for (method, sigma) in [
             (BlurMethod::Direct, 2.2f32),
             (BlurMethod::Decimated, 7.0),

@@ -182,11 +182,7 @@ fn cook_projector(
                 && h.is_multiple_of(2)
                 && opts.max_size.is_some_and(|cap| dw.max(dh) > cap) =>
         {
-            RowBlur::new(b, dw, dh, m, opts.sigma_texels, opts.method)?.map(|blur| Streamed {
-                blur,
-                w,
-                h,
-            })
+            RowBlur::new(b, dw, dh, m, opts.sigma_texels, opts.method)?.map(Streamed)
         }
         _ => None,
     };
@@ -317,18 +313,14 @@ fn choose_level(
 }
 
 /// The blur of an 8-bit design, a band of rows at a time.
-struct Streamed<'a> {
-    blur: RowBlur<'a>,
-    w: u32,
-    h: u32,
-}
+struct Streamed<'a>(RowBlur<'a>);
 
 impl Streamed<'_> {
     /// Rows per band: 2 MiB of f32 at 1024 texels a row; even, so each band halves on its own.
     const BAND: u32 = 128;
 
     fn bands(&self) -> impl Iterator<Item = (u32, u32)> + use<> {
-        let h = self.h;
+        let h = self.0.size().1;
         (0..h)
             .step_by(Self::BAND as usize)
             .map(move |y0| (y0, (y0 + Self::BAND).min(h)))
@@ -336,12 +328,13 @@ impl Streamed<'_> {
 
     /// The blur's level 1, [`premultiplied_levels`]' bits, from band after band.
     fn half(&self) -> Vec<[f32; 4]> {
-        let mut out = Vec::with_capacity((half(self.w) * half(self.h)) as usize);
+        let (w, h) = self.0.size();
+        let mut out = Vec::with_capacity((half(w) * half(h)) as usize);
         for (y0, y1) in self.bands() {
-            let band = self.blur.rows(y0..y1);
+            let band = self.0.rows(y0..y1);
             out.extend(next_level(
                 &band,
-                self.w,
+                w,
                 y1 - y0,
                 MipFilter::Box,
                 |t| t,
@@ -354,7 +347,7 @@ impl Streamed<'_> {
     /// The largest of `f(band, y0, y1)` over the bands of rows `y0..y1`.
     fn max_over_bands(&self, f: impl Fn(&[[f32; 4]], u32, u32) -> f64) -> f64 {
         self.bands()
-            .map(|(y0, y1)| f(&self.blur.rows(y0..y1), y0, y1))
+            .map(|(y0, y1)| f(&self.0.rows(y0..y1), y0, y1))
             .fold(0.0, f64::max)
     }
 }
@@ -488,18 +481,6 @@ fn upsampled_error_rows(
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    /// `bytes` (RGBA8, `w x h`) inside a border of `m` transparent texels on each side.
-    fn pad_bytes(bytes: &[u8], w: u32, h: u32, m: u32) -> Vec<u8> {
-        let (w, h, m) = (w as usize, h as usize, m as usize);
-        let row = (w + 2 * m) * 4;
-        let mut out = vec![0u8; row * (h + 2 * m)];
-        for (y, src) in bytes.chunks_exact(w * 4).enumerate() {
-            out[(y + m) * row + m * 4..][..w * 4].copy_from_slice(src);
-        }
-        out
-    }
-    use crate::resample::half;
 
     /// Every texel and channel through the exact encode: what `upsampled_error` must equal.
     fn exhaustive(bytes: &[u8], lw: u32, lh: u32, reference: &[[f32; 4]], w: u32) -> f64 {
@@ -638,7 +619,7 @@ mod tests {
         let at = |s| projector_margin(s, w, h);
         assert_eq!((at(1e4), at(0.0), at(f32::NAN)), (35, 0, 0));
         let bytes = crate::testing::design(w as usize, h as usize, 4, panes);
-        let framed = pad_bytes(&bytes, w, h, m);
+        let framed = crate::testing::framed(&bytes, w as usize, h as usize, m as usize);
         let img8 = DynamicImage::ImageRgba8(image::RgbaImage::from_raw(w, h, bytes).unwrap());
         let framed8 = DynamicImage::ImageRgba8(
             image::RgbaImage::from_raw(w + 2 * m, h + 2 * m, framed).unwrap(),
