@@ -58,6 +58,12 @@ struct WindowProjector {
     shadow_depth: vec4<f32>,
     // xyz: the sun's travel direction, or the window's inward normal for a lamp.
     shadow_dir: vec4<f32>,
+    // Where the light line through a shadow-map position (u, v, any z, 1) crosses the window's
+    // plane, in the projector's coordinates as `projector` gives them (see
+    // `render::shadows::Aperture`).
+    aperture: mat4x4<f32>,
+    // The glass in those coordinates, less a texel of the map on each side: (min, max).
+    aperture_box: vec4<f32>,
 }
 
 struct Windows {

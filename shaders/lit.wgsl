@@ -101,20 +101,31 @@ fn shadow_visibility(w: WindowProjector, p: vec3<f32>, n: vec3<f32>, frag: vec2<
     }
     let search = clamp(2.7 * widest / min(tx, ty), 1.5, MAX_SEARCH_TEXELS);
     let angle = pixel_noise(frag) * 6.2831853;
+    // Only taps whose light line crosses the glass count (`render::shadows::Aperture`): the
+    // projector already darkens what the wall around the window stops.
+    let at = m.xy * size;
+    let glass = w.aperture * vec4<f32>(m.xy, m.z, 1.0);
+    let per_u = w.aperture[0] / size;
+    let per_v = w.aperture[1] / size;
+    var seen = 0.0;
     var blockers = 0.0;
     var sum = 0.0;
     for (var i = 0u; i < SHADOW_TAPS; i = i + 1u) {
         let a = f32(i) * GOLDEN_ANGLE + angle;
         let o = vec2<f32>(cos(a), sin(a)) * sqrt((f32(i) + 0.5) / f32(SHADOW_TAPS)) * search;
         let texel = clamp(
-            vec2<i32>(floor(m.xy * size + o)),
+            vec2<i32>(floor(at + o)),
             vec2<i32>(0),
             vec2<i32>(i32(size) - 1),
         );
-        let lb = shadow_linear(w, textureLoad(shadow_maps, texel, layer, 0));
-        if (lb < lr + gx * o.x + gy * o.y - eps) {
-            blockers = blockers + 1.0;
-            sum = sum + lb;
+        let d = vec2<f32>(texel) + 0.5 - at;
+        if (through_glass(w, glass + per_u * d.x + per_v * d.y)) {
+            seen = seen + 1.0;
+            let lb = shadow_linear(w, textureLoad(shadow_maps, texel, layer, 0));
+            if (lb < lr + gx * o.x + gy * o.y - eps) {
+                blockers = blockers + 1.0;
+                sum = sum + lb;
+            }
         }
     }
     if (blockers == 0.0) {
@@ -126,19 +137,36 @@ fn shadow_visibility(w: WindowProjector, p: vec3<f32>, n: vec3<f32>, frag: vec2<
         sigma_world = sigma_world / max(lb, 1e-6);
     }
     let sigma = max(vec2<f32>(sigma_world / tx, sigma_world / ty), vec2<f32>(frame.shadow.y));
-    if (blockers == f32(SHADOW_TAPS) && 2.7 * max(sigma.x, sigma.y) <= search) {
+    if (blockers == seen && 2.7 * max(sigma.x, sigma.y) <= search) {
         return 0.0;
     }
     var lit = 0.0;
+    var counted = 0.0;
     for (var i = 0u; i < FILTER_TAPS; i = i + 1u) {
         // A 2D Gaussian's radius for the area fraction q: σ·sqrt(−2 ln(1 − q)).
         let q = (f32(i) + 0.5) / f32(FILTER_TAPS);
         let a = f32(i) * GOLDEN_ANGLE + angle;
         let o = vec2<f32>(cos(a), sin(a)) * sqrt(-2.0 * log(1.0 - q)) * sigma;
-        let reference = shadow_stored(w, lr + gx * o.x + gy * o.y - eps);
-        lit = lit + textureSampleCompareLevel(shadow_maps, shadow_cmp, m.xy + o / size, layer, reference);
+        if (through_glass(w, glass + per_u * o.x + per_v * o.y)) {
+            counted = counted + 1.0;
+            let reference = shadow_stored(w, lr + gx * o.x + gy * o.y - eps);
+            lit = lit + textureSampleCompareLevel(shadow_maps, shadow_cmp, m.xy + o / size, layer, reference);
+        }
     }
-    return lit / f32(FILTER_TAPS);
+    if (counted == 0.0) {
+        return 1.0;
+    }
+    return lit / counted;
+}
+
+// Whether a light line crosses the window's glass, from its point on the window's plane in
+// the projector's homogeneous coordinates (`WindowProjector::aperture`).
+fn through_glass(w: WindowProjector, c: vec4<f32>) -> bool {
+    if (c.w <= 0.0) {
+        return false;
+    }
+    let st = c.xy / c.w;
+    return all(st >= w.aperture_box.xy) && all(st <= w.aperture_box.zw);
 }
 
 // How much of the light reaches `p` directly (0 to 1), in its map over all the opaque geometry

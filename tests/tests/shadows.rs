@@ -597,10 +597,10 @@ fn pillar_in_the_skylight_casts_a_shadow_like_the_reference() {
         );
     }
 
-    // Against the reference, from the two viewpoints a visitor would take (gated), and the
-    // close-up from above (printed only: 0.104, against 0.123 before the projectors carried
-    // the penumbra past the skylight's edge; the rest is the patch's own blur and the pillar's
-    // shadow seen large).
+    // Against the reference, from the two viewpoints a visitor would take and the close-up
+    // from above. The close-up read 0.104 while the shadow map's taps counted the skylight's
+    // own frame a second time over the projector's penumbra (0.039 since they count only
+    // through the glass; the side view 0.037 then, 0.011 now).
     for camera in [0, 1, 2] {
         let size = (160, 120);
         let (px, view) = lit_supersampled(&gpu, &scene, camera, size, no_ambient());
@@ -621,10 +621,7 @@ fn pillar_in_the_skylight_casts_a_shadow_like_the_reference() {
             "hall camera {}: FLIP mean {flip:.4} (without occlusion {flip_off:.4})",
             hall.cameras[camera].0
         );
-        assert!(
-            camera == 1 || flip <= 0.05,
-            "camera {camera}: FLIP mean {flip}"
-        );
+        assert!(flip <= 0.05, "camera {camera}: FLIP mean {flip}");
     }
 }
 
@@ -935,6 +932,9 @@ fn glass_on_an_uncut_wall_lets_its_light_in_and_a_block_still_shadows() {
         flip <= cut_flip + 0.005,
         "FLIP mean {flip} against {cut_flip} with the wall cut"
     );
+    // The cut openings' walls are in the window's shadow map; counted there as well as by the
+    // projector's blurred edge, they darkened every patch's sides (0.020).
+    assert!(cut_flip <= 0.0175, "in cut openings: FLIP mean {cut_flip}");
 }
 
 /// A nave with a transept on its west side, lit through a window in the transept's south wall
@@ -1238,7 +1238,8 @@ fn lamp_gets_a_map_for_the_window_whose_light_is_blocked() {
     );
     let flip = compare("lamp-room", size, &traced, &px);
     eprintln!("lamp hall camera room: FLIP mean {flip:.4}");
-    assert!(flip <= 0.05, "FLIP mean {flip}");
+    // 0.023 while the map's taps on the window's own frame darkened the patch's edges again.
+    assert!(flip <= 0.015, "FLIP mean {flip}");
 }
 
 // ---------------------------------------------------------------------------------------------

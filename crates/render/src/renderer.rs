@@ -720,6 +720,20 @@ impl Renderer {
                 slot.params = [layer, projector.is_some() as u32, 0, 0];
                 if let Some(Some(map)) = self.shadow_layout.windows.get(i) {
                     map_slot(slot, map, view.position);
+                    let size = self.shadow.binding_size();
+                    let aperture = projector.and_then(|p| {
+                        map.aperture(view.position, p, w, mat.projector_margin, size)
+                    });
+                    // Without one, every tap counts.
+                    let (map, bounds) = aperture.map_or(
+                        (
+                            glam::DMat4::IDENTITY,
+                            [f64::MIN, f64::MIN, f64::MAX, f64::MAX],
+                        ),
+                        |a| (a.map, a.bounds),
+                    );
+                    slot.aperture = map.as_mat4().to_cols_array_2d();
+                    slot.aperture_box = bounds.map(|b| b as f32);
                 }
             }
             if let Some(map) = &self.shadow_layout.direct {

@@ -67,6 +67,52 @@ impl WindowMap {
         (self.lookup * DMat4::from_translation(shift)).as_mat4()
     }
 
+    /// Where the light line through each position of this map crosses the window's plane,
+    /// for a camera at `camera`: `projector` is the window's projector frame
+    /// ([`crate::view::projector_frame`], camera-relative, as the lit pass gets it), `frame`
+    /// that frame, `margin` its material's projector margin, `size` the map's side in texels.
+    /// `None` where the map cannot be inverted.
+    pub fn aperture(
+        &self,
+        camera: Vec3,
+        projector: Mat4,
+        frame: &pack::Window,
+        margin: [f32; 2],
+        size: u32,
+    ) -> Option<Aperture> {
+        let shift = camera.as_dvec3() - self.origin;
+        let lookup = self.lookup * DMat4::from_translation(shift);
+        let map = projector.as_dmat4() * lookup.inverse();
+        if !map.is_finite() {
+            return None;
+        }
+        let st = |uv: DVec2, z: f64| {
+            let c = map * DVec4::new(uv.x, uv.y, z, 1.0);
+            (c.w > 0.0).then(|| DVec2::new(c.x, c.y) / c.w)
+        };
+        // One texel of the map, at the glass's centre, in the projector's coordinates.
+        let centre = Vec3::from(frame.origin).as_dvec3()
+            + 0.5 * (Vec3::from(frame.u_axis).as_dvec3() + Vec3::from(frame.v_axis).as_dvec3());
+        let c = lookup * centre.extend(1.0);
+        if c.w <= 0.0 {
+            return None;
+        }
+        let (uv, z) = (DVec2::new(c.x, c.y) / c.w, c.z / c.w);
+        let texel = 1.0 / size.max(1) as f64;
+        let at = st(uv, z)?;
+        let du = st(uv + DVec2::new(texel, 0.0), z)? - at;
+        let dv = st(uv + DVec2::new(0.0, texel), z)? - at;
+        let reach = du.abs() + dv.abs();
+        // The frame spans the glass grown by `margin` (in glass sizes) on each side.
+        let inset = |m: f32| m as f64 / (1.0 + 2.0 * m as f64);
+        let lo = DVec2::new(inset(margin[0]), inset(margin[1])) + reach;
+        let hi = DVec2::ONE - DVec2::new(inset(margin[0]), inset(margin[1])) - reach;
+        Some(Aperture {
+            map,
+            bounds: [lo.x, lo.y, hi.x, hi.y],
+        })
+    }
+
     /// Texture coordinates and depth (`z` in [0, 1]) of a world point, for tests.
     pub fn project(&self, p: DVec3) -> Option<DVec3> {
         let c = self.lookup * (p - self.origin).extend(1.0);
@@ -82,6 +128,26 @@ impl WindowMap {
             n + z * (f - n)
         }
     }
+}
+
+/// A window's glass as its shadow map sees it ([`WindowMap::aperture`]), for the lit pass's
+/// `shadow_visibility`.
+///
+/// The projector and the map both look from the light, so the light line through a map
+/// position is one ray whatever the depth, and it crosses the window's plane at one point.
+/// Where that point is off the glass, the wall around the window stops the ray, and the
+/// projector's texture (nothing outside the glass, blurred by the light's size) already says
+/// so; the map's taps there would count the same wall a second time, a second penumbra on top
+/// of the projector's own (windows in deep openings drew darker edges than the reference).
+/// So the lit pass averages its taps over those whose ray crosses the glass: of the light
+/// that passes the window, how much nothing else stops.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Aperture {
+    /// Map `(u, v, z, 1)` to the projector's `(s·q, t·q, ·, q)`, any `z`.
+    pub map: DMat4,
+    /// The glass in `(s, t)`, min then max, less one map texel on each side: a tap mixes the
+    /// texels around it, and the wall's reach up to the glass's edge.
+    pub bounds: [f64; 4],
 }
 
 /// Every layer and, per window (TOC order), its map or `None` (no map: never shadowed).
@@ -505,6 +571,93 @@ mod tests {
             let uv = map.project(p).unwrap();
             assert!((ndc.x - (2.0 * uv.x - 1.0)).abs() < 1e-5);
             assert!((ndc.y - (1.0 - 2.0 * uv.y)).abs() < 1e-5);
+        }
+    }
+
+    /// The light line through a map position crosses the window's plane where the aperture
+    /// says, whatever its depth: glass points land inside the bounds, the wall past the
+    /// glass's edge outside, and the bounds sit about a texel inside the glass.
+    #[test]
+    fn the_aperture_follows_light_lines_onto_the_glass() {
+        let occluded = [WindowShadow::Occluded(Blocker::Inside)];
+        let sun = light(pack::LightKind::Directional {
+            direction: [0.2, -0.6, 1.0],
+            angular_size: 0.01,
+        });
+        let lamp = light(pack::LightKind::Point {
+            position: [0.5, 5.0, -4.0],
+            radius: 0.1,
+        });
+        let margin = [0.1, 0.25];
+        let size = 1024;
+        for l in [sun, lamp] {
+            let layout = layout(&[window()], &occluded, &l, Some(BOUNDS), false, size);
+            let map = layout.windows[0].expect("a map");
+            for camera in [Vec3::ZERO, Vec3::new(3.0, -2.0, 5.0)] {
+                let frame =
+                    window_relative_to(&crate::view::projector_frame(&window(), margin), camera);
+                let g = LightGeometry::from_light(&l).relative_to(camera);
+                let projector = window_projector(&frame, &g).expect("a projector");
+                let a = map
+                    .aperture(camera, projector, &frame, margin, size)
+                    .expect("an aperture");
+                let st = |p: DVec3| {
+                    let c = map.project(p).unwrap();
+                    let h = a.map * c.extend(1.0);
+                    DVec2::new(h.x, h.y) / h.w
+                };
+                let inside = |v: DVec2| {
+                    v.x >= a.bounds[0]
+                        && v.y >= a.bounds[1]
+                        && v.x <= a.bounds[2]
+                        && v.y <= a.bounds[3]
+                };
+                // The glass's own coordinates (s, t) in the frame's.
+                let framed = |s: f64, t: f64| {
+                    let m = margin.map(|m| m as f64);
+                    DVec2::new(
+                        (s + m[0]) / (1.0 + 2.0 * m[0]),
+                        (t + m[1]) / (1.0 + 2.0 * m[1]),
+                    )
+                };
+                let on_glass = |s: f64, t: f64| DVec3::new(-1.0 + 2.0 * s, 3.0 - 2.0 * t, 0.0);
+                let travel = |p: DVec3| match l.kind {
+                    pack::LightKind::Directional { direction, .. } => {
+                        Vec3::from(direction).as_dvec3().normalize()
+                    }
+                    pack::LightKind::Point { position, .. } => {
+                        (p - Vec3::from(position).as_dvec3()).normalize()
+                    }
+                };
+                for (s, t) in [(0.3, 0.6), (0.02, 0.97), (0.5, 0.5)] {
+                    let p = on_glass(s, t);
+                    for along in [0.0, 2.0, 7.0] {
+                        let got = st(p + travel(p) * along);
+                        assert!((got - framed(s, t)).length() < 1e-4, "{got} at ({s}, {t})");
+                        assert!(
+                            inside(got),
+                            "({s}, {t}) {along} along: {got} {:?}",
+                            a.bounds
+                        );
+                    }
+                }
+                for (s, t) in [
+                    (1.01, 0.5),
+                    (-0.01, 0.5),
+                    (0.5, 1.01),
+                    (0.5, -0.01),
+                    (1.3, 1.2),
+                ] {
+                    let p = on_glass(s, t);
+                    assert!(!inside(st(p + travel(p) * 2.0)), "({s}, {t})");
+                }
+                // About a texel inside the glass's edge, and no more.
+                let edge = framed(0.0, 0.0);
+                for k in 0..2 {
+                    let gap = a.bounds[k] - edge[k];
+                    assert!(gap > 0.0 && gap < 0.01, "{gap}");
+                }
+            }
         }
     }
 

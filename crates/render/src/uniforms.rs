@@ -39,6 +39,8 @@ pub struct WindowProjector {
     pub shadow_y: [f32; 4],
     pub shadow_depth: [f32; 4],
     pub shadow_dir: [f32; 4],
+    pub aperture: [[f32; 4]; 4],
+    pub aperture_box: [f32; 4],
 }
 
 #[repr(C)]
