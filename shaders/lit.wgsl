@@ -25,6 +25,10 @@ const FILTER_TAPS: u32 = 32u;
 // The blocker search never spans more texels than this (the cost stays bounded; a wider
 // penumbra is still filtered at its width, from the blockers found).
 const MAX_SEARCH_TEXELS: f32 = 24.0;
+// The fewest search and filter taps through the glass that `shadow_visibility` takes a ratio
+// over.
+const MIN_SEEN: f32 = 4.0;
+const MIN_COUNTED: f32 = 8.0;
 const GOLDEN_ANGLE: f32 = 2.39996323;
 
 // ℓ (depth along the light, see `render::shadows`) of a stored depth.
@@ -119,17 +123,34 @@ fn shadow_visibility(w: WindowProjector, p: vec3<f32>, n: vec3<f32>, frag: vec2<
             vec2<i32>(i32(size) - 1),
         );
         let d = vec2<f32>(texel) + 0.5 - at;
-        if (through_glass(w, glass + per_u * d.x + per_v * d.y)) {
+        let lb = shadow_linear(w, textureLoad(shadow_maps, texel, layer, 0));
+        let blocked = lb < lr + gx * o.x + gy * o.y - eps;
+        let c = glass + per_u * d.x + per_v * d.y;
+        if (through_glass(w, c)) {
             seen = seen + 1.0;
-            let lb = shadow_linear(w, textureLoad(shadow_maps, texel, layer, 0));
-            if (lb < lr + gx * o.x + gy * o.y - eps) {
+            if (blocked) {
                 blockers = blockers + 1.0;
                 sum = sum + lb;
             }
         }
     }
-    if (blockers == 0.0) {
+    // Of the light through the glass, the fraction the search finds unstopped. With few taps
+    // through the glass (the projection's margin, lit by the glass's edge) that ratio is
+    // noise, specks on the floor: the light line through the nearest point of the glass
+    // fills in.
+    let pad = max(MIN_SEEN - seen, 0.0);
+    var edge = 1.0;
+    if (pad > 0.0) {
+        let o = nearest_glass(w, glass, m.z) * size - at;
+        let reference = shadow_stored(w, lr + gx * o.x + gy * o.y - eps);
+        edge = textureSampleCompareLevel(shadow_maps, shadow_cmp, (at + o) / size, layer, reference);
+    }
+    let found = (seen - blockers + pad * edge) / (seen + pad);
+    if (found == 1.0) {
         return 1.0;
+    }
+    if (blockers == 0.0) {
+        return found;
     }
     let lb = sum / blockers;
     var sigma_world = light * max(lr - lb, 0.0) * 0.25;
@@ -137,7 +158,7 @@ fn shadow_visibility(w: WindowProjector, p: vec3<f32>, n: vec3<f32>, frag: vec2<
         sigma_world = sigma_world / max(lb, 1e-6);
     }
     let sigma = max(vec2<f32>(sigma_world / tx, sigma_world / ty), vec2<f32>(frame.shadow.y));
-    if (blockers == seen && 2.7 * max(sigma.x, sigma.y) <= search) {
+    if (found == 0.0 && 2.7 * max(sigma.x, sigma.y) <= search) {
         return 0.0;
     }
     var lit = 0.0;
@@ -153,10 +174,24 @@ fn shadow_visibility(w: WindowProjector, p: vec3<f32>, n: vec3<f32>, frag: vec2<
             lit = lit + textureSampleCompareLevel(shadow_maps, shadow_cmp, m.xy + o / size, layer, reference);
         }
     }
-    if (counted == 0.0) {
-        return 1.0;
-    }
-    return lit / counted;
+    // The same for the filter: too few taps through the glass, and the rest count as the
+    // search found (counting them lit drew the outline of a patch that something else stops).
+    let fill = max(MIN_COUNTED - counted, 0.0);
+    return (lit + fill * found) / (counted + fill);
+}
+
+// The shadow-map position (u, v) whose light line crosses the window's plane at the point of
+// the glass (less its texel, `aperture_box`) nearest to where the line through `glass` does:
+// `glass` is that line's point in the projector's homogeneous coordinates, `z` any depth on
+// it. The aperture's (u, v, 1) to (s, t, 1) part at that depth, inverted by its adjugate.
+fn nearest_glass(w: WindowProjector, glass: vec4<f32>, z: f32) -> vec2<f32> {
+    let st = select(w.aperture_box.xy, glass.xy / glass.w, glass.w > 0.0);
+    let g = vec3<f32>(clamp(st, w.aperture_box.xy, w.aperture_box.zw), 1.0);
+    let h0 = w.aperture[0].xyw;
+    let h1 = w.aperture[1].xyw;
+    let h2 = (w.aperture[3] + w.aperture[2] * z).xyw;
+    let x = vec3<f32>(dot(cross(h1, h2), g), dot(cross(h2, h0), g), dot(cross(h0, h1), g));
+    return x.xy / x.z;
 }
 
 // Whether a light line crosses the window's glass, from its point on the window's plane in
