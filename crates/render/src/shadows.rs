@@ -107,6 +107,9 @@ impl WindowMap {
         let inset = |m: f32| m as f64 / (1.0 + 2.0 * m as f64);
         let lo = DVec2::new(inset(margin[0]), inset(margin[1])) + reach;
         let hi = DVec2::ONE - DVec2::new(inset(margin[0]), inset(margin[1])) - reach;
+        // Glass under two texels across keeps its centre line (the frame is centred on it), so
+        // the nearest point of the glass stays defined.
+        let (lo, hi) = (lo.min(DVec2::splat(0.5)), hi.max(DVec2::splat(0.5)));
         Some(Aperture {
             map,
             bounds: [lo.x, lo.y, hi.x, hi.y],
@@ -657,6 +660,11 @@ mod tests {
                     let gap = a.bounds[k] - edge[k];
                     assert!(gap > 0.0 && gap < 0.01, "{gap}");
                 }
+                // On a map too coarse for the glass, its centre is what is left.
+                let coarse = map
+                    .aperture(camera, projector, &frame, margin, 2)
+                    .expect("an aperture");
+                assert_eq!(coarse.bounds, [0.5; 4]);
             }
         }
     }
