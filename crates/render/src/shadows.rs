@@ -517,6 +517,32 @@ mod tests {
         }
     }
 
+    /// A sun and a lamp, both lighting [`window`] from outside.
+    fn sun_and_lamp() -> [pack::Light; 2] {
+        [
+            light(pack::LightKind::Directional {
+                direction: [0.2, -0.6, 1.0],
+                angular_size: 0.01,
+            }),
+            light(pack::LightKind::Point {
+                position: [0.5, 5.0, -4.0],
+                radius: 0.1,
+            }),
+        ]
+    }
+
+    /// The direction `l`'s light travels in at `p`.
+    fn travel(l: &pack::Light, p: DVec3) -> DVec3 {
+        match l.kind {
+            pack::LightKind::Directional { direction, .. } => {
+                Vec3::from(direction).as_dvec3().normalize()
+            }
+            pack::LightKind::Point { position, .. } => {
+                (p - Vec3::from(position).as_dvec3()).normalize()
+            }
+        }
+    }
+
     const BOUNDS: (DVec3, DVec3) = (DVec3::new(-10.0, 0.0, -1.0), DVec3::new(10.0, 8.0, 20.0));
 
     /// Points on the line of light through a window point share texture coordinates, and the
@@ -524,27 +550,12 @@ mod tests {
     #[test]
     fn maps_follow_the_light_through_the_window() {
         let occluded = [WindowShadow::Occluded(Blocker::Inside)];
-        let sun = light(pack::LightKind::Directional {
-            direction: [0.2, -0.6, 1.0],
-            angular_size: 0.01,
-        });
-        let lamp = light(pack::LightKind::Point {
-            position: [0.5, 5.0, -4.0],
-            radius: 0.1,
-        });
-        for l in [sun, lamp] {
+        for l in sun_and_lamp() {
             let layout = layout(&[window()], &occluded, &l, Some(BOUNDS), false, 1024);
             assert_eq!(layout.layers.len(), 1);
             let map = layout.windows[0].expect("a map");
             let on = DVec3::new(0.3, 2.2, 0.0);
-            let travel = match l.kind {
-                pack::LightKind::Directional { direction, .. } => {
-                    Vec3::from(direction).as_dvec3().normalize()
-                }
-                pack::LightKind::Point { position, .. } => {
-                    (on - Vec3::from(position).as_dvec3()).normalize()
-                }
-            };
+            let travel = travel(&l, on);
             let a = map.project(on).unwrap();
             let b = map.project(on + travel * 3.0).unwrap();
             assert!((a.truncate() - b.truncate()).length() < 1e-6, "{a} {b}");
@@ -583,17 +594,9 @@ mod tests {
     #[test]
     fn the_aperture_follows_light_lines_onto_the_glass() {
         let occluded = [WindowShadow::Occluded(Blocker::Inside)];
-        let sun = light(pack::LightKind::Directional {
-            direction: [0.2, -0.6, 1.0],
-            angular_size: 0.01,
-        });
-        let lamp = light(pack::LightKind::Point {
-            position: [0.5, 5.0, -4.0],
-            radius: 0.1,
-        });
         let margin = [0.1, 0.25];
         let size = 1024;
-        for l in [sun, lamp] {
+        for l in sun_and_lamp() {
             let layout = layout(&[window()], &occluded, &l, Some(BOUNDS), false, size);
             let map = layout.windows[0].expect("a map");
             for camera in [Vec3::ZERO, Vec3::new(3.0, -2.0, 5.0)] {
@@ -624,18 +627,10 @@ mod tests {
                     )
                 };
                 let on_glass = |s: f64, t: f64| DVec3::new(-1.0 + 2.0 * s, 3.0 - 2.0 * t, 0.0);
-                let travel = |p: DVec3| match l.kind {
-                    pack::LightKind::Directional { direction, .. } => {
-                        Vec3::from(direction).as_dvec3().normalize()
-                    }
-                    pack::LightKind::Point { position, .. } => {
-                        (p - Vec3::from(position).as_dvec3()).normalize()
-                    }
-                };
                 for (s, t) in [(0.3, 0.6), (0.02, 0.97), (0.5, 0.5)] {
                     let p = on_glass(s, t);
                     for along in [0.0, 2.0, 7.0] {
-                        let got = st(p + travel(p) * along);
+                        let got = st(p + travel(&l, p) * along);
                         assert!((got - framed(s, t)).length() < 1e-4, "{got} at ({s}, {t})");
                         assert!(
                             inside(got),
@@ -652,7 +647,7 @@ mod tests {
                     (1.3, 1.2),
                 ] {
                     let p = on_glass(s, t);
-                    assert!(!inside(st(p + travel(p) * 2.0)), "({s}, {t})");
+                    assert!(!inside(st(p + travel(&l, p) * 2.0)), "({s}, {t})");
                 }
                 // About a texel inside the glass's edge, and no more.
                 let edge = framed(0.0, 0.0);
