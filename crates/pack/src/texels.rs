@@ -113,7 +113,18 @@ pub fn decode_level(texture: &Texture, level: usize, bytes: &[u8]) -> Vec<u8> {
     let (sw, sh) = texture.storage_level_size(level);
     let stored = decode(texture.format, sw, sh, bytes);
     let m = &texture.mips[level];
-    crop(&stored, sw, m.width, m.height)
+    crop_owned(stored, sw, m.width, m.height)
+}
+
+/// [`crop`] in place: the rows moved down over the padding, the rest cut off, so no second
+/// image is held while it runs.
+pub fn crop_owned(mut rgba: Vec<u8>, stride_texels: u32, width: u32, height: u32) -> Vec<u8> {
+    let (row, stride) = (width as usize * 4, stride_texels as usize * 4);
+    for y in 1..height as usize {
+        rgba.copy_within(y * stride..y * stride + row, y * row);
+    }
+    rgba.truncate(height as usize * row);
+    rgba
 }
 
 /// The top-left `width x height` texels of an RGBA8 image `stride_texels` wide.
@@ -134,6 +145,19 @@ pub fn crop(rgba: &[u8], stride_texels: u32, width: u32, height: u32) -> Vec<u8>
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// In place or copied, the same texels.
+    #[test]
+    fn crop_owned_is_crop() {
+        let image: Vec<u8> = (0..7 * 5 * 4).map(|i| (i * 37 % 251) as u8).collect();
+        for (w, h) in [(7, 5), (5, 5), (1, 3), (6, 1), (3, 0)] {
+            assert_eq!(
+                crop_owned(image.clone(), 7, w, h),
+                crop(&image, 7, w, h),
+                "{w}x{h}"
+            );
+        }
+    }
 
     #[test]
     fn the_z_table_is_rebuild_z_everywhere() {

@@ -249,7 +249,7 @@ fn decode_logical(t: &pack::Texture, level: usize, bytes: &[u8]) -> Vec<u8> {
     if (m.width, m.height) == (width, height) {
         texels
     } else {
-        pack::texels::crop(&texels, width, m.width, m.height)
+        pack::texels::crop_owned(texels, width, m.width, m.height)
     }
 }
 

@@ -273,16 +273,33 @@ struct Tally {
     max: u8,
 }
 
-fn colour_tally(original: &[u8], decoded: &[u8], channels: usize) -> Tally {
+/// Colour tally of `decoded` (`width` texels a row) against the same texels of `original`,
+/// whose rows are `stride` texels apart (a level's block padding is left out without a
+/// cropped copy).
+fn colour_tally(
+    original: &[u8],
+    stride: usize,
+    decoded: &[u8],
+    width: usize,
+    channels: usize,
+) -> Tally {
     let mut t = Tally::default();
-    for (a, b) in original.chunks_exact(4).zip(decoded.chunks_exact(4)) {
-        for c in 0..channels {
-            let d = a[c].abs_diff(b[c]);
-            t.sum += d as f64 * d as f64;
-            t.max = t.max.max(d);
+    if width == 0 {
+        return t;
+    }
+    for (a, b) in original
+        .chunks(4 * stride)
+        .zip(decoded.chunks_exact(4 * width))
+    {
+        for (a, b) in a.chunks_exact(4).zip(b.chunks_exact(4)) {
+            for c in 0..channels {
+                let d = a[c].abs_diff(b[c]);
+                t.sum += d as f64 * d as f64;
+                t.max = t.max.max(d);
+            }
         }
     }
-    t.count = (original.len() / 4 * channels) as u64;
+    t.count = (decoded.len() / 4 * channels) as u64;
     t
 }
 
@@ -311,19 +328,27 @@ fn unit_normal(t: &[u8], signed: &[f64; 256]) -> [f64; 3] {
     }
 }
 
-/// Texels per task of [`normal_tally`].
-const TALLY_TEXELS: usize = 1 << 14;
-
-/// Each texel's angle (degrees) into `angles` (one per texel), and their sum.
-fn normal_tally(original: &[u8], decoded: &[u8], angles: &mut [f64]) -> Tally {
+/// Each texel's angle (degrees) into `angles` (one per texel of `decoded`, `width` texels a
+/// row), and their sum; `original`'s rows are `stride` texels apart, as in [`colour_tally`].
+///
+/// The angles are kept for the 99th percentile only, so in f32: a 1024² normal map's chain
+/// held 11 MB of them in f64. The sum is taken in f64 from the unrounded angles, row by row
+/// (each row in texel order, in parallel), then over the rows in order: the same bits on any
+/// number of threads.
+fn normal_tally(
+    original: &[u8],
+    stride: usize,
+    decoded: &[u8],
+    width: usize,
+    angles: &mut [f32],
+) -> Tally {
     let signed: [f64; 256] = std::array::from_fn(|t| t as f64 / 255.0 * 2.0 - 1.0);
-    // Each texel's angle on its own, in parallel runs; then summed in texel order, so the
-    // sum has the bits of a single pass.
-    angles
-        .par_chunks_mut(TALLY_TEXELS)
-        .zip(original.par_chunks(4 * TALLY_TEXELS))
-        .zip(decoded.par_chunks(4 * TALLY_TEXELS))
-        .for_each(|((angles, original), decoded)| {
+    let rows: Vec<f64> = angles
+        .par_chunks_mut(width.max(1))
+        .zip(original.par_chunks(4 * stride.max(1)))
+        .zip(decoded.par_chunks(4 * width.max(1)))
+        .map(|((angles, original), decoded)| {
+            let mut sum = 0.0;
             for ((angle, a), b) in angles
                 .iter_mut()
                 .zip(original.chunks_exact(4))
@@ -331,11 +356,15 @@ fn normal_tally(original: &[u8], decoded: &[u8], angles: &mut [f64]) -> Tally {
             {
                 let (a, b) = (unit_normal(a, &signed), unit_normal(b, &signed));
                 let dot = (a[0] * b[0] + a[1] * b[1] + a[2] * b[2]).clamp(-1.0, 1.0);
-                *angle = dot.acos().to_degrees();
+                let degrees = dot.acos().to_degrees();
+                sum += degrees;
+                *angle = degrees as f32;
             }
-        });
+            sum
+        })
+        .collect();
     Tally {
-        sum: angles.iter().sum(),
+        sum: rows.iter().sum(),
         count: angles.len() as u64,
         max: 0,
     }
@@ -349,7 +378,7 @@ fn tally_error(sum: f64, count: u64, normal: bool) -> f64 {
 
 /// The chain's error from its levels' tallies; for normals, `angles` holds every texel's
 /// angle, in any order (the 99th percentile is taken in place).
-fn finish(tallies: &[Tally], normal: bool, angles: &mut [f64]) -> BlockError {
+fn finish(tallies: &[Tally], normal: bool, angles: &mut [f32]) -> BlockError {
     let level_mean = |t: &Tally| tally_error(t.sum, t.count, normal);
     let total = Tally {
         sum: tallies.iter().map(|t| t.sum).sum(),
@@ -361,7 +390,7 @@ fn finish(tallies: &[Tally], normal: bool, angles: &mut [f64]) -> BlockError {
             0.0
         } else {
             let k = ((angles.len() - 1) as f64 * 0.99).round() as usize;
-            *angles.select_nth_unstable_by(k, f64::total_cmp).1
+            *angles.select_nth_unstable_by(k, f32::total_cmp).1 as f64
         }
     } else {
         tallies.iter().map(|t| t.max).max().unwrap_or(0) as f64
@@ -375,14 +404,20 @@ fn finish(tallies: &[Tally], normal: bool, angles: &mut [f64]) -> BlockError {
 
 /// Colour error of `decoded` against `original` (both RGBA8, same size).
 pub fn colour_error(original: &[u8], decoded: &[u8]) -> BlockError {
-    finish(&[colour_tally(original, decoded, 4)], false, &mut [])
+    let n = original.len().min(decoded.len()) / 4;
+    finish(
+        &[colour_tally(original, n, &decoded[..4 * n], n, 4)],
+        false,
+        &mut [],
+    )
 }
 
 /// Angular error of a decoded normal map (Z rebuilt, as `pack::texels` decodes BC5) against
 /// the RGBA8 normal map it was made from.
 pub fn normal_error(original: &[u8], decoded: &[u8]) -> BlockError {
-    let mut angles = vec![0.0; original.len().min(decoded.len()) / 4];
-    let tally = normal_tally(original, decoded, &mut angles);
+    let n = original.len().min(decoded.len()) / 4;
+    let mut angles = vec![0.0; n];
+    let tally = normal_tally(original, n, &decoded[..4 * n], n, &mut angles);
     finish(&[tally], true, &mut angles)
 }
 
@@ -479,7 +514,7 @@ pub fn compress_chain_within(
     // Every texel's angle of a normal map's chain, level after level, for the percentile:
     // one vector for the chain, sized once, where each level's own and a copy of them all
     // were twice its size (358 MB for a 4096² normal map).
-    let mut angles: Vec<f64> = Vec::with_capacity(if normal { total as usize } else { 0 });
+    let mut angles: Vec<f32> = Vec::with_capacity(if normal { total as usize } else { 0 });
     for (done, k) in (0..chain.levels.len()).rev().enumerate() {
         let rgba = &chain.levels[k];
         let m = &texture.mips[k];
@@ -495,22 +530,17 @@ pub fn compress_chain_within(
         };
         let (cw, ch) = chain.level_size(k);
         let blocks = compress_level(codec, source, cw, ch, sw, sh);
+        // The level's logical texels: `decoded` holds them alone, `rgba` within its padding.
         let decoded = pack::texels::decode_level(texture, k, &blocks);
-        let logical;
-        let original = if (cw, ch) == (m.width, m.height) {
-            rgba
-        } else {
-            logical = pack::texels::crop(rgba, cw, m.width, m.height);
-            &logical
-        };
+        let (stride, width) = (cw as usize, m.width as usize);
         let tally = match measure {
             Measure::Normal => {
                 let at = angles.len();
-                angles.resize(at + original.len().min(decoded.len()) / 4, 0.0);
-                normal_tally(original, &decoded, &mut angles[at..])
+                angles.resize(at + decoded.len() / 4, 0.0);
+                normal_tally(rgba, stride, &decoded, width, &mut angles[at..])
             }
-            Measure::Rgba => colour_tally(original, &decoded, 4),
-            Measure::Rgb => colour_tally(original, &decoded, 3),
+            Measure::Rgba => colour_tally(rgba, stride, &decoded, width, 4),
+            Measure::Rgb => colour_tally(rgba, stride, &decoded, width, 3),
         };
         sum += tally.sum;
         tallies[k] = tally;
@@ -656,19 +686,19 @@ mod tests {
         assert!(normal_error(&img, &flat).mean > 3.0);
     }
 
-    /// The parallel tally is the one-pass tally, bit for bit: each texel's angle by the
-    /// plain formula (bytes divided out, not looked up), summed in texel order. Random bytes
-    /// over several tasks' runs, zero-length normals included.
+    /// The parallel tally is the plain one, bit for bit: each texel's angle by the plain
+    /// formula (bytes divided out, not looked up), summed row by row in texel order. Random bytes
+    /// over many rows, zero-length normals included, the original within a padding of 3
+    /// texels a row (a block-padded level) and without one; the colour tally skips the
+    /// padding too.
     #[test]
-    fn normal_tally_is_the_plain_per_texel_sum() {
-        let n = 3 * TALLY_TEXELS + 17;
-        let bytes = |seed: u32| -> Vec<u8> {
+    fn tallies_are_the_plain_per_texel_sums() {
+        let (width, height) = (61usize, 700usize);
+        let bytes = |seed: u32, n: usize| -> Vec<u8> {
             (0..n as u32 * 4)
                 .map(|i| ((i ^ seed).wrapping_mul(2654435761) >> 11) as u8)
                 .collect()
         };
-        let (mut a, b) = (bytes(0), bytes(0x9e37));
-        a[4..8].copy_from_slice(&[127, 128, 128, 0]);
         let unit = |t: &[u8]| {
             let v = [0, 1, 2].map(|i| t[i] as f64 / 255.0 * 2.0 - 1.0);
             let l = (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt();
@@ -678,27 +708,50 @@ mod tests {
                 [0.0, 0.0, 1.0]
             }
         };
-        let want: Vec<f64> = a
-            .chunks_exact(4)
-            .zip(b.chunks_exact(4))
-            .map(|(a, b)| {
-                let (a, b) = (unit(a), unit(b));
-                (a[0] * b[0] + a[1] * b[1] + a[2] * b[2])
-                    .clamp(-1.0, 1.0)
-                    .acos()
-                    .to_degrees()
-            })
-            .collect();
-        let mut angles = vec![0.0; n];
-        let t = normal_tally(&a, &b, &mut angles);
-        assert_eq!(t.count, n as u64);
-        assert!(
-            angles
+        for stride in [width, width + 3] {
+            let (mut a, b) = (bytes(0, stride * height), bytes(0x9e37, width * height));
+            a[4..8].copy_from_slice(&[127, 128, 128, 0]);
+            // The texels the tallies must see, in order.
+            let logical: Vec<&[u8]> = a
+                .chunks_exact(4 * stride)
+                .flat_map(|row| row[..4 * width].chunks_exact(4))
+                .collect();
+            let want: Vec<f64> = logical
                 .iter()
-                .zip(&want)
-                .all(|(x, y)| x.to_bits() == y.to_bits())
-        );
-        assert_eq!(t.sum.to_bits(), want.iter().sum::<f64>().to_bits());
+                .zip(b.chunks_exact(4))
+                .map(|(a, b)| {
+                    let (a, b) = (unit(a), unit(b));
+                    (a[0] * b[0] + a[1] * b[1] + a[2] * b[2])
+                        .clamp(-1.0, 1.0)
+                        .acos()
+                        .to_degrees()
+                })
+                .collect();
+            let mut angles = vec![0.0; width * height];
+            let t = normal_tally(&a, stride, &b, width, &mut angles);
+            assert_eq!(t.count, (width * height) as u64);
+            assert!(
+                angles
+                    .iter()
+                    .zip(&want)
+                    .all(|(x, y)| x.to_bits() == (*y as f32).to_bits())
+            );
+            let by_rows: f64 = want.chunks(width).map(|row| row.iter().sum::<f64>()).sum();
+            assert_eq!(t.sum.to_bits(), by_rows.to_bits());
+            let c = colour_tally(&a, stride, &b, width, 3);
+            let (mut sum, mut max) = (0.0f64, 0u8);
+            for (a, b) in logical.iter().zip(b.chunks_exact(4)) {
+                for k in 0..3 {
+                    let d = a[k].abs_diff(b[k]);
+                    sum += d as f64 * d as f64;
+                    max = max.max(d);
+                }
+            }
+            assert_eq!(
+                (c.sum.to_bits(), c.max, c.count),
+                (sum.to_bits(), max, (3 * width * height) as u64)
+            );
+        }
     }
 
     #[test]
