@@ -7,7 +7,7 @@ use rayon::prelude::*;
 use crate::TextureError;
 use crate::mips::{MipChain, check_size};
 use crate::pixels::{to_linear, to_unorm_rgb};
-use crate::resample::{MipFilter, next_level, walk_chain};
+use crate::resample::{MipFilter, box2, half, next_level, walk_chain};
 use crate::srgb::{linear_to_srgb, unorm8};
 
 /// How a supplied normal map encodes the vector.
@@ -316,8 +316,20 @@ pub fn height_to_normals(height: &[f32], w: u32, h: u32) -> Vec<[f32; 4]> {
 /// `pixels::pad_texels` grows a level, written once: the 1024² rose's normals and their
 /// padded copy were 11 MB each, side by side at the default scene's peak.
 fn height_to_normals_padded(height: &[f32], w: u32, h: u32, pw: u32, ph: u32) -> Vec<[f32; 4]> {
+    let ph = (ph as usize).max(h as usize);
+    normal_rows(height, w, h, pw, 0..ph)
+}
+
+/// Rows `rows` of [`height_to_normals_padded`]'s level, `pw` texels each.
+fn normal_rows(
+    height: &[f32],
+    w: u32,
+    h: u32,
+    pw: u32,
+    rows: std::ops::Range<usize>,
+) -> Vec<[f32; 4]> {
     let (w, h) = (w as usize, h as usize);
-    let (pw, ph) = ((pw as usize).max(w), (ph as usize).max(h));
+    let pw = (pw as usize).max(w);
     let normal = |x: usize, y: usize| {
         let at = |x: usize, y: usize| height[y * w + x];
         let (x0, x1) = (x.saturating_sub(1), (x + 1).min(w - 1));
@@ -335,14 +347,19 @@ fn height_to_normals_padded(height: &[f32], w: u32, h: u32, pw: u32, ph: u32) ->
         };
         normalize([-dx, dy_down, 1.0, 0.0])
     };
-    let mut out = vec![[0.0; 4]; pw * ph];
+    let first = rows.start;
+    let mut out = vec![[0.0; 4]; pw * rows.len()];
     out.par_chunks_mut(pw).enumerate().for_each(|(y, row)| {
         for (x, t) in row.iter_mut().enumerate() {
-            *t = normal(x.min(w - 1), y.min(h - 1));
+            *t = normal(x.min(w - 1), (first + y).min(h - 1));
         }
     });
     out
 }
+
+/// Rows of level 0 made, encoded and reduced to level 1 at a time by
+/// [`derive_normal_map_padded`] (even, so each band holds whole 2x2 blocks).
+const NORMAL_BAND_ROWS: usize = 64;
 
 /// Derives a glass normal map from a design: lead came (dark, low-saturation texels, and
 /// transparent ones) raised with a rounded profile, glass with a subtle hammered relief from
@@ -362,9 +379,33 @@ pub fn derive_normal_map_padded(
 ) -> Result<MipChain, TextureError> {
     let (w, h) = (design.width(), design.height());
     let height = design_height(design, seed)?;
-    let level0 = height_to_normals_padded(&height, w, h, pw, ph);
+    let (pw, ph) = (pw.max(w), ph.max(h));
+    if !(pw.is_multiple_of(2) && ph.is_multiple_of(2)) {
+        let level0 = height_to_normals_padded(&height, w, h, pw, ph);
+        drop(height);
+        return Ok(chain(level0, pw, ph));
+    }
+    // Level 0 a band of rows at a time, encoded and box-reduced as `chain` would (an even
+    // level's next one is `box2` of it, block by block), so its f32 normals (16 bytes a
+    // texel, 11 MB for the 687x1024 border design) are never held whole.
+    let (pw_, ph_) = (pw as usize, ph as usize);
+    let mut level0 = Vec::with_capacity(pw_ * ph_ * 4);
+    let mut level1 = Vec::with_capacity(pw_ / 2 * (ph_ / 2));
+    for y0 in (0..ph_).step_by(NORMAL_BAND_ROWS) {
+        let band = normal_rows(&height, w, h, pw, y0..(y0 + NORMAL_BAND_ROWS).min(ph_));
+        level0.extend(encode_normals(&band));
+        level1.extend(box2(&band, pw_, |t| t, normalize));
+    }
     drop(height);
-    Ok(chain(level0, pw.max(w), ph.max(h)))
+    let mut levels = vec![level0];
+    walk_chain(level1, half(pw), half(ph), next_normals, |l| {
+        levels.push(encode_normals(&l))
+    });
+    Ok(MipChain {
+        width: pw,
+        height: ph,
+        levels,
+    })
 }
 
 #[cfg(test)]
@@ -375,6 +416,30 @@ mod tests {
     /// Bands of rows in the four channels give the bits of the plane blurred as the first
     /// channel of four: heights not a multiple of four, a plane too short for bands, and the
     /// came's whole range of σ.
+    /// A derived normal map made in bands is the whole-level chain's, bit for bit: sizes
+    /// padded to even ones, bands cut short at the bottom, one band, and a 2-row level.
+    #[test]
+    fn banded_derived_normals_are_the_whole_chain() {
+        let mut rng = Rng(5);
+        for (w, h, pw, ph) in [
+            (37u32, 61u32, 40u32, 64u32),
+            (64, 64, 64, 64),
+            (23, 150, 24, 152),
+            (50, 2, 52, 2),
+            (9, 131, 12, 132),
+        ] {
+            let img = image::RgbaImage::from_fn(w, h, |_, _| {
+                image::Rgba([rng.byte(), rng.byte(), rng.byte(), rng.byte()])
+            });
+            let design = DynamicImage::ImageRgba8(img);
+            let banded = derive_normal_map_padded(&design, 7, pw, ph).unwrap();
+            let height = design_height(&design, 7).unwrap();
+            let whole = chain(height_to_normals_padded(&height, w, h, pw, ph), pw, ph);
+            assert_eq!((banded.width, banded.height), (whole.width, whole.height));
+            assert!(banded.levels == whole.levels, "{w}x{h} padded to {pw}x{ph}");
+        }
+    }
+
     #[test]
     fn banded_blur_is_the_first_channel_of_the_whole_one() {
         let mut rng = Rng(11);
