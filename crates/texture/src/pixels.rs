@@ -133,6 +133,42 @@ pub fn pad_texels(
     out
 }
 
+/// [`pad_texels`] in place: the rows moved out to their padded places from the bottom up, so
+/// no second level is held while it runs.
+pub fn pad_texels_owned(
+    mut level: Vec<Texel>,
+    w: u32,
+    h: u32,
+    pw: u32,
+    ph: u32,
+    fill: Option<Texel>,
+) -> Vec<Texel> {
+    let (w, h, pw, ph) = (
+        w as usize,
+        h as usize,
+        pw.max(w) as usize,
+        ph.max(h) as usize,
+    );
+    debug_assert_eq!(level.len(), w * h);
+    if w == 0 || h == 0 {
+        return vec![fill.unwrap_or([0.0; 4]); pw * ph];
+    }
+    level.resize(pw * ph, [0.0; 4]);
+    // A row's padded place starts at or after its own, so the bottom rows go first.
+    for y in (0..h).rev() {
+        level.copy_within(y * w..(y + 1) * w, y * pw);
+        let f = fill.unwrap_or(level[y * pw + w - 1]);
+        level[y * pw + w..(y + 1) * pw].fill(f);
+    }
+    for y in h..ph {
+        match fill {
+            Some(f) => level[y * pw..(y + 1) * pw].fill(f),
+            None => level.copy_within((h - 1) * pw..h * pw, y * pw),
+        }
+    }
+    level
+}
+
 /// One sRGB RGBA8 texel as [`to_linear`] decodes it: colour from [`decode8`], alpha `a / 255`.
 /// Paths that read 8-bit texels without that copy go through this, so their bits stay its.
 #[inline(always)]
@@ -170,4 +206,32 @@ pub fn to_unorm_rgb(img: &DynamicImage) -> Vec<[f32; 3]> {
         .into_iter()
         .map(|t| [t[0], t[1], t[2]])
         .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// In place or copied, the same texels: with and without a fill, grown on either axis,
+    /// both or neither.
+    #[test]
+    fn padding_in_place_is_padding() {
+        for (w, h, pw, ph) in [
+            (5u32, 3u32, 8u32, 4u32),
+            (4, 4, 4, 4),
+            (1, 1, 4, 4),
+            (7, 2, 7, 5),
+        ] {
+            let level: Vec<Texel> = (0..w * h)
+                .map(|i| [i as f32, 0.5 * i as f32, 1.0, 0.25])
+                .collect();
+            for fill in [None, Some([0.0; 4])] {
+                assert_eq!(
+                    pad_texels_owned(level.clone(), w, h, pw, ph, fill),
+                    pad_texels(&level, w, h, pw, ph, fill),
+                    "{w}x{h} to {pw}x{ph}, fill {fill:?}"
+                );
+            }
+        }
+    }
 }

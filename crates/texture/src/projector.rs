@@ -249,16 +249,21 @@ fn cook_projector(
         levels: encoded.into_iter().skip(keep - first).collect(),
     };
     if opts.block_pad && (pw, ph) != (sw, sh) {
-        let padded =
-            crate::pixels::pad_texels(&levels[keep - first], sw, sh, pw, ph, Some([0.0; 4]));
-        let chain = MipChain {
+        // Only the kept level goes on, padded in place, and its chain is encoded as it is
+        // walked: the rose's 518² level held beside its padded copy and all the padded levels
+        // in f32 was 11 MB more at the default scene's peak.
+        let mut levels = levels;
+        let kept = levels.swap_remove(keep - first);
+        drop(levels);
+        let padded = crate::pixels::pad_texels_owned(kept, sw, sh, pw, ph, Some([0.0; 4]));
+        let mut chain = MipChain {
             width: pw,
             height: ph,
-            levels: premultiplied_levels(padded, pw, ph)
-                .iter()
-                .map(|l| encode_premultiplied(l))
-                .collect(),
+            levels: Vec::new(),
         };
+        walk_chain(padded, pw, ph, next_premultiplied, |l| {
+            chain.levels.push(encode_premultiplied(&l))
+        });
         Ok((chain, Some(unpadded), report))
     } else {
         Ok((unpadded, None, report))
@@ -354,12 +359,14 @@ impl Streamed<'_> {
 
 /// Box mip chain of premultiplied linear RGBA (already alpha-weighted, so plain filtering).
 pub fn premultiplied_levels(level0: Vec<[f32; 4]>, w: u32, h: u32) -> Vec<Vec<[f32; 4]>> {
-    let next = |level: &[[f32; 4]], w: u32, h: u32| {
-        next_level(level, w, h, MipFilter::Box, |t| t, |t| t.map(clamp01))
-    };
     let mut levels = Vec::new();
-    walk_chain(level0, w, h, next, |l| levels.push(l));
+    walk_chain(level0, w, h, next_premultiplied, |l| levels.push(l));
     levels
+}
+
+/// One step of [`premultiplied_levels`].
+fn next_premultiplied(level: &[[f32; 4]], w: u32, h: u32) -> Vec<[f32; 4]> {
+    next_level(level, w, h, MipFilter::Box, |t| t, |t| t.map(clamp01))
 }
 
 /// Premultiplied linear RGBA → RGBA8 (sRGB colour, linear alpha).
