@@ -110,27 +110,9 @@ pub fn pad_texels(
     ph: u32,
     fill: Option<Texel>,
 ) -> Vec<Texel> {
-    let (w, h, pw, ph) = (
-        w as usize,
-        h as usize,
-        pw.max(w) as usize,
-        ph.max(h) as usize,
-    );
-    debug_assert_eq!(level.len(), w * h);
-    let mut out = Vec::with_capacity(pw * ph);
-    for y in 0..ph {
-        if y >= h
-            && let Some(f) = fill
-        {
-            out.resize(out.len() + pw, f);
-            continue;
-        }
-        let row = &level[y.min(h - 1) * w..][..w];
-        out.extend_from_slice(row);
-        let f = fill.unwrap_or(row[w - 1]);
-        out.resize(out.len() + pw - w, f);
-    }
-    out
+    let mut out = Vec::with_capacity(pw.max(w) as usize * ph.max(h) as usize);
+    out.extend_from_slice(level);
+    pad_texels_owned(out, w, h, pw, ph, fill)
 }
 
 /// [`pad_texels`] in place: the rows moved out to their padded places from the bottom up, so
@@ -212,10 +194,10 @@ pub fn to_unorm_rgb(img: &DynamicImage) -> Vec<[f32; 3]> {
 mod tests {
     use super::*;
 
-    /// In place or copied, the same texels: with and without a fill, grown on either axis,
-    /// both or neither.
+    /// Every texel where padding puts it: the level's own in place, then `fill`, or the
+    /// nearest edge texel without one; grown on either axis, both or neither.
     #[test]
-    fn padding_in_place_is_padding() {
+    fn padding_repeats_the_edge_or_fills() {
         for (w, h, pw, ph) in [
             (5u32, 3u32, 8u32, 4u32),
             (4, 4, 4, 4),
@@ -225,12 +207,24 @@ mod tests {
             let level: Vec<Texel> = (0..w * h)
                 .map(|i| [i as f32, 0.5 * i as f32, 1.0, 0.25])
                 .collect();
-            for fill in [None, Some([0.0; 4])] {
+            for fill in [None, Some([9.0; 4])] {
+                let (w, h, pw, ph) = (w as usize, h as usize, pw as usize, ph as usize);
+                let want: Vec<Texel> = (0..pw * ph)
+                    .map(|i| {
+                        let (x, y) = (i % pw, i / pw);
+                        match fill {
+                            Some(f) if x >= w || y >= h => f,
+                            _ => level[y.min(h - 1) * w + x.min(w - 1)],
+                        }
+                    })
+                    .collect();
+                let (a, b, c, d) = (w as u32, h as u32, pw as u32, ph as u32);
                 assert_eq!(
-                    pad_texels_owned(level.clone(), w, h, pw, ph, fill),
-                    pad_texels(&level, w, h, pw, ph, fill),
-                    "{w}x{h} to {pw}x{ph}, fill {fill:?}"
+                    pad_texels(&level, a, b, c, d, fill),
+                    want,
+                    "{w}x{h} to {pw}x{ph}"
                 );
+                assert_eq!(pad_texels_owned(level.clone(), a, b, c, d, fill), want);
             }
         }
     }
