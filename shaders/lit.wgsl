@@ -123,12 +123,10 @@ fn shadow_visibility(w: WindowProjector, p: vec3<f32>, n: vec3<f32>, frag: vec2<
             vec2<i32>(i32(size) - 1),
         );
         let d = vec2<f32>(texel) + 0.5 - at;
-        let lb = shadow_linear(w, textureLoad(shadow_maps, texel, layer, 0));
-        let blocked = lb < lr + gx * o.x + gy * o.y - eps;
-        let c = glass + per_u * d.x + per_v * d.y;
-        if (through_glass(w, c)) {
+        if (through_glass(w, glass + per_u * d.x + per_v * d.y)) {
             seen = seen + 1.0;
-            if (blocked) {
+            let lb = shadow_linear(w, textureLoad(shadow_maps, texel, layer, 0));
+            if (lb < lr + gx * o.x + gy * o.y - eps) {
                 blockers = blockers + 1.0;
                 sum = sum + lb;
             }

@@ -702,6 +702,7 @@ impl Renderer {
                 LightGeometry::Directional { .. } => 0.0,
             };
             frame.light_colour = c.extend(radius).to_array();
+            let map_size = self.shadow.binding_size();
             for (i, (slot, w)) in windows.items.iter_mut().zip(&projector_frames).enumerate() {
                 let mat = &toc.materials[w.material as usize];
                 let projector = window_projector(w, &g);
@@ -720,9 +721,8 @@ impl Renderer {
                 slot.params = [layer, projector.is_some() as u32, 0, 0];
                 if let Some(Some(map)) = self.shadow_layout.windows.get(i) {
                     map_slot(slot, map, view.position);
-                    let size = self.shadow.binding_size();
                     let aperture = projector.and_then(|p| {
-                        map.aperture(view.position, p, w, mat.projector_margin, size)
+                        map.aperture(view.position, p, w, mat.projector_margin, map_size)
                     });
                     // Without one, every tap counts.
                     let (map, bounds) = aperture.map_or(

@@ -477,6 +477,28 @@ struct Straight8Io<'a> {
     m: usize,
 }
 
+impl<'a> Straight8Io<'a> {
+    /// The reader of `src` (`w x h`) in a frame of `margin` texels, with σ and the sizes
+    /// checked (`what` names the caller in an error): the reader, σ, and the framed size.
+    fn framed(
+        src: &'a [u8],
+        w: u32,
+        h: u32,
+        margin: u32,
+        sigma: f32,
+        what: &'static str,
+    ) -> Result<(Self, f64, usize, usize), TextureError> {
+        let (s, dw, _) = checked(sigma, w, h, src.len(), 4, what)?;
+        let io = Straight8Io {
+            src,
+            w: dw,
+            m: margin as usize,
+        };
+        let (fw, fh) = (dw + 2 * io.m, io.height());
+        Ok((io, s, fw, fh))
+    }
+}
+
 impl Io for Straight8Io<'_> {
     type Out = Px;
     const PER_TEXEL: usize = 1;
@@ -940,9 +962,9 @@ impl Grid {
 
         // Stage 1 along x, then along y at the coarse rows, streamed: each task takes a band of
         // coarse rows and computes the fine rows its kernel windows reach, once each, into a ring
-        // of 2·r1 + 1 rows (at most the image's height: a window holds no more). A full-height intermediate (mx × h texels, 64 MiB at 4096² and σ = 8)
-        // cost more in page faults than the blur itself; bands recompute only the few rows their
-        // windows share. Every coarse row sums the same terms in the same order as before, so the
+        // of 2·r1 + 1 rows (at most the image's height: a window holds no more). A full-height
+        // intermediate (mx × h texels, 64 MiB at 4096² and σ = 8) cost more in page faults than
+        // the blur itself; bands recompute only the few rows their windows share. Every coarse row sums the same terms in the same order as before, so the
         // result does not depend on the banding or the thread count.
         let mut b = vec![[0.0f32; 4]; mx * my];
         let taps = g1.len();
@@ -1224,10 +1246,8 @@ pub fn blur_rgba8_framed_to_linear(
     sigma: f32,
     method: BlurMethod,
 ) -> Result<Vec<[f32; 4]>, TextureError> {
-    let (s, dw, _) = checked(sigma, w, h, src.len(), 4, "blur_rgba8_framed_to_linear")?;
-    let m = margin as usize;
-    let io = Straight8Io { src, w: dw, m };
-    let (w, h) = (dw + 2 * m, io.height());
+    let (io, s, w, h) =
+        Straight8Io::framed(src, w, h, margin, sigma, "blur_rgba8_framed_to_linear")?;
     let mut out = vec![[0.0f32; 4]; w * h];
     run(&io, w, h, s, method, &mut out);
     Ok(out)
@@ -1258,10 +1278,7 @@ impl<'a> RowBlur<'a> {
         sigma: f32,
         method: BlurMethod,
     ) -> Result<Option<Self>, TextureError> {
-        let (s, dw, _) = checked(sigma, w, h, src.len(), 4, "RowBlur")?;
-        let m = margin as usize;
-        let io = Straight8Io { src, w: dw, m };
-        let (w, h) = (dw + 2 * m, io.height());
+        let (io, s, w, h) = Straight8Io::framed(src, w, h, margin, sigma, "RowBlur")?;
         let grid = match method.resolve_sized(sigma, w as u32, h as u32) {
             BlurMethod::Decimated => Some(Grid::new(&io, w, h, s, EXACT)),
             BlurMethod::DecimatedCoarse => Some(Grid::new(&io, w, h, s, COARSE)),
@@ -1505,11 +1522,6 @@ mod tests {
             }
         }
     }
-}
-
-#[cfg(test)]
-mod framed_tests {
-    use super::*;
 
     /// A frame of transparent texels read as zero is the framed copy, by every method.
     #[test]

@@ -413,9 +413,6 @@ mod tests {
     use super::*;
     use crate::testing::Rng;
 
-    /// Bands of rows in the four channels give the bits of the plane blurred as the first
-    /// channel of four: heights not a multiple of four, a plane too short for bands, and the
-    /// came's whole range of σ.
     /// A derived normal map made in bands is the whole-level chain's, bit for bit: sizes
     /// padded to even ones, bands cut short at the bottom, one band, and a 2-row level.
     #[test]
@@ -440,6 +437,9 @@ mod tests {
         }
     }
 
+    /// Bands of rows in the four channels give the bits of the plane blurred as the first
+    /// channel of four: heights not a multiple of four, a plane too short for bands, and the
+    /// came's whole range of σ.
     #[test]
     fn banded_blur_is_the_first_channel_of_the_whole_one() {
         let mut rng = Rng(11);
