@@ -111,6 +111,10 @@ fn shadow_visibility(w: WindowProjector, p: vec3<f32>, n: vec3<f32>, frag: vec2<
     let glass = w.aperture * vec4<f32>(m.xy, m.z, 1.0);
     let per_u = w.aperture[0] / size;
     let per_v = w.aperture[1] / size;
+    // Most fragments' taps all fall well inside the glass: one bound spares the test per tap.
+    let reach = search + 1.0;
+    let whole = all(at >= vec2<f32>(reach)) && all(at <= vec2<f32>(size - reach))
+        && glass_holds_box(w, glass, per_u, per_v, vec2<f32>(reach));
     var seen = 0.0;
     var blockers = 0.0;
     var sum = 0.0;
@@ -123,7 +127,7 @@ fn shadow_visibility(w: WindowProjector, p: vec3<f32>, n: vec3<f32>, frag: vec2<
             vec2<i32>(i32(size) - 1),
         );
         let d = vec2<f32>(texel) + 0.5 - at;
-        if (through_glass(w, glass + per_u * d.x + per_v * d.y)) {
+        if (whole || through_glass(w, glass + per_u * d.x + per_v * d.y)) {
             seen = seen + 1.0;
             let lb = shadow_linear(w, textureLoad(shadow_maps, texel, layer, 0));
             if (lb < lr + gx * o.x + gy * o.y - eps) {
@@ -161,12 +165,14 @@ fn shadow_visibility(w: WindowProjector, p: vec3<f32>, n: vec3<f32>, frag: vec2<
     }
     var lit = 0.0;
     var counted = 0.0;
+    // The filter's taps reach 2.88 σ (its last tap's area fraction, 1 − 1/64).
+    let whole_f = glass_holds_box(w, glass, per_u, per_v, 2.9 * sigma);
     for (var i = 0u; i < FILTER_TAPS; i = i + 1u) {
         // A 2D Gaussian's radius for the area fraction q: σ·sqrt(−2 ln(1 − q)).
         let q = (f32(i) + 0.5) / f32(FILTER_TAPS);
         let a = f32(i) * GOLDEN_ANGLE + angle;
         let o = vec2<f32>(cos(a), sin(a)) * sqrt(-2.0 * log(1.0 - q)) * sigma;
-        if (through_glass(w, glass + per_u * o.x + per_v * o.y)) {
+        if (whole_f || through_glass(w, glass + per_u * o.x + per_v * o.y)) {
             counted = counted + 1.0;
             let reference = shadow_stored(w, lr + gx * o.x + gy * o.y - eps);
             lit = lit + textureSampleCompareLevel(shadow_maps, shadow_cmp, m.xy + o / size, layer, reference);
@@ -190,6 +196,21 @@ fn nearest_glass(w: WindowProjector, glass: vec4<f32>, z: f32) -> vec2<f32> {
     let h2 = (w.aperture[3] + w.aperture[2] * z).xyw;
     let x = vec3<f32>(dot(cross(h1, h2), g), dot(cross(h2, h0), g), dot(cross(h0, h1), g));
     return x.xy / x.z;
+}
+
+// Whether every light line within `r` map texels (per axis) of `glass`'s crosses the glass:
+// the edge distances of `glass_edges` are linear in the offset, so their least over the box is
+// the centre's less the steps' magnitudes times `r`. `per_u`, `per_v`: one texel's step.
+fn glass_holds_box(w: WindowProjector, glass: vec4<f32>, per_u: vec4<f32>, per_v: vec4<f32>, r: vec2<f32>) -> bool {
+    let spread = abs(glass_edges(w, per_u)) * r.x + abs(glass_edges(w, per_v)) * r.y;
+    return all(glass_edges(w, glass) >= spread);
+}
+
+// A light line's signed distances inside the four edges of the glass (`aperture_box`), scaled
+// by its point's w (`through_glass`'s point): all four ≥ 0 where it crosses the glass.
+fn glass_edges(w: WindowProjector, c: vec4<f32>) -> vec4<f32> {
+    let b = w.aperture_box;
+    return vec4<f32>(c.x - b.x * c.w, c.y - b.y * c.w, b.z * c.w - c.x, b.w * c.w - c.y);
 }
 
 // Whether a light line crosses the window's glass, from its point on the window's plane in
