@@ -12,6 +12,10 @@ use crate::instances::triangle;
 use crate::manifest::{Camera, Light};
 use crate::windows::f3;
 
+/// The least cosine between the sun's direction and a window's inward normal for the sun to
+/// count as coming in through it.
+const MIN_ENTRY_COS: f64 = 0.05;
+
 /// The sun's angular diameter.
 const SUN_DEG: f32 = 0.53;
 /// Cells per side of the floor's footprint grid.
@@ -612,7 +616,7 @@ pub fn guess(p: &Prepared) -> Guess {
                 let d = DVec3::new(e.cos() * a.sin(), -e.sin(), e.cos() * a.cos());
                 let mut score = 0.0;
                 for w in windows {
-                    if w.inside.dot(d) <= 0.05 {
+                    if w.inside.dot(d) <= MIN_ENTRY_COS {
                         continue;
                     }
                     let mut landed = 0;
@@ -757,8 +761,10 @@ pub fn guess(p: &Prepared) -> Guess {
                 direction[1] as f64,
                 direction[2] as f64,
             );
+            // As the sun's score: a window the light leaves through lights the ground outside.
             let lit = by_area
                 .iter()
+                .filter(|w| w.inside.dot(d) > MIN_ENTRY_COS)
                 .find_map(|w| fp.land(w.origin + (w.right + w.up) * 0.5, d));
             if let Some(spot) = lit {
                 let away = DVec3::new(d.x, 0.0, d.z).normalize_or_zero();
@@ -838,6 +844,71 @@ mod tests {
             );
             assert!((corner - eye).length() > c.near as f64);
         }
+    }
+
+    /// The `lit-floor` view looks where the sun comes in, not where it leaves. A hall on open
+    /// ground: the largest window is alone on the north wall, three smaller ones on the south
+    /// wall add up to more glass, so the sun comes in from the south. The sun's line through
+    /// the north window runs out of the hall and lands on the ground outside, where the view
+    /// looked before windows facing away from the sun were passed over.
+    #[test]
+    fn the_lit_floor_view_looks_where_the_sun_comes_in() {
+        let dir = tempfile::tempdir().unwrap();
+        let mut obj = String::from("mtllib hall.mtl\n");
+        let mut quad = |m: &str, o: [f64; 3], a: [f64; 3], b: [f64; 3]| {
+            let n = obj.matches("\nv ").count() + 1;
+            obj += &format!("usemtl {m}\n");
+            for c in [o, add(o, a), add(add(o, a), b), add(o, b)] {
+                obj += &format!("v {} {} {}\n", c[0], c[1], c[2]);
+            }
+            obj += &format!("f {} {} {} {}\n", n, n + 1, n + 2, n + 3);
+        };
+        fn add(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
+            [a[0] + b[0], a[1] + b[1], a[2] + b[2]]
+        }
+        quad("ground", [-20., 0., -20.], [0., 0., 40.], [40., 0., 0.]);
+        // Walls facing in: x in [-5, 5], z in [-3, 3], 4 high.
+        quad("wall", [-5., 0., 3.], [10., 0., 0.], [0., 4., 0.]);
+        quad("wall", [-5., 0., -3.], [0., 4., 0.], [10., 0., 0.]);
+        quad("wall", [-5., 0., -3.], [0., 0., 6.], [0., 4., 0.]);
+        quad("wall", [5., 0., -3.], [0., 4., 0.], [0., 0., 6.]);
+        quad("glass", [-2., 1.5, 2.99], [4., 0., 0.], [0., 1.6, 0.]);
+        for x in [-4.5, -1., 2.5] {
+            quad("glass", [x, 1.5, -2.99], [0., 1.5, 0.], [2., 0., 0.]);
+        }
+        let path = dir.path().join("hall.obj");
+        std::fs::write(&path, obj).unwrap();
+        std::fs::write(
+            dir.path().join("hall.mtl"),
+            "newmtl ground\nKd 0.5 0.5 0.5\n\nnewmtl wall\nKd 0.8 0.8 0.8\n\n\
+             newmtl glass\nKd 0.2 0.4 0.8\nTf 0.2 0.4 0.8\nd 0.3\n",
+        )
+        .unwrap();
+        let manifest = crate::manifest::Manifest::from_mesh_file(&path).unwrap();
+        let toc = crate::pipeline::cook(&manifest, &crate::Settings::new(&manifest))
+            .unwrap()
+            .toc;
+        // The ground's two triangles once put its area at their centroids: the one outside
+        // beside the west south window turned that window outwards.
+        for w in &toc.windows {
+            let into_hall = if w.origin[2] > 0.0 { -1.0 } else { 1.0 };
+            assert_eq!(
+                w.normal[2], into_hall,
+                "the window at {:?} faces out",
+                w.origin
+            );
+        }
+        let cameras = toc.cameras;
+        let lit = cameras
+            .iter()
+            .find(|c| c.name == "lit-floor")
+            .unwrap_or_else(|| panic!("no lit-floor view: {cameras:?}"));
+        let [x, y, z] = lit.target;
+        assert!(
+            x.abs() < 5.0 && z.abs() < 3.0 && y.abs() < 1e-3,
+            "the lit-floor view looks at {:?}, outside the hall",
+            lit.target
+        );
     }
 
     /// A model with a floor is a building: its first camera looks down it from inside.

@@ -384,6 +384,10 @@ fn has_uvs(src: &Imported, tris: &[u32]) -> bool {
 /// area, over all sources: triangles gathered into cells of 1/64 of the model's size, each
 /// with its area-weighted centroid. Which side of a window faces more of them does not
 /// change, and deciding it costs as many cells as a whole model has, not triangles.
+///
+/// A triangle longer than a cell is cut into pieces no longer than one first: a ground plane
+/// of two triangles around a building put all its area at two centroids, one of them outside
+/// the building beside a window, and that window faced outwards.
 pub fn receivers(
     sources: &[Imported],
     tri_material: &[Vec<u16>],
@@ -392,15 +396,41 @@ pub fn receivers(
     let (lo, hi) = bounds(sources);
     let cell = ((hi - lo).length() / 64.0).max(1e-9);
     let mut cells: HashMap<[i64; 3], (DVec3, f64)> = HashMap::new();
+    let mut pieces = Vec::new();
+    let mut cuts = 0usize;
     for (src, mats) in sources.iter().zip(tri_material) {
         for (t, &m) in mats.iter().enumerate() {
             let class = classes[m as usize];
             if class.is_window() || class == MaterialClass::Background {
                 continue;
             }
-            let [a, b, c] = triangle(src, t as u32);
-            let area = (b - a).cross(c - a).length() * 0.5;
-            if area > 0.0 && area.is_finite() {
+            pieces.push(triangle(src, t as u32));
+            while let Some([a, b, c]) = pieces.pop() {
+                let area = (b - a).cross(c - a).length() * 0.5;
+                if !(area > 0.0 && area.is_finite()) {
+                    continue;
+                }
+                // Halving the longest edge: a sliver is cut along its length only.
+                let edges = [
+                    (b - a).length_squared(),
+                    (c - b).length_squared(),
+                    (a - c).length_squared(),
+                ];
+                let longest = edges.into_iter().fold(0.0, f64::max);
+                if longest > cell * cell && cuts < MAX_RECEIVER_CUTS {
+                    cuts += 1;
+                    let [a, b, c] = if edges[0] == longest {
+                        [a, b, c]
+                    } else if edges[1] == longest {
+                        [b, c, a]
+                    } else {
+                        [c, a, b]
+                    };
+                    let m = (a + b) * 0.5;
+                    pieces.push([a, m, c]);
+                    pieces.push([m, b, c]);
+                    continue;
+                }
                 let centre = (a + b + c) / 3.0;
                 let key = ((centre - lo) / cell).floor().as_i64vec3().to_array();
                 let e = cells.entry(key).or_insert((DVec3::ZERO, 0.0));
@@ -414,6 +444,12 @@ pub fn receivers(
     out.sort_by_key(|(k, _)| *k);
     out.into_iter().map(|(_, (c, a))| (c / a, a)).collect()
 }
+
+/// The most cuts [`receivers`] makes over a whole model: past it, a triangle counts whole at
+/// its centroid. A real model needs about as many as its surface has cells (a hall on 40 m of
+/// open ground, 9500); 3000 random triangles across a model's bounds, a hostile file, would
+/// need millions: 2^20 took 190 ms here, this bound 21 ms.
+const MAX_RECEIVER_CUTS: usize = 1 << 18;
 
 fn bounds(sources: &[Imported]) -> (DVec3, DVec3) {
     let mut lo = DVec3::splat(f64::INFINITY);
