@@ -551,6 +551,9 @@ pub fn guess(p: &Prepared) -> Guess {
     let mut lo = DVec3::splat(f64::INFINITY);
     let mut hi = DVec3::splat(f64::NEG_INFINITY);
     let mut floor_sum = FloorSum::new();
+    // The walls' and windows' bounds: the building, where the floor may be open ground.
+    let mut shell_lo = DVec3::splat(f64::INFINITY);
+    let mut shell_hi = DVec3::splat(f64::NEG_INFINITY);
     for (src, mats) in p.imported.iter().zip(&p.tri_material) {
         for (t, &m) in mats.iter().enumerate() {
             let class = classes[m as usize];
@@ -561,6 +564,12 @@ pub fn guess(p: &Prepared) -> Guess {
             for q in tri {
                 lo = lo.min(q);
                 hi = hi.max(q);
+            }
+            if class == MaterialClass::Wall || class.is_window() {
+                for q in tri {
+                    shell_lo = shell_lo.min(q);
+                    shell_hi = shell_hi.max(q);
+                }
             }
             if class == MaterialClass::Floor {
                 floor_sum.add(tri);
@@ -671,7 +680,21 @@ pub fn guess(p: &Prepared) -> Guess {
         intensity: sun_intensity(&p.tagging, &classes, d),
     });
 
-    // Cameras at eye height above the floor (or the model's bottom), inside its footprint.
+    // Cameras at eye height above the floor (or the model's bottom), inside its footprint:
+    // within the walls and windows where the floor reaches past them (a building on open
+    // ground, whose views over the whole ground stood outside it).
+    let (inner_lo, inner_hi) = if floor.is_some()
+        && !windows.is_empty()
+        && shell_hi.x > shell_lo.x
+        && shell_hi.z > shell_lo.z
+    {
+        (
+            DVec3::new(lo.x.max(shell_lo.x), lo.y, lo.z.max(shell_lo.z)),
+            DVec3::new(hi.x.min(shell_hi.x), hi.y, hi.z.min(shell_hi.z)),
+        )
+    } else {
+        (lo, hi)
+    };
     let floor_y = floor.as_ref().map_or(lo.y, |f| f.y);
     // A fraction of the building's height, not metres: models come in any unit (the Cornell
     // box is 550 units tall, and 2 units above its floor is a view along the floor).
@@ -679,9 +702,20 @@ pub fn guess(p: &Prepared) -> Guess {
     let centre = match &floor {
         Some(f) => {
             let c = f.lo + f.cell * (GRID as f64 / 2.0);
-            DVec3::new(c.x, eye, c.y)
+            DVec3::new(
+                c.x.clamp(inner_lo.x, inner_hi.x),
+                eye,
+                c.y.clamp(inner_lo.z, inner_hi.z),
+            )
         }
         None => DVec3::new((lo.x + hi.x) / 2.0, eye, (lo.z + hi.z) / 2.0),
+    };
+    // Kept inside the footprint, a twentieth of it from its edges.
+    let within = |mut q: DVec3| {
+        let margin = (inner_hi - inner_lo) * 0.05;
+        q.x = q.x.clamp(inner_lo.x + margin.x, inner_hi.x - margin.x);
+        q.z = q.z.clamp(inner_lo.z + margin.z, inner_hi.z - margin.z);
+        q
     };
     let camera = |name: &str, position: DVec3, target: DVec3| Camera {
         name: name.into(),
@@ -710,19 +744,20 @@ pub fn guess(p: &Prepared) -> Guess {
     // Along the longer horizontal axis, from near one end towards the other, placed where
     // the view runs farthest before it meets geometry: down the middle of a nave, but beside
     // a block or a pier standing in the middle rather than up against it.
-    let long_x = hi.x - lo.x >= hi.z - lo.z;
+    let long_x = inner_hi.x - inner_lo.x >= inner_hi.z - inner_lo.z;
     let (along, across) = if long_x {
         (DVec3::X, DVec3::Z)
     } else {
         (DVec3::Z, DVec3::X)
     };
-    let (len, wide) = ((hi - lo).dot(along), (hi - lo).dot(across));
+    let span = inner_hi - inner_lo;
+    let (len, wide) = (span.dot(along), span.dot(across));
     let mut candidates = Vec::new();
     for height in [0.12, 0.3, 0.5] {
         for from_hi in [false, true] {
             for side in [0.0, -0.25, 0.25] {
-                let mut a = lo + along * (len * if from_hi { 0.9 } else { 0.1 });
-                a += across * ((centre - lo).dot(across) + side * wide);
+                let mut a = inner_lo + along * (len * if from_hi { 0.9 } else { 0.1 });
+                a += across * ((centre - inner_lo).dot(across) + side * wide);
                 a.y = floor_y + ((hi.y - floor_y) * height).max(diag * 0.002);
                 let dir = if from_hi { -along } else { along };
                 candidates.push((a, dir));
@@ -750,7 +785,7 @@ pub fn guess(p: &Prepared) -> Guess {
         let target = w.origin + (w.right + w.up) * 0.5;
         // From inside: back from the window along its inside normal, at eye height.
         let back = (w.width().max(w.height()) * 1.5).max(diag * 0.05);
-        let mut pos = target + w.inside * back;
+        let mut pos = within(target + w.inside * back);
         pos.y = eye;
         cameras.push(camera("windows", pos, target));
         if let (Some(fp), Some(l)) = (&floor, &light)
@@ -768,14 +803,7 @@ pub fn guess(p: &Prepared) -> Guess {
                 .find_map(|w| fp.land(w.origin + (w.right + w.up) * 0.5, d));
             if let Some(spot) = lit {
                 let away = DVec3::new(d.x, 0.0, d.z).normalize_or_zero();
-                let mut pos = spot + away * (hi.y - floor_y).max(diag * 0.05) * 0.8;
-                // Kept inside the model's footprint.
-                pos.x = pos
-                    .x
-                    .clamp(lo.x + 0.05 * (hi.x - lo.x), hi.x - 0.05 * (hi.x - lo.x));
-                pos.z = pos
-                    .z
-                    .clamp(lo.z + 0.05 * (hi.z - lo.z), hi.z - 0.05 * (hi.z - lo.z));
+                let mut pos = within(spot + away * (hi.y - floor_y).max(diag * 0.05) * 0.8);
                 pos.y = eye;
                 cameras.push(camera("lit-floor", pos, spot));
             }
@@ -846,13 +874,15 @@ mod tests {
         }
     }
 
-    /// The `lit-floor` view looks where the sun comes in, not where it leaves. A hall on open
-    /// ground: the largest window is alone on the north wall, three smaller ones on the south
-    /// wall add up to more glass, so the sun comes in from the south. The sun's line through
-    /// the north window runs out of the hall and lands on the ground outside, where the view
-    /// looked before windows facing away from the sun were passed over.
+    /// A hall on open ground is seen from inside, and the `lit-floor` view looks where the sun
+    /// comes in, not where it leaves. The largest window is alone on the north wall; three
+    /// smaller ones on the south wall add up to more glass, so the sun comes in from the
+    /// south. The sun's line through the north window runs out of the hall and lands on the
+    /// ground outside, where the view looked before windows facing away from the sun were
+    /// passed over; and every view stood on the ground outside before views were kept within
+    /// the walls.
     #[test]
-    fn the_lit_floor_view_looks_where_the_sun_comes_in() {
+    fn a_hall_on_open_ground_is_seen_from_inside_where_the_sun_comes_in() {
         let dir = tempfile::tempdir().unwrap();
         let mut obj = String::from("mtllib hall.mtl\n");
         let mut quad = |m: &str, o: [f64; 3], a: [f64; 3], b: [f64; 3]| {
@@ -909,6 +939,16 @@ mod tests {
             "the lit-floor view looks at {:?}, outside the hall",
             lit.target
         );
+        assert_eq!(cameras.len(), 3, "{cameras:?}");
+        for c in &cameras {
+            let [x, y, z] = c.position;
+            assert!(
+                x.abs() < 5.0 && z.abs() < 3.0 && y > 0.0 && y < 4.0,
+                "view {} stands at {:?}, outside the hall",
+                c.name,
+                c.position
+            );
+        }
     }
 
     /// A model with a floor is a building: its first camera looks down it from inside.
