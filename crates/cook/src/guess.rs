@@ -26,8 +26,15 @@ const GRID: usize = 256;
 pub struct Guess {
     pub light: Option<Light>,
     pub cameras: Vec<Camera>,
+    /// The background colour, linear RGB: a daylight sky where the model has windows.
+    pub sky: Option<[f32; 3]>,
     pub notes: Vec<String>,
 }
+
+/// What a window of a bare model shows behind its glass (the background's colour, linear
+/// RGB) where no sky geometry covers it: a daylight sky. Black, the manifest's default,
+/// drew every window black from inside.
+pub const DAYLIGHT_SKY: [f32; 3] = [0.5, 0.6, 0.75];
 
 /// The floor's footprint seen from above, for "does this ray land on the floor".
 struct Footprint {
@@ -581,6 +588,7 @@ pub fn guess(p: &Prepared) -> Guess {
         return Guess {
             light: None,
             cameras: Vec::new(),
+            sky: None,
             notes: vec!["the model has no geometry to light".into()],
         };
     }
@@ -812,9 +820,11 @@ pub fn guess(p: &Prepared) -> Guess {
     // A model far from the origin for its size can put a view's eye and target on the same
     // f32 point, which looks nowhere.
     cameras.retain(|c| c.position != c.target);
+    let sky = (!windows.is_empty()).then_some(DAYLIGHT_SKY);
     Guess {
         light,
         cameras,
+        sky,
         notes,
     }
 }
@@ -928,6 +938,7 @@ mod tests {
                 w.origin
             );
         }
+        assert_eq!(toc.background.colour, DAYLIGHT_SKY);
         let cameras = toc.cameras;
         let lit = cameras
             .iter()

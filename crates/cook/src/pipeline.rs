@@ -363,14 +363,23 @@ fn with_guesses<'a>(
     if m.cameras.is_empty() {
         m.cameras = g.cameras;
     }
+    // A bare model's background is the default, black, and no panorama.
+    if let Some(sky) = g.sky {
+        m.background.colour = sky;
+    }
     report.warnings.push(Warning::new(
         &manifest.path,
         None,
         format!(
             "cooking a bare mesh without a scene.toml: materials are tagged by heuristics \
              (material transparency, names, geometry), and the light and cameras are \
-             guessed ({}); `cooker init` writes these guesses into a scene.toml to edit",
-            g.notes.join("; ")
+             guessed ({}{}); `cooker init` writes these guesses into a scene.toml to edit",
+            g.notes.join("; "),
+            if g.sky.is_some() {
+                "; a daylight sky behind the windows"
+            } else {
+                ""
+            }
         ),
     ));
     Cow::Owned(m)

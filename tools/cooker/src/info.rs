@@ -203,6 +203,12 @@ pub fn describe(pack: &Pack) -> serde_json::Value {
         "windows": windows(toc, &tris),
         "light": light,
         "cameras": toc.cameras.iter().map(|c| c.name.clone()).collect::<Vec<_>>(),
+        "background": {
+            "colour": toc.background.colour,
+            "panorama": toc.background.panorama
+                .and_then(|i| toc.textures.get(i as usize))
+                .map(|t| t.name.clone()),
+        },
     })
 }
 
@@ -309,5 +315,12 @@ pub fn run(args: Args) -> Outcome {
             w.source_materials.join(", ")
         );
     }
+    let [r, g, b] = toc.background.colour;
+    let panorama = toc
+        .background
+        .panorama
+        .and_then(|i| toc.textures.get(i as usize))
+        .map_or(String::new(), |t| format!(", panorama {}", t.name));
+    println!("background: colour [{r:.3}, {g:.3}, {b:.3}] (linear){panorama}");
     Ok(OK)
 }

@@ -221,10 +221,15 @@ pub fn run(args: Args) -> Outcome {
             plan.map(|p| p.materials.join(", ")).unwrap_or_default(),
             inst.inside_reason
         );
+        // Written out, so a light set here later cannot turn the window: with a sun, the side
+        // the sunlight leaves through decides, which for a window on the shaded side of the
+        // building is its outside (its design then read mirrored from within).
+        let n = inst.inside;
         let _ = writeln!(
             t,
-            "[[window]]\nname = {}\n",
-            quote(&literal_glob(&inst.name))
+            "[[window]]\nname = {}\ninside = {}\n",
+            quote(&literal_glob(&inst.name)),
+            vec3([n.x as f32, n.y as f32, n.z as f32])
         );
     }
 
@@ -256,6 +261,13 @@ pub fn run(args: Args) -> Outcome {
                 );
             }
         }
+    }
+    if let Some(sky) = guess.sky {
+        let _ = writeln!(
+            t,
+            "# Seen through the windows where no sky geometry covers the view.\n[background]\ncolour = {}\n",
+            vec3(sky)
+        );
     }
     for c in &guess.cameras {
         // A thousandth of the model's size (a guessed view's far plane is three times it).

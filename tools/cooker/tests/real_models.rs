@@ -1269,6 +1269,78 @@ fn init_and_cook_work_for_a_model_in_large_units() {
     assert_eq!(v["cameras"].as_array().unwrap().len(), eyes.len(), "{v:#}");
 }
 
+/// A hall on open ground, its largest window alone on the north wall and the sun coming in
+/// through three on the south wall (crates/cook/src/guess.rs tests the guesses themselves).
+fn hall_on_open_ground(dir: &Path) -> PathBuf {
+    let mut obj = Obj::new("hall.mtl");
+    obj.usemtl("ground")
+        .quad([-20., 0., -20.], [0., 0., 40.], [40., 0., 0.]);
+    obj.usemtl("wall")
+        .quad([-5., 0., 3.], [10., 0., 0.], [0., 4., 0.])
+        .quad([-5., 0., -3.], [0., 4., 0.], [10., 0., 0.])
+        .quad([-5., 0., -3.], [0., 0., 6.], [0., 4., 0.])
+        .quad([5., 0., -3.], [0., 4., 0.], [0., 0., 6.]);
+    obj.usemtl("glass")
+        .quad([-2., 1.5, 2.99], [4., 0., 0.], [0., 1.6, 0.]);
+    for x in [-4.5, -1., 2.5] {
+        obj.quad([x, 1.5, -2.99], [0., 1.5, 0.], [2., 0., 0.]);
+    }
+    let path = dir.join("hall.obj");
+    obj.write(&path);
+    std::fs::write(
+        dir.join("hall.mtl"),
+        "newmtl ground\nKd 0.5 0.5 0.5\n\nnewmtl wall\nKd 0.8 0.8 0.8\n\n\
+         newmtl glass\nKd 0.2 0.4 0.8\nTf 0.2 0.4 0.8\nd 0.3\n",
+    )
+    .unwrap();
+    path
+}
+
+/// `init` then `cook` gives the bare cook's windows, projectors and sky: the window on the
+/// shaded side kept its inward normal. Before, the manifest's sun decided it, as the side the
+/// sunlight leaves through: the window faced out, its design read mirrored from inside, and
+/// it cast light on the ground outside.
+#[test]
+fn init_then_cook_keeps_the_bare_cooks_windows_and_sky() {
+    let dir = tempfile::tempdir().unwrap();
+    let obj = hall_on_open_ground(dir.path());
+    let bare = dir.path().join("bare.pack");
+    cook(&obj, &bare, &[]);
+    let scene = dir.path().join("scene.toml");
+    let o = cooker(&[&"init", &obj, &"-o", &scene]);
+    assert!(o.status.success(), "{}", text(&o.stderr));
+    let edited = dir.path().join("scene.pack");
+    cook(&scene, &edited, &[]);
+    let (a, b) = (info(&bare), info(&edited));
+    let summary = |v: &Value| -> Vec<(String, [f64; 3], bool)> {
+        windows(v)
+            .iter()
+            .map(|w| {
+                (
+                    w["name"].as_str().unwrap().to_string(),
+                    vec3(&w["normal"]),
+                    w["projector_texture"].is_null(),
+                )
+            })
+            .collect()
+    };
+    assert_eq!(summary(&a), summary(&b));
+    // The north window (z > 0) faces into the hall and, the sun leaving through it, casts
+    // nothing.
+    let north = windows(&a)
+        .iter()
+        .find(|w| vec3(&w["centre"])[2] > 0.0)
+        .unwrap();
+    assert!(vec3(&north["normal"])[2] < -0.99, "{north:#}");
+    assert!(north["projector_texture"].is_null(), "{north:#}");
+    assert_eq!(a["background"], b["background"]);
+    let sky = vec3(&a["background"]["colour"]);
+    assert!(
+        sky.iter().all(|&c| c > 0.3),
+        "a black sky blacks out the windows: {sky:?}"
+    );
+}
+
 /// The issue's first use: `cooker init model.obj && cooker cook scene.toml` with no hand edits
 /// gives stained-glass light: a manifest that parses, a sun whose light lands on the floor
 /// through the windows (so the cook makes their projectors), and cameras inside.
