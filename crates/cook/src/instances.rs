@@ -380,9 +380,9 @@ fn has_uvs(src: &Imported, tris: &[u32]) -> bool {
     varies
 }
 
-/// The surfaces that can receive window light (not glass, not the backdrop), as centroid and
-/// area, over all sources: triangles gathered into cells of 1/64 of the model's size, each
-/// with its area-weighted centroid. Which side of a window faces more of them does not
+/// The surfaces that can receive window light (not glass, not the backdrop), as centroid,
+/// area and whether they are floor, over all sources: triangles gathered into cells of 1/64 of
+/// the model's size, floors apart, each with its area-weighted centroid. Which side of a window faces more of them does not
 /// change, and deciding it costs as many cells as a whole model has, not triangles.
 ///
 /// A triangle longer than a cell is cut into pieces no longer than one first: a ground plane
@@ -392,10 +392,10 @@ pub fn receivers(
     sources: &[Imported],
     tri_material: &[Vec<u16>],
     classes: &[MaterialClass],
-) -> Vec<(DVec3, f64)> {
+) -> Vec<(DVec3, f64, bool)> {
     let (lo, hi) = bounds(sources);
     let cell = ((hi - lo).length() / 64.0).max(1e-9);
-    let mut cells: HashMap<[i64; 3], (DVec3, f64)> = HashMap::new();
+    let mut cells: HashMap<([i64; 3], bool), (DVec3, f64)> = HashMap::new();
     let mut pieces = Vec::new();
     let mut cuts = 0usize;
     for (src, mats) in sources.iter().zip(tri_material) {
@@ -404,6 +404,7 @@ pub fn receivers(
             if class.is_window() || class == MaterialClass::Background {
                 continue;
             }
+            let floor = class == MaterialClass::Floor;
             pieces.push(triangle(src, t as u32));
             while let Some([a, b, c]) = pieces.pop() {
                 let area = (b - a).cross(c - a).length() * 0.5;
@@ -433,16 +434,18 @@ pub fn receivers(
                 }
                 let centre = (a + b + c) / 3.0;
                 let key = ((centre - lo) / cell).floor().as_i64vec3().to_array();
-                let e = cells.entry(key).or_insert((DVec3::ZERO, 0.0));
+                let e = cells.entry((key, floor)).or_insert((DVec3::ZERO, 0.0));
                 e.0 += centre * area;
                 e.1 += area;
             }
         }
     }
     // In cell order: the sums over them must not depend on the map's iteration order.
-    let mut out: Vec<([i64; 3], (DVec3, f64))> = cells.into_iter().collect();
+    let mut out: Vec<_> = cells.into_iter().collect();
     out.sort_by_key(|(k, _)| *k);
-    out.into_iter().map(|(_, (c, a))| (c / a, a)).collect()
+    out.into_iter()
+        .map(|((_, floor), (c, a))| (c / a, a, floor))
+        .collect()
 }
 
 /// The most cuts [`receivers`] makes over a whole model: past it, a triangle counts whole at
@@ -463,58 +466,78 @@ fn bounds(sources: &[Imported]) -> (DVec3, DVec3) {
     (lo, hi)
 }
 
-/// Which way is inside: an explicit point or direction, else the side the light leaves the
-/// window through, else the side facing most receiving geometry (nearer surfaces count more).
+/// Which way is inside: an explicit point or direction; else the side facing most receiving
+/// geometry (nearer surfaces count more) where at least three quarters of it lie on one side,
+/// first without floors, then with them; else the side the light leaves the window through;
+/// else the side facing more geometry.
+///
+/// The building's geometry comes before the light: with the light first, a window on the
+/// shaded side of a nave (the sun in through the other side's windows) faced out, its design
+/// read mirrored from inside and its light thrown on the ground outside. Floors are asked
+/// second: the ground a building stands on lies on both sides of its walls.
 pub fn decide_inside<'r>(
     normal: DVec3,
     centroid: DVec3,
     size: f64,
     explicit: Option<[f32; 3]>,
     light: Option<&LightKind>,
-    receivers: &dyn Fn() -> &'r [(DVec3, f64)],
+    receivers: &dyn Fn() -> &'r [(DVec3, f64, bool)],
 ) -> (DVec3, &'static str) {
     let orient = |d: DVec3| if normal.dot(d) < 0.0 { -normal } else { normal };
     if let Some(v) = explicit {
         return (orient(v3(v)), "the manifest's `inside`");
     }
+    // Each surface counts by how large it looks from the window (area × |cos| / d², with the
+    // cosine taken against the window's normal); surfaces lying about in the window's own
+    // plane (its wall, a reveal just behind the glass) say nothing about the sides.
+    // [score, total weight], without floors and with them.
+    let mut sums = [[0.0f64; 2]; 2];
+    for &(c, a, floor) in receivers() {
+        let d = c - centroid;
+        let side = d.dot(normal);
+        if side.abs() >= 0.05 * size {
+            let weight = a * side.abs() / d.length().powi(3);
+            for (k, sum) in sums.iter_mut().enumerate() {
+                if k == 1 || !floor {
+                    sum[0] += side.signum() * weight;
+                    sum[1] += weight;
+                }
+            }
+        }
+    }
+    let facing = |score: f64| if score < 0.0 { -normal } else { normal };
+    for (k, [score, total]) in sums.into_iter().enumerate() {
+        if total > 0.0 && score.abs() >= 0.5 * total {
+            let why = if k == 0 {
+                "the side facing most receiving geometry other than floors"
+            } else {
+                "the side facing most receiving geometry"
+            };
+            return (facing(score), why);
+        }
+    }
     match light {
         Some(LightKind::Directional { direction, .. })
             if normal.dot(v3(*direction)).abs() > 1e-6 =>
         {
-            return (
+            (
                 orient(v3(*direction)),
                 "the side the sunlight leaves through",
-            );
+            )
         }
         Some(LightKind::Point { position, .. })
             if normal.dot(centroid - v3(*position)).abs() > 1e-9 =>
         {
-            return (
+            (
                 orient(centroid - v3(*position)),
                 "the side away from the light",
-            );
+            )
         }
-        _ => {}
+        _ => (
+            facing(sums[1][0]),
+            "the side facing more receiving geometry",
+        ),
     }
-    // Each surface counts by how large it looks from the window (area × |cos| / d², with the
-    // cosine taken against the window's normal); surfaces lying about in the window's own
-    // plane (its wall, a reveal just behind the glass) say nothing about the sides.
-    let score: f64 = receivers()
-        .iter()
-        .map(|(c, a)| {
-            let d = *c - centroid;
-            let side = d.dot(normal);
-            if side.abs() < 0.05 * size {
-                0.0
-            } else {
-                side.signum() * a * side.abs() / d.length().powi(3)
-            }
-        })
-        .sum();
-    (
-        if score < 0.0 { -normal } else { normal },
-        "the side facing most receiving geometry",
-    )
 }
 
 /// The manifest's `inside` override for a window name and its materials.
@@ -531,8 +554,8 @@ pub fn find(
     light: Option<&LightKind>,
     inside: InsideOverride<'_>,
 ) -> Vec<Instance> {
-    // Only a window with neither an override nor a light needs them, and there are as many as
-    // the model has triangles.
+    // Only a window without an override needs them, and there are as many as the model has
+    // triangles.
     let all_receivers = std::cell::OnceCell::new();
     let receivers = || {
         all_receivers

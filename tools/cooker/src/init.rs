@@ -221,9 +221,9 @@ pub fn run(args: Args) -> Outcome {
             plan.map(|p| p.materials.join(", ")).unwrap_or_default(),
             inst.inside_reason
         );
-        // Written out, so a light set here later cannot turn the window: with a sun, the side
-        // the sunlight leaves through decides, which for a window on the shaded side of the
-        // building is its outside (its design then read mirrored from within).
+        // Written out, so the sun written below cannot turn the window: where the geometry
+        // leaves the side unclear, the side the sunlight leaves through decides, which for a
+        // window on the shaded side is its outside (its design then read mirrored).
         let n = inst.inside;
         let _ = writeln!(
             t,

@@ -1296,10 +1296,8 @@ fn hall_on_open_ground(dir: &Path) -> PathBuf {
     path
 }
 
-/// `init` then `cook` gives the bare cook's windows, projectors and sky: the window on the
-/// shaded side kept its inward normal. Before, the manifest's sun decided it, as the side the
-/// sunlight leaves through: the window faced out, its design read mirrored from inside, and
-/// it cast light on the ground outside.
+/// `init` then `cook` gives the bare cook's windows, projectors and sky: `init` writes each
+/// window's inside side, so the manifest's sun cannot turn one where the geometry is unclear.
 #[test]
 fn init_then_cook_keeps_the_bare_cooks_windows_and_sky() {
     let dir = tempfile::tempdir().unwrap();
@@ -1339,6 +1337,33 @@ fn init_then_cook_keeps_the_bare_cooks_windows_and_sky() {
         sky.iter().all(|&c| c > 0.3),
         "a black sky blacks out the windows: {sky:?}"
     );
+}
+
+/// With a sun in the manifest, a window on the shaded side still faces into the building: the
+/// geometry decides where it is clear. The sun came first before: the hall's north window
+/// faced out, its design mirrored as seen from inside, and it threw light on the ground
+/// outside.
+#[test]
+fn a_window_on_the_shaded_side_faces_in_under_a_manifest_sun() {
+    let dir = tempfile::tempdir().unwrap();
+    hall_on_open_ground(dir.path());
+    let scene = dir.path().join("scene.toml");
+    std::fs::write(
+        &scene,
+        "[[mesh]]\nsource = \"hall.obj\"\n\n\
+         [light]\ntype = \"directional\"\ndirection = [0.0, -0.42, 0.906]\n",
+    )
+    .unwrap();
+    let pack = dir.path().join("hall.pack");
+    cook(&scene, &pack, &[]);
+    let v = info(&pack);
+    assert_eq!(window_count(&v), 4);
+    for w in windows(&v) {
+        let (z, n) = (vec3(&w["centre"])[2], vec3(&w["normal"])[2]);
+        assert!(n * z < -0.99 * z.abs(), "a window faces out: {w:#}");
+        // Only the south windows (z < 0) let the sun in.
+        assert_eq!(w["projector_texture"].is_null(), z > 0.0, "{w:#}");
+    }
 }
 
 /// The issue's first use: `cooker init model.obj && cooker cook scene.toml` with no hand edits
