@@ -789,7 +789,11 @@ pub fn guess(p: &Prepared) -> Guess {
     }
     let mut by_area: Vec<&crate::instances::Instance> = windows.iter().collect();
     by_area.sort_by(|x, y| y.area.total_cmp(&x.area));
-    if let Some(w) = by_area.first() {
+    // The largest window the sun comes in through, glowing over its light on the floor; the
+    // largest of all where the sun enters none.
+    let enters =
+        |w: &crate::instances::Instance| sun.is_some_and(|d| w.inside.dot(d) > MIN_ENTRY_COS);
+    if let Some(w) = by_area.iter().find(|w| enters(w)).or(by_area.first()) {
         let target = w.origin + (w.right + w.up) * 0.5;
         // From inside: back from the window along its inside normal, at eye height.
         let back = (w.width().max(w.height()) * 1.5).max(diag * 0.05);
@@ -807,7 +811,7 @@ pub fn guess(p: &Prepared) -> Guess {
             // As the sun's score: a window the light leaves through lights the ground outside.
             let lit = by_area
                 .iter()
-                .filter(|w| w.inside.dot(d) > MIN_ENTRY_COS)
+                .filter(|w| enters(w))
                 .find_map(|w| fp.land(w.origin + (w.right + w.up) * 0.5, d));
             if let Some(spot) = lit {
                 let away = DVec3::new(d.x, 0.0, d.z).normalize_or_zero();
@@ -949,6 +953,13 @@ mod tests {
             x.abs() < 5.0 && z.abs() < 3.0 && y.abs() < 1e-3,
             "the lit-floor view looks at {:?}, outside the hall",
             lit.target
+        );
+        // The `windows` view shows a south window, lit from behind, not the larger north one.
+        let shown = cameras.iter().find(|c| c.name == "windows").unwrap();
+        assert!(
+            (shown.target[2] + 2.99).abs() < 1e-3,
+            "the windows view looks at {:?}",
+            shown.target
         );
         assert_eq!(cameras.len(), 3, "{cameras:?}");
         for c in &cameras {
