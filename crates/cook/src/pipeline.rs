@@ -438,13 +438,18 @@ fn frame_windows(
         lit[f.material as usize] = reaches;
         let designed = tagging.materials[f.material as usize].window.is_some();
         if designed && !reaches {
-            report.skipped.push(format!(
-                "window {name:?}: {}, so no projector texture was cooked",
-                if light.is_some() {
-                    "its light reaches no floor, wall or other receiving surface"
-                } else {
-                    "the scene has no light"
+            let why = match light {
+                None => "the scene has no light",
+                Some(l @ pack::LightKind::Directional { .. }) if !windows::light_enters(f, l) => {
+                    "the sunlight does not come in through it (it faces away from the sun)"
                 }
+                Some(l) if !windows::light_enters(f, l) => {
+                    "the light does not come in through it (the lamp is on its inner side)"
+                }
+                Some(_) => "its light reaches no floor, wall or other receiving surface",
+            };
+            report.skipped.push(format!(
+                "window {name:?}: {why}, so no projector texture was cooked"
             ));
         }
     }

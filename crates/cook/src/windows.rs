@@ -146,6 +146,16 @@ pub fn analyze(
     })
 }
 
+/// Whether the light passes the window inwards at all: the sun travels into the building
+/// through it (not grazing), or the lamp stands on its outer side.
+pub fn light_enters(frame: &pack::Window, light: &LightKind) -> bool {
+    let n = v3(frame.normal).normalize_or_zero();
+    match *light {
+        LightKind::Directional { direction, .. } => v3(direction).normalize_or_zero().dot(n) > 1e-9,
+        LightKind::Point { position, .. } => (v3(position) - v3(frame.origin)).dot(n) < 0.0,
+    }
+}
+
 /// Whether light through the window can land on any of `receivers` (triangles of floors,
 /// walls and other opaque surfaces): some part of a triangle lies behind the window (on the
 /// side its normal points to) and, traced back along the light to the window's plane, falls
@@ -167,26 +177,20 @@ pub fn light_reaches(
         glam::DVec2::new(u.dot(u), u.dot(v)),
         glam::DVec2::new(u.dot(v), v.dot(v)),
     );
-    if n == glam::DVec3::ZERO || gram.determinant().abs() < 1e-18 {
+    if n == glam::DVec3::ZERO || gram.determinant().abs() < 1e-18 || !light_enters(frame, light) {
         return false;
     }
     let inv = gram.inverse();
-    // Back along the light to the window's plane; `None` when no light passes the window.
+    // Back along the light to the window's plane.
     let trace: Box<dyn Fn(glam::DVec3, f64) -> glam::DVec3> = match *light {
         LightKind::Directional { direction, .. } => {
             let d = v3(direction).normalize_or_zero();
             let dn = d.dot(n);
-            if dn <= 1e-9 {
-                return false; // grazing, or travelling out of the building
-            }
             Box::new(move |p, s| p - d * (s / dn))
         }
         LightKind::Point { position, .. } => {
             let l = v3(position);
             let sl = (l - origin).dot(n);
-            if sl >= 0.0 {
-                return false; // the light is inside: nothing passes the window inwards
-            }
             Box::new(move |p, s| l + (p - l) * (sl / (sl - s)))
         }
     };

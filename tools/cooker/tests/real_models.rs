@@ -1355,7 +1355,13 @@ fn a_window_on_the_shaded_side_faces_in_under_a_manifest_sun() {
     )
     .unwrap();
     let pack = dir.path().join("hall.pack");
-    cook(&scene, &pack, &[]);
+    let o = cooker(&[&"cook", &scene, &"-o", &pack, &"--no-cache"]);
+    assert!(o.status.success(), "{}", text(&o.stderr));
+    let said = text(&o.stdout) + &text(&o.stderr);
+    assert!(
+        said.contains("skipped: window \"glass#1\": the sunlight does not come in through it"),
+        "{said}"
+    );
     let v = info(&pack);
     assert_eq!(window_count(&v), 4);
     for w in windows(&v) {
