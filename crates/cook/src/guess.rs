@@ -704,9 +704,12 @@ pub fn guess(p: &Prepared) -> Guess {
         (lo, hi)
     };
     let floor_y = floor.as_ref().map_or(lo.y, |f| f.y);
+    // Distances inside scale with the building, not with the ground around it (a hall on a
+    // kilometre of ground had its eye at 2.8 m).
+    let inner_diag = (inner_hi - inner_lo).length().max(1e-6);
     // A fraction of the building's height, not metres: models come in any unit (the Cornell
     // box is 550 units tall, and 2 units above its floor is a view along the floor).
-    let eye = floor_y + ((hi.y - floor_y) * 0.12).max(diag * 0.002);
+    let eye = floor_y + ((hi.y - floor_y) * 0.12).max(inner_diag * 0.002);
     let centre = match &floor {
         Some(f) => {
             let c = f.lo + f.cell * (GRID as f64 / 2.0);
@@ -766,7 +769,7 @@ pub fn guess(p: &Prepared) -> Guess {
             for side in [0.0, -0.25, 0.25] {
                 let mut a = inner_lo + along * (len * if from_hi { 0.9 } else { 0.1 });
                 a += across * ((centre - inner_lo).dot(across) + side * wide);
-                a.y = floor_y + ((hi.y - floor_y) * height).max(diag * 0.002);
+                a.y = floor_y + ((hi.y - floor_y) * height).max(inner_diag * 0.002);
                 let dir = if from_hi { -along } else { along };
                 candidates.push((a, dir));
             }
@@ -796,7 +799,7 @@ pub fn guess(p: &Prepared) -> Guess {
     if let Some(w) = by_area.iter().find(|w| enters(w)).or(by_area.first()) {
         let target = w.origin + (w.right + w.up) * 0.5;
         // From inside: back from the window along its inside normal, at eye height.
-        let back = (w.width().max(w.height()) * 1.5).max(diag * 0.05);
+        let back = (w.width().max(w.height()) * 1.5).max(inner_diag * 0.05);
         let mut pos = within(target + w.inside * back);
         pos.y = eye;
         cameras.push(camera("windows", pos, target));
@@ -815,7 +818,7 @@ pub fn guess(p: &Prepared) -> Guess {
                 .find_map(|w| fp.land(w.origin + (w.right + w.up) * 0.5, d));
             if let Some(spot) = lit {
                 let away = DVec3::new(d.x, 0.0, d.z).normalize_or_zero();
-                let mut pos = within(spot + away * (hi.y - floor_y).max(diag * 0.05) * 0.8);
+                let mut pos = within(spot + away * (hi.y - floor_y).max(inner_diag * 0.05) * 0.8);
                 pos.y = eye;
                 cameras.push(camera("lit-floor", pos, spot));
             }
@@ -897,6 +900,13 @@ mod tests {
     /// the walls.
     #[test]
     fn a_hall_on_open_ground_is_seen_from_inside_where_the_sun_comes_in() {
+        // 40 m of ground, and a kilometre, where the eye once stood at 2.8 m.
+        for half in [20.0, 500.0] {
+            hall_on_open_ground(half);
+        }
+    }
+
+    fn hall_on_open_ground(half: f64) {
         let dir = tempfile::tempdir().unwrap();
         let mut obj = String::from("mtllib hall.mtl\n");
         let mut quad = |m: &str, o: [f64; 3], a: [f64; 3], b: [f64; 3]| {
@@ -910,7 +920,12 @@ mod tests {
         fn add(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
             [a[0] + b[0], a[1] + b[1], a[2] + b[2]]
         }
-        quad("ground", [-20., 0., -20.], [0., 0., 40.], [40., 0., 0.]);
+        quad(
+            "ground",
+            [-half, 0., -half],
+            [0., 0., 2. * half],
+            [2. * half, 0., 0.],
+        );
         // Walls facing in: x in [-5, 5], z in [-3, 3], 4 high.
         quad("wall", [-5., 0., 3.], [10., 0., 0.], [0., 4., 0.]);
         quad("wall", [-5., 0., -3.], [0., 4., 0.], [10., 0., 0.]);
@@ -962,11 +977,16 @@ mod tests {
             shown.target
         );
         assert_eq!(cameras.len(), 3, "{cameras:?}");
+        // At eye height: 0.12 of the hall's height.
+        assert!(
+            (lit.position[1] - 0.48).abs() < 1e-3,
+            "{half} m of ground: {cameras:?}"
+        );
         for c in &cameras {
             let [x, y, z] = c.position;
             assert!(
                 x.abs() < 5.0 && z.abs() < 3.0 && y > 0.0 && y < 4.0,
-                "view {} stands at {:?}, outside the hall",
+                "view {} stands at {:?}, outside the hall ({half} m of ground each way)",
                 c.name,
                 c.position
             );
