@@ -964,8 +964,9 @@ impl Grid {
         // coarse rows and computes the fine rows its kernel windows reach, once each, into a ring
         // of 2·r1 + 1 rows (at most the image's height: a window holds no more). A full-height
         // intermediate (mx × h texels, 64 MiB at 4096² and σ = 8) cost more in page faults than
-        // the blur itself; bands recompute only the few rows their windows share. Every coarse row sums the same terms in the same order as before, so the
-        // result does not depend on the banding or the thread count.
+        // the blur itself; bands recompute only the few rows their windows share. Every coarse
+        // row sums the same terms in the same order as before, so the result does not depend on
+        // the banding or the thread count.
         let mut b = vec![[0.0f32; 4]; mx * my];
         let taps = g1.len();
         let ring_rows = taps.min(h);

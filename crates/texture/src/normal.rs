@@ -7,7 +7,7 @@ use rayon::prelude::*;
 use crate::TextureError;
 use crate::mips::{MipChain, check_size};
 use crate::pixels::{to_linear, to_unorm_rgb};
-use crate::resample::{MipFilter, box2, half, next_level, walk_chain};
+use crate::resample::{MipFilter, half, next_level, walk_chain};
 use crate::srgb::{linear_to_srgb, unorm8};
 
 /// How a supplied normal map encodes the vector.
@@ -385,26 +385,27 @@ pub fn derive_normal_map_padded(
         drop(height);
         return Ok(chain(level0, pw, ph));
     }
-    // Level 0 a band of rows at a time, encoded and box-reduced as `chain` would (an even
-    // level's next one is `box2` of it, block by block), so its f32 normals (16 bytes a
-    // texel, 11 MB for the 687x1024 border design) are never held whole.
+    // Level 0 a band of rows at a time, encoded and reduced as `chain` would (an even
+    // level's box reduction works block by block, so a band of even height reduces alone),
+    // so its f32 normals (16 bytes a texel, 11 MB for the 687x1024 border design) are never
+    // held whole.
     let (pw_, ph_) = (pw as usize, ph as usize);
     let mut level0 = Vec::with_capacity(pw_ * ph_ * 4);
     let mut level1 = Vec::with_capacity(pw_ / 2 * (ph_ / 2));
     for y0 in (0..ph_).step_by(NORMAL_BAND_ROWS) {
-        let band = normal_rows(&height, w, h, pw, y0..(y0 + NORMAL_BAND_ROWS).min(ph_));
+        let rows = y0..(y0 + NORMAL_BAND_ROWS).min(ph_);
+        let band_height = rows.len() as u32;
+        let band = normal_rows(&height, w, h, pw, rows);
         level0.extend(encode_normals(&band));
-        level1.extend(box2(&band, pw_, |t| t, normalize));
+        level1.extend(next_normals(&band, pw, band_height));
     }
     drop(height);
-    let mut levels = vec![level0];
-    walk_chain(level1, half(pw), half(ph), next_normals, |l| {
-        levels.push(encode_normals(&l))
-    });
+    let mut rest = chain(level1, half(pw), half(ph));
+    rest.levels.insert(0, level0);
     Ok(MipChain {
         width: pw,
         height: ph,
-        levels,
+        levels: rest.levels,
     })
 }
 
