@@ -382,8 +382,9 @@ fn has_uvs(src: &Imported, tris: &[u32]) -> bool {
 
 /// The surfaces that can receive window light (not glass, not the backdrop), as centroid,
 /// area and whether they are floor, over all sources: triangles gathered into cells of 1/64 of
-/// the model's size, floors apart, each with its area-weighted centroid. Which side of a window faces more of them does not
-/// change, and deciding it costs as many cells as a whole model has, not triangles.
+/// the model's size, floors apart, each with its area-weighted centroid. Which side of a
+/// window faces more of them does not change, and deciding it costs as many cells as a whole
+/// model has, not triangles.
 ///
 /// A triangle longer than a cell is cut into pieces no longer than one first: a ground plane
 /// of two triangles around a building put all its area at two centroids, one of them outside

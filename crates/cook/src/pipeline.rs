@@ -440,13 +440,15 @@ fn frame_windows(
         if designed && !reaches {
             let why = match light {
                 None => "the scene has no light",
-                Some(l @ pack::LightKind::Directional { .. }) if !windows::light_enters(f, l) => {
+                Some(l) if windows::light_enters(f, l) => {
+                    "its light reaches no floor, wall or other receiving surface"
+                }
+                Some(pack::LightKind::Directional { .. }) => {
                     "the sunlight does not come in through it (it faces away from the sun)"
                 }
-                Some(l) if !windows::light_enters(f, l) => {
+                Some(pack::LightKind::Point { .. }) => {
                     "the light does not come in through it (the lamp is on its inner side)"
                 }
-                Some(_) => "its light reaches no floor, wall or other receiving surface",
             };
             report.skipped.push(format!(
                 "window {name:?}: {why}, so no projector texture was cooked"

@@ -205,11 +205,15 @@ pub fn describe(pack: &Pack) -> serde_json::Value {
         "cameras": toc.cameras.iter().map(|c| c.name.clone()).collect::<Vec<_>>(),
         "background": {
             "colour": toc.background.colour,
-            "panorama": toc.background.panorama
-                .and_then(|i| toc.textures.get(i as usize))
-                .map(|t| t.name.clone()),
+            "panorama": panorama_name(toc),
         },
     })
+}
+
+/// The name of the background's panorama texture, if it has one.
+fn panorama_name(toc: &pack::Toc) -> Option<&str> {
+    let i = toc.background.panorama?;
+    toc.textures.get(i as usize).map(|t| t.name.as_str())
 }
 
 pub fn run(args: Args) -> Outcome {
@@ -316,11 +320,7 @@ pub fn run(args: Args) -> Outcome {
         );
     }
     let [r, g, b] = toc.background.colour;
-    let panorama = toc
-        .background
-        .panorama
-        .and_then(|i| toc.textures.get(i as usize))
-        .map_or(String::new(), |t| format!(", panorama {}", t.name));
+    let panorama = panorama_name(toc).map_or(String::new(), |name| format!(", panorama {name}"));
     println!("background: colour [{r:.3}, {g:.3}, {b:.3}] (linear){panorama}");
     Ok(OK)
 }
