@@ -908,41 +908,10 @@ mod tests {
 
     fn hall_on_open_ground(half: f64) {
         let dir = tempfile::tempdir().unwrap();
-        let mut obj = String::from("mtllib hall.mtl\n");
-        let mut quad = |m: &str, o: [f64; 3], a: [f64; 3], b: [f64; 3]| {
-            let n = obj.matches("\nv ").count() + 1;
-            obj += &format!("usemtl {m}\n");
-            for c in [o, add(o, a), add(add(o, a), b), add(o, b)] {
-                obj += &format!("v {} {} {}\n", c[0], c[1], c[2]);
-            }
-            obj += &format!("f {} {} {} {}\n", n, n + 1, n + 2, n + 3);
-        };
-        fn add(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
-            [a[0] + b[0], a[1] + b[1], a[2] + b[2]]
-        }
-        quad(
-            "ground",
-            [-half, 0., -half],
-            [0., 0., 2. * half],
-            [2. * half, 0., 0.],
-        );
-        // Walls facing in: x in [-5, 5], z in [-3, 3], 4 high.
-        quad("wall", [-5., 0., 3.], [10., 0., 0.], [0., 4., 0.]);
-        quad("wall", [-5., 0., -3.], [0., 4., 0.], [10., 0., 0.]);
-        quad("wall", [-5., 0., -3.], [0., 0., 6.], [0., 4., 0.]);
-        quad("wall", [5., 0., -3.], [0., 4., 0.], [0., 0., 6.]);
-        quad("glass", [-2., 1.5, 2.99], [4., 0., 0.], [0., 1.6, 0.]);
-        for x in [-4.5, -1., 2.5] {
-            quad("glass", [x, 1.5, -2.99], [0., 1.5, 0.], [2., 0., 0.]);
-        }
+        let (obj, mtl) = crate::testing::hall_on_open_ground(half);
         let path = dir.path().join("hall.obj");
         std::fs::write(&path, obj).unwrap();
-        std::fs::write(
-            dir.path().join("hall.mtl"),
-            "newmtl ground\nKd 0.5 0.5 0.5\n\nnewmtl wall\nKd 0.8 0.8 0.8\n\n\
-             newmtl glass\nKd 0.2 0.4 0.8\nTf 0.2 0.4 0.8\nd 0.3\n",
-        )
-        .unwrap();
+        std::fs::write(dir.path().join("hall.mtl"), mtl).unwrap();
         let manifest = crate::manifest::Manifest::from_mesh_file(&path).unwrap();
         let toc = crate::pipeline::cook(&manifest, &crate::Settings::new(&manifest))
             .unwrap()

@@ -1269,30 +1269,13 @@ fn init_and_cook_work_for_a_model_in_large_units() {
     assert_eq!(v["cameras"].as_array().unwrap().len(), eyes.len(), "{v:#}");
 }
 
-/// A hall on open ground, its largest window alone on the north wall and the sun coming in
-/// through three on the south wall (crates/cook/src/guess.rs tests the guesses themselves).
+/// `cook::testing::hall_on_open_ground` on 40 m of ground, written into `dir` (the sun comes
+/// in through the south windows; crates/cook/src/guess.rs tests the guesses themselves).
 fn hall_on_open_ground(dir: &Path) -> PathBuf {
-    let mut obj = Obj::new("hall.mtl");
-    obj.usemtl("ground")
-        .quad([-20., 0., -20.], [0., 0., 40.], [40., 0., 0.]);
-    obj.usemtl("wall")
-        .quad([-5., 0., 3.], [10., 0., 0.], [0., 4., 0.])
-        .quad([-5., 0., -3.], [0., 4., 0.], [10., 0., 0.])
-        .quad([-5., 0., -3.], [0., 0., 6.], [0., 4., 0.])
-        .quad([5., 0., -3.], [0., 4., 0.], [0., 0., 6.]);
-    obj.usemtl("glass")
-        .quad([-2., 1.5, 2.99], [4., 0., 0.], [0., 1.6, 0.]);
-    for x in [-4.5, -1., 2.5] {
-        obj.quad([x, 1.5, -2.99], [0., 1.5, 0.], [2., 0., 0.]);
-    }
+    let (obj, mtl) = cook::testing::hall_on_open_ground(20.0);
     let path = dir.join("hall.obj");
-    obj.write(&path);
-    std::fs::write(
-        dir.join("hall.mtl"),
-        "newmtl ground\nKd 0.5 0.5 0.5\n\nnewmtl wall\nKd 0.8 0.8 0.8\n\n\
-         newmtl glass\nKd 0.2 0.4 0.8\nTf 0.2 0.4 0.8\nd 0.3\n",
-    )
-    .unwrap();
+    std::fs::write(&path, obj).unwrap();
+    std::fs::write(dir.join("hall.mtl"), mtl).unwrap();
     path
 }
 
