@@ -13,7 +13,7 @@ use glam::{DVec2, DVec3};
 use pack::{LightKind, MaterialClass};
 
 use crate::import::{Corner, Imported, NONE};
-use crate::windows::v3;
+use crate::windows::{Sheets, v3};
 
 /// Relative weld tolerance: positions closer than this fraction of the model's diagonal are
 /// the same point when deciding which triangles touch.
@@ -196,6 +196,131 @@ fn components(src: &Imported, weld: &[u32], tris: &[u32]) -> Vec<Vec<u32>> {
         groups[i].1.push(t);
     }
     groups.into_iter().map(|g| g.1).collect()
+}
+
+/// The plane, size and flatness of some glass.
+#[derive(Clone, Copy, Debug)]
+struct Shape {
+    centroid: DVec3,
+    normal: DVec3,
+    /// Area of one side: a pane with two sheets (double-sided, or a thin slab) counts once.
+    area: f64,
+    /// Diagonal of the bounding box.
+    size: f64,
+    /// Largest distance of a vertex from the plane; for a flat slab, from its own sheet.
+    deviation: f64,
+    planar: bool,
+    sheets: Sheets,
+    lo: DVec3,
+    hi: DVec3,
+}
+
+impl Shape {
+    fn of(src: &Imported, tris: &[u32]) -> Option<Shape> {
+        let (centroid, normal, area) = fit_plane(src, tris)?;
+        let (mut lo, mut hi) = (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY));
+        let mut deviation = 0.0f64;
+        for p in vertices(src, tris) {
+            lo = lo.min(p);
+            hi = hi.max(p);
+            deviation = deviation.max((p - centroid).dot(normal).abs());
+        }
+        let size = (hi - lo).length();
+        let tolerance = PLANAR_TOLERANCE * size;
+        let sheets = Sheets::of(tris.iter().map(|&t| triangle(src, t)), centroid, normal);
+        // A flat pane by either measure: flat sheets of a slab, or all vertices near one
+        // plane (glass with slightly tilted facets stays a pane, as before sheets counted).
+        // Sheets apart by more than the weld tolerance are a slab (float noise is not).
+        let (planar, deviation, area) = if sheets.thickness > WELD * size && sheets.flat(tolerance)
+        {
+            // A slab's front and back are one pane's area.
+            (
+                true,
+                sheets.deviation,
+                area * (1.0 - 0.5 * sheets.sheet_share),
+            )
+        } else if deviation <= tolerance {
+            (true, deviation, area)
+        } else {
+            (false, deviation, area)
+        };
+        Some(Shape {
+            centroid,
+            normal,
+            area,
+            size,
+            deviation,
+            planar,
+            sheets,
+            lo,
+            hi,
+        })
+    }
+}
+
+/// Coplanar glass pieces closer than this share of the narrower piece's narrower side are one
+/// window: the panes of a leaded window, each its own mesh between lead cames (1–2 cm on
+/// 10–40 cm panes), modelled as separate geometry. Lancets a mullion apart (Šibenik's: 0.2 m
+/// gaps between 0.4 m lights) stay apart.
+const CAME_GAP: f64 = 0.15;
+
+/// Joins planar pieces that lie in one plane a came's width apart (see [`CAME_GAP`]); each
+/// group's triangles ascending, groups ordered by their first triangle.
+fn join_leaded(pieces: Vec<(Vec<u32>, Shape)>) -> Vec<Vec<u32>> {
+    let n = pieces.len();
+    let mut uf = UnionFind::new(n);
+    // Sweep along the axis the pieces spread most on: each piece meets only those starting
+    // within its reach there.
+    let (mut lo, mut hi) = (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY));
+    for (_, s) in &pieces {
+        lo = lo.min(s.centroid);
+        hi = hi.max(s.centroid);
+    }
+    let axis = (hi - lo).max_position();
+    let reach = |s: &Shape| CAME_GAP * s.sheets.narrow;
+    let mut order: Vec<usize> = (0..n).filter(|&i| pieces[i].1.planar).collect();
+    order.sort_by(|&a, &b| pieces[a].1.lo[axis].total_cmp(&pieces[b].1.lo[axis]));
+    let cos = 5f64.to_radians().cos();
+    for (k, &i) in order.iter().enumerate() {
+        let a = &pieces[i].1;
+        for &j in &order[k + 1..] {
+            let b = &pieces[j].1;
+            if b.lo[axis] > a.hi[axis] + reach(a) {
+                break;
+            }
+            if a.normal.dot(b.normal).abs() < cos {
+                continue;
+            }
+            let off_plane = (b.centroid - a.centroid).dot(a.normal).abs();
+            let allowed = PLANAR_TOLERANCE * a.size.max(b.size)
+                + 0.5 * (a.sheets.thickness + b.sheets.thickness);
+            if off_plane > allowed {
+                continue;
+            }
+            // The gap between the bounding boxes, in the plane.
+            let g = (b.lo - a.hi).max(a.lo - b.hi).max(DVec3::ZERO);
+            let along = g.dot(a.normal);
+            let gap = (g.length_squared() - along * along).max(0.0).sqrt();
+            if gap <= CAME_GAP * a.sheets.narrow.min(b.sheets.narrow) {
+                uf.union(i as u32, j as u32);
+            }
+        }
+    }
+    let mut groups: Vec<Vec<u32>> = Vec::new();
+    let mut slot: HashMap<u32, usize> = HashMap::new();
+    for (i, (tris, _)) in pieces.into_iter().enumerate() {
+        let root = uf.find(i as u32);
+        let g = *slot.entry(root).or_insert_with(|| {
+            groups.push(Vec::new());
+            groups.len() - 1
+        });
+        groups[g].extend(tris);
+    }
+    for g in &mut groups {
+        g.sort_unstable();
+    }
+    groups.sort_by_key(|g| g[0]);
+    groups
 }
 
 /// Splits a non-planar patch into the planes it is made of (a bay window), each piece
@@ -576,28 +701,35 @@ pub fn find(
             continue;
         }
         let weld = weld_ids(src, &glass, tolerance);
+        let mut pieces = Vec::new();
         for component in components(src, &weld, &glass) {
-            let size = size_of(src, &component);
-            let deviation = |tris: &[u32]| -> Option<(DVec3, DVec3, f64, f64)> {
-                let (c, n, a) = fit_plane(src, tris)?;
-                let d = vertices(src, tris)
-                    .map(|p| (p - c).dot(n).abs())
-                    .fold(0.0, f64::max);
-                Some((c, n, a, d))
-            };
-            let Some(whole) = deviation(&component) else {
+            let Some(whole) = Shape::of(src, &component) else {
                 continue;
             };
-            let pieces = if whole.3 <= PLANAR_TOLERANCE * size {
-                vec![component]
+            if whole.planar {
+                pieces.push((component, whole));
             } else {
-                split_planes(src, &weld, &component, size).unwrap_or_else(|| vec![component])
+                let split = split_planes(src, &weld, &component, whole.size);
+                for tris in split.unwrap_or_else(|| vec![component]) {
+                    if let Some(shape) = Shape::of(src, &tris) {
+                        pieces.push((tris, shape));
+                    }
+                }
+            }
+        }
+        for tris in join_leaded(pieces) {
+            let Some(Shape {
+                centroid,
+                normal,
+                area,
+                deviation: dev,
+                planar,
+                ..
+            }) = Shape::of(src, &tris)
+            else {
+                continue;
             };
-            for tris in pieces {
-                let Some((centroid, normal, area, dev)) = deviation(&tris) else {
-                    continue;
-                };
-                let piece_size = size_of(src, &tris);
+            {
                 let mut by_material: Vec<(u16, f64)> = Vec::new();
                 for &t in &tris {
                     let [a, b, c] = triangle(src, t);
@@ -623,7 +755,7 @@ pub fn find(
                     right: DVec3::ZERO,
                     up: DVec3::ZERO,
                     max_deviation: dev,
-                    planar: dev <= PLANAR_TOLERANCE * piece_size,
+                    planar,
                 });
             }
         }
@@ -883,6 +1015,91 @@ mod tests {
             w[0].up
         );
         assert!((w[0].width() - 3.0).abs() < 1e-5 && (w[0].height() - 3.0).abs() < 1e-5);
+    }
+
+    /// A closed box with outward faces: corner and the three edges.
+    fn slab(o: [f32; 3], a: [f32; 3], b: [f32; 3], c: [f32; 3], m: u32) -> Vec<Quad> {
+        let add = |p: [f32; 3], q: [f32; 3]| [p[0] + q[0], p[1] + q[1], p[2] + q[2]];
+        vec![
+            (o, b, a, m),
+            (add(o, c), a, b, m),
+            (o, a, c, m),
+            (add(o, b), c, a, m),
+            (o, c, b, m),
+            (add(o, a), b, c, m),
+        ]
+    }
+
+    #[test]
+    fn a_double_sided_pane_and_a_thin_slab_are_each_one_flat_window() {
+        // Real exports: the face twice, wound both ways (x = 0), and a 1 cm slab (x = 5).
+        let mut q = vec![
+            ([0., 1., 0.], [0., 0., 1.], [0., 2., 0.], 0),
+            ([0., 1., 0.], [0., 2., 0.], [0., 0., 1.], 0),
+        ];
+        // A leaded pane's size: its half thickness is more than 1 % of its diagonal.
+        q.extend(slab(
+            [5., 1., 0.],
+            [0.01, 0., 0.],
+            [0., 0.35, 0.],
+            [0., 0., 0.25],
+            0,
+        ));
+        let w = run(&quads(&q), &[W], None);
+        assert_eq!(w.len(), 2, "{w:#?}");
+        for (i, size) in w.iter().zip([[1.0, 2.0], [0.25, 0.35]]) {
+            assert!(i.planar, "{i:#?}");
+            assert!(i.max_deviation < 1e-6, "{}", i.max_deviation);
+            assert!(i.inside.x.abs() > 0.999, "{:?}", i.inside);
+            assert!((i.width() - size[0]).abs() < 1e-5 && (i.height() - size[1]).abs() < 1e-5);
+        }
+        // The slab's front and back count once, its edges besides.
+        assert!((w[1].area - 0.0995).abs() < 1e-5, "{}", w[1].area);
+    }
+
+    #[test]
+    fn leaded_panes_a_came_apart_are_one_window_and_the_next_window_is_not() {
+        // Two windows of 3 x 6 panes (0.25 x 0.35 m, 2 cm cames between them, three
+        // glasses) in the wall x = 0, 1.2 m apart; the panes are 1 cm slabs.
+        let mut q = Vec::new();
+        for window in 0..2 {
+            for i in 0..3 {
+                for j in 0..6 {
+                    let z = window as f32 * 2.0 + i as f32 * 0.27;
+                    let y = 2.0 + j as f32 * 0.37;
+                    let m = ((i + j) % 3) as u32;
+                    q.extend(slab(
+                        [0., y, z],
+                        [0.01, 0., 0.],
+                        [0., 0.35, 0.],
+                        [0., 0., 0.25],
+                        m,
+                    ));
+                }
+            }
+        }
+        let w = run(&quads(&q), &[W, W, W], None);
+        assert_eq!(
+            w.len(),
+            2,
+            "{:#?}",
+            w.iter().map(|i| &i.name).collect::<Vec<_>>()
+        );
+        for i in &w {
+            assert!(i.planar);
+            assert_eq!(i.materials.len(), 3);
+            assert_eq!(i.triangles.len(), 18 * 12);
+            assert!((i.width() - 0.79).abs() < 1e-4, "{}", i.width());
+            assert!((i.height() - 2.2).abs() < 1e-4, "{}", i.height());
+        }
+        // Wider gaps stay apart: panes 0.2 m apart on 0.4 m (Šibenik's lancets), and a
+        // pane in a parallel plane 0.3 m behind.
+        let q = vec![
+            ([0., 0., 0.], [0., 0., 0.4], [0., 2., 0.], 0),
+            ([0., 0., 0.6], [0., 0., 0.4], [0., 2., 0.], 0),
+            ([0.3, 0., 1.0], [0., 0., 0.4], [0., 2., 0.], 0),
+        ];
+        assert_eq!(run(&quads(&q), &[W], None).len(), 3);
     }
 
     #[test]

@@ -447,10 +447,15 @@ pub fn plan(
     }
     let designs = share_identical(designs.into_iter().flatten().collect());
     for (p, (design, source, size)) in pending.iter().zip(designs) {
-        let plan = tagging.materials[p.material as usize]
-            .window
-            .as_mut()
-            .expect("planned above");
+        let material = &mut tagging.materials[p.material as usize];
+        // The window pass shows the design times the material's diffuse colour. A design
+        // drawn from the panes already holds their transmitted colours, and real glass is
+        // often `Kd 0 0 0` (its colour in `Tf`): times that, every window showed black.
+        let diffuse = &mut material.material.diffuse;
+        if source == DesignSource::Mesh || diffuse.iter().all(|&c| c < 1.0 / 255.0) {
+            *diffuse = [1.0; 3];
+        }
+        let plan = material.window.as_mut().expect("planned above");
         plan.design_size = size;
         plan.design = design;
         plan.source = source;

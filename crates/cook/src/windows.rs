@@ -34,6 +34,107 @@ pub(crate) fn f3(v: glam::DVec3) -> [f32; 3] {
     [v.x as f32, v.y as f32, v.z as f32]
 }
 
+/// Faces within this angle of a window's plane, facing either way, make up its sheets.
+const SHEET_COS: f64 = 0.996_194_698_091_745_5; // cos 5°
+
+/// A glass slab is at most this thick against its narrower side in the plane: a pane a few
+/// millimetres thick, not a block of glass.
+pub(crate) const SLAB_THICKNESS: f64 = 0.25;
+
+/// How glass lies about its plane, counted per sheet. Real models often give a pane two
+/// sheets: double-sided (the same face twice, wound both ways) or with thickness (a thin box,
+/// a Blender "solidify"). Each sheet is flat; the distance between them is not a deviation.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub(crate) struct Sheets {
+    /// Largest distance of a vertex of a sheet's face from that sheet's middle plane.
+    pub deviation: f64,
+    /// Distance between the middle planes of the front and back sheets (0 for one sheet).
+    pub thickness: f64,
+    /// Share of the area in the sheets' faces (the rest: a slab's edges, curved facets).
+    pub sheet_share: f64,
+    /// The narrower side of the glass's bounds in the plane.
+    pub narrow: f64,
+}
+
+impl Sheets {
+    /// Faces on one side (or both, same plane) of `normal` through `centroid`.
+    pub(crate) fn of(
+        triangles: impl Iterator<Item = [glam::DVec3; 3]>,
+        centroid: glam::DVec3,
+        normal: glam::DVec3,
+    ) -> Sheets {
+        let up = if normal.y.abs() < 0.99 {
+            glam::DVec3::Y
+        } else {
+            glam::DVec3::Z
+        };
+        let f = (up - normal * up.dot(normal)).normalize_or_zero();
+        let e = f.cross(normal);
+        // [front, back] offsets along the normal, min and max.
+        let mut span = [[f64::INFINITY, f64::NEG_INFINITY]; 2];
+        let (mut lo, mut hi) = (
+            glam::DVec2::splat(f64::INFINITY),
+            glam::DVec2::splat(f64::NEG_INFINITY),
+        );
+        let (mut sheet_area, mut area) = (0.0, 0.0);
+        for [a, b, c] in triangles {
+            let n = (b - a).cross(c - a);
+            let len = n.length();
+            area += len;
+            for p in [a, b, c] {
+                let d = p - centroid;
+                let q = glam::DVec2::new(d.dot(e), d.dot(f));
+                lo = lo.min(q);
+                hi = hi.max(q);
+            }
+            let cos = if len > 0.0 { n.dot(normal) / len } else { 0.0 };
+            let side = if cos >= SHEET_COS {
+                0
+            } else if cos <= -SHEET_COS {
+                1
+            } else {
+                continue;
+            };
+            sheet_area += len;
+            for p in [a, b, c] {
+                let d = (p - centroid).dot(normal);
+                span[side][0] = span[side][0].min(d);
+                span[side][1] = span[side][1].max(d);
+            }
+        }
+        let mid = span.map(|[l, h]| (l <= h).then_some(0.5 * (l + h)));
+        let deviation = span
+            .iter()
+            .filter(|[l, h]| l <= h)
+            .map(|[l, h]| 0.5 * (h - l))
+            .fold(0.0, f64::max);
+        // Faces wound the other way at the same place are the same sheet, not a slab.
+        let thickness = match mid {
+            [Some(a), Some(b)] => (a - b).abs(),
+            _ => 0.0,
+        };
+        let extent = hi - lo;
+        Sheets {
+            deviation,
+            thickness,
+            sheet_share: if area > 0.0 { sheet_area / area } else { 0.0 },
+            narrow: if extent.is_finite() {
+                extent.min_element()
+            } else {
+                0.0
+            },
+        }
+    }
+
+    /// Whether the glass is one flat pane of two sheets at most: each sheet within
+    /// `tolerance` of flat, most of the area in them, and a slab thin against its width.
+    pub(crate) fn flat(&self, tolerance: f64) -> bool {
+        self.deviation <= tolerance
+            && self.sheet_share >= 0.5
+            && self.thickness <= SLAB_THICKNESS * self.narrow
+    }
+}
+
 /// Fits `world = origin + u * u_axis + v * v_axis` to the window's vertices and orients the
 /// normal into the building: along the direction a directional light travels, or away from a
 /// point light. Returns `None` for a window with no area.
@@ -43,14 +144,28 @@ pub fn analyze(
     light: Option<&LightKind>,
     inside: Option<glam::DVec3>,
 ) -> Option<WindowAnalysis> {
+    let corners = |t: &[u32; 3]| t.map(|i| v3(g.positions[i as usize]));
+    // Faces are turned to agree before they are summed: double-sided glass (each face twice,
+    // wound both ways) and glass with thickness (a thin box) summed to no normal at all, and
+    // such a window got no frame and no light. The inside decides; else the largest face.
+    let reference = inside.unwrap_or_else(|| {
+        g.triangles
+            .iter()
+            .map(|t| {
+                let [a, b, c] = corners(t);
+                (b - a).cross(c - a)
+            })
+            .max_by(|a, b| a.length_squared().total_cmp(&b.length_squared()))
+            .unwrap_or_default()
+    });
     let mut area_normal = glam::DVec3::ZERO;
     let mut centroid = glam::DVec3::ZERO;
     let mut area = 0.0;
     for t in &g.triangles {
-        let [a, b, c] = t.map(|i| v3(g.positions[i as usize]));
+        let [a, b, c] = corners(t);
         let n = (b - a).cross(c - a);
         let w = n.length() * 0.5;
-        area_normal += n;
+        area_normal += if n.dot(reference) < 0.0 { -n } else { n };
         centroid += (a + b + c) / 3.0 * w;
         area += w;
     }
@@ -59,6 +174,7 @@ pub fn analyze(
     }
     centroid /= area;
     let plane_n = area_normal.normalize();
+    let sheets = Sheets::of(g.triangles.iter().map(corners), centroid, plane_n);
 
     let used: Vec<u32> = {
         let mut u: Vec<u32> = g.triangles.iter().flatten().copied().collect();
@@ -128,6 +244,13 @@ pub fn analyze(
         normal = -normal;
     }
     let diag = (hi - lo).length();
+    let plane_tolerance = (diag * 1e-3).max(1e-5);
+    // A slab's two sheets each lie in a plane; how far apart they are is its thickness.
+    let max_d = if sheets.thickness > 0.0 && sheets.flat(plane_tolerance) {
+        sheets.deviation
+    } else {
+        max_d
+    };
     Some(WindowAnalysis {
         frame: pack::Window {
             material,
@@ -138,7 +261,7 @@ pub fn analyze(
             source_materials: Vec::new(),
         },
         max_plane_distance: max_d as f32,
-        plane_tolerance: (diag * 1e-3).max(1e-5) as f32,
+        plane_tolerance: plane_tolerance as f32,
         has_uvs,
         uv_min,
         uv_max,
@@ -271,6 +394,54 @@ fn planar_frame(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn double_sided_and_thick_glass_gets_a_frame_in_its_plane() {
+        // A 1 x 2 pane in x = 0 drawn twice, wound both ways: its normals summed to nothing.
+        let two_sided = WindowGeometry {
+            positions: vec![[0., 0., 0.], [0., 0., 1.], [0., 2., 1.], [0., 2., 0.]],
+            uvs: vec![[0.0; 2]; 4],
+            triangles: vec![[0, 1, 2], [0, 2, 3], [0, 2, 1], [0, 3, 2]],
+        };
+        let a = analyze(0, &two_sided, None, Some(glam::DVec3::X)).expect("a frame");
+        assert_eq!(a.frame.normal, [1.0, 0.0, 0.0]);
+        assert!(a.max_plane_distance <= a.plane_tolerance);
+        // The same pane as a 1 cm slab: front, back and four edges.
+        let mut positions = Vec::new();
+        for x in [0.0, 0.01] {
+            positions.extend([[x, 0., 0.], [x, 0., 1.], [x, 2., 1.], [x, 2., 0.]]);
+        }
+        let quad = |q: [u32; 4]| [[q[0], q[1], q[2]], [q[0], q[2], q[3]]];
+        let mut triangles = Vec::new();
+        for q in [
+            [0, 3, 2, 1],
+            [4, 5, 6, 7],
+            [0, 1, 5, 4],
+            [3, 7, 6, 2],
+            [0, 4, 7, 3],
+            [1, 2, 6, 5],
+        ] {
+            triangles.extend(quad(q));
+        }
+        let slab = WindowGeometry {
+            uvs: vec![[0.0; 2]; positions.len()],
+            positions,
+            triangles,
+        };
+        let sun = LightKind::Directional {
+            direction: [1.0, -1.0, 0.0],
+            angular_size: 0.01,
+        };
+        let a = analyze(0, &slab, Some(&sun), None).expect("a frame");
+        assert_eq!(a.frame.normal, [1.0, 0.0, 0.0]);
+        // Each sheet is flat: the 1 cm between them is thickness, not a warped window.
+        assert!(a.max_plane_distance <= a.plane_tolerance, "{a:?}");
+        assert!(
+            (a.frame.origin[0] - 0.005).abs() < 1e-6,
+            "{:?}",
+            a.frame.origin
+        );
+    }
 
     #[test]
     fn frame_reproduces_uv_mapping_and_faces_away_from_light() {

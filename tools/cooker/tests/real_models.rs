@@ -72,6 +72,17 @@ impl Obj {
         self.poly(&[o, add(o, a), add(add(o, a), b), add(o, b)])
     }
 
+    /// A closed box, faces outwards: corner `o`, edges `a`, `b` and `c` (right-handed).
+    fn slab(&mut self, o: [f32; 3], a: [f32; 3], b: [f32; 3], c: [f32; 3]) -> &mut Self {
+        let add = |p: [f32; 3], q: [f32; 3]| [p[0] + q[0], p[1] + q[1], p[2] + q[2]];
+        self.quad(o, b, a)
+            .quad(add(o, c), a, b)
+            .quad(o, a, c)
+            .quad(add(o, b), c, a)
+            .quad(o, c, b)
+            .quad(add(o, a), b, c)
+    }
+
     fn write(&self, path: &Path) {
         std::fs::write(path, &self.body).unwrap();
     }
@@ -1130,6 +1141,7 @@ fn keep_fixtures_when_asked() {
         sibenik_manifest(dir);
         chapelle(dir);
         kapelle(dir);
+        leaded_chapel(dir);
     }
 }
 
@@ -1521,4 +1533,115 @@ fn a_z_up_export_cooks_with_up_z_like_the_y_up_model() {
         );
     }
     assert!(!no_pack.exists());
+}
+
+/// A chapel as glass is often modelled for real: each pane of its two leaded windows is a 1 cm
+/// glass slab of its own, 2 cm of lead came (not modelled) from the next, in the four `Tf`
+/// glasses of the Šibenik rose (`Kd` black or grey); thick walls around the openings and a
+/// roof. Returns the OBJ.
+fn leaded_chapel(dir: &Path) -> PathBuf {
+    let mut obj = Obj::new("kapela.mtl");
+    // Walls 0.6 m thick: the nave's inner faces are x = ±4 and z = ±8, 7 m high. Openings in
+    // the west wall (x = -4.6 .. -4) at z = -3 and z = 3: 0.79 x 2.2 m, sill 2 m.
+    let openings = [(-3.395, -2.605), (2.605, 3.395)];
+    let west = |obj: &mut Obj, z0: f32, z1: f32, y0: f32, y1: f32| {
+        obj.slab(
+            [-4.6, y0, z0],
+            [0.6, 0., 0.],
+            [0., y1 - y0, 0.],
+            [0., 0., z1 - z0],
+        );
+    };
+    obj.usemtl("zid");
+    west(&mut obj, -8.6, 8.6, 0.0, 2.0);
+    west(&mut obj, -8.6, 8.6, 4.2, 7.0);
+    let mut z = -8.6;
+    for (a, b) in openings {
+        west(&mut obj, z, a, 2.0, 4.2);
+        z = b;
+    }
+    west(&mut obj, z, 8.6, 2.0, 4.2);
+    obj.slab(
+        [4.0, 0.0, -8.6],
+        [0.6, 0., 0.],
+        [0., 7., 0.],
+        [0., 0., 17.2],
+    )
+    .slab([-4.0, 0.0, -8.6], [8., 0., 0.], [0., 7., 0.], [0., 0., 0.6])
+    .slab([-4.0, 0.0, 8.0], [8., 0., 0.], [0., 7., 0.], [0., 0., 0.6]);
+    obj.usemtl("krov").slab(
+        [-4.6, 7.0, -8.6],
+        [9.2, 0., 0.],
+        [0., 0.3, 0.],
+        [0., 0., 17.2],
+    );
+    for (z0, _) in openings {
+        for i in 0..3 {
+            for j in 0..6 {
+                let (name, _, _) = ROSE[(i + j) % 4];
+                let (y, z) = (2.0 + j as f32 * 0.37, z0 + i as f32 * 0.27);
+                obj.usemtl(name).slab(
+                    [-4.305, y, z],
+                    [0.01, 0., 0.],
+                    [0., 0.35, 0.],
+                    [0., 0., 0.25],
+                );
+            }
+        }
+    }
+    obj.usemtl("pod")
+        .quad([-4., 0., -8.], [0., 0., 16.], [8., 0., 0.]);
+    let path = dir.join("kapela.obj");
+    obj.write(&path);
+    let mut mtl = String::from("newmtl pod\nKd 0.55 0.5 0.45\n\nnewmtl zid\nKd 0.7 0.68 0.62\n\n");
+    mtl += "newmtl krov\nKd 0.4 0.3 0.25\n\n";
+    for (name, tf, rest) in ROSE {
+        writeln!(
+            mtl,
+            "newmtl {name}\nTf {} {} {}\n{rest}\n",
+            tf[0], tf[1], tf[2]
+        )
+        .unwrap();
+    }
+    std::fs::write(dir.join("kapela.mtl"), mtl).unwrap();
+    path
+}
+
+/// Panes modelled one by one, each a thin slab (or a face drawn from both sides), are one
+/// window per opening, shown in their `Tf` colours and throwing light. Before, each pane was
+/// a window of its own whose faces' normals cancelled: no frame, no projector, no light, and
+/// the windows drew black from inside (times `Kd 0 0 0`).
+#[test]
+fn leaded_panes_as_glass_slabs_cook_to_one_lit_window_per_opening() {
+    let dir = tempfile::tempdir().unwrap();
+    let obj = leaded_chapel(dir.path());
+    let pack = dir.path().join("kapela.pack");
+    let log = cook(&obj, &pack, &[]);
+    assert!(!log.contains("no area"), "{log}");
+    let info = info(&pack);
+    assert_eq!(window_count(&info), 2, "{:#?}", windows(&info));
+    for w in windows(&info) {
+        assert_eq!(w["design_source"], "mesh colours", "{w}");
+        assert_eq!(w["source_materials"].as_array().unwrap().len(), 4, "{w}");
+        assert!((f(&w["width"]) - 0.79).abs() < 1e-3 && (f(&w["height"]) - 2.2).abs() < 1e-3);
+        assert!(near3(vec3(&w["normal"]), [1.0, 0.0, 0.0]), "{w}");
+        let m = material(&info, w["name"].as_str().unwrap());
+        assert_eq!(vec3(&m["diffuse"]), [1.0; 3], "{m}");
+    }
+    // The guessed sun comes in through the west windows and throws their light.
+    assert!(
+        windows(&info)
+            .iter()
+            .all(|w| !w["projector_texture"].is_null()),
+        "{log}"
+    );
+    let w = &windows(&info)[0];
+    let design = extract(&pack, w["design"].as_str().unwrap(), dir.path());
+    for (name, tf, _) in ROSE {
+        let want = [srgb8(tf[0]), srgb8(tf[1]), srgb8(tf[2]), 255];
+        assert!(
+            design.pixels().any(|p| close(*p, want, 2)),
+            "no texel of {name}'s colour {want:?} in the design"
+        );
+    }
 }
