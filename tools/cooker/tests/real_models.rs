@@ -1142,6 +1142,7 @@ fn keep_fixtures_when_asked() {
         chapelle(dir);
         kapelle(dir);
         leaded_chapel(dir);
+        gltf_kirche(dir);
     }
 }
 
@@ -1644,4 +1645,155 @@ fn leaded_panes_as_glass_slabs_cook_to_one_lit_window_per_opening() {
             "no texel of {name}'s colour {want:?} in the design"
         );
     }
+}
+
+/// A glTF church in `dir` (`kirche.gltf` with its `kirche.bin`): one window mesh, a 1 x 2 m
+/// pane drawn from both sides, placed by eight nodes in openings of the walls x = ±4 (the
+/// east ones turned 180° about +Y); the glass is `KHR_materials_transmission`, German names.
+fn gltf_kirche(dir: &Path) -> PathBuf {
+    let mut bin: Vec<u8> = Vec::new();
+    let mut views = Vec::new();
+    let mut accessors = Vec::new();
+    let mut mesh = |quads: &[[[f32; 3]; 4]], material: usize| {
+        let (mut pos, mut idx) = (Vec::<f32>::new(), Vec::<u32>::new());
+        for q in quads {
+            let base = (pos.len() / 3) as u32;
+            pos.extend(q.iter().flatten());
+            idx.extend([0, 1, 2, 0, 2, 3].map(|k| base + k));
+        }
+        let (mut lo, mut hi) = ([f32::INFINITY; 3], [f32::NEG_INFINITY; 3]);
+        for p in pos.chunks(3) {
+            for k in 0..3 {
+                lo[k] = lo[k].min(p[k]);
+                hi[k] = hi[k].max(p[k]);
+            }
+        }
+        let mut view = |bytes: Vec<u8>, target: u32| {
+            views.push(serde_json::json!({"buffer": 0, "byteOffset": bin.len(),
+                "byteLength": bytes.len(), "target": target}));
+            bin.extend(bytes);
+            views.len() - 1
+        };
+        let p = view(pos.iter().flat_map(|v| v.to_le_bytes()).collect(), 34962);
+        let i = view(idx.iter().flat_map(|v| v.to_le_bytes()).collect(), 34963);
+        accessors.push(serde_json::json!({"bufferView": p, "componentType": 5126,
+            "count": pos.len() / 3, "type": "VEC3", "min": lo, "max": hi}));
+        accessors.push(serde_json::json!({"bufferView": i, "componentType": 5125,
+            "count": idx.len(), "type": "SCALAR"}));
+        let n = accessors.len();
+        serde_json::json!({"primitives": [{"attributes": {"POSITION": n - 2},
+            "indices": n - 1, "material": material}]})
+    };
+    let rect = |x: f32, y0: f32, y1: f32, z0: f32, z1: f32| {
+        [[x, y0, z0], [x, y0, z1], [x, y1, z1], [x, y1, z0]]
+    };
+    let openings = [-6.0f32, -2.0, 2.0, 6.0];
+    let mut walls = Vec::new();
+    for x in [-4.0, 4.0] {
+        walls.push(rect(x, 0.0, 2.5, -10.0, 10.0));
+        walls.push(rect(x, 4.5, 7.0, -10.0, 10.0));
+        let mut z = -10.0;
+        for o in openings {
+            walls.push(rect(x, 2.5, 4.5, z, o - 0.5));
+            z = o + 0.5;
+        }
+        walls.push(rect(x, 2.5, 4.5, z, 10.0));
+    }
+    for z in [-10.0, 10.0] {
+        walls.push([[-4., 0., z], [4., 0., z], [4., 7., z], [-4., 7., z]]);
+    }
+    let floor = [[
+        [-4., 0., 10.],
+        [4., 0., 10.],
+        [4., 0., -10.],
+        [-4., 0., -10.],
+    ]];
+    let roof = [[
+        [-4., 7., -10.],
+        [4., 7., -10.],
+        [4., 7., 10.],
+        [-4., 7., 10.],
+    ]];
+    let pane = [
+        [0., -1., -0.5],
+        [0., -1., 0.5],
+        [0., 1., 0.5],
+        [0., 1., -0.5],
+    ];
+    let back = [pane[3], pane[2], pane[1], pane[0]];
+    let meshes = vec![
+        mesh(&floor, 0),
+        mesh(&walls, 1),
+        mesh(&roof, 1),
+        mesh(&[pane, back], 2),
+    ];
+    let mut nodes = vec![
+        serde_json::json!({"mesh": 0}),
+        serde_json::json!({"mesh": 1}),
+        serde_json::json!({"mesh": 2}),
+    ];
+    for x in [-4.0f32, 4.0] {
+        for z in openings {
+            let mut n = serde_json::json!({"mesh": 3, "translation": [x, 3.5, z]});
+            if x > 0.0 {
+                n["rotation"] = serde_json::json!([0.0, 1.0, 0.0, 0.0]);
+            }
+            nodes.push(n);
+        }
+    }
+    let gltf = serde_json::json!({
+        "asset": {"version": "2.0", "generator": "tools/cooker/tests/real_models.rs"},
+        "extensionsUsed": ["KHR_materials_transmission"],
+        "scene": 0,
+        "scenes": [{"nodes": (0..nodes.len()).collect::<Vec<_>>()}],
+        "nodes": nodes,
+        "meshes": meshes,
+        "materials": [
+            {"name": "Boden", "pbrMetallicRoughness": {"baseColorFactor": [0.5, 0.5, 0.45, 1.0]}},
+            {"name": "Mauer", "pbrMetallicRoughness": {"baseColorFactor": [0.7, 0.7, 0.65, 1.0]}},
+            {"name": "Glas", "doubleSided": true,
+             "pbrMetallicRoughness": {"baseColorFactor": [0.2, 0.4, 0.9, 1.0]},
+             "extensions": {"KHR_materials_transmission": {"transmissionFactor": 0.9}}}
+        ],
+        "accessors": accessors,
+        "bufferViews": views,
+        "buffers": [{"byteLength": bin.len(), "uri": "kirche.bin"}]
+    });
+    std::fs::write(dir.join("kirche.bin"), &bin).unwrap();
+    let path = dir.join("kirche.gltf");
+    std::fs::write(&path, serde_json::to_vec_pretty(&gltf).unwrap()).unwrap();
+    path
+}
+
+/// One window mesh placed by eight glTF nodes is eight windows, each where its node puts it
+/// and facing into the nave, with a frame although its pane is drawn from both sides.
+#[test]
+fn a_gltf_window_mesh_placed_by_eight_nodes_is_eight_framed_windows() {
+    let dir = tempfile::tempdir().unwrap();
+    let gltf = gltf_kirche(dir.path());
+    let pack = dir.path().join("kirche.pack");
+    let log = cook(&gltf, &pack, &[]);
+    assert!(!log.contains("no area"), "{log}");
+    let info = info(&pack);
+    assert_eq!(window_count(&info), 8, "{:#?}", windows(&info));
+    let mut centres: Vec<[f64; 3]> = Vec::new();
+    for w in windows(&info) {
+        let c = vec3(&w["centre"]);
+        assert!(
+            (c[0].abs() - 4.0).abs() < 1e-4 && (c[1] - 3.5).abs() < 1e-4,
+            "{w}"
+        );
+        assert!(near3(vec3(&w["normal"]), [-c[0].signum(), 0.0, 0.0]), "{w}");
+        assert!((f(&w["width"]) - 1.0).abs() < 1e-4 && (f(&w["height"]) - 2.0).abs() < 1e-4);
+        centres.push(c);
+    }
+    centres.sort_by(|a, b| a.partial_cmp(b).unwrap());
+    centres.dedup_by(|a, b| near3(*a, *b));
+    assert_eq!(centres.len(), 8, "{centres:?}");
+    // The guessed sun comes in through one wall's four windows.
+    let lit = windows(&info)
+        .iter()
+        .filter(|w| !w["projector_texture"].is_null())
+        .count();
+    assert_eq!(lit, 4, "{log}");
 }
