@@ -308,7 +308,7 @@ pub fn prepare(
         sources.into_iter().unzip();
     let tagged = Instant::now();
     report.stage("import", tagged - start);
-    let mut tagging = tag::tag(manifest, &imported)?;
+    let mut tagging = tag::tag(manifest, &mut imported)?;
     let mut tri_material: Vec<Vec<u16>> = imported
         .iter()
         .zip(&tagging.part_material)

@@ -252,6 +252,50 @@ pub struct PartGeometry {
     pub y_range: [f64; 2],
 }
 
+impl PartGeometry {
+    fn empty() -> Self {
+        PartGeometry {
+            y_range: [f64::INFINITY, f64::NEG_INFINITY],
+            ..Default::default()
+        }
+    }
+
+    /// Adds one triangle, given its area and `up` (|cos| of its normal against +Y).
+    fn add(&mut self, [a, b, c]: [glam::DVec3; 3], area: f64, up: f64) {
+        self.area += area;
+        if up > HORIZONTAL_UP {
+            self.horizontal += area;
+        }
+        if up < VERTICAL_UP {
+            self.vertical += area;
+        }
+        self.mean_y += area * (a.y + b.y + c.y) / 3.0;
+        for y in [a.y, b.y, c.y] {
+            self.y_range[0] = self.y_range[0].min(y);
+            self.y_range[1] = self.y_range[1].max(y);
+        }
+    }
+}
+
+/// `up` above this is horizontal (within about 25°), below [`VERTICAL_UP`] vertical (about 15°).
+const HORIZONTAL_UP: f64 = 0.9;
+const VERTICAL_UP: f64 = 0.26;
+
+/// Triangle `t`'s corners, area and `up`; `None` for one without area.
+fn triangle_shape(src: &Imported, t: &[u32]) -> Option<([glam::DVec3; 3], f64, f64)> {
+    let corners = [t[0], t[1], t[2]].map(|k| {
+        let p = src.positions[k as usize];
+        glam::DVec3::new(p[0] as f64, p[1] as f64, p[2] as f64)
+    });
+    let [a, b, c] = corners;
+    let n = (b - a).cross(c - a);
+    let area = n.length() * 0.5;
+    if area.is_nan() || area <= 0.0 {
+        return None;
+    }
+    Some((corners, area, (n.y / (2.0 * area)).abs()))
+}
+
 /// Per part of `src`: [`PartGeometry`]; and the source's height range and total area.
 ///
 /// Sums run over fixed runs of triangles in parallel, each run's sums per part (a part's
@@ -260,10 +304,7 @@ pub struct PartGeometry {
 pub fn part_geometry(src: &Imported) -> (Vec<PartGeometry>, [f64; 2], f64) {
     use rayon::prelude::*;
     const RUN: usize = 16384;
-    let empty = PartGeometry {
-        y_range: [f64::INFINITY, f64::NEG_INFINITY],
-        ..Default::default()
-    };
+    let empty = PartGeometry::empty();
     let triangles = src.tri_part.len().min(src.corners.len() / 3);
     let runs: Vec<(Vec<(u32, PartGeometry)>, f64)> = (0..triangles.div_ceil(RUN))
         .into_par_iter()
@@ -277,16 +318,9 @@ pub fn part_geometry(src: &Imported) -> (Vec<PartGeometry>, [f64; 2], f64) {
                 .chunks_exact(3)
                 .zip(&src.tri_part[span])
             {
-                let [a, b, c] = [t[0], t[1], t[2]].map(|k| {
-                    let p = src.positions[k as usize];
-                    glam::DVec3::new(p[0] as f64, p[1] as f64, p[2] as f64)
-                });
-                let n = (b - a).cross(c - a);
-                let area = n.length() * 0.5;
-                if area.is_nan() || area <= 0.0 {
+                let Some((corners, area, up)) = triangle_shape(src, t) else {
                     continue;
-                }
-                let up = (n.y / (2.0 * area)).abs();
+                };
                 let i = match sums.last() {
                     Some((p, _)) if *p == part => sums.len() - 1,
                     _ => *at.entry(part).or_insert_with(|| {
@@ -294,19 +328,7 @@ pub fn part_geometry(src: &Imported) -> (Vec<PartGeometry>, [f64; 2], f64) {
                         sums.len() - 1
                     }),
                 };
-                let g = &mut sums[i].1;
-                g.area += area;
-                if up > 0.9 {
-                    g.horizontal += area;
-                }
-                if up < 0.26 {
-                    g.vertical += area;
-                }
-                g.mean_y += area * (a.y + b.y + c.y) / 3.0;
-                for y in [a.y, b.y, c.y] {
-                    g.y_range[0] = g.y_range[0].min(y);
-                    g.y_range[1] = g.y_range[1].max(y);
-                }
+                sums[i].1.add(corners, area, up);
                 total += area;
             }
             (sums, total)
@@ -410,9 +432,145 @@ impl CompiledRule<'_> {
     }
 }
 
-/// Tags every part of every source.
-pub fn tag(manifest: &Manifest, sources: &[Imported]) -> Result<Tagging, CookError> {
+/// Cuts the parts nothing but their geometry could tag, and whose geometry is mixed, into a
+/// floor, a wall and the rest: real models often give the whole building one material
+/// (`Material.001`, `Default`), floor, walls, vaults and roof alike. Whole, such a part is
+/// neither mostly horizontal nor mostly vertical, so it was `other`: no floor, no walls, and
+/// no guessed sun could land window light on a floor. A triangle is floor when horizontal
+/// and in the lowest tenth of the model's height, wall when vertical; each piece must pass
+/// [`geometry_heuristic`] on its own (large enough, a wall rising through half the height),
+/// else its triangles stay with the rest. The pieces are new parts with the same names.
+fn split_mixed_parts(src: &mut Imported, rules: &[CompiledRule<'_>]) {
+    let (geometry, height, total) = part_geometry(src);
+    let split: Vec<bool> = src
+        .parts
+        .iter()
+        .zip(&geometry)
+        .map(|(part, g)| {
+            let glass = part
+                .material
+                .and_then(|m| src.materials.get(m as usize))
+                .and_then(|m| m.transmission.glass_reason());
+            g.area > 0.0
+                && !rules.iter().any(|r| r.matches(&part.names))
+                && glass.is_none()
+                && heuristic(&part.names).is_none()
+                && geometry_heuristic(g, height, total).is_none()
+        })
+        .collect();
+    if !split.contains(&true) {
+        return;
+    }
+    let span = (height[1] - height[0]).max(1e-9);
+    // Per triangle: 0 stays, 1 floor, 2 wall.
+    let mut kind = vec![0u8; src.tri_part.len()];
+    let mut pieces: HashMap<u32, [PartGeometry; 2]> = HashMap::new();
+    let corners_of = src.corners.positions().chunks_exact(3);
+    for ((k_out, &part), t) in kind.iter_mut().zip(&src.tri_part).zip(corners_of) {
+        if !split[part as usize] {
+            continue;
+        }
+        let Some((corners, area, up)) = triangle_shape(src, t) else {
+            continue;
+        };
+        let centre = corners.iter().map(|p| p.y).sum::<f64>() / 3.0;
+        let k = if up > HORIZONTAL_UP && (centre - height[0]) / span <= 0.1 {
+            1
+        } else if up < VERTICAL_UP {
+            2
+        } else {
+            continue;
+        };
+        *k_out = k;
+        let g = pieces.entry(part).or_insert([PartGeometry::empty(); 2]);
+        g[k as usize - 1].add(corners, area, up);
+    }
+    // A part is cut only into a floor and walls both, each passing the heuristic and lying
+    // mostly in large planes: a building, not a sculpture (the Stanford bunny's base and
+    // steep flanks pass the heuristic, but its flanks are no planes). In part order, so ids
+    // are deterministic.
+    let mut parts: Vec<(u32, [PartGeometry; 2])> = pieces.into_iter().collect();
+    parts.sort_by_key(|p| p.0);
+    let mut new_part: HashMap<(u32, u8), u32> = HashMap::new();
+    let size = {
+        let (mut lo, mut hi) = ([f64::INFINITY; 3], [f64::NEG_INFINITY; 3]);
+        for p in &src.positions {
+            for k in 0..3 {
+                lo[k] = lo[k].min(p[k] as f64);
+                hi[k] = hi[k].max(p[k] as f64);
+            }
+        }
+        (0..3).map(|k| (hi[k] - lo[k]).powi(2)).sum::<f64>().sqrt()
+    };
+    for (part, g) in parts {
+        let passes = [(1u8, MaterialClass::Floor), (2, MaterialClass::Wall)].map(|(k, want)| {
+            geometry_heuristic(&g[k as usize - 1], height, total).map(|c| c.1) == Some(want)
+                && in_large_planes(src, &kind, part, k, size, total) >= 0.75
+        });
+        if passes == [true, true] {
+            for k in [1u8, 2] {
+                let copy = src.parts[part as usize].clone();
+                src.parts.push(copy);
+                new_part.insert((part, k), (src.parts.len() - 1) as u32);
+            }
+        }
+    }
+    for (t, &k) in kind.iter().enumerate() {
+        if k != 0
+            && let Some(&p) = new_part.get(&(src.tri_part[t], k))
+        {
+            src.tri_part[t] = p;
+        }
+    }
+}
+
+/// The share of the area of `part`'s triangles of kind `k` that lies in planes each holding at
+/// least 1 % of the model's area: faces within 5° and 1 % of the model's size of a plane
+/// (planes taken greedily, largest triangles first, at most 256 of them).
+fn in_large_planes(src: &Imported, kind: &[u8], part: u32, k: u8, size: f64, total: f64) -> f64 {
+    let mut tris: Vec<(glam::DVec3, f64, f64)> = Vec::new();
+    for (t, (&p, &tk)) in src.tri_part.iter().zip(kind).enumerate() {
+        if p != part || tk != k {
+            continue;
+        }
+        if let Some(([a, b, c], area, _)) =
+            triangle_shape(src, &src.corners.positions()[t * 3..t * 3 + 3])
+        {
+            let n = (b - a).cross(c - a).normalize();
+            tris.push((n, n.dot((a + b + c) / 3.0), area));
+        }
+    }
+    tris.sort_by(|a, b| b.2.total_cmp(&a.2));
+    let cos = 5f64.to_radians().cos();
+    let mut planes: Vec<(glam::DVec3, f64, f64)> = Vec::new();
+    let mut all = 0.0;
+    for (n, d, area) in tris {
+        all += area;
+        let found = planes
+            .iter()
+            .position(|p| p.0.dot(n) >= cos && (p.1 - d).abs() <= 0.01 * size);
+        match found {
+            Some(i) => planes[i].2 += area,
+            None if planes.len() < 256 => planes.push((n, d, area)),
+            None => {}
+        }
+    }
+    let large: f64 = planes
+        .iter()
+        .filter(|p| p.2 >= 0.01 * total)
+        .map(|p| p.2)
+        .sum();
+    if all > 0.0 { large / all } else { 0.0 }
+}
+
+/// Tags every part of every source (first cutting parts of mixed geometry, see
+/// [`split_mixed_parts`]).
+pub fn tag(manifest: &Manifest, sources: &mut [Imported]) -> Result<Tagging, CookError> {
     let rules = compile(manifest)?;
+    for src in sources.iter_mut() {
+        split_mixed_parts(src, &rules);
+    }
+    let sources: &[Imported] = sources;
     let mut out = Tagging::default();
     // (pack name, class) → material index; names used with several classes get a suffix.
     let mut index: HashMap<(String, MaterialClass), u16> = HashMap::new();
@@ -646,6 +804,61 @@ mod tests {
         Manifest::parse(&dir.path().join("scene.toml"), &text).unwrap()
     }
 
+    /// A 10 x 20 x 8 room of one part named `Material.001`: floor, four walls, ceiling.
+    fn room() -> Imported {
+        let (w, l, h) = (10.0f32, 20.0, 8.0);
+        let quads = [
+            [[0., 0., 0.], [w, 0., 0.], [w, 0., l], [0., 0., l]],
+            [[0., h, 0.], [0., h, l], [w, h, l], [w, h, 0.]],
+            [[0., 0., 0.], [0., h, 0.], [w, h, 0.], [w, 0., 0.]],
+            [[0., 0., l], [w, 0., l], [w, h, l], [0., h, l]],
+            [[0., 0., 0.], [0., 0., l], [0., h, l], [0., h, 0.]],
+            [[w, 0., 0.], [w, h, 0.], [w, h, l], [w, 0., l]],
+        ];
+        let mut positions = Vec::new();
+        let mut tris = Vec::new();
+        for q in quads {
+            let b = positions.len() as u32;
+            positions.extend(q);
+            tris.extend([[b, b + 1, b + 2], [b, b + 2, b + 3]]);
+        }
+        let mut s = crate::mesh::soup(positions, tris);
+        s.parts = vec![Part {
+            names: Names {
+                material: Some("Material.001".into()),
+                ..Default::default()
+            },
+            material: None,
+        }];
+        s.tri_part = vec![0; 12];
+        s
+    }
+
+    #[test]
+    fn a_room_in_one_material_is_cut_into_floor_walls_and_the_rest_unless_a_rule_says() {
+        let t = tag(&manifest(""), &mut [room()]).unwrap();
+        let tagged: Vec<(String, MaterialClass)> = t
+            .materials
+            .iter()
+            .map(|m| (m.material.name.clone(), m.material.class))
+            .collect();
+        assert_eq!(
+            tagged,
+            [
+                ("Material.001".into(), MaterialClass::Other),
+                ("Material.001.floor".into(), MaterialClass::Floor),
+                ("Material.001.wall".into(), MaterialClass::Wall),
+            ]
+        );
+        let t = tag(
+            &manifest("[[rule]]\nmatch = \"Material.*\"\nclass = \"wall\"\n"),
+            &mut [room()],
+        )
+        .unwrap();
+        assert_eq!(t.materials.len(), 1);
+        assert_eq!(t.materials[0].material.class, MaterialClass::Wall);
+    }
+
     #[test]
     fn explicit_rules_win_over_heuristics_and_first_rule_wins() {
         let m = manifest(
@@ -656,7 +869,7 @@ mod tests {
             ("glass", Some("g")),
             ("window_lower", None),
         ]);
-        let t = tag(&m, &[s]).unwrap();
+        let t = tag(&m, &mut [s]).unwrap();
         let class = |p: usize| t.materials[t.part_material[0][p] as usize].material.class;
         // "Boden" would be a floor by heuristics, but the rule says wall.
         assert_eq!(class(0), MaterialClass::Wall);
@@ -681,7 +894,7 @@ mod tests {
         let m = Manifest::from_mesh_file(Path::new("Cargo.toml")).unwrap();
         let mut s = source(&[("white", Some("floor")), ("white", Some("back_wall"))]);
         s.parts[0].names.object = s.parts[0].names.group.take();
-        let t = tag(&m, &[s]).unwrap();
+        let t = tag(&m, &mut [s]).unwrap();
         assert_eq!(t.materials.len(), 2);
         assert_eq!(t.materials[0].material.name, "white");
         assert_eq!(t.materials[1].material.name, "white.wall");

@@ -147,6 +147,7 @@ pub fn run(args: Args) -> Outcome {
         "# Tagging rules, first match wins: one per name the guesses rest on."
     );
     let mut rules: Vec<(NameKind, String, &str, String)> = Vec::new();
+    let mut mixed: Vec<(NameKind, String, &str, &str)> = Vec::new();
     for (si, src) in prepared.imported.iter().enumerate() {
         let counts = src.part_triangles();
         for (pi, part) in src.parts.iter().enumerate() {
@@ -178,11 +179,36 @@ pub fn run(args: Args) -> Outcome {
                     None => continue,
                 },
             };
-            if rules.iter().any(|r| r.0 == kind && r.1 == name) {
-                continue;
+            match rules.iter_mut().find(|r| r.0 == kind && r.1 == name) {
+                Some(r) if r.2 != class => mixed.push((kind, name, r.2, class)),
+                Some(_) => {}
+                None => rules.push((kind, name, class, why.replace('\n', " "))),
             }
-            rules.push((kind, name, class, why.replace('\n', " ")));
         }
+    }
+    // A name whose parts the cook cut by geometry (a building in one material: its floor,
+    // its walls and the rest) gets no rule: one class for the name would undo the cut.
+    for (kind, name, ..) in &mixed {
+        rules.retain(|r| !(r.0 == *kind && r.1 == *name));
+    }
+    mixed.dedup_by(|a, b| a.0 == b.0 && a.1 == b.1);
+    for (kind, name, ..) in &mixed {
+        let classes: Vec<&str> = prepared
+            .tagging
+            .materials
+            .iter()
+            .filter(|m| {
+                m.material.name == *name || m.material.name.starts_with(&format!("{name}."))
+            })
+            .map(|m| m.material.class.name())
+            .collect();
+        let _ = writeln!(
+            t,
+            "# {} {}: cut by its geometry into {}; no rule, so the cut stays\n",
+            kind.name(),
+            quote(name),
+            classes.join(", ")
+        );
     }
     // First match wins, so rules on the narrowest names come first: an object's rule before
     // a material rule that the object's triangles would also match.

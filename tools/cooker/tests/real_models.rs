@@ -1141,7 +1141,8 @@ fn keep_fixtures_when_asked() {
         sibenik_manifest(dir);
         chapelle(dir);
         kapelle(dir);
-        leaded_chapel(dir);
+        leaded_chapel(dir, None);
+        leaded_chapel(dir, Some("Material.001"));
         gltf_kirche(dir);
     }
 }
@@ -1539,9 +1540,11 @@ fn a_z_up_export_cooks_with_up_z_like_the_y_up_model() {
 /// A chapel as glass is often modelled for real: each pane of its two leaded windows is a 1 cm
 /// glass slab of its own, 2 cm of lead came (not modelled) from the next, in the four `Tf`
 /// glasses of the Šibenik rose (`Kd` black or grey); thick walls around the openings and a
-/// roof. Returns the OBJ.
-fn leaded_chapel(dir: &Path) -> PathBuf {
+/// roof. With `building` set, floor, walls and roof are all that one material (as many
+/// exports give them), written to `kapela-<building>.obj`. Returns the OBJ.
+fn leaded_chapel(dir: &Path, building: Option<&str>) -> PathBuf {
     let mut obj = Obj::new("kapela.mtl");
+    let named = |m: &'static str| building.unwrap_or(m).to_string();
     // Walls 0.6 m thick: the nave's inner faces are x = ±4 and z = ±8, 7 m high. Openings in
     // the west wall (x = -4.6 .. -4) at z = -3 and z = 3: 0.79 x 2.2 m, sill 2 m.
     let openings = [(-3.395, -2.605), (2.605, 3.395)];
@@ -1553,7 +1556,7 @@ fn leaded_chapel(dir: &Path) -> PathBuf {
             [0., 0., z1 - z0],
         );
     };
-    obj.usemtl("zid");
+    obj.usemtl(&named("zid"));
     west(&mut obj, -8.6, 8.6, 0.0, 2.0);
     west(&mut obj, -8.6, 8.6, 4.2, 7.0);
     let mut z = -8.6;
@@ -1570,7 +1573,7 @@ fn leaded_chapel(dir: &Path) -> PathBuf {
     )
     .slab([-4.0, 0.0, -8.6], [8., 0., 0.], [0., 7., 0.], [0., 0., 0.6])
     .slab([-4.0, 0.0, 8.0], [8., 0., 0.], [0., 7., 0.], [0., 0., 0.6]);
-    obj.usemtl("krov").slab(
+    obj.usemtl(&named("krov")).slab(
         [-4.6, 7.0, -8.6],
         [9.2, 0., 0.],
         [0., 0.3, 0.],
@@ -1590,12 +1593,18 @@ fn leaded_chapel(dir: &Path) -> PathBuf {
             }
         }
     }
-    obj.usemtl("pod")
+    obj.usemtl(&named("pod"))
         .quad([-4., 0., -8.], [0., 0., 16.], [8., 0., 0.]);
-    let path = dir.join("kapela.obj");
+    let path = dir.join(match building {
+        Some(b) => format!("kapela-{b}.obj"),
+        None => "kapela.obj".into(),
+    });
     obj.write(&path);
     let mut mtl = String::from("newmtl pod\nKd 0.55 0.5 0.45\n\nnewmtl zid\nKd 0.7 0.68 0.62\n\n");
     mtl += "newmtl krov\nKd 0.4 0.3 0.25\n\n";
+    if let Some(b) = building {
+        writeln!(mtl, "newmtl {b}\nKd 0.7 0.68 0.62\n").unwrap();
+    }
     for (name, tf, rest) in ROSE {
         writeln!(
             mtl,
@@ -1615,7 +1624,7 @@ fn leaded_chapel(dir: &Path) -> PathBuf {
 #[test]
 fn leaded_panes_as_glass_slabs_cook_to_one_lit_window_per_opening() {
     let dir = tempfile::tempdir().unwrap();
-    let obj = leaded_chapel(dir.path());
+    let obj = leaded_chapel(dir.path(), None);
     let pack = dir.path().join("kapela.pack");
     let log = cook(&obj, &pack, &[]);
     assert!(!log.contains("no area"), "{log}");
@@ -1796,4 +1805,45 @@ fn a_gltf_window_mesh_placed_by_eight_nodes_is_eight_framed_windows() {
         .filter(|w| !w["projector_texture"].is_null())
         .count();
     assert_eq!(lit, 4, "{log}");
+}
+
+/// A building exported in one material (`Material.001`: floor, walls and roof alike) gets a
+/// floor and walls from its geometry, so a sun is guessed that lands window light on the floor
+/// and the windows are told lower from upper by their sills. Whole, the material was neither
+/// floor nor wall: `other`, no floor, a default sun.
+#[test]
+fn a_building_in_one_material_is_cut_into_floor_and_walls() {
+    let dir = tempfile::tempdir().unwrap();
+    let obj = leaded_chapel(dir.path(), Some("Material.001"));
+    let pack = dir.path().join("one.pack");
+    let log = cook(&obj, &pack, &[]);
+    assert!(
+        log.contains("the most window light lands on the floor"),
+        "{log}"
+    );
+    let info = info(&pack);
+    let tagged = classes(&info);
+    assert_eq!(tagged["Material.001.floor"], "floor", "{tagged:?}");
+    assert_eq!(tagged["Material.001.wall"], "wall", "{tagged:?}");
+    // The roof, and the wall slabs' tops and bottoms above the floor, stay as they were.
+    assert_eq!(tagged["Material.001"], "other", "{tagged:?}");
+    assert_eq!(window_count(&info), 2);
+    for w in windows(&info) {
+        assert_eq!(w["class"], "window-lower", "{w}");
+        assert!(!w["projector_texture"].is_null(), "{log}");
+    }
+    // `init` writes no rule for the cut name (one class for it would undo the cut), so its
+    // manifest cooks the same floor and walls.
+    let scene = dir.path().join("scene.toml");
+    let o = cooker(&[&"init", &obj, &"-o", &scene]);
+    assert!(o.status.success(), "{}", text(&o.stderr));
+    let toml = std::fs::read_to_string(&scene).unwrap();
+    assert!(!toml.contains("match = \"Material.001\""), "{toml}");
+    assert!(
+        toml.contains("cut by its geometry into other, floor, wall"),
+        "{toml}"
+    );
+    let edited = dir.path().join("scene.pack");
+    cook(&scene, &edited, &[]);
+    assert_eq!(tagged, classes(&self::info(&edited)));
 }
