@@ -440,12 +440,16 @@ impl CompiledRule<'_> {
 /// and in the lowest tenth of the model's height, wall when vertical; each piece must pass
 /// [`geometry_heuristic`] on its own (large enough, a wall rising through half the height),
 /// else its triangles stay with the rest. The pieces are new parts with the same names.
-fn split_mixed_parts(src: &mut Imported, rules: &[CompiledRule<'_>]) {
-    let (geometry, height, total) = part_geometry(src);
+fn split_mixed_parts(
+    src: &mut Imported,
+    rules: &[CompiledRule<'_>],
+) -> (Vec<PartGeometry>, [f64; 2], f64) {
+    let geometry = part_geometry(src);
+    let (parts, height, total) = (&geometry.0, geometry.1, geometry.2);
     let split: Vec<bool> = src
         .parts
         .iter()
-        .zip(&geometry)
+        .zip(parts)
         .map(|(part, g)| {
             let glass = part
                 .material
@@ -459,92 +463,93 @@ fn split_mixed_parts(src: &mut Imported, rules: &[CompiledRule<'_>]) {
         })
         .collect();
     if !split.contains(&true) {
-        return;
+        return geometry;
     }
     let span = (height[1] - height[0]).max(1e-9);
-    // Per triangle: 0 stays, 1 floor, 2 wall.
-    let mut kind = vec![0u8; src.tri_part.len()];
-    let mut pieces: HashMap<u32, [PartGeometry; 2]> = HashMap::new();
+    // Per part cut: the floor's and the walls' geometry and triangles.
+    type Pieces = ([PartGeometry; 2], [Vec<u32>; 2]);
+    let mut pieces: HashMap<u32, Pieces> = HashMap::new();
     let corners_of = src.corners.positions().chunks_exact(3);
-    for ((k_out, &part), t) in kind.iter_mut().zip(&src.tri_part).zip(corners_of) {
+    for (t, (&part, corners)) in src.tri_part.iter().zip(corners_of).enumerate() {
         if !split[part as usize] {
             continue;
         }
-        let Some((corners, area, up)) = triangle_shape(src, t) else {
+        let Some((corners, area, up)) = triangle_shape(src, corners) else {
             continue;
         };
         let centre = corners.iter().map(|p| p.y).sum::<f64>() / 3.0;
         let k = if up > HORIZONTAL_UP && (centre - height[0]) / span <= 0.1 {
-            1
+            0
         } else if up < VERTICAL_UP {
-            2
+            1
         } else {
             continue;
         };
-        *k_out = k;
-        let g = pieces.entry(part).or_insert([PartGeometry::empty(); 2]);
-        g[k as usize - 1].add(corners, area, up);
+        let piece = pieces
+            .entry(part)
+            .or_insert_with(|| ([PartGeometry::empty(); 2], [Vec::new(), Vec::new()]));
+        piece.0[k].add(corners, area, up);
+        piece.1[k].push(t as u32);
     }
     // A part is cut only into a floor and walls both, each passing the heuristic and lying
     // mostly in large planes: a building, not a sculpture (the Stanford bunny's base and
     // steep flanks pass the heuristic, but its flanks are no planes). In part order, so ids
     // are deterministic.
-    let mut parts: Vec<(u32, [PartGeometry; 2])> = pieces.into_iter().collect();
-    parts.sort_by_key(|p| p.0);
-    let mut new_part: HashMap<(u32, u8), u32> = HashMap::new();
+    let mut pieces: Vec<(u32, Pieces)> = pieces.into_iter().collect();
+    pieces.sort_by_key(|p| p.0);
     let size = {
-        let (mut lo, mut hi) = ([f64::INFINITY; 3], [f64::NEG_INFINITY; 3]);
+        let (mut lo, mut hi) = (glam::DVec3::INFINITY, glam::DVec3::NEG_INFINITY);
         for p in &src.positions {
-            for k in 0..3 {
-                lo[k] = lo[k].min(p[k] as f64);
-                hi[k] = hi[k].max(p[k] as f64);
-            }
+            let p = glam::Vec3::from(*p).as_dvec3();
+            lo = lo.min(p);
+            hi = hi.max(p);
         }
-        (0..3).map(|k| (hi[k] - lo[k]).powi(2)).sum::<f64>().sqrt()
+        (hi - lo).length()
     };
-    for (part, g) in parts {
-        let passes = [(1u8, MaterialClass::Floor), (2, MaterialClass::Wall)].map(|(k, want)| {
-            geometry_heuristic(&g[k as usize - 1], height, total).map(|c| c.1) == Some(want)
-                && in_large_planes(src, &kind, part, k, size, total) >= 0.75
-        });
-        if passes == [true, true] {
-            for k in [1u8, 2] {
-                let copy = src.parts[part as usize].clone();
-                src.parts.push(copy);
-                new_part.insert((part, k), (src.parts.len() - 1) as u32);
-            }
-        }
-    }
-    for (t, &k) in kind.iter().enumerate() {
-        if k != 0
-            && let Some(&p) = new_part.get(&(src.tri_part[t], k))
+    let mut cut = false;
+    for (part, (g, tris)) in pieces {
+        let classed = [MaterialClass::Floor, MaterialClass::Wall]
+            .iter()
+            .zip(&g)
+            .all(|(want, g)| geometry_heuristic(g, height, total).map(|c| c.1) == Some(*want));
+        if !classed
+            || !tris
+                .iter()
+                .all(|t| in_large_planes(src, t, size, total) >= 0.75)
         {
-            src.tri_part[t] = p;
-        }
-    }
-}
-
-/// The share of the area of `part`'s triangles of kind `k` that lies in planes each holding at
-/// least 1 % of the model's area: faces within 5° and 1 % of the model's size of a plane
-/// (planes taken greedily, largest triangles first, at most 256 of them).
-fn in_large_planes(src: &Imported, kind: &[u8], part: u32, k: u8, size: f64, total: f64) -> f64 {
-    let mut tris: Vec<(glam::DVec3, f64, f64)> = Vec::new();
-    for (t, (&p, &tk)) in src.tri_part.iter().zip(kind).enumerate() {
-        if p != part || tk != k {
             continue;
         }
-        if let Some(([a, b, c], area, _)) =
-            triangle_shape(src, &src.corners.positions()[t * 3..t * 3 + 3])
-        {
-            let n = (b - a).cross(c - a).normalize();
-            tris.push((n, n.dot((a + b + c) / 3.0), area));
+        for piece in tris {
+            src.parts.push(src.parts[part as usize].clone());
+            let id = (src.parts.len() - 1) as u32;
+            for t in piece {
+                src.tri_part[t as usize] = id;
+            }
         }
+        cut = true;
     }
-    tris.sort_by(|a, b| b.2.total_cmp(&a.2));
+    if cut { part_geometry(src) } else { geometry }
+}
+
+/// The share of the area of triangles `tris` that lies in planes each holding at least 1 %
+/// of the model's area: faces within 5° and 1 % of the model's size of a plane (planes taken
+/// greedily, largest triangles first, at most 256 of them).
+fn in_large_planes(src: &Imported, tris: &[u32], size: f64, total: f64) -> f64 {
+    let mut faces: Vec<(glam::DVec3, f64, f64)> = tris
+        .iter()
+        .filter_map(|&t| {
+            let t = t as usize;
+            let ([a, b, c], area, _) =
+                triangle_shape(src, &src.corners.positions()[t * 3..t * 3 + 3])?;
+            let n = (b - a).cross(c - a).normalize();
+            Some((n, n.dot((a + b + c) / 3.0), area))
+        })
+        .collect();
+    faces.sort_by(|a, b| b.2.total_cmp(&a.2));
     let cos = 5f64.to_radians().cos();
     let mut planes: Vec<(glam::DVec3, f64, f64)> = Vec::new();
     let mut all = 0.0;
-    for (n, d, area) in tris {
+    for (n, d, area) in faces {
         all += area;
         let found = planes
             .iter()
@@ -567,9 +572,10 @@ fn in_large_planes(src: &Imported, kind: &[u8], part: u32, k: u8, size: f64, tot
 /// [`split_mixed_parts`]).
 pub fn tag(manifest: &Manifest, sources: &mut [Imported]) -> Result<Tagging, CookError> {
     let rules = compile(manifest)?;
-    for src in sources.iter_mut() {
-        split_mixed_parts(src, &rules);
-    }
+    let geometries: Vec<_> = sources
+        .iter_mut()
+        .map(|src| split_mixed_parts(src, &rules))
+        .collect();
     let sources: &[Imported] = sources;
     let mut out = Tagging::default();
     // (pack name, class) → material index; names used with several classes get a suffix.
@@ -579,7 +585,7 @@ pub fn tag(manifest: &Manifest, sources: &mut [Imported]) -> Result<Tagging, Coo
     for (si, src) in sources.iter().enumerate() {
         let mut used = vec![false; src.materials.len()];
         let part_counts = src.part_triangles();
-        let geometry = part_geometry(src);
+        let geometry = &geometries[si];
         let mut mats = Vec::with_capacity(src.parts.len());
         let mut decisions = Vec::with_capacity(src.parts.len());
         for (pi, part) in src.parts.iter().enumerate() {
