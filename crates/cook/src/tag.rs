@@ -440,10 +440,12 @@ impl CompiledRule<'_> {
 /// and in the lowest tenth of the model's height, wall when vertical; each piece must pass
 /// [`geometry_heuristic`] on its own (large enough, a wall rising through half the height),
 /// else its triangles stay with the rest. The pieces are new parts with the same names.
+/// Returns the part geometry after the cut, and per part whether it is the rest of a cut part
+/// ([`Cut::Rest`]) or a piece cut from one ([`Cut::Piece`]).
 fn split_mixed_parts(
     src: &mut Imported,
     rules: &[CompiledRule<'_>],
-) -> (Vec<PartGeometry>, [f64; 2], f64) {
+) -> ((Vec<PartGeometry>, [f64; 2], f64), Vec<Cut>) {
     let geometry = part_geometry(src);
     let (parts, height, total) = (&geometry.0, geometry.1, geometry.2);
     let split: Vec<bool> = src
@@ -462,8 +464,9 @@ fn split_mixed_parts(
                 && geometry_heuristic(g, height, total).is_none()
         })
         .collect();
+    let mut cut = vec![Cut::None; src.parts.len()];
     if !split.contains(&true) {
-        return geometry;
+        return (geometry, cut);
     }
     let span = (height[1] - height[0]).max(1e-9);
     // Per part cut: the floor's and the walls' geometry and triangles.
@@ -506,7 +509,6 @@ fn split_mixed_parts(
         }
         (hi - lo).length()
     };
-    let mut cut = false;
     for (part, (g, tris)) in pieces {
         let classed = [MaterialClass::Floor, MaterialClass::Wall]
             .iter()
@@ -521,14 +523,29 @@ fn split_mixed_parts(
         }
         for piece in tris {
             src.parts.push(src.parts[part as usize].clone());
+            cut.push(Cut::Piece);
             let id = (src.parts.len() - 1) as u32;
             for t in piece {
                 src.tri_part[t as usize] = id;
             }
         }
-        cut = true;
+        cut[part as usize] = Cut::Rest;
     }
-    if cut { part_geometry(src) } else { geometry }
+    if cut.len() > geometry.0.len() {
+        (part_geometry(src), cut)
+    } else {
+        (geometry, cut)
+    }
+}
+
+/// What [`split_mixed_parts`] made of a part.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Cut {
+    None,
+    /// Its floor and walls were cut out.
+    Rest,
+    /// A floor or walls cut out of another part of the same names.
+    Piece,
 }
 
 /// The share of the area of triangles `tris` that lies in planes each holding at least 1 %
@@ -572,10 +589,10 @@ fn in_large_planes(src: &Imported, tris: &[u32], size: f64, total: f64) -> f64 {
 /// [`split_mixed_parts`]).
 pub fn tag(manifest: &Manifest, sources: &mut [Imported]) -> Result<Tagging, CookError> {
     let rules = compile(manifest)?;
-    let geometries: Vec<_> = sources
+    let (geometries, cuts): (Vec<_>, Vec<_>) = sources
         .iter_mut()
         .map(|src| split_mixed_parts(src, &rules))
-        .collect();
+        .unzip();
     let sources: &[Imported] = sources;
     let mut out = Tagging::default();
     // (pack name, class) → material index; names used with several classes get a suffix.
@@ -641,8 +658,25 @@ pub fn tag(manifest: &Manifest, sources: &mut [Imported]) -> Result<Tagging, Coo
                     class,
                 ),
                 (None, None, None) => {
+                    let cut = cuts[si][pi];
                     match geometry_heuristic(&geometry.0[pi], geometry.1, geometry.2) {
+                        Some((reason, class)) if cut == Cut::Piece => (
+                            Decision::Geometry {
+                                reason: format!(
+                                    "{reason}; cut out of a part that mixes floor, walls and more"
+                                ),
+                            },
+                            class,
+                        ),
                         Some((reason, class)) => (Decision::Geometry { reason }, class),
+                        None if cut == Cut::Rest => (
+                            Decision::Geometry {
+                                reason: "geometry: floor and walls cut out, the rest matched \
+                                         nothing"
+                                    .into(),
+                            },
+                            MaterialClass::Other,
+                        ),
                         None => (Decision::Unmatched, MaterialClass::Other),
                     }
                 }
