@@ -1580,6 +1580,21 @@ fn find_file(dir: &Path, rest: &[u8]) -> (Vec<PathBuf>, Vec<String>) {
     (found, missing)
 }
 
+/// CIE XYZ (D65 white) to linear sRGB: IEC 61966-2-1's matrix. A single value is a grey,
+/// the same in X, Y and Z as the MTL specification writes it, not D65's chromaticity: kept
+/// grey, as it is meant.
+fn xyz_to_linear_srgb(c: [f32; 3]) -> [f32; 3] {
+    if c[0] == c[1] && c[1] == c[2] {
+        return c;
+    }
+    let m = [
+        [3.240_454_2, -1.537_138_5, -0.498_531_4],
+        [-0.969_266, 1.876_010_8, 0.041_556],
+        [0.055_643_4, -0.204_025_9, 1.057_225_2],
+    ];
+    m.map(|r| r[0] * c[0] + r[1] * c[1] + r[2] * c[2])
+}
+
 /// `Tf`, `d`/`Tr` and `illum` of an MTL entry; unparsable values count as absent.
 fn mtl_transmission(m: &tobj::Material) -> super::Transmission {
     let floats = |key: &str| -> Option<Vec<f32>> {
@@ -1592,12 +1607,31 @@ fn mtl_transmission(m: &tobj::Material) -> super::Transmission {
             .collect();
         (!v.is_empty()).then_some(v)
     };
-    // `Tf` may be written as one grey value or as `Tf xyz …`/`Tf spectral …`, which have no
-    // RGB and are ignored.
-    let filter = floats("Tf").map(|v| match v.len() {
-        1 | 2 => [v[0]; 3],
-        _ => [v[0], v[1], v[2]],
-    });
+    // `Tf` may be written as one grey value, as RGB, as CIE XYZ (`Tf xyz X Y Z`, converted
+    // to linear sRGB) or as `Tf spectral file.rfl` (no colour without the file: ignored).
+    let xyz = m
+        .unknown_param
+        .get("Tf")
+        .and_then(|v| v.trim_start().strip_prefix("xyz"))
+        .map(|rest| {
+            let v: Vec<f32> = rest
+                .split_whitespace()
+                .map_while(|t| t.parse::<f32>().ok())
+                .filter(|f| f.is_finite())
+                .collect();
+            match v.len() {
+                0 => None,
+                1 | 2 => Some(xyz_to_linear_srgb([v[0]; 3])),
+                _ => Some(xyz_to_linear_srgb([v[0], v[1], v[2]])),
+            }
+        });
+    let filter = match xyz {
+        Some(c) => c,
+        None => floats("Tf").map(|v| match v.len() {
+            1 | 2 => [v[0]; 3],
+            _ => [v[0], v[1], v[2]],
+        }),
+    };
     let opacity = m
         .dissolve
         .filter(|d| d.is_finite())
@@ -1749,6 +1783,24 @@ fn load_mtllib(
 mod tests {
     use super::*;
     use proptest::prelude::*;
+
+    #[test]
+    fn tf_in_rgb_grey_and_cie_xyz_is_a_linear_rgb_filter() {
+        let filter = |tf: &str| {
+            let mut m = tobj::Material::default();
+            m.unknown_param.insert("Tf".into(), tf.into());
+            mtl_transmission(&m).filter
+        };
+        assert_eq!(filter("0.8 0.1 0.1"), Some([0.8, 0.1, 0.1]));
+        assert_eq!(filter("0.5"), Some([0.5; 3]));
+        assert_eq!(filter("spectral glass.rfl"), None);
+        // D65 white is white; an sRGB red's XYZ is that red.
+        let white = filter("xyz 0.9505 1.0 1.089").unwrap();
+        assert!(white.iter().all(|c| (c - 1.0).abs() < 1e-3), "{white:?}");
+        let red = filter("xyz 0.4124 0.2126 0.0193").unwrap();
+        assert!((red[0] - 1.0).abs() < 1e-3 && red[1].abs() < 1e-3 && red[2].abs() < 1e-3);
+        assert_eq!(filter("xyz 0.3"), Some([0.3; 3]));
+    }
 
     proptest! {
         #[test]
