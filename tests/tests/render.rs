@@ -232,6 +232,15 @@ fn scene_at(
     with_normals: bool,
     at: Placement,
 ) -> Vec<u8> {
+    scene_builder(light, with_window, with_normals, at).finish()
+}
+
+fn scene_builder(
+    light: Option<LightSetup>,
+    with_window: bool,
+    with_normals: bool,
+    at: Placement,
+) -> Builder {
     let mut b = Builder::new(at);
     let floor_tex = b.texture("floor", TextureRole::Colour, 256, |u, v| {
         let check = ((u * 8.0) as u32 + (v * 8.0) as u32).is_multiple_of(2);
@@ -432,7 +441,7 @@ fn scene_at(
         colour: [0.3, 0.45, 0.75],
         panorama: None,
     };
-    b.finish()
+    b
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -582,6 +591,39 @@ fn sun_through_window_matches_reference() {
         "the sun is behind the outside camera: {report:?}"
     );
     check_image("sun-outside", &r.read_output(&gpu).unwrap(), 1e-3, 0.01);
+}
+
+/// A cathedral has more windows than the lit pass takes (160): the scene keeps those the light
+/// comes in through, then the largest, and renders; before, it refused the pack. Here 169
+/// small windows far behind the camera, without light, join the lit one: 10 are left out,
+/// and the image is the single window's.
+#[test]
+fn more_windows_than_the_lit_pass_takes_still_render_the_lit_ones() {
+    let gpu = lavapipe();
+    let mut b = scene_builder(Some(LightSetup::Sun), true, true, Placement::ORIGIN);
+    let lit = b.toc.windows[0].clone();
+    let mut dark = b.toc.materials[lit.material as usize].clone();
+    dark.name = "far".into();
+    dark.projector_texture = None;
+    dark.projector_margin = [0.0; 2];
+    b.toc.materials.push(dark);
+    let dark = (b.toc.materials.len() - 1) as u16;
+    for i in 0..169 {
+        let size = 0.1 + i as f32 * 0.001;
+        b.toc.windows.push(Window {
+            material: dark,
+            origin: [i as f32 * 0.2 - 17.0, 2.0, 1000.0],
+            u_axis: [size, 0.0, 0.0],
+            v_axis: [0.0, -size, 0.0],
+            normal: [0.0, 0.0, -1.0],
+            source_materials: vec!["far".into()],
+        });
+    }
+    let scene = load(&gpu, &b.finish());
+    assert_eq!(scene.toc().windows.len(), render::MAX_WINDOWS);
+    assert_eq!(scene.toc().windows[0], lit);
+    let (r, _) = render_camera(&gpu, &scene, 0, Settings::default());
+    check_image("sun-inside", &r.read_output(&gpu).unwrap(), 1e-3, 0.01);
 }
 
 #[test]

@@ -31,7 +31,7 @@ pub use renderer::{
     god_ray_falloff,
 };
 pub use scene::{LoadStatus, SMALL_MIP_BYTES, Scene, Upload};
-pub use uniforms::MAX_GOD_RAY_SAMPLES;
+pub use uniforms::{MAX_GOD_RAY_SAMPLES, MAX_WINDOWS};
 pub use view::{GodRaySettings, LightGeometry, View};
 
 /// A renderer failure, with the values involved.
@@ -54,8 +54,6 @@ pub enum RenderError {
     },
     #[error("{found} distinct projector textures, but the lit pass binds at most {max}")]
     TooManyProjectors { found: usize, max: usize },
-    #[error("{found} windows, but the lit pass handles at most {max}")]
-    TooManyWindows { found: usize, max: usize },
     #[error("mesh {mesh:?}: {reason}")]
     VertexLayout { mesh: String, reason: String },
     #[error("render size {width}x{height} is invalid (1..={max} on each axis)")]

@@ -290,6 +290,53 @@ fn two_channel(textures: &[GpuTexture], toc: &Toc, t: u32) -> bool {
     toc.textures[t as usize].format == pack::TextureFormat::Bc5 && !textures[t as usize].decode
 }
 
+/// The TOC with at most [`uniforms::MAX_WINDOWS`] windows, when it has more (`None` when all
+/// fit): those with a projector (the light comes in through them) first, then the largest;
+/// in TOC order. A window left out still shows its glass (pass 1 draws window materials); it
+/// throws no light, and the lit pass no longer counts its plane as the building's edge.
+fn kept_windows(toc: &Toc) -> Option<Toc> {
+    let max = uniforms::MAX_WINDOWS;
+    if toc.windows.len() <= max {
+        return None;
+    }
+    let lit = |w: &pack::Window| {
+        toc.materials
+            .get(w.material as usize)
+            .is_some_and(|m| m.projector_texture.is_some())
+    };
+    let area = |w: &pack::Window| {
+        glam::Vec3::from(w.u_axis)
+            .cross(glam::Vec3::from(w.v_axis))
+            .length()
+    };
+    let mut order: Vec<usize> = (0..toc.windows.len()).collect();
+    order.sort_by(|&a, &b| {
+        let (wa, wb) = (&toc.windows[a], &toc.windows[b]);
+        lit(wb)
+            .cmp(&lit(wa))
+            .then(area(wb).total_cmp(&area(wa)))
+            .then(a.cmp(&b))
+    });
+    order.truncate(max);
+    order.sort_unstable();
+    let dropped_lit = toc
+        .windows
+        .iter()
+        .filter(|w| lit(w))
+        .count()
+        .saturating_sub(max);
+    eprintln!(
+        "note: {} windows, but the lit pass projects through at most {max}: {} are left out, \
+         those without a projector and then the smallest ({dropped_lit} with one); they show \
+         their glass but throw no light",
+        toc.windows.len(),
+        toc.windows.len() - max
+    );
+    let mut kept = toc.clone();
+    kept.windows = order.into_iter().map(|i| toc.windows[i].clone()).collect();
+    Some(kept)
+}
+
 impl Scene {
     /// Creates every GPU object the TOC describes, with no data yet. `toc` must come from a
     /// validated pack (`Pack` or `StreamReader`), which guarantees every index used here.
@@ -349,12 +396,8 @@ impl Scene {
                 view: None,
             });
         }
-        if toc.windows.len() > uniforms::MAX_WINDOWS {
-            return Err(RenderError::TooManyWindows {
-                found: toc.windows.len(),
-                max: uniforms::MAX_WINDOWS,
-            });
-        }
+        let kept = kept_windows(toc);
+        let toc = kept.as_ref().unwrap_or(toc);
         let material_layout = material_layout(device);
         let material_sampler = device.create_sampler(&wgpu::SamplerDescriptor {
             label: Some("material"),
@@ -1162,6 +1205,38 @@ fn convert_vertices(
 mod tests {
     use super::*;
     use pack::{AttributeFormat, Semantic, VertexAttribute};
+
+    #[test]
+    fn past_the_lit_pass_limit_the_windows_with_light_and_then_the_largest_are_kept() {
+        let (mut toc, _) = pack::testing::sample();
+        assert!(kept_windows(&toc).is_none());
+        let first = toc.windows[0].clone();
+        let lit = first.material;
+        assert!(toc.materials[lit as usize].projector_texture.is_some());
+        let mut dark = toc.materials[lit as usize].clone();
+        dark.projector_texture = None;
+        toc.materials.push(dark);
+        let dark = (toc.materials.len() - 1) as u16;
+        let n = uniforms::MAX_WINDOWS + 10;
+        // Every tenth window has light through it; each is larger than the one before.
+        toc.windows = (0..n)
+            .map(|i| pack::Window {
+                material: if i % 10 == 0 { lit } else { dark },
+                u_axis: first.u_axis.map(|c| c * (1.0 + i as f32 / 100.0)),
+                ..first.clone()
+            })
+            .collect();
+        let kept = kept_windows(&toc).expect("too many windows");
+        let scale = |w: &pack::Window| w.u_axis[0] / first.u_axis[0];
+        let kept_ids: Vec<usize> = kept
+            .windows
+            .iter()
+            .map(|w| ((scale(w) - 1.0) * 100.0).round() as usize)
+            .collect();
+        // The ten smallest windows without light are left out; TOC order stays.
+        let want: Vec<usize> = (0..n).filter(|&i| i % 10 == 0 || i > 11).collect();
+        assert_eq!(kept_ids, want);
+    }
 
     #[test]
     fn banded_block_decode_matches_the_whole_level() {
