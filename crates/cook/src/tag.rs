@@ -87,10 +87,13 @@ pub struct Tagging {
     pub unused_source_materials: Vec<(usize, String)>,
 }
 
-/// Keywords in the common European languages, matched against the words of lower-cased names
-/// (see [`name_words`]). Words of four letters or fewer must match a whole word ("pod" is a
-/// floor, "tripod" is not); longer ones may start a word or sit inside a compound
-/// ("Kirchenfenster", "walls").
+/// Keywords in the common European languages and in Russian, Ukrainian, Serbian, Greek,
+/// Chinese, Japanese and Korean, matched against the words of lower-cased names (see
+/// [`name_words`]; Greek written without accents and with `σ` for `ς`). Words of four letters
+/// or fewer must match a whole word ("pod" is a floor, "tripod" is not); longer ones may
+/// start a word or sit inside a compound ("Kirchenfenster", "walls"). Chinese, Japanese and
+/// Korean write compounds without spaces, so their keywords may sit anywhere in a word
+/// ("彩色玻璃窗", a stained-glass window).
 const HEURISTICS: &[(&str, MaterialClass)] = &[
     ("window", MaterialClass::WindowUpper),
     ("glass", MaterialClass::WindowUpper),
@@ -120,6 +123,46 @@ const HEURISTICS: &[(&str, MaterialClass)] = &[
     ("witraz", MaterialClass::WindowUpper),
     ("okno", MaterialClass::WindowUpper),
     ("lancet", MaterialClass::WindowUpper),
+    ("vidro", MaterialClass::WindowUpper),
+    ("janela", MaterialClass::WindowUpper),
+    ("sklo", MaterialClass::WindowUpper),
+    ("vitraž", MaterialClass::WindowUpper),
+    ("üveg", MaterialClass::WindowUpper),
+    ("uveg", MaterialClass::WindowUpper),
+    ("ablak", MaterialClass::WindowUpper),
+    ("sticlă", MaterialClass::WindowUpper),
+    ("sticla", MaterialClass::WindowUpper),
+    ("fereastră", MaterialClass::WindowUpper),
+    ("fereastra", MaterialClass::WindowUpper),
+    ("vitraliu", MaterialClass::WindowUpper),
+    ("fönster", MaterialClass::WindowUpper),
+    ("fonster", MaterialClass::WindowUpper),
+    ("vindue", MaterialClass::WindowUpper),
+    ("vindu", MaterialClass::WindowUpper),
+    ("lasi", MaterialClass::WindowUpper),
+    ("ikkuna", MaterialClass::WindowUpper),
+    ("pencere", MaterialClass::WindowUpper),
+    ("vitray", MaterialClass::WindowUpper),
+    ("raam", MaterialClass::WindowUpper),
+    ("стекло", MaterialClass::WindowUpper),
+    ("скло", MaterialClass::WindowUpper),
+    ("стакло", MaterialClass::WindowUpper),
+    ("окно", MaterialClass::WindowUpper),
+    ("вікно", MaterialClass::WindowUpper),
+    ("прозор", MaterialClass::WindowUpper),
+    ("витраж", MaterialClass::WindowUpper),
+    ("вітраж", MaterialClass::WindowUpper),
+    ("γυαλι", MaterialClass::WindowUpper),
+    ("τζαμι", MaterialClass::WindowUpper),
+    ("παραθυρο", MaterialClass::WindowUpper),
+    ("βιτρο", MaterialClass::WindowUpper),
+    ("玻璃", MaterialClass::WindowUpper),
+    ("窗", MaterialClass::WindowUpper),
+    ("ガラス", MaterialClass::WindowUpper),
+    ("窓", MaterialClass::WindowUpper),
+    ("ステンドグラス", MaterialClass::WindowUpper),
+    ("유리", MaterialClass::WindowUpper),
+    ("창문", MaterialClass::WindowUpper),
     ("floor", MaterialClass::Floor),
     ("ground", MaterialClass::Floor),
     ("pavement", MaterialClass::Floor),
@@ -135,6 +178,25 @@ const HEURISTICS: &[(&str, MaterialClass)] = &[
     ("podloga", MaterialClass::Floor),
     ("podłoga", MaterialClass::Floor),
     ("vloer", MaterialClass::Floor),
+    ("chão", MaterialClass::Floor),
+    ("chao", MaterialClass::Floor),
+    ("podlaha", MaterialClass::Floor),
+    ("padló", MaterialClass::Floor),
+    ("padlo", MaterialClass::Floor),
+    ("podea", MaterialClass::Floor),
+    ("golv", MaterialClass::Floor),
+    ("gulv", MaterialClass::Floor),
+    ("lattia", MaterialClass::Floor),
+    ("zemin", MaterialClass::Floor),
+    ("пол", MaterialClass::Floor),
+    ("підлога", MaterialClass::Floor),
+    ("под", MaterialClass::Floor),
+    ("δαπεδο", MaterialClass::Floor),
+    ("πατωμα", MaterialClass::Floor),
+    ("地板", MaterialClass::Floor),
+    ("地面", MaterialClass::Floor),
+    ("フロア", MaterialClass::Floor),
+    ("바닥", MaterialClass::Floor),
     ("wall", MaterialClass::Wall),
     ("mur", MaterialClass::Wall),
     ("murs", MaterialClass::Wall),
@@ -147,18 +209,63 @@ const HEURISTICS: &[(&str, MaterialClass)] = &[
     ("ściana", MaterialClass::Wall),
     ("sciana", MaterialClass::Wall),
     ("muur", MaterialClass::Wall),
+    ("parede", MaterialClass::Wall),
+    ("stěna", MaterialClass::Wall),
+    ("stena", MaterialClass::Wall),
+    ("zeď", MaterialClass::Wall),
+    ("fal", MaterialClass::Wall),
+    ("perete", MaterialClass::Wall),
+    ("vägg", MaterialClass::Wall),
+    ("vagg", MaterialClass::Wall),
+    ("væg", MaterialClass::Wall),
+    ("vegg", MaterialClass::Wall),
+    ("seinä", MaterialClass::Wall),
+    ("seina", MaterialClass::Wall),
+    ("duvar", MaterialClass::Wall),
+    ("стена", MaterialClass::Wall),
+    ("стіна", MaterialClass::Wall),
+    ("зид", MaterialClass::Wall),
+    ("τοιχοσ", MaterialClass::Wall),
+    ("墙", MaterialClass::Wall),
+    ("牆", MaterialClass::Wall),
+    ("壁", MaterialClass::Wall),
+    ("벽", MaterialClass::Wall),
     ("sky", MaterialClass::Background),
     ("background", MaterialClass::Background),
     ("backdrop", MaterialClass::Background),
     ("himmel", MaterialClass::Background),
     ("ciel", MaterialClass::Background),
     ("cielo", MaterialClass::Background),
+    ("céu", MaterialClass::Background),
+    ("taivas", MaterialClass::Background),
+    ("небо", MaterialClass::Background),
+    ("ουρανοσ", MaterialClass::Background),
+    ("天空", MaterialClass::Background),
+    ("하늘", MaterialClass::Background),
 ];
 
 /// Words that make a window keyword in the same name mean the stone or wood around the glass
 /// ("window_frame", "prozor_okvir"), not the glass.
 const NOT_GLASS: &[&str] = &[
-    "frame", "sill", "mullion", "tracery", "okvir", "rahmen", "cadre", "marco", "telaio", "ledge",
+    "frame",
+    "sill",
+    "mullion",
+    "tracery",
+    "okvir",
+    "rahmen",
+    "cadre",
+    "marco",
+    "telaio",
+    "ledge",
+    "kozijn",
+    "рама",
+    "рамка",
+    "πλαισιο",
+    "框",
+    "枠",
+    "窗台",
+    "帘",
+    "창틀",
 ];
 
 /// Words that put a window in the lower class.
@@ -190,7 +297,7 @@ pub fn name_words(name: &str) -> Vec<String> {
             words.push(std::mem::take(&mut cur));
         }
         prev_lower = c.is_lowercase();
-        cur.extend(c.to_lowercase());
+        cur.extend(c.to_lowercase().map(fold_greek));
     }
     if !cur.is_empty() {
         words.push(cur);
@@ -198,11 +305,36 @@ pub fn name_words(name: &str) -> Vec<String> {
     words
 }
 
+/// Han, kana and Hangul: scripts that write compounds without spaces.
+fn unspaced(c: char) -> bool {
+    matches!(c,
+        '\u{3040}'..='\u{30FF}' // hiragana, katakana
+        | '\u{3400}'..='\u{4DBF}' | '\u{4E00}'..='\u{9FFF}' | '\u{F900}'..='\u{FAFF}' // Han
+        | '\u{AC00}'..='\u{D7AF}' // Hangul syllables
+    )
+}
+
 fn word_matches(word: &str, keyword: &str) -> bool {
-    if keyword.chars().count() <= 4 {
-        word == keyword
-    } else {
+    if keyword.chars().any(unspaced) || keyword.chars().count() > 4 {
         word.contains(keyword)
+    } else {
+        word == keyword
+    }
+}
+
+/// Greek as names often write it: accents dropped (capitals are written without them) and
+/// final `ς` as `σ`, so "ΤΟΙΧΟΣ", "Τοίχος" and "τοιχος" are one word.
+fn fold_greek(c: char) -> char {
+    match c {
+        'ά' => 'α',
+        'έ' => 'ε',
+        'ή' => 'η',
+        'ί' | 'ϊ' | 'ΐ' => 'ι',
+        'ό' => 'ο',
+        'ύ' | 'ϋ' | 'ΰ' => 'υ',
+        'ώ' => 'ω',
+        'ς' => 'σ',
+        c => c,
     }
 }
 
@@ -927,6 +1059,45 @@ mod tests {
         assert_eq!(t.ambiguities.len(), 1);
         assert_eq!(t.ambiguities[0].name, "Boden_1");
         assert_eq!(t.ambiguities[0].rule_lines, vec![3, 10]);
+    }
+
+    #[test]
+    fn names_in_cyrillic_greek_and_east_asian_scripts_are_read() {
+        use MaterialClass::{Background, Floor, Other, Wall, WindowUpper};
+        let class = |name: &str| {
+            let names = Names {
+                material: Some(name.into()),
+                ..Default::default()
+            };
+            heuristic(&names).map_or(Other, |h| h.3)
+        };
+        for (name, want) in [
+            ("Стекло_витража", WindowUpper),
+            ("вікно_2", WindowUpper),
+            ("Пол", Floor),
+            ("СТЕНА_север", Wall),
+            ("небо", Background),
+            ("ΤΟΙΧΟΣ", Wall),
+            ("Τοίχος", Wall),
+            ("παράθυρο_βόρειο", WindowUpper),
+            ("δάπεδο", Floor),
+            ("彩色玻璃窗", WindowUpper),
+            ("窗框", Other),
+            ("地板_石", Floor),
+            ("教堂墙壁", Wall),
+            ("ステンドグラス01", WindowUpper),
+            ("窓枠", Other),
+            ("유리창", WindowUpper),
+            ("바닥재", Floor),
+            ("janela_vitral", WindowUpper),
+            ("Fönster", WindowUpper),
+            ("duvar", Wall),
+            // Short words of spaced scripts stay whole words.
+            ("полка", Other),
+            ("falafel", Other),
+        ] {
+            assert_eq!(class(name), want, "{name}");
+        }
     }
 
     #[test]
