@@ -569,11 +569,15 @@ fn add_primitive(
         }
         None => None,
     };
-    let set = prim
+    let base = prim
         .material()
         .pbr_metallic_roughness()
-        .base_color_texture()
-        .map(|t| t.tex_coord())
+        .base_color_texture();
+    let transform = base.as_ref().and_then(|t| t.texture_transform());
+    let set = transform
+        .as_ref()
+        .and_then(|t| t.tex_coord())
+        .or(base.as_ref().map(|t| t.tex_coord()))
         .unwrap_or(0);
     let uvs = match prim.get(&gltf::Semantic::TexCoords(set)) {
         Some(a) => {
@@ -592,6 +596,23 @@ fn add_primitive(
                     path,
                     format!("TEXCOORD accessor {} has non-finite values", a.index()),
                 ));
+            }
+            let mut t = t;
+            if let Some(tr) = &transform {
+                texture_transform(&mut t, tr.offset(), tr.rotation(), tr.scale());
+                if t.iter().any(|v| !v.iter().all(|c| c.is_finite())) {
+                    return Err(bad(
+                        path,
+                        format!(
+                            "material {:?}: KHR_texture_transform (offset {:?}, rotation {}, \
+                             scale {:?}) takes texture coordinates to non-finite values",
+                            prim.material().name().unwrap_or(""),
+                            tr.offset(),
+                            tr.rotation(),
+                            tr.scale()
+                        ),
+                    ));
+                }
             }
             Some(t)
         }
@@ -687,6 +708,19 @@ fn add_primitive(
     );
     out.tri_part.resize(out.tri_part.len() + triangles, part);
     Ok(())
+}
+
+/// `KHR_texture_transform` applied to texture coordinates, as the extension defines it:
+/// scale, then rotate by `rotation` radians (counter-clockwise in UV space), then offset. The
+/// base colour texture's transform is applied where the coordinates are read, so the design,
+/// its mips and its projector see the coordinates a glTF viewer samples with; Blender writes
+/// it for a Mapping node, and without it a window's design sat scaled and shifted.
+fn texture_transform(uvs: &mut [[f32; 2]], offset: [f32; 2], rotation: f32, scale: [f32; 2]) {
+    let (s, c) = rotation.sin_cos();
+    for uv in uvs {
+        let (x, y) = (uv[0] * scale[0], uv[1] * scale[1]);
+        *uv = [c * x + s * y + offset[0], -s * x + c * y + offset[1]];
+    }
 }
 
 fn percent_decode(s: &str) -> String {
@@ -874,4 +908,70 @@ fn convert_material(
         ));
     }
     Ok(sm)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn texture_transform_scales_rotates_then_offsets() {
+        let mut uv = [[0.0, 0.0], [1.0, 0.0], [0.0, 1.0], [0.25, 0.5]];
+        texture_transform(&mut uv, [0.5, 0.0], 0.0, [2.0, 2.0]);
+        assert_eq!(uv, [[0.5, 0.0], [2.5, 0.0], [0.5, 2.0], [1.0, 1.0]]);
+        // A quarter turn counter-clockwise in UV space takes +u to -v.
+        let mut uv = [[1.0, 0.0], [0.0, 1.0]];
+        texture_transform(&mut uv, [0.0, 0.0], std::f32::consts::FRAC_PI_2, [1.0, 1.0]);
+        for (got, want) in uv.iter().zip([[0.0, -1.0], [1.0, 0.0]]) {
+            assert!((got[0] - want[0]).abs() < 1e-6 && (got[1] - want[1]).abs() < 1e-6);
+        }
+    }
+
+    /// A glass quad whose base colour texture carries `KHR_texture_transform` (listed in
+    /// `extensionsRequired`, as Blender writes it) imports with the transformed coordinates,
+    /// from the texture coordinate set the transform names.
+    #[test]
+    fn gltf_texture_transform_is_applied_to_the_coordinates_read() {
+        let dir = tempfile::tempdir().unwrap();
+        let pos: [[f32; 3]; 4] = [[0., 0., 0.], [1., 0., 0.], [1., 1., 0.], [0., 1., 0.]];
+        let uv0: [[f32; 2]; 4] = [[9., 9.]; 4];
+        let uv1: [[f32; 2]; 4] = [[0., 1.], [1., 1.], [1., 0.], [0., 0.]];
+        let idx: [u32; 6] = [0, 1, 2, 0, 2, 3];
+        let mut bin: Vec<u8> = Vec::new();
+        bin.extend(pos.iter().flatten().flat_map(|f| f.to_le_bytes()));
+        bin.extend(uv0.iter().flatten().flat_map(|f| f.to_le_bytes()));
+        bin.extend(uv1.iter().flatten().flat_map(|f| f.to_le_bytes()));
+        bin.extend(idx.iter().flat_map(|i| i.to_le_bytes()));
+        std::fs::write(dir.path().join("q.bin"), &bin).unwrap();
+        let json = format!(
+            r#"{{"asset": {{"version": "2.0"}},
+            "extensionsUsed": ["KHR_texture_transform"],
+            "extensionsRequired": ["KHR_texture_transform"],
+            "scene": 0, "scenes": [{{"nodes": [0]}}], "nodes": [{{"mesh": 0}}],
+            "meshes": [{{"primitives": [{{"attributes": {{"POSITION": 0, "TEXCOORD_0": 1,
+                "TEXCOORD_1": 2}}, "indices": 3, "material": 0}}]}}],
+            "materials": [{{"name": "vitrail", "pbrMetallicRoughness": {{"baseColorTexture":
+                {{"index": 0, "extensions": {{"KHR_texture_transform": {{"offset": [0.5, 0.0],
+                "scale": [2.0, 3.0], "texCoord": 1}}}}}}}}}}],
+            "textures": [{{"source": 0}}], "images": [{{"uri": "design.png"}}],
+            "accessors": [
+                {{"bufferView": 0, "componentType": 5126, "count": 4, "type": "VEC3",
+                  "min": [0, 0, 0], "max": [1, 1, 0]}},
+                {{"bufferView": 1, "componentType": 5126, "count": 4, "type": "VEC2"}},
+                {{"bufferView": 2, "componentType": 5126, "count": 4, "type": "VEC2"}},
+                {{"bufferView": 3, "componentType": 5125, "count": 6, "type": "SCALAR"}}],
+            "bufferViews": [
+                {{"buffer": 0, "byteOffset": 0, "byteLength": 48}},
+                {{"buffer": 0, "byteOffset": 48, "byteLength": 32}},
+                {{"buffer": 0, "byteOffset": 80, "byteLength": 32}},
+                {{"buffer": 0, "byteOffset": 112, "byteLength": 24}}],
+            "buffers": [{{"byteLength": {}, "uri": "q.bin"}}]}}"#,
+            bin.len()
+        );
+        let path = dir.path().join("q.gltf");
+        std::fs::write(&path, json).unwrap();
+        let imported = import(&path).unwrap();
+        let want: Vec<[f32; 2]> = uv1.iter().map(|t| [t[0] * 2.0 + 0.5, t[1] * 3.0]).collect();
+        assert_eq!(imported.uvs, want);
+    }
 }
