@@ -13,7 +13,7 @@ use glam::{DVec2, DVec3};
 use pack::{LightKind, MaterialClass};
 
 use crate::import::{Corner, Imported, NONE};
-use crate::windows::{Sheets, v3};
+use crate::windows::{Sheets, plane_up, v3};
 
 /// Relative weld tolerance: positions closer than this fraction of the model's diagonal are
 /// the same point when deciding which triangles touch.
@@ -431,13 +431,6 @@ fn rectangle_angle(hull: &[DVec2]) -> f64 {
         .map(|(c, _)| *c)
         .min_by(|a, b| tilt(*a).total_cmp(&tilt(*b)).then(a.total_cmp(b)))
         .unwrap_or(0.0)
-}
-
-/// A unit vector in the plane pointing as "up" as the plane allows: +Y projected, or +Z for
-/// horizontal glass (skylights), whose image has no natural up.
-fn plane_up(n: DVec3) -> DVec3 {
-    let reference = if n.y.abs() < 0.99 { DVec3::Y } else { DVec3::Z };
-    (reference - n * reference.dot(n)).normalize()
 }
 
 /// The rectangle of `tris` in the plane through `centroid` with normal `inside`.

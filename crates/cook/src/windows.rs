@@ -34,6 +34,17 @@ pub(crate) fn f3(v: glam::DVec3) -> [f32; 3] {
     [v.x as f32, v.y as f32, v.z as f32]
 }
 
+/// A unit vector in the plane of normal `n` pointing as "up" as the plane allows: +Y
+/// projected, or +Z for horizontal glass (skylights), whose image has no natural up.
+pub(crate) fn plane_up(n: glam::DVec3) -> glam::DVec3 {
+    let reference = if n.y.abs() < 0.99 {
+        glam::DVec3::Y
+    } else {
+        glam::DVec3::Z
+    };
+    (reference - n * reference.dot(n)).normalize()
+}
+
 /// Faces within this angle of a window's plane, facing either way, make up its sheets.
 const SHEET_COS: f64 = 0.996_194_698_091_745_5; // cos 5°
 
@@ -63,12 +74,7 @@ impl Sheets {
         centroid: glam::DVec3,
         normal: glam::DVec3,
     ) -> Sheets {
-        let up = if normal.y.abs() < 0.99 {
-            glam::DVec3::Y
-        } else {
-            glam::DVec3::Z
-        };
-        let f = (up - normal * up.dot(normal)).normalize_or_zero();
+        let f = plane_up(normal);
         let e = f.cross(normal);
         // [front, back] offsets along the normal, min and max.
         let mut span = [[f64::INFINITY, f64::NEG_INFINITY]; 2];
@@ -365,12 +371,7 @@ fn planar_frame(
     n: glam::DVec3,
     centroid: glam::DVec3,
 ) -> (glam::DVec3, glam::DVec3, glam::DVec3) {
-    let up = if n.y.abs() < 0.99 {
-        glam::DVec3::Y
-    } else {
-        glam::DVec3::Z
-    };
-    let v_dir = (up - n * up.dot(n)).normalize();
+    let v_dir = plane_up(n);
     let u_dir = v_dir.cross(n);
     let (mut s0, mut s1, mut t0, mut t1) = (
         f64::INFINITY,
