@@ -6,9 +6,9 @@
 // the scene's distance from the origin and nothing cancels large f32 products. The one large
 // subtraction, vertex minus camera, rounds once.
 
-const MAX_WINDOWS: u32 = 160u;
+const MAX_WINDOWS: u32 = 192u;
 // 32-bit words of a bit set of windows.
-const WINDOW_WORDS: u32 = 5u;
+const WINDOW_WORDS: u32 = 6u;
 const_assert MAX_WINDOWS <= 32u * WINDOW_WORDS;
 
 struct Frame {

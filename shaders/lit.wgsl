@@ -286,7 +286,7 @@ fn transmitted(p: vec3<f32>, dpx: vec3<f32>, dpy: vec3<f32>, n: vec3<f32>, frag:
     }
     var total = vec3<f32>(0.0);
     // Only the words that hold windows: a CPU rasterizer runs every iteration for all lanes,
-    // and looping over all five took lavapipe's lit pass from 225 to 284 ms (nave, 720p).
+    // and looping over five took lavapipe's lit pass from 225 to 284 ms (nave, 720p).
     let words = (count + 31u) / 32u;
     for (var word = 0u; word < words; word = word + 1u) {
         var bits = reach[word];

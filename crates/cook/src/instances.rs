@@ -203,7 +203,8 @@ fn components(src: &Imported, weld: &[u32], tris: &[u32]) -> Vec<Vec<u32>> {
 struct Shape {
     centroid: DVec3,
     normal: DVec3,
-    /// Area of one side: a pane with two sheets (double-sided, or a thin slab) counts once.
+    /// Area; a slab's front and back count once (a pane drawn from both sides still counts
+    /// twice: its two sheets cannot be told from one pane's faces wound either way).
     area: f64,
     /// Diagonal of the bounding box.
     size: f64,
@@ -213,16 +214,40 @@ struct Shape {
     sheets: Sheets,
     lo: DVec3,
     hi: DVec3,
+    /// Bounds in the plane, in the basis of [`canonical_basis`] of the normal.
+    lo2: DVec2,
+    hi2: DVec2,
+}
+
+/// An in-plane basis that two nearly parallel planes share whichever way their normals
+/// point: the normal is first turned so that its largest component is positive.
+fn canonical_basis(n: DVec3) -> (DVec3, DVec3) {
+    let a = n.abs();
+    let largest = if a.x >= a.y && a.x >= a.z {
+        n.x
+    } else if a.y >= a.z {
+        n.y
+    } else {
+        n.z
+    };
+    let n = if largest < 0.0 { -n } else { n };
+    let f = plane_up(n);
+    (f.cross(n), f)
 }
 
 impl Shape {
     fn of(src: &Imported, tris: &[u32]) -> Option<Shape> {
         let (centroid, normal, area) = fit_plane(src, tris)?;
         let (mut lo, mut hi) = (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY));
+        let (mut lo2, mut hi2) = (DVec2::splat(f64::INFINITY), DVec2::splat(f64::NEG_INFINITY));
+        let (e, f) = canonical_basis(normal);
         let mut deviation = 0.0f64;
         for p in vertices(src, tris) {
             lo = lo.min(p);
             hi = hi.max(p);
+            let q = DVec2::new(p.dot(e), p.dot(f));
+            lo2 = lo2.min(q);
+            hi2 = hi2.max(q);
             deviation = deviation.max((p - centroid).dot(normal).abs());
         }
         let size = (hi - lo).length();
@@ -254,6 +279,8 @@ impl Shape {
             sheets,
             lo,
             hi,
+            lo2,
+            hi2,
         })
     }
 }
@@ -264,20 +291,25 @@ impl Shape {
 /// gaps between 0.4 m lights) stay apart.
 const CAME_GAP: f64 = 0.15;
 
-/// Joins planar pieces that lie in one plane a came's width apart (see [`CAME_GAP`]); each
-/// group's triangles ascending, groups ordered by their first triangle.
-fn join_leaded(pieces: Vec<(Vec<u32>, Shape)>) -> Vec<Vec<u32>> {
+/// Joins planar pieces that lie in one plane a came's width apart (see [`CAME_GAP`]): groups
+/// of indices into `pieces`, ascending, ordered by their first piece.
+fn join_leaded(pieces: &[(Vec<u32>, Shape)]) -> Vec<Vec<usize>> {
     let n = pieces.len();
     let mut uf = UnionFind::new(n);
     // Sweep along the axis the pieces spread most on: each piece meets only those starting
     // within its reach there.
     let (mut lo, mut hi) = (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY));
-    for (_, s) in &pieces {
+    for (_, s) in pieces {
         lo = lo.min(s.centroid);
         hi = hi.max(s.centroid);
     }
     let axis = (hi - lo).max_position();
-    let reach = |s: &Shape| CAME_GAP * s.sheets.narrow;
+    // The widest off-plane slack any pair is allowed, so the sweep stops no pair early.
+    let slack = pieces
+        .iter()
+        .map(|(_, s)| PLANAR_TOLERANCE * s.size + s.sheets.thickness)
+        .fold(0.0, f64::max);
+    let reach = |s: &Shape| CAME_GAP * s.sheets.narrow + slack;
     let mut order: Vec<usize> = (0..n).filter(|&i| pieces[i].1.planar).collect();
     order.sort_by(|&a, &b| pieces[a].1.lo[axis].total_cmp(&pieces[b].1.lo[axis]));
     let cos = 5f64.to_radians().cos();
@@ -297,29 +329,24 @@ fn join_leaded(pieces: Vec<(Vec<u32>, Shape)>) -> Vec<Vec<u32>> {
             if off_plane > allowed {
                 continue;
             }
-            // The gap between the bounding boxes, in the plane.
-            let g = (b.lo - a.hi).max(a.lo - b.hi).max(DVec3::ZERO);
-            let along = g.dot(a.normal);
-            let gap = (g.length_squared() - along * along).max(0.0).sqrt();
+            // The gap between the bounds in the plane (a shared basis: the normals agree
+            // within 5°); 3D boxes gave none on a wall at 45°.
+            let gap = (b.lo2 - a.hi2).max(a.lo2 - b.hi2).max(DVec2::ZERO).length();
             if gap <= CAME_GAP * a.sheets.narrow.min(b.sheets.narrow) {
                 uf.union(i as u32, j as u32);
             }
         }
     }
-    let mut groups: Vec<Vec<u32>> = Vec::new();
+    let mut groups: Vec<Vec<usize>> = Vec::new();
     let mut slot: HashMap<u32, usize> = HashMap::new();
-    for (i, (tris, _)) in pieces.into_iter().enumerate() {
+    for i in 0..n {
         let root = uf.find(i as u32);
         let g = *slot.entry(root).or_insert_with(|| {
             groups.push(Vec::new());
             groups.len() - 1
         });
-        groups[g].extend(tris);
+        groups[g].push(i);
     }
-    for g in &mut groups {
-        g.sort_unstable();
-    }
-    groups.sort_by_key(|g| g[0]);
     groups
 }
 
@@ -710,7 +737,20 @@ pub fn find(
                 }
             }
         }
-        for tris in join_leaded(pieces) {
+        // A joined group must itself be flat (pairs agree within 5° and a tolerance, but a
+        // chain of them may bend): else its pieces stay apart.
+        let mut joined: Vec<Vec<u32>> = Vec::new();
+        for group in join_leaded(&pieces) {
+            let mut tris: Vec<u32> = group.iter().flat_map(|&i| pieces[i].0.clone()).collect();
+            tris.sort_unstable();
+            if group.len() == 1 || Shape::of(src, &tris).is_some_and(|s| s.planar) {
+                joined.push(tris);
+            } else {
+                joined.extend(group.iter().map(|&i| pieces[i].0.clone()));
+            }
+        }
+        joined.sort_by_key(|t| t[0]);
+        for tris in joined {
             let Some(Shape {
                 centroid,
                 normal,
@@ -1093,6 +1133,55 @@ mod tests {
             ([0.3, 0., 1.0], [0., 0., 0.4], [0., 2., 0.], 0),
         ];
         assert_eq!(run(&quads(&q), &[W], None).len(), 3);
+    }
+
+    #[test]
+    fn on_a_wall_at_45_degrees_panes_a_came_apart_join_and_lancets_do_not() {
+        // Walls along (1, 0, ±1)/√2, up +Y.
+        for side in [1.0f32, -1.0] {
+            let along = |d: f32| [d * 0.5f32.sqrt(), 0.0, side * d * 0.5f32.sqrt()];
+            let pane = |start: f32, width: f32| (along(start), along(width), [0., 2., 0.], 0);
+            // A skylight far above makes the sweep run along +Y, where the lancets overlap.
+            let sky = ([0., 100., 0.], [1., 0., 0.], [0., 0., 1.], 0);
+            // Three panes 0.3 m wide, 2 cm apart: one window.
+            let leaded = quads(&[pane(0.0, 0.3), pane(0.32, 0.3), pane(0.64, 0.3), sky]);
+            assert_eq!(run(&leaded, &[W], None).len(), 2);
+            // Lancets 0.4 m wide, 0.2 m apart (half their width): three windows.
+            let lancets = quads(&[pane(0.0, 0.4), pane(0.6, 0.4), pane(1.2, 0.4), sky]);
+            assert_eq!(
+                run(&lancets, &[W], None).len(),
+                4,
+                "wall along z = {side} x"
+            );
+        }
+    }
+
+    #[test]
+    fn a_thick_bay_window_is_not_taken_for_one_flat_slab() {
+        // A bay of 1 cm glass: a 3 m centre facet (60 % of the area) between two 1 m facets
+        // at 37°. The centre's front and back are flat sheets; the sides leave them by 0.6 m.
+        let line = [(-2.3f32, -0.6f32), (-1.5, 0.0), (1.5, 0.0), (2.3, -0.6)];
+        let t = 0.01;
+        let mut q = Vec::new();
+        for k in 0..3 {
+            let (a, b) = (line[k], line[k + 1]);
+            let o = [a.0, 0.0, a.1];
+            let r = [b.0 - a.0, 0.0, b.1 - a.1];
+            q.push((o, r, [0., 2., 0.], 0));
+            q.push(([a.0, 0.0, a.1 - t], [0., 2., 0.], r, 0));
+            q.push(([a.0, 2.0, a.1], [0., 0., -t], r, 0));
+            q.push(([a.0, 0.0, a.1], r, [0., 0., -t], 0));
+        }
+        let w = run(&quads(&q), &[W], None);
+        // Split along its planes: the centre facet is a window of its own.
+        assert!(
+            w.iter()
+                .any(|i| (i.width() - 3.0).abs() < 1e-3 && (i.height() - 2.0).abs() < 1e-3),
+            "{:?}",
+            w.iter()
+                .map(|i| (i.width(), i.height()))
+                .collect::<Vec<_>>()
+        );
     }
 
     #[test]

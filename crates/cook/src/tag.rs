@@ -82,6 +82,9 @@ pub struct Tagging {
     pub part_material: Vec<Vec<u16>>,
     /// Per source, per part: how it was decided.
     pub decisions: Vec<Vec<Decision>>,
+    /// Per source, per part: whether the geometry cut it (a piece or the rest; see
+    /// `split_mixed_parts`).
+    pub cut: Vec<Vec<bool>>,
     pub ambiguities: Vec<Ambiguity>,
     /// Source materials (per source, by index) that no triangle uses.
     pub unused_source_materials: Vec<(usize, String)>,
@@ -181,8 +184,8 @@ const HEURISTICS: &[(&str, MaterialClass)] = &[
     ("chão", MaterialClass::Floor),
     ("chao", MaterialClass::Floor),
     ("podlaha", MaterialClass::Floor),
+    // Not "padlo": keywords of five letters may sit inside a word, and "padlock" is no floor.
     ("padló", MaterialClass::Floor),
-    ("padlo", MaterialClass::Floor),
     ("podea", MaterialClass::Floor),
     ("golv", MaterialClass::Floor),
     ("gulv", MaterialClass::Floor),
@@ -726,7 +729,13 @@ pub fn tag(manifest: &Manifest, sources: &mut [Imported]) -> Result<Tagging, Coo
         .map(|src| split_mixed_parts(src, &rules))
         .unzip();
     let sources: &[Imported] = sources;
-    let mut out = Tagging::default();
+    let mut out = Tagging {
+        cut: cuts
+            .iter()
+            .map(|c| c.iter().map(|&k| k != Cut::None).collect())
+            .collect(),
+        ..Tagging::default()
+    };
     // (pack name, class) → material index; names used with several classes get a suffix.
     let mut index: HashMap<(String, MaterialClass), u16> = HashMap::new();
     let mut seen_names: HashMap<(NameKind, String), ()> = HashMap::new();

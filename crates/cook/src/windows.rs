@@ -65,6 +65,9 @@ pub(crate) struct Sheets {
     pub sheet_share: f64,
     /// The narrower side of the glass's bounds in the plane.
     pub narrow: f64,
+    /// How far a vertex of a face in neither sheet (a slab's edge, a bay's side) lies outside
+    /// the span of the sheets along the normal.
+    pub outside: f64,
 }
 
 impl Sheets {
@@ -83,6 +86,8 @@ impl Sheets {
             glam::DVec2::splat(f64::NEG_INFINITY),
         );
         let (mut sheet_area, mut area) = (0.0, 0.0);
+        // Offsets of the other faces' vertices, min and max.
+        let mut others = [f64::INFINITY, f64::NEG_INFINITY];
         for [a, b, c] in triangles {
             let n = (b - a).cross(c - a);
             let len = n.length();
@@ -99,6 +104,10 @@ impl Sheets {
             } else if cos <= -SHEET_COS {
                 1
             } else {
+                for p in [a, b, c] {
+                    let d = (p - centroid).dot(normal);
+                    others = [others[0].min(d), others[1].max(d)];
+                }
                 continue;
             };
             sheet_area += len;
@@ -120,7 +129,14 @@ impl Sheets {
             _ => 0.0,
         };
         let extent = hi - lo;
+        let (lo_d, hi_d) = (span[0][0].min(span[1][0]), span[0][1].max(span[1][1]));
+        let outside = if others[0] <= others[1] && lo_d <= hi_d {
+            (lo_d - others[0]).max(others[1] - hi_d).max(0.0)
+        } else {
+            0.0
+        };
         Sheets {
+            outside,
             deviation,
             thickness,
             sheet_share: if area > 0.0 { sheet_area / area } else { 0.0 },
@@ -136,6 +152,7 @@ impl Sheets {
     /// `tolerance` of flat, most of the area in them, and a slab thin against its width.
     pub(crate) fn flat(&self, tolerance: f64) -> bool {
         self.deviation <= tolerance
+            && self.outside <= tolerance
             && self.sheet_share >= 0.5
             && self.thickness <= SLAB_THICKNESS * self.narrow
     }

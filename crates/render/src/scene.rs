@@ -291,8 +291,8 @@ fn two_channel(textures: &[GpuTexture], toc: &Toc, t: u32) -> bool {
 }
 
 /// The TOC with at most [`uniforms::MAX_WINDOWS`] windows, when it has more (`None` when all
-/// fit): those with a projector (the light comes in through them) first, then the largest;
-/// in TOC order. A window left out still shows its glass (pass 1 draws window materials); it
+/// fit): those with a projector first, then those the light comes in through (the lit pass
+/// passes it, tinted, without a projector), then the largest; in TOC order. A window left out still shows its glass (pass 1 draws window materials); it
 /// throws no light, and the lit pass no longer counts its plane as the building's edge.
 fn kept_windows(toc: &Toc) -> Option<Toc> {
     let max = uniforms::MAX_WINDOWS;
@@ -304,6 +304,18 @@ fn kept_windows(toc: &Toc) -> Option<Toc> {
             .get(w.material as usize)
             .is_some_and(|m| m.projector_texture.is_some())
     };
+    let enters = |w: &pack::Window| {
+        let n = glam::Vec3::from(w.normal);
+        match toc.light.as_ref().map(|l| &l.kind) {
+            Some(pack::LightKind::Directional { direction, .. }) => {
+                glam::Vec3::from(*direction).dot(n) > 0.0
+            }
+            Some(pack::LightKind::Point { position, .. }) => {
+                (glam::Vec3::from(*position) - glam::Vec3::from(w.origin)).dot(n) < 0.0
+            }
+            None => false,
+        }
+    };
     let area = |w: &pack::Window| {
         glam::Vec3::from(w.u_axis)
             .cross(glam::Vec3::from(w.v_axis))
@@ -314,6 +326,7 @@ fn kept_windows(toc: &Toc) -> Option<Toc> {
         let (wa, wb) = (&toc.windows[a], &toc.windows[b]);
         lit(wb)
             .cmp(&lit(wa))
+            .then(enters(wb).cmp(&enters(wa)))
             .then(area(wb).total_cmp(&area(wa)))
             .then(a.cmp(&b))
     });
@@ -322,13 +335,13 @@ fn kept_windows(toc: &Toc) -> Option<Toc> {
     let dropped_lit = toc
         .windows
         .iter()
-        .filter(|w| lit(w))
+        .filter(|w| lit(w) || enters(w))
         .count()
         .saturating_sub(max);
     eprintln!(
         "note: {} windows, but the lit pass projects through at most {max}: {} are left out, \
-         those without a projector and then the smallest ({dropped_lit} with one); they show \
-         their glass but throw no light",
+         those the light does not come in through and then the smallest ({dropped_lit} with \
+         light through them); they show their glass but throw no light",
         toc.windows.len(),
         toc.windows.len() - max
     );

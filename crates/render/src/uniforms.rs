@@ -6,10 +6,12 @@ use bytemuck::{Pod, Zeroable};
 use pack::MaterialClass;
 
 /// Windows the lit pass can project through; matches `MAX_WINDOWS` in `common.wgsl`. The
-/// array is a uniform block, which every adapter takes up to 64 KiB: 160 windows of 384
-/// bytes and the direct map's fill 61.8 KB. A cathedral has more (Chartres 176): the scene
+/// array is a uniform block, which every adapter takes up to 64 KiB: 192 windows of 336
+/// bytes and the direct map's fill 64 848 bytes. A larger cathedral has more: the scene
 /// keeps the windows that pass light ([`crate::Scene::new`]).
-pub const MAX_WINDOWS: usize = 160;
+pub const MAX_WINDOWS: usize = 192;
+
+const _: () = assert!(std::mem::size_of::<Windows>() <= 65536);
 
 /// The most god-ray samples per pixel the renderer takes (the least is 1): the settings are
 /// clamped to it, and the viewer's flag and slider offer this range.

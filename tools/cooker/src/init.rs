@@ -147,7 +147,9 @@ pub fn run(args: Args) -> Outcome {
         "# Tagging rules, first match wins: one per name the guesses rest on."
     );
     let mut rules: Vec<(NameKind, String, &str, String)> = Vec::new();
-    let mut mixed: Vec<(NameKind, String, &str, &str)> = Vec::new();
+    // Names the geometry cut (a building in one material), with the classes of the pieces.
+    let mut cut: std::collections::BTreeMap<(usize, String), std::collections::BTreeSet<&str>> =
+        Default::default();
     for (si, src) in prepared.imported.iter().enumerate() {
         let counts = src.part_triangles();
         for (pi, part) in src.parts.iter().enumerate() {
@@ -179,29 +181,21 @@ pub fn run(args: Args) -> Outcome {
                     None => continue,
                 },
             };
-            match rules.iter_mut().find(|r| r.0 == kind && r.1 == name) {
-                Some(r) if r.2 != class => mixed.push((kind, name, r.2, class)),
-                Some(_) => {}
-                None => rules.push((kind, name, class, why.replace('\n', " "))),
+            let k = SPECIFIC_FIRST.iter().position(|&s| s == kind).unwrap_or(0);
+            if prepared.tagging.cut[si][pi] {
+                cut.entry((k, name.clone())).or_default().insert(class);
+            }
+            if !rules.iter().any(|r| r.0 == kind && r.1 == name) {
+                rules.push((kind, name, class, why.replace('\n', " ")));
             }
         }
     }
     // A name whose parts the cook cut by geometry (a building in one material: its floor,
     // its walls and the rest) gets no rule: one class for the name would undo the cut.
-    for (kind, name, ..) in &mixed {
-        rules.retain(|r| !(r.0 == *kind && r.1 == *name));
-    }
-    mixed.dedup_by(|a, b| a.0 == b.0 && a.1 == b.1);
-    for (kind, name, ..) in &mixed {
-        let classes: Vec<&str> = prepared
-            .tagging
-            .materials
-            .iter()
-            .filter(|m| {
-                m.material.name == *name || m.material.name.starts_with(&format!("{name}."))
-            })
-            .map(|m| m.material.class.name())
-            .collect();
+    for ((k, name), classes) in &cut {
+        let kind = SPECIFIC_FIRST[*k];
+        rules.retain(|r| !(r.0 == kind && r.1 == *name));
+        let classes: Vec<&str> = classes.iter().copied().collect();
         let _ = writeln!(
             t,
             "# {} {}: cut by its geometry into {}; no rule, so the cut stays\n",

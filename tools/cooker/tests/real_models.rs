@@ -1876,7 +1876,7 @@ fn a_building_in_one_material_is_cut_into_floor_and_walls() {
     let toml = std::fs::read_to_string(&scene).unwrap();
     assert!(!toml.contains("match = \"Material.001\""), "{toml}");
     assert!(
-        toml.contains("cut by its geometry into other, floor, wall"),
+        toml.contains("cut by its geometry into floor, other, wall"),
         "{toml}"
     );
     let edited = dir.path().join("scene.pack");
