@@ -203,8 +203,8 @@ fn components(src: &Imported, weld: &[u32], tris: &[u32]) -> Vec<Vec<u32>> {
 struct Shape {
     centroid: DVec3,
     normal: DVec3,
-    /// Area; a slab's front and back count once (a pane drawn from both sides still counts
-    /// twice: its two sheets cannot be told from one pane's faces wound either way).
+    /// Area of one side: a slab's front and back, or a pane drawn from both sides (each face
+    /// twice, wound both ways), count once.
     area: f64,
     /// Diagonal of the bounding box.
     size: f64,
@@ -217,6 +217,28 @@ struct Shape {
     /// Bounds in the plane, in the basis of [`canonical_basis`] of the normal.
     lo2: DVec2,
     hi2: DVec2,
+}
+
+/// Whether the faces of `tris` come in pairs, the same corners wound both ways (a pane drawn
+/// from both sides), rather than one pane whose faces happen to face either way: the sorted
+/// corners of the faces facing along `normal` and of those facing against it are the same
+/// (positions compared on a grid of `weld`).
+fn two_sided(src: &Imported, tris: &[u32], normal: DVec3, weld: f64) -> bool {
+    type Corners = [[i64; 3]; 3];
+    let (mut front, mut back): (Vec<Corners>, Vec<Corners>) = (Vec::new(), Vec::new());
+    for &t in tris {
+        let [a, b, c] = triangle(src, t);
+        let mut key = [a, b, c].map(|p| (p / weld.max(1e-300)).round().as_i64vec3().to_array());
+        key.sort_unstable();
+        if (b - a).cross(c - a).dot(normal) >= 0.0 {
+            front.push(key);
+        } else {
+            back.push(key);
+        }
+    }
+    front.sort_unstable();
+    back.sort_unstable();
+    !front.is_empty() && front == back
 }
 
 /// An in-plane basis that two nearly parallel planes share whichever way their normals
@@ -265,7 +287,12 @@ impl Shape {
                 area * (1.0 - 0.5 * sheets.sheet_share),
             )
         } else if deviation <= tolerance {
-            (true, deviation, area)
+            let once = if two_sided(src, tris, normal, WELD * size) {
+                0.5
+            } else {
+                1.0
+            };
+            (true, deviation, area * once)
         } else {
             (false, deviation, area)
         };
@@ -1086,8 +1113,17 @@ mod tests {
             assert!(i.inside.x.abs() > 0.999, "{:?}", i.inside);
             assert!((i.width() - size[0]).abs() < 1e-5 && (i.height() - size[1]).abs() < 1e-5);
         }
-        // The slab's front and back count once, its edges besides.
+        // The two-sided pane and the slab's front and back count once (its edges besides).
+        assert!((w[0].area - 2.0).abs() < 1e-9, "{}", w[0].area);
         assert!((w[1].area - 0.0995).abs() < 1e-5, "{}", w[1].area);
+        // One pane whose two triangles face either way is one side, whole.
+        let mut flipped = quads(&[([0., 1., 0.], [0., 0., 1.], [0., 2., 0.], 0)]);
+        let c = flipped.corners.get(5);
+        let b = flipped.corners.get(4);
+        flipped.corners.set(4, c);
+        flipped.corners.set(5, b);
+        let w = run(&flipped, &[W], None);
+        assert!((w[0].area - 2.0).abs() < 1e-9, "{}", w[0].area);
     }
 
     #[test]
