@@ -766,58 +766,48 @@ pub fn find(
         }
         // A joined group must itself be flat (pairs agree within 5° and a tolerance, but a
         // chain of them may bend): else its pieces stay apart.
-        let mut joined: Vec<Vec<u32>> = Vec::new();
+        let mut joined: Vec<(Vec<u32>, Shape)> = Vec::new();
         for group in join_leaded(&pieces) {
+            if let [i] = group[..] {
+                joined.push(pieces[i].clone());
+                continue;
+            }
             let mut tris: Vec<u32> = group.iter().flat_map(|&i| pieces[i].0.clone()).collect();
             tris.sort_unstable();
-            if group.len() == 1 || Shape::of(src, &tris).is_some_and(|s| s.planar) {
-                joined.push(tris);
-            } else {
-                joined.extend(group.iter().map(|&i| pieces[i].0.clone()));
+            match Shape::of(src, &tris) {
+                Some(shape) if shape.planar => joined.push((tris, shape)),
+                _ => joined.extend(group.iter().map(|&i| pieces[i].clone())),
             }
         }
-        joined.sort_by_key(|t| t[0]);
-        for tris in joined {
-            let Some(Shape {
-                centroid,
-                normal,
-                area,
-                deviation: dev,
-                planar,
-                ..
-            }) = Shape::of(src, &tris)
-            else {
-                continue;
-            };
-            {
-                let mut by_material: Vec<(u16, f64)> = Vec::new();
-                for &t in &tris {
-                    let [a, b, c] = triangle(src, t);
-                    let ar = (b - a).cross(c - a).length() * 0.5;
-                    let m = mats[t as usize];
-                    match by_material.iter_mut().find(|e| e.0 == m) {
-                        Some(e) => e.1 += ar,
-                        None => by_material.push((m, ar)),
-                    }
+        joined.sort_by_key(|(t, _)| t[0]);
+        for (tris, shape) in joined {
+            let mut by_material: Vec<(u16, f64)> = Vec::new();
+            for &t in &tris {
+                let [a, b, c] = triangle(src, t);
+                let ar = (b - a).cross(c - a).length() * 0.5;
+                let m = mats[t as usize];
+                match by_material.iter_mut().find(|e| e.0 == m) {
+                    Some(e) => e.1 += ar,
+                    None => by_material.push((m, ar)),
                 }
-                by_material.sort_by(|a, b| b.1.total_cmp(&a.1).then(a.0.cmp(&b.0)));
-                out.push(Instance {
-                    name: names[by_material[0].0 as usize].clone(),
-                    source: si,
-                    has_uvs: has_uvs(src, &tris),
-                    triangles: tris,
-                    materials: by_material,
-                    area,
-                    centroid,
-                    inside: normal,
-                    inside_reason: "",
-                    origin: DVec3::ZERO,
-                    right: DVec3::ZERO,
-                    up: DVec3::ZERO,
-                    max_deviation: dev,
-                    planar,
-                });
             }
+            by_material.sort_by(|a, b| b.1.total_cmp(&a.1).then(a.0.cmp(&b.0)));
+            out.push(Instance {
+                name: names[by_material[0].0 as usize].clone(),
+                source: si,
+                has_uvs: has_uvs(src, &tris),
+                triangles: tris,
+                materials: by_material,
+                area: shape.area,
+                centroid: shape.centroid,
+                inside: shape.normal,
+                inside_reason: "",
+                origin: DVec3::ZERO,
+                right: DVec3::ZERO,
+                up: DVec3::ZERO,
+                max_deviation: shape.deviation,
+                planar: shape.planar,
+            });
         }
     }
     // Names: the dominant material's, numbered where several windows share it.
