@@ -292,8 +292,9 @@ fn two_channel(textures: &[GpuTexture], toc: &Toc, t: u32) -> bool {
 
 /// The TOC with at most [`uniforms::MAX_WINDOWS`] windows, when it has more (`None` when all
 /// fit): those with a projector first, then those the light comes in through (the lit pass
-/// passes it, tinted, without a projector), then the largest; in TOC order. A window left out still shows its glass (pass 1 draws window materials); it
-/// throws no light, and the lit pass no longer counts its plane as the building's edge.
+/// passes it, tinted, without a projector), then the largest; in TOC order. A window left out
+/// still shows its glass (pass 1 draws window materials); it throws no light, and the lit pass
+/// no longer counts its plane as the building's edge.
 fn kept_windows(toc: &Toc) -> Option<Toc> {
     let max = uniforms::MAX_WINDOWS;
     if toc.windows.len() <= max {
@@ -304,17 +305,15 @@ fn kept_windows(toc: &Toc) -> Option<Toc> {
             .get(w.material as usize)
             .is_some_and(|m| m.projector_texture.is_some())
     };
+    // The renderer's own test of whether a window passes light.
+    let light = toc
+        .light
+        .as_ref()
+        .map(crate::view::LightGeometry::from_light);
     let enters = |w: &pack::Window| {
-        let n = glam::Vec3::from(w.normal);
-        match toc.light.as_ref().map(|l| &l.kind) {
-            Some(pack::LightKind::Directional { direction, .. }) => {
-                glam::Vec3::from(*direction).dot(n) > 0.0
-            }
-            Some(pack::LightKind::Point { position, .. }) => {
-                (glam::Vec3::from(*position) - glam::Vec3::from(w.origin)).dot(n) < 0.0
-            }
-            None => false,
-        }
+        light
+            .as_ref()
+            .is_some_and(|l| crate::view::window_projector(w, l).is_some())
     };
     let area = |w: &pack::Window| {
         glam::Vec3::from(w.u_axis)
