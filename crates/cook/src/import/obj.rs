@@ -1597,41 +1597,29 @@ fn xyz_to_linear_srgb(c: [f32; 3]) -> [f32; 3] {
 
 /// `Tf`, `d`/`Tr` and `illum` of an MTL entry; unparsable values count as absent.
 fn mtl_transmission(m: &tobj::Material) -> super::Transmission {
-    let floats = |key: &str| -> Option<Vec<f32>> {
-        let v: Vec<f32> = m
-            .unknown_param
-            .get(key)?
+    let parse = |text: &str| -> Option<Vec<f32>> {
+        let v: Vec<f32> = text
             .split_whitespace()
             .map_while(|t| t.parse::<f32>().ok())
             .filter(|f| f.is_finite())
             .collect();
         (!v.is_empty()).then_some(v)
     };
+    let floats = |key: &str| parse(m.unknown_param.get(key)?);
     // `Tf` may be written as one grey value, as RGB, as CIE XYZ (`Tf xyz X Y Z`, converted
     // to linear sRGB) or as `Tf spectral file.rfl` (no colour without the file: ignored).
-    let xyz = m
-        .unknown_param
-        .get("Tf")
-        .and_then(|v| v.trim_start().strip_prefix("xyz"))
-        .map(|rest| {
-            let v: Vec<f32> = rest
-                .split_whitespace()
-                .map_while(|t| t.parse::<f32>().ok())
-                .filter(|f| f.is_finite())
-                .collect();
-            match v.len() {
-                0 => None,
-                1 | 2 => Some(xyz_to_linear_srgb([v[0]; 3])),
-                _ => Some(xyz_to_linear_srgb([v[0], v[1], v[2]])),
-            }
-        });
-    let filter = match xyz {
-        Some(c) => c,
-        None => floats("Tf").map(|v| match v.len() {
+    let tf = m.unknown_param.get("Tf").map_or("", String::as_str);
+    let (xyz, values) = match tf.trim_start().strip_prefix("xyz") {
+        Some(rest) => (true, rest),
+        None => (false, tf),
+    };
+    let filter = parse(values).map(|v| {
+        let c = match v.len() {
             1 | 2 => [v[0]; 3],
             _ => [v[0], v[1], v[2]],
-        }),
-    };
+        };
+        if xyz { xyz_to_linear_srgb(c) } else { c }
+    });
     let opacity = m
         .dissolve
         .filter(|d| d.is_finite())
