@@ -1883,3 +1883,61 @@ fn a_building_in_one_material_is_cut_into_floor_and_walls() {
     cook(&scene, &edited, &[]);
     assert_eq!(tagged, classes(&self::info(&edited)));
 }
+
+/// gltfpack's outputs, quantized and meshopt-compressed (tests/data/third_party/gltfpack),
+/// cook like the models they came from; before, every one was refused ("extensionsRequired[0]
+/// = KHR_mesh_quantization: Unsupported extension").
+#[test]
+fn gltfpack_compressed_and_instanced_models_cook() {
+    let dir = tempfile::tempdir().unwrap();
+    let obj_pack = dir.path().join("obj.pack");
+    cook(&third_party("cornell_box/cornell_box.obj"), &obj_pack, &[]);
+    let pack = dir.path().join("cc.pack");
+    cook(&third_party("gltfpack/cornell_cc.glb"), &pack, &[]);
+    let (a, b) = (info(&obj_pack), info(&pack));
+    let total = |v: &Value| -> u64 {
+        v["materials"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|m| m["triangles"].as_u64().unwrap())
+            .sum()
+    };
+    assert_eq!(total(&a), total(&b));
+    // gltfpack merges the objects of one material: the white floor, back wall, ceiling and
+    // blocks are one mesh, which the geometry cuts into floor, wall and the rest again.
+    let c = classes(&b);
+    assert_eq!(c["red"], "wall", "{c:?}");
+    assert_eq!(c["green"], "wall", "{c:?}");
+    assert!(c.values().any(|k| k == "floor"), "{c:?}");
+
+    let pack = dir.path().join("mi.pack");
+    cook(&third_party("gltfpack/boxes_mi_cc.glb"), &pack, &[]);
+    assert_eq!(
+        total(&info(&pack)),
+        72,
+        "six instances of a 12-triangle box"
+    );
+
+    // A compressed stream that does not decode: an error naming the file and the view, exit
+    // 3, and no pack.
+    let mut glb = std::fs::read(third_party("gltfpack/boxes_mi_cc.glb")).unwrap();
+    let json_len = u32::from_le_bytes(glb[12..16].try_into().unwrap()) as usize;
+    let bin = 20 + json_len + 8;
+    assert!(
+        glb[bin] == 0xa0 || glb[bin] == 0xa1,
+        "view 0's stream starts the chunk"
+    );
+    glb[bin] = 0;
+    let bad = dir.path().join("broken.glb");
+    std::fs::write(&bad, &glb).unwrap();
+    let out = dir.path().join("broken.pack");
+    let o = cooker(&[&"cook", &bad, &"-o", &out, &"--no-cache"]);
+    let err = text(&o.stderr);
+    assert_eq!(o.status.code(), Some(3), "{err}");
+    assert!(
+        err.contains("broken.glb") && err.contains("buffer view 0"),
+        "{err}"
+    );
+    assert!(!out.exists());
+}

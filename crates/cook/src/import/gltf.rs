@@ -1,7 +1,8 @@
 //! glTF 2.0 import (`.gltf` and `.glb`).
 //!
-//! The document is read with `Gltf::open` and its buffers with `gltf::import_buffers`, so
-//! images are never decoded here (the texture stage decodes what materials use, once).
+//! The document is read without its images (the texture stage decodes what materials use,
+//! once), and only the buffers some view needs are loaded: a buffer that only stands in for
+//! compressed views (`EXT_meshopt_compression`) has no data to load.
 //! Accessors are read by our own bounds-checked reader rather than gltf's: its reader slices
 //! buffers without checking every length, underflows on `count == 0`, hits `unreachable!()` on
 //! i8/i16 texture coordinates and reads quantized (KHR_mesh_quantization) data as floats.
@@ -115,7 +116,8 @@ pub fn import(path: &Path) -> Result<Imported, CookError> {
     let (document, blob) = parse(bytes).map_err(convert)?;
     // gltf-json's validation indexes the POSITION accessor before checking it exists (an
     // out-of-bounds panic found by fuzzing): check every attribute index first.
-    let json = document.into_json();
+    let mut json = document.into_json();
+    let warnings = required_extensions(path, std::mem::take(&mut json.extensions_required))?;
     for (mi, mesh) in json.meshes.iter().enumerate() {
         for (pi, prim) in mesh.primitives.iter().enumerate() {
             let indices = prim.attributes.values().chain(prim.indices.as_ref());
@@ -149,21 +151,15 @@ pub fn import(path: &Path) -> Result<Imported, CookError> {
     }
     let document = gltf::Document::from_json(json).map_err(convert)?;
     let base = path.parent().unwrap_or(Path::new(""));
-    let buffers = gltf::import_buffers(&document, Some(base), blob)
-        .map_err(|e| bad(path, format!("cannot load buffers: {e}")))?;
-    let buffers: Vec<&[u8]> = buffers.iter().map(|b| &b.0[..]).collect();
+    let (buffers, decoded, files) = load_buffers(path, &document, base, blob)?;
+    let buffers: Vec<&[u8]> = buffers.iter().map(|b| &b[..]).collect();
 
     let mut out = Imported {
         path: path.to_path_buf(),
+        files,
+        warnings,
         ..Default::default()
     };
-    for b in document.buffers() {
-        if let gltf::buffer::Source::Uri(uri) = b.source()
-            && !uri.starts_with("data:")
-        {
-            out.files.push(base.join(uri));
-        }
-    }
     let mut material_ids: HashMap<usize, u32> = HashMap::new();
     let mut part_ids: HashMap<(Option<usize>, usize, usize), u32> = HashMap::new();
     let mut skipped_modes: Vec<String> = Vec::new();
@@ -209,11 +205,25 @@ pub fn import(path: &Path) -> Result<Imported, CookError> {
             ));
         }
         if let Some(mesh) = node.mesh() {
-            for prim in mesh.primitives() {
-                let ctx = Ctx {
+            let ctx = Ctx {
+                path,
+                buffers: &buffers,
+                decoded: &decoded,
+            };
+            let worlds: Vec<glam::Mat4> = instances(&ctx, &document, &node)?
+                .into_iter()
+                .map(|m| world * m)
+                .collect();
+            if let Some(i) = worlds.iter().position(|w| !w.is_finite()) {
+                return Err(bad(
                     path,
-                    buffers: &buffers,
-                };
+                    format!(
+                        "node {} instance {i} has a non-finite transform",
+                        node.index()
+                    ),
+                ));
+            }
+            for prim in mesh.primitives() {
                 let mode = prim.mode();
                 if !matches!(
                     mode,
@@ -271,7 +281,7 @@ pub fn import(path: &Path) -> Result<Imported, CookError> {
                         p
                     }
                 };
-                add_primitive(&ctx, &prim, world, part, &mut out)?;
+                add_primitive(&ctx, &prim, &worlds, part, &mut out)?;
             }
         }
         for c in node.children().collect::<Vec<_>>().into_iter().rev() {
@@ -298,9 +308,167 @@ pub fn import(path: &Path) -> Result<Imported, CookError> {
     Ok(out)
 }
 
+/// Extensions a file may require that the import reads in full.
+const READ_EXTENSIONS: &[&str] = &[
+    "KHR_mesh_quantization",
+    "KHR_texture_transform",
+    "KHR_materials_transmission",
+    "KHR_materials_volume",
+    "EXT_meshopt_compression",
+    "KHR_meshopt_compression",
+    "EXT_mesh_gpu_instancing",
+];
+
+/// Checks what the file requires (`extensionsRequired`, which gltf's validation would refuse
+/// whole, even the quantized and compressed files gltfpack writes by default). Extensions
+/// that only change shading the cooker does not model (other `KHR_materials_*`, lights) are
+/// warned about; any other one, Draco or a texture format without fallback, is an error that
+/// names it, since reading past it would cook missing or wrong data.
+fn required_extensions(path: &Path, required: Vec<String>) -> Result<Vec<Warning>, CookError> {
+    let mut ignored = Vec::new();
+    for name in required {
+        if READ_EXTENSIONS.contains(&name.as_str()) {
+            continue;
+        }
+        if name.starts_with("KHR_materials_") || name == "KHR_lights_punctual" {
+            ignored.push(name);
+            continue;
+        }
+        let hint = match name.as_str() {
+            "KHR_draco_mesh_compression" => {
+                "; re-export the model without Draco (gltfpack -c writes meshopt compression, \
+                 which the cooker reads)"
+            }
+            "KHR_texture_basisu" | "EXT_texture_webp" | "EXT_texture_avif" | "MSFT_texture_dds" => {
+                "; re-export the model with PNG or JPEG textures"
+            }
+            _ => "",
+        };
+        return Err(bad(
+            path,
+            format!(
+                "the file requires glTF extension {name}, which the cooker cannot read (it reads \
+                 {}){hint}",
+                READ_EXTENSIONS.join(", ")
+            ),
+        ));
+    }
+    Ok(if ignored.is_empty() {
+        Vec::new()
+    } else {
+        vec![Warning::new(
+            path,
+            None,
+            format!(
+                "required extension(s) {} read without their effect: they change shading the \
+                 cooker does not model",
+                ignored.join(", ")
+            ),
+        )]
+    })
+}
+
+/// Per buffer its bytes (empty where no view needs them), per view its decoded bytes where it
+/// is compressed, and the external files read. A buffer is loaded only when an uncompressed
+/// view lies in it or a compressed view's data does: the placeholder buffer of compressed
+/// views has no data, or a fallback file a loader need not read.
+type Buffers = (Vec<Vec<u8>>, Vec<Option<Vec<u8>>>, Vec<std::path::PathBuf>);
+
+fn load_buffers(
+    path: &Path,
+    document: &gltf::Document,
+    base: &Path,
+    mut blob: Option<Vec<u8>>,
+) -> Result<Buffers, CookError> {
+    let compressed = document
+        .views()
+        .map(|v| {
+            super::gltf_meshopt::of_view(&v).map_err(|m| {
+                bad(
+                    path,
+                    format!(
+                        "buffer view {} ({}): {m}",
+                        v.index(),
+                        super::gltf_meshopt::NAMES[0]
+                    ),
+                )
+            })
+        })
+        .collect::<Result<Vec<_>, _>>()?;
+    let count = document.buffers().len();
+    let mut needed = vec![false; count];
+    for (view, c) in document.views().zip(&compressed) {
+        let b = c.as_ref().map_or(view.buffer().index(), |c| c.buffer);
+        match needed.get_mut(b) {
+            Some(n) => *n = true,
+            None => {
+                return Err(bad(
+                    path,
+                    format!(
+                        "buffer view {} uses buffer {b}, but there are {count}",
+                        view.index()
+                    ),
+                ));
+            }
+        }
+    }
+    let mut buffers = Vec::with_capacity(count);
+    let mut files = Vec::new();
+    for (b, need) in document.buffers().zip(needed) {
+        let source = b.source();
+        if !need {
+            buffers.push(Vec::new());
+            continue;
+        }
+        if matches!(source, gltf::buffer::Source::Bin) && b.index() > 0 {
+            return Err(bad(
+                path,
+                format!(
+                    "buffer {} has no uri: only buffer 0 can be a GLB's binary chunk",
+                    b.index()
+                ),
+            ));
+        }
+        if let gltf::buffer::Source::Uri(uri) = source
+            && !uri.starts_with("data:")
+        {
+            files.push(base.join(uri));
+        }
+        let data = gltf::buffer::Data::from_source_and_blob(source, Some(base), &mut blob)
+            .map_err(|e| bad(path, format!("cannot load buffer {}: {e}", b.index())))?;
+        if data.len() < b.length() {
+            return Err(bad(
+                path,
+                format!(
+                    "buffer {} holds {} bytes, but declares {}",
+                    b.index(),
+                    data.len(),
+                    b.length()
+                ),
+            ));
+        }
+        buffers.push(data.0);
+    }
+    let decoded = document
+        .views()
+        .zip(&compressed)
+        .map(|(view, c)| {
+            let Some(c) = c else { return Ok(None) };
+            let fail = |m: String| bad(path, format!("buffer view {}: {m}", view.index()));
+            let bytes = c
+                .decode(c.source(&buffers[c.buffer]).map_err(fail)?)
+                .map_err(fail)?;
+            Ok(Some(bytes))
+        })
+        .collect::<Result<Vec<_>, CookError>>()?;
+    Ok((buffers, decoded, files))
+}
+
 struct Ctx<'a> {
     path: &'a Path,
     buffers: &'a [&'a [u8]],
+    /// Per view, its bytes decoded where it is compressed (`EXT_meshopt_compression`).
+    decoded: &'a [Option<Vec<u8>>],
 }
 
 fn components(d: Dimensions) -> usize {
@@ -351,15 +519,8 @@ fn component(bytes: &[u8], t: DataType, normalized: bool) -> f32 {
 }
 
 impl Ctx<'_> {
-    /// The bytes of `count` elements of `elem` bytes at `offset` into a view, every bound checked.
-    fn view_slice(
-        &self,
-        view: &gltf::buffer::View,
-        offset: usize,
-        count: usize,
-        elem: usize,
-        what: &str,
-    ) -> Result<(&[u8], usize), CookError> {
+    /// A view's bytes within its buffer, bounds checked.
+    fn view_bytes(&self, view: &gltf::buffer::View, what: &str) -> Result<&[u8], CookError> {
         let buffer = self.buffers.get(view.buffer().index()).ok_or_else(|| {
             bad(
                 self.path,
@@ -381,6 +542,22 @@ impl Ctx<'_> {
                     ),
                 )
             })?;
+        Ok(data)
+    }
+
+    /// The bytes of `count` elements of `elem` bytes at `offset` into a view, every bound checked.
+    fn view_slice(
+        &self,
+        view: &gltf::buffer::View,
+        offset: usize,
+        count: usize,
+        elem: usize,
+        what: &str,
+    ) -> Result<(&[u8], usize), CookError> {
+        let data = match self.decoded.get(view.index()) {
+            Some(Some(bytes)) => &bytes[..],
+            _ => self.view_bytes(view, what)?,
+        };
         let stride = view.stride().unwrap_or(elem);
         if stride < elem {
             return Err(bad(
@@ -524,10 +701,98 @@ impl Ctx<'_> {
     }
 }
 
+/// `EXT_mesh_gpu_instancing`: the node's mesh is drawn once per instance, each placed by its
+/// translation, rotation and scale within the node. gltfpack's `-mi` and Blender write it for
+/// repeated objects (pews, pillars); without reading it, every such object was missing but
+/// one. A node without it is its own single instance.
+fn instances(
+    ctx: &Ctx,
+    document: &gltf::Document,
+    node: &gltf::Node,
+) -> Result<Vec<glam::Mat4>, CookError> {
+    let Some(ext) = node.extension_value("EXT_mesh_gpu_instancing") else {
+        return Ok(vec![glam::Mat4::IDENTITY]);
+    };
+    let fail = |m: String| {
+        bad(
+            ctx.path,
+            format!("node {} (EXT_mesh_gpu_instancing): {m}", node.index()),
+        )
+    };
+    let attributes = ext
+        .get("attributes")
+        .and_then(serde_json::Value::as_object)
+        .ok_or_else(|| fail("no `attributes` object".into()))?;
+    let accessor = |name: &str| -> Result<Option<gltf::Accessor>, CookError> {
+        let Some(v) = attributes.get(name) else {
+            return Ok(None);
+        };
+        let i = v
+            .as_u64()
+            .ok_or_else(|| fail(format!("{name} is {v}, not an accessor index")))?;
+        let i = usize::try_from(i).unwrap_or(usize::MAX);
+        document
+            .accessors()
+            .nth(i)
+            .map(Some)
+            .ok_or_else(|| fail(format!("{name} accessor {i} does not exist")))
+    };
+    let t = match accessor("TRANSLATION")? {
+        Some(a) => Some(ctx.floats::<3>(&a, "instance TRANSLATION")?),
+        None => None,
+    };
+    let r = match accessor("ROTATION")? {
+        Some(a) => Some(ctx.floats::<4>(&a, "instance ROTATION")?),
+        None => None,
+    };
+    let s = match accessor("SCALE")? {
+        Some(a) => Some(ctx.floats::<3>(&a, "instance SCALE")?),
+        None => None,
+    };
+    let counts = [
+        t.as_ref().map(Vec::len),
+        r.as_ref().map(Vec::len),
+        s.as_ref().map(Vec::len),
+    ];
+    let Some(n) = counts.iter().flatten().copied().next() else {
+        return Err(fail(
+            "none of TRANSLATION, ROTATION and SCALE is given".into(),
+        ));
+    };
+    if counts.iter().flatten().any(|&c| c != n) {
+        return Err(fail(format!(
+            "TRANSLATION, ROTATION and SCALE have different counts ({counts:?})"
+        )));
+    }
+    (0..n)
+        .map(|i| {
+            let tr = t
+                .as_ref()
+                .map_or(glam::Vec3::ZERO, |t| glam::Vec3::from(t[i]));
+            // Quantized rotations (normalized shorts) are only nearly unit.
+            let q = r.as_ref().map_or(glam::Quat::IDENTITY, |r| {
+                glam::Quat::from_array(r[i]).normalize()
+            });
+            let sc = s
+                .as_ref()
+                .map_or(glam::Vec3::ONE, |s| glam::Vec3::from(s[i]));
+            let m = glam::Mat4::from_scale_rotation_translation(sc, q, tr);
+            if m.is_finite() {
+                Ok(m)
+            } else {
+                Err(fail(format!(
+                    "instance {i} (translation {tr}, rotation {q}, scale {sc}) is not a finite \
+                     transform"
+                )))
+            }
+        })
+        .collect()
+}
+
 fn add_primitive(
     ctx: &Ctx,
     prim: &gltf::Primitive,
-    world: glam::Mat4,
+    worlds: &[glam::Mat4],
     part: u32,
     out: &mut Imported,
 ) -> Result<(), CookError> {
@@ -535,7 +800,7 @@ fn add_primitive(
     let pos_acc = prim
         .get(&gltf::Semantic::Positions)
         .ok_or_else(|| bad(path, "a triangle primitive has no POSITION attribute"))?;
-    let mut positions = ctx.floats::<3>(&pos_acc, "POSITION")?;
+    let positions = ctx.floats::<3>(&pos_acc, "POSITION")?;
     if let Some(i) = positions
         .iter()
         .position(|p| !p.iter().all(|c| c.is_finite()))
@@ -634,7 +899,7 @@ fn add_primitive(
     }
     // Each triangle's corners, three indices a triangle: a list's own indices, strips and
     // fans unrolled.
-    let mut corners: Vec<u32> = match prim.mode() {
+    let corners: Vec<u32> = match prim.mode() {
         Mode::TriangleStrip => (2..indices.len())
             .flat_map(|i| {
                 if i % 2 == 0 {
@@ -665,12 +930,69 @@ fn add_primitive(
         }
     };
 
+    let total = vcount.saturating_mul(worlds.len());
+    if worlds.len() > 1 && total > MAX_INSTANCED_VERTICES {
+        return Err(bad(
+            path,
+            format!(
+                "EXT_mesh_gpu_instancing places {} copies of a {vcount}-vertex primitive, more \
+                 than the {MAX_INSTANCED_VERTICES} vertices the cooker expands from one",
+                worlds.len()
+            ),
+        ));
+    }
+    if out.positions.len().saturating_add(total) >= NONE as usize {
+        return Err(bad(path, "more than 2^32 vertices"));
+    }
+    let Some((last, rest)) = worlds.split_last() else {
+        return Ok(());
+    };
+    for world in rest {
+        let copy = Attributes {
+            positions: positions.clone(),
+            normals: normals.clone(),
+            uvs: uvs.clone(),
+            corners: corners.clone(),
+        };
+        place(out, *world, part, copy);
+    }
+    place(
+        out,
+        *last,
+        part,
+        Attributes {
+            positions,
+            normals,
+            uvs,
+            corners,
+        },
+    );
+    Ok(())
+}
+
+/// The most vertices one instanced primitive may expand to: instancing multiplies what a file
+/// holds, so a small hostile file could otherwise ask for any amount of memory.
+const MAX_INSTANCED_VERTICES: usize = 1 << 27;
+
+/// One primitive's vertex data as read, before it is placed in the world.
+struct Attributes {
+    positions: Vec<[f32; 3]>,
+    normals: Option<Vec<[f32; 3]>>,
+    uvs: Option<Vec<[f32; 2]>>,
+    corners: Vec<u32>,
+}
+
+/// Appends a primitive's data placed by `world` to `out`.
+fn place(out: &mut Imported, world: glam::Mat4, part: u32, a: Attributes) {
+    let Attributes {
+        mut positions,
+        normals,
+        uvs,
+        mut corners,
+    } = a;
     let base_p = out.positions.len() as u32;
     let base_n = out.normals.len() as u32;
     let base_t = out.uvs.len() as u32;
-    if out.positions.len() + vcount >= NONE as usize {
-        return Err(bad(path, "more than 2^32 vertices"));
-    }
     let (has_normals, has_uvs) = (normals.is_some(), uvs.is_some());
     // Transformed where they were read, and taken whole by the first primitive: a copy of
     // each array beside it was the large mesh's import peak.
@@ -707,7 +1029,6 @@ fn add_primitive(
         has_normals.then_some(base_n),
     );
     out.tri_part.resize(out.tri_part.len() + triangles, part);
-    Ok(())
 }
 
 /// `KHR_texture_transform` applied to texture coordinates, as the extension defines it:
@@ -973,5 +1294,245 @@ mod tests {
         let imported = import(&path).unwrap();
         let want: Vec<[f32; 2]> = uv1.iter().map(|t| [t[0] * 2.0 + 0.5, t[1] * 3.0]).collect();
         assert_eq!(imported.uvs, want);
+    }
+
+    fn third_party(rel: &str) -> std::path::PathBuf {
+        Path::new(env!("CARGO_MANIFEST_DIR"))
+            .join("../../tests/data/third_party")
+            .join(rel)
+    }
+
+    /// A triangle's corners: position, normal and texture coordinates.
+    type Triangle = [([f32; 3], [f32; 3], [f32; 2]); 3];
+
+    /// Each triangle's corners in world space, normal and texture coordinates where present,
+    /// turned to start at its least position (the winding kept): meshopt's triangle codec may
+    /// turn a triangle's corners.
+    fn corners(m: &Imported) -> Vec<Triangle> {
+        (0..m.tri_part.len())
+            .map(|t| {
+                let mut c: [_; 3] = std::array::from_fn(|k| {
+                    let c = m.corners.get(t * 3 + k);
+                    let n = m.normals.get(c.n as usize).copied().unwrap_or_default();
+                    let uv = m.uvs.get(c.t as usize).copied().unwrap_or_default();
+                    (m.positions[c.p as usize], n, uv)
+                });
+                let least = (0..3)
+                    .min_by(|&a, &b| c[a].0.partial_cmp(&c[b].0).unwrap())
+                    .unwrap();
+                c.rotate_left(least);
+                c
+            })
+            .collect()
+    }
+
+    /// The largest distance from a corner of a triangle of `a` to the nearest corner of the
+    /// nearest triangle of `b`, and the same corners' normal and texture coordinate gaps:
+    /// order-free, since gltfpack's `-cc` reorders for compression.
+    fn gap(a: &Imported, b: &Imported) -> [f32; 3] {
+        let (ta, tb) = (corners(a), corners(b));
+        assert_eq!(ta.len(), tb.len(), "triangle counts differ");
+        let d3 = |x: [f32; 3], y: [f32; 3]| glam::Vec3::from(x).distance(glam::Vec3::from(y));
+        let centre = |t: &Triangle| {
+            (t.iter().map(|c| glam::Vec3::from(c.0)).sum::<glam::Vec3>() / 3.0).to_array()
+        };
+        let mut worst = [0.0f32; 3];
+        for t in &ta {
+            let near = tb
+                .iter()
+                .min_by(|u, v| d3(centre(t), centre(u)).total_cmp(&d3(centre(t), centre(v))))
+                .unwrap();
+            for c in t {
+                let m = near
+                    .iter()
+                    .min_by(|u, v| d3(c.0, u.0).total_cmp(&d3(c.0, v.0)))
+                    .unwrap();
+                worst[0] = worst[0].max(d3(c.0, m.0));
+                worst[1] = worst[1].max(d3(c.1, m.1));
+                worst[2] = worst[2].max(glam::Vec2::from(c.2).distance(glam::Vec2::from(m.2)));
+            }
+        }
+        worst
+    }
+
+    /// gltfpack's default output (`KHR_mesh_quantization`, required) and its `-c` output
+    /// (`EXT_meshopt_compression` over a placeholder buffer with no data) of the same model
+    /// import to the same data, bit for bit, and to the model gltfpack read within its 14-bit
+    /// quantization. Both were refused before ("extensionsRequired[0] = KHR_mesh_quantization:
+    /// Unsupported extension").
+    #[test]
+    fn gltfpack_quantized_and_meshopt_compressed_files_import() {
+        let q = import(&third_party("gltfpack/spot_q.glb")).unwrap();
+        let c = import(&third_party("gltfpack/spot_c.glb")).unwrap();
+        assert!(q.positions == c.positions, "positions differ");
+        assert!(corners(&q) == corners(&c), "triangles differ");
+        assert_eq!(q.tri_part.len(), 5856);
+        let obj = super::super::obj::import(&third_party("classic/spot.obj")).unwrap();
+        let extent = |m: &Imported| {
+            let (lo, hi) = m.positions.iter().fold(
+                (glam::Vec3::INFINITY, glam::Vec3::NEG_INFINITY),
+                |(lo, hi), p| (lo.min((*p).into()), hi.max((*p).into())),
+            );
+            (lo, hi)
+        };
+        let ((lo_q, hi_q), (lo_o, hi_o)) = (extent(&q), extent(&obj));
+        let size = (hi_o - lo_o).max_element();
+        assert!(lo_q.distance(lo_o) < size * 2e-4 && hi_q.distance(hi_o) < size * 2e-4);
+        assert_eq!(obj.tri_part.len(), q.tri_part.len());
+        assert!(gap(&q, &obj)[0] < size * 2e-4, "{:?}", gap(&q, &obj));
+    }
+
+    /// `-cc` adds the octahedral filter on 8-bit normals and reorders; the texture stays an
+    /// uncompressed view beside the compressed ones.
+    #[test]
+    fn gltfpack_cc_normals_texture_and_materials_import() {
+        let q = import(&third_party("gltfpack/boxtex_q.glb")).unwrap();
+        let cc = import(&third_party("gltfpack/boxtex_cc.glb")).unwrap();
+        let [dp, dn, duv] = gap(&q, &cc);
+        assert!(dp < 1e-6 && dn < 0.02 && duv < 1e-6, "{dp} {dn} {duv}");
+        assert!(
+            cc.normals
+                .iter()
+                .all(|n| (glam::Vec3::from(*n).length() - 1.0).abs() < 1e-3)
+        );
+        match &cc.materials[0].diffuse_texture {
+            Some(ImageRef::Embedded { bytes, .. }) => assert!(bytes.starts_with(b"\x89PNG")),
+            other => panic!("no embedded design: {other:?}"),
+        }
+        let q = import(&third_party("gltfpack/cornell_q.glb")).unwrap();
+        let cc = import(&third_party("gltfpack/cornell_cc.glb")).unwrap();
+        assert!(gap(&q, &cc)[0] < 1e-3, "{:?}", gap(&q, &cc));
+        let names = |m: &Imported| {
+            let mut v: Vec<String> = m.materials.iter().map(|m| m.name.clone()).collect();
+            v.sort();
+            v
+        };
+        assert_eq!(names(&q), names(&cc));
+        assert_eq!(names(&q), ["green", "red", "white"]);
+    }
+
+    /// `EXT_mesh_gpu_instancing` (gltfpack `-mi`, with its quaternion and exponential filters):
+    /// one mesh placed six times by instance attributes imports as the six placed copies that
+    /// six nodes give. Before, the extension was refused, and read past it only one box stood.
+    #[test]
+    fn instanced_meshes_import_as_their_placed_copies() {
+        let nodes = import(&third_party("gltfpack/boxes.gltf")).unwrap();
+        let q = import(&third_party("gltfpack/boxes_q.glb")).unwrap();
+        let mi = import(&third_party("gltfpack/boxes_mi_cc.glb")).unwrap();
+        assert_eq!(nodes.tri_part.len(), 72);
+        // 14-bit positions on a 12-unit row, 16-bit quaternions.
+        assert!(gap(&nodes, &q)[0] < 2e-3, "{:?}", gap(&nodes, &q));
+        assert!(gap(&nodes, &mi)[0] < 2e-3, "{:?}", gap(&nodes, &mi));
+        assert!(gap(&q, &mi)[1] < 0.02, "{:?}", gap(&q, &mi));
+    }
+
+    fn write_gltf(dir: &Path, bin: &[u8], views: &str, extra: &str) -> std::path::PathBuf {
+        std::fs::write(dir.join("b.bin"), bin).unwrap();
+        let json = format!(
+            r#"{{"asset": {{"version": "2.0"}}, {extra}
+            "scene": 0, "scenes": [{{"nodes": [0]}}], "nodes": [{{"mesh": 0}}],
+            "meshes": [{{"primitives": [{{"attributes": {{"POSITION": 0}}}}]}}],
+            "accessors": [{{"bufferView": 0, "componentType": 5126, "count": 3,
+                "type": "VEC3", "min": [0, 0, 0], "max": [1, 1, 0]}}],
+            "bufferViews": [{views}],
+            "buffers": [{{"byteLength": {}, "uri": "b.bin"}}, {{"byteLength": 36}}]}}"#,
+            bin.len()
+        );
+        let path = dir.join("m.gltf");
+        std::fs::write(&path, json).unwrap();
+        path
+    }
+
+    #[test]
+    fn required_extensions_the_cooker_cannot_read_are_named() {
+        let dir = tempfile::tempdir().unwrap();
+        let tri: Vec<u8> = [0f32, 0., 0., 1., 0., 0., 0., 1., 0.]
+            .iter()
+            .flat_map(|f| f.to_le_bytes())
+            .collect();
+        let view = r#"{"buffer": 0, "byteLength": 36}"#;
+        let draco = write_gltf(
+            dir.path(),
+            &tri,
+            view,
+            r#""extensionsRequired": ["KHR_draco_mesh_compression"],"#,
+        );
+        let e = import(&draco).unwrap_err().to_string();
+        assert!(
+            e.contains("m.gltf")
+                && e.contains("KHR_draco_mesh_compression")
+                && e.contains("gltfpack"),
+            "{e}"
+        );
+        // Shading-only extensions cook, with a warning.
+        let sg = write_gltf(
+            dir.path(),
+            &tri,
+            view,
+            r#""extensionsRequired": ["KHR_materials_pbrSpecularGlossiness"],"#,
+        );
+        let m = import(&sg).unwrap();
+        assert_eq!(m.tri_part.len(), 1);
+        assert!(
+            m.warnings
+                .iter()
+                .any(|w| w.message.contains("pbrSpecularGlossiness"))
+        );
+    }
+
+    /// Compressed views that lie or do not decode are errors naming the view, never a panic
+    /// or a read past the data.
+    #[test]
+    fn malformed_meshopt_views_are_errors() {
+        let dir = tempfile::tempdir().unwrap();
+        let cases = [
+            // Not a meshopt stream (header byte 0).
+            (
+                r#""count": 3, "byteStride": 12, "mode": "ATTRIBUTES""#,
+                "does not decode",
+            ),
+            // A stride the attribute codec cannot have.
+            (
+                r#""count": 2, "byteStride": 18, "mode": "ATTRIBUTES""#,
+                "byteStride 18",
+            ),
+            // More elements than the view holds.
+            (
+                r#""count": 4, "byteStride": 12, "mode": "ATTRIBUTES""#,
+                "do not fill",
+            ),
+            (
+                r#""count": 3, "byteStride": 12, "mode": "WAVELET""#,
+                "WAVELET",
+            ),
+            (
+                r#""count": 3, "byteStride": 12, "mode": "ATTRIBUTES", "filter": "OCTAHEDRAL""#,
+                "filter",
+            ),
+        ];
+        for (ext, want) in cases {
+            let view = format!(
+                r#"{{"buffer": 1, "byteLength": 36, "extensions": {{"EXT_meshopt_compression":
+                    {{"buffer": 0, "byteLength": 40, {ext}}}}}}}"#
+            );
+            let path = write_gltf(
+                dir.path(),
+                &[0u8; 40],
+                &view,
+                r#""extensionsRequired": ["EXT_meshopt_compression"],"#,
+            );
+            let e = import(&path).unwrap_err().to_string();
+            assert!(
+                e.contains("buffer view 0") && e.contains(want),
+                "{ext}: {e}"
+            );
+        }
+        // Compressed bytes past the end of their buffer.
+        let view = r#"{"buffer": 1, "byteLength": 36, "extensions": {"EXT_meshopt_compression":
+            {"buffer": 0, "byteOffset": 30, "byteLength": 40, "count": 3, "byteStride": 12,
+            "mode": "ATTRIBUTES"}}}"#;
+        let path = write_gltf(dir.path(), &[0u8; 40], view, "");
+        let e = import(&path).unwrap_err().to_string();
+        assert!(e.contains("outside buffer 0"), "{e}");
     }
 }
