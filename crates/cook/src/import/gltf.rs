@@ -207,6 +207,7 @@ pub fn import(path: &Path) -> Result<Imported, CookError> {
         if let Some(mesh) = node.mesh() {
             let ctx = Ctx {
                 path,
+                document: &document,
                 buffers: &buffers,
                 decoded: &decoded,
             };
@@ -317,6 +318,7 @@ const READ_EXTENSIONS: &[&str] = &[
     "EXT_meshopt_compression",
     "KHR_meshopt_compression",
     "EXT_mesh_gpu_instancing",
+    "EXT_texture_webp",
 ];
 
 /// Checks what the file requires (`extensionsRequired`, which gltf's validation would refuse
@@ -339,7 +341,7 @@ fn required_extensions(path: &Path, required: Vec<String>) -> Result<Vec<Warning
                 "; re-export the model without Draco (gltfpack -c writes meshopt compression, \
                  which the cooker reads)"
             }
-            "KHR_texture_basisu" | "EXT_texture_webp" | "EXT_texture_avif" | "MSFT_texture_dds" => {
+            "KHR_texture_basisu" | "EXT_texture_avif" | "MSFT_texture_dds" => {
                 "; re-export the model with PNG or JPEG textures"
             }
             _ => "",
@@ -466,6 +468,7 @@ fn load_buffers(
 
 struct Ctx<'a> {
     path: &'a Path,
+    document: &'a gltf::Document,
     buffers: &'a [&'a [u8]],
     /// Per view, its bytes decoded where it is compressed (`EXT_meshopt_compression`).
     decoded: &'a [Option<Vec<u8>>],
@@ -1110,6 +1113,39 @@ fn decode_data_uri(path: &Path, name: &str, uri: &str) -> Result<Vec<u8>, CookEr
     Ok(bytes)
 }
 
+/// The image a texture samples: its `EXT_texture_webp` source where it has one (the texture
+/// stage decodes WebP like PNG, and a file that requires the extension gives no other), else
+/// its plain `source`.
+fn texture_ref(
+    ctx: &Ctx,
+    texture: &gltf::Texture,
+    warnings: &mut Vec<Warning>,
+) -> Result<Option<ImageRef>, CookError> {
+    let webp = texture
+        .extension_value("EXT_texture_webp")
+        .and_then(|e| e.get("source"));
+    let image = match webp {
+        Some(v) => v
+            .as_u64()
+            .and_then(|i| ctx.document.images().nth(usize::try_from(i).ok()?)),
+        None => texture.source(),
+    };
+    match image {
+        Some(image) => image_ref(ctx, image, warnings),
+        None => {
+            warnings.push(Warning::new(
+                ctx.path,
+                None,
+                format!(
+                    "texture {} names no image it can be read from; texture ignored",
+                    texture.index()
+                ),
+            ));
+            Ok(None)
+        }
+    }
+}
+
 fn image_ref(
     ctx: &Ctx,
     image: gltf::Image,
@@ -1207,11 +1243,11 @@ fn convert_material(
         shininess,
         emissive: m.emissive_factor(),
         diffuse_texture: match pbr.base_color_texture() {
-            Some(t) => image_ref(ctx, t.texture().source(), warnings)?,
+            Some(t) => texture_ref(ctx, &t.texture(), warnings)?,
             None => None,
         },
         normal_texture: match m.normal_texture() {
-            Some(t) => image_ref(ctx, t.texture().source(), warnings)?,
+            Some(t) => texture_ref(ctx, &t.texture(), warnings)?,
             None => None,
         },
         transmission: gltf_transmission(m),
@@ -1534,5 +1570,39 @@ mod tests {
         let path = write_gltf(dir.path(), &[0u8; 40], view, "");
         let e = import(&path).unwrap_err().to_string();
         assert!(e.contains("outside buffer 0"), "{e}");
+    }
+
+    /// A texture given only as WebP (`EXT_texture_webp`, required: no PNG beside it, as
+    /// gltf-transform's `webp` writes it) is read, and decodes.
+    #[test]
+    fn webp_textures_are_read_where_a_file_requires_them() {
+        let dir = tempfile::tempdir().unwrap();
+        let design = image::RgbaImage::from_fn(4, 2, |x, y| {
+            image::Rgba([200, 40 * x as u8, 90 * y as u8, 255])
+        });
+        design.save(dir.path().join("design.webp")).unwrap();
+        let tri: Vec<u8> = [0f32, 0., 0., 1., 0., 0., 0., 1., 0.]
+            .iter()
+            .flat_map(|f| f.to_le_bytes())
+            .collect();
+        std::fs::write(dir.path().join("b.bin"), &tri).unwrap();
+        let json = r#"{"asset": {"version": "2.0"},
+            "extensionsUsed": ["EXT_texture_webp"], "extensionsRequired": ["EXT_texture_webp"],
+            "scene": 0, "scenes": [{"nodes": [0]}], "nodes": [{"mesh": 0}],
+            "meshes": [{"primitives": [{"attributes": {"POSITION": 0}, "material": 0}]}],
+            "materials": [{"pbrMetallicRoughness": {"baseColorTexture": {"index": 0}}}],
+            "textures": [{"extensions": {"EXT_texture_webp": {"source": 0}}}],
+            "images": [{"uri": "design.webp"}],
+            "accessors": [{"bufferView": 0, "componentType": 5126, "count": 3,
+                "type": "VEC3", "min": [0, 0, 0], "max": [1, 1, 0]}],
+            "bufferViews": [{"buffer": 0, "byteLength": 36}],
+            "buffers": [{"byteLength": 36, "uri": "b.bin"}]}"#;
+        let path = dir.path().join("w.gltf");
+        std::fs::write(&path, json).unwrap();
+        let m = import(&path).unwrap();
+        let texture = m.materials[0].diffuse_texture.clone().expect("a design");
+        assert_eq!(texture, ImageRef::File(dir.path().join("design.webp")));
+        let decoded = crate::textures::decode(&texture).unwrap().to_rgba8();
+        assert_eq!(decoded, design);
     }
 }
