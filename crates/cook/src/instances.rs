@@ -122,35 +122,6 @@ pub(crate) fn triangle(src: &Imported, t: u32) -> [DVec3; 3] {
     (src.corners.triangle_positions(t as usize)).map(|k| v3(src.positions[k as usize]))
 }
 
-/// Area-weighted plane of some triangles: centroid, unit normal (sign of the largest
-/// triangle, with flipped triangles turned to agree) and area.
-fn fit_plane(src: &Imported, tris: &[u32]) -> Option<(DVec3, DVec3, f64)> {
-    let normals: Vec<(DVec3, DVec3, f64)> = tris
-        .iter()
-        .map(|&t| {
-            let [a, b, c] = triangle(src, t);
-            let n = (b - a).cross(c - a);
-            ((a + b + c) / 3.0, n, n.length() * 0.5)
-        })
-        .collect();
-    let reference = normals
-        .iter()
-        .max_by(|a, b| a.2.total_cmp(&b.2))
-        .map(|n| n.1)?;
-    let mut sum = DVec3::ZERO;
-    let mut centroid = DVec3::ZERO;
-    let mut area = 0.0;
-    for (c, n, a) in &normals {
-        sum += if n.dot(reference) < 0.0 { -*n } else { *n };
-        centroid += *c * *a;
-        area += a;
-    }
-    if area.is_nan() || area <= 0.0 || sum.length() == 0.0 {
-        return None;
-    }
-    Some((centroid / area, sum.normalize(), area))
-}
-
 fn vertices<'a>(src: &'a Imported, tris: &'a [u32]) -> impl Iterator<Item = DVec3> + 'a {
     tris.iter().flat_map(move |&t| triangle(src, t))
 }
@@ -259,7 +230,8 @@ fn canonical_basis(n: DVec3) -> (DVec3, DVec3) {
 
 impl Shape {
     fn of(src: &Imported, tris: &[u32]) -> Option<Shape> {
-        let (centroid, normal, area) = fit_plane(src, tris)?;
+        let (centroid, normal, area) =
+            crate::windows::oriented_plane(tris.iter().map(|&t| triangle(src, t)), None)?;
         let (mut lo, mut hi) = (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY));
         let (mut lo2, mut hi2) = (DVec2::splat(f64::INFINITY), DVec2::splat(f64::NEG_INFINITY));
         let (e, f) = canonical_basis(normal);

@@ -82,9 +82,8 @@ pub struct Tagging {
     pub part_material: Vec<Vec<u16>>,
     /// Per source, per part: how it was decided.
     pub decisions: Vec<Vec<Decision>>,
-    /// Per source, per part: whether the geometry cut it (a piece or the rest; see
-    /// `split_mixed_parts`).
-    pub cut: Vec<Vec<bool>>,
+    /// Per source, per part: what the geometry cut made of it (see `split_mixed_parts`).
+    pub cut: Vec<Vec<Cut>>,
     pub ambiguities: Vec<Ambiguity>,
     /// Source materials (per source, by index) that no triangle uses.
     pub unused_source_materials: Vec<(usize, String)>,
@@ -567,6 +566,32 @@ impl CompiledRule<'_> {
     }
 }
 
+/// What a part's names and material say of it, in order of trust: an explicit rule; the
+/// material's own transparency (a glass named anything); a keyword in a name. Where none
+/// speaks, where the part lies decides, and only then may a part be cut.
+struct Evidence {
+    rule: Option<usize>,
+    glass: Option<String>,
+    named: Option<(&'static str, NameKind, String, MaterialClass)>,
+}
+
+impl Evidence {
+    fn of(src: &Imported, part: &crate::import::Part, rules: &[CompiledRule<'_>]) -> Self {
+        Self {
+            rule: rules.iter().position(|r| r.matches(&part.names)),
+            glass: part
+                .material
+                .and_then(|m| src.materials.get(m as usize))
+                .and_then(|m| m.transmission.glass_reason()),
+            named: heuristic(&part.names),
+        }
+    }
+
+    fn is_none(&self) -> bool {
+        self.rule.is_none() && self.glass.is_none() && self.named.is_none()
+    }
+}
+
 /// Cuts the parts nothing but their geometry could tag, and whose geometry is mixed, into a
 /// floor, a wall and the rest: real models often give the whole building one material
 /// (`Material.001`, `Default`), floor, walls, vaults and roof alike. Whole, such a part is
@@ -588,14 +613,8 @@ fn split_mixed_parts(
         .iter()
         .zip(parts)
         .map(|(part, g)| {
-            let glass = part
-                .material
-                .and_then(|m| src.materials.get(m as usize))
-                .and_then(|m| m.transmission.glass_reason());
             g.area > 0.0
-                && !rules.iter().any(|r| r.matches(&part.names))
-                && glass.is_none()
-                && heuristic(&part.names).is_none()
+                && Evidence::of(src, part, rules).is_none()
                 && geometry_heuristic(g, height, total).is_none()
         })
         .collect();
@@ -674,8 +693,10 @@ fn split_mixed_parts(
 }
 
 /// What [`split_mixed_parts`] made of a part.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-enum Cut {
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum Cut {
+    /// Left whole.
+    #[default]
     None,
     /// Its floor and walls were cut out.
     Rest,
@@ -729,13 +750,7 @@ pub fn tag(manifest: &Manifest, sources: &mut [Imported]) -> Result<Tagging, Coo
         .map(|src| split_mixed_parts(src, &rules))
         .unzip();
     let sources: &[Imported] = sources;
-    let mut out = Tagging {
-        cut: cuts
-            .iter()
-            .map(|c| c.iter().map(|&k| k != Cut::None).collect())
-            .collect(),
-        ..Tagging::default()
-    };
+    let mut out = Tagging::default();
     // (pack name, class) → material index; names used with several classes get a suffix.
     let mut index: HashMap<(String, MaterialClass), u16> = HashMap::new();
     let mut seen_names: HashMap<(NameKind, String), ()> = HashMap::new();
@@ -772,11 +787,7 @@ pub fn tag(manifest: &Manifest, sources: &mut [Imported]) -> Result<Tagging, Coo
             {
                 used[m as usize] = true;
             }
-            let rule = rules.iter().position(|r| r.matches(&part.names));
-            // Evidence in order of trust: an explicit rule; the material's own transparency
-            // (a glass named anything); a keyword in a name; then where the part lies.
-            let glass = source_material.and_then(|m| m.transmission.glass_reason());
-            let named = heuristic(&part.names);
+            let Evidence { rule, glass, named } = Evidence::of(src, part, &rules);
             let (decision, class) = match (rule, glass, named) {
                 (Some(r), _, _) => (Decision::Rule(r), rules[r].rule.class),
                 (None, Some(reason), named) => {
@@ -898,6 +909,7 @@ pub fn tag(manifest: &Manifest, sources: &mut [Imported]) -> Result<Tagging, Coo
         out.part_material.push(mats);
         out.decisions.push(decisions);
     }
+    out.cut = cuts;
     Ok(out)
 }
 

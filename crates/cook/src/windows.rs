@@ -158,6 +158,36 @@ impl Sheets {
     }
 }
 
+/// Area-weighted plane of some triangles: centroid, unit normal and area, `None` for no
+/// area. Faces are turned to agree with `reference` (else with the largest face) before they
+/// are summed: double-sided glass (each face twice, wound both ways) and glass with thickness
+/// (a thin box) summed to no normal at all, and such a window got no frame and no light.
+pub(crate) fn oriented_plane(
+    faces: impl Iterator<Item = [glam::DVec3; 3]>,
+    reference: Option<glam::DVec3>,
+) -> Option<(glam::DVec3, glam::DVec3, f64)> {
+    let faces: Vec<(glam::DVec3, glam::DVec3, f64)> = faces
+        .map(|[a, b, c]| {
+            let n = (b - a).cross(c - a);
+            ((a + b + c) / 3.0, n, n.length() * 0.5)
+        })
+        .collect();
+    let reference =
+        reference.or_else(|| faces.iter().max_by(|x, y| x.2.total_cmp(&y.2)).map(|f| f.1))?;
+    let mut sum = glam::DVec3::ZERO;
+    let mut centroid = glam::DVec3::ZERO;
+    let mut area = 0.0;
+    for (c, n, a) in &faces {
+        sum += if n.dot(reference) < 0.0 { -*n } else { *n };
+        centroid += *c * *a;
+        area += a;
+    }
+    if area.is_nan() || area <= 0.0 || sum.length() == 0.0 {
+        return None;
+    }
+    Some((centroid / area, sum.normalize(), area))
+}
+
 /// Fits `world = origin + u * u_axis + v * v_axis` to the window's vertices and orients the
 /// normal into the building: along the direction a directional light travels, or away from a
 /// point light. Returns `None` for a window with no area.
@@ -168,35 +198,8 @@ pub fn analyze(
     inside: Option<glam::DVec3>,
 ) -> Option<WindowAnalysis> {
     let corners = |t: &[u32; 3]| t.map(|i| v3(g.positions[i as usize]));
-    // Faces are turned to agree before they are summed: double-sided glass (each face twice,
-    // wound both ways) and glass with thickness (a thin box) summed to no normal at all, and
-    // such a window got no frame and no light. The inside decides; else the largest face.
-    let reference = inside.unwrap_or_else(|| {
-        g.triangles
-            .iter()
-            .map(|t| {
-                let [a, b, c] = corners(t);
-                (b - a).cross(c - a)
-            })
-            .max_by(|a, b| a.length_squared().total_cmp(&b.length_squared()))
-            .unwrap_or_default()
-    });
-    let mut area_normal = glam::DVec3::ZERO;
-    let mut centroid = glam::DVec3::ZERO;
-    let mut area = 0.0;
-    for t in &g.triangles {
-        let [a, b, c] = corners(t);
-        let n = (b - a).cross(c - a);
-        let w = n.length() * 0.5;
-        area_normal += if n.dot(reference) < 0.0 { -n } else { n };
-        centroid += (a + b + c) / 3.0 * w;
-        area += w;
-    }
-    if area.is_nan() || area <= 0.0 || area_normal.length() == 0.0 {
-        return None;
-    }
-    centroid /= area;
-    let plane_n = area_normal.normalize();
+    // The inside decides which way the faces are turned; else the largest face.
+    let (centroid, plane_n, _) = oriented_plane(g.triangles.iter().map(corners), inside)?;
     let sheets = Sheets::of(g.triangles.iter().map(corners), centroid, plane_n);
 
     let used: Vec<u32> = {

@@ -7,7 +7,7 @@ use std::path::{Path, PathBuf};
 
 use cook::Manifest;
 use cook::manifest::NameKind;
-use cook::tag::Decision;
+use cook::tag::{Cut, Decision};
 use pack::MaterialClass;
 
 use crate::exit::{OK, Outcome, UsageError};
@@ -182,7 +182,7 @@ pub fn run(args: Args) -> Outcome {
                 },
             };
             let k = SPECIFIC_FIRST.iter().position(|&s| s == kind).unwrap_or(0);
-            if prepared.tagging.cut[si][pi] {
+            if prepared.tagging.cut[si][pi] != Cut::None {
                 cut.entry((k, name.clone())).or_default().insert(class);
             }
             if !rules.iter().any(|r| r.0 == kind && r.1 == name) {
