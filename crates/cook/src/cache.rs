@@ -1,7 +1,8 @@
 //! The incremental cook cache: a content-addressed store of cooked artifacts.
 //!
 //! A key is a SHA-256 over everything that can change an artifact: the bytes of every input
-//! file, the settings, the cooker's version and the pack format version. Settings enter every
+//! file, the settings, the cooker's version and source (a fingerprint `build.rs` takes of the
+//! code that decides a cook's output) and the pack format version. Settings enter every
 //! key in one way, serialized whole (bincode, a canonical encoding): the scene's key takes all
 //! of [`Settings`], a texture's its [`TextureSettings`], so no key lists settings one by one
 //! and none can miss a new one. The thread count is deliberately not part of any key: cooking
@@ -28,7 +29,9 @@ const MAGIC: &[u8; 8] = b"SGCACHE\x01";
 /// are mipped from a padded level 0, and cooks' notes are no longer warnings. 4: packs stream
 /// mips by texel count, and a texture kept RGBA8 notes what each encoder setting reached.
 /// 5: draw ranges of over 400k triangles are ordered for the vertex cache in pieces of at most
-/// 200k (other meshes' packs are unchanged, but a shared cache must not mix the two).
+/// 200k (other meshes' packs are unchanged, but a shared cache must not mix the two). Since
+/// keys carry the source's fingerprint, a change of code needs no bump; a change of what keys
+/// hold still does.
 pub const CACHE_VERSION: u32 = 6;
 const HEADER: usize = 8 + 8 + 4 + 4;
 
@@ -54,6 +57,7 @@ impl KeyBuilder {
         b.u64("cache version", CACHE_VERSION as u64);
         b.u64("pack format", pack::FORMAT_VERSION as u64);
         b.str("cooker", env!("CARGO_PKG_VERSION"));
+        b.str("cooker source", env!("COOK_SOURCE_FINGERPRINT"));
         b
     }
 
