@@ -319,6 +319,7 @@ const READ_EXTENSIONS: &[&str] = &[
     "KHR_meshopt_compression",
     "EXT_mesh_gpu_instancing",
     "EXT_texture_webp",
+    "KHR_materials_pbrSpecularGlossiness",
 ];
 
 /// Checks what the file requires (`extensionsRequired`, which gltf's validation would refuse
@@ -837,10 +838,7 @@ fn add_primitive(
         }
         None => None,
     };
-    let base = prim
-        .material()
-        .pbr_metallic_roughness()
-        .base_color_texture();
+    let base = colour_texture(&prim.material());
     let transform = base.as_ref().and_then(|t| t.texture_transform());
     let set = transform
         .as_ref()
@@ -1202,7 +1200,7 @@ fn image_ref(
 /// Glass in glTF: `KHR_materials_transmission` (its colour is the base colour, tinted by
 /// `KHR_materials_volume`'s attenuation colour) or an alpha-blended material.
 fn gltf_transmission(m: &gltf::Material) -> super::Transmission {
-    let base = m.pbr_metallic_roughness().base_color_factor();
+    let base = base_colour(m);
     let factor = m.transmission().map(|t| t.transmission_factor());
     let blend = m.alpha_mode() == gltf::material::AlphaMode::Blend;
     let attenuation = m.volume().map(|v| v.attenuation_color());
@@ -1219,17 +1217,46 @@ fn gltf_transmission(m: &gltf::Material) -> super::Transmission {
     }
 }
 
+/// A material's colour: `KHR_materials_pbrSpecularGlossiness`'s diffuse where it has it (older
+/// exporters, 3ds Max and Babylon among them, wrote only that, leaving the metallic-roughness
+/// colour white), else the base colour.
+fn base_colour(m: &gltf::Material) -> [f32; 4] {
+    match m.pbr_specular_glossiness() {
+        Some(sg) => sg.diffuse_factor(),
+        None => m.pbr_metallic_roughness().base_color_factor(),
+    }
+}
+
+/// The texture of [`base_colour`].
+fn colour_texture<'a>(m: &gltf::Material<'a>) -> Option<gltf::texture::Info<'a>> {
+    match m.pbr_specular_glossiness() {
+        Some(sg) => sg.diffuse_texture(),
+        None => m.pbr_metallic_roughness().base_color_texture(),
+    }
+}
+
 fn convert_material(
     ctx: &Ctx,
     m: &gltf::Material,
     warnings: &mut Vec<Warning>,
 ) -> Result<SourceMaterial, CookError> {
     let pbr = m.pbr_metallic_roughness();
-    let base = pbr.base_color_factor();
-    let metallic = pbr.metallic_factor().clamp(0.0, 1.0);
-    let rough = pbr.roughness_factor().clamp(0.02, 1.0);
-    let diffuse = [0, 1, 2].map(|k| base[k] * (1.0 - metallic));
-    let specular = [0, 1, 2].map(|k| 0.04 * (1.0 - metallic) + base[k] * metallic);
+    let base = base_colour(m);
+    let (diffuse, specular, rough) = match m.pbr_specular_glossiness() {
+        Some(sg) => (
+            [base[0], base[1], base[2]],
+            sg.specular_factor(),
+            (1.0 - sg.glossiness_factor()).clamp(0.02, 1.0),
+        ),
+        None => {
+            let metallic = pbr.metallic_factor().clamp(0.0, 1.0);
+            (
+                [0, 1, 2].map(|k| base[k] * (1.0 - metallic)),
+                [0, 1, 2].map(|k| 0.04 * (1.0 - metallic) + base[k] * metallic),
+                pbr.roughness_factor().clamp(0.02, 1.0),
+            )
+        }
+    };
     // Blinn-Phong exponent of the same lobe width as a GGX roughness (alpha = roughness²).
     let a = rough * rough;
     let shininess = (2.0 / (a * a) - 2.0).clamp(1.0, 2048.0);
@@ -1242,7 +1269,7 @@ fn convert_material(
         specular,
         shininess,
         emissive: m.emissive_factor(),
-        diffuse_texture: match pbr.base_color_texture() {
+        diffuse_texture: match colour_texture(m) {
             Some(t) => texture_ref(ctx, &t.texture(), warnings)?,
             None => None,
         },
@@ -1505,14 +1532,14 @@ mod tests {
             dir.path(),
             &tri,
             view,
-            r#""extensionsRequired": ["KHR_materials_pbrSpecularGlossiness"],"#,
+            r#""extensionsRequired": ["KHR_materials_clearcoat"],"#,
         );
         let m = import(&sg).unwrap();
         assert_eq!(m.tri_part.len(), 1);
         assert!(
             m.warnings
                 .iter()
-                .any(|w| w.message.contains("pbrSpecularGlossiness"))
+                .any(|w| w.message.contains("KHR_materials_clearcoat"))
         );
     }
 
@@ -1604,5 +1631,48 @@ mod tests {
         assert_eq!(texture, ImageRef::File(dir.path().join("design.webp")));
         let decoded = crate::textures::decode(&texture).unwrap().to_rgba8();
         assert_eq!(decoded, design);
+    }
+
+    /// A specular-glossiness material (older exporters write only that, and require it) gives
+    /// its diffuse colour and texture, and a blended one is glass of that colour; before, the
+    /// file was refused, and read past the extension every such material was white.
+    #[test]
+    fn specular_glossiness_materials_give_their_diffuse_colour() {
+        let dir = tempfile::tempdir().unwrap();
+        image::RgbaImage::from_pixel(2, 2, image::Rgba([9, 9, 9, 255]))
+            .save(dir.path().join("d.png"))
+            .unwrap();
+        let tri: Vec<u8> = [0f32, 0., 0., 1., 0., 0., 0., 1., 0.]
+            .iter()
+            .flat_map(|f| f.to_le_bytes())
+            .collect();
+        std::fs::write(dir.path().join("b.bin"), &tri).unwrap();
+        let json = r#"{"asset": {"version": "2.0"},
+            "extensionsUsed": ["KHR_materials_pbrSpecularGlossiness"],
+            "extensionsRequired": ["KHR_materials_pbrSpecularGlossiness"],
+            "scene": 0, "scenes": [{"nodes": [0]}], "nodes": [{"mesh": 0}],
+            "meshes": [{"primitives": [{"attributes": {"POSITION": 0}, "material": 0}]}],
+            "materials": [{"name": "vitrail", "alphaMode": "BLEND", "extensions": {
+                "KHR_materials_pbrSpecularGlossiness": {"diffuseFactor": [0.8, 0.1, 0.2, 0.4],
+                "specularFactor": [0.5, 0.5, 0.5], "glossinessFactor": 0.9,
+                "diffuseTexture": {"index": 0}}}}],
+            "textures": [{"source": 0}], "images": [{"uri": "d.png"}],
+            "accessors": [{"bufferView": 0, "componentType": 5126, "count": 3,
+                "type": "VEC3", "min": [0, 0, 0], "max": [1, 1, 0]}],
+            "bufferViews": [{"buffer": 0, "byteLength": 36}],
+            "buffers": [{"byteLength": 36, "uri": "b.bin"}]}"#;
+        let path = dir.path().join("sg.gltf");
+        std::fs::write(&path, json).unwrap();
+        let m = import(&path).unwrap();
+        let mat = &m.materials[0];
+        assert_eq!(mat.diffuse, [0.8, 0.1, 0.2]);
+        assert_eq!(mat.specular, [0.5, 0.5, 0.5]);
+        assert_eq!(
+            mat.diffuse_texture,
+            Some(ImageRef::File(dir.path().join("d.png")))
+        );
+        assert!(mat.transmission.glass_reason().is_some());
+        assert_eq!(mat.transmission.filter, Some([0.8, 0.1, 0.2]));
+        assert_eq!(mat.transmission.opacity, Some(0.4));
     }
 }
