@@ -1,5 +1,5 @@
 //! Fingerprints the source that decides what a cook produces (this crate, `texture`, `pack`,
-//! their manifests and the lock file), for the cache key: with only the package version in it,
+//! their manifests, the workspace's and the lock file), for the cache key: with only the package version in it,
 //! a cooker rebuilt with changed code served packs cooked by the old code, from the local
 //! cache and from a shared one alike. FNV-1a over sorted relative paths and contents: stable
 //! across machines and toolchains, so machines running the same source share entries.
@@ -12,9 +12,14 @@ fn files(dir: &Path, out: &mut Vec<PathBuf>) {
     };
     for e in entries.flatten() {
         let p = e.path();
+        let source = matches!(
+            p.extension().and_then(|e| e.to_str()),
+            Some("rs" | "json" | "toml")
+        );
         if p.is_dir() {
             files(&p, out);
-        } else {
+        } else if source {
+            // Only sources: an editor's swap or backup file must not change the key.
             out.push(p);
         }
     }
@@ -35,11 +40,12 @@ fn main() {
             dir.join("Cargo.toml").display()
         );
     }
-    paths.push(root.join("Cargo.lock"));
-    println!(
-        "cargo:rerun-if-changed={}",
-        root.join("Cargo.lock").display()
-    );
+    // The lock file pins the dependencies; the workspace manifest picks their features
+    // (which image decoders exist, say).
+    for f in ["Cargo.lock", "Cargo.toml"] {
+        paths.push(root.join(f));
+        println!("cargo:rerun-if-changed={}", root.join(f).display());
+    }
     let mut named: Vec<(String, PathBuf)> = paths
         .into_iter()
         .map(|p| {
@@ -56,7 +62,9 @@ fn main() {
         }
     };
     for (rel, path) in &named {
-        let body = std::fs::read(path).unwrap_or_default();
+        // Line ends as git stores them, so a Windows checkout keys alike.
+        let mut body = std::fs::read(path).unwrap_or_default();
+        body.retain(|&b| b != b'\r');
         eat(&(rel.len() as u64).to_le_bytes());
         eat(rel.as_bytes());
         eat(&(body.len() as u64).to_le_bytes());

@@ -8,10 +8,12 @@ use serde_json::Value;
 /// The extension names, the ratified one last; their JSON is the same.
 pub(super) const NAMES: [&str; 2] = ["EXT_meshopt_compression", "KHR_meshopt_compression"];
 
-/// The largest decoded view accepted: a hostile file may claim any `count`, and the codecs
-/// expand at most about 64x (an attribute byte whose deltas are all zero costs two bits per
-/// sixteen elements), so a claim far past that is not worth allocating for.
-const MAX_DECODED: u64 = 1 << 32;
+/// The most bytes a file's compressed views may decode to, all together: a hostile file may
+/// claim any `count`, or point many views at the same bytes. A million-triangle mesh decodes
+/// to about 50 MB.
+pub(super) const MAX_TOTAL_DECODED: u64 = 1 << 30;
+/// The most one view may expand: a stream of bytes that never change costs the attribute
+/// codec almost nothing, and its version 1 comes near this ratio.
 const MAX_RATIO: u64 = 1024;
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -110,6 +112,9 @@ pub(super) fn of_view(view: &gltf::buffer::View) -> Result<Option<Compressed>, S
             c.mode, c.filter, c.count
         ));
     }
+    if let Some(v) = view.stride().filter(|&v| v != s) {
+        return Err(format!("byteStride {s} differs from the view's own {v}"));
+    }
     let decoded = (c.count as u64).saturating_mul(s as u64);
     if decoded != view.length() as u64 {
         return Err(format!(
@@ -118,7 +123,7 @@ pub(super) fn of_view(view: &gltf::buffer::View) -> Result<Option<Compressed>, S
             view.length()
         ));
     }
-    if decoded > MAX_DECODED || decoded > (c.length as u64).saturating_mul(MAX_RATIO) + 4096 {
+    if decoded > MAX_TOTAL_DECODED || decoded > (c.length as u64).saturating_mul(MAX_RATIO) + 4096 {
         return Err(format!(
             "{decoded} bytes claimed from {} compressed ones",
             c.length
