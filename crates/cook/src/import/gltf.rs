@@ -328,8 +328,8 @@ fn required_extensions(path: &Path, required: Vec<String>) -> Result<Vec<Warning
         }
         let hint = match name.as_str() {
             "KHR_draco_mesh_compression" => {
-                "; re-export the model without Draco (gltfpack -c writes meshopt compression, \
-                 which the cooker reads)"
+                "; decode it first (gltf-pipeline writes a Draco file without it), or export \
+                 with meshopt compression instead (gltfpack -c), which the cooker reads"
             }
             "KHR_texture_basisu" | "EXT_texture_avif" | "MSFT_texture_dds" => {
                 "; re-export the model with PNG or JPEG textures"
