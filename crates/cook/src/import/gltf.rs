@@ -1550,6 +1550,14 @@ mod tests {
         assert!(gap(&q, &mi)[1] < 0.02, "{:?}", gap(&q, &mi));
     }
 
+    /// One triangle's positions, as a little-endian float buffer.
+    fn triangle_bytes() -> Vec<u8> {
+        [0f32, 0., 0., 1., 0., 0., 0., 1., 0.]
+            .iter()
+            .flat_map(|f| f.to_le_bytes())
+            .collect()
+    }
+
     fn write_gltf(dir: &Path, bin: &[u8], views: &str, extra: &str) -> std::path::PathBuf {
         std::fs::write(dir.join("b.bin"), bin).unwrap();
         let json = format!(
@@ -1570,10 +1578,7 @@ mod tests {
     #[test]
     fn required_extensions_the_cooker_cannot_read_are_named() {
         let dir = tempfile::tempdir().unwrap();
-        let tri: Vec<u8> = [0f32, 0., 0., 1., 0., 0., 0., 1., 0.]
-            .iter()
-            .flat_map(|f| f.to_le_bytes())
-            .collect();
+        let tri = triangle_bytes();
         let view = r#"{"buffer": 0, "byteLength": 36}"#;
         let draco = write_gltf(
             dir.path(),
@@ -1674,10 +1679,7 @@ mod tests {
     #[test]
     fn instancing_caps_and_buffer_uris() {
         let dir = tempfile::tempdir().unwrap();
-        let tri: Vec<u8> = [0f32, 0., 0., 1., 0., 0., 0., 1., 0.]
-            .iter()
-            .flat_map(|f| f.to_le_bytes())
-            .collect();
+        let tri = triangle_bytes();
         let view = r#"{"buffer": 0, "byteLength": 36}"#;
         let path = write_gltf(dir.path(), &tri, view, "");
         let json = std::fs::read_to_string(&path).unwrap();
@@ -1719,10 +1721,7 @@ mod tests {
         texture: &str,
         image: &str,
     ) -> std::path::PathBuf {
-        let tri: Vec<u8> = [0f32, 0., 0., 1., 0., 0., 0., 1., 0.]
-            .iter()
-            .flat_map(|f| f.to_le_bytes())
-            .collect();
+        let tri = triangle_bytes();
         std::fs::write(dir.join("b.bin"), &tri).unwrap();
         let json = format!(
             r#"{{"asset": {{"version": "2.0"}},
