@@ -1,9 +1,10 @@
 //! `cooker diff <a.pack> <b.pack> [--json] [--tolerance-lsb LSB] [--max-position-delta D]`
 //!
-//! Compares two packs section by section and explains the differences: geometry (counts,
-//! largest position change, material ID changes) and, per texture and mip level, the largest
-//! error in 8-bit steps, PSNR and FLIP mean of the decoded texels (whatever each pack stores
-//! them in: RGBA8 or a block format). Exit 0 when within the thresholds (identical by
+//! Compares two packs section by section and explains the differences: geometry (largest
+//! position change, material ID changes; when the two meshes are not in the same order, as
+//! exports from two tools rarely are, triangles matched in any order and corner turn) and, per
+//! texture and mip level, the largest error in 8-bit steps, PSNR and FLIP mean of the decoded
+//! texels (whatever each pack stores them in: RGBA8 or a block format). Exit 0 when within the thresholds (identical by
 //! default), 1 otherwise, so a user's CI can gate on it.
 
 use std::collections::BTreeMap;
@@ -13,6 +14,8 @@ use pack::{Pack, SectionRole, TextureRole};
 use serde_json::{Value, json};
 
 use crate::exit::{FOUND_PROBLEMS, OK, Outcome, UsageError};
+
+mod triangles;
 
 #[derive(clap::Args)]
 pub struct Args {
@@ -27,7 +30,8 @@ pub struct Args {
     /// identical. `--max-error` is the old spelling.
     #[arg(long = "tolerance-lsb", alias = "max-error", value_name = "LSB")]
     tolerance_lsb: Option<f64>,
-    /// Largest vertex position change accepted (scene units); default: identical.
+    /// Largest vertex position change accepted (scene units, per axis); default: identical.
+    /// Given, the same triangles in another vertex or triangle order are accepted too.
     #[arg(long, value_name = "D")]
     max_position_delta: Option<f64>,
 }
@@ -88,12 +92,100 @@ fn positions(pack: &Pack, mesh: &pack::Mesh) -> Vec<[f32; 3]> {
         .collect()
 }
 
-fn material_ids(pack: &Pack, mesh: &pack::Mesh) -> Vec<u16> {
+/// Each vertex's material as a key shared by both packs: their material tables may list the
+/// same names in another order.
+fn material_keys(pack: &Pack, mesh: &pack::Mesh, names: &MaterialNames) -> Vec<u32> {
     let l = &mesh.layout;
+    let materials = &pack.toc().materials;
     pack.vertex_bytes(mesh)
         .chunks_exact(l.stride as usize)
-        .map(|v| l.material_id(v).expect("validated layout"))
+        .map(|v| {
+            let id = l.material_id(v).expect("validated layout") as usize;
+            materials
+                .get(id)
+                .map_or(u32::MAX, |m| names[m.name.as_str()])
+        })
         .collect()
+}
+
+type MaterialNames<'a> = BTreeMap<&'a str, u32>;
+
+fn mesh_triangles(
+    pack: &Pack,
+    mesh: &pack::Mesh,
+    names: &MaterialNames,
+) -> Vec<triangles::Triangle> {
+    let (p, m) = (positions(pack, mesh), material_keys(pack, mesh, names));
+    pack.indices(mesh)
+        .chunks_exact(3)
+        .map(|t| triangles::Triangle {
+            corners: [0, 1, 2].map(|k| p[t[k] as usize]),
+            materials: [0, 1, 2].map(|k| m[t[k] as usize]),
+        })
+        .collect()
+}
+
+/// Largest per-axis difference of two points or vectors.
+fn largest_move(p: [f32; 3], q: [f32; 3]) -> f64 {
+    (0..3)
+        .map(|k| (p[k] as f64 - q[k] as f64).abs())
+        .fold(0.0, f64::max)
+}
+
+/// How far apart two directions may be when geometry may move (positions differ at all).
+fn direction_tolerance(max_delta: f64) -> f64 {
+    if max_delta > 0.0 { 1e-3 } else { 0.0 }
+}
+
+fn cameras_differ(a: &[pack::Camera], b: &[pack::Camera], max_delta: f64) -> Option<String> {
+    let names = |c: &[pack::Camera]| c.iter().map(|c| c.name.clone()).collect::<Vec<_>>();
+    if names(a) != names(b) {
+        return Some(format!("{:?} in a, {:?} in b", names(a), names(b)));
+    }
+    for (x, y) in a.iter().zip(b) {
+        let points = largest_move(x.position, y.position)
+            .max(largest_move(x.target, y.target))
+            .max((x.near as f64 - y.near as f64).abs())
+            .max((x.far as f64 - y.far as f64).abs());
+        let up = largest_move(x.up, y.up);
+        if points > max_delta || up > direction_tolerance(max_delta) || x.fov_y != y.fov_y {
+            return Some(format!(
+                "{:?}: position, target or clip planes moved by {points:.3e}, up by {up:.3e}, \
+                 field of view {} and {} degrees",
+                x.name, x.fov_y, y.fov_y
+            ));
+        }
+    }
+    None
+}
+
+fn windows_differ(ta: &pack::Toc, tb: &pack::Toc, max_delta: f64) -> Option<String> {
+    let (a, b) = (&ta.windows, &tb.windows);
+    // Material tables may be ordered differently: compare names.
+    let material = |t: &pack::Toc, w: &pack::Window| {
+        t.materials.get(w.material as usize).map(|m| m.name.clone())
+    };
+    if a.len() != b.len() {
+        return Some(format!("{} in a, {} in b", a.len(), b.len()));
+    }
+    for (i, (x, y)) in a.iter().zip(b).enumerate() {
+        let points = largest_move(x.origin, y.origin)
+            .max(largest_move(x.u_axis, y.u_axis))
+            .max(largest_move(x.v_axis, y.v_axis));
+        let normal = largest_move(x.normal, y.normal);
+        if points > max_delta
+            || normal > direction_tolerance(max_delta)
+            || material(ta, x) != material(tb, y)
+            || x.source_materials != y.source_materials
+        {
+            return Some(format!(
+                "window {i}: corner or edges moved by {points:.3e}, normal by {normal:.3e}, \
+                 glass {:?} and {:?}",
+                x.source_materials, y.source_materials
+            ));
+        }
+    }
+    None
 }
 
 fn role_key(pack: &Pack, role: SectionRole) -> String {
@@ -155,29 +247,53 @@ pub fn run(args: Args) -> Outcome {
     }
     let identical = a.bytes() == b.bytes();
 
-    // Geometry, meshes matched by name.
+    // Geometry, meshes matched by name. Without --max-position-delta geometry must be equal,
+    // order included.
+    let max_delta = args.max_position_delta.unwrap_or(0.0);
+    let exact_geometry = args.max_position_delta.is_none();
+    let mut names = MaterialNames::new();
+    for m in ta.materials.iter().chain(&tb.materials) {
+        let next = names.len() as u32;
+        names.entry(m.name.as_str()).or_insert(next);
+    }
     let mut meshes = Vec::new();
-    for ma in &ta.meshes {
-        let Some(mb) = tb.meshes.iter().find(|m| m.name == ma.name) else {
+    let mut reordered = Vec::new();
+    // A pack's mesh is named after its source file, so two exports of one model (`church.obj`
+    // and `church.glb`) name it differently: when one mesh in each pack is left unmatched by
+    // name, those two are compared.
+    let unmatched = |x: &pack::Toc, y: &pack::Toc| -> Vec<usize> {
+        (0..x.meshes.len())
+            .filter(|&i| !y.meshes.iter().any(|m| m.name == x.meshes[i].name))
+            .collect()
+    };
+    let renamed = match (&unmatched(ta, tb)[..], &unmatched(tb, ta)[..]) {
+        (&[i], &[j]) => Some((i, j)),
+        _ => None,
+    };
+    let partner = |i: usize| -> Option<&pack::Mesh> {
+        match renamed {
+            Some((ri, rj)) if ri == i => Some(&tb.meshes[rj]),
+            _ => tb.meshes.iter().find(|m| m.name == ta.meshes[i].name),
+        }
+    };
+    for (i, ma) in ta.meshes.iter().enumerate() {
+        let Some(mb) = partner(i) else {
             problems.push(format!("mesh {:?} is missing from b", ma.name));
             meshes.push(json!({"name": ma.name, "state": "only in a"}));
             continue;
         };
+        if mb.name != ma.name && exact_geometry {
+            problems.push(format!("mesh {:?} is named {:?} in b", ma.name, mb.name));
+        }
         let mut entry = json!({
             "name": ma.name,
+            "name_in_b": mb.name,
             "vertices": [ma.vertex_count, mb.vertex_count],
             "triangles": [ma.index_count / 3, mb.index_count / 3],
         });
-        if ma.vertex_count != mb.vertex_count || ma.index_count != mb.index_count {
-            problems.push(format!(
-                "mesh {:?}: {} vertices / {} triangles in a, {} / {} in b",
-                ma.name,
-                ma.vertex_count,
-                ma.index_count / 3,
-                mb.vertex_count,
-                mb.index_count / 3
-            ));
-        } else {
+        let (ia, ib) = (a.indices(ma), b.indices(mb));
+        if ma.vertex_count == mb.vertex_count && ia == ib {
+            // The same vertices in the same order: compare them one by one.
             let (pa, pb) = (positions(&a, ma), positions(&b, mb));
             let delta = pa
                 .iter()
@@ -188,16 +304,9 @@ pub fn run(args: Args) -> Outcome {
                         .fold(0.0, f64::max)
                 })
                 .fold(0.0, f64::max);
-            // Material IDs compare by name: the tables of the two packs may be ordered differently.
-            let name_a = |i: u16| ta.materials[i as usize].name.as_str();
-            let name_b = |i: u16| tb.materials[i as usize].name.as_str();
-            let changed = material_ids(&a, ma)
-                .iter()
-                .zip(material_ids(&b, mb))
-                .filter(|&(&x, y)| name_a(x) != name_b(y))
-                .count();
-            let indices_equal = a.indices(ma) == b.indices(mb);
-            if delta > args.max_position_delta.unwrap_or(0.0) {
+            let (ka, kb) = (material_keys(&a, ma, &names), material_keys(&b, mb, &names));
+            let changed = ka.iter().zip(&kb).filter(|(x, y)| x != y).count();
+            if delta > max_delta {
                 problems.push(format!("mesh {:?}: a vertex moved by {delta:.3e}", ma.name));
             }
             if changed > 0 {
@@ -206,17 +315,66 @@ pub fn run(args: Args) -> Outcome {
                     ma.name
                 ));
             }
-            if !indices_equal {
-                problems.push(format!("mesh {:?}: index buffers differ", ma.name));
-            }
+            entry["same_order"] = json!(true);
             entry["max_position_delta"] = json!(delta);
             entry["material_id_changes"] = json!(changed);
-            entry["indices_equal"] = json!(indices_equal);
+        } else {
+            // Another vertex or triangle order (another tool, or an optimizer that changed):
+            // compare the triangles as sets.
+            let m = triangles::compare(
+                &mesh_triangles(&a, ma, &names),
+                &mesh_triangles(&b, mb, &names),
+                max_delta,
+            );
+            let within = if max_delta > 0.0 {
+                format!(" within {max_delta}")
+            } else {
+                String::new()
+            };
+            if m.only_in_a > 0 || m.only_in_b > 0 {
+                let [area_a, area_b] = m.unmatched_area;
+                let hint = if area_a > 0.0 && (area_a - area_b).abs() <= 1e-3 * area_a {
+                    format!(
+                        " (both cover an area of {area_a:.6e}: the same surface moved \
+                         slightly or triangulated another way?)"
+                    )
+                } else {
+                    String::new()
+                };
+                problems.push(format!(
+                    "mesh {:?}: {} of a's {} triangles have no match in b{within}, {} of b's {} \
+                     none in a{hint}",
+                    ma.name,
+                    m.only_in_a,
+                    ma.index_count / 3,
+                    m.only_in_b,
+                    mb.index_count / 3
+                ));
+            }
+            if m.material_changes > 0 {
+                problems.push(format!(
+                    "mesh {:?}: {} triangle corners changed material",
+                    ma.name, m.material_changes
+                ));
+            }
+            if exact_geometry && m.only_in_a == 0 && m.only_in_b == 0 {
+                problems.push(format!(
+                    "mesh {:?}: the same triangles in another order (vertices {} in a, {} in b); \
+                     give --max-position-delta to accept",
+                    ma.name, ma.vertex_count, mb.vertex_count
+                ));
+            }
+            entry["same_order"] = json!(false);
+            entry["max_position_delta"] = json!(m.max_delta);
+            entry["unmatched_triangles"] = json!([m.only_in_a, m.only_in_b]);
+            entry["material_corner_changes"] = json!(m.material_changes);
+            entry["unmatched_area"] = json!(m.unmatched_area);
+            reordered.push((ma.name.clone(), m));
         }
         meshes.push(entry);
     }
-    for mb in &tb.meshes {
-        if !ta.meshes.iter().any(|m| m.name == mb.name) {
+    for (j, mb) in tb.meshes.iter().enumerate() {
+        if !ta.meshes.iter().any(|m| m.name == mb.name) && renamed.is_none_or(|r| r.1 != j) {
             problems.push(format!("mesh {:?} is new in b", mb.name));
             meshes.push(json!({"name": mb.name, "state": "only in b"}));
         }
@@ -236,11 +394,29 @@ pub fn run(args: Args) -> Outcome {
                         m.name, m.class, tria[i], n.class, trib[j]
                     ));
                 }
+                let shading_equal = m.diffuse == n.diffuse
+                    && m.specular == n.specular
+                    && m.shininess == n.shininess
+                    && m.emissive == n.emissive;
+                if !shading_equal {
+                    problems.push(format!(
+                        "material {:?}: shading differs: diffuse {:?}, specular {:?}, \
+                         shininess {}, emissive {:?} in a; {:?}, {:?}, {}, {:?} in b",
+                        m.name,
+                        m.diffuse,
+                        m.specular,
+                        m.shininess,
+                        m.emissive,
+                        n.diffuse,
+                        n.specular,
+                        n.shininess,
+                        n.emissive
+                    ));
+                }
                 materials.push(json!({
                     "name": m.name, "class": [m.class.name(), n.class.name()],
                     "triangles": [tria[i], trib[j]],
-                    "shading_equal": m.diffuse == n.diffuse && m.specular == n.specular
-                        && m.shininess == n.shininess && m.emissive == n.emissive,
+                    "shading_equal": shading_equal,
                 }));
             }
         }
@@ -304,11 +480,13 @@ pub fn run(args: Args) -> Outcome {
     if ta.light != tb.light {
         problems.push("the light differs".into());
     }
-    if ta.cameras != tb.cameras {
-        problems.push("the camera presets differ".into());
+    // Cameras and window frames are placed from the geometry, so they move with it: with
+    // --max-position-delta their points may move that far too, their directions by 1e-3.
+    if let Some(what) = cameras_differ(&ta.cameras, &tb.cameras, max_delta) {
+        problems.push(format!("the camera presets differ: {what}"));
     }
-    if ta.windows != tb.windows {
-        problems.push("the window frames differ".into());
+    if let Some(what) = windows_differ(ta, tb, max_delta) {
+        problems.push(format!("the window frames differ: {what}"));
     }
     if ta.background != tb.background {
         problems.push("the background differs".into());
@@ -367,6 +545,13 @@ pub fn run(args: Args) -> Outcome {
                 "  {:<40} {}",
                 s["section"].as_str().unwrap_or(""),
                 s["state"].as_str().unwrap_or("")
+            );
+        }
+        for (name, m) in &reordered {
+            println!(
+                "  mesh {name:?}: triangles compared in any order: {} unmatched in a, {} in b, \
+                 largest corner move {:.3e}",
+                m.only_in_a, m.only_in_b, m.max_delta
             );
         }
         for (name, levels) in &textures {

@@ -157,6 +157,74 @@ fn diff_identical_changed_texel_and_material() {
         text(&o)
     );
 
+    // The same two triangles, vertices listed in reverse within each and corners turned: equal
+    // as geometry, not as bytes. Without --max-position-delta that is a difference.
+    let d = dir.path().join("d.pack");
+    write_sample(&d, |_, data| {
+        let stride = 52;
+        let v = data.meshes[0].vertices.clone();
+        for (new, old) in [2usize, 1, 0, 5, 4, 3].into_iter().enumerate() {
+            data.meshes[0].vertices[new * stride..(new + 1) * stride]
+                .copy_from_slice(&v[old * stride..(old + 1) * stride]);
+        }
+        // Triangle (0,1,2) is now (2,1,0) in slots; (1,0,2) keeps its winding, turned.
+        let turned: [u16; 6] = [1, 0, 2, 4, 3, 5];
+        data.meshes[0].indices = turned.iter().flat_map(|i| i.to_le_bytes()).collect();
+    });
+    let o = cooker(&[&"diff", &a, &d]);
+    assert_eq!(o.status.code(), Some(1), "{}", text(&o));
+    assert!(
+        text(&o).contains("the same triangles in another order"),
+        "{}",
+        text(&o)
+    );
+    let o = cooker(&[&"diff", &a, &d, &"--max-position-delta", &"0", &"--json"]);
+    assert_eq!(o.status.code(), Some(0), "{}", text(&o));
+    let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    assert_eq!(v["meshes"][0]["same_order"], false);
+    assert_eq!(
+        v["meshes"][0]["unmatched_triangles"],
+        serde_json::json!([0, 0])
+    );
+    assert_eq!(v["meshes"][0]["material_corner_changes"], 0);
+    // Reversed winding is another triangle: it faces the other way.
+    let e = dir.path().join("e.pack");
+    write_sample(&e, |_, data| {
+        let flipped: [u16; 6] = [0, 2, 1, 3, 4, 5];
+        data.meshes[0].indices = flipped.iter().flat_map(|i| i.to_le_bytes()).collect();
+    });
+    let o = cooker(&[&"diff", &a, &e, &"--max-position-delta", &"0.1"]);
+    assert_eq!(o.status.code(), Some(1), "{}", text(&o));
+    assert!(
+        text(&o)
+            .contains("1 of a's 2 triangles have no match in b within 0.1, 1 of b's 2 none in a"),
+        "{}",
+        text(&o)
+    );
+
+    // One mesh in each pack, named after different source files (church.obj, church.glb):
+    // compared with each other. A changed colour is a difference.
+    let f = dir.path().join("f.pack");
+    write_sample(&f, |toc, _| toc.meshes[0].name = "church".into());
+    let o = cooker(&[&"diff", &a, &f]);
+    assert_eq!(o.status.code(), Some(1), "{}", text(&o));
+    assert!(
+        text(&o).contains("mesh \"quad\" is named \"church\" in b"),
+        "{}",
+        text(&o)
+    );
+    let o = cooker(&[&"diff", &a, &f, &"--max-position-delta", &"0"]);
+    assert_eq!(o.status.code(), Some(0), "{}", text(&o));
+    let g = dir.path().join("g.pack");
+    write_sample(&g, |toc, _| toc.materials[0].diffuse[1] = 0.41);
+    let o = cooker(&[&"diff", &a, &g, &"--max-position-delta", &"0"]);
+    assert_eq!(o.status.code(), Some(1), "{}", text(&o));
+    assert!(
+        text(&o).contains("material \"floor\": shading differs: diffuse [0.5, 0.4, 0.3]"),
+        "{}",
+        text(&o)
+    );
+
     let o = cooker(&[&"diff", &a, &b, &"--max-error", &"-1"]);
     assert_eq!(o.status.code(), Some(2), "{}", text(&o));
     assert!(

@@ -161,7 +161,7 @@ pub fn import(path: &Path) -> Result<Imported, CookError> {
         ..Default::default()
     };
     let mut material_ids: HashMap<usize, u32> = HashMap::new();
-    let mut part_ids: HashMap<(Option<usize>, usize, usize), u32> = HashMap::new();
+    let mut part_ids: HashMap<(Option<usize>, usize, usize, usize), u32> = HashMap::new();
     let mut skipped_modes: Vec<String> = Vec::new();
 
     // Roots of the default scene, else of the first scene, else every node nobody parents.
@@ -239,39 +239,41 @@ pub fn import(path: &Path) -> Result<Imported, CookError> {
                     }),
                     None => None,
                 };
-                let key = (material.index(), mesh.index(), node.index());
-                let part = match part_ids.get(&key) {
-                    Some(&p) => p,
-                    None => {
-                        let p = out.parts.len() as u32;
-                        out.parts.push(Part {
-                            names: Names {
-                                material: material.index().map(|i| {
-                                    material
-                                        .name()
-                                        .map(str::to_string)
-                                        .unwrap_or_else(|| format!("material{i}"))
-                                }),
-                                group: None,
-                                object: None,
-                                mesh: Some(
-                                    mesh.name()
-                                        .map(str::to_string)
-                                        .unwrap_or_else(|| format!("mesh{}", mesh.index())),
-                                ),
-                                node: Some(
-                                    node.name()
-                                        .map(str::to_string)
-                                        .unwrap_or_else(|| format!("node{}", node.index())),
-                                ),
-                            },
-                            material: mat_id,
-                        });
-                        part_ids.insert(key, p);
-                        p
-                    }
+                let names = Names {
+                    material: material.index().map(|i| {
+                        material
+                            .name()
+                            .map(str::to_string)
+                            .unwrap_or_else(|| format!("material{i}"))
+                    }),
+                    group: None,
+                    object: None,
+                    mesh: Some(
+                        mesh.name()
+                            .map(str::to_string)
+                            .unwrap_or_else(|| format!("mesh{}", mesh.index())),
+                    ),
+                    node: Some(
+                        node.name()
+                            .map(str::to_string)
+                            .unwrap_or_else(|| format!("node{}", node.index())),
+                    ),
                 };
-                add_primitive(&ctx, &prim, &worlds, part, &mut out, &mut budget)?;
+                // Each instance is its own part, as it would be written as its own node: the
+                // geometry heuristics judge one pillar, not a row of them.
+                let parts: Vec<u32> = (0..worlds.len())
+                    .map(|instance| {
+                        let key = (material.index(), mesh.index(), node.index(), instance);
+                        *part_ids.entry(key).or_insert_with(|| {
+                            out.parts.push(Part {
+                                names: names.clone(),
+                                material: mat_id,
+                            });
+                            (out.parts.len() - 1) as u32
+                        })
+                    })
+                    .collect();
+                add_primitive(&ctx, &prim, &worlds, &parts, &mut out, &mut budget)?;
             }
         }
         for c in node.children().collect::<Vec<_>>().into_iter().rev() {
@@ -834,7 +836,7 @@ fn add_primitive(
     ctx: &Ctx,
     prim: &gltf::Primitive,
     worlds: &[glam::Mat4],
-    part: u32,
+    parts: &[u32],
     out: &mut Imported,
     budget: &mut usize,
 ) -> Result<(), CookError> {
@@ -989,22 +991,24 @@ fn add_primitive(
     if out.positions.len().saturating_add(total) >= NONE as usize {
         return Err(bad(path, "more than 2^32 vertices"));
     }
-    let Some((last, rest)) = worlds.split_last() else {
+    let placements: Vec<(glam::Mat4, u32)> =
+        worlds.iter().copied().zip(parts.iter().copied()).collect();
+    let Some((&(last, last_part), rest)) = placements.split_last() else {
         return Ok(());
     };
-    for world in rest {
+    for &(world, part) in rest {
         let copy = Attributes {
             positions: positions.clone(),
             normals: normals.clone(),
             uvs: uvs.clone(),
             corners: corners.clone(),
         };
-        place(out, *world, part, copy);
+        place(out, world, part, copy);
     }
     place(
         out,
-        *last,
-        part,
+        last,
+        last_part,
         Attributes {
             positions,
             normals,
@@ -1092,10 +1096,13 @@ fn texture_transform(uvs: &mut [[f32; 2]], offset: [f32; 2], rotation: f32, scal
 }
 
 /// The file a relative uri names beside the glTF, as written or percent-decoded (exporters
-/// do both), or a `file:` uri's path.
+/// do both), or a `file:` uri's path (some exporters write absolute ones). Buffers and images
+/// are found the same way.
 fn external_file(base: &Path, uri: &str) -> Option<std::path::PathBuf> {
     let rel = uri
-        .strip_prefix("file://")
+        .strip_prefix("file://localhost/")
+        .map(|rest| &uri[uri.len() - rest.len() - 1..])
+        .or_else(|| uri.strip_prefix("file://"))
         .or_else(|| uri.strip_prefix("file:"));
     if let Some(p) = rel {
         let p = std::path::PathBuf::from(percent_decode(p));
@@ -1240,10 +1247,7 @@ fn image_ref(
                 }));
             }
             let dir = ctx.path.parent().unwrap_or(Path::new(""));
-            let p = [dir.join(uri), dir.join(percent_decode(uri))]
-                .into_iter()
-                .find(|p| p.is_file());
-            match p {
+            match external_file(dir, uri) {
                 Some(p) => Some(ImageRef::File(p)),
                 None => {
                     warnings.push(Warning::new(
@@ -1537,7 +1541,9 @@ mod tests {
 
     /// `EXT_mesh_gpu_instancing` (gltfpack `-mi`, with its quaternion and exponential filters):
     /// one mesh placed six times by instance attributes imports as the six placed copies that
-    /// six nodes give. Before, the extension was refused, and read past it only one box stood.
+    /// six nodes give, each its own part, as each node is (the geometry heuristics then judge
+    /// one box, not the row). Before, the extension was refused, and read past it only one box
+    /// stood.
     #[test]
     fn instanced_meshes_import_as_their_placed_copies() {
         let nodes = import(&third_party("gltfpack/boxes.gltf")).unwrap();
@@ -1548,6 +1554,15 @@ mod tests {
         assert!(gap(&nodes, &q)[0] < 2e-3, "{:?}", gap(&nodes, &q));
         assert!(gap(&nodes, &mi)[0] < 2e-3, "{:?}", gap(&nodes, &mi));
         assert!(gap(&q, &mi)[1] < 0.02, "{:?}", gap(&q, &mi));
+        let boxes = |m: &Imported| {
+            let mut per_part = vec![0; m.parts.len()];
+            for &p in &m.tri_part {
+                per_part[p as usize] += 1;
+            }
+            per_part
+        };
+        assert_eq!(boxes(&nodes), vec![12; 6]);
+        assert_eq!(boxes(&mi), boxes(&nodes));
     }
 
     /// One triangle's positions, as a little-endian float buffer.
@@ -1737,6 +1752,39 @@ mod tests {
         let path = dir.join("t.gltf");
         std::fs::write(&path, json).unwrap();
         path
+    }
+
+    /// Images are found as buffers are: as written, percent-decoded, or by a `file:` uri.
+    #[test]
+    fn image_uris_resolve_like_buffer_uris() {
+        let dir = tempfile::tempdir().unwrap();
+        let sub = dir.path().join("my textures");
+        std::fs::create_dir(&sub).unwrap();
+        let file = sub.join("design.webp");
+        image::RgbaImage::from_pixel(2, 2, image::Rgba([9, 8, 7, 255]))
+            .save(&file)
+            .unwrap();
+        let abs = file.to_str().unwrap().replace(' ', "%20");
+        for uri in [
+            "my textures/design.webp".to_string(),
+            "my%20textures/design.webp".to_string(),
+            format!("file://{abs}"),
+            format!("file://localhost{abs}"),
+        ] {
+            let path = textured_triangle(
+                dir.path(),
+                "EXT_texture_webp",
+                r#"{"pbrMetallicRoughness": {"baseColorTexture": {"index": 0}}}"#,
+                r#"{"extensions": {"EXT_texture_webp": {"source": 0}}}"#,
+                &uri,
+            );
+            let m = import(&path).unwrap();
+            assert_eq!(
+                m.materials[0].diffuse_texture,
+                Some(ImageRef::File(file.clone())),
+                "{uri}"
+            );
+        }
     }
 
     /// A texture given only as WebP (`EXT_texture_webp`, required: no PNG beside it, as

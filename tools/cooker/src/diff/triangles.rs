@@ -1,0 +1,280 @@
+//! Order-free comparison of two meshes' triangles.
+//!
+//! Two exports of the same geometry rarely list it in the same order: another tool (gltfpack,
+//! a meshopt codec, a different cooker version) reorders vertices, reorders triangles and turns
+//! a triangle's corners. Compared index by index such meshes look entirely moved; compared as
+//! sets of triangles they are equal. A triangle matches another with the same winding whose
+//! corners each lie within the position tolerance; a mirrored (flipped) triangle does not
+//! match, since it faces the other way.
+
+use std::collections::HashMap;
+
+/// One triangle: corner positions and, per corner, a material key comparable across packs.
+#[derive(Clone, Copy)]
+pub struct Triangle {
+    pub corners: [[f32; 3]; 3],
+    pub materials: [u32; 3],
+}
+
+/// What matching `a`'s triangles against `b`'s found.
+#[derive(Debug, PartialEq)]
+pub struct Matching {
+    /// Triangles of `a` with no counterpart in `b`, and the reverse.
+    pub only_in_a: usize,
+    pub only_in_b: usize,
+    /// Largest per-axis corner move among matched triangles.
+    pub max_delta: f64,
+    /// Matched corners whose material differs.
+    pub material_changes: usize,
+    /// The area of the unmatched triangles of `a` and of `b`: equal areas hint at the same
+    /// surface triangulated another way (a quad split along its other diagonal).
+    pub unmatched_area: [f64; 2],
+}
+
+/// `t` turned (winding kept) so that its smallest corner comes first; ties between repeated
+/// corners are broken by the whole triangle, so equal triangles always turn the same way.
+fn canonical(t: &Triangle) -> Triangle {
+    let turn = |r: usize| Triangle {
+        corners: [0, 1, 2].map(|k| t.corners[(k + r) % 3]),
+        materials: [0, 1, 2].map(|k| t.materials[(k + r) % 3]),
+    };
+    let key = |t: &Triangle| t.corners.map(|c| c.map(unsigned_zero));
+    (0..3)
+        .map(turn)
+        .min_by(|x, y| {
+            key(x)
+                .iter()
+                .flatten()
+                .zip(key(y).iter().flatten())
+                .map(|(p, q)| p.total_cmp(q))
+                .find(|o| o.is_ne())
+                .unwrap_or(std::cmp::Ordering::Equal)
+        })
+        .expect("three turns")
+}
+
+/// -0.0 and 0.0 are the same position.
+fn unsigned_zero(x: f32) -> f32 {
+    x + 0.0
+}
+
+fn bits(t: &Triangle) -> [u32; 9] {
+    let mut k = [0u32; 9];
+    for (i, c) in t.corners.iter().flatten().enumerate() {
+        k[i] = unsigned_zero(*c).to_bits();
+    }
+    k
+}
+
+fn corner_delta(p: &[f32; 3], q: &[f32; 3]) -> f64 {
+    (0..3)
+        .map(|k| (p[k] as f64 - q[k] as f64).abs())
+        .fold(0.0, f64::max)
+}
+
+/// The smallest largest-corner move over the three turns of `b` that keep its winding, and the
+/// turn that gives it.
+fn best_turn(a: &Triangle, b: &Triangle) -> (f64, usize) {
+    (0..3)
+        .map(|r| {
+            let d = (0..3)
+                .map(|k| corner_delta(&a.corners[k], &b.corners[(k + r) % 3]))
+                .fold(0.0, f64::max);
+            (d, r)
+        })
+        .min_by(|x, y| x.0.total_cmp(&y.0))
+        .expect("three turns")
+}
+
+fn area(t: &Triangle) -> f64 {
+    let [p, q, r] = t.corners.map(|c| glam::DVec3::from(c.map(f64::from)));
+    (q - p).cross(r - p).length() / 2.0
+}
+
+fn centroid(t: &Triangle) -> [f64; 3] {
+    [0, 1, 2].map(|k| t.corners.iter().map(|c| c[k] as f64).sum::<f64>() / 3.0)
+}
+
+/// Matches `a`'s triangles to `b`'s, each used once: first exactly (bit-equal corners after
+/// turning), then, for what is left and when `tolerance > 0`, the nearest triangle whose corners
+/// each lie within `tolerance` per axis.
+pub fn compare(a: &[Triangle], b: &[Triangle], tolerance: f64) -> Matching {
+    let a: Vec<Triangle> = a.iter().map(canonical).collect();
+    let b: Vec<Triangle> = b.iter().map(canonical).collect();
+    let mut material_changes = 0;
+    let count_changes = |x: &Triangle, y: &Triangle, turn: usize| {
+        (0..3)
+            .filter(|&k| x.materials[k] != y.materials[(k + turn) % 3])
+            .count()
+    };
+
+    let mut exact: HashMap<[u32; 9], Vec<usize>> = HashMap::with_capacity(b.len());
+    for (j, t) in b.iter().enumerate().rev() {
+        exact.entry(bits(t)).or_default().push(j);
+    }
+    let mut used_b = vec![false; b.len()];
+    let mut left_a = Vec::new();
+    for (i, t) in a.iter().enumerate() {
+        match exact.get_mut(&bits(t)).and_then(Vec::pop) {
+            Some(j) => {
+                used_b[j] = true;
+                material_changes += count_changes(t, &b[j], 0);
+            }
+            None => left_a.push(i),
+        }
+    }
+
+    let mut max_delta = 0.0f64;
+    let mut unmatched_a = left_a.clone();
+    if tolerance > 0.0 && !left_a.is_empty() {
+        // Matched corners lie within `tolerance` per axis, so their centroids do too: a grid of
+        // that cell size finds every candidate in the 27 cells around a centroid.
+        let cell = |p: [f64; 3]| p.map(|x| (x / tolerance).floor() as i64);
+        let mut grid: HashMap<[i64; 3], Vec<usize>> = HashMap::new();
+        for (j, t) in b.iter().enumerate() {
+            if !used_b[j] {
+                grid.entry(cell(centroid(t))).or_default().push(j);
+            }
+        }
+        unmatched_a.clear();
+        for &i in &left_a {
+            let t = &a[i];
+            let c = cell(centroid(t));
+            let mut best: Option<(f64, usize, usize)> = None;
+            for dx in -1..=1 {
+                for dy in -1..=1 {
+                    for dz in -1..=1 {
+                        let Some(js) = grid.get(&[c[0] + dx, c[1] + dy, c[2] + dz]) else {
+                            continue;
+                        };
+                        for &j in js.iter().filter(|&&j| !used_b[j]) {
+                            let (d, turn) = best_turn(t, &b[j]);
+                            if d <= tolerance && best.is_none_or(|(bd, _, _)| d < bd) {
+                                best = Some((d, j, turn));
+                            }
+                        }
+                    }
+                }
+            }
+            match best {
+                Some((d, j, turn)) => {
+                    used_b[j] = true;
+                    max_delta = max_delta.max(d);
+                    material_changes += count_changes(t, &b[j], turn);
+                }
+                None => unmatched_a.push(i),
+            }
+        }
+    }
+    let unmatched_b: Vec<usize> = (0..b.len()).filter(|&j| !used_b[j]).collect();
+    let area =
+        |ts: &[Triangle], which: &[usize]| -> f64 { which.iter().map(|&i| area(&ts[i])).sum() };
+    Matching {
+        only_in_a: unmatched_a.len(),
+        only_in_b: unmatched_b.len(),
+        max_delta,
+        material_changes,
+        unmatched_area: [area(&a, &unmatched_a), area(&b, &unmatched_b)],
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn tri(c: [[f32; 3]; 3], m: u32) -> Triangle {
+        Triangle {
+            corners: c,
+            materials: [m; 3],
+        }
+    }
+
+    fn grid(n: usize) -> Vec<Triangle> {
+        let mut out = Vec::new();
+        for y in 0..n {
+            for x in 0..n {
+                let p = |dx: usize, dy: usize| [(x + dx) as f32 * 0.5, (y + dy) as f32 * 0.5, 0.0];
+                out.push(tri([p(0, 0), p(1, 0), p(1, 1)], (x % 3) as u32));
+                out.push(tri([p(0, 0), p(1, 1), p(0, 1)], (y % 2) as u32));
+            }
+        }
+        out
+    }
+
+    #[test]
+    fn reordered_and_turned_triangles_match_exactly() {
+        let a = grid(20);
+        let mut b = a.clone();
+        b.reverse();
+        for (i, t) in b.iter_mut().enumerate() {
+            t.corners.rotate_left(i % 3);
+            t.materials.rotate_left(i % 3);
+        }
+        let m = compare(&a, &b, 0.0);
+        assert_eq!(
+            m,
+            Matching {
+                only_in_a: 0,
+                only_in_b: 0,
+                max_delta: 0.0,
+                material_changes: 0,
+                unmatched_area: [0.0; 2],
+            }
+        );
+    }
+
+    #[test]
+    fn flipped_moved_missing_and_retagged_triangles_are_found() {
+        let a = grid(10);
+        let mut b = a.clone();
+        b[3].corners.swap(1, 2); // flipped: faces the other way
+        b[7].corners[0][2] += 0.01; // moved
+        b[11].materials[1] = 99; // one corner retagged
+        b.remove(20);
+        b.push(tri([[9.0; 3], [10.0, 9.0, 9.0], [9.0, 10.0, 9.0]], 0));
+
+        let strict = compare(&a, &b, 0.0);
+        assert_eq!((strict.only_in_a, strict.only_in_b), (3, 3));
+        assert_eq!(strict.material_changes, 1);
+
+        let loose = compare(&a, &b, 0.02);
+        assert_eq!((loose.only_in_a, loose.only_in_b), (2, 2));
+        assert!((loose.max_delta - 0.01).abs() < 1e-6, "{loose:?}");
+        assert_eq!(loose.material_changes, 1);
+    }
+
+    #[test]
+    fn a_quad_split_the_other_way_is_unmatched_with_equal_area() {
+        let (p, q, r, s) = ([0.0; 3], [2.0, 0.0, 0.0], [2.0, 1.0, 0.0], [0.0, 1.0, 0.0]);
+        let a = [tri([p, q, r], 0), tri([p, r, s], 0)];
+        let b = [tri([p, q, s], 0), tri([q, r, s], 0)];
+        let m = compare(&a, &b, 0.1);
+        assert_eq!((m.only_in_a, m.only_in_b), (2, 2));
+        assert_eq!(m.unmatched_area, [2.0, 2.0]);
+    }
+
+    #[test]
+    fn a_tolerance_match_keeps_corner_correspondence_for_materials() {
+        let a = vec![Triangle {
+            corners: [[0.0; 3], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]],
+            materials: [1, 2, 3],
+        }];
+        // Turned once and nudged: corner k of `a` is corner k+1 of `b`.
+        let b = vec![Triangle {
+            corners: [[1.0, 0.0, 0.001], [0.0, 1.0, 0.0], [0.0, 0.0, 0.001]],
+            materials: [2, 3, 1],
+        }];
+        let m = compare(&a, &b, 0.01);
+        assert_eq!((m.only_in_a, m.only_in_b, m.material_changes), (0, 0, 0));
+    }
+
+    #[test]
+    fn repeated_triangles_are_matched_once_each() {
+        let t = tri([[0.0; 3], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]], 0);
+        let m = compare(&[t, t, t], &[t, t], 0.0);
+        assert_eq!((m.only_in_a, m.only_in_b), (1, 0));
+        assert_eq!(m.unmatched_area, [0.5, 0.0]);
+        let m = compare(&[t], &[t, t], 0.5);
+        assert_eq!((m.only_in_a, m.only_in_b), (0, 1));
+    }
+}
