@@ -15,6 +15,7 @@ use serde_json::{Value, json};
 
 use crate::exit::{FOUND_PROBLEMS, OK, Outcome, UsageError};
 
+mod surface;
 mod triangles;
 
 #[derive(clap::Args)]
@@ -188,6 +189,96 @@ fn windows_differ(ta: &pack::Toc, tb: &pack::Toc, max_delta: f64) -> Option<Stri
     None
 }
 
+/// How meshes' geometry is compared.
+struct Geometry<'a> {
+    names: &'a MaterialNames<'a>,
+    max_delta: f64,
+    /// No --max-position-delta: any difference, order included, is a problem.
+    exact: bool,
+}
+
+impl Geometry<'_> {
+    /// Two meshes not in the same vertex or triangle order (another tool, or an optimizer that
+    /// changed): their triangles matched as sets, and what is left measured against the other
+    /// mesh's surface, since a tool that triangulates polygons its own way cuts the same surface
+    /// into other triangles. Pushes the problems found, fills `entry`; returns a summary line.
+    fn compare_as_sets(
+        &self,
+        (a, ma): (&Pack, &pack::Mesh),
+        (b, mb): (&Pack, &pack::Mesh),
+        problems: &mut Vec<String>,
+        entry: &mut Value,
+    ) -> String {
+        let (ta, tb) = (
+            mesh_triangles(a, ma, self.names),
+            mesh_triangles(b, mb, self.names),
+        );
+        let m = triangles::compare(&ta, &tb, self.max_delta);
+        let [ua, ub] = &m.unmatched;
+        // Exact comparison still allows the rounding of a point on another triangulation.
+        let extent =
+            (glam::Vec3::from(ma.bounds_max) - glam::Vec3::from(ma.bounds_min)).length() as f64;
+        let reach = self.max_delta.max(1e-6 * extent);
+        let (ca, cb) = if ua.is_empty() && ub.is_empty() {
+            Default::default()
+        } else {
+            (
+                surface::cover(&ta, ua, &surface::Bvh::new(&tb), reach),
+                surface::cover(&tb, ub, &surface::Bvh::new(&ta), reach),
+            )
+        };
+        let name = &ma.name;
+        let (na, nb) = (ma.index_count / 3, mb.index_count / 3);
+        if ca.off_surface > 0 || cb.off_surface > 0 {
+            problems.push(format!(
+                "mesh {name:?}: {} of a's {na} triangles are off b's surface (farther than \
+                 {reach:.3e}, or facing the other way), {} of b's {nb} off a's",
+                ca.off_surface, cb.off_surface
+            ));
+        } else if self.exact && !(ua.is_empty() && ub.is_empty()) {
+            problems.push(format!(
+                "mesh {name:?}: the same surface, triangulated another way ({} of a's {na} \
+                 triangles and {} of b's {nb}); give --max-position-delta to accept",
+                ua.len(),
+                ub.len()
+            ));
+        } else if self.exact {
+            problems.push(format!(
+                "mesh {name:?}: the same triangles in another order (vertices {} in a, {} in b); \
+                 give --max-position-delta to accept",
+                ma.vertex_count, mb.vertex_count
+            ));
+        }
+        let material_changes = m.material_changes + ca.material_changes + cb.material_changes;
+        if material_changes > 0 {
+            problems.push(format!(
+                "mesh {name:?}: {} triangle corners and {} retriangulated triangles changed \
+                 material",
+                m.material_changes,
+                ca.material_changes + cb.material_changes
+            ));
+        }
+        let gap = ca.max_gap.max(cb.max_gap);
+        entry["same_order"] = json!(false);
+        entry["max_position_delta"] = json!(m.max_delta);
+        entry["unmatched_triangles"] = json!([ua.len(), ub.len()]);
+        entry["off_surface_triangles"] = json!([ca.off_surface, cb.off_surface]);
+        entry["surface_gap"] = json!(gap);
+        entry["material_corner_changes"] = json!(m.material_changes);
+        entry["retriangulated_material_changes"] = json!(ca.material_changes + cb.material_changes);
+        format!(
+            "mesh {name:?}: triangles compared in any order: {} of a and {} of b unmatched, \
+             {} and {} of those off the other's surface; largest corner move {:.3e}, surface \
+             gap {gap:.3e}",
+            ua.len(),
+            ub.len(),
+            ca.off_surface,
+            cb.off_surface,
+            m.max_delta
+        )
+    }
+}
+
 fn role_key(pack: &Pack, role: SectionRole) -> String {
     let toc = pack.toc();
     match role {
@@ -319,57 +410,12 @@ pub fn run(args: Args) -> Outcome {
             entry["max_position_delta"] = json!(delta);
             entry["material_id_changes"] = json!(changed);
         } else {
-            // Another vertex or triangle order (another tool, or an optimizer that changed):
-            // compare the triangles as sets.
-            let m = triangles::compare(
-                &mesh_triangles(&a, ma, &names),
-                &mesh_triangles(&b, mb, &names),
+            let geometry = Geometry {
+                names: &names,
                 max_delta,
-            );
-            let within = if max_delta > 0.0 {
-                format!(" within {max_delta}")
-            } else {
-                String::new()
+                exact: exact_geometry,
             };
-            if m.only_in_a > 0 || m.only_in_b > 0 {
-                let [area_a, area_b] = m.unmatched_area;
-                let hint = if area_a > 0.0 && (area_a - area_b).abs() <= 1e-3 * area_a {
-                    format!(
-                        " (both cover an area of {area_a:.6e}: the same surface moved \
-                         slightly or triangulated another way?)"
-                    )
-                } else {
-                    String::new()
-                };
-                problems.push(format!(
-                    "mesh {:?}: {} of a's {} triangles have no match in b{within}, {} of b's {} \
-                     none in a{hint}",
-                    ma.name,
-                    m.only_in_a,
-                    ma.index_count / 3,
-                    m.only_in_b,
-                    mb.index_count / 3
-                ));
-            }
-            if m.material_changes > 0 {
-                problems.push(format!(
-                    "mesh {:?}: {} triangle corners changed material",
-                    ma.name, m.material_changes
-                ));
-            }
-            if exact_geometry && m.only_in_a == 0 && m.only_in_b == 0 {
-                problems.push(format!(
-                    "mesh {:?}: the same triangles in another order (vertices {} in a, {} in b); \
-                     give --max-position-delta to accept",
-                    ma.name, ma.vertex_count, mb.vertex_count
-                ));
-            }
-            entry["same_order"] = json!(false);
-            entry["max_position_delta"] = json!(m.max_delta);
-            entry["unmatched_triangles"] = json!([m.only_in_a, m.only_in_b]);
-            entry["material_corner_changes"] = json!(m.material_changes);
-            entry["unmatched_area"] = json!(m.unmatched_area);
-            reordered.push((ma.name.clone(), m));
+            reordered.push(geometry.compare_as_sets((&a, ma), (&b, mb), &mut problems, &mut entry));
         }
         meshes.push(entry);
     }
@@ -547,12 +593,8 @@ pub fn run(args: Args) -> Outcome {
                 s["state"].as_str().unwrap_or("")
             );
         }
-        for (name, m) in &reordered {
-            println!(
-                "  mesh {name:?}: triangles compared in any order: {} unmatched in a, {} in b, \
-                 largest corner move {:.3e}",
-                m.only_in_a, m.only_in_b, m.max_delta
-            );
+        for line in &reordered {
+            println!("  {line}");
         }
         for (name, levels) in &textures {
             for d in levels.iter().filter(|d| d.max_error > 0) {

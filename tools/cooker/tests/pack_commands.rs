@@ -187,17 +187,19 @@ fn diff_identical_changed_texel_and_material() {
         serde_json::json!([0, 0])
     );
     assert_eq!(v["meshes"][0]["material_corner_changes"], 0);
-    // Reversed winding is another triangle: it faces the other way.
+    // Reversed winding is another face: it faces the other way.
     let e = dir.path().join("e.pack");
     write_sample(&e, |_, data| {
-        let flipped: [u16; 6] = [0, 2, 1, 3, 4, 5];
+        let flipped: [u16; 6] = [0, 2, 1, 3, 5, 4];
         data.meshes[0].indices = flipped.iter().flat_map(|i| i.to_le_bytes()).collect();
     });
     let o = cooker(&[&"diff", &a, &e, &"--max-position-delta", &"0.1"]);
     assert_eq!(o.status.code(), Some(1), "{}", text(&o));
     assert!(
-        text(&o)
-            .contains("1 of a's 2 triangles have no match in b within 0.1, 1 of b's 2 none in a"),
+        text(&o).contains(
+            "2 of a's 2 triangles are off b's surface (farther than 1.000e-1, or facing the \
+             other way), 2 of b's 2 off a's"
+        ),
         "{}",
         text(&o)
     );

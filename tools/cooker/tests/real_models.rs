@@ -1919,6 +1919,50 @@ fn gltfpack_compressed_and_instanced_models_cook() {
         "six instances of a 12-triangle box"
     );
 
+    // `cooker diff` across tools. The six boxes as six nodes and as gltfpack's instanced,
+    // compressed file (reordered, corners turned, 14-bit positions): the same triangles and the
+    // same tagging, each instance judged as its own node is.
+    let nodes = dir.path().join("nodes.pack");
+    cook(&third_party("gltfpack/boxes.gltf"), &nodes, &[]);
+    let diff = |a: &Path, b: &Path, delta: &str| {
+        let o = cooker(&[&"diff", &a, &b, &"--json", &"--max-position-delta", &delta]);
+        let v: Value = serde_json::from_slice(&o.stdout).expect("diff --json");
+        (o.status.code(), v)
+    };
+    let (code, v) = diff(&nodes, &pack, "2e-3");
+    assert_eq!(code, Some(0), "{v:#}");
+    assert_eq!(v["meshes"][0]["same_order"], false);
+    assert_eq!(
+        v["meshes"][0]["unmatched_triangles"],
+        serde_json::json!([0, 0])
+    );
+    // The Cornell box's OBJ against gltfpack's quantized export of it: every quad is split
+    // along the other diagonal, and the right wall is not planar, so its two splits are two
+    // surfaces 1.6 units apart. Within 2 units every triangle lies on the other's surface.
+    let q = dir.path().join("q.pack");
+    cook(&third_party("gltfpack/cornell_q.glb"), &q, &[]);
+    let (_, v) = diff(&obj_pack, &q, "0.05");
+    let m = &v["meshes"][0];
+    assert_eq!(
+        m["unmatched_triangles"],
+        serde_json::json!([36, 36]),
+        "{m:#}"
+    );
+    assert_eq!(
+        m["off_surface_triangles"],
+        serde_json::json!([2, 2]),
+        "{m:#}"
+    );
+    let (_, v) = diff(&obj_pack, &q, "2");
+    let m = &v["meshes"][0];
+    assert_eq!(
+        m["off_surface_triangles"],
+        serde_json::json!([0, 0]),
+        "{m:#}"
+    );
+    let gap = m["surface_gap"].as_f64().unwrap();
+    assert!((1.5..1.7).contains(&gap), "{m:#}");
+
     // A compressed stream that does not decode: an error naming the file and the view, exit
     // 3, and no pack.
     let mut glb = std::fs::read(third_party("gltfpack/boxes_mi_cc.glb")).unwrap();

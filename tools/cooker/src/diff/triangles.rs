@@ -19,16 +19,12 @@ pub struct Triangle {
 /// What matching `a`'s triangles against `b`'s found.
 #[derive(Debug, PartialEq)]
 pub struct Matching {
-    /// Triangles of `a` with no counterpart in `b`, and the reverse.
-    pub only_in_a: usize,
-    pub only_in_b: usize,
+    /// Triangles of `a` with no counterpart in `b`, and the reverse, by index.
+    pub unmatched: [Vec<usize>; 2],
     /// Largest per-axis corner move among matched triangles.
     pub max_delta: f64,
     /// Matched corners whose material differs.
     pub material_changes: usize,
-    /// The area of the unmatched triangles of `a` and of `b`: equal areas hint at the same
-    /// surface triangulated another way (a quad split along its other diagonal).
-    pub unmatched_area: [f64; 2],
 }
 
 /// `t` turned (winding kept) so that its smallest corner comes first; ties between repeated
@@ -84,11 +80,6 @@ fn best_turn(a: &Triangle, b: &Triangle) -> (f64, usize) {
         })
         .min_by(|x, y| x.0.total_cmp(&y.0))
         .expect("three turns")
-}
-
-fn area(t: &Triangle) -> f64 {
-    let [p, q, r] = t.corners.map(|c| glam::DVec3::from(c.map(f64::from)));
-    (q - p).cross(r - p).length() / 2.0
 }
 
 fn centroid(t: &Triangle) -> [f64; 3] {
@@ -167,14 +158,10 @@ pub fn compare(a: &[Triangle], b: &[Triangle], tolerance: f64) -> Matching {
         }
     }
     let unmatched_b: Vec<usize> = (0..b.len()).filter(|&j| !used_b[j]).collect();
-    let area =
-        |ts: &[Triangle], which: &[usize]| -> f64 { which.iter().map(|&i| area(&ts[i])).sum() };
     Matching {
-        only_in_a: unmatched_a.len(),
-        only_in_b: unmatched_b.len(),
+        unmatched: [unmatched_a, unmatched_b],
         max_delta,
         material_changes,
-        unmatched_area: [area(&a, &unmatched_a), area(&b, &unmatched_b)],
     }
 }
 
@@ -214,11 +201,9 @@ mod tests {
         assert_eq!(
             m,
             Matching {
-                only_in_a: 0,
-                only_in_b: 0,
+                unmatched: [vec![], vec![]],
                 max_delta: 0.0,
                 material_changes: 0,
-                unmatched_area: [0.0; 2],
             }
         );
     }
@@ -234,23 +219,13 @@ mod tests {
         b.push(tri([[9.0; 3], [10.0, 9.0, 9.0], [9.0, 10.0, 9.0]], 0));
 
         let strict = compare(&a, &b, 0.0);
-        assert_eq!((strict.only_in_a, strict.only_in_b), (3, 3));
+        assert_eq!(strict.unmatched, [vec![3, 7, 20], vec![3, 7, 199]]);
         assert_eq!(strict.material_changes, 1);
 
         let loose = compare(&a, &b, 0.02);
-        assert_eq!((loose.only_in_a, loose.only_in_b), (2, 2));
+        assert_eq!(loose.unmatched, [vec![3, 20], vec![3, 199]]);
         assert!((loose.max_delta - 0.01).abs() < 1e-6, "{loose:?}");
         assert_eq!(loose.material_changes, 1);
-    }
-
-    #[test]
-    fn a_quad_split_the_other_way_is_unmatched_with_equal_area() {
-        let (p, q, r, s) = ([0.0; 3], [2.0, 0.0, 0.0], [2.0, 1.0, 0.0], [0.0, 1.0, 0.0]);
-        let a = [tri([p, q, r], 0), tri([p, r, s], 0)];
-        let b = [tri([p, q, s], 0), tri([q, r, s], 0)];
-        let m = compare(&a, &b, 0.1);
-        assert_eq!((m.only_in_a, m.only_in_b), (2, 2));
-        assert_eq!(m.unmatched_area, [2.0, 2.0]);
     }
 
     #[test]
@@ -265,16 +240,16 @@ mod tests {
             materials: [2, 3, 1],
         }];
         let m = compare(&a, &b, 0.01);
-        assert_eq!((m.only_in_a, m.only_in_b, m.material_changes), (0, 0, 0));
+        assert_eq!(m.unmatched, [Vec::<usize>::new(), vec![]]);
+        assert_eq!(m.material_changes, 0);
     }
 
     #[test]
     fn repeated_triangles_are_matched_once_each() {
         let t = tri([[0.0; 3], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]], 0);
         let m = compare(&[t, t, t], &[t, t], 0.0);
-        assert_eq!((m.only_in_a, m.only_in_b), (1, 0));
-        assert_eq!(m.unmatched_area, [0.5, 0.0]);
+        assert_eq!(m.unmatched, [vec![2], vec![]]);
         let m = compare(&[t], &[t, t], 0.5);
-        assert_eq!((m.only_in_a, m.only_in_b), (0, 1));
+        assert_eq!(m.unmatched, [vec![], vec![1]]);
     }
 }
