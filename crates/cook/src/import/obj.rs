@@ -385,6 +385,69 @@ fn read_chunk(bytes: &[u8]) -> Chunk {
     c
 }
 
+/// Whether any line of `text` is continued on the next (ends in a backslash).
+fn continued(text: &[u8]) -> bool {
+    memchr::memchr_iter(b'\\', text).any(|i| continues(text, i + 1))
+}
+
+/// Whether a backslash before `text[at..]` continues its line: a line end follows it.
+fn continues(text: &[u8], at: usize) -> bool {
+    matches!(text.get(at..), Some([b'\n', ..] | [b'\r', b'\n', ..]))
+}
+
+/// The last line end in `text[from..]` that ends a line not continued on the next.
+fn last_line_end(text: &[u8], from: usize) -> Option<usize> {
+    memchr::memrchr_iter(b'\n', &text[from..])
+        .map(|i| from + i)
+        .find(|&i| {
+            let before = &text[..i];
+            !(before.ends_with(b"\\") || before.ends_with(b"\\\r"))
+        })
+}
+
+/// Joins lines continued with a backslash at their end, as the OBJ format allows (older
+/// exporters wrap long faces so): each backslash and line end becomes a space, and the line
+/// ends taken out are put back after the joined line. The text keeps its length and every
+/// later line its number; an error in a joined line names its first line. Comments are not
+/// joined: a path ending in a backslash must not swallow the statement after it.
+fn join_continued_lines(text: &mut [u8]) {
+    let (mut read, mut write) = (0, 0);
+    // Line ends taken out of the logical line being copied.
+    let mut joined = 0;
+    let mut line_start = true;
+    let mut comment = false;
+    while read < text.len() {
+        let b = text[read];
+        if line_start && !b.is_ascii_whitespace() {
+            comment = b == b'#';
+            line_start = false;
+        }
+        if b == b'\\' && !comment && continues(text, read + 1) {
+            text[write] = b' ';
+            write += 1;
+            read += if text[read + 1] == b'\n' { 2 } else { 3 };
+            joined += 1;
+            continue;
+        }
+        if b == b'\n' {
+            // The gap left by the joins: spaces, then the line ends they took out.
+            let gap = read - write;
+            text[write..write + gap - joined].fill(b' ');
+            text[write + gap - joined..read].fill(b'\n');
+            joined = 0;
+            line_start = true;
+            comment = false;
+            write = read;
+        }
+        text[write] = b;
+        write += 1;
+        read += 1;
+    }
+    let gap = read - write;
+    text[write..write + gap - joined].fill(b' ');
+    text[write + gap - joined..].fill(b'\n');
+}
+
 /// The lines of `bytes` as `split` on `\n` gives them (the piece after the last one too,
 /// empty or not), their ends found with memchr: a byte-by-byte split was a quarter of the
 /// parse.
@@ -844,6 +907,17 @@ fn chunks(bytes: &[u8], chunk_bytes: usize) -> Vec<&[u8]> {
 /// Parses OBJ text. `path` names the file in errors and locates `mtllib` files. Large texts
 /// are split into runs of lines read on every thread, with the same result.
 pub fn parse(path: &Path, bytes: &[u8]) -> Result<Imported, CookError> {
+    let joined;
+    let bytes = if continued(bytes) {
+        joined = {
+            let mut b = bytes.to_vec();
+            join_continued_lines(&mut b);
+            b
+        };
+        &joined[..]
+    } else {
+        bytes
+    };
     if bytes.len() >= PARALLEL_BYTES {
         parse_chunked(path, bytes, CHUNK_BYTES)
     } else {
@@ -1085,8 +1159,8 @@ fn parse_stream(
         let cut = if end {
             block.len()
         } else {
-            match memchr::memrchr(b'\n', &block[checked..]) {
-                Some(i) => checked + i + 1,
+            match last_line_end(&block, checked) {
+                Some(i) => i + 1,
                 None => {
                     checked = block.len();
                     end = fill(reader, &mut block).map_err(io)?;
@@ -1097,6 +1171,9 @@ fn parse_stream(
         next.clear();
         next.extend_from_slice(&block[cut..]);
         checked = next.len();
+        if continued(&block[..cut]) {
+            join_continued_lines(&mut block[..cut]);
+        }
         let text = &block[..cut];
         consumed += text.len() as u64;
         let rest = size.saturating_sub(consumed);
@@ -1995,6 +2072,48 @@ mod tests {
             };
             prop_assert_eq!(streamed(&text, size, chunk, block), summary(want));
         }
+    }
+
+    proptest! {
+        #![proptest_config(ProptestConfig::with_cases(300))]
+        /// Lines continued with a backslash (LF or CRLF) read the same streamed in blocks of a
+        /// few bytes, where a continued line may straddle blocks, as joined whole.
+        #[test]
+        fn continued_lines_stream_as_they_read_whole(
+            lines in prop::collection::vec(
+                (obj_line(), prop::sample::select(vec!["\n", "\n", "\\\n", "\\\r\n", "\r\n"])),
+                0..60,
+            ),
+            chunk in 1usize..200,
+            block in 1usize..300,
+        ) {
+            let text: String = lines.into_iter().map(|(l, end)| l + end).collect();
+            let path = Path::new("test.obj");
+            prop_assert_eq!(
+                streamed(&text, None, chunk, block),
+                summary(parse(path, text.as_bytes()))
+            );
+        }
+    }
+
+    #[test]
+    fn continued_lines_are_joined_in_place() {
+        let join = |s: &str| {
+            let mut b = s.as_bytes().to_vec();
+            join_continued_lines(&mut b);
+            String::from_utf8(b).unwrap()
+        };
+        assert_eq!(join("f 1 2 \\\n 3\nv\n"), "f 1 2   3\n\nv\n");
+        assert_eq!(join("f 1 \\\r\n2 \\\n3\r\nv"), "f 1  2  3\r \n\n\nv");
+        // A comment is not joined; a backslash inside a line is kept.
+        assert_eq!(join("# C:\\dir\\\nv 1 2 3\\\n"), "# C:\\dir\\\nv 1 2 3 \n");
+        assert_eq!(join("usemtl a\\b\n"), "usemtl a\\b\n");
+        // A face wrapped over three lines reads as one, and later lines keep their numbers.
+        let m = parse_str("v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nf 1 2 \\\n3 \\\n 4\nf 1 2 x\n");
+        let e = m.unwrap_err().to_string();
+        assert!(e.contains("test.obj:8"), "{e}");
+        let m = parse_str("v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nf 1 2 \\\r\n3 \\\n 4\n").unwrap();
+        assert_eq!(m.tri_part.len(), 2);
     }
 
     proptest! {
