@@ -495,6 +495,9 @@ pub struct Imported {
     pub polygons: usize,
     /// Other files read for this source (material libraries, glTF buffers).
     pub files: Vec<PathBuf>,
+    /// Texture placement an OBJ's materials give (MTL `-o` offset, `-s` scale, in u and v),
+    /// by material, applied to the coordinates once every face is read.
+    pub(crate) uv_transforms: Vec<(u32, [f32; 2], [f32; 2])>,
 }
 
 impl Imported {

@@ -31,7 +31,7 @@ pub fn import(path: &Path) -> Result<Imported, CookError> {
                 .unwrap_or(usize::MAX)
                 .saturating_add(1),
         );
-        return parse_stream(path, &mut file, size, CHUNK_BYTES, block);
+        return parse_stream(path, &mut file, size, CHUNK_BYTES, block).map(place_textures);
     }
     let mut bytes = Vec::with_capacity(size as usize);
     file.read_to_end(&mut bytes).map_err(io)?;
@@ -923,6 +923,48 @@ pub fn parse(path: &Path, bytes: &[u8]) -> Result<Imported, CookError> {
     } else {
         parse_lines(path, bytes)
     }
+    .map(place_textures)
+}
+
+/// Applies the materials' texture placement (MTL `-o`, `-s`) to the texture coordinates of
+/// their triangles, as glTF's `KHR_texture_transform` is: the pack has one set of coordinates
+/// and no per-material transform. A coordinate shared with a triangle of another material is
+/// copied first.
+fn place_textures(mut out: Imported) -> Imported {
+    let transforms = std::mem::take(&mut out.uv_transforms);
+    if transforms.is_empty() || out.corners.uv_indices().is_empty() {
+        return out;
+    }
+    let placement: HashMap<u32, ([f32; 2], [f32; 2])> = transforms
+        .into_iter()
+        .map(|(m, offset, scale)| (m, (offset, scale)))
+        .collect();
+    // Per material placed, the coordinates already made for it.
+    let mut made: HashMap<(u32, u32), u32> = HashMap::new();
+    for t in 0..out.tri_part.len().min(out.corners.len() / 3) {
+        let Some(material) = out.parts[out.tri_part[t] as usize].material else {
+            continue;
+        };
+        let Some(&(offset, scale)) = placement.get(&material) else {
+            continue;
+        };
+        for k in 0..3 {
+            let mut c = out.corners.get(3 * t + k);
+            if c.t == NONE {
+                continue;
+            }
+            let uvs = &mut out.uvs;
+            c.t = *made.entry((material, c.t)).or_insert_with(|| {
+                // Stored with v flipped (images top row first); the MTL's v runs up.
+                let [u, v] = uvs[c.t as usize];
+                let (u, v) = (u * scale[0] + offset[0], (1.0 - v) * scale[1] + offset[1]);
+                uvs.push([u, 1.0 - v]);
+                (uvs.len() - 1) as u32
+            });
+            out.corners.set(3 * t + k, c);
+        }
+    }
+    out
 }
 
 /// Parses OBJ text line by line: the reference [`parse_chunked`] must agree with, and what
@@ -1718,6 +1760,70 @@ fn mtl_transmission(m: &tobj::Material) -> super::Transmission {
     }
 }
 
+/// An MTL texture statement (`map_Kd -s 2 2 1 -clamp on my design.png`): its options, then
+/// the file name, which may contain spaces.
+#[derive(Debug, PartialEq)]
+struct TextureStatement<'a> {
+    file: &'a str,
+    /// `-o` and `-s` in u and v: a coordinate `uv` reads the texture at `uv * scale + offset`.
+    offset: [f32; 2],
+    scale: [f32; 2],
+    /// Options given that the cook does not model (`-clamp`, `-bm`, ...), by name.
+    ignored: Vec<&'a str>,
+}
+
+impl<'a> TextureStatement<'a> {
+    fn parse(rest: &'a str) -> Self {
+        let mut st = TextureStatement {
+            file: rest.trim(),
+            offset: [0.0; 2],
+            scale: [1.0; 2],
+            ignored: Vec::new(),
+        };
+        let mut at = rest;
+        loop {
+            let trimmed = at.trim_start();
+            let (word, after) = trimmed
+                .split_once(char::is_whitespace)
+                .unwrap_or((trimmed, ""));
+            // Options and how many words follow them (-o, -s, -t: up to three numbers).
+            let arity = match word {
+                "-blendu" | "-blendv" | "-bm" | "-boost" | "-cc" | "-clamp" | "-imfchan"
+                | "-texres" | "-type" => 1,
+                "-mm" => 2,
+                "-o" | "-s" | "-t" => 3,
+                _ => {
+                    st.file = trimmed.trim_end();
+                    return st;
+                }
+            };
+            let mut after = after;
+            let mut values = Vec::new();
+            for k in 0..arity {
+                let t = after.trim_start();
+                let (arg, next) = t.split_once(char::is_whitespace).unwrap_or((t, ""));
+                let number = arg.parse::<f32>().ok().filter(|v| v.is_finite());
+                if arity == 3 && k > 0 && number.is_none() || arg.is_empty() {
+                    break;
+                }
+                values.push(number);
+                after = next;
+            }
+            match (word, values.as_slice()) {
+                ("-o", [Some(u), rest @ ..]) => {
+                    st.offset = [*u, rest.first().copied().flatten().unwrap_or(0.0)]
+                }
+                ("-s", [Some(u), rest @ ..]) => {
+                    st.scale = [*u, rest.first().copied().flatten().unwrap_or(1.0)]
+                }
+                ("-blendu" | "-blendv", _) => {}
+                _ => st.ignored.push(word),
+            }
+            at = after;
+        }
+    }
+}
+
 fn load_mtllib(
     path: &Path,
     line: usize,
@@ -1769,12 +1875,33 @@ fn load_mtllib(
         })?;
         let mtl_dir = mtl.parent().unwrap_or(Path::new("")).to_path_buf();
         for m in materials {
+            let mut transforms = Vec::new();
             let mut texture = |name: &Option<String>, what: &str| -> Option<ImageRef> {
                 let name = name.as_deref()?.trim();
                 if name.is_empty() {
                     return None;
                 }
-                let (files, _) = find_file(&mtl_dir, name.as_bytes());
+                let statement = TextureStatement::parse(name);
+                if !statement.ignored.is_empty() {
+                    out.warnings.push(Warning::new(
+                        &mtl,
+                        None,
+                        format!(
+                            "{what} of material {:?}: options {} not applied",
+                            m.name,
+                            statement.ignored.join(", ")
+                        ),
+                    ));
+                }
+                transforms.push((what.to_string(), statement.offset, statement.scale));
+                let whole = mtl_dir.join(name);
+                let files = if whole.is_file() {
+                    vec![whole]
+                } else if mtl_dir.join(statement.file).is_file() {
+                    vec![mtl_dir.join(statement.file)]
+                } else {
+                    find_file(&mtl_dir, name.as_bytes()).0
+                };
                 match files.last() {
                     Some(f) => Some(ImageRef::File(f.clone())),
                     None => {
@@ -1797,6 +1924,25 @@ fn load_mtllib(
                 .clone()
                 .or_else(|| m.unknown_param.get("norm").cloned());
             let normal_texture = texture(&normal_name, "normal map");
+            // One set of coordinates serves both maps: the design's placement wins.
+            let placed: Vec<_> = transforms
+                .iter()
+                .filter(|t| t.1 != [0.0; 2] || t.2 != [1.0; 2])
+                .collect();
+            let uv_transform = placed.first().map(|t| (t.1, t.2));
+            if let [first, second] = placed[..]
+                && (first.1, first.2) != (second.1, second.2)
+            {
+                out.warnings.push(Warning::new(
+                    &mtl,
+                    None,
+                    format!(
+                        "material {:?}: the {} is placed by other -o/-s options than the {}; \
+                         both use the {}'s",
+                        m.name, second.0, first.0, first.0
+                    ),
+                ));
+            }
             let sm = SourceMaterial {
                 name: m.name.clone(),
                 diffuse: m.diffuse.unwrap_or([0.8; 3]),
@@ -1822,12 +1968,20 @@ fn load_mtllib(
                 });
             }
             // A later definition of the same name wins, as in every OBJ reader.
-            match ids.get(&m.name) {
-                Some(&i) => out.materials[i as usize] = sm,
+            let id = match ids.get(&m.name) {
+                Some(&i) => {
+                    out.materials[i as usize] = sm;
+                    i
+                }
                 None => {
                     ids.insert(m.name.clone(), out.materials.len() as u32);
                     out.materials.push(sm);
+                    out.materials.len() as u32 - 1
                 }
+            };
+            out.uv_transforms.retain(|t| t.0 != id);
+            if let Some((offset, scale)) = uv_transform {
+                out.uv_transforms.push((id, offset, scale));
             }
         }
     }
@@ -1848,6 +2002,77 @@ fn load_mtllib(
 mod tests {
     use super::*;
     use proptest::prelude::*;
+
+    #[test]
+    fn texture_statements_give_options_then_a_file_name_with_spaces() {
+        let st = TextureStatement::parse("-s 2 3 1 -o 0.5 -clamp on -bm 0.3 my design.png ");
+        assert_eq!(
+            st,
+            TextureStatement {
+                file: "my design.png",
+                offset: [0.5, 0.0],
+                scale: [2.0, 3.0],
+                ignored: vec!["-clamp", "-bm"],
+            }
+        );
+        // -s with one number scales u only; a name is what follows the last option.
+        let st = TextureStatement::parse("-s 2 -blendu off design.png");
+        assert_eq!(
+            (st.file, st.scale, st.ignored.len()),
+            ("design.png", [2.0, 1.0], 0)
+        );
+        assert_eq!(TextureStatement::parse("plain.png").file, "plain.png");
+        assert_eq!(TextureStatement::parse("-frob.png").file, "-frob.png");
+    }
+
+    /// `map_Kd -o/-s` place the texture on the material's triangles; a coordinate shared
+    /// with another material keeps its place there; a file name after options may hold
+    /// spaces.
+    #[test]
+    fn mtl_texture_options_place_the_texture() {
+        let dir = tempfile::tempdir().unwrap();
+        image::RgbaImage::from_pixel(2, 2, image::Rgba([1, 2, 3, 255]))
+            .save(dir.path().join("a design.png"))
+            .unwrap();
+        std::fs::write(
+            dir.path().join("m.mtl"),
+            "newmtl glass\nmap_Kd -s 2 4 1 -o 0.5 0.25 0 -cc on a design.png\n\
+             newmtl stone\nKd 0.5 0.5 0.5\n",
+        )
+        .unwrap();
+        let obj = dir.path().join("m.obj");
+        std::fs::write(
+            &obj,
+            "mtllib m.mtl\nv 0 0 0\nv 1 0 0\nv 1 1 0\nvt 0 0\nvt 1 0\nvt 1 1\n\
+             usemtl glass\nf 1/1 2/2 3/3\nusemtl stone\nf 1/1 3/3 2/2\n",
+        )
+        .unwrap();
+        let m = import(&obj).unwrap();
+        assert_eq!(
+            m.materials[0].diffuse_texture,
+            Some(ImageRef::File(dir.path().join("a design.png")))
+        );
+        let uv = |t: usize, k: usize| {
+            let [u, v] = m.uvs[m.corners.get(3 * t + k).t as usize];
+            [u, 1.0 - v]
+        };
+        // Glass: uv * (2, 4) + (0.5, 0.25); stone as written.
+        assert_eq!(
+            [uv(0, 0), uv(0, 1), uv(0, 2)],
+            [[0.5, 0.25], [2.5, 0.25], [2.5, 4.25]]
+        );
+        assert_eq!(
+            [uv(1, 0), uv(1, 1), uv(1, 2)],
+            [[0.0, 0.0], [1.0, 1.0], [1.0, 0.0]]
+        );
+        assert!(
+            m.warnings
+                .iter()
+                .any(|w| w.to_string().contains("options -cc not applied")),
+            "{:?}",
+            m.warnings
+        );
+    }
 
     #[test]
     fn tf_in_rgb_grey_and_cie_xyz_is_a_linear_rgb_filter() {
