@@ -1111,6 +1111,8 @@ fn external_file(base: &Path, uri: &str) -> Option<std::path::PathBuf> {
     [base.join(uri), base.join(percent_decode(uri))]
         .into_iter()
         .find(|p| p.is_file())
+        // Exporters on Windows write backslashes and trust a case-blind file system.
+        .or_else(|| super::locate(base, &percent_decode(uri)))
 }
 
 fn percent_decode(s: &str) -> String {

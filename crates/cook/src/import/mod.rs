@@ -592,6 +592,76 @@ pub fn import(path: &Path) -> Result<Imported, CookError> {
     }
 }
 
+/// The file `name` (relative to `dir`, or absolute) means, as a file written on Windows means
+/// it too: with backslashes for separators, in any letter case (`Textures\glass.PNG` for
+/// `textures/Glass.png`), or given by an absolute path from the machine it was made on, whose
+/// file name is then looked for beside `dir`.
+pub(crate) fn locate(dir: &Path, name: &str) -> Option<PathBuf> {
+    let exact = dir.join(name);
+    if exact.is_file() {
+        return Some(exact);
+    }
+    let slashed = name.replace('\\', "/");
+    let slashed = slashed.trim();
+    if slashed.is_empty() {
+        return None;
+    }
+    let relative = slashed.strip_prefix("./").unwrap_or(slashed);
+    let candidate = dir.join(relative);
+    if candidate.is_file() {
+        return Some(candidate);
+    }
+    if let Some(p) = any_case(dir, relative) {
+        return Some(p);
+    }
+    // `C:/Users/me/models/textures/glass.png`, `/home/me/...`: the file name beside the library.
+    let absolute = slashed.starts_with('/') || slashed.as_bytes().get(1) == Some(&b':');
+    let file_name = relative.rsplit('/').next()?;
+    if absolute || relative.contains('/') {
+        let beside = dir.join(file_name);
+        if beside.is_file() {
+            return Some(beside);
+        }
+        return any_case(dir, file_name);
+    }
+    None
+}
+
+/// `relative` under `dir`, each component matched without regard to letter case.
+fn any_case(dir: &Path, relative: &str) -> Option<PathBuf> {
+    let mut at = dir.to_path_buf();
+    let parts: Vec<&str> = relative
+        .split('/')
+        .filter(|c| !c.is_empty() && *c != ".")
+        .collect();
+    for (i, part) in parts.iter().enumerate() {
+        let next = if *part == ".." {
+            at.join("..")
+        } else {
+            let entries = std::fs::read_dir(if at.as_os_str().is_empty() {
+                Path::new(".")
+            } else {
+                &at
+            })
+            .ok()?;
+            let lower = part.to_lowercase();
+            let found = entries
+                .filter_map(Result::ok)
+                .map(|e| e.file_name())
+                .filter(|n| n.to_string_lossy().to_lowercase() == lower)
+                .min()?;
+            at.join(found)
+        };
+        let last = i + 1 == parts.len();
+        if (last && next.is_file()) || (!last && next.is_dir()) {
+            at = next;
+        } else {
+            return None;
+        }
+    }
+    (!parts.is_empty()).then_some(at)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -1682,18 +1682,15 @@ fn plural(what: &str, n: usize) -> String {
 /// may contain spaces), then each word (several files, or options before the name).
 fn find_file(dir: &Path, rest: &[u8]) -> (Vec<PathBuf>, Vec<String>) {
     let whole = text(rest);
-    let candidate = dir.join(&whole);
-    if candidate.is_file() {
-        return (vec![candidate], Vec::new());
+    if let Some(p) = super::locate(dir, &whole) {
+        return (vec![p], Vec::new());
     }
     let mut found = Vec::new();
     let mut missing = Vec::new();
     for w in tokens(rest) {
-        let p = dir.join(text(w));
-        if p.is_file() {
-            found.push(p)
-        } else {
-            missing.push(text(w))
+        match super::locate(dir, &text(w)) {
+            Some(p) => found.push(p),
+            None => missing.push(text(w)),
         }
     }
     (found, missing)
@@ -1758,6 +1755,122 @@ fn mtl_transmission(m: &tobj::Material) -> super::Transmission {
         factor: None,
         blend: false,
     }
+}
+
+/// An MTL library as tobj can read it, every line checked here first so that a bad value is
+/// an error naming its line (tobj's names none, and panicked on a one-value colour) and the
+/// forms real files use read as they mean:
+/// - colours (`Ka`, `Kd`, `Ks`, `Ke`) of one value are grey, `xyz` ones are converted to
+///   linear sRGB, `spectral` ones (a curve in another file) are dropped with a warning;
+/// - `d -halo f` is `d f`; keywords in another case (`map_kd`, `KD`) are the keywords;
+/// - text that is not UTF-8 reads as it does in the OBJ (invalid bytes replaced), so the
+///   names still match `usemtl`.
+///
+/// Lines keep their numbers: a dropped line becomes empty.
+fn clean_mtl(path: &Path, bytes: &[u8], warnings: &mut Vec<Warning>) -> Result<String, CookError> {
+    let text = String::from_utf8_lossy(bytes.strip_prefix(b"\xEF\xBB\xBF").unwrap_or(bytes));
+    let fail = |line: usize, message: String| CookError::Source {
+        path: path.to_path_buf(),
+        line: Some(line),
+        message,
+    };
+    const KEYWORDS: [&str; 17] = [
+        "newmtl", "Ka", "Kd", "Ks", "Ke", "Ns", "Ni", "d", "Tr", "Tf", "illum", "map_Ka", "map_Kd",
+        "map_Ks", "map_Bump", "bump", "map_d",
+    ];
+    let mut out = String::with_capacity(text.len());
+    for (i, raw) in text.lines().enumerate() {
+        let n = i + 1;
+        let line = raw.trim();
+        let (word, rest) = line
+            .split_once(char::is_whitespace)
+            .map_or((line, ""), |(w, r)| (w, r.trim()));
+        let key = KEYWORDS
+            .iter()
+            .find(|k| k.eq_ignore_ascii_case(word))
+            .copied()
+            .unwrap_or(word);
+        // The numbers before any trailing comment, all of them numbers.
+        let numbers = |rest: &str| -> Option<Vec<f32>> {
+            rest.split_whitespace()
+                .take_while(|t| !t.starts_with('#'))
+                .map(|t| t.parse::<f32>().ok().filter(|v| v.is_finite()))
+                .collect()
+        };
+        let cleaned = match key {
+            "Ka" | "Kd" | "Ks" | "Ke" => {
+                let (space, values) = match rest.split_once(char::is_whitespace) {
+                    Some(("xyz", v)) => ("xyz", v),
+                    Some(("spectral", _)) => ("spectral", ""),
+                    _ if rest == "spectral" => ("spectral", ""),
+                    _ => ("rgb", rest),
+                };
+                if space == "spectral" {
+                    warnings.push(Warning::new(
+                        path,
+                        Some(n),
+                        format!(
+                            "{key} spectral (a reflectance curve) is not read; {key} left unset"
+                        ),
+                    ));
+                    String::new()
+                } else {
+                    let v = numbers(values).filter(|v| !v.is_empty()).ok_or_else(|| {
+                        fail(n, format!("{key} wants 1 or 3 numbers, got {rest:?}"))
+                    })?;
+                    // One value is a grey; a missing component repeats the one before.
+                    let c = [v[0], v[v.len().min(2) - 1], v[v.len().min(3) - 1]];
+                    let c = if space == "xyz" {
+                        xyz_to_linear_srgb(c)
+                    } else {
+                        c
+                    };
+                    format!("{key} {} {} {}", c[0], c[1], c[2])
+                }
+            }
+            "Ns" | "Ni" | "d" => {
+                let value = if key == "d" {
+                    rest.strip_prefix("-halo").map_or(rest, str::trim_start)
+                } else {
+                    rest
+                };
+                let v = value
+                    .split_whitespace()
+                    .next()
+                    .and_then(|t| t.parse::<f32>().ok())
+                    .filter(|v| v.is_finite())
+                    .ok_or_else(|| fail(n, format!("{key} wants a number, got {rest:?}")))?;
+                format!("{key} {v}")
+            }
+            "illum" => {
+                let v = rest
+                    .split_whitespace()
+                    .next()
+                    .and_then(|t| t.parse::<f32>().ok())
+                    .filter(|v| v.fract() == 0.0 && (0.0..=255.0).contains(v))
+                    .ok_or_else(|| {
+                        fail(n, format!("illum wants a model number 0-10, got {rest:?}"))
+                    })?;
+                format!("illum {}", v as u8)
+            }
+            "newmtl" if rest.is_empty() => {
+                return Err(fail(n, "newmtl without a material name".into()));
+            }
+            "map_Ka" | "map_Kd" | "map_Ks" | "map_Bump" | "bump" | "map_d" if rest.is_empty() => {
+                warnings.push(Warning::new(
+                    path,
+                    Some(n),
+                    format!("{key} names no file; ignored"),
+                ));
+                String::new()
+            }
+            _ if key != word => format!("{key} {rest}"),
+            _ => raw.to_string(),
+        };
+        out.push_str(&cleaned);
+        out.push('\n');
+    }
+    Ok(out)
 }
 
 /// An MTL texture statement (`map_Kd -s 2 2 1 -clamp on my design.png`): its options, then
@@ -1868,11 +1981,17 @@ fn load_mtllib(
     }
     for mtl in found {
         out.files.push(mtl.clone());
-        let (materials, _) = tobj::load_mtl(&mtl).map_err(|e| CookError::Source {
+        let bytes = std::fs::read(&mtl).map_err(|source| CookError::Io {
             path: mtl.clone(),
-            line: None,
-            message: format!("material library cannot be parsed: {e}"),
+            source,
         })?;
+        let cleaned = clean_mtl(&mtl, &bytes, &mut out.warnings)?;
+        let (materials, _) =
+            tobj::load_mtl_buf(&mut cleaned.as_bytes()).map_err(|e| CookError::Source {
+                path: mtl.clone(),
+                line: None,
+                message: format!("material library cannot be parsed: {e}"),
+            })?;
         let mtl_dir = mtl.parent().unwrap_or(Path::new("")).to_path_buf();
         for m in materials {
             let mut transforms = Vec::new();
@@ -1894,13 +2013,11 @@ fn load_mtllib(
                     ));
                 }
                 transforms.push((what.to_string(), statement.offset, statement.scale));
-                let whole = mtl_dir.join(name);
-                let files = if whole.is_file() {
-                    vec![whole]
-                } else if mtl_dir.join(statement.file).is_file() {
-                    vec![mtl_dir.join(statement.file)]
-                } else {
-                    find_file(&mtl_dir, name.as_bytes()).0
+                let files = match super::locate(&mtl_dir, name)
+                    .or_else(|| super::locate(&mtl_dir, statement.file))
+                {
+                    Some(f) => vec![f],
+                    None => find_file(&mtl_dir, name.as_bytes()).0,
                 };
                 match files.last() {
                     Some(f) => Some(ImageRef::File(f.clone())),
@@ -2002,6 +2119,70 @@ fn load_mtllib(
 mod tests {
     use super::*;
     use proptest::prelude::*;
+
+    /// MTL forms real files use: one-value colours (tobj panicked on them), CIE XYZ and
+    /// spectral colours, `d -halo`, keywords in other cases, trailing comments, text that is
+    /// not UTF-8; bad values are errors naming their line.
+    #[test]
+    fn mtl_lines_are_checked_and_read_as_they_mean() {
+        let path = Path::new("m.mtl");
+        let mut warnings = Vec::new();
+        let text = "newmtl grey\nKd 0.5\nKA spectral wood.rfl 1\nks xyz 0.5\n\
+                    newmtl caf\u{e9}\r\nD -halo 0.25\nKd 1 0 0.5 # red\nMAP_KD a.png\nillum 4\n";
+        let bytes: Vec<u8> = text.chars().map(|c| c as u32 as u8).collect();
+        let cleaned = clean_mtl(path, &bytes, &mut warnings).unwrap();
+        assert_eq!(cleaned.lines().count(), text.lines().count());
+        assert!(warnings[0].to_string().contains("m.mtl:3"), "{warnings:?}");
+        let (materials, _) = tobj::load_mtl_buf(&mut cleaned.as_bytes()).unwrap();
+        assert_eq!(materials[0].diffuse, Some([0.5; 3]));
+        assert_eq!(materials[0].ambient, None);
+        assert_eq!(materials[0].specular, Some([0.5; 3]));
+        assert_eq!(materials[1].name, "caf\u{FFFD}");
+        assert_eq!(materials[1].dissolve, Some(0.25));
+        assert_eq!(materials[1].diffuse, Some([1.0, 0.0, 0.5]));
+        assert_eq!(materials[1].diffuse_texture.as_deref(), Some("a.png"));
+        assert_eq!(materials[1].illumination_model, Some(4));
+        for (bad, line, what) in [
+            ("newmtl a\nKd 0.5 x 1\n", 2, "Kd wants 1 or 3 numbers"),
+            ("newmtl a\n\nNs high\n", 3, "Ns wants a number"),
+            ("newmtl a\nillum 2.5\n", 2, "illum wants a model number"),
+            ("newmtl\n", 1, "newmtl without a material name"),
+        ] {
+            let e = clean_mtl(path, bad.as_bytes(), &mut warnings)
+                .unwrap_err()
+                .to_string();
+            assert!(
+                e.contains(&format!("m.mtl:{line}")) && e.contains(what),
+                "{e}"
+            );
+        }
+    }
+
+    /// Texture and library names as Windows exporters write them: backslashes, another
+    /// letter case, an absolute path from the machine they were made on.
+    #[test]
+    fn files_are_found_as_windows_exporters_name_them() {
+        let dir = tempfile::tempdir().unwrap();
+        std::fs::create_dir(dir.path().join("Textures")).unwrap();
+        let file = dir.path().join("Textures").join("Glass Red.png");
+        std::fs::write(&file, b"x").unwrap();
+        std::fs::write(dir.path().join("beside.png"), b"x").unwrap();
+        let d = dir.path();
+        for name in [
+            "Textures/Glass Red.png",
+            "Textures\\Glass Red.png",
+            "textures\\glass red.PNG",
+            "./TEXTURES/glass red.png",
+        ] {
+            assert_eq!(super::super::locate(d, name), Some(file.clone()), "{name}");
+        }
+        assert_eq!(
+            super::super::locate(d, "C:\\Users\\me\\Desktop\\Beside.png"),
+            Some(d.join("beside.png"))
+        );
+        assert_eq!(super::super::locate(d, "missing.png"), None);
+        assert_eq!(super::super::locate(d, "Textures"), None);
+    }
 
     #[test]
     fn texture_statements_give_options_then_a_file_name_with_spaces() {
