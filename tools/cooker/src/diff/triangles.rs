@@ -104,31 +104,35 @@ pub fn compare(a: &[Triangle], b: &[Triangle], tolerance: f64) -> Matching {
         exact.entry(bits(t)).or_default().push(j);
     }
     let mut used_b = vec![false; b.len()];
-    let mut left_a = Vec::new();
+    let mut unmatched_a = Vec::new();
     for (i, t) in a.iter().enumerate() {
         match exact.get_mut(&bits(t)).and_then(Vec::pop) {
             Some(j) => {
                 used_b[j] = true;
                 material_changes += count_changes(t, &b[j], 0);
             }
-            None => left_a.push(i),
+            None => unmatched_a.push(i),
         }
     }
 
     let mut max_delta = 0.0f64;
-    let mut unmatched_a = left_a.clone();
-    if tolerance > 0.0 && !left_a.is_empty() {
-        // Matched corners lie within `tolerance` per axis, so their centroids do too: a grid of
+    // Within a growing radius up to the tolerance: most triangles moved by far less (a
+    // quantization step) and are matched while the grid's cells are small and hold a few
+    // candidates each; a cell the tolerance wide may hold thousands.
+    let mut radius = tolerance / 4096.0;
+    while tolerance > 0.0 && !unmatched_a.is_empty() {
+        radius = (radius * 8.0).min(tolerance);
+        // Matched corners lie within `radius` per axis, so their centroids do too: a grid of
         // that cell size finds every candidate in the 27 cells around a centroid.
-        let cell = |p: [f64; 3]| p.map(|x| (x / tolerance).floor() as i64);
+        let cell = |p: [f64; 3]| p.map(|x| (x / radius).floor() as i64);
         let mut grid: HashMap<[i64; 3], Vec<usize>> = HashMap::new();
         for (j, t) in b.iter().enumerate() {
             if !used_b[j] {
                 grid.entry(cell(centroid(t))).or_default().push(j);
             }
         }
-        unmatched_a.clear();
-        for &i in &left_a {
+        let left = std::mem::take(&mut unmatched_a);
+        for i in left {
             let t = &a[i];
             let c = cell(centroid(t));
             let mut best: Option<(f64, usize, usize)> = None;
@@ -140,7 +144,7 @@ pub fn compare(a: &[Triangle], b: &[Triangle], tolerance: f64) -> Matching {
                         };
                         for &j in js.iter().filter(|&&j| !used_b[j]) {
                             let (d, turn) = best_turn(t, &b[j]);
-                            if d <= tolerance && best.is_none_or(|(bd, _, _)| d < bd) {
+                            if d <= radius && best.is_none_or(|(bd, _, _)| d < bd) {
                                 best = Some((d, j, turn));
                             }
                         }
@@ -155,6 +159,9 @@ pub fn compare(a: &[Triangle], b: &[Triangle], tolerance: f64) -> Matching {
                 }
                 None => unmatched_a.push(i),
             }
+        }
+        if radius >= tolerance {
+            break;
         }
     }
     let unmatched_b: Vec<usize> = (0..b.len()).filter(|&j| !used_b[j]).collect();
