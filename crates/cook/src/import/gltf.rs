@@ -260,9 +260,12 @@ pub fn import(path: &Path) -> Result<Imported, CookError> {
                     ),
                 };
                 // Each instance is its own part, as it would be written as its own node: the
-                // geometry heuristics judge one pillar, not a row of them.
+                // geometry heuristics judge one pillar, not a row of them. Past a few thousand
+                // (grass, tiles) they are one part, which keeps parts and notes bounded.
+                let own_parts = worlds.len() <= MAX_INSTANCE_PARTS;
                 let parts: Vec<u32> = (0..worlds.len())
                     .map(|instance| {
+                        let instance = if own_parts { instance } else { 0 };
                         let key = (material.index(), mesh.index(), node.index(), instance);
                         *part_ids.entry(key).or_insert_with(|| {
                             out.parts.push(Part {
@@ -832,6 +835,9 @@ fn instances(
         .collect()
 }
 
+/// Instances of one node that get a part each; more share one.
+const MAX_INSTANCE_PARTS: usize = 4096;
+
 fn add_primitive(
     ctx: &Ctx,
     prim: &gltf::Primitive,
@@ -1105,8 +1111,14 @@ fn external_file(base: &Path, uri: &str) -> Option<std::path::PathBuf> {
         .or_else(|| uri.strip_prefix("file://"))
         .or_else(|| uri.strip_prefix("file:"));
     if let Some(p) = rel {
-        let p = std::path::PathBuf::from(percent_decode(p));
-        return p.is_file().then_some(p);
+        let decoded = percent_decode(p);
+        let p = std::path::PathBuf::from(&decoded);
+        // `file:///C:/...` from the exporting machine: the file name beside the glTF.
+        return if p.is_file() {
+            Some(p)
+        } else {
+            super::locate(base, &decoded)
+        };
     }
     [base.join(uri), base.join(percent_decode(uri))]
         .into_iter()
@@ -1787,6 +1799,19 @@ mod tests {
                 "{uri}"
             );
         }
+        // An absolute uri from the exporting machine: the file of that name beside the glTF.
+        std::fs::copy(&file, dir.path().join("Beside.webp")).unwrap();
+        let path = textured_triangle(
+            dir.path(),
+            "EXT_texture_webp",
+            r#"{"pbrMetallicRoughness": {"baseColorTexture": {"index": 0}}}"#,
+            r#"{"extensions": {"EXT_texture_webp": {"source": 0}}}"#,
+            "file:///C:/Users/me/export/beside.webp",
+        );
+        assert_eq!(
+            import(&path).unwrap().materials[0].diffuse_texture,
+            Some(ImageRef::File(dir.path().join("Beside.webp")))
+        );
     }
 
     /// A texture given only as WebP (`EXT_texture_webp`, required: no PNG beside it, as

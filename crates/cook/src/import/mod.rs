@@ -617,7 +617,7 @@ pub(crate) fn locate(dir: &Path, name: &str) -> Option<PathBuf> {
     // `C:/Users/me/models/textures/glass.png`, `/home/me/...`: the file name beside the library.
     let absolute = slashed.starts_with('/') || slashed.as_bytes().get(1) == Some(&b':');
     let file_name = relative.rsplit('/').next()?;
-    if absolute || relative.contains('/') {
+    if absolute {
         let beside = dir.join(file_name);
         if beside.is_file() {
             return Some(beside);

@@ -408,21 +408,47 @@ fn last_line_end(text: &[u8], from: usize) -> Option<usize> {
 /// Joins lines continued with a backslash at their end, as the OBJ format allows (older
 /// exporters wrap long faces so): each backslash and line end becomes a space, and the line
 /// ends taken out are put back after the joined line. The text keeps its length and every
-/// later line its number; an error in a joined line names its first line. Comments are not
-/// joined: a path ending in a backslash must not swallow the statement after it.
+/// later line its number; an error in a joined line names its first line. Only statements of
+/// numbers (vertices, faces, lines...) are joined: a comment or a name ending in a backslash
+/// is a path, and must not swallow the statement after it.
 fn join_continued_lines(text: &mut [u8]) {
     let (mut read, mut write) = (0, 0);
     // Line ends taken out of the logical line being copied.
     let mut joined = 0;
     let mut line_start = true;
-    let mut comment = false;
+    let mut verbatim = false;
     while read < text.len() {
         let b = text[read];
         if line_start && !b.is_ascii_whitespace() {
-            comment = b == b'#';
+            // Only statements of numbers are joined: a name (`g`, `usemtl`, `mtllib`, a
+            // comment) ending in a backslash is a Windows path, and joining it would swallow
+            // the statement after it.
+            let word = text[read..]
+                .split(|c| c.is_ascii_whitespace())
+                .next()
+                .unwrap_or(b"");
+            verbatim = !matches!(
+                word,
+                b"v" | b"vt"
+                    | b"vn"
+                    | b"vp"
+                    | b"f"
+                    | b"fo"
+                    | b"l"
+                    | b"p"
+                    | b"curv"
+                    | b"curv2"
+                    | b"surf"
+                    | b"parm"
+                    | b"trim"
+                    | b"hole"
+                    | b"scrv"
+                    | b"sp"
+                    | b"deg"
+            );
             line_start = false;
         }
-        if b == b'\\' && !comment && continues(text, read + 1) {
+        if b == b'\\' && !verbatim && continues(text, read + 1) {
             text[write] = b' ';
             write += 1;
             read += if text[read + 1] == b'\n' { 2 } else { 3 };
@@ -436,7 +462,7 @@ fn join_continued_lines(text: &mut [u8]) {
             text[write + gap - joined..read].fill(b'\n');
             joined = 0;
             line_start = true;
-            comment = false;
+            verbatim = false;
             write = read;
         }
         text[write] = b;
@@ -928,8 +954,8 @@ pub fn parse(path: &Path, bytes: &[u8]) -> Result<Imported, CookError> {
 
 /// Applies the materials' texture placement (MTL `-o`, `-s`) to the texture coordinates of
 /// their triangles, as glTF's `KHR_texture_transform` is: the pack has one set of coordinates
-/// and no per-material transform. A coordinate shared with a triangle of another material is
-/// copied first.
+/// and no per-material transform. Placed coordinates are new ones (once per material and
+/// coordinate), so a coordinate another material shares keeps its place there.
 fn place_textures(mut out: Imported) -> Imported {
     let transforms = std::mem::take(&mut out.uv_transforms);
     if transforms.is_empty() || out.corners.uv_indices().is_empty() {
@@ -1774,9 +1800,10 @@ fn clean_mtl(path: &Path, bytes: &[u8], warnings: &mut Vec<Warning>) -> Result<S
         line: Some(line),
         message,
     };
-    const KEYWORDS: [&str; 17] = [
+    // Those read here or by tobj, in their own case.
+    const KEYWORDS: [&str; 19] = [
         "newmtl", "Ka", "Kd", "Ks", "Ke", "Ns", "Ni", "d", "Tr", "Tf", "illum", "map_Ka", "map_Kd",
-        "map_Ks", "map_Bump", "bump", "map_d",
+        "map_Ks", "map_Ns", "map_Bump", "bump", "map_d", "norm",
     ];
     let mut out = String::with_capacity(text.len());
     for (i, raw) in text.lines().enumerate() {
@@ -1849,14 +1876,19 @@ fn clean_mtl(path: &Path, bytes: &[u8], warnings: &mut Vec<Warning>) -> Result<S
                     .and_then(|t| t.parse::<f32>().ok())
                     .filter(|v| v.fract() == 0.0 && (0.0..=255.0).contains(v))
                     .ok_or_else(|| {
-                        fail(n, format!("illum wants a model number 0-10, got {rest:?}"))
+                        fail(
+                            n,
+                            format!("illum wants an illumination model number, got {rest:?}"),
+                        )
                     })?;
                 format!("illum {}", v as u8)
             }
             "newmtl" if rest.is_empty() => {
                 return Err(fail(n, "newmtl without a material name".into()));
             }
-            "map_Ka" | "map_Kd" | "map_Ks" | "map_Bump" | "bump" | "map_d" if rest.is_empty() => {
+            "map_Ka" | "map_Kd" | "map_Ks" | "map_Ns" | "map_Bump" | "bump" | "map_d"
+                if rest.is_empty() =>
+            {
                 warnings.push(Warning::new(
                     path,
                     Some(n),
@@ -1912,11 +1944,13 @@ impl<'a> TextureStatement<'a> {
             };
             let mut after = after;
             let mut values = Vec::new();
-            for k in 0..arity {
+            for _ in 0..arity {
                 let t = after.trim_start();
                 let (arg, next) = t.split_once(char::is_whitespace).unwrap_or((t, ""));
                 let number = arg.parse::<f32>().ok().filter(|v| v.is_finite());
-                if arity == 3 && k > 0 && number.is_none() || arg.is_empty() {
+                // The file name is the last word, never an option's value; -o, -s and -t take
+                // numbers only.
+                if arg.is_empty() || next.trim().is_empty() || arity == 3 && number.is_none() {
                     break;
                 }
                 values.push(number);
@@ -2013,8 +2047,8 @@ fn load_mtllib(
                     ));
                 }
                 transforms.push((what.to_string(), statement.offset, statement.scale));
-                let files = match super::locate(&mtl_dir, name)
-                    .or_else(|| super::locate(&mtl_dir, statement.file))
+                let files = match super::locate(&mtl_dir, statement.file)
+                    .or_else(|| super::locate(&mtl_dir, name))
                 {
                     Some(f) => vec![f],
                     None => find_file(&mtl_dir, name.as_bytes()).0,
@@ -2145,7 +2179,11 @@ mod tests {
         for (bad, line, what) in [
             ("newmtl a\nKd 0.5 x 1\n", 2, "Kd wants 1 or 3 numbers"),
             ("newmtl a\n\nNs high\n", 3, "Ns wants a number"),
-            ("newmtl a\nillum 2.5\n", 2, "illum wants a model number"),
+            (
+                "newmtl a\nillum 2.5\n",
+                2,
+                "illum wants an illumination model number",
+            ),
             ("newmtl\n", 1, "newmtl without a material name"),
         ] {
             let e = clean_mtl(path, bad.as_bytes(), &mut warnings)
@@ -2204,6 +2242,13 @@ mod tests {
         );
         assert_eq!(TextureStatement::parse("plain.png").file, "plain.png");
         assert_eq!(TextureStatement::parse("-frob.png").file, "-frob.png");
+        // An option missing its value does not take the file name.
+        assert_eq!(
+            TextureStatement::parse("-clamp design.png").file,
+            "design.png"
+        );
+        assert_eq!(TextureStatement::parse("-o design.png").file, "design.png");
+        assert_eq!(TextureStatement::parse("-s 2 design.png").scale, [2.0, 1.0]);
     }
 
     /// `map_Kd -o/-s` place the texture on the material's triangles; a coordinate shared
@@ -2511,8 +2556,12 @@ mod tests {
         };
         assert_eq!(join("f 1 2 \\\n 3\nv\n"), "f 1 2   3\n\nv\n");
         assert_eq!(join("f 1 \\\r\n2 \\\n3\r\nv"), "f 1  2  3\r \n\n\nv");
-        // A comment is not joined; a backslash inside a line is kept.
+        // A comment or a name is not joined; a backslash inside a line is kept.
         assert_eq!(join("# C:\\dir\\\nv 1 2 3\\\n"), "# C:\\dir\\\nv 1 2 3 \n");
+        assert_eq!(
+            join("g C:\\export\\\nf 1 2 3\n"),
+            "g C:\\export\\\nf 1 2 3\n"
+        );
         assert_eq!(join("usemtl a\\b\n"), "usemtl a\\b\n");
         // A face wrapped over three lines reads as one, and later lines keep their numbers.
         let m = parse_str("v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nf 1 2 \\\n3 \\\n 4\nf 1 2 x\n");

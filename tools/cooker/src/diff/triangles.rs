@@ -116,15 +116,36 @@ pub fn compare(a: &[Triangle], b: &[Triangle], tolerance: f64) -> Matching {
     }
 
     let mut max_delta = 0.0f64;
-    // Within a growing radius up to the tolerance: most triangles moved by far less (a
+    // Cells finer than the coordinates' own precision only spread equal points apart, and
+    // their numbers would overflow.
+    let magnitude = a
+        .iter()
+        .chain(&b)
+        .flat_map(|t| t.corners.iter().flatten())
+        .fold(0.0f64, |m, &x| m.max((x as f64).abs()));
+    let finest = magnitude * 2f64.powi(-40);
+    let normal = |t: &Triangle| {
+        let [p, q, r] = t.corners.map(|c| glam::DVec3::from(c.map(f64::from)));
+        (q - p).cross(r - p)
+    };
+    // Within growing radii up to the tolerance: most triangles moved by far less (a
     // quantization step) and are matched while the grid's cells are small and hold a few
-    // candidates each; a cell the tolerance wide may hold thousands.
-    let mut radius = tolerance / 4096.0;
-    while tolerance > 0.0 && !unmatched_a.is_empty() {
-        radius = (radius * 8.0).min(tolerance);
+    // candidates each; a cell the tolerance wide may hold thousands, so each triangle looks
+    // at no more than `CANDIDATES` (what is left unmatched is measured against the surface).
+    const CANDIDATES: usize = 512;
+    for radius in [
+        tolerance / 512.0,
+        tolerance / 64.0,
+        tolerance / 8.0,
+        tolerance,
+    ] {
+        if tolerance <= 0.0 || unmatched_a.is_empty() {
+            break;
+        }
+        let size = radius.max(finest).max(f64::MIN_POSITIVE);
         // Matched corners lie within `radius` per axis, so their centroids do too: a grid of
-        // that cell size finds every candidate in the 27 cells around a centroid.
-        let cell = |p: [f64; 3]| p.map(|x| (x / radius).floor() as i64);
+        // cells at least that size finds every candidate in the 27 cells around a centroid.
+        let cell = |p: [f64; 3]| p.map(|x| (x / size).floor() as i64);
         let mut grid: HashMap<[i64; 3], Vec<usize>> = HashMap::new();
         for (j, t) in b.iter().enumerate() {
             if !used_b[j] {
@@ -134,17 +155,32 @@ pub fn compare(a: &[Triangle], b: &[Triangle], tolerance: f64) -> Matching {
         let left = std::mem::take(&mut unmatched_a);
         for i in left {
             let t = &a[i];
-            let c = cell(centroid(t));
+            let (c, n) = (cell(centroid(t)), normal(t));
             let mut best: Option<(f64, usize, usize)> = None;
-            for dx in -1..=1 {
-                for dy in -1..=1 {
-                    for dz in -1..=1 {
-                        let Some(js) = grid.get(&[c[0] + dx, c[1] + dy, c[2] + dz]) else {
+            let mut seen = 0;
+            'cells: for dx in -1..=1i64 {
+                for dy in -1..=1i64 {
+                    for dz in -1..=1i64 {
+                        let key = [
+                            c[0].saturating_add(dx),
+                            c[1].saturating_add(dy),
+                            c[2].saturating_add(dz),
+                        ];
+                        let Some(js) = grid.get(&key) else {
                             continue;
                         };
                         for &j in js.iter().filter(|&&j| !used_b[j]) {
+                            if seen == CANDIDATES {
+                                break 'cells;
+                            }
+                            seen += 1;
                             let (d, turn) = best_turn(t, &b[j]);
-                            if d <= radius && best.is_none_or(|(bd, _, _)| d < bd) {
+                            // A flipped triangle faces the other way: another face, however
+                            // close its corners (closer than its edges are long).
+                            if d <= radius
+                                && best.is_none_or(|(bd, _, _)| d < bd)
+                                && normal(&b[j]).dot(n) >= 0.0
+                            {
                                 best = Some((d, j, turn));
                             }
                         }
@@ -159,9 +195,6 @@ pub fn compare(a: &[Triangle], b: &[Triangle], tolerance: f64) -> Matching {
                 }
                 None => unmatched_a.push(i),
             }
-        }
-        if radius >= tolerance {
-            break;
         }
     }
     let unmatched_b: Vec<usize> = (0..b.len()).filter(|&j| !used_b[j]).collect();
@@ -233,6 +266,47 @@ mod tests {
         assert_eq!(loose.unmatched, [vec![3, 20], vec![3, 199]]);
         assert!((loose.max_delta - 0.01).abs() < 1e-6, "{loose:?}");
         assert_eq!(loose.material_changes, 1);
+    }
+
+    /// Under a tolerance longer than the triangles' edges, a flipped triangle's corners are
+    /// all within reach of the original's; it still faces the other way.
+    #[test]
+    fn flipped_triangles_do_not_match_under_a_loose_tolerance() {
+        let a = grid(10);
+        let b: Vec<Triangle> = a
+            .iter()
+            .map(|t| Triangle {
+                corners: [t.corners[0], t.corners[2], t.corners[1]],
+                materials: t.materials,
+            })
+            .collect();
+        let m = compare(&a, &b, 0.6);
+        assert_eq!((m.unmatched[0].len(), m.unmatched[1].len()), (200, 200));
+    }
+
+    /// Tolerances at the edge of what floats hold finish, and match what they should.
+    #[test]
+    fn tiny_tolerances_terminate() {
+        let a: Vec<Triangle> = grid(5)
+            .into_iter()
+            .map(|mut t| {
+                for c in &mut t.corners {
+                    c[0] += 1e4;
+                }
+                t
+            })
+            .collect();
+        let mut b = a.clone();
+        b.reverse();
+        b[0].corners[0][1] += 0.01;
+        for tolerance in [1e-12, 1e-300, f64::MIN_POSITIVE, 4.9e-324] {
+            let m = compare(&a, &b, tolerance);
+            assert_eq!(
+                (m.unmatched[0].len(), m.unmatched[1].len()),
+                (1, 1),
+                "{tolerance}"
+            );
+        }
     }
 
     #[test]
