@@ -2196,6 +2196,46 @@ mod tests {
         }
     }
 
+    proptest! {
+        #![proptest_config(ProptestConfig::with_cases(500))]
+        /// Whatever an MTL holds, checking it either names a bad line or gives text tobj reads
+        /// without failing or panicking (it panicked on a one-value colour).
+        #[test]
+        fn any_mtl_is_refused_by_line_or_read(
+            lines in prop::collection::vec(
+                (
+                    prop::sample::select(vec![
+                        "newmtl", "Ka", "Kd", "KD", "Ks", "Ke", "Ns", "Ni", "d", "D", "Tr", "Tf",
+                        "illum", "map_Kd", "map_kd", "map_Ka", "map_Ks", "map_Ns", "map_Bump",
+                        "map_bump", "bump", "map_d", "norm", "#", "", "frob", "newmtl\u{e9}",
+                    ]),
+                    prop::collection::vec(
+                        prop::sample::select(vec![
+                            "0.5", "1", "-2", "1e40", "nan", "inf", "x", "xyz", "spectral",
+                            "-halo", "#", "a.png", "-s", "-o", "-clamp", "on", "\u{e9}", "",
+                        ]),
+                        0..5,
+                    ),
+                    prop::sample::select(vec!["\n", "\r\n"]),
+                ),
+                0..12,
+            ),
+        ) {
+            let text: String = lines
+                .iter()
+                .map(|(k, words, end)| format!("{k} {}{end}", words.join(" ")))
+                .collect();
+            let mut warnings = Vec::new();
+            match clean_mtl(Path::new("m.mtl"), text.as_bytes(), &mut warnings) {
+                Ok(cleaned) => {
+                    prop_assert_eq!(cleaned.lines().count(), text.lines().count());
+                    prop_assert!(tobj::load_mtl_buf(&mut cleaned.as_bytes()).is_ok(), "{}", cleaned);
+                }
+                Err(e) => prop_assert!(e.to_string().contains("m.mtl:"), "{}", e),
+            }
+        }
+    }
+
     /// Texture and library names as Windows exporters write them: backslashes, another
     /// letter case, an absolute path from the machine they were made on.
     #[test]
