@@ -595,7 +595,7 @@ pub fn import(path: &Path) -> Result<Imported, CookError> {
 /// The file `name` (relative to `dir`, or absolute) means, as a file written on Windows means
 /// it too: with backslashes for separators, in any letter case (`Textures\glass.PNG` for
 /// `textures/Glass.png`), or given by an absolute path from the machine it was made on, whose
-/// file name is then looked for beside `dir`.
+/// end is then looked for under `dir`.
 pub(crate) fn locate(dir: &Path, name: &str) -> Option<PathBuf> {
     let exact = dir.join(name);
     if exact.is_file() {
@@ -614,15 +614,13 @@ pub(crate) fn locate(dir: &Path, name: &str) -> Option<PathBuf> {
     if let Some(p) = any_case(dir, relative) {
         return Some(p);
     }
-    // `C:/Users/me/models/textures/glass.png`, `/home/me/...`: the file name beside the library.
+    // `C:/Users/me/kirche/Textures/glass.png`, `/home/me/...`: the model's folder was moved
+    // with its files, so the path's end is under `dir`: `kirche/Textures/glass.png`,
+    // `Textures/glass.png`, then `glass.png`.
     let absolute = slashed.starts_with('/') || slashed.as_bytes().get(1) == Some(&b':');
-    let file_name = relative.rsplit('/').next()?;
     if absolute {
-        let beside = dir.join(file_name);
-        if beside.is_file() {
-            return Some(beside);
-        }
-        return any_case(dir, file_name);
+        let parts: Vec<&str> = relative.split('/').filter(|c| !c.is_empty()).collect();
+        return (1..parts.len()).find_map(|start| any_case(dir, &parts[start..].join("/")));
     }
     None
 }

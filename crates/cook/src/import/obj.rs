@@ -2258,6 +2258,14 @@ mod tests {
             super::super::locate(d, "C:\\Users\\me\\Desktop\\Beside.png"),
             Some(d.join("beside.png"))
         );
+        assert_eq!(
+            super::super::locate(d, "C:\\Projekte\\Kirche\\textures\\GLASS red.png"),
+            Some(file.clone())
+        );
+        assert_eq!(
+            super::super::locate(d, "/home/me/Textures/glass red.png"),
+            Some(file.clone())
+        );
         assert_eq!(super::super::locate(d, "missing.png"), None);
         assert_eq!(super::super::locate(d, "Textures"), None);
     }
