@@ -4,8 +4,8 @@
 //! position change, material ID changes; when the two meshes are not in the same order, as
 //! exports from two tools rarely are, triangles matched in any order and corner turn) and, per
 //! texture and mip level, the largest error in 8-bit steps, PSNR and FLIP mean of the decoded
-//! texels (whatever each pack stores them in: RGBA8 or a block format). Exit 0 when within the thresholds (identical by
-//! default), 1 otherwise, so a user's CI can gate on it.
+//! texels (whatever each pack stores them in: RGBA8 or a block format). Exit 0 when within
+//! the thresholds (identical by default), 1 otherwise, so a user's CI can gate on it.
 
 use std::collections::BTreeMap;
 use std::path::PathBuf;

@@ -1768,6 +1768,18 @@ mod tests {
         path
     }
 
+    /// [`textured_triangle`] whose base colour is the WebP image at `uri`, the file requiring
+    /// `EXT_texture_webp`.
+    fn webp_triangle(dir: &Path, uri: &str) -> std::path::PathBuf {
+        textured_triangle(
+            dir,
+            "EXT_texture_webp",
+            r#"{"pbrMetallicRoughness": {"baseColorTexture": {"index": 0}}}"#,
+            r#"{"extensions": {"EXT_texture_webp": {"source": 0}}}"#,
+            uri,
+        )
+    }
+
     /// Images are found as buffers are: as written, percent-decoded, or by a `file:` uri.
     #[test]
     fn image_uris_resolve_like_buffer_uris() {
@@ -1785,13 +1797,7 @@ mod tests {
             format!("file://{abs}"),
             format!("file://localhost{abs}"),
         ] {
-            let path = textured_triangle(
-                dir.path(),
-                "EXT_texture_webp",
-                r#"{"pbrMetallicRoughness": {"baseColorTexture": {"index": 0}}}"#,
-                r#"{"extensions": {"EXT_texture_webp": {"source": 0}}}"#,
-                &uri,
-            );
+            let path = webp_triangle(dir.path(), &uri);
             let m = import(&path).unwrap();
             assert_eq!(
                 m.materials[0].diffuse_texture,
@@ -1801,13 +1807,7 @@ mod tests {
         }
         // An absolute uri from the exporting machine: the file of that name beside the glTF.
         std::fs::copy(&file, dir.path().join("Beside.webp")).unwrap();
-        let path = textured_triangle(
-            dir.path(),
-            "EXT_texture_webp",
-            r#"{"pbrMetallicRoughness": {"baseColorTexture": {"index": 0}}}"#,
-            r#"{"extensions": {"EXT_texture_webp": {"source": 0}}}"#,
-            "file:///C:/Users/me/export/beside.webp",
-        );
+        let path = webp_triangle(dir.path(), "file:///C:/Users/me/export/beside.webp");
         assert_eq!(
             import(&path).unwrap().materials[0].diffuse_texture,
             Some(ImageRef::File(dir.path().join("Beside.webp")))
@@ -1823,13 +1823,7 @@ mod tests {
             image::Rgba([200, 40 * x as u8, 90 * y as u8, 255])
         });
         design.save(dir.path().join("design.webp")).unwrap();
-        let path = textured_triangle(
-            dir.path(),
-            "EXT_texture_webp",
-            r#"{"pbrMetallicRoughness": {"baseColorTexture": {"index": 0}}}"#,
-            r#"{"extensions": {"EXT_texture_webp": {"source": 0}}}"#,
-            "design.webp",
-        );
+        let path = webp_triangle(dir.path(), "design.webp");
         let m = import(&path).unwrap();
         let texture = m.materials[0].diffuse_texture.clone().expect("a design");
         assert_eq!(texture, ImageRef::File(dir.path().join("design.webp")));

@@ -2229,7 +2229,8 @@ mod tests {
             match clean_mtl(Path::new("m.mtl"), text.as_bytes(), &mut warnings) {
                 Ok(cleaned) => {
                     prop_assert_eq!(cleaned.lines().count(), text.lines().count());
-                    prop_assert!(tobj::load_mtl_buf(&mut cleaned.as_bytes()).is_ok(), "{}", cleaned);
+                    let read = tobj::load_mtl_buf(&mut cleaned.as_bytes());
+                    prop_assert!(read.is_ok(), "{}", cleaned);
                 }
                 Err(e) => prop_assert!(e.to_string().contains("m.mtl:"), "{}", e),
             }

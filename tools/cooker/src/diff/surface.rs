@@ -241,14 +241,8 @@ pub fn cover(from: &[Triangle], which: &[usize], to: &Bvh, tolerance: f64) -> Co
 
 #[cfg(test)]
 mod tests {
+    use super::super::triangles::tri;
     use super::*;
-
-    fn tri(c: [[f32; 3]; 3], m: u32) -> Triangle {
-        Triangle {
-            corners: c,
-            materials: [m; 3],
-        }
-    }
 
     #[test]
     fn closest_points_in_every_region() {

@@ -205,16 +205,18 @@ pub fn compare(a: &[Triangle], b: &[Triangle], tolerance: f64) -> Matching {
     }
 }
 
+/// A triangle of one material, for tests.
+#[cfg(test)]
+pub(super) fn tri(c: [[f32; 3]; 3], m: u32) -> Triangle {
+    Triangle {
+        corners: c,
+        materials: [m; 3],
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    fn tri(c: [[f32; 3]; 3], m: u32) -> Triangle {
-        Triangle {
-            corners: c,
-            materials: [m; 3],
-        }
-    }
 
     fn grid(n: usize) -> Vec<Triangle> {
         let mut out = Vec::new();
