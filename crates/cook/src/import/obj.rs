@@ -1793,7 +1793,11 @@ fn mtl_transmission(m: &tobj::Material) -> super::Transmission {
 ///   names still match `usemtl`.
 ///
 /// Lines keep their numbers: a dropped line becomes empty.
-fn clean_mtl(path: &Path, bytes: &[u8], warnings: &mut Vec<Warning>) -> Result<String, CookError> {
+fn clean_mtl(
+    path: &Path,
+    bytes: &[u8],
+    warnings: &mut Vec<Warning>,
+) -> Result<(String, TextureLines), CookError> {
     let text = String::from_utf8_lossy(bytes.strip_prefix(b"\xEF\xBB\xBF").unwrap_or(bytes));
     let fail = |line: usize, message: String| CookError::Source {
         path: path.to_path_buf(),
@@ -1806,12 +1810,20 @@ fn clean_mtl(path: &Path, bytes: &[u8], warnings: &mut Vec<Warning>) -> Result<S
         "map_Ks", "map_Ns", "map_Bump", "bump", "map_d", "norm",
     ];
     let mut out = String::with_capacity(text.len());
+    let mut texture_lines = TextureLines::new();
+    let mut material = String::new();
     for (i, raw) in text.lines().enumerate() {
         let n = i + 1;
         let line = raw.trim();
         let (word, rest) = line
             .split_once(char::is_whitespace)
             .map_or((line, ""), |(w, r)| (w, r.trim()));
+        let texture_key = |key: &str| match key {
+            "map_Kd" => Some(TextureKey::Diffuse),
+            "map_Bump" | "bump" => Some(TextureKey::Bump),
+            "norm" => Some(TextureKey::Norm),
+            _ => None,
+        };
         let key = KEYWORDS
             .iter()
             .find(|k| k.eq_ignore_ascii_case(word))
@@ -1899,11 +1911,27 @@ fn clean_mtl(path: &Path, bytes: &[u8], warnings: &mut Vec<Warning>) -> Result<S
             _ if key != word => format!("{key} {rest}"),
             _ => raw.to_string(),
         };
+        if key == "newmtl" {
+            material = rest.to_string();
+        } else if let Some(k) = texture_key(key).filter(|_| !rest.is_empty()) {
+            texture_lines.insert((material.clone(), k), n);
+        }
         out.push_str(&cleaned);
         out.push('\n');
     }
-    Ok(out)
+    Ok((out, texture_lines))
 }
+
+/// Which texture statement of a material a line held, so that its warnings name the line
+/// (tobj keeps none).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+enum TextureKey {
+    Diffuse,
+    Bump,
+    Norm,
+}
+
+type TextureLines = HashMap<(String, TextureKey), usize>;
 
 /// An MTL texture statement (`map_Kd -s 2 2 1 -clamp on my design.png`): its options, then
 /// the file name, which may contain spaces.
@@ -2019,7 +2047,7 @@ fn load_mtllib(
             path: mtl.clone(),
             source,
         })?;
-        let cleaned = clean_mtl(&mtl, &bytes, &mut out.warnings)?;
+        let (cleaned, texture_lines) = clean_mtl(&mtl, &bytes, &mut out.warnings)?;
         let (materials, _) =
             tobj::load_mtl_buf(&mut cleaned.as_bytes()).map_err(|e| CookError::Source {
                 path: mtl.clone(),
@@ -2029,7 +2057,8 @@ fn load_mtllib(
         let mtl_dir = mtl.parent().unwrap_or(Path::new("")).to_path_buf();
         for m in materials {
             let mut transforms = Vec::new();
-            let mut texture = |name: &Option<String>, what: &str| -> Option<ImageRef> {
+            let line_of = |k: TextureKey| texture_lines.get(&(m.name.clone(), k)).copied();
+            let mut texture = |name: &Option<String>, what: &str, line: Option<usize>| {
                 let name = name.as_deref()?.trim();
                 if name.is_empty() {
                     return None;
@@ -2038,7 +2067,7 @@ fn load_mtllib(
                 if !statement.ignored.is_empty() {
                     out.warnings.push(Warning::new(
                         &mtl,
-                        None,
+                        line,
                         format!(
                             "{what} of material {:?}: options {} not applied",
                             m.name,
@@ -2058,7 +2087,7 @@ fn load_mtllib(
                     None => {
                         let w = Warning::new(
                             &mtl,
-                            None,
+                            line,
                             format!(
                                 "{what} {name:?} of material {:?} not found; ignored",
                                 m.name
@@ -2069,12 +2098,20 @@ fn load_mtllib(
                     }
                 }
             };
-            let diffuse_texture = texture(&m.diffuse_texture, "diffuse texture");
+            let diffuse_texture = texture(
+                &m.diffuse_texture,
+                "diffuse texture",
+                line_of(TextureKey::Diffuse),
+            );
             let normal_name = m
                 .normal_texture
                 .clone()
                 .or_else(|| m.unknown_param.get("norm").cloned());
-            let normal_texture = texture(&normal_name, "normal map");
+            let normal_line = match m.normal_texture {
+                Some(_) => line_of(TextureKey::Bump),
+                None => line_of(TextureKey::Norm),
+            };
+            let normal_texture = texture(&normal_name, "normal map", normal_line);
             // One set of coordinates serves both maps: the design's placement wins.
             let placed: Vec<_> = transforms
                 .iter()
@@ -2164,8 +2201,9 @@ mod tests {
         let text = "newmtl grey\nKd 0.5\nKA spectral wood.rfl 1\nks xyz 0.5\n\
                     newmtl caf\u{e9}\r\nD -halo 0.25\nKd 1 0 0.5 # red\nMAP_KD a.png\nillum 4\n";
         let bytes: Vec<u8> = text.chars().map(|c| c as u32 as u8).collect();
-        let cleaned = clean_mtl(path, &bytes, &mut warnings).unwrap();
+        let (cleaned, lines) = clean_mtl(path, &bytes, &mut warnings).unwrap();
         assert_eq!(cleaned.lines().count(), text.lines().count());
+        assert_eq!(lines[&("caf\u{FFFD}".to_string(), TextureKey::Diffuse)], 8);
         assert!(warnings[0].to_string().contains("m.mtl:3"), "{warnings:?}");
         let (materials, _) = tobj::load_mtl_buf(&mut cleaned.as_bytes()).unwrap();
         assert_eq!(materials[0].diffuse, Some([0.5; 3]));
@@ -2227,7 +2265,7 @@ mod tests {
                 .collect();
             let mut warnings = Vec::new();
             match clean_mtl(Path::new("m.mtl"), text.as_bytes(), &mut warnings) {
-                Ok(cleaned) => {
+                Ok((cleaned, _)) => {
                     prop_assert_eq!(cleaned.lines().count(), text.lines().count());
                     let read = tobj::load_mtl_buf(&mut cleaned.as_bytes());
                     prop_assert!(read.is_ok(), "{}", cleaned);
@@ -2341,9 +2379,9 @@ mod tests {
             [[0.0, 0.0], [1.0, 1.0], [1.0, 0.0]]
         );
         assert!(
-            m.warnings
-                .iter()
-                .any(|w| w.to_string().contains("options -cc not applied")),
+            m.warnings.iter().any(|w| w.to_string().contains(
+                "m.mtl:2: diffuse texture of material \"glass\": options -cc not applied"
+            )),
             "{:?}",
             m.warnings
         );
