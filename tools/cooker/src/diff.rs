@@ -18,6 +18,8 @@ use crate::exit::{FOUND_PROBLEMS, OK, Outcome, UsageError};
 mod surface;
 mod triangles;
 
+use triangles::corner_delta;
+
 #[derive(clap::Args)]
 pub struct Args {
     /// The reference pack.
@@ -126,13 +128,6 @@ fn mesh_triangles(
         .collect()
 }
 
-/// Largest per-axis difference of two points or vectors.
-fn largest_move(p: [f32; 3], q: [f32; 3]) -> f64 {
-    (0..3)
-        .map(|k| (p[k] as f64 - q[k] as f64).abs())
-        .fold(0.0, f64::max)
-}
-
 /// How far apart two directions may be when geometry may move (positions differ at all).
 fn direction_tolerance(max_delta: f64) -> f64 {
     if max_delta > 0.0 { 1e-3 } else { 0.0 }
@@ -144,11 +139,11 @@ fn cameras_differ(a: &[pack::Camera], b: &[pack::Camera], max_delta: f64) -> Opt
         return Some(format!("{:?} in a, {:?} in b", names(a), names(b)));
     }
     for (x, y) in a.iter().zip(b) {
-        let points = largest_move(x.position, y.position)
-            .max(largest_move(x.target, y.target))
+        let points = corner_delta(&x.position, &y.position)
+            .max(corner_delta(&x.target, &y.target))
             .max((x.near as f64 - y.near as f64).abs())
             .max((x.far as f64 - y.far as f64).abs());
-        let up = largest_move(x.up, y.up);
+        let up = corner_delta(&x.up, &y.up);
         if points > max_delta || up > direction_tolerance(max_delta) || x.fov_y != y.fov_y {
             return Some(format!(
                 "{:?}: position, target or clip planes moved by {points:.3e}, up by {up:.3e}, \
@@ -170,10 +165,10 @@ fn windows_differ(ta: &pack::Toc, tb: &pack::Toc, max_delta: f64) -> Option<Stri
         return Some(format!("{} in a, {} in b", a.len(), b.len()));
     }
     for (i, (x, y)) in a.iter().zip(b).enumerate() {
-        let points = largest_move(x.origin, y.origin)
-            .max(largest_move(x.u_axis, y.u_axis))
-            .max(largest_move(x.v_axis, y.v_axis));
-        let normal = largest_move(x.normal, y.normal);
+        let points = corner_delta(&x.origin, &y.origin)
+            .max(corner_delta(&x.u_axis, &y.u_axis))
+            .max(corner_delta(&x.v_axis, &y.v_axis));
+        let normal = corner_delta(&x.normal, &y.normal);
         if points > max_delta
             || normal > direction_tolerance(max_delta)
             || material(ta, x) != material(tb, y)

@@ -1113,18 +1113,21 @@ fn external_file(base: &Path, uri: &str) -> Option<std::path::PathBuf> {
     if let Some(p) = rel {
         let decoded = percent_decode(p);
         let p = std::path::PathBuf::from(&decoded);
-        // `file:///C:/...` from the exporting machine: the file name beside the glTF.
+        // `file:///C:/...` from the exporting machine: `locate` looks for its end beside the
+        // glTF.
         return if p.is_file() {
             Some(p)
         } else {
             super::locate(base, &decoded)
         };
     }
-    [base.join(uri), base.join(percent_decode(uri))]
-        .into_iter()
-        .find(|p| p.is_file())
-        // Exporters on Windows write backslashes and trust a case-blind file system.
-        .or_else(|| super::locate(base, &percent_decode(uri)))
+    // `locate` tries the percent-decoded name as written first, then as Windows exporters
+    // mean it.
+    let as_written = base.join(uri);
+    if as_written.is_file() {
+        return Some(as_written);
+    }
+    super::locate(base, &percent_decode(uri))
 }
 
 fn percent_decode(s: &str) -> String {

@@ -420,9 +420,6 @@ fn join_continued_lines(text: &mut [u8]) {
     while read < text.len() {
         let b = text[read];
         if line_start && !b.is_ascii_whitespace() {
-            // Only statements of numbers are joined: a name (`g`, `usemtl`, `mtllib`, a
-            // comment) ending in a backslash is a Windows path, and joining it would swallow
-            // the statement after it.
             let word = text[read..]
                 .split(|c| c.is_ascii_whitespace())
                 .next()
@@ -2076,14 +2073,11 @@ fn load_mtllib(
                     ));
                 }
                 transforms.push((what.to_string(), statement.offset, statement.scale));
-                let files = match super::locate(&mtl_dir, statement.file)
-                    .or_else(|| super::locate(&mtl_dir, name))
-                {
-                    Some(f) => vec![f],
-                    None => find_file(&mtl_dir, name.as_bytes()).0,
-                };
-                match files.last() {
-                    Some(f) => Some(ImageRef::File(f.clone())),
+                // The parsed name, else the whole rest or one of its words.
+                let file = super::locate(&mtl_dir, statement.file)
+                    .or_else(|| find_file(&mtl_dir, name.as_bytes()).0.pop());
+                match file {
+                    Some(f) => Some(ImageRef::File(f)),
                     None => {
                         let w = Warning::new(
                             &mtl,

@@ -29,10 +29,6 @@ struct Node {
 
 const LEAF: usize = 4;
 
-fn corners(t: &Triangle) -> [DVec3; 3] {
-    t.corners.map(|c| DVec3::from(c.map(f64::from)))
-}
-
 impl<'a> Bvh<'a> {
     pub fn new(triangles: &'a [Triangle]) -> Self {
         let mut bvh = Bvh {
@@ -40,10 +36,7 @@ impl<'a> Bvh<'a> {
             order: (0..triangles.len() as u32).collect(),
             nodes: Vec::with_capacity(2 * triangles.len() / LEAF + 1),
         };
-        let centre: Vec<DVec3> = triangles
-            .iter()
-            .map(|t| corners(t).iter().sum::<DVec3>() / 3.0)
-            .collect();
+        let centre: Vec<DVec3> = triangles.iter().map(Triangle::centroid).collect();
         bvh.nodes.push(bvh.bounds(0, triangles.len()));
         // Split nodes breadth-first, each at the median centre along its longest axis.
         let mut next = 0;
@@ -72,7 +65,7 @@ impl<'a> Bvh<'a> {
     fn bounds(&self, start: usize, count: usize) -> Node {
         let (mut lo, mut hi) = (DVec3::INFINITY, DVec3::NEG_INFINITY);
         for &t in &self.order[start..start + count] {
-            for c in corners(&self.triangles[t as usize]) {
+            for c in self.triangles[t as usize].points() {
                 lo = lo.min(c);
                 hi = hi.max(c);
             }
@@ -120,7 +113,7 @@ impl<'a> Bvh<'a> {
                 if !keep(triangle) {
                     continue;
                 }
-                let d = (closest_point(p, corners(triangle)) - p).length();
+                let d = (closest_point(p, triangle.points()) - p).length();
                 if d <= limit && best.is_none_or(|(_, bd)| d < bd) {
                     best = Some((t, d));
                     limit = d;
@@ -197,8 +190,8 @@ pub fn cover(from: &[Triangle], which: &[usize], to: &Bvh, tolerance: f64) -> Co
     let mut out = Cover::default();
     for &i in which {
         let t = &from[i];
-        let [a, b, c] = corners(t);
-        let centroid = (a + b + c) / 3.0;
+        let [a, b, c] = t.points();
+        let centroid = t.centroid();
         let samples = [a, b, c, (a + b) / 2.0, (b + c) / 2.0, (c + a) / 2.0];
         let mut gap = 0.0f64;
         let mut on = true;
@@ -215,13 +208,9 @@ pub fn cover(from: &[Triangle], which: &[usize], to: &Bvh, tolerance: f64) -> Co
         // flipped one is culled from the side it was seen from). Judged at the centroid, where
         // the nearest triangle is the one under it, not a neighbour across a crease; among
         // coincident faces (a floor and a reversed patch on it) the one facing the same way.
-        let normal = |t: &Triangle| {
-            let [a, b, c] = corners(t);
-            (b - a).cross(c - a)
-        };
-        let n = normal(t);
+        let n = t.normal();
         let inside = on
-            .then(|| to.nearest_where(centroid, tolerance, |u| normal(u).dot(n) >= 0.0))
+            .then(|| to.nearest_where(centroid, tolerance, |u| u.normal().dot(n) >= 0.0))
             .flatten();
         match inside {
             Some((j, d)) => {
@@ -285,7 +274,7 @@ mod tests {
             );
             let brute = ts
                 .iter()
-                .map(|t| (closest_point(p, corners(t)) - p).length())
+                .map(|t| (closest_point(p, t.points()) - p).length())
                 .fold(f64::INFINITY, f64::min);
             let (_, d) = bvh.nearest(p, 10.0).unwrap();
             assert!((d - brute).abs() < 1e-12, "{p}: {d} vs {brute}");

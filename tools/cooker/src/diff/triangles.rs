@@ -9,11 +9,30 @@
 
 use std::collections::HashMap;
 
+use glam::DVec3;
+
 /// One triangle: corner positions and, per corner, a material key comparable across packs.
 #[derive(Clone, Copy)]
 pub struct Triangle {
     pub corners: [[f32; 3]; 3],
     pub materials: [u32; 3],
+}
+
+impl Triangle {
+    /// The corners in double precision, where distances and normals are measured.
+    pub fn points(&self) -> [DVec3; 3] {
+        self.corners.map(|c| DVec3::from(c.map(f64::from)))
+    }
+
+    /// Unnormalized: its direction says which way the triangle faces (zero when degenerate).
+    pub fn normal(&self) -> DVec3 {
+        let [a, b, c] = self.points();
+        (b - a).cross(c - a)
+    }
+
+    pub fn centroid(&self) -> DVec3 {
+        self.points().iter().sum::<DVec3>() / 3.0
+    }
 }
 
 /// What matching `a`'s triangles against `b`'s found.
@@ -62,7 +81,8 @@ fn bits(t: &Triangle) -> [u32; 9] {
     k
 }
 
-fn corner_delta(p: &[f32; 3], q: &[f32; 3]) -> f64 {
+/// Largest per-axis difference of two points or vectors.
+pub(super) fn corner_delta(p: &[f32; 3], q: &[f32; 3]) -> f64 {
     (0..3)
         .map(|k| (p[k] as f64 - q[k] as f64).abs())
         .fold(0.0, f64::max)
@@ -80,10 +100,6 @@ fn best_turn(a: &Triangle, b: &Triangle) -> (f64, usize) {
         })
         .min_by(|x, y| x.0.total_cmp(&y.0))
         .expect("three turns")
-}
-
-fn centroid(t: &Triangle) -> [f64; 3] {
-    [0, 1, 2].map(|k| t.corners.iter().map(|c| c[k] as f64).sum::<f64>() / 3.0)
 }
 
 /// Matches `a`'s triangles to `b`'s, each used once: first exactly (bit-equal corners after
@@ -124,10 +140,6 @@ pub fn compare(a: &[Triangle], b: &[Triangle], tolerance: f64) -> Matching {
         .flat_map(|t| t.corners.iter().flatten())
         .fold(0.0f64, |m, &x| m.max((x as f64).abs()));
     let finest = magnitude * 2f64.powi(-40);
-    let normal = |t: &Triangle| {
-        let [p, q, r] = t.corners.map(|c| glam::DVec3::from(c.map(f64::from)));
-        (q - p).cross(r - p)
-    };
     // Within growing radii up to the tolerance: most triangles moved by far less (a
     // quantization step) and are matched while the grid's cells are small and hold a few
     // candidates each; a cell the tolerance wide may hold thousands, so each triangle looks
@@ -145,17 +157,17 @@ pub fn compare(a: &[Triangle], b: &[Triangle], tolerance: f64) -> Matching {
         let size = radius.max(finest).max(f64::MIN_POSITIVE);
         // Matched corners lie within `radius` per axis, so their centroids do too: a grid of
         // cells at least that size finds every candidate in the 27 cells around a centroid.
-        let cell = |p: [f64; 3]| p.map(|x| (x / size).floor() as i64);
+        let cell = |p: DVec3| p.to_array().map(|x| (x / size).floor() as i64);
         let mut grid: HashMap<[i64; 3], Vec<usize>> = HashMap::new();
         for (j, t) in b.iter().enumerate() {
             if !used_b[j] {
-                grid.entry(cell(centroid(t))).or_default().push(j);
+                grid.entry(cell(t.centroid())).or_default().push(j);
             }
         }
         let left = std::mem::take(&mut unmatched_a);
         for i in left {
             let t = &a[i];
-            let (c, n) = (cell(centroid(t)), normal(t));
+            let (c, n) = (cell(t.centroid()), t.normal());
             let mut best: Option<(f64, usize, usize)> = None;
             let mut seen = 0;
             'cells: for dx in -1..=1i64 {
@@ -179,7 +191,7 @@ pub fn compare(a: &[Triangle], b: &[Triangle], tolerance: f64) -> Matching {
                             // close its corners (closer than its edges are long).
                             if d <= radius
                                 && best.is_none_or(|(bd, _, _)| d < bd)
-                                && normal(&b[j]).dot(n) >= 0.0
+                                && b[j].normal().dot(n) >= 0.0
                             {
                                 best = Some((d, j, turn));
                             }
