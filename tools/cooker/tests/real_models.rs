@@ -1984,4 +1984,53 @@ fn gltfpack_compressed_and_instanced_models_cook() {
         "{err}"
     );
     assert!(!out.exists());
+
+    // gltf-pipeline's Draco files of the same models (`KHR_draco_mesh_compression`, 11-bit
+    // positions): the Cornell box within a quantization step (0.14 of its 559 units) of
+    // gltfpack's export, the six boxes as the six nodes, exactly.
+    let draco = dir.path().join("draco.pack");
+    cook(&third_party("draco/cornell_d.glb"), &draco, &[]);
+    let (code, v) = diff(&q, &draco, "0.3");
+    assert_eq!(code, Some(0), "{v:#}");
+    let draco = dir.path().join("boxes_d.pack");
+    cook(&third_party("draco/boxes_d.glb"), &draco, &[]);
+    let (code, v) = diff(&nodes, &draco, "1e-6");
+    assert_eq!(code, Some(0), "{v:#}");
+    assert_eq!(classes(&info(&draco)), classes(&info(&nodes)));
+
+    // A Draco stream cut off, one with a byte the decoder panics on (an assert: the panic is
+    // caught, found by the mutation run in vendor/draco-oxide-decoder/PATCHES.md), and one
+    // whose header claims four billion triangles: errors naming the file and the primitive,
+    // exit 3, no panic message, no pack.
+    let glb = std::fs::read(third_party("draco/spot_d.glb")).unwrap();
+    let json_len = u32::from_le_bytes(glb[12..16].try_into().unwrap()) as usize;
+    let stream = 20 + json_len + 8;
+    assert_eq!(
+        &glb[stream..stream + 5],
+        b"DRACO",
+        "the stream starts the chunk"
+    );
+    for (name, at, bytes) in [
+        (
+            "claims.glb",
+            stream + 14,
+            &[0xff, 0xff, 0xff, 0xff, 0x0f][..],
+        ),
+        ("cut.glb", stream + 40, &[0; 4000][..]),
+        ("assert.glb", stream + 938, &[87][..]),
+    ] {
+        let mut glb = glb.clone();
+        glb[at..at + bytes.len()].copy_from_slice(bytes);
+        let bad = dir.path().join(name);
+        std::fs::write(&bad, &glb).unwrap();
+        let out = dir.path().join("draco_broken.pack");
+        let o = cooker(&[&"cook", &bad, &"-o", &out, &"--no-cache"]);
+        let err = text(&o.stderr);
+        assert_eq!(o.status.code(), Some(3), "{err}");
+        assert!(
+            err.contains(name) && err.contains("mesh 0 primitive 0") && !err.contains("panicked"),
+            "{err}"
+        );
+        assert!(!out.exists());
+    }
 }

@@ -4,6 +4,7 @@
 //! ever see valid data.
 
 pub mod gltf;
+mod gltf_draco;
 mod gltf_meshopt;
 pub mod obj;
 
