@@ -897,19 +897,26 @@ fn add_primitive(
     let pos_acc = prim
         .get(&gltf::Semantic::Positions)
         .ok_or_else(|| bad(path, "a triangle primitive has no POSITION attribute"))?;
-    let draco = ctx
-        .draco
-        .get(
-            mesh.index(),
-            prim,
-            |v| {
-                ctx.view_bytes(v, "Draco stream")
-                    .map(<[u8]>::to_vec)
-                    .map_err(|e| e.to_string())
-            },
-            ctx.document,
-        )
-        .map_err(|m| bad(path, m))?;
+    let stream = |v: &gltf::buffer::View| {
+        ctx.view_bytes(v, "Draco stream").map_err(|e| match e {
+            CookError::Source { message, .. } => message,
+            e => e.to_string(),
+        })
+    };
+    let draco = match ctx.draco.get(mesh.index(), prim, stream, ctx.document) {
+        Ok(d) => d,
+        // A file may keep an uncompressed copy beside the stream (gltf-pipeline's
+        // `--draco.uncompressedFallback`) for loaders without Draco; read that instead.
+        Err(m) if has_uncompressed_copy(prim) => {
+            out.warnings.push(Warning::new(
+                path,
+                None,
+                format!("{m}; read the uncompressed copy the file also holds"),
+            ));
+            None
+        }
+        Err(m) => return Err(bad(path, m)),
+    };
     // An attribute the Draco stream holds comes from it (the accessor has no data of its own,
     // or a copy the extension says to ignore); any other from its accessor.
     let positions = ctx.attribute::<3>(draco.as_deref(), &pos_acc, "POSITION")?;
@@ -1022,8 +1029,13 @@ fn add_primitive(
         ));
     }
     // Each triangle's corners, three indices a triangle: a list's own indices, strips and
-    // fans unrolled.
-    let corners: Vec<u32> = match prim.mode() {
+    // fans unrolled (Draco's faces are a list whatever the mode).
+    let mode = if draco.is_some() {
+        Mode::Triangles
+    } else {
+        prim.mode()
+    };
+    let corners: Vec<u32> = match mode {
         Mode::TriangleStrip => (2..indices.len())
             .flat_map(|i| {
                 if i % 2 == 0 {
@@ -1100,6 +1112,13 @@ fn add_primitive(
         },
     );
     Ok(())
+}
+
+/// Whether every accessor of the primitive has data of its own, as an uncompressed copy
+/// beside a Draco stream does.
+fn has_uncompressed_copy(prim: &gltf::Primitive) -> bool {
+    let viewed = |a: gltf::Accessor| a.view().is_some() || a.sparse().is_some();
+    prim.attributes().all(|(_, a)| viewed(a)) && prim.indices().is_none_or(viewed)
 }
 
 /// The most vertices and corners instancing may expand to in one file, and the most instances
@@ -1665,6 +1684,7 @@ mod tests {
             let s = size(&original);
             let [dp, ..] = gap(&draco, &original);
             assert!(dp <= s * step(11) * 3f32.sqrt(), "{dp} of {s}");
+            assert_eq!(flipped(&draco, &original), 0);
             assert!(draco.warnings.is_empty(), "{:?}", draco.warnings);
         }
         let cornell = import(&third_party("draco/cornell_d.glb")).unwrap();
@@ -1697,11 +1717,54 @@ mod tests {
             assert_eq!(d.uvs.is_empty(), !uv, "{draco}");
         }
 
+        // A damaged stream with an uncompressed copy beside it: the copy is read, with a
+        // warning that names the damage.
+        let mut glb = std::fs::read(third_party("draco/box_d_fallback.glb")).unwrap();
+        let (at, len) = draco_stream(&glb);
+        glb[at + 20..at + len].fill(0);
+        let dir = tempfile::tempdir().unwrap();
+        let damaged = dir.path().join("fallback.glb");
+        std::fs::write(&damaged, &glb).unwrap();
+        let copy = import(&damaged).unwrap();
+        let box_ = import(&third_party("gltf/Box/Box.glb")).unwrap();
+        assert_eq!(gap(&copy, &box_), [0.0; 3]);
+        assert!(
+            copy.warnings
+                .iter()
+                .any(|w| w.message.contains("uncompressed copy")),
+            "{:?}",
+            copy.warnings
+        );
+        // Undamaged, the stream is read (as the extension asks), within its quantization.
+        let stream = import(&third_party("draco/box_d_fallback.glb")).unwrap();
+        assert!(stream.warnings.is_empty() && gap(&stream, &box_)[0] < 1e-3);
+
         let placed = import(&third_party("draco/boxes_d.glb")).unwrap();
         let nodes = import(&third_party("gltfpack/boxes.gltf")).unwrap();
         assert_eq!(placed.parts.len(), 6);
         assert_eq!(placed.tri_part.len(), nodes.tri_part.len());
         assert!(gap(&placed, &nodes)[0] < size(&nodes) * step(11) * 2.0);
+    }
+
+    /// How many triangles of `a` face away from the nearest triangle of `b` (by centroid): the
+    /// corner gap alone would not see a winding turned round.
+    fn flipped(a: &Imported, b: &Imported) -> usize {
+        let geometry = |t: &Triangle| {
+            let [p, q, r] = t.map(|c| glam::Vec3::from(c.0));
+            ((p + q + r) / 3.0, (q - p).cross(r - p))
+        };
+        let tb: Vec<_> = corners(b).iter().map(geometry).collect();
+        corners(a)
+            .iter()
+            .map(geometry)
+            .filter(|(c, n)| {
+                let near = tb
+                    .iter()
+                    .min_by(|u, v| c.distance(u.0).total_cmp(&c.distance(v.0)))
+                    .unwrap();
+                n.dot(near.1) < 0.0
+            })
+            .count()
     }
 
     /// The buffer view of the first Draco stream in a GLB: where it starts in the file and its
@@ -1774,7 +1837,10 @@ mod tests {
         let path = dir.path().join("claims.glb");
         std::fs::write(&path, &glb).unwrap();
         let e = import(&path).unwrap_err().to_string();
-        assert!(e.contains("claims.glb") && e.contains("claims"), "{e}");
+        assert!(
+            e.contains("claims.glb") && e.contains("bytes of Draco can hold"),
+            "{e}"
+        );
     }
 
     /// `EXT_mesh_gpu_instancing` (gltfpack `-mi`, with its quaternion and exponential filters):

@@ -24,23 +24,28 @@ use serde_json::Value;
 /// The extension's name.
 pub(super) const NAME: &str = "KHR_draco_mesh_compression";
 
-/// Most triangles one stream may claim per byte of it. Edgebreaker spends a few bits on a
-/// triangle's connectivity and more on its corners' values; the Stanford bunny's stream holds
-/// 1.4 triangles a byte, so 64 leaves room for any real mesh and bounds what a hostile header
-/// can make the decoder allocate.
-const MAX_FACES_PER_BYTE: u64 = 64;
-/// Most triangles and points all of a file's Draco streams may claim together (a 64M-triangle
-/// model, past what the cooker handles in one file anyway).
-const MAX_TOTAL: u64 = 1 << 26;
+/// Most triangles one stream may claim per byte of it. The decoder holds about 70 bytes a
+/// claimed triangle before it can tell a count is false, so this bounds what a hostile header
+/// costs. Measured with gltf-pipeline: the Stanford bunny's stream holds 1.4 triangles a byte,
+/// a perfectly regular 320k-triangle grid (zero prediction residuals) 15, or 19 with the
+/// valence coder; 32 leaves room above the best case.
+const MAX_FACES_PER_BYTE: u64 = 32;
+/// Most triangles and points all of a file's Draco streams may claim together (a 32M-triangle
+/// model, past what the cooker handles in one file anyway; about 2.3 GB while decoding).
+const MAX_TOTAL: u64 = 1 << 25;
 
 /// One primitive's stream, decoded.
 pub(super) struct Decoded {
-    /// The triangles' corners, three point indices a triangle.
+    /// The triangles' corners, three point indices a triangle (Draco stores a triangle list
+    /// whatever the primitive's mode).
     pub(super) corners: Vec<u32>,
     /// How many points (glTF vertices) the attributes have.
     pub(super) points: usize,
-    /// Each glTF attribute the extension names, by its semantic (`"NORMAL"`).
+    /// Each glTF attribute the extension names that the cooker reads, by its semantic
+    /// (`"NORMAL"`).
     attributes: Vec<(String, Values)>,
+    /// Where it came from, for errors: `"mesh 0 primitive 1: KHR_draco_mesh_compression"`.
+    label: String,
 }
 
 /// An attribute's values, one tuple of `comps` per point, as stored: integers not yet
@@ -51,31 +56,31 @@ struct Values {
     data: Vec<f32>,
 }
 
-/// The decoded streams of one file, by (mesh, primitive): a mesh placed by many nodes is
-/// decoded once.
+/// A buffer view and the (semantic, Draco id) pairs read from it, sorted.
+type StreamKey = (usize, Vec<(String, u64)>);
+
+/// The decoded streams of one file, by buffer view and the attributes read from it: a mesh
+/// placed by many nodes, or one stream that several primitives name, is decoded once.
 #[derive(Default)]
 pub(super) struct Cache {
-    decoded: RefCell<HashMap<(usize, usize), Rc<Decoded>>>,
+    decoded: RefCell<HashMap<StreamKey, Rc<Decoded>>>,
     /// Triangles and points claimed by the streams decoded so far.
     claimed: Cell<u64>,
 }
 
 impl Cache {
-    /// The primitive's decoded stream where it has the extension, else `None`.
-    pub(super) fn get(
+    /// The primitive's decoded stream where it has the extension, else `None`. Errors are
+    /// messages that name the mesh and primitive (the caller adds the file).
+    pub(super) fn get<'b>(
         &self,
         mesh: usize,
         prim: &gltf::Primitive,
-        view_bytes: impl Fn(&gltf::buffer::View) -> Result<Vec<u8>, String>,
+        view_bytes: impl Fn(&gltf::buffer::View) -> Result<&'b [u8], String>,
         document: &gltf::Document,
     ) -> Result<Option<Rc<Decoded>>, String> {
         let Some(ext) = prim.extension_value(NAME) else {
             return Ok(None);
         };
-        let key = (mesh, prim.index());
-        if let Some(d) = self.decoded.borrow().get(&key) {
-            return Ok(Some(d.clone()));
-        }
         let what = format!("mesh {mesh} primitive {}: {NAME}", prim.index());
         let view = ext
             .get("bufferView")
@@ -91,16 +96,22 @@ impl Cache {
             let id = id
                 .as_u64()
                 .ok_or_else(|| format!("{what}: attribute {semantic} has id {id}, not a number"))?;
-            wanted.push((semantic.clone(), id));
+            // Only what the cooker reads: joints, weights and colours would be converted for
+            // nothing.
+            let read = ["POSITION", "NORMAL"].contains(&semantic.as_str())
+                || semantic.starts_with("TEXCOORD_");
+            if read {
+                wanted.push((semantic.clone(), id));
+            }
         }
-        if !matches!(prim.mode(), gltf::mesh::Mode::Triangles) {
-            return Err(format!(
-                "{what}: mode {:?} with Draco (the extension compresses triangle lists)",
-                prim.mode()
-            ));
+        wanted.sort();
+        let key = (view.index(), wanted);
+        if let Some(d) = self.decoded.borrow().get(&key) {
+            return Ok(Some(d.clone()));
         }
+        let wanted = &key.1;
         let bytes = view_bytes(&view).map_err(|e| format!("{what}: {e}"))?;
-        let claim = claimed_size(&bytes).map_err(|e| {
+        let claim = claimed_size(bytes).map_err(|e| {
             format!(
                 "{what}: buffer view {} is not a Draco mesh: {e}",
                 view.index()
@@ -114,7 +125,7 @@ impl Cache {
             ));
         }
         self.claimed.set(total);
-        let decoded = decode(&bytes, &wanted)
+        let decoded = decode(bytes, wanted, what.clone())
             .map_err(|e| format!("{what}: buffer view {} is malformed: {e}", view.index()))?;
         let decoded = Rc::new(decoded);
         self.decoded.borrow_mut().insert(key, decoded.clone());
@@ -133,8 +144,8 @@ impl Decoded {
         let (_, v) = self.attributes.iter().find(|(s, _)| s == semantic)?;
         if v.comps != N {
             return Some(Err(format!(
-                "Draco attribute {semantic} has {} components, expected {N}",
-                v.comps
+                "{}: attribute {semantic} has {} components, expected {N}",
+                self.label, v.comps
             )));
         }
         let scale = match (acc.normalized(), v.ty) {
@@ -145,7 +156,8 @@ impl Decoded {
             (true, Ty::I16) => Some((32767.0, -1.0)),
             (true, ty) => {
                 return Some(Err(format!(
-                    "Draco attribute {semantic} is normalized {ty:?}, which glTF does not allow"
+                    "{}: attribute {semantic} is normalized {ty:?}, which glTF does not allow",
+                    self.label
                 )));
             }
         };
@@ -182,7 +194,8 @@ fn byte(bytes: &[u8], at: &mut usize) -> Result<u8, String> {
     Ok(b)
 }
 
-/// Deepest metadata nesting read. The format allows any; exporters write one or two levels.
+/// Deepest metadata nesting read: stricter than the reference decoder's 1000 on purpose (the
+/// skip recurses, and exporters write one or two levels).
 const MAX_METADATA_DEPTH: usize = 32;
 
 /// Steps over one metadata block (entries, then named sub-blocks).
@@ -277,7 +290,9 @@ thread_local! {
 }
 
 /// Puts a panic hook in front of the one in place that says nothing for a panic on a thread
-/// that is decoding (once per process).
+/// that is decoding (once per process: a side effect a library rarely has, taken because the
+/// decoder's panic is reported as our error). Under `panic = "abort"` nothing is caught;
+/// this workspace unwinds.
 fn quiet_while_decoding() {
     static ONCE: std::sync::Once = std::sync::Once::new();
     ONCE.call_once(|| {
@@ -291,7 +306,7 @@ fn quiet_while_decoding() {
 }
 
 /// Decodes the stream and gathers the attributes `wanted` (semantic, Draco id).
-fn decode(bytes: &[u8], wanted: &[(String, u64)]) -> Result<Decoded, String> {
+fn decode(bytes: &[u8], wanted: &[(String, u64)], label: String) -> Result<Decoded, String> {
     quiet_while_decoding();
     DECODING.with(|d| d.set(true));
     let result = std::panic::catch_unwind(|| draco_oxide_decoder::decode_mesh(bytes));
@@ -342,6 +357,7 @@ fn decode(bytes: &[u8], wanted: &[(String, u64)]) -> Result<Decoded, String> {
         corners,
         points,
         attributes,
+        label,
     })
 }
 
