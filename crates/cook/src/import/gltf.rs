@@ -734,15 +734,17 @@ impl Ctx<'_> {
     }
 
     /// Attribute `semantic` from the primitive's Draco stream where that holds it, else from
-    /// its accessor.
+    /// its accessor. `prim` names the primitive in an error about the stream (a stream is
+    /// decoded once for every primitive that names it).
     fn attribute<const N: usize>(
         &self,
         draco: Option<&super::gltf_draco::Decoded>,
+        prim: &str,
         acc: &gltf::Accessor,
         semantic: &str,
     ) -> Result<Vec<[f32; N]>, CookError> {
         match draco.and_then(|d| d.floats::<N>(semantic, acc)) {
-            Some(values) => values.map_err(|m| bad(self.path, m)),
+            Some(values) => values.map_err(|m| bad(self.path, format!("{prim}: {m}"))),
             None => self.floats::<N>(acc, semantic),
         }
     }
@@ -919,7 +921,8 @@ fn add_primitive(
     };
     // An attribute the Draco stream holds comes from it (the accessor has no data of its own,
     // or a copy the extension says to ignore); any other from its accessor.
-    let positions = ctx.attribute::<3>(draco.as_deref(), &pos_acc, "POSITION")?;
+    let label = format!("mesh {} primitive {}", mesh.index(), prim.index());
+    let positions = ctx.attribute::<3>(draco.as_deref(), &label, &pos_acc, "POSITION")?;
     if let Some(i) = positions
         .iter()
         .position(|p| !p.iter().all(|c| c.is_finite()))
@@ -936,7 +939,7 @@ fn add_primitive(
     let vcount = positions.len();
     let normals = match prim.get(&gltf::Semantic::Normals) {
         Some(a) => {
-            let n = ctx.attribute::<3>(draco.as_deref(), &a, "NORMAL")?;
+            let n = ctx.attribute::<3>(draco.as_deref(), &label, &a, "NORMAL")?;
             if n.len() != vcount {
                 return Err(bad(
                     path,
@@ -962,7 +965,7 @@ fn add_primitive(
         .unwrap_or(0);
     let uvs = match prim.get(&gltf::Semantic::TexCoords(set)) {
         Some(a) => {
-            let t = ctx.attribute::<2>(draco.as_deref(), &a, &format!("TEXCOORD_{set}"))?;
+            let t = ctx.attribute::<2>(draco.as_deref(), &label, &a, &format!("TEXCOORD_{set}"))?;
             if t.len() != vcount {
                 return Err(bad(
                     path,
@@ -1005,10 +1008,7 @@ fn add_primitive(
                 return Err(bad(
                     path,
                     format!(
-                        "mesh {} primitive {}: the Draco stream has {} points but POSITION \
-                         has {vcount}",
-                        mesh.index(),
-                        prim.index(),
+                        "{label}: the Draco stream has {} points but POSITION has {vcount}",
                         d.points
                     ),
                 ));

@@ -44,8 +44,6 @@ pub(super) struct Decoded {
     /// Each glTF attribute the extension names that the cooker reads, by its semantic
     /// (`"NORMAL"`).
     attributes: Vec<(String, Values)>,
-    /// Where it came from, for errors: `"mesh 0 primitive 1: KHR_draco_mesh_compression"`.
-    label: String,
 }
 
 /// An attribute's values, one tuple of `comps` per point, as stored: integers not yet
@@ -125,7 +123,7 @@ impl Cache {
             ));
         }
         self.claimed.set(total);
-        let decoded = decode(bytes, wanted, what.clone())
+        let decoded = decode(bytes, wanted)
             .map_err(|e| format!("{what}: buffer view {} is malformed: {e}", view.index()))?;
         let decoded = Rc::new(decoded);
         self.decoded.borrow_mut().insert(key, decoded.clone());
@@ -144,8 +142,8 @@ impl Decoded {
         let (_, v) = self.attributes.iter().find(|(s, _)| s == semantic)?;
         if v.comps != N {
             return Some(Err(format!(
-                "{}: attribute {semantic} has {} components, expected {N}",
-                self.label, v.comps
+                "{NAME}: attribute {semantic} has {} components, expected {N}",
+                v.comps
             )));
         }
         let scale = match (acc.normalized(), v.ty) {
@@ -156,8 +154,7 @@ impl Decoded {
             (true, Ty::I16) => Some((32767.0, -1.0)),
             (true, ty) => {
                 return Some(Err(format!(
-                    "{}: attribute {semantic} is normalized {ty:?}, which glTF does not allow",
-                    self.label
+                    "{NAME}: attribute {semantic} is normalized {ty:?}, which glTF does not allow"
                 )));
             }
         };
@@ -306,7 +303,7 @@ fn quiet_while_decoding() {
 }
 
 /// Decodes the stream and gathers the attributes `wanted` (semantic, Draco id).
-fn decode(bytes: &[u8], wanted: &[(String, u64)], label: String) -> Result<Decoded, String> {
+fn decode(bytes: &[u8], wanted: &[(String, u64)]) -> Result<Decoded, String> {
     quiet_while_decoding();
     DECODING.with(|d| d.set(true));
     let result = std::panic::catch_unwind(|| draco_oxide_decoder::decode_mesh(bytes));
@@ -357,7 +354,6 @@ fn decode(bytes: &[u8], wanted: &[(String, u64)], label: String) -> Result<Decod
         corners,
         points,
         attributes,
-        label,
     })
 }
 
