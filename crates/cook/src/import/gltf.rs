@@ -260,6 +260,7 @@ pub fn import(path: &Path) -> Result<Imported, CookError> {
                             .map(str::to_string)
                             .unwrap_or_else(|| format!("node{}", node.index())),
                     ),
+                    instance: None,
                 };
                 // Each instance is its own part, as it would be written as its own node: the
                 // geometry heuristics judge one pillar, not a row of them. Past a few thousand
@@ -271,7 +272,11 @@ pub fn import(path: &Path) -> Result<Imported, CookError> {
                         let key = (material.index(), mesh.index(), node.index(), instance);
                         *part_ids.entry(key).or_insert_with(|| {
                             out.parts.push(Part {
-                                names: names.clone(),
+                                names: Names {
+                                    instance: (own_parts && worlds.len() > 1)
+                                        .then_some(instance as u32),
+                                    ..names.clone()
+                                },
                                 material: mat_id,
                             });
                             (out.parts.len() - 1) as u32
@@ -1867,6 +1872,17 @@ mod tests {
         };
         assert_eq!(boxes(&nodes), vec![12; 6]);
         assert_eq!(boxes(&mi), boxes(&nodes));
+        // Each instance's notes say which copy it is (six identical lines before); names as
+        // rules see them stay the node's.
+        let described: std::collections::BTreeSet<String> =
+            mi.parts.iter().map(|p| p.names.describe()).collect();
+        assert_eq!(described.len(), 6, "{described:?}");
+        assert!(described.iter().any(|d| d.ends_with(", instance 5")));
+        assert!(
+            mi.parts
+                .iter()
+                .all(|p| p.names.node == mi.parts[0].names.node)
+        );
     }
 
     /// One triangle's positions, as a little-endian float buffer.

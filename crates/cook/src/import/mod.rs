@@ -295,6 +295,9 @@ pub struct Names {
     pub object: Option<String>,
     pub mesh: Option<String>,
     pub node: Option<String>,
+    /// Which copy of an instanced node (`EXT_mesh_gpu_instancing`) the triangles are, where
+    /// each copy is a part of its own: its notes are told apart by it. Rules never see it.
+    pub instance: Option<u32>,
 }
 
 impl Names {
@@ -314,10 +317,14 @@ impl Names {
             .iter()
             .filter_map(|&k| self.get(k).map(|n| format!("{} {n:?}", k.name())))
             .collect();
-        if parts.is_empty() {
+        let names = if parts.is_empty() {
             "(unnamed)".into()
         } else {
             parts.join(", ")
+        };
+        match self.instance {
+            Some(i) => format!("{names}, instance {i}"),
+            None => names,
         }
     }
 }

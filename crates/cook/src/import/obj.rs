@@ -1634,6 +1634,7 @@ fn current_part(state: &mut State, out: &mut Imported, material_ids: &HashMap<St
                 object: state.object.clone(),
                 mesh: None,
                 node: None,
+                instance: None,
             },
             material: state
                 .material
