@@ -1,8 +1,9 @@
 //! Fingerprints the source that decides what a cook produces (this crate, `texture`, `pack`,
 //! their manifests, the workspace's and the lock file), for the cache key: with only the
 //! package version in it, a cooker rebuilt with changed code served packs cooked by the old
-//! code, from the local cache and from a shared one alike. FNV-1a over sorted relative paths and contents: stable
-//! across machines and toolchains, so machines running the same source share entries.
+//! code, from the local cache and from a shared one alike. FNV-1a over sorted relative paths
+//! and contents: stable across machines and toolchains, so machines running the same source
+//! share entries.
 
 use std::path::{Path, PathBuf};
 

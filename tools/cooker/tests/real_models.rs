@@ -1884,6 +1884,13 @@ fn a_building_in_one_material_is_cut_into_floor_and_walls() {
     assert_eq!(tagged, classes(&self::info(&edited)));
 }
 
+/// Where a GLB's binary chunk starts: past the 12-byte header, the JSON chunk's 8-byte head
+/// and its length, and the binary chunk's head.
+fn glb_binary_chunk(glb: &[u8]) -> usize {
+    let json_len = u32::from_le_bytes(glb[12..16].try_into().unwrap()) as usize;
+    20 + json_len + 8
+}
+
 /// gltfpack's outputs, quantized and meshopt-compressed (tests/data/third_party/gltfpack),
 /// cook like the models they came from; before, every one was refused ("extensionsRequired[0]
 /// = KHR_mesh_quantization: Unsupported extension").
@@ -1966,8 +1973,7 @@ fn gltfpack_compressed_and_instanced_models_cook() {
     // A compressed stream that does not decode: an error naming the file and the view, exit
     // 3, and no pack.
     let mut glb = std::fs::read(third_party("gltfpack/boxes_mi_cc.glb")).unwrap();
-    let json_len = u32::from_le_bytes(glb[12..16].try_into().unwrap()) as usize;
-    let bin = 20 + json_len + 8;
+    let bin = glb_binary_chunk(&glb);
     assert!(
         glb[bin] == 0xa0 || glb[bin] == 0xa1,
         "view 0's stream starts the chunk"
@@ -2003,8 +2009,7 @@ fn gltfpack_compressed_and_instanced_models_cook() {
     // whose header claims four billion triangles: errors naming the file and the primitive,
     // exit 3, no panic message, no pack.
     let glb = std::fs::read(third_party("draco/spot_d.glb")).unwrap();
-    let json_len = u32::from_le_bytes(glb[12..16].try_into().unwrap()) as usize;
-    let stream = 20 + json_len + 8;
+    let stream = glb_binary_chunk(&glb);
     assert_eq!(
         &glb[stream..stream + 5],
         b"DRACO",

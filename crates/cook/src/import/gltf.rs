@@ -569,29 +569,26 @@ fn type_size(t: DataType) -> usize {
 }
 
 fn component(bytes: &[u8], t: DataType, normalized: bool) -> f32 {
-    match t {
+    let v = match t {
         DataType::F32 => f32::from_le_bytes([bytes[0], bytes[1], bytes[2], bytes[3]]),
         DataType::U32 => u32::from_le_bytes([bytes[0], bytes[1], bytes[2], bytes[3]]) as f32,
-        DataType::I8 => {
-            let v = bytes[0] as i8 as f32;
-            if normalized { (v / 127.0).max(-1.0) } else { v }
-        }
-        DataType::U8 => {
-            let v = bytes[0] as f32;
-            if normalized { v / 255.0 } else { v }
-        }
-        DataType::I16 => {
-            let v = i16::from_le_bytes([bytes[0], bytes[1]]) as f32;
-            if normalized {
-                (v / 32767.0).max(-1.0)
-            } else {
-                v
-            }
-        }
-        DataType::U16 => {
-            let v = u16::from_le_bytes([bytes[0], bytes[1]]) as f32;
-            if normalized { v / 65535.0 } else { v }
-        }
+        DataType::I8 => bytes[0] as i8 as f32,
+        DataType::U8 => bytes[0] as f32,
+        DataType::I16 => i16::from_le_bytes([bytes[0], bytes[1]]) as f32,
+        DataType::U16 => u16::from_le_bytes([bytes[0], bytes[1]]) as f32,
+    };
+    if normalized { normalize(v, t) } else { v }
+}
+
+/// A normalized integer component (its value as a float) to [0, 1] or [-1, 1], as glTF
+/// defines them; 32-bit types are as they are. Shared with the Draco stream's values.
+pub(super) fn normalize(v: f32, t: DataType) -> f32 {
+    match t {
+        DataType::I8 => (v / 127.0).max(-1.0),
+        DataType::U8 => v / 255.0,
+        DataType::I16 => (v / 32767.0).max(-1.0),
+        DataType::U16 => v / 65535.0,
+        DataType::U32 | DataType::F32 => v,
     }
 }
 
@@ -1601,6 +1598,14 @@ mod tests {
         worst
     }
 
+    /// The least and greatest corner of the positions' box.
+    fn bounds(m: &Imported) -> (glam::Vec3, glam::Vec3) {
+        m.positions.iter().fold(
+            (glam::Vec3::INFINITY, glam::Vec3::NEG_INFINITY),
+            |(lo, hi), p| (lo.min((*p).into()), hi.max((*p).into())),
+        )
+    }
+
     /// gltfpack's default output (`KHR_mesh_quantization`, required) and its `-c` output
     /// (`EXT_meshopt_compression` over a placeholder buffer with no data) of the same model
     /// import to the same data, bit for bit, and to the model gltfpack read within its 14-bit
@@ -1614,14 +1619,7 @@ mod tests {
         assert!(corners(&q) == corners(&c), "triangles differ");
         assert_eq!(q.tri_part.len(), 5856);
         let obj = super::super::obj::import(&third_party("classic/spot.obj")).unwrap();
-        let extent = |m: &Imported| {
-            let (lo, hi) = m.positions.iter().fold(
-                (glam::Vec3::INFINITY, glam::Vec3::NEG_INFINITY),
-                |(lo, hi), p| (lo.min((*p).into()), hi.max((*p).into())),
-            );
-            (lo, hi)
-        };
-        let ((lo_q, hi_q), (lo_o, hi_o)) = (extent(&q), extent(&obj));
+        let ((lo_q, hi_q), (lo_o, hi_o)) = (bounds(&q), bounds(&obj));
         let size = (hi_o - lo_o).max_element();
         assert!(lo_q.distance(lo_o) < size * 2e-4 && hi_q.distance(hi_o) < size * 2e-4);
         assert_eq!(obj.tri_part.len(), q.tri_part.len());
@@ -1665,10 +1663,7 @@ mod tests {
     #[test]
     fn draco_compressed_files_import_as_the_models_they_compress() {
         let size = |m: &Imported| {
-            let (lo, hi) = m.positions.iter().fold(
-                (glam::Vec3::INFINITY, glam::Vec3::NEG_INFINITY),
-                |(lo, hi), p| (lo.min((*p).into()), hi.max((*p).into())),
-            );
+            let (lo, hi) = bounds(m);
             (hi - lo).max_element()
         };
         // Half a quantization step of the largest extent, and a little rounding.

@@ -19,6 +19,7 @@ use std::collections::HashMap;
 use std::rc::Rc;
 
 use draco_oxide_core::attribute::ComponentDataType as Ty;
+use gltf::accessor::DataType;
 use serde_json::Value;
 
 /// The extension's name.
@@ -146,12 +147,12 @@ impl Decoded {
                 v.comps
             )));
         }
-        let scale = match (acc.normalized(), v.ty) {
+        let normalized = match (acc.normalized(), v.ty) {
             (false, _) | (true, Ty::F32) => None,
-            (true, Ty::U8) => Some((255.0, 0.0)),
-            (true, Ty::I8) => Some((127.0, -1.0)),
-            (true, Ty::U16) => Some((65535.0, 0.0)),
-            (true, Ty::I16) => Some((32767.0, -1.0)),
+            (true, Ty::U8) => Some(DataType::U8),
+            (true, Ty::I8) => Some(DataType::I8),
+            (true, Ty::U16) => Some(DataType::U16),
+            (true, Ty::I16) => Some(DataType::I16),
             (true, ty) => {
                 return Some(Err(format!(
                     "{NAME}: attribute {semantic} is normalized {ty:?}, which glTF does not allow"
@@ -162,8 +163,8 @@ impl Decoded {
             .data
             .chunks_exact(N)
             .map(|c| {
-                std::array::from_fn(|k| match scale {
-                    Some((s, lo)) => (c[k] / s).max(lo),
+                std::array::from_fn(|k| match normalized {
+                    Some(t) => super::gltf::normalize(c[k], t),
                     None => c[k],
                 })
             })

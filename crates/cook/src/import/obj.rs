@@ -1816,12 +1816,6 @@ fn clean_mtl(
         let (word, rest) = line
             .split_once(char::is_whitespace)
             .map_or((line, ""), |(w, r)| (w, r.trim()));
-        let texture_key = |key: &str| match key {
-            "map_Kd" => Some(TextureKey::Diffuse),
-            "map_Bump" | "bump" => Some(TextureKey::Bump),
-            "norm" => Some(TextureKey::Norm),
-            _ => None,
-        };
         let key = KEYWORDS
             .iter()
             .find(|k| k.eq_ignore_ascii_case(word))
@@ -1911,7 +1905,7 @@ fn clean_mtl(
         };
         if key == "newmtl" {
             material = rest.to_string();
-        } else if let Some(k) = texture_key(key).filter(|_| !rest.is_empty()) {
+        } else if let Some(k) = TextureKey::of(key).filter(|_| !rest.is_empty()) {
             texture_lines.insert((material.clone(), k), n);
         }
         out.push_str(&cleaned);
@@ -1927,6 +1921,18 @@ enum TextureKey {
     Diffuse,
     Bump,
     Norm,
+}
+
+impl TextureKey {
+    /// The statement a (case-corrected) MTL keyword makes, where it names a texture read.
+    fn of(keyword: &str) -> Option<Self> {
+        match keyword {
+            "map_Kd" => Some(Self::Diffuse),
+            "map_Bump" | "bump" => Some(Self::Bump),
+            "norm" => Some(Self::Norm),
+            _ => None,
+        }
+    }
 }
 
 type TextureLines = HashMap<(String, TextureKey), usize>;
