@@ -116,11 +116,8 @@ pub(crate) fn decode(image: &ImageRef) -> Result<image::DynamicImage, CookError>
     match image {
         ImageRef::File(p) => texture::load_image(p).map_err(|e| texture_error(p, e)),
         ImageRef::Embedded { name, bytes } => {
-            image::load_from_memory(bytes).map_err(|e| CookError::Source {
-                path: PathBuf::from(name),
-                line: None,
-                message: format!("cannot decode embedded image: {e}"),
-            })
+            let name = Path::new(name);
+            texture::load_image_bytes(bytes, name).map_err(|e| texture_error(name, e))
         }
         ImageRef::Raster { image, .. } => Ok(image::DynamicImage::ImageRgba8((**image).clone())),
     }

@@ -17,6 +17,8 @@ pub enum TextureError {
         path: PathBuf,
         error: image::ImageError,
     },
+    #[error("{}: cannot decode KTX2/Basis Universal texture: {reason}", path.display())]
+    Basis { path: PathBuf, reason: String },
     #[error(
         "{}: image claims {width}x{height} texels, over the limit of {max}x{max}",
         path.display()
@@ -65,9 +67,10 @@ impl TextureError {
     /// The file the error is about, if it is about a file.
     pub fn path(&self) -> Option<&std::path::Path> {
         match self {
-            Self::Io { path, .. } | Self::Decode { path, .. } | Self::TooLarge { path, .. } => {
-                Some(path)
-            }
+            Self::Io { path, .. }
+            | Self::Decode { path, .. }
+            | Self::Basis { path, .. }
+            | Self::TooLarge { path, .. } => Some(path),
             _ => None,
         }
     }

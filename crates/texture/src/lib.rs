@@ -1,8 +1,9 @@
 //! Texture cooking for the stained-glass toolchain: what turns a source image into the RGBA8
 //! mip levels a pack stores.
 //!
-//! - [`load_image`]: decode with limits (a tiny file claiming a huge size fails before any
-//!   allocation); errors name the file.
+//! - [`load_image`], [`load_image_bytes`]: decode with limits (a tiny file claiming a huge size
+//!   fails before any allocation); errors name the file. KTX2 files with a Basis Universal
+//!   payload are transcoded ([`basis`]).
 //! - [`colour_mips`]: sRGB-correct mip chain: decoded exactly to linear light (tables for 8- and
 //!   16-bit codes), alpha-weighted (premultiplied) filtering in f32, polyphase reduction for odd
 //!   and non-power-of-two sizes ([`MipFilter::Box`] by default, Kaiser or Lanczos3 on request),
@@ -22,10 +23,12 @@
 //! Error unit used by tests and benchmarks: 1 LSB is one step of the 8-bit sRGB output; error is
 //! `|our byte − unrounded sRGB encoding of an f64 linear-light reference|`, so 0.5 is the floor.
 
+pub mod basis;
 pub mod bc;
 pub mod blur;
 mod error;
 mod fir;
+pub mod guard;
 mod load;
 pub mod mips;
 pub mod normal;
@@ -39,7 +42,7 @@ pub mod testing;
 
 pub use blur::{BlurMethod, ErrorLsb, blur_linear, blur_srgb8, error_lsb, reference_blur};
 pub use error::TextureError;
-pub use load::{MAX_DECODE_BYTES, MAX_SIDE, load_image};
+pub use load::{MAX_DECODE_BYTES, MAX_SIDE, load_image, load_image_bytes};
 pub use mips::{
     ColourOptions, MipChain, colour_mips, colour_mips_reference, level_count, level_size,
 };

@@ -423,3 +423,196 @@ fn malformed_data_uris_exit_3_naming_the_file() {
         assert!(!pack.exists());
     }
 }
+
+/// The pack's only texture: its name, after checking the material samples it.
+fn only_texture(pack: &Path) -> String {
+    let info = cooker(&[&"info", &pack, &"--json"]);
+    assert_eq!(info.status.code(), Some(0), "{}", text(&info.stderr));
+    let v: serde_json::Value = serde_json::from_slice(&info.stdout).unwrap();
+    let textures = v["textures"].as_array().unwrap();
+    assert_eq!(textures.len(), 1, "{v}");
+    let name = textures[0]["name"].as_str().unwrap().to_string();
+    let used = v["materials"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .any(|m| m["diffuse_texture"] == name.as_str());
+    assert!(used, "a material samples {name}: {v}");
+    name
+}
+
+/// The SHA-256 of `file`'s level 0 as the C++ Basis Universal transcoder decodes it to RGBA8,
+/// from `ktx2/REFERENCE`.
+fn reference_texels(file: &str) -> String {
+    let list = std::fs::read_to_string(data("ktx2/REFERENCE")).unwrap();
+    let line = list.lines().find(|l| l.split(' ').next() == Some(file));
+    let line = line.unwrap_or_else(|| panic!("no reference for {file}"));
+    line.rsplit(' ').next().unwrap().to_string()
+}
+
+fn sha256_hex(img: &image::RgbaImage) -> String {
+    use sha2::Digest;
+    let digest = sha2::Sha256::digest(img.as_raw());
+    digest.iter().map(|b| format!("{b:02x}")).collect()
+}
+
+/// Models that require `KHR_texture_basisu` (glTF Transform with the Basis Universal encoder,
+/// no PNG fallback): ETC1S, zstd-supercompressed UASTC, and a 211x211 design whose blocks
+/// overhang its edges. Level 0 has the PNG's size and full mip chain, holds exactly the texels
+/// the C++ transcoder decodes, and is close to the PNG it was encoded from but not equal (Basis
+/// is lossy). The RMS bounds are the measured 4.43 / 0.66 / 4.50 with a margin.
+#[test]
+fn basis_universal_textures_cook_to_the_reference_transcoders_texels() {
+    for (model, png, max_rms) in [
+        (
+            "ktx2/boxtex_etc1s.glb",
+            "gltf/BoxTextured/CesiumLogoFlat.png",
+            5.0,
+        ),
+        (
+            "ktx2/boxtex_uastc.glb",
+            "gltf/BoxTextured/CesiumLogoFlat.png",
+            1.0,
+        ),
+        (
+            "ktx2/boxtex_npot_etc1s.glb",
+            "gltf/BoxTexturedNonPowerOfTwo/CesiumLogoFlat.png",
+            5.0,
+        ),
+    ] {
+        let file = model.rsplit('/').next().unwrap();
+        let dir = tempfile::tempdir().unwrap();
+        let pack = dir.path().join("box.pack");
+        cook_obj(&data(model), &pack, &["--texture-format", "rgba8"]);
+        let name = only_texture(&pack);
+        let source = image::open(data(png)).unwrap().to_rgba8();
+        let (w, h, mips) = texture_info(&pack, &name);
+        assert_eq!((w as u32, h as u32), source.dimensions(), "{model:?}");
+        assert_eq!(mips, mips_for(w, h));
+        let level0 = extract(&pack, &name, 0, dir.path());
+        assert_eq!(sha256_hex(&level0), reference_texels(file), "{model}");
+        let e = rms(&level0, &source);
+        assert!(e > 0.0 && e <= max_rms, "{model}: RMS {e} against the PNG");
+    }
+}
+
+/// BoxTextured with a second image, a KTX2 of another design (the 512x512 template), named by
+/// the texture's `KHR_texture_basisu`. With the PNG still its `source` the cook reads the PNG,
+/// lossless, byte for byte; with the source removed and the extension required, the KTX2.
+#[test]
+fn a_png_fallback_is_preferred_to_the_basis_texture_beside_it() {
+    let src = data("gltf/BoxTextured");
+    for required in [false, true] {
+        let dir = tempfile::tempdir().unwrap();
+        for f in ["BoxTextured0.bin", "CesiumLogoFlat.png"] {
+            std::fs::copy(src.join(f), dir.path().join(f)).unwrap();
+        }
+        std::fs::copy(
+            data("ktx2/template_uastc.ktx2"),
+            dir.path().join("template.ktx2"),
+        )
+        .unwrap();
+        let mut v: serde_json::Value =
+            serde_json::from_slice(&std::fs::read(src.join("BoxTextured.gltf")).unwrap()).unwrap();
+        v["images"]
+            .as_array_mut()
+            .unwrap()
+            .push(serde_json::json!({"uri": "template.ktx2", "mimeType": "image/ktx2"}));
+        v["textures"][0]["extensions"] = serde_json::json!({"KHR_texture_basisu": {"source": 1}});
+        v["extensionsUsed"] = serde_json::json!(["KHR_texture_basisu"]);
+        if required {
+            v["textures"][0].as_object_mut().unwrap().remove("source");
+            v["extensionsRequired"] = serde_json::json!(["KHR_texture_basisu"]);
+        }
+        let gltf = dir.path().join("box.gltf");
+        std::fs::write(&gltf, serde_json::to_vec(&v).unwrap()).unwrap();
+        let pack = dir.path().join("box.pack");
+        cook_obj(&gltf, &pack, &["--texture-format", "rgba8"]);
+        let name = only_texture(&pack);
+        let level0 = extract(&pack, &name, 0, dir.path());
+        if required {
+            let template = "gltf/TextureCoordinateTest/TextureCoordinateTemplate.png";
+            let template = image::open(data(template)).unwrap().to_rgba8();
+            assert_eq!(level0.dimensions(), template.dimensions());
+            let e = rms(&level0, &template);
+            assert!(e > 0.0 && e < 0.5, "RMS {e} against the template");
+            assert_eq!(sha256_hex(&level0), reference_texels("template_uastc.ktx2"));
+        } else {
+            let png = image::open(src.join("CesiumLogoFlat.png")).unwrap();
+            assert!(level0 == png.to_rgba8(), "level 0 is not the PNG's texels");
+        }
+    }
+}
+
+/// An OBJ material's `map_Kd` may name a `.ktx2` (ETC1S or UASTC); both cook to the reference
+/// transcoder's texels, close to the template they encode (measured RMS 0.97 / 0.22).
+#[test]
+fn obj_materials_read_basis_ktx2_files() {
+    let dir = tempfile::tempdir().unwrap();
+    let obj = obj_scene(
+        dir.path(),
+        &["ktx2/template_etc1s.ktx2", "ktx2/template_uastc.ktx2"],
+    );
+    let pack = dir.path().join("q.pack");
+    cook_obj(&obj, &pack, &["--texture-format", "rgba8"]);
+    let template = "gltf/TextureCoordinateTest/TextureCoordinateTemplate.png";
+    let template = image::open(data(template)).unwrap().to_rgba8();
+    for (name, max_rms) in [("template_etc1s", 1.5), ("template_uastc", 0.5)] {
+        let (w, h, mips) = texture_info(&pack, name);
+        assert_eq!((w as u32, h as u32, mips), (512, 512, 10));
+        let level0 = extract(&pack, name, 0, dir.path());
+        assert_eq!(
+            sha256_hex(&level0),
+            reference_texels(&format!("{name}.ktx2"))
+        );
+        let e = rms(&level0, &template);
+        assert!(e > 0.0 && e <= max_rms, "{name}: RMS {e}");
+    }
+}
+
+/// A KTX2 without a Basis payload, a truncated one, and 60 with bytes damaged: each cooks
+/// (damage a decoder cannot see is still texels) or exits 3 naming the file, with no pack;
+/// never a panic or an abort.
+#[test]
+fn damaged_or_foreign_ktx2_files_exit_3_naming_them() {
+    let dir = tempfile::tempdir().unwrap();
+    let run = |bytes: &[u8]| {
+        std::fs::write(dir.path().join("template_uastc.ktx2"), bytes).unwrap();
+        let pack = dir.path().join("q.pack");
+        let _ = std::fs::remove_file(&pack);
+        let obj = dir.path().join("scene.obj");
+        let o = cooker(&[&"cook", &obj, &"-o", &pack, &"--no-cache"]);
+        (o.status.code(), text(&o.stderr), pack.exists())
+    };
+    obj_scene(dir.path(), &["ktx2/template_uastc.ktx2"]);
+    let good = std::fs::read(data("ktx2/template_uastc.ktx2")).unwrap();
+    let raw = std::fs::read(data("ktx2/raw_rgba8.ktx2")).unwrap();
+    let (code, err, packed) = run(&raw);
+    assert_eq!(code, Some(3), "{err}");
+    assert!(err.contains("template_uastc.ktx2") && err.contains("Vulkan format 43"));
+    assert!(!packed);
+    let (code, err, packed) = run(&good[..good.len() / 2]);
+    assert_eq!(code, Some(3), "{err}");
+    assert!(err.contains("template_uastc.ktx2") && !packed, "{err}");
+    let mut seed = 0x2545_f491_4f6c_dd1d_u64;
+    let mut next = move || {
+        seed ^= seed << 13;
+        seed ^= seed >> 7;
+        seed ^= seed << 17;
+        seed
+    };
+    let mut refused = 0;
+    for _ in 0..60 {
+        let mut bytes = good.clone();
+        for _ in 0..1 + next() % 4 {
+            let at = next() as usize % bytes.len();
+            bytes[at] ^= 1 << (next() % 8);
+        }
+        match run(&bytes) {
+            (Some(0), _, true) => {}
+            (Some(3), err, false) if err.contains("template_uastc.ktx2") => refused += 1,
+            other => panic!("damaged KTX2: {other:?}"),
+        }
+    }
+    assert!(refused > 0, "no damage was seen in 60 files");
+}

@@ -352,6 +352,7 @@ const READ_EXTENSIONS: &[&str] = &[
     "KHR_draco_mesh_compression",
     "EXT_mesh_gpu_instancing",
     "EXT_texture_webp",
+    "KHR_texture_basisu",
     "KHR_materials_pbrSpecularGlossiness",
 ];
 
@@ -371,7 +372,7 @@ fn required_extensions(path: &Path, required: Vec<String>) -> Result<Vec<Warning
             continue;
         }
         let hint = match name.as_str() {
-            "KHR_texture_basisu" | "EXT_texture_avif" | "MSFT_texture_dds" => {
+            "EXT_texture_avif" | "MSFT_texture_dds" => {
                 "; re-export the model with PNG or JPEG textures"
             }
             _ => "",
@@ -1296,21 +1297,21 @@ fn decode_data_uri(path: &Path, name: &str, uri: &str) -> Result<Vec<u8>, CookEr
 
 /// The image a texture samples: its `EXT_texture_webp` source where it has one (the texture
 /// stage decodes WebP like PNG, and a file that requires the extension gives no other), else
-/// its plain `source`.
+/// its plain `source`, else its `KHR_texture_basisu` source. A Basis texture is lossy (ETC1S
+/// blocks carry few colours), so where the file keeps a PNG or JPEG fallback the cook reads
+/// that; a file that requires the extension has only the KTX2.
 fn texture_ref(
     ctx: &Ctx,
     texture: &gltf::Texture,
     warnings: &mut Vec<Warning>,
 ) -> Result<Option<ImageRef>, CookError> {
-    let webp = texture
-        .extension_value("EXT_texture_webp")
-        .and_then(|e| e.get("source"));
-    let image = match webp {
-        Some(v) => v
-            .as_u64()
-            .and_then(|i| ctx.document.images().nth(usize::try_from(i).ok()?)),
-        None => texture.source(),
+    let extension_source = |name: &str| {
+        let index = texture.extension_value(name)?.get("source")?.as_u64()?;
+        ctx.document.images().nth(usize::try_from(index).ok()?)
     };
+    let image = extension_source("EXT_texture_webp")
+        .or_else(|| texture.source())
+        .or_else(|| extension_source("KHR_texture_basisu"));
     match image {
         Some(image) => image_ref(ctx, image, warnings),
         None => {
@@ -1910,15 +1911,15 @@ mod tests {
         let dir = tempfile::tempdir().unwrap();
         let tri = triangle_bytes();
         let view = r#"{"buffer": 0, "byteLength": 36}"#;
-        let basisu = write_gltf(
+        let avif = write_gltf(
             dir.path(),
             &tri,
             view,
-            r#""extensionsRequired": ["KHR_texture_basisu"],"#,
+            r#""extensionsRequired": ["EXT_texture_avif"],"#,
         );
-        let e = import(&basisu).unwrap_err().to_string();
+        let e = import(&avif).unwrap_err().to_string();
         assert!(
-            e.contains("m.gltf") && e.contains("KHR_texture_basisu") && e.contains("PNG"),
+            e.contains("m.gltf") && e.contains("EXT_texture_avif") && e.contains("PNG"),
             "{e}"
         );
         // Shading-only extensions cook, with a warning.

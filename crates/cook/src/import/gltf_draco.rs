@@ -282,44 +282,13 @@ fn claimed_size(bytes: &[u8]) -> Result<u64, String> {
     Ok(faces.saturating_add(points))
 }
 
-thread_local! {
-    /// Set while this thread runs the decoder, whose panics are caught and reported.
-    static DECODING: Cell<bool> = const { Cell::new(false) };
-}
-
-/// Puts a panic hook in front of the one in place that says nothing for a panic on a thread
-/// that is decoding (once per process: a side effect a library rarely has, taken because the
-/// decoder's panic is reported as our error). Under `panic = "abort"` nothing is caught;
-/// this workspace unwinds.
-fn quiet_while_decoding() {
-    static ONCE: std::sync::Once = std::sync::Once::new();
-    ONCE.call_once(|| {
-        let previous = std::panic::take_hook();
-        std::panic::set_hook(Box::new(move |info| {
-            if !DECODING.with(Cell::get) {
-                previous(info)
-            }
-        }));
-    });
-}
-
 /// Decodes the stream and gathers the attributes `wanted` (semantic, Draco id).
 fn decode(bytes: &[u8], wanted: &[(String, u64)]) -> Result<Decoded, String> {
-    quiet_while_decoding();
-    DECODING.with(|d| d.set(true));
-    let result = std::panic::catch_unwind(|| draco_oxide_decoder::decode_mesh(bytes));
-    DECODING.with(|d| d.set(false));
-    let mesh = match result {
+    let mesh = match texture::guard::catch_decoder_panic(|| draco_oxide_decoder::decode_mesh(bytes))
+    {
         Ok(Ok(mesh)) => mesh,
         Ok(Err(e)) => return Err(e.to_string()),
-        Err(panic) => {
-            let why = panic
-                .downcast_ref::<&str>()
-                .map(|s| s.to_string())
-                .or_else(|| panic.downcast_ref::<String>().cloned())
-                .unwrap_or_default();
-            return Err(format!("the decoder failed on it ({why})"));
-        }
+        Err(why) => return Err(format!("the decoder failed on it ({why})")),
     };
     let mut points = None;
     let mut attributes = Vec::with_capacity(wanted.len());
