@@ -62,6 +62,8 @@ pub struct MaterialPlan {
     pub material: pack::Material,
     pub diffuse_texture: Option<ImageRef>,
     pub normal_texture: Option<ImageRef>,
+    /// The source's strength for `normal_texture` (`SourceMaterial::normal_scale`).
+    pub normal_scale: f32,
     /// For a window: its design and how it sits, filled by the window stage.
     pub window: Option<Box<crate::window_plan::WindowPlan>>,
 }
@@ -876,6 +878,7 @@ pub fn tag(manifest: &Manifest, sources: &mut [Imported]) -> Result<Tagging, Coo
                         },
                         diffuse_texture: base.diffuse_texture,
                         normal_texture: base.normal_texture,
+                        normal_scale: base.normal_scale,
                         window: None,
                     };
                     if let Some(r) = rule {
@@ -889,6 +892,7 @@ pub fn tag(manifest: &Manifest, sources: &mut [Imported]) -> Result<Tagging, Coo
                         }
                         if let Some(t) = &r.normal_map {
                             plan.normal_texture = Some(ImageRef::File(t.clone()));
+                            plan.normal_scale = 1.0;
                         }
                     }
                     let id = out.materials.len() as u16;

@@ -33,6 +33,8 @@ enum Job {
         image: ImageRef,
         encoding: NormalEncoding,
         green: GreenAxis,
+        /// `SourceMaterial::normal_scale`.
+        strength: f32,
     },
     DerivedNormal {
         #[serde(skip)]
@@ -737,11 +739,20 @@ fn run(
             image,
             encoding,
             green,
+            strength,
         } => {
             let (img, size) = padded(images.get(image)?);
-            let chain = texture::normal_mips(&img, *encoding, *green)
+            let (chain, held) = texture::supplied_normal_mips(&img, *encoding, *green, *strength)
                 .map_err(|e| texture_error(Path::new(&image.name()), e))?;
-            Ok((chain, size, Said::default(), None))
+            let said = match held {
+                texture::SuppliedNormals::Vectors => Said::default(),
+                texture::SuppliedNormals::Heights => Said::note(format!(
+                    "grey, so read as a height (bump) map: its range spans {:.2} texels of \
+                     depth (1/256 of its longer side times the strength {strength})",
+                    strength * img.width().max(img.height()) as f32 * texture::BUMP_DEPTH
+                )),
+            };
+            Ok((chain, size, said, None))
         }
         Job::DerivedNormal { design, seed } => {
             let img = images.get(design)?;
@@ -880,6 +891,7 @@ pub fn cook_textures(
                             image: image.clone(),
                             encoding: *encoding,
                             green: *green,
+                            strength: 1.0,
                         },
                         None => Job::DerivedNormal {
                             design: w.design.clone(),
@@ -925,6 +937,7 @@ pub fn cook_textures(
                             image,
                             encoding: NormalEncoding::Rgb,
                             green: GreenAxis::OpenGl,
+                            strength: plan.normal_scale,
                         },
                         format,
                     )

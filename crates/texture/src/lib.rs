@@ -47,8 +47,8 @@ pub use mips::{
     ColourOptions, MipChain, colour_mips, colour_mips_reference, level_count, level_size,
 };
 pub use normal::{
-    FALLBACK_NORMAL, GreenAxis, NormalEncoding, derive_normal_map, derive_normal_map_padded,
-    normal_mips,
+    BUMP_DEPTH, FALLBACK_NORMAL, GreenAxis, NormalEncoding, SuppliedNormals, derive_normal_map,
+    derive_normal_map_padded, is_height_map, normal_mips, supplied_normal_mips,
 };
 pub use projector::{
     MARGIN_SIGMAS, ProjectorOptions, ProjectorReport, projector, projector_margin,

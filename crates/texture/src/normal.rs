@@ -65,6 +65,18 @@ pub fn decode_normals(
     encoding: NormalEncoding,
     green: GreenAxis,
 ) -> Vec<[f32; 4]> {
+    decode_scaled_normals(img, encoding, green, 1.0)
+}
+
+/// [`decode_normals`] with x and y scaled by `strength` before renormalizing, as glTF's
+/// `normalTexture.scale` and an MTL bump statement's `-bm` ask. At 1 the bits are
+/// [`decode_normals`]'s.
+fn decode_scaled_normals(
+    img: &DynamicImage,
+    encoding: NormalEncoding,
+    green: GreenAxis,
+    strength: f32,
+) -> Vec<[f32; 4]> {
     let flip = if green == GreenAxis::DirectX {
         -1.0
     } else {
@@ -79,9 +91,85 @@ pub fn decode_normals(
                 NormalEncoding::Rgb => v[2] * 2.0 - 1.0,
                 NormalEncoding::Rg => (1.0 - x * x - y * y).max(0.0).sqrt(),
             };
-            normalize([x, y, z, 0.0])
+            if strength == 1.0 {
+                normalize([x, y, z, 0.0])
+            } else {
+                normalize([x * strength, y * strength, z, 0.0])
+            }
         })
         .collect()
+}
+
+/// What a supplied normal map was found to hold.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum SuppliedNormals {
+    /// Tangent-space vectors.
+    Vectors,
+    /// Grey: a height (bump) map, as older exporters write `map_Bump`; its normals were
+    /// derived ([`BUMP_DEPTH`]).
+    Heights,
+}
+
+/// The depth a height map's full range spans at strength 1, as a fraction of its longer side:
+/// 4 texels on a 1024² map, so a bump that rises over a few texels tilts the surface by tens
+/// of degrees, as a brick's mortar should. Bump maps carry no unit; `-bm` (or glTF's scale)
+/// multiplies it.
+pub const BUMP_DEPTH: f32 = 1.0 / 256.0;
+
+/// Texels whose channels differ by at most this (of 255) count as grey: JPEG's chroma noise
+/// on a grey image stays within it, while a normal map's blue sits far above its red and
+/// green (a flat texel is (128, 128, 255)).
+const GREY_SPREAD: u8 = 8;
+
+/// True when at least 99 % of the texels are grey: a height map. No normal map is grey,
+/// since a grey texel would encode a vector along (1, 1, 1).
+pub fn is_height_map(img: &DynamicImage) -> bool {
+    let grey_share = |bytes: &[u8], channels: usize| {
+        let grey = bytes
+            .par_chunks_exact(channels)
+            .filter(|t| {
+                let (lo, hi) = (t[0].min(t[1]).min(t[2]), t[0].max(t[1]).max(t[2]));
+                hi - lo <= GREY_SPREAD
+            })
+            .count();
+        grey as f64 / (bytes.len() / channels).max(1) as f64
+    };
+    let share = match img {
+        DynamicImage::ImageLuma8(_)
+        | DynamicImage::ImageLumaA8(_)
+        | DynamicImage::ImageLuma16(_)
+        | DynamicImage::ImageLumaA16(_) => 1.0,
+        DynamicImage::ImageRgb8(b) => grey_share(b.as_raw(), 3),
+        DynamicImage::ImageRgba8(b) => grey_share(b.as_raw(), 4),
+        other => grey_share(other.to_rgb8().as_raw(), 3),
+    };
+    share >= 0.99
+}
+
+/// Cooks a map given as a material's normal map, whatever it holds: tangent-space vectors
+/// (x and y scaled by `strength`), or, where it is grey ([`is_height_map`]), heights whose
+/// normals are derived by central differences, the full range spanning [`BUMP_DEPTH`] of the
+/// longer side times `strength`. Stored like [`normal_mips`].
+pub fn supplied_normal_mips(
+    img: &DynamicImage,
+    encoding: NormalEncoding,
+    green: GreenAxis,
+    strength: f32,
+) -> Result<(MipChain, SuppliedNormals), TextureError> {
+    let (w, h) = (img.width(), img.height());
+    check_size(w, h)?;
+    if !is_height_map(img) {
+        let normals = decode_scaled_normals(img, encoding, green, strength);
+        return Ok((chain(normals, w, h), SuppliedNormals::Vectors));
+    }
+    let depth = strength * w.max(h) as f32 * BUMP_DEPTH;
+    let height: Vec<f32> = to_unorm_rgb(img)
+        .into_par_iter()
+        .map(|t| (t[0] + t[1] + t[2]) / 3.0 * depth)
+        .collect();
+    let normals = height_to_normals(&height, w, h);
+    drop(height);
+    Ok((chain(normals, w, h), SuppliedNormals::Heights))
 }
 
 /// Filters unit vectors down a full chain (box, polyphase for odd sizes) and renormalizes every
@@ -413,6 +501,55 @@ pub fn derive_normal_map_padded(
 mod tests {
     use super::*;
     use crate::testing::Rng;
+
+    /// Grey (exactly, or within JPEG's chroma noise, in 99 % of texels) is a height map; a
+    /// normal map, flat or tilted, never is, nor is a colour design.
+    #[test]
+    fn grey_maps_are_heights_and_normal_maps_are_not() {
+        let mut rng = Rng(7);
+        let img = |f: &mut dyn FnMut(usize) -> [u8; 4]| {
+            let bytes: Vec<u8> = (0..64 * 64).flat_map(&mut *f).collect();
+            DynamicImage::ImageRgba8(image::RgbaImage::from_raw(64, 64, bytes).unwrap())
+        };
+        let grey = img(&mut |_| {
+            let v = rng.byte();
+            let n = |r: &mut Rng| v.saturating_add(r.byte() % 5);
+            [n(&mut rng), n(&mut rng), n(&mut rng), 255]
+        });
+        assert!(is_height_map(&grey));
+        let luma =
+            DynamicImage::ImageLuma16(image::ImageBuffer::from_pixel(8, 8, image::Luma([300u16])));
+        assert!(is_height_map(&luma));
+        let flat = img(&mut |_| [128, 128, 255, 255]);
+        assert!(!is_height_map(&flat));
+        let tilted = img(&mut |i| [(i % 256) as u8, 100, 230, 255]);
+        assert!(!is_height_map(&tilted));
+        // 2 % colour texels in a grey map: not grey enough to be sure.
+        let spotted = img(&mut |i| {
+            if i % 50 == 0 {
+                [200, 10, 10, 255]
+            } else {
+                [90; 4]
+            }
+        });
+        assert!(!is_height_map(&spotted));
+    }
+
+    /// Strength 1 gives [`normal_mips`]'s bits; 0 flattens every vector.
+    #[test]
+    fn strength_scales_the_tilt_of_vectors() {
+        let mut rng = Rng(3);
+        let bytes: Vec<u8> = (0..32 * 32)
+            .flat_map(|_| [rng.byte(), rng.byte(), 128 + rng.byte() / 2, 255])
+            .collect();
+        let img = DynamicImage::ImageRgba8(image::RgbaImage::from_raw(32, 32, bytes).unwrap());
+        let (enc, green) = (NormalEncoding::Rgb, GreenAxis::OpenGl);
+        let (one, held) = supplied_normal_mips(&img, enc, green, 1.0).unwrap();
+        assert_eq!(held, SuppliedNormals::Vectors);
+        assert_eq!(one.levels, normal_mips(&img, enc, green).unwrap().levels);
+        let (flat, _) = supplied_normal_mips(&img, enc, green, 0.0).unwrap();
+        assert!(flat.levels[0].chunks(4).all(|t| t[..3] == [128, 128, 255]));
+    }
 
     /// A derived normal map made in bands is the whole-level chain's, bit for bit: sizes
     /// padded to even ones, bands cut short at the bottom, one band, and a 2-row level.

@@ -616,3 +616,137 @@ fn damaged_or_foreign_ktx2_files_exit_3_naming_them() {
     }
     assert!(refused > 0, "no damage was seen in 60 files");
 }
+
+/// Older exporters write bump maps as grey heights under `map_Bump` (the Crytek bricks, turned
+/// grey, here). They are read as heights: level 0 of the cooked normal map is the central
+/// difference of the heights, recomputed here, the full grey range spanning 1/256 of the
+/// longer side times `-bm` in depth; `-bm` on the colour map is named as not applied. Read as
+/// vectors, as before, every grey texel pointed along (1, 1, 1).
+#[test]
+fn grey_bump_maps_are_read_as_heights_scaled_by_bm() {
+    let dir = tempfile::tempdir().unwrap();
+    let grey = image::open(data(TGA)).unwrap().to_luma8();
+    grey.save(dir.path().join("bump.png")).unwrap();
+    std::fs::copy(data(TGA), dir.path().join("bricks.tga")).unwrap();
+    let obj = "mtllib w.mtl\nv 0 0 0\nv 1 0 0\nv 1 0 -1\nv 0 0 -1\nvt 0 0\nvt 1 0\nvt 1 1\n\
+               vt 0 1\nvn 0 1 0\nusemtl floor\nf 1/1/1 2/2/1 3/3/1 4/4/1\n";
+    std::fs::write(dir.path().join("w.obj"), obj).unwrap();
+    let (w, h) = (grey.width() as usize, grey.height() as usize);
+    let mut tilts = Vec::new();
+    // The crop is an eighth of the 1024² original, so -bm 8 gives it the original's depth.
+    for bm in [2.0f32, 8.0] {
+        let mtl = format!(
+            "newmtl floor\nKd 1 1 1\nmap_Kd -bm 2 bricks.tga\nmap_Bump -bm {bm} bump.png\n"
+        );
+        std::fs::write(dir.path().join("w.mtl"), mtl).unwrap();
+        let pack = dir.path().join(format!("w{bm}.pack"));
+        let obj = dir.path().join("w.obj");
+        let (_, err) = cook_obj(&obj, &pack, &["--texture-format", "rgba8"]);
+        assert!(err.contains("read as a height (bump) map"), "{err}");
+        assert!(err.contains("options -bm not applied"), "{err}");
+        let normals = extract(&pack, "bump.normal", 0, dir.path());
+        assert_eq!(normals.dimensions(), grey.dimensions());
+        let depth = bm * w.max(h) as f32 / 256.0;
+        let height = |x: usize, y: usize| grey.get_pixel(x as u32, y as u32)[0] as f32 / 255.0;
+        let (mut worst, mut tilt) = (0.0f32, 0.0f64);
+        for y in 0..h {
+            for x in 0..w {
+                let (x0, x1) = (x.saturating_sub(1), (x + 1).min(w - 1));
+                let (y0, y1) = (y.saturating_sub(1), (y + 1).min(h - 1));
+                let dx = (height(x1, y) - height(x0, y)) / (x1 - x0) as f32 * depth;
+                let dy = (height(x, y1) - height(x, y0)) / (y1 - y0) as f32 * depth;
+                // +v runs up the image, rows run down it.
+                let n = [-dx, dy, 1.0];
+                let l = (n[0] * n[0] + n[1] * n[1] + 1.0).sqrt();
+                let got = normals.get_pixel(x as u32, y as u32);
+                for c in 0..3 {
+                    let want = (n[c] / l * 0.5 + 0.5) * 255.0;
+                    worst = worst.max((got[c] as f32 - want).abs());
+                }
+                tilt += 1.0 - (got[2] as f64 / 255.0 * 2.0 - 1.0);
+            }
+        }
+        assert!(worst <= 0.51, "-bm {bm}: level 0 off by {worst} LSB");
+        tilts.push(tilt / (w * h) as f64);
+    }
+    // The bricks' mortar tilts the surface, more at -bm 8.
+    assert!(
+        tilts[0] > 0.0 && tilts[1] > 0.01 && tilts[1] > 2.0 * tilts[0],
+        "{tilts:?}"
+    );
+}
+
+/// A vector normal map's strength (MTL `-bm`, glTF `normalTexture.scale`) scales x and y
+/// before renormalizing, as glTF defines it; both imports give the same texture. The map is
+/// the one the cooker derives from the grey Crytek bricks, so it has real slopes.
+#[test]
+fn normal_map_strength_scales_the_tilt_alike_in_obj_and_gltf() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    image::open(data(TGA))
+        .unwrap()
+        .to_luma8()
+        .save(d.join("bump.png"))
+        .unwrap();
+    let quad = "mtllib w.mtl\nv 0 0 0\nv 1 0 0\nv 1 0 -1\nv 0 0 -1\nvt 0 0\nvt 1 0\nvt 1 1\n\
+                vt 0 1\nvn 0 1 0\nusemtl floor\nf 1/1/1 2/2/1 3/3/1 4/4/1\n";
+    std::fs::write(d.join("w.obj"), quad).unwrap();
+    let cook_bump = |statement: &str, pack: &str| {
+        std::fs::write(
+            d.join("w.mtl"),
+            format!("newmtl floor\nKd 1 1 1\nmap_Bump {statement}\n"),
+        )
+        .unwrap();
+        cook_obj(
+            &d.join("w.obj"),
+            &d.join(pack),
+            &["--texture-format", "rgba8"],
+        );
+        d.join(pack)
+    };
+    let bumped = cook_bump("-bm 8 bump.png", "bump.pack");
+    let nrm = extract(&bumped, "bump.normal", 0, d);
+    nrm.save(d.join("nrm.png")).unwrap();
+
+    let half = extract(
+        &cook_bump("-bm 0.5 nrm.png", "half.pack"),
+        "nrm.normal",
+        0,
+        d,
+    );
+    let mut worst = 0.0f32;
+    for (src, got) in nrm.pixels().zip(half.pixels()) {
+        let v = |c: usize| src[c] as f32 / 255.0 * 2.0 - 1.0;
+        let n = [v(0) * 0.5, v(1) * 0.5, v(2)];
+        let l = (n[0] * n[0] + n[1] * n[1] + n[2] * n[2]).sqrt();
+        for c in 0..3 {
+            worst = worst.max((got[c] as f32 - (n[c] / l * 0.5 + 0.5) * 255.0).abs());
+        }
+    }
+    assert!(worst <= 0.51, "scaled level 0 off by {worst} LSB");
+    assert!(half != nrm, "-bm 0.5 changed nothing");
+
+    // glTF: BoxTextured with the map as its normal texture at scale 0.5.
+    let src = data("gltf/BoxTextured");
+    for f in ["BoxTextured0.bin", "CesiumLogoFlat.png"] {
+        std::fs::copy(src.join(f), d.join(f)).unwrap();
+    }
+    let mut v: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(src.join("BoxTextured.gltf")).unwrap()).unwrap();
+    v["images"]
+        .as_array_mut()
+        .unwrap()
+        .push(serde_json::json!({"uri": "nrm.png"}));
+    v["textures"]
+        .as_array_mut()
+        .unwrap()
+        .push(serde_json::json!({"source": 1}));
+    v["materials"][0]["normalTexture"] = serde_json::json!({"index": 1, "scale": 0.5});
+    std::fs::write(d.join("box.gltf"), serde_json::to_vec(&v).unwrap()).unwrap();
+    let pack = d.join("box.pack");
+    cook_obj(&d.join("box.gltf"), &pack, &["--texture-format", "rgba8"]);
+    assert!(
+        extract(&pack, "nrm.normal", 0, d) == half,
+        "glTF's scale 0.5 differs"
+    );
+}

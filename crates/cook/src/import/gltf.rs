@@ -1458,6 +1458,11 @@ fn convert_material(
             Some(t) => texture_ref(ctx, &t.texture(), warnings)?,
             None => None,
         },
+        normal_scale: m
+            .normal_texture()
+            .map(|t| t.scale())
+            .filter(|s| s.is_finite())
+            .unwrap_or(1.0),
         transmission: gltf_transmission(m),
     };
     if !sm

@@ -372,6 +372,9 @@ pub struct SourceMaterial {
     pub emissive: [f32; 3],
     pub diffuse_texture: Option<ImageRef>,
     pub normal_texture: Option<ImageRef>,
+    /// How strongly the normal map tilts the surface: glTF's `normalTexture.scale`, an MTL
+    /// bump statement's `-bm`; 1 where the source says nothing.
+    pub normal_scale: f32,
     /// What the source says about light passing through it (glass).
     pub transmission: Transmission,
 }
@@ -450,6 +453,7 @@ impl SourceMaterial {
             emissive: [0.0; 3],
             diffuse_texture: None,
             normal_texture: None,
+            normal_scale: 1.0,
             transmission: Transmission::default(),
         }
     }

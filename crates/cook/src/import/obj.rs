@@ -1937,6 +1937,9 @@ impl TextureKey {
 
 type TextureLines = HashMap<(String, TextureKey), usize>;
 
+/// What warnings call a material's bump or normal map statement (the one `-bm` applies to).
+const NORMAL_MAP: &str = "normal map";
+
 /// An MTL texture statement (`map_Kd -s 2 2 1 -clamp on my design.png`): its options, then
 /// the file name, which may contain spaces.
 #[derive(Debug, PartialEq)]
@@ -1945,7 +1948,9 @@ struct TextureStatement<'a> {
     /// `-o` and `-s` in u and v: a coordinate `uv` reads the texture at `uv * scale + offset`.
     offset: [f32; 2],
     scale: [f32; 2],
-    /// Options given that the cook does not model (`-clamp`, `-bm`, ...), by name.
+    /// `-bm`: the bump multiplier, which only a bump or normal map statement applies.
+    bump_multiplier: Option<f32>,
+    /// Options given that the cook does not model (`-clamp`, `-imfchan`, ...), by name.
     ignored: Vec<&'a str>,
 }
 
@@ -1955,6 +1960,7 @@ impl<'a> TextureStatement<'a> {
             file: rest.trim(),
             offset: [0.0; 2],
             scale: [1.0; 2],
+            bump_multiplier: None,
             ignored: Vec::new(),
         };
         let mut at = rest;
@@ -1995,6 +2001,7 @@ impl<'a> TextureStatement<'a> {
                 ("-s", [Some(u), rest @ ..]) => {
                     st.scale = [*u, rest.first().copied().flatten().unwrap_or(1.0)]
                 }
+                ("-bm", [Some(m)]) => st.bump_multiplier = Some(*m),
                 ("-blendu" | "-blendv", _) => {}
                 _ => st.ignored.push(word),
             }
@@ -2061,13 +2068,19 @@ fn load_mtllib(
         let mtl_dir = mtl.parent().unwrap_or(Path::new("")).to_path_buf();
         for m in materials {
             let mut transforms = Vec::new();
+            let mut bump_multiplier = None;
             let line_of = |k: TextureKey| texture_lines.get(&(m.name.clone(), k)).copied();
             let mut texture = |name: &Option<String>, what: &str, line: Option<usize>| {
                 let name = name.as_deref()?.trim();
                 if name.is_empty() {
                     return None;
                 }
-                let statement = TextureStatement::parse(name);
+                let mut statement = TextureStatement::parse(name);
+                if what == NORMAL_MAP {
+                    bump_multiplier = statement.bump_multiplier;
+                } else if statement.bump_multiplier.is_some() {
+                    statement.ignored.push("-bm");
+                }
                 if !statement.ignored.is_empty() {
                     out.warnings.push(Warning::new(
                         &mtl,
@@ -2112,7 +2125,7 @@ fn load_mtllib(
                 Some(_) => line_of(TextureKey::Bump),
                 None => line_of(TextureKey::Norm),
             };
-            let normal_texture = texture(&normal_name, "normal map", normal_line);
+            let normal_texture = texture(&normal_name, NORMAL_MAP, normal_line);
             // One set of coordinates serves both maps: the design's placement wins.
             let placed: Vec<_> = transforms
                 .iter()
@@ -2140,6 +2153,7 @@ fn load_mtllib(
                 emissive: m.emissive.unwrap_or([0.0; 3]),
                 diffuse_texture,
                 normal_texture,
+                normal_scale: bump_multiplier.unwrap_or(1.0),
                 transmission: mtl_transmission(&m),
             };
             let finite = sm
@@ -2319,7 +2333,8 @@ mod tests {
                 file: "my design.png",
                 offset: [0.5, 0.0],
                 scale: [2.0, 3.0],
-                ignored: vec!["-clamp", "-bm"],
+                bump_multiplier: Some(0.3),
+                ignored: vec!["-clamp"],
             }
         );
         // -s with one number scales u only; a name is what follows the last option.
