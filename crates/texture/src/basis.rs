@@ -205,53 +205,6 @@ mod tests {
         );
     }
 
-    /// 3000 damaged copies of each real file (bits flipped, bytes set, tails cut): every
-    /// result is an image of an allowed size or an error naming the file. A panic past the
-    /// guard or an abort fails the whole test binary.
-    #[test]
-    fn damaged_files_are_errors_or_images_never_crashes() {
-        let mut seed = 0x9e37_79b9_7f4a_7c15_u64;
-        let mut next = move || {
-            seed ^= seed << 13;
-            seed ^= seed >> 7;
-            seed ^= seed << 17;
-            seed
-        };
-        let (mut images, mut errors) = (0, 0);
-        for name in ["template_etc1s.ktx2", "template_uastc.ktx2"] {
-            let good = fixture(name);
-            for _ in 0..3000 {
-                let mut b = good.clone();
-                for _ in 0..1 + next() % 6 {
-                    let at = next() as usize % b.len();
-                    match next() % 4 {
-                        0 => b[at] ^= 1 << (next() % 8),
-                        1 => b[at] = next() as u8,
-                        2 => b[at] = [0, 0x7f, 0x80, 0xff][(next() % 4) as usize],
-                        _ => b.truncate(at.max(12)),
-                    }
-                }
-                match decode_ktx2(&b, Path::new("m.ktx2")) {
-                    Ok(img) => {
-                        assert!((1..=MAX_SIDE).contains(&img.width()));
-                        assert!((1..=MAX_SIDE).contains(&img.height()));
-                        images += 1;
-                    }
-                    Err(TextureError::Empty { .. }) => errors += 1,
-                    Err(e) => {
-                        assert!(e.to_string().contains("m.ktx2"), "{e}");
-                        errors += 1;
-                    }
-                }
-            }
-        }
-        // Both outcomes occur, so the mutations reach past the header.
-        assert!(
-            images > 100 && errors > 100,
-            "{images} images, {errors} errors"
-        );
-    }
-
     #[test]
     fn what_is_not_a_basis_ktx2_is_an_error_naming_the_file() {
         let p = Path::new("t/window.ktx2");

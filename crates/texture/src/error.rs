@@ -19,6 +19,8 @@ pub enum TextureError {
     },
     #[error("{}: cannot decode KTX2/Basis Universal texture: {reason}", path.display())]
     Basis { path: PathBuf, reason: String },
+    #[error("{}: cannot decode DDS texture: {reason}", path.display())]
+    Dds { path: PathBuf, reason: String },
     #[error(
         "{}: image claims {width}x{height} texels, over the limit of {max}x{max}",
         path.display()
@@ -70,6 +72,7 @@ impl TextureError {
             Self::Io { path, .. }
             | Self::Decode { path, .. }
             | Self::Basis { path, .. }
+            | Self::Dds { path, .. }
             | Self::TooLarge { path, .. } => Some(path),
             _ => None,
         }

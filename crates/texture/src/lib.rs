@@ -3,7 +3,7 @@
 //!
 //! - [`load_image`], [`load_image_bytes`]: decode with limits (a tiny file claiming a huge size
 //!   fails before any allocation); errors name the file. KTX2 files with a Basis Universal
-//!   payload are transcoded ([`basis`]).
+//!   payload are transcoded ([`basis`]), DDS files decoded ([`dds`]).
 //! - [`colour_mips`]: sRGB-correct mip chain: decoded exactly to linear light (tables for 8- and
 //!   16-bit codes), alpha-weighted (premultiplied) filtering in f32, polyphase reduction for odd
 //!   and non-power-of-two sizes ([`MipFilter::Box`] by default, Kaiser or Lanczos3 on request),
@@ -26,6 +26,7 @@
 pub mod basis;
 pub mod bc;
 pub mod blur;
+pub mod dds;
 mod error;
 mod fir;
 pub mod guard;

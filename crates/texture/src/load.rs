@@ -7,6 +7,7 @@ use image::{DynamicImage, ImageReader, Limits};
 
 use crate::TextureError;
 use crate::basis::{KTX2_IDENTIFIER, decode_ktx2, is_ktx2};
+use crate::dds::{decode_dds, is_dds};
 
 /// Largest side accepted, in texels (also the largest texture wgpu guarantees).
 pub const MAX_SIDE: u32 = 16384;
@@ -28,7 +29,7 @@ fn reader(path: &Path) -> Result<ImageReader<std::io::BufReader<std::fs::File>>,
 }
 
 /// Decodes an image file (PNG, JPEG, TGA, BMP, GIF, TIFF, WebP, PNM, QOI, ICO, HDR: 8 or 16
-/// bits, grey, RGB, RGBA or palette; KTX2 with a Basis Universal payload). The header's size
+/// bits, grey, RGB, RGBA or palette; KTX2 with a Basis Universal payload; DDS). The header's size
 /// is checked against [`MAX_SIDE`] before anything is allocated; truncated or corrupt data is
 /// an error naming the file.
 pub fn load_image(path: &Path) -> Result<DynamicImage, TextureError> {
@@ -36,9 +37,9 @@ pub fn load_image(path: &Path) -> Result<DynamicImage, TextureError> {
     std::fs::File::open(path)
         .and_then(|f| f.take(KTX2_IDENTIFIER.len() as u64).read_to_end(&mut head))
         .map_err(io_error(path))?;
-    if is_ktx2(&head) {
+    if is_ktx2(&head) || is_dds(&head) {
         let bytes = std::fs::read(path).map_err(io_error(path))?;
-        return decode_ktx2(&bytes, path);
+        return load_image_bytes(&bytes, path);
     }
     limited(|| reader(path), path)
 }
@@ -48,6 +49,9 @@ pub fn load_image(path: &Path) -> Result<DynamicImage, TextureError> {
 pub fn load_image_bytes(bytes: &[u8], name: &Path) -> Result<DynamicImage, TextureError> {
     if is_ktx2(bytes) {
         return decode_ktx2(bytes, name);
+    }
+    if is_dds(bytes) {
+        return decode_dds(bytes, name);
     }
     limited(
         || {
@@ -88,4 +92,64 @@ fn limited<R: BufRead + Seek>(
     limits.max_alloc = Some(MAX_DECODE_BYTES);
     r.limits(limits);
     r.decode().map_err(decode)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// 3000 damaged copies of each real KTX2 and DDS file (bits flipped, bytes set, tails
+    /// cut): every result is an image of an allowed size or an error naming the input. A panic
+    /// past the decoders' guard, or an abort (a damaged KTX2 once claimed 2^48 bytes), fails
+    /// the whole test binary. Measured before: 200,000 KTX2 and 100,000 DDS mutations, no
+    /// crash, none over 11 ms.
+    #[test]
+    fn damaged_ktx2_and_dds_files_are_errors_or_images_never_crashes() {
+        let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../tests/data/third_party");
+        let mut seed = 0x9e37_79b9_7f4a_7c15_u64;
+        let mut next = move || {
+            seed ^= seed << 13;
+            seed ^= seed >> 7;
+            seed ^= seed << 17;
+            seed
+        };
+        for name in [
+            "ktx2/template_etc1s.ktx2",
+            "ktx2/template_uastc.ktx2",
+            "dds/bricks_dxt1.dds",
+            "dds/glass_bc3_dx10.dds",
+        ] {
+            let good = std::fs::read(dir.join(name)).unwrap();
+            let (mut images, mut errors) = (0, 0);
+            for _ in 0..3000 {
+                let mut b = good.clone();
+                for _ in 0..1 + next() % 6 {
+                    let at = next() as usize % b.len();
+                    match next() % 4 {
+                        0 => b[at] ^= 1 << (next() % 8),
+                        1 => b[at] = next() as u8,
+                        2 => b[at] = [0, 0x7f, 0x80, 0xff][(next() % 4) as usize],
+                        _ => b.truncate(at.max(12)),
+                    }
+                }
+                match load_image_bytes(&b, Path::new("m.tex")) {
+                    Ok(img) => {
+                        assert!((1..=MAX_SIDE).contains(&img.width()));
+                        assert!((1..=MAX_SIDE).contains(&img.height()));
+                        images += 1;
+                    }
+                    Err(TextureError::Empty { .. }) => errors += 1,
+                    Err(e) => {
+                        assert!(e.to_string().contains("m.tex"), "{name}: {e}");
+                        errors += 1;
+                    }
+                }
+            }
+            // Both outcomes occur, so the mutations reach past the header.
+            assert!(
+                images > 100 && errors > 100,
+                "{name}: {images} images, {errors} errors"
+            );
+        }
+    }
 }

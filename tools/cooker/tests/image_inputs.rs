@@ -750,3 +750,105 @@ fn normal_map_strength_scales_the_tilt_alike_in_obj_and_gltf() {
         "glTF's scale 0.5 differs"
     );
 }
+
+/// `dds/REFERENCE`'s SHA-256 of `file`'s level 0 as Pillow decodes it to RGBA8.
+fn dds_reference(file: &str) -> String {
+    let list = std::fs::read_to_string(data("dds/REFERENCE")).unwrap();
+    let line = list.lines().find(|l| l.split(' ').next() == Some(file));
+    let line = line.unwrap_or_else(|| panic!("no reference for {file}"));
+    line.rsplit(' ').next().unwrap().to_string()
+}
+
+/// DDS files as an OBJ's `map_Kd` (Pillow wrote them from the Crytek bricks, the bricks with
+/// the texture template's corner as alpha, and the CPython JPEG): DXT1, DXT3, DXT5, BC3 and
+/// BC5 behind a DX10 header (typeless, as Pillow and DirectXTex write them), plain RGBA and
+/// RGB. Level 0 holds the texels Pillow's decoder gives, a second implementation of the same
+/// formats: exactly for plain ones, within 1 LSB for blocks (decoders round the interpolated
+/// colours each their own way; measured 1).
+#[test]
+fn dds_textures_cook_to_the_texels_another_decoder_gives() {
+    let files = [
+        "bricks_dxt1.dds",
+        "glass_dxt3.dds",
+        "glass_dxt5.dds",
+        "glass_bc3_dx10.dds",
+        "bricks_bc5_dx10.dds",
+        "glass_rgba.dds",
+        "python_rgb.dds",
+    ];
+    let dir = tempfile::tempdir().unwrap();
+    let rel: Vec<String> = files.iter().map(|f| format!("dds/{f}")).collect();
+    let rel: Vec<&str> = rel.iter().map(String::as_str).collect();
+    let obj = obj_scene(dir.path(), &rel);
+    let pack = dir.path().join("dds.pack");
+    cook_obj(&obj, &pack, &["--texture-format", "rgba8"]);
+    let mut wrong = Vec::new();
+    for f in files {
+        let name = f.trim_end_matches(".dds");
+        let level0 = extract(&pack, name, 0, dir.path());
+        let pillow = data(&format!("dds/{name}.pillow.png"));
+        if !pillow.exists() {
+            if sha256_hex(&level0) != dds_reference(f) {
+                wrong.push(format!("{f}: not Pillow's texels"));
+            }
+            continue;
+        }
+        let pillow = image::open(pillow).unwrap().to_rgba8();
+        let worst = level0
+            .as_raw()
+            .iter()
+            .zip(pillow.as_raw())
+            .map(|(&a, &b)| a.abs_diff(b))
+            .max();
+        if worst != Some(0) && worst != Some(1) {
+            wrong.push(format!("{f}: {worst:?} LSB from Pillow's"));
+        }
+    }
+    assert!(wrong.is_empty(), "{wrong:?}");
+}
+
+/// BoxTextured whose texture names a DDS (the DXT1 bricks) through `MSFT_texture_dds`, required
+/// and without a PNG: level 0 is the DDS's. A DDS cut short, one marked a cube map and one
+/// that is no DDS past its magic exit 3 naming the file, with no pack.
+#[test]
+fn gltf_reads_dds_through_msft_texture_dds_and_refuses_damaged_ones() {
+    let src = data("gltf/BoxTextured");
+    let good = std::fs::read(data("dds/bricks_dxt1.dds")).unwrap();
+    let mut cube = good.clone();
+    cube[113] |= 0x02; // caps2 (byte 112) |= DDSCAPS2_CUBEMAP (0x200)
+    let mut cases: Vec<(Vec<u8>, &str)> = vec![(good.clone(), "")];
+    cases.push((good[..good.len() / 2].to_vec(), "level 0"));
+    cases.push((cube, "cube map"));
+    cases.push((b"DDS not really".to_vec(), "header"));
+    for (bytes, refusal) in cases {
+        let dir = tempfile::tempdir().unwrap();
+        let d = dir.path();
+        std::fs::copy(src.join("BoxTextured0.bin"), d.join("BoxTextured0.bin")).unwrap();
+        std::fs::write(d.join("bricks.dds"), &bytes).unwrap();
+        let mut v: serde_json::Value =
+            serde_json::from_slice(&std::fs::read(src.join("BoxTextured.gltf")).unwrap()).unwrap();
+        v["images"] = serde_json::json!([{"uri": "bricks.dds", "mimeType": "image/vnd-ms.dds"}]);
+        v["textures"] = serde_json::json!([{"sampler": 0,
+            "extensions": {"MSFT_texture_dds": {"source": 0}}}]);
+        v["extensionsUsed"] = serde_json::json!(["MSFT_texture_dds"]);
+        v["extensionsRequired"] = serde_json::json!(["MSFT_texture_dds"]);
+        std::fs::write(d.join("box.gltf"), serde_json::to_vec(&v).unwrap()).unwrap();
+        let pack = d.join("box.pack");
+        if refusal.is_empty() {
+            cook_obj(&d.join("box.gltf"), &pack, &["--texture-format", "rgba8"]);
+            let name = only_texture(&pack);
+            let level0 = extract(&pack, &name, 0, d);
+            let pillow = image::open(data("dds/bricks_dxt1.pillow.png")).unwrap();
+            let pillow = pillow.to_rgba8();
+            assert_eq!(level0.dimensions(), pillow.dimensions());
+            let worst = level0.as_raw().iter().zip(pillow.as_raw());
+            assert!(worst.map(|(&a, &b)| a.abs_diff(b)).max() <= Some(1));
+        } else {
+            let o = cooker(&[&"cook", &d.join("box.gltf"), &"-o", &pack, &"--no-cache"]);
+            let err = text(&o.stderr);
+            assert_eq!(o.status.code(), Some(3), "{refusal}: {err}");
+            assert!(err.contains("bricks.dds") && err.contains(refusal), "{err}");
+            assert!(!pack.exists());
+        }
+    }
+}

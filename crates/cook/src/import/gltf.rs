@@ -353,6 +353,7 @@ const READ_EXTENSIONS: &[&str] = &[
     "EXT_mesh_gpu_instancing",
     "EXT_texture_webp",
     "KHR_texture_basisu",
+    "MSFT_texture_dds",
     "KHR_materials_pbrSpecularGlossiness",
 ];
 
@@ -372,9 +373,7 @@ fn required_extensions(path: &Path, required: Vec<String>) -> Result<Vec<Warning
             continue;
         }
         let hint = match name.as_str() {
-            "EXT_texture_avif" | "MSFT_texture_dds" => {
-                "; re-export the model with PNG or JPEG textures"
-            }
+            "EXT_texture_avif" => "; re-export the model with PNG or JPEG textures",
             _ => "",
         };
         return Err(bad(
@@ -1297,9 +1296,9 @@ fn decode_data_uri(path: &Path, name: &str, uri: &str) -> Result<Vec<u8>, CookEr
 
 /// The image a texture samples: its `EXT_texture_webp` source where it has one (the texture
 /// stage decodes WebP like PNG, and a file that requires the extension gives no other), else
-/// its plain `source`, else its `KHR_texture_basisu` source. A Basis texture is lossy (ETC1S
-/// blocks carry few colours), so where the file keeps a PNG or JPEG fallback the cook reads
-/// that; a file that requires the extension has only the KTX2.
+/// its plain `source`, else its `KHR_texture_basisu` or `MSFT_texture_dds` source. Basis and
+/// BC blocks are lossy (ETC1S blocks carry few colours), so where the file keeps a PNG or JPEG
+/// fallback the cook reads that; a file that requires the extension has only the KTX2 or DDS.
 fn texture_ref(
     ctx: &Ctx,
     texture: &gltf::Texture,
@@ -1311,7 +1310,8 @@ fn texture_ref(
     };
     let image = extension_source("EXT_texture_webp")
         .or_else(|| texture.source())
-        .or_else(|| extension_source("KHR_texture_basisu"));
+        .or_else(|| extension_source("KHR_texture_basisu"))
+        .or_else(|| extension_source("MSFT_texture_dds"));
     match image {
         Some(image) => image_ref(ctx, image, warnings),
         None => {
