@@ -744,11 +744,32 @@ fn normal_map_strength_scales_the_tilt_alike_in_obj_and_gltf() {
     v["materials"][0]["normalTexture"] = serde_json::json!({"index": 1, "scale": 0.5});
     std::fs::write(d.join("box.gltf"), serde_json::to_vec(&v).unwrap()).unwrap();
     let pack = d.join("box.pack");
-    cook_obj(&d.join("box.gltf"), &pack, &["--texture-format", "rgba8"]);
+    let (_, err) = cook_obj(&d.join("box.gltf"), &pack, &["--texture-format", "rgba8"]);
     assert!(
         extract(&pack, "nrm.normal", 0, d) == half,
         "glTF's scale 0.5 differs"
     );
+    assert!(!err.contains("its normal map"), "{err}");
+    // A normal map placed otherwise than the base colour is sampled with the base colour's
+    // coordinates, and the cook says so.
+    for (key, value, says) in [
+        (
+            "texCoord",
+            serde_json::json!(1),
+            "reads TEXCOORD_1, its base colour TEXCOORD_0",
+        ),
+        (
+            "extensions",
+            serde_json::json!({"KHR_texture_transform": {"scale": [2.0, 2.0]}}),
+            "has another KHR_texture_transform",
+        ),
+    ] {
+        let mut v = v.clone();
+        v["materials"][0]["normalTexture"][key] = value;
+        std::fs::write(d.join("box.gltf"), serde_json::to_vec(&v).unwrap()).unwrap();
+        let (_, err) = cook_obj(&d.join("box.gltf"), &pack, &["--texture-format", "rgba8"]);
+        assert!(err.contains(says), "{key}: {err}");
+    }
 }
 
 /// `dds/REFERENCE`'s SHA-256 of `file`'s level 0 as Pillow decodes it to RGBA8.

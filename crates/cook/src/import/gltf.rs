@@ -1416,6 +1416,48 @@ fn colour_texture<'a>(m: &gltf::Material<'a>) -> Option<gltf::texture::Info<'a>>
     }
 }
 
+/// Where a material's normal map is not placed as its base colour is (another `texCoord`
+/// set, another `KHR_texture_transform`), what differs. The import keeps one set of texture
+/// coordinates per vertex, the base colour's, placed by its transform.
+fn normal_uvs_differ(m: &gltf::Material) -> Option<String> {
+    let normal = m.normal_texture()?;
+    let base = colour_texture(m);
+    let base_tr = base.as_ref().and_then(|b| b.texture_transform());
+    let base_set = base_tr
+        .as_ref()
+        .and_then(|t| t.tex_coord())
+        .or(base.as_ref().map(|b| b.tex_coord()))
+        .unwrap_or(0);
+    let base_place = base_tr.map_or(([0.0, 0.0], 0.0, [1.0, 1.0]), |t| {
+        (t.offset(), t.rotation(), t.scale())
+    });
+    let tr = normal.extension_value("KHR_texture_transform");
+    let field = |k: &str| tr.and_then(|t| t.get(k));
+    let pair = |k: &str, default: [f32; 2]| {
+        field(k)
+            .and_then(|v| v.as_array())
+            .and_then(|a| Some([a.first()?.as_f64()? as f32, a.get(1)?.as_f64()? as f32]))
+            .unwrap_or(default)
+    };
+    let set = field("texCoord")
+        .and_then(|v| v.as_u64())
+        .unwrap_or(u64::from(normal.tex_coord()));
+    let place = (
+        pair("offset", [0.0, 0.0]),
+        field("rotation").and_then(|v| v.as_f64()).unwrap_or(0.0) as f32,
+        pair("scale", [1.0, 1.0]),
+    );
+    if set != u64::from(base_set) {
+        Some(format!(
+            "reads TEXCOORD_{set}, its base colour TEXCOORD_{base_set}"
+        ))
+    } else if place != base_place {
+        Some("has another KHR_texture_transform than its base colour".to_string())
+    } else {
+        None
+    }
+}
+
 fn convert_material(
     ctx: &Ctx,
     m: &gltf::Material,
@@ -1475,6 +1517,19 @@ fn convert_material(
         return Err(bad(
             ctx.path,
             format!("material {:?} has non-finite factors", sm.name),
+        ));
+    }
+    if sm.normal_texture.is_some()
+        && let Some(why) = normal_uvs_differ(m)
+    {
+        warnings.push(Warning::new(
+            ctx.path,
+            None,
+            format!(
+                "material {:?}: its normal map {why}; a pack holds one set of texture \
+                 coordinates, the base colour's, so the normal map is sampled with them",
+                sm.name
+            ),
         ));
     }
     Ok(sm)
