@@ -8,7 +8,7 @@ use basisu::{DecodeFlags, SourceFormat, TargetFormat, Transcoder};
 use image::DynamicImage;
 
 use crate::TextureError;
-use crate::load::MAX_SIDE;
+use crate::load::check_claimed_size;
 
 /// The 12-byte identifier every KTX2 file starts with.
 pub const KTX2_IDENTIFIER: [u8; 12] = [
@@ -58,17 +58,7 @@ fn transcode(bytes: &[u8], path: &Path) -> Result<DynamicImage, TextureError> {
         ))
     })?;
     let (width, height) = t.base_dimensions();
-    if width > MAX_SIDE || height > MAX_SIDE {
-        return Err(TextureError::TooLarge {
-            path: path.to_path_buf(),
-            width,
-            height,
-            max: MAX_SIDE,
-        });
-    }
-    if width == 0 || height == 0 {
-        return Err(TextureError::Empty { width, height });
-    }
+    check_claimed_size(path, width, height)?;
     let (layers, faces) = (t.layer_count(), t.face_count());
     if layers > 1 || faces > 1 || t.is_video() {
         return Err(bad(format!(

@@ -9,7 +9,7 @@ use image_dds::ddsfile::{Caps2, D3D10ResourceDimension, Dds, DxgiFormat, MiscFla
 use image_dds::{ImageFormat, SurfaceRgba8, SurfaceRgba32Float};
 
 use crate::TextureError;
-use crate::load::MAX_SIDE;
+use crate::load::check_claimed_size;
 
 /// True when `bytes` start like a DDS file (the magic `DDS `).
 pub fn is_dds(bytes: &[u8]) -> bool {
@@ -54,17 +54,7 @@ fn decode(bytes: &[u8], path: &Path) -> Result<DynamicImage, TextureError> {
     };
     let dds = Dds::read(bytes).map_err(|e| bad(format!("unreadable header ({e})")))?;
     let (width, height) = (dds.get_width(), dds.get_height());
-    if width > MAX_SIDE || height > MAX_SIDE {
-        return Err(TextureError::TooLarge {
-            path: path.to_path_buf(),
-            width,
-            height,
-            max: MAX_SIDE,
-        });
-    }
-    if width == 0 || height == 0 {
-        return Err(TextureError::Empty { width, height });
-    }
+    check_claimed_size(path, width, height)?;
     let cube = dds.header.caps2.contains(Caps2::CUBEMAP)
         || dds
             .header10

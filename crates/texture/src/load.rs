@@ -63,17 +63,9 @@ pub fn load_image_bytes(bytes: &[u8], name: &Path) -> Result<DynamicImage, Textu
     )
 }
 
-/// Reads the header for the size, refuses what is too large or empty, then decodes with the
-/// allocation limits set.
-fn limited<R: BufRead + Seek>(
-    open: impl Fn() -> Result<ImageReader<R>, TextureError>,
-    path: &Path,
-) -> Result<DynamicImage, TextureError> {
-    let decode = |error| TextureError::Decode {
-        path: path.to_path_buf(),
-        error,
-    };
-    let (width, height) = open()?.into_dimensions().map_err(decode)?;
+/// Refuses the size a file's header claims when it is over [`MAX_SIDE`] or empty, before any
+/// texel is allocated.
+pub(crate) fn check_claimed_size(path: &Path, width: u32, height: u32) -> Result<(), TextureError> {
     if width > MAX_SIDE || height > MAX_SIDE {
         return Err(TextureError::TooLarge {
             path: path.to_path_buf(),
@@ -85,6 +77,21 @@ fn limited<R: BufRead + Seek>(
     if width == 0 || height == 0 {
         return Err(TextureError::Empty { width, height });
     }
+    Ok(())
+}
+
+/// Reads the header for the size, refuses what is too large or empty, then decodes with the
+/// allocation limits set.
+fn limited<R: BufRead + Seek>(
+    open: impl Fn() -> Result<ImageReader<R>, TextureError>,
+    path: &Path,
+) -> Result<DynamicImage, TextureError> {
+    let decode = |error| TextureError::Decode {
+        path: path.to_path_buf(),
+        error,
+    };
+    let (width, height) = open()?.into_dimensions().map_err(decode)?;
+    check_claimed_size(path, width, height)?;
     let mut r = open()?;
     let mut limits = Limits::default();
     limits.max_image_width = Some(MAX_SIDE);

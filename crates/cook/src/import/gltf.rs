@@ -958,13 +958,7 @@ fn add_primitive(
         }
         None => None,
     };
-    let base = colour_texture(&prim.material());
-    let transform = base.as_ref().and_then(|t| t.texture_transform());
-    let set = transform
-        .as_ref()
-        .and_then(|t| t.tex_coord())
-        .or(base.as_ref().map(|t| t.tex_coord()))
-        .unwrap_or(0);
+    let (set, transform) = base_uvs(&prim.material());
     let uvs = match prim.get(&gltf::Semantic::TexCoords(set)) {
         Some(a) => {
             let t = ctx.attribute::<2>(draco.as_deref(), &label, &a, &format!("TEXCOORD_{set}"))?;
@@ -1416,18 +1410,25 @@ fn colour_texture<'a>(m: &gltf::Material<'a>) -> Option<gltf::texture::Info<'a>>
     }
 }
 
+/// The texture coordinates a material's vertices keep: the set its base colour reads (0 without
+/// one) and the transform that places the texture on them.
+fn base_uvs<'a>(m: &gltf::Material<'a>) -> (u32, Option<gltf::texture::TextureTransform<'a>>) {
+    let base = colour_texture(m);
+    let transform = base.as_ref().and_then(|t| t.texture_transform());
+    let set = transform
+        .as_ref()
+        .and_then(|t| t.tex_coord())
+        .or(base.as_ref().map(|t| t.tex_coord()))
+        .unwrap_or(0);
+    (set, transform)
+}
+
 /// Where a material's normal map is not placed as its base colour is (another `texCoord`
 /// set, another `KHR_texture_transform`), what differs. The import keeps one set of texture
 /// coordinates per vertex, the base colour's, placed by its transform.
 fn normal_uvs_differ(m: &gltf::Material) -> Option<String> {
     let normal = m.normal_texture()?;
-    let base = colour_texture(m);
-    let base_tr = base.as_ref().and_then(|b| b.texture_transform());
-    let base_set = base_tr
-        .as_ref()
-        .and_then(|t| t.tex_coord())
-        .or(base.as_ref().map(|b| b.tex_coord()))
-        .unwrap_or(0);
+    let (base_set, base_tr) = base_uvs(m);
     let base_place = base_tr.map_or(([0.0, 0.0], 0.0, [1.0, 1.0]), |t| {
         (t.offset(), t.rotation(), t.scale())
     });
