@@ -583,13 +583,8 @@ fn damaged_or_foreign_ktx2_files_exit_3_naming_them() {
     let (code, err, packed) = run(&good[..good.len() / 2]);
     assert_eq!(code, Some(3), "{err}");
     assert!(err.contains("template_uastc.ktx2") && !packed, "{err}");
-    let mut seed = 0x2545_f491_4f6c_dd1d_u64;
-    let mut next = move || {
-        seed ^= seed << 13;
-        seed ^= seed >> 7;
-        seed ^= seed << 17;
-        seed
-    };
+    let mut rng = texture::testing::Rng(0x2545_f491_4f6c_dd1d);
+    let mut next = move || rng.next_u64();
     let mut refused = 0;
     for _ in 0..60 {
         let mut bytes = good.clone();
