@@ -22,7 +22,7 @@ pub fn is_ktx2(bytes: &[u8]) -> bool {
 
 /// Decodes level 0 of a KTX2 file with a Basis Universal payload: LDR sources to RGBA8 (RGB8
 /// where the file says it has no alpha, as a PNG without alpha would be), HDR ones (UASTC HDR,
-/// ASTC HDR 6x6) to RGBA f32. The size is checked against [`MAX_SIDE`] before the output is
+/// ASTC HDR 6x6) to RGBA f32. The size is checked against [`MAX_SIDE`](crate::MAX_SIDE) before the output is
 /// allocated. Arrays, cube maps and video are refused: a material samples one 2D image, and
 /// taking one layer of several would cook a silently wrong texture. A decoder panic on damaged
 /// data is reported as the file's error.
@@ -131,8 +131,12 @@ fn check_level0_claim(bytes: &[u8]) -> Result<(), String> {
     else {
         return Ok(());
     };
-    let blocks = width.div_ceil(4) * height.max(1).div_ceil(4);
-    let most = blocks * 16 * layers.max(1) * faces.max(1);
+    // Saturating: a damaged header may claim sides up to 2^32 (refused after this check).
+    let blocks = width.div_ceil(4).saturating_mul(height.max(1).div_ceil(4));
+    let most = blocks
+        .saturating_mul(16)
+        .saturating_mul(layers.max(1))
+        .saturating_mul(faces.max(1));
     if claimed > most {
         return Err(format!(
             "level 0 claims {claimed} bytes uncompressed, more than the {most} its {width}x{height} \
@@ -193,6 +197,12 @@ mod tests {
             e.contains("t.ktx2") && e.contains("281474976710656 bytes"),
             "{e}"
         );
+        // Sides of 2^32 - 1 do not overflow the bound (a panic would say "failed on it").
+        bad[20..28].fill(0xff);
+        let e = decode_ktx2(&bad, Path::new("t.ktx2"))
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("t.ktx2") && !e.contains("failed on it"), "{e}");
     }
 
     #[test]

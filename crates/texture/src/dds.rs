@@ -17,7 +17,7 @@ pub fn is_dds(bytes: &[u8]) -> bool {
 }
 
 /// Decodes level 0 of a 2D DDS file: 8-bit and block formats to RGBA8, float ones (BC6H,
-/// 16- and 32-bit float) to RGBA f32. The size is checked against [`MAX_SIDE`] before the
+/// 16- and 32-bit float) to RGBA f32. The size is checked against [`MAX_SIDE`](crate::MAX_SIDE) before the
 /// texels are decoded. Cube maps, arrays and volumes are refused: a material samples one 2D
 /// image. A decoder panic on damaged data is reported as the file's error.
 pub fn decode_dds(bytes: &[u8], path: &Path) -> Result<DynamicImage, TextureError> {

@@ -25,8 +25,11 @@ impl Server {
         std::fs::create_dir_all(dir).unwrap();
         let log = dir.join(format!("{name}.log"));
         let log_file = std::fs::File::create(&log).unwrap();
+        // -k: KILL 10 s after the first TERM (ours from `stop`, or the 600 s deadline's): a
+        // SeaweedFS that never got going (a disk too full for one volume) hung in its shutdown,
+        // and `stop`'s wait with it, for good.
         let child = Command::new("timeout")
-            .args(["-s", "TERM", "600"])
+            .args(["-k", "10", "-s", "TERM", "600"])
             .arg(&path)
             .args(args)
             .current_dir(dir)
