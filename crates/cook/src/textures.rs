@@ -746,10 +746,9 @@ fn run(
                 .map_err(|e| texture_error(Path::new(&image.name()), e))?;
             let said = match held {
                 texture::SuppliedNormals::Vectors => Said::default(),
-                texture::SuppliedNormals::Heights => Said::note(format!(
-                    "grey, so read as a height (bump) map: its range spans {:.2} texels of \
-                     depth (1/256 of its longer side times the strength {strength})",
-                    strength * img.width().max(img.height()) as f32 * texture::BUMP_DEPTH
+                texture::SuppliedNormals::Heights { depth } => Said::note(format!(
+                    "grey, so read as a height (bump) map: its range spans {depth:.2} texels of \
+                     depth (1/256 of its longer side times the strength {strength})"
                 )),
             };
             Ok((chain, size, said, None))

@@ -101,13 +101,13 @@ fn decode_scaled_normals(
 }
 
 /// What a supplied normal map was found to hold.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, PartialEq)]
 pub enum SuppliedNormals {
     /// Tangent-space vectors.
     Vectors,
     /// Grey: a height (bump) map, as older exporters write `map_Bump`; its normals were
-    /// derived ([`BUMP_DEPTH`]).
-    Heights,
+    /// derived with the full grey range `depth` texels deep ([`BUMP_DEPTH`]).
+    Heights { depth: f32 },
 }
 
 /// The depth a height map's full range spans at strength 1, as a fraction of its longer side:
@@ -169,7 +169,7 @@ pub fn supplied_normal_mips(
         .collect();
     let normals = height_to_normals(&height, w, h);
     drop(height);
-    Ok((chain(normals, w, h), SuppliedNormals::Heights))
+    Ok((chain(normals, w, h), SuppliedNormals::Heights { depth }))
 }
 
 /// Filters unit vectors down a full chain (box, polyphase for odd sizes) and renormalizes every
