@@ -619,6 +619,7 @@ mod tests {
             },
             window_overrides: Vec::new(),
             up: crate::UpAxis::Y,
+            text_encoding: None,
             cache: None,
         }
     }
@@ -673,6 +674,7 @@ mod tests {
                 },
             window_overrides,
             up,
+            text_encoding,
             // Not a knob; `irrelevant_things_change_no_key` checks it changes nothing.
             cache: _,
         } = base.clone();
@@ -775,9 +777,25 @@ mod tests {
                 }),
                 false,
             ),
+            (
+                "text_encoding",
+                changed(&|s| {
+                    s.text_encoding = match text_encoding {
+                        None => crate::import::text::TextEncoding::from_label("cp1251").ok(),
+                        Some(_) => None,
+                    }
+                }),
+                false,
+            ),
         ];
-        // `up` at its default is left out, so keys made before it existed still hold.
+        // `up` and `text_encoding` at their defaults are left out, so keys made before they
+        // existed still hold.
         assert!(!serde_json::to_string(&base).unwrap().contains("\"up\""));
+        assert!(
+            !serde_json::to_string(&base)
+                .unwrap()
+                .contains("text_encoding")
+        );
         // And at run time: every field the settings serialize has a case. A field left out
         // at its default (`up`) is serialized by its case.
         let mut fields = Vec::new();

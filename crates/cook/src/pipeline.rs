@@ -236,17 +236,18 @@ impl Lap {
 }
 
 /// Imports every mesh source in parallel and applies its manifest transform; a bare model's
-/// is the turn that stands it up (`up`).
+/// is the turn that stands it up (`settings.up`).
 pub fn import_sources(
     manifest: &Manifest,
-    up: crate::UpAxis,
+    settings: &Settings,
 ) -> Result<Vec<(import::Imported, Duration)>, CookError> {
+    let up = settings.up;
     let results: Vec<Result<(import::Imported, Duration), CookError>> = manifest
         .meshes
         .par_iter()
         .map(|m| {
             let start = Instant::now();
-            let mut imported = import::import(&m.source)?;
+            let mut imported = import::import_with(&m.source, settings.text_encoding)?;
             imported.transform(if manifest.bare {
                 up.to_y_up()
             } else {
@@ -303,7 +304,7 @@ pub fn prepare(
 ) -> Result<Prepared, CookError> {
     settings.check(manifest)?;
     let start = Instant::now();
-    let sources = import_sources(manifest, settings.up)?;
+    let sources = import_sources(manifest, settings)?;
     let (mut imported, import_times): (Vec<import::Imported>, Vec<Duration>) =
         sources.into_iter().unzip();
     let tagged = Instant::now();

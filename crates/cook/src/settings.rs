@@ -26,6 +26,10 @@ pub struct Settings {
     /// Left out of the keys at its default, so keys made before it existed still hold.
     #[serde(skip_serializing_if = "UpAxis::is_y")]
     pub up: UpAxis,
+    /// `--text-encoding`: how names in OBJ and MTL files that are not UTF-8 are read, rather
+    /// than in the encoding guessed from them. Left out of the keys when not given.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub text_encoding: Option<crate::import::text::TextEncoding>,
     /// Where cooked textures are reused from and stored: it changes how long a cook takes,
     /// never what it makes, so no key includes it.
     #[serde(skip)]
@@ -73,6 +77,7 @@ impl Settings {
             },
             window_overrides: Vec::new(),
             up: UpAxis::Y,
+            text_encoding: None,
             cache: None,
         }
     }

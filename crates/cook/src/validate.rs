@@ -125,19 +125,27 @@ fn degenerate_and_duplicates(tris: impl Iterator<Item = [[f32; 3]; 3]>) -> (usiz
 /// Checks a scene: imports and tags it, processes the geometry, and checks the result. `up`:
 /// a bare model's up axis (`--up`, [`crate::Settings::up`]).
 pub fn validate_scene(manifest: &Manifest, up: crate::UpAxis) -> Result<Validation, CookError> {
-    let mut v = Validation::default();
-    let mut report = crate::Report::default();
     let settings = Settings {
         up,
         ..Settings::new(manifest)
     };
+    validate_scene_with(manifest, &settings)
+}
+
+/// [`validate_scene`] with the settings the import reads (`up`, `text_encoding`).
+pub fn validate_scene_with(
+    manifest: &Manifest,
+    settings: &Settings,
+) -> Result<Validation, CookError> {
+    let mut v = Validation::default();
+    let mut report = crate::Report::default();
     let crate::Prepared {
         imported: sources,
         tagging,
         tri_material,
         windows: found,
         ..
-    } = crate::prepare(manifest, &settings, &mut report)?;
+    } = crate::prepare(manifest, settings, &mut report)?;
 
     // Tagging.
     let untagged = crate::pipeline::heuristic_notes(&sources, &tagging);

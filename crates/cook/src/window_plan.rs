@@ -257,6 +257,8 @@ pub fn plan(
     let mut unit_used = false;
     let mut out = Windows::default();
     let mut pending: Vec<Pending> = Vec::new();
+    // (texture, window) where a material's texture is fitted to a window without coordinates.
+    let mut fitted_textures: Vec<(String, String)> = Vec::new();
     for inst in &found {
         let dominant = inst.materials[0].0;
         let sill = inst
@@ -322,8 +324,15 @@ pub fn plan(
         let plan_textures = tagging.materials[material as usize].diffuse_texture.clone();
         let image = match entry.and_then(|e| e.design.clone()) {
             Some(p) => Some((ImageRef::File(p), DesignSource::Image)),
-            None if !planar => plan_textures.map(|t| (t, DesignSource::Texture)),
-            None => None,
+            // Glass without texture coordinates that names a colour texture (an MTL's
+            // `map_Kd`): the image is the design, fitted to the window as a `--window` image
+            // is. It was dropped for the mesh's colours without a word before.
+            None => plan_textures.map(|t| {
+                if !inst.has_uvs {
+                    fitted_textures.push((t.name(), inst.name.clone()));
+                }
+                (t, DesignSource::Texture)
+            }),
         };
         // A design decoded here for its mask may reach the texture stage only as pixels; the
         // file is still an input of the cook (and of its cache entry).
@@ -407,6 +416,25 @@ pub fn plan(
                 ),
             ));
         }
+    }
+    fitted_textures.sort();
+    for group in fitted_textures.chunk_by(|a, b| a.0 == b.0) {
+        let windows: Vec<&str> = group.iter().map(|(_, w)| w.as_str()).collect();
+        let shown = if windows.len() > 3 {
+            format!("{} and {} more", windows[..3].join(", "), windows.len() - 3)
+        } else {
+            windows.join(", ")
+        };
+        report.notes.push(Warning::new(
+            &manifest.path,
+            None,
+            format!(
+                "texture {} is on glass without texture coordinates ({shown}): it is fitted \
+                 to each window (fit cover); a [[window]] entry with its own design or fit \
+                 chooses otherwise",
+                group[0].0
+            ),
+        ));
     }
     if let (true, Some((_, name))) = (unit_used, unit) {
         report.notes.push(Warning::new(

@@ -72,6 +72,11 @@ pub struct SettingsArgs {
     /// `rotate_deg` instead.
     #[arg(long, value_name = "y|z", default_value = "y", value_parser = cook::UpAxis::from_arg)]
     up: cook::UpAxis,
+    /// How names in OBJ and MTL files that are not UTF-8 are read: a WHATWG label such as
+    /// `windows-1251`, `windows-1250`, `shift_jis` or `gbk`. Without it the encoding is
+    /// guessed from the names, and the cook says which it took.
+    #[arg(long, value_name = "LABEL", value_parser = cook::import::text::TextEncoding::from_label)]
+    text_encoding: Option<cook::import::text::TextEncoding>,
 }
 
 impl SettingsArgs {
@@ -99,6 +104,7 @@ impl SettingsArgs {
         };
         settings.mesh.overdraw = self.overdraw;
         settings.up = self.up;
+        settings.text_encoding = self.text_encoding;
         settings.check(manifest)?;
         Ok(settings)
     }

@@ -35,6 +35,11 @@ pub struct Args {
     /// `rotate_deg`, and the guesses are made on it turned.
     #[arg(long, value_name = "y|z", default_value = "y", value_parser = cook::UpAxis::from_arg)]
     up: cook::UpAxis,
+    /// How names in OBJ and MTL files that are not UTF-8 are read: a WHATWG label such as
+    /// `windows-1251`, `windows-1250`, `shift_jis` or `gbk`. Without it the encoding is
+    /// guessed from the names, and the cook says which it took.
+    #[arg(long, value_name = "LABEL", value_parser = cook::import::text::TextEncoding::from_label)]
+    text_encoding: Option<cook::import::text::TextEncoding>,
 }
 
 fn quote(s: &str) -> String {
@@ -98,6 +103,7 @@ pub fn run(args: Args) -> Outcome {
     let mut report = cook::Report::default();
     let settings = cook::Settings {
         up: args.up,
+        text_encoding: args.text_encoding,
         ..cook::Settings::new(&manifest)
     };
     let prepared = cook::prepare(&manifest, &settings, &mut report)?;

@@ -2047,3 +2047,190 @@ fn gltfpack_compressed_and_instanced_models_cook() {
         assert!(!out.exists());
     }
 }
+
+// ---- names in Windows code pages ----------------------------------------------------------
+
+/// The third-party Cornell box as a Windows tool in another locale writes it: every object and
+/// material renamed by `names` (the box's name → the new one), the back wall given the glass
+/// material `glass`, whose `map_Kd` is `image` (a third-party photo), and the OBJ and MTL
+/// written in `encoding`. `raw_file_names`: the MTL and the image are named on disk by their
+/// bytes in that encoding (an archive made on Windows, unpacked here), else in UTF-8.
+fn cornell_in_code_page(
+    dir: &Path,
+    encoding: &'static encoding_rs::Encoding,
+    names: &[(&str, &str)],
+    glass: &str,
+    image: &str,
+    raw_file_names: bool,
+) -> PathBuf {
+    use std::os::unix::ffi::OsStringExt;
+    let rename = |n: &str| {
+        names
+            .iter()
+            .find(|(from, _)| *from == n)
+            .map_or(n.to_string(), |(_, to)| to.to_string())
+    };
+    let file_name = |n: &str| {
+        if raw_file_names {
+            PathBuf::from(std::ffi::OsString::from_vec(
+                encoding.encode(n).0.into_owned(),
+            ))
+        } else {
+            PathBuf::from(n)
+        }
+    };
+    let mtl_name = format!("{}.mtl", rename("cornell_box"));
+    let source = std::fs::read_to_string(third_party("cornell_box/cornell_box.obj")).unwrap();
+    let mut obj = String::new();
+    let mut object = String::new();
+    for line in source.lines() {
+        let (word, rest) = line.split_once(' ').unwrap_or((line, ""));
+        match word {
+            "mtllib" => writeln!(obj, "mtllib {mtl_name}").unwrap(),
+            "o" => {
+                object = rest.trim().to_string();
+                writeln!(obj, "o {}", rename(&object)).unwrap();
+            }
+            "usemtl" if object == "back_wall" => writeln!(obj, "usemtl {glass}").unwrap(),
+            "usemtl" => writeln!(obj, "usemtl {}", rename(rest.trim())).unwrap(),
+            _ => writeln!(obj, "{line}").unwrap(),
+        }
+    }
+    let source = std::fs::read_to_string(third_party("cornell_box/cornell_box.mtl")).unwrap();
+    let mut mtl = String::new();
+    for line in source.lines() {
+        match line.split_once(' ') {
+            Some(("newmtl", n)) => writeln!(mtl, "newmtl {}", rename(n.trim())).unwrap(),
+            _ => writeln!(mtl, "{line}").unwrap(),
+        }
+    }
+    writeln!(
+        mtl,
+        "\nnewmtl {glass}\nKd 1 1 1\nd 0.6\nillum 4\nmap_Kd {image}"
+    )
+    .unwrap();
+    let obj_path = dir.join(file_name("cornell.obj"));
+    std::fs::write(&obj_path, encoding.encode(&obj).0).unwrap();
+    std::fs::write(dir.join(file_name(&mtl_name)), encoding.encode(&mtl).0).unwrap();
+    std::fs::copy(
+        third_party("cpython/python.jpg"),
+        dir.join(file_name(image)),
+    )
+    .unwrap();
+    obj_path
+}
+
+/// A Russian model from a Windows machine: names and file names in windows-1251, the image
+/// named by those bytes on disk. Its names read as Russian (guessed, and said so), the stained
+/// glass is a window with its design, the floor and walls are found by name.
+#[test]
+fn names_in_a_windows_code_page_are_read_in_it() {
+    let dir = tempfile::tempdir().unwrap();
+    let names = [
+        ("cornell_box", "Собор"),
+        ("floor", "Пол_каменный"),
+        ("ceiling", "Потолок"),
+        ("back_wall", "Задняя_стена"),
+        ("red_wall", "Стена_красная"),
+        ("green_wall", "Стена_зелёная"),
+        ("white", "Белый_камень"),
+        ("red", "Красный"),
+        ("green", "Зелёный"),
+    ];
+    let glass = "Витраж_розы";
+    let obj = cornell_in_code_page(
+        dir.path(),
+        encoding_rs::WINDOWS_1251,
+        &names,
+        glass,
+        "Витраж роза.jpg",
+        true,
+    );
+    let pack = dir.path().join("sobor.pack");
+    let err = cook(&obj, &pack, &[]);
+    assert!(
+        err.contains("read as windows-1251 (guessed"),
+        "no word of the encoding:\n{err}"
+    );
+    // Only the paths of the library and the image, named on disk by bytes that are not
+    // UTF-8, print as replacement characters.
+    assert!(
+        err.lines()
+            .filter(|l| !l.contains(".mtl:") && !l.contains(".jpg") && !l.contains(".fitted"))
+            .all(|l| !l.contains('\u{FFFD}') && !l.contains("\\u{10ff")),
+        "{err}"
+    );
+    assert!(!err.contains("not found"), "{err}");
+    let v = info(&pack);
+    let c = classes(&v);
+    assert!(is_window(&c[glass]), "{c:?}");
+    assert_eq!(window_count(&v), 1, "{c:?}");
+    // The design is the photo the MTL names, not a colour rasterized for want of it.
+    let w = window(&v, glass);
+    assert_eq!(w["design_source"], "image, fitted to the window", "{w}");
+    assert!(
+        err.contains("is on glass without texture coordinates (Витраж_розы)"),
+        "{err}"
+    );
+    let cook_note = |name: &str| {
+        err.lines()
+            .find(|l| l.starts_with("note:") && l.contains(&format!("{name:?}")))
+            .unwrap_or_else(|| panic!("no note for {name}:\n{err}"))
+            .to_string()
+    };
+    assert!(cook_note("Стена_красная").contains("\"стена\""), "{err}");
+
+    // Given, the encoding is taken as it is; a wrong one reads other letters, which the
+    // tagging then does not know.
+    let given = cook(&obj, &pack, &[&"--text-encoding", &"cp1251"]);
+    assert!(
+        given.contains("read as windows-1251 (--text-encoding)"),
+        "{given}"
+    );
+    let wrong = cook(&obj, &pack, &[&"--text-encoding", &"windows-1252"]);
+    assert!(wrong.contains("read as windows-1252"), "{wrong}");
+    assert!(!classes(&info(&pack)).contains_key(glass));
+    let o = cooker(&[&"cook", &obj, &"-o", &pack, &"--text-encoding", &"klingon"]);
+    assert_ne!(o.status.code(), Some(0));
+    assert!(
+        text(&o.stderr).contains("unknown text encoding \"klingon\""),
+        "{}",
+        text(&o.stderr)
+    );
+}
+
+/// A Japanese model in Shift_JIS (whose second bytes may be ASCII), unpacked with its file
+/// names converted to UTF-8, and read with the encoding given.
+#[test]
+fn shift_jis_names_with_the_encoding_given() {
+    let dir = tempfile::tempdir().unwrap();
+    let names = [
+        ("cornell_box", "大聖堂"),
+        ("floor", "床"),
+        ("red_wall", "壁_赤"),
+        ("green_wall", "壁_緑"),
+        ("white", "白い石"),
+        ("red", "赤"),
+        ("green", "緑"),
+    ];
+    // ソ and 表 end in the byte 0x5C, a backslash in ASCII.
+    let glass = "ステンドグラス_ソ表";
+    let obj = cornell_in_code_page(
+        dir.path(),
+        encoding_rs::SHIFT_JIS,
+        &names,
+        glass,
+        "窓ガラス.jpg",
+        false,
+    );
+    let pack = dir.path().join("seidou.pack");
+    let err = cook(&obj, &pack, &[&"--text-encoding", &"sjis"]);
+    assert!(err.contains("read as Shift_JIS (--text-encoding)"), "{err}");
+    assert!(!err.contains("not found"), "{err}");
+    let v = info(&pack);
+    let c = classes(&v);
+    assert!(is_window(&c[glass]), "{c:?}");
+    assert_eq!(c["赤"], "wall", "{c:?}");
+    let w = window(&v, glass);
+    assert_eq!(w["design"], "窓ガラス.fitted", "{w}");
+}

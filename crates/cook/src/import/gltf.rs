@@ -1680,7 +1680,7 @@ mod tests {
         assert!(q.positions == c.positions, "positions differ");
         assert!(corners(&q) == corners(&c), "triangles differ");
         assert_eq!(q.tri_part.len(), 5856);
-        let obj = super::super::obj::import(&third_party("classic/spot.obj")).unwrap();
+        let obj = super::super::obj::import(&third_party("classic/spot.obj"), None).unwrap();
         let ((lo_q, hi_q), (lo_o, hi_o)) = (bounds(&q), bounds(&obj));
         let size = (hi_o - lo_o).max_element();
         assert!(lo_q.distance(lo_o) < size * 2e-4 && hi_q.distance(hi_o) < size * 2e-4);
@@ -1730,7 +1730,7 @@ mod tests {
         };
         // Half a quantization step of the largest extent, and a little rounding.
         let step = |bits: i32| 0.5 / (2f32.powi(bits) - 1.0) * 1.01;
-        let obj = |rel: &str| super::super::obj::import(&third_party(rel)).unwrap();
+        let obj = |rel: &str| super::super::obj::import(&third_party(rel), None).unwrap();
         for (draco, original) in [
             (
                 import(&third_party("draco/spot_d.glb")).unwrap(),

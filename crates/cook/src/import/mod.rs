@@ -7,6 +7,7 @@ pub mod gltf;
 mod gltf_draco;
 mod gltf_meshopt;
 pub mod obj;
+pub mod text;
 
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
@@ -577,6 +578,15 @@ impl Imported {
 
 /// Imports an OBJ, glTF or GLB file, by extension.
 pub fn import(path: &Path) -> Result<Imported, CookError> {
+    import_with(path, None)
+}
+
+/// [`import`], reading the names of OBJ and MTL files that are not UTF-8 with `text_encoding`
+/// rather than the encoding guessed from them (see [`text`]).
+pub fn import_with(
+    path: &Path,
+    text_encoding: Option<text::TextEncoding>,
+) -> Result<Imported, CookError> {
     // A zero-length file is a failed write or a truncated copy, never a mesh; a file with
     // content but no faces (lines, points) still cooks, with the importer's warning.
     if let Ok(m) = std::fs::metadata(path)
@@ -594,7 +604,7 @@ pub fn import(path: &Path) -> Result<Imported, CookError> {
         .map(|e| e.to_string_lossy().to_ascii_lowercase())
         .unwrap_or_default();
     match ext.as_str() {
-        "obj" => obj::import(path),
+        "obj" => obj::import(path, text_encoding),
         "gltf" | "glb" => gltf::import(path),
         _ => Err(CookError::Source {
             path: path.to_path_buf(),
@@ -608,8 +618,10 @@ pub fn import(path: &Path) -> Result<Imported, CookError> {
 /// it too: with backslashes for separators, in any letter case (`Textures\glass.PNG` for
 /// `textures/Glass.png`), or given by an absolute path from the machine it was made on, whose
 /// end is then looked for under `dir`.
+///
+/// A name escaped by [`text::escaped`] (not UTF-8) means the file of those bytes.
 pub(crate) fn locate(dir: &Path, name: &str) -> Option<PathBuf> {
-    let exact = dir.join(name);
+    let exact = dir.join(text::path_of(name));
     if exact.is_file() {
         return Some(exact);
     }
@@ -619,7 +631,7 @@ pub(crate) fn locate(dir: &Path, name: &str) -> Option<PathBuf> {
         return None;
     }
     let relative = slashed.strip_prefix("./").unwrap_or(slashed);
-    let candidate = dir.join(relative);
+    let candidate = dir.join(text::path_of(relative));
     if candidate.is_file() {
         return Some(candidate);
     }
@@ -658,7 +670,7 @@ fn any_case(dir: &Path, relative: &str) -> Option<PathBuf> {
             let found = entries
                 .filter_map(Result::ok)
                 .map(|e| e.file_name())
-                .filter(|n| n.to_string_lossy().to_lowercase() == lower)
+                .filter(|n| text::file_name_text(n).to_lowercase() == lower)
                 .min()?;
             at.join(found)
         };

@@ -11,12 +11,12 @@ use std::path::{Path, PathBuf};
 
 use super::{
     Corner, Corners, ImageRef, Imported, Indices, NONE, Names, Part, SourceMaterial, Warning,
-    append,
+    append, text,
 };
 use crate::CookError;
 use crate::triangulate::triangulate;
 
-pub fn import(path: &Path) -> Result<Imported, CookError> {
+pub fn import(path: &Path, given: Option<text::TextEncoding>) -> Result<Imported, CookError> {
     use std::io::Read;
     let io = |source| CookError::Io {
         path: path.to_path_buf(),
@@ -31,14 +31,14 @@ pub fn import(path: &Path) -> Result<Imported, CookError> {
                 .unwrap_or(usize::MAX)
                 .saturating_add(1),
         );
-        return parse_stream(path, &mut file, size, CHUNK_BYTES, block).map(place_textures);
+        return parse_stream(path, &mut file, size, CHUNK_BYTES, block, given).map(place_textures);
     }
     let mut bytes = Vec::with_capacity(size as usize);
     file.read_to_end(&mut bytes).map_err(io)?;
     if let Some(e) = not_text(path, &bytes, true) {
         return Err(e);
     }
-    parse(path, &bytes)
+    parse_with(path, &bytes, given)
 }
 
 /// UTF-16 (what some Windows tools save) would parse as a stream of unknown statements and
@@ -69,6 +69,12 @@ fn tokens(line: &[u8]) -> impl Iterator<Item = &[u8]> {
 
 fn text(t: &[u8]) -> String {
     String::from_utf8_lossy(t).into_owned()
+}
+
+/// A name: escaped where it is not UTF-8, and decoded once the file is read
+/// ([`Statements::decode_names`]).
+fn name(t: &[u8]) -> String {
+    text::escaped(t).into_owned()
 }
 
 fn parse_f32(t: &[u8]) -> Option<f32> {
@@ -614,9 +620,9 @@ fn statement(keyword: &[u8], rest: &[u8]) -> Option<Statement> {
     Some(match keyword {
         b"l" => Statement::Line,
         b"p" => Statement::Point,
-        b"g" => Statement::Group((!rest.is_empty()).then(|| text(rest))),
-        b"o" => Statement::Object((!rest.is_empty()).then(|| text(rest))),
-        b"usemtl" => Statement::Usemtl(text(rest)),
+        b"g" => Statement::Group((!rest.is_empty()).then(|| name(rest))),
+        b"o" => Statement::Object((!rest.is_empty()).then(|| name(rest))),
+        b"usemtl" => Statement::Usemtl(name(rest)),
         b"mtllib" => Statement::Mtllib(rest.to_vec()),
         // Smoothing groups, free-form geometry and display attributes: normals are generated
         // with a crease angle instead, and the rest has no meaning here.
@@ -643,9 +649,21 @@ struct Statements {
     /// The group in effect and its faces so far.
     group_faces: Option<(String, usize)>,
     short_faces: Vec<usize>,
+    /// `--text-encoding`: how names that are not UTF-8 are read.
+    given: Option<text::TextEncoding>,
+    /// The encoding the first material library that is not UTF-8 was read with: the OBJ's
+    /// names, written by the same tool, are read with it too.
+    mtl_encoding: Option<&'static encoding_rs::Encoding>,
 }
 
 impl Statements {
+    fn new(given: Option<text::TextEncoding>) -> Self {
+        Statements {
+            given,
+            ..Default::default()
+        }
+    }
+
     /// The part of the next `faces` whole faces, which count for their group.
     fn part(&mut self, faces: usize, out: &mut Imported) -> u32 {
         if let Some((_, n)) = &mut self.group_faces {
@@ -697,14 +715,20 @@ impl Statements {
                 self.state.material = (!name.is_empty()).then(|| name.clone());
                 self.state.part = None;
             }
-            Statement::Mtllib(rest) => load_mtllib(
-                path,
-                line,
-                rest,
-                out,
-                &mut self.material_ids,
-                &mut self.missing_textures,
-            )?,
+            Statement::Mtllib(rest) => {
+                let read = load_mtllib(
+                    path,
+                    line,
+                    rest,
+                    out,
+                    &mut self.material_ids,
+                    &mut self.missing_textures,
+                    self.given,
+                )?;
+                if let Some(text::Decoded::Legacy { encoding, .. }) = read {
+                    self.mtl_encoding.get_or_insert(encoding);
+                }
+            }
             Statement::Unknown(k) => {
                 if !self.unknown_keywords.iter().any(|(n, _)| n == k) {
                     self.unknown_keywords.push((k.clone(), line));
@@ -714,8 +738,72 @@ impl Statements {
         Ok(())
     }
 
+    /// Once the whole file is read: the parts' names that are not UTF-8 decoded, with the
+    /// encoding given, else the material library's, else the one guessed from the names; the
+    /// parts whose material the escaped name did not find get it by the decoded one. Returns
+    /// how they were read, for the warnings to be decoded alike.
+    fn decode_names(&self, out: &mut Imported) -> Option<text::Decoded> {
+        let escaped = |n: &Option<String>| n.as_deref().is_some_and(text::is_escaped);
+        fn names(p: &Part) -> [&Option<String>; 3] {
+            [&p.names.material, &p.names.group, &p.names.object]
+        }
+        let any = out.parts.iter().any(|p| names(p).into_iter().any(escaped))
+            || self
+                .group_faces
+                .as_ref()
+                .is_some_and(|(n, _)| text::is_escaped(n))
+            || self.empty_groups.iter().any(|n| text::is_escaped(n))
+            || self
+                .unknown_materials
+                .iter()
+                .any(|(n, _)| text::is_escaped(n));
+        if !any {
+            return None;
+        }
+        let decoded = match (self.given, self.mtl_encoding) {
+            (None, Some(encoding)) => text::Decoded::Legacy {
+                encoding,
+                guessed: true,
+            },
+            (given, _) => {
+                let samples: Vec<Vec<u8>> = out
+                    .parts
+                    .iter()
+                    .flat_map(|p| names(p).into_iter().flatten())
+                    .filter(|n| text::is_escaped(n))
+                    .map(|n| text::raw(n))
+                    .collect();
+                text::choose(given, samples.iter().map(Vec::as_slice))
+            }
+        };
+        let text::Decoded::Legacy { encoding, .. } = decoded else {
+            return None;
+        };
+        for part in &mut out.parts {
+            for n in [
+                &mut part.names.material,
+                &mut part.names.group,
+                &mut part.names.object,
+            ]
+            .into_iter()
+            .flatten()
+            {
+                *n = text::decode_escaped(n, encoding);
+            }
+            if part.material.is_none() {
+                part.material = part
+                    .names
+                    .material
+                    .as_ref()
+                    .and_then(|n| self.material_ids.get(n).copied());
+            }
+        }
+        Some(decoded)
+    }
+
     /// Once the whole file is read: its warnings, onto `out`'s.
     fn warn(mut self, path: &Path, out: &mut Imported) {
+        let decoded = self.decode_names(out);
         if let Some((name, 0)) = self.group_faces.take() {
             self.empty_groups.push(name);
         }
@@ -780,6 +868,14 @@ impl Statements {
             if material_ids.get(&name).is_some_and(|&i| used[i as usize]) {
                 out.warnings.push(w);
             }
+        }
+        if let Some(decoded @ text::Decoded::Legacy { encoding, .. }) = decoded {
+            // The OBJ's own warnings name its names as read, escaped.
+            for w in &mut out.warnings {
+                w.message = text::decode_message(&w.message, encoding);
+            }
+            out.warnings
+                .extend(decoded.describe().map(|how| Warning::new(path, None, how)));
         }
     }
 }
@@ -930,6 +1026,15 @@ fn chunks(bytes: &[u8], chunk_bytes: usize) -> Vec<&[u8]> {
 /// Parses OBJ text. `path` names the file in errors and locates `mtllib` files. Large texts
 /// are split into runs of lines read on every thread, with the same result.
 pub fn parse(path: &Path, bytes: &[u8]) -> Result<Imported, CookError> {
+    parse_with(path, bytes, None)
+}
+
+/// [`parse`], reading names that are not UTF-8 as `given` says (see [`text`]).
+pub fn parse_with(
+    path: &Path,
+    bytes: &[u8],
+    given: Option<text::TextEncoding>,
+) -> Result<Imported, CookError> {
     let joined;
     let bytes = if continued(bytes) {
         joined = {
@@ -942,9 +1047,9 @@ pub fn parse(path: &Path, bytes: &[u8]) -> Result<Imported, CookError> {
         bytes
     };
     if bytes.len() >= PARALLEL_BYTES {
-        parse_chunked(path, bytes, CHUNK_BYTES)
+        parse_chunked(path, bytes, CHUNK_BYTES, given)
     } else {
-        parse_lines(path, bytes)
+        parse_lines(path, bytes, given)
     }
     .map(place_textures)
 }
@@ -992,12 +1097,16 @@ fn place_textures(mut out: Imported) -> Imported {
 
 /// Parses OBJ text line by line: the reference [`parse_chunked`] must agree with, and what
 /// files too small to split run (splitting costs more than it saves there).
-fn parse_lines(path: &Path, bytes: &[u8]) -> Result<Imported, CookError> {
+fn parse_lines(
+    path: &Path,
+    bytes: &[u8],
+    given: Option<text::TextEncoding>,
+) -> Result<Imported, CookError> {
     let mut out = Imported {
         path: path.to_path_buf(),
         ..Default::default()
     };
-    let mut statements = Statements::default();
+    let mut statements = Statements::new(given);
     let mut face: Vec<Corner> = Vec::new();
     let mut poly: Vec<[f32; 3]> = Vec::new();
     let mut tris: Vec<[u32; 3]> = Vec::new();
@@ -1168,8 +1277,13 @@ fn resolve_text(
 /// one statement after another, then each chunk's faces resolved against everything defined
 /// before them. The result, errors and warnings are those of [`parse_lines`] (the first error
 /// in the file wins) whatever the chunking.
-fn parse_chunked(path: &Path, bytes: &[u8], chunk_bytes: usize) -> Result<Imported, CookError> {
-    let mut assembler = Assembler::new(path);
+fn parse_chunked(
+    path: &Path,
+    bytes: &[u8],
+    chunk_bytes: usize,
+    given: Option<text::TextEncoding>,
+) -> Result<Imported, CookError> {
+    let mut assembler = Assembler::new(path, given);
     assembler.read(&chunks(bytes, chunk_bytes), 0);
     assembler.finish()
 }
@@ -1191,6 +1305,7 @@ fn parse_stream(
     size: u64,
     chunk_bytes: usize,
     block_bytes: usize,
+    given: Option<text::TextEncoding>,
 ) -> Result<Imported, CookError> {
     let io = |source| CookError::Io {
         path: path.to_path_buf(),
@@ -1206,7 +1321,7 @@ fn parse_stream(
         std::io::Read::read_to_end(&mut std::io::Read::take(reader, block_bytes as u64), buf)?;
         Ok(buf.len() - start < block_bytes)
     };
-    let mut assembler = Assembler::new(path);
+    let mut assembler = Assembler::new(path, given);
     let mut consumed = 0u64;
     // With room for a line carried over, so that the buffers are not grown block after block.
     let room = block_bytes + (64 << 10);
@@ -1285,7 +1400,7 @@ struct Assembler<'p> {
 }
 
 impl<'p> Assembler<'p> {
-    fn new(path: &'p Path) -> Self {
+    fn new(path: &'p Path, given: Option<text::TextEncoding>) -> Self {
         Self {
             path,
             out: Imported {
@@ -1298,7 +1413,7 @@ impl<'p> Assembler<'p> {
             lines_before: 0,
             started: false,
             error: None,
-            statements: Statements::default(),
+            statements: Statements::new(given),
         }
     }
 
@@ -1704,15 +1819,32 @@ fn plural(what: &str, n: usize) -> String {
 
 /// Finds a file named in an MTL or `mtllib` statement: the whole rest of the line first (names
 /// may contain spaces), then each word (several files, or options before the name).
-fn find_file(dir: &Path, rest: &[u8]) -> (Vec<PathBuf>, Vec<String>) {
-    let whole = text(rest);
-    if let Some(p) = super::locate(dir, &whole) {
+///
+/// A name that is not UTF-8 means the file of those bytes, else the name decoded as `given`
+/// says or as guessed from it.
+fn find_file(
+    dir: &Path,
+    rest: &[u8],
+    given: Option<text::TextEncoding>,
+) -> (Vec<PathBuf>, Vec<String>) {
+    let locate = |name: &[u8]| {
+        let escaped = text::escaped(name);
+        super::locate(dir, &escaped).or_else(|| {
+            let text::Decoded::Legacy { encoding, .. } = text::choose(given, [name]) else {
+                return None;
+            };
+            text::is_escaped(&escaped)
+                .then(|| super::locate(dir, &text::decode_escaped(&escaped, encoding)))
+                .flatten()
+        })
+    };
+    if let Some(p) = locate(rest) {
         return (vec![p], Vec::new());
     }
     let mut found = Vec::new();
     let mut missing = Vec::new();
     for w in tokens(rest) {
-        match super::locate(dir, &text(w)) {
+        match locate(w) {
             Some(p) => found.push(p),
             None => missing.push(text(w)),
         }
@@ -1787,16 +1919,14 @@ fn mtl_transmission(m: &tobj::Material) -> super::Transmission {
 /// - colours (`Ka`, `Kd`, `Ks`, `Ke`) of one value are grey, `xyz` ones are converted to
 ///   linear sRGB, `spectral` ones (a curve in another file) are dropped with a warning;
 /// - `d -halo f` is `d f`; keywords in another case (`map_kd`, `KD`) are the keywords;
-/// - text that is not UTF-8 reads as it does in the OBJ (invalid bytes replaced), so the
-///   names still match `usemtl`.
+/// - text that is not UTF-8 has been decoded by the caller ([`text::decode_file`]).
 ///
 /// Lines keep their numbers: a dropped line becomes empty.
 fn clean_mtl(
     path: &Path,
-    bytes: &[u8],
+    text: &str,
     warnings: &mut Vec<Warning>,
 ) -> Result<(String, TextureLines), CookError> {
-    let text = String::from_utf8_lossy(bytes.strip_prefix(b"\xEF\xBB\xBF").unwrap_or(bytes));
     let fail = |line: usize, message: String| CookError::Source {
         path: path.to_path_buf(),
         line: Some(line),
@@ -2017,9 +2147,10 @@ fn load_mtllib(
     out: &mut Imported,
     ids: &mut HashMap<String, u32>,
     missing_textures: &mut Vec<(String, Warning)>,
-) -> Result<(), CookError> {
+    given: Option<text::TextEncoding>,
+) -> Result<Option<text::Decoded>, CookError> {
     let dir = path.parent().unwrap_or(Path::new(""));
-    let (mut found, missing) = find_file(dir, rest);
+    let (mut found, missing) = find_file(dir, rest, given);
     if found.is_empty() {
         // Exporters often name a library that was never shipped (`untitled.mtl`) while the
         // real one sits beside the OBJ under the OBJ's own name.
@@ -2031,7 +2162,7 @@ fn load_mtllib(
                 Some(line),
                 format!(
                     "material library {:?} not found; using {} beside the OBJ instead",
-                    text(rest),
+                    name(rest),
                     beside.display()
                 ),
             ));
@@ -2040,9 +2171,9 @@ fn load_mtllib(
             out.warnings.push(Warning::new(
                 path,
                 Some(line),
-                format!("material library {:?} not found; materials keep their names but get default shading", text(rest)),
+                format!("material library {:?} not found; materials keep their names but get default shading", name(rest)),
             ));
-            return Ok(());
+            return Ok(None);
         }
     }
     if !missing.is_empty() && found.len() > 1 {
@@ -2052,13 +2183,26 @@ fn load_mtllib(
             format!("material libraries not found: {}", missing.join(", ")),
         ));
     }
+    let mut read = None;
     for mtl in found {
         out.files.push(mtl.clone());
         let bytes = std::fs::read(&mtl).map_err(|source| CookError::Io {
             path: mtl.clone(),
             source,
         })?;
-        let (cleaned, texture_lines) = clean_mtl(&mtl, &bytes, &mut out.warnings)?;
+        let (mtl_text, decoded) =
+            text::decode_file(bytes.strip_prefix(b"\xEF\xBB\xBF").unwrap_or(&bytes), given);
+        if let Some(how) = decoded.describe() {
+            out.warnings.push(Warning::new(&mtl, None, how));
+        }
+        if matches!(decoded, text::Decoded::Legacy { .. }) {
+            read.get_or_insert(decoded);
+        }
+        let legacy = match decoded {
+            text::Decoded::Legacy { encoding, .. } => Some(encoding),
+            text::Decoded::Utf8 => None,
+        };
+        let (cleaned, texture_lines) = clean_mtl(&mtl, &mtl_text, &mut out.warnings)?;
         let (materials, _) =
             tobj::load_mtl_buf(&mut cleaned.as_bytes()).map_err(|e| CookError::Source {
                 path: mtl.clone(),
@@ -2094,8 +2238,19 @@ fn load_mtllib(
                 }
                 transforms.push((what.to_string(), statement.offset, statement.scale));
                 // The parsed name, else the whole rest or one of its words.
+                // A library that is not UTF-8 names files in its encoding: on disk they may
+                // be named by those bytes (unpacked from a Windows archive) or in Unicode.
+                let raw_bytes = |n: &str| legacy.map(|e| e.encode(n).0.into_owned());
                 let file = super::locate(&mtl_dir, statement.file)
-                    .or_else(|| find_file(&mtl_dir, name.as_bytes()).0.pop());
+                    .or_else(|| find_file(&mtl_dir, name.as_bytes(), given).0.pop())
+                    .or_else(|| {
+                        let raw = raw_bytes(statement.file)?;
+                        super::locate(&mtl_dir, &text::escaped(&raw))
+                    })
+                    .or_else(|| {
+                        let raw = raw_bytes(name)?;
+                        find_file(&mtl_dir, &raw, given).0.pop()
+                    });
                 match file {
                     Some(f) => Some(ImageRef::File(f)),
                     None => {
@@ -2182,6 +2337,13 @@ fn load_mtllib(
                     out.materials.len() as u32 - 1
                 }
             };
+            // The OBJ's `usemtl` names it by the same bytes, escaped until the OBJ is read.
+            if let Some(e) = legacy {
+                let raw = e.encode(&m.name).0;
+                if std::str::from_utf8(&raw).is_err() {
+                    ids.insert(text::escaped(&raw).into_owned(), id);
+                }
+            }
             out.uv_transforms.retain(|t| t.0 != id);
             if let Some((offset, scale)) = uv_transform {
                 out.uv_transforms.push((id, offset, scale));
@@ -2198,7 +2360,7 @@ fn load_mtllib(
                 .and_then(|n| ids.get(n).copied());
         }
     }
-    Ok(())
+    Ok(read)
 }
 
 #[cfg(test)]
@@ -2216,15 +2378,21 @@ mod tests {
         let text = "newmtl grey\nKd 0.5\nKA spectral wood.rfl 1\nks xyz 0.5\n\
                     newmtl caf\u{e9}\r\nD -halo 0.25\nKd 1 0 0.5 # red\nMAP_KD a.png\nillum 4\n";
         let bytes: Vec<u8> = text.chars().map(|c| c as u32 as u8).collect();
-        let (cleaned, lines) = clean_mtl(path, &bytes, &mut warnings).unwrap();
+        // Latin-1 bytes: read as windows-1252, as guessed.
+        let (decoded, how) = text::decode_file(&bytes, None);
+        assert_eq!(
+            how.describe().unwrap().split(';').nth(1).unwrap().trim(),
+            "read as windows-1252 (guessed from the text"
+        );
+        let (cleaned, lines) = clean_mtl(path, &decoded, &mut warnings).unwrap();
         assert_eq!(cleaned.lines().count(), text.lines().count());
-        assert_eq!(lines[&("caf\u{FFFD}".to_string(), TextureKey::Diffuse)], 8);
+        assert_eq!(lines[&("caf\u{e9}".to_string(), TextureKey::Diffuse)], 8);
         assert!(warnings[0].to_string().contains("m.mtl:3"), "{warnings:?}");
         let (materials, _) = tobj::load_mtl_buf(&mut cleaned.as_bytes()).unwrap();
         assert_eq!(materials[0].diffuse, Some([0.5; 3]));
         assert_eq!(materials[0].ambient, None);
         assert_eq!(materials[0].specular, Some([0.5; 3]));
-        assert_eq!(materials[1].name, "caf\u{FFFD}");
+        assert_eq!(materials[1].name, "caf\u{e9}");
         assert_eq!(materials[1].dissolve, Some(0.25));
         assert_eq!(materials[1].diffuse, Some([1.0, 0.0, 0.5]));
         assert_eq!(materials[1].diffuse_texture.as_deref(), Some("a.png"));
@@ -2239,9 +2407,7 @@ mod tests {
             ),
             ("newmtl\n", 1, "newmtl without a material name"),
         ] {
-            let e = clean_mtl(path, bad.as_bytes(), &mut warnings)
-                .unwrap_err()
-                .to_string();
+            let e = clean_mtl(path, bad, &mut warnings).unwrap_err().to_string();
             assert!(
                 e.contains(&format!("m.mtl:{line}")) && e.contains(what),
                 "{e}"
@@ -2279,7 +2445,7 @@ mod tests {
                 .map(|(k, words, end)| format!("{k} {}{end}", words.join(" ")))
                 .collect();
             let mut warnings = Vec::new();
-            match clean_mtl(Path::new("m.mtl"), text.as_bytes(), &mut warnings) {
+            match clean_mtl(Path::new("m.mtl"), &text, &mut warnings) {
                 Ok((cleaned, _)) => {
                     prop_assert_eq!(cleaned.lines().count(), text.lines().count());
                     let read = tobj::load_mtl_buf(&mut cleaned.as_bytes());
@@ -2376,7 +2542,7 @@ mod tests {
              usemtl glass\nf 1/1 2/2 3/3\nusemtl stone\nf 1/1 3/3 2/2\n",
         )
         .unwrap();
-        let m = import(&obj).unwrap();
+        let m = import(&obj, None).unwrap();
         assert_eq!(
             m.materials[0].diffuse_texture,
             Some(ImageRef::File(dir.path().join("a design.png")))
@@ -2585,6 +2751,7 @@ mod tests {
             size,
             chunk,
             block,
+            None,
         ))
     }
 
@@ -2600,8 +2767,8 @@ mod tests {
             let text = lines.join("\n");
             let path = Path::new("test.obj");
             prop_assert_eq!(
-                summary(parse_chunked(path, text.as_bytes(), chunk)),
-                summary(parse_lines(path, text.as_bytes()))
+                summary(parse_chunked(path, text.as_bytes(), chunk, None)),
+                summary(parse_lines(path, text.as_bytes(), None))
             );
         }
 
@@ -2622,7 +2789,7 @@ mod tests {
             let path = Path::new("test.obj");
             let want = match not_text(path, text.as_bytes(), true) {
                 Some(e) => Err(e),
-                None => parse_lines(path, text.as_bytes()),
+                None => parse_lines(path, text.as_bytes(), None),
             };
             prop_assert_eq!(streamed(&text, size, chunk, block), summary(want));
         }
@@ -2703,7 +2870,7 @@ mod tests {
                 text += &format!("f {}\n", c.join(" "));
             }
             let path = Path::new("test.obj");
-            let lines = parse_lines(path, text.as_bytes());
+            let lines = parse_lines(path, text.as_bytes(), None);
             prop_assert_eq!(streamed(&text, None, chunk, block), summary(lines));
             let m = streamed_imported(&text, chunk, block);
             let held = [&m.corners.t, &m.corners.n];
@@ -2720,7 +2887,7 @@ mod tests {
     fn streamed_imported(text: &str, chunk: usize, block: usize) -> Imported {
         let mut reader = std::io::Cursor::new(text.as_bytes());
         let size = text.len() as u64;
-        parse_stream(Path::new("test.obj"), &mut reader, size, chunk, block).unwrap()
+        parse_stream(Path::new("test.obj"), &mut reader, size, chunk, block, None).unwrap()
     }
 
     /// A valid OBJ from `ops`: vertex, texture-coordinate and normal lines, and faces whose
@@ -2782,7 +2949,7 @@ mod tests {
             size in prop::option::of(0u64..20_000),
         ) {
             let text = valid_obj(&ops);
-            let want = parse_lines(Path::new("test.obj"), text.as_bytes());
+            let want = parse_lines(Path::new("test.obj"), text.as_bytes(), None);
             prop_assert!(want.is_ok(), "{:?}", want.err());
             prop_assert_eq!(streamed(&text, size, chunk, block), summary(want));
         }
@@ -2821,13 +2988,13 @@ mod tests {
         text.push_str("f 1 2 3\nf -3 -2 -1");
         std::fs::write(&path, &text).unwrap();
         assert_eq!(
-            summary(import(&path)),
-            summary(parse_lines(&path, text.as_bytes()))
+            summary(import(&path, None)),
+            summary(parse_lines(&path, text.as_bytes(), None))
         );
-        let m = import(&path).unwrap();
+        let m = import(&path, None).unwrap();
         assert_eq!(m.triangle_count(), 2);
         std::fs::write(&path, format!("{text}\n\0")).unwrap();
-        let e = import(&path).unwrap_err().to_string();
+        let e = import(&path, None).unwrap_err().to_string();
         assert!(e.contains("big.obj:1: the file is UTF-16 or binary"), "{e}");
     }
 
