@@ -77,7 +77,7 @@ impl Settings {
             },
             window_overrides: Vec::new(),
             up: UpAxis::Y,
-            text_encoding: None,
+            text_encoding: manifest.scene.text_encoding,
             cache: None,
         }
     }

@@ -104,7 +104,9 @@ impl SettingsArgs {
         };
         settings.mesh.overdraw = self.overdraw;
         settings.up = self.up;
-        settings.text_encoding = self.text_encoding;
+        if self.text_encoding.is_some() {
+            settings.text_encoding = self.text_encoding;
+        }
         settings.check(manifest)?;
         Ok(settings)
     }

@@ -133,7 +133,22 @@ pub fn run(args: Args) -> Outcome {
          # explicit rules win over every heuristic (docs/scene-manifest.md).\n",
         args.mesh.display()
     );
-    let _ = writeln!(t, "[scene]\nname = {}\n", quote(&stem));
+    let _ = writeln!(t, "[scene]\nname = {}", quote(&stem));
+    // Names that are not UTF-8 were read in this encoding (given or guessed): pinned here, so
+    // every cook of the manifest reads them alike, and a wrong guess is one edit away.
+    if let Some(e) = prepared.imported.iter().find_map(|i| i.text_encoding) {
+        let _ = writeln!(
+            t,
+            "text_encoding = {}  # the names are not UTF-8; {}",
+            quote(e.name()),
+            if args.text_encoding.is_some() {
+                "given by --text-encoding"
+            } else {
+                "guessed from them"
+            }
+        );
+    }
+    t.push('\n');
     let _ = writeln!(
         t,
         "[[mesh]]\nsource = {}",

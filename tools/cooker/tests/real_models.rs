@@ -2183,13 +2183,25 @@ fn names_in_a_windows_code_page_are_read_in_it() {
     // Given, the encoding is taken as it is; a wrong one reads other letters, which the
     // tagging then does not know.
     let given = cook(&obj, &pack, &[&"--text-encoding", &"cp1251"]);
-    assert!(
-        given.contains("read as windows-1251 (--text-encoding)"),
-        "{given}"
-    );
+    assert!(given.contains("read as windows-1251 (given"), "{given}");
     let wrong = cook(&obj, &pack, &[&"--text-encoding", &"windows-1252"]);
     assert!(wrong.contains("read as windows-1252"), "{wrong}");
     assert!(!classes(&info(&pack)).contains_key(glass));
+    // `init` pins the encoding it read the names in, so the manifest cooks the same.
+    let scene = dir.path().join("scene.toml");
+    let o = cooker(&[&"init", &obj, &"-o", &scene]);
+    assert_eq!(o.status.code(), Some(0), "{}", text(&o.stderr));
+    let toml = std::fs::read_to_string(&scene).unwrap();
+    assert!(
+        toml.contains("text_encoding = \"windows-1251\"  # the names are not UTF-8; guessed"),
+        "{toml}"
+    );
+    let from_manifest = cook(&scene, &pack, &[]);
+    assert!(
+        from_manifest.contains("read as windows-1251 (given"),
+        "{from_manifest}"
+    );
+    assert!(is_window(&classes(&info(&pack))[glass]));
     let o = cooker(&[&"cook", &obj, &"-o", &pack, &"--text-encoding", &"klingon"]);
     assert_ne!(o.status.code(), Some(0));
     assert!(
@@ -2225,7 +2237,7 @@ fn shift_jis_names_with_the_encoding_given() {
     );
     let pack = dir.path().join("seidou.pack");
     let err = cook(&obj, &pack, &[&"--text-encoding", &"sjis"]);
-    assert!(err.contains("read as Shift_JIS (--text-encoding)"), "{err}");
+    assert!(err.contains("read as Shift_JIS (given"), "{err}");
     assert!(!err.contains("not found"), "{err}");
     let v = info(&pack);
     let c = classes(&v);

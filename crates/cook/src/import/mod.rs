@@ -511,6 +511,9 @@ pub struct Imported {
     /// Texture placement an OBJ's materials give (MTL `-o` offset, `-s` scale, in u and v),
     /// by material, applied to the coordinates once every face is read.
     pub(crate) uv_transforms: Vec<(u32, [f32; 2], [f32; 2])>,
+    /// The encoding an OBJ's or its MTL's names that are not UTF-8 were read with (given or
+    /// guessed); `None` where all are UTF-8.
+    pub text_encoding: Option<text::TextEncoding>,
 }
 
 impl Imported {

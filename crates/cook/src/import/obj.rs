@@ -869,6 +869,11 @@ impl Statements {
                 out.warnings.push(w);
             }
         }
+        out.text_encoding = match decoded {
+            Some(text::Decoded::Legacy { encoding, .. }) => Some(encoding),
+            _ => self.mtl_encoding,
+        }
+        .map(text::TextEncoding::of);
         if let Some(decoded @ text::Decoded::Legacy { encoding, .. }) = decoded {
             // The OBJ's own warnings name its names as read, escaped.
             for w in &mut out.warnings {

@@ -47,6 +47,10 @@ impl TextEncoding {
         Ok(TextEncoding(enc))
     }
 
+    pub(crate) fn of(encoding: &'static Encoding) -> Self {
+        TextEncoding(encoding)
+    }
+
     pub fn name(self) -> &'static str {
         self.0.name()
     }
@@ -92,7 +96,7 @@ impl Decoded {
                 encoding,
                 guessed: false,
             } => Some(format!(
-                "its names are not UTF-8; read as {} (--text-encoding)",
+                "its names are not UTF-8; read as {} (given by --text-encoding or the manifest)",
                 encoding.name()
             )),
         }

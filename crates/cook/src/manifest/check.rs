@@ -214,6 +214,13 @@ fn scene(src: &Source<'_>, raw: Option<model::Scene>) -> Result<SceneInfo, CookE
             .max_error
             .map(|m| src.positive(&m, "max_error"))
             .transpose()?,
+        text_encoding: s
+            .text_encoding
+            .map(|label| {
+                crate::import::text::TextEncoding::from_label(label.get_ref())
+                    .map_err(|why| src.err_at(&label, format!("text_encoding: {why}")))
+            })
+            .transpose()?,
     })
 }
 

@@ -37,6 +37,9 @@ pub struct SceneInfo {
     /// Error budget in 8-bit sRGB LSB for blur and mip method choices. The cook reads it
     /// from [`crate::Settings`], which takes it from here.
     pub max_error: Option<f32>,
+    /// How names in the meshes' OBJ and MTL files that are not UTF-8 are read; `None`: as
+    /// guessed from them. [`crate::Settings`] takes it from here.
+    pub text_encoding: Option<crate::import::text::TextEncoding>,
 }
 
 /// How textures are stored in the pack (`[textures] format`, `--texture-format`, or a
@@ -381,6 +384,7 @@ impl Manifest {
             scene: SceneInfo {
                 name: Some(name.clone()),
                 max_error: None,
+                text_encoding: None,
             },
             textures: Textures::default(),
             meshes: vec![MeshSource {
@@ -541,6 +545,11 @@ colour = [0.35, 0.5, 0.8]
         let mesh = "[[mesh]]\nsource = \"corridor.obj\"\n";
         let cases = [
             (format!("{mesh}bogus = 1\n"), 3, "unknown field"),
+            (
+                format!("[scene]\ntext_encoding = \"cp-1251\"\n{mesh}"),
+                2,
+                "text_encoding: unknown text encoding \"cp-1251\"",
+            ),
             (
                 format!("{mesh}scale = \"x\"\n"),
                 3,

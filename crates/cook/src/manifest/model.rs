@@ -30,6 +30,7 @@ pub(super) struct Manifest {
 pub(super) struct Scene {
     pub name: Option<String>,
     pub max_error: Option<Spanned<f32>>,
+    pub text_encoding: Option<Spanned<String>>,
 }
 
 #[derive(Deserialize)]
