@@ -1204,7 +1204,7 @@ fn external_file(base: &Path, uri: &str) -> Option<std::path::PathBuf> {
         .or_else(|| uri.strip_prefix("file:"));
     if let Some(p) = rel {
         let decoded = percent_decode(p);
-        let p = std::path::PathBuf::from(&decoded);
+        let p = super::text::path_of(&decoded);
         // `file:///C:/...` from the exporting machine: `locate` looks for its end beside the
         // glTF.
         return if p.is_file() {
@@ -1239,7 +1239,9 @@ fn percent_decode(s: &str) -> String {
         out.push(b[i]);
         i += 1;
     }
-    String::from_utf8_lossy(&out).into_owned()
+    // A name percent-encoded from a Windows code page is not UTF-8: kept as its bytes, which
+    // is what the file is named on disk.
+    super::text::escaped(&out).into_owned()
 }
 
 /// The bytes of a base64 `data:` URI (what glTF exporters embed). Anything else, or a payload
@@ -1539,6 +1541,26 @@ fn convert_material(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// A uri percent-encoding a windows-1250 name ("okno_č.png", `%E8` for `č`) finds the file
+    /// named by those bytes, as an archive from a Windows machine unpacks it.
+    #[cfg(unix)]
+    #[test]
+    fn percent_encoded_code_page_names_find_their_file() {
+        use std::os::unix::ffi::OsStringExt;
+        let dir = tempfile::tempdir().unwrap();
+        let raw = std::ffi::OsString::from_vec(b"okno_\xE8.png".to_vec());
+        std::fs::write(dir.path().join(&raw), b"x").unwrap();
+        assert_eq!(
+            external_file(dir.path(), "okno_%E8.png"),
+            Some(dir.path().join(&raw))
+        );
+        assert_eq!(
+            external_file(dir.path(), "OKNO_%E8.PNG"),
+            Some(dir.path().join(&raw))
+        );
+        assert_eq!(external_file(dir.path(), "okno_%E9.png"), None);
+    }
 
     #[test]
     fn texture_transform_scales_rotates_then_offsets() {
