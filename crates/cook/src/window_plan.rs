@@ -329,7 +329,16 @@ pub fn plan(
             // is. It was dropped for the mesh's colours without a word before.
             None => plan_textures.map(|t| {
                 if !inst.has_uvs {
-                    fitted_textures.push((t.name(), inst.name.clone()));
+                    let shown = match &t {
+                        ImageRef::File(f) => f.file_name().map_or(t.name(), |n| {
+                            crate::import::text::file_name_for_display(
+                                n,
+                                sources[inst.source].text_encoding,
+                            )
+                        }),
+                        other => other.name(),
+                    };
+                    fitted_textures.push((shown, inst.name.clone()));
                 }
                 (t, DesignSource::Texture)
             }),
@@ -357,6 +366,7 @@ pub fn plan(
             aspect: inst.width() / inst.height().max(1e-12),
             size: design::design_size(inst.width(), inst.height(), texels),
             came_width: entry.map_or(crate::manifest::DEFAULT_CAME_WIDTH, |e| e.came_width),
+            text_encoding: sources[inst.source].text_encoding,
         });
         let src_names: Vec<String> = {
             let src = &sources[inst.source];
@@ -567,6 +577,8 @@ struct Pending {
     aspect: f64,
     size: (u32, u32),
     came_width: f32,
+    /// The encoding of the model's names, for an image named on disk in it.
+    text_encoding: Option<crate::import::text::TextEncoding>,
 }
 
 impl Pending {
@@ -607,7 +619,7 @@ fn make_design(p: &Pending, images: &crate::textures::DecodedImages) -> Result<D
     let stem = match img {
         ImageRef::File(f) => f
             .file_stem()
-            .map(|s| s.to_string_lossy().into_owned())
+            .map(|s| crate::import::text::file_name_for_display(s, p.text_encoding))
             .unwrap_or_default(),
         other => other.name(),
     };

@@ -231,6 +231,16 @@ pub(crate) fn path_of(name: &str) -> PathBuf {
     PathBuf::from(name)
 }
 
+/// A file's name for a message or a texture name: decoded with `encoding` (the model's names'
+/// encoding) where it is not UTF-8, so a name written on Windows reads as its letters.
+pub fn file_name_for_display(name: &std::ffi::OsStr, encoding: Option<TextEncoding>) -> String {
+    let text = file_name_text(name);
+    match encoding {
+        Some(TextEncoding(e)) if is_escaped(&text) => decode_escaped(&text, e),
+        _ => name.to_string_lossy().into_owned(),
+    }
+}
+
 /// A file name found on disk in the form names take here: escaped where it is not UTF-8.
 pub(crate) fn file_name_text(name: &std::ffi::OsStr) -> Cow<'_, str> {
     #[cfg(unix)]
