@@ -742,7 +742,7 @@ impl Statements {
     /// encoding given, else the material library's, else the one guessed from the names; the
     /// parts whose material the escaped name did not find get it by the decoded one. Returns
     /// how they were read, for the warnings to be decoded alike.
-    fn decode_names(&self, out: &mut Imported) -> Option<text::Decoded> {
+    fn decode_names(&mut self, out: &mut Imported) -> Option<text::Decoded> {
         let escaped = |n: &Option<String>| n.as_deref().is_some_and(text::is_escaped);
         fn names(p: &Part) -> [&Option<String>; 3] {
             [&p.names.material, &p.names.group, &p.names.object]
@@ -797,6 +797,17 @@ impl Statements {
                     .as_ref()
                     .and_then(|n| self.material_ids.get(n).copied());
             }
+        }
+        // What the warnings below name, so a `usemtl` found by its decoded name (a library
+        // saved again as UTF-8) is not reported missing.
+        for (n, _) in &mut self.unknown_materials {
+            *n = text::decode_escaped(n, encoding);
+        }
+        for n in &mut self.empty_groups {
+            *n = text::decode_escaped(n, encoding);
+        }
+        if let Some((n, _)) = &mut self.group_faces {
+            *n = text::decode_escaped(n, encoding);
         }
         Some(decoded)
     }
@@ -2372,6 +2383,49 @@ fn load_mtllib(
 mod tests {
     use super::*;
     use proptest::prelude::*;
+
+    /// An OBJ in windows-1251 beside its library saved again as UTF-8: the names are decoded
+    /// (guessed from the OBJ's own), and `usemtl` finds its material by the decoded name.
+    #[test]
+    fn a_code_page_obj_finds_its_materials_in_a_utf8_library() {
+        let dir = tempfile::tempdir().unwrap();
+        let obj = "mtllib m.mtl\nv 0 0 0\nv 1 0 0\nv 0 1 0\no Окно_южное\nusemtl Витраж_розы\nf 1 2 3\n\
+                   g Пустая_группа\nusemtl Нет_такого\n";
+        let bytes = encoding_rs::WINDOWS_1251.encode(obj).0;
+        std::fs::write(dir.path().join("m.obj"), &bytes).unwrap();
+        std::fs::write(
+            dir.path().join("m.mtl"),
+            "newmtl Витраж_розы\nKd 0.2 0.4 0.8\n",
+        )
+        .unwrap();
+        let m = import(&dir.path().join("m.obj"), None).unwrap();
+        let part = &m.parts[0];
+        assert_eq!(part.names.object.as_deref(), Some("Окно_южное"));
+        assert_eq!(part.names.material.as_deref(), Some("Витраж_розы"));
+        assert_eq!(
+            m.materials[part.material.unwrap() as usize].diffuse,
+            [0.2, 0.4, 0.8]
+        );
+        assert_eq!(m.text_encoding.map(|e| e.name()), Some("windows-1251"));
+        let warnings: Vec<String> = m.warnings.iter().map(|w| w.to_string()).collect();
+        assert!(
+            !warnings.iter().any(|w| w.contains("Витраж_розы")),
+            "{warnings:?}"
+        );
+        // The ones that are missing are named in their letters.
+        assert!(
+            warnings
+                .iter()
+                .any(|w| w.contains("\"Нет_такого\" is not defined")),
+            "{warnings:?}"
+        );
+        assert!(
+            warnings
+                .iter()
+                .any(|w| w.contains("groups without faces: Пустая_группа")),
+            "{warnings:?}"
+        );
+    }
 
     /// MTL forms real files use: one-value colours (tobj panicked on them), CIE XYZ and
     /// spectral colours, `d -halo`, keywords in other cases, trailing comments, text that is
