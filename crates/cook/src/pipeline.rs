@@ -34,6 +34,14 @@ pub fn cook(manifest: &Manifest, settings: &Settings) -> Result<CookOutput, Cook
     // 1–3. Import every source into a triangle soup (errors name file and line); tag source
     // names to pack materials with a class; find the windows in the geometry.
     let mut prepared = prepare(manifest, settings, &mut report)?;
+    // From here on the manifest's cameras and light are in the scene's shifted frame.
+    let shifted_manifest;
+    let manifest = if prepared.shift == [0.0; 3] {
+        manifest
+    } else {
+        shifted_manifest = manifest.shifted(prepared.shift);
+        &shifted_manifest
+    };
     for src in &mut prepared.imported {
         src.release_parts();
     }
@@ -78,6 +86,7 @@ pub fn cook(manifest: &Manifest, settings: &Settings) -> Result<CookOutput, Cook
         tri_material,
         windows: found,
         images,
+        shift: _,
     } = prepared;
     // Nothing reads the imported triangles again: let them go, and the attributes once the
     // vertices are gathered, before the vertex cache step, which would otherwise be the peak
@@ -235,29 +244,74 @@ impl Lap {
     }
 }
 
+/// A source as imported, and how long its import took.
+pub type ImportedSource = (import::Imported, Duration);
+
 /// Imports every mesh source in parallel and applies its manifest transform; a bare model's
 /// is the turn that stands it up (`settings.up`).
+///
+/// A model in survey coordinates (see `Imported::origin`) is moved near the origin: the scene
+/// is shifted by the returned vector (subtracted from every position, the manifest's cameras
+/// and light too), the first such mesh's origin placed by its transform and rounded to whole
+/// units, so that meshes of one survey keep their places to each other. Zero for any other
+/// scene, whose positions are transformed as they always were.
 pub fn import_sources(
     manifest: &Manifest,
     settings: &Settings,
-) -> Result<Vec<(import::Imported, Duration)>, CookError> {
+) -> Result<(Vec<ImportedSource>, [f64; 3]), CookError> {
     let up = settings.up;
-    let results: Vec<Result<(import::Imported, Duration), CookError>> = manifest
+    let results: Vec<Result<ImportedSource, CookError>> = manifest
         .meshes
         .par_iter()
         .map(|m| {
             let start = Instant::now();
-            let mut imported = import::import_with(&m.source, settings.text_encoding)?;
-            imported.transform(if manifest.bare {
-                up.to_y_up()
-            } else {
-                m.transform()
-            });
+            let imported = import::import_with(&m.source, settings.text_encoding)?;
             Ok((imported, start.elapsed()))
         })
         .collect();
     // The first error in manifest order, so the message does not depend on thread timing.
-    results.into_iter().collect()
+    let mut sources: Vec<(import::Imported, Duration)> =
+        results.into_iter().collect::<Result<_, _>>()?;
+    let transform = |m: &crate::manifest::MeshSource| {
+        if manifest.bare {
+            up.to_y_up()
+        } else {
+            m.transform()
+        }
+    };
+    let shift = manifest
+        .meshes
+        .iter()
+        .zip(&sources)
+        .find(|(_, (src, _))| src.origin != [0.0; 3])
+        .map_or([0.0; 3], |(m, (src, _))| {
+            let placed = transform(m)
+                .as_dmat4()
+                .transform_point3(glam::DVec3::from(src.origin));
+            placed.round().to_array()
+        });
+    sources
+        .par_iter_mut()
+        .zip(&manifest.meshes)
+        .for_each(|((src, started), m)| {
+            let start = Instant::now();
+            let matrix = transform(m);
+            if shift == [0.0; 3] && src.origin == [0.0; 3] {
+                src.transform(matrix);
+            } else {
+                // Where the file's origin lands, less the shift: in f64, so that only the
+                // model's own extent is ever rounded to f32.
+                let t = matrix
+                    .as_dmat4()
+                    .transform_point3(glam::DVec3::from(src.origin))
+                    - glam::DVec3::from(shift);
+                let mut moved = matrix;
+                moved.w_axis = t.as_vec3().extend(1.0);
+                src.transform(moved);
+            }
+            *started += start.elapsed();
+        });
+    Ok((sources, shift))
 }
 
 /// Which materials are windows and which vertex attributes each needs. A window with a
@@ -294,6 +348,9 @@ pub struct Prepared {
     pub windows: window_plan::Windows,
     /// Image files the window stage decoded, for the texture jobs to reuse.
     pub images: textures::DecodedImages,
+    /// Subtracted from the model's positions, and from the manifest's cameras and light: see
+    /// [`import_sources`].
+    pub shift: [f64; 3],
 }
 
 /// Runs import → tag → windows; see [`Prepared`].
@@ -304,7 +361,21 @@ pub fn prepare(
 ) -> Result<Prepared, CookError> {
     settings.check(manifest)?;
     let start = Instant::now();
-    let sources = import_sources(manifest, settings)?;
+    let (sources, shift) = import_sources(manifest, settings)?;
+    if shift != [0.0; 3] {
+        report.notes.push(crate::Warning::new(
+            &manifest.path,
+            None,
+            format!(
+                "the model lies far from the origin (survey coordinates): the scene is moved by \
+                 [{}, {}, {}] so that its 32-bit positions keep their precision (at 5,000,000 \
+                 units they are half a unit apart); the manifest's cameras and light move with it",
+                0.0 - shift[0],
+                0.0 - shift[1],
+                0.0 - shift[2]
+            ),
+        ));
+    }
     let (mut imported, import_times): (Vec<import::Imported>, Vec<Duration>) =
         sources.into_iter().unzip();
     let tagged = Instant::now();
@@ -318,6 +389,13 @@ pub fn prepare(
     let found = Instant::now();
     report.stage("tag", found - tagged);
     let images = textures::DecodedImages::default();
+    let shifted_manifest;
+    let manifest = if shift == [0.0; 3] {
+        manifest
+    } else {
+        shifted_manifest = manifest.shifted(shift);
+        &shifted_manifest
+    };
     let windows = window_plan::plan(
         manifest,
         &settings.window_overrides,
@@ -335,6 +413,7 @@ pub fn prepare(
         tri_material,
         windows,
         images,
+        shift,
     })
 }
 

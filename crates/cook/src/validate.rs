@@ -144,8 +144,16 @@ pub fn validate_scene_with(
         tagging,
         tri_material,
         windows: found,
+        shift,
         ..
     } = crate::prepare(manifest, settings, &mut report)?;
+    let shifted_manifest;
+    let manifest = if shift == [0.0; 3] {
+        manifest
+    } else {
+        shifted_manifest = manifest.shifted(shift);
+        &shifted_manifest
+    };
 
     // Tagging.
     let untagged = crate::pipeline::heuristic_notes(&sources, &tagging);

@@ -160,6 +160,16 @@ pub fn run(args: Args) -> Outcome {
             "# Z-up: this turn stands it up.\nrotate_deg = [-90.0, 0.0, 0.0]"
         );
     }
+    if prepared.shift != [0.0; 3] {
+        // The cook moved the model from its survey coordinates; written out, the move is the
+        // mesh's own, and the views below are where the cook put them.
+        let [x, y, z] = prepared.shift.map(|v| 0.0 - v);
+        let _ = writeln!(
+            t,
+            "# Survey coordinates: this moves the model near the origin, where 32-bit positions\n\
+             # keep their precision.\ntranslate = [{x:.1}, {y:.1}, {z:.1}]"
+        );
+    }
     let _ = writeln!(t);
 
     // Rules: one per deciding name, in the order the parts appear.

@@ -2257,3 +2257,132 @@ fn shift_jis_names_with_the_encoding_given() {
     let w = window(&v, glass);
     assert_eq!(w["design"], "窓ガラス.fitted", "{w}");
 }
+
+// ---- survey coordinates -------------------------------------------------------------------
+
+/// The third-party Cornell box in metres, placed as a scan exported in UTM coordinates is:
+/// 500,000 east and 5,000,000 north (x and z), where f32 positions are 1/32 and 1/2 apart.
+fn cornell_in_survey_coordinates(dir: &Path, east: f64, north: f64) -> PathBuf {
+    let source = std::fs::read_to_string(third_party("cornell_box/cornell_box.obj")).unwrap();
+    let mut obj = String::new();
+    let mut last_object = String::new();
+    for line in source.lines() {
+        match line.split_once(' ') {
+            Some(("v", rest)) => {
+                let v: Vec<f64> = rest
+                    .split_whitespace()
+                    .map(|t| t.parse().unwrap())
+                    .collect();
+                writeln!(
+                    obj,
+                    "v {:.4} {:.4} {:.4}",
+                    v[0] / 100.0 + east,
+                    v[1] / 100.0,
+                    v[2] / 100.0 + north
+                )
+                .unwrap();
+            }
+            // The back wall is glass, so that the cook finds a window to measure.
+            Some(("usemtl", _)) if last_object == "back_wall" => {
+                writeln!(obj, "usemtl glass").unwrap()
+            }
+            Some(("o", name)) => {
+                last_object = name.trim().to_string();
+                writeln!(obj, "{line}").unwrap()
+            }
+            _ => writeln!(obj, "{line}").unwrap(),
+        }
+    }
+    let name = if east == 0.0 { "near" } else { "survey" };
+    let path = dir.join(format!("{name}.obj"));
+    std::fs::write(&path, obj).unwrap();
+    let mut mtl = std::fs::read_to_string(third_party("cornell_box/cornell_box.mtl")).unwrap();
+    mtl += "\nnewmtl glass\nKd 0.2 0.4 0.9\nd 0.5\nillum 4\n";
+    std::fs::write(dir.join("cornell_box.mtl"), mtl).unwrap();
+    path
+}
+
+/// A model in survey coordinates cooks to the geometry it has near the origin (it used to
+/// snap to a half-unit grid without a word): moved by whole units, said in a note, and `init`
+/// writes the move as the mesh's `translate`, with which the manifest cooks the same. A
+/// manifest camera placed in the survey frame moves with the model.
+#[test]
+fn a_model_in_survey_coordinates_keeps_its_precision() {
+    let dir = tempfile::tempdir().unwrap();
+    let near = cornell_in_survey_coordinates(dir.path(), 0.0, 0.0);
+    let survey = cornell_in_survey_coordinates(dir.path(), 500_000.123, 5_000_000.456);
+    let (near_pack, survey_pack) = (dir.path().join("near.pack"), dir.path().join("survey.pack"));
+    cook(&near, &near_pack, &[]);
+    let err = cook(&survey, &survey_pack, &[]);
+    // Its first vertex, rounded to whole units, is where the scene is moved from.
+    let first: Vec<f64> = std::fs::read_to_string(&survey)
+        .unwrap()
+        .lines()
+        .find_map(|l| l.strip_prefix("v "))
+        .unwrap()
+        .split_whitespace()
+        .map(|t| t.parse::<f64>().unwrap())
+        .collect();
+    let shift = [first[0].round(), 0.0, first[2].round()];
+    let moved = format!(
+        "the model lies far from the origin (survey coordinates): the scene is moved by [{}, 0, {}]",
+        -shift[0], -shift[2]
+    );
+    assert!(err.contains(&moved), "{moved}\n{err}");
+    // The same floor and walls, to f32 precision at the model's own size.
+    let sizes = |pack: &Path| -> Vec<(String, f64, f64)> {
+        windows(&info(pack))
+            .iter()
+            .map(|w| (w["name"].to_string(), f(&w["width"]), f(&w["height"])))
+            .collect()
+    };
+    let (a, b) = (sizes(&near_pack), sizes(&survey_pack));
+    assert_eq!(a.len(), 1, "{a:?}");
+    assert_eq!(a.len(), b.len());
+    for (x, y) in a.iter().zip(&b) {
+        assert!(
+            (x.1 - y.1).abs() < 1e-4 && (x.2 - y.2).abs() < 1e-4,
+            "{x:?} {y:?}"
+        );
+    }
+    let centre = |pack: &Path| vec3(&windows(&info(pack))[0]["centre"]);
+    // Moved by whole units: the survey's fractions stay.
+    let (cn, cs) = (centre(&near_pack), centre(&survey_pack));
+    let offset = [500_000.123 - shift[0], 0.0, 5_000_000.456 - shift[2]];
+    assert!(
+        (0..3).all(|k| (cn[k] + offset[k] - cs[k]).abs() < 1e-4),
+        "{cn:?} {cs:?} {offset:?}"
+    );
+
+    let scene = dir.path().join("survey.toml");
+    let o = cooker(&[&"init", &survey, &"-o", &scene]);
+    assert_eq!(o.status.code(), Some(0), "{}", text(&o.stderr));
+    let mut toml = std::fs::read_to_string(&scene).unwrap();
+    let translate = format!("translate = [{:.1}, 0.0, {:.1}]", -shift[0], -shift[2]);
+    assert!(toml.contains(&translate), "{toml}");
+    let from_manifest = dir.path().join("manifest.pack");
+    let err = cook(&scene, &from_manifest, &[]);
+    assert!(!err.contains("far from the origin"), "{err}");
+    assert_eq!(sizes(&from_manifest), b);
+
+    // A camera written in the survey frame, in a manifest without the translate.
+    toml = toml.replace(&translate, "");
+    toml += &format!(
+        "\n[[camera]]\nname = \"survey\"\nposition = [{}, 2.5, {}]\ntarget = [{}, 2.5, {}]\n",
+        shift[0] + 2.75,
+        shift[2] + 9.5,
+        shift[0] + 2.75,
+        shift[2] + 2.0
+    );
+    std::fs::write(&scene, toml).unwrap();
+    cook(&scene, &from_manifest, &[]);
+    let cooked = pack::Pack::open(&from_manifest).unwrap();
+    let camera = cooked
+        .toc()
+        .cameras
+        .iter()
+        .find(|c| c.name == "survey")
+        .unwrap();
+    assert_eq!(camera.position, [2.75, 2.5, 9.5]);
+    assert_eq!(camera.target, [2.75, 2.5, 2.0]);
+}

@@ -514,6 +514,9 @@ pub struct Imported {
     /// The encoding an OBJ's or its MTL's names that are not UTF-8 were read with (given or
     /// guessed); `None` where all are UTF-8.
     pub text_encoding: Option<text::TextEncoding>,
+    /// Subtracted from the file's positions (in f64, before they were rounded to f32): a
+    /// model in survey coordinates, far from the origin; zero for any other.
+    pub origin: [f64; 3],
 }
 
 impl Imported {

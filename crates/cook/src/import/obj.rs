@@ -288,6 +288,52 @@ struct Chunk {
     triangles: usize,
     statements: Vec<(usize, usize, Statement)>,
     error: Option<(usize, String)>,
+    /// Subtracted from every position, in f64, before it is rounded to f32 (see
+    /// [`far_origin`]).
+    origin: Option<[f64; 3]>,
+}
+
+/// Coordinates farther than this from the origin (2^17 units, where f32 positions are 1/64
+/// of a unit apart) are taken as a model placed in survey coordinates: a scanned church
+/// exported in UTM metres lies 500,000 east and 5,000,000 north, where f32 positions are 3 cm
+/// and 50 cm apart, and the cook's geometry snapped to that grid without a word.
+const FAR: f64 = 131_072.0;
+
+/// Where a model in survey coordinates is moved from before its positions become f32: the
+/// first vertex's far coordinates, rounded to whole units (exact in f32 and f64 alike); `None`
+/// for a model near the origin, whose positions are read as they always were.
+fn far_origin(bytes: &[u8]) -> Option<[f64; 3]> {
+    let line = lines(bytes)
+        .map(trim)
+        .find(|l| matches!(l, [b'v', b' ' | b'\t', ..]))?;
+    let mut origin = [0.0f64; 3];
+    for (o, t) in origin.iter_mut().zip(tokens(&line[1..])) {
+        let v: f64 = std::str::from_utf8(t).ok()?.parse().ok()?;
+        if v.is_finite() && v.abs() > FAR {
+            *o = v.round();
+        }
+    }
+    (origin != [0.0; 3]).then_some(origin)
+}
+
+/// A vertex's three coordinates less `origin`, each read in f64 and rounded to f32 once.
+fn far_vertex(rest: &[u8], origin: [f64; 3]) -> Result<[f32; 3], String> {
+    let mut it = tokens(rest);
+    let mut p = [0.0f32; 3];
+    for (k, v) in p.iter_mut().enumerate() {
+        let t = it
+            .next()
+            .ok_or_else(|| format!("vertex has {k} coordinates, needs 3"))?;
+        let x: f64 = std::str::from_utf8(t)
+            .ok()
+            .and_then(|s| s.parse().ok())
+            .ok_or_else(|| format!("vertex coordinate {:?} is not a number", text(t)))?;
+        if !x.is_finite() {
+            return Err(format!("vertex coordinate {:?} is not finite", text(t)));
+        }
+        *v = (x - origin[k]) as f32;
+    }
+    Ok(p)
 }
 
 const ABSENT: i32 = i32::MIN;
@@ -351,8 +397,11 @@ impl Chunk {
 }
 
 /// Reads a chunk's lines, numbered from 1 within the chunk.
-fn read_chunk(bytes: &[u8]) -> Chunk {
-    let mut c = Chunk::default();
+fn read_chunk(bytes: &[u8], origin: Option<[f64; 3]>) -> Chunk {
+    let mut c = Chunk {
+        origin,
+        ..Chunk::default()
+    };
     // Sized from the lines' keywords first (a triangle's three corners each; a polygon grows
     // the corners), so the large vectors do not grow: each doubling touched fresh memory,
     // and its page faults were a tenth of a 100k-triangle cook.
@@ -507,6 +556,10 @@ fn read_line(c: &mut Chunk, line_no: usize, raw: &[u8]) -> Result<(), String> {
     let rest = trim(&line[keyword.len()..]);
     let statement = match keyword {
         b"v" => {
+            if let Some(origin) = c.origin {
+                c.positions.push(far_vertex(rest, origin)?);
+                return Ok(());
+            }
             if let Some(p) = plain_floats(rest) {
                 c.positions.push(p);
                 return Ok(());
@@ -1123,6 +1176,8 @@ fn parse_lines(
         ..Default::default()
     };
     let mut statements = Statements::new(given);
+    let origin = far_origin(bytes);
+    out.origin = origin.unwrap_or_default();
     let mut face: Vec<Corner> = Vec::new();
     let mut poly: Vec<[f32; 3]> = Vec::new();
     let mut tris: Vec<[u32; 3]> = Vec::new();
@@ -1137,6 +1192,11 @@ fn parse_lines(
         let keyword = it.next().unwrap_or_default();
         let rest = trim(&line[keyword.len()..]);
         match keyword {
+            b"v" if origin.is_some() => {
+                let origin = origin.unwrap_or_default();
+                let p = far_vertex(rest, origin).map_err(|m| bad(path, line_no, m))?;
+                out.positions.push(p);
+            }
             b"v" => {
                 let mut p = [0.0f32; 3];
                 for (k, c) in p.iter_mut().enumerate() {
@@ -1300,6 +1360,7 @@ fn parse_chunked(
     given: Option<text::TextEncoding>,
 ) -> Result<Imported, CookError> {
     let mut assembler = Assembler::new(path, given);
+    assembler.set_origin(bytes);
     assembler.read(&chunks(bytes, chunk_bytes), 0);
     assembler.finish()
 }
@@ -1344,6 +1405,7 @@ fn parse_stream(
     let mut block: Vec<u8> = Vec::with_capacity(room);
     let mut next: Vec<u8> = Vec::with_capacity(room);
     let mut end = fill(reader, &mut block).map_err(io)?;
+    assembler.set_origin(&block);
     // The bytes of `block` already checked: a line carried over, or read on, is not checked
     // again (a file of one long line would be, block after block).
     let mut checked = 0;
@@ -1413,6 +1475,8 @@ struct Assembler<'p> {
     /// The file's first error: no batch after it is read.
     error: Option<CookError>,
     statements: Statements,
+    /// See [`Chunk::origin`].
+    origin: Option<[f64; 3]>,
 }
 
 impl<'p> Assembler<'p> {
@@ -1430,7 +1494,14 @@ impl<'p> Assembler<'p> {
             started: false,
             error: None,
             statements: Statements::new(given),
+            origin: None,
         }
+    }
+
+    /// Moves the file's positions by [`far_origin`] of its first bytes; before any batch.
+    fn set_origin(&mut self, first: &[u8]) {
+        self.origin = far_origin(first);
+        self.out.origin = self.origin.unwrap_or_default();
     }
 
     /// Reads consecutive runs of whole lines (one thread each) and assembles them; nothing
@@ -1442,9 +1513,12 @@ impl<'p> Assembler<'p> {
             return;
         }
         let chunks: Vec<Chunk> = if pieces.len() == 1 {
-            vec![read_chunk(pieces[0])]
+            vec![read_chunk(pieces[0], self.origin)]
         } else {
-            pieces.par_iter().map(|b| read_chunk(b)).collect()
+            pieces
+                .par_iter()
+                .map(|b| read_chunk(b, self.origin))
+                .collect()
         };
         let bytes: usize = pieces.iter().map(|p| p.len()).sum();
         let ahead = rest as f64 / bytes.max(1) as f64;
@@ -2383,6 +2457,36 @@ fn load_mtllib(
 mod tests {
     use super::*;
     use proptest::prelude::*;
+
+    /// A model in survey coordinates: positions read in f64 less the first vertex's whole
+    /// units, by the line reader, the chunked one and the streamed one alike.
+    #[test]
+    fn survey_coordinates_are_read_relative_to_the_first_vertex() {
+        let text = "# scan\nv 500000.125 12.5 5000000.375\nv 500001.25 12.5 5000003.5\n\
+                    v 500000.125 14.75 5000000.375\nf 1 2 3\n";
+        let path = Path::new("scan.obj");
+        let lines = parse_lines(path, text.as_bytes(), None).unwrap();
+        assert_eq!(lines.origin, [500000.0, 0.0, 5000000.0]);
+        assert_eq!(
+            lines.positions,
+            [
+                [0.125, 12.5, 0.375],
+                [1.25, 12.5, 3.5],
+                [0.125, 14.75, 0.375]
+            ]
+        );
+        let chunked = parse_chunked(path, text.as_bytes(), 16, None).unwrap();
+        let mut reader = std::io::Cursor::new(text.as_bytes());
+        let streamed = parse_stream(path, &mut reader, text.len() as u64, 16, 64, None).unwrap();
+        for other in [chunked, streamed] {
+            assert_eq!(other.origin, lines.origin);
+            assert_eq!(other.positions, lines.positions);
+        }
+        // Near the origin nothing moves.
+        let near = parse_lines(path, b"v 131000 1 2\nv 1 2 3\nv 0 0 1\nf 1 2 3\n", None).unwrap();
+        assert_eq!(near.origin, [0.0; 3]);
+        assert_eq!(near.positions[0], [131000.0, 1.0, 2.0]);
+    }
 
     /// An OBJ in windows-1251 beside its library saved again as UTF-8: the names are decoded
     /// (guessed from the OBJ's own), and `usemtl` finds its material by the decoded name.

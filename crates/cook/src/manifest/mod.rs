@@ -344,6 +344,25 @@ pub struct Background {
 }
 
 impl Manifest {
+    /// This manifest in a scene moved by `-shift` (a model in survey coordinates, see
+    /// `pipeline::import_sources`): its cameras and point light, which it places in the
+    /// model's coordinates, moved with it (in f64).
+    pub fn shifted(&self, shift: [f64; 3]) -> Manifest {
+        let moved = |p: [f32; 3]| -> [f32; 3] {
+            std::array::from_fn(|k| (f64::from(p[k]) - shift[k]) as f32)
+        };
+        let mut m = self.clone();
+        for c in &mut m.cameras {
+            c.position = moved(c.position);
+            c.target = moved(c.target);
+        }
+        if let Some(pack::LightKind::Point { position, .. }) = m.light.as_mut().map(|l| &mut l.kind)
+        {
+            *position = moved(*position);
+        }
+        m
+    }
+
     /// Reads and checks a `scene.toml`.
     pub fn load(path: &Path) -> Result<Manifest, CookError> {
         let text = std::fs::read_to_string(path).map_err(|source| {
