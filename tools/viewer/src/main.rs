@@ -34,6 +34,10 @@ struct Args {
     /// The up axis of a bare model, as `cooker cook --up`: `z` stands up a Z-up model.
     #[arg(long, value_name = "y|z", default_value = "y", value_parser = cook::UpAxis::from_arg)]
     up: cook::UpAxis,
+    /// How names in OBJ and MTL files that are not UTF-8 are read, as `cooker cook
+    /// --text-encoding` (default: guessed from them).
+    #[arg(long, value_name = "LABEL", value_parser = cook::import::text::TextEncoding::from_label)]
+    text_encoding: Option<cook::import::text::TextEncoding>,
     /// Render to files instead of opening a window (the only mode without a display).
     #[arg(long)]
     headless: bool,
@@ -219,6 +223,7 @@ static VERBOSE: std::sync::atomic::AtomicBool = std::sync::atomic::AtomicBool::n
 struct CookOptions {
     windows: Vec<cook::manifest::WindowDesign>,
     up: cook::UpAxis,
+    text_encoding: Option<cook::import::text::TextEncoding>,
 }
 
 static COOK_OPTIONS: std::sync::OnceLock<CookOptions> = std::sync::OnceLock::new();
@@ -231,14 +236,19 @@ fn open_source(path: &Path) -> Result<Box<dyn Read + Send>> {
         let start = Instant::now();
         let manifest =
             cook::Manifest::open(path).with_context(|| format!("loading {}", path.display()))?;
-        let (window_overrides, up) = COOK_OPTIONS
+        let (window_overrides, up, text_encoding) = COOK_OPTIONS
             .get()
-            .map_or((Vec::new(), cook::UpAxis::Y), |o| (o.windows.clone(), o.up));
-        let settings = cook::Settings {
+            .map_or((Vec::new(), cook::UpAxis::Y, None), |o| {
+                (o.windows.clone(), o.up, o.text_encoding)
+            });
+        let mut settings = cook::Settings {
             window_overrides,
             up,
             ..cook::Settings::new(&manifest)
         };
+        if text_encoding.is_some() {
+            settings.text_encoding = text_encoding;
+        }
         let out = cook::cook(&manifest, &settings)
             .with_context(|| format!("cooking {}", path.display()))?;
         for w in &out.report.warnings {
@@ -583,6 +593,7 @@ fn main() -> Result<()> {
     let _ = COOK_OPTIONS.set(CookOptions {
         windows: cook::manifest::WindowDesign::overrides(&args.windows)?,
         up: args.up,
+        text_encoding: args.text_encoding,
     });
     let mut settings = god_ray_settings(&args)?;
     settings.shadows.enabled = !args.no_occlusion;
