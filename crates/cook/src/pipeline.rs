@@ -35,13 +35,8 @@ pub fn cook(manifest: &Manifest, settings: &Settings) -> Result<CookOutput, Cook
     // names to pack materials with a class; find the windows in the geometry.
     let mut prepared = prepare(manifest, settings, &mut report)?;
     // From here on the manifest's cameras and light are in the scene's shifted frame.
-    let shifted_manifest;
-    let manifest = if prepared.shift == [0.0; 3] {
-        manifest
-    } else {
-        shifted_manifest = manifest.shifted(prepared.shift);
-        &shifted_manifest
-    };
+    let framed = manifest.shifted(prepared.shift);
+    let manifest = &*framed;
     for src in &mut prepared.imported {
         src.release_parts();
     }
@@ -389,15 +384,9 @@ pub fn prepare(
     let found = Instant::now();
     report.stage("tag", found - tagged);
     let images = textures::DecodedImages::default();
-    let shifted_manifest;
-    let manifest = if shift == [0.0; 3] {
-        manifest
-    } else {
-        shifted_manifest = manifest.shifted(shift);
-        &shifted_manifest
-    };
+    let framed = manifest.shifted(shift);
     let windows = window_plan::plan(
-        manifest,
+        &framed,
         &settings.window_overrides,
         &mut imported,
         &mut tagging,

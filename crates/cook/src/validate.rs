@@ -147,13 +147,8 @@ pub fn validate_scene_with(
         shift,
         ..
     } = crate::prepare(manifest, settings, &mut report)?;
-    let shifted_manifest;
-    let manifest = if shift == [0.0; 3] {
-        manifest
-    } else {
-        shifted_manifest = manifest.shifted(shift);
-        &shifted_manifest
-    };
+    let framed = manifest.shifted(shift);
+    let manifest = &*framed;
 
     // Tagging.
     let untagged = crate::pipeline::heuristic_notes(&sources, &tagging);

@@ -346,8 +346,11 @@ pub struct Background {
 impl Manifest {
     /// This manifest in a scene moved by `-shift` (a model in survey coordinates, see
     /// `pipeline::import_sources`): its cameras and point light, which it places in the
-    /// model's coordinates, moved with it (in f64).
-    pub fn shifted(&self, shift: [f64; 3]) -> Manifest {
+    /// model's coordinates, moved with it (in f64). Itself, borrowed, where nothing moves.
+    pub fn shifted(&self, shift: [f64; 3]) -> std::borrow::Cow<'_, Manifest> {
+        if shift == [0.0; 3] {
+            return std::borrow::Cow::Borrowed(self);
+        }
         let moved = |p: [f32; 3]| -> [f32; 3] {
             std::array::from_fn(|k| (f64::from(p[k]) - shift[k]) as f32)
         };
@@ -360,7 +363,7 @@ impl Manifest {
         {
             *position = moved(*position);
         }
-        m
+        std::borrow::Cow::Owned(m)
     }
 
     /// Reads and checks a `scene.toml`.
