@@ -265,8 +265,7 @@ pub fn import_sources(
         })
         .collect();
     // The first error in manifest order, so the message does not depend on thread timing.
-    let mut sources: Vec<(import::Imported, Duration)> =
-        results.into_iter().collect::<Result<_, _>>()?;
+    let mut sources: Vec<ImportedSource> = results.into_iter().collect::<Result<_, _>>()?;
     let transform = |m: &crate::manifest::MeshSource| {
         if manifest.bare {
             up.to_y_up()

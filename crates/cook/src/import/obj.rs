@@ -316,22 +316,25 @@ fn far_origin(bytes: &[u8]) -> Option<[f64; 3]> {
     (origin != [0.0; 3]).then_some(origin)
 }
 
-/// A vertex's three coordinates less `origin`, each read in f64 and rounded to f32 once.
-fn far_vertex(rest: &[u8], origin: [f64; 3]) -> Result<[f32; 3], String> {
+/// A vertex's three coordinates (`rest` of its line) by the general number reader, with the
+/// error both readers give. With an `origin` (see [`far_origin`]) each is read in f64 and
+/// rounded to f32 once, less the origin; without, read as f32 (the same bits as ever).
+fn vertex(rest: &[u8], origin: Option<[f64; 3]>) -> Result<[f32; 3], String> {
     let mut it = tokens(rest);
     let mut p = [0.0f32; 3];
     for (k, v) in p.iter_mut().enumerate() {
         let t = it
             .next()
             .ok_or_else(|| format!("vertex has {k} coordinates, needs 3"))?;
-        let x: f64 = std::str::from_utf8(t)
-            .ok()
-            .and_then(|s| s.parse().ok())
-            .ok_or_else(|| format!("vertex coordinate {:?} is not a number", text(t)))?;
+        let x = match origin {
+            None => parse_f32(t).map(f64::from),
+            Some(_) => std::str::from_utf8(t).ok().and_then(|s| s.parse().ok()),
+        }
+        .ok_or_else(|| format!("vertex coordinate {:?} is not a number", text(t)))?;
         if !x.is_finite() {
             return Err(format!("vertex coordinate {:?} is not finite", text(t)));
         }
-        *v = (x - origin[k]) as f32;
+        *v = (x - origin.map_or(0.0, |o| o[k])) as f32;
     }
     Ok(p)
 }
@@ -556,26 +559,13 @@ fn read_line(c: &mut Chunk, line_no: usize, raw: &[u8]) -> Result<(), String> {
     let rest = trim(&line[keyword.len()..]);
     let statement = match keyword {
         b"v" => {
-            if let Some(origin) = c.origin {
-                c.positions.push(far_vertex(rest, origin)?);
-                return Ok(());
-            }
-            if let Some(p) = plain_floats(rest) {
+            if c.origin.is_none()
+                && let Some(p) = plain_floats(rest)
+            {
                 c.positions.push(p);
                 return Ok(());
             }
-            let mut p = [0.0f32; 3];
-            for (k, v) in p.iter_mut().enumerate() {
-                let t = it
-                    .next()
-                    .ok_or_else(|| format!("vertex has {k} coordinates, needs 3"))?;
-                *v = parse_f32(t)
-                    .ok_or_else(|| format!("vertex coordinate {:?} is not a number", text(t)))?;
-                if !v.is_finite() {
-                    return Err(format!("vertex coordinate {:?} is not finite", text(t)));
-                }
-            }
-            c.positions.push(p);
+            c.positions.push(vertex(rest, c.origin)?);
             return Ok(());
         }
         b"vt" => {
@@ -1192,36 +1182,8 @@ fn parse_lines(
         let keyword = it.next().unwrap_or_default();
         let rest = trim(&line[keyword.len()..]);
         match keyword {
-            b"v" if origin.is_some() => {
-                let origin = origin.unwrap_or_default();
-                let p = far_vertex(rest, origin).map_err(|m| bad(path, line_no, m))?;
-                out.positions.push(p);
-            }
             b"v" => {
-                let mut p = [0.0f32; 3];
-                for (k, c) in p.iter_mut().enumerate() {
-                    let t = it.next().ok_or_else(|| {
-                        bad(
-                            path,
-                            line_no,
-                            format!("vertex has {k} coordinates, needs 3"),
-                        )
-                    })?;
-                    *c = parse_f32(t).ok_or_else(|| {
-                        bad(
-                            path,
-                            line_no,
-                            format!("vertex coordinate {:?} is not a number", text(t)),
-                        )
-                    })?;
-                    if !c.is_finite() {
-                        return Err(bad(
-                            path,
-                            line_no,
-                            format!("vertex coordinate {:?} is not finite", text(t)),
-                        ));
-                    }
-                }
+                let p = vertex(rest, origin).map_err(|m| bad(path, line_no, m))?;
                 out.positions.push(p);
             }
             b"vt" => {
@@ -1920,12 +1882,15 @@ fn find_file(
     let locate = |name: &[u8]| {
         let escaped = text::escaped(name);
         super::locate(dir, &escaped).or_else(|| {
+            // Only a name that is not UTF-8 has another reading, and only then is the
+            // encoding worth guessing.
+            if !text::is_escaped(&escaped) {
+                return None;
+            }
             let text::Decoded::Legacy { encoding, .. } = text::choose(given, [name]) else {
                 return None;
             };
-            text::is_escaped(&escaped)
-                .then(|| super::locate(dir, &text::decode_escaped(&escaped, encoding)))
-                .flatten()
+            super::locate(dir, &text::decode_escaped(&escaped, encoding))
         })
     };
     if let Some(p) = locate(rest) {
