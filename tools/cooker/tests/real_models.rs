@@ -2386,3 +2386,71 @@ fn a_model_in_survey_coordinates_keeps_its_precision() {
     assert_eq!(camera.position, [2.75, 2.5, 9.5]);
     assert_eq!(camera.target, [2.75, 2.5, 2.0]);
 }
+
+/// A glTF placed in survey coordinates by its root node (as scans are) is moved as an OBJ is,
+/// with the same note, and `init` writes the move; the cook from that manifest is not moved
+/// again and has the same geometry.
+#[test]
+fn a_gltf_in_survey_coordinates_is_moved_as_an_obj_is() {
+    let dir = tempfile::tempdir().unwrap();
+    let source = third_party("gltfpack/boxes.gltf");
+    std::fs::copy(
+        source.with_file_name("Box0.bin"),
+        dir.path().join("Box0.bin"),
+    )
+    .unwrap();
+    let mut json: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(&source).unwrap()).unwrap();
+    let count = json["nodes"].as_array().unwrap().len();
+    let root = serde_json::json!({
+        "translation": [500_000.123, 0.0, 5_000_000.456],
+        "children": (0..count).collect::<Vec<_>>(),
+    });
+    json["nodes"].as_array_mut().unwrap().push(root);
+    json["scenes"][0]["nodes"] = serde_json::json!([count]);
+    let far = dir.path().join("far.gltf");
+    std::fs::write(&far, serde_json::to_vec(&json).unwrap()).unwrap();
+
+    let (pack, from_manifest) = (dir.path().join("far.pack"), dir.path().join("m.pack"));
+    let err = cook(&far, &pack, &[]);
+    // Box0's first vertex lies half a unit from the node's origin, on both sides.
+    let moved = "the model lies far from the origin (survey coordinates): the scene is moved by \
+                 [-500000, 0, -5000001]";
+    assert!(err.contains(moved), "{err}");
+    let scene = dir.path().join("far.toml");
+    let o = cooker(&[&"init", &far, &"-o", &scene]);
+    assert_eq!(o.status.code(), Some(0), "{}", text(&o.stderr));
+    let toml = std::fs::read_to_string(&scene).unwrap();
+    assert!(
+        toml.contains("translate = [-500000.0, 0.0, -5000001.0]"),
+        "{toml}"
+    );
+    let err = cook(&scene, &from_manifest, &[]);
+    assert!(!err.contains("far from the origin"), "{err}");
+    let geometry = |p: &Path| {
+        let pack = pack::Pack::open(p).unwrap();
+        let toc = pack.toc();
+        toc.meshes
+            .iter()
+            .map(|m| (m.bounds_min, m.bounds_max))
+            .collect::<Vec<_>>()
+    };
+    assert_eq!(geometry(&pack), geometry(&from_manifest));
+    // Where the boxes lie near the origin, plus the survey's fractions, to f32 precision at
+    // their own size (half a unit at 5,000,000 before).
+    let near = dir.path().join("near.pack");
+    cook(&source, &near, &[]);
+    let offset = [0.123f32, 0.0, -0.544];
+    for ((a_min, a_max), (b_min, b_max)) in geometry(&near).iter().zip(&geometry(&pack)) {
+        for k in 0..3 {
+            assert!(
+                (a_min[k] + offset[k] - b_min[k]).abs() < 1e-5,
+                "{a_min:?} {b_min:?}"
+            );
+            assert!(
+                (a_max[k] + offset[k] - b_max[k]).abs() < 1e-5,
+                "{a_max:?} {b_max:?}"
+            );
+        }
+    }
+}

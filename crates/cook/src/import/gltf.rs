@@ -65,13 +65,19 @@ fn check_glb_header(path: &Path, bytes: &[u8]) -> Result<(), CookError> {
 /// The document, and a GLB's binary chunk in the file's own buffer: gltf's parser copies the
 /// chunk out of the file, and both were held through the import (a 20 MB GLB's import peaked
 /// at 100 MB of heap).
-fn parse(mut bytes: Vec<u8>) -> Result<(gltf::Document, Option<Vec<u8>>), gltf::Error> {
+fn parse(mut bytes: Vec<u8>) -> Result<Parsed, gltf::Error> {
     if !bytes.starts_with(b"glTF") {
         let json = gltf::json::deserialize::from_slice(&bytes)?;
-        return Ok((gltf::Document::from_json_without_validation(json), None));
+        let exact = exact_locals(&bytes, &json);
+        return Ok((
+            gltf::Document::from_json_without_validation(json),
+            None,
+            exact,
+        ));
     }
     let glb = gltf::binary::Glb::from_slice(&bytes)?;
     let json = gltf::json::deserialize::from_slice(&glb.json)?;
+    let exact = exact_locals(&glb.json, &json);
     // Where the chunk lies in the file: `Glb::from_slice` borrows it from there.
     let within = |b: &[u8]| {
         let start = (b.as_ptr() as usize).checked_sub(bytes.as_ptr() as usize)?;
@@ -90,7 +96,92 @@ fn parse(mut bytes: Vec<u8>) -> Result<(gltf::Document, Option<Vec<u8>>), gltf::
         }
         Err(copy) => copy,
     });
-    Ok((gltf::Document::from_json_without_validation(json), blob))
+    Ok((
+        gltf::Document::from_json_without_validation(json),
+        blob,
+        exact,
+    ))
+}
+
+/// The document, a GLB's binary chunk, and [`exact_locals`].
+type Parsed = (gltf::Document, Option<Vec<u8>>, Vec<Option<glam::DMat4>>);
+
+/// Node translations past this (2^14 units, where f32 values are 2^-9 apart) are read again
+/// in f64: a scan placed in survey coordinates by its root node.
+const EXACT_PAST: f32 = 16_384.0;
+
+/// Each node's local transform in f64 from the digits the file writes, where some node is
+/// translated far from the origin (gltf reads them as f32: 500000.123 becomes 500000.125);
+/// empty for any other file, whose f32 transforms are exact enough. A node the f64 reading
+/// cannot give (it failed where gltf's did not) keeps its f32 transform.
+fn exact_locals(text: &[u8], json: &gltf::json::Root) -> Vec<Option<glam::DMat4>> {
+    let far = json.nodes.iter().any(|n| {
+        let t = match (&n.matrix, &n.translation) {
+            (Some(m), _) => [m[12], m[13], m[14]],
+            (None, Some(t)) => *t,
+            (None, None) => return false,
+        };
+        t.iter().any(|c| c.abs() > EXACT_PAST)
+    });
+    if !far {
+        return Vec::new();
+    }
+    #[derive(serde::Deserialize)]
+    struct Nodes {
+        #[serde(default)]
+        nodes: Vec<Node>,
+    }
+    #[derive(serde::Deserialize)]
+    struct Node {
+        matrix: Option<[f64; 16]>,
+        translation: Option<[f64; 3]>,
+        rotation: Option<[f64; 4]>,
+        scale: Option<[f64; 3]>,
+    }
+    let Ok(exact) = serde_json::from_slice::<Nodes>(text) else {
+        return Vec::new();
+    };
+    exact
+        .nodes
+        .into_iter()
+        .map(|n| {
+            let m = match n.matrix {
+                Some(m) => glam::DMat4::from_cols_array(&m),
+                // As gltf composes them: translation, then rotation (not renormalized), then
+                // scale.
+                None => glam::DMat4::from_scale_rotation_translation(
+                    n.scale.map_or(glam::DVec3::ONE, glam::DVec3::from),
+                    n.rotation
+                        .map_or(glam::DQuat::IDENTITY, glam::DQuat::from_array),
+                    n.translation.map_or(glam::DVec3::ZERO, glam::DVec3::from),
+                ),
+            };
+            m.is_finite().then_some(m)
+        })
+        .collect()
+}
+
+/// Where a node or instance is placed: by the f32 chain of gltf's transforms, which places a
+/// model near the origin (bit for bit as ever), and by the same chain in f64, which places one
+/// in survey coordinates (see `Imported::origin`).
+#[derive(Clone, Copy)]
+struct World {
+    m: glam::Mat4,
+    exact: glam::DMat4,
+}
+
+impl World {
+    const IDENTITY: World = World {
+        m: glam::Mat4::IDENTITY,
+        exact: glam::DMat4::IDENTITY,
+    };
+
+    fn then(self, m: glam::Mat4, exact: glam::DMat4) -> World {
+        World {
+            m: self.m * m,
+            exact: self.exact * exact,
+        }
+    }
 }
 
 pub fn import(path: &Path) -> Result<Imported, CookError> {
@@ -113,7 +204,7 @@ pub fn import(path: &Path) -> Result<Imported, CookError> {
         e @ gltf::Error::Validation(_) => bad(path, e.to_string()),
         other => bad(path, format!("invalid glTF: {other}")),
     };
-    let (document, blob) = parse(bytes).map_err(convert)?;
+    let (document, blob, exact) = parse(bytes).map_err(convert)?;
     // gltf-json's validation indexes the POSITION accessor before checking it exists (an
     // out-of-bounds panic found by fuzzing): check every attribute index first.
     let mut json = document.into_json();
@@ -180,10 +271,10 @@ pub fn import(path: &Path) -> Result<Imported, CookError> {
             document.nodes().filter(|n| !child[n.index()]).collect()
         }
     };
-    let mut stack: Vec<(gltf::Node, glam::Mat4, usize)> = roots
+    let mut stack: Vec<(gltf::Node, World, usize)> = roots
         .into_iter()
         .rev()
-        .map(|n| (n, glam::Mat4::IDENTITY, 0))
+        .map(|n| (n, World::IDENTITY, 0))
         .collect();
     let mut visits = 0usize;
     let mut budget = MAX_INSTANCED;
@@ -199,8 +290,13 @@ pub fn import(path: &Path) -> Result<Imported, CookError> {
             ));
         }
         let local = glam::Mat4::from_cols_array_2d(&node.transform().matrix());
-        let world = parent * local;
-        if !world.is_finite() {
+        let exact_local = exact
+            .get(node.index())
+            .copied()
+            .flatten()
+            .unwrap_or_else(|| local.as_dmat4());
+        let world = parent.then(local, exact_local);
+        if !world.m.is_finite() {
             return Err(bad(
                 path,
                 format!("node {} has a non-finite transform", node.index()),
@@ -800,8 +896,8 @@ fn instances(
     ctx: &Ctx,
     document: &gltf::Document,
     node: &gltf::Node,
-    world: glam::Mat4,
-) -> Result<Vec<glam::Mat4>, CookError> {
+    world: World,
+) -> Result<Vec<World>, CookError> {
     let Some(ext) = node.extension_value("EXT_mesh_gpu_instancing") else {
         return Ok(vec![world]);
     };
@@ -872,9 +968,15 @@ fn instances(
             let sc = s
                 .as_ref()
                 .map_or(glam::Vec3::ONE, |s| glam::Vec3::from(s[i]));
-            let m = world * glam::Mat4::from_scale_rotation_translation(sc, q, tr);
-            if m.is_finite() {
-                Ok(m)
+            let m = glam::Mat4::from_scale_rotation_translation(sc, q, tr);
+            let exact = glam::DMat4::from_scale_rotation_translation(
+                sc.as_dvec3(),
+                q.as_dquat(),
+                tr.as_dvec3(),
+            );
+            let placed = world.then(m, exact);
+            if placed.m.is_finite() {
+                Ok(placed)
             } else {
                 Err(fail(format!(
                     "instance {i} (translation {tr}, rotation {q}, scale {sc}) is not a finite \
@@ -892,7 +994,7 @@ fn add_primitive(
     ctx: &Ctx,
     mesh: &gltf::Mesh,
     prim: &gltf::Primitive,
-    worlds: &[glam::Mat4],
+    worlds: &[World],
     parts: &[u32],
     out: &mut Imported,
     budget: &mut usize,
@@ -1082,8 +1184,7 @@ fn add_primitive(
     if out.positions.len().saturating_add(total) >= NONE as usize {
         return Err(bad(path, "more than 2^32 vertices"));
     }
-    let placements: Vec<(glam::Mat4, u32)> =
-        worlds.iter().copied().zip(parts.iter().copied()).collect();
+    let placements: Vec<(World, u32)> = worlds.iter().copied().zip(parts.iter().copied()).collect();
     let Some((&(last, last_part), rest)) = placements.split_last() else {
         return Ok(());
     };
@@ -1131,8 +1232,9 @@ struct Attributes {
     corners: Vec<u32>,
 }
 
-/// Appends a primitive's data placed by `world` to `out`.
-fn place(out: &mut Imported, world: glam::Mat4, part: u32, a: Attributes) {
+/// Appends a primitive's data placed by `world` to `out`. The first vertex placed decides
+/// whether the model lies in survey coordinates, as an OBJ's first vertex does.
+fn place(out: &mut Imported, world: World, part: u32, a: Attributes) {
     let Attributes {
         mut positions,
         normals,
@@ -1143,11 +1245,31 @@ fn place(out: &mut Imported, world: glam::Mat4, part: u32, a: Attributes) {
     let base_n = out.normals.len() as u32;
     let base_t = out.uvs.len() as u32;
     let (has_normals, has_uvs) = (normals.is_some(), uvs.is_some());
+    if out.positions.is_empty()
+        && let Some(first) = positions.first()
+        && let Some(origin) = super::survey_origin(
+            world
+                .exact
+                .transform_point3(first.map(f64::from).into())
+                .into(),
+        )
+    {
+        out.origin = origin;
+    }
     // Transformed where they were read, and taken whole by the first primitive: a copy of
     // each array beside it was the large mesh's import peak.
-    for p in &mut positions {
-        *p = world.transform_point3(glam::Vec3::from(*p)).to_array();
+    if out.origin == [0.0; 3] {
+        for p in &mut positions {
+            *p = world.m.transform_point3(glam::Vec3::from(*p)).to_array();
+        }
+    } else {
+        let origin = glam::DVec3::from(out.origin);
+        for p in &mut positions {
+            let placed = world.exact.transform_point3(p.map(f64::from).into());
+            *p = (placed - origin).as_vec3().to_array();
+        }
     }
+    let world = world.m;
     append(&mut out.positions, positions);
     if let Some(mut n) = normals {
         let nm = glam::Mat3::from_mat4(world).inverse().transpose();
@@ -1961,6 +2083,94 @@ mod tests {
             mi.parts
                 .iter()
                 .all(|p| p.names.node == mi.parts[0].names.node)
+        );
+    }
+
+    /// `boxes.gltf` moved far from the origin, as a scan in UTM metres is: by a root node's
+    /// matrix, or by each node's own translation.
+    fn boxes_far_away(dir: &Path, at: [f64; 3], by_root: bool) -> std::path::PathBuf {
+        let source = third_party("gltfpack/boxes.gltf");
+        std::fs::copy(source.with_file_name("Box0.bin"), dir.join("Box0.bin")).unwrap();
+        let mut json: serde_json::Value =
+            serde_json::from_slice(&std::fs::read(&source).unwrap()).unwrap();
+        let count = json["nodes"].as_array().unwrap().len();
+        if by_root {
+            let mut matrix = vec![serde_json::json!(0.0); 16];
+            for k in [0, 5, 10, 15] {
+                matrix[k] = serde_json::json!(1.0);
+            }
+            for k in 0..3 {
+                matrix[12 + k] = serde_json::json!(at[k]);
+            }
+            let root =
+                serde_json::json!({"matrix": matrix, "children": (0..count).collect::<Vec<_>>()});
+            json["nodes"].as_array_mut().unwrap().push(root);
+            json["scenes"][0]["nodes"] = serde_json::json!([count]);
+        } else {
+            for n in json["nodes"].as_array_mut().unwrap() {
+                for k in 0..3 {
+                    let t = n["translation"][k].as_f64().unwrap();
+                    n["translation"][k] = serde_json::json!(t + at[k]);
+                }
+            }
+        }
+        let path = dir.join(if by_root { "root.gltf" } else { "nodes.gltf" });
+        std::fs::write(&path, serde_json::to_vec(&json).unwrap()).unwrap();
+        path
+    }
+
+    /// A glTF placed far from the origin keeps the geometry it has near it: its node
+    /// transforms are read and chained in f64 from the file's digits (gltf's f32 reading moved
+    /// 500000.123 to 500000.125, and positions snapped to a half-unit grid at 5,000,000).
+    #[test]
+    fn a_gltf_in_survey_coordinates_keeps_its_precision() {
+        let dir = tempfile::tempdir().unwrap();
+        let near = import(&third_party("gltfpack/boxes.gltf")).unwrap();
+        assert_eq!(near.origin, [0.0; 3]);
+        let at = [500_000.123, 7.5, 5_000_000.456];
+        for by_root in [true, false] {
+            let far = import(&boxes_far_away(dir.path(), at, by_root)).unwrap();
+            // The first vertex's far coordinates, in whole units.
+            let first = glam::DVec3::from(at) + glam::DVec3::from(near.positions[0].map(f64::from));
+            assert_eq!(far.origin, [first.x.round(), 0.0, first.z.round()]);
+            assert_eq!(far.positions.len(), near.positions.len());
+            let offset = glam::DVec3::from(at) - glam::DVec3::from(far.origin);
+            let worst = near
+                .positions
+                .iter()
+                .zip(&far.positions)
+                .map(|(a, b)| {
+                    let a = glam::DVec3::from(a.map(f64::from)) + offset;
+                    (a - glam::DVec3::from(b.map(f64::from)))
+                        .abs()
+                        .max_element()
+                })
+                .fold(0.0, f64::max);
+            assert!(worst < 2e-6, "by root {by_root}: {worst}");
+            assert_eq!(far.corners.len(), near.corners.len());
+        }
+
+        // Positions far in the file itself (the exporter baked the placement): moved exactly.
+        let bin: Vec<u8> = [
+            500_000.5f32,
+            0.,
+            5e6,
+            500_001.5,
+            0.,
+            5e6,
+            500_000.5,
+            1.,
+            5e6,
+        ]
+        .iter()
+        .flat_map(|f| f.to_le_bytes())
+        .collect();
+        let view = r#"{"buffer": 0, "byteLength": 36}"#;
+        let baked = import(&write_gltf(dir.path(), &bin, view, "")).unwrap();
+        assert_eq!(baked.origin, [500_001.0, 0.0, 5_000_000.0]);
+        assert_eq!(
+            baked.positions,
+            [[-0.5, 0.0, 0.0], [0.5, 0.0, 0.0], [-0.5, 1.0, 0.0]]
         );
     }
 

@@ -582,6 +582,20 @@ impl Imported {
     }
 }
 
+/// Coordinates farther than this from the origin (2^17 units, where f32 positions are 1/64
+/// of a unit apart) are taken as a model placed in survey coordinates: a scanned church
+/// exported in UTM metres lies 500,000 east and 5,000,000 north, where f32 positions are 3 cm
+/// and 50 cm apart, and the cook's geometry snapped to that grid without a word.
+const FAR: f64 = 131_072.0;
+
+/// The origin a model whose first vertex lies at `first` is moved from before its positions
+/// become f32 (`Imported::origin`): its far coordinates rounded to whole units, exact in f32
+/// and f64 alike; `None` for a model near the origin.
+pub(crate) fn survey_origin(first: [f64; 3]) -> Option<[f64; 3]> {
+    let origin = first.map(|v| if v.abs() > FAR { v.round() } else { 0.0 });
+    (origin != [0.0; 3]).then_some(origin)
+}
+
 /// Imports an OBJ, glTF or GLB file, by extension.
 pub fn import(path: &Path) -> Result<Imported, CookError> {
     import_with(path, None)

@@ -293,27 +293,21 @@ struct Chunk {
     origin: Option<[f64; 3]>,
 }
 
-/// Coordinates farther than this from the origin (2^17 units, where f32 positions are 1/64
-/// of a unit apart) are taken as a model placed in survey coordinates: a scanned church
-/// exported in UTM metres lies 500,000 east and 5,000,000 north, where f32 positions are 3 cm
-/// and 50 cm apart, and the cook's geometry snapped to that grid without a word.
-const FAR: f64 = 131_072.0;
-
-/// Where a model in survey coordinates is moved from before its positions become f32: the
-/// first vertex's far coordinates, rounded to whole units (exact in f32 and f64 alike); `None`
-/// for a model near the origin, whose positions are read as they always were.
+/// Where a model in survey coordinates is moved from before its positions become f32 (see
+/// [`super::survey_origin`]): from its first vertex; `None` for a model near the origin, whose
+/// positions are read as they always were.
 fn far_origin(bytes: &[u8]) -> Option<[f64; 3]> {
     let line = lines(bytes)
         .map(trim)
         .find(|l| matches!(l, [b'v', b' ' | b'\t', ..]))?;
-    let mut origin = [0.0f64; 3];
-    for (o, t) in origin.iter_mut().zip(tokens(&line[1..])) {
+    let mut first = [0.0f64; 3];
+    for (o, t) in first.iter_mut().zip(tokens(&line[1..])) {
         let v: f64 = std::str::from_utf8(t).ok()?.parse().ok()?;
-        if v.is_finite() && v.abs() > FAR {
-            *o = v.round();
+        if v.is_finite() {
+            *o = v;
         }
     }
-    (origin != [0.0; 3]).then_some(origin)
+    super::survey_origin(first)
 }
 
 /// A vertex's three coordinates (`rest` of its line) by the general number reader, with the
