@@ -6,6 +6,8 @@
 
 pub mod budget;
 pub mod cache;
+#[cfg(feature = "cli")]
+pub mod cli;
 pub mod design;
 mod error;
 pub mod guess;

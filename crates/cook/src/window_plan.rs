@@ -257,8 +257,9 @@ pub fn plan(
     let mut unit_used = false;
     let mut out = Windows::default();
     let mut pending: Vec<Pending> = Vec::new();
-    // (texture, window) where a material's texture is fitted to a window without coordinates.
-    let mut fitted_textures: Vec<(String, String)> = Vec::new();
+    // (texture, fit, window) where a material's texture is fitted to a window without
+    // coordinates.
+    let mut fitted_textures: Vec<(String, Fit, String)> = Vec::new();
     for inst in &found {
         let dominant = inst.materials[0].0;
         let sill = inst
@@ -338,7 +339,8 @@ pub fn plan(
                         }),
                         other => other.name(),
                     };
-                    fitted_textures.push((shown, inst.name.clone()));
+                    let fit = entry.map_or(Fit::Cover, |e| e.fit);
+                    fitted_textures.push((shown, fit, inst.name.clone()));
                 }
                 (t, DesignSource::Texture)
             }),
@@ -427,9 +429,9 @@ pub fn plan(
             ));
         }
     }
-    fitted_textures.sort();
-    for group in fitted_textures.chunk_by(|a, b| a.0 == b.0) {
-        let windows: Vec<&str> = group.iter().map(|(_, w)| w.as_str()).collect();
+    fitted_textures.sort_by(|a, b| (&a.0, a.1.name(), &a.2).cmp(&(&b.0, b.1.name(), &b.2)));
+    for group in fitted_textures.chunk_by(|a, b| (&a.0, a.1) == (&b.0, b.1)) {
+        let windows: Vec<&str> = group.iter().map(|(_, _, w)| w.as_str()).collect();
         let shown = if windows.len() > 3 {
             format!("{} and {} more", windows[..3].join(", "), windows.len() - 3)
         } else {
@@ -440,9 +442,10 @@ pub fn plan(
             None,
             format!(
                 "texture {} is on glass without texture coordinates ({shown}): it is fitted \
-                 to each window (fit cover); a [[window]] entry with its own design or fit \
+                 to each window (fit {}); a [[window]] entry with its own design or fit \
                  chooses otherwise",
-                group[0].0
+                group[0].0,
+                group[0].1.name()
             ),
         ));
     }

@@ -67,16 +67,8 @@ pub struct SettingsArgs {
     /// lists them), a material, or a glob over either. Repeatable; the manifest is not changed.
     #[arg(long = "window", value_name = "NAME=IMAGE", value_parser = cook::manifest::WindowDesign::parse_override)]
     windows: Vec<(String, PathBuf)>,
-    /// The up axis of a bare model: `z` stands up a Z-up model (SketchUp, Revit, 3ds Max
-    /// exports) as the pipeline, Y-up like glTF, needs it. A scene.toml turns its meshes with
-    /// `rotate_deg` instead.
-    #[arg(long, value_name = "y|z", default_value = "y", value_parser = cook::UpAxis::from_arg)]
-    up: cook::UpAxis,
-    /// How names in OBJ and MTL files that are not UTF-8 are read: a WHATWG label such as
-    /// `windows-1251`, `windows-1250`, `shift_jis` or `gbk`. Without it the encoding is
-    /// guessed from the names, and the cook says which it took.
-    #[arg(long, value_name = "LABEL", value_parser = cook::import::text::TextEncoding::from_label)]
-    text_encoding: Option<cook::import::text::TextEncoding>,
+    #[command(flatten)]
+    model: cook::cli::ModelArgs,
 }
 
 impl SettingsArgs {
@@ -103,10 +95,7 @@ impl SettingsArgs {
             CacheMode::Full
         };
         settings.mesh.overdraw = self.overdraw;
-        settings.up = self.up;
-        if self.text_encoding.is_some() {
-            settings.text_encoding = self.text_encoding;
-        }
+        self.model.apply(&mut settings);
         settings.check(manifest)?;
         Ok(settings)
     }

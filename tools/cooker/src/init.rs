@@ -31,15 +31,8 @@ pub struct Args {
     /// Replace an existing manifest.
     #[arg(long)]
     force: bool,
-    /// The model's up axis, as `cooker cook --up`: with `z` the manifest turns the model with
-    /// `rotate_deg`, and the guesses are made on it turned.
-    #[arg(long, value_name = "y|z", default_value = "y", value_parser = cook::UpAxis::from_arg)]
-    up: cook::UpAxis,
-    /// How names in OBJ and MTL files that are not UTF-8 are read: a WHATWG label such as
-    /// `windows-1251`, `windows-1250`, `shift_jis` or `gbk`. Without it the encoding is
-    /// guessed from the names, and the cook says which it took.
-    #[arg(long, value_name = "LABEL", value_parser = cook::import::text::TextEncoding::from_label)]
-    text_encoding: Option<cook::import::text::TextEncoding>,
+    #[command(flatten)]
+    model: cook::cli::ModelArgs,
 }
 
 fn quote(s: &str) -> String {
@@ -101,11 +94,8 @@ pub fn run(args: Args) -> Outcome {
     }
     let manifest = Manifest::from_mesh_file(&args.mesh)?;
     let mut report = cook::Report::default();
-    let settings = cook::Settings {
-        up: args.up,
-        text_encoding: args.text_encoding,
-        ..cook::Settings::new(&manifest)
-    };
+    let mut settings = cook::Settings::new(&manifest);
+    args.model.apply(&mut settings);
     let prepared = cook::prepare(&manifest, &settings, &mut report)?;
     let guess = cook::guess::guess(&prepared);
     for w in prepared
@@ -141,7 +131,7 @@ pub fn run(args: Args) -> Outcome {
             t,
             "text_encoding = {}  # the names are not UTF-8; {}",
             quote(e.name()),
-            if args.text_encoding.is_some() {
+            if args.model.text_encoding.is_some() {
                 "given by --text-encoding"
             } else {
                 "guessed from them"
@@ -154,7 +144,7 @@ pub fn run(args: Args) -> Outcome {
         "[[mesh]]\nsource = {}",
         quote(&relative(&args.mesh, dir))
     );
-    if args.up == cook::UpAxis::Z {
+    if args.model.up == cook::UpAxis::Z {
         let _ = writeln!(
             t,
             "# Z-up: this turn stands it up.\nrotate_deg = [-90.0, 0.0, 0.0]"

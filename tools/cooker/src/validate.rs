@@ -13,14 +13,8 @@ pub struct Args {
     /// Print one JSON object: `findings` ({code, message}) and `materials`.
     #[arg(long)]
     json: bool,
-    /// The up axis of a bare model, as `cooker cook --up`.
-    #[arg(long, value_name = "y|z", default_value = "y", value_parser = cook::UpAxis::from_arg)]
-    up: cook::UpAxis,
-    /// How names in OBJ and MTL files that are not UTF-8 are read: a WHATWG label such as
-    /// `windows-1251`, `windows-1250`, `shift_jis` or `gbk`. Without it the encoding is
-    /// guessed from the names, and the cook says which it took.
-    #[arg(long, value_name = "LABEL", value_parser = cook::import::text::TextEncoding::from_label)]
-    text_encoding: Option<cook::import::text::TextEncoding>,
+    #[command(flatten)]
+    model: cook::cli::ModelArgs,
 }
 
 pub fn run(args: Args) -> Outcome {
@@ -31,21 +25,18 @@ pub fn run(args: Args) -> Outcome {
         .unwrap_or_default();
     let validation = if matches!(ext.as_str(), "toml" | "obj" | "gltf" | "glb") {
         let manifest = Manifest::open(&args.input)?;
-        let settings = cook::Settings {
-            up: args.up,
-            text_encoding: args.text_encoding,
-            ..cook::Settings::new(&manifest)
-        };
+        let mut settings = cook::Settings::new(&manifest);
+        args.model.apply(&mut settings);
         cook::validate::validate_scene_with(&manifest, &settings)?
     } else {
-        if args.up != cook::UpAxis::Y {
+        if args.model.up != cook::UpAxis::Y {
             return Err(crate::exit::UsageError(format!(
                 "--up turns a bare model; {} is a cooked pack",
                 args.input.display()
             ))
             .into());
         }
-        if args.text_encoding.is_some() {
+        if args.model.text_encoding.is_some() {
             return Err(crate::exit::UsageError(format!(
                 "--text-encoding reads OBJ and MTL files; {} is a cooked pack",
                 args.input.display()

@@ -2179,9 +2179,24 @@ fn names_in_a_windows_code_page_are_read_in_it() {
     );
     assert!(
         err.contains(
-            "texture Витраж роза.jpg is on glass without texture coordinates (Витраж_розы)"
+            "texture Витраж роза.jpg is on glass without texture coordinates (Витраж_розы): it \
+             is fitted to each window (fit cover)"
         ),
         "{err}"
+    );
+    // A [[window]] entry without a design of its own still chooses the fit, and the note says
+    // which.
+    let scene = dir.path().join("contain.toml");
+    let source = obj.file_name().unwrap().to_str().unwrap();
+    std::fs::write(
+        &scene,
+        format!("[[mesh]]\nsource = \"{source}\"\n\n[[window]]\nname = \"*\"\nfit = \"contain\"\n"),
+    )
+    .unwrap();
+    let contained = cook(&scene, &dir.path().join("contain.pack"), &[]);
+    assert!(
+        contained.contains("(Витраж_розы): it is fitted to each window (fit contain)"),
+        "{contained}"
     );
     let cook_note = |name: &str| {
         err.lines()

@@ -31,13 +31,8 @@ struct Args {
     /// or a glob); repeatable, as `cooker cook --window`.
     #[arg(long = "window", value_name = "NAME=IMAGE", value_parser = cook::manifest::WindowDesign::parse_override)]
     windows: Vec<(String, PathBuf)>,
-    /// The up axis of a bare model, as `cooker cook --up`: `z` stands up a Z-up model.
-    #[arg(long, value_name = "y|z", default_value = "y", value_parser = cook::UpAxis::from_arg)]
-    up: cook::UpAxis,
-    /// How names in OBJ and MTL files that are not UTF-8 are read, as `cooker cook
-    /// --text-encoding` (default: guessed from them).
-    #[arg(long, value_name = "LABEL", value_parser = cook::import::text::TextEncoding::from_label)]
-    text_encoding: Option<cook::import::text::TextEncoding>,
+    #[command(flatten)]
+    model: cook::cli::ModelArgs,
     /// Render to files instead of opening a window (the only mode without a display).
     #[arg(long)]
     headless: bool,
@@ -218,12 +213,11 @@ fn stream(
 /// `-v`: the cook's notes (blur, mip and encoder choices) are printed too.
 static VERBOSE: std::sync::atomic::AtomicBool = std::sync::atomic::AtomicBool::new(false);
 
-/// How a scene.toml or model is cooked (`--window`, `--up`): set once from the command line,
-/// before either mode starts; every cook and re-cook (`--watch`) uses it.
+/// How a scene.toml or model is cooked (`--window`, `--up`, `--text-encoding`): set once from
+/// the command line, before either mode starts; every cook and re-cook (`--watch`) uses it.
 struct CookOptions {
     windows: Vec<cook::manifest::WindowDesign>,
-    up: cook::UpAxis,
-    text_encoding: Option<cook::import::text::TextEncoding>,
+    model: cook::cli::ModelArgs,
 }
 
 static COOK_OPTIONS: std::sync::OnceLock<CookOptions> = std::sync::OnceLock::new();
@@ -236,18 +230,10 @@ fn open_source(path: &Path) -> Result<Box<dyn Read + Send>> {
         let start = Instant::now();
         let manifest =
             cook::Manifest::open(path).with_context(|| format!("loading {}", path.display()))?;
-        let (window_overrides, up, text_encoding) = COOK_OPTIONS
-            .get()
-            .map_or((Vec::new(), cook::UpAxis::Y, None), |o| {
-                (o.windows.clone(), o.up, o.text_encoding)
-            });
-        let mut settings = cook::Settings {
-            window_overrides,
-            up,
-            ..cook::Settings::new(&manifest)
-        };
-        if text_encoding.is_some() {
-            settings.text_encoding = text_encoding;
+        let mut settings = cook::Settings::new(&manifest);
+        if let Some(o) = COOK_OPTIONS.get() {
+            settings.window_overrides = o.windows.clone();
+            o.model.apply(&mut settings);
         }
         let out = cook::cook(&manifest, &settings)
             .with_context(|| format!("cooking {}", path.display()))?;
@@ -592,8 +578,7 @@ fn main() -> Result<()> {
     // `--window` when only the headless path set it).
     let _ = COOK_OPTIONS.set(CookOptions {
         windows: cook::manifest::WindowDesign::overrides(&args.windows)?,
-        up: args.up,
-        text_encoding: args.text_encoding,
+        model: args.model.clone(),
     });
     let mut settings = god_ray_settings(&args)?;
     settings.shadows.enabled = !args.no_occlusion;

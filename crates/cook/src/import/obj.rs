@@ -797,11 +797,8 @@ impl Statements {
         if !any {
             return None;
         }
-        let decoded = match (self.given, self.mtl_encoding) {
-            (None, Some(encoding)) => text::Decoded::Legacy {
-                encoding,
-                guessed: true,
-            },
+        let (encoding, guessed) = match (self.given, self.mtl_encoding) {
+            (None, Some(encoding)) => (encoding, true),
             (given, _) => {
                 let samples: Vec<Vec<u8>> = out
                     .parts
@@ -813,9 +810,7 @@ impl Statements {
                 text::choose(given, samples.iter().map(Vec::as_slice))
             }
         };
-        let text::Decoded::Legacy { encoding, .. } = decoded else {
-            return None;
-        };
+        let decoded = text::Decoded::Legacy { encoding, guessed };
         for part in &mut out.parts {
             for n in [
                 &mut part.names.material,
@@ -1881,9 +1876,7 @@ fn find_file(
             if !text::is_escaped(&escaped) {
                 return None;
             }
-            let text::Decoded::Legacy { encoding, .. } = text::choose(given, [name]) else {
-                return None;
-            };
+            let (encoding, _) = text::choose(given, [name]);
             super::locate(dir, &text::decode_escaped(&escaped, encoding))
         })
     };

@@ -104,16 +104,13 @@ impl Decoded {
 }
 
 /// The encoding to read `samples` (text that is not UTF-8) with: `given`, else chardetng's
-/// guess from them.
+/// guess from them; and whether it was guessed.
 pub(crate) fn choose<'a>(
     given: Option<TextEncoding>,
     samples: impl IntoIterator<Item = &'a [u8]>,
-) -> Decoded {
+) -> (&'static Encoding, bool) {
     if let Some(TextEncoding(encoding)) = given {
-        return Decoded::Legacy {
-            encoding,
-            guessed: false,
-        };
+        return (encoding, false);
     }
     let mut detector = chardetng::EncodingDetector::new(chardetng::Iso2022JpDetection::Deny);
     for s in samples {
@@ -122,11 +119,7 @@ pub(crate) fn choose<'a>(
         detector.feed(b"\n", false);
     }
     detector.feed(b"", true);
-    let encoding = detector.guess(None, chardetng::Utf8Detection::Deny);
-    Decoded::Legacy {
-        encoding,
-        guessed: true,
-    }
+    (detector.guess(None, chardetng::Utf8Detection::Deny), true)
 }
 
 /// The text of a whole file: itself where it is UTF-8, else decoded as `given` says or as
@@ -135,12 +128,9 @@ pub(crate) fn decode_file(bytes: &[u8], given: Option<TextEncoding>) -> (Cow<'_,
     if let Ok(s) = std::str::from_utf8(bytes) {
         return (Cow::Borrowed(s), Decoded::Utf8);
     }
-    let decoded = choose(given, [bytes]);
-    let Decoded::Legacy { encoding, .. } = decoded else {
-        unreachable!("choose gives a legacy encoding")
-    };
+    let (encoding, guessed) = choose(given, [bytes]);
     let (text, _) = encoding.decode_without_bom_handling(bytes);
-    (text, decoded)
+    (text, Decoded::Legacy { encoding, guessed })
 }
 
 /// `bytes` as text, losing nothing: UTF-8 sequences as themselves, every other byte as
@@ -292,10 +282,7 @@ mod tests {
 
     #[test]
     fn guesses_common_code_pages_from_short_names() {
-        let guess = |text: &[u8]| match choose(None, [text]) {
-            Decoded::Legacy { encoding, .. } => encoding.name(),
-            Decoded::Utf8 => "UTF-8",
-        };
+        let guess = |text: &[u8]| choose(None, [text]).0.name();
         let names = "newmtl Пол_каменный\nnewmtl Стена\nnewmtl Витраж_розы\nnewmtl Окно_южное\n";
         assert_eq!(guess(&cp1251(names)), "windows-1251");
         let jp = "newmtl 床\nnewmtl 壁_石\nnewmtl ステンドグラス\nnewmtl 窓ガラス\n";

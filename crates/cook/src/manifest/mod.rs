@@ -205,6 +205,17 @@ pub enum Fit {
     Stretch,
 }
 
+impl Fit {
+    /// As the manifest writes it.
+    pub fn name(self) -> &'static str {
+        match self {
+            Fit::Cover => "cover",
+            Fit::Contain => "contain",
+            Fit::Stretch => "stretch",
+        }
+    }
+}
+
 /// Lead came width as a fraction of a window's shorter side, when the manifest gives none.
 pub const DEFAULT_CAME_WIDTH: f32 = 0.015;
 /// Resolution of designs rasterized from the mesh, when the manifest gives none.
