@@ -26,13 +26,17 @@ pub struct Pane {
     pub amount: f32,
 }
 
-/// Pane index + 1 per texel (0 where no triangle covers the texel's centre). Scanline: per
-/// row, the span between the triangle's edges, so the cost is the covered area, not each
-/// triangle's bounding box (a fan of long thin triangles has large boxes and little area).
-pub fn rasterize(tris: &[UvTriangle], w: u32, h: u32) -> Vec<u16> {
-    let mut ids = vec![0u16; (w * h) as usize];
+/// Linear RGBA at a triangle's three corners (a model's vertex colours), multiplying its
+/// pane's colour and the fraction of light it passes.
+pub type Tint = [[f32; 4]; 3];
+
+/// Calls `f(triangle, x, y)` for every texel whose centre a triangle covers, triangles in
+/// order. Scanline: per row, the span between the triangle's edges, so the cost is the
+/// covered area, not each triangle's bounding box (a fan of long thin triangles has large
+/// boxes and little area).
+fn scan(tris: &[UvTriangle], w: u32, h: u32, mut f: impl FnMut(usize, u32, u32)) {
     let (wf, hf) = (w as f64, h as f64);
-    for (uv, pane) in tris {
+    for (i, (uv, _)) in tris.iter().enumerate() {
         let p = uv.map(|c| [c[0] as f64 * wf, c[1] as f64 * hf]);
         let area =
             (p[1][0] - p[0][0]) * (p[2][1] - p[0][1]) - (p[2][0] - p[0][0]) * (p[1][1] - p[0][1]);
@@ -65,13 +69,44 @@ pub fn rasterize(tris: &[UvTriangle], w: u32, h: u32) -> Vec<u16> {
             }
             let x0 = (xl - 0.5).ceil().max(0.0) as u32;
             let x1 = ((xr - 0.5).floor() + 1.0).clamp(0.0, wf) as u32;
-            let row = (y * w) as usize;
             for x in x0..x1 {
-                ids[row + x as usize] = pane + 1;
+                f(i, x, y);
             }
         }
     }
+}
+
+/// Pane index + 1 per texel (0 where no triangle covers the texel's centre).
+pub fn rasterize(tris: &[UvTriangle], w: u32, h: u32) -> Vec<u16> {
+    let mut ids = vec![0u16; (w * h) as usize];
+    scan(tris, w, h, |t, x, y| {
+        ids[(y * w + x) as usize] = tris[t].1 + 1
+    });
     ids
+}
+
+/// `tint` at the centre of texel (`x`, `y`) of triangle `uv`, interpolated across it in
+/// texture space (a centre just outside, on an edge, takes the nearest blend).
+fn tint_at(uv: &[[f32; 2]; 3], tint: &Tint, x: u32, y: u32, w: u32, h: u32) -> [f32; 4] {
+    let p = uv.map(|c| [c[0] as f64 * w as f64, c[1] as f64 * h as f64]);
+    let (cx, cy) = (x as f64 + 0.5, y as f64 + 0.5);
+    let cross = |a: [f64; 2], b: [f64; 2], c: [f64; 2]| {
+        (b[0] - a[0]) * (c[1] - a[1]) - (c[0] - a[0]) * (b[1] - a[1])
+    };
+    let area = cross(p[0], p[1], p[2]);
+    let mut b = [
+        cross(p[1], p[2], [cx, cy]) / area,
+        cross(p[2], p[0], [cx, cy]) / area,
+        cross(p[0], p[1], [cx, cy]) / area,
+    ]
+    .map(|v| v.max(0.0));
+    let sum: f64 = b.iter().sum();
+    if sum > 0.0 {
+        b = b.map(|v| v / sum);
+    } else {
+        b = [1.0 / 3.0; 3];
+    }
+    std::array::from_fn(|c| (0..3).map(|k| b[k] * tint[k][c] as f64).sum::<f64>() as f32)
 }
 
 /// Distance in texels from each texel to the nearest texel of another pane, of no pane, or
@@ -139,10 +174,54 @@ fn boundary_distance(ids: &[u16], w: u32, h: u32) -> Vec<f32> {
     d
 }
 
-/// A design from the window's own triangles: each pane in its glass colour, lead cames of
+/// A design from the window's own triangles: each pane in its glass colour (times the
+/// triangles' `tints`, interpolated, where the model has vertex colours), lead cames of
 /// `came` texels along the outline and between panes of different glass, nothing (alpha 0)
 /// outside the outline.
-pub fn mesh_design(panes: &[Pane], tris: &[UvTriangle], w: u32, h: u32, came: f32) -> RgbaImage {
+pub fn mesh_design(
+    panes: &[Pane],
+    tris: &[UvTriangle],
+    tints: Option<&[Tint]>,
+    w: u32,
+    h: u32,
+    came: f32,
+) -> RgbaImage {
+    let Some(tints) = tints else {
+        return mesh_design_flat(panes, tris, w, h, came);
+    };
+    let mut ids = vec![0u16; (w * h) as usize];
+    let mut tri_of = vec![0u32; (w * h) as usize];
+    scan(tris, w, h, |t, x, y| {
+        let i = (y * w + x) as usize;
+        ids[i] = tris[t].1 + 1;
+        tri_of[i] = t as u32;
+    });
+    let dist = boundary_distance(&ids, w, h);
+    let half = came * 0.5;
+    RgbaImage::from_fn(w, h, |x, y| {
+        let i = (y * w + x) as usize;
+        match ids[i] {
+            0 => Rgba([0, 0, 0, 0]),
+            _ if came > 0.0 && dist[i] < half.max(0.5) => CAME,
+            id => {
+                let t = tri_of[i] as usize;
+                let tint = tint_at(&tris[t].0, &tints[t], x, y, w, h);
+                let pane = panes[id as usize - 1];
+                let c = std::array::from_fn::<f32, 3, _>(|k| pane.colour[k] * tint[k])
+                    .map(texture::srgb::encode8);
+                Rgba([
+                    c[0],
+                    c[1],
+                    c[2],
+                    texture::srgb::unorm8(pane.amount * tint[3]),
+                ])
+            }
+        }
+    })
+}
+
+/// [`mesh_design`] without vertex colours: one colour a pane.
+fn mesh_design_flat(panes: &[Pane], tris: &[UvTriangle], w: u32, h: u32, came: f32) -> RgbaImage {
     let ids = rasterize(tris, w, h);
     let dist = boundary_distance(&ids, w, h);
     // The boundary texels are themselves lead; half the width lies on each side of a seam.
@@ -328,7 +407,7 @@ mod tests {
                 amount: 1.0,
             },
         ];
-        let img = mesh_design(&panes, &tris, 100, 50, 4.0);
+        let img = mesh_design(&panes, &tris, None, 100, 50, 4.0);
         assert_eq!(*img.get_pixel(25, 25), Rgba([255, 0, 0, 255]));
         assert_eq!(*img.get_pixel(75, 25), Rgba([0, 0, 255, 255]));
         // The seam at x = 50 and the outline are lead, 4 texels wide in all.

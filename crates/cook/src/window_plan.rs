@@ -9,7 +9,7 @@ use glam::DVec3;
 use pack::MaterialClass;
 use rayon::prelude::*;
 
-use crate::design::{self, Pane, UvTriangle};
+use crate::design::{self, Pane, Tint, UvTriangle};
 use crate::import::{ImageRef, Imported, NONE};
 use crate::instances::{self, Instance};
 use crate::manifest::{Fit, Manifest, UvMode, WindowDesign};
@@ -75,7 +75,7 @@ fn uv_triangles(
     tri_material: &[u16],
     tagging: &Tagging,
     si: usize,
-) -> (Vec<UvTriangle>, Vec<Pane>) {
+) -> (Vec<UvTriangle>, Vec<Pane>, Option<Vec<Tint>>) {
     let mut panes: Vec<(Option<u32>, Pane)> = Vec::new();
     let mut tris = Vec::with_capacity(inst.triangles.len());
     for &t in &inst.triangles {
@@ -112,7 +112,20 @@ fn uv_triangles(
         });
         tris.push((uv, id as u16));
     }
-    (tris, panes.into_iter().map(|p| p.1).collect())
+    // Vertex colours tint the panes; a window whose corners are all white (or a model without
+    // them) is drawn as it always was.
+    let tints: Option<Vec<Tint>> = (!src.colours.is_empty()).then(|| {
+        inst.triangles
+            .iter()
+            .map(|&t| {
+                src.corners
+                    .triangle_positions(t as usize)
+                    .map(|k| src.colours[k as usize])
+            })
+            .collect()
+    });
+    let tints = tints.filter(|t| t.iter().flatten().any(|c| *c != [1.0; 4]));
+    (tris, panes.into_iter().map(|p| p.1).collect(), tints)
 }
 
 fn raster(name: String, image: image::RgbaImage) -> ImageRef {
@@ -315,7 +328,7 @@ pub fn plan(
         if planar {
             instances::write_planar_uvs(&mut sources[inst.source], inst);
         }
-        let (tris, panes) = uv_triangles(
+        let (tris, panes, tints) = uv_triangles(
             &sources[inst.source],
             inst,
             &tri_material[inst.source],
@@ -363,6 +376,7 @@ pub fn plan(
             image,
             tris,
             panes,
+            tints,
             planar,
             fit: entry.map_or(Fit::Cover, |e| e.fit),
             aspect: inst.width() / inst.height().max(1e-12),
@@ -575,6 +589,8 @@ struct Pending {
     image: Option<(ImageRef, DesignSource)>,
     tris: Vec<UvTriangle>,
     panes: Vec<Pane>,
+    /// The triangles' vertex colours, where the model has any other than white.
+    tints: Option<Vec<Tint>>,
     planar: bool,
     fit: Fit,
     aspect: f64,
@@ -601,6 +617,10 @@ impl Pending {
             key.extend(uv.iter().flat_map(|c| c.map(f32::to_bits)));
             key.push(*pane as u32);
         }
+        if let Some(tints) = &self.tints {
+            key.push(u32::MAX);
+            key.extend(tints.iter().flatten().flatten().map(|c| c.to_bits()));
+        }
         Some(key)
     }
 }
@@ -610,7 +630,8 @@ impl Pending {
 fn make_design(p: &Pending, images: &crate::textures::DecodedImages) -> Result<Design, CookError> {
     let Some((img, source)) = &p.image else {
         let (w, h) = p.size;
-        let img = design::mesh_design(&p.panes, &p.tris, w, h, p.came_width * w.min(h) as f32);
+        let came = p.came_width * w.min(h) as f32;
+        let img = design::mesh_design(&p.panes, &p.tris, p.tints.as_deref(), w, h, came);
         return Ok((
             raster(format!("{}.design", p.name), img),
             DesignSource::Mesh,

@@ -2469,3 +2469,61 @@ fn a_gltf_in_survey_coordinates_is_moved_as_an_obj_is() {
         }
     }
 }
+
+/// Glass coloured by its vertices (MeshLab's, Open3D's and scanners' `v x y z r g b`) throws
+/// those colours: the window's design drawn from the mesh blends them across the pane, where
+/// it was one flat colour before. The Cornell box's back wall as clear glass, one colour a
+/// corner.
+#[test]
+fn vertex_coloured_glass_throws_its_colours() {
+    let dir = tempfile::tempdir().unwrap();
+    let source = std::fs::read_to_string(third_party("cornell_box/cornell_box.obj")).unwrap();
+    let corner_colours = ["1 0 0", "0 1 0", "0 0 1", "1 1 1"];
+    let mut obj = String::new();
+    let (mut object, mut k) = (String::new(), 0);
+    for line in source.lines() {
+        match line.split_once(' ') {
+            Some(("o", name)) => {
+                object = name.trim().to_string();
+                writeln!(obj, "{line}").unwrap();
+            }
+            Some(("usemtl", _)) if object == "back_wall" => writeln!(obj, "usemtl glass").unwrap(),
+            Some(("v", _)) if object == "back_wall" => {
+                writeln!(obj, "{line} {}", corner_colours[k]).unwrap();
+                k += 1;
+            }
+            _ => writeln!(obj, "{line}").unwrap(),
+        }
+    }
+    assert_eq!(k, 4);
+    let path = dir.path().join("painted.obj");
+    std::fs::write(&path, obj).unwrap();
+    let mut mtl = std::fs::read_to_string(third_party("cornell_box/cornell_box.mtl")).unwrap();
+    mtl += "\nnewmtl glass\nKd 1 1 1\nd 0.5\nillum 4\n";
+    std::fs::write(dir.path().join("cornell_box.mtl"), mtl).unwrap();
+
+    let pack = dir.path().join("painted.pack");
+    cook(&path, &pack, &[]);
+    let v = info(&pack);
+    let w = window(&v, "glass");
+    let design = extract(&pack, w["design"].as_str().unwrap(), dir.path());
+    let lit: Vec<[u8; 4]> = design
+        .pixels()
+        .map(|p| p.0)
+        .filter(|p| p[3] > 0 && p[..3] != [22, 20, 18])
+        .collect();
+    assert!(lit.len() > 1000, "{}", lit.len());
+    // Each corner's colour where the lead leaves off (the others already blend in, which
+    // sRGB shows strongly in the dark channels), and blends between them.
+    let near = |c: [u8; 3]| {
+        lit.iter()
+            .any(|p| (0..3).all(|i| if c[i] == 255 { p[i] > 230 } else { p[i] < 100 }))
+    };
+    for c in [[255, 0, 0], [0, 255, 0], [0, 0, 255], [255, 255, 255]] {
+        assert!(near(c), "no texel near {c:?}");
+    }
+    // Translucent as the glass is (`d 0.5`).
+    assert!(lit.iter().all(|p| p[3].abs_diff(128) <= 2), "{:?}", lit[0]);
+    let distinct: std::collections::HashSet<[u8; 4]> = lit.iter().copied().collect();
+    assert!(distinct.len() > 500, "{}", distinct.len());
+}

@@ -1100,6 +1100,33 @@ fn add_primitive(
         }
         None => None,
     };
+    // COLOR_0 (linear, multiplying the base colour), as RGB or RGBA, floats or normalized.
+    let colours = match prim.get(&gltf::Semantic::Colors(0)) {
+        Some(a) => {
+            let c: Vec<[f32; 4]> = match a.dimensions() {
+                Dimensions::Vec3 => ctx
+                    .attribute::<3>(draco.as_deref(), &label, &a, "COLOR_0")?
+                    .into_iter()
+                    .map(|[r, g, b]| [r, g, b, 1.0])
+                    .collect(),
+                _ => ctx.attribute::<4>(draco.as_deref(), &label, &a, "COLOR_0")?,
+            };
+            if c.len() != vcount {
+                return Err(bad(
+                    path,
+                    format!("COLOR_0 has {} elements but POSITION has {vcount}", c.len()),
+                ));
+            }
+            if let Some(v) = c.iter().find(|v| !v.iter().all(|x| x.is_finite())) {
+                return Err(bad(
+                    path,
+                    format!("COLOR_0 accessor {} holds {v:?}: not finite", a.index()),
+                ));
+            }
+            Some(c)
+        }
+        None => None,
+    };
     let indices: Vec<u32> = match (&draco, prim.indices()) {
         (Some(d), _) => {
             if d.points != vcount {
@@ -1193,6 +1220,7 @@ fn add_primitive(
             positions: positions.clone(),
             normals: normals.clone(),
             uvs: uvs.clone(),
+            colours: colours.clone(),
             corners: corners.clone(),
         };
         place(out, world, part, copy);
@@ -1205,6 +1233,7 @@ fn add_primitive(
             positions,
             normals,
             uvs,
+            colours,
             corners,
         },
     );
@@ -1229,6 +1258,7 @@ struct Attributes {
     positions: Vec<[f32; 3]>,
     normals: Option<Vec<[f32; 3]>>,
     uvs: Option<Vec<[f32; 2]>>,
+    colours: Option<Vec<[f32; 4]>>,
     corners: Vec<u32>,
 }
 
@@ -1239,8 +1269,21 @@ fn place(out: &mut Imported, world: World, part: u32, a: Attributes) {
         mut positions,
         normals,
         uvs,
+        colours,
         mut corners,
     } = a;
+    // Parallel to the positions once any primitive has them: white for those without.
+    match colours {
+        Some(c) => {
+            out.colours.resize(out.positions.len(), [1.0; 4]);
+            append(&mut out.colours, c);
+        }
+        None if !out.colours.is_empty() => {
+            out.colours
+                .resize(out.positions.len() + positions.len(), [1.0; 4]);
+        }
+        None => {}
+    }
     let base_p = out.positions.len() as u32;
     let base_n = out.normals.len() as u32;
     let base_t = out.uvs.len() as u32;
@@ -2171,6 +2214,70 @@ mod tests {
         assert_eq!(
             baked.positions,
             [[-0.5, 0.0, 0.0], [0.5, 0.0, 0.0], [-0.5, 1.0, 0.0]]
+        );
+    }
+
+    /// `COLOR_0` is read as RGB floats or normalized RGBA bytes; a primitive without it is
+    /// white beside one with it, and a count that differs from the positions' is an error.
+    #[test]
+    fn vertex_colours_are_read_whatever_their_type() {
+        let dir = tempfile::tempdir().unwrap();
+        let mut bin = triangle_bytes();
+        // RGB floats (36 bytes at 36), RGBA bytes (12 at 72).
+        for c in [0.5f32, 0.25, 1.0, 0.0, 1.0, 0.0, 1.0, 1.0, 1.0] {
+            bin.extend(c.to_le_bytes());
+        }
+        bin.extend([255, 0, 0, 255, 0, 255, 0, 128, 0, 0, 255, 0]);
+        let write = |colours: &str, count: usize| {
+            std::fs::write(dir.path().join("c.bin"), &bin).unwrap();
+            let json = format!(
+                r#"{{"asset": {{"version": "2.0"}}, "scene": 0, "scenes": [{{"nodes": [0]}}],
+                "nodes": [{{"mesh": 0}}],
+                "meshes": [{{"primitives": [
+                    {{"attributes": {{"POSITION": 0, "COLOR_0": {colours}}}}},
+                    {{"attributes": {{"POSITION": 0}}}}]}}],
+                "accessors": [
+                    {{"bufferView": 0, "componentType": 5126, "count": 3, "type": "VEC3",
+                      "min": [0, 0, 0], "max": [1, 1, 0]}},
+                    {{"bufferView": 1, "componentType": 5126, "count": {count}, "type": "VEC3"}},
+                    {{"bufferView": 2, "componentType": 5121, "normalized": true, "count": 3,
+                      "type": "VEC4"}}],
+                "bufferViews": [
+                    {{"buffer": 0, "byteLength": 36}},
+                    {{"buffer": 0, "byteOffset": 36, "byteLength": 36}},
+                    {{"buffer": 0, "byteOffset": 72, "byteLength": 12}}],
+                "buffers": [{{"byteLength": {}, "uri": "c.bin"}}]}}"#,
+                bin.len()
+            );
+            let path = dir.path().join("c.gltf");
+            std::fs::write(&path, json).unwrap();
+            import(&path)
+        };
+        let floats = write("1", 3).unwrap();
+        let white = [[1.0; 4]; 3];
+        assert_eq!(
+            floats.colours,
+            [
+                [[0.5, 0.25, 1.0, 1.0], [0.0, 1.0, 0.0, 1.0], [1.0; 4]].as_slice(),
+                &white
+            ]
+            .concat()
+        );
+        let bytes = write("2", 3).unwrap();
+        let half = 128.0 / 255.0;
+        assert_eq!(
+            bytes.colours[..3],
+            [
+                [1.0, 0.0, 0.0, 1.0],
+                [0.0, 1.0, 0.0, half],
+                [0.0, 0.0, 1.0, 0.0]
+            ]
+        );
+        assert_eq!(bytes.colours[3..], white);
+        let err = write("1", 2).unwrap_err().to_string();
+        assert!(
+            err.contains("COLOR_0 has 2 elements but POSITION has 3"),
+            "{err}"
         );
     }
 

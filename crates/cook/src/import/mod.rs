@@ -494,6 +494,10 @@ pub struct Imported {
     pub positions: Vec<[f32; 3]>,
     pub normals: Vec<[f32; 3]>,
     pub uvs: Vec<[f32; 2]>,
+    /// Linear RGBA per position (glTF `COLOR_0`, an OBJ's `v x y z r g b`); empty where the
+    /// file has none, white where one primitive has them and another not. Only designs drawn
+    /// from a window's mesh read them: the pack's vertices carry no colour.
+    pub colours: Vec<[f32; 4]>,
     /// Three per triangle.
     pub corners: Corners,
     /// Per triangle: index into `parts`.
@@ -528,6 +532,7 @@ impl Imported {
     /// them (its orderings still read the positions and texture coordinates).
     pub fn release_corners(&mut self) {
         self.normals = Vec::new();
+        self.colours = Vec::new();
         self.corners = Corners::default();
     }
 
@@ -545,6 +550,7 @@ impl Imported {
         self.positions = Vec::new();
         self.normals = Vec::new();
         self.uvs = Vec::new();
+        self.colours = Vec::new();
         self.corners = Corners::default();
     }
 

@@ -265,6 +265,8 @@ impl Face {
 struct Chunk {
     lines: usize,
     positions: Vec<[f32; 3]>,
+    /// Vertex colours as written, parallel to `positions` up to the last one with a colour.
+    colours: Vec<[f32; 3]>,
     uvs: Vec<[f32; 2]>,
     normals: Vec<[f32; 3]>,
     /// Each face corner's indices as written ([`ABSENT`] for a missing field, [`WIDE`] for
@@ -313,13 +315,15 @@ fn far_origin(bytes: &[u8]) -> Option<[f64; 3]> {
 /// A vertex's three coordinates (`rest` of its line) by the general number reader, with the
 /// error both readers give. With an `origin` (see [`far_origin`]) each is read in f64 and
 /// rounded to f32 once, less the origin; without, read as f32 (the same bits as ever).
-fn vertex(rest: &[u8], origin: Option<[f64; 3]>) -> Result<[f32; 3], String> {
+fn vertex(rest: &[u8], origin: Option<[f64; 3]>) -> Result<([f32; 3], &[u8]), String> {
     let mut it = tokens(rest);
     let mut p = [0.0f32; 3];
+    let mut after = rest.len();
     for (k, v) in p.iter_mut().enumerate() {
         let t = it
             .next()
             .ok_or_else(|| format!("vertex has {k} coordinates, needs 3"))?;
+        after = t.as_ptr() as usize - rest.as_ptr() as usize + t.len();
         let x = match origin {
             None => parse_f32(t).map(f64::from),
             Some(_) => std::str::from_utf8(t).ok().and_then(|s| s.parse().ok()),
@@ -330,7 +334,63 @@ fn vertex(rest: &[u8], origin: Option<[f64; 3]>) -> Result<[f32; 3], String> {
         }
         *v = (x - origin.map_or(0.0, |o| o[k])) as f32;
     }
-    Ok(p)
+    Ok((p, trim(&rest[after..])))
+}
+
+/// Where a position has no colour of its own in a file whose other positions have one.
+const NO_COLOUR: [f32; 3] = [f32::NAN; 3];
+
+/// The colour after a vertex's coordinates (`v x y z r g b`, as MeshLab, Open3D and scanners
+/// write), or `None` for none or a `w` weight (`v x y z w`).
+fn vertex_colour(after: &[u8]) -> Result<Option<[f32; 3]>, String> {
+    let mut it = tokens(after);
+    let (Some(r), Some(g), Some(b)) = (it.next(), it.next(), it.next()) else {
+        return Ok(None);
+    };
+    let mut rgb = [0.0f32; 3];
+    for (c, t) in rgb.iter_mut().zip([r, g, b]) {
+        *c = parse_f32(t)
+            .filter(|v| v.is_finite() && *v >= 0.0)
+            .ok_or_else(|| format!("vertex colour {:?} is not a number of 0 or more", text(t)))?;
+    }
+    Ok(Some(rgb))
+}
+
+/// Records `colour` for the last position of `positions`: `colours` runs parallel to them from
+/// the first colour on, [`NO_COLOUR`] where one has none.
+fn push_colour(colours: &mut Vec<[f32; 3]>, positions: usize, colour: Option<[f32; 3]>) {
+    if let Some(c) = colour {
+        colours.resize(positions - 1, NO_COLOUR);
+        colours.push(c);
+    }
+}
+
+/// The file's vertex colours, once it is read: sRGB values from 0 to 1 (or to 255, as some
+/// tools write them, where any is over 1) to linear RGBA, white for positions without one.
+fn finish_colours(mut out: Imported, raw: Vec<[f32; 3]>) -> Imported {
+    if raw.is_empty() {
+        return out;
+    }
+    let scale = if raw.iter().flatten().any(|&c| c > 1.0) {
+        1.0 / 255.0
+    } else {
+        1.0
+    };
+    let mut colours: Vec<[f32; 4]> = raw
+        .into_iter()
+        .map(|c| {
+            if c[0].is_nan() {
+                [1.0; 4]
+            } else {
+                let l =
+                    c.map(|v| texture::srgb::srgb_to_linear((v * scale).min(1.0) as f64) as f32);
+                [l[0], l[1], l[2], 1.0]
+            }
+        })
+        .collect();
+    colours.resize(out.positions.len(), [1.0; 4]);
+    out.colours = colours;
+    out
 }
 
 const ABSENT: i32 = i32::MIN;
@@ -554,12 +614,17 @@ fn read_line(c: &mut Chunk, line_no: usize, raw: &[u8]) -> Result<(), String> {
     let statement = match keyword {
         b"v" => {
             if c.origin.is_none()
-                && let Some(p) = plain_floats(rest)
+                && let Some((p, after)) = plain_floats_and_rest(rest)
             {
                 c.positions.push(p);
+                if !after.is_empty() {
+                    push_colour(&mut c.colours, c.positions.len(), vertex_colour(after)?);
+                }
                 return Ok(());
             }
-            c.positions.push(vertex(rest, c.origin)?);
+            let (p, after) = vertex(rest, c.origin)?;
+            c.positions.push(p);
+            push_colour(&mut c.colours, c.positions.len(), vertex_colour(after)?);
             return Ok(());
         }
         b"vt" => {
@@ -932,6 +997,11 @@ impl Statements {
 /// reads them all (then they are finite), found without a token iterator; `None` for the
 /// general path to read, or to report (too few values, other number forms).
 fn plain_floats<const N: usize>(rest: &[u8]) -> Option<[f32; N]> {
+    plain_floats_and_rest(rest).map(|(v, _)| v)
+}
+
+/// [`plain_floats`], and the text after them (trimmed).
+fn plain_floats_and_rest<const N: usize>(rest: &[u8]) -> Option<([f32; N], &[u8])> {
     let mut out = [0.0f32; N];
     let mut i = 0;
     for v in &mut out {
@@ -944,7 +1014,7 @@ fn plain_floats<const N: usize>(rest: &[u8]) -> Option<[f32; N]> {
         }
         *v = simple_f32(&rest[first..i])?;
     }
-    Some(out)
+    Some((out, trim(&rest[i..])))
 }
 
 /// Reads a face's corners (`rest`, trimmed) onto the chunk's when they are all plain: fields
@@ -1160,6 +1230,7 @@ fn parse_lines(
     let mut face: Vec<Corner> = Vec::new();
     let mut poly: Vec<[f32; 3]> = Vec::new();
     let mut tris: Vec<[u32; 3]> = Vec::new();
+    let mut colours: Vec<[f32; 3]> = Vec::new();
 
     for (index, raw) in lines(bytes).enumerate() {
         let line_no = index + 1;
@@ -1172,8 +1243,11 @@ fn parse_lines(
         let rest = trim(&line[keyword.len()..]);
         match keyword {
             b"v" => {
-                let p = vertex(rest, origin).map_err(|m| bad(path, line_no, m))?;
+                let (p, colour) = vertex(rest, origin)
+                    .and_then(|(p, after)| Ok((p, vertex_colour(after)?)))
+                    .map_err(|m| bad(path, line_no, m))?;
                 out.positions.push(p);
+                push_colour(&mut colours, out.positions.len(), colour);
             }
             b"vt" => {
                 let mut uv = [0.0f32; 2];
@@ -1254,7 +1328,7 @@ fn parse_lines(
         }
     }
     statements.warn(path, &mut out);
-    Ok(out)
+    Ok(finish_colours(out, colours))
 }
 
 fn parse_corner(path: &Path, line: usize, tok: &[u8], out: &Imported) -> Result<Corner, CookError> {
@@ -1428,6 +1502,8 @@ struct Assembler<'p> {
     statements: Statements,
     /// See [`Chunk::origin`].
     origin: Option<[f64; 3]>,
+    /// See [`Chunk::colours`].
+    colours: Vec<[f32; 3]>,
 }
 
 impl<'p> Assembler<'p> {
@@ -1446,6 +1522,7 @@ impl<'p> Assembler<'p> {
             error: None,
             statements: Statements::new(given),
             origin: None,
+            colours: Vec::new(),
         }
     }
 
@@ -1491,6 +1568,10 @@ impl<'p> Assembler<'p> {
         for c in &mut chunks {
             let out = &mut self.out;
             before.push([out.positions.len(), out.uvs.len(), out.normals.len()]);
+            if !c.colours.is_empty() {
+                self.colours.resize(out.positions.len(), NO_COLOUR);
+                append(&mut self.colours, std::mem::take(&mut c.colours));
+            }
             append(&mut out.positions, std::mem::take(&mut c.positions));
             append(&mut out.uvs, std::mem::take(&mut c.uvs));
             append(&mut out.normals, std::mem::take(&mut c.normals));
@@ -1749,7 +1830,7 @@ impl<'p> Assembler<'p> {
         let (t, n) = (held(t, self.same[1]), held(n, self.same[2]));
         out.corners = Corners::from_indices(p, t, n);
         self.statements.warn(self.path, &mut out);
-        Ok(out)
+        Ok(finish_colours(out, self.colours))
     }
 }
 
@@ -2440,6 +2521,47 @@ mod tests {
         assert_eq!(near.positions[0], [131000.0, 1.0, 2.0]);
     }
 
+    /// Vertex colours (`v x y z r g b`) are read by each reader alike: sRGB to linear, from 0–1
+    /// or (where any is over 1) 0–255, white for a position without one; a `w` weight is not a
+    /// colour; a colour that is not a number is an error naming the line.
+    #[test]
+    fn vertex_colours_are_read_as_scanners_write_them() {
+        let path = Path::new("scan.obj");
+        let text = "v 0 0 0\nv 1 0 0 1 0.5 0\nv 0 1 0 0.2 0.2 0.2\nv 0 0 1\nf 1 2 3\nf 2 3 4\n";
+        let lines = parse_lines(path, text.as_bytes(), None).unwrap();
+        let half = texture::srgb::srgb_to_linear(0.5) as f32;
+        let fifth = texture::srgb::srgb_to_linear(0.2) as f32;
+        assert_eq!(
+            lines.colours,
+            [
+                [1.0; 4],
+                [1.0, half, 0.0, 1.0],
+                [fifth, fifth, fifth, 1.0],
+                [1.0; 4]
+            ]
+        );
+        let chunked = parse_chunked(path, text.as_bytes(), 16, None).unwrap();
+        let mut reader = std::io::Cursor::new(text.as_bytes());
+        let streamed = parse_stream(path, &mut reader, text.len() as u64, 16, 64, None).unwrap();
+        for other in [chunked, streamed] {
+            assert_eq!(other.colours, lines.colours);
+        }
+        let bytes = parse_lines(path, b"v 0 0 0 255 0 51\nv 1 0 0 0 255 0\n", None).unwrap();
+        let want = [1.0, 0.0, fifth, 1.0];
+        assert!(
+            (0..4).all(|k| (bytes.colours[0][k] - want[k]).abs() < 1e-6),
+            "{:?}",
+            bytes.colours
+        );
+        let plain = parse_lines(path, b"v 0 0 0 1\nv 1 0 0\n", None).unwrap();
+        assert!(plain.colours.is_empty());
+        let err = parse_lines(path, b"v 0 0 0\nv 1 0 0 0.5 red 0\n", None).unwrap_err();
+        assert_eq!(
+            err.to_string(),
+            "scan.obj:2: vertex colour \"red\" is not a number of 0 or more"
+        );
+    }
+
     /// An OBJ in windows-1251 beside its library saved again as UTF-8: the names are decoded
     /// (guessed from the OBJ's own), and `usemtl` finds its material by the decoded name.
     #[test]
@@ -2754,7 +2876,12 @@ mod tests {
     fn summary(r: Result<Imported, CookError>) -> String {
         match r {
             Ok(m) => format!(
-                "{:?}\n{:?}\n{:?}\n{:?}\n{:?}\n{:?}\n{}\n{:?}\n{:?}",
+                "{:?}\n{:?}\n{:?}\n{:?}\n{:?}\n{:?}\n{:?}\n{}\n{:?}\n{:?}",
+                m.colours
+                    .iter()
+                    .flatten()
+                    .map(|v| v.to_bits())
+                    .collect::<Vec<_>>(),
                 m.positions
                     .iter()
                     .flatten()
@@ -2822,6 +2949,8 @@ mod tests {
         ];
         prop_oneof![
             6 => prop::collection::vec(number.clone(), 3).prop_map(|v| format!("v {}", v.join(" "))),
+            // With a colour (MeshLab's `v x y z r g b`), on some positions only.
+            2 => prop::collection::vec(number.clone(), 6).prop_map(|v| format!("v {}", v.join(" "))),
             2 => prop::collection::vec(number.clone(), 2).prop_map(|v| format!("vt {}", v.join(" "))),
             2 => prop::collection::vec(number.clone(), 3).prop_map(|v| format!("vn {}", v.join(" "))),
             // Attribute lines of other lengths, spacing and number forms, plain or not.
