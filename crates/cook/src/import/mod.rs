@@ -629,7 +629,7 @@ pub fn import_with(
         .extension()
         .map(|e| e.to_string_lossy().to_ascii_lowercase())
         .unwrap_or_default();
-    match ext.as_str() {
+    let mut out = match ext.as_str() {
         "obj" => obj::import(path, text_encoding),
         "gltf" | "glb" => gltf::import(path),
         _ => Err(CookError::Source {
@@ -637,7 +637,39 @@ pub fn import_with(
             line: None,
             message: format!("unsupported mesh format {ext:?}: expected .obj, .gltf or .glb"),
         }),
+    }?;
+    warn_far_positions(&mut out);
+    Ok(out)
+}
+
+/// A model whose first vertex lies near the origin but whose others lie in survey coordinates
+/// (a small object at the origin written before the scan) is not moved, so those positions
+/// were rounded to f32 far out: said rather than cooked coarse without a word.
+fn warn_far_positions(out: &mut Imported) {
+    if out.origin != [0.0; 3] {
+        return;
     }
+    let Some(far) = out
+        .positions
+        .iter()
+        .map(|p| p.iter().fold(0.0f32, |m, c| m.max(c.abs())))
+        .max_by(f32::total_cmp)
+        .filter(|&m| m as f64 > FAR)
+    else {
+        return;
+    };
+    // The distance between neighbouring f32 values there.
+    let step = f32::from_bits(far.to_bits() + 1) - far;
+    out.warnings.push(Warning::new(
+        &out.path,
+        None,
+        format!(
+            "positions reach {far:.0} units from the origin, where 32-bit positions are {step} \
+             units apart, but the first vertex lies near it, so the model was not moved; \
+             translate the file's model near the origin before export, or write the far \
+             geometry first"
+        ),
+    ));
 }
 
 /// The file `name` (relative to `dir`, or absolute) means, as a file written on Windows means
@@ -714,6 +746,35 @@ fn any_case(dir: &Path, relative: &str) -> Option<PathBuf> {
 mod tests {
     use super::*;
     use proptest::prelude::*;
+
+    /// Far positions behind a first vertex near the origin are not moved, and said so.
+    #[test]
+    fn far_positions_the_move_missed_are_named() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("m.obj");
+        let far = "v 500000 0 0\nv 500001 0 0\nv 500000 1 0\nf 1 2 3\n";
+        std::fs::write(&path, format!("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n{far}")).unwrap();
+        let m = import(&path).unwrap();
+        assert_eq!(m.origin, [0.0; 3]);
+        let said: Vec<String> = m.warnings.iter().map(|w| w.message.clone()).collect();
+        assert!(
+            said.iter().any(|w| w.starts_with(
+                "positions reach 500001 units from the origin, where 32-bit positions are 0.03125 \
+                 units apart"
+            )),
+            "{said:?}"
+        );
+        // Moved (the far vertex first) or near throughout: nothing to say.
+        std::fs::write(&path, far).unwrap();
+        let moved = import(&path).unwrap();
+        assert_eq!(moved.origin, [500000.0, 0.0, 0.0]);
+        assert!(
+            !moved
+                .warnings
+                .iter()
+                .any(|w| w.message.contains("positions reach"))
+        );
+    }
 
     proptest! {
         /// Appended primitive by primitive as glTF's shared indices, the corners read back as
