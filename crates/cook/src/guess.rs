@@ -624,9 +624,11 @@ pub fn guess(p: &Prepared) -> Guess {
         );
     }
 
-    // The sun: the most window area landing on the floor.
+    // The sun: the file's own (an artist's sun through the rose window), else the one that
+    // lands the most window area on the floor.
+    let file_sun = p.imported.iter().find_map(|s| s.sun.clone());
     let mut best: Option<(f64, DVec3)> = None;
-    if let Some(fp) = &floor {
+    if let Some(fp) = floor.as_ref().filter(|_| file_sun.is_none()) {
         for el in [25.0f64, 35.0, 45.0, 55.0, 65.0] {
             for az in 0..24 {
                 let (e, a) = (el.to_radians(), (az as f64 * 15.0).to_radians());
@@ -656,20 +658,28 @@ pub fn guess(p: &Prepared) -> Guess {
             }
         }
     }
-    let sun = match best {
-        Some((_, d)) => {
+    let sun = match (&file_sun, best) {
+        (Some(s), _) => {
+            let d = DVec3::from(s.direction.map(f64::from));
+            notes.push(format!(
+                "sun direction [{:.3}, {:.3}, {:.3}]: the model's own light {:?}",
+                d.x, d.y, d.z, s.name
+            ));
+            Some(d)
+        }
+        (None, Some((_, d))) => {
             notes.push(format!(
                 "sun direction [{:.3}, {:.3}, {:.3}]: the most window light lands on the floor",
                 d.x, d.y, d.z
             ));
             Some(d)
         }
-        None if windows.is_empty() => {
+        (None, None) if windows.is_empty() => {
             notes
                 .push("no windows found: a default sun, which lights nothing through glass".into());
             Some(DVec3::new(-0.4, -0.8, 0.45).normalize())
         }
-        None => {
+        (None, None) => {
             notes.push(
                 "no sun direction lands window light on a floor (no floor found, or the windows face away): a default sun through the largest window".into(),
             );
@@ -684,7 +694,7 @@ pub fn guess(p: &Prepared) -> Guess {
             direction: f3(d),
             angular_size: SUN_DEG.to_radians(),
         },
-        colour: [1.0, 0.95, 0.85],
+        colour: file_sun.as_ref().map_or([1.0, 0.95, 0.85], |s| s.colour),
         intensity: sun_intensity(&p.tagging, &classes, d),
     });
 
@@ -827,6 +837,30 @@ pub fn guess(p: &Prepared) -> Guess {
     // A model far from the origin for its size can put a view's eye and target on the same
     // f32 point, which looks nowhere.
     cameras.retain(|c| c.position != c.target);
+    // The views the file frames come first (the viewer opens on the first), under their own
+    // names; a guessed view of the same name gives way.
+    let framed: Vec<Camera> = p.imported.iter().flat_map(|s| s.views.clone()).collect();
+    if !framed.is_empty() {
+        notes.push(format!(
+            "the model's own cameras {} first",
+            framed
+                .iter()
+                .map(|c| format!("{:?}", c.name))
+                .collect::<Vec<_>>()
+                .join(", ")
+        ));
+        let mut all: Vec<Camera> = Vec::new();
+        for mut c in framed.into_iter().chain(cameras) {
+            let base = c.name.clone();
+            let mut k = 2;
+            while all.iter().any(|o| o.name == c.name) {
+                c.name = format!("{base} {k}");
+                k += 1;
+            }
+            all.push(c);
+        }
+        cameras = all;
+    }
     let sky = (!windows.is_empty()).then_some(DAYLIGHT_SKY);
     Guess {
         light,

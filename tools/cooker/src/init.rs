@@ -313,9 +313,15 @@ pub fn run(args: Args) -> Outcome {
     for c in &guess.cameras {
         // A thousandth of the model's size (a guessed view's far plane is three times it).
         let quantum = c.far * 3e-4;
+        // A view the model's file frames may be rolled; a guessed one never is.
+        let up = if c.up == [0.0, 1.0, 0.0] {
+            String::new()
+        } else {
+            format!("up = {}\n", vec3(c.up))
+        };
         let _ = writeln!(
             t,
-            "[[camera]]\nname = {}\nposition = {}\ntarget = {}\nfov_y_deg = {:.1}\nnear = {}\nfar = {}\n",
+            "[[camera]]\nname = {}\nposition = {}\ntarget = {}\n{up}fov_y_deg = {:.1}\nnear = {}\nfar = {}\n",
             quote(&c.name),
             vec3_to(c.position, quantum),
             vec3_to(c.target, quantum),

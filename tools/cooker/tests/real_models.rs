@@ -2527,3 +2527,73 @@ fn vertex_coloured_glass_throws_its_colours() {
     let distinct: std::collections::HashSet<[u8; 4]> = lit.iter().copied().collect();
     assert!(distinct.len() > 500, "{}", distinct.len());
 }
+
+/// A glTF that frames its own views and sun (Blender exports them with "Cameras" and
+/// "Punctual Lights" ticked) cooks bare with them rather than guessed ones: the sun's
+/// direction and colour, the file's camera first (rolled as it is), the guessed views after.
+/// `init` writes them into the manifest.
+#[test]
+fn a_gltf_cooks_with_its_own_cameras_and_sun() {
+    let dir = tempfile::tempdir().unwrap();
+    let source = third_party("gltfpack/boxes.gltf");
+    std::fs::copy(
+        source.with_file_name("Box0.bin"),
+        dir.path().join("Box0.bin"),
+    )
+    .unwrap();
+    let mut json: Value = serde_json::from_slice(&std::fs::read(&source).unwrap()).unwrap();
+    let count = json["nodes"].as_array().unwrap().len();
+    // The sun 45° below the horizon towards -z; the camera rolled 90° about its view axis.
+    let (s, c) = (22.5f64.to_radians().sin(), 22.5f64.to_radians().cos());
+    let h = std::f64::consts::FRAC_1_SQRT_2;
+    json["nodes"].as_array_mut().unwrap().extend([
+        serde_json::json!({"name": "Eye", "camera": 0, "translation": [5.0, 2.0, 10.0],
+            "rotation": [0.0, 0.0, h, h]}),
+        serde_json::json!({"name": "Sun", "rotation": [-s, 0.0, 0.0, c],
+            "extensions": {"KHR_lights_punctual": {"light": 0}}}),
+    ]);
+    json["scenes"][0]["nodes"]
+        .as_array_mut()
+        .unwrap()
+        .extend([serde_json::json!(count), serde_json::json!(count + 1)]);
+    json["cameras"] = serde_json::json!([{"type": "perspective",
+        "perspective": {"yfov": 0.8, "znear": 0.05, "zfar": 200.0}}]);
+    json["extensions"] = serde_json::json!({"KHR_lights_punctual": {"lights": [
+        {"type": "directional", "name": "Sonne", "color": [1.0, 0.9, 0.8]}]}});
+    let model = dir.path().join("views.gltf");
+    std::fs::write(&model, serde_json::to_vec(&json).unwrap()).unwrap();
+
+    let pack = dir.path().join("views.pack");
+    let err = cook(&model, &pack, &[]);
+    assert!(err.contains("the model's own light \"Sonne\""), "{err}");
+    let check = |pack: &Path| {
+        let v = info(pack);
+        let light = &v["light"];
+        let d = vec3(&light["direction"]);
+        assert!(
+            (d[0] - 0.0).abs() < 1e-4 && (d[1] + h).abs() < 1e-4 && (d[2] + h).abs() < 1e-4,
+            "{light}"
+        );
+        assert_eq!(
+            vec3(&light["colour"]),
+            [1.0, 0.9, 0.8].map(|c: f32| c as f64)
+        );
+        let cooked = pack::Pack::open(pack).unwrap();
+        let cameras = &cooked.toc().cameras;
+        assert_eq!(cameras[0].name, "Eye", "{cameras:?}");
+        assert!(cameras.len() > 1, "the guessed views follow: {cameras:?}");
+        let eye = &cameras[0];
+        assert_eq!(eye.position, [5.0, 2.0, 10.0]);
+        // Rolled: its up is the node's x axis turned onto y, that is -x.
+        let up = glam::Vec3::from(eye.up);
+        assert!((up - glam::Vec3::NEG_X).length() < 1e-4, "{up}");
+        assert!(eye.target[2] < 10.0 && (eye.fov_y - 0.8f32.to_degrees()).abs() < 0.1);
+    };
+    check(&pack);
+    let scene = dir.path().join("views.toml");
+    let o = cooker(&[&"init", &model, &"-o", &scene]);
+    assert_eq!(o.status.code(), Some(0), "{}", text(&o.stderr));
+    let manifest = dir.path().join("manifest.pack");
+    cook(&scene, &manifest, &[]);
+    check(&manifest);
+}

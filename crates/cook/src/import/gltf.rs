@@ -161,6 +161,162 @@ fn exact_locals(text: &[u8], json: &gltf::json::Root) -> Vec<Option<glam::DMat4>
         .collect()
 }
 
+/// The cameras and the sun a file places on its nodes (glTF cameras, `KHR_lights_punctual`),
+/// as the scene graph is walked: a church exported from Blender with its sun set to shine
+/// through the rose window and its views framed keeps them rather than guessed ones.
+#[derive(Default)]
+struct Views {
+    /// Name, world transform, vertical field of view (radians), near and far plane.
+    cameras: Vec<(String, glam::DMat4, f32, f32, Option<f32>)>,
+    /// Name, world transform, linear colour: the first directional light.
+    sun: Option<(String, glam::DMat4, [f32; 3])>,
+    /// Cameras and lights a pack cannot hold (orthographic cameras, lights other than the
+    /// first sun), for one warning.
+    unused: Vec<String>,
+}
+
+impl Views {
+    fn visit(
+        &mut self,
+        document: &gltf::Document,
+        cameras: &[gltf::json::Camera],
+        node: &gltf::Node,
+        world: glam::DMat4,
+    ) {
+        let node_name = || {
+            node.name()
+                .map_or_else(|| format!("node{}", node.index()), str::to_string)
+        };
+        if let Some(camera) = node.camera()
+            && let Some(json) = cameras.get(camera.index())
+        {
+            let name = camera.name().map_or_else(node_name, str::to_string);
+            use gltf::json::{camera::Type, validation::Checked};
+            match (&json.type_, &json.perspective) {
+                (Checked::Valid(Type::Perspective), Some(p)) => {
+                    self.cameras.push((name, world, p.yfov, p.znear, p.zfar));
+                }
+                _ => self.unused.push(format!("orthographic camera {name:?}")),
+            }
+        }
+        let Some(index) = node
+            .extension_value("KHR_lights_punctual")
+            .and_then(|e| e.get("light"))
+            .and_then(serde_json::Value::as_u64)
+        else {
+            return;
+        };
+        let light = document
+            .extension_value("KHR_lights_punctual")
+            .and_then(|e| e.get("lights"))
+            .and_then(|l| l.get(usize::try_from(index).ok()?));
+        let Some(light) = light else {
+            return;
+        };
+        let name = light
+            .get("name")
+            .and_then(serde_json::Value::as_str)
+            .map_or_else(node_name, str::to_string);
+        let kind = light.get("type").and_then(serde_json::Value::as_str);
+        if kind != Some("directional") || self.sun.is_some() {
+            self.unused
+                .push(format!("{} light {name:?}", kind.unwrap_or("untyped")));
+            return;
+        }
+        let colour = light
+            .get("color")
+            .and_then(serde_json::Value::as_array)
+            .filter(|c| c.len() == 3)
+            .and_then(|c| {
+                let v: Option<Vec<f32>> = c.iter().map(|x| x.as_f64().map(|x| x as f32)).collect();
+                v.filter(|v| v.iter().all(|x| x.is_finite() && *x >= 0.0))
+            })
+            .map_or([1.0; 3], |v| [v[0], v[1], v[2]]);
+        self.sun = Some((name, world, colour));
+    }
+
+    /// Onto `out`, once its origin and bounds are known: each camera looking along its -z
+    /// axis at the depth of the model's centre, the sun's light along its -z axis.
+    fn finish(self, path: &Path, out: &mut Imported) {
+        let origin = glam::DVec3::from(out.origin);
+        let (lo, hi) = out.positions.iter().fold(
+            (
+                glam::Vec3::splat(f32::INFINITY),
+                glam::Vec3::splat(f32::NEG_INFINITY),
+            ),
+            |(lo, hi), p| (lo.min((*p).into()), hi.max((*p).into())),
+        );
+        let (centre, diag) = if lo.is_finite() && hi.is_finite() {
+            (((lo + hi) * 0.5).as_dvec3(), (hi - lo).length() as f64)
+        } else {
+            (glam::DVec3::ZERO, 1.0)
+        };
+        for (name, world, yfov, znear, zfar) in self.cameras {
+            let eye = world.transform_point3(glam::DVec3::ZERO) - origin;
+            let forward = world.transform_vector3(-glam::DVec3::Z).normalize_or_zero();
+            let up = world.transform_vector3(glam::DVec3::Y).normalize_or_zero();
+            let fov = yfov.to_degrees();
+            if forward == glam::DVec3::ZERO
+                || up == glam::DVec3::ZERO
+                || !eye.is_finite()
+                || !(fov > 0.0 && fov < 180.0)
+                || znear.is_nan()
+                || znear <= 0.0
+            {
+                out.warnings.push(Warning::new(
+                    path,
+                    None,
+                    format!("camera {name:?} has a degenerate transform or projection: not used"),
+                ));
+                continue;
+            }
+            let depth = (centre - eye).dot(forward).max(diag * 1e-3).max(1e-6);
+            let far = zfar
+                .filter(|f| f.is_finite() && *f > znear)
+                .unwrap_or(((centre - eye).length() + diag * 2.0) as f32);
+            if !(far > znear && far.is_finite()) {
+                out.warnings.push(Warning::new(
+                    path,
+                    None,
+                    format!(
+                        "camera {name:?}: near plane {znear} is not before the model: not used"
+                    ),
+                ));
+                continue;
+            }
+            out.views.push(pack::Camera {
+                name,
+                position: eye.as_vec3().to_array(),
+                target: (eye + forward * depth).as_vec3().to_array(),
+                up: up.as_vec3().to_array(),
+                fov_y: fov,
+                near: znear,
+                far,
+            });
+        }
+        if let Some((name, world, colour)) = self.sun {
+            let d = world.transform_vector3(-glam::DVec3::Z).normalize_or_zero();
+            if d != glam::DVec3::ZERO {
+                out.sun = Some(super::FileSun {
+                    name,
+                    direction: d.as_vec3().to_array(),
+                    colour,
+                });
+            }
+        }
+        if !self.unused.is_empty() {
+            out.warnings.push(Warning::new(
+                path,
+                None,
+                format!(
+                    "{} not used: a pack holds perspective cameras and one sun",
+                    self.unused.join(", ")
+                ),
+            ));
+        }
+    }
+}
+
 /// Where a node or instance is placed: by the f32 chain of gltf's transforms, which places a
 /// model near the origin (bit for bit as ever), and by the same chain in f64, which places one
 /// in survey coordinates (see `Imported::origin`).
@@ -240,6 +396,9 @@ pub fn import(path: &Path) -> Result<Imported, CookError> {
             ));
         }
     }
+    // Read here rather than through gltf's `Camera::projection`, which unwraps the projection
+    // the type names and validation does not require.
+    let camera_json = json.cameras.clone();
     let document = validate(json).map_err(convert)?;
     let base = path.parent().unwrap_or(Path::new(""));
     let (buffers, decoded, files) = load_buffers(path, &document, base, blob)?;
@@ -279,6 +438,7 @@ pub fn import(path: &Path) -> Result<Imported, CookError> {
     let mut visits = 0usize;
     let mut budget = MAX_INSTANCED;
     let draco = super::gltf_draco::Cache::default();
+    let mut views = Views::default();
     while let Some((node, parent, depth)) = stack.pop() {
         visits += 1;
         // Validation does not reject cycles in the node graph; bound the walk instead of
@@ -302,6 +462,7 @@ pub fn import(path: &Path) -> Result<Imported, CookError> {
                 format!("node {} has a non-finite transform", node.index()),
             ));
         }
+        views.visit(&document, &camera_json, &node, world.exact);
         if let Some(mesh) = node.mesh() {
             let ctx = Ctx {
                 path,
@@ -396,6 +557,7 @@ pub fn import(path: &Path) -> Result<Imported, CookError> {
             ),
         ));
     }
+    views.finish(path, &mut out);
     if out.tri_part.is_empty() {
         out.warnings.push(Warning::new(
             path,
@@ -2278,6 +2440,68 @@ mod tests {
         assert!(
             err.contains("COLOR_0 has 2 elements but POSITION has 3"),
             "{err}"
+        );
+    }
+
+    /// `boxes.gltf` with a camera and a sun of its own, as Blender exports a framed scene,
+    /// plus a point light and an orthographic camera a pack cannot hold.
+    fn boxes_with_views(dir: &Path) -> std::path::PathBuf {
+        let source = third_party("gltfpack/boxes.gltf");
+        std::fs::copy(source.with_file_name("Box0.bin"), dir.join("Box0.bin")).unwrap();
+        let mut json: serde_json::Value =
+            serde_json::from_slice(&std::fs::read(&source).unwrap()).unwrap();
+        let h = std::f64::consts::FRAC_1_SQRT_2;
+        let count = json["nodes"].as_array().unwrap().len();
+        json["nodes"].as_array_mut().unwrap().extend([
+            serde_json::json!({"name": "Eye", "camera": 0, "translation": [5.0, 2.0, 10.0]}),
+            serde_json::json!({"name": "Sun", "rotation": [-h, 0.0, 0.0, h],
+                "extensions": {"KHR_lights_punctual": {"light": 0}}}),
+            serde_json::json!({"extensions": {"KHR_lights_punctual": {"light": 1}}}),
+            serde_json::json!({"camera": 1}),
+        ]);
+        let scene = json["scenes"][0]["nodes"].as_array_mut().unwrap();
+        scene.extend((count..count + 4).map(|i| serde_json::json!(i)));
+        json["cameras"] = serde_json::json!([
+            {"type": "perspective", "perspective": {"yfov": 0.8, "znear": 0.05, "zfar": 200.0}},
+            {"type": "orthographic", "orthographic": {"xmag": 1, "ymag": 1, "znear": 0, "zfar": 9}}
+        ]);
+        json["extensionsUsed"] = serde_json::json!(["KHR_lights_punctual"]);
+        json["extensions"] = serde_json::json!({"KHR_lights_punctual": {"lights": [
+            {"type": "directional", "name": "Sonne", "color": [1.0, 0.5, 0.25]},
+            {"type": "point", "name": "Kerze"}
+        ]}});
+        let path = dir.join("views.gltf");
+        std::fs::write(&path, serde_json::to_vec(&json).unwrap()).unwrap();
+        path
+    }
+
+    /// A glTF's perspective cameras and first directional light are read from its nodes, in
+    /// world space; what a pack cannot hold is named.
+    #[test]
+    fn cameras_and_sun_come_from_the_file() {
+        let dir = tempfile::tempdir().unwrap();
+        let m = import(&boxes_with_views(dir.path())).unwrap();
+        assert_eq!(m.views.len(), 1, "{:?}", m.views);
+        let eye = &m.views[0];
+        assert_eq!(eye.name, "Eye");
+        assert_eq!(eye.position, [5.0, 2.0, 10.0]);
+        // Along -z, to the depth of the boxes' centre.
+        assert_eq!(eye.target[..2], [5.0, 2.0]);
+        assert!(eye.target[2] < 10.0);
+        assert_eq!(eye.up, [0.0, 1.0, 0.0]);
+        assert!((eye.fov_y - 0.8f32.to_degrees()).abs() < 1e-4);
+        assert_eq!((eye.near, eye.far), (0.05, 200.0));
+        let sun = m.sun.as_ref().unwrap();
+        assert_eq!(sun.name, "Sonne");
+        assert_eq!(sun.colour, [1.0, 0.5, 0.25]);
+        let d = glam::Vec3::from(sun.direction);
+        assert!((d - glam::Vec3::NEG_Y).length() < 1e-6, "{d}");
+        let said: Vec<&str> = m.warnings.iter().map(|w| w.message.as_str()).collect();
+        assert!(
+            said.iter().any(|w| w.contains("point light \"Kerze\"")
+                && w.contains("orthographic camera \"node9\"")
+                && w.ends_with("not used: a pack holds perspective cameras and one sun")),
+            "{said:?}"
         );
     }
 

@@ -521,6 +521,20 @@ pub struct Imported {
     /// Subtracted from the file's positions (in f64, before they were rounded to f32): a
     /// model in survey coordinates, far from the origin; zero for any other.
     pub origin: [f64; 3],
+    /// Views the file frames (glTF cameras), placed as its positions are.
+    pub views: Vec<pack::Camera>,
+    /// The file's sun (a glTF `KHR_lights_punctual` directional light).
+    pub sun: Option<FileSun>,
+}
+
+/// A directional light a model's file places.
+#[derive(Clone, Debug, PartialEq)]
+pub struct FileSun {
+    pub name: String,
+    /// Where its light travels (unit).
+    pub direction: [f32; 3],
+    /// Linear RGB.
+    pub colour: [f32; 3],
 }
 
 impl Imported {
@@ -574,6 +588,20 @@ impl Imported {
         }
         for p in &mut self.positions {
             *p = m.transform_point3(glam::Vec3::from(*p)).to_array();
+        }
+        for v in &mut self.views {
+            v.position = m.transform_point3(v.position.into()).to_array();
+            v.target = m.transform_point3(v.target.into()).to_array();
+            v.up = m
+                .transform_vector3(v.up.into())
+                .normalize_or_zero()
+                .to_array();
+        }
+        if let Some(s) = &mut self.sun {
+            s.direction = m
+                .transform_vector3(s.direction.into())
+                .normalize_or_zero()
+                .to_array();
         }
         let nm = glam::Mat3::from_mat4(m).inverse().transpose();
         for n in &mut self.normals {
