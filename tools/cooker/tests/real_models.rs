@@ -2402,6 +2402,16 @@ fn a_model_in_survey_coordinates_keeps_its_precision() {
     assert_eq!(camera.target, [2.75, 2.5, 2.0]);
 }
 
+/// gltfpack's `boxes.gltf` (six boxes placed by nodes) as JSON to edit, with its buffer
+/// copied into `dir`; and how many nodes it has.
+fn boxes_json(dir: &Path) -> (Value, usize) {
+    let source = third_party("gltfpack/boxes.gltf");
+    std::fs::copy(source.with_file_name("Box0.bin"), dir.join("Box0.bin")).unwrap();
+    let json: Value = serde_json::from_slice(&std::fs::read(&source).unwrap()).unwrap();
+    let count = json["nodes"].as_array().unwrap().len();
+    (json, count)
+}
+
 /// A glTF placed in survey coordinates by its root node (as scans are) is moved as an OBJ is,
 /// with the same note, and `init` writes the move; the cook from that manifest is not moved
 /// again and has the same geometry.
@@ -2409,14 +2419,7 @@ fn a_model_in_survey_coordinates_keeps_its_precision() {
 fn a_gltf_in_survey_coordinates_is_moved_as_an_obj_is() {
     let dir = tempfile::tempdir().unwrap();
     let source = third_party("gltfpack/boxes.gltf");
-    std::fs::copy(
-        source.with_file_name("Box0.bin"),
-        dir.path().join("Box0.bin"),
-    )
-    .unwrap();
-    let mut json: serde_json::Value =
-        serde_json::from_slice(&std::fs::read(&source).unwrap()).unwrap();
-    let count = json["nodes"].as_array().unwrap().len();
+    let (mut json, count) = boxes_json(dir.path());
     let root = serde_json::json!({
         "translation": [500_000.123, 0.0, 5_000_000.456],
         "children": (0..count).collect::<Vec<_>>(),
@@ -2535,14 +2538,7 @@ fn vertex_coloured_glass_throws_its_colours() {
 #[test]
 fn a_gltf_cooks_with_its_own_cameras_and_sun() {
     let dir = tempfile::tempdir().unwrap();
-    let source = third_party("gltfpack/boxes.gltf");
-    std::fs::copy(
-        source.with_file_name("Box0.bin"),
-        dir.path().join("Box0.bin"),
-    )
-    .unwrap();
-    let mut json: Value = serde_json::from_slice(&std::fs::read(&source).unwrap()).unwrap();
-    let count = json["nodes"].as_array().unwrap().len();
+    let (mut json, count) = boxes_json(dir.path());
     // The sun 45° below the horizon towards -z; the camera rolled 90° about its view axis.
     let (s, c) = (22.5f64.to_radians().sin(), 22.5f64.to_radians().cos());
     let h = std::f64::consts::FRAC_1_SQRT_2;

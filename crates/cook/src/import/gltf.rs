@@ -2291,13 +2291,17 @@ mod tests {
         );
     }
 
+    /// gltfpack's `boxes.gltf` as JSON to edit, its buffer copied into `dir`.
+    fn boxes_json(dir: &Path) -> serde_json::Value {
+        let source = third_party("gltfpack/boxes.gltf");
+        std::fs::copy(source.with_file_name("Box0.bin"), dir.join("Box0.bin")).unwrap();
+        serde_json::from_slice(&std::fs::read(&source).unwrap()).unwrap()
+    }
+
     /// `boxes.gltf` moved far from the origin, as a scan in UTM metres is: by a root node's
     /// matrix, or by each node's own translation.
     fn boxes_far_away(dir: &Path, at: [f64; 3], by_root: bool) -> std::path::PathBuf {
-        let source = third_party("gltfpack/boxes.gltf");
-        std::fs::copy(source.with_file_name("Box0.bin"), dir.join("Box0.bin")).unwrap();
-        let mut json: serde_json::Value =
-            serde_json::from_slice(&std::fs::read(&source).unwrap()).unwrap();
+        let mut json = boxes_json(dir);
         let count = json["nodes"].as_array().unwrap().len();
         if by_root {
             let mut matrix = vec![serde_json::json!(0.0); 16];
@@ -2446,10 +2450,7 @@ mod tests {
     /// `boxes.gltf` with a camera and a sun of its own, as Blender exports a framed scene,
     /// plus a point light and an orthographic camera a pack cannot hold.
     fn boxes_with_views(dir: &Path) -> std::path::PathBuf {
-        let source = third_party("gltfpack/boxes.gltf");
-        std::fs::copy(source.with_file_name("Box0.bin"), dir.join("Box0.bin")).unwrap();
-        let mut json: serde_json::Value =
-            serde_json::from_slice(&std::fs::read(&source).unwrap()).unwrap();
+        let mut json = boxes_json(dir);
         let h = std::f64::consts::FRAC_1_SQRT_2;
         let count = json["nodes"].as_array().unwrap().len();
         json["nodes"].as_array_mut().unwrap().extend([
