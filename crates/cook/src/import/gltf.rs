@@ -196,7 +196,12 @@ impl Views {
                 (Checked::Valid(Type::Perspective), Some(p)) => {
                     self.cameras.push((name, world, p.yfov, p.znear, p.zfar));
                 }
-                _ => self.unused.push(format!("orthographic camera {name:?}")),
+                (Checked::Valid(Type::Orthographic), _) => {
+                    self.unused.push(format!("orthographic camera {name:?}"))
+                }
+                _ => self
+                    .unused
+                    .push(format!("camera {name:?} without a perspective projection")),
             }
         }
         let Some(index) = node
@@ -2459,12 +2464,15 @@ mod tests {
                 "extensions": {"KHR_lights_punctual": {"light": 0}}}),
             serde_json::json!({"extensions": {"KHR_lights_punctual": {"light": 1}}}),
             serde_json::json!({"camera": 1}),
+            serde_json::json!({"camera": 2}),
         ]);
         let scene = json["scenes"][0]["nodes"].as_array_mut().unwrap();
-        scene.extend((count..count + 4).map(|i| serde_json::json!(i)));
+        scene.extend((count..count + 5).map(|i| serde_json::json!(i)));
         json["cameras"] = serde_json::json!([
             {"type": "perspective", "perspective": {"yfov": 0.8, "znear": 0.05, "zfar": 200.0}},
-            {"type": "orthographic", "orthographic": {"xmag": 1, "ymag": 1, "znear": 0, "zfar": 9}}
+            {"type": "orthographic", "orthographic": {"xmag": 1, "ymag": 1, "znear": 0, "zfar": 9}},
+            // Its type says perspective, its data is orthographic (gltf's `projection` unwraps).
+            {"type": "perspective", "orthographic": {"xmag": 1, "ymag": 1, "znear": 0, "zfar": 9}}
         ]);
         json["extensionsUsed"] = serde_json::json!(["KHR_lights_punctual"]);
         json["extensions"] = serde_json::json!({"KHR_lights_punctual": {"lights": [
@@ -2501,6 +2509,7 @@ mod tests {
         assert!(
             said.iter().any(|w| w.contains("point light \"Kerze\"")
                 && w.contains("orthographic camera \"node9\"")
+                && w.contains("camera \"node10\" without a perspective projection")
                 && w.ends_with("not used: a pack holds perspective cameras and one sun")),
             "{said:?}"
         );
