@@ -366,16 +366,16 @@ fn push_colour(colours: &mut Vec<[f32; 3]>, positions: usize, colour: Option<[f3
 }
 
 /// The file's vertex colours, once it is read: sRGB values from 0 to 1 (or to 255, as some
-/// tools write them, where any is over 1) to linear RGBA, white for positions without one.
+/// tools write them: whole numbers, some over 1) to linear RGBA, white for positions without
+/// one. A file of fractions with a few over 1 keeps its scale (clamped), rather than going
+/// nearly black.
 fn finish_colours(mut out: Imported, raw: Vec<[f32; 3]>) -> Imported {
     if raw.is_empty() {
         return out;
     }
-    let scale = if raw.iter().flatten().any(|&c| c > 1.0) {
-        1.0 / 255.0
-    } else {
-        1.0
-    };
+    let written = || raw.iter().flatten().filter(|c| !c.is_nan());
+    let bytes = written().any(|&c| c > 1.0) && written().all(|&c| c.fract() == 0.0);
+    let scale = if bytes { 1.0 / 255.0 } else { 1.0 };
     let mut colours: Vec<[f32; 4]> = raw
         .into_iter()
         .map(|c| {
@@ -2553,6 +2553,9 @@ mod tests {
             "{:?}",
             bytes.colours
         );
+        // Fractions, one over 1: not bytes.
+        let over = parse_lines(path, b"v 0 0 0 1.5 0.5 0\nv 1 0 0\n", None).unwrap();
+        assert_eq!(over.colours[0], [1.0, half, 0.0, 1.0]);
         let plain = parse_lines(path, b"v 0 0 0 1\nv 1 0 0\n", None).unwrap();
         assert!(plain.colours.is_empty());
         let err = parse_lines(path, b"v 0 0 0\nv 1 0 0 0.5 red 0\n", None).unwrap_err();
