@@ -21,15 +21,6 @@ pub struct ModelArgs {
     pub text_encoding: Option<TextEncoding>,
 }
 
-impl Default for ModelArgs {
-    fn default() -> Self {
-        Self {
-            up: UpAxis::Y,
-            text_encoding: None,
-        }
-    }
-}
-
 impl ModelArgs {
     /// Onto settings made from a manifest: the up axis, and the encoding where one is given
     /// (else the manifest's stays).

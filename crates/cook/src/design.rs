@@ -186,62 +186,38 @@ pub fn mesh_design(
     h: u32,
     came: f32,
 ) -> RgbaImage {
-    let Some(tints) = tints else {
-        return mesh_design_flat(panes, tris, w, h, came);
+    let texel = |p: Pane, tint: [f32; 4]| {
+        let c = std::array::from_fn::<f32, 3, _>(|k| p.colour[k] * tint[k]);
+        let c = c.map(texture::srgb::encode8);
+        Rgba([c[0], c[1], c[2], texture::srgb::unorm8(p.amount * tint[3])])
     };
+    // Which triangle covers each texel, where the tints need it.
     let mut ids = vec![0u16; (w * h) as usize];
-    let mut tri_of = vec![0u32; (w * h) as usize];
+    let mut tri_of = tints.map(|_| vec![0u32; (w * h) as usize]);
     scan(tris, w, h, |t, x, y| {
         let i = (y * w + x) as usize;
         ids[i] = tris[t].1 + 1;
-        tri_of[i] = t as u32;
+        if let Some(tri_of) = &mut tri_of {
+            tri_of[i] = t as u32;
+        }
     });
     let dist = boundary_distance(&ids, w, h);
+    // The boundary texels are themselves lead; half the width lies on each side of a seam.
     let half = came * 0.5;
+    let flat: Vec<Rgba<u8>> = panes.iter().map(|&p| texel(p, [1.0; 4])).collect();
     RgbaImage::from_fn(w, h, |x, y| {
         let i = (y * w + x) as usize;
         match ids[i] {
             0 => Rgba([0, 0, 0, 0]),
             _ if came > 0.0 && dist[i] < half.max(0.5) => CAME,
-            id => {
-                let t = tri_of[i] as usize;
-                let tint = tint_at(&tris[t].0, &tints[t], x, y, w, h);
-                let pane = panes[id as usize - 1];
-                let c = std::array::from_fn::<f32, 3, _>(|k| pane.colour[k] * tint[k])
-                    .map(texture::srgb::encode8);
-                Rgba([
-                    c[0],
-                    c[1],
-                    c[2],
-                    texture::srgb::unorm8(pane.amount * tint[3]),
-                ])
-            }
-        }
-    })
-}
-
-/// [`mesh_design`] without vertex colours: one colour a pane.
-fn mesh_design_flat(panes: &[Pane], tris: &[UvTriangle], w: u32, h: u32, came: f32) -> RgbaImage {
-    let ids = rasterize(tris, w, h);
-    let dist = boundary_distance(&ids, w, h);
-    // The boundary texels are themselves lead; half the width lies on each side of a seam.
-    let half = came * 0.5;
-    let colours: Vec<Rgba<u8>> = panes
-        .iter()
-        .map(|p| {
-            let c = p.colour.map(texture::srgb::encode8);
-            Rgba([c[0], c[1], c[2], texture::srgb::unorm8(p.amount)])
-        })
-        .collect();
-    RgbaImage::from_fn(w, h, |x, y| {
-        let i = (y * w + x) as usize;
-        match ids[i] {
-            0 => Rgba([0, 0, 0, 0]),
-            id if came > 0.0 && dist[i] < half.max(0.5) => {
-                let _ = id;
-                CAME
-            }
-            id => colours[id as usize - 1],
+            id => match (tints, &tri_of) {
+                (Some(tints), Some(tri_of)) => {
+                    let t = tri_of[i] as usize;
+                    let tint = tint_at(&tris[t].0, &tints[t], x, y, w, h);
+                    texel(panes[id as usize - 1], tint)
+                }
+                _ => flat[id as usize - 1],
+            },
         }
     })
 }

@@ -67,14 +67,16 @@ fn rgba(img: &image::DynamicImage) -> std::borrow::Cow<'_, image::RgbaImage> {
     }
 }
 
-/// The instance's triangles in texture space, each with its pane (index into `panes`), and
-/// the panes: one per source material, in its transmitted colour.
+/// The instance's triangles in texture space, each with its pane (index into `panes`); the
+/// panes: one per source material, in its transmitted colour; and, for a design `drawn` from
+/// the mesh, the vertex colours at each triangle's corners.
 fn uv_triangles(
     src: &Imported,
     inst: &Instance,
     tri_material: &[u16],
     tagging: &Tagging,
     si: usize,
+    drawn: bool,
 ) -> (Vec<UvTriangle>, Vec<Pane>, Option<Vec<Tint>>) {
     let mut panes: Vec<(Option<u32>, Pane)> = Vec::new();
     let mut tris = Vec::with_capacity(inst.triangles.len());
@@ -112,9 +114,9 @@ fn uv_triangles(
         });
         tris.push((uv, id as u16));
     }
-    // Vertex colours tint the panes; a window whose corners are all white (or a model without
-    // them) is drawn as it always was.
-    let tints: Option<Vec<Tint>> = (!src.colours.is_empty()).then(|| {
+    // Vertex colours tint the panes of a design `drawn` from the mesh; a window whose corners
+    // are all white (or a model without them) is drawn as it always was.
+    let tints: Option<Vec<Tint>> = (drawn && !src.colours.is_empty()).then(|| {
         inst.triangles
             .iter()
             .map(|&t| {
@@ -328,13 +330,6 @@ pub fn plan(
         if planar {
             instances::write_planar_uvs(&mut sources[inst.source], inst);
         }
-        let (tris, panes, tints) = uv_triangles(
-            &sources[inst.source],
-            inst,
-            &tri_material[inst.source],
-            tagging,
-            inst.source,
-        );
         let plan_textures = tagging.materials[material as usize].diffuse_texture.clone();
         let image = match entry.and_then(|e| e.design.clone()) {
             Some(p) => Some((ImageRef::File(p), DesignSource::Image)),
@@ -358,6 +353,14 @@ pub fn plan(
                 (t, DesignSource::Texture)
             }),
         };
+        let (tris, panes, tints) = uv_triangles(
+            &sources[inst.source],
+            inst,
+            &tri_material[inst.source],
+            tagging,
+            inst.source,
+            image.is_none(),
+        );
         // A design decoded here for its mask may reach the texture stage only as pixels; the
         // file is still an input of the cook (and of its cache entry).
         if let Some((ImageRef::File(p), _)) = &image {

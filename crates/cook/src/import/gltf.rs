@@ -244,17 +244,23 @@ impl Views {
     /// axis at the depth of the model's centre, the sun's light along its -z axis.
     fn finish(self, path: &Path, out: &mut Imported) {
         let origin = glam::DVec3::from(out.origin);
-        let (lo, hi) = out.positions.iter().fold(
-            (
-                glam::Vec3::splat(f32::INFINITY),
-                glam::Vec3::splat(f32::NEG_INFINITY),
-            ),
-            |(lo, hi), p| (lo.min((*p).into()), hi.max((*p).into())),
-        );
-        let (centre, diag) = if lo.is_finite() && hi.is_finite() {
-            (((lo + hi) * 0.5).as_dvec3(), (hi - lo).length() as f64)
-        } else {
+        // The model's centre and size, only where a camera needs them: a pass over every
+        // position.
+        let (centre, diag) = if self.cameras.is_empty() {
             (glam::DVec3::ZERO, 1.0)
+        } else {
+            let (lo, hi) = out.positions.iter().fold(
+                (
+                    glam::Vec3::splat(f32::INFINITY),
+                    glam::Vec3::splat(f32::NEG_INFINITY),
+                ),
+                |(lo, hi), p| (lo.min((*p).into()), hi.max((*p).into())),
+            );
+            if lo.is_finite() && hi.is_finite() {
+                (((lo + hi) * 0.5).as_dvec3(), (hi - lo).length() as f64)
+            } else {
+                (glam::DVec3::ZERO, 1.0)
+            }
         };
         for (name, world, yfov, znear, zfar) in self.cameras {
             let eye = world.transform_point3(glam::DVec3::ZERO) - origin;
