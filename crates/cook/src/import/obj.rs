@@ -299,17 +299,25 @@ struct Chunk {
 /// [`super::survey_origin`]): from its first vertex; `None` for a model near the origin, whose
 /// positions are read as they always were.
 fn far_origin(bytes: &[u8]) -> Option<[f64; 3]> {
+    first_vertex(bytes).and_then(super::survey_origin)
+}
+
+/// The coordinates of the first `v` line in `bytes` (those that do not read as finite numbers
+/// are 0, for the reader to report), or `None` where there is none.
+fn first_vertex(bytes: &[u8]) -> Option<[f64; 3]> {
     let line = lines(bytes)
         .map(trim)
         .find(|l| matches!(l, [b'v', b' ' | b'\t', ..]))?;
     let mut first = [0.0f64; 3];
     for (o, t) in first.iter_mut().zip(tokens(&line[1..])) {
-        let v: f64 = std::str::from_utf8(t).ok()?.parse().ok()?;
-        if v.is_finite() {
+        let v = std::str::from_utf8(t)
+            .ok()
+            .and_then(|t| t.parse::<f64>().ok());
+        if let Some(v) = v.filter(|v| v.is_finite()) {
             *o = v;
         }
     }
-    super::survey_origin(first)
+    Some(first)
 }
 
 /// A vertex's three coordinates (`rest` of its line) by the general number reader, with the
@@ -515,6 +523,18 @@ fn last_line_end(text: &[u8], from: usize) -> Option<usize> {
             let before = &text[..i];
             !(before.ends_with(b"\\") || before.ends_with(b"\\\r"))
         })
+}
+
+/// `text` with its continued lines joined ([`join_continued_lines`]), copied only where it
+/// has any.
+fn with_lines_joined(text: &[u8]) -> std::borrow::Cow<'_, [u8]> {
+    if continued(text) {
+        let mut b = text.to_vec();
+        join_continued_lines(&mut b);
+        b.into()
+    } else {
+        text.into()
+    }
 }
 
 /// Joins lines continued with a backslash at their end, as the OBJ format allows (older
@@ -1153,17 +1173,8 @@ pub fn parse_with(
     bytes: &[u8],
     given: Option<text::TextEncoding>,
 ) -> Result<Imported, CookError> {
-    let joined;
-    let bytes = if continued(bytes) {
-        joined = {
-            let mut b = bytes.to_vec();
-            join_continued_lines(&mut b);
-            b
-        };
-        &joined[..]
-    } else {
-        bytes
-    };
+    let joined = with_lines_joined(bytes);
+    let bytes = &joined[..];
     if bytes.len() >= PARALLEL_BYTES {
         parse_chunked(path, bytes, CHUNK_BYTES, given)
     } else {
@@ -1430,7 +1441,6 @@ fn parse_stream(
     let mut block: Vec<u8> = Vec::with_capacity(room);
     let mut next: Vec<u8> = Vec::with_capacity(room);
     let mut end = fill(reader, &mut block).map_err(io)?;
-    assembler.set_origin(&block);
     // The bytes of `block` already checked: a line carried over, or read on, is not checked
     // again (a file of one long line would be, block after block).
     let mut checked = 0;
@@ -1458,6 +1468,8 @@ fn parse_stream(
             join_continued_lines(&mut block[..cut]);
         }
         let text = &block[..cut];
+        // From the first block of whole lines with a vertex in it, whatever the block size.
+        assembler.set_origin(text);
         consumed += text.len() as u64;
         let rest = size.saturating_sub(consumed);
         let (read, ()) = if end {
@@ -1502,6 +1514,8 @@ struct Assembler<'p> {
     statements: Statements,
     /// See [`Chunk::origin`].
     origin: Option<[f64; 3]>,
+    /// Whether `origin` is decided: by the first batch with a vertex in it.
+    origin_placed: bool,
     /// See [`Chunk::colours`].
     colours: Vec<[f32; 3]>,
 }
@@ -1522,14 +1536,21 @@ impl<'p> Assembler<'p> {
             error: None,
             statements: Statements::new(given),
             origin: None,
+            origin_placed: false,
             colours: Vec::new(),
         }
     }
 
     /// Moves the file's positions by [`far_origin`] of its first bytes; before any batch.
-    fn set_origin(&mut self, first: &[u8]) {
-        self.origin = far_origin(first);
-        self.out.origin = self.origin.unwrap_or_default();
+    fn set_origin(&mut self, text: &[u8]) {
+        if self.origin_placed {
+            return;
+        }
+        if let Some(first) = first_vertex(text) {
+            self.origin_placed = true;
+            self.origin = super::survey_origin(first);
+            self.out.origin = self.origin.unwrap_or_default();
+        }
     }
 
     /// Reads consecutive runs of whole lines (one thread each) and assembles them; nothing
@@ -3061,6 +3082,29 @@ mod tests {
                 streamed(&text, None, chunk, block),
                 summary(parse(path, text.as_bytes()))
             );
+        }
+    }
+
+    #[test]
+    fn a_vertex_continuing_a_line_does_not_place_the_survey_origin() {
+        // The `v` after the backslash belongs to the line before; the file's first vertex is
+        // the far one, so both readers move the file by it.
+        let text = "l 1 2\\\nv 0 0 0\nv 500000 20 30\nv 500001 20 30\nv 500000 21 30\nf 1 2 3\n";
+        let whole = parse(Path::new("test.obj"), text.as_bytes()).unwrap();
+        assert_eq!(whole.origin, [500000.0, 0.0, 0.0]);
+        for block in [1, 7, 64] {
+            let mut reader = std::io::Cursor::new(text.as_bytes());
+            let streamed = parse_stream(
+                Path::new("test.obj"),
+                &mut reader,
+                text.len() as u64,
+                16,
+                block,
+                None,
+            )
+            .unwrap();
+            assert_eq!(streamed.origin, whole.origin, "block {block}");
+            assert_eq!(streamed.positions, whole.positions, "block {block}");
         }
     }
 
