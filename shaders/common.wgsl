@@ -113,6 +113,8 @@ struct VertexIn {
     @location(1) normal: vec3<f32>,
     @location(2) uv: vec2<f32>,
     @location(3) tangent: vec4<f32>,
+    // sRGB; white where the model has no vertex colours.
+    @location(4) colour: vec4<f32>,
 }
 
 struct VertexOut {
@@ -122,6 +124,15 @@ struct VertexOut {
     @location(1) normal: vec3<f32>,
     @location(2) uv: vec2<f32>,
     @location(3) tangent: vec4<f32>,
+    // Linear.
+    @location(4) colour: vec3<f32>,
+}
+
+// The sRGB decode: per vertex, so exact rather than a power of 2.2.
+fn srgb_to_linear(c: vec3<f32>) -> vec3<f32> {
+    let low = c / 12.92;
+    let high = pow((c + 0.055) / 1.055, vec3<f32>(2.4));
+    return select(high, low, c <= vec3<f32>(0.04045));
 }
 
 @vertex
@@ -135,6 +146,7 @@ fn vs_main(v: VertexIn) -> VertexOut {
     out.normal = v.normal;
     out.uv = v.uv;
     out.tangent = v.tangent;
+    out.colour = srgb_to_linear(v.colour.rgb);
     return out;
 }
 
@@ -176,7 +188,7 @@ fn shading_normal(in: VertexOut) -> vec3<f32> {
 }
 
 fn base_colour(in: VertexOut) -> vec4<f32> {
-    var c = vec4<f32>(material.diffuse.rgb, 1.0);
+    var c = vec4<f32>(material.diffuse.rgb * in.colour, 1.0);
     if (material.diffuse.w > 0.5) {
         c = c * sample_material(diffuse_tex, in.uv, material.uv_scale.xy);
     }

@@ -92,6 +92,7 @@ impl Builder {
                 uv: [s, t],
                 tangent: a.normalize().extend(1.0).to_array(),
                 material: [material, 0],
+                colour: pack::vertex::WHITE,
             });
         }
         let first = self.indices.len() as u32;

@@ -192,6 +192,7 @@ fn scene(compressed: bool) -> Vec<u8> {
         uv,
         tangent: t,
         material: [m, 0],
+        colour: pack::vertex::WHITE,
     };
     let up = [0.0, 1.0, 0.0];
     let fwd = [0.0, 0.0, 1.0];

@@ -151,6 +151,7 @@ impl Builder {
                 uv: [u * uv.x, v * uv.y],
                 tangent: a.normalize().extend(1.0).to_array(),
                 material: [material, 0],
+                colour: pack::vertex::WHITE,
             });
         }
         let first = self.indices.len() as u32;
@@ -664,6 +665,59 @@ fn scene_without_windows_skips_window_passes() {
     }
     assert!(!skipped(&report, PassId::Lit) && !skipped(&report, PassId::Composite));
     check_image("no-windows", &r.read_output(&gpu).unwrap(), 1e-3, 0.01);
+}
+
+/// A model's vertex colours multiply its materials' colours, decoded from sRGB exactly: the
+/// floor painted (255, 128, 64) lights as the white floor times (1, 0.2158, 0.0513) in every
+/// channel (a power of 2.2 would give 0.2195 and 0.0513 + 4 %), and nothing else changes.
+#[test]
+fn vertex_colours_multiply_the_material_colour() {
+    let gpu = lavapipe();
+    let lit = |b: Builder| {
+        let scene = load(&gpu, &b.finish());
+        let (r, _) = render_camera(&gpu, &scene, 0, Settings::default());
+        r.read_target(&gpu, TargetId::Lit).unwrap().2
+    };
+    // Without a highlight, which the colour does not tint: the floor's light is its albedo's.
+    let matte = || {
+        let mut b = scene_builder(Some(LightSetup::Sun), false, false, Placement::ORIGIN);
+        for m in &mut b.toc.materials {
+            m.specular = [0.0; 3];
+        }
+        b
+    };
+    let plain = matte();
+    let floor = plain
+        .toc
+        .materials
+        .iter()
+        .position(|m| m.name == "floor")
+        .unwrap() as u16;
+    let mut painted = matte();
+    for v in painted
+        .vertices
+        .iter_mut()
+        .filter(|v| v.material[0] == floor)
+    {
+        v.colour = [255, 128, 64, 0];
+    }
+    let (white, coloured) = (lit(plain), lit(painted));
+    let want = [255.0, 128.0, 64.0].map(|c: f64| texture::srgb::srgb_to_linear(c / 255.0) as f32);
+    let mut floor_pixels = 0;
+    for (w, c) in white.iter().zip(&coloured) {
+        if w == c {
+            continue;
+        }
+        floor_pixels += 1;
+        for k in 0..3 {
+            // Half-float targets: a few parts in a thousand.
+            assert!(
+                (c[k] - w[k] * want[k]).abs() <= 4e-3 * w[k] + 1e-4,
+                "channel {k}: {c:?} against {w:?} times {want:?}"
+            );
+        }
+    }
+    assert!(floor_pixels > (W * H / 8) as usize, "{floor_pixels}");
 }
 
 #[test]

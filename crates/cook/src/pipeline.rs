@@ -326,6 +326,7 @@ pub fn material_needs(tagging: &tag::Tagging) -> Vec<mesh::MaterialNeeds> {
                 tangents,
                 uvs: tangents || m.diffuse_texture.is_some(),
                 normals: tangents || m.material.class != pack::MaterialClass::Background,
+                colours: !window,
             }
         })
         .collect()

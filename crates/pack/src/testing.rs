@@ -91,6 +91,7 @@ pub fn sample() -> (Toc, PackData) {
         uv,
         tangent: [1.0, 0.0, 0.0, 1.0],
         material: [m, 0],
+        colour: crate::vertex::WHITE,
     };
     let verts = [
         v([0.0, 0.0, 0.0], [0.0, 0.0], 0),
@@ -169,7 +170,7 @@ pub fn sample() -> (Toc, PackData) {
     };
     let data = PackData {
         meshes: vec![MeshData {
-            vertices: bytemuck::cast_slice(&verts).to_vec(),
+            vertices: VertexLayout::standard().encode_vertices(&verts),
             indices: bytemuck::cast_slice(&indices).to_vec(),
         }],
         textures: vec![cdata, ndata],

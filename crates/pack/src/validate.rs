@@ -129,6 +129,14 @@ fn validate_layout(mesh: &Mesh, what: &str) -> Result<(), Fail> {
             mat.format
         )));
     }
+    if let Some(c) = l.attribute(Semantic::Colour)
+        && c.format != AttributeFormat::Unorm8x4
+    {
+        return Err(Fail::toc(format!(
+            "{what}: colour format {:?} must be Unorm8x4",
+            c.format
+        )));
+    }
     if !finite(&l.position_offset) || !finite(&l.position_scale) {
         return Err(Fail::toc(format!(
             "{what}: non-finite position dequantization"

@@ -11,6 +11,10 @@ pub enum Semantic {
     TexCoord,
     Tangent,
     MaterialId,
+    /// A colour that multiplies the material's base colour (a model's vertex colours): sRGB
+    /// red, green and blue in `Unorm8x4`, the fourth byte zero. A vertex of a layout without
+    /// it is white.
+    Colour,
 }
 
 /// Vertex attribute formats; names follow wgpu's `VertexFormat`.
@@ -207,10 +211,11 @@ pub struct VertexLayout {
     pub position_scale: [f32; 3],
 }
 
-/// The uncompressed vertex the cooker writes by default; [`VertexLayout::standard`] describes it.
-/// It is also what every layout decodes to ([`VertexLayout::decode`]).
+/// The uncompressed vertex the cooker writes by default; [`VertexLayout::standard`] describes it
+/// (all but its colour, which only a layout with [`Semantic::Colour`] stores). It is also what
+/// every layout decodes to ([`VertexLayout::decode`]), and what the renderer uploads.
 #[repr(C)]
-#[derive(Clone, Copy, Debug, Default, PartialEq, bytemuck::Pod, bytemuck::Zeroable)]
+#[derive(Clone, Copy, Debug, PartialEq, bytemuck::Pod, bytemuck::Zeroable)]
 pub struct StandardVertex {
     pub position: [f32; 3],
     pub normal: [f32; 3],
@@ -219,6 +224,21 @@ pub struct StandardVertex {
     pub tangent: [f32; 4],
     /// Material ID in `[0]`, `[1]` is zero.
     pub material: [u16; 2],
+    /// sRGB red, green, blue; the fourth byte zero. [`WHITE`] where the vertex has no colour.
+    pub colour: [u8; 4],
+}
+
+/// The colour of a vertex that has none: it leaves the material's colour as it is.
+pub const WHITE: [u8; 4] = [255, 255, 255, 0];
+
+impl Default for StandardVertex {
+    /// Zero but for the colour, which is [`WHITE`].
+    fn default() -> Self {
+        Self {
+            colour: WHITE,
+            ..bytemuck::Zeroable::zeroed()
+        }
+    }
 }
 
 impl StandardVertex {
@@ -230,6 +250,10 @@ impl StandardVertex {
             Semantic::TexCoord => [self.uv[0], self.uv[1], 0.0],
             Semantic::Tangent => return self.tangent,
             Semantic::MaterialId => [self.material[0] as f32, 0.0, 0.0],
+            Semantic::Colour => {
+                let [r, g, b, _] = self.colour.map(|c| c as f32 / 255.0);
+                [r, g, b]
+            }
         };
         [x, y, z, 0.0]
     }
@@ -314,7 +338,8 @@ impl VertexLayout {
         self.read(vertex, Semantic::MaterialId).map(|v| v[0] as u16)
     }
 
-    /// Every attribute of one vertex; those the layout lacks (or cannot read) are zero.
+    /// Every attribute of one vertex; those the layout lacks (or cannot read) are zero, but
+    /// for the colour, which is [`WHITE`].
     pub fn decode(&self, vertex: &[u8]) -> StandardVertex {
         let read = |s| self.read(vertex, s).unwrap_or([0.0; 4]);
         let [px, py, pz, _] = read(Semantic::Position);
@@ -326,7 +351,27 @@ impl VertexLayout {
             uv: [u, v],
             tangent: read(Semantic::Tangent),
             material: [read(Semantic::MaterialId)[0] as u16, 0],
+            colour: self.colour(vertex),
         }
+    }
+
+    /// One vertex's colour: sRGB bytes, [`WHITE`] where the layout has none.
+    pub fn colour(&self, vertex: &[u8]) -> [u8; 4] {
+        match self.read(vertex, Semantic::Colour) {
+            // Unorm8x4 decodes a byte to byte / 255, which this rounds back exactly.
+            Some([r, g, b, _]) => {
+                let byte = |c: f32| (c * 255.0).round() as u8;
+                [byte(r), byte(g), byte(b), 0]
+            }
+            None => WHITE,
+        }
+    }
+
+    /// `vertices` in this layout (see [`write_vertices`]; its quantization errors are left out).
+    pub fn encode_vertices(&self, vertices: &[StandardVertex]) -> Vec<u8> {
+        let mut bytes = vec![0; vertices.len() * self.stride as usize];
+        write_vertices(self, 0, |i| vertices[i], &mut bytes);
+        bytes
     }
 
     /// One attribute's value of `v` as [`AttributeFormat::encode`] takes it for this layout.
@@ -382,6 +427,8 @@ pub struct Encoding {
     pub normal: bool,
     pub uv: bool,
     pub tangent: bool,
+    /// Vertex colours ([`Semantic::Colour`], 8-bit sRGB in either case).
+    pub colour: bool,
     /// `None`: every attribute as 32-bit floats.
     pub quantize: Option<PositionBits>,
 }
@@ -399,14 +446,16 @@ pub struct Encoded {
     pub max_uv_error: f32,
 }
 
-/// Chooses a layout for `vertices` and encodes them. Unquantized with every attribute this is
-/// exactly [`VertexLayout::standard`] (52 bytes), which the renderer uploads as is.
+/// Chooses a layout for `vertices` and encodes them. Unquantized with every attribute but the
+/// colour this is exactly [`VertexLayout::standard`] (52 bytes): the standard vertex's bytes
+/// less its colour.
 ///
 /// Quantized: positions as unorm within the bounding box, normals and tangents octahedral in
 /// 16-bit snorm (tangent handedness in z), UVs as 16-bit unorm when they all lie in [0, 1]
 /// (else floats): 28 bytes with every attribute at 16 bits. Attributes keep the order position,
-/// normal, tangent, UV, material when quantized, and position, normal, UV, tangent, material
-/// as floats, so that the full float layout is the standard one.
+/// normal, tangent, UV, colour, material when quantized, and position, normal, UV, tangent,
+/// colour, material as floats, so that the full float layout without colours is the standard
+/// one. Colours take 4 bytes (8-bit sRGB) either way.
 pub fn encode(
     vertices: &[StandardVertex],
     bounds_min: [f32; 3],
@@ -453,6 +502,7 @@ pub fn layout(
         normal,
         uv,
         tangent,
+        colour,
         quantize,
     } = encoding;
     let mut attributes = Vec::new();
@@ -467,6 +517,9 @@ pub fn layout(
             }
             if tangent {
                 attributes.push((S::Tangent, F::Float32x4));
+            }
+            if colour {
+                attributes.push((S::Colour, F::Unorm8x4));
             }
             attributes.push((S::MaterialId, F::Uint16x2));
             VertexLayout::packed(&attributes, [0.0; 3], [1.0; 3])
@@ -484,6 +537,9 @@ pub fn layout(
                     S::TexCoord,
                     if uv_unorm { F::Unorm16x2 } else { F::Float32x2 },
                 ));
+            }
+            if colour {
+                attributes.push((S::Colour, F::Unorm8x4));
             }
             attributes.push((S::MaterialId, F::Uint16x2));
             // A unorm q reads as q / (2^bits - 1) in [0, 1], so the scale is the box's full
@@ -834,15 +890,15 @@ mod tests {
 
         #[test]
         fn quantized_vertices_decode_within_the_reported_error(
-            vs in prop::collection::vec((prop::array::uniform3(-50.0f32..50.0), unit(), prop::array::uniform2(0.0f32..=1.0), unit(), 0u16..9), 1..20),
+            vs in prop::collection::vec((prop::array::uniform3(-50.0f32..50.0), unit(), prop::array::uniform2(0.0f32..=1.0), unit(), 0u16..9, any::<[u8; 3]>()), 1..20),
             bits in prop::sample::select(vec![PositionBits::B16, PositionBits::B10, PositionBits::B8]),
         ) {
-            let vertices: Vec<StandardVertex> = vs.iter().map(|&(p, n, uv, t, m)| StandardVertex {
-                position: p, normal: n, uv, tangent: [t[0], t[1], t[2], -1.0], material: [m, 0],
+            let vertices: Vec<StandardVertex> = vs.iter().map(|&(p, n, uv, t, m, [r, g, b])| StandardVertex {
+                position: p, normal: n, uv, tangent: [t[0], t[1], t[2], -1.0], material: [m, 0], colour: [r, g, b, 0],
             }).collect();
             let lo = std::array::from_fn(|k| vertices.iter().map(|v| v.position[k]).fold(f32::INFINITY, f32::min));
             let hi = std::array::from_fn(|k| vertices.iter().map(|v| v.position[k]).fold(f32::NEG_INFINITY, f32::max));
-            let e = encode(&vertices, lo, hi, Encoding { normal: true, uv: true, tangent: true, quantize: Some(bits) });
+            let e = encode(&vertices, lo, hi, Encoding { normal: true, uv: true, tangent: true, colour: true, quantize: Some(bits) });
             let levels = ((1u32 << bits as u32) - 1) as f32;
             let step = (0..3).map(|k| (hi[k] - lo[k]) / levels).fold(0.0, f32::max);
             prop_assert!(e.max_position_error <= step * 0.5 + 1e-5, "{} > half of {}", e.max_position_error, step);
@@ -851,6 +907,8 @@ mod tests {
             for (v, bytes) in vertices.iter().zip(e.bytes.chunks_exact(e.layout.stride as usize)) {
                 let back = e.layout.decode(bytes);
                 prop_assert_eq!(back.material, v.material);
+                // Colours are stored as they are: 8-bit sRGB in, 8-bit sRGB out.
+                prop_assert_eq!(back.colour, v.colour);
                 prop_assert_eq!(back.tangent[3], -1.0);
                 prop_assert!(angle_deg([back.tangent[0], back.tangent[1], back.tangent[2]], [v.tangent[0], v.tangent[1], v.tangent[2]]) < 0.01);
             }
@@ -867,14 +925,14 @@ mod tests {
             bits in prop::sample::select(vec![PositionBits::B16, PositionBits::B10, PositionBits::B8]),
         ) {
             let mut vertices: Vec<StandardVertex> = vs.iter().map(|&(p, n, uv, m)| StandardVertex {
-                position: p, normal: n, uv, tangent: [0.0; 4], material: [m, 0],
+                position: p, normal: n, uv, tangent: [0.0; 4], material: [m, 0], colour: crate::vertex::WHITE,
             }).collect();
             if zero {
                 vertices[0].normal = [0.0; 3];
             }
             let lo = std::array::from_fn(|k| vertices.iter().map(|v| v.position[k]).fold(f32::INFINITY, f32::min));
             let hi = std::array::from_fn(|k| vertices.iter().map(|v| v.position[k]).fold(f32::NEG_INFINITY, f32::max));
-            let whole = encode(&vertices, lo, hi, Encoding { normal: true, uv: true, tangent: false, quantize: Some(bits) });
+            let whole = encode(&vertices, lo, hi, Encoding { normal: true, uv: true, tangent: false, colour: false, quantize: Some(bits) });
             let stride = whole.layout.stride as usize;
             let mut bytes = vec![0; whole.bytes.len()];
             let error = bytes
@@ -903,8 +961,9 @@ mod tests {
         }
     }
 
-    /// Unquantized with every attribute, the encoder writes the standard vertex's own bytes, so
-    /// the renderer can upload them as they are.
+    /// Unquantized with every attribute but the colour, the encoder writes the standard
+    /// vertex's own bytes less the colour; with colours, the colour goes before the material
+    /// ID, and a layout without them decodes white.
     #[test]
     fn the_full_float_encoding_is_the_standard_vertex() {
         let vertices = [
@@ -914,23 +973,41 @@ mod tests {
                 uv: [2.0, -1.0],
                 tangent: [1.0, 0.0, 0.0, -1.0],
                 material: [7, 0],
+                colour: WHITE,
             },
             StandardVertex::default(),
         ];
-        let all = Encoding {
+        let mut all = Encoding {
             normal: true,
             uv: true,
             tangent: true,
+            colour: false,
             quantize: None,
         };
         let e = encode(&vertices, [0.0; 3], [1.0; 3], all);
         assert_eq!(e.layout, VertexLayout::standard());
+        assert_eq!(e.layout.stride, 52);
+        let whole: &[u8] = bytemuck::cast_slice(&vertices);
+        let size = std::mem::size_of::<StandardVertex>();
+        for (k, (v, b)) in vertices.iter().zip(e.bytes.chunks_exact(52)).enumerate() {
+            assert_eq!(b, &whole[k * size..][..52]);
+            assert_eq!(e.layout.decode(b), *v);
+        }
+
+        let coloured = vertices.map(|v| StandardVertex {
+            colour: [200, 3, 0, 0],
+            ..v
+        });
+        all.colour = true;
+        let e = encode(&coloured, [0.0; 3], [1.0; 3], all);
+        assert_eq!(e.layout.stride, 56);
+        let colour = e.layout.attribute(Semantic::Colour).unwrap();
         assert_eq!(
-            e.layout.stride as usize,
-            std::mem::size_of::<StandardVertex>()
+            (colour.offset, colour.format),
+            (48, AttributeFormat::Unorm8x4)
         );
-        assert_eq!(e.bytes, bytemuck::cast_slice::<_, u8>(&vertices));
-        for (v, b) in vertices.iter().zip(e.bytes.chunks_exact(52)) {
+        for (v, b) in coloured.iter().zip(e.bytes.chunks_exact(56)) {
+            assert_eq!(&b[48..52], &[200, 3, 0, 0]);
             assert_eq!(e.layout.decode(b), *v);
         }
     }

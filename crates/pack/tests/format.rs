@@ -226,10 +226,58 @@ fn writer_refuses_out_of_range_indices_and_material_ids() {
     assert!(e.to_string().contains("index 5 is 6"), "{e}");
 
     let (toc, mut data) = sample();
-    let stride = std::mem::size_of::<StandardVertex>();
+    let stride = toc.meshes[0].layout.stride as usize;
     data.meshes[0].vertices[stride * 2 + 48] = 7;
     let e = encode(toc, &data).unwrap_err();
     assert!(e.to_string().contains("material ID 7"), "{e}");
+}
+
+/// Vertex colours travel as 8-bit sRGB beside the other attributes; a colour in any other
+/// format is refused.
+#[test]
+fn vertex_colours_round_trip_as_unorm8x4_only() {
+    let (mut toc, mut data) = sample();
+    let standard = toc.meshes[0].layout.clone();
+    let verts: Vec<StandardVertex> = data.meshes[0]
+        .vertices
+        .chunks_exact(standard.stride as usize)
+        .enumerate()
+        .map(|(i, b)| StandardVertex {
+            colour: [i as u8 * 40, 255 - i as u8, 7, 0],
+            ..standard.decode(b)
+        })
+        .collect();
+    let everything = vertex::Encoding {
+        normal: true,
+        uv: true,
+        tangent: true,
+        colour: true,
+        quantize: None,
+    };
+    let layout = vertex::layout(everything, false, [0.0; 3], [1.0; 3]);
+    assert_eq!(layout.stride, standard.stride + 4);
+    data.meshes[0].vertices = layout.encode_vertices(&verts);
+    toc.meshes[0].layout = layout.clone();
+    let bytes = encode(toc.clone(), &data).unwrap();
+    let pack = Pack::from_bytes("c.pack", &bytes).unwrap();
+    let back = pack.vertex_bytes(&pack.toc().meshes[0]);
+    for (v, b) in verts.iter().zip(back.chunks_exact(layout.stride as usize)) {
+        assert_eq!(layout.decode(b), *v);
+    }
+
+    let colour = toc.meshes[0]
+        .layout
+        .attributes
+        .iter_mut()
+        .find(|a| a.semantic == Semantic::Colour)
+        .unwrap();
+    colour.format = AttributeFormat::Unorm16x2;
+    let e = encode(toc, &data).unwrap_err();
+    assert!(
+        e.to_string()
+            .contains("colour format Unorm16x2 must be Unorm8x4"),
+        "{e}"
+    );
 }
 
 #[test]
@@ -438,7 +486,7 @@ fn arb_mesh() -> impl Strategy<Value = (Mesh, MeshData)> {
             (
                 mesh,
                 MeshData {
-                    vertices: bytemuck::cast_slice(&verts).to_vec(),
+                    vertices: VertexLayout::standard().encode_vertices(&verts),
                     indices: bytemuck::cast_slice(&idx).to_vec(),
                 },
             )

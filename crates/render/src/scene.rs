@@ -614,31 +614,21 @@ impl Scene {
                     mesh: m.name.clone(),
                     reason,
                 };
-                let size = if standard {
-                    bytes.len()
-                } else {
-                    check_vertex_bytes(&m.layout, bytes, count).map_err(vertex_error)?;
-                    count * std::mem::size_of::<StandardVertex>()
-                };
+                check_vertex_bytes(&m.layout, bytes, count).map_err(vertex_error)?;
+                let size = count * std::mem::size_of::<StandardVertex>();
                 // Converted straight into the buffer's mapping: a converted copy beside it was
                 // 26 MB of the 1M-triangle grid's viewer.
                 let keep = self.keeps_cpu_geometry();
-                let (buffer, positions) = mapped_buffer(
-                    gpu,
-                    &m.name,
-                    size,
-                    wgpu::BufferUsages::VERTEX,
-                    |mut mapped| {
+                let (buffer, positions) =
+                    mapped_buffer(gpu, &m.name, size, wgpu::BufferUsages::VERTEX, |mapped| {
                         if standard {
-                            mapped.slice(..bytes.len()).copy_from_slice(bytes);
+                            copy_standard_vertices(bytes, mapped);
                             keep.then(|| {
                                 bytes
-                                    .chunks_exact(std::mem::size_of::<StandardVertex>())
+                                    .chunks_exact(STANDARD_STRIDE)
                                     .map(|v| {
-                                        glam::Vec3::from(
-                                            bytemuck::pod_read_unaligned::<StandardVertex>(v)
-                                                .position,
-                                        )
+                                        let p: [f32; 3] = bytemuck::pod_read_unaligned(&v[..12]);
+                                        glam::Vec3::from(p)
                                     })
                                     .collect()
                             })
@@ -651,8 +641,7 @@ impl Scene {
                             });
                             positions
                         }
-                    },
-                );
+                    });
                 self.cpu[mesh as usize].positions = positions;
                 self.meshes[mesh as usize].vertices = Some(buffer);
                 self.status.geometry_sections += 1;
@@ -1140,13 +1129,45 @@ impl Scene {
     }
 }
 
-/// The vertex buffer layout of [`StandardVertex`], which every mesh is drawn with.
-pub(crate) const VERTEX_ATTRIBUTES: [wgpu::VertexAttribute; 4] = wgpu::vertex_attr_array![
-    0 => Float32x3,
-    1 => Float32x3,
-    2 => Float32x2,
-    3 => Float32x4,
-];
+/// The vertex buffer layout of [`StandardVertex`], which every mesh is drawn with: position,
+/// normal, UV, tangent, then (past the material ID, which draws do not read) the colour.
+pub(crate) const VERTEX_ATTRIBUTES: [wgpu::VertexAttribute; 5] = {
+    const fn at(
+        format: wgpu::VertexFormat,
+        offset: u64,
+        shader_location: u32,
+    ) -> wgpu::VertexAttribute {
+        wgpu::VertexAttribute {
+            format,
+            offset,
+            shader_location,
+        }
+    }
+    [
+        at(wgpu::VertexFormat::Float32x3, 0, 0),
+        at(wgpu::VertexFormat::Float32x3, 12, 1),
+        at(wgpu::VertexFormat::Float32x2, 24, 2),
+        at(wgpu::VertexFormat::Float32x4, 32, 3),
+        at(wgpu::VertexFormat::Unorm8x4, 52, 4),
+    ]
+};
+
+/// The pack's standard layout's stride: a [`StandardVertex`] less its colour.
+const STANDARD_STRIDE: usize = 52;
+
+/// Copies vertices of the standard layout (`bytes`, checked) into [`StandardVertex`]es in
+/// `out`, front to back: its bytes are the standard vertex's first 52, and the colour a
+/// layout without one decodes to is white.
+fn copy_standard_vertices(bytes: &[u8], out: wgpu::WriteOnly<'_, [u8]>) {
+    const SIZE: usize = std::mem::size_of::<StandardVertex>();
+    let (slots, _) = out.into_chunks::<SIZE>();
+    let mut v = [0u8; SIZE];
+    v[STANDARD_STRIDE..].copy_from_slice(&pack::vertex::WHITE);
+    for (src, slot) in bytes.chunks_exact(STANDARD_STRIDE).zip(slots) {
+        v[..STANDARD_STRIDE].copy_from_slice(src);
+        slot.write(v);
+    }
+}
 
 pub(crate) fn vertex_layout() -> wgpu::VertexBufferLayout<'static> {
     wgpu::VertexBufferLayout {
@@ -1375,5 +1396,49 @@ mod tests {
         assert!((v.uv[0] - 16384.0 / 65535.0).abs() < 1e-6 && v.uv[1] == 1.0);
         // Short data is an error, not a panic.
         assert!(check_vertex_bytes(&layout, &bytes[..20], 1).is_err());
+        // No colour in the layout: white.
+        assert_eq!(v.colour, pack::vertex::WHITE);
+    }
+
+    /// The GPU's vertex attributes sit where [`StandardVertex`] keeps its fields, and standard
+    /// vertices copied for upload are those the codec decodes.
+    #[test]
+    fn the_gpu_layout_is_the_standard_vertex() {
+        use std::mem::offset_of;
+        let offsets = [
+            offset_of!(StandardVertex, position),
+            offset_of!(StandardVertex, normal),
+            offset_of!(StandardVertex, uv),
+            offset_of!(StandardVertex, tangent),
+            offset_of!(StandardVertex, colour),
+        ];
+        for (a, at) in VERTEX_ATTRIBUTES.iter().zip(offsets) {
+            assert_eq!(a.offset as usize, at, "location {}", a.shader_location);
+        }
+        let layout = VertexLayout::standard();
+        assert_eq!(layout.stride as usize, STANDARD_STRIDE);
+        let verts: Vec<StandardVertex> = (0..3)
+            .map(|i| StandardVertex {
+                position: [i as f32, 2.0, -3.0],
+                normal: [0.0, 1.0, 0.0],
+                uv: [0.5, i as f32],
+                tangent: [1.0, 0.0, 0.0, -1.0],
+                material: [i, 0],
+                colour: [9, 9, 9, 0],
+            })
+            .collect();
+        let bytes = layout.encode_vertices(&verts);
+        let mut out = vec![0u8; verts.len() * std::mem::size_of::<StandardVertex>()];
+        copy_standard_vertices(&bytes, wgpu::WriteOnly::from_mut(&mut out[..]));
+        let size = std::mem::size_of::<StandardVertex>();
+        for (b, v) in out.chunks_exact(size).zip(&verts) {
+            assert_eq!(
+                bytemuck::pod_read_unaligned::<StandardVertex>(b),
+                StandardVertex {
+                    colour: pack::vertex::WHITE,
+                    ..*v
+                }
+            );
+        }
     }
 }

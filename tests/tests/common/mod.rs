@@ -6,7 +6,7 @@
 use std::sync::{Mutex, MutexGuard, OnceLock};
 
 use glam::Vec3;
-use pack::{DrawRange, IndexFormat, Mesh, MeshData, PackData, StandardVertex, Toc, VertexLayout};
+use pack::{DrawRange, IndexFormat, Mesh, MeshData, PackData, StandardVertex, Toc};
 use render::{Gpu, Scene};
 
 /// One device for the whole test binary (lavapipe is slow to start), used by one test at a
@@ -50,8 +50,8 @@ pub fn load(gpu: &Gpu, bytes: &[u8]) -> Scene {
     Scene::from_pack(gpu, &pack).expect("upload")
 }
 
-/// A pack of `toc` and `data` plus one mesh, "scene", of standard vertices and 32-bit indices
-/// drawn in `ranges`.
+/// A pack of `toc` and `data` plus one mesh, "scene", of standard vertices (and their
+/// colours, where some vertex is not white) and 32-bit indices drawn in `ranges`.
 pub fn encode_scene(
     mut toc: Toc,
     mut data: PackData,
@@ -66,9 +66,17 @@ pub fn encode_scene(
             (lo.min(p), hi.max(p))
         },
     );
+    let everything = pack::vertex::Encoding {
+        normal: true,
+        uv: true,
+        tangent: true,
+        colour: vertices.iter().any(|v| v.colour != pack::vertex::WHITE),
+        quantize: None,
+    };
+    let layout = pack::vertex::layout(everything, false, [0.0; 3], [1.0; 3]);
     toc.meshes.push(Mesh {
         name: "scene".into(),
-        layout: VertexLayout::standard(),
+        layout: layout.clone(),
         vertex_count: vertices.len() as u32,
         index_count: indices.len() as u32,
         index_format: IndexFormat::U32,
@@ -79,7 +87,7 @@ pub fn encode_scene(
         ranges,
     });
     data.meshes.push(MeshData {
-        vertices: bytemuck::cast_slice(vertices).to_vec(),
+        vertices: layout.encode_vertices(vertices),
         indices: bytemuck::cast_slice(indices).to_vec(),
     });
     pack::encode(toc, &data).expect("synthetic pack is valid")

@@ -95,6 +95,14 @@ fn positions(pack: &Pack, mesh: &pack::Mesh) -> Vec<[f32; 3]> {
         .collect()
 }
 
+fn colours(pack: &Pack, mesh: &pack::Mesh) -> Vec<[u8; 4]> {
+    let l = &mesh.layout;
+    pack.vertex_bytes(mesh)
+        .chunks_exact(l.stride as usize)
+        .map(|v| l.colour(v))
+        .collect()
+}
+
 /// Each vertex's material as a key shared by both packs: their material tables may list the
 /// same names in another order.
 fn material_keys(pack: &Pack, mesh: &pack::Mesh, names: &MaterialNames) -> Vec<u32> {
@@ -401,9 +409,27 @@ pub fn run(args: Args) -> Outcome {
                     ma.name
                 ));
             }
+            // Vertex colours, in 8-bit sRGB steps: stored as bytes, so any change is real.
+            let (recoloured, colour_delta) = colours(&a, ma)
+                .iter()
+                .zip(&colours(&b, mb))
+                .filter(|(x, y)| x != y)
+                .fold((0usize, 0u8), |(n, d), (x, y)| {
+                    let step = (0..3).map(|k| x[k].abs_diff(y[k])).max().unwrap_or(0);
+                    (n + 1, d.max(step))
+                });
+            if recoloured > 0 {
+                problems.push(format!(
+                    "mesh {:?}: {recoloured} vertices changed colour, by up to {colour_delta} \
+                     sRGB steps",
+                    ma.name
+                ));
+            }
             entry["same_order"] = json!(true);
             entry["max_position_delta"] = json!(delta);
             entry["material_id_changes"] = json!(changed);
+            entry["colour_changes"] = json!(recoloured);
+            entry["max_colour_delta"] = json!(colour_delta);
         } else {
             let geometry = Geometry {
                 names: &names,

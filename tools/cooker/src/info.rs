@@ -173,6 +173,12 @@ pub fn describe(pack: &Pack) -> serde_json::Value {
                 "vertices": m.vertex_count,
                 "triangles": m.index_count / 3,
                 "stride": m.layout.stride,
+                "attributes": m
+                    .layout
+                    .attributes
+                    .iter()
+                    .map(|a| json!({"semantic": format!("{:?}", a.semantic), "format": format!("{:?}", a.format), "offset": a.offset}))
+                    .collect::<Vec<_>>(),
                 "bounds_min": m.bounds_min,
                 "bounds_max": m.bounds_max,
                 "ranges": m.ranges.len(),
@@ -247,13 +253,15 @@ pub fn run(args: Args) -> Outcome {
     let tris = toc.triangles_per_material();
     println!("meshes ({}):", toc.meshes.len());
     for m in &toc.meshes {
+        let colours = m.layout.attribute(pack::Semantic::Colour).is_some();
         println!(
-            "  {:<24} {:>9} vertices {:>9} triangles  stride {:>3}  {} ranges",
+            "  {:<24} {:>9} vertices {:>9} triangles  stride {:>3}  {} ranges{}",
             m.name,
             m.vertex_count,
             m.index_count / 3,
             m.layout.stride,
-            m.ranges.len()
+            m.ranges.len(),
+            if colours { ", vertex colours" } else { "" }
         );
     }
     println!("materials ({}):", toc.materials.len());

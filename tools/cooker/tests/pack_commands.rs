@@ -157,6 +157,36 @@ fn diff_identical_changed_texel_and_material() {
         text(&o)
     );
 
+    // One vertex painted: the colour a layout without one decodes to is white, so only that
+    // vertex differs, by its largest channel's change.
+    let e = dir.path().join("e.pack");
+    write_sample(&e, |toc, data| {
+        let standard = toc.meshes[0].layout.clone();
+        let mut verts: Vec<pack::StandardVertex> = data.meshes[0]
+            .vertices
+            .chunks_exact(52)
+            .map(|b| standard.decode(b))
+            .collect();
+        verts[4].colour = [255, 240, 250, 0];
+        let everything = pack::vertex::Encoding {
+            normal: true,
+            uv: true,
+            tangent: true,
+            colour: true,
+            quantize: None,
+        };
+        let layout = pack::vertex::layout(everything, false, [0.0; 3], [1.0; 3]);
+        data.meshes[0].vertices = layout.encode_vertices(&verts);
+        toc.meshes[0].layout = layout;
+    });
+    let o = cooker(&[&"diff", &a, &e]);
+    assert_eq!(o.status.code(), Some(1), "{}", text(&o));
+    assert!(
+        text(&o).contains("1 vertices changed colour, by up to 15 sRGB steps"),
+        "{}",
+        text(&o)
+    );
+
     // The same two triangles, vertices listed in reverse within each and corners turned: equal
     // as geometry, not as bytes. Without --max-position-delta that is a difference.
     let d = dir.path().join("d.pack");

@@ -2531,6 +2531,103 @@ fn vertex_coloured_glass_throws_its_colours() {
     assert!(distinct.len() > 500, "{}", distinct.len());
 }
 
+/// Walls and floors keep their vertex colours: a scan's or a painted model's colours are most
+/// of its look, and the cook dropped them for every surface but glass. The Cornell box with
+/// its floor painted in 0-255 colours, the red wall one colour a corner, and the back wall as
+/// glass (which carries its colours in its design, so its vertices stay white), cooked as
+/// floats and quantized.
+#[test]
+fn vertex_colours_of_walls_and_floors_are_kept() {
+    let dir = tempfile::tempdir().unwrap();
+    let source = std::fs::read_to_string(third_party("cornell_box/cornell_box.obj")).unwrap();
+    let corners = [[255u8, 0, 0], [0, 255, 0], [0, 0, 255], [255, 255, 0]];
+    let mut obj = String::new();
+    let (mut object, mut k) = (String::new(), 0);
+    for line in source.lines() {
+        match line.split_once(' ') {
+            Some(("o", name)) => {
+                object = name.trim().to_string();
+                writeln!(obj, "{line}").unwrap();
+            }
+            Some(("usemtl", _)) if object == "back_wall" => writeln!(obj, "usemtl glass").unwrap(),
+            Some(("v", _)) if object == "floor" => writeln!(obj, "{line} 200 60 30").unwrap(),
+            Some(("v", _)) if object == "red_wall" => {
+                let [r, g, b] = corners[k];
+                writeln!(obj, "{line} {r} {g} {b}").unwrap();
+                k += 1;
+            }
+            Some(("v", _)) if object == "back_wall" => writeln!(obj, "{line} 0 0 255").unwrap(),
+            _ => writeln!(obj, "{line}").unwrap(),
+        }
+    }
+    assert_eq!(k, 4);
+    let path = dir.path().join("painted.obj");
+    std::fs::write(&path, obj).unwrap();
+    let mut mtl = std::fs::read_to_string(third_party("cornell_box/cornell_box.mtl")).unwrap();
+    mtl += "\nnewmtl glass\nKd 1 1 1\nd 0.5\nillum 4\n";
+    std::fs::write(dir.path().join("cornell_box.mtl"), mtl).unwrap();
+
+    for quantize in [false, true] {
+        let pack = dir.path().join(format!("painted-{quantize}.pack"));
+        let extra: &[&dyn AsRef<std::ffi::OsStr>] = if quantize { &[&"--quantize"] } else { &[] };
+        cook(&path, &pack, extra);
+        let cooked = pack::Pack::open(&pack).unwrap();
+        let toc = cooked.toc();
+        let mesh = &toc.meshes[0];
+        let listed = &info(&pack)["meshes"][0]["attributes"];
+        assert!(
+            listed
+                .as_array()
+                .unwrap()
+                .iter()
+                .any(|a| a["semantic"] == "Colour"),
+            "{listed}"
+        );
+        let colour = mesh.layout.attribute(pack::Semantic::Colour);
+        assert_eq!(
+            colour.map(|a| a.format),
+            Some(pack::AttributeFormat::Unorm8x4),
+            "{:?}",
+            mesh.layout
+        );
+        let mut seen: BTreeMap<String, std::collections::BTreeSet<[u8; 4]>> = BTreeMap::new();
+        for v in cooked
+            .vertex_bytes(mesh)
+            .chunks_exact(mesh.layout.stride as usize)
+        {
+            let v = mesh.layout.decode(v);
+            let m = &toc.materials[v.material[0] as usize];
+            seen.entry(m.name.clone()).or_default().insert(v.colour);
+        }
+        let colours = |name: &str| seen[name].iter().copied().collect::<Vec<_>>();
+        // 0-255 colours are sRGB bytes: they come back as they were written.
+        let floor = toc
+            .materials
+            .iter()
+            .find(|m| m.class == pack::MaterialClass::Floor)
+            .unwrap();
+        assert_eq!(colours(&floor.name), [[200, 60, 30, 0]], "{seen:?}");
+        let mut red: Vec<[u8; 4]> = corners.iter().map(|&[r, g, b]| [r, g, b, 0]).collect();
+        red.sort();
+        assert_eq!(colours("red"), red, "{seen:?}");
+        let white = [255, 255, 255, 0];
+        assert_eq!(colours("green"), [white], "{seen:?}");
+        let glass = toc.materials.iter().find(|m| m.class.is_window()).unwrap();
+        assert_eq!(colours(&glass.name), [white], "{seen:?}");
+    }
+
+    // A model without colours stores none: its vertices are as they were.
+    let plain = dir.path().join("plain.pack");
+    cook(&third_party("cornell_box/cornell_box.obj"), &plain, &[]);
+    let cooked = pack::Pack::open(&plain).unwrap();
+    assert!(
+        cooked.toc().meshes[0]
+            .layout
+            .attribute(pack::Semantic::Colour)
+            .is_none()
+    );
+}
+
 /// A glTF that frames its own views and sun (Blender exports them with "Cameras" and
 /// "Punctual Lights" ticked) cooks bare with them rather than guessed ones: the sun's
 /// direction and colour, the file's camera first (rolled as it is), the guessed views after.

@@ -36,6 +36,7 @@ fn tiny_pack() -> Vec<u8> {
         uv: [0.0; 2],
         tangent: [1.0, 0.0, 0.0, 1.0],
         material: [m, 0],
+        colour: pack::vertex::WHITE,
     };
     let vertices = vec![
         v([-5.0, 0.0, 5.0], [0.0, 1.0, 0.0], 0),

@@ -495,8 +495,9 @@ pub struct Imported {
     pub normals: Vec<[f32; 3]>,
     pub uvs: Vec<[f32; 2]>,
     /// Linear RGBA per position (glTF `COLOR_0`, an OBJ's `v x y z r g b`); empty where the
-    /// file has none, white where one primitive has them and another not. Only designs drawn
-    /// from a window's mesh read them: the pack's vertices carry no colour.
+    /// file has none, white where one primitive has them and another not. Opaque surfaces
+    /// keep them as the pack's vertex colours (alpha left out); windows' designs drawn from
+    /// their mesh blend them across the panes.
     pub colours: Vec<[f32; 4]>,
     /// Three per triangle.
     pub corners: Corners,

@@ -12,6 +12,8 @@ pub struct Attributes {
     pub normal: bool,
     pub uv: bool,
     pub tangent: bool,
+    /// Vertex colours, where some vertex of a material that shows them has one.
+    pub colour: bool,
 }
 
 impl Attributes {
@@ -19,6 +21,7 @@ impl Attributes {
         normal: true,
         uv: true,
         tangent: true,
+        colour: true,
     };
 
     /// What the given materials need: an attribute no material of the mesh uses is dropped.
@@ -30,12 +33,14 @@ impl Attributes {
             normal: false,
             uv: false,
             tangent: false,
+            colour: false,
         };
         for m in materials {
             let n = needs[m as usize];
             a.normal |= n.normals || n.tangents;
             a.uv |= n.uvs || n.tangents;
             a.tangent |= n.tangents;
+            a.colour |= n.colours;
         }
         a
     }
@@ -72,6 +77,8 @@ pub fn encode(
         normal: attrs.normal,
         uv: attrs.uv,
         tangent: attrs.tangent,
+        // Colours are stored only where some vertex has one other than white.
+        colour: attrs.colour && !vertices.colours.is_empty(),
         quantize,
     };
     // A mesh without texture coordinates reads them as zeros, which fit unorm.

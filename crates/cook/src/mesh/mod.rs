@@ -69,6 +69,9 @@ pub struct MaterialNeeds {
     pub uvs: bool,
     /// Is shaded with its normal (everything but unlit backdrops); zeroed otherwise.
     pub normals: bool,
+    /// Shows the model's vertex colours (everything but windows, whose designs hold the
+    /// colours of their panes); white otherwise.
+    pub colours: bool,
 }
 
 impl MaterialNeeds {
@@ -78,6 +81,7 @@ impl MaterialNeeds {
         tangents: false,
         uvs: true,
         normals: true,
+        colours: true,
     };
 }
 
@@ -111,6 +115,8 @@ pub struct VertexArrays {
     pub uvs: Vec<[f32; 2]>,
     pub tangents: Vec<[f32; 4]>,
     pub materials: Vec<u16>,
+    /// One per vertex, or empty when all are white ([`pack::vertex::WHITE`]).
+    pub colours: Vec<[u8; 4]>,
 }
 
 impl VertexArrays {
@@ -130,6 +136,7 @@ impl VertexArrays {
             uv: self.uvs.get(i).copied().unwrap_or_default(),
             tangent: self.tangents.get(i).copied().unwrap_or_default(),
             material: [self.materials[i], 0],
+            colour: self.colours.get(i).copied().unwrap_or(pack::vertex::WHITE),
         }
     }
 
@@ -154,11 +161,12 @@ impl VertexArrays {
             uvs: column(self.uvs, order),
             tangents: column(self.tangents, order),
             materials: column(self.materials, order),
+            colours: column(self.colours, order),
         }
     }
 
     /// Drops each optional attribute whose every value is zero (+0.0: a -0.0 is kept, so that
-    /// [`Self::get`] gives back the very bits).
+    /// [`Self::get`] gives back the very bits), and the colours where all are white.
     fn drop_zero_attributes(&mut self) {
         fn zero<const N: usize>(v: &[[f32; N]]) -> bool {
             v.iter().flatten().all(|x| x.to_bits() == 0)
@@ -172,6 +180,9 @@ impl VertexArrays {
         if zero(&self.tangents) {
             self.tangents = Vec::new();
         }
+        if self.colours.iter().all(|&c| c == pack::vertex::WHITE) {
+            self.colours = Vec::new();
+        }
     }
 }
 
@@ -184,6 +195,7 @@ impl FromIterator<StandardVertex> for VertexArrays {
             out.uvs.push(v.uv);
             out.tangents.push(v.tangent);
             out.materials.push(v.material[0]);
+            out.colours.push(v.colour);
         }
         out.drop_zero_attributes();
         out

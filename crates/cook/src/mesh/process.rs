@@ -484,6 +484,7 @@ impl VertexRef {
             uv: self.uv(src),
             tangent: [0.0; 4],
             material: [self.m, 0],
+            colour: pack::vertex::WHITE,
         }
     }
 
@@ -513,10 +514,12 @@ impl VertexRef {
 enum Vertices {
     /// Whole vertices: the tangent path builds one per corner before deduplicating.
     Values(Vec<StandardVertex>),
-    /// References into the source's positions and texture coordinates and into `normals`.
+    /// References into the source's positions and texture coordinates and into `normals`,
+    /// with each one's colour where the source has vertex colours (else empty).
     Refs {
         refs: Vec<VertexRef>,
         normals: Vec<[f32; 3]>,
+        colours: Vec<[u8; 4]>,
     },
     /// Gathered, attribute by attribute ([`Deduplicated::gather`]): the source's attributes
     /// may be gone.
@@ -530,8 +533,17 @@ impl Vertices {
         match self {
             Vertices::Values(v) => v.into_iter().collect(),
             Vertices::Arrays(a) => a,
-            Vertices::Refs { refs, normals } => {
+            Vertices::Refs {
+                refs,
+                normals,
+                colours,
+            } => {
                 let any = |f: fn(&VertexRef) -> u32| refs.iter().any(|r| f(r) != NONE);
+                let colours = if colours.iter().any(|&c| c != pack::vertex::WHITE) {
+                    colours
+                } else {
+                    Vec::new()
+                };
                 VertexArrays {
                     positions: refs.par_iter().map(|r| r.position(src)).collect(),
                     normals: if any(|r| r.n) {
@@ -546,6 +558,7 @@ impl Vertices {
                     },
                     tangents: Vec::new(),
                     materials: refs.par_iter().map(|r| r.m).collect(),
+                    colours,
                 }
             }
         }
@@ -566,7 +579,8 @@ fn dedupe_by_key(
     tri_material: &[u16],
     needs: &[MaterialNeeds],
     corner_normal: Vec<u32>,
-) -> (Vec<VertexRef>, Vec<u32>) {
+    colours: &SourceColours,
+) -> (Vec<VertexRef>, Vec<[u8; 4]>, Vec<u32>) {
     const END: u32 = u32::MAX;
     // Every key starts with its welded position, and a position has only a handful of
     // distinct vertices (one per normal, UV seam or material), so a chain per position found
@@ -578,6 +592,10 @@ fn dedupe_by_key(
     let expected = welded + welded / 16;
     let mut next: Vec<u32> = Vec::with_capacity(expected);
     let mut refs: Vec<VertexRef> = Vec::with_capacity(expected);
+    // Parallel to `refs` where the source has colours: two corners at one welded position
+    // with colours of their own (a seam between faces painted apart) are two vertices.
+    let mut ref_colours: Vec<[u8; 4]> = Vec::new();
+    let coloured = colours.any();
     let mut indices = corner_normal;
     // Field by field: a bare mesh's corners have no texture-coordinate indices to read, and
     // without welded ones (no material samples a texture) none is read.
@@ -604,10 +622,14 @@ fn dedupe_by_key(
             let p = canon[cp as usize] as usize;
             let uv_key = uv_id(ct);
             let normal_id = if need.normals { *slot } else { NONE };
+            let colour = colours.of(cp, need);
             let mut id = head[p];
             while id != END && {
                 let r = &refs[id as usize];
-                r.n != normal_id || r.m != m || uv_id(r.t) != uv_key
+                r.n != normal_id
+                    || r.m != m
+                    || uv_id(r.t) != uv_key
+                    || (coloured && ref_colours[id as usize] != colour)
             } {
                 id = next[id as usize];
             }
@@ -620,13 +642,50 @@ fn dedupe_by_key(
                     n: normal_id,
                     m,
                 });
+                if coloured {
+                    ref_colours.push(colour);
+                }
                 next.push(head[p]);
                 head[p] = id;
             }
             *slot = id;
         }
     }
-    (refs, indices)
+    (refs, ref_colours, indices)
+}
+
+/// A source's vertex colours as the pack stores them (8-bit sRGB, one per position), for the
+/// materials that show them: windows do not (their designs hold the colours of the panes).
+struct SourceColours {
+    srgb: Vec<[u8; 4]>,
+}
+
+impl SourceColours {
+    fn new(src: &Imported, needs: &[MaterialNeeds]) -> Self {
+        let encode = texture::srgb::encode8;
+        let srgb = if needs.iter().any(|n| n.colours) {
+            src.colours
+                .par_iter()
+                .map(|c| [encode(c[0]), encode(c[1]), encode(c[2]), 0])
+                .collect()
+        } else {
+            Vec::new()
+        };
+        Self { srgb }
+    }
+
+    /// Whether any position has a colour other than white.
+    fn any(&self) -> bool {
+        self.srgb.iter().any(|&c| c != pack::vertex::WHITE)
+    }
+
+    /// The colour of position `p` in a material that needs what `need` says.
+    fn of(&self, p: u32, need: MaterialNeeds) -> [u8; 4] {
+        match self.srgb.get(p as usize) {
+            Some(&c) if need.colours => c,
+            _ => pack::vertex::WHITE,
+        }
+    }
 }
 
 /// The general path when some material has a normal map: one vertex per corner, MikkTSpace
@@ -638,6 +697,7 @@ fn dedupe_with_tangents(
     needs: &[MaterialNeeds],
     corner_normal: &[u32],
     normal_table: &[[f32; 3]],
+    colours: &SourceColours,
 ) -> (Vec<StandardVertex>, Vec<u32>, usize) {
     let mut corners: Vec<StandardVertex> = Vec::with_capacity(keep.len() * 3);
     for (k, t) in keep.iter().enumerate() {
@@ -655,7 +715,10 @@ fn dedupe_with_tangents(
                 },
                 m,
             };
-            corners.push(r.gather(src, normal_table));
+            corners.push(StandardVertex {
+                colour: colours.of(c.p, need),
+                ..r.gather(src, normal_table)
+            });
         }
     }
     let tangent_faces: Vec<u32> = keep
@@ -964,6 +1027,7 @@ pub fn deduplicate(
     stats.corners = keep.len() * 3;
     timer.lap("normals");
 
+    let colours = SourceColours::new(src, needs);
     let (vertices, indices) = if any_tangents {
         let (v, i, tangent_triangles) = dedupe_with_tangents(
             src,
@@ -972,12 +1036,13 @@ pub fn deduplicate(
             needs,
             &corner_normal,
             &normal_table,
+            &colours,
         );
         stats.tangent_triangles = tangent_triangles;
         timer.lap("tangents+dedupe");
         (Vertices::Values(v), i)
     } else {
-        let (refs, i) = dedupe_by_key(
+        let (refs, colours, i) = dedupe_by_key(
             src,
             &canon,
             welded,
@@ -986,12 +1051,14 @@ pub fn deduplicate(
             tri_material,
             needs,
             corner_normal,
+            &colours,
         );
         timer.lap("dedupe");
         (
             Vertices::Refs {
                 refs,
                 normals: normal_table,
+                colours,
             },
             i,
         )
@@ -1132,7 +1199,8 @@ pub fn optimize(
         stats.overfetch = meshopt::analyze_vertex_fetch(
             &indices,
             vertices.len(),
-            std::mem::size_of::<StandardVertex>(),
+            // The standard layout's stride, with or without colours, as it always was.
+            pack::VertexLayout::standard().stride as usize,
         )
         .overfetch;
     }
@@ -1158,6 +1226,58 @@ mod tests {
         window: true,
         ..MaterialNeeds::OPAQUE
     };
+
+    /// Two corners at one position with colours of their own (faces painted apart, each with
+    /// its own copy of the position, as exporters write a colour seam) are two vertices, on
+    /// both deduplication paths; one colour, or none, welds them. Windows show no colour.
+    #[test]
+    fn colour_seams_split_vertices_and_windows_stay_white() {
+        let positions = vec![
+            [0., 0., 0.],
+            [1., 0., 0.],
+            [0., 1., 0.],
+            [1., 0., 0.],
+            [0., 1., 0.],
+            [1., 1., 0.],
+        ];
+        let tris = vec![[0, 1, 2], [4, 3, 5]];
+        let (red, blue) = ([1.0, 0.0, 0.0, 1.0], [0.0, 0.0, 1.0, 1.0]);
+        let tangents = MaterialNeeds {
+            tangents: true,
+            ..OPAQUE
+        };
+        for need in [OPAQUE, tangents] {
+            let mut s = soup(positions.clone(), tris.clone());
+            let vertices = |s: &Imported, need| {
+                process(s, &[0, 0], &[need], &MeshSettings::default()).vertices
+            };
+            assert_eq!(vertices(&s, need).len(), 4, "no colours: welded");
+            s.colours = vec![red; 6];
+            let v = vertices(&s, need);
+            assert_eq!(v.len(), 4, "one colour: welded");
+            assert_eq!(v.colours, vec![[255, 0, 0, 0]; 4]);
+            s.colours[3..].fill(blue);
+            let v = vertices(&s, need);
+            assert_eq!(v.len(), 6, "a colour seam: split");
+            let mut got = v.colours.clone();
+            got.sort();
+            assert_eq!(
+                got,
+                [[0, 0, 255, 0]; 3]
+                    .into_iter()
+                    .chain([[255, 0, 0, 0]; 3])
+                    .collect::<Vec<_>>()
+            );
+            let glass = MaterialNeeds {
+                window: true,
+                colours: false,
+                ..need
+            };
+            let v = vertices(&s, glass);
+            assert_eq!(v.len(), 4, "windows show no colour: welded");
+            assert!(v.colours.is_empty());
+        }
+    }
 
     #[test]
     fn shared_vertices_are_split_per_material_and_windows_come_last() {
