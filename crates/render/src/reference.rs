@@ -76,6 +76,8 @@ struct Triangle {
     n: [Vec3; 3],
     uv: [Vec2; 3],
     tangent: [Vec4; 3],
+    /// Linear vertex colours, interpolated as the GPU interpolates them (decoded per vertex).
+    colour: [Vec3; 3],
     material: u16,
     /// Glass: the windows (bit per window, TOC order) it is the glass of. Opaque: the backed
     /// windows whose uncut wall it is part of ([`crate::occlusion::Backings`]), which it lets
@@ -205,6 +207,10 @@ impl Reference {
                         n: [0, 1, 2].map(|k| Vec3::from(v[k].normal)),
                         uv: [0, 1, 2].map(|k| Vec2::from(v[k].uv)),
                         tangent: [0, 1, 2].map(|k| Vec4::from(v[k].tangent)),
+                        colour: [0, 1, 2].map(|k| {
+                            let [r, g, b, _] = v[k].colour;
+                            Vec3::new(srgb_to_linear(r), srgb_to_linear(g), srgb_to_linear(b))
+                        }),
                         material: r.material,
                         windows: 0,
                     });
@@ -291,7 +297,8 @@ impl Reference {
         let mat = &self.materials[tri.material as usize];
         let w = Vec3::new(1.0 - hit.b.x - hit.b.y, hit.b.x, hit.b.y);
         let uv = tri.uv[0] * w.x + tri.uv[1] * w.y + tri.uv[2] * w.z;
-        let mut albedo = mat.diffuse;
+        let colour = tri.colour[0] * w.x + tri.colour[1] * w.y + tri.colour[2] * w.z;
+        let mut albedo = mat.diffuse * colour;
         if let Some(img) = self.texture(mat.texture) {
             albedo *= img.sample(uv).truncate();
         }
