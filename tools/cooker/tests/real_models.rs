@@ -2473,6 +2473,37 @@ fn a_gltf_in_survey_coordinates_is_moved_as_an_obj_is() {
     }
 }
 
+/// The third-party Cornell box in `dir` with its back wall as translucent glass, and the
+/// colour `paint` gives the `k`th vertex of an object (`v x y z r g b`) after its vertices.
+fn painted_cornell_box(dir: &Path, paint: impl Fn(&str, usize) -> Option<String>) -> PathBuf {
+    let source = std::fs::read_to_string(third_party("cornell_box/cornell_box.obj")).unwrap();
+    let mut obj = String::new();
+    let (mut object, mut k) = (String::new(), 0);
+    for line in source.lines() {
+        match line.split_once(' ') {
+            Some(("o", name)) => {
+                (object, k) = (name.trim().to_string(), 0);
+                writeln!(obj, "{line}").unwrap();
+            }
+            Some(("usemtl", _)) if object == "back_wall" => writeln!(obj, "usemtl glass").unwrap(),
+            Some(("v", _)) => {
+                match paint(&object, k) {
+                    Some(c) => writeln!(obj, "{line} {c}").unwrap(),
+                    None => writeln!(obj, "{line}").unwrap(),
+                }
+                k += 1;
+            }
+            _ => writeln!(obj, "{line}").unwrap(),
+        }
+    }
+    let path = dir.join("painted.obj");
+    std::fs::write(&path, obj).unwrap();
+    let mut mtl = std::fs::read_to_string(third_party("cornell_box/cornell_box.mtl")).unwrap();
+    mtl += "\nnewmtl glass\nKd 1 1 1\nd 0.5\nillum 4\n";
+    std::fs::write(dir.join("cornell_box.mtl"), mtl).unwrap();
+    path
+}
+
 /// Glass coloured by its vertices (MeshLab's, Open3D's and scanners' `v x y z r g b`) throws
 /// those colours: the window's design drawn from the mesh blends them across the pane, where
 /// it was one flat colour before. The Cornell box's back wall as clear glass, one colour a
@@ -2480,30 +2511,10 @@ fn a_gltf_in_survey_coordinates_is_moved_as_an_obj_is() {
 #[test]
 fn vertex_coloured_glass_throws_its_colours() {
     let dir = tempfile::tempdir().unwrap();
-    let source = std::fs::read_to_string(third_party("cornell_box/cornell_box.obj")).unwrap();
     let corner_colours = ["1 0 0", "0 1 0", "0 0 1", "1 1 1"];
-    let mut obj = String::new();
-    let (mut object, mut k) = (String::new(), 0);
-    for line in source.lines() {
-        match line.split_once(' ') {
-            Some(("o", name)) => {
-                object = name.trim().to_string();
-                writeln!(obj, "{line}").unwrap();
-            }
-            Some(("usemtl", _)) if object == "back_wall" => writeln!(obj, "usemtl glass").unwrap(),
-            Some(("v", _)) if object == "back_wall" => {
-                writeln!(obj, "{line} {}", corner_colours[k]).unwrap();
-                k += 1;
-            }
-            _ => writeln!(obj, "{line}").unwrap(),
-        }
-    }
-    assert_eq!(k, 4);
-    let path = dir.path().join("painted.obj");
-    std::fs::write(&path, obj).unwrap();
-    let mut mtl = std::fs::read_to_string(third_party("cornell_box/cornell_box.mtl")).unwrap();
-    mtl += "\nnewmtl glass\nKd 1 1 1\nd 0.5\nillum 4\n";
-    std::fs::write(dir.path().join("cornell_box.mtl"), mtl).unwrap();
+    let path = painted_cornell_box(dir.path(), |object, k| {
+        (object == "back_wall").then(|| corner_colours[k].to_string())
+    });
 
     let pack = dir.path().join("painted.pack");
     cook(&path, &pack, &[]);
@@ -2539,33 +2550,16 @@ fn vertex_coloured_glass_throws_its_colours() {
 #[test]
 fn vertex_colours_of_walls_and_floors_are_kept() {
     let dir = tempfile::tempdir().unwrap();
-    let source = std::fs::read_to_string(third_party("cornell_box/cornell_box.obj")).unwrap();
     let corners = [[255u8, 0, 0], [0, 255, 0], [0, 0, 255], [255, 255, 0]];
-    let mut obj = String::new();
-    let (mut object, mut k) = (String::new(), 0);
-    for line in source.lines() {
-        match line.split_once(' ') {
-            Some(("o", name)) => {
-                object = name.trim().to_string();
-                writeln!(obj, "{line}").unwrap();
-            }
-            Some(("usemtl", _)) if object == "back_wall" => writeln!(obj, "usemtl glass").unwrap(),
-            Some(("v", _)) if object == "floor" => writeln!(obj, "{line} 200 60 30").unwrap(),
-            Some(("v", _)) if object == "red_wall" => {
-                let [r, g, b] = corners[k];
-                writeln!(obj, "{line} {r} {g} {b}").unwrap();
-                k += 1;
-            }
-            Some(("v", _)) if object == "back_wall" => writeln!(obj, "{line} 0 0 255").unwrap(),
-            _ => writeln!(obj, "{line}").unwrap(),
+    let path = painted_cornell_box(dir.path(), |object, k| match object {
+        "floor" => Some("200 60 30".into()),
+        "red_wall" => {
+            let [r, g, b] = corners[k];
+            Some(format!("{r} {g} {b}"))
         }
-    }
-    assert_eq!(k, 4);
-    let path = dir.path().join("painted.obj");
-    std::fs::write(&path, obj).unwrap();
-    let mut mtl = std::fs::read_to_string(third_party("cornell_box/cornell_box.mtl")).unwrap();
-    mtl += "\nnewmtl glass\nKd 1 1 1\nd 0.5\nillum 4\n";
-    std::fs::write(dir.path().join("cornell_box.mtl"), mtl).unwrap();
+        "back_wall" => Some("0 0 255".into()),
+        _ => None,
+    });
 
     for quantize in [false, true] {
         let pack = dir.path().join(format!("painted-{quantize}.pack"));
