@@ -55,20 +55,49 @@ fn literal_glob(s: &str) -> String {
     out
 }
 
+/// `v` as the manifest writes a vector read as written: each component exact on its own.
 fn vec3(v: [f32; 3]) -> String {
-    vec3_to(v, 1e-4)
+    format!("[{}]", v.map(|x| exact1(x, 1, |r| r, x)).join(", "))
 }
 
-/// `v` with the decimals that resolve `quantum`, four at least: a model in large units (the
-/// Cornell box at 1e-8 of its size, 5.5e-6 across) had its views' eyes and targets rounded
-/// onto one point at four decimals, and the manifest refused them.
-fn vec3_to(v: [f32; 3], quantum: f32) -> String {
-    let d = if quantum > 0.0 && quantum.is_finite() {
-        (-quantum.log10()).ceil().clamp(4.0, 12.0) as usize
-    } else {
-        4
+/// `v` with the fewest decimals (`min` at least, one decimal count for all components) that
+/// the manifest reads back, through `back`, as exactly `want`: a cook of the starter manifest
+/// then gets the guess's very bits, and `cooker diff` finds it equal to the bare cook. Four
+/// fixed decimals moved the light and views by up to 1e-4 (and, on a model in large units,
+/// rounded a view's eye onto its target). The read is mirrored as the manifest does it: a
+/// TOML float is an f64, narrowed to f32.
+fn exact<const N: usize>(
+    v: [f32; N],
+    min: usize,
+    back: impl Fn([f32; N]) -> [f32; N],
+    want: [f32; N],
+) -> String {
+    let read = |d: Option<usize>| -> (String, [f32; N]) {
+        let parts = v.map(|x| match d {
+            Some(d) => format!("{x:.d$}"),
+            // Rust's shortest round-trip form, with a decimal point so TOML reads a float.
+            None => format!("{x:?}"),
+        });
+        let back_in =
+            std::array::from_fn(|i| parts[i].parse::<f64>().map_or(f32::NAN, |f| f as f32));
+        let text = if N == 1 {
+            parts[0].clone()
+        } else {
+            format!("[{}]", parts.join(", "))
+        };
+        (text, back(back_in))
     };
-    format!("[{:.d$}, {:.d$}, {:.d$}]", v[0], v[1], v[2])
+    let same = |a: [f32; N]| a.iter().zip(&want).all(|(a, b)| a.to_bits() == b.to_bits());
+    (min..=9)
+        .map(|d| read(Some(d)))
+        .find(|(_, r)| same(*r))
+        .unwrap_or_else(|| read(None))
+        .0
+}
+
+/// One value, as [`exact`] writes it.
+fn exact1(v: f32, min: usize, back: impl Fn(f32) -> f32, want: f32) -> String {
+    exact([v], min, |[r]| [back(r)], [want])
 }
 
 /// The path to write for `mesh` in a manifest in `dir`: relative when the mesh lies under it.
@@ -168,9 +197,10 @@ pub fn run(args: Args) -> Outcome {
         "# Tagging rules, first match wins: one per name the guesses rest on."
     );
     let mut rules: Vec<(NameKind, String, &str, String)> = Vec::new();
-    // Names the geometry cut (a building in one material), with the classes of the pieces.
-    let mut cut: std::collections::BTreeMap<(usize, String), std::collections::BTreeSet<&str>> =
-        Default::default();
+    // Per deciding name: the classes of its parts, and whether the geometry cut any of them
+    // (a building in one material).
+    type Classes<'a> = (std::collections::BTreeSet<&'a str>, bool);
+    let mut named: std::collections::BTreeMap<(usize, String), Classes> = Default::default();
     for (si, src) in prepared.imported.iter().enumerate() {
         let counts = src.part_triangles();
         for (pi, part) in src.parts.iter().enumerate() {
@@ -203,23 +233,33 @@ pub fn run(args: Args) -> Outcome {
                 },
             };
             let k = SPECIFIC_FIRST.iter().position(|&s| s == kind).unwrap_or(0);
-            if prepared.tagging.cut[si][pi] != Cut::None {
-                cut.entry((k, name.clone())).or_default().insert(class);
-            }
+            let entry = named.entry((k, name.clone())).or_default();
+            entry.0.insert(class);
+            entry.1 |= prepared.tagging.cut[si][pi] != Cut::None;
             if !rules.iter().any(|r| r.0 == kind && r.1 == name) {
                 rules.push((kind, name, class, why.replace('\n', " ")));
             }
         }
     }
-    // A name whose parts the cook cut by geometry (a building in one material: its floor,
-    // its walls and the rest) gets no rule: one class for the name would undo the cut.
-    for ((k, name), classes) in &cut {
+    // A name whose parts the geometry classed apart gets no rule: one class for the name
+    // would undo that. The parts are a building in one material that the cook cut into its
+    // floor, its walls and the rest, or instances of one mesh that stand differently (a glTF
+    // node's GPU instances, one name for all).
+    for ((k, name), (classes, was_cut)) in &named {
+        if classes.len() < 2 && !was_cut {
+            continue;
+        }
         let kind = SPECIFIC_FIRST[*k];
         rules.retain(|r| !(r.0 == kind && r.1 == *name));
         let classes: Vec<&str> = classes.iter().copied().collect();
+        let how = if *was_cut {
+            "cut by its geometry into"
+        } else {
+            "its parts classed by their geometry as"
+        };
         let _ = writeln!(
             t,
-            "# {} {}: cut by its geometry into {}; no rule, so the cut stays\n",
+            "# {} {}: {how} {}; no rule, so that stays\n",
             kind.name(),
             quote(name),
             classes.join(", ")
@@ -285,20 +325,26 @@ pub fn run(args: Args) -> Outcome {
             } => {
                 let _ = writeln!(
                     t,
-                    "[light]\ntype = \"directional\"\ndirection = {}\nangular_size_deg = {:.3}\ncolour = {}\nintensity = {}\n",
-                    vec3(direction),
-                    angular_size.to_degrees(),
+                    "[light]\ntype = \"directional\"\ndirection = {}\nangular_size_deg = {}\ncolour = {}\nintensity = {}\n",
+                    exact(
+                        direction,
+                        1,
+                        |d| cook::manifest::light_direction(d.into()).to_array(),
+                        direction
+                    ),
+                    exact1(angular_size.to_degrees(), 2, f32::to_radians, angular_size),
                     vec3(l.colour),
-                    l.intensity
+                    exact1(l.intensity, 1, |r| r, l.intensity)
                 );
             }
             pack::LightKind::Point { position, radius } => {
                 let _ = writeln!(
                     t,
-                    "[light]\ntype = \"point\"\nposition = {}\nradius = {radius}\ncolour = {}\nintensity = {}\n",
+                    "[light]\ntype = \"point\"\nposition = {}\nradius = {}\ncolour = {}\nintensity = {}\n",
                     vec3(position),
+                    exact1(radius, 1, |r| r, radius),
                     vec3(l.colour),
-                    l.intensity
+                    exact1(l.intensity, 1, |r| r, l.intensity)
                 );
             }
         }
@@ -311,8 +357,6 @@ pub fn run(args: Args) -> Outcome {
         );
     }
     for c in &guess.cameras {
-        // A thousandth of the model's size (a guessed view's far plane is three times it).
-        let quantum = c.far * 3e-4;
         // A view the model's file frames may be rolled; a guessed one never is.
         let up = if c.up == [0.0, 1.0, 0.0] {
             String::new()
@@ -321,13 +365,13 @@ pub fn run(args: Args) -> Outcome {
         };
         let _ = writeln!(
             t,
-            "[[camera]]\nname = {}\nposition = {}\ntarget = {}\n{up}fov_y_deg = {:.1}\nnear = {}\nfar = {}\n",
+            "[[camera]]\nname = {}\nposition = {}\ntarget = {}\n{up}fov_y_deg = {}\nnear = {}\nfar = {}\n",
             quote(&c.name),
-            vec3_to(c.position, quantum),
-            vec3_to(c.target, quantum),
-            c.fov_y,
-            c.near,
-            c.far
+            vec3(c.position),
+            vec3(c.target),
+            exact1(c.fov_y, 1, |r| r, c.fov_y),
+            exact1(c.near, 1, |r| r, c.near),
+            exact1(c.far, 1, |r| r, c.far)
         );
     }
 

@@ -443,7 +443,7 @@ fn light(src: &Source<'_>, l: &Spanned<model::Light>) -> Result<Light, CookError
             }
             let size = src.positive_or(&raw.angular_size_deg, "angular_size_deg", 0.53)?;
             pack::LightKind::Directional {
-                direction: v.normalize().to_array(),
+                direction: super::light_direction(v).to_array(),
                 angular_size: size.to_radians(),
             }
         }

@@ -275,6 +275,17 @@ pub fn glob_matches(pattern: &str, name: &str) -> bool {
     }
 }
 
+/// The unit direction a manifest's light `direction` stands for. One already of unit length
+/// (within f32 rounding) is kept as written: normalizing it again can move it by an ulp, so
+/// the exact direction `cooker init` writes out would not come back as written.
+pub fn light_direction(v: glam::Vec3) -> glam::Vec3 {
+    if (v.length_squared() - 1.0).abs() <= 4.0 * f32::EPSILON {
+        v
+    } else {
+        v.normalize()
+    }
+}
+
 impl WindowDesign {
     /// A design entry for `--window NAME=IMAGE`: NAME matches window names and materials.
     pub fn from_override(pattern: &str, design: PathBuf) -> Self {
