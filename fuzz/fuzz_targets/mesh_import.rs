@@ -1,4 +1,4 @@
-//! OBJ, glTF and GLB import: any bytes give meshes or a `CookError`, never a panic; whatever
+//! OBJ, glTF, GLB and PLY import: any bytes give meshes or a `CookError`, never a panic; whatever
 //! imports also survives the mesh stage (index validation happens before meshopt sees it).
 #![no_main]
 
@@ -6,7 +6,7 @@ use libfuzzer_sys::fuzz_target;
 
 fuzz_target!(|data: &[u8]| {
     let Some((&selector, body)) = data.split_first() else { return };
-    let ext = ["obj", "gltf", "glb"][selector as usize % 3];
+    let ext = ["obj", "gltf", "glb", "ply"][selector as usize % 4];
     let dir = std::env::temp_dir().join(format!("sg-fuzz-{}", std::process::id()));
     let _ = std::fs::create_dir_all(&dir);
     let path = dir.join(format!("input.{ext}"));

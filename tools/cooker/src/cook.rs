@@ -14,7 +14,7 @@ use crate::transcript::{Stream, Transcript};
 
 #[derive(clap::Args)]
 pub struct Args {
-    /// A scene manifest (scene.toml), or a bare .obj/.gltf/.glb cooked with name heuristics.
+    /// A scene manifest (scene.toml), or a bare .obj/.gltf/.glb/.ply cooked with name heuristics.
     input: PathBuf,
     /// The pack to write (replaced atomically).
     #[arg(short, long)]

@@ -23,7 +23,7 @@ const SPECIFIC_FIRST: [NameKind; 5] = [
 
 #[derive(clap::Args)]
 pub struct Args {
-    /// The model: an .obj, .gltf or .glb file.
+    /// The model: an .obj, .gltf, .glb or .ply file.
     mesh: PathBuf,
     /// The manifest to write (default: scene.toml beside the model).
     #[arg(short, long)]

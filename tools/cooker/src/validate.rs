@@ -8,7 +8,7 @@ use crate::exit::{FOUND_PROBLEMS, OK, Outcome};
 
 #[derive(clap::Args)]
 pub struct Args {
-    /// A scene manifest, a bare mesh file (.obj/.gltf/.glb), or a cooked pack.
+    /// A scene manifest, a bare mesh file (.obj/.gltf/.glb/.ply), or a cooked pack.
     input: PathBuf,
     /// Print one JSON object: `findings` ({code, message}) and `materials`.
     #[arg(long)]
@@ -23,7 +23,7 @@ pub fn run(args: Args) -> Outcome {
         .extension()
         .map(|e| e.to_string_lossy().to_ascii_lowercase())
         .unwrap_or_default();
-    let validation = if matches!(ext.as_str(), "toml" | "obj" | "gltf" | "glb") {
+    let validation = if matches!(ext.as_str(), "toml" | "obj" | "gltf" | "glb" | "ply") {
         let manifest = Manifest::open(&args.input)?;
         let mut settings = cook::Settings::new(&manifest);
         args.model.apply(&mut settings);

@@ -323,7 +323,7 @@ fn third_party_malformed_files_never_panic() {
                 stack.push(p);
             } else if matches!(
                 p.extension().and_then(|e| e.to_str()),
-                Some("obj" | "gltf" | "glb")
+                Some("obj" | "gltf" | "glb" | "ply")
             ) {
                 files.push(p);
             }

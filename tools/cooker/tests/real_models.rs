@@ -2746,3 +2746,103 @@ fn a_gltf_cooks_with_its_own_cameras_and_sun() {
     cook(&scene, &manifest, &[]);
     check(&manifest);
 }
+
+/// PLY models, the format scanners and MeshLab write: third-party files from assimp's test
+/// set, through the whole tool. MeshLab's float colours reach the pack's vertices; Blender's
+/// cube validates, and its `cooker init` manifest (a rule on the file's mesh name) cooks the
+/// bare cook's very pack; a scan with MeshLab's per-corner texture coordinates and its
+/// `TextureFile` cooks with its texture; a malformed file is an error naming its line.
+#[test]
+fn ply_models_cook_with_their_colours_and_textures() {
+    let dir = tempfile::tempdir().unwrap();
+    let blue = dir.path().join("blue.pack");
+    cook(&third_party("ply/float-color.ply"), &blue, &[]);
+    let cooked = pack::Pack::open(&blue).unwrap();
+    let mesh = &cooked.toc().meshes[0];
+    let colours: std::collections::BTreeSet<[u8; 4]> = cooked
+        .vertex_bytes(mesh)
+        .chunks_exact(mesh.layout.stride as usize)
+        .map(|v| mesh.layout.decode(v).colour)
+        .collect();
+    assert_eq!(colours.into_iter().collect::<Vec<_>>(), [[0, 0, 255, 0]]);
+
+    let cube = third_party("ply/cube_uv.ply");
+    // A bare model's tags are guesses, which validate lists (exit 1), floor and walls cut out.
+    let checked = cooker(&[&"validate", &cube]);
+    assert_eq!(checked.status.code(), Some(1), "{}", text(&checked.stderr));
+    assert!(text(&checked.stdout).contains("cube_uv.floor            floor"));
+    let scene = dir.path().join("cube.toml");
+    let o = cooker(&[&"init", &cube, &"-o", &scene]);
+    assert!(o.status.success(), "{}", text(&o.stderr));
+    let toml = std::fs::read_to_string(&scene).unwrap();
+    assert!(
+        toml.contains("mesh \"cube_uv\": cut by its geometry"),
+        "{toml}"
+    );
+    let (bare, inited) = (dir.path().join("bare.pack"), dir.path().join("init.pack"));
+    cook(&cube, &bare, &[]);
+    cook(&scene, &inited, &[]);
+    assert_eq!(
+        std::fs::read(&bare).unwrap(),
+        std::fs::read(&inited).unwrap()
+    );
+    assert_eq!(
+        classes(&info(&bare)).values().collect::<Vec<_>>(),
+        ["other", "floor", "wall"],
+        "{:?}",
+        classes(&info(&bare))
+    );
+
+    // A scan: Blender's cube with MeshLab's per-corner coordinates and texture statement.
+    let ascii = std::fs::read_to_string(&cube).unwrap();
+    let (head, body) = ascii.split_once("end_header\n").unwrap();
+    let uv: Vec<[&str; 2]> = body
+        .lines()
+        .take(24)
+        .map(|l| {
+            let w: Vec<&str> = l.split_whitespace().collect();
+            [w[6], w[7]]
+        })
+        .collect();
+    let mut scan = head
+        .replace(
+            "comment Created",
+            "comment TextureFile bricks.tga\ncomment Created",
+        )
+        .replace("property float s\nproperty float t\n", "")
+        + "property list uchar float texcoord\nend_header\n";
+    for l in body.lines().take(24) {
+        let w: Vec<&str> = l.split_whitespace().collect();
+        scan += &(w[..6].join(" ") + "\n");
+    }
+    for l in body.lines().skip(24) {
+        let idx: Vec<usize> = l
+            .split_whitespace()
+            .skip(1)
+            .map(|i| i.parse().unwrap())
+            .collect();
+        let coords: Vec<String> = idx.iter().map(|&i| uv[i].join(" ")).collect();
+        scan += &format!("{l} {} {}\n", idx.len() * 2, coords.join(" "));
+    }
+    let scan_path = dir.path().join("scan.ply");
+    std::fs::write(&scan_path, scan).unwrap();
+    std::fs::copy(
+        third_party("crytek-sponza/spnza_bricks_a_diff.crop128.tga"),
+        dir.path().join("bricks.tga"),
+    )
+    .unwrap();
+    let textured = dir.path().join("scan.pack");
+    cook(&scan_path, &textured, &[]);
+    let v = info(&textured);
+    assert_eq!(texture_names(&v).len(), 1, "{v:#}");
+
+    let bad = third_party("bad/ply/issue623.ply");
+    let o = cooker(&[&"cook", &bad, &"-o", &dir.path().join("bad.pack")]);
+    assert_eq!(o.status.code(), Some(3), "{}", text(&o.stderr));
+    assert!(
+        text(&o.stderr).contains("issue623.ply:14: vertex 0 of 24"),
+        "{}",
+        text(&o.stderr)
+    );
+    assert!(!dir.path().join("bad.pack").exists());
+}

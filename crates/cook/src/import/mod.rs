@@ -7,6 +7,7 @@ pub mod gltf;
 mod gltf_draco;
 mod gltf_meshopt;
 pub mod obj;
+pub mod ply;
 pub mod text;
 
 use std::path::{Path, PathBuf};
@@ -631,7 +632,7 @@ pub(crate) fn survey_origin(first: [f64; 3]) -> Option<[f64; 3]> {
     (origin != [0.0; 3]).then_some(origin)
 }
 
-/// Imports an OBJ, glTF or GLB file, by extension.
+/// Imports an OBJ, glTF, GLB or PLY file, by extension.
 pub fn import(path: &Path) -> Result<Imported, CookError> {
     import_with(path, None)
 }
@@ -661,10 +662,11 @@ pub fn import_with(
     let mut out = match ext.as_str() {
         "obj" => obj::import(path, text_encoding),
         "gltf" | "glb" => gltf::import(path),
+        "ply" => ply::import(path),
         _ => Err(CookError::Source {
             path: path.to_path_buf(),
             line: None,
-            message: format!("unsupported mesh format {ext:?}: expected .obj, .gltf or .glb"),
+            message: format!("unsupported mesh format {ext:?}: expected .obj, .gltf, .glb or .ply"),
         }),
     }?;
     warn_far_positions(&mut out);
