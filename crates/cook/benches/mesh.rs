@@ -81,6 +81,58 @@ fn end_to_end(c: &mut Criterion) {
         },
     );
     group.finish();
+
+    // The same bunny as a scanner writes it: binary little-endian PLY (float positions, uchar
+    // counts, int indices) and ASCII PLY, parsed from memory.
+    let mut group = c.benchmark_group("ply parse");
+    let model = cook::import::obj::parse(&bunny(), &bytes).unwrap();
+    for binary in [true, false] {
+        let ply = bunny_ply(&model, binary);
+        let name = if binary { "binary" } else { "ascii" };
+        group.throughput(Throughput::Bytes(ply.len() as u64));
+        group.bench_function(format!("cook::import::ply, {name} (stanford bunny)"), |b| {
+            b.iter(|| cook::import::ply::parse(std::path::Path::new("bunny.ply"), &ply).unwrap())
+        });
+    }
+    group.finish();
+}
+
+fn bunny_ply(m: &cook::import::Imported, binary: bool) -> Vec<u8> {
+    use std::io::Write as _;
+    let tris = m.triangle_count();
+    let mut out = format!(
+        "ply\nformat {} 1.0\nelement vertex {}\nproperty float x\nproperty float y\n\
+         property float z\nelement face {tris}\nproperty list uchar int vertex_indices\n\
+         end_header\n",
+        if binary {
+            "binary_little_endian"
+        } else {
+            "ascii"
+        },
+        m.positions.len()
+    )
+    .into_bytes();
+    for p in &m.positions {
+        if binary {
+            for c in p {
+                out.extend_from_slice(&c.to_le_bytes());
+            }
+        } else {
+            writeln!(out, "{} {} {}", p[0], p[1], p[2]).unwrap();
+        }
+    }
+    for t in 0..tris {
+        let c = [0, 1, 2].map(|k| m.corners.get(t * 3 + k).p);
+        if binary {
+            out.push(3);
+            for i in c {
+                out.extend_from_slice(&(i as i32).to_le_bytes());
+            }
+        } else {
+            writeln!(out, "3 {} {} {}", c[0], c[1], c[2]).unwrap();
+        }
+    }
+    out
 }
 
 criterion_group!(benches, end_to_end);

@@ -77,7 +77,7 @@ fn name(t: &[u8]) -> String {
     text::escaped(t).into_owned()
 }
 
-fn parse_f32(t: &[u8]) -> Option<f32> {
+pub(crate) fn parse_f32(t: &[u8]) -> Option<f32> {
     simple_f32(t).or_else(|| std::str::from_utf8(t).ok()?.parse().ok())
 }
 

@@ -275,6 +275,8 @@ struct Body<'a> {
     format: Format,
     /// ASCII: the line of the value read last.
     line: usize,
+    /// ASCII: float-typed values may be read as f32 (the model is near the origin).
+    f32_exact: bool,
 }
 
 impl Body<'_> {
@@ -283,6 +285,7 @@ impl Body<'_> {
     }
 
     /// The next value as f64 (exact for every PLY type), or why there is none.
+    #[inline(always)]
     fn value(&mut self, ty: Scalar) -> Result<f64, String> {
         match self.format {
             Format::Ascii => {
@@ -300,6 +303,19 @@ impl Body<'_> {
                     return Err("the file ends early".into());
                 }
                 let token = &self.bytes[start..self.at];
+                // The common cases without the general algorithm: a whole number (a count,
+                // an index, an 8-bit colour), or a float-typed value read as an OBJ's is,
+                // exact in f32, while no survey origin needs its every digit.
+                if ty.integer() {
+                    if let Some(v) = whole(token) {
+                        return Ok(v);
+                    }
+                } else if ty == Scalar::F32
+                    && self.f32_exact
+                    && let Some(v) = super::obj::parse_f32(token).filter(|v| v.is_finite())
+                {
+                    return Ok(v as f64);
+                }
                 let text = std::str::from_utf8(token).unwrap_or("");
                 let v = text.parse::<f64>().map_err(|_| {
                     format!(
@@ -321,21 +337,7 @@ impl Body<'_> {
                     return Err("the file ends early".into());
                 };
                 self.at += n;
-                let mut a = [0u8; 8];
-                a[..n].copy_from_slice(b);
-                if self.format == Format::Big {
-                    a[..n].reverse();
-                }
-                Ok(match ty {
-                    Scalar::I8 => a[0] as i8 as f64,
-                    Scalar::U8 => a[0] as f64,
-                    Scalar::I16 => i16::from_le_bytes([a[0], a[1]]) as f64,
-                    Scalar::U16 => u16::from_le_bytes([a[0], a[1]]) as f64,
-                    Scalar::I32 => i32::from_le_bytes([a[0], a[1], a[2], a[3]]) as f64,
-                    Scalar::U32 => u32::from_le_bytes([a[0], a[1], a[2], a[3]]) as f64,
-                    Scalar::F32 => f32::from_le_bytes([a[0], a[1], a[2], a[3]]) as f64,
-                    Scalar::F64 => f64::from_le_bytes(a),
-                })
+                Ok(decode(b, ty, self.format == Format::Big))
             }
         }
     }
@@ -347,6 +349,52 @@ impl Body<'_> {
             return Err(format!("a list of length {n}"));
         }
         Ok(n as usize)
+    }
+}
+
+/// A run of up to 15 decimal digits, optionally signed, as its value.
+fn whole(t: &[u8]) -> Option<f64> {
+    let (negative, digits) = match t {
+        [b'-', r @ ..] => (true, r),
+        [b'+', r @ ..] => (false, r),
+        _ => (false, t),
+    };
+    if digits.is_empty() || digits.len() > 15 {
+        return None;
+    }
+    let mut v = 0u64;
+    for &b in digits {
+        let d = b.wrapping_sub(b'0');
+        if d > 9 {
+            return None;
+        }
+        v = v * 10 + d as u64;
+    }
+    Some(if negative { -(v as f64) } else { v as f64 })
+}
+
+/// The binary value of type `ty` at the start of `b` (which holds at least its size).
+#[inline(always)]
+fn decode(b: &[u8], ty: Scalar, big: bool) -> f64 {
+    macro_rules! num {
+        ($t:ty, $n:expr) => {{
+            let a: [u8; $n] = b[..$n].try_into().unwrap_or([0; $n]);
+            if big {
+                <$t>::from_be_bytes(a) as f64
+            } else {
+                <$t>::from_le_bytes(a) as f64
+            }
+        }};
+    }
+    match ty {
+        Scalar::I8 => b[0] as i8 as f64,
+        Scalar::U8 => b[0] as f64,
+        Scalar::I16 => num!(i16, 2),
+        Scalar::U16 => num!(u16, 2),
+        Scalar::I32 => num!(i32, 4),
+        Scalar::U32 => num!(u32, 4),
+        Scalar::F32 => num!(f32, 4),
+        Scalar::F64 => num!(f64, 8),
     }
 }
 
@@ -396,6 +444,7 @@ pub fn parse(path: &Path, bytes: &[u8]) -> Result<Imported, CookError> {
         at: h.body,
         format: h.format,
         line: h.body_line,
+        f32_exact: false,
     };
     let vertex = h.elements.iter().position(|e| e.name == "vertex");
     let face = h.elements.iter().position(|e| e.name == "face");
@@ -427,6 +476,23 @@ pub fn parse(path: &Path, bytes: &[u8]) -> Result<Imported, CookError> {
     let colours = has(|r| matches!(r, Role::Colour(_)));
     let uvs = roles.iter().filter(|r| matches!(r, Role::Uv(_))).count() == 2;
 
+    // Per element and property: 1 for a face's corner indices, 2 for its texture
+    // coordinates, 0 for anything read past.
+    let list_roles: Vec<Vec<u8>> = h
+        .elements
+        .iter()
+        .enumerate()
+        .map(|(ei, e)| {
+            e.properties
+                .iter()
+                .map(|p| match (face == Some(ei), p.name.as_str()) {
+                    (true, "vertex_indices" | "vertex_index") => 1,
+                    (true, "texcoord") => 2,
+                    _ => 0,
+                })
+                .collect()
+        })
+        .collect();
     let mut raw_colours: Vec<[f64; 3]> = Vec::new();
     let mut first: Option<[f64; 3]> = None;
     let mut origin = [0.0f64; 3];
@@ -446,8 +512,9 @@ pub fn parse(path: &Path, bytes: &[u8]) -> Result<Imported, CookError> {
         // A count the rest of the file cannot hold is refused before anything is allocated
         // for it.
         let min = element.min_bytes(h.format);
-        // (The file's last value may lack its separator.)
-        if element.count > 0 && min > 0 && element.count > (body.remaining() + 1) / min {
+        // (An ASCII file's last value may lack its separator.)
+        let slack = u64::from(h.format == Format::Ascii);
+        if element.count > 0 && min > 0 && element.count > (body.remaining() + slack) / min {
             return Err(bad(
                 path,
                 Some(element.line),
@@ -458,6 +525,10 @@ pub fn parse(path: &Path, bytes: &[u8]) -> Result<Imported, CookError> {
                     body.remaining()
                 ),
             ));
+        }
+        // An element of no properties takes no bytes, however many it claims.
+        if element.properties.is_empty() {
+            continue;
         }
         let count = element.count as usize;
         if ei == vertex {
@@ -472,7 +543,71 @@ pub fn parse(path: &Path, bytes: &[u8]) -> Result<Imported, CookError> {
                 out.uvs.reserve_exact(count);
             }
         }
+        // A binary element of scalars only is records of one size: each is sliced once and
+        // its values decoded at fixed offsets, without a bounds check each (the count was
+        // checked against the file's size above).
+        let big = h.format == Format::Big;
+        let fixed: Option<(usize, Vec<usize>)> = (h.format != Format::Ascii
+            && element
+                .properties
+                .iter()
+                .all(|p| matches!(p.kind, Kind::Scalar(_))))
+        .then(|| {
+            let mut offsets = Vec::with_capacity(element.properties.len());
+            let mut stride = 0;
+            for p in &element.properties {
+                offsets.push(stride);
+                if let Kind::Scalar(ty) = p.kind {
+                    stride += ty.size();
+                }
+            }
+            (stride, offsets)
+        });
+        // A binary face element of the corner list alone (what scanners and MeshLab write):
+        // its triangles are read straight into the corners; anything else (a polygon, a bad
+        // index) takes the general path below, which also says what is wrong.
+        let triangles: Option<(Scalar, Scalar)> = match element.properties[..] {
+            [
+                Property {
+                    kind: Kind::List { count, item },
+                    ..
+                },
+            ] if h.format != Format::Ascii && list_roles[ei][0] == 1 => Some((count, item)),
+            _ => None,
+        };
         for item in 0..count {
+            if let Some((cty, ity)) = triangles {
+                let (cs, is) = (cty.size(), ity.size());
+                if let Some(b) = bytes.get(body.at..body.at + cs + 3 * is)
+                    && decode(b, cty, big) == 3.0
+                {
+                    // Written out: `array::map` here was a call per face.
+                    let v = [
+                        decode(&b[cs..], ity, big),
+                        decode(&b[cs + is..], ity, big),
+                        decode(&b[cs + 2 * is..], ity, big),
+                    ];
+                    let i = [v[0] as u32, v[1] as u32, v[2] as u32];
+                    let n = out.positions.len();
+                    let ok = |k: usize| i[k] as f64 == v[k] && (i[k] as usize) < n;
+                    if ok(0) && ok(1) && ok(2) {
+                        body.at += cs + 3 * is;
+                        p.extend_from_slice(&i);
+                        if face_uvs {
+                            t.extend(i.map(|i| if uvs { i } else { super::NONE }));
+                        }
+                        continue;
+                    }
+                }
+            }
+            let record = match &fixed {
+                Some((stride, _)) => {
+                    let r = &bytes[body.at..body.at + stride];
+                    body.at += stride;
+                    r
+                }
+                None => &[][..],
+            };
             let at_err = |body: &Body, m: String| {
                 let line = (h.format == Format::Ascii).then_some(body.line);
                 bad(
@@ -490,7 +625,10 @@ pub fn parse(path: &Path, bytes: &[u8]) -> Result<Imported, CookError> {
             for (pi, prop) in element.properties.iter().enumerate() {
                 match prop.kind {
                     Kind::Scalar(ty) => {
-                        let v = body.value(ty).map_err(|m| at_err(&body, m))?;
+                        let v = match &fixed {
+                            Some((_, offsets)) => decode(&record[offsets[pi]..], ty, big),
+                            None => body.value(ty).map_err(|m| at_err(&body, m))?,
+                        };
                         if ei == vertex {
                             match roles[pi] {
                                 Role::Position(a) => pos[a] = v,
@@ -518,22 +656,13 @@ pub fn parse(path: &Path, bytes: &[u8]) -> Result<Imported, CookError> {
                                 format!("a list of {n} values, more than the file holds"),
                             ));
                         }
-                        let role = if face == Some(ei) {
-                            match prop.name.as_str() {
-                                "vertex_indices" | "vertex_index" => 1,
-                                "texcoord" => 2,
-                                _ => 0,
-                            }
-                        } else {
-                            0
-                        };
+                        let role = list_roles[ei][pi];
                         for _ in 0..n {
                             let v = body.value(ty).map_err(|m| at_err(&body, m))?;
                             match role {
                                 1 => {
-                                    if !(0.0..out.positions.len() as f64).contains(&v)
-                                        || v.fract() != 0.0
-                                    {
+                                    let i = v as u32;
+                                    if i as f64 != v || i as usize >= out.positions.len() {
                                         return Err(at_err(
                                             &body,
                                             format!(
@@ -542,7 +671,7 @@ pub fn parse(path: &Path, bytes: &[u8]) -> Result<Imported, CookError> {
                                             ),
                                         ));
                                     }
-                                    polygon.push(v as u32);
+                                    polygon.push(i);
                                 }
                                 2 => face_uv.push(v),
                                 _ => {}
@@ -559,6 +688,7 @@ pub fn parse(path: &Path, bytes: &[u8]) -> Result<Imported, CookError> {
                     first = Some(pos);
                     origin = super::survey_origin(pos).unwrap_or_default();
                     out.origin = origin;
+                    body.f32_exact = origin == [0.0; 3];
                 }
                 out.positions.push([
                     (pos[0] - origin[0]) as f32,
@@ -759,6 +889,7 @@ mod tests {
             at: h.body,
             format: Format::Ascii,
             line: h.body_line,
+            f32_exact: false,
         };
         let put = |out: &mut Vec<u8>, ty: Scalar, v: f64| {
             let mut b: Vec<u8> = match ty {
@@ -882,16 +1013,25 @@ mod tests {
         assert_eq!(m.warnings[0].line, Some(3));
     }
 
+    /// Survey coordinates keep their every digit, in doubles and in ASCII floats alike (the
+    /// text has them, whatever the declared type), and move near the origin.
     #[test]
-    fn survey_coordinates_in_doubles_move_near_the_origin() {
-        let text = "ply\nformat ascii 1.0\nelement vertex 3\nproperty double x\n\
-                    property double y\nproperty double z\nelement face 1\n\
-                    property list uchar uint vertex_indices\nend_header\n\
-                    5432109.25 120.5 -6543210.75\n5432110.25 120.5 -6543210.75\n\
-                    5432109.25 121.5 -6543210.75\n3 0 1 2\n";
-        let m = parse(Path::new("s.ply"), text.as_bytes()).unwrap();
-        assert_eq!(m.origin, [5432109.0, 0.0, -6543211.0]);
-        assert_eq!(m.positions[1], [1.25, 120.5, 0.25]);
+    fn survey_coordinates_move_near_the_origin() {
+        for ty in ["double", "float"] {
+            let text = format!(
+                "ply\nformat ascii 1.0\nelement vertex 3\nproperty {ty} x\n\
+                 property {ty} y\nproperty {ty} z\nelement face 1\n\
+                 property list uchar uint vertex_indices\nend_header\n\
+                 5432109.25 120.5 -6543210.75\n5432110.1 120.1 -6543210.75\n\
+                 5432109.25 121.5 -6543210.75\n3 0 1 2\n"
+            );
+            let m = parse(Path::new("s.ply"), text.as_bytes()).unwrap();
+            assert_eq!(m.origin, [5432109.0, 0.0, -6543211.0]);
+            assert_eq!(
+                m.positions[1],
+                [(5432110.1f64 - 5432109.0) as f32, 120.1, 0.25]
+            );
+        }
     }
 
     #[test]
@@ -927,6 +1067,12 @@ mod tests {
             e.contains("b.ply:3: element \"vertex\" claims 4000000000 items"),
             "{e}"
         );
+        // Four billion items of nothing take no time.
+        let empty = "ply\nformat binary_little_endian 1.0\nelement nothing 4000000000\n\
+                     element vertex 0\nproperty float x\nproperty float y\nproperty float z\n\
+                     end_header\n";
+        let m = parse(Path::new("e.ply"), empty.as_bytes()).unwrap();
+        assert!(m.positions.is_empty());
         let truncated = to_binary(&read("ply/cube_uv.ply"), false);
         let e = err(&truncated[..truncated.len() - 3]);
         assert!(e.contains("face 5 of 6: the file ends early"), "{e}");
