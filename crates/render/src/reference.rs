@@ -102,13 +102,10 @@ pub struct Reference {
     background: Vec3,
 }
 
+/// The exact decode (f64, rounded once to f32): the texture crate's table, which the cook's
+/// mips and colours are measured against too.
 fn srgb_to_linear(b: u8) -> f32 {
-    let c = b as f32 / 255.0;
-    if c <= 0.04045 {
-        c / 12.92
-    } else {
-        ((c + 0.055) / 1.055).powf(2.4)
-    }
+    texture::srgb::decode8()[b as usize]
 }
 
 impl Reference {
