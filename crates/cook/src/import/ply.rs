@@ -6,8 +6,9 @@
 //! near the origin as an OBJ's are), `nx ny nz`, colour (`red green blue`, `r g b` or
 //! `diffuse_*`: 8- and 16-bit values scaled, floats taken as 0–1) and texture coordinates
 //! (`s t`, `u v`, `texture_u texture_v`, `texture_s texture_t`); the `face` element's
-//! `vertex_indices` (or `vertex_index`) polygons, triangulated by ear clipping, and MeshLab's
-//! per-corner `texcoord` lists; MeshLab's `comment TextureFile` image. Every other element and
+//! `vertex_indices` (or `vertex_index`) polygons, triangulated by ear clipping, their colours
+//! (where the vertices have none) and MeshLab's per-corner `texcoord` lists; MeshLab's
+//! `comment TextureFile` image. Every other element and
 //! property is read past. A PLY names nothing inside it, so the model is one part named by the
 //! file's stem (its `mesh` name, for rules).
 //!
@@ -507,6 +508,8 @@ pub fn parse(path: &Path, bytes: &[u8]) -> Result<Imported, CookError> {
     let mut skipped_faces = 0usize;
     let mut face_uvs = false;
     let mut face_colours = false;
+    // Per triangle, its face's colour, where faces have colours and vertices none.
+    let mut tri_colours: Vec<[f64; 3]> = Vec::new();
 
     for (ei, element) in h.elements.iter().enumerate() {
         // A count the rest of the file cannot hold is refused before anything is allocated
@@ -638,9 +641,10 @@ pub fn parse(path: &Path, bytes: &[u8]) -> Result<Imported, CookError> {
                                 Role::Other => {}
                             }
                         } else if face == Some(ei)
-                            && matches!(prop.name.as_str(), "red" | "green" | "blue")
+                            && let Role::Colour(a) = vertex_role(&prop.name)
                         {
                             face_colours = true;
+                            colour[a] = v / ty.full_scale();
                         }
                     }
                     Kind::List { count, item: ty } => {
@@ -739,6 +743,13 @@ pub fn parse(path: &Path, bytes: &[u8]) -> Result<Imported, CookError> {
                     crate::triangulate::triangulate(&points, &mut tris);
                     out.polygons += 1;
                 }
+                if face_colours && !colours {
+                    tri_colours.resize(p.len() / 3, [1.0; 3]);
+                    tri_colours.extend(std::iter::repeat_n(
+                        colour.map(|c| if c.is_finite() { c.max(0.0) } else { 1.0 }),
+                        tris.len(),
+                    ));
+                }
                 for tri in &tris {
                     for &c in tri {
                         p.push(polygon[c as usize]);
@@ -756,6 +767,26 @@ pub fn parse(path: &Path, bytes: &[u8]) -> Result<Imported, CookError> {
                     }
                 }
             }
+        }
+    }
+    // Faces painted apart (CAD exports, segmented scans): each corner of a coloured face gets
+    // its own copy of its vertex with the face's colour, which the mesh stage welds back
+    // wherever neighbouring faces share a colour.
+    if !tri_colours.is_empty() {
+        tri_colours.resize(p.len() / 3, [1.0; 3]);
+        raw_colours = vec![[1.0; 3]; out.positions.len()];
+        let per_vertex_uvs = uvs && !face_uvs;
+        for (k, c) in p.iter_mut().enumerate() {
+            let v = *c as usize;
+            *c = out.positions.len() as u32;
+            out.positions.push(out.positions[v]);
+            if normals {
+                out.normals.push(out.normals[v]);
+            }
+            if per_vertex_uvs {
+                out.uvs.push(out.uvs[v]);
+            }
+            raw_colours.push(tri_colours[k / 3]);
         }
     }
     // Float colours written 0–255 (whole numbers, some over 1) are bytes; other floats are
@@ -777,11 +808,11 @@ pub fn parse(path: &Path, bytes: &[u8]) -> Result<Imported, CookError> {
             format!("{skipped_faces} faces of fewer than three corners skipped"),
         ));
     }
-    if face_colours {
+    if face_colours && colours {
         out.warnings.push(Warning::new(
             path,
             None,
-            "per-face colours are not read (only per-vertex ones are)",
+            "the faces' colours are not read: the vertices' own are",
         ));
     }
     if normals && !raw_normals_ok {
@@ -976,6 +1007,33 @@ mod tests {
         let u = parse(Path::new("u.ply"), text.as_bytes()).unwrap();
         let g = texture::srgb::srgb_to_linear(128.0 / 255.0) as f32;
         assert_eq!(u.colours, vec![[1.0, g, 0.0, 1.0]; 3]);
+    }
+
+    /// Faces painted apart: each corner of a coloured face gets its own copy of its vertex,
+    /// with the face's colour (sRGB bytes decoded exactly).
+    #[test]
+    fn per_face_colours_paint_copies_of_their_vertices() {
+        let text = "ply\nformat ascii 1.0\nelement vertex 4\nproperty float x\nproperty float y\n\
+                    property float z\nproperty float nx\nproperty float ny\nproperty float nz\n\
+                    element face 2\nproperty list uchar int vertex_indices\n\
+                    property uchar red\nproperty uchar green\nproperty uchar blue\nend_header\n\
+                    0 0 0 0 0 1\n1 0 0 0 0 1\n1 1 0 0 0 1\n0 1 0 0 0 1\n\
+                    3 0 1 2 255 0 0\n3 0 2 3 0 0 255\n";
+        let m = parse(Path::new("f.ply"), text.as_bytes()).unwrap();
+        assert_eq!(m.positions.len(), 4 + 6);
+        assert_eq!(m.normals.len(), 10);
+        let corner = |k: usize| {
+            let c = m.corners.get(k);
+            (
+                m.positions[c.p as usize],
+                m.colours[c.p as usize],
+                c.n == c.p,
+            )
+        };
+        let (red, blue) = ([1.0, 0.0, 0.0, 1.0], [0.0, 0.0, 1.0, 1.0]);
+        assert_eq!(corner(0), ([0.0, 0.0, 0.0], red, true));
+        assert_eq!(corner(4), ([1.0, 1.0, 0.0], blue, true));
+        assert!(m.warnings.is_empty(), "{:?}", m.warnings);
     }
 
     #[test]
