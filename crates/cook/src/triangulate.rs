@@ -71,10 +71,9 @@ fn inside(p: [f64; 2], a: [f64; 2], b: [f64; 2], c: [f64; 2]) -> bool {
 /// convex: so an ear is tested against the polygon's reflex and flat vertices still in the
 /// ring, not against every vertex. The ring is a linked list, so a clip does not move the
 /// rest of it. Both keep the order in which ears are found, so for a simple polygon the
-/// triangles are those of
-/// testing every vertex in an array. A 50,000-corner star face cooks in 4.0 s, not 7.1; a
-/// circle of as many corners written to 6 decimals in 4.9 s, not 6.0 (the rounding makes half
-/// its corners reflex, so the test stays quadratic there).
+/// triangles are those of testing every vertex in an array. A 50,000-corner star face cooks
+/// in 4.0 s, not 7.1; a circle of as many corners written to 6 decimals in 4.9 s, not 6.0
+/// (the rounding makes half its corners reflex, so the test stays quadratic there).
 fn ear_clip(p: &[[f64; 2]], out: &mut Vec<[u32; 3]>) {
     let n = p.len();
     let blockers: Vec<usize> = (0..n)
