@@ -17,7 +17,7 @@
 
 use std::path::Path;
 
-use super::{Corners, ImageRef, Imported, Names, Part, SourceMaterial, Warning};
+use super::{Corners, ImageRef, Imported, Indices, Names, Part, SourceMaterial, Warning};
 use crate::CookError;
 
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -495,8 +495,6 @@ pub fn parse(path: &Path, bytes: &[u8]) -> Result<Imported, CookError> {
         })
         .collect();
     let mut raw_colours: Vec<[f64; 3]> = Vec::new();
-    let mut first: Option<[f64; 3]> = None;
-    let mut origin = [0.0f64; 3];
     let mut raw_normals_ok = true;
     // Per face: its polygon's position indices, and its corners' texture coordinates.
     let mut polygon: Vec<u32> = Vec::new();
@@ -688,12 +686,12 @@ pub fn parse(path: &Path, bytes: &[u8]) -> Result<Imported, CookError> {
                 if pos.iter().any(|c| !c.is_finite()) {
                     return Err(at_err(&body, format!("position {pos:?} is not finite")));
                 }
-                if first.is_none() {
-                    first = Some(pos);
-                    origin = super::survey_origin(pos).unwrap_or_default();
-                    out.origin = origin;
-                    body.f32_exact = origin == [0.0; 3];
+                // The first vertex places the survey origin, as in an OBJ.
+                if out.positions.is_empty() {
+                    out.origin = super::survey_origin(pos).unwrap_or_default();
+                    body.f32_exact = out.origin == [0.0; 3];
                 }
+                let origin = out.origin;
                 out.positions.push([
                     (pos[0] - origin[0]) as f32,
                     (pos[1] - origin[1]) as f32,
@@ -834,23 +832,22 @@ pub fn parse(path: &Path, bytes: &[u8]) -> Result<Imported, CookError> {
             },
         ));
     }
+    // Per-vertex normals and coordinates are indexed as the positions are: said so, rather
+    // than written out per corner and compared back.
     let n = if out.normals.is_empty() {
-        Vec::new()
+        Indices::Absent
     } else {
-        p.clone()
+        Indices::Positions
     };
     let t = if face_uvs {
-        t
+        Indices::of(t, &p)
     } else if uvs {
-        p.clone()
+        Indices::Positions
     } else {
-        Vec::new()
+        Indices::Absent
     };
-    if !face_uvs && !uvs {
-        out.uvs = Vec::new();
-    }
     out.tri_part = vec![0; p.len() / 3];
-    out.corners = Corners::from_fields(p, t, n);
+    out.corners = Corners::from_indices(p, t, n);
 
     let stem = path
         .file_stem()
