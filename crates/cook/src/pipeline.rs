@@ -466,7 +466,10 @@ fn record_sources(
         report.warnings.extend(s.warnings.iter().cloned());
         report.inputs.push(s.path.clone());
         report.inputs.extend(s.files.iter().cloned());
+        report.absent.extend(s.absent.iter().cloned());
     }
+    report.absent.sort();
+    report.absent.dedup();
     report.heuristics = heuristic_notes(imported, tagging);
 }
 

@@ -50,6 +50,9 @@ pub struct HeuristicNote {
 pub struct Report {
     /// Every file the cook read (sorted, without duplicates): what a cache entry depends on.
     pub inputs: Vec<PathBuf>,
+    /// Files the sources name that were not found (sorted, without duplicates): the cook
+    /// depends on their staying absent.
+    pub absent: Vec<crate::import::Absent>,
     /// Per cooked artifact (texture), whether it was cooked or reused from the cache.
     pub artifacts: Vec<(String, ArtifactSource)>,
     pub warnings: Vec<Warning>,

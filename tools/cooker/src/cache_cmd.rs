@@ -320,9 +320,15 @@ fn explain(
     // Where the entry is, before a lookup copies a remote one here.
     let scene_level = level(&key);
     match scene_cache::inputs_of(&cache, &key) {
-        Ok(inputs) => {
+        Ok(entry) => {
             println!("  the manifest and settings were cooked before ({scene_level})");
-            match scene_cache::hash_inputs(input, &inputs) {
+            if let Some(path) = scene_cache::appeared(input, &entry.absent) {
+                println!(
+                    "a cook would cook it: {path} was not found by the last cook and is there now"
+                );
+                return Ok(OK);
+            }
+            match scene_cache::hash_inputs(input, &entry.inputs) {
                 Ok(hashed) => {
                     let result = scene_cache::result_key(&key, &hashed);
                     let where_ = level(&result);

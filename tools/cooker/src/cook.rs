@@ -291,6 +291,7 @@ pub fn run(args: Args) -> Outcome {
                 manifest: &args.input,
                 settings: &settings,
                 inputs: &report.inputs,
+                absent: &report.absent,
                 pack: &bytes,
                 transcript: &transcript,
             },

@@ -17,9 +17,33 @@ use serde::{Deserialize, Serialize};
 
 use crate::transcript::Transcript;
 
+/// What the last cook of a scene depended on.
 #[derive(Serialize, Deserialize)]
-struct SceneInputs {
-    inputs: Vec<PathBuf>,
+pub struct SceneInputs {
+    /// The files it read, relative to the manifest's folder.
+    pub inputs: Vec<PathBuf>,
+    /// The files its sources named that it did not find (a texture an MTL names, a
+    /// material library): the pack is only right while they stay absent.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub absent: Vec<Absent>,
+}
+
+/// A file a source named that the cook did not find: `name` as written, looked for under
+/// `dir` (relative to the manifest's folder, where it lies within it).
+#[derive(Clone, Serialize, Deserialize)]
+pub struct Absent {
+    pub dir: PathBuf,
+    pub name: String,
+}
+
+/// The first file the last cook did not find that is there now, as the cook would find it.
+pub fn appeared(manifest: &Path, absent: &[Absent]) -> Option<String> {
+    absent.iter().find_map(|a| {
+        let dir = scene_dir(manifest).join(&a.dir);
+        cook::import::Absent::new(&dir, &a.name)
+            .appeared()
+            .then(|| dir.join(&a.name).display().to_string())
+    })
 }
 
 #[derive(Serialize, Deserialize)]
@@ -83,11 +107,11 @@ pub fn result_key(scene: &Key, hashed: &[(PathBuf, [u8; 32])]) -> Key {
 
 /// The inputs the last cook of a scene key read, relative to the manifest's folder: from the
 /// local cache, else the remote.
-pub fn inputs_of(cache: &Cache, key: &Key) -> Result<Vec<PathBuf>, String> {
+pub fn inputs_of(cache: &Cache, key: &Key) -> Result<SceneInputs, String> {
     match cache.get(key) {
-        Lookup::Hit(b) => serde_json::from_slice::<SceneInputs>(&b)
-            .map(|i| i.inputs)
-            .map_err(|_| "unreadable scene entry".into()),
+        Lookup::Hit(b) => {
+            serde_json::from_slice::<SceneInputs>(&b).map_err(|_| "unreadable scene entry".into())
+        }
         Lookup::Miss => Err("not cooked before with these settings".into()),
         Lookup::Corrupt(why) => Err(format!("damaged cache entry, re-cooking: {why}")),
     }
@@ -139,10 +163,15 @@ pub fn lookup(
     settings: &cook::Settings,
     output: &Path,
 ) -> Reuse {
-    let inputs = match inputs_of(cache, key) {
+    let SceneInputs { inputs, absent } = match inputs_of(cache, key) {
         Ok(i) => i,
         Err(why) => return Reuse::Cook(why),
     };
+    if let Some(path) = appeared(manifest, &absent) {
+        return Reuse::Cook(format!(
+            "{path} was not found by the last cook and is there now"
+        ));
+    }
     let hashed = match hash_inputs(manifest, &inputs) {
         Ok(h) => h,
         Err(why) => return Reuse::Cook(why),
@@ -197,6 +226,7 @@ pub struct Cooked<'a> {
     pub manifest: &'a Path,
     pub settings: &'a cook::Settings,
     pub inputs: &'a [PathBuf],
+    pub absent: &'a [cook::import::Absent],
     pub pack: &'a [u8],
     pub transcript: &'a Transcript,
 }
@@ -207,10 +237,18 @@ pub fn store(cache: &Cache, c: Cooked) -> Result<(), anyhow::Error> {
         manifest,
         settings,
         inputs,
+        absent,
         pack,
         transcript,
     } = c;
     let inputs: Vec<PathBuf> = inputs.iter().map(|p| relative(manifest, p)).collect();
+    let absent = absent
+        .iter()
+        .map(|a| Absent {
+            dir: relative(manifest, &a.dir),
+            name: a.name.clone(),
+        })
+        .collect();
     let hashed = hash_inputs(manifest, &inputs).map_err(anyhow::Error::msg)?;
     let result_key = result_key(key, &hashed);
     write_record(cache, manifest, settings, &hashed)?;
@@ -228,7 +266,7 @@ pub fn store(cache: &Cache, c: Cooked) -> Result<(), anyhow::Error> {
     )?;
     cache.put(
         key,
-        &serde_json::to_vec(&SceneInputs { inputs }).expect("entry serializes"),
+        &serde_json::to_vec(&SceneInputs { inputs, absent }).expect("entry serializes"),
     )?;
     Ok(())
 }

@@ -440,3 +440,113 @@ fn explain_names_the_setting_or_input_that_changed() {
     assert!(edited.contains("lit.png changed"), "{edited}");
     assert!(!edited.contains("setting "), "{edited}");
 }
+
+/// A file a model names that is missing (an image beside a glTF, an OBJ's material library, a
+/// PLY's texture) is part of what a cached cook depends on: once it is there, the scene is
+/// cooked with it, not reused as it was cooked without.
+#[test]
+fn a_missing_file_that_appears_is_cooked_in_not_reused_without() {
+    let third = root().join("tests/data/third_party");
+    let dir = tempfile::tempdir().unwrap();
+    let cache = dir.path().join("cache");
+    let ply = std::fs::read_to_string(third.join("ply/cube_uv.ply"))
+        .unwrap()
+        .replacen(
+            "format ascii 1.0\n",
+            "format ascii 1.0\ncomment TextureFile cube.png\n",
+            1,
+        );
+    // The model's files by name and content.
+    type Files<'a> = Vec<(&'a str, Vec<u8>)>;
+    // (the model, its files, the missing one's source, the name it is missing under)
+    let cases: [(&str, Files, PathBuf, &str); 3] = [
+        (
+            "BoxTextured.gltf",
+            ["BoxTextured.gltf", "BoxTextured0.bin"]
+                .map(|f| {
+                    (
+                        f,
+                        std::fs::read(third.join("gltf/BoxTextured").join(f)).unwrap(),
+                    )
+                })
+                .to_vec(),
+            third.join("gltf/BoxTextured/CesiumLogoFlat.png"),
+            "CesiumLogoFlat.png",
+        ),
+        (
+            "cornell_box.obj",
+            vec![(
+                "cornell_box.obj",
+                std::fs::read(third.join("cornell_box/cornell_box.obj")).unwrap(),
+            )],
+            third.join("cornell_box/cornell_box.mtl"),
+            "cornell_box.mtl",
+        ),
+        (
+            // Found as the import finds it: in another letter case.
+            "cube_uv.ply",
+            vec![("cube_uv.ply", ply.into_bytes())],
+            third.join("gltf/BoxTextured/CesiumLogoFlat.png"),
+            "cube.PNG",
+        ),
+    ];
+    for (model, files, missing, name) in cases {
+        let here = dir.path().join(model.replace('.', "_"));
+        std::fs::create_dir_all(&here).unwrap();
+        for (f, bytes) in &files {
+            std::fs::write(here.join(f), bytes).unwrap();
+        }
+        let scene = here.join(model);
+        let out = here.join("out.pack");
+        let said = |o: &Output| format!("{}{}", stdout(o), stderr(o));
+        let first = cook(&scene, &out, &cache);
+        assert!(
+            said(&first).contains("not found"),
+            "{model}: {}",
+            said(&first)
+        );
+        let again = cook(&scene, &out, &cache);
+        assert!(
+            stdout(&again).contains("up to date"),
+            "{model}: {}",
+            said(&again)
+        );
+        let without = std::fs::read(&out).unwrap();
+
+        std::fs::copy(&missing, here.join(name)).unwrap();
+        let with = cook(&scene, &out, &cache);
+        assert!(
+            said(&with).contains("was not found by the last cook and is there now"),
+            "{model}: {}",
+            said(&with)
+        );
+        assert!(
+            !said(&with).contains("not found;"),
+            "{model}: {}",
+            said(&with)
+        );
+        let cooked = std::fs::read(&out).unwrap();
+        assert_ne!(cooked, without, "{model}: the file changed nothing");
+        let fresh = here.join("fresh.pack");
+        let o = Command::new(env!("CARGO_BIN_EXE_cooker"))
+            .args(["cook", "--no-cache"])
+            .arg(&scene)
+            .arg("-o")
+            .arg(&fresh)
+            .output()
+            .unwrap();
+        assert!(o.status.success(), "{}", stderr(&o));
+        assert_eq!(cooked, std::fs::read(&fresh).unwrap(), "{model}");
+        let last = cook(&scene, &out, &cache);
+        assert!(
+            stdout(&last).contains("up to date"),
+            "{model}: {}",
+            said(&last)
+        );
+
+        // Gone again: the cook without it is the one cached before.
+        std::fs::remove_file(here.join(name)).unwrap();
+        cook(&scene, &out, &cache);
+        assert_eq!(std::fs::read(&out).unwrap(), without, "{model}");
+    }
+}

@@ -222,6 +222,34 @@ struct CookOptions {
 
 static COOK_OPTIONS: std::sync::OnceLock<CookOptions> = std::sync::OnceLock::new();
 
+/// Per cooked scene, what its last cook read and the folders where it looked for files its
+/// sources name but it did not find: what `--watch` polls beside what the manifest names
+/// (the textures an MTL names, a glTF's images and buffers).
+static COOKED_FROM: std::sync::Mutex<Vec<(PathBuf, Vec<PathBuf>)>> =
+    std::sync::Mutex::new(Vec::new());
+
+fn record_cooked_from(manifest: &Path, report: &cook::Report) {
+    let mut paths = report.inputs.clone();
+    for a in &report.absent {
+        // A file appearing changes its folder's modification time: the nearest folder that
+        // exists on the way to where it was looked for.
+        let wanted = a.dir.join(a.name.replace('\\', "/"));
+        let folder = wanted.ancestors().skip(1).find(|d| d.is_dir());
+        paths.push(folder.unwrap_or(&a.dir).to_path_buf());
+    }
+    let mut all = COOKED_FROM.lock().unwrap_or_else(|e| e.into_inner());
+    all.retain(|(m, _)| m != manifest);
+    all.push((manifest.to_path_buf(), paths));
+}
+
+/// What the last cook of `manifest` read, and where it looked in vain (see [`COOKED_FROM`]).
+pub fn cooked_from(manifest: &Path) -> Vec<PathBuf> {
+    let all = COOKED_FROM.lock().unwrap_or_else(|e| e.into_inner());
+    all.iter()
+        .find(|(m, _)| m == manifest)
+        .map_or_else(Vec::new, |(_, p)| p.clone())
+}
+
 fn open_source(path: &Path) -> Result<Box<dyn Read + Send>> {
     let is_pack = path
         .extension()
@@ -237,6 +265,7 @@ fn open_source(path: &Path) -> Result<Box<dyn Read + Send>> {
         }
         let out = cook::cook(&manifest, &settings)
             .with_context(|| format!("cooking {}", path.display()))?;
+        record_cooked_from(path, &out.report);
         for w in &out.report.warnings {
             eprintln!("warning: {w}");
         }

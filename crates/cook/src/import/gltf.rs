@@ -501,7 +501,12 @@ pub fn import(path: &Path) -> Result<Imported, CookError> {
                         Some(&id) => id,
                         None => {
                             let id = out.materials.len() as u32;
-                            let sm = convert_material(&ctx, &material, &mut out.warnings)?;
+                            let sm = convert_material(
+                                &ctx,
+                                &material,
+                                &mut out.warnings,
+                                &mut out.absent,
+                            )?;
                             out.materials.push(sm);
                             material_ids.insert(i, id);
                             id
@@ -1637,6 +1642,7 @@ fn texture_ref(
     ctx: &Ctx,
     texture: &gltf::Texture,
     warnings: &mut Vec<Warning>,
+    absent: &mut Vec<super::Absent>,
 ) -> Result<Option<ImageRef>, CookError> {
     let extension_source = |name: &str| {
         let index = texture.extension_value(name)?.get("source")?.as_u64()?;
@@ -1647,7 +1653,7 @@ fn texture_ref(
         .or_else(|| extension_source("KHR_texture_basisu"))
         .or_else(|| extension_source("MSFT_texture_dds"));
     match image {
-        Some(image) => image_ref(ctx, image, warnings),
+        Some(image) => image_ref(ctx, image, warnings, absent),
         None => {
             warnings.push(Warning::new(
                 ctx.path,
@@ -1666,6 +1672,7 @@ fn image_ref(
     ctx: &Ctx,
     image: gltf::Image,
     warnings: &mut Vec<Warning>,
+    absent: &mut Vec<super::Absent>,
 ) -> Result<Option<ImageRef>, CookError> {
     let name = image
         .name()
@@ -1705,6 +1712,7 @@ fn image_ref(
                         None,
                         format!("image {uri:?} not found; texture ignored"),
                     ));
+                    absent.push(super::Absent::new(dir, &percent_decode(uri)));
                     None
                 }
             }
@@ -1803,6 +1811,7 @@ fn convert_material(
     ctx: &Ctx,
     m: &gltf::Material,
     warnings: &mut Vec<Warning>,
+    absent: &mut Vec<super::Absent>,
 ) -> Result<SourceMaterial, CookError> {
     let pbr = m.pbr_metallic_roughness();
     let base = base_colour(m);
@@ -1834,11 +1843,11 @@ fn convert_material(
         shininess,
         emissive: m.emissive_factor(),
         diffuse_texture: match colour_texture(m) {
-            Some(t) => texture_ref(ctx, &t.texture(), warnings)?,
+            Some(t) => texture_ref(ctx, &t.texture(), warnings, absent)?,
             None => None,
         },
         normal_texture: match m.normal_texture() {
-            Some(t) => texture_ref(ctx, &t.texture(), warnings)?,
+            Some(t) => texture_ref(ctx, &t.texture(), warnings, absent)?,
             None => None,
         },
         normal_scale: m

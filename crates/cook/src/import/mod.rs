@@ -514,6 +514,9 @@ pub struct Imported {
     pub polygons: usize,
     /// Other files read for this source (material libraries, glTF buffers).
     pub files: Vec<PathBuf>,
+    /// Files the source names that were not found, and the cook went on without (a
+    /// texture, a material library): should one appear, a cache must not reuse this cook.
+    pub absent: Vec<Absent>,
     /// Texture placement an OBJ's materials give (MTL `-o` offset, `-s` scale, in u and v),
     /// by material, applied to the coordinates once every face is read.
     pub(crate) uv_transforms: Vec<(u32, [f32; 2], [f32; 2])>,
@@ -701,6 +704,28 @@ fn warn_far_positions(out: &mut Imported) {
              geometry first"
         ),
     ));
+}
+
+/// A file a source names that [`locate`] did not find: `name` as written, looked for under
+/// `dir`.
+#[derive(Clone, Debug, PartialEq, Eq, PartialOrd, Ord, Hash)]
+pub struct Absent {
+    pub dir: PathBuf,
+    pub name: String,
+}
+
+impl Absent {
+    pub fn new(dir: &Path, name: &str) -> Self {
+        Self {
+            dir: dir.to_path_buf(),
+            name: name.to_string(),
+        }
+    }
+
+    /// Whether the file is there now, found as the import would find it.
+    pub fn appeared(&self) -> bool {
+        locate(&self.dir, &self.name).is_some()
+    }
 }
 
 /// The file `name` (relative to `dir`, or absolute) means, as a file written on Windows means

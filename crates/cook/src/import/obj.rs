@@ -1990,7 +1990,7 @@ fn find_file(
     for w in tokens(rest) {
         match locate(w) {
             Some(p) => found.push(p),
-            None => missing.push(text(w)),
+            None => missing.push(name(w)),
         }
     }
     (found, missing)
@@ -2296,6 +2296,11 @@ fn load_mtllib(
     let dir = path.parent().unwrap_or(Path::new(""));
     let (mut found, missing) = find_file(dir, rest, given);
     if found.is_empty() {
+        out.absent.push(super::Absent::new(dir, &name(rest)));
+    }
+    out.absent
+        .extend(missing.iter().map(|m| super::Absent::new(dir, m)));
+    if found.is_empty() {
         // Exporters often name a library that was never shipped (`untitled.mtl`) while the
         // real one sits beside the OBJ under the OBJ's own name.
         let beside = path.with_extension("mtl");
@@ -2398,6 +2403,11 @@ fn load_mtllib(
                 match file {
                     Some(f) => Some(ImageRef::File(f)),
                     None => {
+                        out.absent
+                            .push(super::Absent::new(&mtl_dir, statement.file));
+                        if statement.file != name {
+                            out.absent.push(super::Absent::new(&mtl_dir, name));
+                        }
                         let w = Warning::new(
                             &mtl,
                             line,

@@ -855,8 +855,8 @@ pub fn parse(path: &Path, bytes: &[u8]) -> Result<Imported, CookError> {
         .unwrap_or_default();
     let mut material = None;
     if let Some((file, line)) = &h.texture {
-        let image = path.parent().unwrap_or(Path::new("")).join(file);
-        if image.is_file() {
+        let dir = path.parent().unwrap_or(Path::new(""));
+        if let Some(image) = super::locate(dir, file) {
             let mut m = SourceMaterial::plain(file.clone());
             m.diffuse = [1.0; 3];
             m.diffuse_texture = Some(ImageRef::File(image));
@@ -868,9 +868,10 @@ pub fn parse(path: &Path, bytes: &[u8]) -> Result<Imported, CookError> {
                 Some(*line),
                 format!(
                     "texture {} not found; the model is untextured",
-                    image.display()
+                    dir.join(file).display()
                 ),
             ));
+            out.absent.push(super::Absent::new(dir, file));
         }
     }
     out.parts.push(Part {

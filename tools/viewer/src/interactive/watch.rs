@@ -4,12 +4,18 @@
 use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant, SystemTime};
 
-/// Every file the cook of `manifest_path` reads: the manifest, mesh sources (and the material
-/// libraries an OBJ names), textures, normal maps, window designs and the panorama. A
-/// manifest that does not parse yields just itself, so fixing it triggers the next cook.
+/// Every file the cook of `manifest_path` reads: what its last cook read (the textures an
+/// MTL or a glTF names among them) and the folders where it looked for a file a source names
+/// in vain, and what the manifest names now: mesh sources (and the material libraries an OBJ
+/// names), textures, normal maps, window designs and the panorama, so that a file a failed
+/// re-cook missed is watched too. A manifest that does not parse yields just itself and the
+/// last cook's files, so fixing it triggers the next cook.
 pub fn sources(manifest_path: &Path) -> Vec<PathBuf> {
     let mut files = vec![manifest_path.to_path_buf()];
+    files.extend(crate::cooked_from(manifest_path));
     let Ok(m) = cook::Manifest::load(manifest_path) else {
+        files.sort();
+        files.dedup();
         return files;
     };
     for mesh in &m.meshes {
@@ -152,6 +158,40 @@ mod tests {
         assert!(!w.poll(t0 + Duration::from_secs(1)), "not settled yet");
         assert!(w.poll(t0 + Duration::from_secs(2)), "settled");
         assert!(!w.poll(t0 + Duration::from_secs(3)), "reported once");
+    }
+
+    /// The files the last cook read are watched, and a file a source names that was missing
+    /// triggers a re-cook once it appears (a texture copied in beside an MTL, in a subfolder).
+    #[test]
+    fn the_last_cook_s_files_and_the_folders_of_missing_ones_are_watched() {
+        let dir = tempfile::tempdir().unwrap();
+        let manifest = dir.path().join("scene.toml");
+        std::fs::write(&manifest, "broken [").unwrap();
+        let mtl = dir.path().join("m.mtl");
+        std::fs::write(&mtl, "newmtl a\nmap_Kd textures\\a.png\n").unwrap();
+        let textures = dir.path().join("textures");
+        std::fs::create_dir(&textures).unwrap();
+        let report = cook::Report {
+            inputs: vec![mtl.clone()],
+            absent: vec![cook::import::Absent::new(dir.path(), "textures\\a.png")],
+            ..Default::default()
+        };
+        crate::record_cooked_from(&manifest, &report);
+        let mut w = Watcher::new(&manifest);
+        let mut expected = vec![manifest.as_path(), mtl.as_path(), textures.as_path()];
+        expected.sort();
+        assert_eq!(w.files().collect::<Vec<_>>(), expected);
+        let t0 = Instant::now();
+        assert!(!w.poll(t0));
+        std::fs::write(textures.join("a.png"), b"png").unwrap();
+        // The folder's time as a copy a while later leaves it, on a file system that keeps
+        // whole seconds too (this test runs in less).
+        std::fs::File::open(&textures)
+            .unwrap()
+            .set_modified(SystemTime::now() + Duration::from_secs(5))
+            .unwrap();
+        assert!(!w.poll(t0 + Duration::from_secs(1)), "not settled yet");
+        assert!(w.poll(t0 + Duration::from_secs(2)), "settled");
     }
 
     #[test]
