@@ -527,9 +527,6 @@ impl App {
                     size,
                 });
                 self.controls.light = None;
-                if let Some(w) = &mut self.watcher {
-                    w.rescan();
-                }
                 self.note(format!(
                     "reloaded {} in {ms:.0} ms",
                     self.options.input.display()
@@ -537,6 +534,11 @@ impl App {
             } else {
                 self.full_quality_ms = Some(ms);
                 println!("full quality after {ms:.1} ms");
+            }
+            // The cook behind it says what it read: the watch list follows (the first cook's
+            // too, which comes after the watcher was made from the manifest alone).
+            if let Some(w) = &mut self.watcher {
+                w.rescan();
             }
         }
         Ok(())

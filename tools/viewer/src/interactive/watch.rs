@@ -6,10 +6,10 @@ use std::time::{Duration, Instant, SystemTime};
 
 /// Every file the cook of `manifest_path` reads: what its last cook read (the textures an
 /// MTL or a glTF names among them) and the folders where it looked for a file a source names
-/// in vain, and what the manifest names now: mesh sources (and the material libraries an OBJ
-/// names), textures, normal maps, window designs and the panorama, so that a file a failed
-/// re-cook missed is watched too. A manifest that does not parse yields just itself and the
-/// last cook's files, so fixing it triggers the next cook.
+/// in vain, and what the manifest names now: mesh sources, textures, normal maps, window
+/// designs and the panorama, so that a file a failed re-cook missed is watched too. A
+/// manifest that does not parse yields just itself and the last cook's files, so fixing it
+/// triggers the next cook.
 pub fn sources(manifest_path: &Path) -> Vec<PathBuf> {
     let mut files = vec![manifest_path.to_path_buf()];
     files.extend(crate::cooked_from(manifest_path));
@@ -20,13 +20,6 @@ pub fn sources(manifest_path: &Path) -> Vec<PathBuf> {
     };
     for mesh in &m.meshes {
         files.push(mesh.source.clone());
-        let is_obj = mesh
-            .source
-            .extension()
-            .is_some_and(|e| e.eq_ignore_ascii_case("obj"));
-        if is_obj {
-            files.extend(obj_material_libraries(&mesh.source));
-        }
     }
     for r in &m.rules {
         files.extend(r.texture.iter().cloned());
@@ -40,20 +33,6 @@ pub fn sources(manifest_path: &Path) -> Vec<PathBuf> {
     files.sort();
     files.dedup();
     files
-}
-
-/// The `mtllib` files an OBJ refers to, resolved against its folder.
-fn obj_material_libraries(obj: &Path) -> Vec<PathBuf> {
-    let Ok(text) = std::fs::read(obj) else {
-        return Vec::new();
-    };
-    let dir = obj.parent().unwrap_or(Path::new(""));
-    String::from_utf8_lossy(&text)
-        .lines()
-        .filter_map(|l| l.trim_start().strip_prefix("mtllib"))
-        .filter(|rest| rest.starts_with(char::is_whitespace))
-        .map(|rest| dir.join(rest.trim()))
-        .collect()
 }
 
 fn mtime(path: &Path) -> Option<SystemTime> {
@@ -86,12 +65,17 @@ impl Watcher {
         w
     }
 
-    /// Re-reads the file list (the manifest may now name other files) and their times.
+    /// Re-reads the file list (the manifest may now name other files). A file already watched
+    /// keeps the time last seen, so an edit made while the cook ran still triggers the next.
     pub fn rescan(&mut self) {
+        let old = std::mem::take(&mut self.files);
         self.files = sources(&self.manifest)
             .into_iter()
             .map(|p| {
-                let t = mtime(&p);
+                let t = match old.iter().find(|(q, _)| *q == p) {
+                    Some((_, seen)) => *seen,
+                    None => mtime(&p),
+                };
                 (p, t)
             })
             .collect();
@@ -192,20 +176,5 @@ mod tests {
             .unwrap();
         assert!(!w.poll(t0 + Duration::from_secs(1)), "not settled yet");
         assert!(w.poll(t0 + Duration::from_secs(2)), "settled");
-    }
-
-    #[test]
-    fn obj_material_libraries_are_found_next_to_the_obj() {
-        let dir = tempfile::tempdir().unwrap();
-        let obj = dir.path().join("m.obj");
-        std::fs::write(
-            &obj,
-            "# x\nmtllib a.mtl\n  mtllib   b.mtl \nmtllibx c\nv 0 0 0\n",
-        )
-        .unwrap();
-        assert_eq!(
-            obj_material_libraries(&obj),
-            vec![dir.path().join("a.mtl"), dir.path().join("b.mtl")]
-        );
     }
 }
