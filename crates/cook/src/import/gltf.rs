@@ -1536,33 +1536,31 @@ fn texture_transform(uvs: &mut [[f32; 2]], offset: [f32; 2], rotation: f32, scal
     }
 }
 
+/// The `file:` scheme's path of a URI that has one.
+fn file_uri_path(uri: &str) -> Option<&str> {
+    uri.strip_prefix("file://localhost/")
+        .map(|rest| &uri[uri.len() - rest.len() - 1..])
+        .or_else(|| uri.strip_prefix("file://"))
+        .or_else(|| uri.strip_prefix("file:"))
+}
+
+/// The name [`external_file`] looks for with `locate`, for a file that is not found.
+fn uri_name(uri: &str) -> String {
+    percent_decode(file_uri_path(uri).unwrap_or(uri))
+}
+
 /// The file a relative uri names beside the glTF, as written or percent-decoded (exporters
 /// do both), or a `file:` uri's path (some exporters write absolute ones). Buffers and images
 /// are found the same way.
 fn external_file(base: &Path, uri: &str) -> Option<std::path::PathBuf> {
-    let rel = uri
-        .strip_prefix("file://localhost/")
-        .map(|rest| &uri[uri.len() - rest.len() - 1..])
-        .or_else(|| uri.strip_prefix("file://"))
-        .or_else(|| uri.strip_prefix("file:"));
-    if let Some(p) = rel {
-        let decoded = percent_decode(p);
-        let p = super::text::path_of(&decoded);
-        // `file:///C:/...` from the exporting machine: `locate` looks for its end beside the
-        // glTF.
-        return if p.is_file() {
-            Some(p)
-        } else {
-            super::locate(base, &decoded)
-        };
-    }
-    // `locate` tries the percent-decoded name as written first, then as Windows exporters
-    // mean it.
+    // A name with `%` in it, written as is (not percent-encoded as URIs should be).
     let as_written = base.join(uri);
-    if as_written.is_file() {
+    if file_uri_path(uri).is_none() && as_written.is_file() {
         return Some(as_written);
     }
-    super::locate(base, &percent_decode(uri))
+    // The percent-decoded name as written, then as Windows exporters mean it; an absolute
+    // `file:///C:/...` from the exporting machine has its end looked for beside the glTF.
+    super::locate(base, &uri_name(uri))
 }
 
 fn percent_decode(s: &str) -> String {
@@ -1712,7 +1710,7 @@ fn image_ref(
                         None,
                         format!("image {uri:?} not found; texture ignored"),
                     ));
-                    absent.push(super::Absent::new(dir, &percent_decode(uri)));
+                    absent.push(super::Absent::new(dir, &uri_name(uri)));
                     None
                 }
             }

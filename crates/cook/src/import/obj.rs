@@ -2303,9 +2303,15 @@ fn load_mtllib(
     if found.is_empty() {
         // Exporters often name a library that was never shipped (`untitled.mtl`) while the
         // real one sits beside the OBJ under the OBJ's own name.
-        let beside = path.with_extension("mtl");
-        let already = out.files.contains(&beside);
-        if beside.is_file() && !already {
+        let beside_name = path.with_extension("mtl");
+        let beside_name = beside_name.file_name().map(text::file_name_text);
+        let beside = beside_name.as_deref().and_then(|n| super::locate(dir, n));
+        if beside.is_none()
+            && let Some(n) = &beside_name
+        {
+            out.absent.push(super::Absent::new(dir, n));
+        }
+        if let Some(beside) = beside.filter(|b| !out.files.contains(b)) {
             out.warnings.push(Warning::new(
                 path,
                 Some(line),
