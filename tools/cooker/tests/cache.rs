@@ -499,27 +499,18 @@ fn a_missing_file_that_appears_is_cooked_in_not_reused_without() {
         let scene = here.join(model);
         let out = here.join("out.pack");
         let said = |o: &Output| format!("{}{}", stdout(o), stderr(o));
+        let says = |o: &Output, text: &str| {
+            assert!(said(o).contains(text), "{model}: {}", said(o));
+        };
         let first = cook(&scene, &out, &cache);
-        assert!(
-            said(&first).contains("not found"),
-            "{model}: {}",
-            said(&first)
-        );
+        says(&first, "not found");
         let again = cook(&scene, &out, &cache);
-        assert!(
-            stdout(&again).contains("up to date"),
-            "{model}: {}",
-            said(&again)
-        );
+        says(&again, "up to date");
         let without = std::fs::read(&out).unwrap();
 
         std::fs::copy(&missing, here.join(name)).unwrap();
         let with = cook(&scene, &out, &cache);
-        assert!(
-            said(&with).contains("was not found by the last cook and is there now"),
-            "{model}: {}",
-            said(&with)
-        );
+        says(&with, "was not found by the last cook and is there now");
         assert!(
             !said(&with).contains("not found;"),
             "{model}: {}",
@@ -528,21 +519,11 @@ fn a_missing_file_that_appears_is_cooked_in_not_reused_without() {
         let cooked = std::fs::read(&out).unwrap();
         assert_ne!(cooked, without, "{model}: the file changed nothing");
         let fresh = here.join("fresh.pack");
-        let o = Command::new(env!("CARGO_BIN_EXE_cooker"))
-            .args(["cook", "--no-cache"])
-            .arg(&scene)
-            .arg("-o")
-            .arg(&fresh)
-            .output()
-            .unwrap();
+        let o = common::cooker(&[&"cook", &"--no-cache", &scene, &"-o", &fresh]);
         assert!(o.status.success(), "{}", stderr(&o));
         assert_eq!(cooked, std::fs::read(&fresh).unwrap(), "{model}");
         let last = cook(&scene, &out, &cache);
-        assert!(
-            stdout(&last).contains("up to date"),
-            "{model}: {}",
-            said(&last)
-        );
+        says(&last, "up to date");
 
         // Gone again: the cook without it is the one cached before.
         std::fs::remove_file(here.join(name)).unwrap();
