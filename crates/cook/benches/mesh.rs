@@ -95,6 +95,41 @@ fn end_to_end(c: &mut Criterion) {
         });
     }
     group.finish();
+
+    // One face of 50,000 corners, as a CAD export's round cap or a traced outline: a star
+    // (every other corner reflex) and a unit circle written to 6 decimals (half its corners
+    // flat or reflex once rounded). See docs/performance.md, round of 2026-11-29.
+    let mut group = c.benchmark_group("huge face");
+    group.sample_size(10);
+    let n = 50_000;
+    let angle = |i: usize| i as f64 / n as f64 * std::f64::consts::TAU;
+    let star: Vec<[f32; 3]> = (0..n)
+        .map(|i| {
+            let r = if i % 2 == 0 { 10.0 } else { 6.0 };
+            [
+                (r * angle(i).cos()) as f32,
+                0.0,
+                (r * angle(i).sin()) as f32,
+            ]
+        })
+        .collect();
+    let circle: Vec<[f32; 3]> = (0..n)
+        .map(|i| {
+            let round = |x: f64| ((x * 1e6).round() / 1e6) as f32;
+            [round(angle(i).cos()), 0.0, round(angle(i).sin())]
+        })
+        .collect();
+    for (name, face) in [("star", &star), ("circle", &circle)] {
+        group.bench_function(format!("cook::triangulate, 50,000-corner {name}"), |b| {
+            let mut out = Vec::with_capacity(n);
+            b.iter(|| {
+                out.clear();
+                cook::triangulate::triangulate(face, &mut out);
+                out.len()
+            })
+        });
+    }
+    group.finish();
 }
 
 fn bunny_ply(m: &cook::import::Imported, binary: bool) -> Vec<u8> {
