@@ -100,7 +100,8 @@ struct Args {
     /// Shorthand for `--ray-scale 0.5 --jitter`.
     #[arg(long, conflicts_with = "ray_scale")]
     half_res_rays: bool,
-    /// Window: re-cook a scene.toml and swap the scene in when one of its sources changes.
+    /// Window: re-cook a scene.toml or model and swap the scene in when one of its sources
+    /// changes.
     #[arg(long)]
     watch: bool,
     /// Window: present without waiting for vertical sync.

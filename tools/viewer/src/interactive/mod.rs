@@ -299,11 +299,13 @@ impl App {
         }
     }
 
-    fn is_manifest(&self) -> bool {
-        self.options
+    /// Whether the input is cooked here (a scene.toml or a bare model), not a cooked pack.
+    fn is_cooked_here(&self) -> bool {
+        !self
+            .options
             .input
             .extension()
-            .is_some_and(|e| e.eq_ignore_ascii_case("toml"))
+            .is_some_and(|e| e.eq_ignore_ascii_case("pack"))
     }
 
     fn note(&mut self, message: String) {
@@ -409,7 +411,7 @@ impl App {
             egui_renderer,
         });
         if self.options.watch {
-            if self.is_manifest() {
+            if self.is_cooked_here() {
                 let w = watch::Watcher::new(&self.options.input);
                 let n = w.files().count();
                 self.note(format!(
@@ -418,7 +420,9 @@ impl App {
                 ));
                 self.watcher = Some(w);
             } else {
-                self.note("--watch applies to a scene.toml; a pack is shown as is".into());
+                self.note(
+                    "--watch applies to a scene.toml or a model; a pack is shown as is".into(),
+                );
             }
         }
         self.start_load(false);
@@ -795,7 +799,7 @@ impl App {
         // A script's `quit` still finishes this frame, so a screenshot just before it is taken.
         let keep_open = self.script.is_none() || self.run_script(event_loop)?;
 
-        let is_manifest = self.is_manifest();
+        let cooked_here = self.is_cooked_here();
         let Some(win) = &mut self.win else {
             return Ok(keep_open);
         };
@@ -914,7 +918,7 @@ impl App {
                 phase: Phase::Opening(_),
                 is_reload,
                 ..
-            }) => Some(if *is_reload || is_manifest {
+            }) => Some(if *is_reload || cooked_here {
                 "cooking…"
             } else {
                 "opening…"

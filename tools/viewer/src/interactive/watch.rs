@@ -9,11 +9,19 @@ use std::time::{Duration, Instant, SystemTime};
 /// in vain, and what the manifest names now: mesh sources, textures, normal maps, window
 /// designs and the panorama, so that a file a failed re-cook missed is watched too. A
 /// manifest that does not parse yields just itself and the last cook's files, so fixing it
-/// triggers the next cook.
+/// triggers the next cook. A bare model (cooked without a manifest) yields itself and the
+/// last cook's files.
 pub fn sources(manifest_path: &Path) -> Vec<PathBuf> {
     let mut files = vec![manifest_path.to_path_buf()];
     files.extend(crate::cooked_from(manifest_path));
-    let Ok(m) = cook::Manifest::load(manifest_path) else {
+    // A bare model is not read as a manifest: the last cook's list is all there is.
+    let is_toml = manifest_path
+        .extension()
+        .is_some_and(|e| e.eq_ignore_ascii_case("toml"));
+    let Some(m) = is_toml
+        .then(|| cook::Manifest::load(manifest_path).ok())
+        .flatten()
+    else {
         files.sort();
         files.dedup();
         return files;
@@ -142,6 +150,22 @@ mod tests {
         assert!(!w.poll(t0 + Duration::from_secs(1)), "not settled yet");
         assert!(w.poll(t0 + Duration::from_secs(2)), "settled");
         assert!(!w.poll(t0 + Duration::from_secs(3)), "reported once");
+    }
+
+    /// A bare model is watched with what its cook read, and not parsed as a manifest.
+    #[test]
+    fn a_bare_model_is_watched_with_the_files_its_cook_read() {
+        let dir = tempfile::tempdir().unwrap();
+        let obj = dir.path().join("kirche.obj");
+        std::fs::write(&obj, "mtllib kirche.mtl\nv 0 0 0\n").unwrap();
+        let mtl = dir.path().join("kirche.mtl");
+        let report = cook::Report {
+            inputs: vec![mtl.clone(), obj.clone()],
+            ..Default::default()
+        };
+        assert_eq!(sources(&obj), vec![obj.clone()]);
+        crate::record_cooked_from(&obj, &report);
+        assert_eq!(sources(&obj), vec![mtl, obj]);
     }
 
     /// The files the last cook read are watched, and a file a source names that was missing
