@@ -13,6 +13,7 @@
 use std::path::{Path, PathBuf};
 
 use cook::cache::{Cache, Key, KeyBuilder, Lookup, digest, digest_file, hex, parse_hex32};
+use cook::import::Absent;
 use serde::{Deserialize, Serialize};
 
 use crate::transcript::Transcript;
@@ -24,25 +25,17 @@ pub struct SceneInputs {
     pub inputs: Vec<PathBuf>,
     /// The files its sources named that it did not find (a texture an MTL names, a
     /// material library): the pack is only right while they stay absent.
+    /// Each `dir` is relative to the manifest's folder, where it lies within it.
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub absent: Vec<Absent>,
-}
-
-/// A file a source named that the cook did not find: `name` as written, looked for under
-/// `dir` (relative to the manifest's folder, where it lies within it).
-#[derive(Clone, Serialize, Deserialize)]
-pub struct Absent {
-    pub dir: PathBuf,
-    pub name: String,
 }
 
 /// The first file the last cook did not find that is there now, as the cook would find it.
 pub fn appeared(manifest: &Path, absent: &[Absent]) -> Option<String> {
     absent.iter().find_map(|a| {
-        let dir = scene_dir(manifest).join(&a.dir);
-        cook::import::Absent::new(&dir, &a.name)
-            .appeared()
-            .then(|| dir.join(&a.name).display().to_string())
+        let here = Absent::new(&scene_dir(manifest).join(&a.dir), &a.name);
+        here.appeared()
+            .then(|| here.dir.join(&here.name).display().to_string())
     })
 }
 
@@ -226,7 +219,7 @@ pub struct Cooked<'a> {
     pub manifest: &'a Path,
     pub settings: &'a cook::Settings,
     pub inputs: &'a [PathBuf],
-    pub absent: &'a [cook::import::Absent],
+    pub absent: &'a [Absent],
     pub pack: &'a [u8],
     pub transcript: &'a Transcript,
 }
@@ -244,10 +237,7 @@ pub fn store(cache: &Cache, c: Cooked) -> Result<(), anyhow::Error> {
     let inputs: Vec<PathBuf> = inputs.iter().map(|p| relative(manifest, p)).collect();
     let absent = absent
         .iter()
-        .map(|a| Absent {
-            dir: relative(manifest, &a.dir),
-            name: a.name.clone(),
-        })
+        .map(|a| Absent::new(&relative(manifest, &a.dir), &a.name))
         .collect();
     let hashed = hash_inputs(manifest, &inputs).map_err(anyhow::Error::msg)?;
     let result_key = result_key(key, &hashed);

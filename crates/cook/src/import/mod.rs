@@ -707,8 +707,10 @@ fn warn_far_positions(out: &mut Imported) {
 }
 
 /// A file a source names that [`locate`] did not find: `name` as written, looked for under
-/// `dir`.
-#[derive(Clone, Debug, PartialEq, Eq, PartialOrd, Ord, Hash)]
+/// `dir`. A cache entry keeps it, `dir` made relative to the scene's folder.
+#[derive(
+    Clone, Debug, PartialEq, Eq, PartialOrd, Ord, Hash, serde::Serialize, serde::Deserialize,
+)]
 pub struct Absent {
     pub dir: PathBuf,
     pub name: String,
