@@ -4,7 +4,7 @@
 //! first rule whose glob matches one of a part's names decides. Name heuristics apply only to
 //! parts no rule matched, and every such decision is reported.
 
-use std::collections::HashMap;
+use std::collections::{HashMap, HashSet};
 
 use globset::{GlobBuilder, GlobMatcher};
 use pack::MaterialClass;
@@ -810,7 +810,7 @@ pub fn tag(manifest: &Manifest, sources: &mut [Imported]) -> Result<Tagging, Coo
     let mut seen_names: HashMap<(NameKind, String), ()> = HashMap::new();
     // The pack materials' names so far: a model of 40,000 objects, each in its own material,
     // took 7.7 s to tag when each new name was compared with every one before it.
-    let mut taken_names: std::collections::HashSet<String> = std::collections::HashSet::new();
+    let mut taken_names: HashSet<String> = HashSet::new();
 
     for (si, src) in sources.iter().enumerate() {
         let mut used = vec![false; src.materials.len()];
@@ -1032,7 +1032,7 @@ mod tests {
 
     /// The keyword index finds the keywords that going through [`HEURISTICS`] in order with
     /// [`word_matches`] finds, in the same order: every keyword alone, inside and around
-    /// other words, in every name kind.
+    /// other words, and names with several keywords or none.
     #[test]
     fn the_keyword_index_finds_what_the_plain_pass_finds() {
         let plain = |words: &[String]| -> Vec<usize> {

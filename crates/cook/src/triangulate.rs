@@ -404,13 +404,8 @@ mod tests {
     /// then as a fan: still n - 2 triangles of distinct corners, each corner used.
     #[test]
     fn a_large_tangled_face_stops_clipping_at_its_budget() {
-        let mut r = 0x2545_f491_4f6c_dd1du64;
-        let mut rnd = || {
-            r ^= r << 13;
-            r ^= r >> 7;
-            r ^= r << 17;
-            (r % 1_000_000) as f64 / 1e6
-        };
+        let mut rng = texture::testing::Rng(0x2545_f491_4f6c_dd1d);
+        let mut rnd = || (rng.next_u64() % 1_000_000) as f64 / 1e6;
         let n = 20_000;
         let tangle: Vec<[f64; 2]> = (0..n).map(|_| [rnd(), rnd()]).collect();
         let mut out = Vec::new();
