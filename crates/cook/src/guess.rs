@@ -544,6 +544,89 @@ fn sun_intensity(tagging: &crate::tag::Tagging, classes: &[MaterialClass], d: DV
     (0.85 / (albedo.max(0.2) * cos)).clamp(0.5, 8.0)
 }
 
+/// A lamp of the model's file chosen as the light, and what the guess measured of it.
+struct ChosenLamp<'a> {
+    lamp: &'a crate::import::FileLamp,
+    position: DVec3,
+    /// How many windows its light comes in through.
+    windows: usize,
+    /// Its light's mean direction where it lands (or, without a floor, where it enters).
+    direction: DVec3,
+    /// The mean squared distance its light travels to where it lands (or enters).
+    reach_sq: f64,
+    /// Its size: a little penumbra, as the sun's half-degree gives at the nearest window.
+    radius: f64,
+}
+
+/// The file's lamp whose light, through the windows, lands the most window area on the
+/// floor (without a floor, comes in through the most window area), scored as the sun is: a
+/// lamp indoors lights no window from outside and is passed over. A spot light counts only
+/// the window samples inside its outer cone.
+fn best_lamp<'a>(
+    lamps: &[&'a crate::import::FileLamp],
+    windows: &[crate::instances::Instance],
+    floor: Option<&Footprint>,
+) -> Option<ChosenLamp<'a>> {
+    let mut best: Option<(f64, ChosenLamp<'a>)> = None;
+    for &lamp in lamps {
+        let at = DVec3::from(lamp.position.map(f64::from));
+        let cone = lamp
+            .spot
+            .map(|(axis, angle)| (DVec3::from(axis.map(f64::from)), f64::from(angle).cos()));
+        let (mut score, mut weight, mut lit) = (0.0, 0.0, 0);
+        let (mut direction, mut reach_sq, mut nearest) = (DVec3::ZERO, 0.0, f64::INFINITY);
+        for w in windows {
+            let mut landed = 0.0;
+            for i in 0..5 {
+                for j in 0..5 {
+                    let q = w.origin
+                        + w.right * ((i as f64 + 0.5) / 5.0)
+                        + w.up * ((j as f64 + 0.5) / 5.0);
+                    let to = q - at;
+                    let distance = to.length();
+                    if distance.is_nan() || distance <= 0.0 {
+                        continue;
+                    }
+                    let d = to / distance;
+                    let entry = w.inside.dot(d);
+                    if entry <= MIN_ENTRY_COS || cone.is_some_and(|(a, cos)| a.dot(d) < cos) {
+                        continue;
+                    }
+                    let reach = match floor {
+                        Some(fp) => match fp.land(q, d) {
+                            Some(hit) => (hit - at).length(),
+                            None => continue,
+                        },
+                        None => distance,
+                    };
+                    let s = w.area / 25.0 * entry;
+                    landed += s;
+                    direction += d * s;
+                    reach_sq += reach * reach * s;
+                    weight += s;
+                    nearest = nearest.min(distance);
+                }
+            }
+            score += landed;
+            lit += usize::from(landed > 0.0);
+        }
+        if score > 0.0 && best.as_ref().is_none_or(|b| score > b.0) {
+            best = Some((
+                score,
+                ChosenLamp {
+                    lamp,
+                    position: at,
+                    windows: lit,
+                    direction: (direction / weight).normalize_or(DVec3::NEG_Y),
+                    reach_sq: reach_sq / weight,
+                    radius: (nearest * (SUN_DEG as f64 * 0.5).to_radians().tan()).max(1e-6),
+                },
+            ));
+        }
+    }
+    best.map(|(_, l)| l)
+}
+
 /// The guessed cameras' vertical field of view.
 const FOV_Y_DEG: f64 = 60.0;
 
@@ -624,11 +707,45 @@ pub fn guess(p: &Prepared) -> Guess {
         );
     }
 
-    // The sun: the file's own (an artist's sun through the rose window), else the one that
-    // lands the most window area on the floor.
+    // The light: the file's own sun (an artist's sun through the rose window), else a lamp of
+    // the file's that shines in through the windows, else the sun that lands the most window
+    // area on the floor.
     let file_sun = p.imported.iter().find_map(|s| s.sun.clone());
+    let lamps: Vec<&crate::import::FileLamp> = p.imported.iter().flat_map(|s| &s.lamps).collect();
+    let lamp = if file_sun.is_none() {
+        best_lamp(&lamps, windows, floor.as_ref())
+    } else {
+        None
+    };
+    // Said after the light the guess takes.
+    let mut unused_lamps = None;
+    if !lamps.is_empty() {
+        let names = |skip: Option<&str>| {
+            lamps
+                .iter()
+                .filter(|l| Some(l.name.as_str()) != skip)
+                .map(|l| format!("{:?}", l.name))
+                .collect::<Vec<_>>()
+                .join(", ")
+        };
+        let why = match (&file_sun, &lamp) {
+            (Some(s), _) => format!("its sun {:?} lights the scene", s.name),
+            (None, Some(_)) => "a pack holds one light".to_string(),
+            (None, None) if floor.is_some() => {
+                "none of them shines in through a window onto the floor".to_string()
+            }
+            (None, None) => "none of them shines in through a window".to_string(),
+        };
+        let unused = names(lamp.as_ref().map(|l| l.lamp.name.as_str()));
+        if !unused.is_empty() {
+            unused_lamps = Some(format!("the model's lamps {unused} are not used: {why}"));
+        }
+    }
     let mut best: Option<(f64, DVec3)> = None;
-    if let Some(fp) = floor.as_ref().filter(|_| file_sun.is_none()) {
+    if let Some(fp) = floor
+        .as_ref()
+        .filter(|_| file_sun.is_none() && lamp.is_none())
+    {
         for el in [25.0f64, 35.0, 45.0, 55.0, 65.0] {
             for az in 0..24 {
                 let (e, a) = (el.to_radians(), (az as f64 * 15.0).to_radians());
@@ -659,6 +776,7 @@ pub fn guess(p: &Prepared) -> Guess {
         }
     }
     let sun = match (&file_sun, best) {
+        _ if lamp.is_some() => None,
         (Some(s), _) => {
             let d = DVec3::from(s.direction.map(f64::from));
             notes.push(format!(
@@ -689,14 +807,57 @@ pub fn guess(p: &Prepared) -> Guess {
             }))
         }
     };
-    let light = sun.map(|d| Light {
-        kind: pack::LightKind::Directional {
-            direction: f3(d),
-            angular_size: SUN_DEG.to_radians(),
-        },
-        colour: file_sun.as_ref().map_or([1.0, 0.95, 0.85], |s| s.colour),
-        intensity: sun_intensity(&p.tagging, &classes, d),
-    });
+    let light = match &lamp {
+        Some(l) => {
+            let kind = if l.lamp.spot.is_some() {
+                "spot"
+            } else {
+                "point"
+            };
+            notes.push(format!(
+                "light at [{:.3}, {:.3}, {:.3}]: the model's own {kind} light {:?}, which \
+                 shines in through {} of {} windows{}",
+                l.position.x,
+                l.position.y,
+                l.position.z,
+                l.lamp.name,
+                l.windows,
+                windows.len(),
+                if kind == "spot" {
+                    " (a pack's light has no cone: it shines every way)"
+                } else {
+                    ""
+                }
+            ));
+            // Exposed as the sun would be, at the distance its light lands from it.
+            let intensity = (sun_intensity(&p.tagging, &classes, l.direction) as f64 * l.reach_sq)
+                .min(f32::MAX as f64);
+            Some(Light {
+                kind: pack::LightKind::Point {
+                    position: f3(l.position),
+                    radius: l.radius as f32,
+                },
+                colour: l.lamp.colour,
+                intensity: intensity as f32,
+            })
+        }
+        None => sun.map(|d| Light {
+            kind: pack::LightKind::Directional {
+                direction: f3(d),
+                angular_size: SUN_DEG.to_radians(),
+            },
+            colour: file_sun.as_ref().map_or([1.0, 0.95, 0.85], |s| s.colour),
+            intensity: sun_intensity(&p.tagging, &classes, d),
+        }),
+    };
+    notes.extend(unused_lamps);
+    // Where the light travels at a point it passes: one way for the sun, away from a lamp.
+    let travel = |at: DVec3| -> Option<DVec3> {
+        match &lamp {
+            Some(l) => Some((at - l.position).normalize_or_zero()).filter(|d| *d != DVec3::ZERO),
+            None => sun,
+        }
+    };
 
     // Cameras at eye height above the floor (or the model's bottom), inside its footprint:
     // within the walls and windows where the floor reaches past them (a building on open
@@ -756,7 +917,8 @@ pub fn guess(p: &Prepared) -> Guess {
     // distance where its bounding sphere fills the height of the view. The view inside its
     // bounds follows, for a building whose floor was not recognised.
     if floor.is_none() {
-        let toward_sun = sun.map_or(DVec3::ZERO, |d| DVec3::new(-d.x, 0.0, -d.z));
+        let toward_sun =
+            travel((lo + hi) * 0.5).map_or(DVec3::ZERO, |d| DVec3::new(-d.x, 0.0, -d.z));
         let dir = (toward_sun.normalize_or(DVec3::Z) + DVec3::Y * 0.6).normalize();
         let middle = (lo + hi) * 0.5;
         let distance = diag * 0.5 / (FOV_Y_DEG.to_radians() * 0.5).sin();
@@ -804,8 +966,10 @@ pub fn guess(p: &Prepared) -> Guess {
     by_area.sort_by(|x, y| y.area.total_cmp(&x.area));
     // The largest window the sun comes in through, glowing over its light on the floor; the
     // largest of all where the sun enters none.
-    let enters =
-        |w: &crate::instances::Instance| sun.is_some_and(|d| w.inside.dot(d) > MIN_ENTRY_COS);
+    let centre_of = |w: &crate::instances::Instance| w.origin + (w.right + w.up) * 0.5;
+    let enters = |w: &crate::instances::Instance| {
+        travel(centre_of(w)).is_some_and(|d| w.inside.dot(d) > MIN_ENTRY_COS)
+    };
     if let Some(w) = by_area.iter().find(|w| enters(w)).or(by_area.first()) {
         let target = w.origin + (w.right + w.up) * 0.5;
         // From inside: back from the window along its inside normal, at eye height.
@@ -813,20 +977,13 @@ pub fn guess(p: &Prepared) -> Guess {
         let mut pos = within(target + w.inside * back);
         pos.y = eye;
         cameras.push(camera("windows", pos, target));
-        if let (Some(fp), Some(l)) = (&floor, &light)
-            && let pack::LightKind::Directional { direction, .. } = l.kind
-        {
-            let d = DVec3::new(
-                direction[0] as f64,
-                direction[1] as f64,
-                direction[2] as f64,
-            );
+        if let Some(fp) = &floor {
             // As the sun's score: a window the light leaves through lights the ground outside.
-            let lit = by_area
-                .iter()
-                .filter(|w| enters(w))
-                .find_map(|w| fp.land(w.origin + (w.right + w.up) * 0.5, d));
-            if let Some(spot) = lit {
+            let lit = by_area.iter().filter(|w| enters(w)).find_map(|w| {
+                let d = travel(centre_of(w))?;
+                Some((fp.land(centre_of(w), d)?, d))
+            });
+            if let Some((spot, d)) = lit {
                 let away = DVec3::new(d.x, 0.0, d.z).normalize_or_zero();
                 let mut pos = within(spot + away * (hi.y - floor_y).max(inner_diag * 0.05) * 0.8);
                 pos.y = eye;
@@ -994,6 +1151,147 @@ mod tests {
                 c.position
             );
         }
+    }
+
+    /// The hall on open ground as a glTF with `lamps` (name, node, light) of its own: its light
+    /// and the guess's words.
+    fn hall_with_lamps(
+        lamps: &[(&str, serde_json::Value, serde_json::Value)],
+    ) -> (Option<pack::Light>, String) {
+        let dir = tempfile::tempdir().unwrap();
+        let (nodes, lights): (Vec<_>, Vec<_>) = lamps
+            .iter()
+            .enumerate()
+            .map(|(i, (name, node, light))| {
+                let mut node = node.clone();
+                node["name"] = serde_json::json!(format!("node of {name}"));
+                node["extensions"] = serde_json::json!({"KHR_lights_punctual": {"light": i}});
+                let mut light = light.clone();
+                light["name"] = serde_json::json!(name);
+                (node, light)
+            })
+            .unzip();
+        let (gltf, bin) = crate::testing::hall_gltf(20.0, nodes, lights);
+        std::fs::write(dir.path().join("hall.bin"), bin).unwrap();
+        let path = dir.path().join("hall.gltf");
+        std::fs::write(&path, serde_json::to_vec(&gltf).unwrap()).unwrap();
+        let manifest = crate::manifest::Manifest::from_mesh_file(&path).unwrap();
+        let out = crate::pipeline::cook(&manifest, &crate::Settings::new(&manifest)).unwrap();
+        let words = out
+            .report
+            .warnings
+            .iter()
+            .map(|w| w.message.clone())
+            .collect::<Vec<_>>()
+            .join("\n");
+        (out.toc.light, words)
+    }
+
+    /// A lamp of the file's that shines in through a window onto the floor is the light, as a
+    /// lamp outside a church's glass is set up to; lamps indoors, spots turned away and lamps
+    /// beside the file's own sun are passed over, and said so. The hall's one north window
+    /// faces a lantern 5 m out and 6 m up; its candle stands inside.
+    #[test]
+    fn a_lamp_shining_in_through_the_windows_is_the_light_and_one_indoors_is_not() {
+        use serde_json::json;
+        let point = json!({"type": "point", "color": [1.0, 0.8, 0.5], "intensity": 800.0});
+        let lantern = (
+            "Laterne",
+            json!({"translation": [0.0, 6.0, 8.0]}),
+            point.clone(),
+        );
+        let candle = (
+            "Kerze",
+            json!({"translation": [0.0, 2.0, 0.0]}),
+            point.clone(),
+        );
+        let lantern_at = [0.0, 6.0, 8.0];
+        let is_lamp = |light: &Option<pack::Light>| match light.as_ref().map(|l| &l.kind) {
+            Some(pack::LightKind::Point { position, radius }) => {
+                assert_eq!(*position, lantern_at);
+                // The sun's half degree, seen from the nearest point of the window.
+                assert!(*radius > 0.02 && *radius < 0.05, "{radius}");
+                let l = light.as_ref().unwrap();
+                assert_eq!(l.colour, [1.0, 0.8, 0.5]);
+                // Exposed as the sun is, at the 7-9 m its light travels to the floor.
+                assert!(l.intensity > 40.0 && l.intensity < 400.0, "{}", l.intensity);
+                true
+            }
+            _ => false,
+        };
+
+        let (light, words) = hall_with_lamps(std::slice::from_ref(&lantern));
+        assert!(is_lamp(&light), "{light:?}\n{words}");
+        assert!(
+            words.contains(
+                "the model's own point light \"Laterne\", which shines in through 1 of 4 windows"
+            ),
+            "{words}"
+        );
+
+        let (light, words) = hall_with_lamps(std::slice::from_ref(&candle));
+        assert!(
+            matches!(light.unwrap().kind, pack::LightKind::Directional { .. }),
+            "{words}"
+        );
+        assert!(
+            words.contains(
+                "the model's lamps \"Kerze\" are not used: none of them shines in \
+                            through a window onto the floor"
+            ),
+            "{words}"
+        );
+
+        let (light, words) = hall_with_lamps(&[candle.clone(), lantern.clone()]);
+        assert!(is_lamp(&light), "{light:?}\n{words}");
+        assert!(
+            words.contains("lamps \"Kerze\" are not used: a pack holds one light"),
+            "{words}"
+        );
+
+        // A spot at the lantern: its axis is its node's -z, towards the hall; turned half way
+        // round about y it points away, and a narrow cone aimed above the hall misses the glass.
+        let spot = |cone: f64| json!({"type": "spot", "spot": {"outerConeAngle": cone}});
+        let s = std::f64::consts::FRAC_1_SQRT_2;
+        let (light, words) =
+            hall_with_lamps(&[("Strahler", json!({"translation": lantern_at}), spot(0.6))]);
+        assert!(
+            matches!(light.as_ref().unwrap().kind, pack::LightKind::Point { .. }),
+            "{words}"
+        );
+        assert!(
+            words.contains("spot light \"Strahler\"")
+                && words.contains("a pack's light has no cone"),
+            "{words}"
+        );
+        for node in [
+            json!({"translation": lantern_at, "rotation": [0.0, 1.0, 0.0, 0.0]}),
+            // Tilted 45° up about x.
+            json!({"translation": lantern_at, "rotation": [0.382_683_43, 0.0, 0.0, 0.923_879_5]}),
+        ] {
+            let (light, words) = hall_with_lamps(&[("Strahler", node, spot(0.1))]);
+            assert!(
+                matches!(light.unwrap().kind, pack::LightKind::Directional { .. }),
+                "{words}"
+            );
+            assert!(words.contains("\"Strahler\" are not used"), "{words}");
+        }
+
+        // The file's own sun comes first.
+        let sun = (
+            "Sonne",
+            json!({"rotation": [-s, 0.0, 0.0, s]}),
+            json!({"type": "directional"}),
+        );
+        let (light, words) = hall_with_lamps(&[lantern, sun]);
+        assert!(
+            matches!(light.unwrap().kind, pack::LightKind::Directional { .. }),
+            "{words}"
+        );
+        assert!(
+            words.contains("lamps \"Laterne\" are not used: its sun \"Sonne\" lights the scene"),
+            "{words}"
+        );
     }
 
     /// A model with a floor is a building: its first camera looks down it from inside.

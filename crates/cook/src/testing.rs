@@ -77,6 +77,36 @@ fn height_field(n: usize, attributes: bool) -> String {
     s
 }
 
+/// A quad: material, corner, and the two edges from it.
+type Quad = (&'static str, [f64; 3], [f64; 3], [f64; 3]);
+
+/// The hall of [`hall_on_open_ground`] as quads.
+fn hall_quads(half: f64) -> Vec<Quad> {
+    let mut quads = vec![
+        (
+            "ground",
+            [-half, 0., -half],
+            [0., 0., 2. * half],
+            [2. * half, 0., 0.],
+        ),
+        ("wall", [-5., 0., 3.], [10., 0., 0.], [0., 4., 0.]),
+        ("wall", [-5., 0., -3.], [0., 4., 0.], [10., 0., 0.]),
+        ("wall", [-5., 0., -3.], [0., 0., 6.], [0., 4., 0.]),
+        ("wall", [5., 0., -3.], [0., 4., 0.], [0., 0., 6.]),
+        ("glass", [-2., 1.5, 2.99], [4., 0., 0.], [0., 1.6, 0.]),
+    ];
+    for x in [-4.5, -1., 2.5] {
+        quads.push(("glass", [x, 1.5, -2.99], [0., 1.5, 0.], [2., 0., 0.]));
+    }
+    quads
+}
+
+/// A quad's four corners, in order around it.
+fn quad_corners(o: [f64; 3], a: [f64; 3], b: [f64; 3]) -> [[f64; 3]; 4] {
+    let add = |p: [f64; 3], q: [f64; 3]| [p[0] + q[0], p[1] + q[1], p[2] + q[2]];
+    [o, add(o, a), add(add(o, a), b), add(o, b)]
+}
+
 /// A hall standing on open ground, as OBJ text (naming `hall.mtl`) and that MTL: one quad of
 /// `ground` reaching `half` each way from the origin; `wall`s at x = ±5 and z = ±3, 4 high;
 /// glass (`Tf`, translucent) 1 cm inside them, the largest window alone on the north wall
@@ -84,32 +114,91 @@ fn height_field(n: usize, attributes: bool) -> String {
 pub fn hall_on_open_ground(half: f64) -> (String, String) {
     use std::fmt::Write;
     let mut obj = String::from("mtllib hall.mtl\n");
-    let mut vertices = 0;
-    let mut quad = |m: &str, o: [f64; 3], a: [f64; 3], b: [f64; 3]| {
-        let add = |p: [f64; 3], q: [f64; 3]| [p[0] + q[0], p[1] + q[1], p[2] + q[2]];
+    for (q, (m, o, a, b)) in hall_quads(half).into_iter().enumerate() {
         let _ = writeln!(obj, "usemtl {m}");
-        for c in [o, add(o, a), add(add(o, a), b), add(o, b)] {
+        for c in quad_corners(o, a, b) {
             let _ = writeln!(obj, "v {} {} {}", c[0], c[1], c[2]);
         }
-        let n = vertices + 1;
-        vertices += 4;
+        let n = 4 * q + 1;
         let _ = writeln!(obj, "f {} {} {} {}", n, n + 1, n + 2, n + 3);
-    };
-    quad(
-        "ground",
-        [-half, 0., -half],
-        [0., 0., 2. * half],
-        [2. * half, 0., 0.],
-    );
-    quad("wall", [-5., 0., 3.], [10., 0., 0.], [0., 4., 0.]);
-    quad("wall", [-5., 0., -3.], [0., 4., 0.], [10., 0., 0.]);
-    quad("wall", [-5., 0., -3.], [0., 0., 6.], [0., 4., 0.]);
-    quad("wall", [5., 0., -3.], [0., 4., 0.], [0., 0., 6.]);
-    quad("glass", [-2., 1.5, 2.99], [4., 0., 0.], [0., 1.6, 0.]);
-    for x in [-4.5, -1., 2.5] {
-        quad("glass", [x, 1.5, -2.99], [0., 1.5, 0.], [2., 0., 0.]);
     }
     let mtl = "newmtl ground\nKd 0.5 0.5 0.5\n\nnewmtl wall\nKd 0.8 0.8 0.8\n\n\
                newmtl glass\nKd 0.2 0.4 0.8\nTf 0.2 0.4 0.8\nd 0.3\n";
     (obj, mtl.to_string())
+}
+
+/// The hall of [`hall_on_open_ground`] as a glTF (JSON, and the bytes of its `hall.bin`), as
+/// a modelling tool writes one: a mesh of three primitives (ground, wall, glass blended) on
+/// the scene's first node, and `extra` nodes after it (cameras, lights) with the file's
+/// `KHR_lights_punctual` `lights`.
+pub fn hall_gltf(
+    half: f64,
+    extra: Vec<serde_json::Value>,
+    lights: Vec<serde_json::Value>,
+) -> (serde_json::Value, Vec<u8>) {
+    use serde_json::json;
+    let quads = hall_quads(half);
+    let mut bin = Vec::new();
+    let (mut accessors, mut views, mut primitives) = (Vec::new(), Vec::new(), Vec::new());
+    for (mi, m) in ["ground", "wall", "glass"].into_iter().enumerate() {
+        let corners: Vec<[f64; 3]> = quads
+            .iter()
+            .filter(|q| q.0 == m)
+            .flat_map(|&(_, o, a, b)| quad_corners(o, a, b))
+            .collect();
+        let mut lo = [f64::INFINITY; 3];
+        let mut hi = [f64::NEG_INFINITY; 3];
+        let offset = bin.len();
+        for c in &corners {
+            for k in 0..3 {
+                lo[k] = lo[k].min(c[k]);
+                hi[k] = hi[k].max(c[k]);
+                bin.extend_from_slice(&(c[k] as f32).to_le_bytes());
+            }
+        }
+        views.push(json!({"buffer": 0, "byteOffset": offset, "byteLength": bin.len() - offset}));
+        accessors.push(json!({"bufferView": views.len() - 1, "componentType": 5126,
+            "count": corners.len(), "type": "VEC3",
+            "min": lo.map(|v| v as f32), "max": hi.map(|v| v as f32)}));
+        let offset = bin.len();
+        let indices: Vec<u16> = (0..corners.len() as u16 / 4)
+            .flat_map(|q| [0, 1, 2, 0, 2, 3].map(|k| 4 * q + k))
+            .collect();
+        for i in &indices {
+            bin.extend_from_slice(&i.to_le_bytes());
+        }
+        views.push(json!({"buffer": 0, "byteOffset": offset, "byteLength": bin.len() - offset}));
+        accessors.push(json!({"bufferView": views.len() - 1, "componentType": 5123,
+            "count": indices.len(), "type": "SCALAR"}));
+        // Four-byte alignment for the next float view.
+        bin.resize(bin.len().next_multiple_of(4), 0);
+        primitives.push(json!({"attributes": {"POSITION": accessors.len() - 2},
+            "indices": accessors.len() - 1, "material": mi}));
+    }
+    let mut nodes = vec![json!({"name": "hall", "mesh": 0})];
+    nodes.extend(extra);
+    let mut gltf = json!({
+        "asset": {"version": "2.0"},
+        "scene": 0,
+        "scenes": [{"nodes": (0..nodes.len()).collect::<Vec<_>>()}],
+        "nodes": nodes,
+        "meshes": [{"name": "hall", "primitives": primitives}],
+        // Not metal: glTF's metallicFactor is 1 where a file leaves it out.
+        "materials": [
+            {"name": "ground", "pbrMetallicRoughness":
+                {"baseColorFactor": [0.5, 0.5, 0.5, 1.0], "metallicFactor": 0.0}},
+            {"name": "wall", "pbrMetallicRoughness":
+                {"baseColorFactor": [0.8, 0.8, 0.8, 1.0], "metallicFactor": 0.0}},
+            {"name": "glass", "alphaMode": "BLEND", "pbrMetallicRoughness":
+                {"baseColorFactor": [0.2, 0.4, 0.8, 0.3], "metallicFactor": 0.0}}
+        ],
+        "accessors": accessors,
+        "bufferViews": views,
+        "buffers": [{"uri": "hall.bin", "byteLength": bin.len()}]
+    });
+    if !lights.is_empty() {
+        gltf["extensionsUsed"] = json!(["KHR_lights_punctual"]);
+        gltf["extensions"] = json!({"KHR_lights_punctual": {"lights": lights}});
+    }
+    (gltf, bin)
 }

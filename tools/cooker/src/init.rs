@@ -201,6 +201,36 @@ pub fn run(args: Args) -> Outcome {
     // (a building in one material).
     type Classes<'a> = (std::collections::BTreeSet<&'a str>, bool);
     let mut named: std::collections::BTreeMap<(usize, String), Classes> = Default::default();
+    // Per name of any kind: the classes of all the parts that carry it. A glTF node or mesh
+    // holds its glass beside the floor and walls as primitives of one mesh: a rule on that
+    // name, written for the glass, tagged all of it a window.
+    let class_of = |si: usize, pi: usize| {
+        let class = prepared.tagging.materials[prepared.tagging.part_material[si][pi] as usize]
+            .material
+            .class;
+        // Glass is tagged a window without saying upper or lower: each window instance is
+        // classed by its own sill height.
+        if class.is_window() {
+            cook::manifest::WINDOW_BY_SILL
+        } else {
+            class.name()
+        }
+    };
+    let mut carried: std::collections::BTreeMap<(usize, &str), std::collections::BTreeSet<&str>> =
+        Default::default();
+    for (si, src) in prepared.imported.iter().enumerate() {
+        let counts = src.part_triangles();
+        for (pi, part) in src.parts.iter().enumerate() {
+            if counts[pi] == 0 {
+                continue;
+            }
+            for (k, &kind) in SPECIFIC_FIRST.iter().enumerate() {
+                if let Some(n) = part.names.get(kind) {
+                    carried.entry((k, n)).or_default().insert(class_of(si, pi));
+                }
+            }
+        }
+    }
     for (si, src) in prepared.imported.iter().enumerate() {
         let counts = src.part_triangles();
         for (pi, part) in src.parts.iter().enumerate() {
@@ -208,33 +238,40 @@ pub fn run(args: Args) -> Outcome {
                 continue;
             }
             let decision = &prepared.tagging.decisions[si][pi];
-            let class = prepared.tagging.materials[prepared.tagging.part_material[si][pi] as usize]
-                .material
-                .class;
+            let class = class_of(si, pi);
             let why = decision.reason().unwrap_or_default();
-            // Glass is tagged a window without saying upper or lower: each window instance
-            // is classed by its own sill height.
-            let class = if class.is_window() {
-                cook::manifest::WINDOW_BY_SILL
-            } else {
-                class.name()
-            };
             // A guess from geometry or material properties is about this part: name it by
-            // its most specific name, so the rule does not also catch other parts that share
-            // a material ("white" is the Cornell box's floor, walls and blocks alike).
-            let (kind, name) = match decision {
-                Decision::Heuristic { kind, name, .. } => (*kind, name.clone()),
-                _ => match SPECIFIC_FIRST
-                    .iter()
-                    .find_map(|&k| part.names.get(k).map(|n| (k, n.to_string())))
-                {
-                    Some(kn) => kn,
-                    None => continue,
-                },
+            // its most specific name that no part of another class carries, so the rule does
+            // not also catch other parts that share a material ("white" is the Cornell box's
+            // floor, walls and blocks alike) or a node. Where every name is shared, the most
+            // specific one, with the other classes, which leaves it without a rule below.
+            let (kind, name, others) = match decision {
+                Decision::Heuristic { kind, name, .. } => (*kind, name.clone(), None),
+                _ => {
+                    let names = || {
+                        SPECIFIC_FIRST
+                            .iter()
+                            .enumerate()
+                            .filter_map(|(k, &kind)| Some((k, kind, part.names.get(kind)?)))
+                    };
+                    let only_this = |k: usize, n: &str| {
+                        carried
+                            .get(&(k, n))
+                            .is_some_and(|c| c.len() == 1 && c.contains(class))
+                    };
+                    match names()
+                        .find(|&(k, _, n)| only_this(k, n))
+                        .or_else(|| names().next())
+                    {
+                        Some((k, kind, n)) => (kind, n.to_string(), carried.get(&(k, n))),
+                        None => continue,
+                    }
+                }
             };
             let k = SPECIFIC_FIRST.iter().position(|&s| s == kind).unwrap_or(0);
             let entry = named.entry((k, name.clone())).or_default();
             entry.0.insert(class);
+            entry.0.extend(others.into_iter().flatten());
             entry.1 |= prepared.tagging.cut[si][pi] != Cut::None;
             if !rules.iter().any(|r| r.0 == kind && r.1 == name) {
                 rules.push((kind, name, class, why.replace('\n', " ")));

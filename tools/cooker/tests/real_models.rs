@@ -1467,9 +1467,11 @@ fn init_writes_a_manifest_that_cooks_window_light_without_edits() {
 /// unedited, gives the bare cook's very pack. Before, the light's direction, the views and the
 /// sun's size were written to a few decimals (the pack's light moved by up to 1e-4), and a
 /// rule on the name of a glTF node's GPU instances gave them all one class, though the bare
-/// cook classed each instance by how it stands. The models: the cathedral (windows, a guessed
-/// sun), the third-party Cornell box, the same box in survey coordinates (the manifest moves
-/// it), and gltfpack's instanced boxes.
+/// cook classed each instance by how it stands; and a rule on a glTF node's name, written for
+/// its glass, tagged the floor and walls of the same mesh windows too. The models: the
+/// cathedral (windows, a guessed sun), the third-party Cornell box, the same box in survey
+/// coordinates (the manifest moves it), gltfpack's instanced boxes, and a hall as a glTF of
+/// one mesh whose light is a lamp of its own outside a window.
 #[test]
 fn an_unedited_init_manifest_cooks_the_bare_cook_s_very_pack() {
     let dir = tempfile::tempdir().unwrap();
@@ -1497,11 +1499,23 @@ fn an_unedited_init_manifest_cooks_the_bare_cook_s_very_pack() {
         dir.path().join("cornell_box.mtl"),
     )
     .unwrap();
+    let (hall, bin) = cook::testing::hall_gltf(
+        20.0,
+        vec![
+            serde_json::json!({"name": "Laterne", "translation": [0.0, 6.0, 8.0],
+            "extensions": {"KHR_lights_punctual": {"light": 0}}}),
+        ],
+        vec![serde_json::json!({"type": "point", "color": [1.0, 0.8, 0.5]})],
+    );
+    std::fs::write(dir.path().join("hall.bin"), bin).unwrap();
+    let lit_hall = dir.path().join("hall.gltf");
+    std::fs::write(&lit_hall, serde_json::to_vec(&hall).unwrap()).unwrap();
     let models = [
         sibenik(dir.path()),
         cornell,
         survey,
         third_party("gltfpack/boxes_mi_cc.glb"),
+        lit_hall,
     ];
     for (i, model) in models.iter().enumerate() {
         let scene = dir.path().join(format!("scene{i}.toml"));

@@ -170,8 +170,12 @@ struct Views {
     cameras: Vec<(String, glam::DMat4, f32, f32, Option<f32>)>,
     /// Name, world transform, linear colour: the first directional light.
     sun: Option<(String, glam::DMat4, [f32; 3])>,
-    /// Cameras and lights a pack cannot hold (orthographic cameras, lights other than the
-    /// first sun), for one warning.
+    /// Point and spot lights: name, world transform, linear colour, and a spot's outer cone
+    /// angle. The guess takes one that shines in through the windows (a lamp outside a
+    /// church's glass); most are lamps indoors, which light no window.
+    lamps: Vec<(String, glam::DMat4, [f32; 3], Option<f32>)>,
+    /// Cameras and lights a pack cannot hold (orthographic cameras, directional lights after
+    /// the first, lights of unknown type), for one warning.
     unused: Vec<String>,
 }
 
@@ -223,11 +227,6 @@ impl Views {
             .and_then(serde_json::Value::as_str)
             .map_or_else(node_name, str::to_string);
         let kind = light.get("type").and_then(serde_json::Value::as_str);
-        if kind != Some("directional") || self.sun.is_some() {
-            self.unused
-                .push(format!("{} light {name:?}", kind.unwrap_or("untyped")));
-            return;
-        }
         let colour = light
             .get("color")
             .and_then(serde_json::Value::as_array)
@@ -237,7 +236,25 @@ impl Views {
                 v.filter(|v| v.iter().all(|x| x.is_finite() && *x >= 0.0))
             })
             .map_or([1.0; 3], |v| [v[0], v[1], v[2]]);
-        self.sun = Some((name, world, colour));
+        match kind {
+            Some("directional") if self.sun.is_none() => self.sun = Some((name, world, colour)),
+            Some("point") => self.lamps.push((name, world, colour, None)),
+            Some("spot") => {
+                // The spec's default outer cone is π/4; it may not exceed π/2.
+                let outer = light
+                    .get("spot")
+                    .and_then(|s| s.get("outerConeAngle"))
+                    .and_then(serde_json::Value::as_f64)
+                    .filter(|a| a.is_finite() && *a > 0.0)
+                    .map_or(std::f32::consts::FRAC_PI_4, |a| {
+                        (a as f32).min(std::f32::consts::FRAC_PI_2)
+                    });
+                self.lamps.push((name, world, colour, Some(outer)));
+            }
+            _ => self
+                .unused
+                .push(format!("{} light {name:?}", kind.unwrap_or("untyped"))),
+        }
     }
 
     /// Onto `out`, once its origin and bounds are known: each camera looking along its -z
@@ -315,12 +332,30 @@ impl Views {
                 });
             }
         }
+        for (name, world, colour, cone) in self.lamps {
+            let position = world.transform_point3(glam::DVec3::ZERO) - origin;
+            let axis = world.transform_vector3(-glam::DVec3::Z).normalize_or_zero();
+            if !position.is_finite() || (cone.is_some() && axis == glam::DVec3::ZERO) {
+                out.warnings.push(Warning::new(
+                    path,
+                    None,
+                    format!("light {name:?} has a degenerate transform: not used"),
+                ));
+                continue;
+            }
+            out.lamps.push(super::FileLamp {
+                name,
+                position: position.as_vec3().to_array(),
+                colour,
+                spot: cone.map(|c| (axis.as_vec3().to_array(), c)),
+            });
+        }
         if !self.unused.is_empty() {
             out.warnings.push(Warning::new(
                 path,
                 None,
                 format!(
-                    "{} not used: a pack holds perspective cameras and one sun",
+                    "{} not used: a pack holds perspective cameras and one light",
                     self.unused.join(", ")
                 ),
             ));
@@ -2466,7 +2501,8 @@ mod tests {
     }
 
     /// `boxes.gltf` with a camera and a sun of its own, as Blender exports a framed scene,
-    /// plus a point light and an orthographic camera a pack cannot hold.
+    /// with a point light and a spot light for the guess, and cameras and lights a pack cannot
+    /// hold (orthographic cameras, a second sun, an area light).
     fn boxes_with_views(dir: &Path) -> std::path::PathBuf {
         let mut json = boxes_json(dir);
         let h = std::f64::consts::FRAC_1_SQRT_2;
@@ -2475,12 +2511,19 @@ mod tests {
             serde_json::json!({"name": "Eye", "camera": 0, "translation": [5.0, 2.0, 10.0]}),
             serde_json::json!({"name": "Sun", "rotation": [-h, 0.0, 0.0, h],
                 "extensions": {"KHR_lights_punctual": {"light": 0}}}),
-            serde_json::json!({"extensions": {"KHR_lights_punctual": {"light": 1}}}),
+            serde_json::json!({"extensions": {"KHR_lights_punctual": {"light": 1}},
+                "translation": [1.0, 2.0, 3.0]}),
             serde_json::json!({"camera": 1}),
             serde_json::json!({"camera": 2}),
+            // Turned a quarter about y: its axis, -z, points along -x.
+            serde_json::json!({"name": "Strahlerknoten", "translation": [0.0, 5.0, 0.0],
+                "rotation": [0.0, h, 0.0, h],
+                "extensions": {"KHR_lights_punctual": {"light": 2}}}),
+            serde_json::json!({"extensions": {"KHR_lights_punctual": {"light": 3}}}),
+            serde_json::json!({"extensions": {"KHR_lights_punctual": {"light": 4}}}),
         ]);
         let scene = json["scenes"][0]["nodes"].as_array_mut().unwrap();
-        scene.extend((count..count + 5).map(|i| serde_json::json!(i)));
+        scene.extend((count..count + 8).map(|i| serde_json::json!(i)));
         json["cameras"] = serde_json::json!([
             {"type": "perspective", "perspective": {"yfov": 0.8, "znear": 0.05, "zfar": 200.0}},
             {"type": "orthographic", "orthographic": {"xmag": 1, "ymag": 1, "znear": 0, "zfar": 9}},
@@ -2490,7 +2533,10 @@ mod tests {
         json["extensionsUsed"] = serde_json::json!(["KHR_lights_punctual"]);
         json["extensions"] = serde_json::json!({"KHR_lights_punctual": {"lights": [
             {"type": "directional", "name": "Sonne", "color": [1.0, 0.5, 0.25]},
-            {"type": "point", "name": "Kerze"}
+            {"type": "point", "name": "Kerze"},
+            {"type": "spot", "color": [0.5, 0.5, 1.0], "spot": {"outerConeAngle": 0.3}},
+            {"type": "directional", "name": "Mond"},
+            {"type": "area", "name": "Fenster"}
         ]}});
         let path = dir.join("views.gltf");
         std::fs::write(&path, serde_json::to_vec(&json).unwrap()).unwrap();
@@ -2518,12 +2564,33 @@ mod tests {
         assert_eq!(sun.colour, [1.0, 0.5, 0.25]);
         let d = glam::Vec3::from(sun.direction);
         assert!((d - glam::Vec3::NEG_Y).length() < 1e-6, "{d}");
+        // Point and spot lights are kept for the guess, which takes one that shines in
+        // through the windows.
+        assert_eq!(m.lamps.len(), 2, "{:?}", m.lamps);
+        assert_eq!(m.lamps[0].name, "Kerze");
+        assert_eq!(m.lamps[0].position, [1.0, 2.0, 3.0]);
+        assert_eq!((m.lamps[0].colour, m.lamps[0].spot), ([1.0; 3], None));
+        let spot = &m.lamps[1];
+        assert_eq!(spot.name, "Strahlerknoten");
+        assert_eq!(
+            (spot.position, spot.colour),
+            ([0.0, 5.0, 0.0], [0.5, 0.5, 1.0])
+        );
+        let (axis, cone) = spot.spot.unwrap();
+        assert!(
+            (glam::Vec3::from(axis) - glam::Vec3::NEG_X).length() < 1e-6,
+            "{axis:?}"
+        );
+        assert_eq!(cone, 0.3);
         let said: Vec<&str> = m.warnings.iter().map(|w| w.message.as_str()).collect();
         assert!(
-            said.iter().any(|w| w.contains("point light \"Kerze\"")
-                && w.contains("orthographic camera \"node9\"")
-                && w.contains("camera \"node10\" without a perspective projection")
-                && w.ends_with("not used: a pack holds perspective cameras and one sun")),
+            said.iter()
+                .any(|w| w.contains("orthographic camera \"node9\"")
+                    && w.contains("camera \"node10\" without a perspective projection")
+                    && w.contains("directional light \"Mond\"")
+                    && w.contains("area light \"Fenster\"")
+                    && !w.contains("Kerze")
+                    && w.ends_with("not used: a pack holds perspective cameras and one light")),
             "{said:?}"
         );
     }

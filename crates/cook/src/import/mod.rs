@@ -530,6 +530,20 @@ pub struct Imported {
     pub views: Vec<pack::Camera>,
     /// The file's sun (a glTF `KHR_lights_punctual` directional light).
     pub sun: Option<FileSun>,
+    /// The file's point and spot lights, placed as its positions are.
+    pub lamps: Vec<FileLamp>,
+}
+
+/// A point or spot light a model's file places.
+#[derive(Clone, Debug, PartialEq)]
+pub struct FileLamp {
+    pub name: String,
+    pub position: [f32; 3],
+    /// Linear RGB.
+    pub colour: [f32; 3],
+    /// A spot light's axis (unit, where it points) and outer cone angle from that axis
+    /// (radians); `None` for a point light.
+    pub spot: Option<([f32; 3], f32)>,
 }
 
 /// A directional light a model's file places.
@@ -607,6 +621,15 @@ impl Imported {
                 .transform_vector3(s.direction.into())
                 .normalize_or_zero()
                 .to_array();
+        }
+        for l in &mut self.lamps {
+            l.position = m.transform_point3(l.position.into()).to_array();
+            if let Some((axis, _)) = &mut l.spot {
+                *axis = m
+                    .transform_vector3((*axis).into())
+                    .normalize_or_zero()
+                    .to_array();
+            }
         }
         let nm = glam::Mat3::from_mat4(m).inverse().transpose();
         for n in &mut self.normals {
