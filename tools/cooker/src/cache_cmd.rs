@@ -322,10 +322,8 @@ fn explain(
     match scene_cache::inputs_of(&cache, &key) {
         Ok(entry) => {
             println!("  the manifest and settings were cooked before ({scene_level})");
-            if let Some(path) = scene_cache::appeared(input, &entry.absent) {
-                println!(
-                    "a cook would cook it: {path} was not found by the last cook and is there now"
-                );
+            if let Some(why) = scene_cache::lookup_changed(input, &entry.absent) {
+                println!("a cook would cook it: {why}");
                 return Ok(OK);
             }
             match scene_cache::hash_inputs(input, &entry.inputs) {

@@ -24,19 +24,20 @@ pub struct SceneInputs {
     /// The files it read, relative to the manifest's folder.
     pub inputs: Vec<PathBuf>,
     /// The files its sources named that it did not find (a texture an MTL names, a
-    /// material library): the pack is only right while they stay absent.
-    /// Each `dir` is relative to the manifest's folder, where it lies within it.
+    /// material library), or found under another spelling (another letter case): the pack is
+    /// only right while the lookups answer the same. Each `dir` is relative to the manifest's
+    /// folder, where it lies within it.
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub absent: Vec<Absent>,
 }
 
-/// The first file the last cook did not find that is there now, as the cook would find it.
-pub fn appeared(manifest: &Path, absent: &[Absent]) -> Option<String> {
-    absent.iter().find_map(|a| {
-        let here = Absent::new(&scene_dir(manifest).join(&a.dir), &a.name);
-        here.appeared()
-            .then(|| here.dir.join(&here.name).display().to_string())
-    })
+/// The first file the import would now find otherwise than the last cook did (one it did
+/// not find is there, one it found under another spelling is there under its own), said as
+/// a sentence without its full stop.
+pub fn lookup_changed(manifest: &Path, absent: &[Absent]) -> Option<String> {
+    absent
+        .iter()
+        .find_map(|a| a.under(&scene_dir(manifest).join(&a.dir)).changed())
 }
 
 #[derive(Serialize, Deserialize)]
@@ -160,10 +161,8 @@ pub fn lookup(
         Ok(i) => i,
         Err(why) => return Reuse::Cook(why),
     };
-    if let Some(path) = appeared(manifest, &absent) {
-        return Reuse::Cook(format!(
-            "{path} was not found by the last cook and is there now"
-        ));
+    if let Some(why) = lookup_changed(manifest, &absent) {
+        return Reuse::Cook(why);
     }
     let hashed = match hash_inputs(manifest, &inputs) {
         Ok(h) => h,
@@ -235,10 +234,13 @@ pub fn store(cache: &Cache, c: Cooked) -> Result<(), anyhow::Error> {
         transcript,
     } = c;
     let inputs: Vec<PathBuf> = inputs.iter().map(|p| relative(manifest, p)).collect();
-    let absent = absent
+    let mut absent: Vec<Absent> = absent
         .iter()
-        .map(|a| Absent::new(&relative(manifest, &a.dir), &a.name))
+        .map(|a| a.under(&relative(manifest, &a.dir)))
         .collect();
+    // A name two materials give is looked up twice.
+    absent.sort();
+    absent.dedup();
     let hashed = hash_inputs(manifest, &inputs).map_err(anyhow::Error::msg)?;
     let result_key = result_key(key, &hashed);
     write_record(cache, manifest, settings, &hashed)?;

@@ -531,3 +531,98 @@ fn a_missing_file_that_appears_is_cooked_in_not_reused_without() {
         assert_eq!(std::fs::read(&out).unwrap(), without, "{model}");
     }
 }
+
+/// A file the import found under another spelling (another letter case, as a model from
+/// Windows names it) is taken under its own name once that is there: the cache notices and
+/// cooks again, rather than reuse the cook of the other file, whose bytes did not change.
+#[test]
+fn a_file_found_in_another_case_gives_way_to_its_own_name_and_the_cache_sees_it() {
+    let third = root().join("tests/data/third_party");
+    let dir = tempfile::tempdir().unwrap();
+    let cache = dir.path().join("cache");
+    let mtl = std::fs::read_to_string(third.join("cornell_box/cornell_box.mtl")).unwrap();
+    // (the model and its files, the name the model gives, the spelling first there, the
+    // bytes under each)
+    type Case<'a> = (
+        &'a str,
+        Vec<(&'a str, Vec<u8>)>,
+        &'a str,
+        &'a str,
+        Vec<u8>,
+        Vec<u8>,
+    );
+    let cases: [Case; 2] = [
+        (
+            "BoxTextured.gltf",
+            ["BoxTextured.gltf", "BoxTextured0.bin"]
+                .map(|f| {
+                    (
+                        f,
+                        std::fs::read(third.join("gltf/BoxTextured").join(f)).unwrap(),
+                    )
+                })
+                .to_vec(),
+            "CesiumLogoFlat.png",
+            "cesiumlogoflat.PNG",
+            std::fs::read(third.join("gltf/BoxTextured/CesiumLogoFlat.png")).unwrap(),
+            std::fs::read(third.join("gltf/TextureCoordinateTest/TextureCoordinateTemplate.png"))
+                .unwrap(),
+        ),
+        (
+            "cornell_box.obj",
+            vec![(
+                "cornell_box.obj",
+                std::fs::read(third.join("cornell_box/cornell_box.obj")).unwrap(),
+            )],
+            "cornell_box.mtl",
+            "Cornell_Box.MTL",
+            mtl.clone().into_bytes(),
+            mtl.replacen("Kd 0 1 0", "Kd 0.2 0.3 0.7", 1).into_bytes(),
+        ),
+    ];
+    for (model, files, name, other_case, first_bytes, own_bytes) in cases {
+        assert_ne!(
+            first_bytes, own_bytes,
+            "{model}: the two files are the same"
+        );
+        let here = dir.path().join(model.replace('.', "_"));
+        std::fs::create_dir_all(&here).unwrap();
+        for (f, bytes) in &files {
+            std::fs::write(here.join(f), bytes).unwrap();
+        }
+        std::fs::write(here.join(other_case), &first_bytes).unwrap();
+        let scene = here.join(model);
+        let out = here.join("out.pack");
+        let said = |o: &Output| format!("{}{}", stdout(o), stderr(o));
+        let says = |o: &Output, text: &str| {
+            assert!(said(o).contains(text), "{model}: {}", said(o));
+        };
+        let first = cook(&scene, &out, &cache);
+        assert!(
+            !said(&first).contains("not found"),
+            "{model}: {}",
+            said(&first)
+        );
+        says(&cook(&scene, &out, &cache), "up to date");
+        let before = std::fs::read(&out).unwrap();
+
+        std::fs::write(here.join(name), &own_bytes).unwrap();
+        let with = cook(&scene, &out, &cache);
+        says(
+            &with,
+            &format!("{name} was found as {other_case} by the last cook and is {name} now"),
+        );
+        let cooked = std::fs::read(&out).unwrap();
+        assert_ne!(cooked, before, "{model}: its own file changed nothing");
+        let fresh = here.join("fresh.pack");
+        let o = common::cooker(&[&"cook", &"--no-cache", &scene, &"-o", &fresh]);
+        assert!(o.status.success(), "{}", stderr(&o));
+        assert_eq!(cooked, std::fs::read(&fresh).unwrap(), "{model}");
+        says(&cook(&scene, &out, &cache), "up to date");
+
+        // Its own name gone again: the other spelling's cook, as cached before.
+        std::fs::remove_file(here.join(name)).unwrap();
+        cook(&scene, &out, &cache);
+        assert_eq!(std::fs::read(&out).unwrap(), before, "{model}");
+    }
+}

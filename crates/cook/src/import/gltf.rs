@@ -447,13 +447,15 @@ pub fn import(path: &Path) -> Result<Imported, CookError> {
     let camera_json = json.cameras.clone();
     let document = validate(json).map_err(convert)?;
     let base = path.parent().unwrap_or(Path::new(""));
-    let (buffers, decoded, files) = load_buffers(path, &document, base, blob)?;
+    let mut absent = Vec::new();
+    let (buffers, decoded, files) = load_buffers(path, &document, base, blob, &mut absent)?;
     let buffers: Vec<&[u8]> = buffers.iter().map(|b| &b[..]).collect();
 
     let mut out = Imported {
         path: path.to_path_buf(),
         files,
         warnings,
+        absent,
         ..Default::default()
     };
     let mut material_ids: HashMap<usize, u32> = HashMap::new();
@@ -720,6 +722,7 @@ fn load_buffers(
     document: &gltf::Document,
     base: &Path,
     mut blob: Option<Vec<u8>>,
+    noted: &mut Vec<super::Absent>,
 ) -> Result<Buffers, CookError> {
     let compressed = document
         .views()
@@ -783,7 +786,7 @@ fn load_buffers(
                 decode_data_uri(path, &format!("buffer {}", b.index()), uri)?
             }
             gltf::buffer::Source::Uri(uri) => {
-                let file = external_file(base, uri).ok_or_else(|| {
+                let file = external_file(base, uri, noted).ok_or_else(|| {
                     bad(
                         path,
                         format!("buffer {}: uri {uri:?} names no file beside it", b.index()),
@@ -1587,15 +1590,26 @@ fn uri_name(uri: &str) -> String {
 /// The file a relative uri names beside the glTF, as written or percent-decoded (exporters
 /// do both), or a `file:` uri's path (some exporters write absolute ones). Buffers and images
 /// are found the same way.
-fn external_file(base: &Path, uri: &str) -> Option<std::path::PathBuf> {
+/// Each lookup whose answer could change is noted in `noted` (see `import::Absent`).
+fn external_file(
+    base: &Path,
+    uri: &str,
+    noted: &mut Vec<super::Absent>,
+) -> Option<std::path::PathBuf> {
     // A name with `%` in it, written as is (not percent-encoded as URIs should be).
-    let as_written = base.join(uri);
-    if file_uri_path(uri).is_none() && as_written.is_file() {
-        return Some(as_written);
+    if file_uri_path(uri).is_none() {
+        let as_written = base.join(uri);
+        if as_written.is_file() {
+            return Some(as_written);
+        }
+        // Without a `%`, the decoded name below is the same name.
+        if uri.contains('%') {
+            noted.push(super::Absent::new(base, uri));
+        }
     }
     // The percent-decoded name as written, then as Windows exporters mean it; an absolute
     // `file:///C:/...` from the exporting machine has its end looked for beside the glTF.
-    super::locate(base, &uri_name(uri))
+    super::locate_noted(base, &uri_name(uri), noted)
 }
 
 fn percent_decode(s: &str) -> String {
@@ -1737,7 +1751,7 @@ fn image_ref(
                 }));
             }
             let dir = ctx.path.parent().unwrap_or(Path::new(""));
-            match external_file(dir, uri) {
+            match external_file(dir, uri, absent) {
                 Some(p) => Some(ImageRef::File(p)),
                 None => {
                     warnings.push(Warning::new(
@@ -1745,7 +1759,6 @@ fn image_ref(
                         None,
                         format!("image {uri:?} not found; texture ignored"),
                     ));
-                    absent.push(super::Absent::new(dir, &uri_name(uri)));
                     None
                 }
             }
@@ -1932,14 +1945,17 @@ mod tests {
         let raw = std::ffi::OsString::from_vec(b"okno_\xE8.png".to_vec());
         std::fs::write(dir.path().join(&raw), b"x").unwrap();
         assert_eq!(
-            external_file(dir.path(), "okno_%E8.png"),
+            external_file(dir.path(), "okno_%E8.png", &mut Vec::new()),
             Some(dir.path().join(&raw))
         );
         assert_eq!(
-            external_file(dir.path(), "OKNO_%E8.PNG"),
+            external_file(dir.path(), "OKNO_%E8.PNG", &mut Vec::new()),
             Some(dir.path().join(&raw))
         );
-        assert_eq!(external_file(dir.path(), "okno_%E9.png"), None);
+        assert_eq!(
+            external_file(dir.path(), "okno_%E9.png", &mut Vec::new()),
+            None
+        );
     }
 
     #[test]

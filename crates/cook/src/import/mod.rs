@@ -729,28 +729,90 @@ fn warn_far_positions(out: &mut Imported) {
     ));
 }
 
-/// A file a source names that [`locate`] did not find: `name` as written, looked for under
-/// `dir`. A cache entry keeps it, `dir` made relative to the scene's folder.
+/// A file a source names whose lookup ([`locate`]) could answer otherwise while every file
+/// the cook read stays as it was: `name` as written, looked for under `dir`, found nowhere
+/// (`found` is `None`) or found under another spelling (`found`, relative to `dir`: another
+/// letter case, an absolute path's end). If the file of that very name appears, the import
+/// takes it. A cache entry keeps these, `dir` made relative to the scene's folder.
 #[derive(
     Clone, Debug, PartialEq, Eq, PartialOrd, Ord, Hash, serde::Serialize, serde::Deserialize,
 )]
 pub struct Absent {
     pub dir: PathBuf,
     pub name: String,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub found: Option<PathBuf>,
 }
 
 impl Absent {
+    /// A file not found.
     pub fn new(dir: &Path, name: &str) -> Self {
         Self {
             dir: dir.to_path_buf(),
             name: name.to_string(),
+            found: None,
         }
     }
 
-    /// Whether the file is there now, found as the import would find it.
-    pub fn appeared(&self) -> bool {
-        locate(&self.dir, &self.name).is_some()
+    /// The lookup of `name` under `dir` that answered `answer`, where that answer could
+    /// change: `None` for the file of exactly that name, which stays the answer while it is
+    /// there.
+    fn of_lookup(dir: &Path, name: &str, answer: Option<&Path>) -> Option<Self> {
+        match answer {
+            Some(p) if p == dir.join(text::path_of(name)) => None,
+            Some(p) => Some(Self {
+                found: Some(p.strip_prefix(dir).unwrap_or(p).to_path_buf()),
+                ..Self::new(dir, name)
+            }),
+            None => Some(Self::new(dir, name)),
+        }
     }
+
+    /// The same lookup under another folder (a scene's, moved or made relative).
+    pub fn under(&self, dir: &Path) -> Self {
+        Self {
+            dir: dir.to_path_buf(),
+            ..self.clone()
+        }
+    }
+
+    /// Where the lookup finds the file now, if that differs from what the cook found, as a
+    /// sentence's subject and verb: "`dir/tex.png` was not found by the last cook and is
+    /// there now".
+    pub fn changed(&self) -> Option<String> {
+        let now = locate(&self.dir, &self.name);
+        let now_rel = now
+            .as_deref()
+            .map(|p| p.strip_prefix(&self.dir).unwrap_or(p));
+        if now_rel == self.found.as_deref() {
+            return None;
+        }
+        let asked = self.dir.join(&self.name);
+        Some(match (&self.found, now_rel) {
+            (None, _) => format!(
+                "{} was not found by the last cook and is there now",
+                asked.display()
+            ),
+            (Some(was), Some(is)) => format!(
+                "{} was found as {} by the last cook and is {} now",
+                asked.display(),
+                was.display(),
+                is.display()
+            ),
+            (Some(was), None) => format!(
+                "{} was found as {} by the last cook and is not there now",
+                asked.display(),
+                was.display()
+            ),
+        })
+    }
+}
+
+/// [`locate`], noting the lookup in `noted` where its answer could change (see [`Absent`]).
+pub(crate) fn locate_noted(dir: &Path, name: &str, noted: &mut Vec<Absent>) -> Option<PathBuf> {
+    let found = locate(dir, name);
+    noted.extend(Absent::of_lookup(dir, name, found.as_deref()));
+    found
 }
 
 /// The file `name` (relative to `dir`, or absolute) means, as a file written on Windows means

@@ -1964,23 +1964,26 @@ fn plural(what: &str, n: usize) -> String {
 /// may contain spaces), then each word (several files, or options before the name).
 ///
 /// A name that is not UTF-8 means the file of those bytes, else the name decoded as `given`
-/// says or as guessed from it.
+/// says or as guessed from it. Each lookup whose answer could change is noted in `noted`
+/// (see `import::Absent`).
 fn find_file(
     dir: &Path,
     rest: &[u8],
     given: Option<text::TextEncoding>,
+    noted: &mut Vec<super::Absent>,
 ) -> (Vec<PathBuf>, Vec<String>) {
-    let locate = |name: &[u8]| {
+    let mut locate = |name: &[u8]| {
         let escaped = text::escaped(name);
-        super::locate(dir, &escaped).or_else(|| {
-            // Only a name that is not UTF-8 has another reading, and only then is the
-            // encoding worth guessing.
-            if !text::is_escaped(&escaped) {
-                return None;
-            }
-            let (encoding, _) = text::choose(given, [name]);
-            super::locate(dir, &text::decode_escaped(&escaped, encoding))
-        })
+        if let Some(p) = super::locate_noted(dir, &escaped, noted) {
+            return Some(p);
+        }
+        // Only a name that is not UTF-8 has another reading, and only then is the encoding
+        // worth guessing.
+        if !text::is_escaped(&escaped) {
+            return None;
+        }
+        let (encoding, _) = text::choose(given, [name]);
+        super::locate_noted(dir, &text::decode_escaped(&escaped, encoding), noted)
     };
     if let Some(p) = locate(rest) {
         return (vec![p], Vec::new());
@@ -2294,23 +2297,15 @@ fn load_mtllib(
     given: Option<text::TextEncoding>,
 ) -> Result<Option<text::Decoded>, CookError> {
     let dir = path.parent().unwrap_or(Path::new(""));
-    let (mut found, missing) = find_file(dir, rest, given);
-    if found.is_empty() {
-        out.absent.push(super::Absent::new(dir, &name(rest)));
-    }
-    out.absent
-        .extend(missing.iter().map(|m| super::Absent::new(dir, m)));
+    let (mut found, missing) = find_file(dir, rest, given, &mut out.absent);
     if found.is_empty() {
         // Exporters often name a library that was never shipped (`untitled.mtl`) while the
         // real one sits beside the OBJ under the OBJ's own name.
         let beside_name = path.with_extension("mtl");
         let beside_name = beside_name.file_name().map(text::file_name_text);
-        let beside = beside_name.as_deref().and_then(|n| super::locate(dir, n));
-        if beside.is_none()
-            && let Some(n) = &beside_name
-        {
-            out.absent.push(super::Absent::new(dir, n));
-        }
+        let beside = beside_name
+            .as_deref()
+            .and_then(|n| super::locate_noted(dir, n, &mut out.absent));
         if let Some(beside) = beside.filter(|b| !out.files.contains(b)) {
             out.warnings.push(Warning::new(
                 path,
@@ -2396,24 +2391,20 @@ fn load_mtllib(
                 // A library that is not UTF-8 names files in its encoding: on disk they may
                 // be named by those bytes (unpacked from a Windows archive) or in Unicode.
                 let raw_bytes = |n: &str| legacy.map(|e| e.encode(n).0.into_owned());
-                let file = super::locate(&mtl_dir, statement.file)
-                    .or_else(|| find_file(&mtl_dir, name.as_bytes(), given).0.pop())
+                let noted = &mut out.absent;
+                let file = super::locate_noted(&mtl_dir, statement.file, noted)
+                    .or_else(|| find_file(&mtl_dir, name.as_bytes(), given, noted).0.pop())
                     .or_else(|| {
                         let raw = raw_bytes(statement.file)?;
-                        super::locate(&mtl_dir, &text::escaped(&raw))
+                        super::locate_noted(&mtl_dir, &text::escaped(&raw), noted)
                     })
                     .or_else(|| {
                         let raw = raw_bytes(name)?;
-                        find_file(&mtl_dir, &raw, given).0.pop()
+                        find_file(&mtl_dir, &raw, given, noted).0.pop()
                     });
                 match file {
                     Some(f) => Some(ImageRef::File(f)),
                     None => {
-                        out.absent
-                            .push(super::Absent::new(&mtl_dir, statement.file));
-                        if statement.file != name {
-                            out.absent.push(super::Absent::new(&mtl_dir, name));
-                        }
                         let w = Warning::new(
                             &mtl,
                             line,

@@ -856,7 +856,7 @@ pub fn parse(path: &Path, bytes: &[u8]) -> Result<Imported, CookError> {
     let mut material = None;
     if let Some((file, line)) = &h.texture {
         let dir = path.parent().unwrap_or(Path::new(""));
-        if let Some(image) = super::locate(dir, file) {
+        if let Some(image) = super::locate_noted(dir, file, &mut out.absent) {
             let mut m = SourceMaterial::plain(file.clone());
             m.diffuse = [1.0; 3];
             m.diffuse_texture = Some(ImageRef::File(image));
@@ -871,7 +871,6 @@ pub fn parse(path: &Path, bytes: &[u8]) -> Result<Imported, CookError> {
                     dir.join(file).display()
                 ),
             ));
-            out.absent.push(super::Absent::new(dir, file));
         }
     }
     out.parts.push(Part {
