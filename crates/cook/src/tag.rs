@@ -92,7 +92,7 @@ pub struct Tagging {
 }
 
 /// Keywords in the common European languages and in Russian, Ukrainian, Serbian, Greek,
-/// Chinese, Japanese and Korean, matched against the words of lower-cased names (see
+/// Arabic, Hebrew, Hindi, Chinese, Japanese and Korean, matched against the words of lower-cased names (see
 /// [`name_words`]; Greek written without accents and with `σ` for `ς`). Words of four letters
 /// or fewer must match a whole word ("pod" is a floor, "tripod" is not); longer ones may
 /// start a word or sit inside a compound ("Kirchenfenster", "walls"). Chinese, Japanese and
@@ -117,6 +117,13 @@ const HEURISTICS: &[(&str, MaterialClass)] = &[
     ("vetrata", MaterialClass::WindowUpper),
     ("finestra", MaterialClass::WindowUpper),
     ("glas", MaterialClass::WindowUpper),
+    // German, Danish and Norwegian compounds, which "glas" (a whole word) does not catch.
+    ("glasmalerei", MaterialClass::WindowUpper),
+    ("bleiglas", MaterialClass::WindowUpper),
+    ("buntglas", MaterialClass::WindowUpper),
+    ("glasmaleri", MaterialClass::WindowUpper),
+    ("glasmosaik", MaterialClass::WindowUpper),
+    ("blyglas", MaterialClass::WindowUpper),
     ("fenster", MaterialClass::WindowUpper),
     ("staklo", MaterialClass::WindowUpper),
     ("vitraj", MaterialClass::WindowUpper),
@@ -131,8 +138,17 @@ const HEURISTICS: &[(&str, MaterialClass)] = &[
     ("janela", MaterialClass::WindowUpper),
     ("sklo", MaterialClass::WindowUpper),
     ("vitraž", MaterialClass::WindowUpper),
+    ("vitráž", MaterialClass::WindowUpper),
+    ("vitraz", MaterialClass::WindowUpper),
     ("üveg", MaterialClass::WindowUpper),
     ("uveg", MaterialClass::WindowUpper),
+    // Hungarian compounds, which "üveg" (four letters, a whole word) does not catch.
+    ("ólomüveg", MaterialClass::WindowUpper),
+    ("olomuveg", MaterialClass::WindowUpper),
+    ("üvegablak", MaterialClass::WindowUpper),
+    ("uvegablak", MaterialClass::WindowUpper),
+    ("ablaküveg", MaterialClass::WindowUpper),
+    ("ablakuveg", MaterialClass::WindowUpper),
     ("ablak", MaterialClass::WindowUpper),
     ("sticlă", MaterialClass::WindowUpper),
     ("sticla", MaterialClass::WindowUpper),
@@ -144,6 +160,8 @@ const HEURISTICS: &[(&str, MaterialClass)] = &[
     ("vindue", MaterialClass::WindowUpper),
     ("vindu", MaterialClass::WindowUpper),
     ("lasi", MaterialClass::WindowUpper),
+    ("lasimaalaus", MaterialClass::WindowUpper),
+    ("lyijylasi", MaterialClass::WindowUpper),
     ("ikkuna", MaterialClass::WindowUpper),
     ("pencere", MaterialClass::WindowUpper),
     ("vitray", MaterialClass::WindowUpper),
@@ -167,6 +185,34 @@ const HEURISTICS: &[(&str, MaterialClass)] = &[
     ("ステンドグラス", MaterialClass::WindowUpper),
     ("유리", MaterialClass::WindowUpper),
     ("창문", MaterialClass::WindowUpper),
+    ("글라스", MaterialClass::WindowUpper),
+    // Arabic and Hebrew words of four letters or fewer match whole words only: with the
+    // article (al-, ha-) they are other words.
+    ("زجاج", MaterialClass::WindowUpper),
+    ("الزجاج", MaterialClass::WindowUpper),
+    ("نافذة", MaterialClass::WindowUpper),
+    ("نوافذ", MaterialClass::WindowUpper),
+    ("זכוכית", MaterialClass::WindowUpper),
+    ("חלון", MaterialClass::WindowUpper),
+    ("החלון", MaterialClass::WindowUpper),
+    ("חלונות", MaterialClass::WindowUpper),
+    ("ויטראז", MaterialClass::WindowUpper),
+    ("कांच", MaterialClass::WindowUpper),
+    ("काँच", MaterialClass::WindowUpper),
+    ("शीशा", MaterialClass::WindowUpper),
+    // With the nukta written apart (as NFC leaves it) or composed, and without it.
+    (
+        "\u{916}\u{93F}\u{921}\u{93C}\u{915}\u{940}",
+        MaterialClass::WindowUpper,
+    ),
+    (
+        "\u{916}\u{93F}\u{95C}\u{915}\u{940}",
+        MaterialClass::WindowUpper,
+    ),
+    (
+        "\u{916}\u{93F}\u{921}\u{915}\u{940}",
+        MaterialClass::WindowUpper,
+    ),
     ("floor", MaterialClass::Floor),
     ("ground", MaterialClass::Floor),
     ("pavement", MaterialClass::Floor),
@@ -201,6 +247,13 @@ const HEURISTICS: &[(&str, MaterialClass)] = &[
     ("地面", MaterialClass::Floor),
     ("フロア", MaterialClass::Floor),
     ("바닥", MaterialClass::Floor),
+    ("أرضية", MaterialClass::Floor),
+    ("ارضية", MaterialClass::Floor),
+    ("רצפה", MaterialClass::Floor),
+    ("הרצפה", MaterialClass::Floor),
+    ("\u{92B}\u{93C}\u{930}\u{94D}\u{936}", MaterialClass::Floor),
+    ("\u{95E}\u{930}\u{94D}\u{936}", MaterialClass::Floor),
+    ("\u{92B}\u{930}\u{94D}\u{936}", MaterialClass::Floor),
     ("wall", MaterialClass::Wall),
     ("mur", MaterialClass::Wall),
     ("murs", MaterialClass::Wall),
@@ -234,6 +287,14 @@ const HEURISTICS: &[(&str, MaterialClass)] = &[
     ("牆", MaterialClass::Wall),
     ("壁", MaterialClass::Wall),
     ("벽", MaterialClass::Wall),
+    ("جدار", MaterialClass::Wall),
+    ("الجدار", MaterialClass::Wall),
+    ("حائط", MaterialClass::Wall),
+    ("الحائط", MaterialClass::Wall),
+    ("קיר", MaterialClass::Wall),
+    ("הקיר", MaterialClass::Wall),
+    ("קירות", MaterialClass::Wall),
+    ("दीवार", MaterialClass::Wall),
     ("sky", MaterialClass::Background),
     ("background", MaterialClass::Background),
     ("backdrop", MaterialClass::Background),
@@ -246,6 +307,12 @@ const HEURISTICS: &[(&str, MaterialClass)] = &[
     ("ουρανοσ", MaterialClass::Background),
     ("天空", MaterialClass::Background),
     ("하늘", MaterialClass::Background),
+    ("سماء", MaterialClass::Background),
+    ("السماء", MaterialClass::Background),
+    ("שמיים", MaterialClass::Background),
+    ("שמים", MaterialClass::Background),
+    ("आकाश", MaterialClass::Background),
+    ("आसमान", MaterialClass::Background),
 ];
 
 /// Words that make a window keyword in the same name mean the stone or wood around the glass
@@ -283,14 +350,19 @@ const LOWER: &[&str] = &[
     "inferiore",
 ];
 
-/// The words of a name, lower-cased: split at anything but letters and digits and at
-/// lower-to-upper case changes ("StainedGlass_01" → stained, glass, 01).
+/// The words of a name, lower-cased: split at anything but letters, digits and combining
+/// marks, and at lower-to-upper case changes ("StainedGlass_01" → stained, glass, 01). Marks
+/// a name may or may not write are left out ([`optional_mark`]); the others belong to their
+/// word (a Hindi word's nukta and virama split it in three before).
 pub fn name_words(name: &str) -> Vec<String> {
     let mut words = Vec::new();
     let mut cur = String::new();
     let mut prev_lower = false;
     for c in name.chars() {
-        if !c.is_alphanumeric() {
+        if optional_mark(c) {
+            continue;
+        }
+        if !(c.is_alphanumeric() || is_mark(c)) {
             if !cur.is_empty() {
                 words.push(std::mem::take(&mut cur));
             }
@@ -307,6 +379,31 @@ pub fn name_words(name: &str) -> Vec<String> {
         words.push(cur);
     }
     words
+}
+
+/// A combining mark: part of the word it is written in.
+fn is_mark(c: char) -> bool {
+    use unicode_general_category::{GeneralCategory as G, get_general_category};
+    matches!(
+        get_general_category(c),
+        G::NonspacingMark | G::SpacingMark | G::EnclosingMark
+    )
+}
+
+/// Marks a name may write or leave out, left out of its words so both spellings match: accents
+/// written as combining characters (a name typed on macOS, "τοι\u{301}χος"; Greek keywords are
+/// written without accents, and Latin ones also without), Hebrew points and Arabic vowel
+/// marks (optional in both scripts), the Arabic tatweel (a stretch of the line), and the
+/// zero-width (non-)joiners that shape Arabic and Indic letters.
+fn optional_mark(c: char) -> bool {
+    matches!(c,
+        '\u{300}'..='\u{36F}' // combining diacritical marks
+        | '\u{591}'..='\u{5BD}' | '\u{5BF}' | '\u{5C1}'..='\u{5C2}' | '\u{5C4}'..='\u{5C5}'
+        | '\u{5C7}' // Hebrew points
+        | '\u{610}'..='\u{61A}' | '\u{64B}'..='\u{65F}' | '\u{670}' // Arabic vowel marks
+        | '\u{640}' // tatweel
+        | '\u{200C}' | '\u{200D}'
+    )
 }
 
 /// Han, kana and Hangul: scripts that write compounds without spaces.
@@ -1062,6 +1159,65 @@ mod tests {
         for name in &names {
             let words = name_words(name);
             assert_eq!(keyword_hits(&words), plain(&words), "{name:?}");
+        }
+    }
+
+    /// Every keyword, as a name of its own, as written, capitalised and upper-cased, is found:
+    /// a keyword that the name's splitting cut apart (a Hindi word at its virama) or that
+    /// lower-casing changes could never match.
+    #[test]
+    fn every_keyword_is_found_as_a_name() {
+        for &(k, class) in HEURISTICS {
+            let mut chars = k.chars();
+            let first = chars.next().unwrap();
+            let title: String = first.to_uppercase().chain(chars).collect();
+            for name in [k.to_string(), title, k.to_uppercase()] {
+                let words = name_words(&name);
+                let found: Vec<MaterialClass> = keyword_hits(&words)
+                    .into_iter()
+                    .map(|i| HEURISTICS[i].1)
+                    .collect();
+                assert!(found.contains(&class), "{name:?}: {words:?} {found:?}");
+            }
+        }
+    }
+
+    /// Names as other tools and keyboards write them: accents as combining characters (a
+    /// name typed on macOS), Hebrew with its points, Arabic with its vowel marks and with
+    /// the article, Hindi with its nukta and virama, each finds its class.
+    #[test]
+    fn names_with_marks_find_their_keywords() {
+        for (name, class) in [
+            ("Τοι\u{301}χος", MaterialClass::Wall),
+            ("Vitra\u{301}z\u{30C}_okno", MaterialClass::WindowUpper),
+            ("Fene\u{302}tre haute", MaterialClass::WindowUpper),
+            (
+                "\u{5D7}\u{5B7}\u{5DC}\u{5BC}\u{5D5}\u{5B9}\u{5DF}",
+                MaterialClass::WindowUpper,
+            ),
+            ("ויטראז'_צפוני", MaterialClass::WindowUpper),
+            (
+                "\u{632}\u{64F}\u{62C}\u{64E}\u{627}\u{62C}",
+                MaterialClass::WindowUpper,
+            ),
+            ("الزجاج الملون", MaterialClass::WindowUpper),
+            ("زجاج_معشق", MaterialClass::WindowUpper),
+            ("جـدار", MaterialClass::Wall),
+            ("रंगीन खिड़की", MaterialClass::WindowUpper),
+            ("रंगीन_कांच", MaterialClass::WindowUpper),
+            ("पत्थर फ़र्श", MaterialClass::Floor),
+            ("Ólomüveg ablak", MaterialClass::WindowUpper),
+            ("Bleiglasfenster", MaterialClass::WindowUpper),
+            ("Glasmalerei_Chor", MaterialClass::WindowUpper),
+            ("스테인드글라스", MaterialClass::WindowUpper),
+            ("lasimaalaus", MaterialClass::WindowUpper),
+        ] {
+            let words = name_words(name);
+            let found: Vec<MaterialClass> = keyword_hits(&words)
+                .into_iter()
+                .map(|i| HEURISTICS[i].1)
+                .collect();
+            assert!(found.contains(&class), "{name:?}: {words:?} {found:?}");
         }
     }
 
