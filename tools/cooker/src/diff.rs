@@ -545,7 +545,11 @@ pub fn run(args: Args) -> Outcome {
     }
     // Scene parameters outside geometry and textures.
     if ta.light != tb.light {
-        problems.push("the light differs".into());
+        problems.push(format!(
+            "the light differs: {} in a, {} in b",
+            describe_light(ta.light.as_ref()),
+            describe_light(tb.light.as_ref())
+        ));
     }
     // Cameras and window frames are placed from the geometry, so they move with it: with
     // --max-position-delta their points may move that far too, their directions by 1e-3.
@@ -639,4 +643,24 @@ pub fn run(args: Args) -> Outcome {
         }
     }
     Ok(if within { OK } else { FOUND_PROBLEMS })
+}
+
+/// A pack's light in words, every field at full precision, so two that differ read apart.
+fn describe_light(light: Option<&pack::Light>) -> String {
+    let Some(l) = light else {
+        return "no light".into();
+    };
+    let kind = match &l.kind {
+        pack::LightKind::Directional {
+            direction,
+            angular_size,
+        } => format!(
+            "a sun along {direction:?}, {} degrees across",
+            angular_size.to_degrees()
+        ),
+        pack::LightKind::Point { position, radius } => {
+            format!("a point light at {position:?} of radius {radius}")
+        }
+    };
+    format!("{kind}, colour {:?}, intensity {}", l.colour, l.intensity)
 }

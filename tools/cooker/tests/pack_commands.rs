@@ -257,6 +257,23 @@ fn diff_identical_changed_texel_and_material() {
         text(&o)
     );
 
+    // A changed light is said with both, so a regression run shows what moved.
+    let l = dir.path().join("l.pack");
+    write_sample(&l, |toc, _| {
+        toc.light.as_mut().unwrap().intensity = 2.5;
+    });
+    let o = cooker(&[&"diff", &a, &l]);
+    assert_eq!(o.status.code(), Some(1), "{}", text(&o));
+    let said = text(&o);
+    let line = said
+        .lines()
+        .find(|l| l.contains("the light differs: "))
+        .unwrap_or_else(|| panic!("{said}"));
+    assert!(
+        line.contains("intensity 3 in a") && line.ends_with("intensity 2.5 in b"),
+        "{said}"
+    );
+
     let o = cooker(&[&"diff", &a, &b, &"--max-error", &"-1"]);
     assert_eq!(o.status.code(), Some(2), "{}", text(&o));
     assert!(
