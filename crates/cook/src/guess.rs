@@ -558,6 +558,15 @@ struct ChosenLamp<'a> {
     radius: f64,
 }
 
+impl ChosenLamp<'_> {
+    /// A lamp a hundred times the model's size away (`diag`) shines as the sun does: one
+    /// way, and within 32-bit numbers (a lamp 1e30 units away needed an intensity past f32's
+    /// range for its light to reach the floor, and the scene went black).
+    fn as_sun(&self, diag: f64) -> bool {
+        self.reach_sq.sqrt() > 100.0 * diag
+    }
+}
+
 /// The file's lamp whose light, through the windows, lands the most window area on the
 /// floor (without a floor, comes in through the most window area), scored as the sun is: a
 /// lamp indoors lights no window from outside and is passed over. A spot light counts only
@@ -814,31 +823,47 @@ pub fn guess(p: &Prepared) -> Guess {
             } else {
                 "point"
             };
+            let as_sun = l.as_sun(diag);
             notes.push(format!(
                 "light at [{:.3}, {:.3}, {:.3}]: the model's own {kind} light {:?}, which \
-                 shines in through {} of {} windows{}",
+                 shines in through {} of {} windows{}{}",
                 l.position.x,
                 l.position.y,
                 l.position.z,
                 l.lamp.name,
                 l.windows,
                 windows.len(),
-                if kind == "spot" {
+                if kind == "spot" && !as_sun {
                     " (a pack's light has no cone: it shines every way)"
+                } else {
+                    ""
+                },
+                if as_sun {
+                    ", so far away that it is taken as a sun along its light"
                 } else {
                     ""
                 }
             ));
-            // Exposed as the sun would be, at the distance its light lands from it.
-            let intensity = (sun_intensity(&p.tagging, &classes, l.direction) as f64 * l.reach_sq)
-                .min(f32::MAX as f64);
-            Some(Light {
-                kind: pack::LightKind::Point {
-                    position: f3(l.position),
-                    radius: l.radius as f32,
-                },
-                colour: l.lamp.colour,
-                intensity: intensity as f32,
+            let exposure = sun_intensity(&p.tagging, &classes, l.direction);
+            Some(if as_sun {
+                Light {
+                    kind: pack::LightKind::Directional {
+                        direction: f3(l.direction),
+                        angular_size: SUN_DEG.to_radians(),
+                    },
+                    colour: l.lamp.colour,
+                    intensity: exposure,
+                }
+            } else {
+                // Exposed as the sun would be, at the distance its light lands from it.
+                Light {
+                    kind: pack::LightKind::Point {
+                        position: f3(l.position),
+                        radius: l.radius as f32,
+                    },
+                    colour: l.lamp.colour,
+                    intensity: (exposure as f64 * l.reach_sq) as f32,
+                }
             })
         }
         None => sun.map(|d| Light {
@@ -854,6 +879,7 @@ pub fn guess(p: &Prepared) -> Guess {
     // Where the light travels at a point it passes: one way for the sun, away from a lamp.
     let travel = |at: DVec3| -> Option<DVec3> {
         match &lamp {
+            Some(l) if l.as_sun(diag) => Some(l.direction),
             Some(l) => Some((at - l.position).normalize_or_zero()).filter(|d| *d != DVec3::ZERO),
             None => sun,
         }
@@ -1276,6 +1302,28 @@ mod tests {
             );
             assert!(words.contains("\"Strahler\" are not used"), "{words}");
         }
+
+        // A lamp a million times the hall's size away is a sun along its light.
+        let far = (
+            "Laterne",
+            json!({"translation": [0.0, 6e6, 8e6]}),
+            point.clone(),
+        );
+        let (light, words) = hall_with_lamps(&[far]);
+        match light.as_ref().map(|l| &l.kind) {
+            Some(pack::LightKind::Directional { direction, .. }) => {
+                let d = glam::Vec3::from(*direction);
+                assert!(
+                    (d - glam::Vec3::new(0.0, -0.6, -0.8)).length() < 1e-5,
+                    "{d}"
+                );
+            }
+            other => panic!("{other:?}\n{words}"),
+        }
+        assert!(
+            words.contains("so far away that it is taken as a sun"),
+            "{words}"
+        );
 
         // The file's own sun comes first.
         let sun = (
