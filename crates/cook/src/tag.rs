@@ -645,22 +645,46 @@ pub fn part_geometry(src: &Imported) -> (Vec<PartGeometry>, [f64; 2], f64) {
     (out, range, total)
 }
 
+/// Whether a part's geometry makes it a floor: mostly horizontal, in the lowest tenth of the
+/// model's height (`height`), at least 2 % of the model's area.
+fn floor_like(g: &PartGeometry, height: [f64; 2], total_area: f64) -> bool {
+    let span = (height[1] - height[0]).max(1e-9);
+    g.area > 0.0
+        && g.area >= 0.02 * total_area
+        && g.horizontal / g.area >= 0.75
+        && (g.mean_y - height[0]) / span <= 0.1
+}
+
+/// The area a wall is measured against: the model's, less its floors. A building on open
+/// ground (a terrain plane forty times its footprint) had walls under 2 % of the model's area,
+/// and they were `other`.
+pub fn wall_base(parts: &[PartGeometry], height: [f64; 2], total_area: f64) -> f64 {
+    let floors: f64 = parts
+        .iter()
+        .filter(|g| floor_like(g, height, total_area))
+        .map(|g| g.area)
+        .sum();
+    (total_area - floors).max(0.0)
+}
+
 /// The class geometry suggests: a large, mostly horizontal surface in the lowest tenth of the
 /// model's height is a floor; a large, mostly vertical one rising through at least half the
-/// model's height is a wall. "Large" is at least 2 % of the model's surface area, so
+/// model's height is a wall. "Large" is at least 2 % of the model's surface area for a floor,
+/// and of that area less the floors' (`wall_base`, see [`wall_base`]) for a wall, so
 /// furniture, blocks, statues and trim stay `other`.
 pub fn geometry_heuristic(
     g: &PartGeometry,
     height: [f64; 2],
     total_area: f64,
+    wall_base: f64,
 ) -> Option<(String, MaterialClass)> {
-    if g.area.is_nan() || g.area < 0.02 * total_area || g.area <= 0.0 {
+    if g.area.is_nan() || g.area <= 0.0 {
         return None;
     }
     let span = (height[1] - height[0]).max(1e-9);
     let rel = (g.mean_y - height[0]) / span;
     let share = |a: f64| a / g.area;
-    if share(g.horizontal) >= 0.75 && rel <= 0.1 {
+    if floor_like(g, height, total_area) {
         return Some((
             format!(
                 "geometry: {:.0}% horizontal, {:.0}% of the model's area, at {:.0}% of its height",
@@ -672,12 +696,20 @@ pub fn geometry_heuristic(
         ));
     }
     // A wall rises through most of the building; a block or a statue does not.
-    if share(g.vertical) >= 0.75 && (g.y_range[1] - g.y_range[0]) >= 0.5 * span {
+    if g.area >= 0.02 * wall_base
+        && share(g.vertical) >= 0.75
+        && (g.y_range[1] - g.y_range[0]) >= 0.5 * span
+    {
         return Some((
             format!(
-                "geometry: {:.0}% vertical, {:.0}% of the model's area",
+                "geometry: {:.0}% vertical, {:.0}% of the model's area{}",
                 share(g.vertical) * 100.0,
-                g.area / total_area * 100.0
+                g.area / total_area * 100.0,
+                if g.area < 0.02 * total_area {
+                    format!(", {:.0}% of it less the floors", g.area / wall_base * 100.0)
+                } else {
+                    String::new()
+                }
             ),
             MaterialClass::Wall,
         ));
@@ -759,6 +791,7 @@ fn split_mixed_parts(
 ) -> ((Vec<PartGeometry>, [f64; 2], f64), Vec<Cut>) {
     let geometry = part_geometry(src);
     let (parts, height, total) = (&geometry.0, geometry.1, geometry.2);
+    let base = wall_base(parts, height, total);
     let split: Vec<bool> = src
         .parts
         .iter()
@@ -766,7 +799,7 @@ fn split_mixed_parts(
         .map(|(part, g)| {
             g.area > 0.0
                 && Evidence::of(src, part, rules).is_none()
-                && geometry_heuristic(g, height, total).is_none()
+                && geometry_heuristic(g, height, total, base).is_none()
         })
         .collect();
     let mut cut = vec![Cut::None; src.parts.len()];
@@ -818,7 +851,9 @@ fn split_mixed_parts(
         let classed = [MaterialClass::Floor, MaterialClass::Wall]
             .iter()
             .zip(&g)
-            .all(|(want, g)| geometry_heuristic(g, height, total).map(|c| c.1) == Some(*want));
+            .all(|(want, g)| {
+                geometry_heuristic(g, height, total, base).map(|c| c.1) == Some(*want)
+            });
         if !classed
             || !tris
                 .iter()
@@ -913,6 +948,7 @@ pub fn tag(manifest: &Manifest, sources: &mut [Imported]) -> Result<Tagging, Coo
         let mut used = vec![false; src.materials.len()];
         let part_counts = src.part_triangles();
         let geometry = &geometries[si];
+        let base = wall_base(&geometry.0, geometry.1, geometry.2);
         let mut mats = Vec::with_capacity(src.parts.len());
         let mut decisions = Vec::with_capacity(src.parts.len());
         for (pi, part) in src.parts.iter().enumerate() {
@@ -965,7 +1001,7 @@ pub fn tag(manifest: &Manifest, sources: &mut [Imported]) -> Result<Tagging, Coo
                 ),
                 (None, None, None) => {
                     let cut = cuts[si][pi];
-                    match geometry_heuristic(&geometry.0[pi], geometry.1, geometry.2) {
+                    match geometry_heuristic(&geometry.0[pi], geometry.1, geometry.2, base) {
                         Some((reason, class)) if cut == Cut::Piece => (
                             Decision::Geometry {
                                 reason: format!(
@@ -1300,6 +1336,59 @@ mod tests {
         .unwrap();
         assert_eq!(t.materials.len(), 1);
         assert_eq!(t.materials[0].material.class, MaterialClass::Wall);
+    }
+
+    /// A hall whose ground and walls are separate objects in one material named for nothing
+    /// (as SketchUp writes groups): the ground is the floor, and the walls are walls whatever
+    /// the ground's size. On open ground forty times the hall's footprint, walls short of 2 %
+    /// of the model's area were `other`; they are measured against the area less the floors.
+    #[test]
+    fn walls_are_walls_on_open_ground_of_any_size() {
+        for half in [5.0, 20.0, 500.0] {
+            let (obj, _) = crate::testing::hall_on_open_ground(half);
+            let mut piece = 0;
+            let obj: String = obj
+                .lines()
+                .map(|l| match l {
+                    "usemtl ground" | "usemtl wall" => {
+                        piece += 1;
+                        format!("o piece{piece}\nusemtl Material1\n")
+                    }
+                    "usemtl glass" => format!("o glass\n{l}\n"),
+                    _ => format!("{l}\n"),
+                })
+                .collect();
+            let dir = tempfile::tempdir().unwrap();
+            let path = dir.path().join("hall.obj");
+            std::fs::write(&path, obj).unwrap();
+            std::fs::write(
+                dir.path().join("hall.mtl"),
+                "newmtl Material1\nKd 0.6 0.6 0.6\nnewmtl glass\nKd 0.2 0.4 0.8\nd 0.3\n",
+            )
+            .unwrap();
+            let mut src = crate::import::import(&path).unwrap();
+            let t = tag(&manifest(""), std::slice::from_mut(&mut src)).unwrap();
+            let class_of = |object: &str| {
+                let pi = src
+                    .parts
+                    .iter()
+                    .position(|p| p.names.object.as_deref() == Some(object))
+                    .unwrap();
+                t.materials[t.part_material[0][pi] as usize].material.class
+            };
+            assert_eq!(
+                class_of("piece1"),
+                MaterialClass::Floor,
+                "{half} m of ground"
+            );
+            for wall in 2..=5 {
+                assert_eq!(
+                    class_of(&format!("piece{wall}")),
+                    MaterialClass::Wall,
+                    "piece{wall} on {half} m of ground"
+                );
+            }
+        }
     }
 
     #[test]
