@@ -544,6 +544,15 @@ fn sun_intensity(tagging: &crate::tag::Tagging, classes: &[MaterialClass], d: DV
     (0.85 / (albedo.max(0.2) * cos)).clamp(0.5, 8.0)
 }
 
+/// The 5 x 5 points a window's light is traced from: the centres of a grid over its rectangle.
+fn window_samples(w: &crate::instances::Instance) -> impl Iterator<Item = DVec3> + '_ {
+    (0..5).flat_map(move |i| {
+        (0..5).map(move |j| {
+            w.origin + w.right * ((i as f64 + 0.5) / 5.0) + w.up * ((j as f64 + 0.5) / 5.0)
+        })
+    })
+}
+
 /// A lamp of the model's file chosen as the light, and what the guess measured of it.
 struct ChosenLamp<'a> {
     lamp: &'a crate::import::FileLamp,
@@ -586,35 +595,30 @@ fn best_lamp<'a>(
         let (mut direction, mut reach_sq, mut nearest) = (DVec3::ZERO, 0.0, f64::INFINITY);
         for w in windows {
             let mut landed = 0.0;
-            for i in 0..5 {
-                for j in 0..5 {
-                    let q = w.origin
-                        + w.right * ((i as f64 + 0.5) / 5.0)
-                        + w.up * ((j as f64 + 0.5) / 5.0);
-                    let to = q - at;
-                    let distance = to.length();
-                    if distance.is_nan() || distance <= 0.0 {
-                        continue;
-                    }
-                    let d = to / distance;
-                    let entry = w.inside.dot(d);
-                    if entry <= MIN_ENTRY_COS || cone.is_some_and(|(a, cos)| a.dot(d) < cos) {
-                        continue;
-                    }
-                    let reach = match floor {
-                        Some(fp) => match fp.land(q, d) {
-                            Some(hit) => (hit - at).length(),
-                            None => continue,
-                        },
-                        None => distance,
-                    };
-                    let s = w.area / 25.0 * entry;
-                    landed += s;
-                    direction += d * s;
-                    reach_sq += reach * reach * s;
-                    weight += s;
-                    nearest = nearest.min(distance);
+            for q in window_samples(w) {
+                let to = q - at;
+                let distance = to.length();
+                if distance.is_nan() || distance <= 0.0 {
+                    continue;
                 }
+                let d = to / distance;
+                let entry = w.inside.dot(d);
+                if entry <= MIN_ENTRY_COS || cone.is_some_and(|(a, cos)| a.dot(d) < cos) {
+                    continue;
+                }
+                let reach = match floor {
+                    Some(fp) => match fp.land(q, d) {
+                        Some(hit) => (hit - at).length(),
+                        None => continue,
+                    },
+                    None => distance,
+                };
+                let s = w.area / 25.0 * entry;
+                landed += s;
+                direction += d * s;
+                reach_sq += reach * reach * s;
+                weight += s;
+                nearest = nearest.min(distance);
             }
             score += landed;
             lit += usize::from(landed > 0.0);
@@ -764,15 +768,9 @@ pub fn guess(p: &Prepared) -> Guess {
                     if w.inside.dot(d) <= MIN_ENTRY_COS {
                         continue;
                     }
-                    let mut landed = 0;
-                    for i in 0..5 {
-                        for j in 0..5 {
-                            let q = w.origin
-                                + w.right * ((i as f64 + 0.5) / 5.0)
-                                + w.up * ((j as f64 + 0.5) / 5.0);
-                            landed += fp.land(q, d).is_some() as u32;
-                        }
-                    }
+                    let landed: u32 = window_samples(w)
+                        .map(|q| fp.land(q, d).is_some() as u32)
+                        .sum();
                     score += w.area * landed as f64 / 25.0 * w.inside.dot(d);
                 }
                 // Ties (and near ties) go to a sun near 45°, which casts patches of a sensible
