@@ -556,7 +556,6 @@ fn window_samples(w: &crate::instances::Instance) -> impl Iterator<Item = DVec3>
 /// A lamp of the model's file chosen as the light, and what the guess measured of it.
 struct ChosenLamp<'a> {
     lamp: &'a crate::import::FileLamp,
-    position: DVec3,
     /// How many windows its light comes in through.
     windows: usize,
     /// Its light's mean direction where it lands (or, without a floor, where it enters).
@@ -568,6 +567,10 @@ struct ChosenLamp<'a> {
 }
 
 impl ChosenLamp<'_> {
+    fn position(&self) -> DVec3 {
+        DVec3::from(self.lamp.position.map(f64::from))
+    }
+
     /// A lamp a hundred times the model's size away (`diag`) shines as the sun does: one
     /// way, and within 32-bit numbers (a lamp 1e30 units away needed an intensity past f32's
     /// range for its light to reach the floor, and the scene went black).
@@ -628,7 +631,6 @@ fn best_lamp<'a>(
                 score,
                 ChosenLamp {
                     lamp,
-                    position: at,
                     windows: lit,
                     direction: (direction / weight).normalize_or(DVec3::NEG_Y),
                     reach_sq: reach_sq / weight,
@@ -825,9 +827,9 @@ pub fn guess(p: &Prepared) -> Guess {
             notes.push(format!(
                 "light at [{:.3}, {:.3}, {:.3}]: the model's own {kind} light {:?}, which \
                  shines in through {} of {} windows{}{}",
-                l.position.x,
-                l.position.y,
-                l.position.z,
+                l.position().x,
+                l.position().y,
+                l.position().z,
                 l.lamp.name,
                 l.windows,
                 windows.len(),
@@ -856,7 +858,7 @@ pub fn guess(p: &Prepared) -> Guess {
                 // Exposed as the sun would be, at the distance its light lands from it.
                 Light {
                     kind: pack::LightKind::Point {
-                        position: f3(l.position),
+                        position: l.lamp.position,
                         radius: l.radius as f32,
                     },
                     colour: l.lamp.colour,
@@ -878,7 +880,7 @@ pub fn guess(p: &Prepared) -> Guess {
     let travel = |at: DVec3| -> Option<DVec3> {
         match &lamp {
             Some(l) if l.as_sun(diag) => Some(l.direction),
-            Some(l) => Some((at - l.position).normalize_or_zero()).filter(|d| *d != DVec3::ZERO),
+            Some(l) => Some((at - l.position()).normalize_or_zero()).filter(|d| *d != DVec3::ZERO),
             None => sun,
         }
     };
@@ -990,12 +992,11 @@ pub fn guess(p: &Prepared) -> Guess {
     by_area.sort_by(|x, y| y.area.total_cmp(&x.area));
     // The largest window the sun comes in through, glowing over its light on the floor; the
     // largest of all where the sun enters none.
-    let centre_of = |w: &crate::instances::Instance| w.origin + (w.right + w.up) * 0.5;
     let enters = |w: &crate::instances::Instance| {
-        travel(centre_of(w)).is_some_and(|d| w.inside.dot(d) > MIN_ENTRY_COS)
+        travel(w.centre()).is_some_and(|d| w.inside.dot(d) > MIN_ENTRY_COS)
     };
     if let Some(w) = by_area.iter().find(|w| enters(w)).or(by_area.first()) {
-        let target = w.origin + (w.right + w.up) * 0.5;
+        let target = w.centre();
         // From inside: back from the window along its inside normal, at eye height.
         let back = (w.width().max(w.height()) * 1.5).max(inner_diag * 0.05);
         let mut pos = within(target + w.inside * back);
@@ -1004,8 +1005,8 @@ pub fn guess(p: &Prepared) -> Guess {
         if let Some(fp) = &floor {
             // As the sun's score: a window the light leaves through lights the ground outside.
             let lit = by_area.iter().filter(|w| enters(w)).find_map(|w| {
-                let d = travel(centre_of(w))?;
-                Some((fp.land(centre_of(w), d)?, d))
+                let d = travel(w.centre())?;
+                Some((fp.land(w.centre(), d)?, d))
             });
             if let Some((spot, d)) = lit {
                 let away = DVec3::new(d.x, 0.0, d.z).normalize_or_zero();

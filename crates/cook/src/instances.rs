@@ -59,6 +59,11 @@ impl Instance {
         self.up.length()
     }
 
+    /// The middle of the fitted rectangle (not the glass's area centroid, `centroid`).
+    pub fn centre(&self) -> DVec3 {
+        self.origin + (self.right + self.up) * 0.5
+    }
+
     /// The planar texture coordinate of `p`, seen from inside: u from left to right, v from
     /// the top row of the design down, as the pack stores texture coordinates (in OBJ terms,
     /// (0, 0) is the bottom left).

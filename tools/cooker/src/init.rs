@@ -328,7 +328,7 @@ pub fn run(args: Args) -> Outcome {
         .zip(&prepared.windows.material)
     {
         let plan = prepared.tagging.materials[m as usize].window.as_deref();
-        let c = inst.origin + (inst.right + inst.up) * 0.5;
+        let c = inst.centre();
         let _ = writeln!(
             t,
             "# {:.2} x {:.2}, centre {}, {} triangles of {}; inside: {}",
