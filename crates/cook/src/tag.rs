@@ -1198,6 +1198,16 @@ mod tests {
         }
     }
 
+    /// Asserts that the keywords in `name` include one of `class`.
+    fn finds(name: &str, class: MaterialClass) {
+        let words = name_words(name);
+        let found: Vec<MaterialClass> = keyword_hits(&words)
+            .into_iter()
+            .map(|i| HEURISTICS[i].1)
+            .collect();
+        assert!(found.contains(&class), "{name:?}: {words:?} {found:?}");
+    }
+
     /// Every keyword, as a name of its own, as written, capitalised and upper-cased, is found:
     /// a keyword that the name's splitting cut apart (a Hindi word at its virama) or that
     /// lower-casing changes could never match.
@@ -1208,12 +1218,7 @@ mod tests {
             let first = chars.next().unwrap();
             let title: String = first.to_uppercase().chain(chars).collect();
             for name in [k.to_string(), title, k.to_uppercase()] {
-                let words = name_words(&name);
-                let found: Vec<MaterialClass> = keyword_hits(&words)
-                    .into_iter()
-                    .map(|i| HEURISTICS[i].1)
-                    .collect();
-                assert!(found.contains(&class), "{name:?}: {words:?} {found:?}");
+                finds(&name, class);
             }
         }
     }
@@ -1248,12 +1253,7 @@ mod tests {
             ("스테인드글라스", MaterialClass::WindowUpper),
             ("lasimaalaus", MaterialClass::WindowUpper),
         ] {
-            let words = name_words(name);
-            let found: Vec<MaterialClass> = keyword_hits(&words)
-                .into_iter()
-                .map(|i| HEURISTICS[i].1)
-                .collect();
-            assert!(found.contains(&class), "{name:?}: {words:?} {found:?}");
+            finds(name, class);
         }
     }
 

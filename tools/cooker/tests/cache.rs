@@ -441,6 +441,44 @@ fn explain_names_the_setting_or_input_that_changed() {
     assert!(!edited.contains("setting "), "{edited}");
 }
 
+/// A command's stdout, then its stderr.
+fn said(o: &Output) -> String {
+    format!("{}{}", stdout(o), stderr(o))
+}
+
+/// Asserts that what `o` printed contains `text`, naming `model` where it does not.
+fn says(model: &str, o: &Output, text: &str) {
+    assert!(said(o).contains(text), "{model}: {}", said(o));
+}
+
+/// Files of `folder` under tests/data/third_party, by name and content.
+fn third_party_files<'a>(folder: &str, names: &[&'a str]) -> Vec<(&'a str, Vec<u8>)> {
+    let dir = root().join("tests/data/third_party").join(folder);
+    names
+        .iter()
+        .map(|&f| (f, std::fs::read(dir.join(f)).unwrap()))
+        .collect()
+}
+
+/// `files` written into a folder of their own under `parent`, named after `model`; the
+/// model's path there.
+fn model_folder(parent: &Path, model: &str, files: &[(&str, Vec<u8>)]) -> PathBuf {
+    let here = parent.join(model.replace('.', "_"));
+    std::fs::create_dir_all(&here).unwrap();
+    for (f, bytes) in files {
+        std::fs::write(here.join(f), bytes).unwrap();
+    }
+    here.join(model)
+}
+
+/// Asserts that `cooked` is what a cook of `scene` without the cache writes.
+fn is_the_uncached_cook(model: &str, scene: &Path, cooked: &[u8]) {
+    let fresh = scene.with_file_name("fresh.pack");
+    let o = common::cooker(&[&"cook", &"--no-cache", &scene, &"-o", &fresh]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert_eq!(cooked, std::fs::read(&fresh).unwrap(), "{model}");
+}
+
 /// A file a model names that is missing (an image beside a glTF, an OBJ's material library, a
 /// PLY's texture) is part of what a cached cook depends on: once it is there, the scene is
 /// cooked with it, not reused as it was cooked without.
@@ -462,23 +500,16 @@ fn a_missing_file_that_appears_is_cooked_in_not_reused_without() {
     let cases: [(&str, Files, PathBuf, &str); 3] = [
         (
             "BoxTextured.gltf",
-            ["BoxTextured.gltf", "BoxTextured0.bin"]
-                .map(|f| {
-                    (
-                        f,
-                        std::fs::read(third.join("gltf/BoxTextured").join(f)).unwrap(),
-                    )
-                })
-                .to_vec(),
+            third_party_files(
+                "gltf/BoxTextured",
+                &["BoxTextured.gltf", "BoxTextured0.bin"],
+            ),
             third.join("gltf/BoxTextured/CesiumLogoFlat.png"),
             "CesiumLogoFlat.png",
         ),
         (
             "cornell_box.obj",
-            vec![(
-                "cornell_box.obj",
-                std::fs::read(third.join("cornell_box/cornell_box.obj")).unwrap(),
-            )],
+            third_party_files("cornell_box", &["cornell_box.obj"]),
             third.join("cornell_box/cornell_box.mtl"),
             "cornell_box.mtl",
         ),
@@ -491,17 +522,10 @@ fn a_missing_file_that_appears_is_cooked_in_not_reused_without() {
         ),
     ];
     for (model, files, missing, name) in cases {
-        let here = dir.path().join(model.replace('.', "_"));
-        std::fs::create_dir_all(&here).unwrap();
-        for (f, bytes) in &files {
-            std::fs::write(here.join(f), bytes).unwrap();
-        }
-        let scene = here.join(model);
+        let scene = model_folder(dir.path(), model, &files);
+        let here = scene.parent().unwrap();
         let out = here.join("out.pack");
-        let said = |o: &Output| format!("{}{}", stdout(o), stderr(o));
-        let says = |o: &Output, text: &str| {
-            assert!(said(o).contains(text), "{model}: {}", said(o));
-        };
+        let says = |o: &Output, text: &str| says(model, o, text);
         let first = cook(&scene, &out, &cache);
         says(&first, "not found");
         let again = cook(&scene, &out, &cache);
@@ -518,10 +542,7 @@ fn a_missing_file_that_appears_is_cooked_in_not_reused_without() {
         );
         let cooked = std::fs::read(&out).unwrap();
         assert_ne!(cooked, without, "{model}: the file changed nothing");
-        let fresh = here.join("fresh.pack");
-        let o = common::cooker(&[&"cook", &"--no-cache", &scene, &"-o", &fresh]);
-        assert!(o.status.success(), "{}", stderr(&o));
-        assert_eq!(cooked, std::fs::read(&fresh).unwrap(), "{model}");
+        is_the_uncached_cook(model, &scene, &cooked);
         let last = cook(&scene, &out, &cache);
         says(&last, "up to date");
 
@@ -554,14 +575,10 @@ fn a_file_found_in_another_case_gives_way_to_its_own_name_and_the_cache_sees_it(
     let cases: [Case; 2] = [
         (
             "BoxTextured.gltf",
-            ["BoxTextured.gltf", "BoxTextured0.bin"]
-                .map(|f| {
-                    (
-                        f,
-                        std::fs::read(third.join("gltf/BoxTextured").join(f)).unwrap(),
-                    )
-                })
-                .to_vec(),
+            third_party_files(
+                "gltf/BoxTextured",
+                &["BoxTextured.gltf", "BoxTextured0.bin"],
+            ),
             "CesiumLogoFlat.png",
             "cesiumlogoflat.PNG",
             std::fs::read(third.join("gltf/BoxTextured/CesiumLogoFlat.png")).unwrap(),
@@ -570,10 +587,7 @@ fn a_file_found_in_another_case_gives_way_to_its_own_name_and_the_cache_sees_it(
         ),
         (
             "cornell_box.obj",
-            vec![(
-                "cornell_box.obj",
-                std::fs::read(third.join("cornell_box/cornell_box.obj")).unwrap(),
-            )],
+            third_party_files("cornell_box", &["cornell_box.obj"]),
             "cornell_box.mtl",
             "Cornell_Box.MTL",
             mtl.clone().into_bytes(),
@@ -585,18 +599,11 @@ fn a_file_found_in_another_case_gives_way_to_its_own_name_and_the_cache_sees_it(
             first_bytes, own_bytes,
             "{model}: the two files are the same"
         );
-        let here = dir.path().join(model.replace('.', "_"));
-        std::fs::create_dir_all(&here).unwrap();
-        for (f, bytes) in &files {
-            std::fs::write(here.join(f), bytes).unwrap();
-        }
+        let scene = model_folder(dir.path(), model, &files);
+        let here = scene.parent().unwrap();
         std::fs::write(here.join(other_case), &first_bytes).unwrap();
-        let scene = here.join(model);
         let out = here.join("out.pack");
-        let said = |o: &Output| format!("{}{}", stdout(o), stderr(o));
-        let says = |o: &Output, text: &str| {
-            assert!(said(o).contains(text), "{model}: {}", said(o));
-        };
+        let says = |o: &Output, text: &str| says(model, o, text);
         let first = cook(&scene, &out, &cache);
         assert!(
             !said(&first).contains("not found"),
@@ -614,10 +621,7 @@ fn a_file_found_in_another_case_gives_way_to_its_own_name_and_the_cache_sees_it(
         );
         let cooked = std::fs::read(&out).unwrap();
         assert_ne!(cooked, before, "{model}: its own file changed nothing");
-        let fresh = here.join("fresh.pack");
-        let o = common::cooker(&[&"cook", &"--no-cache", &scene, &"-o", &fresh]);
-        assert!(o.status.success(), "{}", stderr(&o));
-        assert_eq!(cooked, std::fs::read(&fresh).unwrap(), "{model}");
+        is_the_uncached_cook(model, &scene, &cooked);
         says(&cook(&scene, &out, &cache), "up to date");
 
         // Its own name gone again: the other spelling's cook, as cached before.
