@@ -34,7 +34,8 @@ pub struct Args {
     #[arg(long = "tolerance-lsb", alias = "max-error", value_name = "LSB")]
     tolerance_lsb: Option<f64>,
     /// Largest vertex position change accepted (scene units, per axis); default: identical.
-    /// Given, the same triangles in another vertex or triangle order are accepted too.
+    /// Given, the same triangles in another vertex or triangle order are accepted too, and
+    /// cameras, window frames and the light the cook placed from the geometry may move with it.
     #[arg(long, value_name = "D")]
     max_position_delta: Option<f64>,
 }
@@ -141,26 +142,150 @@ fn direction_tolerance(max_delta: f64) -> f64 {
     if max_delta > 0.0 { 1e-3 } else { 0.0 }
 }
 
+/// How far a guessed camera's clip planes may move per unit of `--max-position-delta`: the
+/// far plane is three times the model's bounding-box diagonal, which moves by at most
+/// `2 * sqrt(3)` times the delta (each end by the delta on every axis). A hall scaled by 1e-4
+/// (2 mm at its ground's edge) moved its far plane 17 mm, and the cameras differed.
+const CLIP_PER_DELTA: f64 = 6.0 * 1.732_050_807_568_877_2;
+
 fn cameras_differ(a: &[pack::Camera], b: &[pack::Camera], max_delta: f64) -> Option<String> {
     let names = |c: &[pack::Camera]| c.iter().map(|c| c.name.clone()).collect::<Vec<_>>();
     if names(a) != names(b) {
         return Some(format!("{:?} in a, {:?} in b", names(a), names(b)));
     }
     for (x, y) in a.iter().zip(b) {
-        let points = corner_delta(&x.position, &y.position)
-            .max(corner_delta(&x.target, &y.target))
-            .max((x.near as f64 - y.near as f64).abs())
+        let points = corner_delta(&x.position, &y.position).max(corner_delta(&x.target, &y.target));
+        let clip = (x.near as f64 - y.near as f64)
+            .abs()
             .max((x.far as f64 - y.far as f64).abs());
         let up = corner_delta(&x.up, &y.up);
-        if points > max_delta || up > direction_tolerance(max_delta) || x.fov_y != y.fov_y {
+        if points > max_delta
+            || clip > CLIP_PER_DELTA * max_delta
+            || up > direction_tolerance(max_delta)
+            || x.fov_y != y.fov_y
+        {
             return Some(format!(
-                "{:?}: position, target or clip planes moved by {points:.3e}, up by {up:.3e}, \
-                 field of view {} and {} degrees",
+                "{:?}: position or target moved by {points:.3e}, clip planes by {clip:.3e}, up \
+                 by {up:.3e}, field of view {} and {} degrees",
                 x.name, x.fov_y, y.fov_y
             ));
         }
     }
     None
+}
+
+/// How far a guessed sun's intensity may move with its direction: it is `0.85 / (albedo *
+/// max(cos, 0.2))` of the angle to the vertical, so a direction moved by `t` per axis changes
+/// it by at most `t / 0.2`, relatively.
+const SUN_INTENSITY_PER_DIRECTION: f64 = 5.0;
+
+/// Whether the two packs' lights differ by more than geometry moved `max_delta` explains, and
+/// if so, what (an empty string where any difference counts). The cook places a guessed
+/// light from the geometry, as it places cameras and window frames: a sun's direction and
+/// exposure follow the windows and the floor, a file's lamp's radius and intensity follow how
+/// far its light travels. So, with `--max-position-delta`, a lamp may move that far, its
+/// radius too, directions by the directions' tolerance, and the intensity by what those
+/// moves can change: a lamp's is its exposure times the squared distance its light travels,
+/// which is at least the distance to the nearest window of `a`, and which each end of the
+/// path moves by at most `max_delta` per axis. Colour, kind and the sun's size come from the
+/// file or the manifest and must be equal. Without `--max-position-delta`, any difference
+/// counts.
+fn light_differs(ta: &pack::Toc, tb: &pack::Toc, max_delta: f64) -> Option<String> {
+    let (a, b) = match (&ta.light, &tb.light) {
+        (Some(a), Some(b)) => (a, b),
+        (None, None) => return None,
+        _ => return Some(String::new()),
+    };
+    if a == b {
+        return None;
+    }
+    if max_delta <= 0.0 || a.colour != b.colour {
+        return Some(String::new());
+    }
+    let turn = direction_tolerance(max_delta);
+    let exposure = turn * SUN_INTENSITY_PER_DIRECTION;
+    let (moved, intensity_bound) = match (&a.kind, &b.kind) {
+        (
+            pack::LightKind::Directional {
+                direction: d,
+                angular_size: s,
+            },
+            pack::LightKind::Directional {
+                direction: e,
+                angular_size: t,
+            },
+        ) => {
+            if s != t {
+                return Some(String::new());
+            }
+            let by = corner_delta(d, e);
+            (
+                (by > turn).then(|| format!(" (its direction moved by {by:.3e} > {turn:.0e})")),
+                exposure,
+            )
+        }
+        (
+            pack::LightKind::Point {
+                position: p,
+                radius: r,
+            },
+            pack::LightKind::Point {
+                position: q,
+                radius: s,
+            },
+        ) => {
+            let by = corner_delta(p, q).max((*r as f64 - *s as f64).abs());
+            // Both ends of the light's path move, each by `max_delta` on every axis.
+            let reach = ta
+                .windows
+                .iter()
+                .map(|w| distance_to_window(p, w))
+                .fold(f64::INFINITY, f64::min);
+            let stretch = 1.0 + 2.0 * 3f64.sqrt() * max_delta / reach;
+            (
+                (by > max_delta).then(|| {
+                    format!(" (its position or radius moved by {by:.3e} > {max_delta:.3e})")
+                }),
+                (1.0 + exposure) * stretch * stretch - 1.0,
+            )
+        }
+        _ => return Some(String::new()),
+    };
+    if moved.is_some() {
+        return moved;
+    }
+    let (i, j) = (a.intensity as f64, b.intensity as f64);
+    let change = if i == j {
+        0.0
+    } else {
+        (j / i).max(i / j) - 1.0
+    };
+    // 1e-6 for the f32 the intensity is stored in; NaN (zero against another) is a change.
+    if change <= intensity_bound + 1e-6 {
+        None
+    } else {
+        Some(format!(
+            " (its intensity by {change:.3e} relatively, more than the {intensity_bound:.3e} \
+             the geometry's moves allow)"
+        ))
+    }
+}
+
+/// The distance from `p` to a window's rectangle.
+fn distance_to_window(p: &[f32; 3], w: &pack::Window) -> f64 {
+    let v = |a: &[f32; 3]| glam::DVec3::from(a.map(f64::from));
+    let (o, u, t) = (v(&w.origin), v(&w.u_axis), v(&w.v_axis));
+    let d = v(p) - o;
+    let along = |axis: glam::DVec3| {
+        let len2 = axis.length_squared();
+        if len2 > 0.0 {
+            axis * (d.dot(axis) / len2).clamp(0.0, 1.0)
+        } else {
+            glam::DVec3::ZERO
+        }
+    };
+    // The rectangle's axes are at right angles, so the nearest point clamps each on its own.
+    (d - along(u) - along(t)).length()
 }
 
 fn windows_differ(ta: &pack::Toc, tb: &pack::Toc, max_delta: f64) -> Option<String> {
@@ -544,9 +669,9 @@ pub fn run(args: Args) -> Outcome {
         }
     }
     // Scene parameters outside geometry and textures.
-    if ta.light != tb.light {
+    if let Some(why) = light_differs(ta, tb, max_delta) {
         problems.push(format!(
-            "the light differs: {} in a, {} in b",
+            "the light differs{why}: {} in a, {} in b",
             describe_light(ta.light.as_ref()),
             describe_light(tb.light.as_ref())
         ));

@@ -1539,6 +1539,84 @@ fn an_unedited_init_manifest_cooks_the_bare_cook_s_very_pack() {
     }
 }
 
+/// A regression run over a re-exported model: the hall glTF lit by its lantern, written again
+/// with the hall a ten-thousandth larger (2 mm at the ground's edge), as another tool's
+/// rounding moves it. The lantern's light is placed from the geometry, its intensity from how
+/// far the light travels, so it changes too: `diff --max-position-delta` accepts it within the
+/// delta, as it does the moved triangles, cameras and window frames. It was "the light
+/// differs" at any delta before. A lantern moved farther than the delta, or of another
+/// colour, is still a difference.
+#[test]
+fn a_re_exported_lamp_lit_hall_diffs_within_its_position_delta() {
+    let dir = tempfile::tempdir().unwrap();
+    let hall = |name: &str, scale: f64, lantern: [f64; 3], colour: [f64; 3]| {
+        let (mut gltf, bin) = cook::testing::hall_gltf(
+            20.0,
+            vec![
+                serde_json::json!({"name": "Laterne", "translation": lantern,
+                "extensions": {"KHR_lights_punctual": {"light": 0}}}),
+            ],
+            vec![serde_json::json!({"type": "point", "color": colour})],
+        );
+        gltf["nodes"][0]["scale"] = serde_json::json!([scale, scale, scale]);
+        let folder = dir.path().join(name);
+        std::fs::create_dir(&folder).unwrap();
+        std::fs::write(folder.join("hall.bin"), bin).unwrap();
+        let model = folder.join("hall.gltf");
+        std::fs::write(&model, serde_json::to_vec(&gltf).unwrap()).unwrap();
+        let pack = dir.path().join(format!("{name}.pack"));
+        cook(&model, &pack, &[]);
+        pack
+    };
+    let light = |pack: &Path| info(pack)["light"].clone();
+    let amber = [1.0, 0.8, 0.5];
+    let a = hall("a", 1.0, [0.0, 6.0, 8.0], amber);
+    let b = hall("b", 1.0001, [0.0, 6.0, 8.0], amber);
+    assert_eq!(light(&a)["type"], "point", "{:#}", light(&a));
+    assert_ne!(
+        light(&a)["intensity"],
+        light(&b)["intensity"],
+        "the moved geometry changes how far the lantern's light travels"
+    );
+    let diff = |b: &Path, delta: Option<&str>| {
+        let mut args: Vec<&dyn AsRef<std::ffi::OsStr>> = vec![&"diff", &a, &b];
+        if let Some(d) = &delta {
+            args.extend([&"--max-position-delta" as &dyn AsRef<std::ffi::OsStr>, d]);
+        }
+        let o = cooker(&args);
+        (o.status.code(), text(&o.stdout))
+    };
+    let (code, said) = diff(&b, None);
+    assert_eq!(code, Some(1), "{said}");
+    assert!(
+        said.contains("the light differs: a point light at"),
+        "{said}"
+    );
+    let (code, said) = diff(&b, Some("3e-3"));
+    assert_eq!(code, Some(0), "{said}");
+    assert!(said.contains("result: within thresholds"), "{said}");
+    // A tenth of a millimetre is less than the hall moved.
+    let (code, said) = diff(&b, Some("1e-4"));
+    assert_eq!(code, Some(1), "{said}");
+
+    let moved = hall("moved", 1.0, [0.0, 6.05, 8.0], amber);
+    let (code, said) = diff(&moved, Some("3e-3"));
+    assert_eq!(code, Some(1), "{said}");
+    assert!(
+        said.contains("the light differs (its position or radius moved by 5.000e-2 > 3.000e-3)"),
+        "{said}"
+    );
+    // Within 6 cm the light is the same; its projector's blur, which follows the lantern's
+    // distance, is a texture difference.
+    let (_, said) = diff(&moved, Some("0.06"));
+    assert!(!said.contains("the light differs"), "{said}");
+    assert!(said.contains("glass#1.design.projector"), "{said}");
+    let white = hall("white", 1.0, [0.0, 6.0, 8.0], [1.0, 1.0, 1.0]);
+    let (code, said) = diff(&white, Some("1"));
+    assert_eq!(code, Some(1), "{said}");
+    assert!(said.contains("the light differs: "), "{said}");
+}
+
 /// A Z-up export (SketchUp, Revit and 3ds Max write OBJ files so): the nave with every
 /// (x, y, z) written as (x, −z, y). A bare cook says it looks Z-up; `--up z` cooks it as the
 /// Y-up file: the same tags, the same windows in the same places with their projectors, the
