@@ -550,7 +550,13 @@ impl<C: Corners> Context<'_, C> {
                 || (s.os[a].dot(s.os[b]) > self.thres_cos && s.ot[a].dot(s.ot[b]) > self.thres_cos)
         };
         // Usually every member agrees with every other: one sub-group, the whole group.
-        if (0..k).all(|a| (a + 1..k).all(|b| similar(a, b))) {
+        let all_similar = if self.thres_cos == -1.0 {
+            !(some_pair_not_above_minus_one(&s.os, &s.any)
+                || some_pair_not_above_minus_one(&s.ot, &s.any))
+        } else {
+            (0..k).all(|a| (a + 1..k).all(|b| similar(a, b)))
+        };
+        if all_similar {
             s.members.clear();
             s.members.extend(0..k as u32);
             s.members.sort_unstable_by_key(|&m| faces[m as usize]);
@@ -612,6 +618,62 @@ impl<C: Corners> Context<'_, C> {
         }
         normalize_if_not_zero(sum)
     }
+}
+
+/// Whether `a · b` is not above -1 (NaN included): the pairwise test's failure.
+fn not_above_minus_one(a: Vec3, b: Vec3) -> bool {
+    a.dot(b).partial_cmp(&-1.0) != Some(std::cmp::Ordering::Greater)
+}
+
+/// Whether two of the vectors `v` (those `skip` marks left out) have a dot product that is not
+/// above -1: -1 or less, or NaN. That is the reference's test of two members' tangent
+/// directions at its 180-degree threshold, which it makes for every pair of a group's members:
+/// `k²/2` products, and a disc fanned from its centre shares one vertex among all its
+/// triangles (200,000 took 34 s). Unit vectors with a product of -1 or less lie within 0.0064
+/// of each other's opposite, so each is compared only with those in the cells of a grid
+/// (1/32 wide) around its opposite's cell, with the same product as the pairwise test;
+/// where the vectors are not all finite and at most unit length (plus rounding), or few,
+/// every pair is compared.
+fn some_pair_not_above_minus_one(v: &[Vec3], skip: &[bool]) -> bool {
+    let kept: Vec<usize> = (0..v.len()).filter(|&i| !skip[i]).collect();
+    let pairwise = || {
+        kept.iter().enumerate().any(|(x, &a)| {
+            kept[x + 1..]
+                .iter()
+                .any(|&b| not_above_minus_one(v[a], v[b]))
+        })
+    };
+    if kept.len() < 64 || !kept.iter().all(|&i| v[i].length_squared() <= 1.000_02) {
+        return pairwise();
+    }
+    // NaN fails the comparison above, so only finite vectors reach here.
+    const CELLS: f32 = 32.0;
+    let cell = |x: f32| (x * CELLS).floor() as i32;
+    let mut grid: std::collections::BTreeMap<[i32; 3], Vec<usize>> = Default::default();
+    for &i in &kept {
+        grid.entry(v[i].to_array().map(cell)).or_default().push(i);
+    }
+    for (c, members) in &grid {
+        // The opposite of a point in cell `c` lies in cell `-c - 1` or `-c`; anything within
+        // a cell's width of it, one further either way.
+        let mut near = Vec::new();
+        for dx in -2..=1 {
+            for dy in -2..=1 {
+                for dz in -2..=1 {
+                    if let Some(m) = grid.get(&[-c[0] + dx, -c[1] + dy, -c[2] + dz]) {
+                        near.extend_from_slice(m);
+                    }
+                }
+            }
+        }
+        if members.iter().any(|&a| {
+            near.iter()
+                .any(|&b| a != b && not_above_minus_one(v[a], v[b]))
+        }) {
+            return true;
+        }
+    }
+    false
 }
 
 /// The `mikktspace` crate's tangents for the same corners, as `set_tangent_encoded` gives
@@ -817,5 +879,105 @@ mod tests {
                 prop_assert_eq!(a.map(f32::to_bits), b.map(f32::to_bits));
             }
         }
+    }
+
+    /// A disc of 256 triangles fanned from its centre, its centre shared by all of them: with
+    /// a planar UV map (one group, every member alike: the grid finds no opposite pair), and
+    /// with one that wraps twice round the centre (`z²`, each rim point's opposite exactly
+    /// its negation with the same UV): tangents of opposite triangles are exact opposites in
+    /// one group, the grid finds them, and sub-groups are made. The reference's bits either way.
+    #[test]
+    fn a_disc_fanned_from_its_centre_matches_the_reference() {
+        let n = 256usize;
+        let half: Vec<[f32; 2]> = (0..n / 2)
+            .map(|k| {
+                let a = std::f32::consts::TAU * k as f32 / n as f32;
+                [a.cos(), a.sin()]
+            })
+            .collect();
+        let rim = |k: usize| {
+            let [x, y] = half[k % (n / 2)];
+            if k % n < n / 2 { [x, y] } else { [-x, -y] }
+        };
+        for wrapped in [false, true] {
+            let (mut p, mut nm, mut t) = (Vec::new(), Vec::new(), Vec::new());
+            for k in 0..n {
+                for [x, y] in [[0.0, 0.0], rim(k), rim(k + 1)] {
+                    p.push([x, y, 0.0]);
+                    nm.push([0.0, 0.0, 1.0]);
+                    t.push(if wrapped {
+                        [0.5 + 0.25 * (x * x - y * y), 0.5 + 0.25 * (2.0 * x * y)]
+                    } else {
+                        [0.5 + 0.5 * x, 0.5 + 0.5 * y]
+                    });
+                }
+            }
+            let mesh = Owned(p, nm, t);
+            let c = mesh.as_arrays();
+            let ours = generate(&c);
+            for (i, (a, b)) in ours.iter().zip(&reference(&c)).enumerate() {
+                assert_eq!(
+                    a.map(f32::to_bits),
+                    b.map(f32::to_bits),
+                    "wrapped {wrapped}, corner {i}: {a:?} against {b:?}"
+                );
+            }
+            // The centre's corners: one tangent, or, wrapped, sub-groups of their own.
+            let centre: std::collections::BTreeSet<[u32; 4]> =
+                (0..n).map(|k| ours[3 * k].map(f32::to_bits)).collect();
+            assert_eq!(centre.len() > 1, wrapped, "{} tangents", centre.len());
+        }
+    }
+
+    /// The grid search for a pair of (nearly) opposite vectors gives the pairwise answer: unit
+    /// vectors spread over the sphere or bunched, some with the exact opposite of another or
+    /// one a hair off it (1e-7 to 1e-2), some left out, a few not unit or not finite.
+    #[test]
+    fn the_opposite_pair_search_agrees_with_every_pair_compared() {
+        let mut seed = 0x9e37_79b9_7f4a_7c15u64;
+        let mut next = move || {
+            seed ^= seed << 13;
+            seed ^= seed >> 7;
+            seed ^= seed << 17;
+            (seed >> 40) as f32 / (1u64 << 24) as f32
+        };
+        let (mut found, mut cases) = (0, 0);
+        for case in 0..400 {
+            let k = 64 + (next() * 200.0) as usize;
+            let spread = if case % 2 == 0 { 1.0 } else { 0.05 };
+            let mut v: Vec<Vec3> = (0..k)
+                .map(|_| {
+                    let r = Vec3::new(
+                        1.0 + spread * (next() - 0.5),
+                        spread * (next() - 0.5),
+                        spread * (next() - 0.5),
+                    );
+                    normalize(r)
+                })
+                .collect();
+            let skip: Vec<bool> = (0..k).map(|_| next() < 0.05).collect();
+            match case % 5 {
+                1 => v[k - 1] = -v[0],
+                2 => {
+                    let hair = 10f32.powf(-7.0 + 5.0 * next());
+                    v[k - 1] = normalize(-v[1] + Vec3::new(0.0, hair, -hair));
+                }
+                3 if case % 3 == 0 => v[2] = Vec3::new(f32::NAN, 0.0, 0.0),
+                3 => v[2] *= 1.5,
+                _ => {}
+            }
+            let pairwise = (0..k).any(|a| {
+                (a + 1..k).any(|b| !skip[a] && !skip[b] && not_above_minus_one(v[a], v[b]))
+            });
+            assert_eq!(
+                some_pair_not_above_minus_one(&v, &skip),
+                pairwise,
+                "case {case}"
+            );
+            found += usize::from(pairwise);
+            cases += 1;
+        }
+        // Both answers are tried.
+        assert!(found > 40 && found < cases - 40, "{found} of {cases}");
     }
 }
