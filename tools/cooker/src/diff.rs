@@ -146,7 +146,9 @@ fn direction_tolerance(max_delta: f64) -> f64 {
 /// far plane is three times the model's bounding-box diagonal, which moves by at most
 /// `2 * sqrt(3)` times the delta (each end by the delta on every axis). A hall scaled by 1e-4
 /// (2 mm at its ground's edge) moved its far plane 17 mm, and the cameras differed.
-const CLIP_PER_DELTA: f64 = 6.0 * 1.732_050_807_568_877_2;
+const CLIP_PER_DELTA: f64 = 6.0 * SQRT_3;
+
+const SQRT_3: f64 = 1.732_050_807_568_877_2;
 
 fn cameras_differ(a: &[pack::Camera], b: &[pack::Camera], max_delta: f64) -> Option<String> {
     let names = |c: &[pack::Camera]| c.iter().map(|c| c.name.clone()).collect::<Vec<_>>();
@@ -241,7 +243,7 @@ fn light_differs(ta: &pack::Toc, tb: &pack::Toc, max_delta: f64) -> Option<Strin
                 .iter()
                 .map(|w| distance_to_window(p, w))
                 .fold(f64::INFINITY, f64::min);
-            let stretch = 1.0 + 2.0 * 3f64.sqrt() * max_delta / reach;
+            let stretch = 1.0 + 2.0 * SQRT_3 * max_delta / reach;
             (
                 (by > max_delta).then(|| {
                     format!(" (its position or radius moved by {by:.3e} > {max_delta:.3e})")
