@@ -109,6 +109,39 @@ fn tint_at(uv: &[[f32; 2]; 3], tint: &Tint, x: u32, y: u32, w: u32, h: u32) -> [
     std::array::from_fn(|c| (0..3).map(|k| b[k] * tint[k][c] as f64).sum::<f64>() as f32)
 }
 
+/// A glass's own colour texture times the vertex colours of its triangles, as any other
+/// surface shows its texture times its vertex colours (glTF's `COLOR_0` multiplies the base
+/// colour texture): each texel a triangle covers (in `tris`' texture space, as [`scan`]
+/// counts coverage) takes the colour interpolated there from its corners (`tints`, linear
+/// RGBA), in linear light where `srgb`; where triangles overlap, the last one's, as
+/// [`rasterize`] takes; texels no triangle covers stay as they are. Textured glass showed
+/// the texture alone before, whatever its vertex colours.
+pub fn tint_image(image: &mut RgbaImage, tris: &[UvTriangle], tints: &[Tint], srgb: bool) {
+    let (w, h) = image.dimensions();
+    let decode = texture::srgb::decode8();
+    // Last wins: the triangles are scanned in reverse, and a texel is taken once.
+    let reversed: Vec<UvTriangle> = tris.iter().rev().copied().collect();
+    let mut taken = vec![0u64; (w as usize * h as usize).div_ceil(64)];
+    scan(&reversed, w, h, |r, x, y| {
+        let i = y as usize * w as usize + x as usize;
+        if taken[i / 64] >> (i % 64) & 1 == 1 {
+            return;
+        }
+        taken[i / 64] |= 1 << (i % 64);
+        let t = tris.len() - 1 - r;
+        let tint = tint_at(&tris[t].0, &tints[t], x, y, w, h);
+        let texel = image.get_pixel_mut(x, y);
+        for k in 0..3 {
+            texel[k] = if srgb {
+                texture::srgb::encode8(decode[texel[k] as usize] * tint[k])
+            } else {
+                texture::srgb::unorm8(texel[k] as f32 / 255.0 * tint[k])
+            };
+        }
+        texel[3] = texture::srgb::unorm8(texel[3] as f32 / 255.0 * tint[3]);
+    });
+}
+
 /// Distance in texels from each texel to the nearest texel of another pane, of no pane, or
 /// beyond the image edge (a 3-4 chamfer transform: within 4 % of the Euclidean distance).
 fn boundary_distance(ids: &[u16], w: u32, h: u32) -> Vec<f32> {
@@ -361,6 +394,37 @@ pub fn apply_mask(design: &mut RgbaImage, mask: &[bool]) {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Two quads over one texture, the second overlapping the first's right half: a texel
+    /// takes the colour of the last quad covering it, once, in linear light (sRGB) or as it
+    /// is (linear); texels no quad covers are left alone.
+    #[test]
+    fn a_texture_is_tinted_by_the_last_triangle_over_each_texel() {
+        let grey = Rgba([188, 188, 188, 200]);
+        let red = [[1.0, 0.0, 0.0, 1.0]; 3];
+        let half = [[0.5, 0.5, 0.5, 0.5]; 3];
+        let mut tris = quad(0.0, 0.0, 0.5, 1.0, 0).to_vec();
+        tris.extend(quad(0.25, 0.0, 0.75, 1.0, 0));
+        let tints = [red, red, half, half];
+        for srgb in [true, false] {
+            let mut img = RgbaImage::from_pixel(8, 4, grey);
+            tint_image(&mut img, &tris, &tints, srgb);
+            let halved = if srgb {
+                // sRGB 188 is linear 0.5029; half of it is sRGB 137.
+                Rgba([137, 137, 137, 100])
+            } else {
+                Rgba([94, 94, 94, 100])
+            };
+            for (x, y, p) in img.enumerate_pixels() {
+                let want = match x {
+                    0 | 1 => Rgba([188, 0, 0, 200]),
+                    2..=5 => halved,
+                    _ => grey,
+                };
+                assert_eq!(*p, want, "srgb {srgb}, texel ({x}, {y})");
+            }
+        }
+    }
 
     fn quad(u0: f32, v0: f32, u1: f32, v1: f32, pane: u16) -> [UvTriangle; 2] {
         [

@@ -68,15 +68,16 @@ fn rgba(img: &image::DynamicImage) -> std::borrow::Cow<'_, image::RgbaImage> {
 }
 
 /// The instance's triangles in texture space, each with its pane (index into `panes`); the
-/// panes: one per source material, in its transmitted colour; and, for a design `drawn` from
-/// the mesh, the vertex colours at each triangle's corners.
+/// panes: one per source material, in its transmitted colour; and, where the design is
+/// `tinted` by them (drawn from the mesh, or the glass's own texture), the vertex colours at
+/// each triangle's corners.
 fn uv_triangles(
     src: &Imported,
     inst: &Instance,
     tri_material: &[u16],
     tagging: &Tagging,
     si: usize,
-    drawn: bool,
+    tinted: bool,
 ) -> (Vec<UvTriangle>, Vec<Pane>, Option<Vec<Tint>>) {
     let mut panes: Vec<(Option<u32>, Pane)> = Vec::new();
     let mut tris = Vec::with_capacity(inst.triangles.len());
@@ -114,9 +115,10 @@ fn uv_triangles(
         });
         tris.push((uv, id as u16));
     }
-    // Vertex colours tint the panes of a design `drawn` from the mesh; a window whose corners
-    // are all white (or a model without them) is drawn as it always was.
-    let tints: Option<Vec<Tint>> = (drawn && !src.colours.is_empty()).then(|| {
+    // Vertex colours tint the panes of a design drawn from the mesh, and the glass's own
+    // texture; a window whose corners are all white (or a model without them) is made as it
+    // always was. A design given in the manifest or with `--window` is taken as it is.
+    let tints: Option<Vec<Tint>> = (tinted && !src.colours.is_empty()).then(|| {
         inst.triangles
             .iter()
             .map(|&t| {
@@ -359,7 +361,9 @@ pub fn plan(
             &tri_material[inst.source],
             tagging,
             inst.source,
-            image.is_none(),
+            image
+                .as_ref()
+                .is_none_or(|(_, source)| *source == DesignSource::Texture),
         );
         // A design decoded here for its mask may reach the texture stage only as pixels; the
         // file is still an input of the cook (and of its cache entry).
@@ -380,6 +384,7 @@ pub fn plan(
             tris,
             panes,
             tints,
+            srgb: entry.is_none_or(|e| e.colour_space == pack::ColourSpace::Srgb),
             planar,
             fit: entry.map_or(Fit::Cover, |e| e.fit),
             aspect: inst.width() / inst.height().max(1e-12),
@@ -594,6 +599,8 @@ struct Pending {
     panes: Vec<Pane>,
     /// The triangles' vertex colours, where the model has any other than white.
     tints: Option<Vec<Tint>>,
+    /// The design's texels are sRGB (else linear), for tinting them.
+    srgb: bool,
     planar: bool,
     fit: Fit,
     aspect: f64,
@@ -650,9 +657,16 @@ fn make_design(p: &Pending, images: &crate::textures::DecodedImages) -> Result<D
             .unwrap_or_default(),
         other => other.name(),
     };
-    let name = format!("{stem}.{}", if p.planar { "fitted" } else { "masked" });
+    let name = format!(
+        "{stem}.{}{}",
+        if p.planar { "fitted" } else { "masked" },
+        if p.tints.is_some() { ".tinted" } else { "" }
+    );
     if p.planar {
         let mut canvas = design::fit_design(&rgba(&*images.get(img)?), p.fit, p.aspect);
+        if let Some(tints) = &p.tints {
+            design::tint_image(&mut canvas, &p.tris, tints, p.srgb);
+        }
         let mask = design::coverage(&p.tris, canvas.width(), canvas.height());
         design::apply_mask(&mut canvas, &mask);
         let size = canvas.dimensions();
@@ -664,7 +678,14 @@ fn make_design(p: &Pending, images: &crate::textures::DecodedImages) -> Result<D
     let pixels = rgba(&decoded);
     let size = pixels.dimensions();
     let mask = design::coverage(&p.tris, size.0, size.1);
-    if design::light_outside(&pixels, &mask) {
+    if let Some(tints) = &p.tints {
+        let mut pixels = pixels.into_owned();
+        design::tint_image(&mut pixels, &p.tris, tints, p.srgb);
+        if design::light_outside(&pixels, &mask) {
+            design::apply_mask(&mut pixels, &mask);
+        }
+        Ok((raster(name, pixels), *source, size))
+    } else if design::light_outside(&pixels, &mask) {
         let mut pixels = pixels.into_owned();
         design::apply_mask(&mut pixels, &mask);
         Ok((raster(name, pixels), *source, size))

@@ -2696,6 +2696,151 @@ fn vertex_coloured_glass_throws_its_colours() {
     assert!(distinct.len() > 500, "{}", distinct.len());
 }
 
+/// A hall whose north window is glass textured with glTF-Sample-Models' coordinate template
+/// (`map_Kd`, texture coordinates on its four corners), each corner coloured as `paint` gives
+/// it (`v x y z r g b`, none for `None`): the OBJ in `dir` under `name`.
+fn hall_with_textured_glass(
+    dir: &Path,
+    name: &str,
+    paint: impl Fn(usize) -> Option<&'static str>,
+) -> PathBuf {
+    std::fs::copy(
+        third_party("gltf/TextureCoordinateTest/TextureCoordinateTemplate.png"),
+        dir.join("template.png"),
+    )
+    .unwrap();
+    std::fs::write(
+        dir.join("hall.mtl"),
+        "newmtl ground\nKd 0.5 0.5 0.5\nnewmtl wall\nKd 0.8 0.8 0.8\n\
+         newmtl glass\nKd 1 1 1\nd 0.5\nmap_Kd template.png\n",
+    )
+    .unwrap();
+    let quads = [
+        ("ground", [-20., 0., -20.], [0., 0., 40.], [40., 0., 0.]),
+        ("wall", [-5., 0., 3.], [10., 0., 0.], [0., 4., 0.]),
+        ("wall", [-5., 0., -3.], [0., 4., 0.], [10., 0., 0.]),
+        ("wall", [-5., 0., -3.], [0., 0., 6.], [0., 4., 0.]),
+        ("wall", [5., 0., -3.], [0., 4., 0.], [0., 0., 6.]),
+        ("glass", [-2., 1.5, 2.99], [4., 0., 0.], [0., 1.6, 0.]),
+    ];
+    let mut obj = String::from("mtllib hall.mtl\nvt 0 0\nvt 1 0\nvt 1 1\nvt 0 1\n");
+    for (q, (m, o, a, b)) in quads.iter().enumerate() {
+        writeln!(obj, "usemtl {m}").unwrap();
+        for (k, c) in [[0., 0.], [1., 0.], [1., 1.], [0., 1.]].iter().enumerate() {
+            let p: Vec<f64> = (0..3).map(|i| o[i] + c[0] * a[i] + c[1] * b[i]).collect();
+            write!(obj, "v {} {} {}", p[0], p[1], p[2]).unwrap();
+            match paint(k).filter(|_| *m == "glass") {
+                Some(colour) => writeln!(obj, " {colour}").unwrap(),
+                None => writeln!(obj).unwrap(),
+            }
+        }
+        let n = 4 * q + 1;
+        if *m == "glass" {
+            writeln!(obj, "f {}/1 {}/2 {}/3 {}/4", n, n + 1, n + 2, n + 3).unwrap();
+        } else {
+            writeln!(obj, "f {} {} {} {}", n, n + 1, n + 2, n + 3).unwrap();
+        }
+    }
+    let path = dir.join(name);
+    std::fs::write(&path, obj).unwrap();
+    path
+}
+
+/// Textured glass shows its texture times its vertex colours, as walls and floors do (and as
+/// glTF's `COLOR_0` says of a base colour texture): the design, its projector and derived
+/// normal map are made from the tinted texture. It was the texture alone before. A glass
+/// painted one colour (sRGB 1, 0.5, 0.25: linear 1, 0.214, 0.051) takes it on every texel, in
+/// linear light; one colour a corner blends them; white corners leave the texture as it was.
+#[test]
+fn textured_glass_is_tinted_by_its_vertex_colours() {
+    let dir = tempfile::tempdir().unwrap();
+    // The model in a folder of its own: extracted textures are written beside the packs.
+    let model = dir.path().join("model");
+    std::fs::create_dir(&model).unwrap();
+    let cooked = |name: &str, paint: &dyn Fn(usize) -> Option<&'static str>| {
+        let obj = hall_with_textured_glass(&model, &format!("{name}.obj"), paint);
+        let pack = dir.path().join(format!("{name}.pack"));
+        cook(&obj, &pack, &[&"--texture-format", &"rgba8"]);
+        let v = info(&pack);
+        let design = window(&v, "glass")["design"].as_str().unwrap().to_string();
+        (pack, design)
+    };
+    let (plain, plain_design) = cooked("plain", &|_| None);
+    assert_eq!(plain_design, "template");
+    let texture = extract(&plain, &plain_design, dir.path());
+    let (white, white_design) = cooked("white", &|_| Some("1 1 1"));
+    assert_eq!(white_design, "template");
+    assert!(extract(&white, &white_design, dir.path()) == texture);
+
+    let (one, design) = cooked("one", &|_| Some("1 0.5 0.25"));
+    assert_eq!(design, "template.masked.tinted");
+    let tinted = extract(&one, &design, dir.path());
+    assert_eq!(tinted.dimensions(), texture.dimensions());
+    let linear = |c: u8| {
+        let s = c as f32 / 255.0;
+        if s <= 0.04045 {
+            s / 12.92
+        } else {
+            ((s + 0.055) / 1.055).powf(2.4)
+        }
+    };
+    let tint = [1.0, linear(128), linear(64)];
+    let mut coloured = 0;
+    for (a, b) in texture.pixels().zip(tinted.pixels()) {
+        for k in 0..3 {
+            let want = srgb8(linear(a[k]) * tint[k]);
+            assert!(
+                want.abs_diff(b[k]) <= 1,
+                "{:?} tinted {:?}, not {:?}",
+                a,
+                b,
+                want
+            );
+        }
+        assert_eq!(a[3], b[3]);
+        coloured += usize::from(a[1] > 200 && b[1] < 140);
+    }
+    assert!(coloured > 10_000, "{coloured} light texels tinted");
+    // The projector is made from the tinted design.
+    let projector = extract(&one, &format!("{design}.projector"), dir.path());
+    let lit: Vec<_> = projector.pixels().filter(|p| p[0] > 200).collect();
+    assert!(
+        !lit.is_empty() && lit.iter().all(|p| p[2] < p[1] && p[1] < p[0]),
+        "{:?}",
+        lit.first()
+    );
+
+    // Red, green, blue and white corners, (u, v) = (0, 0), (1, 0), (1, 1), (0, 1): a white
+    // texel of the template near each takes its corner's colour.
+    let corners = ["1 0 0", "0 1 0", "0 0 1", "1 1 1"];
+    let (four, design) = cooked("four", &|k| Some(corners[k]));
+    let tinted = extract(&four, &design, dir.path());
+    let (w, h) = tinted.dimensions();
+    let near = |u: u32, v: u32| {
+        // Texture rows run down from v = 1.
+        let (x0, y0) = (u * (w - 24), (1 - v) * (h - 24));
+        (x0..x0 + 24)
+            .flat_map(|x| (y0..y0 + 24).map(move |y| (x, y)))
+            .filter(|&(x, y)| texture.get_pixel(x, y).0[..3] == [255, 255, 255])
+            .map(|(x, y)| tinted.get_pixel(x, y).0)
+            .collect::<Vec<_>>()
+    };
+    for ((u, v), want) in [
+        ((0, 0), [true, false, false]),
+        ((1, 0), [false, true, false]),
+        ((1, 1), [false, false, true]),
+        ((0, 1), [true, true, true]),
+    ] {
+        let texels = near(u, v);
+        assert!(!texels.is_empty(), "no white texel near ({u}, {v})");
+        for t in texels {
+            for k in 0..3 {
+                assert_eq!(t[k] > 200, want[k], "({u}, {v}): {t:?}");
+            }
+        }
+    }
+}
+
 /// Walls and floors keep their vertex colours: a scan's or a painted model's colours are most
 /// of its look, and the cook dropped them for every surface but glass. The Cornell box with
 /// its floor painted in 0-255 colours, the red wall one colour a corner, and the back wall as
