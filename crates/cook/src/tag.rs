@@ -535,6 +535,10 @@ pub struct PartGeometry {
     pub mean_y: f64,
     /// Lowest and highest point.
     pub y_range: [f64; 2],
+    /// Where the part is shaped as a floor ([`floor_shaped`]): the area of all the floor-shaped
+    /// parts of its source material, itself included, and how many they are; 0 otherwise.
+    pub floor_kin: f64,
+    pub floor_kin_parts: usize,
 }
 
 impl PartGeometry {
@@ -642,17 +646,36 @@ pub fn part_geometry(src: &Imported) -> (Vec<PartGeometry>, [f64; 2], f64) {
             g.mean_y /= g.area;
         }
     }
+    // Floor-shaped parts of one material are a floor together: a floor laid as tiles, boards
+    // or one slab a bay, each its own object, had every piece under 2 % of the model and no
+    // floor at all, so no window light was guessed onto it.
+    let mut kin: HashMap<Option<u32>, (f64, usize)> = HashMap::new();
+    for (part, g) in src.parts.iter().zip(&out) {
+        if floor_shaped(g, range) {
+            let k = kin.entry(part.material).or_default();
+            k.0 += g.area;
+            k.1 += 1;
+        }
+    }
+    for (part, g) in src.parts.iter().zip(&mut out) {
+        if floor_shaped(g, range) {
+            (g.floor_kin, g.floor_kin_parts) = kin[&part.material];
+        }
+    }
     (out, range, total)
 }
 
-/// Whether a part's geometry makes it a floor: mostly horizontal, in the lowest tenth of the
-/// model's height (`height`), at least 2 % of the model's area.
-fn floor_like(g: &PartGeometry, height: [f64; 2], total_area: f64) -> bool {
+/// Whether a part is shaped as a floor, whatever its size: mostly horizontal, in the lowest
+/// tenth of the model's height (`height`).
+fn floor_shaped(g: &PartGeometry, height: [f64; 2]) -> bool {
     let span = (height[1] - height[0]).max(1e-9);
-    g.area > 0.0
-        && g.area >= 0.02 * total_area
-        && g.horizontal / g.area >= 0.75
-        && (g.mean_y - height[0]) / span <= 0.1
+    g.area > 0.0 && g.horizontal / g.area >= 0.75 && (g.mean_y - height[0]) / span <= 0.1
+}
+
+/// Whether a part's geometry makes it a floor: shaped as one ([`floor_shaped`]), and, alone or
+/// with the other floor-shaped parts of its material, at least 2 % of the model's area.
+fn floor_like(g: &PartGeometry, height: [f64; 2], total_area: f64) -> bool {
+    floor_shaped(g, height) && g.area.max(g.floor_kin) >= 0.02 * total_area
 }
 
 /// The area a wall is measured against: the model's, less its floors. A building on open
@@ -687,9 +710,19 @@ pub fn geometry_heuristic(
     if floor_like(g, height, total_area) {
         return Some((
             format!(
-                "geometry: {:.0}% horizontal, {:.0}% of the model's area, at {:.0}% of its height",
+                "geometry: {:.0}% horizontal, {:.0}% of the model's area{}, at {:.0}% of its \
+                 height",
                 share(g.horizontal) * 100.0,
                 g.area / total_area * 100.0,
+                if g.area < 0.02 * total_area {
+                    format!(
+                        ", {:.0}% with the {} other floor-shaped parts of its material",
+                        g.floor_kin / total_area * 100.0,
+                        g.floor_kin_parts - 1
+                    )
+                } else {
+                    String::new()
+                },
                 rel * 100.0
             ),
             MaterialClass::Floor,
@@ -1336,6 +1369,54 @@ mod tests {
         .unwrap();
         assert_eq!(t.materials.len(), 1);
         assert_eq!(t.materials[0].material.class, MaterialClass::Wall);
+    }
+
+    /// A hall of generic names (Blender's `Plane.001`, `Material.001`) whose floor is laid as
+    /// tiles, each its own object under 1 % of the model's area: the tiles of one material are
+    /// a floor together, as one object of them would be. Before, every tile was `other`, the
+    /// model had no floor, and no window light was guessed onto it. Tiles in two materials (a
+    /// chequerboard) are a floor each; a single small slab, a rug, stays `other`.
+    #[test]
+    fn a_floor_laid_in_tiles_is_a_floor() {
+        let dir = tempfile::tempdir().unwrap();
+        for chequered in [false, true] {
+            let (obj, mtl) = crate::testing::tiled_hall(chequered);
+            std::fs::write(dir.path().join("m.mtl"), mtl).unwrap();
+            let path = dir.path().join("tiles.obj");
+            std::fs::write(&path, obj).unwrap();
+            let mut src = crate::import::import(&path).unwrap();
+            let t = tag(&manifest(""), std::slice::from_mut(&mut src)).unwrap();
+            let class_of = |object: &str| {
+                let pi = src
+                    .parts
+                    .iter()
+                    .position(|p| p.names.object.as_deref() == Some(object))
+                    .unwrap();
+                t.materials[t.part_material[0][pi] as usize].material.class
+            };
+            for k in 0..60 {
+                assert_eq!(
+                    class_of(&format!("Plane.{k:03}")),
+                    MaterialClass::Floor,
+                    "tile {k}, chequered {chequered}"
+                );
+            }
+            assert_eq!(class_of("Rug"), MaterialClass::Other);
+            assert_eq!(class_of("Cube"), MaterialClass::Wall);
+            let said = t.decisions[0]
+                .iter()
+                .zip(&src.parts)
+                .find(|(_, p)| p.names.object.as_deref() == Some("Plane.000"))
+                .and_then(|(d, _)| d.reason())
+                .unwrap_or_default();
+            let others = if chequered { 29 } else { 59 };
+            assert!(
+                said.contains(&format!(
+                    "with the {others} other floor-shaped parts of its material"
+                )),
+                "{said}"
+            );
+        }
     }
 
     /// A hall whose ground and walls are separate objects in one material named for nothing

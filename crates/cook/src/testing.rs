@@ -202,3 +202,94 @@ pub fn hall_gltf(
     }
     (gltf, bin)
 }
+
+/// A hall of generic names (Blender's `Plane.001`, `Material.001`), as OBJ text naming `m.mtl`
+/// and that MTL: its floor laid as 60 tiles of 1 m², each its own object (`Plane.000` …
+/// `Plane.059`), in `Material.001`, or, `chequered`, every other one in `Material.003`; walls
+/// 4 high (object `Cube`) and a ceiling (`Cube.001`) in `Material.002`; a 1.5 m² rug (`Rug`,
+/// `Material.004`) on the floor; and glass (`Plane.900`, `Material.005`, `Tf`) in the north
+/// wall.
+pub fn tiled_hall(chequered: bool) -> (String, &'static str) {
+    use std::fmt::Write;
+    let mut obj = String::from("mtllib m.mtl\n");
+    let mut n = 0;
+    let mut quad = |object: &str, material: &str, o: [f64; 3], a: [f64; 3], b: [f64; 3]| {
+        let _ = writeln!(obj, "o {object}\nusemtl {material}");
+        for c in quad_corners(o, a, b) {
+            let _ = writeln!(obj, "v {} {} {}", c[0], c[1], c[2]);
+        }
+        let _ = writeln!(obj, "f {} {} {} {}", n + 1, n + 2, n + 3, n + 4);
+        n += 4;
+    };
+    for (k, (i, j)) in (0..10)
+        .flat_map(|i| (0..6).map(move |j| (i, j)))
+        .enumerate()
+    {
+        let material = if chequered && (i + j) % 2 == 1 {
+            "Material.003"
+        } else {
+            "Material.001"
+        };
+        let at = [i as f64 - 5.0, 0.0, j as f64 - 3.0];
+        quad(
+            &format!("Plane.{k:03}"),
+            material,
+            at,
+            [0., 0., 1.],
+            [1., 0., 0.],
+        );
+    }
+    quad(
+        "Cube",
+        "Material.002",
+        [-5., 0., 3.],
+        [10., 0., 0.],
+        [0., 4., 0.],
+    );
+    quad(
+        "Cube",
+        "Material.002",
+        [-5., 0., -3.],
+        [0., 4., 0.],
+        [10., 0., 0.],
+    );
+    quad(
+        "Cube",
+        "Material.002",
+        [-5., 0., -3.],
+        [0., 0., 6.],
+        [0., 4., 0.],
+    );
+    quad(
+        "Cube",
+        "Material.002",
+        [5., 0., -3.],
+        [0., 4., 0.],
+        [0., 0., 6.],
+    );
+    quad(
+        "Cube.001",
+        "Material.002",
+        [-5., 4., -3.],
+        [10., 0., 0.],
+        [0., 0., 6.],
+    );
+    quad(
+        "Rug",
+        "Material.004",
+        [-1., 0.01, -1.],
+        [0., 0., 1.],
+        [1.5, 0., 0.],
+    );
+    quad(
+        "Plane.900",
+        "Material.005",
+        [-2., 1.5, 2.99],
+        [4., 0., 0.],
+        [0., 1.6, 0.],
+    );
+    let mtl = "newmtl Material.001\nKd 0.5 0.5 0.5\nnewmtl Material.002\nKd 0.8 0.8 0.8\n\
+               newmtl Material.003\nKd 0.2 0.2 0.2\nnewmtl Material.004\nKd 0.6 0.1 0.1\n\
+               newmtl Material.005\nKd 0.2 0.4 0.8\nTf 0.2 0.4 0.8\nd 0.3\n";
+    (obj, mtl)
+}

@@ -245,6 +245,7 @@ pub fn run(args: Args) -> Outcome {
             // not also catch other parts that share a material ("white" is the Cornell box's
             // floor, walls and blocks alike) or a node. Where every name is shared, the most
             // specific one, with the other classes, which leaves it without a rule below.
+            // Its material comes first where no other class carries it.
             let (kind, name, others) = match decision {
                 Decision::Heuristic { kind, name, .. } => (*kind, name.clone(), None),
                 _ => {
@@ -259,8 +260,13 @@ pub fn run(args: Args) -> Outcome {
                             .get(&(k, n))
                             .is_some_and(|c| c.len() == 1 && c.contains(class))
                     };
-                    match names()
-                        .find(|&(k, _, n)| only_this(k, n))
+                    // A material no part of another class carries is one rule for all its
+                    // parts (a floor laid as sixty tiles, each its own object, was sixty).
+                    let material = names().find(|&(_, kind, n)| {
+                        kind == NameKind::Material && only_this(SPECIFIC_FIRST.len() - 1, n)
+                    });
+                    match material
+                        .or_else(|| names().find(|&(k, _, n)| only_this(k, n)))
                         .or_else(|| names().next())
                     {
                         Some((k, kind, n)) => (kind, n.to_string(), carried.get(&(k, n))),

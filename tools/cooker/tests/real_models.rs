@@ -1470,8 +1470,9 @@ fn init_writes_a_manifest_that_cooks_window_light_without_edits() {
 /// cook classed each instance by how it stands; and a rule on a glTF node's name, written for
 /// its glass, tagged the floor and walls of the same mesh windows too. The models: the
 /// cathedral (windows, a guessed sun), the third-party Cornell box, the same box in survey
-/// coordinates (the manifest moves it), gltfpack's instanced boxes, and a hall as a glTF of
-/// one mesh whose light is a lamp of its own outside a window.
+/// coordinates (the manifest moves it), gltfpack's instanced boxes, a hall as a glTF of one
+/// mesh whose light is a lamp of its own outside a window, and a hall whose floor is sixty
+/// tiles of one material, each its own object: one rule on the material, not sixty.
 #[test]
 fn an_unedited_init_manifest_cooks_the_bare_cook_s_very_pack() {
     let dir = tempfile::tempdir().unwrap();
@@ -1510,12 +1511,17 @@ fn an_unedited_init_manifest_cooks_the_bare_cook_s_very_pack() {
     std::fs::write(dir.path().join("hall.bin"), bin).unwrap();
     let lit_hall = dir.path().join("hall.gltf");
     std::fs::write(&lit_hall, serde_json::to_vec(&hall).unwrap()).unwrap();
+    let (tiles, mtl) = cook::testing::tiled_hall(false);
+    std::fs::write(dir.path().join("m.mtl"), mtl).unwrap();
+    let tiled = dir.path().join("tiles.obj");
+    std::fs::write(&tiled, tiles).unwrap();
     let models = [
         sibenik(dir.path()),
         cornell,
         survey,
         third_party("gltfpack/boxes_mi_cc.glb"),
         lit_hall,
+        tiled.clone(),
     ];
     for (i, model) in models.iter().enumerate() {
         let scene = dir.path().join(format!("scene{i}.toml"));
@@ -1525,7 +1531,7 @@ fn an_unedited_init_manifest_cooks_the_bare_cook_s_very_pack() {
             dir.path().join(format!("bare{i}.pack")),
             dir.path().join(format!("init{i}.pack")),
         );
-        cook(model, &bare, &[]);
+        let said = cook(model, &bare, &[]);
         cook(&scene, &inited, &[]);
         let d = cooker(&[&"diff", &bare, &inited]);
         assert_eq!(
@@ -1536,6 +1542,19 @@ fn an_unedited_init_manifest_cooks_the_bare_cook_s_very_pack() {
             text(&d.stdout),
             std::fs::read_to_string(&scene).unwrap()
         );
+        if *model == tiled {
+            let toml = std::fs::read_to_string(&scene).unwrap();
+            assert!(
+                toml.contains("match = \"Material.001\"\non = [\"material\"]\nclass = \"floor\""),
+                "{toml}"
+            );
+            assert!(!toml.contains("Plane.0"), "{toml}");
+            // The guessed sun lands the window's light on the tiles.
+            assert!(
+                said.contains("the most window light lands on the floor"),
+                "{said}"
+            );
+        }
     }
 }
 
