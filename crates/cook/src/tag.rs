@@ -539,6 +539,12 @@ pub struct PartGeometry {
     /// parts of its source material, itself included, and how many they are; 0 otherwise.
     pub floor_kin: f64,
     pub floor_kin_parts: usize,
+    /// The area-weighted squares of its triangles' unit normals' horizontal components: x²,
+    /// z², xz; whether most of it faces one horizontal way, either side ([`faces_one_way`]).
+    pub facing: [f64; 3],
+    /// As `floor_kin`, for wall-shaped parts that face one way ([`wall_shaped`]).
+    pub wall_kin: f64,
+    pub wall_kin_parts: usize,
 }
 
 impl PartGeometry {
@@ -559,6 +565,10 @@ impl PartGeometry {
             self.vertical += area;
         }
         self.mean_y += area * (a.y + b.y + c.y) / 3.0;
+        let n = (b - a).cross(c - a) / (2.0 * area);
+        self.facing[0] += area * n.x * n.x;
+        self.facing[1] += area * n.z * n.z;
+        self.facing[2] += area * n.x * n.z;
         for y in [a.y, b.y, c.y] {
             self.y_range[0] = self.y_range[0].min(y);
             self.y_range[1] = self.y_range[1].max(y);
@@ -633,6 +643,9 @@ pub fn part_geometry(src: &Imported) -> (Vec<PartGeometry>, [f64; 2], f64) {
             g.horizontal += s.horizontal;
             g.vertical += s.vertical;
             g.mean_y += s.mean_y;
+            for k in 0..3 {
+                g.facing[k] += s.facing[k];
+            }
             g.y_range = [
                 g.y_range[0].min(s.y_range[0]),
                 g.y_range[1].max(s.y_range[1]),
@@ -649,20 +662,50 @@ pub fn part_geometry(src: &Imported) -> (Vec<PartGeometry>, [f64; 2], f64) {
     // Floor-shaped parts of one material are a floor together: a floor laid as tiles, boards
     // or one slab a bay, each its own object, had every piece under 2 % of the model and no
     // floor at all, so no window light was guessed onto it.
-    let mut kin: HashMap<Option<u32>, (f64, usize)> = HashMap::new();
+    // So are walls built a bay at a time, as flat panels or slabs: columns, which face every
+    // way, are not (24 pillars of a nave, each its own object, became walls that way).
+    let mut kin: HashMap<(Option<u32>, bool), (f64, usize)> = HashMap::new();
     for (part, g) in src.parts.iter().zip(&out) {
-        if floor_shaped(g, range) {
-            let k = kin.entry(part.material).or_default();
-            k.0 += g.area;
-            k.1 += 1;
+        for (floor, shaped) in [
+            (true, floor_shaped(g, range)),
+            (false, wall_shaped(g, range)),
+        ] {
+            if shaped {
+                let k = kin.entry((part.material, floor)).or_default();
+                k.0 += g.area;
+                k.1 += 1;
+            }
         }
     }
     for (part, g) in src.parts.iter().zip(&mut out) {
         if floor_shaped(g, range) {
-            (g.floor_kin, g.floor_kin_parts) = kin[&part.material];
+            (g.floor_kin, g.floor_kin_parts) = kin[&(part.material, true)];
+        }
+        if wall_shaped(g, range) {
+            (g.wall_kin, g.wall_kin_parts) = kin[&(part.material, false)];
         }
     }
     (out, range, total)
+}
+
+/// Whether three quarters of a part's area or more faces one horizontal way, either side: the
+/// largest eigenvalue of its normals' horizontal squares ([`PartGeometry::facing`]) against
+/// its area. A panel or a slab of a wall does (a 5 m bay 1 m thick: 0.8); a square pillar or a
+/// round column faces two ways or every way (0.5).
+fn faces_one_way(g: &PartGeometry) -> bool {
+    let [xx, zz, xz] = g.facing;
+    let most = (xx + zz) / 2.0 + (((xx - zz) / 2.0).powi(2) + xz * xz).sqrt();
+    g.area > 0.0 && most >= 0.75 * g.area
+}
+
+/// Whether a part is shaped as a wall that joins others of its material: mostly vertical,
+/// rising through at least half the model's height (`height`), and facing one way.
+fn wall_shaped(g: &PartGeometry, height: [f64; 2]) -> bool {
+    let span = (height[1] - height[0]).max(1e-9);
+    g.area > 0.0
+        && g.vertical / g.area >= 0.75
+        && (g.y_range[1] - g.y_range[0]) >= 0.5 * span
+        && faces_one_way(g)
 }
 
 /// Whether a part is shaped as a floor, whatever its size: mostly horizontal, in the lowest
@@ -729,7 +772,7 @@ pub fn geometry_heuristic(
         ));
     }
     // A wall rises through most of the building; a block or a statue does not.
-    if g.area >= 0.02 * wall_base
+    if g.area.max(g.wall_kin) >= 0.02 * wall_base
         && share(g.vertical) >= 0.75
         && (g.y_range[1] - g.y_range[0]) >= 0.5 * span
     {
@@ -738,7 +781,14 @@ pub fn geometry_heuristic(
                 "geometry: {:.0}% vertical, {:.0}% of the model's area{}",
                 share(g.vertical) * 100.0,
                 g.area / total_area * 100.0,
-                if g.area < 0.02 * total_area {
+                if g.area < 0.02 * wall_base {
+                    format!(
+                        ", {:.0}% of it less the floors with the {} other wall-shaped parts \
+                         of its material",
+                        g.wall_kin / wall_base * 100.0,
+                        g.wall_kin_parts - 1
+                    )
+                } else if g.area < 0.02 * total_area {
                     format!(", {:.0}% of it less the floors", g.area / wall_base * 100.0)
                 } else {
                     String::new()
@@ -1417,6 +1467,55 @@ mod tests {
                 "{said}"
             );
         }
+    }
+
+    /// A nave of generic names whose walls are built a bay at a time, 32 panels each its own
+    /// object and under 2 % of the model, beside 24 square pillars of the same material and
+    /// height: the panels are walls together, as one object of them would be (they were
+    /// `other`, and the window was classed by the model's height, not the walls' top); the
+    /// pillars, which face two ways, stay `other`.
+    #[test]
+    fn walls_built_a_bay_at_a_time_are_walls_and_pillars_are_not() {
+        let dir = tempfile::tempdir().unwrap();
+        let (obj, mtl) = crate::testing::nave_in_bays();
+        std::fs::write(dir.path().join("m.mtl"), mtl).unwrap();
+        let path = dir.path().join("nave.obj");
+        std::fs::write(&path, obj).unwrap();
+        let mut src = crate::import::import(&path).unwrap();
+        let t = tag(&manifest(""), std::slice::from_mut(&mut src)).unwrap();
+        let part = |object: &str| {
+            src.parts
+                .iter()
+                .position(|p| p.names.object.as_deref() == Some(object))
+                .unwrap()
+        };
+        let class_of = |object: &str| {
+            t.materials[t.part_material[0][part(object)] as usize]
+                .material
+                .class
+        };
+        for k in 0..32 {
+            assert_eq!(
+                class_of(&format!("Cube.{k:03}")),
+                MaterialClass::Wall,
+                "bay {k}"
+            );
+        }
+        for k in 0..24 {
+            assert_eq!(
+                class_of(&format!("Cylinder.{k:03}")),
+                MaterialClass::Other,
+                "pillar {k}"
+            );
+        }
+        assert_eq!(class_of("Plane"), MaterialClass::Floor);
+        let said = t.decisions[0][part("Cube.000")]
+            .reason()
+            .unwrap_or_default();
+        assert!(
+            said.contains("with the 31 other wall-shaped parts of its material"),
+            "{said}"
+        );
     }
 
     /// A hall whose ground and walls are separate objects in one material named for nothing

@@ -293,3 +293,73 @@ pub fn tiled_hall(chequered: bool) -> (String, &'static str) {
                newmtl Material.005\nKd 0.2 0.4 0.8\nTf 0.2 0.4 0.8\nd 0.3\n";
     (obj, mtl)
 }
+
+/// A nave 60 x 20 and 20 high of generic names, as OBJ text naming `m.mtl` and that MTL: a
+/// floor (`Plane`, `Material.001`); walls built a bay at a time, 32 panels of 5 x 20, each
+/// its own object (`Cube.000` …), a roof (`Plane.roof`) and 24 square pillars of 1 x 1 x 20
+/// (`Cylinder.000` …), all in `Material.002`; and glass (`Glass`, `Material.003`, `Tf`) in the
+/// north wall.
+pub fn nave_in_bays() -> (String, &'static str) {
+    use std::fmt::Write;
+    let mut obj = String::from("mtllib m.mtl\n");
+    let mut n = 0;
+    let mut quad = |object: &str, material: &str, o: [f64; 3], a: [f64; 3], b: [f64; 3]| {
+        let _ = writeln!(obj, "o {object}\nusemtl {material}");
+        for c in quad_corners(o, a, b) {
+            let _ = writeln!(obj, "v {} {} {}", c[0], c[1], c[2]);
+        }
+        let _ = writeln!(obj, "f {} {} {} {}", n + 1, n + 2, n + 3, n + 4);
+        n += 4;
+    };
+    quad(
+        "Plane",
+        "Material.001",
+        [-30., 0., -10.],
+        [0., 0., 20.],
+        [60., 0., 0.],
+    );
+    let mut bay = 0;
+    let mut wall = |o: [f64; 3], a: [f64; 3], b: [f64; 3]| {
+        quad(&format!("Cube.{bay:03}"), "Material.002", o, a, b);
+        bay += 1;
+    };
+    for i in 0..12 {
+        let x = -30.0 + 5.0 * i as f64;
+        wall([x, 0., 10.], [5., 0., 0.], [0., 20., 0.]);
+        wall([x, 0., -10.], [0., 20., 0.], [5., 0., 0.]);
+    }
+    for j in 0..4 {
+        let z = -10.0 + 5.0 * j as f64;
+        wall([-30., 0., z], [0., 0., 5.], [0., 20., 0.]);
+        wall([30., 0., z], [0., 20., 0.], [0., 0., 5.]);
+    }
+    quad(
+        "Plane.roof",
+        "Material.002",
+        [-30., 20., -10.],
+        [60., 0., 0.],
+        [0., 0., 20.],
+    );
+    for c in 0..24 {
+        let (x, z) = (
+            -27.5 + 5.0 * (c % 12) as f64,
+            if c < 12 { -6.0 } else { 6.0 },
+        );
+        let name = format!("Cylinder.{c:03}");
+        let up = [0., 20., 0.];
+        quad(&name, "Material.002", [x, 0., z], [1., 0., 0.], up);
+        quad(&name, "Material.002", [x, 0., z + 1.], up, [1., 0., 0.]);
+        quad(&name, "Material.002", [x, 0., z], up, [0., 0., 1.]);
+        quad(&name, "Material.002", [x + 1., 0., z], [0., 0., 1.], up);
+    }
+    quad(
+        "Glass",
+        "Material.003",
+        [-2., 8., 9.99],
+        [4., 0., 0.],
+        [0., 6., 0.],
+    );
+    let mtl = "newmtl Material.001\nKd 0.5 0.5 0.5\nnewmtl Material.002\nKd 0.8 0.8 0.8\n\
+               newmtl Material.003\nKd 0.2 0.4 0.8\nTf 0.2 0.4 0.8\nd 0.3\n";
+    (obj, mtl)
+}
