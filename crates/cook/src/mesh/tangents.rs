@@ -21,6 +21,8 @@
 //!
 //! Input is a triangle list (three corners per triangle); quads are not taken.
 
+use std::collections::HashMap;
+
 use glam::Vec3;
 use rayon::prelude::*;
 
@@ -564,6 +566,14 @@ impl<C: Corners> Context<'_, C> {
             out.fill([t.x, t.y, t.z, sign]);
             return;
         }
+        if self.thres_cos == -1.0
+            && let Some(e) = exceptions(&s.os, &s.ot, &s.any)
+            && self
+                .by_exceptions(&e, faces, slots, &s.os, n, sign, out)
+                .is_some()
+        {
+            return;
+        }
         s.subgroups.clear();
         s.member_lists.clear();
         for (a, out) in out.iter_mut().enumerate() {
@@ -599,24 +609,96 @@ impl<C: Corners> Context<'_, C> {
     fn eval(&self, members: &[u32], faces: &[u32], slots: &[u32], os: &[Vec3], n: Vec3) -> Vec3 {
         let mut sum = Vec3::ZERO;
         for &m in members {
-            let m = m as usize;
-            if self.tris[faces[m] as usize].flag & GROUP_WITH_ANY != 0 {
-                continue;
+            if let Some(c) = self.contribution(m as usize, faces, slots, os, n) {
+                sum += c;
             }
-            let slot = slots[m] as usize;
-            let (base, i) = (slot - slot % 3, slot % 3);
-            let p0 = Vec3::from(self.corners.position(base + if i > 0 { i - 1 } else { 2 }));
-            let p1 = Vec3::from(self.corners.position(base + i));
-            let p2 = Vec3::from(self.corners.position(base + if i < 2 { i + 1 } else { 0 }));
-            let v1 = p0 - p1;
-            let v2 = p2 - p1;
-            let v1 = normalize_if_not_zero(v1 - n.dot(v1) * n);
-            let v2 = normalize_if_not_zero(v2 - n.dot(v2) * n);
-            let cos = v1.dot(v2).clamp(-1.0, 1.0);
-            let angle = (cos as f64).acos() as f32;
-            sum += angle * os[m];
         }
         normalize_if_not_zero(sum)
+    }
+
+    /// Member `m`'s term of [`Self::eval`]'s sum: its projected tangent direction times its
+    /// triangle's angle at the vertex; `None` for a triangle that groups with any.
+    fn contribution(
+        &self,
+        m: usize,
+        faces: &[u32],
+        slots: &[u32],
+        os: &[Vec3],
+        n: Vec3,
+    ) -> Option<Vec3> {
+        if self.tris[faces[m] as usize].flag & GROUP_WITH_ANY != 0 {
+            return None;
+        }
+        let slot = slots[m] as usize;
+        let (base, i) = (slot - slot % 3, slot % 3);
+        let p0 = Vec3::from(self.corners.position(base + if i > 0 { i - 1 } else { 2 }));
+        let p1 = Vec3::from(self.corners.position(base + i));
+        let p2 = Vec3::from(self.corners.position(base + if i < 2 { i + 1 } else { 0 }));
+        let v1 = p0 - p1;
+        let v2 = p2 - p1;
+        let v1 = normalize_if_not_zero(v1 - n.dot(v1) * n);
+        let v2 = normalize_if_not_zero(v2 - n.dot(v2) * n);
+        let cos = v1.dot(v2).clamp(-1.0, 1.0);
+        let angle = (cos as f64).acos() as f32;
+        Some(angle * os[m])
+    }
+
+    /// Each member's tangent where some members differ (`exceptions`: per member, the members
+    /// whose directions are opposite to its own, sorted), at the reference's 180-degree
+    /// threshold: a member's sub-group is every member but its exceptions, so members with
+    /// the same exceptions share a sub-group, and each sub-group's sum runs over the members
+    /// in the reference's order with each term computed once. The reference compares every
+    /// pair for every member; a 20,000-triangle fan whose UVs wrap twice round its centre
+    /// took 23 s. `None` where two members share a triangle (their order is then not the
+    /// triangles').
+    #[allow(clippy::too_many_arguments)]
+    fn by_exceptions(
+        &self,
+        exceptions: &[Vec<u32>],
+        faces: &[u32],
+        slots: &[u32],
+        os: &[Vec3],
+        n: Vec3,
+        sign: f32,
+        out: &mut [[f32; 4]],
+    ) -> Option<()> {
+        let k = faces.len();
+        let mut order: Vec<u32> = (0..k as u32).collect();
+        order.sort_unstable_by_key(|&m| faces[m as usize]);
+        if order
+            .windows(2)
+            .any(|w| faces[w[0] as usize] == faces[w[1] as usize])
+        {
+            return None;
+        }
+        let terms: Vec<Option<Vec3>> = (0..k)
+            .map(|m| self.contribution(m, faces, slots, os, n))
+            .collect();
+        let mut known: HashMap<&[u32], Vec3> = HashMap::new();
+        let mut left_out = vec![usize::MAX; k];
+        for (a, out) in out.iter_mut().enumerate() {
+            let t = match known.get(exceptions[a].as_slice()) {
+                Some(&t) => t,
+                None => {
+                    for &b in &exceptions[a] {
+                        left_out[b as usize] = a;
+                    }
+                    let mut sum = Vec3::ZERO;
+                    for &m in &order {
+                        if left_out[m as usize] != a
+                            && let Some(c) = terms[m as usize]
+                        {
+                            sum += c;
+                        }
+                    }
+                    let t = normalize_if_not_zero(sum);
+                    known.insert(&exceptions[a], t);
+                    t
+                }
+            };
+            *out = [t.x, t.y, t.z, sign];
+        }
+        Some(())
     }
 }
 
@@ -625,15 +707,64 @@ fn not_above_minus_one(a: Vec3, b: Vec3) -> bool {
     a.dot(b).partial_cmp(&-1.0) != Some(std::cmp::Ordering::Greater)
 }
 
+/// The vectors of a group's members (those `skip` leaves out aside) in the cells of a grid
+/// 1/32 wide, to find the ones opposite each. Unit vectors with a product of -1 or less lie
+/// within 0.0064 of each other's opposite, so only the cells around a vector's opposite can
+/// hold them.
+struct Opposites {
+    grid: std::collections::BTreeMap<[i32; 3], Vec<usize>>,
+}
+
+impl Opposites {
+    /// `None` where the vectors are not all finite and at most unit length (plus rounding):
+    /// then every pair must be compared.
+    fn new(v: &[Vec3], skip: &[bool]) -> Option<Self> {
+        const CELLS: f32 = 32.0;
+        let mut grid: std::collections::BTreeMap<[i32; 3], Vec<usize>> = Default::default();
+        for i in (0..v.len()).filter(|&i| !skip[i]) {
+            let len2 = v[i].length_squared();
+            if len2.is_nan() || len2 > 1.000_02 {
+                return None;
+            }
+            let cell = v[i].to_array().map(|x| (x * CELLS).floor() as i32);
+            grid.entry(cell).or_default().push(i);
+        }
+        Some(Self { grid })
+    }
+
+    /// Calls `f` with each cell's members and the members of the cells around their opposite
+    /// (themselves among them, where a cell is its own neighbour), until it returns true;
+    /// returns whether it did.
+    fn any_cell(&self, mut f: impl FnMut(&[usize], &[usize]) -> bool) -> bool {
+        let mut near = Vec::new();
+        for (c, members) in &self.grid {
+            // The opposite of a point in cell `c` lies in cell `-c - 1` or `-c`; anything
+            // within a cell's width of it, one further either way.
+            near.clear();
+            for dx in -2..=1 {
+                for dy in -2..=1 {
+                    for dz in -2..=1 {
+                        if let Some(m) = self.grid.get(&[-c[0] + dx, -c[1] + dy, -c[2] + dz]) {
+                            near.extend_from_slice(m);
+                        }
+                    }
+                }
+            }
+            if f(members, &near) {
+                return true;
+            }
+        }
+        false
+    }
+}
+
 /// Whether two of the vectors `v` (those `skip` marks left out) have a dot product that is not
 /// above -1: -1 or less, or NaN. That is the reference's test of two members' tangent
 /// directions at its 180-degree threshold, which it makes for every pair of a group's members:
 /// `k²/2` products, and a disc fanned from its centre shares one vertex among all its
-/// triangles (200,000 took 34 s). Unit vectors with a product of -1 or less lie within 0.0064
-/// of each other's opposite, so each is compared only with those in the cells of a grid
-/// (1/32 wide) around its opposite's cell, with the same product as the pairwise test;
-/// where the vectors are not all finite and at most unit length (plus rounding), or few,
-/// every pair is compared.
+/// triangles (200,000 took 34 s). Each is compared only with those around its opposite
+/// ([`Opposites`]), with the same product as the pairwise test; where the vectors are not all
+/// finite and at most unit length, or few, every pair is compared.
 fn some_pair_not_above_minus_one(v: &[Vec3], skip: &[bool]) -> bool {
     let kept: Vec<usize> = (0..v.len()).filter(|&i| !skip[i]).collect();
     let pairwise = || {
@@ -643,37 +774,47 @@ fn some_pair_not_above_minus_one(v: &[Vec3], skip: &[bool]) -> bool {
                 .any(|&b| not_above_minus_one(v[a], v[b]))
         })
     };
-    if kept.len() < 64 || !kept.iter().all(|&i| v[i].length_squared() <= 1.000_02) {
+    if kept.len() < 64 {
         return pairwise();
     }
-    // NaN fails the comparison above, so only finite vectors reach here.
-    const CELLS: f32 = 32.0;
-    let cell = |x: f32| (x * CELLS).floor() as i32;
-    let mut grid: std::collections::BTreeMap<[i32; 3], Vec<usize>> = Default::default();
-    for &i in &kept {
-        grid.entry(v[i].to_array().map(cell)).or_default().push(i);
+    match Opposites::new(v, skip) {
+        Some(grid) => grid.any_cell(|members, near| {
+            members.iter().any(|&a| {
+                near.iter()
+                    .any(|&b| a != b && not_above_minus_one(v[a], v[b]))
+            })
+        }),
+        None => pairwise(),
     }
-    for (c, members) in &grid {
-        // The opposite of a point in cell `c` lies in cell `-c - 1` or `-c`; anything within
-        // a cell's width of it, one further either way.
-        let mut near = Vec::new();
-        for dx in -2..=1 {
-            for dy in -2..=1 {
-                for dz in -2..=1 {
-                    if let Some(m) = grid.get(&[-c[0] + dx, -c[1] + dy, -c[2] + dz]) {
-                        near.extend_from_slice(m);
+}
+
+/// Per member, sorted, the members whose tangent or bitangent direction has a product of -1
+/// or less (or NaN) with its own: those it does not share a sub-group with at the 180-degree
+/// threshold (members that group with any are skipped, and have none). `None` where the grid
+/// cannot be used ([`Opposites::new`]).
+fn exceptions(os: &[Vec3], ot: &[Vec3], skip: &[bool]) -> Option<Vec<Vec<u32>>> {
+    let grids = [
+        (Opposites::new(os, skip)?, os),
+        (Opposites::new(ot, skip)?, ot),
+    ];
+    let mut out = vec![Vec::new(); os.len()];
+    for (grid, v) in &grids {
+        grid.any_cell(|members, near| {
+            for &a in members {
+                for &b in near {
+                    if a != b && not_above_minus_one(v[a], v[b]) {
+                        out[a].push(b as u32);
                     }
                 }
             }
-        }
-        if members.iter().any(|&a| {
-            near.iter()
-                .any(|&b| a != b && not_above_minus_one(v[a], v[b]))
-        }) {
-            return true;
-        }
+            false
+        });
     }
-    false
+    for e in &mut out {
+        e.sort_unstable();
+        e.dedup();
+    }
+    Some(out)
 }
 
 /// The `mikktspace` crate's tangents for the same corners, as `set_tangent_encoded` gives
