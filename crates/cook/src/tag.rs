@@ -1428,22 +1428,10 @@ mod tests {
     /// chequerboard) are a floor each; a single small slab, a rug, stays `other`.
     #[test]
     fn a_floor_laid_in_tiles_is_a_floor() {
-        let dir = tempfile::tempdir().unwrap();
         for chequered in [false, true] {
             let (obj, mtl) = crate::testing::tiled_hall(chequered);
-            std::fs::write(dir.path().join("m.mtl"), mtl).unwrap();
-            let path = dir.path().join("tiles.obj");
-            std::fs::write(&path, obj).unwrap();
-            let mut src = crate::import::import(&path).unwrap();
-            let t = tag(&manifest(""), std::slice::from_mut(&mut src)).unwrap();
-            let class_of = |object: &str| {
-                let pi = src
-                    .parts
-                    .iter()
-                    .position(|p| p.names.object.as_deref() == Some(object))
-                    .unwrap();
-                t.materials[t.part_material[0][pi] as usize].material.class
-            };
+            let (src, t) = tagged_obj(&obj, ("m.mtl", mtl));
+            let class_of = |object: &str| object_class(&src, &t, object).1;
             for k in 0..60 {
                 assert_eq!(
                     class_of(&format!("Plane.{k:03}")),
@@ -1469,6 +1457,31 @@ mod tests {
         }
     }
 
+    /// `obj` imported from a folder beside its MTL `mtl` (`(file name, text)`) and tagged by
+    /// the heuristics alone (an empty manifest).
+    fn tagged_obj(obj: &str, (mtl_name, mtl): (&str, &str)) -> (Imported, Tagging) {
+        let dir = tempfile::tempdir().unwrap();
+        std::fs::write(dir.path().join(mtl_name), mtl).unwrap();
+        let path = dir.path().join("model.obj");
+        std::fs::write(&path, obj).unwrap();
+        let mut src = crate::import::import(&path).unwrap();
+        let t = tag(&manifest(""), std::slice::from_mut(&mut src)).unwrap();
+        (src, t)
+    }
+
+    /// The index of the part of object `object`, and its class.
+    fn object_class(src: &Imported, t: &Tagging, object: &str) -> (usize, MaterialClass) {
+        let pi = src
+            .parts
+            .iter()
+            .position(|p| p.names.object.as_deref() == Some(object))
+            .unwrap_or_else(|| panic!("no object {object:?}"));
+        (
+            pi,
+            t.materials[t.part_material[0][pi] as usize].material.class,
+        )
+    }
+
     /// A nave of generic names whose walls are built a bay at a time, 32 panels each its own
     /// object and under 2 % of the model, beside 24 square pillars of the same material and
     /// height: the panels are walls together, as one object of them would be (they were
@@ -1476,24 +1489,10 @@ mod tests {
     /// pillars, which face two ways, stay `other`.
     #[test]
     fn walls_built_a_bay_at_a_time_are_walls_and_pillars_are_not() {
-        let dir = tempfile::tempdir().unwrap();
         let (obj, mtl) = crate::testing::nave_in_bays();
-        std::fs::write(dir.path().join("m.mtl"), mtl).unwrap();
-        let path = dir.path().join("nave.obj");
-        std::fs::write(&path, obj).unwrap();
-        let mut src = crate::import::import(&path).unwrap();
-        let t = tag(&manifest(""), std::slice::from_mut(&mut src)).unwrap();
-        let part = |object: &str| {
-            src.parts
-                .iter()
-                .position(|p| p.names.object.as_deref() == Some(object))
-                .unwrap()
-        };
-        let class_of = |object: &str| {
-            t.materials[t.part_material[0][part(object)] as usize]
-                .material
-                .class
-        };
+        let (src, t) = tagged_obj(&obj, ("m.mtl", mtl));
+        let part = |object: &str| object_class(&src, &t, object).0;
+        let class_of = |object: &str| object_class(&src, &t, object).1;
         for k in 0..32 {
             assert_eq!(
                 class_of(&format!("Cube.{k:03}")),
@@ -1538,24 +1537,9 @@ mod tests {
                     _ => format!("{l}\n"),
                 })
                 .collect();
-            let dir = tempfile::tempdir().unwrap();
-            let path = dir.path().join("hall.obj");
-            std::fs::write(&path, obj).unwrap();
-            std::fs::write(
-                dir.path().join("hall.mtl"),
-                "newmtl Material1\nKd 0.6 0.6 0.6\nnewmtl glass\nKd 0.2 0.4 0.8\nd 0.3\n",
-            )
-            .unwrap();
-            let mut src = crate::import::import(&path).unwrap();
-            let t = tag(&manifest(""), std::slice::from_mut(&mut src)).unwrap();
-            let class_of = |object: &str| {
-                let pi = src
-                    .parts
-                    .iter()
-                    .position(|p| p.names.object.as_deref() == Some(object))
-                    .unwrap();
-                t.materials[t.part_material[0][pi] as usize].material.class
-            };
+            let mtl = "newmtl Material1\nKd 0.6 0.6 0.6\nnewmtl glass\nKd 0.2 0.4 0.8\nd 0.3\n";
+            let (src, t) = tagged_obj(&obj, ("hall.mtl", mtl));
+            let class_of = |object: &str| object_class(&src, &t, object).1;
             assert_eq!(
                 class_of("piece1"),
                 MaterialClass::Floor,

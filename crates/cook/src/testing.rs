@@ -203,6 +203,33 @@ pub fn hall_gltf(
     (gltf, bin)
 }
 
+/// OBJ text of quads, each an object in a material (`mtllib m.mtl`).
+struct ObjQuads {
+    obj: String,
+    vertices: usize,
+}
+
+impl ObjQuads {
+    fn new() -> Self {
+        Self {
+            obj: String::from("mtllib m.mtl\n"),
+            vertices: 0,
+        }
+    }
+
+    /// A quad of object `object` in `material`: its corner and the two edges from it.
+    fn quad(&mut self, object: &str, material: &str, [o, a, b]: [[f64; 3]; 3]) {
+        use std::fmt::Write;
+        let _ = writeln!(self.obj, "o {object}\nusemtl {material}");
+        for c in quad_corners(o, a, b) {
+            let _ = writeln!(self.obj, "v {} {} {}", c[0], c[1], c[2]);
+        }
+        let n = self.vertices;
+        let _ = writeln!(self.obj, "f {} {} {} {}", n + 1, n + 2, n + 3, n + 4);
+        self.vertices += 4;
+    }
+}
+
 /// A hall of generic names (Blender's `Plane.001`, `Material.001`), as OBJ text naming `m.mtl`
 /// and that MTL: its floor laid as 60 tiles of 1 m², each its own object (`Plane.000` …
 /// `Plane.059`), in `Material.001`, or, `chequered`, every other one in `Material.003`; walls
@@ -210,17 +237,7 @@ pub fn hall_gltf(
 /// `Material.004`) on the floor; and glass (`Plane.900`, `Material.005`, `Tf`) in the north
 /// wall.
 pub fn tiled_hall(chequered: bool) -> (String, &'static str) {
-    use std::fmt::Write;
-    let mut obj = String::from("mtllib m.mtl\n");
-    let mut n = 0;
-    let mut quad = |object: &str, material: &str, o: [f64; 3], a: [f64; 3], b: [f64; 3]| {
-        let _ = writeln!(obj, "o {object}\nusemtl {material}");
-        for c in quad_corners(o, a, b) {
-            let _ = writeln!(obj, "v {} {} {}", c[0], c[1], c[2]);
-        }
-        let _ = writeln!(obj, "f {} {} {} {}", n + 1, n + 2, n + 3, n + 4);
-        n += 4;
-    };
+    let mut q = ObjQuads::new();
     for (k, (i, j)) in (0..10)
         .flat_map(|i| (0..6).map(move |j| (i, j)))
         .enumerate()
@@ -231,67 +248,56 @@ pub fn tiled_hall(chequered: bool) -> (String, &'static str) {
             "Material.001"
         };
         let at = [i as f64 - 5.0, 0.0, j as f64 - 3.0];
-        quad(
+        q.quad(
             &format!("Plane.{k:03}"),
             material,
-            at,
-            [0., 0., 1.],
-            [1., 0., 0.],
+            [at, [0., 0., 1.], [1., 0., 0.]],
         );
     }
-    quad(
-        "Cube",
-        "Material.002",
-        [-5., 0., 3.],
-        [10., 0., 0.],
-        [0., 4., 0.],
-    );
-    quad(
-        "Cube",
-        "Material.002",
-        [-5., 0., -3.],
-        [0., 4., 0.],
-        [10., 0., 0.],
-    );
-    quad(
-        "Cube",
-        "Material.002",
-        [-5., 0., -3.],
-        [0., 0., 6.],
-        [0., 4., 0.],
-    );
-    quad(
-        "Cube",
-        "Material.002",
-        [5., 0., -3.],
-        [0., 4., 0.],
-        [0., 0., 6.],
-    );
-    quad(
-        "Cube.001",
-        "Material.002",
-        [-5., 4., -3.],
-        [10., 0., 0.],
-        [0., 0., 6.],
-    );
-    quad(
-        "Rug",
-        "Material.004",
-        [-1., 0.01, -1.],
-        [0., 0., 1.],
-        [1.5, 0., 0.],
-    );
-    quad(
-        "Plane.900",
-        "Material.005",
-        [-2., 1.5, 2.99],
-        [4., 0., 0.],
-        [0., 1.6, 0.],
-    );
+    let rest = [
+        (
+            "Cube",
+            "Material.002",
+            [[-5., 0., 3.], [10., 0., 0.], [0., 4., 0.]],
+        ),
+        (
+            "Cube",
+            "Material.002",
+            [[-5., 0., -3.], [0., 4., 0.], [10., 0., 0.]],
+        ),
+        (
+            "Cube",
+            "Material.002",
+            [[-5., 0., -3.], [0., 0., 6.], [0., 4., 0.]],
+        ),
+        (
+            "Cube",
+            "Material.002",
+            [[5., 0., -3.], [0., 4., 0.], [0., 0., 6.]],
+        ),
+        (
+            "Cube.001",
+            "Material.002",
+            [[-5., 4., -3.], [10., 0., 0.], [0., 0., 6.]],
+        ),
+        (
+            "Rug",
+            "Material.004",
+            [[-1., 0.01, -1.], [0., 0., 1.], [1.5, 0., 0.]],
+        ),
+        (
+            "Plane.900",
+            "Material.005",
+            [[-2., 1.5, 2.99], [4., 0., 0.], [0., 1.6, 0.]],
+        ),
+    ];
+    for (object, material, at) in rest {
+        q.quad(object, material, at);
+    }
     let mtl = "newmtl Material.001\nKd 0.5 0.5 0.5\nnewmtl Material.002\nKd 0.8 0.8 0.8\n\
                newmtl Material.003\nKd 0.2 0.2 0.2\nnewmtl Material.004\nKd 0.6 0.1 0.1\n\
                newmtl Material.005\nKd 0.2 0.4 0.8\nTf 0.2 0.4 0.8\nd 0.3\n";
-    (obj, mtl)
+    (q.obj, mtl)
 }
 
 /// A nave 60 x 20 and 20 high of generic names, as OBJ text naming `m.mtl` and that MTL: a
@@ -300,66 +306,50 @@ pub fn tiled_hall(chequered: bool) -> (String, &'static str) {
 /// (`Cylinder.000` …), all in `Material.002`; and glass (`Glass`, `Material.003`, `Tf`) in the
 /// north wall.
 pub fn nave_in_bays() -> (String, &'static str) {
-    use std::fmt::Write;
-    let mut obj = String::from("mtllib m.mtl\n");
-    let mut n = 0;
-    let mut quad = |object: &str, material: &str, o: [f64; 3], a: [f64; 3], b: [f64; 3]| {
-        let _ = writeln!(obj, "o {object}\nusemtl {material}");
-        for c in quad_corners(o, a, b) {
-            let _ = writeln!(obj, "v {} {} {}", c[0], c[1], c[2]);
-        }
-        let _ = writeln!(obj, "f {} {} {} {}", n + 1, n + 2, n + 3, n + 4);
-        n += 4;
-    };
-    quad(
+    let mut q = ObjQuads::new();
+    let stone = "Material.002";
+    q.quad(
         "Plane",
         "Material.001",
-        [-30., 0., -10.],
-        [0., 0., 20.],
-        [60., 0., 0.],
+        [[-30., 0., -10.], [0., 0., 20.], [60., 0., 0.]],
     );
-    let mut bay = 0;
-    let mut wall = |o: [f64; 3], a: [f64; 3], b: [f64; 3]| {
-        quad(&format!("Cube.{bay:03}"), "Material.002", o, a, b);
-        bay += 1;
-    };
+    let mut bays = Vec::new();
     for i in 0..12 {
         let x = -30.0 + 5.0 * i as f64;
-        wall([x, 0., 10.], [5., 0., 0.], [0., 20., 0.]);
-        wall([x, 0., -10.], [0., 20., 0.], [5., 0., 0.]);
+        bays.push([[x, 0., 10.], [5., 0., 0.], [0., 20., 0.]]);
+        bays.push([[x, 0., -10.], [0., 20., 0.], [5., 0., 0.]]);
     }
     for j in 0..4 {
         let z = -10.0 + 5.0 * j as f64;
-        wall([-30., 0., z], [0., 0., 5.], [0., 20., 0.]);
-        wall([30., 0., z], [0., 20., 0.], [0., 0., 5.]);
+        bays.push([[-30., 0., z], [0., 0., 5.], [0., 20., 0.]]);
+        bays.push([[30., 0., z], [0., 20., 0.], [0., 0., 5.]]);
     }
-    quad(
+    for (k, bay) in bays.into_iter().enumerate() {
+        q.quad(&format!("Cube.{k:03}"), stone, bay);
+    }
+    q.quad(
         "Plane.roof",
-        "Material.002",
-        [-30., 20., -10.],
-        [60., 0., 0.],
-        [0., 0., 20.],
+        stone,
+        [[-30., 20., -10.], [60., 0., 0.], [0., 0., 20.]],
     );
+    let up = [0., 20., 0.];
     for c in 0..24 {
         let (x, z) = (
             -27.5 + 5.0 * (c % 12) as f64,
             if c < 12 { -6.0 } else { 6.0 },
         );
         let name = format!("Cylinder.{c:03}");
-        let up = [0., 20., 0.];
-        quad(&name, "Material.002", [x, 0., z], [1., 0., 0.], up);
-        quad(&name, "Material.002", [x, 0., z + 1.], up, [1., 0., 0.]);
-        quad(&name, "Material.002", [x, 0., z], up, [0., 0., 1.]);
-        quad(&name, "Material.002", [x + 1., 0., z], [0., 0., 1.], up);
+        q.quad(&name, stone, [[x, 0., z], [1., 0., 0.], up]);
+        q.quad(&name, stone, [[x, 0., z + 1.], up, [1., 0., 0.]]);
+        q.quad(&name, stone, [[x, 0., z], up, [0., 0., 1.]]);
+        q.quad(&name, stone, [[x + 1., 0., z], [0., 0., 1.], up]);
     }
-    quad(
+    q.quad(
         "Glass",
         "Material.003",
-        [-2., 8., 9.99],
-        [4., 0., 0.],
-        [0., 6., 0.],
+        [[-2., 8., 9.99], [4., 0., 0.], [0., 6., 0.]],
     );
     let mtl = "newmtl Material.001\nKd 0.5 0.5 0.5\nnewmtl Material.002\nKd 0.8 0.8 0.8\n\
                newmtl Material.003\nKd 0.2 0.4 0.8\nTf 0.2 0.4 0.8\nd 0.3\n";
-    (obj, mtl)
+    (q.obj, mtl)
 }
