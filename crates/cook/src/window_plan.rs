@@ -678,17 +678,20 @@ fn make_design(p: &Pending, images: &crate::textures::DecodedImages) -> Result<D
     let pixels = rgba(&decoded);
     let size = pixels.dimensions();
     let mask = design::coverage(&p.tris, size.0, size.1);
-    if let Some(tints) = &p.tints {
-        let mut pixels = pixels.into_owned();
-        design::tint_image(&mut pixels, &p.tris, tints, p.srgb);
-        if design::light_outside(&pixels, &mask) {
-            design::apply_mask(&mut pixels, &mask);
+    let pixels = match &p.tints {
+        Some(tints) => {
+            let mut tinted = pixels.into_owned();
+            design::tint_image(&mut tinted, &p.tris, tints, p.srgb);
+            std::borrow::Cow::Owned(tinted)
         }
-        Ok((raster(name, pixels), *source, size))
-    } else if design::light_outside(&pixels, &mask) {
+        None => pixels,
+    };
+    if design::light_outside(&pixels, &mask) {
         let mut pixels = pixels.into_owned();
         design::apply_mask(&mut pixels, &mask);
         Ok((raster(name, pixels), *source, size))
+    } else if let std::borrow::Cow::Owned(tinted) = pixels {
+        Ok((raster(name, tinted), *source, size))
     } else {
         Ok((img.clone(), *source, size))
     }

@@ -262,9 +262,8 @@ pub fn run(args: Args) -> Outcome {
                     };
                     // A material no part of another class carries is one rule for all its
                     // parts (a floor laid as sixty tiles, each its own object, was sixty).
-                    let material = names().find(|&(_, kind, n)| {
-                        kind == NameKind::Material && only_this(SPECIFIC_FIRST.len() - 1, n)
-                    });
+                    let material =
+                        names().find(|&(k, kind, n)| kind == NameKind::Material && only_this(k, n));
                     match material
                         .or_else(|| names().find(|&(k, _, n)| only_this(k, n)))
                         .or_else(|| names().next())

@@ -1488,9 +1488,10 @@ mod tests {
     }
 
     /// A disc of 3,000 triangles fanned from its centre, in order round it and scrambled:
-    /// ordered with the centre as runs of 256 triangles, the same triangles (each as its corners turned or
-    /// not), and as cache-efficient as meshopt's own order of the whole, which rescores all
-    /// of the centre's live triangles at each step (0.48 s on a 50,000-triangle fan).
+    /// ordered with the centre as runs of 256 triangles, the same triangles (each as its
+    /// corners turned or not), and as cache-efficient as meshopt's own order of the whole,
+    /// which rescores all of the centre's live triangles at each step (0.48 s on a
+    /// 50,000-triangle fan).
     #[test]
     fn a_vertex_shared_by_thousands_of_triangles_is_ordered_in_runs_as_well_as_whole() {
         let n = 3000u32;
