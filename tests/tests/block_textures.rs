@@ -117,7 +117,7 @@ fn material(
     }
 }
 
-/// A floor with the colour texture and a wall with the normal map, lit by the sun.
+/// A floor with the colour texture and a wall with the normal map.
 fn scene(compressed: bool) -> Vec<u8> {
     let srgb = texture::ColourOptions {
         srgb: true,
@@ -157,6 +157,11 @@ fn scene(compressed: bool) -> Vec<u8> {
         (NORMAL, NORMAL),
         pick(Codec::Bc5),
     );
+    floor_and_wall((ct, cd), (nt, nd))
+}
+
+/// The floor with colour texture `colour`, the wall with normal map `normal`, lit by the sun.
+fn floor_and_wall((ct, cd): (Texture, Vec<Vec<u8>>), (nt, nd): (Texture, Vec<Vec<u8>>)) -> Vec<u8> {
     let toc = Toc {
         materials: vec![
             material("floor", MaterialClass::Floor, Some(0), None),
@@ -283,4 +288,78 @@ fn block_compressed_textures_render_like_rgba8_uploaded_or_decoded() {
     let e = flip_mean(&rgba8, &uploaded);
     eprintln!("uploaded BC against RGBA8: FLIP mean {e:.5}");
     assert!(e < 0.04, "uploaded BC against RGBA8: FLIP mean {e}");
+}
+
+/// A texture whose level 0 is red and whose smaller levels are the chain of a green pattern:
+/// loaded at most level 1's size a side, it must render as the pattern's own texture does,
+/// level for level; loaded whole, red shows. A block texture's level 1 is kept as blocks
+/// where it is whole blocks, and decoded where it is not (a GPU block texture's level 0 must
+/// be whole blocks): 68x68 has a 34x34 level 1.
+#[test]
+fn a_texture_over_the_largest_side_loaded_renders_as_its_first_level_that_fits() {
+    let mut gpu = gpu();
+    let saved = (gpu.block_compression, gpu.max_texture_side);
+    let srgb = texture::ColourOptions {
+        srgb: true,
+        filter: texture::MipFilter::Box,
+    };
+    let green = |x: u32, y: u32| [30, 120 + ((x / 4 + y / 4) % 2 * 100) as u8, 40, 255];
+    let normal_chain = texture::normal_mips(
+        &image(NORMAL, NORMAL, normal),
+        texture::NormalEncoding::Rgb,
+        texture::GreenAxis::OpenGl,
+    )
+    .unwrap();
+    let normals = || {
+        texture(
+            "bumps",
+            TextureRole::Normal,
+            &normal_chain,
+            (NORMAL, NORMAL),
+            None,
+        )
+    };
+    let bc7 = Some(Codec::Bc7(Bc7Profile::VeryFast));
+    // (level 0's side, its codec, the codec of the pattern's own texture): the decoded level
+    // is compared with RGBA8 (BC7 keeps this two-colour pattern exactly).
+    for (side, codec, own_codec) in [(64, None, None), (64, bc7, bc7), (68, bc7, None)] {
+        let small_chain = texture::colour_mips(&image(side / 2, side / 2, green), &srgb).unwrap();
+        let mut big_chain = small_chain.clone();
+        big_chain.width = side;
+        big_chain.height = side;
+        let red = [200u8, 20, 20, 255].repeat((side * side) as usize);
+        big_chain.levels.insert(0, red);
+        let colour =
+            |chain, side, codec| texture("glass", TextureRole::Colour, chain, (side, side), codec);
+        let small = floor_and_wall(colour(&small_chain, side / 2, own_codec), normals());
+        let big = floor_and_wall(colour(&big_chain, side, codec), normals());
+        let what = format!("{side}x{side} {codec:?}");
+
+        gpu.block_compression = codec.is_some();
+        let whole = render(&gpu, &load(&gpu, &big));
+        let own = render(&gpu, &load(&gpu, &small));
+        gpu.max_texture_side = side / 2;
+        let scene = load(&gpu, &big);
+        let capped = render(&gpu, &scene);
+        gpu.max_texture_side = saved.1;
+
+        let status = scene.status();
+        let levels = small_chain.levels.len() + normal_chain.levels.len();
+        assert_eq!(status.mips_total as usize, levels, "{what}");
+        assert_eq!(status.mips_loaded, status.mips_total, "{what}");
+        let e = flip_mean(&whole, &own);
+        assert!(
+            e > 0.05,
+            "{what}: the red level 0 does not show: FLIP mean {e}"
+        );
+        let e = flip_mean(&capped, &own);
+        eprintln!(
+            "{what}: loaded from level 1 against the pattern's own texture: FLIP mean {e:.5}"
+        );
+        assert!(
+            e < 1e-4,
+            "{what}: loaded from level 1 against the pattern's own texture: FLIP mean {e}"
+        );
+    }
+    (gpu.block_compression, gpu.max_texture_side) = saved;
 }

@@ -963,7 +963,7 @@ fn streamed_pack_draws_early_and_ends_identical() {
     let view = r.view_for(&scene_gpu.toc().cameras[0]);
     let mut first_frame = None;
     while let Some(section) = reader.next_section().unwrap() {
-        let upload = render::Upload::prepare(reader.toc().unwrap(), section, gpu.block_compression);
+        let upload = render::Upload::prepare(reader.toc().unwrap(), section, gpu.texture_caps());
         scene_gpu.upload_section(&gpu, &upload).unwrap();
         if first_frame.is_none() && scene_gpu.ready_for_first_frame() {
             assert!(

@@ -17,6 +17,18 @@ pub struct Gpu {
     /// the default scene's passes about ten times slower than RGBA8 (docs/bench). Tests set it
     /// (where the device has the feature) to take the block path on lavapipe.
     pub block_compression: bool,
+    /// The largest side a texture is loaded at: the device's limit, or less where the user asks
+    /// (`viewer --max-texture-size`). A pack texture larger than this is loaded from its first
+    /// level that fits, so a pack cooked for a large GPU still opens on a small one.
+    pub max_texture_side: u32,
+}
+
+/// What decides how a pack's textures are placed on a device ([`Gpu::texture_caps`]): whether
+/// block-compressed levels are sampled as they are, and the largest side loaded.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct TextureCaps {
+    pub block_compression: bool,
+    pub max_side: u32,
 }
 
 impl Gpu {
@@ -74,6 +86,7 @@ impl Gpu {
         .map_err(|e| RenderError::Device(e.to_string()))?;
         let block_compression = features.contains(wgpu::Features::TEXTURE_COMPRESSION_BC)
             && adapter.get_info().device_type != wgpu::DeviceType::Cpu;
+        let max_texture_side = device.limits().max_texture_dimension_2d;
         Ok(Self {
             instance,
             adapter,
@@ -81,7 +94,17 @@ impl Gpu {
             queue,
             timestamps: features.contains(wgpu::Features::TIMESTAMP_QUERY),
             block_compression,
+            max_texture_side,
         })
+    }
+
+    pub fn texture_caps(&self) -> TextureCaps {
+        TextureCaps {
+            block_compression: self.block_compression,
+            max_side: self
+                .max_texture_side
+                .min(self.device.limits().max_texture_dimension_2d),
+        }
     }
 
     /// "name (backend, device type)", for logs and reports.

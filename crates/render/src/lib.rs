@@ -25,7 +25,7 @@ pub mod uniforms;
 pub mod view;
 
 pub use capture::{f16_to_f32, read_texture, target_image};
-pub use gpu::Gpu;
+pub use gpu::{Gpu, TextureCaps};
 pub use renderer::{
     FrameReport, PassId, PassTime, Renderer, Settings, ShadowSettings, TargetId, TimingMethod,
     god_ray_falloff,

@@ -9,7 +9,7 @@ use crate::occlusion::{self, WindowShadow};
 use crate::projectors::Projectors;
 use crate::uniforms;
 use crate::view::LightGeometry;
-use crate::{Gpu, RenderError};
+use crate::{Gpu, RenderError, TextureCaps};
 
 #[derive(Default)]
 struct CpuMesh {
@@ -89,10 +89,10 @@ impl Placeholders {
 
 struct GpuTexture {
     texture: wgpu::Texture,
-    /// Block-compressed levels are decoded to RGBA8 before upload (no device support).
-    decode: bool,
+    place: Placement,
+    /// Per level of the GPU texture (the pack's levels from `place.skip` on).
     loaded: Vec<bool>,
-    /// The smallest level index such that it and every smaller mip are resident.
+    /// The smallest GPU level index such that it and every smaller mip are resident.
     resident_from: Option<u32>,
     view: Option<wgpu::TextureView>,
 }
@@ -225,11 +225,14 @@ pub struct Upload {
 
 impl Upload {
     /// `block_compression`: the device's [`Gpu::block_compression`].
-    pub fn prepare(toc: &pack::Toc, section: pack::StreamSection, block_compression: bool) -> Self {
+    /// `caps`: the device's [`Gpu::texture_caps`]. Levels the device does not load are not
+    /// decoded.
+    pub fn prepare(toc: &pack::Toc, section: pack::StreamSection, caps: TextureCaps) -> Self {
         let rgba = match section.role {
             SectionRole::Mip { texture, level } => {
                 let t = &toc.textures[texture as usize];
-                decoded_on_cpu(t, block_compression)
+                placement(t, caps)
+                    .is_some_and(|p| p.decode && level >= p.skip)
                     .then(|| decode_logical(t, level as usize, &section.bytes))
             }
             _ => None,
@@ -253,20 +256,49 @@ fn decode_logical(t: &pack::Texture, level: usize, bytes: &[u8]) -> Vec<u8> {
     }
 }
 
-/// The GPU texture's size, and the share of it the image covers on each axis: the stored,
-/// block-padded size for blocks sampled as they are; the image's own when decoded.
-pub(crate) fn gpu_extent(t: &pack::Texture, decode: bool) -> ((u32, u32), [f32; 2]) {
-    if decode {
-        ((t.width, t.height), [1.0, 1.0])
+/// The GPU texture's size (its level 0: the pack's level `place.skip`), and the share of it
+/// the image covers on each axis: the stored, block-padded size for blocks sampled as they
+/// are (its levels are mips of the padded level 0, so the share is level 0's); the image's
+/// own when decoded.
+fn gpu_extent(t: &pack::Texture, place: Placement) -> ((u32, u32), [f32; 2]) {
+    let skip = place.skip as usize;
+    if place.decode {
+        let m = &t.mips[skip];
+        ((m.width, m.height), [1.0, 1.0])
     } else {
-        (t.storage_size(), t.uv_scale())
+        (t.storage_level_size(skip), t.uv_scale())
     }
 }
 
-/// Whether a texture's blocks are decoded to RGBA8 on the CPU rather than sampled as they are:
-/// the one rule for [`Scene::new`] (the GPU texture's format) and [`Upload::prepare`].
-fn decoded_on_cpu(t: &pack::Texture, block_compression: bool) -> bool {
-    t.format.is_compressed() && !block_compression
+/// How a pack texture is placed on a device: whether its blocks are decoded to RGBA8 on the
+/// CPU rather than sampled as they are, and how many of its largest levels are left out
+/// because they are over the largest side the device loads. The one rule for [`Scene::new`]
+/// (the GPU texture's format and size), the uploads and [`Upload::prepare`].
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+struct Placement {
+    decode: bool,
+    /// Pack levels left out: the GPU texture's level `l` is the pack's level `skip + l`.
+    skip: u32,
+}
+
+/// The placement that keeps the most detail within `caps.max_side`: the first level that
+/// fits. `None` when none does (a pack's chains end at 1x1, so only for a limit of 0).
+fn placement(t: &pack::Texture, caps: TextureCaps) -> Option<Placement> {
+    (0..t.mips.len()).find_map(|level| {
+        let stored = t.storage_level_size(level);
+        // A block texture's level 0 must be whole blocks. The pack pads its level 0, but a
+        // smaller level used as the GPU's level 0 need not be: that one is decoded instead.
+        let decode = t.format.is_compressed()
+            && (!caps.block_compression
+                || !stored.0.is_multiple_of(4)
+                || !stored.1.is_multiple_of(4));
+        let place = Placement {
+            decode,
+            skip: level as u32,
+        };
+        let ((w, h), _) = gpu_extent(t, place);
+        (w.max(h) <= caps.max_side).then_some(place)
+    })
 }
 
 /// The GPU format a texture is created in: its own, or RGBA8 when its blocks are decoded.
@@ -287,7 +319,8 @@ fn texture_format(t: &pack::Texture, decode: bool) -> wgpu::TextureFormat {
 /// True when normal map `t` reaches the shader with two channels (Z to rebuild): BC5 uploaded
 /// as blocks. Decoded BC5 already has Z.
 fn two_channel(textures: &[GpuTexture], toc: &Toc, t: u32) -> bool {
-    toc.textures[t as usize].format == pack::TextureFormat::Bc5 && !textures[t as usize].decode
+    toc.textures[t as usize].format == pack::TextureFormat::Bc5
+        && !textures[t as usize].place.decode
 }
 
 /// The TOC with at most [`uniforms::MAX_WINDOWS`] windows, when it has more (`None` when all
@@ -349,25 +382,55 @@ fn kept_windows(toc: &Toc) -> Option<Toc> {
     Some(kept)
 }
 
+/// One line for the textures loaded from a smaller level than their largest (see
+/// [`placement`]), naming the largest of them: a silently blurrier scene would read as a cook
+/// or pack fault.
+fn say_levels_left_out(toc: &Toc, textures: &[GpuTexture], max_side: u32) {
+    let reduced: Vec<(&pack::Texture, u32)> = toc
+        .textures
+        .iter()
+        .zip(textures)
+        .filter(|(_, g)| g.place.skip > 0)
+        .map(|(t, g)| (t, g.place.skip))
+        .collect();
+    let Some(&(t, skip)) = reduced
+        .iter()
+        .max_by_key(|(t, _)| u64::from(t.width) * u64::from(t.height))
+    else {
+        return;
+    };
+    let m = &t.mips[skip as usize];
+    eprintln!(
+        "note: {} of {} textures are larger than the {max_side} texels a side this device loads \
+         (its limit, or --max-texture-size): each is loaded from its first smaller level that \
+         fits (the largest, {:?} at {}x{}, from level {skip}, {}x{})",
+        reduced.len(),
+        toc.textures.len(),
+        t.name,
+        t.width,
+        t.height,
+        m.width,
+        m.height
+    );
+}
+
 impl Scene {
     /// Creates every GPU object the TOC describes, with no data yet. `toc` must come from a
     /// validated pack (`Pack` or `StreamReader`), which guarantees every index used here.
     pub fn new(gpu: &Gpu, toc: &Toc) -> Result<Self, RenderError> {
         let device = &gpu.device;
-        let max = device.limits().max_texture_dimension_2d;
+        let caps = gpu.texture_caps();
         let mut textures = Vec::with_capacity(toc.textures.len());
         let mut decode_said = false;
         for t in &toc.textures {
-            if t.width > max || t.height > max {
-                return Err(RenderError::TextureTooLarge {
-                    name: t.name.clone(),
-                    width: t.width,
-                    height: t.height,
-                    max,
-                });
-            }
-            let decode = decoded_on_cpu(t, gpu.block_compression);
-            if decode && !decode_said {
+            let place = placement(t, caps).ok_or_else(|| RenderError::TextureTooLarge {
+                name: t.name.clone(),
+                width: t.width,
+                height: t.height,
+                max: caps.max_side,
+            })?;
+            let decode = place.decode;
+            if t.format.is_compressed() && !caps.block_compression && !decode_said {
                 decode_said = true;
                 let info = gpu.adapter.get_info();
                 let why = if gpu
@@ -385,7 +448,7 @@ impl Scene {
                 );
             }
             let format = texture_format(t, decode);
-            let ((width, height), _) = gpu_extent(t, decode);
+            let ((width, height), _) = gpu_extent(t, place);
             let texture = device.create_texture(&wgpu::TextureDescriptor {
                 label: Some(&t.name),
                 size: wgpu::Extent3d {
@@ -393,7 +456,7 @@ impl Scene {
                     height,
                     depth_or_array_layers: 1,
                 },
-                mip_level_count: t.mips.len() as u32,
+                mip_level_count: t.mips.len() as u32 - place.skip,
                 sample_count: 1,
                 dimension: wgpu::TextureDimension::D2,
                 format,
@@ -402,12 +465,14 @@ impl Scene {
             });
             textures.push(GpuTexture {
                 texture,
-                decode,
-                loaded: vec![false; t.mips.len()],
+                place,
+                loaded: vec![false; t.mips.len() - place.skip as usize],
                 resident_from: None,
                 view: None,
             });
         }
+        say_levels_left_out(toc, &textures, caps.max_side);
+        let mips_total = textures.iter().map(|t| t.loaded.len() as u32).sum();
         let kept = kept_windows(toc);
         let toc = kept.as_ref().unwrap_or(toc);
         let material_layout = material_layout(device);
@@ -455,7 +520,7 @@ impl Scene {
             shadow_generation: 0,
             status: LoadStatus {
                 geometry_total: toc.meshes.len() as u32 * 2,
-                mips_total: toc.textures.iter().map(|t| t.mips.len() as u32).sum(),
+                mips_total,
                 ..Default::default()
             },
             dirty: false,
@@ -493,7 +558,7 @@ impl Scene {
                             t.map_or([1.0, 1.0], |t| {
                                 gpu_extent(
                                     &toc.textures[t as usize],
-                                    scene.textures[t as usize].decode,
+                                    scene.textures[t as usize].place,
                                 )
                                 .1
                             })
@@ -679,12 +744,16 @@ impl Scene {
             SectionRole::Mip { texture, level } => {
                 let t = &self.toc.textures[texture as usize];
                 let gt = &self.textures[texture as usize];
+                // A level over the largest side loaded (see `placement`) is passed over.
+                let Some(gpu_level) = level.checked_sub(gt.place.skip) else {
+                    return Ok(());
+                };
                 let (width, height) = t.storage_level_size(level as usize);
                 let decoded;
                 // Rows of texels, or of 4x4 blocks, and the copy's extent in texels (whole
                 // blocks for a block format: a level smaller than one is copied as one).
                 let (data, row_bytes, rows, extent) = match t.format.block_bytes() {
-                    Some(_) if gt.decode => {
+                    Some(_) if gt.place.decode => {
                         let texels = match rgba {
                             Some(texels) => texels,
                             None => {
@@ -705,7 +774,7 @@ impl Scene {
                 gpu.queue.write_texture(
                     wgpu::TexelCopyTextureInfo {
                         texture: &gt.texture,
-                        mip_level: level,
+                        mip_level: gpu_level,
                         origin: wgpu::Origin3d::ZERO,
                         aspect: wgpu::TextureAspect::All,
                     },
@@ -722,7 +791,7 @@ impl Scene {
                     },
                 );
                 let gt = &mut self.textures[texture as usize];
-                gt.loaded[level as usize] = true;
+                gt.loaded[gpu_level as usize] = true;
                 let resident = (0..gt.loaded.len())
                     .rev()
                     .take_while(|&l| gt.loaded[l])
@@ -765,7 +834,7 @@ impl Scene {
         let textures = &self.textures;
         let toc = &self.toc;
         self.projectors.update(gpu, |t| {
-            let (size, scale) = gpu_extent(&toc.textures[t as usize], textures[t as usize].decode);
+            let (size, scale) = gpu_extent(&toc.textures[t as usize], textures[t as usize].place);
             let t = &textures[t as usize];
             t.resident_from
                 .zip(t.view.as_ref())
@@ -1023,7 +1092,9 @@ impl Scene {
     pub fn ready_for_first_frame(&self) -> bool {
         self.geometry_complete()
             && self.toc.textures.iter().zip(&self.textures).all(|(t, g)| {
-                (0..t.mips.len()).all(|l| g.loaded[l] || t.level_rgba8_bytes(l) > SMALL_MIP_BYTES)
+                let skip = g.place.skip as usize;
+                (skip..t.mips.len())
+                    .all(|l| g.loaded[l - skip] || t.level_rgba8_bytes(l) > SMALL_MIP_BYTES)
             })
     }
 
@@ -1290,6 +1361,69 @@ mod tests {
         }
     }
 
+    /// A texture over the largest side loaded starts at its first level that fits; a block
+    /// texture whose level there is not whole blocks is decoded, since a GPU block texture's
+    /// level 0 must be; levels left out are not decoded ahead.
+    #[test]
+    fn a_texture_too_large_for_the_device_starts_at_its_first_level_that_fits() {
+        use pack::{TextureFormat as F, TextureRole as R};
+        let caps = |block_compression, max_side| TextureCaps {
+            block_compression,
+            max_side,
+        };
+        let place = |decode, skip| Some(Placement { decode, skip });
+        let (rgba, _) = pack::testing::sample_texture("stone", R::Colour, 1000, 600);
+        assert_eq!(placement(&rgba, caps(true, 1000)), place(false, 0));
+        assert_eq!(placement(&rgba, caps(true, 999)), place(false, 1));
+        assert_eq!(placement(&rgba, caps(true, 250)), place(false, 2));
+        assert_eq!(placement(&rgba, caps(true, 1)), place(false, 9));
+        assert_eq!(placement(&rgba, caps(true, 0)), None);
+        let skip2 = Placement {
+            decode: false,
+            skip: 2,
+        };
+        assert_eq!(gpu_extent(&rgba, skip2).0, (250, 150));
+
+        // Padded to 1000x604 as blocks: level 1 is 500x302, not whole blocks; 1024x598 pads
+        // to 1024x600, whose level 1 is.
+        let (bc7, levels) =
+            pack::testing::sample_block_texture("stone", R::Colour, F::Bc7, 1000, 601);
+        assert_eq!(placement(&bc7, caps(true, 1000)), place(false, 0));
+        assert_eq!(placement(&bc7, caps(true, 600)), place(true, 1));
+        assert_eq!(placement(&bc7, caps(false, 600)), place(true, 1));
+        let decoded = gpu_extent(
+            &bc7,
+            Placement {
+                decode: true,
+                skip: 1,
+            },
+        );
+        assert_eq!(decoded, ((500, 300), [1.0, 1.0]));
+        let (whole, _) = pack::testing::sample_block_texture("stone", R::Colour, F::Bc7, 1024, 598);
+        assert_eq!(placement(&whole, caps(true, 512)), place(false, 1));
+        let blocks = gpu_extent(
+            &whole,
+            Placement {
+                decode: false,
+                skip: 1,
+            },
+        );
+        assert_eq!(blocks, ((512, 300), whole.uv_scale()));
+
+        // Levels left out are not decoded ahead; the first one kept is.
+        let mut toc = pack::testing::sample().0;
+        toc.textures = vec![bc7];
+        for (level, decoded) in [(0, false), (1, true), (2, true)] {
+            let section = pack::StreamSection {
+                index: 1 + level,
+                role: SectionRole::Mip { texture: 0, level },
+                bytes: pack::AlignedBytes::from_slice(&levels[level as usize]),
+            };
+            let upload = Upload::prepare(&toc, section, caps(false, 600));
+            assert_eq!(upload.rgba.is_some(), decoded, "level {level}");
+        }
+    }
+
     #[test]
     fn uploads_prepared_ahead_carry_the_decoded_blocks_only_where_asked() {
         let (toc, data) = pack::testing::sample();
@@ -1302,7 +1436,11 @@ mod tests {
                 let toc = reader.toc().unwrap();
                 let role = section.role;
                 let stored = section.bytes.to_vec();
-                let upload = Upload::prepare(toc, section, !decode);
+                let caps = TextureCaps {
+                    block_compression: !decode,
+                    max_side: u32::MAX,
+                };
+                let upload = Upload::prepare(toc, section, caps);
                 match role {
                     SectionRole::Mip { texture, level }
                         if decode && toc.textures[texture as usize].format.is_compressed() =>

@@ -57,6 +57,11 @@ struct Args {
     /// half-size preview first.
     #[arg(long)]
     no_preview: bool,
+    /// Load no texture level larger than N texels a side: a larger texture starts at its first
+    /// smaller mip level (as for one over the device's own limit, which always applies). For
+    /// GPUs with little memory, or to see a pack as such a device would.
+    #[arg(long, value_name = "N", value_parser = clap::value_parser!(u32).range(1..))]
+    max_texture_size: Option<u32>,
     /// Window light passes through stone, as plain projective texturing does (no shadow maps).
     #[arg(long)]
     no_occlusion: bool,
@@ -112,6 +117,14 @@ struct Args {
     script: Option<String>,
 }
 
+/// Lowers the largest texture side loaded to `--max-texture-size` where given; the device's
+/// own limit still applies above it.
+fn cap_texture_side(gpu: &mut Gpu, max: Option<u32>) {
+    if let Some(max) = max {
+        gpu.max_texture_side = gpu.max_texture_side.min(max);
+    }
+}
+
 fn parse_size(s: &str) -> Result<(u32, u32), String> {
     let (w, h) = s
         .split_once(['x', 'X'])
@@ -137,14 +150,14 @@ enum Message {
 
 /// Reads sections on a thread so uploads and the first frame overlap the file read. Their
 /// decoding (zstd, and block-compressed levels where the device does not sample them:
-/// `block_compression` is the device's [`Gpu::block_compression`]) runs on the thread pool, a
+/// `caps` is the device's [`Gpu::texture_caps`]) runs on the thread pool, a
 /// few sections at once, and the sections are handed over in file order: on a CPU rasterizer
 /// the large levels after the first frame were decoded one by one while the drawing thread
 /// waited for them.
 fn stream(
     path: PathBuf,
     source: Box<dyn Read + Send>,
-    block_compression: bool,
+    caps: render::TextureCaps,
 ) -> mpsc::Receiver<Message> {
     let (tx, rx) = mpsc::sync_channel(16);
     std::thread::spawn(move || {
@@ -192,7 +205,7 @@ fn stream(
                 rayon::spawn(move || {
                     let upload = raw
                         .decode(&toc)
-                        .map(|section| Upload::prepare(&toc, section, block_compression));
+                        .map(|section| Upload::prepare(&toc, section, caps));
                     let _ = done.send(upload);
                 });
                 pending.push_back(job);
@@ -300,7 +313,7 @@ fn load(gpu: &Gpu, args: &Args, settings: Settings) -> Result<(Scene, Renderer)>
     // Cooking (for a scene.toml) is reported on its own; the clock starts with the stream.
     let source = open_source(&args.input)?;
     let start = Instant::now();
-    let rx = stream(args.input.clone(), source, gpu.block_compression);
+    let rx = stream(args.input.clone(), source, gpu.texture_caps());
     let mut scene: Option<(Scene, Renderer, View)> = None;
     let mut first_frame = false;
     // Where the first frame's time goes, for `-v`: waiting for the reader, scene and renderer
@@ -622,6 +635,7 @@ fn main() -> Result<()> {
             watch: args.watch,
             vsync: !args.no_vsync,
             no_preview: args.no_preview,
+            max_texture_size: args.max_texture_size,
             script: args.script.clone(),
         })?;
         match outcome {
@@ -630,7 +644,8 @@ fn main() -> Result<()> {
         }
     }
     let gpu_start = Instant::now();
-    let gpu = Gpu::headless()?;
+    let mut gpu = Gpu::headless()?;
+    cap_texture_side(&mut gpu, args.max_texture_size);
     println!("adapter: {}", gpu.describe());
     if args.verbose {
         println!(

@@ -18,6 +18,12 @@ fn scratch(name: &str) -> PathBuf {
 
 /// A floor and a window quad in front of it, a sun, two cameras.
 fn tiny_pack() -> Vec<u8> {
+    let (toc, data) = tiny_scene();
+    pack::encode(toc, &data).unwrap()
+}
+
+/// [`tiny_pack`]'s TOC and data.
+fn tiny_scene() -> (Toc, PackData) {
     let material = |name: &str, class| Material {
         name: name.into(),
         class,
@@ -112,7 +118,7 @@ fn tiny_pack() -> Vec<u8> {
         }],
         textures: Vec::new(),
     };
-    pack::encode(toc, &data).unwrap()
+    (toc, data)
 }
 
 fn bytemuck_bytes(v: &[StandardVertex]) -> Vec<u8> {
@@ -250,6 +256,56 @@ fn first_frame_preview_leaves_the_images_alone() {
         let b = std::fs::read(full.join(format!("{cam}.png"))).unwrap();
         assert!(a == b, "{cam}.png differs with the preview");
     }
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// `--max-texture-size` loads a larger texture from its first level that fits and says so;
+/// without it, nothing is said.
+#[test]
+fn max_texture_size_loads_a_smaller_level_and_says_so() {
+    let dir = scratch("max-texture-size");
+    let pack_path = dir.join("textured.pack");
+    let (mut toc, mut data) = tiny_scene();
+    let (t, levels) =
+        pack::testing::sample_texture("flagstones", pack::TextureRole::Colour, 64, 64);
+    toc.textures.push(t);
+    data.textures.push(levels);
+    toc.materials[0].diffuse_texture = Some(0);
+    std::fs::write(&pack_path, pack::encode(toc, &data).unwrap()).unwrap();
+    let run = |extra: &[&str]| {
+        let out = dir.join("images");
+        let mut args = vec![
+            pack_path.as_os_str(),
+            "--headless".as_ref(),
+            "--out".as_ref(),
+            out.as_os_str(),
+            "--size".as_ref(),
+            "64x36".as_ref(),
+        ];
+        args.extend(extra.iter().map(std::ffi::OsStr::new));
+        viewer(&args)
+    };
+    let o = run(&["--max-texture-size", "20"]);
+    let said = String::from_utf8_lossy(&o.stderr);
+    assert!(o.status.success(), "{said}");
+    assert!(
+        said.contains("1 of 1 textures are larger than the 20 texels a side")
+            && said.contains("\"flagstones\" at 64x64, from level 2, 16x16"),
+        "{said}"
+    );
+    let o = run(&[]);
+    let said = String::from_utf8_lossy(&o.stderr);
+    assert!(
+        o.status.success() && !said.contains("larger than"),
+        "{said}"
+    );
+    let o = run(&["--max-texture-size", "0"]);
+    assert_eq!(
+        o.status.code(),
+        Some(2),
+        "{}",
+        String::from_utf8_lossy(&o.stderr)
+    );
     let _ = std::fs::remove_dir_all(&dir);
 }
 

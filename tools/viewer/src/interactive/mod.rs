@@ -44,6 +44,8 @@ pub struct Options {
     pub vsync: bool,
     /// Draw the first frame at full size even on a CPU rasterizer.
     pub no_preview: bool,
+    /// Load textures at most this many texels a side (`--max-texture-size`).
+    pub max_texture_size: Option<u32>,
     /// Test hook: a `;`-separated list of steps (see `script.rs`).
     pub script: Option<String>,
 }
@@ -359,7 +361,8 @@ impl App {
         let surface = instance
             .create_surface(window.clone())
             .context("creating the window's surface")?;
-        let gpu = Gpu::new(instance, Some(&surface))?;
+        let mut gpu = Gpu::new(instance, Some(&surface))?;
+        crate::cap_texture_side(&mut gpu, self.options.max_texture_size);
         println!("adapter: {}", gpu.describe());
         let size = window.inner_size();
         let mut config = surface
@@ -444,7 +447,7 @@ impl App {
                     load.phase = Phase::Streaming(crate::stream(
                         self.options.input.clone(),
                         source,
-                        gpu.block_compression,
+                        gpu.texture_caps(),
                     ));
                 }
                 Ok(Err(e)) => {
