@@ -846,3 +846,79 @@ fn quantized_uvs_stay_within_half_a_step() {
         "reported {reported}, decoded {worst}"
     );
 }
+
+/// A size cap cooks each texture from its image's first mip level that fits: glTF-Sample-
+/// Models' 211x211 Cesium logo under a cap of 60 is stored from its level 2, 52x52, with the
+/// very bytes of the whole chain's level 2, and its smaller levels within a rounding step of
+/// the whole chain's; the cook says so. A window's design, derived normal map and projector
+/// keep to the cap too (the projector's design part: its margin lies around it).
+#[test]
+fn a_size_cap_cooks_each_texture_from_its_first_level_that_fits() {
+    let rgba8 = |manifest: &Manifest, cap: Option<u32>| {
+        let mut s = Settings::new(manifest);
+        s.textures.format = Some(cook::manifest::TextureFormatChoice::Rgba8);
+        s.textures.supercompression = Some(pack::Supercompression::None);
+        s.textures.max_size = cap;
+        cook::cook(manifest, &s).expect("cooks")
+    };
+    let logo = Manifest::open(&data(
+        "gltf/BoxTexturedNonPowerOfTwo/BoxTexturedNonPowerOfTwo.gltf",
+    ))
+    .unwrap();
+    let whole = rgba8(&logo, None);
+    let capped = rgba8(&logo, Some(60));
+    let (t, w) = (&capped.toc.textures[0], &whole.toc.textures[0]);
+    assert_eq!((w.width, w.height, t.width, t.height), (211, 211, 52, 52));
+    assert_eq!(t.mips.len(), w.mips.len() - 2);
+    let (levels, whole_levels) = (&capped.data.textures[0], &whole.data.textures[0]);
+    assert_eq!(levels[0], whole_levels[2]);
+    for (k, (a, b)) in levels.iter().zip(&whole_levels[2..]).enumerate() {
+        let most = a.iter().zip(b).map(|(x, y)| x.abs_diff(*y)).max();
+        assert!(most <= Some(1), "level {k} differs by {most:?}");
+    }
+    let said: Vec<String> = capped.report.notes.iter().map(|n| n.to_string()).collect();
+    assert!(
+        said.iter().any(|n| n
+            .contains("211x211 is over the size cap of 60: cooked from its mip level 2, 52x52")),
+        "{said:?}"
+    );
+    // Without a cap, or with one it fits, the texture is as it was.
+    assert_eq!(rgba8(&logo, Some(211)).data.textures, whole.data.textures);
+
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::write(
+        dir.path().join("room.obj"),
+        "v 0 0 0\nv 4 0 0\nv 4 0 4\nv 0 0 4\nv 1 3 0\nv 2 3 0\nv 2 1 0\nv 1 1 0\n\
+         vt 0 0\nvt 1 0\nvt 1 1\nvt 0 1\n\
+         o floor\nusemtl stone\nf 1 4 3 2\no lancet\nusemtl glass_1\nf 5/1 8/4 7/3 6/2\n",
+    )
+    .unwrap();
+    let design = image::RgbaImage::from_fn(64, 128, |x, y| {
+        image::Rgba([(x * 4) as u8, (y * 2) as u8, 200, 255])
+    });
+    design.save(dir.path().join("design.png")).unwrap();
+    let m = scene(
+        dir.path(),
+        "[textures]\nmax_size = 32\n\n[[mesh]]\nsource = \"room.obj\"\n\n[[rule]]\nmatch = \"stone\"\n\
+         class = \"floor\"\n\n[[rule]]\nmatch = \"glass_*\"\nclass = \"window-upper\"\n\n\
+         [[window]]\nmaterial = \"glass_1\"\ndesign = \"design.png\"\n\n\
+         [light]\ntype = \"directional\"\ndirection = [0.0, -0.5, 1.0]\n",
+    );
+    let (out, _) = cook_to_pack(&m);
+    let names: Vec<(&str, u32, u32)> = out
+        .toc
+        .textures
+        .iter()
+        .map(|t| (t.name.as_str(), t.width, t.height))
+        .collect();
+    // 64x128 under 32: level 2. The projector's blur reaches past the design by its margin
+    // (half a texel a side here).
+    let (projector_w, projector_h) = (names[2].1, names[2].2);
+    assert!(
+        names[..2] == [("design", 16, 32), ("design.derived-normal", 16, 32)]
+            && names[2].0 == "design.projector"
+            && (16..=18).contains(&projector_w)
+            && (32..=34).contains(&projector_h),
+        "{names:?}"
+    );
+}

@@ -616,6 +616,7 @@ mod tests {
                 max_error_lsb: None,
                 format: None,
                 supercompression: None,
+                max_size: None,
             },
             window_overrides: Vec::new(),
             up: crate::UpAxis::Y,
@@ -671,6 +672,7 @@ mod tests {
                     max_error_lsb,
                     format,
                     supercompression,
+                    max_size,
                 },
             window_overrides,
             up,
@@ -756,6 +758,11 @@ mod tests {
                         _ => Some(pack::Supercompression::None),
                     }
                 }),
+                true,
+            ),
+            (
+                "textures.max_size",
+                changed(&|s| s.textures.max_size = Some(max_size.map_or(1024, |m| m / 2))),
                 true,
             ),
             (

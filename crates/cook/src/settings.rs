@@ -49,6 +49,11 @@ pub struct TextureSettings {
     pub format: Option<crate::manifest::TextureFormatChoice>,
     /// `--supercompression`: over the manifest's `[textures] supercompression`.
     pub supercompression: Option<pack::Supercompression>,
+    /// The largest side a stored texture may have (`[textures] max_size`,
+    /// `--max-texture-size`): a larger image is cooked from its first mip level that fits.
+    /// Left out of the cache key when unset, so keys made before it existed still match.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub max_size: Option<u32>,
 }
 
 impl Settings {
@@ -74,6 +79,7 @@ impl Settings {
                 max_error_lsb: manifest.scene.max_error,
                 format: None,
                 supercompression: None,
+                max_size: manifest.textures.max_size,
             },
             window_overrides: Vec::new(),
             up: UpAxis::Y,

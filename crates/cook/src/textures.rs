@@ -706,6 +706,37 @@ fn run(
             (w, h)
         }
     };
+    // Over the size cap, the image is replaced by its first mip level that fits, filtered as
+    // the chain's levels are (`opts`), before padding: as if that level were the image given.
+    let fit = |img: Arc<image::DynamicImage>,
+               opts: &texture::ColourOptions,
+               name: &ImageRef|
+     -> Result<(Arc<image::DynamicImage>, Said), CookError> {
+        let Some(cap) = settings.max_size else {
+            return Ok((img, Said::default()));
+        };
+        let within = texture::first_level_within(&img, cap, opts)
+            .map_err(|e| texture_error(Path::new(&name.name()), e))?;
+        Ok(match within {
+            None => (img, Said::default()),
+            Some(level) => {
+                let said = Said::note(format!(
+                    "{}x{} is over the size cap of {cap}: cooked from its mip level {}, {}x{}",
+                    img.width(),
+                    img.height(),
+                    (img.width().max(img.height()) / level.width().max(level.height())).ilog2(),
+                    level.width(),
+                    level.height()
+                ));
+                (Arc::new(level), said)
+            }
+        })
+    };
+    // Supplied normal maps and heights are reduced as plain values, channel by channel.
+    let plain = texture::ColourOptions {
+        srgb: false,
+        filter: settings.mip_filter,
+    };
     let padded = |img: Arc<image::DynamicImage>| {
         let size = (img.width(), img.height());
         let (pw, ph) = storage(size);
@@ -718,7 +749,6 @@ fn run(
     };
     match job {
         Job::Colour { image, srgb, .. } => {
-            let (img, size) = padded(images.get(image)?);
             let mut opts = texture::ColourOptions {
                 srgb: *srgb,
                 filter: settings.mip_filter,
@@ -731,9 +761,11 @@ fn run(
                 opts.srgb = *srgb && c.linear_light;
                 choice_note("mips", &c)
             });
+            let (img, reduced) = fit(images.get(image)?, &opts, image)?;
+            let (img, size) = padded(img);
             let chain = texture::colour_mips(&img, &opts)
                 .map_err(|e| texture_error(Path::new(&image.name()), e))?;
-            Ok((chain, size, said, None))
+            Ok((chain, size, reduced.and(said), None))
         }
         Job::Normal {
             image,
@@ -741,7 +773,8 @@ fn run(
             green,
             strength,
         } => {
-            let (img, size) = padded(images.get(image)?);
+            let (img, reduced) = fit(images.get(image)?, &plain, image)?;
+            let (img, size) = padded(img);
             let (chain, held) = texture::supplied_normal_mips(&img, *encoding, *green, *strength)
                 .map_err(|e| texture_error(Path::new(&image.name()), e))?;
             let said = match held {
@@ -751,10 +784,14 @@ fn run(
                      depth (1/256 of its longer side times the strength {strength})"
                 )),
             };
-            Ok((chain, size, said, None))
+            Ok((chain, size, reduced.and(said), None))
         }
         Job::DerivedNormal { design, seed } => {
-            let img = images.get(design)?;
+            let srgb = texture::ColourOptions {
+                srgb: true,
+                filter: settings.mip_filter,
+            };
+            let (img, _) = fit(images.get(design)?, &srgb, design)?;
             let size = (img.width(), img.height());
             let (pw, ph) = storage(size);
             let chain = texture::derive_normal_map_padded(&img, *seed, pw, ph)
@@ -770,7 +807,10 @@ fn run(
             let mut opts = texture::ProjectorOptions::new(*sigma);
             opts.margin = *margin;
             opts.max_error_lsb = max_error;
-            opts.max_size = Some(pack::PROJECTOR_MAX_SIZE);
+            // The projector reduces a large design itself, its blur scaled to match.
+            opts.max_size = Some(settings.max_size.map_or(pack::PROJECTOR_MAX_SIZE, |cap| {
+                cap.min(pack::PROJECTOR_MAX_SIZE)
+            }));
             opts.block_pad = pad;
             let choice = max_error.map_or_else(Said::default, |b| {
                 let c = crate::budget::choose_blur(b, *sigma);

@@ -45,7 +45,8 @@ pub use blur::{BlurMethod, ErrorLsb, blur_linear, blur_srgb8, error_lsb, referen
 pub use error::TextureError;
 pub use load::{MAX_DECODE_BYTES, MAX_SIDE, load_image, load_image_bytes};
 pub use mips::{
-    ColourOptions, MipChain, colour_mips, colour_mips_reference, level_count, level_size,
+    ColourOptions, MipChain, colour_mips, colour_mips_reference, first_level_within, level_count,
+    level_size,
 };
 pub use normal::{
     BUMP_DEPTH, FALLBACK_NORMAL, GreenAxis, NormalEncoding, SuppliedNormals, derive_normal_map,

@@ -239,6 +239,50 @@ pub fn colour_mips(img: &DynamicImage, opts: &ColourOptions) -> Result<MipChain,
     })
 }
 
+/// The first level of `img`'s colour chain (as [`colour_mips`] makes it, with `opts`) at most
+/// `max_side` texels a side, as an RGBA8 image with the same bits; `None` when `img` already
+/// fits. For a cap on the size of stored textures. A chain cooked from it may differ from the
+/// whole chain's smaller levels by a rounding step: the whole chain carries each level to the
+/// next in f32, and this one starts again from the level's 8-bit encoding. Only the levels on
+/// the way are made, and an 8-bit sRGB image's level 1 comes from its bytes, as in
+/// `colour_mips`.
+pub fn first_level_within(
+    img: &DynamicImage,
+    max_side: u32,
+    opts: &ColourOptions,
+) -> Result<Option<DynamicImage>, TextureError> {
+    let (w, h) = (img.width(), img.height());
+    check_size(w, h)?;
+    if w.max(h) <= max_side {
+        return Ok(None);
+    }
+    // The 1x1 level fits any cap of at least 1.
+    let target = (1..level_count(w, h))
+        .find(|&k| {
+            let (lw, lh) = level_size(w, h, k);
+            lw.max(lh) <= max_side.max(1)
+        })
+        .unwrap_or(level_count(w, h) - 1);
+    let from_bytes = opts.srgb && opts.filter == MipFilter::Box && h.is_multiple_of(2);
+    let (mut level, mut at) = match from_bytes
+        .then(|| crate::pixels::rgba8_bytes(img))
+        .flatten()
+    {
+        Some(bytes) if w.is_multiple_of(2) => (box2_srgb8(&bytes, w as usize), 1),
+        Some(bytes) => (reduce_srgb8_rows(&bytes, w, h), 1),
+        None => (to_linear(img, opts.srgb), 0),
+    };
+    while at < target {
+        let (lw, lh) = level_size(w, h, at);
+        level = next_level(&level, lw, lh, opts.filter, weighted, unweighted);
+        at += 1;
+    }
+    let (lw, lh) = level_size(w, h, target);
+    let bytes = encode_level(&level, opts.srgb);
+    let image = image::RgbaImage::from_raw(lw, lh, bytes).expect("a level's bytes fill its size");
+    Ok(Some(DynamicImage::ImageRgba8(image)))
+}
+
 /// The same chain computed in f64 throughout and not rounded: the reference the f32 chain is
 /// measured against. Level `i` holds straight linear RGBA.
 pub fn colour_mips_reference(
@@ -257,6 +301,46 @@ pub fn colour_mips_reference(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The level a cap picks is the whole chain's level of that size, to the bit, whichever
+    /// way its first reduction is made (from the bytes, by rows, or from f32 texels).
+    #[test]
+    fn the_first_level_within_a_cap_is_the_chain_s_level() {
+        let panes = crate::testing::Panes {
+            width: 7,
+            height: 5,
+            lead: 1,
+        };
+        for (w, h, srgb, filter) in [
+            (130u32, 96u32, true, MipFilter::Box),
+            (129, 96, true, MipFilter::Box),
+            (130, 97, true, MipFilter::Box),
+            (130, 96, false, MipFilter::Box),
+            (130, 96, true, MipFilter::Lanczos3),
+        ] {
+            let bytes = crate::testing::design(w as usize, h as usize, 4, panes);
+            let img = DynamicImage::ImageRgba8(image::RgbaImage::from_raw(w, h, bytes).unwrap());
+            let opts = ColourOptions { srgb, filter };
+            let chain = colour_mips(&img, &opts).unwrap();
+            assert_eq!(first_level_within(&img, w.max(h), &opts).unwrap(), None);
+            for cap in [w.max(h) - 1, 65, 64, 33, 1, 0] {
+                let got = first_level_within(&img, cap, &opts).unwrap().unwrap();
+                let level = (1..chain.levels.len())
+                    .find(|&k| {
+                        let (lw, lh) = chain.level_size(k);
+                        lw.max(lh) <= cap.max(1)
+                    })
+                    .unwrap();
+                let (lw, lh) = chain.level_size(level);
+                assert_eq!((got.width(), got.height()), (lw, lh), "{w}x{h} cap {cap}");
+                assert_eq!(
+                    got.as_bytes(),
+                    &chain.levels[level][..],
+                    "{w}x{h} {opts:?} cap {cap}"
+                );
+            }
+        }
+    }
 
     /// The chain from an 8-bit source's bytes must be the chain of its f32 decode, whichever
     /// way level 1 is made (whole rows, or bands of rows for an odd width).

@@ -55,6 +55,12 @@ pub struct SettingsArgs {
     /// manifest's `[textures] supercompression`.
     #[arg(long, value_name = "zstd|none", value_parser = supercompression)]
     supercompression: Option<pack::Supercompression>,
+    /// Store no texture larger than N texels a side: a larger image (colour, normal map, window
+    /// design) is cooked from its first mip level that fits, filtered as the mips are. For GPUs
+    /// whose limit is below a model's textures (8192 is common) or smaller packs. Overrides the
+    /// manifest's `[textures] max_size`.
+    #[arg(long, value_name = "N", value_parser = clap::value_parser!(u32).range(1..))]
+    max_texture_size: Option<u32>,
     /// Quantize vertices (positions within the mesh's bounds, 16-bit UVs, octahedral
     /// normals); reports the error.
     #[arg(long)]
@@ -89,6 +95,9 @@ impl SettingsArgs {
         settings.window_overrides = cook::manifest::WindowDesign::overrides(&self.windows)?;
         settings.textures.format = self.texture_format;
         settings.textures.supercompression = self.supercompression;
+        if let Some(n) = self.max_texture_size {
+            settings.textures.max_size = Some(n);
+        }
         settings.mesh.cache = if self.fifo {
             CacheMode::Fifo
         } else {

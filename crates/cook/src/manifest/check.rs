@@ -37,6 +37,14 @@ pub(super) fn parse(path: &Path, text: &str) -> Result<Manifest, CookError> {
                 supercompression: t
                     .supercompression
                     .unwrap_or(Textures::default().supercompression),
+                max_size: t
+                    .max_size
+                    .as_ref()
+                    .map(|m| match *m.get_ref() {
+                        0 => Err(src.err_at(m, "max_size is 0 but must be at least 1")),
+                        v => Ok(v),
+                    })
+                    .transpose()?,
             },
         },
         meshes: meshes(&src, &raw.mesh)?,

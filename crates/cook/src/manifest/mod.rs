@@ -88,6 +88,8 @@ pub struct Textures {
     pub max_design_error_lsb: Option<f32>,
     /// Lossless compression of every texture's levels in the pack (default zstd).
     pub supercompression: pack::Supercompression,
+    /// The largest side a stored texture may have (`None`: as its image).
+    pub max_size: Option<u32>,
 }
 
 impl Default for Textures {
@@ -98,6 +100,7 @@ impl Default for Textures {
             max_normal_error_deg: None,
             max_design_error_lsb: None,
             supercompression: pack::Supercompression::Zstd,
+            max_size: None,
         }
     }
 }
@@ -500,6 +503,7 @@ format = "bc"
 max_normal_error_deg = 0.5
 max_design_error_lsb = 2.5
 supercompression = "none"
+max_size = 2048
 
 [[mesh]]
 source = "corridor.obj"
@@ -549,12 +553,19 @@ colour = [0.35, 0.5, 0.8]
         assert_eq!(m.textures.format, TextureFormatChoice::Bc);
         assert_eq!(m.textures.max_design_error_lsb, Some(2.5));
         assert_eq!(m.textures.supercompression, pack::Supercompression::None);
+        assert_eq!(m.textures.max_size, Some(2048));
         // Without the keys: no design budget of its own, zstd.
         let mesh = "[[mesh]]\nsource = \"corridor.obj\"\n";
         let bare = parse(&d, &format!("[textures]\nformat = \"auto\"\n{mesh}")).unwrap();
         assert_eq!(bare.textures.max_design_error_lsb, None);
         assert_eq!(bare.textures.supercompression, pack::Supercompression::Zstd);
-        for bad in ["supercompression = \"lz4\"", "max_design_error_lsb = -1"] {
+        assert_eq!(bare.textures.max_size, None);
+        for bad in [
+            "supercompression = \"lz4\"",
+            "max_design_error_lsb = -1",
+            "max_size = 0",
+            "max_size = -4",
+        ] {
             let e = parse(&d, &format!("[textures]\n{bad}\n{mesh}")).unwrap_err();
             assert!(e.to_string().contains(":2"), "{bad}: {e}");
         }
@@ -564,7 +575,7 @@ colour = [0.35, 0.5, 0.8]
             Some(TextureFormatChoice::Rgba8)
         );
         assert_eq!(m.meshes[0].scale, [2.0; 3]);
-        assert_eq!(m.meshes[0].line, Line(13));
+        assert_eq!(m.meshes[0].line, Line(14));
         let t = m.meshes[0].transform();
         let p = t.transform_point3(glam::Vec3::X);
         assert!((p - glam::Vec3::new(0.0, 1.0, -2.0)).length() < 1e-5, "{p}");

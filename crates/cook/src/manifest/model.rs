@@ -41,6 +41,7 @@ pub(super) struct Textures {
     pub max_normal_error_deg: Option<Spanned<f32>>,
     pub max_design_error_lsb: Option<Spanned<f32>>,
     pub supercompression: Option<pack::Supercompression>,
+    pub max_size: Option<Spanned<u32>>,
 }
 
 #[derive(Deserialize)]
