@@ -239,6 +239,18 @@ impl Upload {
         };
         Self { section, rgba }
     }
+
+    /// Whether a section of this role reaches the device: false for a texture level over the
+    /// largest side it loads (see [`Scene::new`]), which a reader need not decode at all (a
+    /// 16384² RGBA8 level is 1 GiB decompressed).
+    pub fn needed(toc: &pack::Toc, role: SectionRole, caps: TextureCaps) -> bool {
+        match role {
+            SectionRole::Mip { texture, level } => {
+                placement(&toc.textures[texture as usize], caps).is_none_or(|p| level >= p.skip)
+            }
+            _ => true,
+        }
+    }
 }
 
 /// Level `level` of block texture `t` decoded to RGBA8 of the level's logical size: the block
@@ -1410,7 +1422,7 @@ mod tests {
         );
         assert_eq!(blocks, ((512, 300), whole.uv_scale()));
 
-        // Levels left out are not decoded ahead; the first one kept is.
+        // Levels left out are not needed, nor decoded ahead; the first one kept is.
         let mut toc = pack::testing::sample().0;
         toc.textures = vec![bc7];
         for (level, decoded) in [(0, false), (1, true), (2, true)] {
@@ -1419,6 +1431,8 @@ mod tests {
                 role: SectionRole::Mip { texture: 0, level },
                 bytes: pack::AlignedBytes::from_slice(&levels[level as usize]),
             };
+            let role = section.role;
+            assert_eq!(Upload::needed(&toc, role, caps(false, 600)), decoded);
             let upload = Upload::prepare(&toc, section, caps(false, 600));
             assert_eq!(upload.rgba.is_some(), decoded, "level {level}");
         }

@@ -200,6 +200,9 @@ fn stream(
                     }
                     continue;
                 };
+                if !Upload::needed(toc, raw.role(), caps) {
+                    continue;
+                }
                 let (done, job) = mpsc::sync_channel(1);
                 let toc = Arc::clone(toc);
                 rayon::spawn(move || {
