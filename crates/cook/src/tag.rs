@@ -539,6 +539,9 @@ pub struct PartGeometry {
     /// parts of its source material, itself included, and how many they are; 0 otherwise.
     pub floor_kin: f64,
     pub floor_kin_parts: usize,
+    /// Whether `floor_kin` counts the floor-shaped parts of every material: where those of no
+    /// one material made a floor.
+    pub floor_kin_across: bool,
     /// The area-weighted squares of its triangles' unit normals' horizontal components: x²,
     /// z², xz; whether most of it faces one horizontal way, either side ([`faces_one_way`]).
     pub facing: [f64; 3],
@@ -685,6 +688,21 @@ pub fn part_geometry(src: &Imported) -> (Vec<PartGeometry>, [f64; 2], f64) {
             (g.wall_kin, g.wall_kin_parts) = kin[&(part.material, false)];
         }
     }
+    // Where no material's floor-shaped parts make a floor, those of every material do: a
+    // mosaic or a marble pavement, each colour (or each tile) its own material, had no floor
+    // and no window light. Only then, so a rug on a floor of tiles stays what it was.
+    if !out.iter().any(|g| floor_like(g, range, total)) {
+        let shaped: Vec<usize> = (0..out.len())
+            .filter(|&i| floor_shaped(&out[i], range))
+            .collect();
+        let area: f64 = shaped.iter().map(|&i| out[i].area).sum();
+        if area >= 0.02 * total {
+            for &i in &shaped {
+                let g = &mut out[i];
+                (g.floor_kin, g.floor_kin_parts, g.floor_kin_across) = (area, shaped.len(), true);
+            }
+        }
+    }
     (out, range, total)
 }
 
@@ -759,9 +777,14 @@ pub fn geometry_heuristic(
                 g.area / total_area * 100.0,
                 if g.area < 0.02 * total_area {
                     format!(
-                        ", {:.0}% with the {} other floor-shaped parts of its material",
+                        ", {:.0}% with the {} other floor-shaped parts of {}",
                         g.floor_kin / total_area * 100.0,
-                        g.floor_kin_parts - 1
+                        g.floor_kin_parts - 1,
+                        if g.floor_kin_across {
+                            "every material (no one material's made a floor)"
+                        } else {
+                            "its material"
+                        }
                     )
                 } else {
                     String::new()
@@ -1429,8 +1452,8 @@ mod tests {
     #[test]
     fn a_floor_laid_in_tiles_is_a_floor() {
         for chequered in [false, true] {
-            let (obj, mtl) = crate::testing::tiled_hall(chequered);
-            let (src, t) = tagged_obj(&obj, ("m.mtl", mtl));
+            let (obj, mtl) = crate::testing::tiled_hall(1 + usize::from(chequered));
+            let (src, t) = tagged_obj(&obj, ("m.mtl", &mtl));
             let class_of = |object: &str| object_class(&src, &t, object).1;
             for k in 0..60 {
                 assert_eq!(
@@ -1452,6 +1475,35 @@ mod tests {
                 said.contains(&format!(
                     "with the {others} other floor-shaped parts of its material"
                 )),
+                "{said}"
+            );
+        }
+    }
+
+    /// The tiled hall's floor as a mosaic: each tile one of 12 materials (5 tiles, 5 m² each,
+    /// under 2 % of the model's 256 m²) or each its own material. No one material's tiles
+    /// make a floor, so every material's floor-shaped parts are judged together; the rug on
+    /// the mosaic joins it. Before, the hall had no floor, and no window light.
+    #[test]
+    fn a_mosaic_floor_of_many_materials_is_a_floor() {
+        for colours in [12, 60] {
+            let (obj, mtl) = crate::testing::tiled_hall(colours);
+            let (src, t) = tagged_obj(&obj, ("m.mtl", &mtl));
+            let class_of = |object: &str| object_class(&src, &t, object).1;
+            for k in 0..60 {
+                assert_eq!(
+                    class_of(&format!("Plane.{k:03}")),
+                    MaterialClass::Floor,
+                    "tile {k}, {colours} colours"
+                );
+            }
+            assert_eq!(class_of("Rug"), MaterialClass::Floor);
+            assert_eq!(class_of("Cube"), MaterialClass::Wall);
+            assert_eq!(class_of("Cube.001"), MaterialClass::Other);
+            let (tile, _) = object_class(&src, &t, "Plane.000");
+            let said = t.decisions[0][tile].reason().unwrap_or_default();
+            assert!(
+                said.contains("with the 60 other floor-shaped parts of every material"),
                 "{said}"
             );
         }

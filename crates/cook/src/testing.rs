@@ -232,25 +232,27 @@ impl ObjQuads {
 
 /// A hall of generic names (Blender's `Plane.001`, `Material.001`), as OBJ text naming `m.mtl`
 /// and that MTL: its floor laid as 60 tiles of 1 m², each its own object (`Plane.000` …
-/// `Plane.059`), in `Material.001`, or, `chequered`, every other one in `Material.003`; walls
+/// `Plane.059`), in `Material.001`, or with `colours` 2 every other one in `Material.003`, or
+/// with more each tile in one of that many materials `Tile.000` … (a mosaic); walls
 /// 4 high (object `Cube`) and a ceiling (`Cube.001`) in `Material.002`; a 1.5 m² rug (`Rug`,
 /// `Material.004`) on the floor; and glass (`Plane.900`, `Material.005`, `Tf`) in the north
 /// wall.
-pub fn tiled_hall(chequered: bool) -> (String, &'static str) {
+pub fn tiled_hall(colours: usize) -> (String, String) {
     let mut q = ObjQuads::new();
     for (k, (i, j)) in (0..10)
         .flat_map(|i| (0..6).map(move |j| (i, j)))
         .enumerate()
     {
-        let material = if chequered && (i + j) % 2 == 1 {
-            "Material.003"
-        } else {
-            "Material.001"
+        let material = match colours {
+            0 | 1 => "Material.001".to_string(),
+            2 if (i + j) % 2 == 1 => "Material.003".to_string(),
+            2 => "Material.001".to_string(),
+            n => format!("Tile.{:03}", k * 7 % n),
         };
         let at = [i as f64 - 5.0, 0.0, j as f64 - 3.0];
         q.quad(
             &format!("Plane.{k:03}"),
-            material,
+            &material,
             [at, [0., 0., 1.], [1., 0., 0.]],
         );
     }
@@ -294,9 +296,14 @@ pub fn tiled_hall(chequered: bool) -> (String, &'static str) {
     for (object, material, at) in rest {
         q.quad(object, material, at);
     }
-    let mtl = "newmtl Material.001\nKd 0.5 0.5 0.5\nnewmtl Material.002\nKd 0.8 0.8 0.8\n\
-               newmtl Material.003\nKd 0.2 0.2 0.2\nnewmtl Material.004\nKd 0.6 0.1 0.1\n\
-               newmtl Material.005\nKd 0.2 0.4 0.8\nTf 0.2 0.4 0.8\nd 0.3\n";
+    let mut mtl = "newmtl Material.001\nKd 0.5 0.5 0.5\nnewmtl Material.002\nKd 0.8 0.8 0.8\n\
+                   newmtl Material.003\nKd 0.2 0.2 0.2\nnewmtl Material.004\nKd 0.6 0.1 0.1\n\
+                   newmtl Material.005\nKd 0.2 0.4 0.8\nTf 0.2 0.4 0.8\nd 0.3\n"
+        .to_string();
+    for t in 0..if colours > 2 { colours } else { 0 } {
+        let grey = 0.2 + 0.6 * t as f64 / colours as f64;
+        mtl += &format!("newmtl Tile.{t:03}\nKd {grey:.3} {:.3} 0.4\n", 1.0 - grey);
+    }
     (q.obj, mtl)
 }
 

@@ -1471,8 +1471,9 @@ fn init_writes_a_manifest_that_cooks_window_light_without_edits() {
 /// its glass, tagged the floor and walls of the same mesh windows too. The models: the
 /// cathedral (windows, a guessed sun), the third-party Cornell box, the same box in survey
 /// coordinates (the manifest moves it), gltfpack's instanced boxes, a hall as a glTF of one
-/// mesh whose light is a lamp of its own outside a window, and a hall whose floor is sixty
-/// tiles of one material, each its own object: one rule on the material, not sixty.
+/// mesh whose light is a lamp of its own outside a window, a hall whose floor is sixty
+/// tiles of one material, each its own object (one rule on the material, not sixty), and the
+/// hall as a mosaic, each tile its own material (window light on the floor in both).
 #[test]
 fn an_unedited_init_manifest_cooks_the_bare_cook_s_very_pack() {
     let dir = tempfile::tempdir().unwrap();
@@ -1511,10 +1512,16 @@ fn an_unedited_init_manifest_cooks_the_bare_cook_s_very_pack() {
     std::fs::write(dir.path().join("hall.bin"), bin).unwrap();
     let lit_hall = dir.path().join("hall.gltf");
     std::fs::write(&lit_hall, serde_json::to_vec(&hall).unwrap()).unwrap();
-    let (tiles, mtl) = cook::testing::tiled_hall(false);
+    let (tiles, mtl) = cook::testing::tiled_hall(1);
     std::fs::write(dir.path().join("m.mtl"), mtl).unwrap();
     let tiled = dir.path().join("tiles.obj");
     std::fs::write(&tiled, tiles).unwrap();
+    // The same hall with a mosaic floor, each tile its own material.
+    let (tiles, mtl) = cook::testing::tiled_hall(60);
+    std::fs::create_dir(dir.path().join("mosaic")).unwrap();
+    std::fs::write(dir.path().join("mosaic/m.mtl"), mtl).unwrap();
+    let mosaic = dir.path().join("mosaic/tiles.obj");
+    std::fs::write(&mosaic, tiles).unwrap();
     let models = [
         sibenik(dir.path()),
         cornell,
@@ -1522,6 +1529,7 @@ fn an_unedited_init_manifest_cooks_the_bare_cook_s_very_pack() {
         third_party("gltfpack/boxes_mi_cc.glb"),
         lit_hall,
         tiled.clone(),
+        mosaic.clone(),
     ];
     for (i, model) in models.iter().enumerate() {
         let scene = dir.path().join(format!("scene{i}.toml"));
@@ -1549,10 +1557,13 @@ fn an_unedited_init_manifest_cooks_the_bare_cook_s_very_pack() {
                 "{toml}"
             );
             assert!(!toml.contains("Plane.0"), "{toml}");
+        }
+        if *model == tiled || *model == mosaic {
             // The guessed sun lands the window's light on the tiles.
             assert!(
                 said.contains("the most window light lands on the floor"),
-                "{said}"
+                "{}: {said}",
+                model.display()
             );
         }
     }
