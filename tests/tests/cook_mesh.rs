@@ -571,18 +571,23 @@ fn fifo_and_quantized_cooks_are_valid() {
     assert!(out.report.meshes[0].stats.acmr_out < 0.8);
 }
 
-#[test]
-fn window_scene_cooks_design_normal_map_and_projector() {
-    let dir = tempfile::tempdir().unwrap();
-    // A 4 x 4 floor at y = 0 and a 1 x 2 lancet in the plane z = 0, u to the right; the OBJ's
-    // v = 0 is at y = 3, which OBJ's convention (v up) makes the bottom of the image.
+/// `room.obj` in `dir`: a 4 x 4 floor at y = 0 (material `stone`) and a 1 x 2 lancet in the
+/// plane z = 0 (`glass_1`), u to the right; the OBJ's v = 0 is at y = 3, which OBJ's
+/// convention (v up) makes the bottom of the image.
+fn lancet_room(dir: &Path) {
     std::fs::write(
-        dir.path().join("room.obj"),
+        dir.join("room.obj"),
         "v 0 0 0\nv 4 0 0\nv 4 0 4\nv 0 0 4\nv 1 3 0\nv 2 3 0\nv 2 1 0\nv 1 1 0\n\
          vt 0 0\nvt 1 0\nvt 1 1\nvt 0 1\n\
          o floor\nusemtl stone\nf 1 4 3 2\no lancet\nusemtl glass_1\nf 5/1 8/4 7/3 6/2\n",
     )
     .unwrap();
+}
+
+#[test]
+fn window_scene_cooks_design_normal_map_and_projector() {
+    let dir = tempfile::tempdir().unwrap();
+    lancet_room(dir.path());
     let design = image::RgbaImage::from_fn(16, 32, |x, y| {
         image::Rgba([(x * 16) as u8, (y * 8) as u8, 200, 255])
     });
@@ -886,13 +891,7 @@ fn a_size_cap_cooks_each_texture_from_its_first_level_that_fits() {
     assert_eq!(rgba8(&logo, Some(211)).data.textures, whole.data.textures);
 
     let dir = tempfile::tempdir().unwrap();
-    std::fs::write(
-        dir.path().join("room.obj"),
-        "v 0 0 0\nv 4 0 0\nv 4 0 4\nv 0 0 4\nv 1 3 0\nv 2 3 0\nv 2 1 0\nv 1 1 0\n\
-         vt 0 0\nvt 1 0\nvt 1 1\nvt 0 1\n\
-         o floor\nusemtl stone\nf 1 4 3 2\no lancet\nusemtl glass_1\nf 5/1 8/4 7/3 6/2\n",
-    )
-    .unwrap();
+    lancet_room(dir.path());
     let design = image::RgbaImage::from_fn(64, 128, |x, y| {
         image::Rgba([(x * 4) as u8, (y * 2) as u8, 200, 255])
     });

@@ -1448,45 +1448,35 @@ mod tests {
     /// tiles, each its own object under 1 % of the model's area: the tiles of one material are
     /// a floor together, as one object of them would be. Before, every tile was `other`, the
     /// model had no floor, and no window light was guessed onto it. Tiles in two materials (a
-    /// chequerboard) are a floor each; a single small slab, a rug, stays `other`.
+    /// chequerboard) are a floor each; a single small slab, a rug, stays `other`. As a mosaic,
+    /// each tile one of 12 materials (5 m² each, under 2 % of the model's 256 m²) or each its
+    /// own, no one material's tiles make a floor, so every material's floor-shaped parts are
+    /// judged together, and the rug on the mosaic joins it (the hall had no floor before).
     #[test]
     fn a_floor_laid_in_tiles_is_a_floor() {
-        for chequered in [false, true] {
-            let (obj, mtl) = crate::testing::tiled_hall(1 + usize::from(chequered));
-            let (src, t) = tagged_obj(&obj, ("m.mtl", &mtl));
-            let class_of = |object: &str| object_class(&src, &t, object).1;
-            for k in 0..60 {
-                assert_eq!(
-                    class_of(&format!("Plane.{k:03}")),
-                    MaterialClass::Floor,
-                    "tile {k}, chequered {chequered}"
-                );
-            }
-            assert_eq!(class_of("Rug"), MaterialClass::Other);
-            assert_eq!(class_of("Cube"), MaterialClass::Wall);
-            let said = t.decisions[0]
-                .iter()
-                .zip(&src.parts)
-                .find(|(_, p)| p.names.object.as_deref() == Some("Plane.000"))
-                .and_then(|(d, _)| d.reason())
-                .unwrap_or_default();
-            let others = if chequered { 29 } else { 59 };
-            assert!(
-                said.contains(&format!(
-                    "with the {others} other floor-shaped parts of its material"
-                )),
-                "{said}"
-            );
-        }
-    }
-
-    /// The tiled hall's floor as a mosaic: each tile one of 12 materials (5 tiles, 5 m² each,
-    /// under 2 % of the model's 256 m²) or each its own material. No one material's tiles
-    /// make a floor, so every material's floor-shaped parts are judged together; the rug on
-    /// the mosaic joins it. Before, the hall had no floor, and no window light.
-    #[test]
-    fn a_mosaic_floor_of_many_materials_is_a_floor() {
-        for colours in [12, 60] {
+        // (materials of the floor, the rug's class, the tiles' kin as the reason says it)
+        for (colours, rug, kin) in [
+            (
+                1,
+                MaterialClass::Other,
+                "59 other floor-shaped parts of its material",
+            ),
+            (
+                2,
+                MaterialClass::Other,
+                "29 other floor-shaped parts of its material",
+            ),
+            (
+                12,
+                MaterialClass::Floor,
+                "60 other floor-shaped parts of every material",
+            ),
+            (
+                60,
+                MaterialClass::Floor,
+                "60 other floor-shaped parts of every material",
+            ),
+        ] {
             let (obj, mtl) = crate::testing::tiled_hall(colours);
             let (src, t) = tagged_obj(&obj, ("m.mtl", &mtl));
             let class_of = |object: &str| object_class(&src, &t, object).1;
@@ -1494,18 +1484,15 @@ mod tests {
                 assert_eq!(
                     class_of(&format!("Plane.{k:03}")),
                     MaterialClass::Floor,
-                    "tile {k}, {colours} colours"
+                    "tile {k}, {colours} materials"
                 );
             }
-            assert_eq!(class_of("Rug"), MaterialClass::Floor);
+            assert_eq!(class_of("Rug"), rug, "{colours} materials");
             assert_eq!(class_of("Cube"), MaterialClass::Wall);
             assert_eq!(class_of("Cube.001"), MaterialClass::Other);
             let (tile, _) = object_class(&src, &t, "Plane.000");
             let said = t.decisions[0][tile].reason().unwrap_or_default();
-            assert!(
-                said.contains("with the 60 other floor-shaped parts of every material"),
-                "{said}"
-            );
+            assert!(said.contains(&format!("with the {kin}")), "{said}");
         }
     }
 

@@ -1383,18 +1383,15 @@ mod tests {
             block_compression,
             max_side,
         };
-        let place = |decode, skip| Some(Placement { decode, skip });
+        let at = |decode, skip| Placement { decode, skip };
+        let place = |decode, skip| Some(at(decode, skip));
         let (rgba, _) = pack::testing::sample_texture("stone", R::Colour, 1000, 600);
         assert_eq!(placement(&rgba, caps(true, 1000)), place(false, 0));
         assert_eq!(placement(&rgba, caps(true, 999)), place(false, 1));
         assert_eq!(placement(&rgba, caps(true, 250)), place(false, 2));
         assert_eq!(placement(&rgba, caps(true, 1)), place(false, 9));
         assert_eq!(placement(&rgba, caps(true, 0)), None);
-        let skip2 = Placement {
-            decode: false,
-            skip: 2,
-        };
-        assert_eq!(gpu_extent(&rgba, skip2).0, (250, 150));
+        assert_eq!(gpu_extent(&rgba, at(false, 2)).0, (250, 150));
 
         // Padded to 1000x604 as blocks: level 1 is 500x302, not whole blocks; 1024x598 pads
         // to 1024x600, whose level 1 is.
@@ -1403,23 +1400,10 @@ mod tests {
         assert_eq!(placement(&bc7, caps(true, 1000)), place(false, 0));
         assert_eq!(placement(&bc7, caps(true, 600)), place(true, 1));
         assert_eq!(placement(&bc7, caps(false, 600)), place(true, 1));
-        let decoded = gpu_extent(
-            &bc7,
-            Placement {
-                decode: true,
-                skip: 1,
-            },
-        );
-        assert_eq!(decoded, ((500, 300), [1.0, 1.0]));
+        assert_eq!(gpu_extent(&bc7, at(true, 1)), ((500, 300), [1.0, 1.0]));
         let (whole, _) = pack::testing::sample_block_texture("stone", R::Colour, F::Bc7, 1024, 598);
         assert_eq!(placement(&whole, caps(true, 512)), place(false, 1));
-        let blocks = gpu_extent(
-            &whole,
-            Placement {
-                decode: false,
-                skip: 1,
-            },
-        );
+        let blocks = gpu_extent(&whole, at(false, 1));
         assert_eq!(blocks, ((512, 300), whole.uv_scale()));
 
         // Levels left out are not needed, nor decoded ahead; the first one kept is.

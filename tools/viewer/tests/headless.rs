@@ -151,6 +151,24 @@ fn viewer(args: &[&std::ffi::OsStr]) -> std::process::Output {
         .unwrap()
 }
 
+/// The headless viewer on `pack`, writing 64x36 images to `out`, with `extra` arguments.
+fn headless_64x36(
+    pack: &std::path::Path,
+    out: &std::path::Path,
+    extra: &[&str],
+) -> std::process::Output {
+    let mut args = vec![
+        pack.as_os_str(),
+        "--headless".as_ref(),
+        "--out".as_ref(),
+        out.as_os_str(),
+        "--size".as_ref(),
+        "64x36".as_ref(),
+    ];
+    args.extend(extra.iter().map(std::ffi::OsStr::new));
+    viewer(&args)
+}
+
 #[test]
 fn writes_every_camera_and_pass() {
     let dir = scratch("ok");
@@ -221,17 +239,7 @@ fn first_frame_preview_leaves_the_images_alone() {
     std::fs::write(&pack_path, tiny_pack()).unwrap();
     let run = |name: &str, extra: &[&str]| {
         let out = dir.join(name);
-        let mut args = vec![
-            pack_path.as_os_str(),
-            "--headless".as_ref(),
-            "--out".as_ref(),
-            out.as_os_str(),
-            "--size".as_ref(),
-            "64x36".as_ref(),
-            "-v".as_ref(),
-        ];
-        args.extend(extra.iter().map(std::ffi::OsStr::new));
-        let o = viewer(&args);
+        let o = headless_64x36(&pack_path, &out, &[&["-v"], extra].concat());
         let stdout = String::from_utf8_lossy(&o.stdout).into_owned();
         assert!(
             o.status.success(),
@@ -272,19 +280,7 @@ fn max_texture_size_loads_a_smaller_level_and_says_so() {
     data.textures.push(levels);
     toc.materials[0].diffuse_texture = Some(0);
     std::fs::write(&pack_path, pack::encode(toc, &data).unwrap()).unwrap();
-    let run = |extra: &[&str]| {
-        let out = dir.join("images");
-        let mut args = vec![
-            pack_path.as_os_str(),
-            "--headless".as_ref(),
-            "--out".as_ref(),
-            out.as_os_str(),
-            "--size".as_ref(),
-            "64x36".as_ref(),
-        ];
-        args.extend(extra.iter().map(std::ffi::OsStr::new));
-        viewer(&args)
-    };
+    let run = |extra: &[&str]| headless_64x36(&pack_path, &dir.join("images"), extra);
     let o = run(&["--max-texture-size", "20"]);
     let said = String::from_utf8_lossy(&o.stderr);
     assert!(o.status.success(), "{said}");
@@ -383,19 +379,11 @@ fn render_far(
     out: &std::path::Path,
     extra: &[&str],
 ) -> (String, String, image::RgbaImage, image::RgbaImage) {
-    let mut args: Vec<&std::ffi::OsStr> = vec![
-        pack.as_os_str(),
-        "--headless".as_ref(),
-        "--out".as_ref(),
-        out.as_os_str(),
-        "--size".as_ref(),
-        "64x36".as_ref(),
-        "--camera".as_ref(),
-        "far".as_ref(),
-        "--passes".as_ref(),
-    ];
-    args.extend(extra.iter().map(std::ffi::OsStr::new));
-    let o = viewer(&args);
+    let o = headless_64x36(
+        pack,
+        out,
+        &[&["--camera", "far", "--passes"], extra].concat(),
+    );
     let stdout = String::from_utf8_lossy(&o.stdout).into_owned();
     let stderr = String::from_utf8_lossy(&o.stderr).into_owned();
     assert!(o.status.success(), "{extra:?}: {stdout}\n{stderr}");
