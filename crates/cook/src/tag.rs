@@ -548,6 +548,7 @@ pub struct PartGeometry {
     /// As `floor_kin`, for wall-shaped parts that face one way ([`wall_shaped`]).
     pub wall_kin: f64,
     pub wall_kin_parts: usize,
+    pub wall_kin_across: bool,
 }
 
 impl PartGeometry {
@@ -703,6 +704,18 @@ pub fn part_geometry(src: &Imported) -> (Vec<PartGeometry>, [f64; 2], f64) {
             }
         }
     }
+    // The same for walls: a nave whose bays are each painted in a material of their own.
+    let base = wall_base(&out, range, total);
+    if !out.iter().any(|g| wall_like(g, range, base)) {
+        let shaped: Vec<usize> = (0..out.len())
+            .filter(|&i| wall_shaped(&out[i], range))
+            .collect();
+        let area: f64 = shaped.iter().map(|&i| out[i].area).sum();
+        for &i in &shaped {
+            let g = &mut out[i];
+            (g.wall_kin, g.wall_kin_parts, g.wall_kin_across) = (area, shaped.len(), true);
+        }
+    }
     (out, range, total)
 }
 
@@ -737,6 +750,17 @@ fn floor_shaped(g: &PartGeometry, height: [f64; 2]) -> bool {
 /// with the other floor-shaped parts of its material, at least 2 % of the model's area.
 fn floor_like(g: &PartGeometry, height: [f64; 2], total_area: f64) -> bool {
     floor_shaped(g, height) && g.area.max(g.floor_kin) >= 0.02 * total_area
+}
+
+/// Whether a part's geometry makes it a wall: mostly vertical and rising through at least half
+/// the model's height (a wall rises through most of the building; a block or a statue does
+/// not), and, alone or with its kin, at least 2 % of `wall_base` ([`wall_base`]).
+fn wall_like(g: &PartGeometry, height: [f64; 2], wall_base: f64) -> bool {
+    let span = (height[1] - height[0]).max(1e-9);
+    g.area > 0.0
+        && g.area.max(g.wall_kin) >= 0.02 * wall_base
+        && g.vertical / g.area >= 0.75
+        && (g.y_range[1] - g.y_range[0]) >= 0.5 * span
 }
 
 /// The area a wall is measured against: the model's, less its floors. A building on open
@@ -794,11 +818,7 @@ pub fn geometry_heuristic(
             MaterialClass::Floor,
         ));
     }
-    // A wall rises through most of the building; a block or a statue does not.
-    if g.area.max(g.wall_kin) >= 0.02 * wall_base
-        && share(g.vertical) >= 0.75
-        && (g.y_range[1] - g.y_range[0]) >= 0.5 * span
-    {
+    if wall_like(g, height, wall_base) {
         return Some((
             format!(
                 "geometry: {:.0}% vertical, {:.0}% of the model's area{}",
@@ -807,9 +827,14 @@ pub fn geometry_heuristic(
                 if g.area < 0.02 * wall_base {
                     format!(
                         ", {:.0}% of it less the floors with the {} other wall-shaped parts \
-                         of its material",
+                         of {}",
                         g.wall_kin / wall_base * 100.0,
-                        g.wall_kin_parts - 1
+                        g.wall_kin_parts - 1,
+                        if g.wall_kin_across {
+                            "every material (no one material's made a wall)"
+                        } else {
+                            "its material"
+                        }
                     )
                 } else if g.area < 0.02 * total_area {
                     format!(", {:.0}% of it less the floors", g.area / wall_base * 100.0)
@@ -1525,35 +1550,41 @@ mod tests {
     /// object and under 2 % of the model, beside 24 square pillars of the same material and
     /// height: the panels are walls together, as one object of them would be (they were
     /// `other`, and the window was classed by the model's height, not the walls' top); the
-    /// pillars, which face two ways, stay `other`.
+    /// pillars, which face two ways, stay `other`. With each panel painted in a material of
+    /// its own, no one material's panels make a wall, so every material's are judged together.
     #[test]
     fn walls_built_a_bay_at_a_time_are_walls_and_pillars_are_not() {
-        let (obj, mtl) = crate::testing::nave_in_bays();
-        let (src, t) = tagged_obj(&obj, ("m.mtl", mtl));
-        let part = |object: &str| object_class(&src, &t, object).0;
-        let class_of = |object: &str| object_class(&src, &t, object).1;
-        for k in 0..32 {
-            assert_eq!(
-                class_of(&format!("Cube.{k:03}")),
-                MaterialClass::Wall,
-                "bay {k}"
+        for (painted, kin) in [
+            (false, "its material"),
+            (true, "every material (no one material's made a wall)"),
+        ] {
+            let (obj, mtl) = crate::testing::nave_in_bays(painted);
+            let (src, t) = tagged_obj(&obj, ("m.mtl", &mtl));
+            let part = |object: &str| object_class(&src, &t, object).0;
+            let class_of = |object: &str| object_class(&src, &t, object).1;
+            for k in 0..32 {
+                assert_eq!(
+                    class_of(&format!("Cube.{k:03}")),
+                    MaterialClass::Wall,
+                    "bay {k}, painted {painted}"
+                );
+            }
+            for k in 0..24 {
+                assert_eq!(
+                    class_of(&format!("Cylinder.{k:03}")),
+                    MaterialClass::Other,
+                    "pillar {k}, painted {painted}"
+                );
+            }
+            assert_eq!(class_of("Plane"), MaterialClass::Floor);
+            let said = t.decisions[0][part("Cube.000")]
+                .reason()
+                .unwrap_or_default();
+            assert!(
+                said.contains(&format!("with the 31 other wall-shaped parts of {kin}")),
+                "{said}"
             );
         }
-        for k in 0..24 {
-            assert_eq!(
-                class_of(&format!("Cylinder.{k:03}")),
-                MaterialClass::Other,
-                "pillar {k}"
-            );
-        }
-        assert_eq!(class_of("Plane"), MaterialClass::Floor);
-        let said = t.decisions[0][part("Cube.000")]
-            .reason()
-            .unwrap_or_default();
-        assert!(
-            said.contains("with the 31 other wall-shaped parts of its material"),
-            "{said}"
-        );
     }
 
     /// A hall whose ground and walls are separate objects in one material named for nothing

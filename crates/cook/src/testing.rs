@@ -311,8 +311,8 @@ pub fn tiled_hall(colours: usize) -> (String, String) {
 /// floor (`Plane`, `Material.001`); walls built a bay at a time, 32 panels of 5 x 20, each
 /// its own object (`Cube.000` …), a roof (`Plane.roof`) and 24 square pillars of 1 x 1 x 20
 /// (`Cylinder.000` …), all in `Material.002`; and glass (`Glass`, `Material.003`, `Tf`) in the
-/// north wall.
-pub fn nave_in_bays() -> (String, &'static str) {
+/// north wall. `painted`: each panel in a material of its own instead (`Paint.000` …).
+pub fn nave_in_bays(painted: bool) -> (String, String) {
     let mut q = ObjQuads::new();
     let stone = "Material.002";
     q.quad(
@@ -331,8 +331,14 @@ pub fn nave_in_bays() -> (String, &'static str) {
         bays.push([[-30., 0., z], [0., 0., 5.], [0., 20., 0.]]);
         bays.push([[30., 0., z], [0., 20., 0.], [0., 0., 5.]]);
     }
+    let bay_count = bays.len();
     for (k, bay) in bays.into_iter().enumerate() {
-        q.quad(&format!("Cube.{k:03}"), stone, bay);
+        let paint = format!("Paint.{k:03}");
+        q.quad(
+            &format!("Cube.{k:03}"),
+            if painted { &paint } else { stone },
+            bay,
+        );
     }
     q.quad(
         "Plane.roof",
@@ -356,7 +362,11 @@ pub fn nave_in_bays() -> (String, &'static str) {
         "Material.003",
         [[-2., 8., 9.99], [4., 0., 0.], [0., 6., 0.]],
     );
-    let mtl = "newmtl Material.001\nKd 0.5 0.5 0.5\nnewmtl Material.002\nKd 0.8 0.8 0.8\n\
-               newmtl Material.003\nKd 0.2 0.4 0.8\nTf 0.2 0.4 0.8\nd 0.3\n";
+    let mut mtl = "newmtl Material.001\nKd 0.5 0.5 0.5\nnewmtl Material.002\nKd 0.8 0.8 0.8\n\
+                   newmtl Material.003\nKd 0.2 0.4 0.8\nTf 0.2 0.4 0.8\nd 0.3\n"
+        .to_string();
+    for k in 0..if painted { bay_count } else { 0 } {
+        mtl += &format!("newmtl Paint.{k:03}\nKd 0.7 0.6 {:.3}\n", k as f64 / 40.0);
+    }
     (q.obj, mtl)
 }
