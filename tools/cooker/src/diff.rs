@@ -629,9 +629,18 @@ pub fn run(args: Args) -> Outcome {
             problems.push(format!("texture {:?} is missing from b", t.name));
             continue;
         };
-        if (t.width, t.height, t.mips.len(), t.role) != (u.width, u.height, u.mips.len(), u.role) {
+        let same =
+            (t.width, t.height, t.mips.len(), t.role) == (u.width, u.height, u.mips.len(), u.role);
+        // Where one chain is the other's from a level on, as a size cap leaves it
+        // (`--max-texture-size`), the levels they share are compared.
+        let shared = if same {
+            Some((0, 0))
+        } else {
+            shared_levels(t, u)
+        };
+        if !same {
             problems.push(format!(
-                "texture {:?}: {} {}x{} with {} mips in a, {} {}x{} with {} in b",
+                "texture {:?}: {} {}x{} with {} mips in a, {} {}x{} with {} in b{}",
                 t.name,
                 t.role,
                 t.width,
@@ -640,12 +649,22 @@ pub fn run(args: Args) -> Outcome {
                 u.role,
                 u.width,
                 u.height,
-                u.mips.len()
+                u.mips.len(),
+                match shared {
+                    Some((0, k)) =>
+                        format!("; a's levels are b's from level {k} on, compared as such"),
+                    Some((k, _)) =>
+                        format!("; b's levels are a's from level {k} on, compared as such"),
+                    None => String::new(),
+                }
             ));
-            continue;
         }
+        let Some((from_a, from_b)) = shared else {
+            continue;
+        };
         let mut levels = Vec::new();
-        for (level, m) in t.mips.iter().enumerate() {
+        for (level, m) in t.mips.iter().enumerate().skip(from_a) {
+            let level_b = level - from_a + from_b;
             // Decoded texels, so an RGBA8 pack and a block-compressed one compare.
             let d = level_diff(
                 t.role,
@@ -653,7 +672,7 @@ pub fn run(args: Args) -> Outcome {
                 m.width,
                 m.height,
                 &pack::texels::decode_level(t, level, a.mip_bytes(i, level)),
-                &pack::texels::decode_level(u, level, b.mip_bytes(j, level)),
+                &pack::texels::decode_level(u, level_b, b.mip_bytes(j, level_b)),
             );
             if d.max_error as f64 > tolerance {
                 problems.push(format!(
@@ -770,6 +789,26 @@ pub fn run(args: Args) -> Outcome {
         }
     }
     Ok(if within { OK } else { FOUND_PROBLEMS })
+}
+
+/// Where one texture's chain is the other's from a level on (the same role, and the longer
+/// chain's levels from there the same sizes as the shorter's): the first level each compares
+/// from, one of them 0.
+fn shared_levels(t: &pack::Texture, u: &pack::Texture) -> Option<(usize, usize)> {
+    if t.role != u.role {
+        return None;
+    }
+    let sizes = |x: &pack::Texture, from: usize| -> Vec<(u32, u32)> {
+        x.mips[from..].iter().map(|m| (m.width, m.height)).collect()
+    };
+    let (n, m) = (t.mips.len(), u.mips.len());
+    if n > m && sizes(t, n - m) == sizes(u, 0) {
+        Some((n - m, 0))
+    } else if m > n && sizes(u, m - n) == sizes(t, 0) {
+        Some((0, m - n))
+    } else {
+        None
+    }
 }
 
 /// A pack's light in words, every field at full precision, so two that differ read apart.

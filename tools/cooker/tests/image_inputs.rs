@@ -857,3 +857,62 @@ fn gltf_reads_dds_through_msft_texture_dds_and_refuses_damaged_ones() {
         }
     }
 }
+
+/// `--max-texture-size` from the command line: Crytek's 128² bricks under a cap of 32 are
+/// stored from their level 2, the very texels of the whole cook's level 2, and the cook says
+/// so; `diff` of the two packs names the size change, sees that the capped chain is the whole
+/// one's from level 2 on, and compares those levels (equal at level 2, within a rounding step
+/// below). A cap of 0 is bad usage.
+#[test]
+fn a_size_cap_stores_a_smaller_level_and_diff_compares_what_is_shared() {
+    let dir = tempfile::tempdir().unwrap();
+    let obj = obj_scene(dir.path(), &[TGA]);
+    let cook = |name: &str, extra: &[&str]| cook_obj(&obj, &dir.path().join(name), extra);
+    let (whole, _) = cook("whole.pack", &["--texture-format", "rgba8"]);
+    let (capped, log) = cook(
+        "capped.pack",
+        &["--texture-format", "rgba8", "--max-texture-size", "32"],
+    );
+    assert!(
+        log.contains("128x128 is over the size cap of 32: cooked from its mip level 2, 32x32"),
+        "{log}"
+    );
+    let name = "spnza_bricks_a_diff.crop128";
+    assert_eq!(texture_info(&capped, name), (32, 32, 6));
+    assert_eq!(
+        extract(&capped, name, 0, dir.path()),
+        extract(&whole, name, 2, dir.path())
+    );
+
+    let d = cooker(&[&"diff", &whole, &capped, &"--json"]);
+    assert_eq!(d.status.code(), Some(1), "{}", text(&d.stdout));
+    let v: serde_json::Value = serde_json::from_slice(&d.stdout).unwrap();
+    let problems = v["problems"].to_string();
+    assert!(
+        problems.contains("128x128 with 8 mips in a")
+            && problems.contains("b's levels are a's from level 2 on"),
+        "{problems}"
+    );
+    let levels = v["textures"][0]["levels"].as_array().unwrap();
+    assert_eq!(levels.len(), 6, "{levels:?}");
+    // Level 2 is the same; those below it are mipped again from its 8-bit texels.
+    assert_eq!(
+        (&levels[0]["level"], &levels[0]["max_error"]),
+        (&2.into(), &0.into())
+    );
+    assert!(
+        levels.iter().all(|l| l["max_error"].as_u64() <= Some(1)),
+        "{levels:?}"
+    );
+
+    let o = cooker(&[
+        &"cook",
+        &obj,
+        &"-o",
+        &dir.path().join("x.pack"),
+        &"--max-texture-size",
+        &"0",
+    ]);
+    assert_eq!(o.status.code(), Some(2), "{}", text(&o.stderr));
+    assert!(!dir.path().join("x.pack").exists());
+}
