@@ -921,3 +921,44 @@ fn a_size_cap_cooks_each_texture_from_its_first_level_that_fits() {
         "{names:?}"
     );
 }
+
+/// A texture over 8192 texels a side cooks with a note that many GPUs load at most 8192 (the
+/// viewer takes a smaller level there) and how to store it so; under a cap of 8192 it is
+/// stored at 4100 and the note is gone.
+#[test]
+fn a_texture_over_common_gpu_limits_is_named() {
+    let dir = tempfile::tempdir().unwrap();
+    image::RgbaImage::from_fn(8200, 2, |x, y| {
+        image::Rgba([(x % 256) as u8, (y * 90) as u8, 7, 255])
+    })
+    .save(dir.path().join("frieze.png"))
+    .unwrap();
+    std::fs::write(
+        dir.path().join("m.mtl"),
+        "newmtl frieze\nKd 1 1 1\nmap_Kd frieze.png\n",
+    )
+    .unwrap();
+    std::fs::write(
+        dir.path().join("frieze.obj"),
+        "mtllib m.mtl\nv 0 0 0\nv 4 0 0\nv 4 1 0\nv 0 1 0\nvt 0 0\nvt 1 0\nvt 1 1\nvt 0 1\n\
+         usemtl frieze\nf 1/1 2/2 3/3 4/4\n",
+    )
+    .unwrap();
+    let m = Manifest::open(&dir.path().join("frieze.obj")).unwrap();
+    for cap in [None, Some(8192)] {
+        let mut s = Settings::new(&m);
+        s.textures.max_size = cap;
+        let out = cook::cook(&m, &s).expect("cooks");
+        let said: Vec<String> = out.report.notes.iter().map(|n| n.to_string()).collect();
+        let named = said.iter().any(|n| {
+            n.contains("8200x2 is over 8192 texels a side")
+                && n.contains("`--max-texture-size 8192` stores it so")
+        });
+        assert_eq!(named, cap.is_none(), "{said:?}");
+        let t = &out.toc.textures[0];
+        assert_eq!(
+            (t.width, t.height),
+            if cap.is_none() { (8200, 2) } else { (4100, 1) }
+        );
+    }
+}

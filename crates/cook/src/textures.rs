@@ -528,7 +528,24 @@ fn run_and_compress(job: &Job, p: &Params) -> Result<(CookedTexture, Said), Cook
         };
     }
     supercompress(&mut cooked, p.supercompression);
-    Ok((cooked, said.and(stored)))
+    Ok((cooked, big_for_some_gpus(size).and(said).and(stored)))
+}
+
+/// The largest side many integrated and mobile GPUs load, and WebGPU's default limit
+/// (`wgpu::Limits::default().max_texture_dimension_2d`).
+const COMMON_MAX_SIDE: u32 = 8192;
+
+/// A note for a texture over [`COMMON_MAX_SIDE`]: it cooks, and the viewer loads it from a
+/// smaller level on such a GPU, but the user may want the pack to carry no more than it shows.
+fn big_for_some_gpus((width, height): (u32, u32)) -> Said {
+    if width.max(height) <= COMMON_MAX_SIDE {
+        return Said::default();
+    }
+    Said::note(format!(
+        "{width}x{height} is over {COMMON_MAX_SIDE} texels a side, the most many integrated and \
+         mobile GPUs load (the viewer loads a smaller level there; `--max-texture-size \
+         {COMMON_MAX_SIDE}` stores it so)"
+    ))
 }
 
 /// Compresses the levels losslessly when that makes them smaller in all (tiny or noisy
