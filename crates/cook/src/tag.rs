@@ -535,20 +535,54 @@ pub struct PartGeometry {
     pub mean_y: f64,
     /// Lowest and highest point.
     pub y_range: [f64; 2],
-    /// Where the part is shaped as a floor ([`floor_shaped`]): the area of all the floor-shaped
-    /// parts of its source material, itself included, and how many they are; 0 otherwise.
-    pub floor_kin: f64,
-    pub floor_kin_parts: usize,
-    /// Whether `floor_kin` counts the floor-shaped parts of every material: where those of no
-    /// one material made a floor.
-    pub floor_kin_across: bool,
+    /// Where the part is shaped as a floor ([`floor_shaped`]): the floor-shaped parts of its
+    /// source material, itself included (of every material where no one material's made a
+    /// floor); empty otherwise.
+    pub floor_kin: Kin,
     /// The area-weighted squares of its triangles' unit normals' horizontal components: x²,
     /// z², xz; whether most of it faces one horizontal way, either side ([`faces_one_way`]).
     pub facing: [f64; 3],
     /// As `floor_kin`, for wall-shaped parts that face one way ([`wall_shaped`]).
-    pub wall_kin: f64,
-    pub wall_kin_parts: usize,
-    pub wall_kin_across: bool,
+    pub wall_kin: Kin,
+}
+
+/// Parts shaped alike that are judged together, as one object of them would be: their area and
+/// how many they are.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct Kin {
+    pub area: f64,
+    pub parts: usize,
+    /// Whether they are of every material: where those of no one material made the class.
+    pub across: bool,
+}
+
+impl Kin {
+    /// Whose parts they are, as a note says it: "its material", or every material's where no
+    /// one material's made a `class` (floor, wall).
+    fn whose(&self, class: &str) -> String {
+        if self.across {
+            format!("every material (no one material's made a {class})")
+        } else {
+            "its material".into()
+        }
+    }
+}
+
+/// Makes the parts `shaped` picks one kin, whatever their material (their `kin` field).
+fn kin_of_every_material(
+    out: &mut [PartGeometry],
+    shaped: impl Fn(&PartGeometry) -> bool,
+    kin: fn(&mut PartGeometry) -> &mut Kin,
+) {
+    let picked: Vec<usize> = (0..out.len()).filter(|&i| shaped(&out[i])).collect();
+    let all = Kin {
+        area: picked.iter().map(|&i| out[i].area).sum(),
+        parts: picked.len(),
+        across: true,
+    };
+    for i in picked {
+        *kin(&mut out[i]) = all;
+    }
 }
 
 impl PartGeometry {
@@ -668,7 +702,7 @@ pub fn part_geometry(src: &Imported) -> (Vec<PartGeometry>, [f64; 2], f64) {
     // floor at all, so no window light was guessed onto it.
     // So are walls built a bay at a time, as flat panels or slabs: columns, which face every
     // way, are not (24 pillars of a nave, each its own object, became walls that way).
-    let mut kin: HashMap<(Option<u32>, bool), (f64, usize)> = HashMap::new();
+    let mut kin: HashMap<(Option<u32>, bool), Kin> = HashMap::new();
     for (part, g) in src.parts.iter().zip(&out) {
         for (floor, shaped) in [
             (true, floor_shaped(g, range)),
@@ -676,45 +710,30 @@ pub fn part_geometry(src: &Imported) -> (Vec<PartGeometry>, [f64; 2], f64) {
         ] {
             if shaped {
                 let k = kin.entry((part.material, floor)).or_default();
-                k.0 += g.area;
-                k.1 += 1;
+                k.area += g.area;
+                k.parts += 1;
             }
         }
     }
     for (part, g) in src.parts.iter().zip(&mut out) {
         if floor_shaped(g, range) {
-            (g.floor_kin, g.floor_kin_parts) = kin[&(part.material, true)];
+            g.floor_kin = kin[&(part.material, true)];
         }
         if wall_shaped(g, range) {
-            (g.wall_kin, g.wall_kin_parts) = kin[&(part.material, false)];
+            g.wall_kin = kin[&(part.material, false)];
         }
     }
     // Where no material's floor-shaped parts make a floor, those of every material do: a
     // mosaic or a marble pavement, each colour (or each tile) its own material, had no floor
-    // and no window light. Only then, so a rug on a floor of tiles stays what it was.
+    // and no window light. Only then, so a rug on a floor of tiles stays what it was. (Kin
+    // too small to make a floor together makes none: `floor_like` weighs it.)
     if !out.iter().any(|g| floor_like(g, range, total)) {
-        let shaped: Vec<usize> = (0..out.len())
-            .filter(|&i| floor_shaped(&out[i], range))
-            .collect();
-        let area: f64 = shaped.iter().map(|&i| out[i].area).sum();
-        if area >= 0.02 * total {
-            for &i in &shaped {
-                let g = &mut out[i];
-                (g.floor_kin, g.floor_kin_parts, g.floor_kin_across) = (area, shaped.len(), true);
-            }
-        }
+        kin_of_every_material(&mut out, |g| floor_shaped(g, range), |g| &mut g.floor_kin);
     }
     // The same for walls: a nave whose bays are each painted in a material of their own.
     let base = wall_base(&out, range, total);
     if !out.iter().any(|g| wall_like(g, range, base)) {
-        let shaped: Vec<usize> = (0..out.len())
-            .filter(|&i| wall_shaped(&out[i], range))
-            .collect();
-        let area: f64 = shaped.iter().map(|&i| out[i].area).sum();
-        for &i in &shaped {
-            let g = &mut out[i];
-            (g.wall_kin, g.wall_kin_parts, g.wall_kin_across) = (area, shaped.len(), true);
-        }
+        kin_of_every_material(&mut out, |g| wall_shaped(g, range), |g| &mut g.wall_kin);
     }
     (out, range, total)
 }
@@ -749,7 +768,7 @@ fn floor_shaped(g: &PartGeometry, height: [f64; 2]) -> bool {
 /// Whether a part's geometry makes it a floor: shaped as one ([`floor_shaped`]), and, alone or
 /// with the other floor-shaped parts of its material, at least 2 % of the model's area.
 fn floor_like(g: &PartGeometry, height: [f64; 2], total_area: f64) -> bool {
-    floor_shaped(g, height) && g.area.max(g.floor_kin) >= 0.02 * total_area
+    floor_shaped(g, height) && g.area.max(g.floor_kin.area) >= 0.02 * total_area
 }
 
 /// Whether a part's geometry makes it a wall: mostly vertical and rising through at least half
@@ -758,7 +777,7 @@ fn floor_like(g: &PartGeometry, height: [f64; 2], total_area: f64) -> bool {
 fn wall_like(g: &PartGeometry, height: [f64; 2], wall_base: f64) -> bool {
     let span = (height[1] - height[0]).max(1e-9);
     g.area > 0.0
-        && g.area.max(g.wall_kin) >= 0.02 * wall_base
+        && g.area.max(g.wall_kin.area) >= 0.02 * wall_base
         && g.vertical / g.area >= 0.75
         && (g.y_range[1] - g.y_range[0]) >= 0.5 * span
 }
@@ -802,13 +821,9 @@ pub fn geometry_heuristic(
                 if g.area < 0.02 * total_area {
                     format!(
                         ", {:.0}% with the {} other floor-shaped parts of {}",
-                        g.floor_kin / total_area * 100.0,
-                        g.floor_kin_parts - 1,
-                        if g.floor_kin_across {
-                            "every material (no one material's made a floor)"
-                        } else {
-                            "its material"
-                        }
+                        g.floor_kin.area / total_area * 100.0,
+                        g.floor_kin.parts - 1,
+                        g.floor_kin.whose("floor")
                     )
                 } else {
                     String::new()
@@ -828,13 +843,9 @@ pub fn geometry_heuristic(
                     format!(
                         ", {:.0}% of it less the floors with the {} other wall-shaped parts \
                          of {}",
-                        g.wall_kin / wall_base * 100.0,
-                        g.wall_kin_parts - 1,
-                        if g.wall_kin_across {
-                            "every material (no one material's made a wall)"
-                        } else {
-                            "its material"
-                        }
+                        g.wall_kin.area / wall_base * 100.0,
+                        g.wall_kin.parts - 1,
+                        g.wall_kin.whose("wall")
                     )
                 } else if g.area < 0.02 * total_area {
                     format!(", {:.0}% of it less the floors", g.area / wall_base * 100.0)

@@ -244,9 +244,8 @@ pub fn tiled_hall(colours: usize) -> (String, String) {
         .enumerate()
     {
         let material = match colours {
-            0 | 1 => "Material.001".to_string(),
             2 if (i + j) % 2 == 1 => "Material.003".to_string(),
-            2 => "Material.001".to_string(),
+            0..=2 => "Material.001".to_string(),
             n => format!("Tile.{:03}", k * 7 % n),
         };
         let at = [i as f64 - 5.0, 0.0, j as f64 - 3.0];
@@ -300,9 +299,11 @@ pub fn tiled_hall(colours: usize) -> (String, String) {
                    newmtl Material.003\nKd 0.2 0.2 0.2\nnewmtl Material.004\nKd 0.6 0.1 0.1\n\
                    newmtl Material.005\nKd 0.2 0.4 0.8\nTf 0.2 0.4 0.8\nd 0.3\n"
         .to_string();
-    for t in 0..if colours > 2 { colours } else { 0 } {
-        let grey = 0.2 + 0.6 * t as f64 / colours as f64;
-        mtl += &format!("newmtl Tile.{t:03}\nKd {grey:.3} {:.3} 0.4\n", 1.0 - grey);
+    if colours > 2 {
+        for t in 0..colours {
+            let grey = 0.2 + 0.6 * t as f64 / colours as f64;
+            mtl += &format!("newmtl Tile.{t:03}\nKd {grey:.3} {:.3} 0.4\n", 1.0 - grey);
+        }
     }
     (q.obj, mtl)
 }
@@ -365,8 +366,10 @@ pub fn nave_in_bays(painted: bool) -> (String, String) {
     let mut mtl = "newmtl Material.001\nKd 0.5 0.5 0.5\nnewmtl Material.002\nKd 0.8 0.8 0.8\n\
                    newmtl Material.003\nKd 0.2 0.4 0.8\nTf 0.2 0.4 0.8\nd 0.3\n"
         .to_string();
-    for k in 0..if painted { bay_count } else { 0 } {
-        mtl += &format!("newmtl Paint.{k:03}\nKd 0.7 0.6 {:.3}\n", k as f64 / 40.0);
+    if painted {
+        for k in 0..bay_count {
+            mtl += &format!("newmtl Paint.{k:03}\nKd 0.7 0.6 {:.3}\n", k as f64 / 40.0);
+        }
     }
     (q.obj, mtl)
 }

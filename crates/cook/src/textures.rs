@@ -736,12 +736,11 @@ fn run(
             .map_err(|e| texture_error(Path::new(&name.name()), e))?;
         Ok(match within {
             None => (img, Said::default()),
-            Some(level) => {
+            Some((k, level)) => {
                 let said = Said::note(format!(
-                    "{}x{} is over the size cap of {cap}: cooked from its mip level {}, {}x{}",
+                    "{}x{} is over the size cap of {cap}: cooked from its mip level {k}, {}x{}",
                     img.width(),
                     img.height(),
-                    (img.width().max(img.height()) / level.width().max(level.height())).ilog2(),
                     level.width(),
                     level.height()
                 ));

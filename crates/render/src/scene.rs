@@ -224,7 +224,6 @@ pub struct Upload {
 }
 
 impl Upload {
-    /// `block_compression`: the device's [`Gpu::block_compression`].
     /// `caps`: the device's [`Gpu::texture_caps`]. Levels the device does not load are not
     /// decoded.
     pub fn prepare(toc: &pack::Toc, section: pack::StreamSection, caps: TextureCaps) -> Self {

@@ -240,8 +240,8 @@ pub fn colour_mips(img: &DynamicImage, opts: &ColourOptions) -> Result<MipChain,
 }
 
 /// The first level of `img`'s colour chain (as [`colour_mips`] makes it, with `opts`) at most
-/// `max_side` texels a side, as an RGBA8 image with the same bits; `None` when `img` already
-/// fits. For a cap on the size of stored textures. A chain cooked from it may differ from the
+/// `max_side` texels a side: its level number, and the level as an RGBA8 image with the same
+/// bits; `None` when `img` already fits. For a cap on the size of stored textures. A chain cooked from it may differ from the
 /// whole chain's smaller levels by a rounding step: the whole chain carries each level to the
 /// next in f32, and this one starts again from the level's 8-bit encoding. Only the levels on
 /// the way are made, and an 8-bit sRGB image's level 1 comes from its bytes, as in
@@ -250,7 +250,7 @@ pub fn first_level_within(
     img: &DynamicImage,
     max_side: u32,
     opts: &ColourOptions,
-) -> Result<Option<DynamicImage>, TextureError> {
+) -> Result<Option<(usize, DynamicImage)>, TextureError> {
     let (w, h) = (img.width(), img.height());
     check_size(w, h)?;
     if w.max(h) <= max_side {
@@ -280,7 +280,7 @@ pub fn first_level_within(
     let (lw, lh) = level_size(w, h, target);
     let bytes = encode_level(&level, opts.srgb);
     let image = image::RgbaImage::from_raw(lw, lh, bytes).expect("a level's bytes fill its size");
-    Ok(Some(DynamicImage::ImageRgba8(image)))
+    Ok(Some((target, DynamicImage::ImageRgba8(image))))
 }
 
 /// The same chain computed in f64 throughout and not rounded: the reference the f32 chain is
@@ -324,7 +324,7 @@ mod tests {
             let chain = colour_mips(&img, &opts).unwrap();
             assert_eq!(first_level_within(&img, w.max(h), &opts).unwrap(), None);
             for cap in [w.max(h) - 1, 65, 64, 33, 1, 0] {
-                let got = first_level_within(&img, cap, &opts).unwrap().unwrap();
+                let (got_level, got) = first_level_within(&img, cap, &opts).unwrap().unwrap();
                 let level = (1..chain.levels.len())
                     .find(|&k| {
                         let (lw, lh) = chain.level_size(k);
@@ -332,6 +332,7 @@ mod tests {
                     })
                     .unwrap();
                 let (lw, lh) = chain.level_size(level);
+                assert_eq!(got_level, level, "{w}x{h} cap {cap}");
                 assert_eq!((got.width(), got.height()), (lw, lh), "{w}x{h} cap {cap}");
                 assert_eq!(
                     got.as_bytes(),

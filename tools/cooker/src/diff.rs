@@ -629,16 +629,10 @@ pub fn run(args: Args) -> Outcome {
             problems.push(format!("texture {:?} is missing from b", t.name));
             continue;
         };
-        let same =
-            (t.width, t.height, t.mips.len(), t.role) == (u.width, u.height, u.mips.len(), u.role);
         // Where one chain is the other's from a level on, as a size cap leaves it
         // (`--max-texture-size`), the levels they share are compared.
-        let shared = if same {
-            Some((0, 0))
-        } else {
-            shared_levels(t, u)
-        };
-        if !same {
+        let shared = shared_levels(t, u);
+        if shared != Some((0, 0)) {
             problems.push(format!(
                 "texture {:?}: {} {}x{} with {} mips in a, {} {}x{} with {} in b{}",
                 t.name,
@@ -793,7 +787,7 @@ pub fn run(args: Args) -> Outcome {
 
 /// Where one texture's chain is the other's from a level on (the same role, and the longer
 /// chain's levels from there the same sizes as the shorter's): the first level each compares
-/// from, one of them 0.
+/// from, one of them 0; both for textures of one shape.
 fn shared_levels(t: &pack::Texture, u: &pack::Texture) -> Option<(usize, usize)> {
     if t.role != u.role {
         return None;
@@ -802,7 +796,7 @@ fn shared_levels(t: &pack::Texture, u: &pack::Texture) -> Option<(usize, usize)>
         x.mips[from..].iter().map(|m| (m.width, m.height)).collect()
     };
     let (n, m) = (t.mips.len(), u.mips.len());
-    if n > m && sizes(t, n - m) == sizes(u, 0) {
+    if n >= m && sizes(t, n - m) == sizes(u, 0) {
         Some((n - m, 0))
     } else if m > n && sizes(u, m - n) == sizes(t, 0) {
         Some((0, m - n))
