@@ -6,10 +6,8 @@
 // the scene's distance from the origin and nothing cancels large f32 products. The one large
 // subtraction, vertex minus camera, rounds once.
 
-const MAX_WINDOWS: u32 = 192u;
-// 32-bit words of a bit set of windows.
-const WINDOW_WORDS: u32 = 6u;
-const_assert MAX_WINDOWS <= 32u * WINDOW_WORDS;
+// The most windows a fragment tests (see `render::uniforms::MAX_WINDOWS`).
+const MAX_WINDOWS: u32 = 1024u;
 
 struct Frame {
     // Camera-relative position to clip space (no translation).
@@ -66,11 +64,14 @@ struct WindowProjector {
     aperture_box: vec4<f32>,
 }
 
+// A storage buffer, sized to the scene's windows: a uniform block would bound them to what
+// 64 KiB holds (192).
 struct Windows {
-    items: array<WindowProjector, MAX_WINDOWS>,
     // The light's map over all the opaque geometry (shadow fields only; params.w = 1 when
     // present): whether a point outside a window's plane sees the light (see `fs_main`).
     direct: WindowProjector,
+    // `frame.counts.x` of them.
+    items: array<WindowProjector>,
 }
 
 struct Material {
@@ -95,7 +96,7 @@ const CLASS_BACKGROUND: u32 = 4u;
 const CLASS_OTHER: u32 = 5u;
 
 @group(0) @binding(0) var<uniform> frame: Frame;
-@group(0) @binding(1) var<uniform> windows: Windows;
+@group(0) @binding(1) var<storage, read> windows: Windows;
 // One layer per distinct projector texture; the window's params.x picks it.
 @group(0) @binding(2) var projectors: texture_2d_array<f32>;
 @group(0) @binding(3) var linear_clamp: sampler;

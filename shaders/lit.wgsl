@@ -272,29 +272,32 @@ fn projects_onto(i: u32, p: vec3<f32>) -> bool {
 // them exactly, so this runs only where the surface faces the light (no uniform control flow
 // needed). `n` is the geometric normal facing the light, `frag` the pixel position.
 //
-// The windows whose projection holds `p` are found first, as bits; the projector samples and
-// shadow-map taps then loop over those alone, in window order. A CPU rasterizer (lavapipe)
-// runs a loop's body for all its lanes until every lane is done, a `continue` included, so
-// one loop over every window read every window's textures at every texel.
+// The windows whose projection holds `p` are found first, 32 at a time as the bits of a word;
+// the projector samples and shadow-map taps then loop over those alone, in window order. A CPU
+// rasterizer (lavapipe) runs a loop's body for all its lanes until every lane is done, a
+// `continue` included, so one loop over every window read every window's textures at every
+// texel. A word at a time needs no array of them: a private array sized for the most windows
+// (32 words for 1024) would sit in every fragment's scratch memory on a GPU.
 fn transmitted(p: vec3<f32>, dpx: vec3<f32>, dpy: vec3<f32>, n: vec3<f32>, frag: vec2<f32>) -> vec3<f32> {
-    var reach = array<u32, WINDOW_WORDS>();
     let count = min(frame.counts.x, MAX_WINDOWS);
-    for (var i = 0u; i < count; i = i + 1u) {
-        if (projects_onto(i, p)) {
-            reach[i / 32u] = reach[i / 32u] | (1u << (i % 32u));
-        }
-    }
     var total = vec3<f32>(0.0);
     // Only the words that hold windows: a CPU rasterizer runs every iteration for all lanes,
     // and looping over five took lavapipe's lit pass from 225 to 284 ms (nave, 720p).
     let words = (count + 31u) / 32u;
     for (var word = 0u; word < words; word = word + 1u) {
-        var bits = reach[word];
+        let first = word * 32u;
+        let last = min(first + 32u, count);
+        var bits = 0u;
+        for (var i = first; i < last; i = i + 1u) {
+            if (projects_onto(i, p)) {
+                bits = bits | (1u << (i - first));
+            }
+        }
         loop {
             if (bits == 0u) {
                 break;
             }
-            let i = word * 32u + firstTrailingBit(bits);
+            let i = first + firstTrailingBit(bits);
             bits = bits & (bits - 1u);
             let w = windows.items[i];
             // Divide per fragment: u/w interpolated linearly would be wrong.

@@ -594,10 +594,10 @@ fn sun_through_window_matches_reference() {
     check_image("sun-outside", &r.read_output(&gpu).unwrap(), 1e-3, 0.01);
 }
 
-/// A cathedral has more windows than the lit pass takes (192): the scene keeps those the light
-/// comes in through, then the largest, and renders; before, it refused the pack. Here 201
-/// small windows far behind the camera, without light, join the lit one: 10 are left out,
-/// and the image is the single window's.
+/// A cathedral has more windows than the lit pass takes (`MAX_WINDOWS`): the scene keeps those
+/// the light comes in through, then the largest, and renders; before, it refused the pack.
+/// Here `MAX_WINDOWS + 9` small windows far behind the camera, without light, join the lit
+/// one: 10 are left out, and the image is the single window's.
 #[test]
 fn more_windows_than_the_lit_pass_takes_still_render_the_lit_ones() {
     let gpu = lavapipe();

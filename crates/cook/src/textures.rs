@@ -859,20 +859,30 @@ fn projector_sigma(
     let v = glam::Vec3::from(frame.v_axis);
     let centre = glam::Vec3::from(frame.origin) + 0.5 * (u + v);
     let floor = floor_y.unwrap_or(centre.y - v.length().max(u.length()));
-    let (dir, angular) = match *light {
+    // The lamp's distance from the window (infinite for the sun).
+    let (dir, angular, lamp) = match *light {
         pack::LightKind::Directional {
             direction,
             angular_size,
-        } => (glam::Vec3::from(direction), angular_size),
+        } => (glam::Vec3::from(direction), angular_size, f32::INFINITY),
         pack::LightKind::Point { position, radius } => {
             let d = centre - glam::Vec3::from(position);
-            (d, (radius / d.length().max(1e-6)).atan() * 2.0)
+            let a = d.length().max(1e-6);
+            (d, (radius / a).atan() * 2.0, a)
         }
     };
     let dir = dir.normalize_or_zero();
     // Distance from the window along the light to the floor plane; straight down otherwise.
     let drop = (centre.y - floor).max(0.0);
-    let distance = if dir.y < -1e-3 { drop / -dir.y } else { drop };
+    let floor_distance = if dir.y < -1e-3 { drop / -dir.y } else { drop };
+    // The penumbra θ·d is on the floor, but the blur is of the design: a lamp magnifies the
+    // design (a + d)/a times on its way to the floor, so in the window's plane the penumbra is
+    // that much narrower. The sun does not magnify it.
+    let distance = if lamp.is_finite() {
+        floor_distance * lamp / (lamp + floor_distance)
+    } else {
+        floor_distance
+    };
     let texels_per_unit = width as f32 / u.length().max(1e-6);
     let sigma = texture::sigma_from_light(angular, distance, texels_per_unit);
     if sigma.is_finite() && sigma >= 0.0 {
@@ -1083,6 +1093,44 @@ pub fn cook_textures(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The blur is the light's penumbra on the floor, measured in the design: a lamp a metres
+    /// from a window casts a penumbra θ·b on a floor b beyond it, and the design reaches the
+    /// floor (a + b)/a times as large, so in the design it is θ·b·a/(a + b). The sun's rays
+    /// are parallel: θ·b.
+    #[test]
+    fn the_projector_blur_is_the_penumbra_in_the_window_s_plane() {
+        // A 2 m skylight of 200 texels at y = 8 over a floor at 0.
+        let frame = pack::Window {
+            material: 0,
+            origin: [-1.0, 8.0, -1.0],
+            u_axis: [2.0, 0.0, 0.0],
+            v_axis: [0.0, 0.0, 2.0],
+            normal: [0.0, -1.0, 0.0],
+            source_materials: Vec::new(),
+        };
+        let sigma = |light: pack::LightKind| {
+            projector_sigma(None, Some(&frame), Some(&light), Some(0.0), Some(200))
+        };
+        let (a, b, r) = (12.0f32, 8.0f32, 0.2f32);
+        let theta = 2.0 * (r / a).atan();
+        let lamp = sigma(pack::LightKind::Point {
+            position: [0.0, 8.0 + a, 0.0],
+            radius: r,
+        });
+        let expected = theta * b * a / (a + b) / 4.0 * 100.0;
+        assert!((lamp - expected).abs() < 2e-3, "{lamp} against {expected}");
+        let sun = sigma(pack::LightKind::Directional {
+            direction: [0.0, -1.0, 0.0],
+            angular_size: theta,
+        });
+        assert!((sun - theta * b / 4.0 * 100.0).abs() < 2e-3, "{sun}");
+        // A given σ is kept.
+        assert_eq!(
+            projector_sigma(Some(3.5), Some(&frame), None, None, Some(200)),
+            3.5
+        );
+    }
 
     #[test]
     fn an_image_file_is_decoded_once_per_cook_and_a_bad_one_fails_every_time() {

@@ -80,7 +80,13 @@ impl Gpu {
         let (device, queue) = pollster::block_on(adapter.request_device(&wgpu::DeviceDescriptor {
             label: Some("render"),
             required_features: features,
-            required_limits: wgpu::Limits::default().using_resolution(adapter.limits()),
+            // The adapter's array layers too: the projector array has one layer per window
+            // design and a lamp's shadow maps one per window, and a cathedral has more than
+            // the default 256.
+            required_limits: wgpu::Limits {
+                max_texture_array_layers: adapter.limits().max_texture_array_layers,
+                ..wgpu::Limits::default().using_resolution(adapter.limits())
+            },
             ..Default::default()
         }))
         .map_err(|e| RenderError::Device(e.to_string()))?;

@@ -26,6 +26,23 @@ pub(crate) struct Projectors {
 /// that keeps their detail while bounding the copy each streamed level costs.
 const MAX_PROJECTOR_SIZE: u32 = pack::PROJECTOR_MAX_SIZE;
 
+/// Bytes the array may take, all levels: a 512² layer and its chain is 1.33 MiB, so up to 384
+/// windows' projectors keep their full size and more share this at a smaller one (a cathedral
+/// of a thousand panes would otherwise ask 1.4 GB). Windows that many are small on the floor,
+/// and their projectors are pre-blurred.
+const ARRAY_BUDGET: u64 = 512 << 20;
+
+/// The layer size for `layers` layers of at most `size` texels a side within [`ARRAY_BUDGET`]:
+/// halved until they fit (not below 16).
+fn layer_size(size: u32, layers: u32) -> u32 {
+    let bytes = |s: u32| layers as u64 * (s as u64 * s as u64 * 4) * 4 / 3;
+    let mut s = size;
+    while s > 16 && bytes(s) > ARRAY_BUDGET {
+        s = s.div_ceil(2);
+    }
+    s
+}
+
 impl Projectors {
     /// One layer per distinct projector texture of the TOC's windows, in window order.
     pub(crate) fn new(gpu: &Gpu, toc: &Toc) -> Result<Self, RenderError> {
@@ -57,6 +74,16 @@ impl Projectors {
             .min(MAX_PROJECTOR_SIZE);
         // One layer per projector plus a white one for windows without a projector texture.
         let layers = slots.len() as u32 + 1;
+        let full = size;
+        let size = layer_size(full, layers);
+        if size < full {
+            eprintln!(
+                "note: {} window projectors share {} MiB of projector array: each is {size} \
+                 texels a side instead of {full}",
+                slots.len(),
+                ARRAY_BUDGET >> 20
+            );
+        }
         // A full chain: floors seen at grazing angles minify the patterns strongly.
         let levels = 32 - size.leading_zeros();
         let texture = device.create_texture(&wgpu::TextureDescriptor {
@@ -244,6 +271,26 @@ impl Projectors {
         }
         if any {
             gpu.queue.submit([encoder.finish()]);
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn many_layers_share_the_budget_at_a_smaller_size() {
+        // A few hundred windows keep their full size; a thousand halve it, and the array
+        // stays within the budget whatever the count.
+        assert_eq!(layer_size(512, 193), 512);
+        assert_eq!(layer_size(512, 384), 512);
+        assert_eq!(layer_size(512, 385), 256);
+        assert_eq!((layer_size(300, 1025), layer_size(300, 1500)), (300, 150));
+        assert_eq!(layer_size(512, 100_000), 16);
+        for layers in [1, 200, 385, 1025, 2048] {
+            let s = layer_size(512, layers) as u64;
+            assert!(layers as u64 * s * s * 16 / 3 <= ARRAY_BUDGET, "{layers}");
         }
     }
 }

@@ -313,9 +313,12 @@ pub struct Renderer {
     targets: Targets,
     frame_layout: wgpu::BindGroupLayout,
     frame_buffer: wgpu::Buffer,
+    /// Room for the most windows a scene drawn so far had; grown (and the frame group rebuilt)
+    /// when a scene has more.
     windows_buffer: wgpu::Buffer,
-    /// The frame bind group and the (scene generation, shadow-map version) it was built for.
-    frame_group: Option<((u64, u64), wgpu::BindGroup)>,
+    /// The frame bind group and the (scene generation, shadow-map version, windows buffer
+    /// size) it was built for.
+    frame_group: Option<((u64, u64, u64), wgpu::BindGroup)>,
     linear_clamp: wgpu::Sampler,
     shadow_cmp: wgpu::Sampler,
     nearest_clamp: wgpu::Sampler,
@@ -428,11 +431,7 @@ impl Renderer {
             settings,
             output_format,
             frame_buffer: uniform_buffer(device, "frame", std::mem::size_of::<uniforms::Frame>()),
-            windows_buffer: uniform_buffer(
-                device,
-                "windows",
-                std::mem::size_of::<uniforms::Windows>(),
-            ),
+            windows_buffer: windows_buffer(device, 1),
             frame_layout,
             frame_group: None,
             linear_clamp: clamp_sampler(wgpu::FilterMode::Linear),
@@ -520,24 +519,33 @@ impl Renderer {
     /// Lays the shadow maps out for the scene's light and makes their texture fit.
     fn update_shadows(&mut self, gpu: &Gpu, scene: &Scene) {
         let toc = scene.toc();
-        self.shadow_layout = match (&toc.light, self.settings.shadows.enabled) {
-            // Over the projectors' frames: a map must cover the light's penumbra past a
-            // window's edge as far as its projector carries it.
-            (Some(light), true) if scene.has_windows() => crate::shadows::layout(
+        let Some(light) = &toc.light else {
+            self.shadow_layout = ShadowLayout::default();
+            return;
+        };
+        // Over the projectors' frames: a map must cover the light's penumbra past a window's
+        // edge as far as its projector carries it.
+        let layout = |size| match self.settings.shadows.enabled {
+            true if scene.has_windows() => crate::shadows::layout(
                 scene.projector_frames(),
                 scene.window_shadows(),
                 light,
                 scene.occluder_bounds(),
                 scene.beyond_windows(),
-                self.settings.shadows.layer_size(light),
+                size,
             ),
             _ => ShadowLayout::default(),
         };
-        if let Some(light) = &toc.light {
-            let size = self.settings.shadows.layer_size(light);
-            self.shadow
-                .prepare(&gpu.device, &gpu.queue, &self.shadow_layout, size);
+        let wanted = self.settings.shadows.layer_size(light);
+        let mut shadow_layout = layout(wanted);
+        // A lamp has a map per window it shines through: many windows share the budget.
+        let size = crate::shadows::fitted_layer_size(wanted, shadow_layout.layers.len());
+        if size < wanted {
+            shadow_layout = layout(size);
         }
+        self.shadow_layout = shadow_layout;
+        self.shadow
+            .prepare(&gpu.device, &gpu.queue, &self.shadow_layout, size);
     }
 
     /// What the maps' contents depend on (bias and filter width are applied when reading).
@@ -673,7 +681,7 @@ impl Renderer {
             ],
             ..Default::default()
         };
-        let mut windows = uniforms::Windows::default();
+        let mut windows = uniforms::Windows::new(toc.windows.len().min(uniforms::MAX_WINDOWS));
         let relative: Vec<pack::Window> = toc
             .windows
             .iter()
@@ -742,8 +750,12 @@ impl Renderer {
         }
         gpu.queue
             .write_buffer(&self.frame_buffer, 0, bytemuck::bytes_of(&frame));
+        let needed = uniforms::Windows::buffer_size(windows.items.len());
+        if self.windows_buffer.size() < needed {
+            self.windows_buffer = windows_buffer(&gpu.device, windows.items.len());
+        }
         gpu.queue
-            .write_buffer(&self.windows_buffer, 0, bytemuck::bytes_of(&windows));
+            .write_buffer(&self.windows_buffer, 0, &windows.bytes());
         if let Some(r) = rays {
             self.rays.write_uniforms(&gpu.queue, &r);
         }
@@ -763,7 +775,7 @@ impl Renderer {
         };
         self.composite.write_uniforms(&gpu.queue, &comp);
         let (maps, maps_version) = self.shadow.binding();
-        let key = (scene.generation(), maps_version);
+        let key = (scene.generation(), maps_version, self.windows_buffer.size());
         if self.frame_group.as_ref().map(|(g, _)| *g) != Some(key) {
             let entries = [
                 wgpu::BindGroupEntry {
@@ -1053,6 +1065,16 @@ impl Renderer {
 }
 
 /// Points `slot`'s shadow fields at `map`, for a camera at `camera`.
+/// The windows' storage buffer with room for `count` windows.
+fn windows_buffer(device: &wgpu::Device, count: usize) -> wgpu::Buffer {
+    device.create_buffer(&wgpu::BufferDescriptor {
+        label: Some("windows"),
+        size: uniforms::Windows::buffer_size(count),
+        usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST,
+        mapped_at_creation: false,
+    })
+}
+
 fn map_slot(slot: &mut uniforms::WindowProjector, map: &crate::shadows::WindowMap, camera: Vec3) {
     slot.params[2] = map.layer;
     slot.params[3] = 1;

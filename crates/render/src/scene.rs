@@ -334,13 +334,12 @@ fn two_channel(textures: &[GpuTexture], toc: &Toc, t: u32) -> bool {
         && !textures[t as usize].place.decode
 }
 
-/// The TOC with at most [`uniforms::MAX_WINDOWS`] windows, when it has more (`None` when all
-/// fit): those with a projector first, then those the light comes in through (the lit pass
+/// The TOC with at most `max` windows, when it has more (`None` when all fit): those with a
+/// projector first, then those the light comes in through (the lit pass
 /// passes it, tinted, without a projector), then the largest; in TOC order. A window left out
 /// still shows its glass (pass 1 draws window materials); it throws no light, and the lit pass
 /// no longer counts its plane as the building's edge.
-fn kept_windows(toc: &Toc) -> Option<Toc> {
-    let max = uniforms::MAX_WINDOWS;
+fn kept_windows(toc: &Toc, max: usize) -> Option<Toc> {
     if toc.windows.len() <= max {
         return None;
     }
@@ -382,9 +381,9 @@ fn kept_windows(toc: &Toc) -> Option<Toc> {
         .count()
         .saturating_sub(max);
     eprintln!(
-        "note: {} windows, but the lit pass projects through at most {max}: {} are left out, \
-         those the light does not come in through and then the smallest ({dropped_lit} with \
-         light through them); they show their glass but throw no light",
+        "note: {} windows, but the lit pass projects through at most {max} on this device: {} \
+         are left out, those the light does not come in through and then the smallest \
+         ({dropped_lit} with light through them); they show their glass but throw no light",
         toc.windows.len(),
         toc.windows.len() - max
     );
@@ -484,7 +483,10 @@ impl Scene {
         }
         say_levels_left_out(toc, &textures, caps.max_side);
         let mips_total = textures.iter().map(|t| t.loaded.len() as u32).sum();
-        let kept = kept_windows(toc);
+        // The projector array holds a layer per window and a white one, and a lamp's shadow
+        // maps one per window and the direct map.
+        let layers = device.limits().max_texture_array_layers as usize;
+        let kept = kept_windows(toc, uniforms::MAX_WINDOWS.min(layers - 1));
         let toc = kept.as_ref().unwrap_or(toc);
         let material_layout = material_layout(device);
         let material_sampler = device.create_sampler(&wgpu::SamplerDescriptor {
@@ -1324,7 +1326,7 @@ mod tests {
     #[test]
     fn past_the_lit_pass_limit_the_windows_with_light_and_then_the_largest_are_kept() {
         let (mut toc, _) = pack::testing::sample();
-        assert!(kept_windows(&toc).is_none());
+        assert!(kept_windows(&toc, uniforms::MAX_WINDOWS).is_none());
         let first = toc.windows[0].clone();
         let lit = first.material;
         assert!(toc.materials[lit as usize].projector_texture.is_some());
@@ -1341,7 +1343,7 @@ mod tests {
                 ..first.clone()
             })
             .collect();
-        let kept = kept_windows(&toc).expect("too many windows");
+        let kept = kept_windows(&toc, uniforms::MAX_WINDOWS).expect("too many windows");
         let scale = |w: &pack::Window| w.u_axis[0] / first.u_axis[0];
         let kept_ids: Vec<usize> = kept
             .windows

@@ -290,6 +290,21 @@ pub fn layout(
     out
 }
 
+/// Bytes the shadow maps may take (32-bit depth, one level): a lamp's 1024² maps are 4 MiB a
+/// layer, so 256 windows keep them whole and more share this at a smaller size.
+pub const MAPS_BUDGET: u64 = 1 << 30;
+
+/// The layer size for `layers` maps of at most `size` texels a side within [`MAPS_BUDGET`]:
+/// halved until they fit (not below 16, the least the settings give).
+pub fn fitted_layer_size(size: u32, layers: usize) -> u32 {
+    let bytes = |s: u32| layers as u64 * s as u64 * s as u64 * 4;
+    let mut s = size;
+    while s > 16 && bytes(s) > MAPS_BUDGET {
+        s = s.div_ceil(2);
+    }
+    s
+}
+
 /// A lamp's perspective map through window `w`'s rectangle (with a margin), from near the lamp
 /// to the farthest of `bounds`; pushed onto `layers`. `None` when the lamp does not face it.
 fn lamp_map(
@@ -661,6 +676,20 @@ mod tests {
                     .expect("an aperture");
                 assert_eq!(coarse.bounds, [0.5; 4]);
             }
+        }
+    }
+
+    #[test]
+    fn many_maps_share_the_budget_at_a_smaller_size() {
+        // A lamp's 1024² maps: 256 fit whole, more are halved, and whatever the count the
+        // maps keep within the budget (down to 16 texels).
+        assert_eq!(fitted_layer_size(1024, 256), 1024);
+        assert_eq!(fitted_layer_size(1024, 257), 512);
+        assert_eq!(fitted_layer_size(2048, 1), 2048);
+        assert_eq!(fitted_layer_size(1024, 1 << 24), 16);
+        for layers in [1, 100, 257, 1025, 2048] {
+            let s = fitted_layer_size(2048, layers) as u64;
+            assert!(layers as u64 * s * s * 4 <= MAPS_BUDGET, "{layers}");
         }
     }
 

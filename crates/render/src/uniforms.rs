@@ -5,13 +5,12 @@
 use bytemuck::{Pod, Zeroable};
 use pack::MaterialClass;
 
-/// Windows the lit pass can project through; matches `MAX_WINDOWS` in `common.wgsl`. The
-/// array is a uniform block, which every adapter takes up to 64 KiB: 192 windows of 336
-/// bytes and the direct map's fill 64 848 bytes. A larger cathedral has more: the scene
-/// keeps the windows that pass light ([`crate::Scene::new`]).
-pub const MAX_WINDOWS: usize = 192;
-
-const _: () = assert!(std::mem::size_of::<Windows>() <= 65536);
+/// The most windows the lit pass projects through; matches `MAX_WINDOWS` in `common.wgsl`.
+/// Every lit fragment tests each window's projection, so this bounds that work. The windows
+/// are a storage buffer ([`Windows`]), not a uniform block (whose 64 KiB held 192); the
+/// device's texture array layers bound them too. Past either, [`crate::Scene::new`] keeps the
+/// windows that pass light.
+pub const MAX_WINDOWS: usize = 1024;
 
 /// The most god-ray samples per pixel the renderer takes (the least is 1): the settings are
 /// clamped to it, and the viewer's flag and slider offer this range.
@@ -48,18 +47,37 @@ pub struct WindowProjector {
     pub aperture_box: [f32; 4],
 }
 
-#[repr(C)]
-#[derive(Clone, Copy, Debug, Pod, Zeroable)]
+/// The `Windows` storage buffer of `common.wgsl`: the light's direct map, then one entry per
+/// window. WGSL's runtime-sized array has the element's size as its stride (336 bytes, a
+/// multiple of 16), so the buffer is the entries' bytes back to back.
+#[derive(Clone, Debug, Default)]
 pub struct Windows {
-    pub items: [WindowProjector; MAX_WINDOWS],
     /// The light's direct map ([`crate::shadows::ShadowLayout::direct`]) in the shadow fields
     /// (`params.w` = 1 when there is one); the rest unused.
     pub direct: WindowProjector,
+    pub items: Vec<WindowProjector>,
 }
 
-impl Default for Windows {
-    fn default() -> Self {
-        Self::zeroed()
+impl Windows {
+    /// `count` windows, all zero.
+    pub fn new(count: usize) -> Self {
+        Self {
+            direct: WindowProjector::zeroed(),
+            items: vec![WindowProjector::zeroed(); count],
+        }
+    }
+
+    /// Bytes of a buffer holding `count` windows (at least one, as WGSL has no empty buffer).
+    pub fn buffer_size(count: usize) -> u64 {
+        ((1 + count.max(1)) * std::mem::size_of::<WindowProjector>()) as u64
+    }
+
+    /// The buffer's contents.
+    pub fn bytes(&self) -> Vec<u8> {
+        let mut out = Vec::with_capacity(Self::buffer_size(self.items.len()) as usize);
+        out.extend_from_slice(bytemuck::bytes_of(&self.direct));
+        out.extend_from_slice(bytemuck::cast_slice(&self.items));
+        out
     }
 }
 
@@ -153,7 +171,6 @@ pub const LAYOUTS: &[(&str, &str, usize)] = &[
         "WindowProjector",
         std::mem::size_of::<WindowProjector>(),
     ),
-    ("Windows", "Windows", std::mem::size_of::<Windows>()),
     ("Material", "Material", std::mem::size_of::<Material>()),
     ("GodRays", "GodRays", std::mem::size_of::<GodRays>()),
     ("Composite", "Composite", std::mem::size_of::<Composite>()),

@@ -86,6 +86,38 @@ fn uniform_sizes_match_naga_layout() {
     }
 }
 
+/// The windows' storage buffer is `uniforms::Windows::bytes`: the direct map's entry, then the
+/// windows' back to back, so WGSL must put `items` right after `direct` with the entry's size
+/// as its stride.
+#[test]
+fn windows_buffer_matches_naga_layout() {
+    let module = parse("lit.wgsl");
+    let mut layouter = naga::proc::Layouter::default();
+    layouter.update(module.to_ctx()).unwrap();
+    let entry = std::mem::size_of::<uniforms::WindowProjector>() as u32;
+    let (_, ty) = module
+        .types
+        .iter()
+        .find(|(_, t)| t.name.as_deref() == Some("Windows"))
+        .expect("a Windows struct");
+    let naga::TypeInner::Struct { members, .. } = &ty.inner else {
+        panic!("Windows is not a struct: {ty:?}");
+    };
+    let names: Vec<_> = members.iter().map(|m| m.name.as_deref()).collect();
+    assert_eq!(names, [Some("direct"), Some("items")]);
+    assert_eq!((members[0].offset, members[1].offset), (0, entry));
+    match module.types[members[1].ty].inner {
+        naga::TypeInner::Array {
+            size: naga::ArraySize::Dynamic,
+            stride,
+            ..
+        } => assert_eq!(stride, entry),
+        ref other => panic!("items is not a runtime-sized array: {other:?}"),
+    }
+    let w = uniforms::Windows::new(3);
+    assert_eq!(w.bytes().len() as u64, uniforms::Windows::buffer_size(3));
+}
+
 #[test]
 fn wgsl_constants_match_rust() {
     let src = shaders::compose("lit.wgsl").unwrap();

@@ -64,12 +64,21 @@ pub fn sampler_entry(binding: u32) -> wgpu::BindGroupLayoutEntry {
     }
 }
 
-/// Group 0 of the geometry passes: frame and window uniforms, the projector array, a sampler,
+/// Group 0 of the geometry passes: the frame's uniforms, the windows' storage buffer, the projector array, a sampler,
 /// the shadow maps and their comparison sampler.
 pub(crate) fn frame_layout(device: &wgpu::Device) -> wgpu::BindGroupLayout {
     let mut entries = vec![
         uniform_entry(0, std::mem::size_of::<crate::uniforms::Frame>()),
-        uniform_entry(1, std::mem::size_of::<crate::uniforms::Windows>()),
+        wgpu::BindGroupLayoutEntry {
+            binding: 1,
+            visibility: wgpu::ShaderStages::FRAGMENT,
+            ty: wgpu::BindingType::Buffer {
+                ty: wgpu::BufferBindingType::Storage { read_only: true },
+                has_dynamic_offset: false,
+                min_binding_size: wgpu::BufferSize::new(crate::uniforms::Windows::buffer_size(1)),
+            },
+            count: None,
+        },
     ];
     entries.push(wgpu::BindGroupLayoutEntry {
         binding: 2,
