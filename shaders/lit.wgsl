@@ -10,8 +10,9 @@ fn is_inside(p: vec3<f32>) -> bool {
     }
     let count = min(frame.counts.x, MAX_WINDOWS);
     for (var i = 0u; i < count; i = i + 1u) {
-        let w = windows.items[i];
-        if (dot(p - w.origin.xyz, w.normal.xyz) < -1e-3 - w.origin.w) {
+        // The two fields alone: a whole entry is 336 bytes of storage buffer.
+        let origin = windows.items[i].origin;
+        if (dot(p - origin.xyz, windows.items[i].normal.xyz) < -1e-3 - origin.w) {
             return false;
         }
     }
@@ -255,11 +256,12 @@ fn direct_visibility(p: vec3<f32>, n: vec3<f32>) -> f32 {
 // Whether window `i` passes light and `p` lies inside the building from it, within the
 // window's projection. Plain arithmetic: no texture is read.
 fn projects_onto(i: u32, p: vec3<f32>) -> bool {
-    let w = windows.items[i];
-    if (w.params.y == 0u || dot(p - w.origin.xyz, w.normal.xyz) <= 0.0) {
+    // Through a pointer, so only the fields used are read (the entry is 336 bytes).
+    let w = &windows.items[i];
+    if ((*w).params.y == 0u || dot(p - (*w).origin.xyz, (*w).normal.xyz) <= 0.0) {
         return false; // no light through this window, or p is on the light's side of it
     }
-    let clip = w.projector * vec4<f32>(p, 1.0);
+    let clip = (*w).projector * vec4<f32>(p, 1.0);
     if (clip.w <= 0.0) {
         return false; // behind the light
     }
