@@ -22,7 +22,9 @@ struct Frame {
     // rgb: colour times intensity; w: the point light's radius (falloff clamp).
     light_colour: vec4<f32>,
     ambient: vec4<f32>,
-    // x: window count, y: 1 when the scene has windows (interior lit only through them).
+    // x: window count, y: 1 when the scene has windows (interior lit only through them), z:
+    // how many windows pass light (they come first in `windows.items`), w: how many distinct
+    // planes the windows lie in (`planes`).
     counts: vec4<u32>,
     // x: shadow bias (in texels of slope), y: smallest filter σ (texels), z: shadow-map
     // layer size (texels), w: 1 when the window light is occluded by shadow maps.
@@ -74,6 +76,14 @@ struct Windows {
     items: array<WindowProjector>,
 }
 
+// A plane of the building's edge, shared by the windows in it (`render::uniforms::WindowPlane`).
+struct WindowPlane {
+    // xyz: a point of it (camera-relative); w: how far behind it the uncut wall lies.
+    origin: vec4<f32>,
+    // xyz: unit normal into the building.
+    normal: vec4<f32>,
+}
+
 struct Material {
     // rgb: diffuse albedo (linear), w: 1 with a diffuse texture.
     diffuse: vec4<f32>,
@@ -103,6 +113,8 @@ const CLASS_OTHER: u32 = 5u;
 // One layer per shadow map: the sun's, or one per window for a lamp.
 @group(0) @binding(4) var shadow_maps: texture_depth_2d_array;
 @group(0) @binding(5) var shadow_cmp: sampler_comparison;
+// `frame.counts.w` of them.
+@group(0) @binding(6) var<storage, read> planes: array<WindowPlane>;
 
 @group(1) @binding(0) var<uniform> material: Material;
 @group(1) @binding(1) var diffuse_tex: texture_2d<f32>;

@@ -316,9 +316,11 @@ pub struct Renderer {
     /// Room for the most windows a scene drawn so far had; grown (and the frame group rebuilt)
     /// when a scene has more.
     windows_buffer: wgpu::Buffer,
-    /// The frame bind group and the (scene generation, shadow-map version, windows buffer
-    /// size) it was built for.
-    frame_group: Option<((u64, u64, u64), wgpu::BindGroup)>,
+    /// The windows' distinct planes ([`uniforms::WindowPlane`]), grown likewise.
+    planes_buffer: wgpu::Buffer,
+    /// The frame bind group and the (scene generation, shadow-map version, windows and planes
+    /// buffer sizes) it was built for.
+    frame_group: Option<((u64, u64, u64, u64), wgpu::BindGroup)>,
     linear_clamp: wgpu::Sampler,
     shadow_cmp: wgpu::Sampler,
     nearest_clamp: wgpu::Sampler,
@@ -431,7 +433,8 @@ impl Renderer {
             settings,
             output_format,
             frame_buffer: uniform_buffer(device, "frame", std::mem::size_of::<uniforms::Frame>()),
-            windows_buffer: windows_buffer(device, 1),
+            windows_buffer: storage_buffer(device, "windows", uniforms::Windows::buffer_size(1)),
+            planes_buffer: storage_buffer(device, "window planes", planes_size(1)),
             frame_layout,
             frame_group: None,
             linear_clamp: clamp_sampler(wgpu::FilterMode::Linear),
@@ -748,14 +751,31 @@ impl Renderer {
                 map_slot(&mut windows.direct, map, view.position);
             }
         }
+        // The windows the light comes in through first, in their order: the lit pass projects
+        // through those alone (`counts.z`), and tests every window's plane (`counts.x`). Each
+        // entry carries its own layers, so the order is the buffer's alone; a stable sort keeps
+        // the sum over the lit ones in window order. Half a hall's windows face away from the
+        // sun, and each lit fragment tested them all.
+        windows.items.sort_by_key(|w| w.params[1] == 0);
+        frame.counts[2] = windows.items.iter().filter(|w| w.params[1] != 0).count() as u32;
+        let planes = uniforms::WindowPlane::distinct(&windows.items);
+        frame.counts[3] = planes.len() as u32;
         gpu.queue
             .write_buffer(&self.frame_buffer, 0, bytemuck::bytes_of(&frame));
         let needed = uniforms::Windows::buffer_size(windows.items.len());
         if self.windows_buffer.size() < needed {
-            self.windows_buffer = windows_buffer(&gpu.device, windows.items.len());
+            self.windows_buffer = storage_buffer(&gpu.device, "windows", needed);
         }
         gpu.queue
             .write_buffer(&self.windows_buffer, 0, &windows.bytes());
+        if self.planes_buffer.size() < planes_size(planes.len()) {
+            self.planes_buffer =
+                storage_buffer(&gpu.device, "window planes", planes_size(planes.len()));
+        }
+        if !planes.is_empty() {
+            gpu.queue
+                .write_buffer(&self.planes_buffer, 0, bytemuck::cast_slice(&planes));
+        }
         if let Some(r) = rays {
             self.rays.write_uniforms(&gpu.queue, &r);
         }
@@ -775,7 +795,12 @@ impl Renderer {
         };
         self.composite.write_uniforms(&gpu.queue, &comp);
         let (maps, maps_version) = self.shadow.binding();
-        let key = (scene.generation(), maps_version, self.windows_buffer.size());
+        let key = (
+            scene.generation(),
+            maps_version,
+            self.windows_buffer.size(),
+            self.planes_buffer.size(),
+        );
         if self.frame_group.as_ref().map(|(g, _)| *g) != Some(key) {
             let entries = [
                 wgpu::BindGroupEntry {
@@ -801,6 +826,10 @@ impl Renderer {
                 wgpu::BindGroupEntry {
                     binding: 5,
                     resource: wgpu::BindingResource::Sampler(&self.shadow_cmp),
+                },
+                wgpu::BindGroupEntry {
+                    binding: 6,
+                    resource: self.planes_buffer.as_entire_binding(),
                 },
             ];
             let group = gpu.device.create_bind_group(&wgpu::BindGroupDescriptor {
@@ -1065,14 +1094,19 @@ impl Renderer {
 }
 
 /// Points `slot`'s shadow fields at `map`, for a camera at `camera`.
-/// The windows' storage buffer with room for `count` windows.
-fn windows_buffer(device: &wgpu::Device, count: usize) -> wgpu::Buffer {
+/// A storage buffer the CPU fills: the windows' or their planes'.
+fn storage_buffer(device: &wgpu::Device, label: &str, size: u64) -> wgpu::Buffer {
     device.create_buffer(&wgpu::BufferDescriptor {
-        label: Some("windows"),
-        size: uniforms::Windows::buffer_size(count),
+        label: Some(label),
+        size,
         usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST,
         mapped_at_creation: false,
     })
+}
+
+/// Bytes of `count` window planes (at least one: no binding is empty).
+fn planes_size(count: usize) -> u64 {
+    (count.max(1) * std::mem::size_of::<uniforms::WindowPlane>()) as u64
 }
 
 fn map_slot(slot: &mut uniforms::WindowProjector, map: &crate::shadows::WindowMap, camera: Vec3) {

@@ -47,6 +47,46 @@ pub struct WindowProjector {
     pub aperture_box: [f32; 4],
 }
 
+/// One plane of the building's edge (`planes` in `common.wgsl`): a window's, shared by every
+/// window in it. A point inside lies on the inner side of all of them.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct WindowPlane {
+    /// xyz: a point of the plane (camera-relative); w: how far behind it the uncut wall the
+    /// glass sits on lies (0 for glass in a cut opening).
+    pub origin: [f32; 4],
+    /// xyz: unit normal into the building.
+    pub normal: [f32; 4],
+}
+
+impl WindowPlane {
+    /// One plane per distinct (normal, offset, wall) of `windows`' entries, in first-seen
+    /// order. Windows along a wall share one: a hall's 450 lancets are two planes, and every
+    /// lit fragment tests each. Coplanar within 1e-5 of a unit (normals) and 1e-4 of the
+    /// scene's unit (offset along it) counts as one; the test keeps 1e-3 of slack.
+    pub fn distinct(windows: &[WindowProjector]) -> Vec<WindowPlane> {
+        let mut seen = std::collections::HashSet::new();
+        let mut out = Vec::new();
+        for w in windows {
+            let n = glam::Vec3::from_slice(&w.normal[..3]);
+            let o = glam::Vec3::from_slice(&w.origin[..3]);
+            let q = |x: f32, step: f32| (x as f64 / step as f64).round() as i64;
+            let key = (
+                [q(n.x, 1e-5), q(n.y, 1e-5), q(n.z, 1e-5)],
+                q(n.dot(o), 1e-4),
+                w.origin[3].to_bits(),
+            );
+            if seen.insert(key) {
+                out.push(WindowPlane {
+                    origin: w.origin,
+                    normal: w.normal,
+                });
+            }
+        }
+        out
+    }
+}
+
 /// The `Windows` storage buffer of `common.wgsl`: the light's direct map, then one entry per
 /// window. WGSL's runtime-sized array has the element's size as its stride (336 bytes, a
 /// multiple of 16), so the buffer is the entries' bytes back to back.
@@ -171,6 +211,11 @@ pub const LAYOUTS: &[(&str, &str, usize)] = &[
         "WindowProjector",
         std::mem::size_of::<WindowProjector>(),
     ),
+    (
+        "WindowPlane",
+        "WindowPlane",
+        std::mem::size_of::<WindowPlane>(),
+    ),
     ("Material", "Material", std::mem::size_of::<Material>()),
     ("GodRays", "GodRays", std::mem::size_of::<GodRays>()),
     ("Composite", "Composite", std::mem::size_of::<Composite>()),
@@ -186,3 +231,44 @@ pub const LAYOUTS: &[(&str, &str, usize)] = &[
         std::mem::size_of::<ShadowView>(),
     ),
 ];
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn window(origin: [f32; 3], normal: [f32; 3], wall: f32) -> WindowProjector {
+        WindowProjector {
+            origin: [origin[0], origin[1], origin[2], wall],
+            normal: [normal[0], normal[1], normal[2], 0.0],
+            ..Default::default()
+        }
+    }
+
+    #[test]
+    fn windows_along_a_wall_share_a_plane() {
+        let n = [0.0, 0.0, 1.0];
+        let windows = [
+            window([0.0, 2.0, 0.0], n, 0.0),
+            // Along the same wall, its normal a rounding step off.
+            window([5.0, 4.0, 1e-6], [1e-7, 0.0, 1.0], 0.0),
+            // The opposite wall, facing back in.
+            window([0.0, 2.0, 12.0], [0.0, 0.0, -1.0], 0.0),
+            // The first wall's plane, but glass on an uncut wall 5 cm behind it.
+            window([9.0, 2.0, 0.0], n, 0.05),
+            // A wall 1 mm in front of the first: a plane of its own.
+            window([3.0, 2.0, 0.001], n, 0.0),
+        ];
+        let planes = WindowPlane::distinct(&windows);
+        let origins: Vec<[f32; 4]> = planes.iter().map(|p| p.origin).collect();
+        assert_eq!(
+            origins,
+            [
+                windows[0].origin,
+                windows[2].origin,
+                windows[3].origin,
+                windows[4].origin
+            ]
+        );
+        assert!(WindowPlane::distinct(&[]).is_empty());
+    }
+}

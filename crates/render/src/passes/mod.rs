@@ -65,7 +65,7 @@ pub fn sampler_entry(binding: u32) -> wgpu::BindGroupLayoutEntry {
 }
 
 /// Group 0 of the geometry passes: the frame's uniforms, the windows' storage buffer, the projector array, a sampler,
-/// the shadow maps and their comparison sampler.
+/// the shadow maps and their comparison sampler, the windows' planes.
 pub(crate) fn frame_layout(device: &wgpu::Device) -> wgpu::BindGroupLayout {
     let mut entries = vec![
         uniform_entry(0, std::mem::size_of::<crate::uniforms::Frame>()),
@@ -96,6 +96,18 @@ pub(crate) fn frame_layout(device: &wgpu::Device) -> wgpu::BindGroupLayout {
         binding: 5,
         visibility: wgpu::ShaderStages::FRAGMENT,
         ty: wgpu::BindingType::Sampler(wgpu::SamplerBindingType::Comparison),
+        count: None,
+    });
+    entries.push(wgpu::BindGroupLayoutEntry {
+        binding: 6,
+        visibility: wgpu::ShaderStages::FRAGMENT,
+        ty: wgpu::BindingType::Buffer {
+            ty: wgpu::BufferBindingType::Storage { read_only: true },
+            has_dynamic_offset: false,
+            min_binding_size: wgpu::BufferSize::new(
+                std::mem::size_of::<crate::uniforms::WindowPlane>() as u64,
+            ),
+        },
         count: None,
     });
     device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
