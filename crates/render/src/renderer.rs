@@ -1093,7 +1093,6 @@ impl Renderer {
     }
 }
 
-/// Points `slot`'s shadow fields at `map`, for a camera at `camera`.
 /// A storage buffer the CPU fills: the windows' or their planes'.
 fn storage_buffer(device: &wgpu::Device, label: &str, size: u64) -> wgpu::Buffer {
     device.create_buffer(&wgpu::BufferDescriptor {
@@ -1109,6 +1108,7 @@ fn planes_size(count: usize) -> u64 {
     (count.max(1) * std::mem::size_of::<uniforms::WindowPlane>()) as u64
 }
 
+/// Points `slot`'s shadow fields at `map`, for a camera at `camera`.
 fn map_slot(slot: &mut uniforms::WindowProjector, map: &crate::shadows::WindowMap, camera: Vec3) {
     slot.params[2] = map.layer;
     slot.params[3] = 1;

@@ -335,10 +335,10 @@ fn two_channel(textures: &[GpuTexture], toc: &Toc, t: u32) -> bool {
 }
 
 /// The TOC with at most `max` windows, when it has more (`None` when all fit): those with a
-/// projector first, then those the light comes in through (the lit pass
-/// passes it, tinted, without a projector), then the largest; in TOC order. A window left out
-/// still shows its glass (pass 1 draws window materials); it throws no light, and the lit pass
-/// no longer counts its plane as the building's edge.
+/// projector first, then those the light comes in through (the lit pass passes it, tinted,
+/// without a projector), then the largest; in TOC order. A window left out still shows its
+/// glass (pass 1 draws window materials); it throws no light, and the lit pass no longer
+/// counts its plane as the building's edge.
 fn kept_windows(toc: &Toc, max: usize) -> Option<Toc> {
     if toc.windows.len() <= max {
         return None;

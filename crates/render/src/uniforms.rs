@@ -62,8 +62,9 @@ pub struct WindowPlane {
 impl WindowPlane {
     /// One plane per distinct (normal, offset, wall) of `windows`' entries, in first-seen
     /// order. Windows along a wall share one: a hall's 450 lancets are two planes, and every
-    /// lit fragment tests each. Coplanar within 1e-5 of a unit (normals) and 1e-4 of the
-    /// scene's unit (offset along it) counts as one; the test keeps 1e-3 of slack.
+    /// lit fragment tests each. Normals within 1e-6 and offsets within 1e-4 of the scene's
+    /// unit count as one plane: tested with the first window's, a point 100 units away moves
+    /// by at most 2e-4 against the test's slack of 1e-3.
     pub fn distinct(windows: &[WindowProjector]) -> Vec<WindowPlane> {
         let mut seen = std::collections::HashSet::new();
         let mut out = Vec::new();
@@ -72,7 +73,7 @@ impl WindowPlane {
             let o = glam::Vec3::from_slice(&w.origin[..3]);
             let q = |x: f32, step: f32| (x as f64 / step as f64).round() as i64;
             let key = (
-                [q(n.x, 1e-5), q(n.y, 1e-5), q(n.z, 1e-5)],
+                [q(n.x, 1e-6), q(n.y, 1e-6), q(n.z, 1e-6)],
                 q(n.dot(o), 1e-4),
                 w.origin[3].to_bits(),
             );
@@ -251,6 +252,8 @@ mod tests {
             window([0.0, 2.0, 0.0], n, 0.0),
             // Along the same wall, its normal a rounding step off.
             window([5.0, 4.0, 1e-6], [1e-7, 0.0, 1.0], 0.0),
+            // A wall turned by 1e-5 rad: a plane of its own.
+            window([4.0, 2.0, 0.0], [1e-5, 0.0, 1.0], 0.0),
             // The opposite wall, facing back in.
             window([0.0, 2.0, 12.0], [0.0, 0.0, -1.0], 0.0),
             // The first wall's plane, but glass on an uncut wall 5 cm behind it.
@@ -266,7 +269,8 @@ mod tests {
                 windows[0].origin,
                 windows[2].origin,
                 windows[3].origin,
-                windows[4].origin
+                windows[4].origin,
+                windows[5].origin
             ]
         );
         assert!(WindowPlane::distinct(&[]).is_empty());
