@@ -503,6 +503,8 @@ fn frame_windows(
         }
     }
     let mut lit = vec![false; tagging.materials.len()];
+    // The windows skipped for each reason (singular, plural), in the order first met.
+    let mut skipped: Vec<((&str, &str), Vec<&str>)> = Vec::new();
     for f in &frames {
         let name = &tagging.materials[f.material as usize].material.name;
         let reaches = light
@@ -511,23 +513,54 @@ fn frame_windows(
         let designed = tagging.materials[f.material as usize].window.is_some();
         if designed && !reaches {
             let why = match light {
-                None => "the scene has no light",
-                Some(l) if windows::light_enters(f, l) => {
-                    "its light reaches no floor, wall or other receiving surface"
-                }
-                Some(pack::LightKind::Directional { .. }) => {
-                    "the sunlight does not come in through it (it faces away from the sun)"
-                }
-                Some(pack::LightKind::Point { .. }) => {
-                    "the light does not come in through it (the lamp is on its inner side)"
-                }
+                None => ("the scene has no light", "the scene has no light"),
+                Some(l) if windows::light_enters(f, l) => (
+                    "its light reaches no floor, wall or other receiving surface",
+                    "their light reaches no floor, wall or other receiving surface",
+                ),
+                Some(pack::LightKind::Directional { .. }) => (
+                    "the sunlight does not come in through it (it faces away from the sun)",
+                    "the sunlight does not come in through them (they face away from the sun)",
+                ),
+                Some(pack::LightKind::Point { .. }) => (
+                    "the light does not come in through it (the lamp is on its inner side)",
+                    "the light does not come in through them (the lamp is on their inner side)",
+                ),
             };
-            report.skipped.push(format!(
-                "window {name:?}: {why}, so no projector texture was cooked"
+            match skipped.iter_mut().find(|(w, _)| *w == why) {
+                Some((_, names)) => names.push(name),
+                None => skipped.push((why, vec![name])),
+            }
+        }
+    }
+    report.skipped.extend(skipped_windows(&skipped));
+    (frames, lit)
+}
+
+/// The report's lines for windows cooked without a projector: one per window, or, where more
+/// than [`NAMED`] share a reason (a hall's whole shaded side), one line naming the first few.
+/// A line per window buried the rest of a 450-window cook's output.
+fn skipped_windows(skipped: &[((&str, &str), Vec<&str>)]) -> Vec<String> {
+    const NAMED: usize = 3;
+    let mut out = Vec::new();
+    for ((one, many), names) in skipped {
+        if names.len() <= NAMED {
+            out.extend(
+                names.iter().map(|name| {
+                    format!("window {name:?}: {one}, so no projector texture was cooked")
+                }),
+            );
+        } else {
+            let first: Vec<String> = names[..NAMED].iter().map(|n| format!("{n:?}")).collect();
+            out.push(format!(
+                "{} windows ({} and {} more): {many}, so no projector textures were cooked",
+                names.len(),
+                first.join(", "),
+                names.len() - NAMED
             ));
         }
     }
-    (frames, lit)
+    out
 }
 
 /// Gathers each window material's triangles from the processed meshes.
@@ -630,4 +663,29 @@ pub(crate) fn heuristic_notes(
         }
     }
     notes
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn many_windows_skipped_for_one_reason_are_one_line() {
+        let away = ("away from it", "away from them");
+        let dark = ("in the dark", "in the dark");
+        let side: Vec<String> = (1..=225).map(|i| format!("glass_s#{i}")).collect();
+        let lines = skipped_windows(&[
+            (away, side.iter().map(String::as_str).collect()),
+            (dark, vec!["rose", "oculus"]),
+        ]);
+        assert_eq!(
+            lines,
+            [
+                "225 windows (\"glass_s#1\", \"glass_s#2\", \"glass_s#3\" and 222 more): away \
+                 from them, so no projector textures were cooked",
+                "window \"rose\": in the dark, so no projector texture was cooked",
+                "window \"oculus\": in the dark, so no projector texture was cooked",
+            ]
+        );
+    }
 }
