@@ -252,13 +252,13 @@ fn direct_visibility(p: vec3<f32>, n: vec3<f32>) -> f32 {
     return textureSampleCompareLevel(shadow_maps, shadow_cmp, m.xy, i32(w.params.z), shadow_stored(w, l));
 }
 
-// Whether window `i` passes light and `p` lies inside the building from it, within the
-// window's projection. Plain arithmetic: no texture is read.
+// Whether `p` lies inside the building from window `i` and within its projection; `i` is one
+// of the windows that pass light (`frame.counts.z`). Plain arithmetic: no texture is read.
 fn projects_onto(i: u32, p: vec3<f32>) -> bool {
     // Through a pointer, so only the fields used are read (the entry is 336 bytes).
     let w = &windows.items[i];
-    if ((*w).params.y == 0u || dot(p - (*w).origin.xyz, (*w).normal.xyz) <= 0.0) {
-        return false; // no light through this window, or p is on the light's side of it
+    if (dot(p - (*w).origin.xyz, (*w).normal.xyz) <= 0.0) {
+        return false; // p is on the light's side of the window
     }
     let clip = (*w).projector * vec4<f32>(p, 1.0);
     if (clip.w <= 0.0) {

@@ -24,6 +24,17 @@ pub mod shadows;
 pub mod uniforms;
 pub mod view;
 
+/// The largest of `size`, `size/2`, `size/4`, … (rounded up, not below 16) at which
+/// `bytes(side)` is within `budget`: for texture arrays of one layer per window, whose layers
+/// shrink together once a cathedral has more windows than the budget holds at full size.
+pub(crate) fn side_within(size: u32, budget: u64, bytes: impl Fn(u32) -> u64) -> u32 {
+    let mut s = size;
+    while s > 16 && bytes(s) > budget {
+        s = s.div_ceil(2);
+    }
+    s
+}
+
 pub use capture::{f16_to_f32, read_texture, target_image};
 pub use gpu::{Gpu, TextureCaps};
 pub use renderer::{

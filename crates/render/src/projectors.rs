@@ -35,12 +35,9 @@ const ARRAY_BUDGET: u64 = 512 << 20;
 /// The layer size for `layers` layers of at most `size` texels a side within [`ARRAY_BUDGET`]:
 /// halved until they fit (not below 16).
 fn layer_size(size: u32, layers: u32) -> u32 {
-    let bytes = |s: u32| layers as u64 * (s as u64 * s as u64 * 4) * 4 / 3;
-    let mut s = size;
-    while s > 16 && bytes(s) > ARRAY_BUDGET {
-        s = s.div_ceil(2);
-    }
-    s
+    crate::side_within(size, ARRAY_BUDGET, |s| {
+        layers as u64 * (s as u64 * s as u64 * 4) * 4 / 3
+    })
 }
 
 impl Projectors {

@@ -297,12 +297,9 @@ pub const MAPS_BUDGET: u64 = 1 << 30;
 /// The layer size for `layers` maps of at most `size` texels a side within [`MAPS_BUDGET`]:
 /// halved until they fit (not below 16, the least the settings give).
 pub fn fitted_layer_size(size: u32, layers: usize) -> u32 {
-    let bytes = |s: u32| layers as u64 * s as u64 * s as u64 * 4;
-    let mut s = size;
-    while s > 16 && bytes(s) > MAPS_BUDGET {
-        s = s.div_ceil(2);
-    }
-    s
+    crate::side_within(size, MAPS_BUDGET, |s| {
+        layers as u64 * s as u64 * s as u64 * 4
+    })
 }
 
 /// A lamp's perspective map through window `w`'s rectangle (with a margin), from near the lamp

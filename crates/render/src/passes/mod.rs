@@ -40,6 +40,20 @@ pub(crate) fn uniform_entry(binding: u32, size: usize) -> wgpu::BindGroupLayoutE
     }
 }
 
+/// A read-only storage buffer for the fragment stage, at least `size` bytes.
+pub(crate) fn storage_entry(binding: u32, size: u64) -> wgpu::BindGroupLayoutEntry {
+    wgpu::BindGroupLayoutEntry {
+        binding,
+        visibility: wgpu::ShaderStages::FRAGMENT,
+        ty: wgpu::BindingType::Buffer {
+            ty: wgpu::BufferBindingType::Storage { read_only: true },
+            has_dynamic_offset: false,
+            min_binding_size: wgpu::BufferSize::new(size),
+        },
+        count: None,
+    }
+}
+
 /// A filterable 2D texture read by the fragment stage (also for the viewer's own passes).
 pub fn texture_entry(binding: u32) -> wgpu::BindGroupLayoutEntry {
     wgpu::BindGroupLayoutEntry {
@@ -64,21 +78,13 @@ pub fn sampler_entry(binding: u32) -> wgpu::BindGroupLayoutEntry {
     }
 }
 
-/// Group 0 of the geometry passes: the frame's uniforms, the windows' storage buffer, the projector array, a sampler,
-/// the shadow maps and their comparison sampler, the windows' planes.
+/// Group 0 of the geometry passes: the frame's uniforms, the windows' storage buffer, the
+/// projector array, a sampler, the shadow maps and their comparison sampler, the windows'
+/// planes.
 pub(crate) fn frame_layout(device: &wgpu::Device) -> wgpu::BindGroupLayout {
     let mut entries = vec![
         uniform_entry(0, std::mem::size_of::<crate::uniforms::Frame>()),
-        wgpu::BindGroupLayoutEntry {
-            binding: 1,
-            visibility: wgpu::ShaderStages::FRAGMENT,
-            ty: wgpu::BindingType::Buffer {
-                ty: wgpu::BufferBindingType::Storage { read_only: true },
-                has_dynamic_offset: false,
-                min_binding_size: wgpu::BufferSize::new(crate::uniforms::Windows::buffer_size(1)),
-            },
-            count: None,
-        },
+        storage_entry(1, crate::uniforms::Windows::buffer_size(1)),
     ];
     entries.push(wgpu::BindGroupLayoutEntry {
         binding: 2,
@@ -98,18 +104,10 @@ pub(crate) fn frame_layout(device: &wgpu::Device) -> wgpu::BindGroupLayout {
         ty: wgpu::BindingType::Sampler(wgpu::SamplerBindingType::Comparison),
         count: None,
     });
-    entries.push(wgpu::BindGroupLayoutEntry {
-        binding: 6,
-        visibility: wgpu::ShaderStages::FRAGMENT,
-        ty: wgpu::BindingType::Buffer {
-            ty: wgpu::BufferBindingType::Storage { read_only: true },
-            has_dynamic_offset: false,
-            min_binding_size: wgpu::BufferSize::new(
-                std::mem::size_of::<crate::uniforms::WindowPlane>() as u64,
-            ),
-        },
-        count: None,
-    });
+    entries.push(storage_entry(
+        6,
+        std::mem::size_of::<crate::uniforms::WindowPlane>() as u64,
+    ));
     device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
         label: Some("frame"),
         entries: &entries,
