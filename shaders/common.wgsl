@@ -29,6 +29,9 @@ struct Frame {
     // x: shadow bias (in texels of slope), y: smallest filter σ (texels), z: shadow-map
     // layer size (texels), w: 1 when the window light is occluded by shadow maps.
     shadow: vec4<f32>,
+    // A spot light's cone: clamp(dot(spot.xyz, d) + spot.w, 0, 1)², d the unit direction from
+    // the light, is the share of its light leaving along d; (0, 0, 0, 1) for other lights.
+    spot: vec4<f32>,
 }
 
 struct WindowProjector {

@@ -348,7 +348,8 @@ fn fs_main(vertex: VertexOut) -> @location(0) vec4<f32> {
         let d2 = dot(d, d);
         l = safe_normalize(d, n);
         let r = frame.light_colour.w;
-        radiance = frame.light_colour.rgb / max(d2, r * r);
+        let cone = clamp(dot(frame.spot.xyz, -l) + frame.spot.w, 0.0, 1.0);
+        radiance = frame.light_colour.rgb * (cone * cone) / max(d2, r * r);
     } else {
         l = safe_normalize(frame.light_pos.xyz, n);
         radiance = frame.light_colour.rgb;

@@ -59,6 +59,15 @@ enum Sun {
         radius: f32,
         intensity: f32,
     },
+    /// A lamp whose light is limited to a cone around `axis` (half-angles in degrees).
+    Spot {
+        position: Vec3,
+        radius: f32,
+        intensity: f32,
+        axis: Vec3,
+        inner_deg: f32,
+        outer_deg: f32,
+    },
 }
 
 #[derive(Clone, Debug)]
@@ -320,6 +329,22 @@ fn cook_hall(hall: &Hall, dir: &Path) -> Vec<u8> {
                 "type = \"point\"\nposition = [{}, {}, {}]\nradius = {radius}\n\
                  intensity = {intensity}\n",
                 p.x, p.y, p.z
+            )
+        }
+        Sun::Spot {
+            position,
+            radius,
+            intensity,
+            axis: a,
+            inner_deg,
+            outer_deg,
+        } => {
+            let p = position + o;
+            format!(
+                "type = \"spot\"\nposition = [{}, {}, {}]\nradius = {radius}\n\
+                 direction = [{}, {}, {}]\ninner_cone_deg = {inner_deg}\n\
+                 outer_cone_deg = {outer_deg}\nintensity = {intensity}\n",
+                p.x, p.y, p.z, a.x, a.y, a.z
             )
         }
     };
@@ -1372,4 +1397,94 @@ fn a_lamp_through_hundreds_of_skylights_matches_the_reference() {
         eprintln!("lamp over {n} x {n} skylights: {with_map} maps, FLIP mean {flip:.4}");
         assert!(flip <= max_flip, "{n} x {n}: FLIP mean {flip}");
     }
+}
+
+/// A spot light over a roof of 7 x 7 skylights, its cone (6° full, none past 14°) aimed off
+/// the middle: the floor under the skylights inside the cone is lit as the reference traces
+/// it, fading across the cone's edge, and the skylights wholly outside the cone get no
+/// projector (the cook skips them). Before spot lights were kept, the cook dropped the cone
+/// and every skylight lit the floor.
+#[test]
+fn a_spot_light_lights_only_the_skylights_in_its_cone() {
+    let gpu = gpu();
+    let dir = tempfile::tempdir().unwrap();
+    let at = Vec3::new(0.5, 20.0, 0.3);
+    let aim = Vec3::new(1.5, 8.0, 1.0);
+    let hall = Hall {
+        opening: Opening::SkylightGrid(7),
+        light: Sun::Spot {
+            position: at,
+            radius: 0.1,
+            intensity: 2000.0,
+            axis: aim - at,
+            inner_deg: 6.0,
+            outer_deg: 14.0,
+        },
+        boxes: vec![(Vec3::new(1.0, 0.0, 0.5), Vec3::new(1.4, 1.0, 0.9))],
+        offset: Vec3::ZERO,
+        cameras: vec![("down", Vec3::new(1.0, 7.5, 1.0), Vec3::new(1.0, 0.0, 1.01))],
+    };
+    let bytes = cook_hall(&hall, dir.path());
+    let scene = common::load(&gpu, &bytes);
+    let toc = scene.toc();
+    assert!(
+        matches!(
+            toc.light.as_ref().unwrap().kind,
+            pack::LightKind::Spot { .. }
+        ),
+        "{:?}",
+        toc.light
+    );
+    // Which skylights the cone reaches, worked out here: the nearest point of each hole
+    // (half size `half`, centred on the grid) within 14° of the axis.
+    let (centres, half) = grid(7);
+    let axis = (aim - at).normalize();
+    let reached = |cx: f32, cz: f32| {
+        let mut best = f32::NEG_INFINITY;
+        for i in 0..=64 {
+            for j in 0..=64 {
+                let q = Vec3::new(
+                    cx - half + 2.0 * half * i as f32 / 64.0,
+                    HEIGHT,
+                    cz - half + 2.0 * half * j as f32 / 64.0,
+                );
+                best = best.max((q - at).normalize().dot(axis));
+            }
+        }
+        // Sampled, so only clear cases count: 0.2° either side of the cone's edge is left
+        // out of the tally.
+        (
+            best > (13.8f32).to_radians().cos(),
+            best < (14.2f32).to_radians().cos(),
+        )
+    };
+    let (mut inside, mut outside) = (0, 0);
+    for &x in &centres {
+        for &z in &centres {
+            let (i, o) = reached(x, z);
+            inside += usize::from(i);
+            outside += usize::from(o);
+        }
+    }
+    let with_projector = toc
+        .windows
+        .iter()
+        .filter(|w| {
+            toc.materials[w.material as usize]
+                .projector_texture
+                .is_some()
+        })
+        .count();
+    assert!(outside >= 10 && inside >= 10, "{inside} in, {outside} out");
+    assert!(
+        with_projector >= inside && with_projector <= 49 - outside,
+        "{with_projector} projectors for {inside} skylights in the cone and {outside} out"
+    );
+    let size = (160, 90);
+    let (px, view) = lit_supersampled(&gpu, &scene, 0, size, no_ambient());
+    let (reference, rs) = hall_reference(&bytes);
+    let traced = reference.render_lit(&view, size.0, size.1, &rs);
+    let flip = compare("spot-skylights", size, &traced, &px);
+    eprintln!("spot over 7 x 7 skylights: {with_projector} projectors, FLIP mean {flip:.4}");
+    assert!(flip <= 0.05, "FLIP mean {flip}");
 }

@@ -581,8 +581,8 @@ impl ChosenLamp<'_> {
 
 /// The file's lamp whose light, through the windows, lands the most window area on the
 /// floor (without a floor, comes in through the most window area), scored as the sun is: a
-/// lamp indoors lights no window from outside and is passed over. A spot light counts only
-/// the window samples inside its outer cone.
+/// lamp indoors lights no window from outside and is passed over. A spot light weighs each
+/// window sample by its cone's fall-off (none outside the outer cone).
 fn best_lamp<'a>(
     lamps: &[&'a crate::import::FileLamp],
     windows: &[crate::instances::Instance],
@@ -591,9 +591,11 @@ fn best_lamp<'a>(
     let mut best: Option<(f64, ChosenLamp<'a>)> = None;
     for &lamp in lamps {
         let at = DVec3::from(lamp.position.map(f64::from));
-        let cone = lamp
-            .spot
-            .map(|(axis, angle)| (DVec3::from(axis.map(f64::from)), f64::from(angle).cos()));
+        let cone = lamp.spot.map(|s| pack::SpotCone {
+            axis: s.axis.map(f64::from),
+            cos_inner: f64::from(s.inner).cos(),
+            cos_outer: f64::from(s.outer).cos(),
+        });
         let (mut score, mut weight, mut lit) = (0.0, 0.0, 0);
         let (mut direction, mut reach_sq, mut nearest) = (DVec3::ZERO, 0.0, f64::INFINITY);
         for w in windows {
@@ -606,7 +608,8 @@ fn best_lamp<'a>(
                 }
                 let d = to / distance;
                 let entry = w.inside.dot(d);
-                if entry <= MIN_ENTRY_COS || cone.is_some_and(|(a, cos)| a.dot(d) < cos) {
+                let share = cone.map_or(1.0, |c| c.towards(d.to_array()));
+                if entry <= MIN_ENTRY_COS || share <= 0.0 {
                     continue;
                 }
                 let reach = match floor {
@@ -616,7 +619,7 @@ fn best_lamp<'a>(
                     },
                     None => distance,
                 };
-                let s = w.area / 25.0 * entry;
+                let s = w.area / 25.0 * entry * share;
                 landed += s;
                 direction += d * s;
                 reach_sq += reach * reach * s;
@@ -826,18 +829,13 @@ pub fn guess(p: &Prepared) -> Guess {
             let as_sun = l.as_sun(diag);
             notes.push(format!(
                 "light at [{:.3}, {:.3}, {:.3}]: the model's own {kind} light {:?}, which \
-                 shines in through {} of {} windows{}{}",
+                 shines in through {} of {} windows{}",
                 l.position().x,
                 l.position().y,
                 l.position().z,
                 l.lamp.name,
                 l.windows,
                 windows.len(),
-                if kind == "spot" && !as_sun {
-                    " (a pack's light has no cone: it shines every way)"
-                } else {
-                    ""
-                },
                 if as_sun {
                     ", so far away that it is taken as a sun along its light"
                 } else {
@@ -856,10 +854,17 @@ pub fn guess(p: &Prepared) -> Guess {
                 }
             } else {
                 // Exposed as the sun would be, at the distance its light lands from it.
+                let (position, radius) = (l.lamp.position, l.radius as f32);
                 Light {
-                    kind: pack::LightKind::Point {
-                        position: l.lamp.position,
-                        radius: l.radius as f32,
+                    kind: match l.lamp.spot {
+                        Some(s) => pack::LightKind::Spot {
+                            position,
+                            radius,
+                            direction: s.axis,
+                            inner: s.inner,
+                            outer: s.outer,
+                        },
+                        None => pack::LightKind::Point { position, radius },
                     },
                     colour: l.lamp.colour,
                     intensity: (exposure as f64 * l.reach_sq) as f32,
@@ -1280,15 +1285,24 @@ mod tests {
         let s = std::f64::consts::FRAC_1_SQRT_2;
         let (light, words) =
             hall_with_lamps(&[("Strahler", json!({"translation": lantern_at}), spot(0.6))]);
-        assert!(
-            matches!(light.as_ref().unwrap().kind, pack::LightKind::Point { .. }),
-            "{words}"
-        );
-        assert!(
-            words.contains("spot light \"Strahler\"")
-                && words.contains("a pack's light has no cone"),
-            "{words}"
-        );
+        // The pack's light keeps the cone.
+        match light.as_ref().unwrap().kind {
+            pack::LightKind::Spot {
+                direction,
+                inner,
+                outer,
+                ..
+            } => {
+                let towards = (glam::Vec3::ZERO - glam::Vec3::from(lantern_at)).normalize();
+                assert!(
+                    glam::Vec3::from(direction).dot(towards) > 0.5,
+                    "{direction:?}"
+                );
+                assert_eq!((inner, outer), (0.0, 0.6));
+            }
+            ref other => panic!("{other:?}\n{words}"),
+        }
+        assert!(words.contains("spot light \"Strahler\""), "{words}");
         for node in [
             json!({"translation": lantern_at, "rotation": [0.0, 1.0, 0.0, 0.0]}),
             // Tilted 45° up about x.

@@ -675,7 +675,7 @@ pub fn decide_inside<'r>(
                 "the side the sunlight leaves through",
             )
         }
-        Some(LightKind::Point { position, .. })
+        Some(LightKind::Point { position, .. } | LightKind::Spot { position, .. })
             if normal.dot(centroid - v3(*position)).abs() > 1e-9 =>
         {
             (

@@ -518,11 +518,15 @@ fn frame_windows(
                     "its light reaches no floor, wall or other receiving surface",
                     "their light reaches no floor, wall or other receiving surface",
                 ),
+                Some(l) if windows::faces_light(f, l) => (
+                    "the spot light's cone does not reach it",
+                    "the spot light's cone does not reach them",
+                ),
                 Some(pack::LightKind::Directional { .. }) => (
                     "the sunlight does not come in through it (it faces away from the sun)",
                     "the sunlight does not come in through them (they face away from the sun)",
                 ),
-                Some(pack::LightKind::Point { .. }) => (
+                Some(pack::LightKind::Point { .. } | pack::LightKind::Spot { .. }) => (
                     "the light does not come in through it (the lamp is on its inner side)",
                     "the light does not come in through them (the lamp is on their inner side)",
                 ),

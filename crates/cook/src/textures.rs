@@ -865,7 +865,10 @@ fn projector_sigma(
             direction,
             angular_size,
         } => (glam::Vec3::from(direction), angular_size, f32::INFINITY),
-        pack::LightKind::Point { position, radius } => {
+        pack::LightKind::Point { position, radius }
+        | pack::LightKind::Spot {
+            position, radius, ..
+        } => {
             let d = centre - glam::Vec3::from(position);
             let a = d.length().max(1e-6);
             (d, (radius / a).atan() * 2.0, a)

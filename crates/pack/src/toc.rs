@@ -430,6 +430,97 @@ pub enum LightKind {
         direction: [f32; 3],
         angular_size: f32,
     },
+    /// A point light whose light is limited to a cone (glTF `KHR_lights_punctual`'s spot):
+    /// full within `inner` of its axis `direction` (the way the light travels), none beyond
+    /// `outer` (half-angles in radians, 0 ≤ inner ≤ outer ≤ π/2), glTF's smooth fall-off
+    /// between ([`SpotCone::attenuation`]). Added after the other two, so packs without a
+    /// spot are encoded as before.
+    Spot {
+        position: [f32; 3],
+        radius: f32,
+        direction: [f32; 3],
+        inner: f32,
+        outer: f32,
+    },
+}
+
+/// A spot light's cone (`LightKind::Spot`).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SpotCone {
+    /// Unit axis, the way the light travels.
+    pub axis: [f64; 3],
+    pub cos_inner: f64,
+    pub cos_outer: f64,
+}
+
+impl SpotCone {
+    /// The fraction of the light that leaves along a unit direction whose cosine with the
+    /// axis is `cos_angle`: glTF's fall-off, the square of a linear ramp in the cosine from
+    /// the outer cone (0) to the inner (1). The ramp's width is kept above 1e-3 as glTF's
+    /// reference code does, so equal angles give a hard edge without dividing by zero.
+    pub fn attenuation(&self, cos_angle: f64) -> f64 {
+        let t = ((cos_angle - self.cos_outer) / (self.cos_inner - self.cos_outer).max(1e-3))
+            .clamp(0.0, 1.0);
+        t * t
+    }
+
+    /// The fraction along `d` (any length; zero gives 0), from the light outwards.
+    pub fn towards(&self, d: [f64; 3]) -> f64 {
+        let len = (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt();
+        // Written as a positive test so NaN gives no light.
+        if len > 0.0 {
+            let a = self.axis;
+            self.attenuation((a[0] * d[0] + a[1] * d[1] + a[2] * d[2]) / len)
+        } else {
+            0.0
+        }
+    }
+}
+
+impl LightKind {
+    /// A lamp's position and radius (point and spot lights); `None` for the sun.
+    pub fn lamp(&self) -> Option<([f32; 3], f32)> {
+        match *self {
+            Self::Point { position, radius }
+            | Self::Spot {
+                position, radius, ..
+            } => Some((position, radius)),
+            Self::Directional { .. } => None,
+        }
+    }
+
+    /// The sun's direction of travel and angular size; `None` for lamps.
+    pub fn sun(&self) -> Option<([f32; 3], f32)> {
+        match *self {
+            Self::Directional {
+                direction,
+                angular_size,
+            } => Some((direction, angular_size)),
+            _ => None,
+        }
+    }
+
+    /// A spot light's cone (its axis normalized); `None` for other lights, and for an axis
+    /// of zero length (which validation refuses).
+    pub fn cone(&self) -> Option<SpotCone> {
+        match *self {
+            Self::Spot {
+                direction,
+                inner,
+                outer,
+                ..
+            } => {
+                let d = direction.map(f64::from);
+                let len = (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt();
+                (len > 0.0 && len.is_finite()).then(|| SpotCone {
+                    axis: d.map(|c| c / len),
+                    cos_inner: f64::from(inner).cos(),
+                    cos_outer: f64::from(outer).cos(),
+                })
+            }
+            _ => None,
+        }
+    }
 }
 
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]

@@ -345,6 +345,24 @@ pub fn validate_toc(toc: &Toc, table: &[SectionEntry]) -> Result<Vec<SectionRole
                         && angular_size.is_finite()
                         && *angular_size >= 0.0
                 }
+                crate::toc::LightKind::Spot {
+                    position,
+                    radius,
+                    direction,
+                    inner,
+                    outer,
+                } => {
+                    // Written as positive tests so NaN fails them.
+                    finite(position)
+                        && radius.is_finite()
+                        && *radius > 0.0
+                        && finite(direction)
+                        && direction.iter().any(|&d| d != 0.0)
+                        && *inner >= 0.0
+                        && inner <= outer
+                        && *outer > 0.0
+                        && *outer <= std::f32::consts::FRAC_PI_2
+                }
             };
         if !ok {
             return Err(Fail::toc(format!(

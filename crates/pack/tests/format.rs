@@ -300,6 +300,58 @@ fn writer_refuses_cameras_that_cannot_view() {
     }
 }
 
+/// A spot light round-trips, and one whose cone or axis cannot light anything is refused:
+/// the viewer divides by the cone's width and normalizes the axis.
+#[test]
+fn writer_keeps_spot_lights_and_refuses_broken_cones() {
+    let spot = || LightKind::Spot {
+        position: [0.0, 5.0, 0.0],
+        radius: 0.1,
+        direction: [0.0, -1.0, 0.0],
+        inner: 0.2,
+        outer: 0.5,
+    };
+    let (mut toc, data) = sample();
+    toc.light.as_mut().unwrap().kind = spot();
+    let bytes = encode(toc, &data).unwrap();
+    let pack = Pack::from_bytes("s.pack", &bytes).unwrap();
+    assert_eq!(pack.toc().light.as_ref().unwrap().kind, spot());
+
+    let broken: [fn(&mut LightKind); 6] = [
+        |k| set_cone(k, 0.6, 0.5),
+        |k| set_cone(k, -0.1, 0.5),
+        |k| set_cone(k, 0.0, 1.6),
+        |k| set_cone(k, 0.0, f32::NAN),
+        |k| {
+            if let LightKind::Spot { direction, .. } = k {
+                *direction = [0.0; 3];
+            }
+        },
+        |k| {
+            if let LightKind::Spot { radius, .. } = k {
+                *radius = 0.0;
+            }
+        },
+    ];
+    for (i, breaks) in broken.iter().enumerate() {
+        let (mut toc, data) = sample();
+        let mut kind = spot();
+        breaks(&mut kind);
+        toc.light.as_mut().unwrap().kind = kind;
+        let e = encode(toc, &data).unwrap_err();
+        assert!(
+            e.to_string().contains("light has invalid parameters"),
+            "{i}: {e}"
+        );
+    }
+}
+
+fn set_cone(kind: &mut LightKind, i: f32, o: f32) {
+    if let LightKind::Spot { inner, outer, .. } = kind {
+        (*inner, *outer) = (i, o);
+    }
+}
+
 #[test]
 fn failed_write_leaves_old_file_untouched() {
     let dir = tempfile::tempdir().unwrap();

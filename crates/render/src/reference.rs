@@ -333,9 +333,14 @@ impl Reference {
         let (l, radiance) = match geometry {
             LightGeometry::Point { position, radius } => {
                 let d = position - p;
+                // A spot's cone, by glTF's definition, from the light's centre.
+                let cone = light
+                    .kind
+                    .cone()
+                    .map_or(1.0, |c| c.towards((p - position).as_dvec3().to_array()));
                 (
                     d.normalize_or(n),
-                    intensity / d.length_squared().max(radius * radius),
+                    intensity * cone as f32 / d.length_squared().max(radius * radius),
                 )
             }
             LightGeometry::Directional { towards } => (towards, intensity),
@@ -388,7 +393,10 @@ impl Reference {
                             f32::INFINITY,
                         )
                     }
-                    pack::LightKind::Point { position, radius } => {
+                    pack::LightKind::Point { position, radius }
+                    | pack::LightKind::Spot {
+                        position, radius, ..
+                    } => {
                         let q = Vec3::from(position) + (e1 * disc.x + e2 * disc.y) * radius;
                         let d = q - p;
                         (d.normalize_or(l), d.length())

@@ -144,7 +144,7 @@ impl ShadowSettings {
         let size = self.map_size.clamp(16, 8192);
         match light.kind {
             pack::LightKind::Directional { .. } => size,
-            pack::LightKind::Point { .. } => (size / 2).max(16),
+            pack::LightKind::Point { .. } | pack::LightKind::Spot { .. } => (size / 2).max(16),
         }
     }
 }
@@ -682,6 +682,7 @@ impl Renderer {
                 (self.settings.shadows.enabled && !self.shadow_layout.layers.is_empty()) as u32
                     as f32,
             ],
+            spot: uniforms::Frame::spot_ramp(light.map(|l| &l.kind)),
             ..Default::default()
         };
         let mut windows = uniforms::Windows::new(toc.windows.len().min(uniforms::MAX_WINDOWS));

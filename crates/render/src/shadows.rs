@@ -229,12 +229,13 @@ pub fn layout(
                     true,
                 ))
             }
-            (pack::LightKind::Point { radius, .. }, LightGeometry::Point { position, .. }) => {
-                lamp_frame(position, bounds).and_then(|frame| {
-                    let layers = &mut out.layers;
-                    lamp_map(layers, &frame, position, *radius, bounds, size, true)
-                })
-            }
+            (
+                pack::LightKind::Point { radius, .. } | pack::LightKind::Spot { radius, .. },
+                LightGeometry::Point { position, .. },
+            ) => lamp_frame(position, bounds).and_then(|frame| {
+                let layers = &mut out.layers;
+                lamp_map(layers, &frame, position, *radius, bounds, size, true)
+            }),
             _ => None,
         };
     }
@@ -272,7 +273,10 @@ pub fn layout(
                 out.windows[i] = Some(map);
             }
         }
-        (pack::LightKind::Point { radius, .. }, LightGeometry::Point { position, .. }) => {
+        (
+            pack::LightKind::Point { radius, .. } | pack::LightKind::Spot { radius, .. },
+            LightGeometry::Point { position, .. },
+        ) => {
             for &i in &needed {
                 out.windows[i] = lamp_map(
                     &mut out.layers,
@@ -549,7 +553,7 @@ mod tests {
             pack::LightKind::Directional { direction, .. } => {
                 Vec3::from(direction).as_dvec3().normalize()
             }
-            pack::LightKind::Point { position, .. } => {
+            pack::LightKind::Point { position, .. } | pack::LightKind::Spot { position, .. } => {
                 (p - Vec3::from(position).as_dvec3()).normalize()
             }
         }
@@ -582,7 +586,8 @@ mod tests {
             // The linear depth of a stored depth matches ℓ.
             let ell = |p: DVec3| match l.kind {
                 pack::LightKind::Directional { .. } => (p - map.origin).dot(travel),
-                pack::LightKind::Point { position, .. } => {
+                pack::LightKind::Point { position, .. }
+                | pack::LightKind::Spot { position, .. } => {
                     (p - Vec3::from(position).as_dvec3()).z / map.lamp_distance as f64
                 }
             };

@@ -28,6 +28,26 @@ pub struct Frame {
     pub counts: [u32; 4],
     /// Bias (texels), smallest filter σ (texels), layer size (texels), occlusion on (0 or 1).
     pub shadow: [f32; 4],
+    /// A spot light's cone as one affine ramp in the direction the light leaves along
+    /// ([`Frame::spot_ramp`]); (0, 0, 0, 1) passes every direction whole.
+    pub spot: [f32; 4],
+}
+
+impl Frame {
+    /// `spot` for a light: xyz the unit axis over the ramp's width in cosine, w the outer
+    /// cosine over it negated, so `clamp(dot(spot.xyz, d) + spot.w, 0, 1)` squared is glTF's
+    /// fall-off ([`pack::SpotCone::attenuation`]) for a unit direction `d` from the light. No
+    /// cone, no ramp: a branch would cost every lit fragment on lavapipe.
+    pub fn spot_ramp(kind: Option<&pack::LightKind>) -> [f32; 4] {
+        match kind.and_then(pack::LightKind::cone) {
+            Some(c) => {
+                let scale = 1.0 / (c.cos_inner - c.cos_outer).max(1e-3);
+                let a = c.axis.map(|x| (x * scale) as f32);
+                [a[0], a[1], a[2], (-c.cos_outer * scale) as f32]
+            }
+            None => [0.0, 0.0, 0.0, 1.0],
+        }
+    }
 }
 
 #[repr(C)]
@@ -236,6 +256,53 @@ pub const LAYOUTS: &[(&str, &str, usize)] = &[
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The shader's one affine ramp gives glTF's spot fall-off (`pack::SpotCone`), and no
+    /// cone passes every direction whole.
+    #[test]
+    fn the_spot_ramp_is_the_cone_s_fall_off() {
+        let kind = pack::LightKind::Spot {
+            position: [0.0, 5.0, 0.0],
+            radius: 0.1,
+            direction: [0.0, -3.0, 0.0],
+            inner: 0.3,
+            outer: 0.6,
+        };
+        let cone = kind.cone().unwrap();
+        let ramp = Frame::spot_ramp(Some(&kind));
+        let shader = |d: glam::Vec3| {
+            let t = (glam::Vec3::from_slice(&ramp[..3]).dot(d) + ramp[3]).clamp(0.0, 1.0);
+            t * t
+        };
+        for deg in 0..=90 {
+            let a = (deg as f32).to_radians();
+            let d = glam::Vec3::new(a.sin(), -a.cos(), 0.0);
+            let exact = cone.towards(d.as_dvec3().to_array());
+            assert!(
+                (shader(d) as f64 - exact).abs() < 2e-5,
+                "{deg}°: {} {exact}",
+                shader(d)
+            );
+            let want = if a < 0.3 {
+                1.0
+            } else if a > 0.6 {
+                0.0
+            } else {
+                exact
+            };
+            assert_eq!(exact, want, "{deg}°");
+        }
+        // Half way in cosine between the cones, a quarter of the light.
+        let mid = (cone.cos_inner + cone.cos_outer) * 0.5;
+        assert!((cone.attenuation(mid) - 0.25).abs() < 1e-12);
+        let sun = pack::LightKind::Directional {
+            direction: [0.0, -1.0, 0.0],
+            angular_size: 0.01,
+        };
+        for kind in [None, Some(&sun)] {
+            assert_eq!(Frame::spot_ramp(kind), [0.0, 0.0, 0.0, 1.0]);
+        }
+    }
 
     fn window(origin: [f32; 3], normal: [f32; 3], wall: f32) -> WindowProjector {
         WindowProjector {

@@ -151,14 +151,19 @@ pub enum LightGeometry {
 }
 
 impl LightGeometry {
+    /// A spot light is a point here: its cone only scales the light it sends
+    /// (`uniforms::Frame::spot_ramp`).
     pub fn from_light(light: &pack::Light) -> Self {
-        match &light.kind {
-            pack::LightKind::Point { position, radius } => Self::Point {
-                position: Vec3::from(*position),
-                radius: *radius,
+        match light.kind {
+            pack::LightKind::Point { position, radius }
+            | pack::LightKind::Spot {
+                position, radius, ..
+            } => Self::Point {
+                position: Vec3::from(position),
+                radius,
             },
             pack::LightKind::Directional { direction, .. } => {
-                let d = Vec3::from(*direction).normalize_or_zero();
+                let d = Vec3::from(direction).normalize_or_zero();
                 Self::Directional {
                     towards: if d == Vec3::ZERO { Vec3::Y } else { -d },
                 }

@@ -227,16 +227,18 @@ fn light_differs(ta: &pack::Toc, tb: &pack::Toc, max_delta: f64) -> Option<Strin
             )
         }
         (
-            pack::LightKind::Point {
-                position: p,
-                radius: r,
-            },
-            pack::LightKind::Point {
-                position: q,
-                radius: s,
-            },
+            pack::LightKind::Point { .. } | pack::LightKind::Spot { .. },
+            pack::LightKind::Point { .. } | pack::LightKind::Spot { .. },
         ) => {
-            let by = corner_delta(p, q).max((*r as f64 - *s as f64).abs());
+            // A spot's cone comes from the model's file, not the geometry: it must be equal.
+            let (Some((p, r)), Some((q, s))) = (a.kind.lamp(), b.kind.lamp()) else {
+                return Some(String::new());
+            };
+            let (p, q) = (&p, &q);
+            if a.kind.cone() != b.kind.cone() {
+                return Some(String::new());
+            }
+            let by = corner_delta(p, q).max((r as f64 - s as f64).abs());
             // Both ends of the light's path move, each by `max_delta` on every axis.
             let reach = ta
                 .windows
@@ -821,6 +823,17 @@ fn describe_light(light: Option<&pack::Light>) -> String {
         pack::LightKind::Point { position, radius } => {
             format!("a point light at {position:?} of radius {radius}")
         }
+        pack::LightKind::Spot {
+            position,
+            radius,
+            direction,
+            inner,
+            outer,
+        } => format!(
+            "a spot light at {position:?} of radius {radius} along {direction:?}, its cone {} to {} degrees",
+            inner.to_degrees(),
+            outer.to_degrees()
+        ),
     };
     format!("{kind}, colour {:?}, intensity {}", l.colour, l.intensity)
 }

@@ -197,6 +197,17 @@ pub fn describe(pack: &Pack) -> serde_json::Value {
             "type": "directional", "direction": direction, "angular_size": angular_size,
             "colour": l.colour, "intensity": l.intensity,
         }),
+        pack::LightKind::Spot {
+            position,
+            radius,
+            direction,
+            inner,
+            outer,
+        } => json!({
+            "type": "spot", "position": position, "radius": radius, "direction": direction,
+            "inner_cone": inner, "outer_cone": outer,
+            "colour": l.colour, "intensity": l.intensity,
+        }),
     });
     json!({
         "format_version": pack.header().version,

@@ -389,6 +389,30 @@ pub fn run(args: Args) -> Outcome {
                     exact1(l.intensity, 1, |r| r, l.intensity)
                 );
             }
+            pack::LightKind::Spot {
+                position,
+                radius,
+                direction,
+                inner,
+                outer,
+            } => {
+                let _ = writeln!(
+                    t,
+                    "[light]\ntype = \"spot\"\nposition = {}\nradius = {}\ndirection = {}\ninner_cone_deg = {}\nouter_cone_deg = {}\ncolour = {}\nintensity = {}\n",
+                    vec3(position),
+                    exact1(radius, 1, |r| r, radius),
+                    exact(
+                        direction,
+                        1,
+                        |d| cook::manifest::light_direction(d.into()).to_array(),
+                        direction
+                    ),
+                    exact1(inner.to_degrees(), 2, f32::to_radians, inner),
+                    exact1(outer.to_degrees(), 2, f32::to_radians, outer),
+                    vec3(l.colour),
+                    exact1(l.intensity, 1, |r| r, l.intensity)
+                );
+            }
         }
     }
     if let Some(sky) = guess.sky {

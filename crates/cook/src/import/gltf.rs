@@ -164,16 +164,19 @@ fn exact_locals(text: &[u8], json: &gltf::json::Root) -> Vec<Option<glam::DMat4>
 /// The cameras and the sun a file places on its nodes (glTF cameras, `KHR_lights_punctual`),
 /// as the scene graph is walked: a church exported from Blender with its sun set to shine
 /// through the rose window and its views framed keeps them rather than guessed ones.
+/// A spot light's inner and outer cone half-angles (radians).
+type ConeAngles = (f32, f32);
+
 #[derive(Default)]
 struct Views {
     /// Name, world transform, vertical field of view (radians), near and far plane.
     cameras: Vec<(String, glam::DMat4, f32, f32, Option<f32>)>,
     /// Name, world transform, linear colour: the first directional light.
     sun: Option<(String, glam::DMat4, [f32; 3])>,
-    /// Point and spot lights: name, world transform, linear colour, and a spot's outer cone
-    /// angle. The guess takes one that shines in through the windows (a lamp outside a
-    /// church's glass); most are lamps indoors, which light no window.
-    lamps: Vec<(String, glam::DMat4, [f32; 3], Option<f32>)>,
+    /// Point and spot lights: name, world transform, linear colour, and a spot's inner and
+    /// outer cone angles. The guess takes one that shines in through the windows (a lamp
+    /// outside a church's glass); most are lamps indoors, which light no window.
+    lamps: Vec<(String, glam::DMat4, [f32; 3], Option<ConeAngles>)>,
     /// Cameras and lights a pack cannot hold (orthographic cameras, directional lights after
     /// the first, lights of unknown type), for one warning.
     unused: Vec<String>,
@@ -240,16 +243,22 @@ impl Views {
             Some("directional") if self.sun.is_none() => self.sun = Some((name, world, colour)),
             Some("point") => self.lamps.push((name, world, colour, None)),
             Some("spot") => {
-                // The spec's default outer cone is π/4; it may not exceed π/2.
-                let outer = light
-                    .get("spot")
-                    .and_then(|s| s.get("outerConeAngle"))
-                    .and_then(serde_json::Value::as_f64)
-                    .filter(|a| a.is_finite() && *a > 0.0)
+                // The spec's defaults are 0 and π/4, with 0 ≤ inner < outer ≤ π/2; a value out
+                // of range is clamped into it.
+                let angle = |key: &str| {
+                    light
+                        .get("spot")
+                        .and_then(|s| s.get(key))
+                        .and_then(serde_json::Value::as_f64)
+                        .filter(|a| a.is_finite())
+                };
+                let outer = angle("outerConeAngle")
+                    .filter(|a| *a > 0.0)
                     .map_or(std::f32::consts::FRAC_PI_4, |a| {
                         (a as f32).min(std::f32::consts::FRAC_PI_2)
                     });
-                self.lamps.push((name, world, colour, Some(outer)));
+                let inner = angle("innerConeAngle").map_or(0.0, |a| (a as f32).clamp(0.0, outer));
+                self.lamps.push((name, world, colour, Some((inner, outer))));
             }
             _ => self
                 .unused
@@ -347,7 +356,11 @@ impl Views {
                 name,
                 position: position.as_vec3().to_array(),
                 colour,
-                spot: cone.map(|c| (axis.as_vec3().to_array(), c)),
+                spot: cone.map(|(inner, outer)| super::FileSpot {
+                    axis: axis.as_vec3().to_array(),
+                    inner,
+                    outer,
+                }),
             });
         }
         if !self.unused.is_empty() {
@@ -2550,7 +2563,7 @@ mod tests {
         json["extensions"] = serde_json::json!({"KHR_lights_punctual": {"lights": [
             {"type": "directional", "name": "Sonne", "color": [1.0, 0.5, 0.25]},
             {"type": "point", "name": "Kerze"},
-            {"type": "spot", "color": [0.5, 0.5, 1.0], "spot": {"outerConeAngle": 0.3}},
+            {"type": "spot", "color": [0.5, 0.5, 1.0], "spot": {"innerConeAngle": 0.1, "outerConeAngle": 0.3}},
             {"type": "directional", "name": "Mond"},
             {"type": "area", "name": "Fenster"}
         ]}});
@@ -2592,12 +2605,12 @@ mod tests {
             (spot.position, spot.colour),
             ([0.0, 5.0, 0.0], [0.5, 0.5, 1.0])
         );
-        let (axis, cone) = spot.spot.unwrap();
+        let cone = spot.spot.unwrap();
         assert!(
-            (glam::Vec3::from(axis) - glam::Vec3::NEG_X).length() < 1e-6,
-            "{axis:?}"
+            (glam::Vec3::from(cone.axis) - glam::Vec3::NEG_X).length() < 1e-6,
+            "{cone:?}"
         );
-        assert_eq!(cone, 0.3);
+        assert_eq!((cone.inner, cone.outer), (0.1, 0.3));
         let said: Vec<&str> = m.warnings.iter().map(|w| w.message.as_str()).collect();
         assert!(
             said.iter()

@@ -541,9 +541,19 @@ pub struct FileLamp {
     pub position: [f32; 3],
     /// Linear RGB.
     pub colour: [f32; 3],
-    /// A spot light's axis (unit, where it points) and outer cone angle from that axis
-    /// (radians); `None` for a point light.
-    pub spot: Option<([f32; 3], f32)>,
+    /// A spot light's cone; `None` for a point light.
+    pub spot: Option<FileSpot>,
+}
+
+/// A spot light's cone, as glTF's `KHR_lights_punctual` gives it.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct FileSpot {
+    /// Unit; where the light points.
+    pub axis: [f32; 3],
+    /// Half-angles from the axis in radians: full light within `inner`, none beyond `outer`
+    /// (0 ≤ inner ≤ outer ≤ π/2).
+    pub inner: f32,
+    pub outer: f32,
 }
 
 /// A directional light a model's file places.
@@ -624,7 +634,7 @@ impl Imported {
         }
         for l in &mut self.lamps {
             l.position = m.transform_point3(l.position.into()).to_array();
-            if let Some((axis, _)) = &mut l.spot {
+            if let Some(FileSpot { axis, .. }) = &mut l.spot {
                 *axis = m
                     .transform_vector3((*axis).into())
                     .normalize_or_zero()

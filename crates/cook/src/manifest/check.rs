@@ -427,55 +427,127 @@ fn light(src: &Source<'_>, l: &Spanned<model::Light>) -> Result<Light, CookError
     let stray = |s: usize, what: &str, t: &str| {
         src.error(s, format!("`{what}` does not apply to a {t} light"))
     };
+    let t = match raw.kind {
+        model::LightType::Directional => "directional",
+        model::LightType::Point => "point",
+        model::LightType::Spot => "spot",
+    };
+    // Each field, and the light types it applies to.
+    let fields: [(&str, Option<usize>, &[&str]); 6] = [
+        (
+            "direction",
+            raw.direction.as_ref().map(|v| v.span().start),
+            &["directional", "spot"],
+        ),
+        (
+            "angular_size_deg",
+            raw.angular_size_deg.as_ref().map(|v| v.span().start),
+            &["directional"],
+        ),
+        (
+            "position",
+            raw.position.as_ref().map(|v| v.span().start),
+            &["point", "spot"],
+        ),
+        (
+            "radius",
+            raw.radius.as_ref().map(|v| v.span().start),
+            &["point", "spot"],
+        ),
+        (
+            "inner_cone_deg",
+            raw.inner_cone_deg.as_ref().map(|v| v.span().start),
+            &["spot"],
+        ),
+        (
+            "outer_cone_deg",
+            raw.outer_cone_deg.as_ref().map(|v| v.span().start),
+            &["spot"],
+        ),
+    ];
+    for (what, at, types) in fields {
+        if let Some(at) = at
+            && !types.contains(&t)
+        {
+            return Err(stray(at, what, t));
+        }
+    }
+    let direction = || -> Result<[f32; 3], CookError> {
+        let d = raw
+            .direction
+            .as_ref()
+            .ok_or_else(|| missing("direction", t))?;
+        let v = glam::Vec3::from(*d.get_ref());
+        if !v.is_finite() || v.length() < 1e-6 {
+            return Err(src.err_at(
+                d,
+                format!(
+                    "direction {:?} must be a finite non-zero vector",
+                    d.get_ref()
+                ),
+            ));
+        }
+        Ok(super::light_direction(v).to_array())
+    };
+    let lamp = || -> Result<([f32; 3], f32), CookError> {
+        let p = raw
+            .position
+            .as_ref()
+            .ok_or_else(|| missing("position", t))?;
+        if !finite3(*p.get_ref()) {
+            return Err(src.err_at(p, "position must be finite"));
+        }
+        let radius = raw.radius.as_ref().ok_or_else(|| missing("radius", t))?;
+        Ok((*p.get_ref(), src.positive(radius, "radius")?))
+    };
     let kind = match raw.kind {
         model::LightType::Directional => {
-            if let Some(p) = &raw.position {
-                return Err(stray(p.span().start, "position", "directional"));
-            }
-            if let Some(p) = &raw.radius {
-                return Err(stray(p.span().start, "radius", "directional"));
-            }
-            let d = raw
-                .direction
-                .as_ref()
-                .ok_or_else(|| missing("direction", "directional"))?;
-            let v = glam::Vec3::from(*d.get_ref());
-            if !v.is_finite() || v.length() < 1e-6 {
-                return Err(src.err_at(
-                    d,
-                    format!(
-                        "direction {:?} must be a finite non-zero vector",
-                        d.get_ref()
-                    ),
-                ));
-            }
             let size = src.positive_or(&raw.angular_size_deg, "angular_size_deg", 0.53)?;
             pack::LightKind::Directional {
-                direction: super::light_direction(v).to_array(),
+                direction: direction()?,
                 angular_size: size.to_radians(),
             }
         }
         model::LightType::Point => {
-            if let Some(p) = &raw.direction {
-                return Err(stray(p.span().start, "direction", "point"));
+            let (position, radius) = lamp()?;
+            pack::LightKind::Point { position, radius }
+        }
+        model::LightType::Spot => {
+            let (position, radius) = lamp()?;
+            let direction = direction()?;
+            // glTF's defaults: a 45° cone, full strength only along the axis.
+            let outer = src.positive_or(&raw.outer_cone_deg, "outer_cone_deg", 45.0)?;
+            if outer > 90.0 {
+                let at = raw
+                    .outer_cone_deg
+                    .as_ref()
+                    .map_or(l.span().start, |v| v.span().start);
+                return Err(src.error(
+                    at,
+                    format!("outer_cone_deg is {outer} but a spot's cone is at most 90°"),
+                ));
             }
-            if let Some(p) = &raw.angular_size_deg {
-                return Err(stray(p.span().start, "angular_size_deg", "point"));
-            }
-            let p = raw
-                .position
-                .as_ref()
-                .ok_or_else(|| missing("position", "point"))?;
-            if !finite3(*p.get_ref()) {
-                return Err(src.err_at(p, "position must be finite"));
-            }
-            let radius = raw
-                .radius
-                .as_ref()
-                .ok_or_else(|| missing("radius", "point"))?;
-            pack::LightKind::Point {
-                position: *p.get_ref(),
-                radius: src.positive(radius, "radius")?,
+            let inner = match &raw.inner_cone_deg {
+                Some(v) => {
+                    let x = *v.get_ref();
+                    if !(x >= 0.0 && x <= outer) {
+                        return Err(src.err_at(
+                            v,
+                            format!(
+                                "inner_cone_deg is {x} but must lie between 0 and outer_cone_deg ({outer})"
+                            ),
+                        ));
+                    }
+                    x
+                }
+                None => 0.0,
+            };
+            pack::LightKind::Spot {
+                position,
+                radius,
+                direction,
+                inner: inner.to_radians(),
+                outer: outer.to_radians(),
             }
         }
     };

@@ -384,7 +384,9 @@ impl Manifest {
             c.position = moved(c.position);
             c.target = moved(c.target);
         }
-        if let Some(pack::LightKind::Point { position, .. }) = m.light.as_mut().map(|l| &mut l.kind)
+        if let Some(
+            pack::LightKind::Point { position, .. } | pack::LightKind::Spot { position, .. },
+        ) = m.light.as_mut().map(|l| &mut l.kind)
         {
             *position = moved(*position);
         }
@@ -594,6 +596,43 @@ colour = [0.35, 0.5, 0.8]
         assert_eq!(m.cameras[0].up, [0.0, 1.0, 0.0]);
     }
 
+    /// A spot keeps its cone, in radians, its axis normalized; glTF's defaults fill in.
+    #[test]
+    fn a_spot_light_keeps_its_cone() {
+        let d = dir();
+        let mesh = "[[mesh]]\nsource = \"corridor.obj\"\n";
+        let spot = "[light]\ntype = \"spot\"\nposition = [0.0, 5.0, 0.0]\nradius = 0.1\ndirection = [0.0, -2.0, 0.0]\n";
+        let m = parse(
+            &d,
+            &format!("{mesh}{spot}inner_cone_deg = 10.0\nouter_cone_deg = 30.0\n"),
+        )
+        .unwrap();
+        assert_eq!(
+            m.light.unwrap().kind,
+            pack::LightKind::Spot {
+                position: [0.0, 5.0, 0.0],
+                radius: 0.1,
+                direction: [0.0, -1.0, 0.0],
+                inner: 10f32.to_radians(),
+                outer: 30f32.to_radians(),
+            }
+        );
+        let m = parse(&d, &format!("{mesh}{spot}")).unwrap();
+        match m.light.unwrap().kind {
+            pack::LightKind::Spot { inner, outer, .. } => {
+                assert_eq!((inner, outer), (0.0, std::f32::consts::FRAC_PI_4));
+            }
+            other => panic!("{other:?}"),
+        }
+        // A survey-sized shift moves the spot as it moves a point light.
+        let m = parse(&d, &format!("{mesh}{spot}")).unwrap();
+        let moved = m.shifted([0.0, 1.0, 0.0]);
+        assert_eq!(
+            moved.light.as_ref().unwrap().kind.lamp(),
+            Some(([0.0, 4.0, 0.0], 0.1))
+        );
+    }
+
     #[test]
     fn errors_name_the_line() {
         let d = dir();
@@ -667,7 +706,43 @@ colour = [0.35, 0.5, 0.8]
             (
                 format!("{mesh}[light]\ntype = \"sun\"\n"),
                 4,
-                "type: unknown variant `sun`, expected `point` or `directional`",
+                "type: unknown variant `sun`, expected one of `point`, `directional`, `spot`",
+            ),
+            // A spot: every field of a lamp and a direction, its cone within 90°.
+            (
+                format!(
+                    "{mesh}[light]\ntype = \"spot\"\nposition = [0.0, 5.0, 0.0]\nradius = 0.1\n"
+                ),
+                3,
+                "a spot light needs `direction`",
+            ),
+            (
+                format!(
+                    "{mesh}[light]\ntype = \"spot\"\nposition = [0.0, 5.0, 0.0]\nradius = 0.1\ndirection = [0.0, -1.0, 0.0]\nouter_cone_deg = 120.0\n"
+                ),
+                8,
+                "at most 90",
+            ),
+            (
+                format!(
+                    "{mesh}[light]\ntype = \"spot\"\nposition = [0.0, 5.0, 0.0]\nradius = 0.1\ndirection = [0.0, -1.0, 0.0]\ninner_cone_deg = 30.0\nouter_cone_deg = 20.0\n"
+                ),
+                8,
+                "inner_cone_deg is 30 but must lie between 0 and outer_cone_deg (20)",
+            ),
+            (
+                format!(
+                    "{mesh}[light]\ntype = \"spot\"\nposition = [0.0, 5.0, 0.0]\nradius = 0.1\ndirection = [0.0, -1.0, 0.0]\nangular_size_deg = 0.5\n"
+                ),
+                8,
+                "`angular_size_deg` does not apply to a spot light",
+            ),
+            (
+                format!(
+                    "{mesh}[light]\ntype = \"point\"\nposition = [0.0, 5.0, 0.0]\nradius = 0.1\nouter_cone_deg = 20.0\n"
+                ),
+                7,
+                "`outer_cone_deg` does not apply to a point light",
             ),
             (
                 format!(

@@ -103,6 +103,7 @@ pub(super) struct Window {
 pub(super) enum LightType {
     Point,
     Directional,
+    Spot,
 }
 
 #[derive(Deserialize)]
@@ -114,6 +115,8 @@ pub(super) struct Light {
     pub angular_size_deg: Option<Spanned<f32>>,
     pub position: Option<Spanned<[f32; 3]>>,
     pub radius: Option<Spanned<f32>>,
+    pub inner_cone_deg: Option<Spanned<f32>>,
+    pub outer_cone_deg: Option<Spanned<f32>>,
     pub colour: Option<[f32; 3]>,
     pub intensity: Option<Spanned<f32>>,
 }

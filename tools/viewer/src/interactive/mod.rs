@@ -179,7 +179,14 @@ fn effective_light(
     let mut light = base.clone();
     light.colour = edit.colour;
     light.intensity = edit.intensity;
-    if let (false, pack::LightKind::Point { position, radius }) = (edit.falloff, &mut light.kind) {
+    if let (
+        false,
+        pack::LightKind::Point { position, radius }
+        | pack::LightKind::Spot {
+            position, radius, ..
+        },
+    ) = (edit.falloff, &mut light.kind)
+    {
         // No falloff: clamp the distance term at a radius far beyond the scene, scaled so the
         // light arriving at the windows keeps its brightness; only the attenuation goes.
         let p = Vec3::from(*position);
@@ -973,7 +980,7 @@ impl App {
             }),
             point_light: matches!(
                 shown.and_then(|s| s.base_light.as_ref()).map(|l| &l.kind),
-                Some(pack::LightKind::Point { .. })
+                Some(pack::LightKind::Point { .. } | pack::LightKind::Spot { .. })
             ),
             watch: watch_label.as_deref(),
             messages: &self.messages,
