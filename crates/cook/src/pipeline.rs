@@ -542,25 +542,22 @@ fn frame_windows(
 }
 
 /// The report's lines for windows cooked without a projector: one per window, or, where more
-/// than [`NAMED`] share a reason (a hall's whole shaded side), one line naming the first few.
-/// A line per window buried the rest of a 450-window cook's output.
+/// than [`crate::report::NAMED`] share a reason (a hall's whole shaded side), one line naming
+/// the first few.
 fn skipped_windows(skipped: &[((&str, &str), Vec<&str>)]) -> Vec<String> {
-    const NAMED: usize = 3;
     let mut out = Vec::new();
     for ((one, many), names) in skipped {
-        if names.len() <= NAMED {
+        if names.len() <= crate::report::NAMED {
             out.extend(
                 names.iter().map(|name| {
                     format!("window {name:?}: {one}, so no projector texture was cooked")
                 }),
             );
         } else {
-            let first: Vec<String> = names[..NAMED].iter().map(|n| format!("{n:?}")).collect();
             out.push(format!(
-                "{} windows ({} and {} more): {many}, so no projector textures were cooked",
+                "{} windows ({}): {many}, so no projector textures were cooked",
                 names.len(),
-                first.join(", "),
-                names.len() - NAMED
+                crate::report::few_names(names)
             ));
         }
     }

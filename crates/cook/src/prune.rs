@@ -109,26 +109,54 @@ fn nor_textures(textures: &[String]) -> String {
 }
 
 /// Source materials (an MTL entry, a glTF material) that no triangle uses never become pack
-/// materials; say so, with the textures that were therefore not cooked.
+/// materials; say so, with the textures that were therefore not cooked: a line each, or, where
+/// one source has more than [`crate::report::NAMED`] (a shared MTL library), one line for them.
 pub(crate) fn unused_source_materials(
     sources: &[import::Imported],
     tagging: &tag::Tagging,
     report: &mut Report,
 ) {
-    for (si, name) in &tagging.unused_source_materials {
-        let src = &sources[*si];
-        let textures: Vec<String> = src
-            .materials
+    let textures_of = |src: &import::Imported, name: &str| -> Vec<String> {
+        src.materials
             .iter()
-            .filter(|m| &m.name == name)
+            .filter(|m| m.name == name)
             .flat_map(|m| [&m.diffuse_texture, &m.normal_texture])
             .flatten()
             .map(|t| t.name())
+            .collect()
+    };
+    for (si, src) in sources.iter().enumerate() {
+        let names: Vec<&str> = tagging
+            .unused_source_materials
+            .iter()
+            .filter(|(s, _)| *s == si)
+            .map(|(_, n)| n.as_str())
             .collect();
+        if names.len() <= crate::report::NAMED {
+            for name in names {
+                report.skipped.push(format!(
+                    "material {name:?} of {}: defined but no triangle uses it, not cooked{}",
+                    src.path.display(),
+                    nor_textures(&textures_of(src, name))
+                ));
+            }
+            continue;
+        }
+        let textures: Vec<String> = names.iter().flat_map(|n| textures_of(src, n)).collect();
+        let nor = if textures.is_empty() {
+            String::new()
+        } else {
+            format!(
+                ", nor their {} textures ({})",
+                textures.len(),
+                crate::report::few_names(&textures)
+            )
+        };
         report.skipped.push(format!(
-            "material {name:?} of {}: defined but no triangle uses it, not cooked{}",
+            "{} materials of {} ({}): defined but no triangle uses them, not cooked{nor}",
+            names.len(),
             src.path.display(),
-            nor_textures(&textures)
+            crate::report::few_names(&names)
         ));
     }
 }

@@ -45,6 +45,22 @@ pub struct HeuristicNote {
     pub triangles: usize,
 }
 
+/// More than this many things skipped for one reason are one line of the report, naming
+/// the first few: a line each buried the rest of a big model's output (a hall's 225 shaded
+/// windows, a shared MTL library's unused materials).
+pub(crate) const NAMED: usize = 3;
+
+/// `names` for such a line, each quoted: all of them up to [`NAMED`], else the first few
+/// and how many more.
+pub(crate) fn few_names(names: &[impl std::fmt::Debug]) -> String {
+    let shown: Vec<String> = names.iter().take(NAMED).map(|n| format!("{n:?}")).collect();
+    if names.len() <= NAMED {
+        shown.join(", ")
+    } else {
+        format!("{} and {} more", shown.join(", "), names.len() - NAMED)
+    }
+}
+
 /// What happened while cooking, for the CLI.
 #[derive(Clone, Debug, Default)]
 pub struct Report {

@@ -1471,7 +1471,8 @@ fn init_writes_a_manifest_that_cooks_window_light_without_edits() {
 /// its glass, tagged the floor and walls of the same mesh windows too. The models: the
 /// cathedral (windows, a guessed sun), the third-party Cornell box, the same box in survey
 /// coordinates (the manifest moves it), gltfpack's instanced boxes, a hall as a glTF of one
-/// mesh whose light is a lamp of its own outside a window, a hall whose floor is sixty
+/// mesh whose light is a lamp of its own outside a window (a point light, and a spot, whose
+/// cone `init` writes in degrees that read back to its radians), a hall whose floor is sixty
 /// tiles of one material, each its own object (one rule on the material, not sixty), and the
 /// hall as a mosaic, each tile its own material (window light on the floor in both).
 #[test]
@@ -1512,6 +1513,20 @@ fn an_unedited_init_manifest_cooks_the_bare_cook_s_very_pack() {
     std::fs::write(dir.path().join("hall.bin"), bin).unwrap();
     let lit_hall = dir.path().join("hall.gltf");
     std::fs::write(&lit_hall, serde_json::to_vec(&hall).unwrap()).unwrap();
+    // The same hall lit by a spot at the lantern, pointing into the hall (its node's -z).
+    let (hall, bin) = cook::testing::hall_gltf(
+        20.0,
+        vec![
+            serde_json::json!({"name": "Strahler", "translation": [0.0, 6.0, 8.0],
+            "extensions": {"KHR_lights_punctual": {"light": 0}}}),
+        ],
+        vec![serde_json::json!({"type": "spot", "color": [1.0, 0.8, 0.5],
+            "spot": {"innerConeAngle": 0.2, "outerConeAngle": 0.6}})],
+    );
+    std::fs::create_dir(dir.path().join("spot")).unwrap();
+    std::fs::write(dir.path().join("spot/hall.bin"), bin).unwrap();
+    let spot_hall = dir.path().join("spot/hall.gltf");
+    std::fs::write(&spot_hall, serde_json::to_vec(&hall).unwrap()).unwrap();
     let (tiles, mtl) = cook::testing::tiled_hall(1);
     std::fs::write(dir.path().join("m.mtl"), mtl).unwrap();
     let tiled = dir.path().join("tiles.obj");
@@ -1528,6 +1543,7 @@ fn an_unedited_init_manifest_cooks_the_bare_cook_s_very_pack() {
         survey,
         third_party("gltfpack/boxes_mi_cc.glb"),
         lit_hall,
+        spot_hall.clone(),
         tiled.clone(),
         mosaic.clone(),
     ];
@@ -1550,6 +1566,13 @@ fn an_unedited_init_manifest_cooks_the_bare_cook_s_very_pack() {
             text(&d.stdout),
             std::fs::read_to_string(&scene).unwrap()
         );
+        if *model == spot_hall {
+            let toml = std::fs::read_to_string(&scene).unwrap();
+            assert!(
+                toml.contains("type = \"spot\"") && toml.contains("outer_cone_deg = "),
+                "{toml}"
+            );
+        }
         if *model == tiled {
             let toml = std::fs::read_to_string(&scene).unwrap();
             assert!(

@@ -219,3 +219,40 @@ fn attributes_no_material_uses_are_dropped() {
         assert_eq!(mesh["vertices"], 4, "{v:#}");
     }
 }
+
+/// A shared MTL library of forty materials, one of them used: the thirty-nine others are one
+/// line naming the first three, with the textures not cooked for them; a line each buried the
+/// rest of the output. Three or fewer keep a line each (the test above).
+#[test]
+fn a_library_of_unused_materials_is_one_line() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    std::fs::write(
+        d.join("scene.obj"),
+        "mtllib library.mtl\nv 0 0 0\nv 1 0 0\nv 1 0 1\nusemtl m0\nf 1 3 2\n",
+    )
+    .unwrap();
+    let mut mtl = String::new();
+    for i in 0..40 {
+        mtl += &format!("newmtl m{i}\nKd 0.5 0.5 0.5\nmap_Kd t{i}.png\n\n");
+    }
+    std::fs::write(d.join("library.mtl"), mtl).unwrap();
+    design(&d.join("t0.png"));
+    // Not images: had they been decoded, the cook would fail.
+    for i in 1..40 {
+        std::fs::write(d.join(format!("t{i}.png")), b"not a png").unwrap();
+    }
+
+    let o = cooker(&["cook", "scene.obj", "-o", "out.pack", "--no-cache"], d);
+    let out = text(&o);
+    assert!(o.status.success(), "{out}");
+    assert!(
+        out.contains("skipped: 39 materials of ")
+            && out.contains(
+                "(\"m1\", \"m2\", \"m3\" and 36 more): defined but no triangle uses them, not \
+                 cooked, nor their 39 textures (\"t1.png\", \"t2.png\", \"t3.png\" and 36 more)"
+            ),
+        "{out}"
+    );
+    assert!(!out.contains("material \"m5\""), "{out}");
+}
