@@ -562,6 +562,10 @@ struct ChosenLamp<'a> {
     direction: DVec3,
     /// The mean squared distance its light travels to where it lands (or enters).
     reach_sq: f64,
+    /// The mean share of its light a spot's cone lets through where it lands (1 for a point
+    /// light): the exposure is divided by it, so a floor lit through the cone's soft edge is
+    /// exposed as the sun's would be.
+    share: f64,
     /// Its size: a little penumbra, as the sun's half-degree gives at the nearest window.
     radius: f64,
 }
@@ -596,7 +600,7 @@ fn best_lamp<'a>(
             cos_inner: f64::from(s.inner).cos(),
             cos_outer: f64::from(s.outer).cos(),
         });
-        let (mut score, mut weight, mut lit) = (0.0, 0.0, 0);
+        let (mut score, mut weight, mut unshared, mut lit) = (0.0, 0.0, 0.0, 0);
         let (mut direction, mut reach_sq, mut nearest) = (DVec3::ZERO, 0.0, f64::INFINITY);
         for w in windows {
             let mut landed = 0.0;
@@ -620,6 +624,7 @@ fn best_lamp<'a>(
                     None => distance,
                 };
                 let s = w.area / 25.0 * entry * share;
+                unshared += s / share;
                 landed += s;
                 direction += d * s;
                 reach_sq += reach * reach * s;
@@ -637,6 +642,7 @@ fn best_lamp<'a>(
                     windows: lit,
                     direction: (direction / weight).normalize_or(DVec3::NEG_Y),
                     reach_sq: reach_sq / weight,
+                    share: weight / unshared,
                     radius: (nearest * (SUN_DEG as f64 * 0.5).to_radians().tan()).max(1e-6),
                 },
             ));
@@ -867,7 +873,7 @@ pub fn guess(p: &Prepared) -> Guess {
                         None => pack::LightKind::Point { position, radius },
                     },
                     colour: l.lamp.colour,
-                    intensity: (exposure as f64 * l.reach_sq) as f32,
+                    intensity: (exposure as f64 * l.reach_sq / l.share) as f32,
                 }
             })
         }
@@ -1302,6 +1308,18 @@ mod tests {
             }
             ref other => panic!("{other:?}\n{words}"),
         }
+        // Its exposure makes up for the share of its light the cone's soft edge takes: the
+        // window lies near the edge of a cone with no full-light core (inner 0), where a few
+        // percent of the light gets through, so the spot is far brighter than the lantern.
+        let lamp_intensity = hall_with_lamps(std::slice::from_ref(&lantern))
+            .0
+            .unwrap()
+            .intensity;
+        let spot_intensity = light.as_ref().unwrap().intensity;
+        assert!(
+            spot_intensity > 10.0 * lamp_intensity && spot_intensity < 1000.0 * lamp_intensity,
+            "{spot_intensity} against {lamp_intensity}"
+        );
         assert!(words.contains("spot light \"Strahler\""), "{words}");
         for node in [
             json!({"translation": lantern_at, "rotation": [0.0, 1.0, 0.0, 0.0]}),
