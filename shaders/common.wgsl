@@ -92,7 +92,8 @@ struct Material {
     diffuse: vec4<f32>,
     // rgb: specular colour, w: shininess.
     specular: vec4<f32>,
-    // rgb: emission, w unused.
+    // rgb: emission; w: for a window, the share of the light it passes (0 where the light does
+    // not come in through it, a spot's fall-off across it), which weighs its god rays.
     emissive: vec4<f32>,
     // x: class (see `render::uniforms::class_id`), y: 1 with a normal map (2: a two-channel
     // one, Z rebuilt from X and Y), z: 1 for windows.

@@ -409,8 +409,10 @@ fn god_ray_falloff_matches_hand_computed_values() {
 // ---------------------------------------------------------------------------------------------
 // God rays streak away from the light's projected position.
 
-/// A small white window straight ahead; the god rays are a radial blur towards the light, so
-/// their energy lies on the far side of the window from the light's screen position.
+/// A small white window straight ahead, the camera on its inner side (its normal points at the
+/// camera, the lights lie beyond it: shafts come only through windows the light passes); the
+/// god rays are a radial blur towards the light, so their energy lies on the far side of the
+/// window from the light's screen position.
 #[test]
 fn god_rays_streak_away_from_the_light() {
     const W: u32 = 96;
@@ -427,7 +429,7 @@ fn god_rays_streak_away_from_the_light() {
             Vec3::new(-half, half, blob_z),
             Vec3::new(2.0 * half, 0.0, 0.0),
             Vec3::new(0.0, -2.0 * half, 0.0),
-            Vec3::NEG_Z,
+            Vec3::Z,
         );
         b.toc.light = Some(light);
         load(&gpu, &b.finish())

@@ -225,6 +225,9 @@ struct Targets {
     rays_size: (u32, u32),
     background: Target,
     mask: Target,
+    /// Pass 1's second target: each window's colour times the share of the light it passes,
+    /// which the god rays blur (a window the light does not come through casts no shaft).
+    rays_source: Target,
     normals: Target,
     lit: Target,
     rays: Target,
@@ -254,6 +257,7 @@ impl Targets {
             rays_size,
             background: target(device, "pass0 background", size, HDR),
             mask: target(device, "pass1 window mask", size, HDR),
+            rays_source: target(device, "pass1 god-ray source", size, HDR),
             normals: target(device, "pass2 window normals", size, HDR),
             lit: target(device, "pass3 lit", size, HDR),
             rays: target(device, "god rays", rays_size, HDR),
@@ -895,29 +899,29 @@ impl Renderer {
             PassId::Background => {
                 let target = into(&t.background, background);
                 self.background
-                    .record(encoder, target, depth, true, frame, scene, ts)
+                    .record(encoder, &[target], depth, true, frame, scene, ts)
             }
             PassId::WindowMask => {
-                let target = into(&t.mask, clear);
+                let targets = [into(&t.mask, clear), into(&t.rays_source, clear)];
                 self.mask
-                    .record(encoder, target, depth, true, frame, scene, ts)
+                    .record(encoder, &targets, depth, true, frame, scene, ts)
             }
             // Passes 2 and 3 test against the depth pass 1 laid down (pass 3 clears it only
             // when pass 1 did not run).
             PassId::WindowNormals => {
                 let target = into(&t.normals, clear);
                 self.normals
-                    .record(encoder, target, depth, false, frame, scene, ts)
+                    .record(encoder, &[target], depth, false, frame, scene, ts)
             }
             PassId::Lit => {
                 let target = into(&t.lit, background);
                 self.lit
-                    .record(encoder, target, depth, !plan.windows, frame, scene, ts)
+                    .record(encoder, &[target], depth, !plan.windows, frame, scene, ts)
             }
             PassId::GodRays => self.rays.record(
                 encoder,
                 &gpu.device,
-                &t.mask.view,
+                &t.rays_source.view,
                 &self.linear_clamp,
                 &t.rays.view,
                 ts,

@@ -543,10 +543,20 @@ impl Scene {
                 NEXT.fetch_add(1, std::sync::atomic::Ordering::Relaxed)
             },
         };
+        // Per material, the most light any window of it passes (its god rays' weight).
+        let mut light_share = vec![0.0f32; toc.materials.len()];
+        if let Some(light) = &toc.light {
+            for w in &toc.windows {
+                if let Some(s) = light_share.get_mut(w.material as usize) {
+                    *s = s.max(crate::view::window_light_share(w, light));
+                }
+            }
+        }
         scene.materials = toc
             .materials
             .iter()
-            .map(|m| {
+            .zip(&light_share)
+            .map(|(m, &share)| {
                 let u = uniforms::Material {
                     diffuse: [
                         m.diffuse[0],
@@ -555,7 +565,7 @@ impl Scene {
                         m.diffuse_texture.is_some() as u32 as f32,
                     ],
                     specular: [m.specular[0], m.specular[1], m.specular[2], m.shininess],
-                    emissive: [m.emissive[0], m.emissive[1], m.emissive[2], 0.0],
+                    emissive: [m.emissive[0], m.emissive[1], m.emissive[2], share],
                     flags: [
                         uniforms::class_id(m.class),
                         match m.normal_texture {

@@ -9,6 +9,8 @@ use crate::{Scene, shaders};
 /// One geometry pass: its pipelines, and which draws each material class with.
 pub struct GeometryPass {
     label: &'static str,
+    /// How many colour targets (all HDR) its shaders write.
+    targets: usize,
     pipelines: Vec<wgpu::RenderPipeline>,
     /// The index in `pipelines` a class is drawn with; `None`: not drawn in this pass.
     pick: fn(MaterialClass) -> Option<usize>,
@@ -23,18 +25,22 @@ impl GeometryPass {
             layout,
             "pass0 background",
             "background.wgsl",
+            1,
             &["fs_main"],
             |c| (c == MaterialClass::Background).then_some(0),
         )
     }
 
-    /// Pass 1: window colour, everything else black; also lays down the depth passes 2–3 reuse.
+    /// Pass 1: window colour, everything else black; also lays down the depth passes 2–3
+    /// reuse. Its second target is what the god rays blur: the colour times the share of the
+    /// light each window passes.
     pub(crate) fn window_mask(device: &wgpu::Device, layout: &wgpu::PipelineLayout) -> Self {
         Self::new(
             device,
             layout,
             "pass1 window mask",
             "windows.wgsl",
+            2,
             &["fs_main", "fs_occluder"],
             |c| Some(if c.is_window() { 0 } else { 1 }),
         )
@@ -48,6 +54,7 @@ impl GeometryPass {
             layout,
             "pass2 window normals",
             "normals.wgsl",
+            1,
             &["fs_main"],
             |c| c.is_window().then_some(0),
         )
@@ -60,6 +67,7 @@ impl GeometryPass {
             layout,
             "pass3 lit",
             "lit.wgsl",
+            1,
             &["fs_main", "fs_window", "fs_background"],
             |c| {
                 Some(match c {
@@ -78,6 +86,7 @@ impl GeometryPass {
         layout: &wgpu::PipelineLayout,
         label: &'static str,
         shader: &'static str,
+        targets: usize,
         fragments: &[&str],
         pick: fn(MaterialClass) -> Option<usize>,
     ) -> Self {
@@ -87,24 +96,28 @@ impl GeometryPass {
             let module = &module;
             let handles: Vec<_> = fragments
                 .iter()
-                .map(|f| s.spawn(move || geometry_pipeline(device, layout, shader, module, f)))
+                .map(|f| {
+                    s.spawn(move || geometry_pipeline(device, layout, shader, module, f, targets))
+                })
                 .collect();
             handles.into_iter().map(joined).collect()
         });
         Self {
             label,
+            targets,
             pipelines,
             pick,
         }
     }
 
-    /// Draws the scene's ranges this pass takes into `target`, testing against `depth`
-    /// (cleared first when `clear_depth`, else kept from an earlier pass).
+    /// Draws the scene's ranges this pass takes into `targets` (as many as its shaders
+    /// write), testing against `depth` (cleared first when `clear_depth`, else kept from an
+    /// earlier pass).
     #[allow(clippy::too_many_arguments)]
     pub(crate) fn record(
         &self,
         encoder: &mut wgpu::CommandEncoder,
-        target: Colour<'_>,
+        targets: &[Colour<'_>],
         depth: &wgpu::TextureView,
         clear_depth: bool,
         frame: &wgpu::BindGroup,
@@ -123,7 +136,8 @@ impl GeometryPass {
             }),
             stencil_ops: None,
         };
-        let mut rp = begin(encoder, self.label, target, Some(depth), timestamps);
+        debug_assert_eq!(targets.len(), self.targets, "{}", self.label);
+        let mut rp = begin(encoder, self.label, targets, Some(depth), timestamps);
         rp.set_bind_group(0, frame, &[]);
         scene.draw(&mut rp, |c| (self.pick)(c).map(|i| &self.pipelines[i]));
     }
@@ -135,7 +149,9 @@ fn geometry_pipeline(
     shader: &'static str,
     module: &wgpu::ShaderModule,
     fragment: &str,
+    targets: usize,
 ) -> wgpu::RenderPipeline {
+    let formats = vec![Some(wgpu::ColorTargetState::from(HDR)); targets];
     device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
         label: Some(shader),
         layout: Some(layout),
@@ -165,7 +181,7 @@ fn geometry_pipeline(
             module,
             entry_point: Some(fragment),
             compilation_options: Default::default(),
-            targets: &[Some(HDR.into())],
+            targets: &formats,
         }),
         multiview_mask: None,
         cache: None,

@@ -191,25 +191,31 @@ pub(crate) struct Colour<'a> {
     pub clear: wgpu::Color,
 }
 
-/// Begins a render pass into one colour target (cleared, stored) and an optional depth target.
+/// Begins a render pass into colour targets (cleared, stored) and an optional depth target.
 pub(crate) fn begin<'e>(
     encoder: &'e mut wgpu::CommandEncoder,
     label: &str,
-    target: Colour<'_>,
+    targets: &[Colour<'_>],
     depth: Option<wgpu::RenderPassDepthStencilAttachment<'_>>,
     timestamps: Option<wgpu::RenderPassTimestampWrites<'_>>,
 ) -> wgpu::RenderPass<'e> {
+    let attachments: Vec<_> = targets
+        .iter()
+        .map(|t| {
+            Some(wgpu::RenderPassColorAttachment {
+                view: t.view,
+                depth_slice: None,
+                resolve_target: None,
+                ops: wgpu::Operations {
+                    load: wgpu::LoadOp::Clear(t.clear),
+                    store: wgpu::StoreOp::Store,
+                },
+            })
+        })
+        .collect();
     encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
         label: Some(label),
-        color_attachments: &[Some(wgpu::RenderPassColorAttachment {
-            view: target.view,
-            depth_slice: None,
-            resolve_target: None,
-            ops: wgpu::Operations {
-                load: wgpu::LoadOp::Clear(target.clear),
-                store: wgpu::StoreOp::Store,
-            },
-        })],
+        color_attachments: &attachments,
         depth_stencil_attachment: depth,
         timestamp_writes: timestamps,
         occlusion_query_set: None,
@@ -226,7 +232,7 @@ pub(crate) fn draw_fullscreen(
     target: Colour<'_>,
     timestamps: Option<wgpu::RenderPassTimestampWrites<'_>>,
 ) {
-    let mut rp = begin(encoder, label, target, None, timestamps);
+    let mut rp = begin(encoder, label, &[target], None, timestamps);
     rp.set_pipeline(pipeline);
     rp.set_bind_group(0, group, &[]);
     rp.draw(0..3, 0..1);
