@@ -628,6 +628,8 @@ impl Renderer {
                     Some("no windows")
                 } else if light.is_none() {
                     Some("no light")
+                } else if !scene.light_through_windows() {
+                    Some("the light comes in through no window")
                 } else if rays.is_none() {
                     Some("light out of view")
                 } else {

@@ -155,6 +155,8 @@ pub struct Scene {
     /// The windows whose glass sits on an uncut wall, once all geometry is in.
     backings: occlusion::Backings,
     /// Whether opaque geometry reaches beyond a window's plane ([`occlusion::beyond_windows`]).
+    /// Whether the light comes in through any window (its god rays have a source).
+    light_through_windows: bool,
     beyond_windows: bool,
     /// Bumped when the geometry or the light changes: shadow maps drawn before are stale.
     shadow_generation: u64,
@@ -530,6 +532,7 @@ impl Scene {
             window_shadows: vec![WindowShadow::NoLight; toc.windows.len()],
             backings: occlusion::Backings::default(),
             beyond_windows: false,
+            light_through_windows: false,
             shadow_generation: 0,
             status: LoadStatus {
                 geometry_total: toc.meshes.len() as u32 * 2,
@@ -552,6 +555,7 @@ impl Scene {
                 }
             }
         }
+        scene.light_through_windows = light_share.iter().any(|&s| s > 0.0);
         scene.materials = toc
             .materials
             .iter()
@@ -1025,6 +1029,12 @@ impl Scene {
     /// light's direct map; false before the geometry is in.
     pub fn beyond_windows(&self) -> bool {
         self.beyond_windows
+    }
+
+    /// Whether the light comes in through any window: without, the god rays have nothing to
+    /// blur.
+    pub fn light_through_windows(&self) -> bool {
+        self.light_through_windows
     }
 
     /// How far behind window `i`'s glass its uncut wall lies, if it sits on one.
