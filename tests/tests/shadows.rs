@@ -1385,7 +1385,7 @@ fn god_rays_come_only_through_windows_the_light_passes() {
     // The nearest glass is atan(1.5 / 4) = 20.6° off the axis between the windows.
     let between = hall(Vec3::new(-6.0, 2.0, 0.0), 15.0);
     let between = common::load(&gpu, &cook_hall(&between, dir.path()));
-    let mut r = Renderer::headless(&gpu, &between, 96, 64, settings.clone()).unwrap();
+    let mut r = Renderer::headless(&gpu, &between, 96, 64, settings).unwrap();
     let view = r.view_for(&between.toc().cameras[0]);
     let report = r.render(&gpu, &between, &view, TimingMethod::None).unwrap();
     let rays = report.passes.iter().find(|p| p.pass == PassId::GodRays);
