@@ -807,8 +807,9 @@ fn shared_levels(t: &pack::Texture, u: &pack::Texture) -> Option<(usize, usize)>
     }
 }
 
-/// A pack's light in words, every field at full precision, so two that differ read apart.
-fn describe_light(light: Option<&pack::Light>) -> String {
+/// A pack's light in words, every field at full precision, so two that differ read apart
+/// (`diff`; `info` prints it too).
+pub(crate) fn describe_light(light: Option<&pack::Light>) -> String {
     let Some(l) = light else {
         return "no light".into();
     };

@@ -338,6 +338,7 @@ pub fn run(args: Args) -> Outcome {
             w.source_materials.join(", ")
         );
     }
+    println!("light: {}", crate::diff::describe_light(toc.light.as_ref()));
     let [r, g, b] = toc.background.colour;
     let panorama = panorama_name(toc).map_or(String::new(), |name| format!(", panorama {name}"));
     println!("background: colour [{r:.3}, {g:.3}, {b:.3}] (linear){panorama}");

@@ -1572,6 +1572,13 @@ fn an_unedited_init_manifest_cooks_the_bare_cook_s_very_pack() {
                 toml.contains("type = \"spot\"") && toml.contains("outer_cone_deg = "),
                 "{toml}"
             );
+            let o = cooker(&[&"info", &bare]);
+            let said = text(&o.stdout);
+            assert!(
+                said.contains("light: a spot light at [0.0, 6.0, 8.0]")
+                    && said.contains("its cone 11.459156 to 34.37747 degrees"),
+                "{said}"
+            );
         }
         if *model == tiled {
             let toml = std::fs::read_to_string(&scene).unwrap();
