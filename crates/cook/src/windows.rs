@@ -301,9 +301,12 @@ pub fn analyze(
 pub fn light_enters(frame: &pack::Window, light: &LightKind) -> bool {
     faces_light(frame, light)
         && match (light.cone(), light.lamp()) {
-            (Some(cone), Some((position, _))) => {
-                nearest_cos(frame, v3(position), glam::DVec3::from(cone.axis)) > cone.cos_outer
-            }
+            (Some(cone), Some((position, _))) => cone.reaches(
+                position.map(f64::from),
+                frame.origin.map(f64::from),
+                frame.u_axis.map(f64::from),
+                frame.v_axis.map(f64::from),
+            ),
             _ => true,
         }
 }
@@ -316,53 +319,6 @@ pub fn faces_light(frame: &pack::Window, light: &LightKind) -> bool {
         (None, Some((position, _))) => (v3(position) - v3(frame.origin)).dot(n) < 0.0,
         (None, None) => false,
     }
-}
-
-/// The largest cosine between unit `axis` and the way from `at` to a point of the window's
-/// rectangle: 1 where the axis passes through it, else the best of its edges. Along a line
-/// the way from `at` turns through less than a half turn in one plane, so the cosine has at
-/// most one turning point there, and a ternary search with the ends finds its largest.
-pub fn nearest_cos(frame: &pack::Window, at: glam::DVec3, axis: glam::DVec3) -> f64 {
-    let (o, u, v) = (v3(frame.origin), v3(frame.u_axis), v3(frame.v_axis));
-    let cos = |q: glam::DVec3| {
-        let d = q - at;
-        let len = d.length();
-        if len > 0.0 { axis.dot(d) / len } else { 1.0 }
-    };
-    let n = u.cross(v);
-    let along = axis.dot(n);
-    if along.abs() > 1e-300 {
-        let t = (o - at).dot(n) / along;
-        let r = at + axis * t - o;
-        let gram = glam::DMat2::from_cols(
-            glam::DVec2::new(u.dot(u), u.dot(v)),
-            glam::DVec2::new(u.dot(v), v.dot(v)),
-        );
-        if t > 0.0 && gram.determinant().abs() > 1e-300 {
-            let st = gram.inverse() * glam::DVec2::new(r.dot(u), r.dot(v));
-            if st.cmpge(glam::DVec2::ZERO).all() && st.cmple(glam::DVec2::ONE).all() {
-                return 1.0;
-            }
-        }
-    }
-    let corners = [o, o + u, o + u + v, o + v];
-    let mut best = f64::NEG_INFINITY;
-    for k in 0..4 {
-        let (a, b) = (corners[k], corners[(k + 1) % 4]);
-        let at_s = |s: f64| cos(a + (b - a) * s);
-        let (mut lo, mut hi) = (0.0, 1.0);
-        for _ in 0..60 {
-            let m1 = lo + (hi - lo) / 3.0;
-            let m2 = hi - (hi - lo) / 3.0;
-            if at_s(m1) < at_s(m2) {
-                lo = m1;
-            } else {
-                hi = m2;
-            }
-        }
-        best = best.max(at_s(0.0)).max(at_s(0.5 * (lo + hi)));
-    }
-    best
 }
 
 /// Whether light through the window can land on any of `receivers` (triangles of floors,
@@ -637,7 +593,16 @@ mod tests {
         // Aimed sideways along +x: the glass's nearest point, the middle of its edge x = 1,
         // is atan(1 / 0.5) = 63.43° off the axis, so a cone of 64° meets it and 63° does not.
         let w = window();
-        let cos = nearest_cos(&w, v3([0.5, 1.5, -1.0]), glam::DVec3::X);
+        let nearest_cos = |axis: glam::DVec3| {
+            let cone = pack::SpotCone {
+                axis: axis.to_array(),
+                cos_inner: 1.0,
+                cos_outer: 0.0,
+            };
+            let f = |a: [f32; 3]| a.map(f64::from);
+            cone.nearest_cos([0.5, 1.5, -1.0], f(w.origin), f(w.u_axis), f(w.v_axis))
+        };
+        let cos = nearest_cos(glam::DVec3::X);
         assert!((cos - 0.5 / 1.25f64.sqrt()).abs() < 1e-9, "{cos}");
         assert!(light_enters(&w, &spot([1.0, 0.0, 0.0], 64.0)));
         assert!(!light_enters(&w, &spot([1.0, 0.0, 0.0], 63.0)));
@@ -651,7 +616,7 @@ mod tests {
         // Aimed past a corner: the nearest point is the corner (1, 1, 0), not an edge's middle.
         let past = glam::DVec3::new(1.0, -1.0, 1.0).normalize();
         let corner = (glam::DVec3::new(1.0, 1.0, 0.0) - v3([0.5, 1.5, -1.0])).normalize();
-        let cos = nearest_cos(&w, v3([0.5, 1.5, -1.0]), past);
+        let cos = nearest_cos(past);
         assert!((cos - past.dot(corner)).abs() < 1e-9, "{cos}");
     }
 }

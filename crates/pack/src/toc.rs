@@ -464,17 +464,101 @@ impl SpotCone {
         t * t
     }
 
+    /// Whether any light of a spot at `at` passes through the parallelogram
+    /// `origin + s·u + t·v`, s and t in [0, 1] (a window's glass): its point nearest the
+    /// axis ([`SpotCone::nearest_cos`]) lies inside the outer cone.
+    pub fn reaches(&self, at: [f64; 3], origin: [f64; 3], u: [f64; 3], v: [f64; 3]) -> bool {
+        self.nearest_cos(at, origin, u, v) > self.cos_outer
+    }
+
+    /// The largest cosine between the axis and the way from `at` to a point of the
+    /// parallelogram `origin + s·u + t·v`: 1 where the axis passes through it, else the best
+    /// of its edges. Along a line the way from `at` turns through less than a half turn in
+    /// one plane, so the cosine has at most one turning point there, and a ternary search
+    /// with the ends finds its largest.
+    pub fn nearest_cos(&self, at: [f64; 3], origin: [f64; 3], u: [f64; 3], v: [f64; 3]) -> f64 {
+        let axis = self.axis;
+        let cos = |q: [f64; 3]| {
+            let d = sub3(q, at);
+            let len = dot3(d, d).sqrt();
+            if len > 0.0 { dot3(axis, d) / len } else { 1.0 }
+        };
+        let n = cross3(u, v);
+        let along = dot3(axis, n);
+        if along.abs() > 1e-300 {
+            let t = dot3(sub3(origin, at), n) / along;
+            let r = sub3(add3(at, scale3(axis, t)), origin);
+            // (s, t) of the axis's point in the plane, from the Gram matrix of u and v.
+            let (uu, uv, vv) = (dot3(u, u), dot3(u, v), dot3(v, v));
+            let det = uu * vv - uv * uv;
+            if t > 0.0 && det.abs() > 1e-300 {
+                let (ru, rv) = (dot3(r, u), dot3(r, v));
+                let s = (vv * ru - uv * rv) / det;
+                let w = (uu * rv - uv * ru) / det;
+                if (0.0..=1.0).contains(&s) && (0.0..=1.0).contains(&w) {
+                    return 1.0;
+                }
+            }
+        }
+        let corners = [
+            origin,
+            add3(origin, u),
+            add3(add3(origin, u), v),
+            add3(origin, v),
+        ];
+        let mut best = f64::NEG_INFINITY;
+        for k in 0..4 {
+            let (a, b) = (corners[k], corners[(k + 1) % 4]);
+            let at_s = |s: f64| cos(add3(a, scale3(sub3(b, a), s)));
+            let (mut lo, mut hi) = (0.0, 1.0);
+            for _ in 0..60 {
+                let m1 = lo + (hi - lo) / 3.0;
+                let m2 = hi - (hi - lo) / 3.0;
+                if at_s(m1) < at_s(m2) {
+                    lo = m1;
+                } else {
+                    hi = m2;
+                }
+            }
+            best = best.max(at_s(0.0)).max(at_s(0.5 * (lo + hi)));
+        }
+        best
+    }
+
     /// The fraction along `d` (any length; zero gives 0), from the light outwards.
     pub fn towards(&self, d: [f64; 3]) -> f64 {
-        let len = (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt();
+        let len = dot3(d, d).sqrt();
         // Written as a positive test so NaN gives no light.
         if len > 0.0 {
-            let a = self.axis;
-            self.attenuation((a[0] * d[0] + a[1] * d[1] + a[2] * d[2]) / len)
+            self.attenuation(dot3(self.axis, d) / len)
         } else {
             0.0
         }
     }
+}
+
+fn dot3(a: [f64; 3], b: [f64; 3]) -> f64 {
+    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
+}
+
+fn sub3(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
+    [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
+}
+
+fn add3(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
+    [a[0] + b[0], a[1] + b[1], a[2] + b[2]]
+}
+
+fn scale3(a: [f64; 3], k: f64) -> [f64; 3] {
+    [a[0] * k, a[1] * k, a[2] * k]
+}
+
+fn cross3(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
+    [
+        a[1] * b[2] - a[2] * b[1],
+        a[2] * b[0] - a[0] * b[2],
+        a[0] * b[1] - a[1] * b[0],
+    ]
 }
 
 impl LightKind {
@@ -511,7 +595,7 @@ impl LightKind {
                 ..
             } => {
                 let d = direction.map(f64::from);
-                let len = (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt();
+                let len = dot3(d, d).sqrt();
                 (len > 0.0 && len.is_finite()).then(|| SpotCone {
                     axis: d.map(|c| c / len),
                     cos_inner: f64::from(inner).cos(),

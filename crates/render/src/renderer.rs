@@ -736,7 +736,10 @@ impl Renderer {
                     }
                 };
                 slot.tint = tint;
-                slot.params = [layer, projector.is_some() as u32, 0, 0];
+                // A window the light does not come through (a spot's cone misses it) is left
+                // out of the lit pass's loop.
+                let passes = projector.is_some() && scene.window_passes_light(i);
+                slot.params = [layer, passes as u32, 0, 0];
                 if let Some(Some(map)) = self.shadow_layout.windows.get(i) {
                     map_slot(slot, map, view.position);
                     let aperture = projector.and_then(|p| {

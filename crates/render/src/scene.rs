@@ -155,8 +155,8 @@ pub struct Scene {
     /// The windows whose glass sits on an uncut wall, once all geometry is in.
     backings: occlusion::Backings,
     /// Whether opaque geometry reaches beyond a window's plane ([`occlusion::beyond_windows`]).
-    /// Whether the light comes in through any window (its god rays have a source).
-    light_through_windows: bool,
+    /// Per window, whether the light comes in through it (`view::window_passes_light`).
+    window_passes: Vec<bool>,
     beyond_windows: bool,
     /// Bumped when the geometry or the light changes: shadow maps drawn before are stale.
     shadow_generation: u64,
@@ -532,7 +532,7 @@ impl Scene {
             window_shadows: vec![WindowShadow::NoLight; toc.windows.len()],
             backings: occlusion::Backings::default(),
             beyond_windows: false,
-            light_through_windows: false,
+            window_passes: Vec::new(),
             shadow_generation: 0,
             status: LoadStatus {
                 geometry_total: toc.meshes.len() as u32 * 2,
@@ -555,7 +555,15 @@ impl Scene {
                 }
             }
         }
-        scene.light_through_windows = light_share.iter().any(|&s| s > 0.0);
+        scene.window_passes = toc
+            .windows
+            .iter()
+            .map(|w| {
+                toc.light
+                    .as_ref()
+                    .is_some_and(|l| crate::view::window_passes_light(w, l))
+            })
+            .collect();
         scene.materials = toc
             .materials
             .iter()
@@ -1034,7 +1042,12 @@ impl Scene {
     /// Whether the light comes in through any window: without, the god rays have nothing to
     /// blur.
     pub fn light_through_windows(&self) -> bool {
-        self.light_through_windows
+        self.window_passes.iter().any(|&p| p)
+    }
+
+    /// Whether the light comes in through window `i` (a spot's cone may miss it).
+    pub(crate) fn window_passes_light(&self, i: usize) -> bool {
+        self.window_passes.get(i).copied().unwrap_or(false)
     }
 
     /// How far behind window `i`'s glass its uncut wall lies, if it sits on one.

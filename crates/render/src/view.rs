@@ -252,12 +252,26 @@ pub fn projector_frames(toc: &pack::Toc) -> Vec<pack::Window> {
 ///
 /// `None` when the window cannot pass light: a degenerate frame, a point light on the inner
 /// side of (or in) the window plane, or a directional light travelling outwards.
-/// The share of `light` that comes in through window `w`: 0 where it does not pass the
-/// window inwards (the sun behind it, a lamp inside), else 1, or for a spot the mean of its
-/// cone's fall-off over a 5 x 5 grid of the glass. It weighs the window's god rays.
+/// Whether `light` comes in through window `w`: it passes the window inwards (not the sun
+/// behind it, nor a lamp inside), and a spot's cone reaches the glass.
+pub fn window_passes_light(w: &pack::Window, light: &pack::Light) -> bool {
+    if window_projector(w, &LightGeometry::from_light(light)).is_none() {
+        return false;
+    }
+    match (light.kind.cone(), light.kind.lamp()) {
+        (Some(cone), Some((position, _))) => {
+            let f = |a: [f32; 3]| a.map(f64::from);
+            cone.reaches(f(position), f(w.origin), f(w.u_axis), f(w.v_axis))
+        }
+        _ => true,
+    }
+}
+
+/// The share of `light` that comes in through window `w`: 0 where it does not
+/// ([`window_passes_light`]), else 1, or for a spot the mean of its cone's fall-off over a
+/// 5 x 5 grid of the glass. It weighs the window's god rays.
 pub fn window_light_share(w: &pack::Window, light: &pack::Light) -> f32 {
-    let geometry = LightGeometry::from_light(light);
-    if window_projector(w, &geometry).is_none() {
+    if !window_passes_light(w, light) {
         return 0.0;
     }
     let (Some(cone), Some((position, _))) = (light.kind.cone(), light.kind.lamp()) else {
