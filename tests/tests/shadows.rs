@@ -1458,7 +1458,20 @@ fn a_lamp_through_hundreds_of_skylights_matches_the_reference() {
         let size = (160, 90);
         let (px, view) = lit_supersampled(&gpu, &scene, 0, size, no_ambient());
         let mut r = Renderer::headless(&gpu, &scene, 16, 9, no_ambient()).unwrap();
-        r.render(&gpu, &scene, &view, TimingMethod::None).unwrap();
+        // Timed as `viewer --bench` times it: the shadow pass's timestamps bracket all its
+        // layers, and the layers between the first and the last failed wgpu's validation.
+        let report = r
+            .render(&gpu, &scene, &view, TimingMethod::GpuTimestamps)
+            .unwrap();
+        let shadows = report
+            .passes
+            .iter()
+            .find(|p| p.pass == PassId::Shadows)
+            .unwrap();
+        assert!(
+            shadows.skipped.is_none() && shadows.ms.is_some(),
+            "{report:?}"
+        );
         let with_map = r.shadow_layout().windows.iter().flatten().count();
         assert!(with_map >= maps, "{n} x {n}: {with_map} windows with a map");
         let (reference, rs) = hall_reference(&bytes);

@@ -206,8 +206,12 @@ impl ShadowPass {
         };
         let last = maps.layers.len().saturating_sub(1);
         for (i, (view, _, group)) in maps.layers.iter().enumerate() {
+            // Only the first layer's pass writes the start and the last's the end: wgpu refuses
+            // a pass's timestamp writes with neither, so the layers between get none (three
+            // or more layers, a lamp's maps, failed the frame under `--bench`).
             let ts = timestamps
                 .as_ref()
+                .filter(|_| i == 0 || i == last)
                 .map(|t| wgpu::RenderPassTimestampWrites {
                     query_set: t.query_set,
                     beginning_of_pass_write_index: if i == 0 {
