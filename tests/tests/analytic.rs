@@ -365,7 +365,8 @@ fn point_light_falls_off_with_the_inverse_square_and_its_clamp() {
     assert!((reference - 1.0).abs() <= 0.01, "scale {reference}");
 }
 
-/// `god_ray_falloff` averages the clamped inverse square over window centres.
+/// `god_ray_falloff` averages the clamped inverse square over the centres of the windows the
+/// light passes.
 #[test]
 fn god_ray_falloff_matches_hand_computed_values() {
     let window = |origin: [f32; 3], u: [f32; 3], v: [f32; 3]| Window {
@@ -376,28 +377,35 @@ fn god_ray_falloff_matches_hand_computed_values() {
         normal: [0.0, 0.0, 1.0],
         source_materials: Vec::new(),
     };
+    // The light stands 0.5 in front of the windows' plane (z = 0), on their outer side.
     let mut toc = Toc {
         windows: vec![
-            // Centre (0, 0, 0): distance 4 from the light, 1/16.
+            // Centre (0, 0, 0): distance² 16.25 from the light.
             window([-1.0, 1.0, 0.0], [2.0, 0.0, 0.0], [0.0, -2.0, 0.0]),
-            // Centre (0, 4.5, 0): distance 0.5, clamped to the radius 1: 1.
+            // Centre (0, 4.5, 0): distance² 0.5, clamped to the radius 1: 1.
             window([-1.0, 5.0, 0.0], [2.0, 0.0, 0.0], [0.0, -1.0, 0.0]),
         ],
         ..Toc::default()
     };
     let point = LightGeometry::Point {
-        position: Vec3::new(0.0, 4.0, 0.0),
+        position: Vec3::new(0.0, 4.0, -0.5),
         radius: 1.0,
     };
     let f = render::god_ray_falloff(&toc, &point);
-    assert!((f - (1.0 / 16.0 + 1.0) / 2.0).abs() < 1e-6, "{f}");
-    // Without the clamp's help: radius 0.25 leaves the near window at 1 / 0.5² = 4.
+    assert!((f - (1.0 / 16.25 + 1.0) / 2.0).abs() < 1e-6, "{f}");
+    // Without the clamp's help: radius 0.25 leaves the near window at 1 / 0.5 = 2.
     let small = LightGeometry::Point {
-        position: Vec3::new(0.0, 4.0, 0.0),
+        position: Vec3::new(0.0, 4.0, -0.5),
         radius: 0.25,
     };
     let f = render::god_ray_falloff(&toc, &small);
-    assert!((f - (1.0 / 16.0 + 4.0) / 2.0).abs() < 1e-5, "{f}");
+    assert!((f - (1.0 / 16.25 + 2.0) / 2.0).abs() < 1e-5, "{f}");
+    // A window the light stands inside of (its plane z = -1 behind the light, its inner
+    // side towards +z) casts no shafts and is left out of the average.
+    toc.windows
+        .push(window([-1.0, 5.0, -1.0], [2.0, 0.0, 0.0], [0.0, -1.0, 0.0]));
+    let f = render::god_ray_falloff(&toc, &point);
+    assert!((f - (1.0 / 16.25 + 1.0) / 2.0).abs() < 1e-6, "{f}");
     // The sun does not fall off.
     let sun = LightGeometry::Directional { towards: Vec3::Y };
     assert_eq!(render::god_ray_falloff(&toc, &sun), 1.0);

@@ -1129,18 +1129,18 @@ fn map_slot(slot: &mut uniforms::WindowProjector, map: &crate::shadows::WindowMa
     slot.shadow_dir = map.depth_dir.extend(0.0).to_array();
 }
 
-/// A point light's inverse-square falloff where its light enters: averaged over the window
-/// centres, so god rays match the brightness of the light patches they lead to. 1 for the sun.
+/// A point light's inverse-square falloff where its light enters: averaged over the centres
+/// of the windows it passes inwards (the only ones whose god rays shine), so god rays match
+/// the brightness of the light patches they lead to. 1 for the sun, and where the light
+/// passes no window.
 pub fn god_ray_falloff(toc: &pack::Toc, light: &LightGeometry) -> f32 {
     let LightGeometry::Point { position, radius } = *light else {
         return 1.0;
     };
-    if toc.windows.is_empty() {
-        return 1.0;
-    }
-    let sum: f32 = toc
+    let falloffs: Vec<f32> = toc
         .windows
         .iter()
+        .filter(|w| window_projector(w, light).is_some())
         .map(|w| {
             let centre = Vec3::from(w.origin) + (Vec3::from(w.u_axis) + Vec3::from(w.v_axis)) * 0.5;
             1.0 / position
@@ -1148,6 +1148,9 @@ pub fn god_ray_falloff(toc: &pack::Toc, light: &LightGeometry) -> f32 {
                 .max(radius * radius)
                 .max(1e-12)
         })
-        .sum();
-    sum / toc.windows.len() as f32
+        .collect();
+    if falloffs.is_empty() {
+        return 1.0;
+    }
+    falloffs.iter().sum::<f32>() / falloffs.len() as f32
 }
