@@ -155,9 +155,9 @@ pub struct Scene {
     /// The windows whose glass sits on an uncut wall, once all geometry is in.
     backings: occlusion::Backings,
     /// Whether opaque geometry reaches beyond a window's plane ([`occlusion::beyond_windows`]).
+    beyond_windows: bool,
     /// Per window, whether the light comes in through it (`view::window_passes_light`).
     window_passes: Vec<bool>,
-    beyond_windows: bool,
     /// Bumped when the geometry or the light changes: shadow maps drawn before are stale.
     shadow_generation: u64,
     status: LoadStatus,

@@ -245,13 +245,6 @@ pub fn projector_frames(toc: &pack::Toc) -> Vec<pack::Window> {
         .collect()
 }
 
-/// The matrix mapping a world position to `(u·w, v·w, 0, w)` on a window's design as seen
-/// from the light: a perspective projector from a point light's position, an orthographic one
-/// along a directional light. For points on the window `w = 1` and `(u, v)` are the design's
-/// texture coordinates (the `Window` frame's parametrisation).
-///
-/// `None` when the window cannot pass light: a degenerate frame, a point light on the inner
-/// side of (or in) the window plane, or a directional light travelling outwards.
 /// Whether `light` comes in through window `w`: it passes the window inwards (not the sun
 /// behind it, nor a lamp inside), and a spot's cone reaches the glass.
 pub fn window_passes_light(w: &pack::Window, light: &pack::Light) -> bool {
@@ -293,6 +286,13 @@ pub fn window_light_share(w: &pack::Window, light: &pack::Light) -> f32 {
     (sum / 25.0) as f32
 }
 
+/// The matrix mapping a world position to `(u·w, v·w, 0, w)` on a window's design as seen
+/// from the light: a perspective projector from a point light's position, an orthographic one
+/// along a directional light. For points on the window `w = 1` and `(u, v)` are the design's
+/// texture coordinates (the `Window` frame's parametrisation).
+///
+/// `None` when the window cannot pass light: a degenerate frame, a point light on the inner
+/// side of (or in) the window plane, or a directional light travelling outwards.
 pub fn window_projector(w: &pack::Window, light: &LightGeometry) -> Option<Mat4> {
     let o = Vec3::from(w.origin);
     let u_axis = Vec3::from(w.u_axis);
