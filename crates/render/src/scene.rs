@@ -546,15 +546,6 @@ impl Scene {
                 NEXT.fetch_add(1, std::sync::atomic::Ordering::Relaxed)
             },
         };
-        // Per material, the most light any window of it passes (its god rays' weight).
-        let mut light_share = vec![0.0f32; toc.materials.len()];
-        if let Some(light) = &toc.light {
-            for w in &toc.windows {
-                if let Some(s) = light_share.get_mut(w.material as usize) {
-                    *s = s.max(crate::view::window_light_share(w, light));
-                }
-            }
-        }
         scene.window_passes = toc
             .windows
             .iter()
@@ -564,6 +555,15 @@ impl Scene {
                     .is_some_and(|l| crate::view::window_passes_light(w, l))
             })
             .collect();
+        // Per material, the most light any window of it passes (its god rays' weight).
+        let mut light_share = vec![0.0f32; toc.materials.len()];
+        if let Some(light) = &toc.light {
+            for (w, _) in toc.windows.iter().zip(&scene.window_passes).filter(|(_, p)| **p) {
+                if let Some(s) = light_share.get_mut(w.material as usize) {
+                    *s = s.max(crate::view::window_light_share(w, light));
+                }
+            }
+        }
         scene.materials = toc
             .materials
             .iter()

@@ -260,13 +260,10 @@ pub fn window_passes_light(w: &pack::Window, light: &pack::Light) -> bool {
     }
 }
 
-/// The share of `light` that comes in through window `w`: 0 where it does not
-/// ([`window_passes_light`]), else 1, or for a spot the mean of its cone's fall-off over a
-/// 5 x 5 grid of the glass. It weighs the window's god rays.
+/// The share of `light` that comes in through window `w`, one it passes
+/// ([`window_passes_light`]): 1, or for a spot the mean of its cone's fall-off over a 5 x 5
+/// grid of the glass. It weighs the window's god rays.
 pub fn window_light_share(w: &pack::Window, light: &pack::Light) -> f32 {
-    if !window_passes_light(w, light) {
-        return 0.0;
-    }
     let (Some(cone), Some((position, _))) = (light.kind.cone(), light.kind.lamp()) else {
         return 1.0;
     };
