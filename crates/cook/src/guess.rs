@@ -595,11 +595,9 @@ fn best_lamp<'a>(
     let mut best: Option<(f64, ChosenLamp<'a>)> = None;
     for &lamp in lamps {
         let at = DVec3::from(lamp.position.map(f64::from));
-        let cone = lamp.spot.map(|s| pack::SpotCone {
-            axis: s.axis.map(f64::from),
-            cos_inner: f64::from(s.inner).cos(),
-            cos_outer: f64::from(s.outer).cos(),
-        });
+        let cone = lamp
+            .spot
+            .and_then(|s| pack::SpotCone::new(s.axis, s.inner, s.outer));
         let (mut score, mut weight, mut unshared, mut lit) = (0.0, 0.0, 0.0, 0);
         let (mut direction, mut reach_sq, mut nearest) = (DVec3::ZERO, 0.0, f64::INFINITY);
         for w in windows {

@@ -454,6 +454,18 @@ pub struct SpotCone {
 }
 
 impl SpotCone {
+    /// The cone around `axis` (any length; normalized here) of half-angles `inner` and
+    /// `outer` in radians; `None` for an axis of zero or infinite length.
+    pub fn new(axis: [f32; 3], inner: f32, outer: f32) -> Option<Self> {
+        let d = axis.map(f64::from);
+        let len = dot3(d, d).sqrt();
+        (len > 0.0 && len.is_finite()).then(|| SpotCone {
+            axis: d.map(|c| c / len),
+            cos_inner: f64::from(inner).cos(),
+            cos_outer: f64::from(outer).cos(),
+        })
+    }
+
     /// The fraction of the light that leaves along a unit direction whose cosine with the
     /// axis is `cos_angle`: glTF's fall-off, the square of a linear ramp in the cosine from
     /// the outer cone (0) to the inner (1). The ramp's width is kept above 1e-3 as glTF's
@@ -593,15 +605,7 @@ impl LightKind {
                 inner,
                 outer,
                 ..
-            } => {
-                let d = direction.map(f64::from);
-                let len = dot3(d, d).sqrt();
-                (len > 0.0 && len.is_finite()).then(|| SpotCone {
-                    axis: d.map(|c| c / len),
-                    cos_inner: f64::from(inner).cos(),
-                    cos_outer: f64::from(outer).cos(),
-                })
-            }
+            } => SpotCone::new(direction, inner, outer),
             _ => None,
         }
     }
