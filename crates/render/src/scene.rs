@@ -558,7 +558,12 @@ impl Scene {
         // Per material, the most light any window of it passes (its god rays' weight).
         let mut light_share = vec![0.0f32; toc.materials.len()];
         if let Some(light) = &toc.light {
-            for (w, _) in toc.windows.iter().zip(&scene.window_passes).filter(|(_, p)| **p) {
+            for (w, _) in toc
+                .windows
+                .iter()
+                .zip(&scene.window_passes)
+                .filter(|(_, p)| **p)
+            {
                 if let Some(s) = light_share.get_mut(w.material as usize) {
                     *s = s.max(crate::view::window_light_share(w, light));
                 }

@@ -360,60 +360,52 @@ pub fn run(args: Args) -> Outcome {
         for n in &guess.notes {
             let _ = writeln!(t, "# {n}");
         }
-        match l.kind {
-            pack::LightKind::Directional {
-                direction,
-                angular_size,
-            } => {
-                let _ = writeln!(
-                    t,
-                    "[light]\ntype = \"directional\"\ndirection = {}\nangular_size_deg = {}\ncolour = {}\nintensity = {}\n",
-                    exact(
-                        direction,
-                        1,
-                        |d| cook::manifest::light_direction(d.into()).to_array(),
-                        direction
-                    ),
-                    exact1(angular_size.to_degrees(), 2, f32::to_radians, angular_size),
-                    vec3(l.colour),
-                    exact1(l.intensity, 1, |r| r, l.intensity)
-                );
-            }
-            pack::LightKind::Point { position, radius } => {
-                let _ = writeln!(
-                    t,
-                    "[light]\ntype = \"point\"\nposition = {}\nradius = {}\ncolour = {}\nintensity = {}\n",
-                    vec3(position),
-                    exact1(radius, 1, |r| r, radius),
-                    vec3(l.colour),
-                    exact1(l.intensity, 1, |r| r, l.intensity)
-                );
-            }
-            pack::LightKind::Spot {
-                position,
-                radius,
-                direction,
-                inner,
-                outer,
-            } => {
-                let _ = writeln!(
-                    t,
-                    "[light]\ntype = \"spot\"\nposition = {}\nradius = {}\ndirection = {}\ninner_cone_deg = {}\nouter_cone_deg = {}\ncolour = {}\nintensity = {}\n",
-                    vec3(position),
-                    exact1(radius, 1, |r| r, radius),
-                    exact(
-                        direction,
-                        1,
-                        |d| cook::manifest::light_direction(d.into()).to_array(),
-                        direction
-                    ),
-                    exact1(inner.to_degrees(), 2, f32::to_radians, inner),
-                    exact1(outer.to_degrees(), 2, f32::to_radians, outer),
-                    vec3(l.colour),
-                    exact1(l.intensity, 1, |r| r, l.intensity)
-                );
-            }
+        // The fields in the order the manifest documents them: a lamp's position and radius,
+        // the sun's or a spot's direction, the sun's size, a spot's cone.
+        let kind = match l.kind {
+            pack::LightKind::Directional { .. } => "directional",
+            pack::LightKind::Point { .. } => "point",
+            pack::LightKind::Spot { .. } => "spot",
+        };
+        let _ = writeln!(t, "[light]\ntype = \"{kind}\"");
+        if let Some((position, radius)) = l.kind.lamp() {
+            let _ = writeln!(
+                t,
+                "position = {}\nradius = {}",
+                vec3(position),
+                exact1(radius, 1, |r| r, radius)
+            );
         }
+        let direction = match l.kind {
+            pack::LightKind::Directional { direction, .. }
+            | pack::LightKind::Spot { direction, .. } => Some(direction),
+            pack::LightKind::Point { .. } => None,
+        };
+        if let Some(d) = direction {
+            let back = |d: [f32; 3]| cook::manifest::light_direction(d.into()).to_array();
+            let _ = writeln!(t, "direction = {}", exact(d, 1, back, d));
+        }
+        if let Some((_, size)) = l.kind.sun() {
+            let _ = writeln!(
+                t,
+                "angular_size_deg = {}",
+                exact1(size.to_degrees(), 2, f32::to_radians, size)
+            );
+        }
+        if let pack::LightKind::Spot { inner, outer, .. } = l.kind {
+            let _ = writeln!(
+                t,
+                "inner_cone_deg = {}\nouter_cone_deg = {}",
+                exact1(inner.to_degrees(), 2, f32::to_radians, inner),
+                exact1(outer.to_degrees(), 2, f32::to_radians, outer)
+            );
+        }
+        let _ = writeln!(
+            t,
+            "colour = {}\nintensity = {}\n",
+            vec3(l.colour),
+            exact1(l.intensity, 1, |r| r, l.intensity)
+        );
     }
     if let Some(sky) = guess.sky {
         let _ = writeln!(
