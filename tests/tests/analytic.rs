@@ -366,7 +366,7 @@ fn point_light_falls_off_with_the_inverse_square_and_its_clamp() {
 }
 
 /// `god_ray_falloff` averages the clamped inverse square over the centres of the windows the
-/// light passes.
+/// light comes in through.
 #[test]
 fn god_ray_falloff_matches_hand_computed_values() {
     let window = |origin: [f32; 3], u: [f32; 3], v: [f32; 3]| Window {
@@ -387,19 +387,37 @@ fn god_ray_falloff_matches_hand_computed_values() {
         ],
         ..Toc::default()
     };
-    let point = LightGeometry::Point {
-        position: Vec3::new(0.0, 4.0, -0.5),
-        radius: 1.0,
+    let lamp = |kind: LightKind| Light {
+        kind,
+        colour: [1.0; 3],
+        intensity: 1.0,
     };
+    let position = [0.0, 4.0, -0.5];
+    let point = lamp(LightKind::Point {
+        position,
+        radius: 1.0,
+    });
     let f = render::god_ray_falloff(&toc, &point);
     assert!((f - (1.0 / 16.25 + 1.0) / 2.0).abs() < 1e-6, "{f}");
     // Without the clamp's help: radius 0.25 leaves the near window at 1 / 0.5 = 2.
-    let small = LightGeometry::Point {
-        position: Vec3::new(0.0, 4.0, -0.5),
+    let small = lamp(LightKind::Point {
+        position,
         radius: 0.25,
-    };
+    });
     let f = render::god_ray_falloff(&toc, &small);
     assert!((f - (1.0 / 16.25 + 2.0) / 2.0).abs() < 1e-5, "{f}");
+    // A spot aimed at the far window's centre with a 10° cone: the far window (14° from its
+    // centre to its edges' middles) is reached, the near one (135° off the axis) is not, so
+    // the average is the far window's alone.
+    let spot = lamp(LightKind::Spot {
+        position,
+        radius: 1.0,
+        direction: [0.0, -4.0, 0.5],
+        inner: 0.0,
+        outer: 10f32.to_radians(),
+    });
+    let f = render::god_ray_falloff(&toc, &spot);
+    assert!((f - 1.0 / 16.25).abs() < 1e-6, "{f}");
     // A window the light stands inside of (its plane z = -1 behind the light, its inner
     // side towards +z) casts no shafts and is left out of the average.
     toc.windows
@@ -407,8 +425,7 @@ fn god_ray_falloff_matches_hand_computed_values() {
     let f = render::god_ray_falloff(&toc, &point);
     assert!((f - (1.0 / 16.25 + 1.0) / 2.0).abs() < 1e-6, "{f}");
     // The sun does not fall off.
-    let sun = LightGeometry::Directional { towards: Vec3::Y };
-    assert_eq!(render::god_ray_falloff(&toc, &sun), 1.0);
+    assert_eq!(render::god_ray_falloff(&toc, &sun(Vec3::NEG_Y)), 1.0);
     // No window: nothing to average, no falloff.
     toc.windows.clear();
     assert_eq!(render::god_ray_falloff(&toc, &point), 1.0);

@@ -575,8 +575,7 @@ impl Renderer {
         let mut fade = 0.0;
         if let (true, Some(l)) = (windows, light) {
             let geometry = LightGeometry::from_light(l);
-            let colour =
-                Vec3::from(l.colour) * l.intensity * god_ray_falloff(scene.toc(), &geometry);
+            let colour = Vec3::from(l.colour) * l.intensity * god_ray_falloff(scene.toc(), l);
             let (u, f) = god_ray_uniforms(
                 &self.settings.god_rays,
                 view,
@@ -1129,18 +1128,19 @@ fn map_slot(slot: &mut uniforms::WindowProjector, map: &crate::shadows::WindowMa
     slot.shadow_dir = map.depth_dir.extend(0.0).to_array();
 }
 
-/// A point light's inverse-square falloff where its light enters: averaged over the centres
-/// of the windows it passes inwards (the only ones whose god rays shine), so god rays match
-/// the brightness of the light patches they lead to. 1 for the sun, and where the light
-/// passes no window.
-pub fn god_ray_falloff(toc: &pack::Toc, light: &LightGeometry) -> f32 {
-    let LightGeometry::Point { position, radius } = *light else {
+/// A lamp's inverse-square falloff where its light enters: averaged over the centres of the
+/// windows it comes in through (`view::window_passes_light`, the only ones whose god rays
+/// shine; for a spot, those its cone reaches), so god rays match the brightness of the light
+/// patches they lead to. 1 for the sun, and where the light passes no window.
+pub fn god_ray_falloff(toc: &pack::Toc, light: &pack::Light) -> f32 {
+    let Some((position, radius)) = light.kind.lamp() else {
         return 1.0;
     };
+    let position = Vec3::from(position);
     let falloffs: Vec<f32> = toc
         .windows
         .iter()
-        .filter(|w| window_projector(w, light).is_some())
+        .filter(|w| crate::view::window_passes_light(w, light))
         .map(|w| {
             let centre = Vec3::from(w.origin) + (Vec3::from(w.u_axis) + Vec3::from(w.v_axis)) * 0.5;
             1.0 / position

@@ -228,8 +228,7 @@ pub fn sweep(cfg: &GodRayConfig, progress: &mut dyn FnMut(&str)) -> Result<GodRa
         .max()
         .unwrap_or(0) as f64;
 
-    let colour =
-        Vec3::from(light.colour) * light.intensity * render::god_ray_falloff(&toc, &geometry);
+    let colour = Vec3::from(light.colour) * light.intensity * render::god_ray_falloff(&toc, light);
     let (mut u, _) = god_ray_uniforms(&max_gpu, &view, &geometry, colour, 0);
     u.samples = REFERENCE_SAMPLES;
     let ref_rays = god_rays_reference(&u, &mask, w as usize, h as usize, w as usize, h as usize);
