@@ -962,3 +962,47 @@ fn a_texture_over_common_gpu_limits_is_named() {
         );
     }
 }
+
+/// One glass material in windows at two heights: each window's class comes from its sill, and
+/// the tagging note says so per window, as the pack has it (it said the material's class).
+#[test]
+fn the_tagging_note_gives_each_window_its_own_class() {
+    let dir = tempfile::tempdir().unwrap();
+    let (mut obj, mtl) = cook::testing::hall_on_open_ground(20.0);
+    // A high window on the east wall of the 4-high hall, after the hall's nine quads.
+    obj += "usemtl glass\nv 4.99 3 -1\nv 4.99 3 1\nv 4.99 3.8 1\nv 4.99 3.8 -1\nf 37 38 39 40\n";
+    std::fs::write(dir.path().join("hall.obj"), obj).unwrap();
+    std::fs::write(dir.path().join("hall.mtl"), mtl).unwrap();
+    let (out, pack) = cook_to_pack(&Manifest::open(&dir.path().join("hall.obj")).unwrap());
+    let glass: Vec<_> = out
+        .report
+        .heuristics
+        .iter()
+        .filter(|h| h.names.contains("glass"))
+        .collect();
+    assert_eq!(glass.len(), 1, "{:?}", out.report.heuristics);
+    let classes = class_triangles(&pack);
+    let class_of = |name: &str| {
+        classes
+            .iter()
+            .find(|c| c.0 == name)
+            .unwrap_or_else(|| panic!("no material {name:?} in {classes:?}"))
+            .1
+    };
+    let noted = &glass[0].materials;
+    assert_eq!(noted.len(), 5, "{noted:?}");
+    for (name, class) in noted {
+        assert_eq!(*class, class_of(name), "{name}");
+    }
+    let count = |c: MaterialClass| noted.iter().filter(|m| m.1 == c).count();
+    assert_eq!(
+        (count(MaterialClass::WindowLower), count(MaterialClass::WindowUpper)),
+        (4, 1)
+    );
+    assert_eq!(glass[0].classes(), "window-lower and window-upper");
+    assert!(
+        glass[0].tagged().starts_with("window-lower and window-upper as 5 windows ("),
+        "{}",
+        glass[0].tagged()
+    );
+}

@@ -37,6 +37,11 @@ pub fn cook(manifest: &Manifest, settings: &Settings) -> Result<CookOutput, Cook
     // From here on the manifest's cameras and light are in the scene's shifted frame.
     let framed = manifest.shifted(prepared.shift);
     let manifest = &*framed;
+    report.heuristics = heuristic_notes(
+        &prepared.imported,
+        &prepared.tagging,
+        &prepared.tri_material,
+    );
     for src in &mut prepared.imported {
         src.release_parts();
     }
@@ -104,7 +109,7 @@ pub fn cook(manifest: &Manifest, settings: &Settings) -> Result<CookOutput, Cook
         .zip(imported.par_iter())
         .map(|(d, src)| mesh::optimize(d, src, &mesh_needs, &settings.mesh))
         .collect();
-    record_sources(&manifest, &imported, &tagging, &mut report);
+    record_sources(&manifest, &imported, &mut report);
     prune::unused_materials(
         &manifest,
         &found.replaced,
@@ -454,13 +459,8 @@ fn with_guesses<'a>(
     Cow::Owned(m)
 }
 
-/// Records the files read so far, the importers' warnings and the tagging guesses.
-fn record_sources(
-    manifest: &Manifest,
-    imported: &[import::Imported],
-    tagging: &tag::Tagging,
-    report: &mut Report,
-) {
+/// Records the files read so far and the importers' warnings.
+fn record_sources(manifest: &Manifest, imported: &[import::Imported], report: &mut Report) {
     report.inputs.push(manifest.path.clone());
     for s in imported {
         report.warnings.extend(s.warnings.iter().cloned());
@@ -470,7 +470,6 @@ fn record_sources(
     }
     report.absent.sort();
     report.absent.dedup();
-    report.heuristics = heuristic_notes(imported, tagging);
 }
 
 /// Each window's projector frame, facing the side the window stage chose, and per material
@@ -640,20 +639,39 @@ fn floor_height(tagging: &tag::Tagging, processed: &[mesh::Processed]) -> Option
 pub(crate) fn heuristic_notes(
     sources: &[import::Imported],
     tagging: &tag::Tagging,
+    tri_material: &[Vec<u16>],
 ) -> Vec<HeuristicNote> {
     let mut notes = Vec::new();
     for (si, src) in sources.iter().enumerate() {
+        let noted: Vec<bool> = tagging.decisions[si].iter().map(|d| !d.is_rule()).collect();
+        if !noted.contains(&true) {
+            continue;
+        }
+        // Per part, the pack materials its triangles went to: the window stage moves glass
+        // into a material per window.
+        let mut went: Vec<Vec<u16>> = vec![Vec::new(); noted.len()];
+        for (&p, &m) in src.tri_part.iter().zip(&tri_material[si]) {
+            let w = &mut went[p as usize];
+            if noted[p as usize] && !w.contains(&m) {
+                w.push(m);
+            }
+        }
         let counts = src.part_triangles();
         for (pi, d) in tagging.decisions[si].iter().enumerate() {
-            if d.is_rule() || counts[pi] == 0 {
+            if !noted[pi] || counts[pi] == 0 {
                 continue;
             }
-            let m = &tagging.materials[tagging.part_material[si][pi] as usize].material;
+            went[pi].sort_unstable();
             notes.push(HeuristicNote {
                 source: src.path.clone(),
                 names: src.parts[pi].names.describe(),
-                material: m.name.clone(),
-                class: m.class,
+                materials: went[pi]
+                    .iter()
+                    .map(|&m| {
+                        let m = &tagging.materials[m as usize].material;
+                        (m.name.clone(), m.class)
+                    })
+                    .collect(),
                 keyword: match d {
                     tag::Decision::Heuristic { keyword, .. } => Some(keyword),
                     _ => None,

@@ -35,14 +35,46 @@ pub struct QuantizationError {
 pub struct HeuristicNote {
     pub source: PathBuf,
     pub names: String,
-    pub material: String,
-    pub class: pack::MaterialClass,
+    /// The pack materials its triangles went to, with their classes: one, or each window its
+    /// glass became (a window's class is decided by its sill).
+    pub materials: Vec<(String, pack::MaterialClass)>,
     /// The name keyword that decided, if a name did.
     pub keyword: Option<&'static str>,
     /// Why: the keyword, the material property or the geometry that decided, or that nothing
     /// matched.
     pub reason: String,
     pub triangles: usize,
+}
+
+impl HeuristicNote {
+    /// Its classes, in the order first met: `window-lower`, `window-lower and window-upper`.
+    pub fn classes(&self) -> String {
+        let mut classes: Vec<pack::MaterialClass> = Vec::new();
+        for (_, c) in &self.materials {
+            if !classes.contains(c) {
+                classes.push(*c);
+            }
+        }
+        let words: Vec<String> = classes.iter().map(|c| c.to_string()).collect();
+        words.join(" and ")
+    }
+
+    /// What it was tagged: `wall as material "Stone"`, or `window-lower as 3 windows
+    /// ("Glass#1", "Glass#2", "Glass#3")`.
+    pub fn tagged(&self) -> String {
+        match &self.materials[..] {
+            [(name, class)] => format!("{class} as material {name:?}"),
+            many => {
+                let names: Vec<&str> = many.iter().map(|(n, _)| n.as_str()).collect();
+                format!(
+                    "{} as {} windows ({})",
+                    self.classes(),
+                    many.len(),
+                    few_names(&names)
+                )
+            }
+        }
+    }
 }
 
 /// More than this many things skipped for one reason are one line of the report, naming

@@ -151,11 +151,11 @@ pub fn validate_scene_with(
     let manifest = &*framed;
 
     // Tagging.
-    let untagged = crate::pipeline::heuristic_notes(&sources, &tagging);
+    let untagged = crate::pipeline::heuristic_notes(&sources, &tagging, &tri_material);
     let untagged_tris: usize = untagged.iter().map(|n| n.triangles).sum();
     let untagged_names: Vec<String> = untagged
         .iter()
-        .map(|n| format!("{} ({} → {})", n.names, n.reason, n.class))
+        .map(|n| format!("{} ({} → {})", n.names, n.reason, n.classes()))
         .collect();
     if untagged_tris > 0 {
         v.add(

@@ -2,7 +2,7 @@
 //! [--position-bits 16|10|8]]`
 
 use std::io::IsTerminal;
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
 
 use anyhow::Context;
@@ -132,12 +132,50 @@ fn supercompression(s: &str) -> Result<pack::Supercompression, String> {
         .ok_or_else(|| format!("{s:?} is not one of zstd, none"))
 }
 
+/// Refuses an output that is one of the cook's inputs, by whatever path or hard link: the
+/// rename would replace the model, manifest or image the pack is cooked from.
+pub fn refuse_overwriting_an_input<'a>(
+    output: &Path,
+    inputs: impl IntoIterator<Item = &'a Path>,
+) -> anyhow::Result<()> {
+    if let Some(input) = inputs.into_iter().find(|i| same_file(output, i)) {
+        return Err(crate::exit::UsageError(format!(
+            "-o {} is {}, an input of this command; refusing to replace it",
+            output.display(),
+            input.display()
+        ))
+        .into());
+    }
+    Ok(())
+}
+
+/// Whether two paths name one existing file.
+pub fn same_file(a: &Path, b: &Path) -> bool {
+    let (Ok(ma), Ok(mb)) = (std::fs::metadata(a), std::fs::metadata(b)) else {
+        return false;
+    };
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::MetadataExt;
+        ma.dev() == mb.dev() && ma.ino() == mb.ino()
+    }
+    #[cfg(not(unix))]
+    {
+        let _ = (ma, mb);
+        matches!(
+            (std::fs::canonicalize(a), std::fs::canonicalize(b)),
+            (Ok(x), Ok(y)) if x == y
+        )
+    }
+}
+
 fn ms(d: Duration) -> String {
     format!("{:.2} ms", d.as_secs_f64() * 1e3)
 }
 
 pub fn run(args: Args) -> Outcome {
     let start = Instant::now();
+    refuse_overwriting_an_input(&args.output, [args.input.as_path()])?;
     let manifest = Manifest::open(&args.input)?;
     let mut settings = args.settings.resolve(&manifest)?;
     // ACMR and overfetch are only printed with -v.
@@ -213,6 +251,7 @@ pub fn run(args: Args) -> Outcome {
     }
     let out = result?;
     let report = &out.report;
+    refuse_overwriting_an_input(&args.output, report.inputs.iter().map(|p| p.as_path()))?;
     let mut transcript = Transcript::default();
     for w in &report.warnings {
         transcript.message(Stream::Err, format!("warning: {w}"));
@@ -224,12 +263,11 @@ pub fn run(args: Args) -> Outcome {
         transcript.message(
             Stream::Err,
             format!(
-                "note: {}: {} triangles with {} tagged {} as material {:?} ({})",
+                "note: {}: {} triangles with {} tagged {} ({})",
                 h.source.display(),
                 h.triangles,
                 h.names,
-                h.class,
-                h.material,
+                h.tagged(),
                 h.reason
             ),
         );

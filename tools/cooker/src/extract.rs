@@ -27,6 +27,7 @@ pub struct Args {
 /// projector's colour is premultiplied by its coverage), the linear `n·0.5 + 0.5` encoding for
 /// `normal` textures (Z rebuilt for two-channel BC5).
 pub fn run(args: Args) -> Outcome {
+    crate::cook::refuse_overwriting_an_input(&args.output, [args.pack.as_path()])?;
     let pack = Pack::open(&args.pack)?;
     let toc = pack.toc();
     let Some(index) = toc.textures.iter().position(|t| t.name == args.texture) else {

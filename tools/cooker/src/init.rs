@@ -126,6 +126,15 @@ pub fn run(args: Args) -> Outcome {
     let mut settings = cook::Settings::new(&manifest);
     args.model.apply(&mut settings);
     let prepared = cook::prepare(&manifest, &settings, &mut report)?;
+    // --force replaces a manifest, never the model it describes.
+    crate::cook::refuse_overwriting_an_input(
+        &output,
+        prepared
+            .imported
+            .iter()
+            .flat_map(|s| std::iter::once(&s.path).chain(&s.files))
+            .map(|p| p.as_path()),
+    )?;
     let guess = cook::guess::guess(&prepared);
     for w in prepared
         .imported

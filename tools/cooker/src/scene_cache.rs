@@ -168,6 +168,13 @@ pub fn lookup(
         Ok(h) => h,
         Err(why) => return Reuse::Cook(why),
     };
+    // The cook refuses such an output; the cached pack must not slip past that.
+    if let Some(rel) = inputs
+        .iter()
+        .find(|rel| crate::cook::same_file(output, &scene_dir(manifest).join(rel)))
+    {
+        return Reuse::Cook(format!("the output is the input {}", rel.display()));
+    }
     let result_key = result_key(key, &hashed);
     let result = match cache.get(&result_key) {
         Lookup::Hit(b) => b,

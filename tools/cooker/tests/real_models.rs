@@ -1760,6 +1760,12 @@ fn a_z_up_export_cooks_with_up_z_like_the_y_up_model() {
     };
     let (toml, z_init) = from_init(&z_obj, "z");
     assert!(toml.contains("rotate_deg = [-90.0, 0.0, 0.0]"), "{toml}");
+    // The manifest's quarter turn is `--up z`'s to the bit: the bare cook's very pack (the
+    // turn by quaternion moved vertices by 1e-6 and broke ties between window colours).
+    assert!(
+        std::fs::read(z_dir.join("scene.pack")).unwrap() == std::fs::read(&z_pack).unwrap(),
+        "init --up z's manifest cooks to another pack than cook --up z"
+    );
     let (_, y_init) = from_init(&obj, "y");
     let lit = |v: &Value| -> Vec<Value> {
         windows(v)

@@ -435,18 +435,35 @@ fn first_view(scene: &Scene, renderer: &Renderer) -> View {
     }
 }
 
-fn file_name(camera: &str) -> String {
-    let s: String = camera
-        .chars()
-        .map(|c| {
-            if c.is_ascii_alphanumeric() || c == '-' || c == '_' {
-                c
-            } else {
-                '_'
+/// Each camera's image file stem: its name with letters and digits kept (in any script:
+/// "Вид" and "Пол" were both "___"), other characters `_`, and `_2`, `_3` … after a stem an
+/// earlier camera took (compared without case, as Windows and macOS file systems do).
+fn file_names<'a>(cameras: impl IntoIterator<Item = &'a str>) -> Vec<String> {
+    let mut taken = std::collections::HashSet::new();
+    cameras
+        .into_iter()
+        .map(|camera| {
+            let s: String = camera
+                .chars()
+                .map(|c| {
+                    let kept = if c.is_ascii() {
+                        c.is_ascii_alphanumeric() || c == '-' || c == '_'
+                    } else {
+                        c.is_alphanumeric()
+                    };
+                    if kept { c } else { '_' }
+                })
+                .collect();
+            let stem = if s.is_empty() { "camera".to_string() } else { s };
+            let mut name = stem.clone();
+            let mut n = 1;
+            while !taken.insert(name.to_lowercase()) {
+                n += 1;
+                name = format!("{stem}_{n}");
             }
+            name
         })
-        .collect();
-    if s.is_empty() { "camera".into() } else { s }
+        .collect()
 }
 
 fn print_report(
@@ -686,14 +703,14 @@ fn main() -> Result<()> {
     }
     std::fs::create_dir_all(&args.out)
         .with_context(|| format!("creating {}", args.out.display()))?;
-    for (name, view) in &views {
+    let stems = file_names(views.iter().map(|(n, _)| n.as_str()));
+    for ((name, view), stem) in views.iter().zip(&stems) {
         if args.passes {
             // The shadow-map view is drawn with the maps: kept from a frame drawn at another
             // size (the preview), it was black.
             renderer.invalidate_shadow_maps();
         }
         let report = renderer.render(&gpu, &scene, view, TimingMethod::None)?;
-        let stem = file_name(name);
         let path = args.out.join(format!("{stem}.png"));
         renderer
             .read_output(&gpu)?
@@ -735,4 +752,26 @@ fn main() -> Result<()> {
     }
     println!("images are in {}", args.out.display());
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::file_names;
+
+    #[test]
+    fn camera_file_names_keep_letters_and_never_collide() {
+        assert_eq!(
+            file_names(["nave", "Вид", "Пол", "Camera.001", "Camera_001", "CAMERA_001", ""]),
+            [
+                "nave",
+                "Вид",
+                "Пол",
+                "Camera_001",
+                "Camera_001_2",
+                "CAMERA_001_3",
+                "camera"
+            ]
+        );
+        assert_eq!(file_names(["a/b", "a:b", "正面 视图"]), ["a_b", "a_b_2", "正面_视图"]);
+    }
 }

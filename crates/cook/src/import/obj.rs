@@ -41,6 +41,9 @@ pub fn import(path: &Path, given: Option<text::TextEncoding>) -> Result<Imported
     parse_with(path, &bytes, given)
 }
 
+/// What Notepad and some Windows exporters put before a UTF-8 file's first statement.
+const UTF8_BOM: &[u8] = b"\xEF\xBB\xBF";
+
 /// UTF-16 (what some Windows tools save) would parse as a stream of unknown statements and
 /// cook to nothing; says what it is instead. `start`: `bytes` begin the file.
 fn not_text(path: &Path, bytes: &[u8], start: bool) -> Option<CookError> {
@@ -1173,7 +1176,7 @@ pub fn parse_with(
     bytes: &[u8],
     given: Option<text::TextEncoding>,
 ) -> Result<Imported, CookError> {
-    let joined = with_lines_joined(bytes);
+    let joined = with_lines_joined(bytes.strip_prefix(UTF8_BOM).unwrap_or(bytes));
     let bytes = &joined[..];
     if bytes.len() >= PARALLEL_BYTES {
         parse_chunked(path, bytes, CHUNK_BYTES, given)
@@ -1441,6 +1444,9 @@ fn parse_stream(
     let mut block: Vec<u8> = Vec::with_capacity(room);
     let mut next: Vec<u8> = Vec::with_capacity(room);
     let mut end = fill(reader, &mut block).map_err(io)?;
+    if block.starts_with(UTF8_BOM) {
+        block.drain(..UTF8_BOM.len());
+    }
     // The bytes of `block` already checked: a line carried over, or read on, is not checked
     // again (a file of one long line would be, block after block).
     let mut checked = 0;
@@ -2063,8 +2069,9 @@ fn mtl_transmission(m: &tobj::Material) -> super::Transmission {
 /// An MTL library as tobj can read it, every line checked here first so that a bad value is
 /// an error naming its line (tobj's names none, and panicked on a one-value colour) and the
 /// forms real files use read as they mean:
-/// - colours (`Ka`, `Kd`, `Ks`, `Ke`) of one value are grey, `xyz` ones are converted to
-///   linear sRGB, `spectral` ones (a curve in another file) are dropped with a warning;
+/// - colours (`Ka`, `Kd`, `Ks`, `Ke`, the transmission filter `Tf`) of one value are grey,
+///   `xyz` ones are converted to linear sRGB, `spectral` ones (a curve in another file) are
+///   dropped with a warning;
 /// - `d -halo f` is `d f`; keywords in another case (`map_kd`, `KD`) are the keywords;
 /// - text that is not UTF-8 has been decoded by the caller ([`text::decode_file`]).
 ///
@@ -2106,7 +2113,7 @@ fn clean_mtl(
                 .collect()
         };
         let cleaned = match key {
-            "Ka" | "Kd" | "Ks" | "Ke" => {
+            "Ka" | "Kd" | "Ks" | "Ke" | "Tf" => {
                 let (space, values) = match rest.split_once(char::is_whitespace) {
                     Some(("xyz", v)) => ("xyz", v),
                     Some(("spectral", _)) => ("spectral", ""),
@@ -2136,7 +2143,7 @@ fn clean_mtl(
                     format!("{key} {} {} {}", c[0], c[1], c[2])
                 }
             }
-            "Ns" | "Ni" | "d" => {
+            "Ns" | "Ni" | "d" | "Tr" => {
                 let value = if key == "d" {
                     rest.strip_prefix("-halo").map_or(rest, str::trim_start)
                 } else {
@@ -2341,7 +2348,7 @@ fn load_mtllib(
             source,
         })?;
         let (mtl_text, decoded) =
-            text::decode_file(bytes.strip_prefix(b"\xEF\xBB\xBF").unwrap_or(&bytes), given);
+            text::decode_file(bytes.strip_prefix(UTF8_BOM).unwrap_or(&bytes), given);
         if let Some(how) = decoded.describe() {
             out.warnings.push(Warning::new(&mtl, None, how));
         }
@@ -2386,7 +2393,6 @@ fn load_mtllib(
                         ),
                     ));
                 }
-                transforms.push((what.to_string(), statement.offset, statement.scale));
                 // The parsed name, else the whole rest or one of its words.
                 // A library that is not UTF-8 names files in its encoding: on disk they may
                 // be named by those bytes (unpacked from a Windows archive) or in Unicode.
@@ -2403,14 +2409,18 @@ fn load_mtllib(
                         find_file(&mtl_dir, &raw, given, noted).0.pop()
                     });
                 match file {
-                    Some(f) => Some(ImageRef::File(f)),
+                    Some(f) => {
+                        // Only a texture read places the coordinates.
+                        transforms.push((what.to_string(), statement.offset, statement.scale));
+                        Some(ImageRef::File(f))
+                    }
                     None => {
                         let w = Warning::new(
                             &mtl,
                             line,
                             format!(
-                                "{what} {name:?} of material {:?} not found; ignored",
-                                m.name
+                                "{what} {:?} of material {:?} not found; ignored",
+                                statement.file, m.name
                             ),
                         );
                         missing_textures.push((m.name.clone(), w));
@@ -2423,15 +2433,15 @@ fn load_mtllib(
                 "diffuse texture",
                 line_of(TextureKey::Diffuse),
             );
-            let normal_name = m
-                .normal_texture
-                .clone()
-                .or_else(|| m.unknown_param.get("norm").cloned());
-            let normal_line = match m.normal_texture {
-                Some(_) => line_of(TextureKey::Bump),
-                None => line_of(TextureKey::Norm),
-            };
-            let normal_texture = texture(&normal_name, NORMAL_MAP, normal_line);
+            // A bump statement first, as tobj reads it; a `norm` where its file is missing.
+            let normal_texture = texture(&m.normal_texture, NORMAL_MAP, line_of(TextureKey::Bump))
+                .or_else(|| {
+                    texture(
+                        &m.unknown_param.get("norm").cloned(),
+                        NORMAL_MAP,
+                        line_of(TextureKey::Norm),
+                    )
+                });
             // One set of coordinates serves both maps: the design's placement wins.
             let placed: Vec<_> = transforms
                 .iter()
@@ -2665,9 +2675,28 @@ mod tests {
         assert_eq!(materials[1].diffuse, Some([1.0, 0.0, 0.5]));
         assert_eq!(materials[1].diffuse_texture.as_deref(), Some("a.png"));
         assert_eq!(materials[1].illumination_model, Some(4));
+        // The transmission filter reads as the colours do.
+        let mut tf_warnings = Vec::new();
+        let text = "newmtl g\ntf spectral glass.rfl 1.0\nnewmtl h\nTf xyz 0.5\nTr 0.25\n";
+        let (cleaned, _) = clean_mtl(path, text, &mut tf_warnings).unwrap();
+        assert_eq!(
+            cleaned,
+            "newmtl g\n\nnewmtl h\nTf 0.5 0.5 0.5\nTr 0.25\n",
+            "{tf_warnings:?}"
+        );
+        assert_eq!(tf_warnings.len(), 1);
+        assert!(
+            tf_warnings[0].to_string().contains("m.mtl:2")
+                && tf_warnings[0].to_string().contains("Tf spectral"),
+            "{tf_warnings:?}"
+        );
         for (bad, line, what) in [
             ("newmtl a\nKd 0.5 x 1\n", 2, "Kd wants 1 or 3 numbers"),
             ("newmtl a\n\nNs high\n", 3, "Ns wants a number"),
+            // Half a colour is not a grey, and decimal commas are not numbers.
+            ("newmtl a\nTf 0.9 abc 0.1\n", 2, "Tf wants 1 or 3 numbers"),
+            ("newmtl a\nTf 0,9 0,1 0,1\n", 2, "Tf wants 1 or 3 numbers"),
+            ("newmtl a\nd 1\nTr 0,5\n", 3, "Tr wants a number"),
             (
                 "newmtl a\nillum 2.5\n",
                 2,
@@ -2832,6 +2861,43 @@ mod tests {
             m.warnings.iter().any(|w| w.to_string().contains(
                 "m.mtl:2: diffuse texture of material \"glass\": options -cc not applied"
             )),
+            "{:?}",
+            m.warnings
+        );
+    }
+
+    /// A missing bump map leaves the material's `norm` map in use, its placement does not
+    /// move the coordinates, and the warning names the file without its options.
+    #[test]
+    fn a_missing_bump_map_falls_back_to_norm() {
+        let dir = tempfile::tempdir().unwrap();
+        std::fs::create_dir(dir.path().join("Textures")).unwrap();
+        image::RgbaImage::from_pixel(2, 2, image::Rgba([128, 128, 255, 255]))
+            .save(dir.path().join("Textures/stone.png"))
+            .unwrap();
+        std::fs::write(
+            dir.path().join("m.mtl"),
+            "newmtl stone\nmap_Bump -s 4 4 1 -bm 2 gone.png\nnorm Textures/stone.png\n",
+        )
+        .unwrap();
+        let obj = dir.path().join("m.obj");
+        std::fs::write(
+            &obj,
+            "mtllib m.mtl\nv 0 0 0\nv 1 0 0\nv 1 1 0\nvt 0 0\nvt 1 0\nvt 1 1\n\
+             usemtl stone\nf 1/1 2/2 3/3\n",
+        )
+        .unwrap();
+        let m = import(&obj, None).unwrap();
+        assert_eq!(
+            m.materials[0].normal_texture,
+            Some(ImageRef::File(dir.path().join("Textures/stone.png")))
+        );
+        // `vt 1 0` as written (v is stored flipped), not scaled by the missing map's `-s 4`.
+        assert_eq!(m.uvs[m.corners.get(1).t as usize], [1.0, 1.0]);
+        assert!(
+            m.warnings.iter().any(|w| w
+                .to_string()
+                .contains("m.mtl:2: normal map \"gone.png\" of material \"stone\" not found")),
             "{:?}",
             m.warnings
         );
@@ -3298,6 +3364,28 @@ mod tests {
 
     fn parse_str(s: &str) -> Result<Imported, CookError> {
         parse(Path::new("test.obj"), s.as_bytes())
+    }
+
+    /// Notepad's byte-order mark before the first statement (`mtllib`, often) is not part of
+    /// it, read whole or streamed.
+    #[test]
+    fn a_utf8_byte_order_mark_is_skipped() {
+        let text = "o pane\nv 0 0 0\nv 1 0 0\nv 1 1 0\nusemtl Glass\nf 1 2 3\n";
+        let with_bom = format!("\u{feff}{text}");
+        let m = parse_str(&with_bom).unwrap();
+        assert_eq!(m.triangle_count(), 1);
+        let unknown = |m: &Imported| {
+            m.warnings
+                .iter()
+                .filter(|w| w.to_string().contains("unknown statement"))
+                .count()
+        };
+        assert_eq!(unknown(&m), 0, "{:?}", m.warnings);
+        assert_eq!(m.parts[0].names.object.as_deref(), Some("pane"));
+        assert_eq!(summary(Ok(m)), summary(parse_str(text)));
+        let streamed = streamed_imported(&with_bom, 16, 64);
+        assert_eq!(unknown(&streamed), 0, "{:?}", streamed.warnings);
+        assert_eq!(summary(Ok(streamed)), summary(parse_str(text)));
     }
 
     #[test]

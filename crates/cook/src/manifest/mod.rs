@@ -120,15 +120,55 @@ pub struct MeshSource {
 }
 
 impl MeshSource {
-    /// Scale, then rotate (XYZ Euler, degrees), then translate.
+    /// Scale, then rotate (XYZ Euler, degrees), then translate. Quarter turns (every angle a
+    /// multiple of 90°) have exact entries, as `--up z`'s turn does: `cooker init` writes that
+    /// turn as `rotate_deg = [-90, 0, 0]`, which must move coordinates, not round them (the
+    /// sines and cosines of a quaternion's half angles put 1e-7 where 0 belongs).
     pub fn transform(&self) -> glam::Mat4 {
+        let scale = glam::Vec3::from(self.scale);
+        let translate = glam::Vec3::from(self.translate);
+        if let Some(turn) = quarter_turns(self.rotate_deg) {
+            let mut m = turn * glam::Mat4::from_scale(scale);
+            m.w_axis = translate.extend(1.0);
+            return m;
+        }
         let r = self.rotate_deg.map(f32::to_radians);
         glam::Mat4::from_scale_rotation_translation(
-            glam::Vec3::from(self.scale),
+            scale,
             glam::Quat::from_euler(glam::EulerRot::XYZ, r[0], r[1], r[2]),
-            glam::Vec3::from(self.translate),
+            translate,
         )
     }
+}
+
+/// The XYZ Euler rotation of `degrees` with exact entries (0 and ±1), where every angle is a
+/// whole number of quarter turns; `None` otherwise.
+fn quarter_turns(degrees: [f32; 3]) -> Option<glam::Mat4> {
+    let exact = |d: f32| -> Option<(f32, f32)> {
+        let q = d / 90.0;
+        if !(q.is_finite() && q.fract() == 0.0) {
+            return None;
+        }
+        // (sin, cos) of q quarter turns.
+        Some(match (q as i64).rem_euclid(4) {
+            0 => (0.0, 1.0),
+            1 => (1.0, 0.0),
+            2 => (0.0, -1.0),
+            _ => (-1.0, 0.0),
+        })
+    };
+    let [(sx, cx), (sy, cy), (sz, cz)] = [
+        exact(degrees[0])?,
+        exact(degrees[1])?,
+        exact(degrees[2])?,
+    ];
+    let x = glam::Mat3::from_cols_array(&[1.0, 0.0, 0.0, 0.0, cx, sx, 0.0, -sx, cx]);
+    let y = glam::Mat3::from_cols_array(&[cy, 0.0, -sy, 0.0, 1.0, 0.0, sy, 0.0, cy]);
+    let z = glam::Mat3::from_cols_array(&[cz, sz, 0.0, -sz, cz, 0.0, 0.0, 0.0, 1.0]);
+    // No -0.0 entries (+ 0.0 clears the sign), as `UpAxis::to_y_up` has none: a normal's
+    // zero component keeps its sign bit from the model, not from the turn's spelling.
+    let m = (x * y * z).to_cols_array().map(|e| e + 0.0);
+    Some(glam::Mat4::from_mat3(glam::Mat3::from_cols_array(&m)))
 }
 
 /// Which source names a rule looks at.
@@ -488,6 +528,65 @@ mod tests {
             CookError::Manifest { line, message, .. } => (line, message),
             other => panic!("not a manifest error: {other}"),
         }
+    }
+
+    /// Quarter turns are exact and agree with the quaternion route; `[-90, 0, 0]` is the
+    /// turn `--up z` makes, to the bit.
+    #[test]
+    fn quarter_turns_are_exact() {
+        let quaternion = |d: [f32; 3]| {
+            let r = d.map(f32::to_radians);
+            glam::Mat4::from_quat(glam::Quat::from_euler(glam::EulerRot::XYZ, r[0], r[1], r[2]))
+        };
+        let turns = [-450.0, -270.0, -180.0, -90.0, 0.0, 90.0, 180.0, 270.0, 360.0];
+        for a in turns {
+            for b in turns {
+                for c in turns {
+                    let exact = quarter_turns([a, b, c]).unwrap();
+                    assert!(
+                        exact.abs_diff_eq(quaternion([a, b, c]), 1e-6),
+                        "{a} {b} {c}: {exact} against {}",
+                        quaternion([a, b, c])
+                    );
+                    let entries = exact.to_cols_array();
+                    assert!(
+                        entries.iter().all(|e| [0.0, 1.0, -1.0].contains(e)
+                            && e.to_bits() != (-0.0f32).to_bits()),
+                        "{entries:?}"
+                    );
+                }
+            }
+        }
+        assert_eq!(quarter_turns([0.0, 45.0, 0.0]), None);
+        assert_eq!(quarter_turns([f32::NAN, 0.0, 0.0]), None);
+        let m = MeshSource {
+            source: PathBuf::from("m.obj"),
+            name: "m".into(),
+            translate: [1.0, 2.0, 3.0],
+            rotate_deg: [-90.0, 0.0, 0.0],
+            scale: [2.0; 3],
+            line: Line(0),
+        };
+        assert_eq!(
+            m.transform(),
+            glam::Mat4::from_translation(glam::Vec3::new(1.0, 2.0, 3.0))
+                * crate::UpAxis::Z.to_y_up()
+                * glam::Mat4::from_scale(glam::Vec3::splat(2.0))
+        );
+        // Any other angle takes the quaternion route, as before.
+        let turned = MeshSource {
+            rotate_deg: [0.0, 30.0, 0.0],
+            ..m
+        };
+        let r = 30f32.to_radians();
+        assert_eq!(
+            turned.transform(),
+            glam::Mat4::from_scale_rotation_translation(
+                glam::Vec3::splat(2.0),
+                glam::Quat::from_euler(glam::EulerRot::XYZ, 0.0, r, 0.0),
+                glam::Vec3::new(1.0, 2.0, 3.0),
+            )
+        );
     }
 
     #[test]
