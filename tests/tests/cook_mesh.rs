@@ -996,12 +996,17 @@ fn the_tagging_note_gives_each_window_its_own_class() {
     }
     let count = |c: MaterialClass| noted.iter().filter(|m| m.1 == c).count();
     assert_eq!(
-        (count(MaterialClass::WindowLower), count(MaterialClass::WindowUpper)),
+        (
+            count(MaterialClass::WindowLower),
+            count(MaterialClass::WindowUpper)
+        ),
         (4, 1)
     );
     assert_eq!(glass[0].classes(), "window-lower and window-upper");
     assert!(
-        glass[0].tagged().starts_with("window-lower and window-upper as 5 windows ("),
+        glass[0]
+            .tagged()
+            .starts_with("window-lower and window-upper as 5 windows ("),
         "{}",
         glass[0].tagged()
     );

@@ -304,3 +304,56 @@ fn missing_input_is_an_io_error() {
         "{err}"
     );
 }
+
+/// `-o` naming a file the command reads (the model, its MTL, by another path or a hard link,
+/// the pack `extract` reads) is refused before anything is written: the rename would have
+/// replaced the model with the pack, and `--force` replaces manifests, not models.
+#[test]
+fn an_output_over_an_input_is_refused() {
+    let dir = scratch("over-input");
+    for f in ["cornell_box.obj", "cornell_box.mtl"] {
+        std::fs::copy(data(&format!("cornell_box/{f}")), dir.join(f)).unwrap();
+    }
+    let obj = dir.join("cornell_box.obj");
+    let mtl = dir.join("cornell_box.mtl");
+    let linked = dir.join("linked.obj");
+    std::fs::hard_link(&obj, &linked).unwrap();
+    let (obj_before, mtl_before) = (std::fs::read(&obj).unwrap(), std::fs::read(&mtl).unwrap());
+    let other_path = dir.join(".").join("cornell_box.mtl");
+    let s = |p: &Path| p.to_string_lossy().into_owned();
+    for (args, input) in [
+        (vec!["cook", &s(&obj), "-o", &s(&obj)], "cornell_box.obj"),
+        (
+            vec!["cook", &s(&obj), "-o", &s(&other_path)],
+            "cornell_box.mtl",
+        ),
+        (vec!["cook", &s(&obj), "-o", &s(&linked)], "cornell_box.obj"),
+        (
+            vec!["init", &s(&obj), "-o", &s(&mtl), "--force"],
+            "cornell_box.mtl",
+        ),
+    ] {
+        let o = cooker(&args);
+        let err = text(&o.stderr);
+        assert_eq!(o.status.code(), Some(2), "{args:?}: {err}");
+        assert!(
+            err.contains(&format!(
+                "{input}, an input of this command; refusing to replace it"
+            )),
+            "{args:?}: {err}"
+        );
+    }
+    assert_eq!(std::fs::read(&obj).unwrap(), obj_before);
+    assert_eq!(std::fs::read(&mtl).unwrap(), mtl_before);
+    let pack = dir.join("box.pack");
+    assert!(
+        cooker(&["cook", &s(&obj), "-o", &s(&pack)])
+            .status
+            .success()
+    );
+    let pack_before = std::fs::read(&pack).unwrap();
+    let o = cooker(&["extract", &s(&pack), "anything", "-o", &s(&pack)]);
+    assert_eq!(o.status.code(), Some(2), "{}", text(&o.stderr));
+    assert_eq!(std::fs::read(&pack).unwrap(), pack_before);
+    let _ = std::fs::remove_dir_all(&dir);
+}

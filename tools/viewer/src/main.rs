@@ -454,7 +454,11 @@ fn file_names<'a>(cameras: impl IntoIterator<Item = &'a str>) -> Vec<String> {
                     if kept { c } else { '_' }
                 })
                 .collect();
-            let stem = if s.is_empty() { "camera".to_string() } else { s };
+            let stem = if s.is_empty() {
+                "camera".to_string()
+            } else {
+                s
+            };
             let mut name = stem.clone();
             let mut n = 1;
             while !taken.insert(name.to_lowercase()) {
@@ -761,7 +765,15 @@ mod tests {
     #[test]
     fn camera_file_names_keep_letters_and_never_collide() {
         assert_eq!(
-            file_names(["nave", "Вид", "Пол", "Camera.001", "Camera_001", "CAMERA_001", ""]),
+            file_names([
+                "nave",
+                "Вид",
+                "Пол",
+                "Camera.001",
+                "Camera_001",
+                "CAMERA_001",
+                ""
+            ]),
             [
                 "nave",
                 "Вид",
@@ -772,6 +784,9 @@ mod tests {
                 "camera"
             ]
         );
-        assert_eq!(file_names(["a/b", "a:b", "正面 视图"]), ["a_b", "a_b_2", "正面_视图"]);
+        assert_eq!(
+            file_names(["a/b", "a:b", "正面 视图"]),
+            ["a_b", "a_b_2", "正面_视图"]
+        );
     }
 }

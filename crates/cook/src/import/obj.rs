@@ -2680,8 +2680,7 @@ mod tests {
         let text = "newmtl g\ntf spectral glass.rfl 1.0\nnewmtl h\nTf xyz 0.5\nTr 0.25\n";
         let (cleaned, _) = clean_mtl(path, text, &mut tf_warnings).unwrap();
         assert_eq!(
-            cleaned,
-            "newmtl g\n\nnewmtl h\nTf 0.5 0.5 0.5\nTr 0.25\n",
+            cleaned, "newmtl g\n\nnewmtl h\nTf 0.5 0.5 0.5\nTr 0.25\n",
             "{tf_warnings:?}"
         );
         assert_eq!(tf_warnings.len(), 1);

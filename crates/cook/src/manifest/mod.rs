@@ -157,11 +157,8 @@ fn quarter_turns(degrees: [f32; 3]) -> Option<glam::Mat4> {
             _ => (-1.0, 0.0),
         })
     };
-    let [(sx, cx), (sy, cy), (sz, cz)] = [
-        exact(degrees[0])?,
-        exact(degrees[1])?,
-        exact(degrees[2])?,
-    ];
+    let [(sx, cx), (sy, cy), (sz, cz)] =
+        [exact(degrees[0])?, exact(degrees[1])?, exact(degrees[2])?];
     let x = glam::Mat3::from_cols_array(&[1.0, 0.0, 0.0, 0.0, cx, sx, 0.0, -sx, cx]);
     let y = glam::Mat3::from_cols_array(&[cy, 0.0, -sy, 0.0, 1.0, 0.0, sy, 0.0, cy]);
     let z = glam::Mat3::from_cols_array(&[cz, sz, 0.0, -sz, cz, 0.0, 0.0, 0.0, 1.0]);
@@ -536,9 +533,16 @@ mod tests {
     fn quarter_turns_are_exact() {
         let quaternion = |d: [f32; 3]| {
             let r = d.map(f32::to_radians);
-            glam::Mat4::from_quat(glam::Quat::from_euler(glam::EulerRot::XYZ, r[0], r[1], r[2]))
+            glam::Mat4::from_quat(glam::Quat::from_euler(
+                glam::EulerRot::XYZ,
+                r[0],
+                r[1],
+                r[2],
+            ))
         };
-        let turns = [-450.0, -270.0, -180.0, -90.0, 0.0, 90.0, 180.0, 270.0, 360.0];
+        let turns = [
+            -450.0, -270.0, -180.0, -90.0, 0.0, 90.0, 180.0, 270.0, 360.0,
+        ];
         for a in turns {
             for b in turns {
                 for c in turns {
@@ -550,8 +554,10 @@ mod tests {
                     );
                     let entries = exact.to_cols_array();
                     assert!(
-                        entries.iter().all(|e| [0.0, 1.0, -1.0].contains(e)
-                            && e.to_bits() != (-0.0f32).to_bits()),
+                        entries
+                            .iter()
+                            .all(|e| [0.0, 1.0, -1.0].contains(e)
+                                && e.to_bits() != (-0.0f32).to_bits()),
                         "{entries:?}"
                     );
                 }
