@@ -586,14 +586,18 @@ impl ChosenLamp<'_> {
 /// The file's lamp whose light, through the windows, lands the most window area on the
 /// floor (without a floor, comes in through the most window area), scored as the sun is: a
 /// lamp indoors lights no window from outside and is passed over. A spot light weighs each
-/// window sample by its cone's fall-off (none outside the outer cone).
+/// window sample by its cone's fall-off (none outside the outer cone); light that would land
+/// past a lamp's `range` counts for nothing, as glTF says it gives none there. Also returns
+/// the lamps whose light came in only past their range.
 fn best_lamp<'a>(
     lamps: &[&'a crate::import::FileLamp],
     windows: &[crate::instances::Instance],
     floor: Option<&Footprint>,
-) -> Option<ChosenLamp<'a>> {
+) -> (Option<ChosenLamp<'a>>, Vec<&'a str>) {
     let mut best: Option<(f64, ChosenLamp<'a>)> = None;
+    let mut out_of_range = Vec::new();
     for &lamp in lamps {
+        let mut past_range = false;
         let at = DVec3::from(lamp.position.map(f64::from));
         let cone = lamp
             .spot
@@ -621,6 +625,10 @@ fn best_lamp<'a>(
                     },
                     None => distance,
                 };
+                if lamp.range.is_some_and(|r| reach > f64::from(r)) {
+                    past_range = true;
+                    continue;
+                }
                 let s = w.area / 25.0 * entry * share;
                 unshared += s / share;
                 landed += s;
@@ -631,6 +639,9 @@ fn best_lamp<'a>(
             }
             score += landed;
             lit += usize::from(landed > 0.0);
+        }
+        if score <= 0.0 && past_range {
+            out_of_range.push(lamp.name.as_str());
         }
         if score > 0.0 && best.as_ref().is_none_or(|b| score > b.0) {
             best = Some((
@@ -646,7 +657,7 @@ fn best_lamp<'a>(
             ));
         }
     }
-    best.map(|(_, l)| l)
+    (best.map(|(_, l)| l), out_of_range)
 }
 
 /// The guessed cameras' vertical field of view.
@@ -734,10 +745,10 @@ pub fn guess(p: &Prepared) -> Guess {
     // area on the floor.
     let file_sun = p.imported.iter().find_map(|s| s.sun.clone());
     let lamps: Vec<&crate::import::FileLamp> = p.imported.iter().flat_map(|s| &s.lamps).collect();
-    let lamp = if file_sun.is_none() {
+    let (lamp, out_of_range) = if file_sun.is_none() {
         best_lamp(&lamps, windows, floor.as_ref())
     } else {
-        None
+        (None, Vec::new())
     };
     // Said after the light the guess takes.
     let mut unused_lamps = None;
@@ -757,6 +768,14 @@ pub fn guess(p: &Prepared) -> Guess {
                 "none of them shines in through a window onto the floor".to_string()
             }
             (None, None) => "none of them shines in through a window".to_string(),
+        };
+        let why = match &out_of_range[..] {
+            [] => why,
+            [one] => format!("{why} ({one:?} would, but its light lands past its range)"),
+            many => format!(
+                "{why} ({} would, but their light lands past their ranges)",
+                crate::report::few_names(many)
+            ),
         };
         let unused = names(lamp.as_ref().map(|l| l.lamp.name.as_str()));
         if !unused.is_empty() {
@@ -841,9 +860,14 @@ pub fn guess(p: &Prepared) -> Guess {
                 l.windows,
                 windows.len(),
                 if as_sun {
-                    ", so far away that it is taken as a sun along its light"
+                    ", so far away that it is taken as a sun along its light".to_string()
+                } else if let Some(r) = l.lamp.range {
+                    format!(
+                        " (its range, {r}, is not a cut-off in the pack: the lamp's light falls \
+                         off by the inverse square alone)"
+                    )
                 } else {
-                    ""
+                    String::new()
                 }
             ));
             let exposure = sun_intensity(&p.tagging, &classes, l.direction);
@@ -886,10 +910,18 @@ pub fn guess(p: &Prepared) -> Guess {
     };
     notes.extend(unused_lamps);
     // Where the light travels at a point it passes: one way for the sun, away from a lamp.
+    // A spot's light reaches only what its cone does: a view of a window or floor outside it
+    // shows none (the views looked at the window the cook skipped for it).
+    let cone = lamp
+        .as_ref()
+        .and_then(|l| l.lamp.spot)
+        .and_then(|s| pack::SpotCone::new(s.axis, s.inner, s.outer));
     let travel = |at: DVec3| -> Option<DVec3> {
         match &lamp {
             Some(l) if l.as_sun(diag) => Some(l.direction),
-            Some(l) => Some((at - l.position()).normalize_or_zero()).filter(|d| *d != DVec3::ZERO),
+            Some(l) => Some((at - l.position()).normalize_or_zero()).filter(|d| {
+                *d != DVec3::ZERO && cone.is_none_or(|c| c.towards(d.to_array()) > 0.0)
+            }),
             None => sun,
         }
     };
@@ -1192,6 +1224,14 @@ mod tests {
     fn hall_with_lamps(
         lamps: &[(&str, serde_json::Value, serde_json::Value)],
     ) -> (Option<pack::Light>, String) {
+        let (toc, words) = hall_toc_with_lamps(lamps);
+        (toc.light, words)
+    }
+
+    /// [`hall_with_lamps`], with the whole table of contents.
+    fn hall_toc_with_lamps(
+        lamps: &[(&str, serde_json::Value, serde_json::Value)],
+    ) -> (pack::Toc, String) {
         let dir = tempfile::tempdir().unwrap();
         let (nodes, lights): (Vec<_>, Vec<_>) = lamps
             .iter()
@@ -1218,7 +1258,109 @@ mod tests {
             .map(|w| w.message.clone())
             .collect::<Vec<_>>()
             .join("\n");
-        (out.toc.light, words)
+        (out.toc, words)
+    }
+
+    /// The views a spot light gets look at the window its cone reaches and the floor it
+    /// lights through it, not at the first window of the wall it stands outside (which the
+    /// cook skips for it). The spot stands outside the south wall, aimed at its third window.
+    #[test]
+    fn a_spot_lights_the_window_its_views_look_at() {
+        use serde_json::json;
+        let at = glam::Vec3::new(3.5, 5.0, -10.0);
+        let aim = glam::Vec3::new(3.5, 2.25, -2.99);
+        let turn = glam::Quat::from_rotation_arc(glam::Vec3::NEG_Z, (aim - at).normalize());
+        let (toc, words) = hall_toc_with_lamps(&[(
+            "Strahler",
+            json!({"translation": at.to_array(), "rotation": turn.to_array()}),
+            json!({"type": "spot", "spot": {"outerConeAngle": 0.12}}),
+        )]);
+        assert!(
+            matches!(toc.light.unwrap().kind, pack::LightKind::Spot { .. }),
+            "{words}"
+        );
+        let view = |name: &str| {
+            toc.cameras
+                .iter()
+                .find(|c| c.name == name)
+                .unwrap_or_else(|| panic!("no {name} view: {:?}\n{words}", toc.cameras))
+        };
+        let target = glam::Vec3::from(view("windows").target);
+        assert!((target - aim).length() < 1e-3, "{target}\n{words}");
+        // Its light lands on the floor inside, beyond the window, within the cone's reach.
+        let spot = glam::Vec3::from(view("lit-floor").target);
+        assert!(spot.y.abs() < 1e-3 && spot.z > -2.99, "{spot}");
+        assert!((spot.x - 3.5).abs() < 0.5, "{spot}");
+    }
+
+    /// glTF's `range`: a lamp whose light would land past it gives none there and is not the
+    /// light, and the guess says why; one whose light lands within it is, with a note that
+    /// the pack has no cut-off. The lantern's light travels 7-9 m to the floor.
+    #[test]
+    fn a_lamp_out_of_its_range_is_not_the_light() {
+        use serde_json::json;
+        let lantern = |range: f64| {
+            (
+                "Laterne",
+                json!({"translation": [0.0, 6.0, 8.0]}),
+                json!({"type": "point", "intensity": 800.0, "range": range}),
+            )
+        };
+        let (light, words) = hall_with_lamps(&[lantern(2.0)]);
+        assert!(
+            matches!(light.unwrap().kind, pack::LightKind::Directional { .. }),
+            "{words}"
+        );
+        assert!(
+            words.contains(
+                "the model's lamps \"Laterne\" are not used: none of them shines in through a \
+                 window onto the floor (\"Laterne\" would, but its light lands past its range)"
+            ),
+            "{words}"
+        );
+        let (light, words) = hall_with_lamps(&[lantern(30.0)]);
+        assert!(
+            matches!(light.unwrap().kind, pack::LightKind::Point { .. }),
+            "{words}"
+        );
+        assert!(
+            words.contains("(its range, 30, is not a cut-off in the pack"),
+            "{words}"
+        );
+    }
+
+    /// A node naming a light the file does not define, and a light of a type glTF does not
+    /// define, are each said, as what they are; lights are read, so requiring the extension
+    /// is no warning.
+    #[test]
+    fn broken_lights_are_named_for_what_is_wrong() {
+        use serde_json::json;
+        let dir = tempfile::tempdir().unwrap();
+        let nodes = vec![
+            json!({"name": "Lampe", "extensions": {"KHR_lights_punctual": {"light": 7}}}),
+            json!({"name": "Fläche", "extensions": {"KHR_lights_punctual": {"light": 0}}}),
+        ];
+        let lights = vec![json!({"name": "Fläche", "type": "area"})];
+        let (mut gltf, bin) = crate::testing::hall_gltf(20.0, nodes, lights);
+        gltf["extensionsRequired"] = json!(["KHR_lights_punctual"]);
+        std::fs::write(dir.path().join("hall.bin"), bin).unwrap();
+        let path = dir.path().join("hall.gltf");
+        std::fs::write(&path, serde_json::to_vec(&gltf).unwrap()).unwrap();
+        let imported = crate::import::import_with(&path, None).unwrap();
+        let words: Vec<String> = imported
+            .warnings
+            .iter()
+            .map(|w| w.message.clone())
+            .collect();
+        assert_eq!(
+            words,
+            [
+                "node \"Lampe\" places light 7, but the file defines 1 lights: no light placed \
+                 there",
+                "light \"Fläche\" has type \"area\", which KHR_lights_punctual does not define \
+                 (directional, point, spot): not used",
+            ],
+        );
     }
 
     /// A lamp of the file's that shines in through a window onto the floor is the light, as a

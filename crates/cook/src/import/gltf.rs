@@ -173,13 +173,23 @@ struct Views {
     cameras: Vec<(String, glam::DMat4, f32, f32, Option<f32>)>,
     /// Name, world transform, linear colour: the first directional light.
     sun: Option<(String, glam::DMat4, [f32; 3])>,
-    /// Point and spot lights: name, world transform, linear colour, and a spot's inner and
-    /// outer cone angles. The guess takes one that shines in through the windows (a lamp
-    /// outside a church's glass); most are lamps indoors, which light no window.
-    lamps: Vec<(String, glam::DMat4, [f32; 3], Option<ConeAngles>)>,
+    /// Point and spot lights: name, world transform, linear colour, a spot's inner and
+    /// outer cone angles, and the range. The guess takes one that shines in through the
+    /// windows (a lamp outside a church's glass); most are lamps indoors, which light no
+    /// window.
+    lamps: Vec<(
+        String,
+        glam::DMat4,
+        [f32; 3],
+        Option<ConeAngles>,
+        Option<f32>,
+    )>,
     /// Cameras and lights a pack cannot hold (orthographic cameras, directional lights after
-    /// the first, lights of unknown type), for one warning.
+    /// the first), for one warning.
     unused: Vec<String>,
+    /// Lights the file gets wrong (an index past its lights, a type glTF does not define),
+    /// a warning each.
+    broken: Vec<String>,
 }
 
 impl Views {
@@ -218,11 +228,17 @@ impl Views {
         else {
             return;
         };
-        let light = document
+        let lights = document
             .extension_value("KHR_lights_punctual")
             .and_then(|e| e.get("lights"))
-            .and_then(|l| l.get(usize::try_from(index).ok()?));
-        let Some(light) = light else {
+            .and_then(serde_json::Value::as_array);
+        let Some(light) = lights.and_then(|l| l.get(usize::try_from(index).ok()?)) else {
+            self.broken.push(format!(
+                "node {:?} places light {index}, but the file defines {} lights: no light placed \
+                 there",
+                node_name(),
+                lights.map_or(0, Vec::len)
+            ));
             return;
         };
         let name = light
@@ -239,9 +255,15 @@ impl Views {
                 v.filter(|v| v.iter().all(|x| x.is_finite() && *x >= 0.0))
             })
             .map_or([1.0; 3], |v| [v[0], v[1], v[2]]);
+        // The spec's cut-off, where given; the pack's lamps have none.
+        let range = light
+            .get("range")
+            .and_then(serde_json::Value::as_f64)
+            .map(|r| r as f32)
+            .filter(|r| r.is_finite() && *r > 0.0);
         match kind {
             Some("directional") if self.sun.is_none() => self.sun = Some((name, world, colour)),
-            Some("point") => self.lamps.push((name, world, colour, None)),
+            Some("point") => self.lamps.push((name, world, colour, None, range)),
             Some("spot") => {
                 // The spec's defaults are 0 and π/4, with 0 ≤ inner < outer ≤ π/2; a value out
                 // of range is clamped into it.
@@ -258,11 +280,17 @@ impl Views {
                         (a as f32).min(std::f32::consts::FRAC_PI_2)
                     });
                 let inner = angle("innerConeAngle").map_or(0.0, |a| (a as f32).clamp(0.0, outer));
-                self.lamps.push((name, world, colour, Some((inner, outer))));
+                self.lamps
+                    .push((name, world, colour, Some((inner, outer)), range));
             }
-            _ => self
-                .unused
-                .push(format!("{} light {name:?}", kind.unwrap_or("untyped"))),
+            Some("directional") => self.unused.push(format!("directional light {name:?}")),
+            Some(other) => self.broken.push(format!(
+                "light {name:?} has type {other:?}, which KHR_lights_punctual does not define \
+                 (directional, point, spot): not used"
+            )),
+            None => self
+                .broken
+                .push(format!("light {name:?} has no type: not used")),
         }
     }
 
@@ -341,7 +369,7 @@ impl Views {
                 });
             }
         }
-        for (name, world, colour, cone) in self.lamps {
+        for (name, world, colour, cone, range) in self.lamps {
             let position = world.transform_point3(glam::DVec3::ZERO) - origin;
             let axis = world.transform_vector3(-glam::DVec3::Z).normalize_or_zero();
             if !position.is_finite() || (cone.is_some() && axis == glam::DVec3::ZERO) {
@@ -361,7 +389,11 @@ impl Views {
                     inner,
                     outer,
                 }),
+                range,
             });
+        }
+        for b in self.broken {
+            out.warnings.push(Warning::new(path, None, b));
         }
         if !self.unused.is_empty() {
             out.warnings.push(Warning::new(
@@ -679,6 +711,9 @@ const READ_EXTENSIONS: &[&str] = &[
     "KHR_texture_basisu",
     "MSFT_texture_dds",
     "KHR_materials_pbrSpecularGlossiness",
+    // Every light's type, place, colour and cone; a lamp's `range` bounds the guess's
+    // choice; intensities give way to the automatic exposure.
+    "KHR_lights_punctual",
 ];
 
 /// Checks what the file requires (`extensionsRequired`, which gltf's validation would refuse
@@ -692,7 +727,7 @@ fn required_extensions(path: &Path, required: Vec<String>) -> Result<Vec<Warning
         if READ_EXTENSIONS.contains(&name.as_str()) {
             continue;
         }
-        if name.starts_with("KHR_materials_") || name == "KHR_lights_punctual" {
+        if name.starts_with("KHR_materials_") {
             ignored.push(name);
             continue;
         }

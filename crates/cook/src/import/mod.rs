@@ -543,6 +543,8 @@ pub struct FileLamp {
     pub colour: [f32; 3],
     /// A spot light's cone; `None` for a point light.
     pub spot: Option<FileSpot>,
+    /// glTF's `range`: past this distance the lamp gives no light (in the model's units).
+    pub range: Option<f32>,
 }
 
 /// A spot light's cone, as glTF's `KHR_lights_punctual` gives it.
@@ -632,8 +634,12 @@ impl Imported {
                 .normalize_or_zero()
                 .to_array();
         }
+        // A distance scales as lengths do (a uniform scale's factor; the cube root of the
+        // volume's for any other).
+        let length_scale = glam::Mat3::from_mat4(m).determinant().abs().cbrt();
         for l in &mut self.lamps {
             l.position = m.transform_point3(l.position.into()).to_array();
+            l.range = l.range.map(|r| r * length_scale);
             if let Some(FileSpot { axis, .. }) = &mut l.spot {
                 *axis = m
                     .transform_vector3((*axis).into())
