@@ -1815,11 +1815,15 @@ fn image_ref(
 }
 
 /// Glass in glTF: `KHR_materials_transmission` (its colour is the base colour, tinted by
-/// `KHR_materials_volume`'s attenuation colour) or an alpha-blended material.
+/// `KHR_materials_volume`'s attenuation colour) or an alpha-blended material that lets light
+/// through: a base colour alpha below 1, or a colour texture, whose alpha may. Blender and
+/// Sketchfab exports mark opaque stone and floors `BLEND` too (alpha 1, no texture); taken
+/// as glass they became windows and the floor went missing.
 fn gltf_transmission(m: &gltf::Material) -> super::Transmission {
     let base = base_colour(m);
     let factor = m.transmission().map(|t| t.transmission_factor());
-    let blend = m.alpha_mode() == gltf::material::AlphaMode::Blend;
+    let blend = m.alpha_mode() == gltf::material::AlphaMode::Blend
+        && (base[3] < 0.999 || colour_texture(m).is_some());
     let attenuation = m.volume().map(|v| v.attenuation_color());
     let filter = (factor.is_some_and(|f| f > 0.0) || blend).then(|| {
         let a = attenuation.unwrap_or([1.0; 3]);
@@ -2914,6 +2918,48 @@ mod tests {
         assert_eq!(texture, ImageRef::File(dir.path().join("design.webp")));
         let decoded = crate::textures::decode(&texture).unwrap().to_rgba8();
         assert_eq!(decoded, design);
+    }
+
+    /// `alphaMode: BLEND` makes glass only where light may pass: a base colour alpha below 1
+    /// or a colour texture; an opaque blended material (as exporters mark stone) is not.
+    #[test]
+    fn only_a_blended_material_that_lets_light_through_is_glass() {
+        let dir = tempfile::tempdir().unwrap();
+        image::RgbaImage::from_pixel(2, 2, image::Rgba([9, 9, 9, 128]))
+            .save(dir.path().join("d.png"))
+            .unwrap();
+        let glass = |material: &str| {
+            let path = textured_triangle(
+                dir.path(),
+                "KHR_texture_transform",
+                material,
+                r#"{"source": 0}"#,
+                "d.png",
+            );
+            import(&path).unwrap().materials[0]
+                .transmission
+                .glass_reason()
+        };
+        assert_eq!(glass(r#"{"name": "Stone", "alphaMode": "BLEND"}"#), None);
+        assert_eq!(
+            glass(
+                r#"{"name": "Stone", "alphaMode": "BLEND",
+                    "pbrMetallicRoughness": {"baseColorFactor": [0.5, 0.5, 0.5, 1.0]}}"#
+            ),
+            None
+        );
+        for see_through in [
+            r#"{"name": "Glass", "alphaMode": "BLEND",
+                "pbrMetallicRoughness": {"baseColorFactor": [0.2, 0.4, 0.8, 0.3]}}"#,
+            r#"{"name": "Glass", "alphaMode": "BLEND",
+                "pbrMetallicRoughness": {"baseColorTexture": {"index": 0}}}"#,
+        ] {
+            assert_eq!(
+                glass(see_through).as_deref(),
+                Some("glTF alpha mode BLEND"),
+                "{see_through}"
+            );
+        }
     }
 
     /// A specular-glossiness material (older exporters write only that, and require it) gives

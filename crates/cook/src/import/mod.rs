@@ -394,7 +394,8 @@ pub struct Transmission {
     pub illum: Option<u8>,
     /// glTF `KHR_materials_transmission` factor.
     pub factor: Option<f32>,
-    /// glTF `alphaMode: BLEND`.
+    /// glTF `alphaMode: BLEND` on a material that may let light through (a base colour alpha
+    /// below 1, or a colour texture).
     pub blend: bool,
 }
 
