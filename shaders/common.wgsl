@@ -32,6 +32,9 @@ struct Frame {
     // A spot light's cone: clamp(dot(spot.xyz, d) + spot.w, 0, 1)², d the unit direction from
     // the light, is the share of its light leaving along d; (0, 0, 0, 1) for other lights.
     spot: vec4<f32>,
+    // In the scene's units: x how far off a surface `is_inside` is asked, y its slack behind
+    // a window's plane (0.01 and 0.001 in a scene 10 units across or more, less in a smaller).
+    lengths: vec4<f32>,
 }
 
 struct WindowProjector {

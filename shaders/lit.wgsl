@@ -11,7 +11,7 @@ fn is_inside(p: vec3<f32>) -> bool {
     // A plane per wall, not per window: windows along a wall share one.
     for (var i = 0u; i < frame.counts.w; i = i + 1u) {
         let plane = planes[i];
-        if (dot(p - plane.origin.xyz, plane.normal.xyz) < -1e-3 - plane.origin.w) {
+        if (dot(p - plane.origin.xyz, plane.normal.xyz) < -frame.lengths.y - plane.origin.w) {
             return false;
         }
     }
@@ -368,7 +368,7 @@ fn fs_main(vertex: VertexOut) -> @location(0) vec4<f32> {
         // the building: the plane runs on through it (a transept's window's plane through the
         // nave), and a roof over the point stops the light.
         var light_filter = vec3<f32>(1.0);
-        if (is_inside(in.rel + geometric * 0.01)) {
+        if (is_inside(in.rel + geometric * frame.lengths.x)) {
             light_filter = transmitted(in.rel, dpx, dpy, geometric, in.clip.xy);
         } else if (windows.direct.params.w != 0u) {
             light_filter = vec3<f32>(direct_visibility(in.rel, geometric));

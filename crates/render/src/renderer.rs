@@ -688,6 +688,10 @@ impl Renderer {
                     as f32,
             ],
             spot: uniforms::Frame::spot_ramp(light.map(|l| &l.kind)),
+            lengths: {
+                let (lo, hi) = scene.bounds();
+                uniforms::Frame::lengths((hi - lo).length())
+            },
             ..Default::default()
         };
         let mut windows = uniforms::Windows::new(toc.windows.len().min(uniforms::MAX_WINDOWS));
@@ -767,7 +771,7 @@ impl Renderer {
         // sun, and each lit fragment tested them all.
         windows.items.sort_by_key(|w| w.params[1] == 0);
         frame.counts[2] = windows.items.iter().filter(|w| w.params[1] != 0).count() as u32;
-        let planes = uniforms::WindowPlane::distinct(&windows.items);
+        let planes = uniforms::WindowPlane::distinct(&windows.items, frame.lengths[1]);
         frame.counts[3] = planes.len() as u32;
         gpu.queue
             .write_buffer(&self.frame_buffer, 0, bytemuck::bytes_of(&frame));

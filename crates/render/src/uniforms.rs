@@ -31,9 +31,22 @@ pub struct Frame {
     /// A spot light's cone as one affine ramp in the direction the light leaves along
     /// ([`Frame::spot_ramp`]); (0, 0, 0, 1) passes every direction whole.
     pub spot: [f32; 4],
+    /// Lengths in the scene's units ([`Frame::lengths`]): x how far off a surface the lit
+    /// pass's inside test steps, y that test's slack behind a window's plane.
+    pub lengths: [f32; 4],
 }
 
 impl Frame {
+    /// [`Self::lengths`] for a scene whose bounding box has diagonal `diag`: 0.01 and 0.001
+    /// units for any scene 10 units across or more (a building in metres, centimetres or
+    /// millimetres), shrunk with a smaller one. Fixed at those values, a church 8 mm across
+    /// (a model in metres at 1:1000, or in kilometres) stepped every inner wall outside the
+    /// building, where the sun lit it whole.
+    pub fn lengths(diag: f32) -> [f32; 4] {
+        let k = (diag / 10.0).clamp(1e-6, 1.0);
+        [0.01 * k, 1e-3 * k, 0.0, 0.0]
+    }
+
     /// `spot` for a light: xyz the unit axis over the ramp's width in cosine, w the outer
     /// cosine over it negated, so `clamp(dot(spot.xyz, d) + spot.w, 0, 1)` squared is glTF's
     /// fall-off ([`pack::SpotCone::attenuation`]) for a unit direction `d` from the light. No
@@ -82,10 +95,10 @@ pub struct WindowPlane {
 impl WindowPlane {
     /// One plane per distinct (normal, offset, wall) of `windows`' entries, in first-seen
     /// order. Windows along a wall share one: a hall's 450 lancets are two planes, and every
-    /// lit fragment tests each. Normals within 1e-6 and offsets within 1e-4 of the scene's
-    /// unit count as one plane: tested with the first window's, a point 100 units away moves
-    /// by at most 2e-4 against the test's slack of 1e-3.
-    pub fn distinct(windows: &[WindowProjector]) -> Vec<WindowPlane> {
+    /// lit fragment tests each. Normals within 1e-6 and offsets within a tenth of the test's
+    /// slack (`slack`, [`Frame::lengths`]'s y, 1e-3 units in most scenes) count as one plane:
+    /// tested with the first window's, a point 100 units away moves by at most 2e-4.
+    pub fn distinct(windows: &[WindowProjector], slack: f32) -> Vec<WindowPlane> {
         let mut seen = std::collections::HashSet::new();
         let mut out = Vec::new();
         for w in windows {
@@ -94,7 +107,7 @@ impl WindowPlane {
             let q = |x: f32, step: f32| (x as f64 / step as f64).round() as i64;
             let key = (
                 [q(n.x, 1e-6), q(n.y, 1e-6), q(n.z, 1e-6)],
-                q(n.dot(o), 1e-4),
+                q(n.dot(o), slack * 0.1),
                 w.origin[3].to_bits(),
             );
             if seen.insert(key) {
@@ -328,7 +341,7 @@ mod tests {
             // A wall 1 mm in front of the first: a plane of its own.
             window([3.0, 2.0, 0.001], n, 0.0),
         ];
-        let planes = WindowPlane::distinct(&windows);
+        let planes = WindowPlane::distinct(&windows, Frame::lengths(100.0)[1]);
         let origins: Vec<[f32; 4]> = planes.iter().map(|p| p.origin).collect();
         assert_eq!(
             origins,
@@ -340,6 +353,16 @@ mod tests {
                 windows[5].origin
             ]
         );
-        assert!(WindowPlane::distinct(&[]).is_empty());
+        assert!(WindowPlane::distinct(&[], 1e-3).is_empty());
+        // In a scene a thousandth the size, the wall 1 mm in front is one plane with the
+        // first; one 1 µm in front is too, and 10 µm is not.
+        let tiny = [
+            windows[0],
+            window([3.0, 2.0, 1e-6], n, 0.0),
+            window([3.0, 2.0, 1e-5], n, 0.0),
+        ];
+        let slack = Frame::lengths(0.01)[1];
+        assert_eq!(slack, 1e-6);
+        assert_eq!(WindowPlane::distinct(&tiny, slack).len(), 2);
     }
 }

@@ -266,8 +266,8 @@ pub fn run(args: Args) -> Outcome {
     for m in &toc.meshes {
         let colours = m.layout.attribute(pack::Semantic::Colour).is_some();
         println!(
-            "  {:<24} {:>9} vertices {:>9} triangles  stride {:>3}  {} ranges{}",
-            m.name,
+            "  {} {:>9} vertices {:>9} triangles  stride {:>3}  {} ranges{}",
+            padded(&m.name, 24),
             m.vertex_count,
             m.index_count / 3,
             m.layout.stride,
@@ -289,8 +289,8 @@ pub fn run(args: Args) -> Outcome {
     }
     for (m, t) in toc.materials.iter().zip(&tris) {
         println!(
-            "    {:<28} {:<13} {t:>10} triangles",
-            m.name,
+            "    {} {:<13} {t:>10} triangles",
+            padded(&m.name, 28),
             m.class.name()
         );
     }
@@ -302,8 +302,8 @@ pub fn run(args: Args) -> Outcome {
         all_format += b.format;
         all_rgba8 += b.rgba8;
         println!(
-            "  {:<32} {:<9} {:<6} {:<10} {:>5}x{:<5} {:>2} mips {:>10} bytes ({:>10} in {}, {:>10} as RGBA8)",
-            t.name,
+            "  {} {:<9} {:<6} {:<10} {:>5}x{:<5} {:>2} mips {:>10} bytes ({:>10} in {}, {:>10} as RGBA8)",
+            padded(&t.name, 32),
             t.role.name(),
             t.colour_space.name(),
             storage_name(t),
@@ -330,11 +330,11 @@ pub fn run(args: Args) -> Outcome {
         let m = &toc.materials[w.material as usize];
         let len = |a: [f32; 3]| glam::Vec3::from(a).length();
         println!(
-            "  {:<32} {:<12} {:>6.2} x {:<6.2} units  glass: {}",
-            m.name,
+            "  {} {:<12} {:>6} x {:<6} units  glass: {}",
+            padded(&m.name, 32),
             m.class.name(),
-            len(w.u_axis),
-            len(w.v_axis),
+            size(len(w.u_axis)),
+            size(len(w.v_axis)),
             w.source_materials.join(", ")
         );
     }
@@ -343,4 +343,37 @@ pub fn run(args: Args) -> Outcome {
     let panorama = panorama_name(toc).map_or(String::new(), |name| format!(", panorama {name}"));
     println!("background: colour [{r:.3}, {g:.3}, {b:.3}] (linear){panorama}");
     Ok(OK)
+}
+
+/// `s` padded with spaces to `width` columns as a terminal shows it: a CJK character takes
+/// two, so names in Chinese pushed the columns after them out of line.
+fn padded(s: &str, width: usize) -> String {
+    let shown = unicode_width::UnicodeWidthStr::width(s);
+    format!("{s}{}", " ".repeat(width.saturating_sub(shown)))
+}
+
+/// A window's side: two decimals, or two significant digits below 0.1 (a model in kilometres
+/// or at 1:1000 printed every window as 0.00 x 0.00).
+fn size(x: f32) -> String {
+    if !(x > 0.0 && x < 0.1) {
+        return format!("{x:.2}");
+    }
+    let decimals = (1.0 - x.log10().floor()).clamp(2.0, 12.0) as usize;
+    format!("{x:.decimals$}")
+}
+
+#[cfg(test)]
+mod tests {
+    #[test]
+    fn names_pad_by_their_width_on_screen_and_small_sizes_keep_digits() {
+        assert_eq!(super::padded("Glass", 8), "Glass   ");
+        assert_eq!(super::padded("红色玻璃", 10), "红色玻璃  ");
+        assert_eq!(super::padded("Γυαλί", 6), "Γυαλί ");
+        assert_eq!(super::padded("a long name", 4), "a long name");
+        assert_eq!(super::size(1.578), "1.58");
+        assert_eq!(super::size(13.0), "13.00");
+        assert_eq!(super::size(0.0), "0.00");
+        assert_eq!(super::size(0.0016), "0.0016");
+        assert_eq!(super::size(0.0348), "0.035");
+    }
 }
