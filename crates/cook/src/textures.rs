@@ -1063,17 +1063,13 @@ pub fn cook_textures(
         report
             .artifacts
             .push((job.image_name() + &job.base_name_suffix(), source));
-        let about = |text: String| {
-            Warning::new(
-                &manifest.path,
-                None,
-                format!("{}: {text}", job.image_name()),
-            )
-        };
-        report.notes.extend(said.note.map(about));
-        report.warnings.extend(said.warning.map(about));
         let (role, colour_space) = job.role();
         let base = job.base_name();
+        // Named as `cooker info` lists the texture: a design's normal map and projector were
+        // said under the design's own name.
+        let about = |text: String| Warning::new(&manifest.path, None, format!("{base}: {text}"));
+        report.notes.extend(said.note.map(about));
+        report.warnings.extend(said.warning.map(about));
         let count = names.entry(base.clone()).or_insert(0);
         *count += 1;
         let name = if *count == 1 {

@@ -73,7 +73,7 @@ impl std::fmt::Display for ProjectorReport {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         write!(
             f,
-            "projector: sigma {:.2} texels ({}), {}x{}",
+            "sigma {:.2} texels ({}), {}x{}",
             self.sigma_texels,
             self.method.name(),
             self.width,
