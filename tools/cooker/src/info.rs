@@ -220,6 +220,11 @@ pub fn describe(pack: &Pack) -> serde_json::Value {
         "windows": windows(toc, &tris),
         "light": light,
         "cameras": toc.cameras.iter().map(|c| c.name.clone()).collect::<Vec<_>>(),
+        // Each camera whole; `cameras` keeps the names alone, as scripts read them.
+        "views": toc.cameras.iter().map(|c| json!({
+            "name": c.name, "position": c.position, "target": c.target, "up": c.up,
+            "fov_y_deg": c.fov_y, "near": c.near, "far": c.far,
+        })).collect::<Vec<_>>(),
         "background": {
             "colour": toc.background.colour,
             "panorama": panorama_name(toc),

@@ -27,11 +27,29 @@ fn text(o: &Output) -> String {
 fn info_json_has_the_documented_fields() {
     let dir = tempfile::tempdir().unwrap();
     let p = dir.path().join("s.pack");
-    write_sample(&p, |_, _| {});
+    write_sample(&p, |toc, _| {
+        toc.cameras = vec![pack::Camera {
+            name: "nave".into(),
+            position: [0.0, 1.5, 9.0],
+            target: [0.0, 2.0, 0.0],
+            up: [0.0, 1.0, 0.0],
+            fov_y: 60.0,
+            near: 0.0625,
+            far: 300.0,
+        }];
+    });
     let o = cooker(&[&"info", &p, &"--json"]);
     assert_eq!(o.status.code(), Some(0), "{}", text(&o));
     let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
     assert_eq!(v["format_version"], pack::FORMAT_VERSION);
+    // The views whole, the cameras by name.
+    assert_eq!(v["cameras"], serde_json::json!(["nave"]));
+    assert_eq!(
+        v["views"],
+        serde_json::json!([{"name": "nave", "position": [0.0, 1.5, 9.0],
+            "target": [0.0, 2.0, 0.0], "up": [0.0, 1.0, 0.0], "fov_y_deg": 60.0,
+            "near": 0.0625, "far": 300.0}])
+    );
     assert_eq!(v["sections"][0]["kind"], "toc");
     assert!(
         v["sections"]
