@@ -2094,6 +2094,8 @@ fn clean_mtl(
     let mut out = String::with_capacity(text.len());
     let mut texture_lines = TextureLines::new();
     let mut material = String::new();
+    // Each material's first line: a second definition is said.
+    let mut defined: HashMap<String, usize> = HashMap::new();
     for (i, raw) in text.lines().enumerate() {
         let n = i + 1;
         let line = raw.trim();
@@ -2189,6 +2191,16 @@ fn clean_mtl(
         };
         if key == "newmtl" {
             material = rest.to_string();
+            if let Some(first) = defined.insert(material.clone(), n) {
+                warnings.push(Warning::new(
+                    path,
+                    Some(n),
+                    format!(
+                        "material {material:?} is defined again (first on line {first}); this \
+                         definition replaces that one"
+                    ),
+                ));
+            }
         } else if let Some(k) = TextureKey::of(key).filter(|_| !rest.is_empty()) {
             texture_lines.insert((material.clone(), k), n);
         }
@@ -2684,6 +2696,21 @@ mod tests {
             "{tf_warnings:?}"
         );
         assert_eq!(tf_warnings.len(), 1);
+        // A material defined twice in one library: the later one is read, and said.
+        let mut twice = Vec::new();
+        clean_mtl(
+            path,
+            "newmtl a\nKd 1 0 0\nnewmtl b\nnewmtl a\nKd 0 0 1\n",
+            &mut twice,
+        )
+        .unwrap();
+        assert_eq!(
+            twice.iter().map(|w| w.to_string()).collect::<Vec<_>>(),
+            [
+                "m.mtl:4: material \"a\" is defined again (first on line 1); this definition \
+              replaces that one"
+            ]
+        );
         assert!(
             tf_warnings[0].to_string().contains("m.mtl:2")
                 && tf_warnings[0].to_string().contains("Tf spectral"),
