@@ -354,12 +354,12 @@ mod tests {
             ]
         );
         assert!(WindowPlane::distinct(&[], 1e-3).is_empty());
-        // In a scene a thousandth the size, the wall 1 mm in front is one plane with the
-        // first; one 1 µm in front is too, and 10 µm is not.
+        // In a scene a thousandth that size the step shrinks with the slack: a wall 1 µm in
+        // front (the 1 mm above, scaled) is a plane of its own, one 0.03 µm in front is not.
         let tiny = [
             windows[0],
+            window([3.0, 2.0, 3e-8], n, 0.0),
             window([3.0, 2.0, 1e-6], n, 0.0),
-            window([3.0, 2.0, 1e-5], n, 0.0),
         ];
         let slack = Frame::lengths(0.01)[1];
         assert_eq!(slack, 1e-6);
