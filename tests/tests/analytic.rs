@@ -16,7 +16,7 @@ use pack::{
     ColourSpace, DrawRange, Light, LightKind, Material, MaterialClass, MipLevel, PackData,
     StandardVertex, Texture, TextureFormat, TextureRole, Toc, Window,
 };
-use render::view::{GodRaySettings, LightGeometry};
+use render::view::GodRaySettings;
 use render::{Renderer, Settings, TargetId, TimingMethod, View};
 
 // ---------------------------------------------------------------------------------------------

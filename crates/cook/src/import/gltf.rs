@@ -167,23 +167,26 @@ fn exact_locals(text: &[u8], json: &gltf::json::Root) -> Vec<Option<glam::DMat4>
 /// A spot light's inner and outer cone half-angles (radians).
 type ConeAngles = (f32, f32);
 
+/// A point or spot light where the scene graph places it.
+struct PlacedLamp {
+    name: String,
+    world: glam::DMat4,
+    /// Linear RGB.
+    colour: [f32; 3],
+    /// A spot's inner and outer cone angles.
+    cone: Option<ConeAngles>,
+    range: Option<f32>,
+}
+
 #[derive(Default)]
 struct Views {
     /// Name, world transform, vertical field of view (radians), near and far plane.
     cameras: Vec<(String, glam::DMat4, f32, f32, Option<f32>)>,
     /// Name, world transform, linear colour: the first directional light.
     sun: Option<(String, glam::DMat4, [f32; 3])>,
-    /// Point and spot lights: name, world transform, linear colour, a spot's inner and
-    /// outer cone angles, and the range. The guess takes one that shines in through the
-    /// windows (a lamp outside a church's glass); most are lamps indoors, which light no
-    /// window.
-    lamps: Vec<(
-        String,
-        glam::DMat4,
-        [f32; 3],
-        Option<ConeAngles>,
-        Option<f32>,
-    )>,
+    /// Point and spot lights. The guess takes one that shines in through the windows (a lamp
+    /// outside a church's glass); most are lamps indoors, which light no window.
+    lamps: Vec<PlacedLamp>,
     /// Cameras and lights a pack cannot hold (orthographic cameras, directional lights after
     /// the first), for one warning.
     unused: Vec<String>,
@@ -263,7 +266,13 @@ impl Views {
             .filter(|r| r.is_finite() && *r > 0.0);
         match kind {
             Some("directional") if self.sun.is_none() => self.sun = Some((name, world, colour)),
-            Some("point") => self.lamps.push((name, world, colour, None, range)),
+            Some("point") => self.lamps.push(PlacedLamp {
+                name,
+                world,
+                colour,
+                cone: None,
+                range,
+            }),
             Some("spot") => {
                 // The spec's defaults are 0 and π/4, with 0 ≤ inner < outer ≤ π/2; a value out
                 // of range is clamped into it.
@@ -280,8 +289,13 @@ impl Views {
                         (a as f32).min(std::f32::consts::FRAC_PI_2)
                     });
                 let inner = angle("innerConeAngle").map_or(0.0, |a| (a as f32).clamp(0.0, outer));
-                self.lamps
-                    .push((name, world, colour, Some((inner, outer)), range));
+                self.lamps.push(PlacedLamp {
+                    name,
+                    world,
+                    colour,
+                    cone: Some((inner, outer)),
+                    range,
+                });
             }
             Some("directional") => self.unused.push(format!("directional light {name:?}")),
             Some(other) => self.broken.push(format!(
@@ -369,7 +383,14 @@ impl Views {
                 });
             }
         }
-        for (name, world, colour, cone, range) in self.lamps {
+        for PlacedLamp {
+            name,
+            world,
+            colour,
+            cone,
+            range,
+        } in self.lamps
+        {
             let position = world.transform_point3(glam::DVec3::ZERO) - origin;
             let axis = world.transform_vector3(-glam::DVec3::Z).normalize_or_zero();
             if !position.is_finite() || (cone.is_some() && axis == glam::DVec3::ZERO) {
