@@ -674,6 +674,20 @@ pub fn guess(p: &Prepared) -> Guess {
     let mut lo = DVec3::splat(f64::INFINITY);
     let mut hi = DVec3::splat(f64::NEG_INFINITY);
     let mut floor_sum = FloorSum::new();
+    // Floors the geometry found lie flat by construction: only those a name, a material or a
+    // rule made floors can show that the model stands on its side (see the Z-up note below).
+    let mut by_geometry = vec![true; classes.len()];
+    for (decisions, materials) in p.tagging.decisions.iter().zip(&p.tagging.part_material) {
+        for (d, &m) in decisions.iter().zip(materials) {
+            if !matches!(d, crate::tag::Decision::Geometry { .. })
+                && let Some(g) = by_geometry.get_mut(m as usize)
+            {
+                *g = false;
+            }
+        }
+    }
+    // Twice the area of those floors facing along each axis, either way.
+    let mut named_floor_facing = DVec3::ZERO;
     // The walls' and windows' bounds: the building, where the floor may be open ground.
     let mut shell_lo = DVec3::splat(f64::INFINITY);
     let mut shell_hi = DVec3::splat(f64::NEG_INFINITY);
@@ -696,6 +710,9 @@ pub fn guess(p: &Prepared) -> Guess {
             }
             if class == MaterialClass::Floor {
                 floor_sum.add(tri);
+                if !by_geometry[m as usize] {
+                    named_floor_facing += (tri[1] - tri[0]).cross(tri[2] - tri[0]).abs();
+                }
             }
         }
     }
@@ -731,8 +748,27 @@ pub fn guess(p: &Prepared) -> Guess {
     );
 
     // Y is up here, as in glTF; many CAD and architecture tools write OBJ files Z-up, whose
-    // floor then stands on its edge and catches no sun.
-    if floor_sum.facing.z > 2.0 * floor_sum.facing.y {
+    // floor then stands on its edge and catches no sun. The geometry may take the lowest wall,
+    // lying flat, for another floor, which faces y: so the floors named so are asked alone too
+    // (a glTF's "Floor" beside a wall cut out as one), and where none is, the glass tells, a
+    // good share of it lying flat in the lower half of the building (walls and windows; a
+    // skylight lies in the upper half), as the windows of a Z-up model's walls do.
+    let mid = if shell_lo.y <= shell_hi.y {
+        (shell_lo.y + shell_hi.y) * 0.5
+    } else {
+        (lo.y + hi.y) * 0.5
+    };
+    let window_area: f64 = windows.iter().map(|w| w.area).sum();
+    let low_flat_glass: f64 = windows
+        .iter()
+        .filter(|w| w.inside.y.abs() > 0.9 && w.centre().y < mid)
+        .map(|w| w.area)
+        .sum();
+    let stands_on_z = |f: DVec3| f.z > 2.0 * f.y;
+    if stands_on_z(floor_sum.facing)
+        || stands_on_z(named_floor_facing)
+        || low_flat_glass > 0.25 * window_area
+    {
         notes.push(
             "the floor faces along z, not up (y): the model looks Z-up; `--up z` stands it \
              up (in a scene.toml, `rotate_deg = [-90.0, 0.0, 0.0]` on its [[mesh]])"
@@ -1596,6 +1632,54 @@ mod tests {
         };
         assert!(notes(true).contains("looks Z-up"), "{}", notes(true));
         assert!(!notes(false).contains("Z-up"), "{}", notes(false));
+    }
+
+    /// A Z-up hall whose floor and walls have no telling names: the geometry takes its lowest
+    /// wall, lying flat, for the floor, which faces y; the glass of that wall, lying flat at
+    /// the bottom of the model, still tells. The hall read the right way up is not said to be.
+    #[test]
+    fn a_z_up_hall_with_generic_names_is_pointed_out() {
+        let dir = tempfile::tempdir().unwrap();
+        let (obj, mtl) = crate::testing::hall_on_open_ground(20.0);
+        let ground = std::cell::Cell::new("Material.001");
+        let generic = |t: &str| {
+            t.replace("ground", ground.get())
+                .replace("wall", "Material.002")
+        };
+        let z_up: String = obj
+            .lines()
+            .map(|l| match l.strip_prefix("v ") {
+                Some(rest) => {
+                    let c: Vec<f64> = rest.split(' ').map(|x| x.parse().unwrap()).collect();
+                    format!("v {} {} {}\n", c[0], -c[2], c[1])
+                }
+                None => format!("{l}\n"),
+            })
+            .collect();
+        let notes = |obj: &str, name: &str| {
+            let model = dir.path().join(format!("{name}.obj"));
+            std::fs::write(&model, generic(obj)).unwrap();
+            std::fs::write(dir.path().join("hall.mtl"), generic(&mtl)).unwrap();
+            let manifest = crate::manifest::Manifest::from_mesh_file(&model).unwrap();
+            let out = crate::pipeline::cook(&manifest, &crate::Settings::new(&manifest)).unwrap();
+            out.report
+                .warnings
+                .iter()
+                .map(|w| w.message.clone())
+                .collect::<Vec<_>>()
+                .join("\n")
+        };
+        let said = notes(&z_up, "z");
+        assert!(said.contains("looks Z-up"), "{said}");
+        let said = notes(&obj, "y");
+        assert!(!said.contains("Z-up"), "{said}");
+        // The ground named a floor: it faces z, beside the wall the geometry cuts out as a
+        // floor lying flat, which no longer outweighs it.
+        ground.set("Floor");
+        let said = notes(&z_up, "z-floor");
+        assert!(said.contains("looks Z-up"), "{said}");
+        let said = notes(&obj, "y-floor");
+        assert!(!said.contains("Z-up"), "{said}");
     }
 
     fn marked(t: [DVec3; 3]) -> Vec<bool> {

@@ -310,6 +310,28 @@ pub fn import_sources(
             }
             *started += start.elapsed();
         });
+    // A scale of 1e38 passes the manifest's finite check and sends the positions past f32's
+    // range: the triangles were dropped as degenerate and the pack came out empty, exit 0.
+    for ((src, _), m) in sources.iter().zip(&manifest.meshes) {
+        if !manifest.bare
+            && m.transform() != glam::Mat4::IDENTITY
+            && src.positions.iter().flatten().any(|c| !c.is_finite())
+        {
+            return Err(CookError::Manifest {
+                path: manifest.path.clone(),
+                line: Some(m.line.0),
+                message: format!(
+                    "[[mesh]] {:?}: its transform (translate {:?}, rotate_deg {:?}, scale {:?}) \
+                     takes positions of {} past the range of 32-bit floats",
+                    m.name,
+                    m.translate,
+                    m.rotate_deg,
+                    m.scale,
+                    m.source.display()
+                ),
+            });
+        }
+    }
     Ok((sources, shift))
 }
 
@@ -649,11 +671,15 @@ pub(crate) fn heuristic_notes(
         }
         // Per part, the pack materials its triangles went to: the window stage moves glass
         // into a material per window.
-        let mut went: Vec<Vec<u16>> = vec![Vec::new(); noted.len()];
+        let mut went: Vec<std::collections::BTreeSet<u16>> = vec![Default::default(); noted.len()];
+        // A part's triangles run in long stretches of one material: the set is asked only
+        // where the material changes, not once per triangle of a million-triangle mesh.
+        let mut last = vec![u32::MAX; noted.len()];
         for (&p, &m) in src.tri_part.iter().zip(&tri_material[si]) {
-            let w = &mut went[p as usize];
-            if noted[p as usize] && !w.contains(&m) {
-                w.push(m);
+            let p = p as usize;
+            if noted[p] && last[p] != u32::from(m) {
+                last[p] = u32::from(m);
+                went[p].insert(m);
             }
         }
         let counts = src.part_triangles();
@@ -661,7 +687,6 @@ pub(crate) fn heuristic_notes(
             if !noted[pi] || counts[pi] == 0 {
                 continue;
             }
-            went[pi].sort_unstable();
             notes.push(HeuristicNote {
                 source: src.path.clone(),
                 names: src.parts[pi].names.describe(),

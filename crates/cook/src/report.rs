@@ -66,8 +66,13 @@ impl HeuristicNote {
             [(name, class)] => format!("{class} as material {name:?}"),
             many => {
                 let names: Vec<&str> = many.iter().map(|(n, _)| n.as_str()).collect();
+                let what = if many.iter().all(|(_, c)| c.is_window()) {
+                    "windows"
+                } else {
+                    "materials"
+                };
                 format!(
-                    "{} as {} windows ({})",
+                    "{} as {} {what} ({})",
                     self.classes(),
                     many.len(),
                     few_names(&names)

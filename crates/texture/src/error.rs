@@ -33,6 +33,11 @@ pub enum TextureError {
     },
     #[error("image is {width}x{height}; both sides must be at least 1 texel")]
     Empty { width: u32, height: u32 },
+    #[error(
+        "{}: the {what} file is cut short (it ends before its end-of-image marker)",
+        path.display()
+    )]
+    Truncated { path: PathBuf, what: &'static str },
     #[error("blur sigma {sigma} texels is invalid: it must be finite and >= 0")]
     InvalidSigma { sigma: f32 },
     #[error("error budget {budget} LSB is invalid: it must be finite and >= 0")]
@@ -70,6 +75,7 @@ impl TextureError {
     pub fn path(&self) -> Option<&std::path::Path> {
         match self {
             Self::Io { path, .. }
+            | Self::Truncated { path, .. }
             | Self::Decode { path, .. }
             | Self::Basis { path, .. }
             | Self::Dds { path, .. }

@@ -37,11 +37,73 @@ pub fn load_image(path: &Path) -> Result<DynamicImage, TextureError> {
     std::fs::File::open(path)
         .and_then(|f| f.take(KTX2_IDENTIFIER.len() as u64).read_to_end(&mut head))
         .map_err(io_error(path))?;
-    if is_ktx2(&head) || is_dds(&head) {
+    if is_ktx2(&head) || is_dds(&head) || is_jpeg(&head) {
         let bytes = std::fs::read(path).map_err(io_error(path))?;
         return load_image_bytes(&bytes, path);
     }
     limited(|| reader(path), path)
+}
+
+fn is_jpeg(head: &[u8]) -> bool {
+    head.starts_with(&[0xFF, 0xD8, 0xFF])
+}
+
+/// Whether a JPEG's segments run on to its end-of-image marker. The decoder fills the part of
+/// a file cut short with grey and reports nothing (a phone photo copied half way cooked to a
+/// design half grey, with exit 0). The segments are walked by their lengths, so an EXIF
+/// thumbnail's own end marker does not count, and data after the end (a motion photo's
+/// video) is not read. Where the structure is not what JPEG defines, `true`: the decoder
+/// judges that.
+fn jpeg_reaches_its_end(b: &[u8]) -> bool {
+    let mut i = 2;
+    loop {
+        if b.get(i) != Some(&0xFF) {
+            return i < b.len();
+        }
+        // Fill bytes before a marker.
+        while b.get(i) == Some(&0xFF) {
+            i += 1;
+        }
+        let Some(&marker) = b.get(i) else {
+            return false;
+        };
+        i += 1;
+        match marker {
+            0xD9 => return true,
+            // Restart markers and TEM stand alone.
+            0xD0..=0xD7 | 0x01 => continue,
+            _ => {}
+        }
+        let Some(len) = b
+            .get(i..i + 2)
+            .map(|l| u16::from_be_bytes([l[0], l[1]]) as usize)
+        else {
+            return false;
+        };
+        if len < 2 {
+            return true;
+        }
+        i += len;
+        if i > b.len() {
+            return false;
+        }
+        if marker == 0xDA {
+            // Entropy-coded data, up to the next marker: 0xFF 0x00 is a stuffed byte, and
+            // restart markers sit inside it.
+            loop {
+                let Some(k) = b[i..].iter().position(|&x| x == 0xFF) else {
+                    return false;
+                };
+                i += k;
+                match b.get(i + 1) {
+                    None => return false,
+                    Some(0x00 | 0xD0..=0xD7) => i += 2,
+                    Some(0xFF) => i += 1,
+                    Some(_) => break,
+                }
+            }
+        }
+    }
 }
 
 /// [`load_image`] for an image held in memory (embedded in a glTF, say); `name` is what errors
@@ -52,6 +114,12 @@ pub fn load_image_bytes(bytes: &[u8], name: &Path) -> Result<DynamicImage, Textu
     }
     if is_dds(bytes) {
         return decode_dds(bytes, name);
+    }
+    if is_jpeg(bytes) && !jpeg_reaches_its_end(bytes) {
+        return Err(TextureError::Truncated {
+            path: name.to_path_buf(),
+            what: "JPEG",
+        });
     }
     limited(
         || {
@@ -98,12 +166,108 @@ fn limited<R: BufRead + Seek>(
     limits.max_image_height = Some(MAX_SIDE);
     limits.max_alloc = Some(MAX_DECODE_BYTES);
     r.limits(limits);
-    r.decode().map_err(decode)
+    let mut decoder = r.into_decoder().map_err(decode)?;
+    // As `ImageReader::decode` does before it allocates; `into_decoder` leaves it to us.
+    if image::ImageDecoder::total_bytes(&decoder) > MAX_DECODE_BYTES {
+        return Err(decode(image::ImageError::Limits(
+            image::error::LimitError::from_kind(image::error::LimitErrorKind::InsufficientMemory),
+        )));
+    }
+    // A phone photo is stored as the sensor saw it and turned by its EXIF orientation when
+    // shown: the design is the photo as the user sees it.
+    let orientation = image::ImageDecoder::orientation(&mut decoder)
+        .unwrap_or(image::metadata::Orientation::NoTransforms);
+    let mut image = DynamicImage::from_decoder(decoder).map_err(decode)?;
+    image.apply_orientation(orientation);
+    Ok(image)
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// A JPEG of `image`, with `exif` (a TIFF structure) in its APP1 segment.
+    fn jpeg(image: &image::RgbImage, exif: Option<Vec<u8>>) -> Vec<u8> {
+        use image::ImageEncoder;
+        let mut out = Vec::new();
+        let mut e = image::codecs::jpeg::JpegEncoder::new_with_quality(&mut out, 95);
+        if let Some(x) = exif {
+            e.set_exif_metadata(x).unwrap();
+        }
+        e.write_image(
+            image.as_raw(),
+            image.width(),
+            image.height(),
+            image::ExtendedColorType::Rgb8,
+        )
+        .unwrap();
+        out
+    }
+
+    /// A phone photo held on its side with EXIF orientation 6 ("turn 90° clockwise to show")
+    /// is the design as shown: red on the left of the stored 32 x 16 comes out on top of a
+    /// 16 x 32 design.
+    #[test]
+    fn exif_orientation_turns_the_image_as_it_is_shown() {
+        let stored = image::RgbImage::from_fn(32, 16, |x, _| {
+            if x < 16 {
+                image::Rgb([220, 20, 20])
+            } else {
+                image::Rgb([20, 200, 20])
+            }
+        });
+        // Little-endian TIFF: one IFD entry, Orientation (0x0112), SHORT, 1 value: 6.
+        let exif = vec![
+            0x49, 0x49, 0x2A, 0x00, 0x08, 0x00, 0x00, 0x00, 0x01, 0x00, 0x12, 0x01, 0x03, 0x00,
+            0x01, 0x00, 0x00, 0x00, 0x06, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00,
+        ];
+        let turned = load_image_bytes(&jpeg(&stored, Some(exif)), Path::new("phone.jpg"))
+            .unwrap()
+            .to_rgb8();
+        assert_eq!(turned.dimensions(), (16, 32));
+        let (top, bottom) = (turned.get_pixel(8, 4), turned.get_pixel(8, 27));
+        assert!(top[0] > 150 && top[1] < 80, "{top:?}");
+        assert!(bottom[1] > 150 && bottom[0] < 80, "{bottom:?}");
+        // Without the tag it is as stored.
+        let plain = load_image_bytes(&jpeg(&stored, None), Path::new("plain.jpg")).unwrap();
+        assert_eq!((plain.width(), plain.height()), (32, 16));
+    }
+
+    /// A JPEG cut short is an error naming it (the decoder filled the rest grey); one whole,
+    /// or with data after its end (a motion photo's video), decodes.
+    #[test]
+    fn a_jpeg_cut_short_is_an_error() {
+        let noise = image::RgbImage::from_fn(64, 64, |x, y| {
+            image::Rgb([(x * 37 + y * 11) as u8, (x * y) as u8, (x ^ y) as u8 * 4])
+        });
+        let whole = jpeg(&noise, None);
+        let name = Path::new("photo.jpg");
+        assert!(load_image_bytes(&whole, name).is_ok());
+        let mut longer = whole.clone();
+        longer.extend_from_slice(b"\x00\x00\x00\x18ftypmp42 and a video after the image");
+        assert!(load_image_bytes(&longer, name).is_ok());
+        for cut in [whole.len() / 2, whole.len() - 2, 200] {
+            let e = load_image_bytes(&whole[..cut], name)
+                .unwrap_err()
+                .to_string();
+            assert!(
+                e == "photo.jpg: the JPEG file is cut short (it ends before its end-of-image \
+                      marker)"
+                    || e.starts_with("photo.jpg: cannot decode image"),
+                "cut at {cut}: {e}"
+            );
+        }
+        let e = load_image_bytes(&whole[..whole.len() / 2], name).unwrap_err();
+        assert!(matches!(e, TextureError::Truncated { .. }), "{e}");
+        // Read from a file, the same.
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("half.jpg");
+        std::fs::write(&path, &whole[..whole.len() / 2]).unwrap();
+        assert!(matches!(
+            load_image(&path),
+            Err(TextureError::Truncated { .. })
+        ));
+    }
 
     /// 3000 damaged copies of each real KTX2 and DDS file (bits flipped, bytes set, tails
     /// cut): every result is an image of an allowed size or an error naming the input. A panic

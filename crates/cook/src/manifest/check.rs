@@ -250,6 +250,14 @@ fn meshes(src: &Source<'_>, raw: &[Spanned<model::Mesh>]) -> Result<Vec<MeshSour
         {
             return Err(src.err_at(s, format!("scale {scale:?} must be finite and non-zero")));
         }
+        // A NaN here cooked to an empty pack with exit 0, every triangle dropped as degenerate.
+        for (v, what) in [(&m.translate, "translate"), (&m.rotate_deg, "rotate_deg")] {
+            if let Some(v) = v
+                && !finite3(*v)
+            {
+                return Err(src.at_line(line, format!("{what} {v:?} must be finite")));
+            }
+        }
         let name = m.name.clone().unwrap_or_else(|| {
             source
                 .file_stem()
@@ -314,10 +322,21 @@ fn rules(src: &Source<'_>, raw: &[Spanned<model::Rule>]) -> Result<Vec<Rule>, Co
             (&r.emissive, "emissive"),
         ] {
             if let Some(c) = v
-                && !finite3(*c)
+                && (!finite3(*c) || c.iter().any(|&x| x < 0.0))
             {
-                return Err(src.at_line(line, format!("{what} {c:?} is not finite")));
+                return Err(src.at_line(
+                    line,
+                    format!("{what} {c:?} must be finite and not negative"),
+                ));
             }
+        }
+        if let Some(s) = r.shininess
+            && !(s.is_finite() && s >= 0.0)
+        {
+            return Err(src.at_line(
+                line,
+                format!("shininess {s} must be finite and not negative"),
+            ));
         }
         rules.push(Rule {
             pattern: r.pattern.get_ref().clone(),
@@ -361,7 +380,7 @@ fn windows(
         }
         if let Some(prev) = windows
             .iter()
-            .find(|p| p.material.is_some() && p.material == material && p.name == name)
+            .find(|p| p.material == material && p.name == name)
         {
             return Err(src.at_line(
                 line,
@@ -565,9 +584,24 @@ fn light(src: &Source<'_>, l: &Spanned<model::Light>) -> Result<Light, CookError
     })
 }
 
-fn cameras(src: &Source<'_>, raw: Vec<model::Camera>) -> Result<Vec<pack::Camera>, CookError> {
-    let mut cameras = Vec::new();
+fn cameras(
+    src: &Source<'_>,
+    raw: Vec<Spanned<model::Camera>>,
+) -> Result<Vec<pack::Camera>, CookError> {
+    let mut cameras: Vec<(pack::Camera, Line)> = Vec::new();
     for c in raw {
+        let line = src.line(c.span().start);
+        let c = c.into_inner();
+        // The viewer picks a camera by name (`--camera`), and writes a frame per name.
+        if let Some((_, first)) = cameras.iter().find(|(k, _)| k.name == c.name) {
+            return Err(src.at_line(
+                line,
+                format!(
+                    "camera {:?} is already described at line {}: names must differ",
+                    c.name, first.0
+                ),
+            ));
+        }
         let fov_y = src.positive_or(&c.fov_y_deg, "fov_y_deg", 60.0)?;
         if let Some(f) = &c.fov_y_deg
             && fov_y >= 180.0
@@ -590,31 +624,51 @@ fn cameras(src: &Source<'_>, raw: Vec<model::Camera>) -> Result<Vec<pack::Camera
         }
         let up = c.up.unwrap_or([0.0, 1.0, 0.0]);
         if !finite3(c.position) || !finite3(c.target) || !finite3(up) || c.position == c.target {
-            return Err(src.whole(format!(
-                "camera {:?}: position, target and up must be finite and position must differ \
-                 from target",
-                c.name
-            )));
+            return Err(src.at_line(
+                line,
+                format!(
+                    "camera {:?}: position, target and up must be finite and position must \
+                     differ from target",
+                    c.name
+                ),
+            ));
         }
-        cameras.push(pack::Camera {
-            name: c.name,
-            position: c.position,
-            target: c.target,
-            up,
-            fov_y,
-            near,
-            far,
-        });
+        cameras.push((
+            pack::Camera {
+                name: c.name,
+                position: c.position,
+                target: c.target,
+                up,
+                fov_y,
+                near,
+                far,
+            },
+            line,
+        ));
     }
-    Ok(cameras)
+    Ok(cameras.into_iter().map(|(c, _)| c).collect())
 }
 
-fn background(src: &Source<'_>, raw: Option<model::Background>) -> Result<Background, CookError> {
+fn background(
+    src: &Source<'_>,
+    raw: Option<Spanned<model::Background>>,
+) -> Result<Background, CookError> {
     Ok(match raw {
-        Some(b) => Background {
-            colour: b.colour.unwrap_or([0.0; 3]),
-            panorama: src.files(&b.panorama, "panorama")?,
-        },
+        Some(b) => {
+            let line = src.line(b.span().start);
+            let b = b.into_inner();
+            let colour = b.colour.unwrap_or([0.0; 3]);
+            if !finite3(colour) || colour.iter().any(|&c| c < 0.0) {
+                return Err(src.at_line(
+                    line,
+                    format!("background colour {colour:?} must be finite and not negative"),
+                ));
+            }
+            Background {
+                colour,
+                panorama: src.files(&b.panorama, "panorama")?,
+            }
+        }
         None => Background::default(),
     })
 }

@@ -862,6 +862,54 @@ colour = [0.35, 0.5, 0.8]
                 "mip_filter: unknown variant `cubic`, expected one of `box`, `kaiser`, `lanczos3`",
             ),
             (format!("{mesh}[scene\n"), 3, ""),
+            // Nonsense that cooked before: to an empty pack (a NaN placement), or to a pack
+            // the writer refused without the manifest's line (a NaN shininess).
+            (
+                format!("{mesh}translate = [nan, 0.0, 0.0]\n"),
+                1,
+                "translate [NaN, 0.0, 0.0] must be finite",
+            ),
+            (
+                format!("{mesh}rotate_deg = [inf, 0.0, 0.0]\n"),
+                1,
+                "rotate_deg [inf, 0.0, 0.0] must be finite",
+            ),
+            (
+                format!(
+                    "{mesh}\n[[rule]]\nmatch = \"a\"\nclass = \"wall\"\ndiffuse = [-3.0, 0.5, 0.5]\n"
+                ),
+                4,
+                "diffuse [-3.0, 0.5, 0.5] must be finite and not negative",
+            ),
+            (
+                format!("{mesh}\n[[rule]]\nmatch = \"a\"\nclass = \"wall\"\nshininess = nan\n"),
+                4,
+                "shininess NaN must be finite and not negative",
+            ),
+            (
+                format!("{mesh}[[window]]\nname = \"w\"\n[[window]]\nname = \"w\"\n"),
+                5,
+                "window \"w\" is already described at line 3",
+            ),
+            (
+                format!(
+                    "{mesh}[[camera]]\nname = \"c\"\nposition = [0.0, 0.0, 0.0]\ntarget = [0.0, 0.0, 1.0]\n[[camera]]\nname = \"c\"\nposition = [1.0, 0.0, 0.0]\ntarget = [0.0, 0.0, 1.0]\n"
+                ),
+                7,
+                "camera \"c\" is already described at line 3",
+            ),
+            (
+                format!(
+                    "{mesh}[[camera]]\nname = \"c\"\nposition = [0.0, 0.0, 1.0]\ntarget = [0.0, 0.0, 1.0]\n"
+                ),
+                3,
+                "position must differ from target",
+            ),
+            (
+                format!("{mesh}[background]\ncolour = [-1.0, 0.5, 1.0]\n"),
+                3,
+                "background colour [-1.0, 0.5, 1.0] must be finite and not negative",
+            ),
         ];
         for (text, line, word) in cases {
             let (l, msg) = line_of(parse(&d, &text).unwrap_err());

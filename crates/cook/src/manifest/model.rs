@@ -21,8 +21,8 @@ pub(super) struct Manifest {
     pub window: Vec<Spanned<Window>>,
     pub light: Option<Spanned<Light>>,
     #[serde(default)]
-    pub camera: Vec<Camera>,
-    pub background: Option<Background>,
+    pub camera: Vec<Spanned<Camera>>,
+    pub background: Option<Spanned<Background>>,
 }
 
 #[derive(Deserialize)]
