@@ -1033,6 +1033,18 @@ fn image_difference(a: &image::RgbaImage, b: &image::RgbaImage) -> (f32, f32, u8
     (pool.mean(), pool.get_percentile(0.99, false), max)
 }
 
+/// The default settings with god rays unjittered, so that two renders compare texel for
+/// texel.
+fn unjittered() -> Settings {
+    Settings {
+        god_rays: GodRaySettings {
+            jitter: false,
+            ..GodRaySettings::default()
+        },
+        ..Default::default()
+    }
+}
+
 /// Every position of the scene (geometry, window frame, lamp, cameras) moved by 1e5 on each
 /// axis renders like the scene at the origin.
 ///
@@ -1046,13 +1058,7 @@ fn image_difference(a: &image::RgbaImage, b: &image::RgbaImage) -> (f32, f32, u8
 #[test]
 fn far_from_origin_renders_like_the_origin() {
     let gpu = lavapipe();
-    let settings = Settings {
-        god_rays: GodRaySettings {
-            jitter: false,
-            ..GodRaySettings::default()
-        },
-        ..Default::default()
-    };
+    let settings = unjittered();
     let far = Vec3::splat(1e5);
     let placements = [
         Placement::ORIGIN,
@@ -1130,13 +1136,7 @@ fn far_from_origin_renders_like_the_origin() {
 #[test]
 fn a_scene_a_thousandth_the_size_renders_alike() {
     let gpu = lavapipe();
-    let settings = Settings {
-        god_rays: GodRaySettings {
-            jitter: false,
-            ..GodRaySettings::default()
-        },
-        ..Default::default()
-    };
+    let settings = unjittered();
     let small = Placement {
         scale: 1e-3,
         ..Placement::ORIGIN

@@ -1285,7 +1285,13 @@ mod tests {
         std::fs::write(dir.path().join("hall.bin"), bin).unwrap();
         let path = dir.path().join("hall.gltf");
         std::fs::write(&path, serde_json::to_vec(&gltf).unwrap()).unwrap();
-        let manifest = crate::manifest::Manifest::from_mesh_file(&path).unwrap();
+        bare_cook(&path)
+    }
+
+    /// A bare cook of `model`: its table of contents and its warnings' words, a line each
+    /// (the guess's notes among them).
+    fn bare_cook(model: &std::path::Path) -> (pack::Toc, String) {
+        let manifest = crate::manifest::Manifest::from_mesh_file(model).unwrap();
         let out = crate::pipeline::cook(&manifest, &crate::Settings::new(&manifest)).unwrap();
         let words = out
             .report
@@ -1621,14 +1627,7 @@ mod tests {
             obj += "usemtl floor\nf 1 4 3 2\nusemtl wall\nf 5 6 7 8\nf 9 12 11 10\n";
             let model = dir.path().join(format!("room-{z_up}.obj"));
             std::fs::write(&model, obj).unwrap();
-            let manifest = crate::manifest::Manifest::from_mesh_file(&model).unwrap();
-            let out = crate::pipeline::cook(&manifest, &crate::Settings::new(&manifest)).unwrap();
-            out.report
-                .warnings
-                .iter()
-                .map(|w| w.message.clone())
-                .collect::<Vec<_>>()
-                .join("\n")
+            bare_cook(&model).1
         };
         assert!(notes(true).contains("looks Z-up"), "{}", notes(true));
         assert!(!notes(false).contains("Z-up"), "{}", notes(false));
@@ -1660,14 +1659,7 @@ mod tests {
             let model = dir.path().join(format!("{name}.obj"));
             std::fs::write(&model, generic(obj)).unwrap();
             std::fs::write(dir.path().join("hall.mtl"), generic(&mtl)).unwrap();
-            let manifest = crate::manifest::Manifest::from_mesh_file(&model).unwrap();
-            let out = crate::pipeline::cook(&manifest, &crate::Settings::new(&manifest)).unwrap();
-            out.report
-                .warnings
-                .iter()
-                .map(|w| w.message.clone())
-                .collect::<Vec<_>>()
-                .join("\n")
+            bare_cook(&model).1
         };
         let said = notes(&z_up, "z");
         assert!(said.contains("looks Z-up"), "{said}");
