@@ -50,7 +50,12 @@ pub enum Problem {
     #[error("bad magic {found:02x?}: not a stained-glass pack")]
     BadMagic { found: [u8; 8] },
     #[error(
-        "pack format version {found}, but this build reads version {expected}: re-cook the pack with this cooker"
+        "pack format version {found}, but this build reads version {expected}: {}",
+        if .found > .expected {
+            "the pack is from a newer cooker; read it with the viewer and cooker of its version"
+        } else {
+            "re-cook the pack with this cooker"
+        }
     )]
     Version { found: u32, expected: u32 },
     #[error("{what} checksum mismatch: stored {stored:#010x}, computed {computed:#010x}")]

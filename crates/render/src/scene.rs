@@ -1077,6 +1077,16 @@ impl Scene {
         self.occluder_bounds
     }
 
+    /// What a view made for a pack without cameras frames: its opaque geometry where the CPU
+    /// copies know it, so a backdrop (a sky cylinder 150 m round a 30 m church) is left out
+    /// and the building seen; else every mesh's bounds ([`Self::bounds`]).
+    pub fn framing_bounds(&self) -> (glam::Vec3, glam::Vec3) {
+        match self.occluder_bounds {
+            Some((lo, hi)) => (lo.as_vec3(), hi.as_vec3()),
+            None => self.bounds(),
+        }
+    }
+
     /// Changes whenever shadow maps drawn earlier may be stale (geometry or light changed).
     pub(crate) fn shadow_generation(&self) -> u64 {
         self.shadow_generation

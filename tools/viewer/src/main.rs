@@ -25,7 +25,7 @@ use render::{
     about = "View a stained-glass pack or scene.toml (headless: PNGs and per-pass timings)"
 )]
 struct Args {
-    /// A cooked `.pack`, or a `scene.toml` or bare .obj/.gltf/.glb to cook first.
+    /// A cooked `.pack`, or a `scene.toml` or bare .obj/.gltf/.glb/.ply to cook first.
     input: PathBuf,
     /// Cook with IMAGE as the design of the windows NAME matches (a window name, a material,
     /// or a glob); repeatable, as `cooker cook --window`.
@@ -66,7 +66,7 @@ struct Args {
     #[arg(long)]
     no_occlusion: bool,
     /// Render N frames per camera and print the median time of each pass.
-    #[arg(long, value_name = "N")]
+    #[arg(long, value_name = "N", value_parser = clap::value_parser!(u32).range(1..))]
     bench: Option<u32>,
     /// Largest god-ray error to accept, as a FLIP mean (0 = identical, 1 = worst); picks
     /// samples, ray scale and jitter. `--max-error` is the old spelling.
@@ -267,11 +267,23 @@ pub fn cooked_from(manifest: &Path) -> Vec<PathBuf> {
         .map_or_else(Vec::new, |(_, p)| p.clone())
 }
 
-fn open_source(path: &Path) -> Result<Box<dyn Read + Send>> {
-    let is_pack = path
+/// Whether `path` is a cooked pack: by its extension, or by its first bytes (a pack renamed
+/// without `.pack` was taken for a model of no known format).
+fn is_pack(path: &Path) -> bool {
+    if path
         .extension()
-        .is_some_and(|e| e.eq_ignore_ascii_case("pack"));
-    if !is_pack {
+        .is_some_and(|e| e.eq_ignore_ascii_case("pack"))
+    {
+        return true;
+    }
+    let mut head = [0u8; 8];
+    std::fs::File::open(path)
+        .and_then(|mut f| f.read_exact(&mut head))
+        .is_ok_and(|()| head == pack::format::MAGIC)
+}
+
+fn open_source(path: &Path) -> Result<Box<dyn Read + Send>> {
+    if !is_pack(path) {
         let start = Instant::now();
         let manifest =
             cook::Manifest::open(path).with_context(|| format!("loading {}", path.display()))?;
@@ -428,7 +440,7 @@ fn first_view(scene: &Scene, renderer: &Renderer) -> View {
     match scene.toc().cameras.first() {
         Some(c) => renderer.view_for(c),
         None => {
-            let (lo, hi) = scene.bounds();
+            let (lo, hi) = scene.framing_bounds();
             let (w, h) = renderer.size();
             View::framing(lo, hi, w as f32 / h as f32)
         }
@@ -537,11 +549,21 @@ fn bench(
                 .iter()
                 .find(|p| p.pass == id)
                 .and_then(|p| p.skipped);
-            (id, times.get(times.len() / 2).copied(), skipped)
+            (id, median(&times), skipped)
         })
         .collect();
     print_report(label, method, &medians);
     Ok(())
+}
+
+/// The median of sorted `times`: the mean of the middle two where their count is even.
+fn median(times: &[f64]) -> Option<f64> {
+    let n = times.len();
+    match n {
+        0 => None,
+        _ if n % 2 == 1 => Some(times[n / 2]),
+        _ => Some((times[n / 2 - 1] + times[n / 2]) * 0.5),
+    }
 }
 
 /// One line per window: whether its light gets a shadow map, and why.
@@ -628,14 +650,37 @@ fn main() -> Result<()> {
     }
     tune_allocator();
     let args = Args::parse();
-    if args.headless
+    // They change how a scene is cooked; a pack was cooked already, and they were dropped
+    // without a word.
+    if is_pack(&args.input)
+        && (!args.windows.is_empty()
+            || args.model.up != cook::UpAxis::Y
+            || args.model.text_encoding.is_some())
+    {
+        use clap::CommandFactory;
+        Args::command()
+            .error(
+                clap::error::ErrorKind::ArgumentConflict,
+                format!(
+                    "--window, --up and --text-encoding change how a scene.toml or model is \
+                     cooked, and {} is a cooked pack: give them to `cooker cook`, or view the \
+                     scene.toml or model",
+                    args.input.display()
+                ),
+            )
+            .exit();
+    }
+    let no_display =
+        std::env::var_os("DISPLAY").is_none() && std::env::var_os("WAYLAND_DISPLAY").is_none();
+    if (args.headless || no_display)
         && std::env::var_os("XDG_RUNTIME_DIR").is_none()
         && std::env::var_os("NODEVICE_SELECT").is_none()
     {
         // Mesa's device-select layer, which the Vulkan loader turns on by itself, connects to
         // a Wayland display to put its GPU first; without XDG_RUNTIME_DIR libwayland printed
-        // "error: XDG_RUNTIME_DIR is invalid" twice, which read like a failure. Headless, no
-        // display's GPU is to be preferred, and this is the layer's own switch.
+        // "error: XDG_RUNTIME_DIR is invalid" twice, which read like a failure. Headless (asked
+        // for, or for want of a display), no display's GPU is to be preferred, and this is the
+        // layer's own switch.
         // SAFETY: no other thread exists yet (only the arguments were parsed), so nothing
         // reads the environment concurrently.
         unsafe { std::env::set_var("NODEVICE_SELECT", "1") };
@@ -680,6 +725,12 @@ fn main() -> Result<()> {
     let (scene, mut renderer) = load(&gpu, &args, settings)?;
 
     let toc = scene.toc();
+    if toc.meshes.iter().all(|m| m.index_count == 0) {
+        eprintln!(
+            "warning: {} holds no triangles to draw: the frames show the background alone",
+            args.input.display()
+        );
+    }
     if args.verbose || args.passes {
         print_window_shadows(&scene);
     }
@@ -690,13 +741,13 @@ fn main() -> Result<()> {
         .map(|c| (c.name.clone(), renderer.view_for(c)))
         .collect();
     if views.is_empty() {
-        let (lo, hi) = scene.bounds();
+        let (lo, hi) = scene.framing_bounds();
         views.push(("default".into(), View::framing(lo, hi, aspect)));
     }
     if args.camera != "all" {
+        let names: Vec<String> = views.iter().map(|(n, _)| n.clone()).collect();
         views.retain(|(n, _)| *n == args.camera);
         if views.is_empty() {
-            let names: Vec<&str> = toc.cameras.iter().map(|c| c.name.as_str()).collect();
             bail!(
                 "no camera named {:?} in {} (cameras: {})",
                 args.camera,

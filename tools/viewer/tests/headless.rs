@@ -348,6 +348,45 @@ fn names_the_problem_on_bad_input() {
     let _ = std::fs::remove_dir_all(&dir);
 }
 
+/// A cooked pack is cooked: the options that change a cook are refused for it (they were
+/// dropped without a word), and a pack named without `.pack` is still read as one.
+#[test]
+fn cook_options_on_a_pack_are_bad_usage() {
+    let dir = scratch("cook-options");
+    let pack_path = dir.join("tiny.pack");
+    std::fs::write(&pack_path, tiny_pack()).unwrap();
+    let out = dir.join("out");
+    for extra in [["--window", "rose=x.png"], ["--up", "z"]] {
+        let mut args = vec![
+            pack_path.as_os_str(),
+            "--headless".as_ref(),
+            "--out".as_ref(),
+            out.as_os_str(),
+        ];
+        args.extend(extra.iter().map(std::ffi::OsStr::new));
+        let o = viewer(&args);
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert_eq!(o.status.code(), Some(2), "{extra:?}: {err}");
+        assert!(
+            err.contains("tiny.pack is a cooked pack: give them to `cooker cook`"),
+            "{err}"
+        );
+    }
+    assert!(!out.exists(), "images written for bad usage");
+    let renamed = dir.join("tiny.bin");
+    std::fs::write(&renamed, tiny_pack()).unwrap();
+    let o = viewer(&[
+        renamed.as_os_str(),
+        "--headless".as_ref(),
+        "--out".as_ref(),
+        out.as_os_str(),
+        "--size".as_ref(),
+        "32x18".as_ref(),
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
 /// On a valid pack, so only the size check can make it fail.
 #[test]
 fn zero_size_is_bad_usage() {

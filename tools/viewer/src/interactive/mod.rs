@@ -612,7 +612,7 @@ impl App {
                 self.camera = Some(match preset {
                     Some(c) => FlyCamera::new(Pose::from_camera(c), shown.size, c.near, c.far),
                     None => {
-                        let (lo, hi) = shown.scene.bounds();
+                        let (lo, hi) = shown.scene.framing_bounds();
                         let v = View::framing(lo, hi, w as f32 / h as f32);
                         let radius = (hi - lo).length() * 0.5;
                         FlyCamera::new(
