@@ -575,7 +575,12 @@ impl Renderer {
         let mut fade = 0.0;
         if let (true, Some(l)) = (windows, light) {
             let geometry = LightGeometry::from_light(l);
-            let colour = Vec3::from(l.colour) * l.intensity * god_ray_falloff(scene.toc(), l);
+            // Over the windows the scene found at load to let the light in: asking each
+            // window again (a spot's cone test searches its edges) cost every frame.
+            let passing = (scene.toc().windows.iter().enumerate())
+                .filter(|(i, _)| scene.window_passes_light(*i))
+                .map(|(_, w)| w);
+            let colour = Vec3::from(l.colour) * l.intensity * falloff_over(l, passing);
             let (u, f) = god_ray_uniforms(
                 &self.settings.god_rays,
                 view,
@@ -1137,14 +1142,19 @@ fn map_slot(slot: &mut uniforms::WindowProjector, map: &crate::shadows::WindowMa
 /// shine; for a spot, those its cone reaches), so god rays match the brightness of the light
 /// patches they lead to. 1 for the sun, and where the light passes no window.
 pub fn god_ray_falloff(toc: &pack::Toc, light: &pack::Light) -> f32 {
+    falloff_over(
+        light,
+        (toc.windows.iter()).filter(|w| crate::view::window_passes_light(w, light)),
+    )
+}
+
+/// [`god_ray_falloff`] over `windows`, those the light comes in through.
+fn falloff_over<'a>(light: &pack::Light, windows: impl Iterator<Item = &'a pack::Window>) -> f32 {
     let Some((position, radius)) = light.kind.lamp() else {
         return 1.0;
     };
     let position = Vec3::from(position);
-    let falloffs: Vec<f32> = toc
-        .windows
-        .iter()
-        .filter(|w| crate::view::window_passes_light(w, light))
+    let falloffs: Vec<f32> = windows
         .map(|w| {
             let centre = Vec3::from(w.origin) + (Vec3::from(w.u_axis) + Vec3::from(w.v_axis)) * 0.5;
             1.0 / position
