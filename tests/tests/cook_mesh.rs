@@ -1011,3 +1011,105 @@ fn the_tagging_note_gives_each_window_its_own_class() {
         glass[0].tagged()
     );
 }
+
+/// A square design stretched onto a lancet three times as tall as wide: the light's penumbra is
+/// round on the glass, so the projector's blur, measured in scene units on the window, must be
+/// as wide up the lancet as across it. σ came from the texels across alone and was applied both
+/// ways, which blurred the design three times too wide up the lancet.
+#[test]
+fn a_stretched_design_s_projector_is_blurred_alike_both_ways_on_the_glass() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    // Floor y = 0; the lancet x in [0, 1], y in [2, 5] in the plane z = 0, facing +z.
+    std::fs::write(
+        d.join("room.obj"),
+        "v -6 0 -1\nv 6 0 -1\nv 6 0 12\nv -6 0 12\nv 0 5 0\nv 1 5 0\nv 1 2 0\nv 0 2 0\n\
+         vt 0 1\nvt 1 1\nvt 1 0\nvt 0 0\n\
+         o floor\nusemtl stone\nf 1 4 3 2\no lancet\nusemtl glass\nf 5/1 8/4 7/3 6/2\n",
+    )
+    .unwrap();
+    // A white-and-black checker of four 32-texel quadrants: an edge each way through the middle.
+    image::RgbaImage::from_fn(64, 64, |x, y| {
+        let v = if (x < 32) == (y < 32) { 255 } else { 0 };
+        image::Rgba([v, v, v, 255])
+    })
+    .save(d.join("design.png"))
+    .unwrap();
+    let m = scene(
+        d,
+        r#"
+[[mesh]]
+source = "room.obj"
+
+[[rule]]
+match = "stone"
+class = "floor"
+
+[[rule]]
+match = "glass"
+class = "window-lower"
+
+[[window]]
+material = "glass"
+design = "design.png"
+
+[textures]
+format = "rgba8"
+
+[light]
+type = "directional"
+direction = [0.0, -1.0, 1.0]
+angular_size_deg = 5.0
+"#,
+    );
+    let (_, pack) = cook_to_pack(&m);
+    let toc = pack.toc();
+    let glass = toc.materials.iter().find(|m| m.name == "glass").unwrap();
+    let index = glass.projector_texture.expect("a projector") as usize;
+    let texture = &toc.textures[index];
+    let texels = pack::texels::decode_level(texture, 0, pack.mip_bytes(index, 0));
+    let (w, h) = (
+        texture.mips[0].width as usize,
+        texture.mips[0].height as usize,
+    );
+    let red =
+        |x: usize, y: usize| texture::srgb::srgb_to_linear(texels[(y * w + x) * 4] as f64 / 255.0);
+    // Where a white-to-black profile crosses `level`, by linear interpolation.
+    let crossing = |profile: &[f64], level: f64| {
+        let i = profile
+            .windows(2)
+            .position(|p| p[0] >= level && p[1] < level)
+            .expect("the profile crosses");
+        i as f64 + (profile[i] - level) / (profile[i] - profile[i + 1])
+    };
+    // The 25 %–75 % width of a blurred edge is 1.349 σ.
+    let sigma = |profile: &[f64]| (crossing(profile, 0.25) - crossing(profile, 0.75)) / 1.349;
+    // The texture spans the window and its margin: scene units per texel along each axis.
+    let [mu, mv] = glass.projector_margin;
+    let (unit_x, unit_y) = (
+        1.0 * (1.0 + 2.0 * mu as f64) / w as f64,
+        3.0 * (1.0 + 2.0 * mv as f64) / h as f64,
+    );
+    // Across the top left quadrant's right edge, a quarter of the way down the design (the
+    // image's top row is v = 0), and down its lower edge, a quarter of the way across.
+    let (x0, x1) = (
+        (mu as f64 / (1.0 + 2.0 * mu as f64) * w as f64) as usize,
+        ((1.0 + mu as f64) / (1.0 + 2.0 * mu as f64) * w as f64) as usize,
+    );
+    let (y0, y1) = (
+        (mv as f64 / (1.0 + 2.0 * mv as f64) * h as f64) as usize,
+        ((1.0 + mv as f64) / (1.0 + 2.0 * mv as f64) * h as f64) as usize,
+    );
+    let (qx, qy) = (x0 + (x1 - x0) / 4, y0 + (y1 - y0) / 4);
+    let (mx, my) = ((x0 + x1) / 2, (y0 + y1) / 2);
+    let across: Vec<f64> = (qx..x1).map(|x| red(x, qy)).collect();
+    let down: Vec<f64> = (qy..y1).map(|y| red(qx, y)).collect();
+    let (sx, sy) = (sigma(&across) * unit_x, sigma(&down) * unit_y);
+    // 5° over the 5 m from the lancet's middle to the floor along the light: σ ≈ 0.108 m.
+    let expected = 5f64.to_radians() * 3.5 * 2f64.sqrt() / 4.0;
+    assert!(
+        (sx / sy - 1.0).abs() < 0.2 && (sx / expected - 1.0).abs() < 0.25,
+        "σ across {sx:.4} m, up {sy:.4} m, expected {expected:.4} m \
+         ({w}x{h} texels, margins {mu} {mv}, edges at {mx} and {my})"
+    );
+}

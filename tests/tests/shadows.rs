@@ -38,6 +38,9 @@ enum Opening {
     GlassOnUncutWall,
     /// A roof pierced by an n x n grid of square skylights ([`grid`]), each its own window.
     SkylightGrid(usize),
+    /// One lancet 0.6 m wide and 2.4 m tall in the wall at x = −6, z in [−0.3, 0.3], sill at
+    /// 1 m, its square design (a checker of 4 x 4 panes) stretched four times up the glass.
+    Lancet,
 }
 
 /// The centres (in x and in z) of an n x n skylight grid's holes, spread evenly over the roof,
@@ -207,7 +210,7 @@ fn cook_hall(hall: &Hall, dir: &Path) -> Vec<u8> {
         );
     };
     // The wall at x = −6 is whole unless its windows are the opening.
-    if hall.opening != Opening::WallWindows {
+    if !matches!(hall.opening, Opening::WallWindows | Opening::Lancet) {
         wall(
             &mut obj,
             Vec3::new(-h, 0.0, -h),
@@ -294,22 +297,56 @@ fn cook_hall(hall: &Hall, dir: &Path) -> Vec<u8> {
                 );
             }
         }
+        Opening::Lancet => {
+            roof(&mut obj, -h, h, -h, h);
+            let x = -h;
+            let piece = |obj: &mut Obj, z0: f32, z1: f32, y0: f32, y1: f32| {
+                obj.quad(
+                    "stone",
+                    o + Vec3::new(x, y0, z0),
+                    Vec3::Z * (z1 - z0),
+                    Vec3::Y * (y1 - y0),
+                    Vec3::X,
+                );
+            };
+            piece(&mut obj, -h, -0.3, 0.0, top);
+            piece(&mut obj, 0.3, h, 0.0, top);
+            piece(&mut obj, -0.3, 0.3, 0.0, 1.0);
+            piece(&mut obj, -0.3, 0.3, 3.4, top);
+            obj.quad(
+                "glass_a",
+                o + Vec3::new(x, 1.0, -0.3),
+                Vec3::Z * 0.6,
+                Vec3::Y * 2.4,
+                Vec3::X,
+            );
+        }
     }
     for &(lo, hi) in &hall.boxes {
         obj.block("pillar", o + lo, o + hi);
     }
     std::fs::write(dir.join("hall.obj"), obj.finish()).unwrap();
-    // Warm glass with a faint tint gradient, so the projected pattern is visible but smooth.
-    image::RgbaImage::from_fn(64, 64, |x, y| {
-        image::Rgba([
-            235,
-            (200.0 + x as f32 * 0.5) as u8,
-            (150.0 + y as f32 * 0.8) as u8,
-            255,
-        ])
-    })
-    .save(dir.join("design.png"))
-    .unwrap();
+    // Warm glass with a faint tint gradient, so the projected pattern is visible but smooth; the
+    // lancet's panes are sharp-edged, so its blur shows.
+    let design = if hall.opening == Opening::Lancet {
+        image::RgbaImage::from_fn(64, 64, |x, y| {
+            image::Rgba(if (x / 16 + y / 16) % 2 == 0 {
+                [235, 190, 120, 255]
+            } else {
+                [60, 80, 200, 255]
+            })
+        })
+    } else {
+        image::RgbaImage::from_fn(64, 64, |x, y| {
+            image::Rgba([
+                235,
+                (200.0 + x as f32 * 0.5) as u8,
+                (150.0 + y as f32 * 0.8) as u8,
+                255,
+            ])
+        })
+    };
+    design.save(dir.join("design.png")).unwrap();
     let light = match hall.light {
         Sun::Directional {
             travel: t,
@@ -1569,5 +1606,38 @@ fn a_spot_light_lights_only_the_skylights_in_its_cone() {
     let traced = reference.render_lit(&view, size.0, size.1, &rs);
     let flip = compare("spot-skylights", size, &traced, &px);
     eprintln!("spot over 7 x 7 skylights: {with_projector} projectors, FLIP mean {flip:.4}");
+    assert!(flip <= 0.05, "FLIP mean {flip}");
+}
+
+/// A square design stretched four times up a lancet: the projector's blur is the sun's penumbra
+/// on the glass along each axis, so the panes' edges on the floor are as soft as the reference
+/// traces them. While σ came from the texels across the lancet and was applied both ways, the
+/// edges between panes up the lancet were blurred four times too wide.
+#[test]
+fn a_stretched_design_on_a_lancet_matches_the_reference() {
+    let gpu = gpu();
+    let dir = tempfile::tempdir().unwrap();
+    let hall = Hall {
+        opening: Opening::Lancet,
+        light: Sun::Directional {
+            travel: Vec3::new(1.0, -0.6, 0.05),
+            angular_size_deg: 2.0,
+        },
+        boxes: Vec::new(),
+        offset: Vec3::ZERO,
+        cameras: vec![(
+            "patch",
+            Vec3::new(-2.4, 3.5, 0.0),
+            Vec3::new(-2.4, 0.0, 0.01),
+        )],
+    };
+    let bytes = cook_hall(&hall, dir.path());
+    let scene = common::load(&gpu, &bytes);
+    let size = (160, 90);
+    let (px, view) = lit_supersampled(&gpu, &scene, 0, size, no_ambient());
+    let (reference, rs) = hall_reference(&bytes);
+    let traced = reference.render_lit(&view, size.0, size.1, &rs);
+    let flip = compare("lancet", size, &traced, &px);
+    eprintln!("stretched lancet: FLIP mean {flip:.4}");
     assert!(flip <= 0.05, "FLIP mean {flip}");
 }

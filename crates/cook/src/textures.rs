@@ -45,9 +45,9 @@ enum Job {
     Projector {
         #[serde(skip)]
         design: ImageRef,
-        sigma: f32,
-        /// Texels of margin on each side (`texture::projector_margin`).
-        margin: u32,
+        sigma: texture::Sigma2,
+        /// Texels of margin on each side, `[x, y]` (`texture::projector_margin`).
+        margin: [u32; 2],
     },
 }
 
@@ -829,7 +829,8 @@ fn run(
             }));
             opts.block_pad = pad;
             let choice = max_error.map_or_else(Said::default, |b| {
-                let c = crate::budget::choose_blur(b, *sigma);
+                // The blur runs by its narrower σ (`texture::BlurMethod::resolve`).
+                let c = crate::budget::choose_blur(b, sigma.min());
                 opts.method = c.blur_method().unwrap_or(opts.method);
                 choice_note("blur", &c)
             });
@@ -842,18 +843,22 @@ fn run(
 }
 
 /// Projector blur σ in design texels: the manifest's, or the light's penumbra on the floor.
+///
+/// The penumbra is round on the glass, but a design stretched onto its window (a square
+/// image on a lancet three times as tall as wide) has fewer texels per unit along one axis:
+/// σ is the penumbra's length in texels along each axis.
 fn projector_sigma(
     blur_sigma: Option<f32>,
     frame: Option<&pack::Window>,
     light: Option<&pack::LightKind>,
     floor_y: Option<f32>,
-    design_width: Option<u32>,
-) -> f32 {
+    design_size: Option<(u32, u32)>,
+) -> texture::Sigma2 {
     if let Some(s) = blur_sigma {
-        return s;
+        return s.into();
     }
-    let (Some(frame), Some(light), Some(width)) = (frame, light, design_width) else {
-        return 0.0;
+    let (Some(frame), Some(light), Some((width, height))) = (frame, light, design_size) else {
+        return 0.0.into();
     };
     let u = glam::Vec3::from(frame.u_axis);
     let v = glam::Vec3::from(frame.v_axis);
@@ -886,17 +891,20 @@ fn projector_sigma(
     } else {
         floor_distance
     };
-    let texels_per_unit = width as f32 / u.length().max(1e-6);
-    let sigma = texture::sigma_from_light(angular, distance, texels_per_unit);
-    if sigma.is_finite() && sigma >= 0.0 {
-        // Windows sharing a design at the same height differ in σ only by float noise
-        // (2.2256246 against 2.2256413 in the default scene). Rounded to 1/1000 texel, they
-        // share one projector texture; the change (< 0.0005 texel) is far below what the
-        // penumbra estimate itself can claim.
-        (sigma * 1000.0).round() / 1000.0
-    } else {
-        0.0
-    }
+    let along = |texels: u32, axis: glam::Vec3| {
+        let texels_per_unit = texels as f32 / axis.length().max(1e-6);
+        let sigma = texture::sigma_from_light(angular, distance, texels_per_unit);
+        if sigma.is_finite() && sigma >= 0.0 {
+            // Windows sharing a design at the same height differ in σ only by float noise
+            // (2.2256246 against 2.2256413 in the default scene). Rounded to 1/1000 texel,
+            // they share one projector texture; the change (< 0.0005 texel) is far below what
+            // the penumbra estimate itself can claim.
+            (sigma * 1000.0).round() / 1000.0
+        } else {
+            0.0
+        }
+    };
+    texture::Sigma2::new(along(width, u), along(height, v))
 }
 
 /// The pack's texture table, the mip levels of each texture, and the background panorama.
@@ -971,8 +979,8 @@ pub fn cook_textures(
                 if lit_windows.get(mi).copied().unwrap_or(false) {
                     let frame = windows.iter().find(|f| f.material as usize == mi);
                     let (dw, dh) = w.design_size;
-                    let width = (dw > 0).then_some(dw);
-                    let sigma = projector_sigma(w.blur_sigma, frame, light, floor_y, width);
+                    let size = (dw > 0 && dh > 0).then_some((dw, dh));
+                    let sigma = projector_sigma(w.blur_sigma, frame, light, floor_y, size);
                     let margin = texture::projector_margin(sigma, dw, dh);
                     r.2 = Some(add(
                         Job::Projector {
@@ -984,7 +992,7 @@ pub fn cook_textures(
                     ));
                     // The texture spans the design and its margin: in frame units, m / size.
                     if dw > 0 && dh > 0 {
-                        r.3 = [margin as f32 / dw as f32, margin as f32 / dh as f32];
+                        r.3 = [margin[0] as f32 / dw as f32, margin[1] as f32 / dh as f32];
                     }
                 }
             }
@@ -1109,7 +1117,16 @@ mod tests {
             source_materials: Vec::new(),
         };
         let sigma = |light: pack::LightKind| {
-            projector_sigma(None, Some(&frame), Some(&light), Some(0.0), Some(200))
+            let s = projector_sigma(
+                None,
+                Some(&frame),
+                Some(&light),
+                Some(0.0),
+                Some((200, 200)),
+            );
+            // A square design on a square window: the same texels per unit both ways.
+            assert_eq!(s.x, s.y);
+            s.x
         };
         let (a, b, r) = (12.0f32, 8.0f32, 0.2f32);
         let theta = 2.0 * (r / a).atan();
@@ -1126,9 +1143,36 @@ mod tests {
         assert!((sun - theta * b / 4.0 * 100.0).abs() < 2e-3, "{sun}");
         // A given σ is kept.
         assert_eq!(
-            projector_sigma(Some(3.5), Some(&frame), None, None, Some(200)),
-            3.5
+            projector_sigma(Some(3.5), Some(&frame), None, None, Some((200, 200))),
+            3.5.into()
         );
+    }
+
+    /// A square design stretched onto a window three times as long as wide has a third of the
+    /// texels per unit along the long side, so the same penumbra is a third as many texels
+    /// there. A design drawn at the window's proportions is round again.
+    #[test]
+    fn a_stretched_design_is_blurred_by_its_own_texels_along_each_axis() {
+        let lancet = pack::Window {
+            material: 0,
+            origin: [-0.5, 8.0, -3.0],
+            u_axis: [1.0, 0.0, 0.0],
+            v_axis: [0.0, 0.0, 6.0],
+            normal: [0.0, -1.0, 0.0],
+            source_materials: Vec::new(),
+        };
+        let sun = pack::LightKind::Directional {
+            direction: [0.0, -1.0, 0.0],
+            angular_size: 0.02,
+        };
+        let sigma = |size| projector_sigma(None, Some(&lancet), Some(&sun), Some(0.0), Some(size));
+        let square = sigma((200, 200));
+        // 0.02 rad over 8 m is 0.16 m of penumbra, σ 0.04 m: 8 texels across, 1.333 along.
+        assert!((square.x - 8.0).abs() < 1e-3, "{square}");
+        assert!((square.y - 8.0 / 6.0).abs() < 1e-3, "{square}");
+        let proportioned = sigma((200, 1200));
+        assert_eq!(proportioned.x, proportioned.y, "{proportioned}");
+        assert_eq!(proportioned.x, square.x);
     }
 
     #[test]

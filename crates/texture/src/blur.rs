@@ -58,6 +58,61 @@ const DECIMATION_RATIO: f64 = 1.9;
 /// cross on 1024² and 4096² images (docs/bench has the sweep).
 pub const AUTO_DECIMATED_SIGMA: f64 = 6.5;
 
+/// A Gaussian's σ in texels along x and along y. A design stretched onto its window has more
+/// texels per unit along one axis than the other, so one blur length on the glass is two
+/// numbers of texels. A single `f32` converts to the round blur.
+#[derive(Clone, Copy, Debug, Default, PartialEq, serde::Serialize)]
+pub struct Sigma2 {
+    pub x: f32,
+    pub y: f32,
+}
+
+impl Sigma2 {
+    pub fn new(x: f32, y: f32) -> Self {
+        Sigma2 { x, y }
+    }
+
+    /// The narrower axis's σ: it decides what the blur leaves of the detail.
+    pub fn min(self) -> f32 {
+        self.x.min(self.y)
+    }
+
+    /// The wider axis's σ: it decides how far the blur reaches.
+    pub fn max(self) -> f32 {
+        self.x.max(self.y)
+    }
+}
+
+impl From<f32> for Sigma2 {
+    fn from(s: f32) -> Self {
+        Sigma2 { x: s, y: s }
+    }
+}
+
+/// One number for a round blur (as before there were two), `x by y` otherwise.
+impl std::fmt::Display for Sigma2 {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let precision = f.precision();
+        let one = |f: &mut std::fmt::Formatter<'_>, v: f32| match precision {
+            Some(p) => write!(f, "{v:.p$}"),
+            None => write!(f, "{v}"),
+        };
+        one(f, self.x)?;
+        if self.y != self.x {
+            write!(f, " x ")?;
+            one(f, self.y)?;
+        }
+        Ok(())
+    }
+}
+
+/// [`Sigma2`] checked, in f64.
+#[derive(Clone, Copy, Debug)]
+struct Sig {
+    x: f64,
+    y: f64,
+}
+
 /// The decimated method's accuracy knobs: grid ratio σ / k and kernel truncation in σ.
 #[derive(Clone, Copy, Debug)]
 struct Decimation {
@@ -138,12 +193,18 @@ impl BlurMethod {
     /// The method used at this σ. The decimated grid needs σ ≥ 2·1.9 texels to stay exact
     /// (below that the Gaussian halves are too narrow for their samples), so smaller σ always
     /// runs direct, which is cheap there anyway.
-    pub fn resolve(self, sigma: f32) -> Self {
-        let s = sigma as f64;
+    ///
+    /// Two σ resolve by the narrower one: every method but the direct one needs its σ on both
+    /// axes.
+    pub fn resolve(self, sigma: impl Into<Sigma2>) -> Self {
+        let sigma = sigma.into();
+        let s = sigma.min() as f64;
+        let mean = (sigma.x as f64 + sigma.y as f64) / 2.0;
         match self {
             Self::Box3 if s >= BOX_MIN_SIGMA => Self::Box3,
             Self::DecimatedCoarse if COARSE.k(s) >= 2 => Self::DecimatedCoarse,
-            Self::Auto if EXACT.k(s) >= 2 && s >= AUTO_DECIMATED_SIGMA => Self::Decimated,
+            // The direct method's cost grows with both σ, the decimated one's with neither.
+            Self::Auto if EXACT.k(s) >= 2 && mean >= AUTO_DECIMATED_SIGMA => Self::Decimated,
             Self::Decimated if EXACT.k(s) >= 2 => Self::Decimated,
             _ => Self::Direct,
         }
@@ -152,9 +213,10 @@ impl BlurMethod {
     /// The method used at this σ on a `w x h` image: [`BlurMethod::resolve`], except that
     /// [`BlurMethod::Box3`] gives way to the exact decimated method once its boxes are wider
     /// than the image (their padding would cost more than the blur).
-    pub fn resolve_sized(self, sigma: f32, w: u32, h: u32) -> Self {
+    pub fn resolve_sized(self, sigma: impl Into<Sigma2>, w: u32, h: u32) -> Self {
+        let sigma = sigma.into();
         match self.resolve(sigma) {
-            Self::Box3 if ExtBox::new(sigma as f64).reach() > w.max(h) as usize + 64 => {
+            Self::Box3 if ExtBox::new(sigma.max() as f64).reach() > w.max(h) as usize + 64 => {
                 Self::Decimated.resolve(sigma)
             }
             m => m,
@@ -167,6 +229,13 @@ pub(crate) fn check_sigma(sigma: f32) -> Result<f64, TextureError> {
         return Err(TextureError::InvalidSigma { sigma });
     }
     Ok(sigma as f64)
+}
+
+fn check_sigma2(sigma: Sigma2) -> Result<Sig, TextureError> {
+    Ok(Sig {
+        x: check_sigma(sigma.x)?,
+        y: check_sigma(sigma.y)?,
+    })
 }
 
 /// Radius of the truncated kernel for σ, in texels.
@@ -208,8 +277,13 @@ fn kernel_at(sigma: f64, radius_sigmas: f64, max_offset: usize) -> Vec<f64> {
 /// Exact reference: separable convolution in f64 with the truncated, renormalized kernel and a
 /// zero border. Premultiplied linear RGBA in and out, row-major `w x h`.
 pub fn reference_blur(src: &[[f64; 4]], w: usize, h: usize, sigma: f64) -> Vec<[f64; 4]> {
-    let kx = gaussian_kernel(sigma, w.saturating_sub(1));
-    let ky = gaussian_kernel(sigma, h.saturating_sub(1));
+    reference_blur_xy(src, w, h, sigma, sigma)
+}
+
+/// [`reference_blur`] with σ `sx` along x and `sy` along y.
+pub fn reference_blur_xy(src: &[[f64; 4]], w: usize, h: usize, sx: f64, sy: f64) -> Vec<[f64; 4]> {
+    let kx = gaussian_kernel(sx, w.saturating_sub(1));
+    let ky = gaussian_kernel(sy, h.saturating_sub(1));
     let (rx, ry) = (kx.len() / 2, ky.len() / 2);
     let mut mid = vec![[0.0; 4]; w * h];
     mid.par_chunks_mut(w)
@@ -474,27 +548,30 @@ impl Io for Srgb8Io<'_> {
 struct Straight8Io<'a> {
     src: &'a [u8],
     w: usize,
-    m: usize,
+    mx: usize,
+    my: usize,
 }
 
 impl<'a> Straight8Io<'a> {
-    /// The reader of `src` (`w x h`) in a frame of `margin` texels, with σ and the sizes
-    /// checked (`what` names the caller in an error): the reader, σ, and the framed size.
+    /// The reader of `src` (`w x h`) in a frame of `margin` texels on each side (`[x, y]`), with
+    /// σ and the sizes checked (`what` names the caller in an error): the reader, σ, and the
+    /// framed size.
     fn framed(
         src: &'a [u8],
         w: u32,
         h: u32,
-        margin: u32,
-        sigma: f32,
+        margin: [u32; 2],
+        sigma: impl Into<Sigma2>,
         what: &'static str,
-    ) -> Result<(Self, f64, usize, usize), TextureError> {
-        let (s, dw, _) = checked(sigma, w, h, src.len(), 4, what)?;
+    ) -> Result<(Self, Sig, usize, usize), TextureError> {
+        let (s, dw, _) = checked(sigma.into(), w, h, src.len(), 4, what)?;
         let io = Straight8Io {
             src,
             w: dw,
-            m: margin as usize,
+            mx: margin[0] as usize,
+            my: margin[1] as usize,
         };
-        let (fw, fh) = (dw + 2 * io.m, io.height());
+        let (fw, fh) = (dw + 2 * io.mx, io.height());
         Ok((io, s, fw, fh))
     }
 }
@@ -503,20 +580,20 @@ impl Io for Straight8Io<'_> {
     type Out = Px;
     const PER_TEXEL: usize = 1;
     fn height(&self) -> usize {
-        self.src.len() / (4 * self.w) + 2 * self.m
+        self.src.len() / (4 * self.w) + 2 * self.my
     }
     fn fill(&self, y: usize, x0: usize, row: &mut [Px]) {
-        let (w, m) = (self.w, self.m);
+        let (w, mx, my) = (self.w, self.mx, self.my);
         // The image's columns within the row, in frame coordinates.
-        let (lo, hi) = (x0.max(m), (x0 + row.len()).min(m + w));
-        let inside = y >= m && y < self.height() - m && lo < hi;
-        if m > 0 {
+        let (lo, hi) = (x0.max(mx), (x0 + row.len()).min(mx + w));
+        let inside = y >= my && y < self.height() - my && lo < hi;
+        if mx > 0 || !inside {
             row.fill([0.0; 4]);
         }
         if !inside {
             return;
         }
-        let at = ((y - m) * w + lo - m) * 4;
+        let at = ((y - my) * w + lo - mx) * 4;
         let bytes = &self.src[at..at + (hi - lo) * 4];
         for (t, px) in row[lo - x0..hi - x0].iter_mut().zip(bytes.chunks_exact(4)) {
             let [r, g, b, a] = crate::pixels::texel8([px[0], px[1], px[2], px[3]]);
@@ -714,7 +791,7 @@ impl Isa {
 /// One task of the direct blur: its strip, first row, and output slices (one per row).
 type Task<'a, T> = (usize, usize, Vec<&'a mut [T]>);
 
-fn direct<I: Io>(io: &I, w: usize, h: usize, sigma: f64, out: &mut [I::Out]) {
+fn direct<I: Io>(io: &I, w: usize, h: usize, sigma: Sig, out: &mut [I::Out]) {
     direct_with(Isa::detect(), io, w, h, sigma, 0..h, out)
 }
 
@@ -740,12 +817,12 @@ fn direct_with<I: Io>(
     io: &I,
     w: usize,
     h: usize,
-    sigma: f64,
+    sigma: Sig,
     rows: std::ops::Range<usize>,
     out: &mut [I::Out],
 ) {
-    let kx = half_kernel(&gaussian_kernel(sigma, w - 1));
-    let ky = half_kernel(&gaussian_kernel(sigma, h - 1));
+    let kx = half_kernel(&gaussian_kernel(sigma.x, w - 1));
+    let ky = half_kernel(&gaussian_kernel(sigma.y, h - 1));
     let (rx, ry) = (kx.len() - 1, ky.len() - 1);
     let strip = DIRECT_STRIP.min(w.next_multiple_of(GROUP));
     let strips = w.div_ceil(strip);
@@ -919,7 +996,7 @@ impl Axis {
     }
 }
 
-fn decimated<I: Io>(io: &I, w: usize, h: usize, sigma: f64, dec: Decimation, out: &mut [I::Out]) {
+fn decimated<I: Io>(io: &I, w: usize, h: usize, sigma: Sig, dec: Decimation, out: &mut [I::Out]) {
     let grid = Grid::new(io, w, h, sigma, dec);
     grid.rows(io, 0..h, out);
 }
@@ -929,36 +1006,40 @@ fn decimated<I: Io>(io: &I, w: usize, h: usize, sigma: f64, dec: Decimation, out
 /// time.
 struct Grid {
     w: usize,
-    k: usize,
     ax: Axis,
     ay: Axis,
     b: Vec<Px>,
 }
 
 impl Grid {
-    fn new<I: Io>(io: &I, w: usize, h: usize, sigma: f64, dec: Decimation) -> Grid {
-        let k = dec.k(sigma);
-        let tau = sigma / std::f64::consts::SQRT_2;
-        let mut g1 = kernel_at(tau, dec.radius_sigmas, usize::MAX);
-        if dec.balance {
-            for residue in 0..k {
-                let class = || g1.iter().skip(residue).step_by(k);
-                let sum: f64 = class().sum();
-                if sum > 0.0 {
-                    let scale = 1.0 / (k as f64 * sum);
-                    g1.iter_mut()
-                        .skip(residue)
-                        .step_by(k)
-                        .for_each(|g| *g *= scale);
+    fn new<I: Io>(io: &I, w: usize, h: usize, sigma: Sig, dec: Decimation) -> Grid {
+        // Each axis its own grid step and first-stage kernel, from its own σ.
+        let stage1 = |sigma: f64| {
+            let k = dec.k(sigma);
+            let tau = sigma / std::f64::consts::SQRT_2;
+            let mut g1 = kernel_at(tau, dec.radius_sigmas, usize::MAX);
+            if dec.balance {
+                for residue in 0..k {
+                    let class = || g1.iter().skip(residue).step_by(k);
+                    let sum: f64 = class().sum();
+                    if sum > 0.0 {
+                        let scale = 1.0 / (k as f64 * sum);
+                        g1.iter_mut()
+                            .skip(residue)
+                            .step_by(k)
+                            .for_each(|g| *g *= scale);
+                    }
                 }
             }
-        }
-        let g1 = to_f32(&g1);
+            (k, tau, to_f32(&g1))
+        };
+        let (kx, taux, g1x) = stage1(sigma.x);
+        let (k, tau, g1) = stage1(sigma.y);
         let r1 = g1.len() / 2;
-        let ax = Axis::new(w, k, tau, dec.radius_sigmas);
+        let ax = Axis::new(w, kx, taux, dec.radius_sigmas);
         let ay = Axis::new(h, k, tau, dec.radius_sigmas);
         let (mx, my) = (ax.count, ay.count);
-        let fir = ax.stage1(&g1);
+        let fir = ax.stage1(&g1x);
 
         // Stage 1 along x, then along y at the coarse rows, streamed: each task takes a band of
         // coarse rows and computes the fine rows its kernel windows reach, once each, into a ring
@@ -1009,14 +1090,14 @@ impl Grid {
                 }
             },
         );
-        Grid { w, k, ax, ay, b }
+        Grid { w, ax, ay, b }
     }
 
     /// Stage 2 for fine rows `rows` into `out` (those rows only): interpolate y back to fine rows,
     /// then x to fine columns. Each row on its own, so a band has the whole image's bits.
     fn rows<I: Io>(&self, io: &I, rows: std::ops::Range<usize>, out: &mut [I::Out]) {
-        let Grid { w, k, ax, ay, b } = self;
-        let (w, k, mx) = (*w, *k, ax.count);
+        let Grid { w, ax, ay, b } = self;
+        let (w, k, mx) = (*w, ax.k, ax.count);
         assert_eq!(out.len(), rows.len() * w * I::PER_TEXEL);
         out.par_chunks_mut(w * I::PER_TEXEL)
             .zip(rows)
@@ -1134,9 +1215,9 @@ impl ExtBox {
     }
 }
 
-fn box3<I: Io>(io: &I, w: usize, h: usize, sigma: f64, out: &mut [I::Out]) {
-    let bx = ExtBox::new(sigma);
-    let e = bx.reach();
+fn box3<I: Io>(io: &I, w: usize, h: usize, sigma: Sig, out: &mut [I::Out]) {
+    let by = ExtBox::new(sigma.y);
+    let e = by.reach();
     let mut img = vec![[0.0f32; 4]; w * h];
     img.par_chunks_mut(w)
         .enumerate()
@@ -1162,11 +1243,13 @@ fn box3<I: Io>(io: &I, w: usize, h: usize, sigma: f64, out: &mut [I::Out]) {
             for (y, t) in a[2 * e..2 * e + h].iter_mut().enumerate() {
                 t[..n].copy_from_slice(&img[y * w + x0..y * w + x0 + n]);
             }
-            bx.line(a, b, h);
+            by.line(a, b, h);
             o.copy_from_slice(&b[2 * e..2 * e + h]);
         },
     );
     drop(img);
+    let bx = ExtBox::new(sigma.x);
+    let e = bx.reach();
     let len = w + 4 * e;
     out.par_chunks_mut(w * I::PER_TEXEL)
         .enumerate()
@@ -1184,8 +1267,9 @@ fn box3<I: Io>(io: &I, w: usize, h: usize, sigma: f64, out: &mut [I::Out]) {
         );
 }
 
-fn run<I: Io>(io: &I, w: usize, h: usize, sigma: f64, method: BlurMethod, out: &mut [I::Out]) {
-    match method.resolve_sized(sigma as f32, w as u32, h as u32) {
+fn run<I: Io>(io: &I, w: usize, h: usize, sigma: Sig, method: BlurMethod, out: &mut [I::Out]) {
+    let s = Sigma2::new(sigma.x as f32, sigma.y as f32);
+    match method.resolve_sized(s, w as u32, h as u32) {
         BlurMethod::Decimated => decimated(io, w, h, sigma, EXACT, out),
         BlurMethod::DecimatedCoarse => decimated(io, w, h, sigma, COARSE, out),
         BlurMethod::Box3 => box3(io, w, h, sigma, out),
@@ -1196,14 +1280,14 @@ fn run<I: Io>(io: &I, w: usize, h: usize, sigma: f64, method: BlurMethod, out: &
 /// σ checked and the size as `usize`, for a `w x h` buffer of `len` elements, `per` a texel
 /// (a caller's buffer of another size is a bug, not bad input).
 fn checked(
-    sigma: f32,
+    sigma: Sigma2,
     w: u32,
     h: u32,
     len: usize,
     per: usize,
     what: &str,
-) -> Result<(f64, usize, usize), TextureError> {
-    let s = check_sigma(sigma)?;
+) -> Result<(Sig, usize, usize), TextureError> {
+    let s = check_sigma2(sigma)?;
     crate::mips::check_size(w, h)?;
     let (w, h) = (w as usize, h as usize);
     assert_eq!(len, w * h * per, "{what}: buffer does not match {w}x{h}");
@@ -1215,10 +1299,10 @@ pub fn blur_linear(
     src: &[[f32; 4]],
     w: u32,
     h: u32,
-    sigma: f32,
+    sigma: impl Into<Sigma2>,
     method: BlurMethod,
 ) -> Result<Vec<[f32; 4]>, TextureError> {
-    let (s, w, h) = checked(sigma, w, h, src.len(), 1, "blur_linear")?;
+    let (s, w, h) = checked(sigma.into(), w, h, src.len(), 1, "blur_linear")?;
     let mut out = vec![[0.0f32; 4]; w * h];
     run(&F32Io { src, w }, w, h, s, method, &mut out);
     Ok(out)
@@ -1231,20 +1315,20 @@ pub fn blur_rgba8_to_linear(
     src: &[u8],
     w: u32,
     h: u32,
-    sigma: f32,
+    sigma: impl Into<Sigma2>,
     method: BlurMethod,
 ) -> Result<Vec<[f32; 4]>, TextureError> {
-    blur_rgba8_framed_to_linear(src, w, h, 0, sigma, method)
+    blur_rgba8_framed_to_linear(src, w, h, [0, 0], sigma, method)
 }
 
-/// [`blur_rgba8_to_linear`] of the image in a frame of `margin` transparent texels on each side:
-/// `(w + 2·margin) x (h + 2·margin)` texels, the bits of blurring a framed copy.
+/// [`blur_rgba8_to_linear`] of the image in a frame of `margin = [mx, my]` transparent texels
+/// on each side: `(w + 2·mx) x (h + 2·my)` texels, the bits of blurring a framed copy.
 pub fn blur_rgba8_framed_to_linear(
     src: &[u8],
     w: u32,
     h: u32,
-    margin: u32,
-    sigma: f32,
+    margin: [u32; 2],
+    sigma: impl Into<Sigma2>,
     method: BlurMethod,
 ) -> Result<Vec<[f32; 4]>, TextureError> {
     let (io, s, w, h) =
@@ -1263,7 +1347,7 @@ pub struct RowBlur<'a> {
     /// The framed image's size.
     w: usize,
     h: usize,
-    sigma: f64,
+    sigma: Sig,
     grid: Option<Grid>,
 }
 
@@ -1275,10 +1359,11 @@ impl<'a> RowBlur<'a> {
         src: &'a [u8],
         w: u32,
         h: u32,
-        margin: u32,
-        sigma: f32,
+        margin: [u32; 2],
+        sigma: impl Into<Sigma2>,
         method: BlurMethod,
     ) -> Result<Option<Self>, TextureError> {
+        let sigma = sigma.into();
         let (io, s, w, h) = Straight8Io::framed(src, w, h, margin, sigma, "RowBlur")?;
         let grid = match method.resolve_sized(sigma, w as u32, h as u32) {
             BlurMethod::Decimated => Some(Grid::new(&io, w, h, s, EXACT)),
@@ -1332,7 +1417,7 @@ pub fn blur_srgb8(
     src: &[u8],
     w: u32,
     h: u32,
-    sigma: f32,
+    sigma: impl Into<Sigma2>,
     method: BlurMethod,
 ) -> Result<Vec<u8>, TextureError> {
     let mut out = vec![0u8; src.len()];
@@ -1346,11 +1431,11 @@ pub fn blur_srgb8_into(
     src: &[u8],
     w: u32,
     h: u32,
-    sigma: f32,
+    sigma: impl Into<Sigma2>,
     method: BlurMethod,
     out: &mut [u8],
 ) -> Result<(), TextureError> {
-    let (s, w, h) = checked(sigma, w, h, src.len(), 4, "blur_srgb8")?;
+    let (s, w, h) = checked(sigma.into(), w, h, src.len(), 4, "blur_srgb8")?;
     assert_eq!(
         out.len(),
         src.len(),
@@ -1429,7 +1514,16 @@ mod tests {
                 isas.push(Isa::Avx512);
             }
         }
-        for (w, h, sigma) in [(301, 37, 1.3), (17, 900, 2.2), (5, 3, 0.7), (260, 64, 3.5)] {
+        let cases = [
+            (301, 37, 1.3, 1.3),
+            (17, 900, 2.2, 2.2),
+            (5, 3, 0.7, 0.7),
+            (260, 64, 3.5, 3.5),
+            (301, 37, 0.8, 3.1),
+            (90, 70, 4.4, 1.2),
+        ];
+        for (w, h, sx, sy) in cases {
+            let sigma = Sig { x: sx, y: sy };
             let panes = crate::testing::Panes {
                 width: 13,
                 height: 9,
@@ -1446,7 +1540,7 @@ mod tests {
                 })
                 .collect();
             for (isa, r) in isas.iter().zip(&results) {
-                assert!(r == &results[0], "{isa:?} differs at {w}x{h} σ={sigma}");
+                assert!(r == &results[0], "{isa:?} differs at {w}x{h} σ={sigma:?}");
             }
         }
     }
@@ -1502,10 +1596,22 @@ mod tests {
             (80, 257, 19.0, BlurMethod::Decimated),
             (129, 64, 9.4, BlurMethod::DecimatedCoarse),
         ];
+        // And a blur wider one way than the other, by each method that streams.
+        let stretched = [
+            (301u32, 97u32, Sigma2::new(1.3, 4.0), BlurMethod::Direct),
+            (333, 120, Sigma2::new(6.6, 13.0), BlurMethod::Decimated),
+            (129, 64, Sigma2::new(9.4, 5.0), BlurMethod::DecimatedCoarse),
+        ];
+        let cases = cases
+            .into_iter()
+            .map(|(w, h, s, m)| (w, h, Sigma2::from(s), m))
+            .chain(stretched);
         for (w, h, sigma, method) in cases {
             let src = crate::testing::design(w as usize, h as usize, 5, panes);
             let whole = blur_rgba8_to_linear(&src, w, h, sigma, method).unwrap();
-            let blur = RowBlur::new(&src, w, h, 0, sigma, method).unwrap().unwrap();
+            let blur = RowBlur::new(&src, w, h, [0, 0], sigma, method)
+                .unwrap()
+                .unwrap();
             for band in [1u32, 7, 16, 50, h] {
                 let mut y0 = 0;
                 while y0 < h {
@@ -1532,28 +1638,30 @@ mod tests {
             height: 7,
             lead: 1,
         };
-        let (w, h, m) = (37usize, 23usize, 9usize);
+        let (w, h) = (37usize, 23usize);
         let src = crate::testing::design(w, h, 3, panes);
-        let fw = w + 2 * m;
-        let framed = crate::testing::framed(&src, w, h, m);
-        for (method, sigma) in [
-            (BlurMethod::Direct, 2.2f32),
-            (BlurMethod::Decimated, 7.0),
-            (BlurMethod::DecimatedCoarse, 9.0),
-            (BlurMethod::Box3, 3.0),
+        for (method, sigma, m) in [
+            (BlurMethod::Direct, Sigma2::from(2.2), [9, 9]),
+            (BlurMethod::Decimated, 7.0.into(), [9, 9]),
+            (BlurMethod::DecimatedCoarse, 9.0.into(), [9, 9]),
+            (BlurMethod::Box3, 3.0.into(), [9, 9]),
+            (BlurMethod::Direct, Sigma2::new(2.2, 0.9), [9, 4]),
+            (BlurMethod::Decimated, Sigma2::new(4.0, 9.0), [16, 36]),
+            (BlurMethod::Box3, Sigma2::new(5.0, 2.5), [20, 10]),
         ] {
-            let a = blur_rgba8_framed_to_linear(&src, w as u32, h as u32, m as u32, sigma, method)
-                .unwrap();
-            let (fw, fh) = (fw as u32, (h + 2 * m) as u32);
+            let framed = crate::testing::framed(&src, w, h, m.map(|m| m as usize));
+            let m32 = m.map(|m| m as u32);
+            let a =
+                blur_rgba8_framed_to_linear(&src, w as u32, h as u32, m32, sigma, method).unwrap();
+            let (fw, fh) = ((w + 2 * m[0]) as u32, (h + 2 * m[1]) as u32);
             let b = blur_rgba8_to_linear(&framed, fw, fh, sigma, method).unwrap();
             assert!(
                 a.iter()
                     .zip(&b)
                     .all(|(x, y)| x.map(f32::to_bits) == y.map(f32::to_bits)),
-                "{method:?}"
+                "{method:?} {sigma}"
             );
-            if let Some(rows) =
-                RowBlur::new(&src, w as u32, h as u32, m as u32, sigma, method).unwrap()
+            if let Some(rows) = RowBlur::new(&src, w as u32, h as u32, m32, sigma, method).unwrap()
             {
                 assert!(
                     rows.rows(5..fh)

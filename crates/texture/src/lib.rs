@@ -41,7 +41,10 @@ pub mod srgb;
 #[doc(hidden)]
 pub mod testing;
 
-pub use blur::{BlurMethod, ErrorLsb, blur_linear, blur_srgb8, error_lsb, reference_blur};
+pub use blur::{
+    BlurMethod, ErrorLsb, Sigma2, blur_linear, blur_srgb8, error_lsb, reference_blur,
+    reference_blur_xy,
+};
 pub use error::TextureError;
 pub use load::{MAX_DECODE_BYTES, MAX_SIDE, load_image, load_image_bytes};
 pub use mips::{

@@ -4,7 +4,9 @@ use image::DynamicImage;
 use rayon::prelude::*;
 
 use crate::TextureError;
-use crate::blur::{BlurMethod, RowBlur, blur_linear, blur_rgba8_framed_to_linear, check_sigma};
+use crate::blur::{
+    BlurMethod, RowBlur, Sigma2, blur_linear, blur_rgba8_framed_to_linear, check_sigma,
+};
 use crate::mips::{MipChain, check_size, level_size};
 use crate::pixels::to_linear;
 use crate::real::clamp01;
@@ -14,8 +16,9 @@ use crate::srgb::{decode8, encoder, linear_to_srgb_lsb, linear_to_srgb_lsb_slope
 /// How a projector texture is cooked.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct ProjectorOptions {
-    /// Gaussian σ in texels of the design (see [`sigma_from_light`]).
-    pub sigma_texels: f32,
+    /// Gaussian σ in texels of the design along x and y (see [`sigma_from_light`]): one length
+    /// on the glass is a different number of texels along each axis of a stretched design.
+    pub sigma_texels: Sigma2,
     /// When set, the stored texture may start below the design's resolution (dropping leading
     /// levels) as long as sampling it bilinearly stays within this many LSB of the full blur.
     pub max_error_lsb: Option<f32>,
@@ -32,19 +35,19 @@ pub struct ProjectorOptions {
     /// Texels of transparent border added on each side of the design before the blur, so the
     /// light can spread past the window's edge as the light's penumbra does
     /// ([`projector_margin`]); the stored texture spans the design and its margin. The size cap
-    /// applies to the design's part of a level.
-    pub margin: u32,
+    /// applies to the design's part of a level. `[x, y]`: left and right, top and bottom.
+    pub margin: [u32; 2],
 }
 
 impl ProjectorOptions {
-    pub fn new(sigma_texels: f32) -> Self {
+    pub fn new(sigma_texels: impl Into<Sigma2>) -> Self {
         Self {
-            sigma_texels,
+            sigma_texels: sigma_texels.into(),
             max_error_lsb: None,
             max_size: None,
             method: BlurMethod::Auto,
             block_pad: false,
-            margin: 0,
+            margin: [0, 0],
         }
     }
 }
@@ -52,7 +55,7 @@ impl ProjectorOptions {
 /// What [`projector`] did, for `-v`.
 #[derive(Clone, Debug, PartialEq)]
 pub struct ProjectorReport {
-    pub sigma_texels: f32,
+    pub sigma_texels: Sigma2,
     /// The method actually used (never `Auto`).
     pub method: BlurMethod,
     pub design_width: u32,
@@ -63,7 +66,7 @@ pub struct ProjectorReport {
     /// Leading levels dropped because the blur left nothing they would show.
     pub dropped_levels: u32,
     /// The margin on each side, in design texels ([`ProjectorOptions::margin`]).
-    pub margin: u32,
+    pub margin: [u32; 2],
     /// With a budget: max error (LSB) of the stored texture, sampled bilinearly at the design's
     /// resolution, against the unrounded full-resolution blur.
     pub max_error_lsb: Option<f64>,
@@ -79,8 +82,10 @@ impl std::fmt::Display for ProjectorReport {
             self.width,
             self.height
         )?;
-        if self.margin > 0 {
-            write!(f, " with a margin of {} texels", self.margin)?;
+        match self.margin {
+            [0, 0] => {}
+            [x, y] if x == y => write!(f, " with a margin of {x} texels")?,
+            [x, y] => write!(f, " with margins of {x} and {y} texels")?,
         }
         if self.dropped_levels > 0 {
             write!(
@@ -101,15 +106,20 @@ impl std::fmt::Display for ProjectorReport {
 /// where the curve is steepest, so it rounds to black.
 pub const MARGIN_SIGMAS: f32 = 4.0;
 
-/// Texels of margin for a `w x h` design blurred with σ texels: [`MARGIN_SIGMAS`]·σ, and at most
-/// half the design's longer side, so the blurred image is at most four times the design's
-/// area (a blur that wide spreads the light into a faint glow; its far tail is cut).
-pub fn projector_margin(sigma_texels: f32, w: u32, h: u32) -> u32 {
-    if sigma_texels > 0.0 && sigma_texels.is_finite() {
-        ((MARGIN_SIGMAS * sigma_texels).ceil() as u32).min(w.max(h) / 2)
-    } else {
-        0
-    }
+/// Texels of margin for a `w x h` design blurred with σ texels, `[x, y]`: [`MARGIN_SIGMAS`]·σ
+/// along each axis, and at most half the design's longer side, so the blurred image is at most
+/// four times the design's area (a blur that wide spreads the light into a faint glow; its far
+/// tail is cut).
+pub fn projector_margin(sigma_texels: impl Into<Sigma2>, w: u32, h: u32) -> [u32; 2] {
+    let sigma = sigma_texels.into();
+    let one = |s: f32| {
+        if s > 0.0 && s.is_finite() {
+            ((MARGIN_SIGMAS * s).ceil() as u32).min(w.max(h) / 2)
+        } else {
+            0
+        }
+    };
+    [one(sigma.x), one(sigma.y)]
 }
 
 /// σ in window texels of the penumbra a light casts: a light of angular size θ (the sun: about
@@ -155,22 +165,23 @@ fn cook_projector(
 ) -> Result<(MipChain, Option<MipChain>, ProjectorReport), TextureError> {
     let (dw, dh) = (design.width(), design.height());
     check_size(dw, dh)?;
-    check_sigma(opts.sigma_texels)?;
+    check_sigma(opts.sigma_texels.x)?;
+    check_sigma(opts.sigma_texels.y)?;
     if let Some(b) = opts.max_error_lsb
         && !(b.is_finite() && b >= 0.0)
     {
         return Err(TextureError::InvalidBudget { budget: b });
     }
     let m = opts.margin;
-    if m > dw.max(dh) {
+    if let Some(&margin) = m.iter().find(|&&m| m > dw.max(dh)) {
         return Err(TextureError::MarginTooWide {
-            margin: m,
+            margin,
             width: dw,
             height: dh,
         });
     }
     // The blurred image: the design and its margin.
-    let (w, h) = (dw + 2 * m, dh + 2 * m);
+    let (w, h) = (dw + 2 * m[0], dh + 2 * m[1]);
     let bytes = crate::pixels::rgba8_bytes(design);
     // A design larger than the cap never has its level 0 stored, so its full-size blur is
     // needed only as the reference the stored levels are measured against: stream it in bands
@@ -200,10 +211,10 @@ fn cook_projector(
                     premul
                         .par_iter_mut()
                         .for_each(|t| *t = [t[0] * t[3], t[1] * t[3], t[2] * t[3], t[3]]);
-                    if m > 0 {
+                    if m != [0, 0] {
                         let mut framed = vec![[0.0f32; 4]; (w * h) as usize];
                         for (y, row) in premul.chunks_exact(dw as usize).enumerate() {
-                            let at = (y + m as usize) * w as usize + m as usize;
+                            let at = (y + m[1] as usize) * w as usize + m[0] as usize;
                             framed[at..at + dw as usize].copy_from_slice(row);
                         }
                         premul = framed;
@@ -285,7 +296,8 @@ fn choose_level(
     if let Some(budget) = opts.max_error_lsb {
         for k in 1..n {
             // A level coarser than σ cannot hold the blurred detail; don't spend a pass on it.
-            if (1u64 << k) as f32 > opts.sigma_texels {
+            // The narrower σ: the level must hold the sharper axis's detail too.
+            if (1u64 << k) as f32 > opts.sigma_texels.min() {
                 break;
             }
             let e = error(k);
@@ -301,7 +313,8 @@ fn choose_level(
         // The design's part of level k: the level less its margin, m / 2^k on each side.
         let design_part = |k: usize| {
             let (lw, lh) = level_size(w, h, k);
-            lw.max(lh) as f64 - 2.0 * opts.margin as f64 / (1u64 << k) as f64
+            let part = |l: u32, m: u32| l as f64 - 2.0 * m as f64 / (1u64 << k) as f64;
+            part(lw, opts.margin[0]).max(part(lh, opts.margin[1]))
         };
         while keep + 1 < n && design_part(keep) > cap as f64 {
             keep += 1;
@@ -567,6 +580,15 @@ mod tests {
             (260, 130, 9.4),
             (200, 301, 3.0),
         ];
+        // And blurs wider one way: a design stretched onto its window.
+        let stretched = [
+            (300u32, 260u32, Sigma2::new(2.2, 0.8)),
+            (301, 256, Sigma2::new(6.6, 12.0)),
+        ];
+        let cases = cases
+            .into_iter()
+            .map(|(w, h, s)| (w, h, Sigma2::from(s)))
+            .chain(stretched);
         for (w, h, sigma) in cases {
             let design = DynamicImage::ImageRgba8(
                 image::RgbaImage::from_raw(
@@ -589,7 +611,7 @@ mod tests {
                     margin: if pad {
                         projector_margin(sigma, w, h)
                     } else {
-                        0
+                        [0, 0]
                     },
                     ..ProjectorOptions::new(sigma)
                 };
@@ -620,35 +642,45 @@ mod tests {
             lead: 1,
         };
         let (w, h, sigma) = (70u32, 44u32, 2.2f32);
-        let m = projector_margin(sigma, w, h);
-        assert_eq!(m, 9);
-        // At most half the longer side; none without a blur.
-        let at = |s| projector_margin(s, w, h);
-        assert_eq!((at(1e4), at(0.0), at(f32::NAN)), (35, 0, 0));
+        assert_eq!(projector_margin(sigma, w, h), [9, 9]);
+        // At most half the longer side; none without a blur; each axis by its own σ.
+        let at = |s: f32| projector_margin(s, w, h);
+        assert_eq!((at(1e4), at(0.0), at(f32::NAN)), ([35, 35], [0, 0], [0, 0]));
+        assert_eq!(projector_margin(Sigma2::new(0.5, 2.2), w, h), [2, 9]);
         let bytes = crate::testing::design(w as usize, h as usize, 4, panes);
-        let framed = crate::testing::framed(&bytes, w as usize, h as usize, m as usize);
-        let img8 = DynamicImage::ImageRgba8(image::RgbaImage::from_raw(w, h, bytes).unwrap());
-        let framed8 = DynamicImage::ImageRgba8(
-            image::RgbaImage::from_raw(w + 2 * m, h + 2 * m, framed).unwrap(),
-        );
-        for (design, framed) in [
-            (img8.clone(), framed8.clone()),
-            (
-                DynamicImage::ImageRgba16(img8.to_rgba16()),
-                DynamicImage::ImageRgba16(framed8.to_rgba16()),
-            ),
+        let img8 =
+            DynamicImage::ImageRgba8(image::RgbaImage::from_raw(w, h, bytes.clone()).unwrap());
+        for sigma in [
+            Sigma2::from(sigma),
+            Sigma2::new(2.2, 0.9),
+            Sigma2::new(1.0, 3.0),
         ] {
-            let opts = ProjectorOptions {
-                max_error_lsb: Some(1.0),
-                ..ProjectorOptions::new(sigma)
-            };
-            let with = projector(&design, &ProjectorOptions { margin: m, ..opts }).unwrap();
-            let without = projector(&framed, &opts).unwrap();
-            assert_eq!(with.0.levels, without.0.levels);
-            assert_eq!((with.1.width, with.1.height), (w + 2 * m, h + 2 * m));
-            assert_eq!(with.1.margin, m);
-            assert_eq!((with.1.design_width, with.1.design_height), (w, h));
+            let m = projector_margin(sigma, w, h);
+            let framed =
+                crate::testing::framed(&bytes, w as usize, h as usize, m.map(|m| m as usize));
+            let framed8 = DynamicImage::ImageRgba8(
+                image::RgbaImage::from_raw(w + 2 * m[0], h + 2 * m[1], framed).unwrap(),
+            );
+            for (design, framed) in [
+                (img8.clone(), framed8.clone()),
+                (
+                    DynamicImage::ImageRgba16(img8.to_rgba16()),
+                    DynamicImage::ImageRgba16(framed8.to_rgba16()),
+                ),
+            ] {
+                let opts = ProjectorOptions {
+                    max_error_lsb: Some(1.0),
+                    ..ProjectorOptions::new(sigma)
+                };
+                let with = projector(&design, &ProjectorOptions { margin: m, ..opts }).unwrap();
+                let without = projector(&framed, &opts).unwrap();
+                assert_eq!(with.0.levels, without.0.levels);
+                assert_eq!((with.1.width, with.1.height), (w + 2 * m[0], h + 2 * m[1]));
+                assert_eq!(with.1.margin, m);
+                assert_eq!((with.1.design_width, with.1.design_height), (w, h));
+            }
         }
+        let m = projector_margin(sigma, w, h);
         // The cap counts the design's part: 70 texels wide fit a cap of 70 with any margin.
         let capped = |cap| {
             let opts = ProjectorOptions {
@@ -660,7 +692,7 @@ mod tests {
         };
         assert_eq!((capped(70), capped(69), capped(35)), (0, 1, 1));
         let wide = ProjectorOptions {
-            margin: 71,
+            margin: [9, 71],
             ..ProjectorOptions::new(sigma)
         };
         assert!(matches!(
@@ -680,9 +712,9 @@ mod tests {
                 h,
                 image::Rgba([255, 255, 255, 255]),
             ));
-            let m = projector_margin(sigma, w, h);
+            let [m, _] = projector_margin(sigma, w, h);
             let opts = ProjectorOptions {
-                margin: m,
+                margin: [m, m],
                 ..ProjectorOptions::new(sigma)
             };
             let (chain, _) = projector(&img, &opts).unwrap();

@@ -95,11 +95,12 @@ pub fn design(w: usize, h: usize, seed: u64, panes: Panes) -> Vec<u8> {
 
 /// RGBA8 `bytes` (`w x h`) inside a frame of `m` transparent texels on each side: what a
 /// projector's margin must blur like.
-pub fn framed(bytes: &[u8], w: usize, h: usize, m: usize) -> Vec<u8> {
-    let row = (w + 2 * m) * 4;
-    let mut out = vec![0u8; row * (h + 2 * m)];
+pub fn framed(bytes: &[u8], w: usize, h: usize, m: [usize; 2]) -> Vec<u8> {
+    let [mx, my] = m;
+    let row = (w + 2 * mx) * 4;
+    let mut out = vec![0u8; row * (h + 2 * my)];
     for (y, src) in bytes.chunks_exact(w * 4).enumerate() {
-        out[(y + m) * row + m * 4..][..w * 4].copy_from_slice(src);
+        out[(y + my) * row + mx * 4..][..w * 4].copy_from_slice(src);
     }
     out
 }

@@ -49,12 +49,12 @@ fn heavy_blur_is_stored_smaller_only_within_the_budget() {
     let (w, h) = (128, 96);
     let img = rgba_image(w, h, design(w, h, 6));
     let opts = |budget| ProjectorOptions {
-        sigma_texels: 24.0,
+        sigma_texels: 24.0.into(),
         max_error_lsb: budget,
         max_size: None,
         method: BlurMethod::Auto,
         block_pad: false,
-        margin: 0,
+        margin: [0, 0],
     };
     let (full, _) = projector(&img, &opts(None)).unwrap();
     // The zero border's falloff is the steepest detail left, and limits how far it can go.
@@ -74,12 +74,12 @@ fn heavy_blur_is_stored_smaller_only_within_the_budget() {
     let (_, report) = projector(
         &img,
         &ProjectorOptions {
-            sigma_texels: 1.0,
+            sigma_texels: 1.0.into(),
             max_error_lsb: Some(3.0),
             max_size: None,
             method: BlurMethod::Auto,
             block_pad: false,
-            margin: 0,
+            margin: [0, 0],
         },
     )
     .unwrap();
@@ -111,12 +111,12 @@ fn bad_budget_is_an_error() {
     let img = rgba_image(2, 2, vec![9; 16]);
     for b in [f32::NAN, -1.0] {
         let opts = ProjectorOptions {
-            sigma_texels: 1.0,
+            sigma_texels: 1.0.into(),
             max_error_lsb: Some(b),
             max_size: None,
             method: BlurMethod::Auto,
             block_pad: false,
-            margin: 0,
+            margin: [0, 0],
         };
         assert!(
             projector(&img, &opts)

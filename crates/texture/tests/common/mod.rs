@@ -23,13 +23,15 @@ pub fn rgba_image(w: usize, h: usize, bytes: Vec<u8>) -> image::DynamicImage {
 pub fn blur_error(
     w: usize,
     h: usize,
-    sigma: f32,
+    sigma: impl Into<texture::Sigma2>,
     method: texture::blur::BlurMethod,
     bytes: &[u8],
 ) -> texture::ErrorLsb {
+    let sigma = sigma.into();
     let ours = texture::blur_srgb8(bytes, w as u32, h as u32, sigma, method).unwrap();
     let linear = texture::blur::srgb8_to_premultiplied_f64(bytes);
-    let reference = texture::reference_blur(&linear, w, h, sigma as f64);
+    let (sx, sy) = (sigma.x as f64, sigma.y as f64);
+    let reference = texture::reference_blur_xy(&linear, w, h, sx, sy);
     texture::error_lsb(&ours, &reference)
 }
 
