@@ -1649,7 +1649,7 @@ mod tests {
             (BlurMethod::Decimated, Sigma2::new(4.0, 9.0), [16, 36]),
             (BlurMethod::Box3, Sigma2::new(5.0, 2.5), [20, 10]),
         ] {
-            let framed = crate::testing::framed(&src, w, h, m.map(|m| m as usize));
+            let framed = crate::testing::framed(&src, w, h, m);
             let m32 = m.map(|m| m as u32);
             let a =
                 blur_rgba8_framed_to_linear(&src, w as u32, h as u32, m32, sigma, method).unwrap();
