@@ -625,6 +625,16 @@ fn bounds(sources: &[Imported]) -> (DVec3, DVec3) {
 /// shaded side of a nave (the sun in through the other side's windows) faced out, its design
 /// read mirrored from inside and its light thrown on the ground outside. Floors are asked
 /// second: the ground a building stands on lies on both sides of its walls.
+/// Whether a manifest's `inside` lies within about 6° of a window's plane (`normal` its unit
+/// normal), too close to say which side it points to.
+pub fn lies_in_plane(inside: [f32; 3], normal: DVec3) -> bool {
+    let v = v3(inside).normalize_or_zero();
+    v.dot(normal).abs() < INSIDE_MIN_COS
+}
+
+/// [`lies_in_plane`]'s bound: cos 84°.
+const INSIDE_MIN_COS: f64 = 0.1;
+
 pub fn decide_inside<'r>(
     normal: DVec3,
     centroid: DVec3,
@@ -634,7 +644,9 @@ pub fn decide_inside<'r>(
     receivers: &dyn Fn() -> &'r [(DVec3, f64, bool)],
 ) -> (DVec3, &'static str) {
     let orient = |d: DVec3| if normal.dot(d) < 0.0 { -normal } else { normal };
-    if let Some(v) = explicit {
+    // A direction (nearly) in the window's plane tells its sides apart by rounding noise: the
+    // window is guessed as if none were given (and the plan warns).
+    if let Some(v) = explicit.filter(|&v| !lies_in_plane(v, normal)) {
         return (orient(v3(v)), "the manifest's `inside`");
     }
     // Each surface counts by how large it looks from the window (area × |cos| / d², with the

@@ -328,6 +328,26 @@ pub fn plan(
             &inst.name,
             &inst.materials.iter().map(|m| m.0).collect::<Vec<_>>(),
         );
+        if let Some(e) = entry
+            && let Some(v) = e.inside
+            && instances::lies_in_plane(v, inst.inside)
+        {
+            report.warnings.push(Warning::new(
+                &manifest.path,
+                Some(e.line.0),
+                format!(
+                    "inside = {v:?} lies in the plane of window {:?} (its normal is [{:.2}, \
+                     {:.2}, {:.2}]), so it cannot say which side is inside; the side was \
+                     guessed ({})",
+                    inst.name,
+                    // + 0.0: no "-0.00".
+                    inst.inside.x + 0.0,
+                    inst.inside.y + 0.0,
+                    inst.inside.z + 0.0,
+                    inst.inside_reason
+                ),
+            ));
+        }
         let planar = !inst.has_uvs || entry.is_some_and(|e| e.uv == UvMode::Planar);
         if planar {
             instances::write_planar_uvs(&mut sources[inst.source], inst);

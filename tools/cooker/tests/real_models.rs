@@ -1040,6 +1040,24 @@ fn german_chapel_names_frames_and_sill_heights() {
         vec3(&window(&v, "Kirchenfenster_Nord")["normal"]),
         [-1.0, 0.0, 0.0]
     ));
+    // An `inside` along the window's own plane cannot tell its sides apart: it was taken as
+    // whichever side float noise gave; now the side is guessed, with a warning at its line.
+    std::fs::write(
+        &scene,
+        "[[mesh]]\nsource = \"kapelle.obj\"\n\n[[window]]\nname = \"Fenster\"\ninside = [0.0, 1.0, 0.02]\n",
+    )
+    .unwrap();
+    let said = cook(&scene, &pack, &[]);
+    assert!(
+        said.contains("scene.toml:4")
+            && said.contains("lies in the plane of window \"Fenster\"")
+            && said.contains("guessed"),
+        "{said}"
+    );
+    assert!(near3(
+        vec3(&window(&info(&pack), "Fenster")["normal"]),
+        [1.0, 0.0, 0.0]
+    ));
 
     // A rule with `class = "window"` leaves upper/lower to the sill; a rule naming the class
     // fixes it, whatever the sill.
