@@ -1,7 +1,7 @@
 //! `cooker diff <a.pack> <b.pack> [--json] [--tolerance-lsb LSB] [--max-position-delta D]`
 //!
 //! Compares two packs section by section and explains the differences: geometry (largest
-//! position change, material ID changes; when the two meshes are not in the same order, as
+//! position change, material ID changes, normals, tangents and texture coordinates; when the two meshes are not in the same order, as
 //! exports from two tools rarely are, triangles matched in any order and corner turn) and, per
 //! texture and mip level, the largest error in 8-bit steps, PSNR and FLIP mean of the decoded
 //! texels (whatever each pack stores them in: RGBA8 or a block format). Exit 0 when within
@@ -18,7 +18,7 @@ use crate::exit::{FOUND_PROBLEMS, OK, Outcome, UsageError};
 mod surface;
 mod triangles;
 
-use triangles::corner_delta;
+use triangles::{Shading, ShadingChanges, ShadingTolerance, corner_delta};
 
 #[derive(clap::Args)]
 pub struct Args {
@@ -38,7 +38,20 @@ pub struct Args {
     /// cameras, window frames and the light the cook placed from the geometry may move with it.
     #[arg(long, value_name = "D")]
     max_position_delta: Option<f64>,
+    /// Largest turn of a vertex normal or tangent accepted, in degrees; default: 0.1 with
+    /// `--max-position-delta` (a 16-bit octahedral normal is within 0.01), identical without.
+    #[arg(long, value_name = "DEG")]
+    max_normal_delta_deg: Option<f64>,
+    /// Largest change of a texture coordinate accepted (per axis); default: 1e-4 with
+    /// `--max-position-delta` (under half a texel of an 8192 texture), identical without.
+    #[arg(long, value_name = "D")]
+    max_uv_delta: Option<f64>,
 }
+
+/// [`Args::max_normal_delta_deg`]'s default with `--max-position-delta`.
+const DEFAULT_NORMAL_DELTA_DEG: f64 = 0.1;
+/// [`Args::max_uv_delta`]'s default with `--max-position-delta`.
+const DEFAULT_UV_DELTA: f64 = 1e-4;
 
 /// What differs about one texture level.
 struct LevelDiff {
@@ -96,6 +109,44 @@ fn positions(pack: &Pack, mesh: &pack::Mesh) -> Vec<[f32; 3]> {
         .collect()
 }
 
+fn shading(pack: &Pack, mesh: &pack::Mesh) -> Vec<Shading> {
+    let l = &mesh.layout;
+    pack.vertex_bytes(mesh)
+        .chunks_exact(l.stride as usize)
+        .map(|v| {
+            let d = l.decode(v);
+            Shading {
+                normal: d.normal,
+                tangent: d.tangent,
+                uv: d.uv,
+            }
+        })
+        .collect()
+}
+
+/// The shading attributes one mesh's layout has and the other's lacks, as problems: a mesh
+/// that lost its normals or texture coordinates renders otherwise whatever the values.
+fn attributes_differ(ma: &pack::Mesh, mb: &pack::Mesh) -> Vec<String> {
+    use pack::Semantic::{Normal, Tangent, TexCoord};
+    [
+        (Normal, "normals"),
+        (Tangent, "tangents"),
+        (TexCoord, "texture coordinates"),
+    ]
+    .into_iter()
+    .filter_map(|(s, what)| {
+        match (
+            ma.layout.attribute(s).is_some(),
+            mb.layout.attribute(s).is_some(),
+        ) {
+            (true, false) => Some(format!("mesh {:?}: {what} in a, none in b", ma.name)),
+            (false, true) => Some(format!("mesh {:?}: {what} in b, none in a", ma.name)),
+            _ => None,
+        }
+    })
+    .collect()
+}
+
 fn colours(pack: &Pack, mesh: &pack::Mesh) -> Vec<[u8; 4]> {
     let l = &mesh.layout;
     pack.vertex_bytes(mesh)
@@ -128,11 +179,13 @@ fn mesh_triangles(
     names: &MaterialNames,
 ) -> Vec<triangles::Triangle> {
     let (p, m) = (positions(pack, mesh), material_keys(pack, mesh, names));
+    let s = shading(pack, mesh);
     pack.indices(mesh)
         .chunks_exact(3)
         .map(|t| triangles::Triangle {
             corners: [0, 1, 2].map(|k| p[t[k] as usize]),
             materials: [0, 1, 2].map(|k| m[t[k] as usize]),
+            shading: [0, 1, 2].map(|k| s[t[k] as usize]),
         })
         .collect()
 }
@@ -327,6 +380,7 @@ struct Geometry<'a> {
     max_delta: f64,
     /// No --max-position-delta: any difference, order included, is a problem.
     exact: bool,
+    shading: ShadingTolerance,
 }
 
 impl Geometry<'_> {
@@ -345,7 +399,7 @@ impl Geometry<'_> {
             mesh_triangles(a, ma, self.names),
             mesh_triangles(b, mb, self.names),
         );
-        let m = triangles::compare(&ta, &tb, self.max_delta);
+        let m = triangles::compare(&ta, &tb, self.max_delta, self.shading);
         let [ua, ub] = &m.unmatched;
         // Exact comparison still allows the rounding of a point on another triangulation.
         let extent =
@@ -390,6 +444,8 @@ impl Geometry<'_> {
                 ca.material_changes + cb.material_changes
             ));
         }
+        problems.extend(m.shading.problems(name, "corners"));
+        shading_json(entry, &m.shading);
         let gap = ca.max_gap.max(cb.max_gap);
         entry["same_order"] = json!(false);
         entry["max_position_delta"] = json!(m.max_delta);
@@ -411,6 +467,15 @@ impl Geometry<'_> {
     }
 }
 
+fn shading_json(entry: &mut Value, s: &ShadingChanges) {
+    entry["normal_changes"] = json!(s.normals);
+    entry["max_normal_delta_deg"] = json!(s.max_normal_angle.to_degrees());
+    entry["tangent_changes"] = json!(s.tangents);
+    entry["max_tangent_delta_deg"] = json!(s.max_tangent_angle.to_degrees());
+    entry["uv_changes"] = json!(s.uvs);
+    entry["max_uv_delta"] = json!(s.max_uv_delta);
+}
+
 fn role_key(pack: &Pack, role: SectionRole) -> String {
     let toc = pack.toc();
     match role {
@@ -427,6 +492,8 @@ pub fn run(args: Args) -> Outcome {
     for (name, v) in [
         ("--tolerance-lsb", args.tolerance_lsb),
         ("--max-position-delta", args.max_position_delta),
+        ("--max-normal-delta-deg", args.max_normal_delta_deg),
+        ("--max-uv-delta", args.max_uv_delta),
     ] {
         if let Some(v) = v
             && !(v.is_finite() && v >= 0.0)
@@ -474,6 +541,14 @@ pub fn run(args: Args) -> Outcome {
     // order included.
     let max_delta = args.max_position_delta.unwrap_or(0.0);
     let exact_geometry = args.max_position_delta.is_none();
+    let loose = |default: f64| if exact_geometry { 0.0 } else { default };
+    let shading_tolerance = ShadingTolerance {
+        angle: args
+            .max_normal_delta_deg
+            .unwrap_or(loose(DEFAULT_NORMAL_DELTA_DEG))
+            .to_radians(),
+        uv: args.max_uv_delta.unwrap_or(loose(DEFAULT_UV_DELTA)),
+    };
     let mut names = MaterialNames::new();
     for m in ta.materials.iter().chain(&tb.materials) {
         let next = names.len() as u32;
@@ -514,6 +589,7 @@ pub fn run(args: Args) -> Outcome {
             "vertices": [ma.vertex_count, mb.vertex_count],
             "triangles": [ma.index_count / 3, mb.index_count / 3],
         });
+        problems.extend(attributes_differ(ma, mb));
         let (ia, ib) = (a.indices(ma), b.indices(mb));
         if ma.vertex_count == mb.vertex_count && ia == ib {
             // The same vertices in the same order: compare them one by one.
@@ -554,6 +630,12 @@ pub fn run(args: Args) -> Outcome {
                     ma.name
                 ));
             }
+            let mut shaded = ShadingChanges::default();
+            for (x, y) in shading(&a, ma).iter().zip(&shading(&b, mb)) {
+                shaded.add(x, y, shading_tolerance);
+            }
+            problems.extend(shaded.problems(&ma.name, "vertices"));
+            shading_json(&mut entry, &shaded);
             entry["same_order"] = json!(true);
             entry["max_position_delta"] = json!(delta);
             entry["material_id_changes"] = json!(changed);
@@ -564,6 +646,7 @@ pub fn run(args: Args) -> Outcome {
                 names: &names,
                 max_delta,
                 exact: exact_geometry,
+                shading: shading_tolerance,
             };
             reordered.push(geometry.compare_as_sets((&a, ma), (&b, mb), &mut problems, &mut entry));
         }
@@ -706,7 +789,10 @@ pub fn run(args: Args) -> Outcome {
     }
     // Identical by default: without thresholds any byte difference (even one no rule above
     // explains, such as reordered sections) is a difference.
-    let strict = args.tolerance_lsb.is_none() && args.max_position_delta.is_none();
+    let strict = args.tolerance_lsb.is_none()
+        && args.max_position_delta.is_none()
+        && args.max_normal_delta_deg.is_none()
+        && args.max_uv_delta.is_none();
     if strict && !identical && problems.is_empty() {
         problems.push(
             "the packs differ in bytes (section order, supercompression or TOC encoding)".into(),

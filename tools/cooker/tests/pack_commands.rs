@@ -128,6 +128,125 @@ fn info_exit_codes_for_bad_input_io_and_usage() {
     );
 }
 
+/// The sample with its vertices decoded, edited and written back in the layout that holds
+/// every attribute.
+fn write_edited_vertices(path: &Path, edit: impl FnOnce(&mut Vec<pack::StandardVertex>)) {
+    write_sample(path, |toc, data| {
+        let standard = toc.meshes[0].layout.clone();
+        let mut verts: Vec<pack::StandardVertex> = data.meshes[0]
+            .vertices
+            .chunks_exact(standard.stride as usize)
+            .map(|b| standard.decode(b))
+            .collect();
+        edit(&mut verts);
+        toc.meshes[0].layout = standard.clone();
+        data.meshes[0].vertices = standard.encode_vertices(&verts);
+    });
+}
+
+/// A regression gate that accepts moved geometry must still see turned normals and moved
+/// texture coordinates: they change the shading and the texturing, not the positions. They
+/// were not compared at all, so `--max-position-delta` passed them with exit 0.
+#[test]
+fn diff_sees_changed_normals_tangents_and_texture_coordinates() {
+    let dir = tempfile::tempdir().unwrap();
+    let a = dir.path().join("a.pack");
+    write_edited_vertices(&a, |_| {});
+    let b = dir.path().join("b.pack");
+    write_edited_vertices(&b, |v| {
+        // Vertex 1's normal tilted by 1 degree, vertex 3's u moved by 0.01.
+        let n = glam::Vec3::from(v[1].normal);
+        let axis = n.any_orthonormal_vector();
+        v[1].normal = (glam::Quat::from_axis_angle(axis, 1f32.to_radians()) * n).to_array();
+        v[3].uv[0] += 0.01;
+    });
+    for extra in [&[][..], &["--max-position-delta", "0.1"][..]] {
+        let mut args: Vec<&dyn AsRef<std::ffi::OsStr>> = vec![&"diff", &a, &b];
+        args.extend(extra.iter().map(|s| s as &dyn AsRef<std::ffi::OsStr>));
+        let o = cooker(&args);
+        let said = text(&o);
+        assert_eq!(o.status.code(), Some(1), "{extra:?}: {said}");
+        assert!(
+            said.contains("1 vertices' normals turned, by up to 1.000 degrees")
+                && said.contains("1 vertices' texture coordinates moved, by up to 1.000e-2"),
+            "{extra:?}: {said}"
+        );
+    }
+    // Looser thresholds accept them.
+    let o = cooker(&[
+        &"diff",
+        &a,
+        &b,
+        &"--max-normal-delta-deg",
+        &"1.5",
+        &"--max-uv-delta",
+        &"0.02",
+    ]);
+    assert_eq!(o.status.code(), Some(0), "{}", text(&o));
+    // In another vertex order, the triangles are matched first and their corners compared.
+    let c = dir.path().join("c.pack");
+    write_sample(&c, |toc, data| {
+        let layout = &toc.meshes[0].layout;
+        let mut verts: Vec<pack::StandardVertex> = data.meshes[0]
+            .vertices
+            .chunks_exact(layout.stride as usize)
+            .map(|b| layout.decode(b))
+            .collect();
+        let n = verts.len() as u16;
+        verts.reverse();
+        verts[0].tangent[3] = -verts[0].tangent[3];
+        data.meshes[0].vertices = layout.encode_vertices(&verts);
+        let indices: Vec<u16> = data.meshes[0]
+            .indices
+            .chunks_exact(2)
+            .map(|b| n - 1 - u16::from_le_bytes([b[0], b[1]]))
+            .collect();
+        data.meshes[0].indices = indices.iter().flat_map(|i| i.to_le_bytes()).collect();
+    });
+    let o = cooker(&[&"diff", &a, &c, &"--max-position-delta", &"0.1"]);
+    let said = text(&o);
+    assert_eq!(o.status.code(), Some(1), "{said}");
+    assert!(
+        said.contains("corners' tangents turned or flipped, by up to 180.000 degrees"),
+        "{said}"
+    );
+    // A mesh that lost its texture coordinates is a difference whatever the thresholds.
+    let d = dir.path().join("d.pack");
+    write_sample(&d, |toc, data| {
+        let standard = toc.meshes[0].layout.clone();
+        let verts: Vec<pack::StandardVertex> = data.meshes[0]
+            .vertices
+            .chunks_exact(standard.stride as usize)
+            .map(|b| standard.decode(b))
+            .collect();
+        let bare = pack::vertex::Encoding {
+            normal: true,
+            uv: false,
+            tangent: false,
+            colour: false,
+            quantize: None,
+        };
+        let layout = pack::vertex::layout(bare, false, [0.0; 3], [1.0; 3]);
+        data.meshes[0].vertices = layout.encode_vertices(&verts);
+        toc.meshes[0].layout = layout;
+    });
+    let o = cooker(&[
+        &"diff",
+        &a,
+        &d,
+        &"--max-position-delta",
+        &"1",
+        &"--max-uv-delta",
+        &"9",
+    ]);
+    let said = text(&o);
+    assert_eq!(o.status.code(), Some(1), "{said}");
+    assert!(
+        said.contains("texture coordinates in a, none in b"),
+        "{said}"
+    );
+}
+
 #[test]
 fn diff_identical_changed_texel_and_material() {
     let dir = tempfile::tempdir().unwrap();

@@ -11,11 +11,116 @@ use std::collections::HashMap;
 
 use glam::DVec3;
 
-/// One triangle: corner positions and, per corner, a material key comparable across packs.
+/// One triangle: corner positions and, per corner, a material key comparable across packs and
+/// what shades it.
 #[derive(Clone, Copy)]
 pub struct Triangle {
     pub corners: [[f32; 3]; 3],
     pub materials: [u32; 3],
+    pub shading: [Shading; 3],
+}
+
+/// A corner's normal, tangent (handedness in w) and texture coordinates; zero where the mesh's
+/// layout has none.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct Shading {
+    pub normal: [f32; 3],
+    pub tangent: [f32; 4],
+    pub uv: [f32; 2],
+}
+
+/// How far two corners' shading may differ before it counts as a change.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct ShadingTolerance {
+    /// Radians a normal or tangent may turn.
+    pub angle: f64,
+    /// Per-axis texture-coordinate change.
+    pub uv: f64,
+}
+
+/// The shading changes among matched corners (or vertices in the same order).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct ShadingChanges {
+    /// Corners whose normal turned past the tolerance, and the largest turn (radians).
+    pub normals: usize,
+    pub max_normal_angle: f64,
+    /// Corners whose tangent turned past the tolerance or flipped handedness, and the largest
+    /// turn (radians; a flip counts as π).
+    pub tangents: usize,
+    pub max_tangent_angle: f64,
+    /// Corners whose texture coordinates moved past the tolerance, and the largest move.
+    pub uvs: usize,
+    pub max_uv_delta: f64,
+}
+
+/// The angle between two directions, by the chord (accurate for tiny angles, where acos is
+/// not); zero vectors (a layout without the attribute) are the same direction.
+fn angle(a: [f32; 3], b: [f32; 3]) -> f64 {
+    let (a, b) = (
+        DVec3::from(a.map(f64::from)).normalize_or_zero(),
+        DVec3::from(b.map(f64::from)).normalize_or_zero(),
+    );
+    if a == DVec3::ZERO || b == DVec3::ZERO {
+        return if a == b { 0.0 } else { std::f64::consts::PI };
+    }
+    2.0 * ((a - b).length() / 2.0).min(1.0).asin()
+}
+
+impl ShadingChanges {
+    /// Counts one corner pair.
+    pub fn add(&mut self, a: &Shading, b: &Shading, tolerance: ShadingTolerance) {
+        let n = angle(a.normal, b.normal);
+        if n > tolerance.angle {
+            self.normals += 1;
+        }
+        self.max_normal_angle = self.max_normal_angle.max(n);
+        let [tx, ty, tz, tw] = a.tangent;
+        let [ux, uy, uz, uw] = b.tangent;
+        let t = if tw != uw {
+            std::f64::consts::PI
+        } else {
+            angle([tx, ty, tz], [ux, uy, uz])
+        };
+        if t > tolerance.angle {
+            self.tangents += 1;
+        }
+        self.max_tangent_angle = self.max_tangent_angle.max(t);
+        let d = (0..2)
+            .map(|k| (a.uv[k] as f64 - b.uv[k] as f64).abs())
+            .fold(0.0, f64::max);
+        if d > tolerance.uv {
+            self.uvs += 1;
+        }
+        self.max_uv_delta = self.max_uv_delta.max(d);
+    }
+
+    /// The problems, one line per attribute that changed, for mesh `name`; `unit` is what was
+    /// counted ("vertices" in the same order, "corners" of triangles matched in any).
+    pub fn problems(&self, name: &str, unit: &str) -> Vec<String> {
+        let mut out = Vec::new();
+        let deg = |r: f64| r.to_degrees();
+        if self.normals > 0 {
+            out.push(format!(
+                "mesh {name:?}: {} {unit}' normals turned, by up to {:.3} degrees",
+                self.normals,
+                deg(self.max_normal_angle)
+            ));
+        }
+        if self.tangents > 0 {
+            out.push(format!(
+                "mesh {name:?}: {} {unit}' tangents turned or flipped, by up to {:.3} degrees",
+                self.tangents,
+                deg(self.max_tangent_angle)
+            ));
+        }
+        if self.uvs > 0 {
+            out.push(format!(
+                "mesh {name:?}: {} {unit}' texture coordinates moved, by up to {:.3e}",
+                self.uvs, self.max_uv_delta
+            ));
+        }
+        out
+    }
 }
 
 impl Triangle {
@@ -44,6 +149,8 @@ pub struct Matching {
     pub max_delta: f64,
     /// Matched corners whose material differs.
     pub material_changes: usize,
+    /// Matched corners whose shading differs.
+    pub shading: ShadingChanges,
 }
 
 /// `t` turned (winding kept) so that its smallest corner comes first; ties between repeated
@@ -52,6 +159,7 @@ fn canonical(t: &Triangle) -> Triangle {
     let turn = |r: usize| Triangle {
         corners: [0, 1, 2].map(|k| t.corners[(k + r) % 3]),
         materials: [0, 1, 2].map(|k| t.materials[(k + r) % 3]),
+        shading: [0, 1, 2].map(|k| t.shading[(k + r) % 3]),
     };
     let key = |t: &Triangle| t.corners.map(|c| c.map(unsigned_zero));
     (0..3)
@@ -105,11 +213,20 @@ fn best_turn(a: &Triangle, b: &Triangle) -> (f64, usize) {
 /// Matches `a`'s triangles to `b`'s, each used once: first exactly (bit-equal corners after
 /// turning), then, for what is left and when `tolerance > 0`, the nearest triangle whose corners
 /// each lie within `tolerance` per axis.
-pub fn compare(a: &[Triangle], b: &[Triangle], tolerance: f64) -> Matching {
+pub fn compare(
+    a: &[Triangle],
+    b: &[Triangle],
+    tolerance: f64,
+    shading_tolerance: ShadingTolerance,
+) -> Matching {
     let a: Vec<Triangle> = a.iter().map(canonical).collect();
     let b: Vec<Triangle> = b.iter().map(canonical).collect();
     let mut material_changes = 0;
-    let count_changes = |x: &Triangle, y: &Triangle, turn: usize| {
+    let mut shading = ShadingChanges::default();
+    let mut count_changes = |x: &Triangle, y: &Triangle, turn: usize| {
+        for k in 0..3 {
+            shading.add(&x.shading[k], &y.shading[(k + turn) % 3], shading_tolerance);
+        }
         (0..3)
             .filter(|&k| x.materials[k] != y.materials[(k + turn) % 3])
             .count()
@@ -214,6 +331,7 @@ pub fn compare(a: &[Triangle], b: &[Triangle], tolerance: f64) -> Matching {
         unmatched: [unmatched_a, unmatched_b],
         max_delta,
         material_changes,
+        shading,
     }
 }
 
@@ -223,6 +341,7 @@ pub(super) fn tri(c: [[f32; 3]; 3], m: u32) -> Triangle {
     Triangle {
         corners: c,
         materials: [m; 3],
+        shading: Default::default(),
     }
 }
 
@@ -251,13 +370,14 @@ mod tests {
             t.corners.rotate_left(i % 3);
             t.materials.rotate_left(i % 3);
         }
-        let m = compare(&a, &b, 0.0);
+        let m = compare(&a, &b, 0.0, ShadingTolerance::default());
         assert_eq!(
             m,
             Matching {
                 unmatched: [vec![], vec![]],
                 max_delta: 0.0,
                 material_changes: 0,
+                shading: ShadingChanges::default(),
             }
         );
     }
@@ -272,11 +392,11 @@ mod tests {
         b.remove(20);
         b.push(tri([[9.0; 3], [10.0, 9.0, 9.0], [9.0, 10.0, 9.0]], 0));
 
-        let strict = compare(&a, &b, 0.0);
+        let strict = compare(&a, &b, 0.0, ShadingTolerance::default());
         assert_eq!(strict.unmatched, [vec![3, 7, 20], vec![3, 7, 199]]);
         assert_eq!(strict.material_changes, 1);
 
-        let loose = compare(&a, &b, 0.02);
+        let loose = compare(&a, &b, 0.02, ShadingTolerance::default());
         assert_eq!(loose.unmatched, [vec![3, 20], vec![3, 199]]);
         assert!((loose.max_delta - 0.01).abs() < 1e-6, "{loose:?}");
         assert_eq!(loose.material_changes, 1);
@@ -292,9 +412,10 @@ mod tests {
             .map(|t| Triangle {
                 corners: [t.corners[0], t.corners[2], t.corners[1]],
                 materials: t.materials,
+                shading: t.shading,
             })
             .collect();
-        let m = compare(&a, &b, 0.6);
+        let m = compare(&a, &b, 0.6, ShadingTolerance::default());
         assert_eq!((m.unmatched[0].len(), m.unmatched[1].len()), (200, 200));
     }
 
@@ -314,7 +435,7 @@ mod tests {
         b.reverse();
         b[0].corners[0][1] += 0.01;
         for tolerance in [1e-12, 1e-300, f64::MIN_POSITIVE, 4.9e-324] {
-            let m = compare(&a, &b, tolerance);
+            let m = compare(&a, &b, tolerance, ShadingTolerance::default());
             assert_eq!(
                 (m.unmatched[0].len(), m.unmatched[1].len()),
                 (1, 1),
@@ -324,27 +445,62 @@ mod tests {
     }
 
     #[test]
-    fn a_tolerance_match_keeps_corner_correspondence_for_materials() {
+    fn a_tolerance_match_keeps_corner_correspondence_for_materials_and_shading() {
+        let shade = |n: [f32; 3], u: f32| Shading {
+            normal: n,
+            tangent: [1.0, 0.0, 0.0, 1.0],
+            uv: [u, 0.5],
+        };
+        let z = [0.0, 0.0, 1.0];
         let a = vec![Triangle {
             corners: [[0.0; 3], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]],
             materials: [1, 2, 3],
+            shading: [shade(z, 0.0), shade(z, 1.0), shade(z, 0.5)],
         }];
-        // Turned once and nudged: corner k of `a` is corner k+1 of `b`.
+        // Turned once and nudged: corner k of `a` is corner k+1 of `b`. One normal tilted by
+        // 0.01 rad, one texture coordinate moved by 1e-3.
+        let tilted = [0.01f32.sin(), 0.0, 0.01f32.cos()];
         let b = vec![Triangle {
             corners: [[1.0, 0.0, 0.001], [0.0, 1.0, 0.0], [0.0, 0.0, 0.001]],
             materials: [2, 3, 1],
+            shading: [shade(tilted, 1.0), shade(z, 0.501), shade(z, 0.0)],
         }];
-        let m = compare(&a, &b, 0.01);
+        let tolerance = ShadingTolerance {
+            angle: 1e-3,
+            uv: 1e-4,
+        };
+        let m = compare(&a, &b, 0.01, tolerance);
         assert_eq!(m.unmatched, [Vec::<usize>::new(), vec![]]);
         assert_eq!(m.material_changes, 0);
+        assert_eq!(
+            (m.shading.normals, m.shading.uvs, m.shading.tangents),
+            (1, 1, 0)
+        );
+        assert!(
+            (m.shading.max_normal_angle - 0.01).abs() < 1e-6,
+            "{:?}",
+            m.shading
+        );
+        assert!(
+            (m.shading.max_uv_delta - 1e-3).abs() < 1e-6,
+            "{:?}",
+            m.shading
+        );
+        // Within looser tolerances, nothing changed.
+        let loose = ShadingTolerance {
+            angle: 0.02,
+            uv: 0.01,
+        };
+        let m = compare(&a, &b, 0.01, loose);
+        assert_eq!((m.shading.normals, m.shading.uvs), (0, 0));
     }
 
     #[test]
     fn repeated_triangles_are_matched_once_each() {
         let t = tri([[0.0; 3], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]], 0);
-        let m = compare(&[t, t, t], &[t, t], 0.0);
+        let m = compare(&[t, t, t], &[t, t], 0.0, ShadingTolerance::default());
         assert_eq!(m.unmatched, [vec![2], vec![]]);
-        let m = compare(&[t], &[t, t], 0.5);
+        let m = compare(&[t], &[t, t], 0.5, ShadingTolerance::default());
         assert_eq!(m.unmatched, [vec![], vec![1]]);
     }
 }
