@@ -1020,14 +1020,7 @@ fn the_tagging_note_gives_each_window_its_own_class() {
 fn a_stretched_design_s_projector_is_blurred_alike_both_ways_on_the_glass() {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
-    // Floor y = 0; the lancet x in [0, 1], y in [2, 5] in the plane z = 0, facing +z.
-    std::fs::write(
-        d.join("room.obj"),
-        "v -6 0 -1\nv 6 0 -1\nv 6 0 12\nv -6 0 12\nv 0 5 0\nv 1 5 0\nv 1 2 0\nv 0 2 0\n\
-         vt 0 1\nvt 1 1\nvt 1 0\nvt 0 0\n\
-         o floor\nusemtl stone\nf 1 4 3 2\no lancet\nusemtl glass\nf 5/1 8/4 7/3 6/2\n",
-    )
-    .unwrap();
+    tall_lancet_room(d);
     // A white-and-black checker of four 32-texel quadrants: an edge each way through the middle.
     image::RgbaImage::from_fn(64, 64, |x, y| {
         let v = if (x < 32) == (y < 32) { 255 } else { 0 };
@@ -1035,43 +1028,10 @@ fn a_stretched_design_s_projector_is_blurred_alike_both_ways_on_the_glass() {
     })
     .save(d.join("design.png"))
     .unwrap();
-    let m = scene(
-        d,
-        r#"
-[[mesh]]
-source = "room.obj"
-
-[[rule]]
-match = "stone"
-class = "floor"
-
-[[rule]]
-match = "glass"
-class = "window-lower"
-
-[[window]]
-material = "glass"
-design = "design.png"
-
-[textures]
-format = "rgba8"
-
-[light]
-type = "directional"
-direction = [0.0, -1.0, 1.0]
-angular_size_deg = 5.0
-"#,
-    );
-    let (_, pack) = cook_to_pack(&m);
+    let pack = cook_lancet(d, "");
     let toc = pack.toc();
     let glass = toc.materials.iter().find(|m| m.name == "glass").unwrap();
-    let index = glass.projector_texture.expect("a projector") as usize;
-    let texture = &toc.textures[index];
-    let texels = pack::texels::decode_level(texture, 0, pack.mip_bytes(index, 0));
-    let (w, h) = (
-        texture.mips[0].width as usize,
-        texture.mips[0].height as usize,
-    );
+    let (texels, w, h) = projector_level0(&pack);
     let red =
         |x: usize, y: usize| texture::srgb::srgb_to_linear(texels[(y * w + x) * 4] as f64 / 255.0);
     // Where a white-to-black profile crosses `level`, by linear interpolation.
@@ -1112,4 +1072,87 @@ angular_size_deg = 5.0
         "σ across {sx:.4} m, up {sy:.4} m, expected {expected:.4} m \
          ({w}x{h} texels, margins {mu} {mv}, edges at {mx} and {my})"
     );
+}
+
+/// Floor y = 0; a lancet x in [0, 1], y in [2, 5] in the plane z = 0, facing +z, its material
+/// `glass`.
+fn tall_lancet_room(d: &Path) {
+    std::fs::write(
+        d.join("room.obj"),
+        "v -6 0 -1\nv 6 0 -1\nv 6 0 12\nv -6 0 12\nv 0 5 0\nv 1 5 0\nv 1 2 0\nv 0 2 0\n\
+         vt 0 1\nvt 1 1\nvt 1 0\nvt 0 0\n\
+         o floor\nusemtl stone\nf 1 4 3 2\no lancet\nusemtl glass\nf 5/1 8/4 7/3 6/2\n",
+    )
+    .unwrap();
+}
+
+/// [`tall_lancet_room`] with `design.png` on its lancet (`window` adds to its [[window]]),
+/// textures stored RGBA8, under a 5° sun: the pack.
+fn cook_lancet(d: &Path, window: &str) -> Pack {
+    let m = scene(
+        d,
+        &format!(
+            r#"
+[[mesh]]
+source = "room.obj"
+
+[[rule]]
+match = "stone"
+class = "floor"
+
+[[rule]]
+match = "glass"
+class = "window-lower"
+
+[[window]]
+material = "glass"
+design = "design.png"
+{window}
+
+[textures]
+format = "rgba8"
+
+[light]
+type = "directional"
+direction = [0.0, -1.0, 1.0]
+angular_size_deg = 5.0
+"#
+        ),
+    );
+    cook_to_pack(&m).1
+}
+
+/// The `glass` material's projector, level 0 as RGBA8, and its size.
+fn projector_level0(pack: &Pack) -> (Vec<u8>, usize, usize) {
+    let toc = pack.toc();
+    let glass = toc.materials.iter().find(|m| m.name == "glass").unwrap();
+    let index = glass.projector_texture.expect("a projector") as usize;
+    let texture = &toc.textures[index];
+    let texels = pack::texels::decode_level(texture, 0, pack.mip_bytes(index, 0));
+    let (w, h) = (
+        texture.mips[0].width as usize,
+        texture.mips[0].height as usize,
+    );
+    (texels, w, h)
+}
+
+/// A design in linear colour (`colour_space = "linear"`) lets through the light its values
+/// say: mid grey 128 is 0.502 of the light, stored in the sRGB projector as 188. It was decoded
+/// as sRGB (0.216 of the light, stored as 128), so the floor was far darker than the glass.
+#[test]
+fn a_linear_design_s_projector_passes_its_linear_light() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    tall_lancet_room(d);
+    image::RgbaImage::from_pixel(64, 64, image::Rgba([128, 128, 128, 255]))
+        .save(d.join("design.png"))
+        .unwrap();
+    for (window, expected) in [("", 128u8), ("colour_space = \"linear\"", 188)] {
+        let (texels, w, h) = projector_level0(&cook_lancet(d, window));
+        let centre = &texels[((h / 2) * w + w / 2) * 4..][..4];
+        assert!(
+            centre[..3].iter().all(|&c| c.abs_diff(expected) <= 1) && centre[3] == 255,
+            "{window:?}: centre {centre:?}, expected {expected}"
+        );
+    }
 }

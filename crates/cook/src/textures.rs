@@ -48,6 +48,8 @@ enum Job {
         sigma: texture::Sigma2,
         /// Texels of margin on each side, `[x, y]` (`texture::projector_margin`).
         margin: [u32; 2],
+        /// The design's colours are sRGB-encoded (else linear, `colour_space = "linear"`).
+        srgb: bool,
     },
 }
 
@@ -818,10 +820,12 @@ fn run(
             design,
             sigma,
             margin,
+            srgb,
         } => {
             let img = images.get(design)?;
             let mut opts = texture::ProjectorOptions::new(*sigma);
             opts.margin = *margin;
+            opts.linear = !*srgb;
             opts.max_error_lsb = max_error;
             // The projector reduces a large design itself, its blur scaled to match.
             opts.max_size = Some(settings.max_size.map_or(pack::PROJECTOR_MAX_SIZE, |cap| {
@@ -987,6 +991,7 @@ pub fn cook_textures(
                             design: w.design.clone(),
                             sigma,
                             margin,
+                            srgb: w.colour_space == pack::ColourSpace::Srgb,
                         },
                         f,
                     ));

@@ -37,6 +37,9 @@ pub struct ProjectorOptions {
     /// ([`projector_margin`]); the stored texture spans the design and its margin. The size cap
     /// applies to the design's part of a level. `[x, y]`: left and right, top and bottom.
     pub margin: [u32; 2],
+    /// The design's colours are linear values, not sRGB-encoded (a manifest's
+    /// `colour_space = "linear"`). Its alpha is linear either way.
+    pub linear: bool,
 }
 
 impl ProjectorOptions {
@@ -48,6 +51,7 @@ impl ProjectorOptions {
             method: BlurMethod::Auto,
             block_pad: false,
             margin: [0, 0],
+            linear: false,
         }
     }
 }
@@ -182,7 +186,12 @@ fn cook_projector(
     }
     // The blurred image: the design and its margin.
     let (w, h) = (dw + 2 * m[0], dh + 2 * m[1]);
-    let bytes = crate::pixels::rgba8_bytes(design);
+    // The 8-bit passes decode sRGB as they read; a linear design takes the f32 route.
+    let bytes = if opts.linear {
+        None
+    } else {
+        crate::pixels::rgba8_bytes(design)
+    };
     // A design larger than the cap never has its level 0 stored, so its full-size blur is
     // needed only as the reference the stored levels are measured against: stream it in bands
     // (once for the levels, again for each level measured) rather than hold it whole, 17 MB of
@@ -207,7 +216,7 @@ fn cook_projector(
                     blur_rgba8_framed_to_linear(bytes, dw, dh, m, opts.sigma_texels, opts.method)?
                 }
                 None => {
-                    let mut premul = to_linear(design, true);
+                    let mut premul = to_linear(design, !opts.linear);
                     premul
                         .par_iter_mut()
                         .for_each(|t| *t = [t[0] * t[3], t[1] * t[3], t[2] * t[3], t[3]]);
