@@ -158,6 +158,19 @@ pub fn supplied_normal_mips(
 ) -> Result<(MipChain, SuppliedNormals), TextureError> {
     let (w, h) = (img.width(), img.height());
     check_size(w, h)?;
+    // Two-channel maps are often saved as grey with alpha: given as `rg`, x is the grey and y
+    // the alpha, and the image is no height map (it was read as one, its normals flat).
+    if encoding == NormalEncoding::Rg
+        && matches!(img.color(), image::ColorType::La8 | image::ColorType::La16)
+    {
+        let la = img.to_luma_alpha16();
+        let rg = DynamicImage::ImageRgb16(image::ImageBuffer::from_fn(w, h, |x, y| {
+            let [l, a] = la.get_pixel(x, y).0;
+            image::Rgb([l, a, 0])
+        }));
+        let normals = decode_scaled_normals(&rg, encoding, green, strength);
+        return Ok((chain(normals, w, h), SuppliedNormals::Vectors));
+    }
     if !is_height_map(img) {
         let normals = decode_scaled_normals(img, encoding, green, strength);
         return Ok((chain(normals, w, h), SuppliedNormals::Vectors));
@@ -602,5 +615,26 @@ mod tests {
                 );
             }
         }
+    }
+
+    /// An `rg` map saved as grey with alpha holds x in the grey and y in the alpha: the same
+    /// normals as the RGB image (x, y, 0); as a plain grey image it is a height map.
+    #[test]
+    fn an_rg_map_in_grey_and_alpha_is_read_as_x_and_y() {
+        let la = DynamicImage::ImageLumaA8(image::ImageBuffer::from_fn(6, 4, |x, y| {
+            image::LumaA([(150 + 10 * x) as u8, (90 + 20 * y) as u8])
+        }));
+        let rgb = DynamicImage::ImageRgb8(image::ImageBuffer::from_fn(6, 4, |x, y| {
+            image::Rgb([(150 + 10 * x) as u8, (90 + 20 * y) as u8, 0])
+        }));
+        let (a, held) =
+            supplied_normal_mips(&la, NormalEncoding::Rg, GreenAxis::OpenGl, 1.0).unwrap();
+        let (b, _) =
+            supplied_normal_mips(&rgb, NormalEncoding::Rg, GreenAxis::OpenGl, 1.0).unwrap();
+        assert_eq!(held, SuppliedNormals::Vectors);
+        assert_eq!(a.levels, b.levels);
+        let (_, held) =
+            supplied_normal_mips(&la, NormalEncoding::Rgb, GreenAxis::OpenGl, 1.0).unwrap();
+        assert!(matches!(held, SuppliedNormals::Heights { .. }));
     }
 }
