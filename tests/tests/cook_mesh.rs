@@ -1156,3 +1156,33 @@ fn a_linear_design_s_projector_passes_its_linear_light() {
         );
     }
 }
+
+/// A 16-bit design on glass with its own texture coordinates, which lets no light outside
+/// the glass, is the image as it is, under its own name like an 8-bit one: its 8-bit copy was
+/// taken for a tinted design and named `.masked`, with nothing masked.
+#[test]
+fn a_16_bit_design_keeps_its_name() {
+    let dir = tempfile::tempdir().unwrap();
+    lancet_room(dir.path());
+    let design = image::ImageBuffer::from_fn(16, 32, |x, y| {
+        image::Rgb([(x * 4000) as u16, (y * 2000) as u16, 50000u16])
+    });
+    image::DynamicImage::ImageRgb16(design)
+        .save(dir.path().join("design.png"))
+        .unwrap();
+    let m = scene(
+        dir.path(),
+        "[[mesh]]\nsource = \"room.obj\"\n\n[[rule]]\nmatch = \"stone\"\nclass = \"floor\"\n\n\
+         [[rule]]\nmatch = \"glass_*\"\non = [\"material\"]\nclass = \"window-upper\"\n\n\
+         [[window]]\nmaterial = \"glass_1\"\ndesign = \"design.png\"\n",
+    );
+    let (_, pack) = cook_to_pack(&m);
+    let names: Vec<&str> = pack
+        .toc()
+        .textures
+        .iter()
+        .map(|t| t.name.as_str())
+        .collect();
+    assert!(names.contains(&"design"), "{names:?}");
+    assert!(!names.iter().any(|n| n.contains("masked")), "{names:?}");
+}

@@ -710,9 +710,11 @@ fn make_design(p: &Pending, images: &crate::textures::DecodedImages) -> Result<D
         let mut pixels = pixels.into_owned();
         design::apply_mask(&mut pixels, &mask);
         Ok((raster(name, pixels), *source, size))
-    } else if let std::borrow::Cow::Owned(tinted) = pixels {
-        Ok((raster(name, tinted), *source, size))
+    } else if p.tints.is_some() {
+        Ok((raster(name, pixels.into_owned()), *source, size))
     } else {
+        // The image as it is, under its own name: a 16-bit design's 8-bit copy above is owned
+        // too, and was taken for a tinted one (named `.masked` with nothing masked).
         Ok((img.clone(), *source, size))
     }
 }
