@@ -431,7 +431,18 @@ fn windows(
             blur_sigma: w
                 .blur_sigma
                 .as_ref()
-                .map(|s| src.positive(s, "blur_sigma"))
+                .map(|s| {
+                    // 0 is a sharp projector, the design's own edges on the floor.
+                    let v = *s.get_ref();
+                    if v.is_finite() && v >= 0.0 {
+                        Ok(v)
+                    } else {
+                        Err(src.err_at(
+                            s,
+                            format!("blur_sigma is {v} but must be a number >= 0 (0: no blur)"),
+                        ))
+                    }
+                })
                 .transpose()?,
             texture_format: w.texture_format,
             line,

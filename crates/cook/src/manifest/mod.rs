@@ -676,6 +676,18 @@ colour = [0.35, 0.5, 0.8]
             let e = parse(&d, &format!("[textures]\n{bad}\n{mesh}")).unwrap_err();
             assert!(e.to_string().contains(":2"), "{bad}: {e}");
         }
+        // A window's blur: 0 is no blur; below 0 or not a number is an error at its line.
+        let window = |sigma: &str| {
+            parse(
+                &d,
+                &format!("{mesh}\n[[window]]\nmaterial = \"g\"\nblur_sigma = {sigma}\n"),
+            )
+        };
+        assert_eq!(window("0").unwrap().windows[0].blur_sigma, Some(0.0));
+        for bad in ["-1", "nan", "inf"] {
+            let e = window(bad).unwrap_err().to_string();
+            assert!(e.contains(":6") && e.contains("blur_sigma"), "{bad}: {e}");
+        }
         assert_eq!(m.textures.max_normal_error_deg, Some(0.5));
         assert_eq!(
             m.windows[0].texture_format,
