@@ -591,17 +591,25 @@ pub fn run(args: Args) -> Outcome {
         });
         problems.extend(attributes_differ(ma, mb));
         let (ia, ib) = (a.indices(ma), b.indices(mb));
-        if ma.vertex_count == mb.vertex_count && ia == ib {
+        // The same index buffer says the same order only if the vertices agree too: two
+        // exports whose triangles are listed alike over vertices in another order (objects'
+        // faces reversed) share the indices 0, 1, 2, … and nothing else. With a tolerance, a
+        // vertex order that does not hold is compared as a set of triangles instead.
+        let same_order = ma.vertex_count == mb.vertex_count && ia == ib && {
+            let (pa, pb) = (positions(&a, ma), positions(&b, mb));
+            let moved = pa
+                .iter()
+                .zip(&pb)
+                .any(|(p, q)| corner_delta(p, q) > max_delta);
+            exact_geometry || !moved
+        };
+        if same_order {
             // The same vertices in the same order: compare them one by one.
             let (pa, pb) = (positions(&a, ma), positions(&b, mb));
             let delta = pa
                 .iter()
                 .zip(&pb)
-                .map(|(p, q)| {
-                    (0..3)
-                        .map(|k| (p[k] - q[k]).abs() as f64)
-                        .fold(0.0, f64::max)
-                })
+                .map(|(p, q)| corner_delta(p, q))
                 .fold(0.0, f64::max);
             let (ka, kb) = (material_keys(&a, ma, &names), material_keys(&b, mb, &names));
             let changed = ka.iter().zip(&kb).filter(|(x, y)| x != y).count();

@@ -210,6 +210,23 @@ fn diff_sees_changed_normals_tangents_and_texture_coordinates() {
         said.contains("corners' tangents turned or flipped, by up to 180.000 degrees"),
         "{said}"
     );
+    // The two triangles' vertices listed the other way round over the same index buffer
+    // (0, 1, 2, 3, 4, 5): the same triangles, not vertices that moved.
+    let e = dir.path().join("e.pack");
+    write_sample(&e, |toc, data| {
+        let stride = toc.meshes[0].layout.stride as usize;
+        let v = data.meshes[0].vertices.clone();
+        let (first, second) = v.split_at(3 * stride);
+        data.meshes[0].vertices = [second, first].concat();
+    });
+    let o = cooker(&[&"diff", &a, &e, &"--max-position-delta", &"1e-6", &"--json"]);
+    assert_eq!(o.status.code(), Some(0), "{}", text(&o));
+    let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    assert_eq!(v["meshes"][0]["same_order"], false);
+    assert_eq!(
+        v["meshes"][0]["unmatched_triangles"],
+        serde_json::json!([0, 0])
+    );
     // A mesh that lost its texture coordinates is a difference whatever the thresholds.
     let d = dir.path().join("d.pack");
     write_sample(&d, |toc, data| {
