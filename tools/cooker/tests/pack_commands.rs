@@ -436,3 +436,25 @@ fn diff_identical_changed_texel_and_material() {
         text(&o)
     );
 }
+
+/// A projector's alpha is never sampled, and its block-compressed copy is opaque: diff
+/// compares its colour only, so an RGBA8 pack and a BC one compare by their light.
+#[test]
+fn diff_compares_a_projector_by_its_colour() {
+    let dir = tempfile::tempdir().unwrap();
+    let as_projector = |toc: &mut pack::Toc| toc.textures[0].role = pack::TextureRole::Projector;
+    let a = dir.path().join("a.pack");
+    write_sample(&a, |toc, _| as_projector(toc));
+    let b = dir.path().join("b.pack");
+    write_sample(&b, |toc, data| {
+        as_projector(toc);
+        data.textures[0][0][3] = data.textures[0][0][3].wrapping_sub(200);
+        data.textures[0][0][4] = data.textures[0][0][4].wrapping_add(2);
+    });
+    let o = cooker(&[&"diff", &a, &b, &"--json"]);
+    assert_eq!(o.status.code(), Some(1), "{}", text(&o));
+    let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    assert_eq!(v["textures"][0]["levels"][0]["max_error"], 2, "{v}");
+    let o = cooker(&[&"diff", &a, &b, &"--tolerance-lsb", &"2"]);
+    assert_eq!(o.status.code(), Some(0), "{}", text(&o));
+}
