@@ -352,6 +352,10 @@ fn distance_to_window(p: &[f32; 3], w: &pack::Window) -> f64 {
     (d - along(u) - along(t)).length()
 }
 
+/// The window frames of the two packs, each of a's paired with the nearest of b's not yet
+/// taken (glass of the same source materials first): a model exported with its objects in
+/// another order lists its windows in another order, and compared by index every frame had
+/// moved. Returns what differs, the first few pairs named.
 fn windows_differ(ta: &pack::Toc, tb: &pack::Toc, max_delta: f64) -> Option<String> {
     let (a, b) = (&ta.windows, &tb.windows);
     // Material tables may be ordered differently: compare names.
@@ -361,24 +365,53 @@ fn windows_differ(ta: &pack::Toc, tb: &pack::Toc, max_delta: f64) -> Option<Stri
     if a.len() != b.len() {
         return Some(format!("{} in a, {} in b", a.len(), b.len()));
     }
-    for (i, (x, y)) in a.iter().zip(b).enumerate() {
-        let points = corner_delta(&x.origin, &y.origin)
+    let moved = |x: &pack::Window, y: &pack::Window| {
+        corner_delta(&x.origin, &y.origin)
             .max(corner_delta(&x.u_axis, &y.u_axis))
-            .max(corner_delta(&x.v_axis, &y.v_axis));
+            .max(corner_delta(&x.v_axis, &y.v_axis))
+    };
+    let mut taken = vec![false; b.len()];
+    let mut differ = Vec::new();
+    for (i, x) in a.iter().enumerate() {
+        let j = (0..b.len())
+            .filter(|&j| !taken[j])
+            .min_by(|&j, &k| {
+                let key =
+                    |y: &pack::Window| (y.source_materials != x.source_materials, moved(x, y));
+                let (p, q) = (key(&b[j]), key(&b[k]));
+                p.0.cmp(&q.0).then(p.1.total_cmp(&q.1))
+            })
+            .expect("as many windows in b");
+        taken[j] = true;
+        let y = &b[j];
+        let points = moved(x, y);
         let normal = corner_delta(&x.normal, &y.normal);
         if points > max_delta
             || normal > direction_tolerance(max_delta)
             || material(ta, x) != material(tb, y)
             || x.source_materials != y.source_materials
         {
-            return Some(format!(
-                "window {i}: corner or edges moved by {points:.3e}, normal by {normal:.3e}, \
-                 glass {:?} and {:?}",
-                x.source_materials, y.source_materials
+            let name = |t: &pack::Toc, w: &pack::Window| material(t, w).unwrap_or_default();
+            differ.push(format!(
+                "window {i} ({:?}) and b's window {j} ({:?}): corner or edges moved by \
+                 {points:.3e}, normal by {normal:.3e}, glass {:?} and {:?}",
+                name(ta, x),
+                name(tb, y),
+                x.source_materials,
+                y.source_materials
             ));
         }
     }
-    None
+    const SHOWN: usize = 3;
+    match differ.len() {
+        0 => None,
+        n if n <= SHOWN => Some(differ.join("; ")),
+        n => Some(format!(
+            "{}; and {} more of {n}",
+            differ[..SHOWN].join("; "),
+            n - SHOWN
+        )),
+    }
 }
 
 /// How meshes' geometry is compared.

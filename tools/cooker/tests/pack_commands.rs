@@ -458,3 +458,41 @@ fn diff_compares_a_projector_by_its_colour() {
     let o = cooker(&[&"diff", &a, &b, &"--tolerance-lsb", &"2"]);
     assert_eq!(o.status.code(), Some(0), "{}", text(&o));
 }
+
+/// Windows listed in another order (a model exported with its objects in another order) are
+/// the same windows: each is paired with the nearest of the other pack's. Compared by index,
+/// every frame had moved, whatever the tolerance.
+#[test]
+fn diff_pairs_windows_listed_in_another_order() {
+    let dir = tempfile::tempdir().unwrap();
+    let two = |toc: &mut pack::Toc| {
+        let mut second = toc.windows[0].clone();
+        second.origin = [5.0, 0.0, 0.0];
+        second.source_materials = vec!["rose-red".into(), "rose-blue".into()];
+        toc.windows.push(second);
+    };
+    let a = dir.path().join("a.pack");
+    write_sample(&a, |toc, _| two(toc));
+    let b = dir.path().join("b.pack");
+    write_sample(&b, |toc, _| {
+        two(toc);
+        toc.windows.reverse();
+    });
+    let o = cooker(&[&"diff", &a, &b, &"--max-position-delta", &"0"]);
+    assert_eq!(o.status.code(), Some(0), "{}", text(&o));
+    // One of them moved: named with its partner.
+    let c = dir.path().join("c.pack");
+    write_sample(&c, |toc, _| {
+        two(toc);
+        toc.windows.reverse();
+        toc.windows[0].origin[1] += 0.5;
+    });
+    let o = cooker(&[&"diff", &a, &c, &"--max-position-delta", &"0.1"]);
+    let said = text(&o);
+    assert_eq!(o.status.code(), Some(1), "{said}");
+    assert!(
+        said.contains("the window frames differ: window 1 (\"rose\") and b's window 0")
+            && said.contains("moved by 5.000e-1"),
+        "{said}"
+    );
+}
