@@ -10,7 +10,7 @@ use crate::blur::{
 use crate::mips::{MipChain, check_size, level_size};
 use crate::pixels::to_linear;
 use crate::real::clamp01;
-use crate::resample::{MipFilter, half, next_level, walk_chain};
+use crate::resample::{MipFilter, half, next_level, reduce_to, walk_chain};
 use crate::srgb::{decode8, encoder, linear_to_srgb_lsb, linear_to_srgb_lsb_slope};
 
 /// How a projector texture is cooked.
@@ -69,6 +69,9 @@ pub struct ProjectorReport {
     pub height: u32,
     /// Leading levels dropped because the blur left nothing they would show.
     pub dropped_levels: u32,
+    /// Further halvings of the stored level along x and along y alone, where one axis was
+    /// over the size cap and the other was not.
+    pub halved: [u32; 2],
     /// The margin on each side, in design texels ([`ProjectorOptions::margin`]).
     pub margin: [u32; 2],
     /// With a budget: max error (LSB) of the stored texture, sampled bilinearly at the design's
@@ -97,6 +100,12 @@ impl std::fmt::Display for ProjectorReport {
                 " (stored below the design's {}x{}: {} level(s) dropped)",
                 self.design_width, self.design_height, self.dropped_levels
             )?;
+        }
+        match self.halved {
+            [0, 0] => {}
+            [x, 0] => write!(f, " (halved {x} more time(s) across only, to the size cap)")?,
+            [0, y] => write!(f, " (halved {y} more time(s) down only, to the size cap)")?,
+            [x, y] => write!(f, " (halved {x} more time(s) across and {y} down)")?,
         }
         if let Some(e) = self.max_error_lsb {
             write!(f, ", max error {e:.3} LSB")?;
@@ -249,7 +258,19 @@ fn cook_projector(
             None => upsampled_error(&encoded[k], lw, lh, &levels[0], w, h),
         }
     };
-    let (keep, max_error) = choose_level(opts, w, h, n, error);
+    let (keep, halved, max_error) = choose_level(opts, w, h, n, error);
+    if halved != [0, 0] {
+        return halved_along_one_axis(
+            opts,
+            (dw, dh),
+            (w, h),
+            levels,
+            first,
+            streamed.as_ref(),
+            keep,
+            halved,
+        );
+    }
     let (sw, sh) = level_size(w, h, keep);
     let report = ProjectorReport {
         sigma_texels: opts.sigma_texels,
@@ -259,6 +280,7 @@ fn cook_projector(
         width: sw,
         height: sh,
         dropped_levels: keep as u32,
+        halved: [0, 0],
         margin: m,
         max_error_lsb: max_error,
     };
@@ -290,16 +312,104 @@ fn cook_projector(
     }
 }
 
-/// Which level the stored chain starts at, and its error: the lowest level whose error stays
-/// within the budget, among those σ leaves detail for, then lower still to fit the size cap.
-/// `error(k)` measures level `k` against the full-resolution blur.
+/// The stored chain of a blur whose kept level is over the size cap along one axis only: level
+/// `keep` (of `levels`, which start at level `first`; from `streamed`'s bands where that is not
+/// held) halved `halved[0]` more times across and `halved[1]` down, box-filtered as the mips
+/// are, and its chain below; with the chain unpadded when `block_pad` grew it, as
+/// [`projector_with_unpadded`]. Its error is measured against the full-resolution blur, as the
+/// cap's always is.
+#[allow(clippy::too_many_arguments)]
+fn halved_along_one_axis(
+    opts: &ProjectorOptions,
+    (dw, dh): (u32, u32),
+    (w, h): (u32, u32),
+    levels: Vec<Vec<[f32; 4]>>,
+    first: usize,
+    streamed: Option<&Streamed>,
+    keep: usize,
+    halved: [u32; 2],
+) -> Result<(MipChain, Option<MipChain>, ProjectorReport), TextureError> {
+    let post = |t: [f32; 4]| t.map(clamp01);
+    let (mut lw, mut lh) = level_size(w, h, keep);
+    let [mut hx, mut hy] = halved;
+    let mut level = if keep >= first {
+        levels[keep - first].clone()
+    } else {
+        // Level 0 is never held whole when streamed: its first halving, band by band.
+        let s = streamed.expect("levels below `first` are streamed");
+        let (nw, nh) = (
+            if hx > 0 { half(lw) } else { lw },
+            if hy > 0 { half(lh) } else { lh },
+        );
+        let l = s.reduced(nw, nh, post);
+        hx = hx.saturating_sub(1);
+        hy = hy.saturating_sub(1);
+        (lw, lh) = (nw, nh);
+        l
+    };
+    for _ in 0..hx.max(hy) {
+        let nw = if hx > 0 { half(lw) } else { lw };
+        let nh = if hy > 0 { half(lh) } else { lh };
+        level = reduce_to(&level, lw, lh, nw, nh, MipFilter::Box, |t| t);
+        level.iter_mut().for_each(|t| *t = post(*t));
+        hx = hx.saturating_sub(1);
+        hy = hy.saturating_sub(1);
+        (lw, lh) = (nw, nh);
+    }
+    let encoded0 = encode_premultiplied(&level);
+    let max_error = match streamed {
+        Some(s) => {
+            s.max_over_bands(|band, y0, _| upsampled_error_rows(&encoded0, lw, lh, band, y0, w, h))
+        }
+        None => upsampled_error(&encoded0, lw, lh, &levels[0], w, h),
+    };
+    drop(levels);
+    let chain_of = |level: Vec<[f32; 4]>, cw: u32, ch: u32| {
+        let mut chain = MipChain {
+            width: cw,
+            height: ch,
+            levels: Vec::new(),
+        };
+        walk_chain(level, cw, ch, next_premultiplied, |l| {
+            chain.levels.push(encode_premultiplied(&l))
+        });
+        chain
+    };
+    let report = ProjectorReport {
+        sigma_texels: opts.sigma_texels,
+        method: opts.method.resolve_sized(opts.sigma_texels, w, h),
+        design_width: dw,
+        design_height: dh,
+        width: lw,
+        height: lh,
+        dropped_levels: keep as u32,
+        halved,
+        margin: opts.margin,
+        max_error_lsb: Some(max_error),
+    };
+    let (pw, ph) = crate::bc::block_padded_size(lw, lh);
+    if opts.block_pad && (pw, ph) != (lw, lh) {
+        let padded = crate::pixels::pad_texels(&level, lw, lh, pw, ph, Some([0.0; 4]));
+        let unpadded = chain_of(level, lw, lh);
+        Ok((chain_of(padded, pw, ph), Some(unpadded), report))
+    } else {
+        Ok((chain_of(level, lw, lh), None, report))
+    }
+}
+
+/// Which level the stored chain starts at, how many more times it is halved along x or along y
+/// alone, and its error: the lowest level whose error stays within the budget, among those σ
+/// leaves detail for, then lower still to fit the size cap. The cap halves an axis only while
+/// that axis is over it: a lancet's design 32 texels across and 1024 up was halved both ways,
+/// and its stripes across were lost (78 LSB). `error(k)` measures level `k` against the
+/// full-resolution blur; with halvings along one axis the error is left to the caller.
 fn choose_level(
     opts: &ProjectorOptions,
     w: u32,
     h: u32,
     n: usize,
     mut error: impl FnMut(usize) -> f64,
-) -> (usize, Option<f64>) {
+) -> (usize, [u32; 2], Option<f64>) {
     let mut keep = 0;
     let mut max_error = None;
     if let Some(budget) = opts.max_error_lsb {
@@ -319,24 +429,31 @@ fn choose_level(
     }
     if let Some(cap) = opts.max_size {
         let first = keep;
-        // The design's part of level k: the level less its margin, m / 2^k on each side.
-        let design_part = |k: usize| {
-            let (lw, lh) = level_size(w, h, k);
-            let part = |l: u32, m: u32| l as f64 - 2.0 * m as f64 / (1u64 << k) as f64;
-            part(lw, opts.margin[0]).max(part(lh, opts.margin[1]))
+        // Halvings of one axis (`size` texels, margin `m`) from `keep` on until its design
+        // part, the level less its margin of m / 2^k on each side, is within the cap.
+        let halvings = |size: u32, m: u32| {
+            let mut k = keep;
+            let part = |k: usize| (size >> k).max(1) as f64 - 2.0 * m as f64 / (1u64 << k) as f64;
+            while (size >> k) > 1 && part(k) > cap as f64 {
+                k += 1;
+            }
+            k
         };
-        while keep + 1 < n && design_part(keep) > cap as f64 {
-            keep += 1;
+        let (hx, hy) = (halvings(w, opts.margin[0]), halvings(h, opts.margin[1]));
+        keep = hx.min(hy).min(n - 1);
+        let extra = [(hx - keep) as u32, (hy - keep) as u32];
+        if extra != [0, 0] {
+            return (keep, extra, None);
         }
         if keep > first {
             // Against the full-resolution blur, like the budget's levels: what the cap costs.
-            return (keep, Some(error(keep)));
+            return (keep, extra, Some(error(keep)));
         }
     }
     if opts.max_error_lsb.is_some() && max_error.is_none() {
         max_error = Some(error(0));
     }
-    (keep, max_error)
+    (keep, [0, 0], max_error)
 }
 
 /// The blur of an 8-bit design, a band of rows at a time.
@@ -367,6 +484,27 @@ impl Streamed<'_> {
                 |t| t,
                 |t| t.map(clamp01),
             ));
+        }
+        out
+    }
+
+    /// The blur reduced to `nw x nh` (each its own size or half of it), box-filtered as the
+    /// mips are, from band after band (even-height bands halve on their own), through `post`.
+    fn reduced(
+        &self,
+        nw: u32,
+        nh: u32,
+        post: impl Fn([f32; 4]) -> [f32; 4] + Sync,
+    ) -> Vec<[f32; 4]> {
+        let (w, h) = self.0.size();
+        let mut out = Vec::with_capacity((nw * nh) as usize);
+        for (y0, y1) in self.bands() {
+            let band = self.0.rows(y0..y1);
+            let bh = y1 - y0;
+            let bnh = if nh < h { half(bh) } else { bh };
+            let mut part = reduce_to(&band, w, bh, nw, bnh, MipFilter::Box, |t| t);
+            part.iter_mut().for_each(|t| *t = post(*t));
+            out.extend(part);
         }
         out
     }
@@ -697,9 +835,14 @@ mod tests {
                 margin: m,
                 ..ProjectorOptions::new(sigma)
             };
-            projector(&img8, &opts).unwrap().1.dropped_levels
+            let report = projector(&img8, &opts).unwrap().1;
+            (report.dropped_levels, report.halved)
         };
-        assert_eq!((capped(70), capped(69), capped(35)), (0, 1, 1));
+        // 69 is over the cap across only: halved across alone; 35 is over it both ways.
+        assert_eq!(
+            (capped(70), capped(69), capped(35)),
+            ((0, [0, 0]), (0, [1, 0]), (1, [0, 0]))
+        );
         let wide = ProjectorOptions {
             margin: [9, 71],
             ..ProjectorOptions::new(sigma)
@@ -708,6 +851,49 @@ mod tests {
             projector(&img8, &wide),
             Err(TextureError::MarginTooWide { margin: 71, .. })
         ));
+    }
+
+    /// A design over the size cap along one axis only is halved along that axis alone: a
+    /// lancet's 32 x 1024 design of stripes two texels wide, blurred σ 0.69 across and 2.75
+    /// down, keeps its stripes (they were lost to a halving both ways: 78.7 LSB, now 7.6).
+    #[test]
+    fn a_design_over_the_cap_one_way_keeps_its_detail_the_other_way() {
+        let colours = [
+            [255u8, 0, 0, 255],
+            [0, 255, 0, 255],
+            [0, 0, 255, 255],
+            [255; 4],
+        ];
+        let design = DynamicImage::ImageRgba8(image::RgbaImage::from_fn(32, 1024, |x, _| {
+            image::Rgba(colours[(x as usize / 2) % 4])
+        }));
+        let sigma = Sigma2::new(0.69, 2.75);
+        let opts = ProjectorOptions {
+            max_error_lsb: Some(1.0),
+            max_size: Some(512),
+            margin: projector_margin(sigma, 32, 1024),
+            ..ProjectorOptions::new(sigma)
+        };
+        let (chain, report) = projector(&design, &opts).unwrap();
+        assert_eq!(
+            (report.dropped_levels, report.halved),
+            (0, [0, 1]),
+            "{report}"
+        );
+        assert_eq!(
+            (chain.width, chain.height),
+            (32 + 2 * opts.margin[0], (1024 + 2 * opts.margin[1]) / 2)
+        );
+        // What is left is the light's fade at the top and bottom, halved (7.6 LSB where sRGB
+        // is steep), not the stripes.
+        let e = report.max_error_lsb.unwrap();
+        assert!(e < 10.0, "{report}");
+        assert!(
+            report
+                .to_string()
+                .contains("halved 1 more time(s) down only"),
+            "{report}"
+        );
     }
 
     /// An opaque white design's light spreads into the margin and has faded to black at its

@@ -252,8 +252,22 @@ pub fn reduce<T: Real>(
     filter: MipFilter,
     pre: impl Fn([T; 4]) -> [T; 4] + Sync,
 ) -> Vec<[T; 4]> {
+    reduce_to(src, w, h, half(w), half(h), filter, pre)
+}
+
+/// [`reduce`] to any `w2 x h2` no larger than the source: an axis kept at its size passes
+/// through (one tap of weight one), so a level can be halved along one axis only.
+pub fn reduce_to<T: Real>(
+    src: &[[T; 4]],
+    w: u32,
+    h: u32,
+    w2: u32,
+    h2: u32,
+    filter: MipFilter,
+    pre: impl Fn([T; 4]) -> [T; 4] + Sync,
+) -> Vec<[T; 4]> {
     let (w, h) = (w as usize, h as usize);
-    let (w2, h2) = (half(w as u32) as usize, half(h as u32) as usize);
+    let (w2, h2) = (w2 as usize, h2 as usize);
     let tx = FlatTaps::<T>::new(&taps(w, w2, filter));
     let ty = FlatTaps::<T>::new(&taps(h, h2, filter));
     let zero = [T::default(); 4];

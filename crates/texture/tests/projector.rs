@@ -55,6 +55,7 @@ fn heavy_blur_is_stored_smaller_only_within_the_budget() {
         method: BlurMethod::Auto,
         block_pad: false,
         margin: [0, 0],
+        linear: false,
     };
     let (full, _) = projector(&img, &opts(None)).unwrap();
     // The zero border's falloff is the steepest detail left, and limits how far it can go.
@@ -80,6 +81,7 @@ fn heavy_blur_is_stored_smaller_only_within_the_budget() {
             method: BlurMethod::Auto,
             block_pad: false,
             margin: [0, 0],
+            linear: false,
         },
     )
     .unwrap();
@@ -94,11 +96,33 @@ fn a_size_cap_stores_the_first_level_that_fits_it_and_says_what_it_costs() {
     let (full, _) = projector(&img, &opts).unwrap();
     opts.max_size = Some(30);
     let (capped, report) = projector(&img, &opts).unwrap();
-    // 100 -> 50 -> 25: two levels dropped, the rest of the chain unchanged.
-    assert_eq!((capped.width, capped.height), (25, 10));
-    assert_eq!(report.dropped_levels, 2, "{report}");
-    assert_eq!(capped.levels[..], full.levels[2..]);
+    // Across 100 -> 50 -> 25, down 40 -> 20, which fits: one level dropped, then halved
+    // across alone.
+    assert_eq!((capped.width, capped.height), (25, 20));
+    assert_eq!(
+        (report.dropped_levels, report.halved),
+        (1, [1, 0]),
+        "{report}"
+    );
     assert!(report.max_error_lsb.is_some_and(|e| e > 0.5), "{report}");
+    // Over the cap both ways by as many halvings: the chain from that level, unchanged.
+    opts.max_size = Some(16);
+    let (capped, report) = projector(&img, &opts).unwrap();
+    assert_eq!(
+        (report.dropped_levels, report.halved),
+        (2, [1, 0]),
+        "{report}"
+    );
+    assert_eq!((capped.width, capped.height), (12, 10));
+    let square = rgba_image(64, 64, design(64, 64, 6));
+    let (square_full, _) = projector(&square, &ProjectorOptions::new(3.0)).unwrap();
+    let (capped, report) = projector(&square, &opts).unwrap();
+    assert_eq!(
+        (report.dropped_levels, report.halved),
+        (2, [0, 0]),
+        "{report}"
+    );
+    assert_eq!(capped.levels[..], square_full.levels[2..]);
     // A cap the design already fits changes nothing.
     opts.max_size = Some(100);
     let (same, report) = projector(&img, &opts).unwrap();
@@ -117,6 +141,7 @@ fn bad_budget_is_an_error() {
             method: BlurMethod::Auto,
             block_pad: false,
             margin: [0, 0],
+            linear: false,
         };
         assert!(
             projector(&img, &opts)
