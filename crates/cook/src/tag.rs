@@ -1082,9 +1082,11 @@ pub fn tag(manifest: &Manifest, sources: &mut [Imported]) -> Result<Tagging, Coo
     // (pack name, class) → material index; names used with several classes get a suffix.
     let mut index: HashMap<(String, MaterialClass), u16> = HashMap::new();
     let mut seen_names: HashMap<(NameKind, String), ()> = HashMap::new();
-    // The pack materials' names so far: a model of 40,000 objects, each in its own material,
-    // took 7.7 s to tag when each new name was compared with every one before it.
-    let mut taken_names: HashSet<String> = HashSet::new();
+    // Each pack material's name before any class suffix, and whether any of its parts is not
+    // a piece the geometry cut out: the names are settled after every part is tagged (see
+    // `settle_names`).
+    let mut bases: Vec<String> = Vec::new();
+    let mut uncut: Vec<bool> = Vec::new();
 
     for (si, src) in sources.iter().enumerate() {
         let mut used = vec![false; src.materials.len()];
@@ -1184,12 +1186,9 @@ pub fn tag(manifest: &Manifest, sources: &mut [Imported]) -> Result<Tagging, Coo
                             message: "more than 65536 materials: material IDs are 16-bit".into(),
                         });
                     }
-                    let name = if taken_names.contains(&base_name) {
-                        format!("{base_name}.{}", class.name())
-                    } else {
-                        base_name
-                    };
-                    taken_names.insert(name.clone());
+                    let name = base_name.clone();
+                    bases.push(base_name);
+                    uncut.push(false);
                     let base = source_material
                         .cloned()
                         .unwrap_or_else(|| SourceMaterial::plain(&name));
@@ -1231,6 +1230,7 @@ pub fn tag(manifest: &Manifest, sources: &mut [Imported]) -> Result<Tagging, Coo
                     id
                 }
             };
+            uncut[id as usize] |= cuts[si].get(pi).is_none_or(|c| *c != Cut::Piece);
             mats.push(id);
             decisions.push(decision);
         }
@@ -1244,7 +1244,52 @@ pub fn tag(manifest: &Manifest, sources: &mut [Imported]) -> Result<Tagging, Coo
         out.decisions.push(decisions);
     }
     out.cut = cuts;
+    settle_names(&mut out, &bases, &uncut);
     Ok(out)
+}
+
+/// Names the pack materials. A source name used with one class keeps it. Used with several,
+/// one keeps the bare name and the others get `.class`: the rest of a part the geometry cut
+/// (its floor and wall pieces are what is new), else the first class of floor, wall, the
+/// windows, background, other. The bare name went to the class met first, so two exports of
+/// one model in another object order named the same materials otherwise (`Red` and
+/// `Red.wall` against `Red.other` and `Red`), and a diff saw them all changed. Names are
+/// given in sorted order of their base, so a suffixed name that another material already has
+/// gets one more suffix the same way whatever the order.
+fn settle_names(out: &mut Tagging, bases: &[String], uncut: &[bool]) {
+    let mut groups: std::collections::BTreeMap<&str, Vec<usize>> = Default::default();
+    for (i, b) in bases.iter().enumerate() {
+        groups.entry(b.as_str()).or_default().push(i);
+    }
+    let classes: Vec<MaterialClass> = out.materials.iter().map(|m| m.material.class).collect();
+    let class_of = |i: usize| classes[i];
+    // Bare names first, so a suffixed one never takes a name a material has of its own.
+    let mut taken: HashSet<String> = HashSet::new();
+    let mut bare: Vec<Option<usize>> = Vec::with_capacity(groups.len());
+    for (base, ids) in &groups {
+        let rank = |i: usize| {
+            let class = MaterialClass::ALL.iter().position(|&c| c == class_of(i));
+            (!uncut[i], class)
+        };
+        let keeper = ids.iter().copied().min_by_key(|&i| rank(i));
+        if let Some(k) = keeper {
+            taken.insert(base.to_string());
+            out.materials[k].material.name = base.to_string();
+        }
+        bare.push(keeper);
+    }
+    for ((base, ids), keeper) in groups.iter().zip(bare) {
+        let mut others: Vec<usize> = ids.iter().copied().filter(|&i| Some(i) != keeper).collect();
+        others.sort_by_key(|&i| class_of(i).name());
+        for i in others {
+            let mut name = format!("{base}.{}", class_of(i).name());
+            while taken.contains(&name) {
+                name = format!("{name}.{}", class_of(i).name());
+            }
+            taken.insert(name.clone());
+            out.materials[i].material.name = name;
+        }
+    }
 }
 
 #[cfg(test)]

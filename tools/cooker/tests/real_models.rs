@@ -3167,3 +3167,30 @@ fn ply_models_cook_with_their_colours_and_textures() {
     );
     assert!(!dir.path().join("bad.pack").exists());
 }
+
+/// gltfpack's boxes, one material (`Red`) on walls and on boxes: the same model with its scene's
+/// nodes in the other order names its materials alike. The bare name went to the class met
+/// first (`Red` other and `Red.wall`, against `Red` wall and `Red.other`).
+#[test]
+fn split_material_names_do_not_depend_on_node_order() {
+    let dir = tempfile::tempdir().unwrap();
+    let src = third_party("gltfpack/boxes.gltf");
+    let mut gltf: Value = serde_json::from_str(&std::fs::read_to_string(&src).unwrap()).unwrap();
+    let roots = gltf["scenes"][0]["nodes"].as_array_mut().unwrap();
+    roots.reverse();
+    // The copy beside the original's buffers.
+    let reversed = dir.path().join("boxes.gltf");
+    std::fs::write(&reversed, serde_json::to_string(&gltf).unwrap()).unwrap();
+    for entry in std::fs::read_dir(src.parent().unwrap()).unwrap() {
+        let p = entry.unwrap().path();
+        if p.extension().is_some_and(|e| e == "bin") {
+            std::fs::copy(&p, dir.path().join(p.file_name().unwrap())).unwrap();
+        }
+    }
+    let (a, b) = (dir.path().join("a.pack"), dir.path().join("b.pack"));
+    cook(&src, &a, &[]);
+    cook(&reversed, &b, &[]);
+    let (ca, cb) = (classes(&info(&a)), classes(&info(&b)));
+    assert_eq!(ca, cb);
+    assert_eq!(ca.get("Red").map(String::as_str), Some("wall"), "{ca:?}");
+}
