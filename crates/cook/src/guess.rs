@@ -872,7 +872,8 @@ pub fn guess(p: &Prepared) -> Guess {
             notes.push(
                 "no sun direction lands window light on a floor (no floor found, or the windows face away): a default sun through the largest window".into(),
             );
-            let w = windows.iter().max_by(|a, b| a.area.total_cmp(&b.area));
+            let order = larger_window_first(windows);
+            let w = windows.iter().min_by(|a, b| order(a, b));
             Some(w.map_or(DVec3::new(-0.4, -0.8, 0.45), |w| {
                 (w.inside - DVec3::Y).normalize()
             }))
@@ -1066,7 +1067,8 @@ pub fn guess(p: &Prepared) -> Guess {
         cameras.push(camera("nave", a, b));
     }
     let mut by_area: Vec<&crate::instances::Instance> = windows.iter().collect();
-    by_area.sort_by(|x, y| y.area.total_cmp(&x.area));
+    let order = larger_window_first(windows);
+    by_area.sort_by(|x, y| order(x, y));
     // The largest window the sun comes in through, glowing over its light on the floor; the
     // largest of all where the sun enters none.
     let enters = |w: &crate::instances::Instance| {
@@ -1126,6 +1128,26 @@ pub fn guess(p: &Prepared) -> Guess {
         cameras,
         sky,
         notes,
+    }
+}
+
+/// Windows in order of area, largest first; windows as large as each other (to a millionth of
+/// the largest, float noise of their triangles' order) by their centres, lowest x, y, z first.
+/// The order the model lists them in decided between equal windows, so a re-export with its
+/// nodes in another order looked at another window.
+fn larger_window_first(
+    windows: &[crate::instances::Instance],
+) -> impl Fn(&crate::instances::Instance, &crate::instances::Instance) -> std::cmp::Ordering {
+    let largest = windows.iter().map(|w| w.area).fold(0.0f64, f64::max);
+    let step = (largest * 1e-6).max(f64::MIN_POSITIVE);
+    move |a, b| {
+        let size = |w: &crate::instances::Instance| (w.area / step).round();
+        size(b).total_cmp(&size(a)).then_with(|| {
+            let (p, q) = (a.centre(), b.centre());
+            p.x.total_cmp(&q.x)
+                .then(p.y.total_cmp(&q.y))
+                .then(p.z.total_cmp(&q.z))
+        })
     }
 }
 

@@ -3194,3 +3194,102 @@ fn split_material_names_do_not_depend_on_node_order() {
     assert_eq!(ca, cb);
     assert_eq!(ca.get("Red").map(String::as_str), Some("wall"), "{ca:?}");
 }
+
+/// Two windows of one size: the guessed views look at the same one whichever the model lists
+/// first (the one lower in x, y, z). The first listed was taken, so a re-export with its
+/// objects in another order moved the `windows` and `lit-floor` cameras to the other window.
+#[test]
+fn guessed_views_do_not_depend_on_object_order() {
+    let dir = tempfile::tempdir().unwrap();
+    let quad = |name: &str, mtl: &str, c: [[f32; 3]; 4]| {
+        let mut s = format!("o {name}\nusemtl {mtl}\n");
+        for p in c {
+            s += &format!("v {} {} {}\n", p[0], p[1], p[2]);
+        }
+        s + "f -4 -3 -2 -1\n"
+    };
+    let parts = [
+        quad(
+            "floor",
+            "stone",
+            [
+                [-4.0, 0.0, 0.0],
+                [4.0, 0.0, 0.0],
+                [4.0, 0.0, -12.0],
+                [-4.0, 0.0, -12.0],
+            ],
+        ),
+        quad(
+            "left",
+            "stone",
+            [
+                [-4.0, 0.0, 0.0],
+                [-4.0, 0.0, -12.0],
+                [-4.0, 8.0, -12.0],
+                [-4.0, 8.0, 0.0],
+            ],
+        ),
+        quad(
+            "right",
+            "stone",
+            [
+                [4.0, 0.0, -12.0],
+                [4.0, 0.0, 0.0],
+                [4.0, 8.0, 0.0],
+                [4.0, 8.0, -12.0],
+            ],
+        ),
+        quad(
+            "end",
+            "stone",
+            [
+                [4.0, 0.0, -12.0],
+                [-4.0, 0.0, -12.0],
+                [-4.0, 8.0, -12.0],
+                [4.0, 8.0, -12.0],
+            ],
+        ),
+        quad(
+            "glass_a",
+            "glass",
+            [
+                [4.05, 2.0, -4.0],
+                [4.05, 2.0, -3.0],
+                [4.05, 6.0, -3.0],
+                [4.05, 6.0, -4.0],
+            ],
+        ),
+        quad(
+            "glass_b",
+            "glass",
+            [
+                [4.05, 2.0, -8.0],
+                [4.05, 2.0, -7.0],
+                [4.05, 6.0, -7.0],
+                [4.05, 6.0, -8.0],
+            ],
+        ),
+    ];
+    std::fs::write(
+        dir.path().join("m.mtl"),
+        "newmtl stone\nKd 0.6 0.6 0.6\nnewmtl glass\nKd 0.8 0.2 0.2\nd 0.5\n",
+    )
+    .unwrap();
+    let mut views = Vec::new();
+    for (name, order) in [("a", [0, 1, 2, 3, 4, 5]), ("b", [5, 4, 3, 2, 1, 0])] {
+        let obj = dir.path().join(format!("{name}.obj"));
+        let text: String = order.iter().map(|&i| parts[i].as_str()).collect();
+        std::fs::write(&obj, format!("mtllib m.mtl\n{text}")).unwrap();
+        let pack = dir.path().join(format!("{name}.pack"));
+        cook(&obj, &pack, &[]);
+        views.push(info(&pack)["views"].clone());
+    }
+    assert_eq!(views[0], views[1]);
+    let windows = views[0]
+        .as_array()
+        .unwrap()
+        .iter()
+        .find(|v| v["name"] == "windows")
+        .expect("a windows view");
+    assert!(windows["target"][2].as_f64().unwrap() < -5.0, "{windows}");
+}
