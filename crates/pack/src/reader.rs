@@ -145,7 +145,15 @@ impl Pack {
             source,
         };
         let file = std::fs::File::open(path).map_err(io)?;
-        let len = file.metadata().map_err(io)?.len();
+        let meta = file.metadata().map_err(io)?;
+        if meta.is_dir() {
+            // Opening a directory succeeds and mapping it fails with "No such device".
+            return Err(io(std::io::Error::new(
+                std::io::ErrorKind::IsADirectory,
+                "is a directory, not a pack file",
+            )));
+        }
+        let len = meta.len();
         if len < HEADER_SIZE {
             // Too short to be a pack; also avoids mapping an empty file, which fails on some
             // platforms with a confusing error.

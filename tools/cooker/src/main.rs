@@ -21,27 +21,44 @@ mod validate;
 use clap::{Parser, Subcommand};
 
 #[derive(Parser)]
-#[command(name = "cooker", version, about = "Stained-glass asset cooker")]
+#[command(
+    name = "cooker",
+    version,
+    about = "Stained-glass asset cooker",
+    after_help = EXIT_CODES
+)]
 struct Cli {
     #[command(subcommand)]
     command: Command,
 }
 
+/// The exit codes, in `--help` of the cooker and of every subcommand (scripts gate on them).
+const EXIT_CODES: &str = "Exit codes: 0 success, 1 problems found (validation findings, a diff over \
+its thresholds), 2 bad usage, 3 invalid input (the message names the file and the line or \
+offset), 4 operating-system I/O error.";
+
 #[derive(Subcommand)]
 enum Command {
     /// Print what a pack holds: sections, materials, textures.
+    #[command(after_help = EXIT_CODES)]
     Info(info::Args),
     /// Cook a scene (or a bare OBJ/glTF file) into a pack.
+    #[command(after_help = EXIT_CODES)]
     Cook(cook::Args),
     /// Write a starter scene.toml for a model: rules, windows, sun and cameras it guesses.
+    #[command(after_help = EXIT_CODES)]
     Init(init::Args),
     /// Check material tagging and window geometry of a scene or a pack.
+    #[command(after_help = EXIT_CODES)]
     Validate(validate::Args),
     /// Compare two packs: per section, geometry, and per texture level error.
+    #[command(after_help = EXIT_CODES)]
     Diff(diff::Args),
     /// Write one cooked texture level as an 8-bit PNG (the stored bytes).
+    #[command(after_help = EXIT_CODES)]
     Extract(extract::Args),
     /// Inspect the cook cache: stats, verify, explain why a scene would be cooked.
+    #[command(after_help = EXIT_CODES)]
     Cache(cache_cmd::Args),
 }
 

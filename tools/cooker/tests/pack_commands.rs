@@ -112,6 +112,17 @@ fn info_exit_codes_for_bad_input_io_and_usage() {
         )
     );
 
+    // A directory is said to be one (mapping it failed with "No such device").
+    let o = cooker(&[&"info", &dir.path()]);
+    assert_eq!(o.status.code(), Some(4), "{}", text(&o));
+    assert_eq!(
+        text(&o),
+        format!(
+            "error: {}: is a directory, not a pack file\n",
+            dir.path().display()
+        )
+    );
+
     let o = cooker(&[&"info"]);
     assert_eq!(o.status.code(), Some(2), "{}", text(&o));
     assert!(
