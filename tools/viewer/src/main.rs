@@ -639,7 +639,35 @@ fn tune_allocator() {
     }
 }
 
-fn main() -> Result<()> {
+/// Exit codes as the cooker's: 3 for invalid input (a pack or model that fails validation,
+/// the message naming it), 4 for an operating-system I/O error, 2 for bad usage (clap's); 1
+/// for anything else that failed (no GPU adapter, a device lost).
+fn main() -> std::process::ExitCode {
+    match run() {
+        Ok(()) => std::process::ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("error: {e:#}");
+            std::process::ExitCode::from(exit_code(&e))
+        }
+    }
+}
+
+fn exit_code(e: &anyhow::Error) -> u8 {
+    for cause in e.chain() {
+        if let Some(p) = cause.downcast_ref::<pack::PackError>() {
+            return if p.is_io() { 4 } else { 3 };
+        }
+        if let Some(c) = cause.downcast_ref::<cook::CookError>() {
+            return if c.is_io() { 4 } else { 3 };
+        }
+        if cause.downcast_ref::<std::io::Error>().is_some() {
+            return 4;
+        }
+    }
+    1
+}
+
+fn run() -> Result<()> {
     // Rust ignores SIGPIPE, so a closed stdout (`viewer p.pack --headless | head`) made the
     // next `println!` panic; like other Unix tools, stop quietly instead.
     // SAFETY: first thing in main, before any other thread exists; SIG_DFL is a valid

@@ -338,12 +338,23 @@ fn names_the_problem_on_bad_input() {
         "--out".as_ref(),
         out.as_os_str(),
     ]);
-    assert!(!o.status.success());
+    // Invalid input exits 3 and a file that cannot be read 4, as the cooker's do.
     let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(3), "{err}");
     assert!(
         err.contains("tiny.pack") && err.contains("checksum"),
         "{err}"
     );
+    let missing = dir.join("missing.pack");
+    let o = viewer(&[
+        missing.as_os_str(),
+        "--headless".as_ref(),
+        "--out".as_ref(),
+        out.as_os_str(),
+    ]);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(4), "{err}");
+    assert!(err.contains("missing.pack"), "{err}");
 
     let _ = std::fs::remove_dir_all(&dir);
 }
