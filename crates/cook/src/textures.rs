@@ -797,6 +797,12 @@ fn run(
                 .map_err(|e| texture_error(Path::new(&image.name()), e))?;
             let said = match held {
                 texture::SuppliedNormals::Vectors => Said::default(),
+                texture::SuppliedNormals::RgInRgb => Said::note(
+                    "its blue is near 0 throughout (no tangent-space normal points into the \
+                     surface), so it is read as rg: z rebuilt from x and y; say normal_encoding \
+                     = \"rg\" to mean it"
+                        .to_string(),
+                ),
                 texture::SuppliedNormals::Heights { depth } => Said::note(format!(
                     "grey, so read as a height (bump) map: its range spans {depth:.2} texels of \
                      depth (1/256 of its longer side times the strength {strength})"

@@ -108,6 +108,18 @@ pub enum SuppliedNormals {
     /// Grey: a height (bump) map, as older exporters write `map_Bump`; its normals were
     /// derived with the full grey range `depth` texels deep ([`BUMP_DEPTH`]).
     Heights { depth: f32 },
+    /// Given as RGB, but its blue is near zero throughout: a two-channel (`rg`) map saved as
+    /// RGB, read as one (z rebuilt from x and y).
+    RgInRgb,
+}
+
+/// Whether an RGB normal map's blue is under 64 (z below −0.5) in at least 99 % of its texels:
+/// no tangent-space normal points that far into the surface, so it is x and y alone, as a
+/// two-channel map saved as RGB has them. Read as RGB its normals pointed backwards.
+fn blue_is_empty(img: &DynamicImage) -> bool {
+    let rgb = to_unorm_rgb(img);
+    let low = rgb.par_iter().filter(|t| t[2] < 64.0 / 255.0).count();
+    low as f64 >= 0.99 * rgb.len().max(1) as f64
 }
 
 /// The depth a height map's full range spans at strength 1, as a fraction of its longer side:
@@ -172,6 +184,10 @@ pub fn supplied_normal_mips(
         return Ok((chain(normals, w, h), SuppliedNormals::Vectors));
     }
     if !is_height_map(img) {
+        if encoding == NormalEncoding::Rgb && blue_is_empty(img) {
+            let normals = decode_scaled_normals(img, NormalEncoding::Rg, green, strength);
+            return Ok((chain(normals, w, h), SuppliedNormals::RgInRgb));
+        }
         let normals = decode_scaled_normals(img, encoding, green, strength);
         return Ok((chain(normals, w, h), SuppliedNormals::Vectors));
     }
@@ -636,5 +652,29 @@ mod tests {
         let (_, held) =
             supplied_normal_mips(&la, NormalEncoding::Rgb, GreenAxis::OpenGl, 1.0).unwrap();
         assert!(matches!(held, SuppliedNormals::Heights { .. }));
+    }
+
+    /// A two-channel map saved as RGB (blue 0) and given as `rgb` is read as `rg`: its normals
+    /// pointed into the surface (z = −1 from blue 0).
+    #[test]
+    fn an_rgb_map_without_blue_is_read_as_rg() {
+        let img = DynamicImage::ImageRgb8(image::ImageBuffer::from_fn(6, 4, |x, y| {
+            image::Rgb([(120 + 10 * x) as u8, (100 + 20 * y) as u8, 0])
+        }));
+        let (a, held) =
+            supplied_normal_mips(&img, NormalEncoding::Rgb, GreenAxis::OpenGl, 1.0).unwrap();
+        let (b, _) =
+            supplied_normal_mips(&img, NormalEncoding::Rg, GreenAxis::OpenGl, 1.0).unwrap();
+        assert_eq!(held, SuppliedNormals::RgInRgb);
+        assert_eq!(a.levels, b.levels);
+        // A real RGB map keeps its blue.
+        let flat = DynamicImage::ImageRgb8(image::ImageBuffer::from_pixel(
+            4,
+            4,
+            image::Rgb([128, 128, 255]),
+        ));
+        let (_, held) =
+            supplied_normal_mips(&flat, NormalEncoding::Rgb, GreenAxis::OpenGl, 1.0).unwrap();
+        assert_eq!(held, SuppliedNormals::Vectors);
     }
 }
