@@ -1187,3 +1187,30 @@ fn a_16_bit_design_keeps_its_name() {
     assert!(names.contains(&"design"), "{names:?}");
     assert!(!names.iter().any(|n| n.contains("masked")), "{names:?}");
 }
+
+/// A design transparent in every texel cooks a black window that throws no light: the cook
+/// says so (it was silent). One with any coverage is not said.
+#[test]
+fn a_transparent_design_is_said() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    tall_lancet_room(d);
+    let said = |alpha: u8| {
+        image::RgbaImage::from_pixel(8, 8, image::Rgba([200, 200, 200, alpha]))
+            .save(d.join("design.png"))
+            .unwrap();
+        let m = scene(
+            d,
+            "[[mesh]]\nsource = \"room.obj\"\n\n[[rule]]\nmatch = \"glass\"\n\
+             class = \"window-lower\"\n\n[[window]]\nmaterial = \"glass\"\n\
+             design = \"design.png\"\n",
+        );
+        let (out, _) = cook_to_pack(&m);
+        out.report
+            .warnings
+            .iter()
+            .any(|w| w.to_string().contains("transparent in every texel"))
+    };
+    assert!(said(0));
+    assert!(!said(1));
+}

@@ -219,6 +219,17 @@ fn cook_hall(hall: &Hall, dir: &Path) -> Vec<u8> {
             Vec3::X,
         );
     }
+    // A piece of the wall at x = −6, z in [z0, z1], y in [y0, y1], around its openings.
+    let x = -h;
+    let piece = |obj: &mut Obj, z0: f32, z1: f32, y0: f32, y1: f32| {
+        obj.quad(
+            "stone",
+            o + Vec3::new(x, y0, z0),
+            Vec3::Z * (z1 - z0),
+            Vec3::Y * (y1 - y0),
+            Vec3::X,
+        );
+    };
     match hall.opening {
         Opening::Skylight => {
             let s = 1.5;
@@ -271,17 +282,6 @@ fn cook_hall(hall: &Hall, dir: &Path) -> Vec<u8> {
         }
         Opening::WallWindows => {
             roof(&mut obj, -h, h, -h, h);
-            // The wall at x = −6 around the two openings.
-            let x = -h;
-            let piece = |obj: &mut Obj, z0: f32, z1: f32, y0: f32, y1: f32| {
-                obj.quad(
-                    "stone",
-                    o + Vec3::new(x, y0, z0),
-                    Vec3::Z * (z1 - z0),
-                    Vec3::Y * (y1 - y0),
-                    Vec3::X,
-                );
-            };
             piece(&mut obj, -h, -3.5, 0.0, top);
             piece(&mut obj, -1.5, 1.5, 0.0, top);
             piece(&mut obj, 3.5, h, 0.0, top);
@@ -299,16 +299,6 @@ fn cook_hall(hall: &Hall, dir: &Path) -> Vec<u8> {
         }
         Opening::Lancet => {
             roof(&mut obj, -h, h, -h, h);
-            let x = -h;
-            let piece = |obj: &mut Obj, z0: f32, z1: f32, y0: f32, y1: f32| {
-                obj.quad(
-                    "stone",
-                    o + Vec3::new(x, y0, z0),
-                    Vec3::Z * (z1 - z0),
-                    Vec3::Y * (y1 - y0),
-                    Vec3::X,
-                );
-            };
             piece(&mut obj, -h, -0.3, 0.0, top);
             piece(&mut obj, 0.3, h, 0.0, top);
             piece(&mut obj, -0.3, 0.3, 0.0, 1.0);

@@ -529,6 +529,34 @@ pub fn plan(
         });
     }
     let designs = share_identical(designs.into_iter().flatten().collect());
+    // A design whose every texel is transparent lets no light through (its alpha is coverage:
+    // lead and stone): the window is black and throws nothing. Said once per image.
+    let mut said_dark: Vec<String> = Vec::new();
+    for (design, source, _) in &designs {
+        if *source == DesignSource::Mesh || said_dark.contains(&design.name()) {
+            continue;
+        }
+        let img = images.get(design)?;
+        // Stops at the first texel with any coverage, which most designs have at once.
+        let transparent = img.color().has_alpha()
+            && match img.as_rgba8() {
+                Some(rgba) => rgba.pixels().all(|p| p[3] == 0),
+                None => image::GenericImageView::pixels(&*img).all(|(_, _, p)| p[3] == 0),
+            };
+        if transparent {
+            said_dark.push(design.name());
+            report.warnings.push(Warning::new(
+                &manifest.path,
+                None,
+                format!(
+                    "design {} is transparent in every texel: a design's alpha is how much of \
+                     it is glass, so its window is black and throws no light (clear glass is \
+                     white and opaque)",
+                    design.name()
+                ),
+            ));
+        }
+    }
     for (p, (design, source, size)) in pending.iter().zip(designs) {
         let material = &mut tagging.materials[p.material as usize];
         // The window pass shows the design times the material's diffuse colour. A design

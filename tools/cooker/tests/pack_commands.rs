@@ -139,9 +139,13 @@ fn info_exit_codes_for_bad_input_io_and_usage() {
     );
 }
 
-/// The sample with its vertices decoded, edited and written back in the layout that holds
-/// every attribute.
-fn write_edited_vertices(path: &Path, edit: impl FnOnce(&mut Vec<pack::StandardVertex>)) {
+/// The sample with its vertices decoded, edited and written back in the layout of `encoding`
+/// (the sample's own where `None`).
+fn write_in_layout(
+    path: &Path,
+    encoding: Option<pack::vertex::Encoding>,
+    edit: impl FnOnce(&mut Vec<pack::StandardVertex>),
+) {
     write_sample(path, |toc, data| {
         let standard = toc.meshes[0].layout.clone();
         let mut verts: Vec<pack::StandardVertex> = data.meshes[0]
@@ -150,9 +154,17 @@ fn write_edited_vertices(path: &Path, edit: impl FnOnce(&mut Vec<pack::StandardV
             .map(|b| standard.decode(b))
             .collect();
         edit(&mut verts);
-        toc.meshes[0].layout = standard.clone();
-        data.meshes[0].vertices = standard.encode_vertices(&verts);
+        let layout = encoding.map_or(standard, |e| {
+            pack::vertex::layout(e, false, [0.0; 3], [1.0; 3])
+        });
+        data.meshes[0].vertices = layout.encode_vertices(&verts);
+        toc.meshes[0].layout = layout;
     });
+}
+
+/// [`write_in_layout`] in the sample's own layout.
+fn write_edited_vertices(path: &Path, edit: impl FnOnce(&mut Vec<pack::StandardVertex>)) {
+    write_in_layout(path, None, edit);
 }
 
 /// A regression gate that accepts moved geometry must still see turned normals and moved
@@ -240,24 +252,14 @@ fn diff_sees_changed_normals_tangents_and_texture_coordinates() {
     );
     // A mesh that lost its texture coordinates is a difference whatever the thresholds.
     let d = dir.path().join("d.pack");
-    write_sample(&d, |toc, data| {
-        let standard = toc.meshes[0].layout.clone();
-        let verts: Vec<pack::StandardVertex> = data.meshes[0]
-            .vertices
-            .chunks_exact(standard.stride as usize)
-            .map(|b| standard.decode(b))
-            .collect();
-        let bare = pack::vertex::Encoding {
-            normal: true,
-            uv: false,
-            tangent: false,
-            colour: false,
-            quantize: None,
-        };
-        let layout = pack::vertex::layout(bare, false, [0.0; 3], [1.0; 3]);
-        data.meshes[0].vertices = layout.encode_vertices(&verts);
-        toc.meshes[0].layout = layout;
-    });
+    let bare = pack::vertex::Encoding {
+        normal: true,
+        uv: false,
+        tangent: false,
+        colour: false,
+        quantize: None,
+    };
+    write_in_layout(&d, Some(bare), |_| {});
     let o = cooker(&[
         &"diff",
         &a,
@@ -325,24 +327,15 @@ fn diff_identical_changed_texel_and_material() {
     // One vertex painted: the colour a layout without one decodes to is white, so only that
     // vertex differs, by its largest channel's change.
     let e = dir.path().join("e.pack");
-    write_sample(&e, |toc, data| {
-        let standard = toc.meshes[0].layout.clone();
-        let mut verts: Vec<pack::StandardVertex> = data.meshes[0]
-            .vertices
-            .chunks_exact(52)
-            .map(|b| standard.decode(b))
-            .collect();
-        verts[4].colour = [255, 240, 250, 0];
-        let everything = pack::vertex::Encoding {
-            normal: true,
-            uv: true,
-            tangent: true,
-            colour: true,
-            quantize: None,
-        };
-        let layout = pack::vertex::layout(everything, false, [0.0; 3], [1.0; 3]);
-        data.meshes[0].vertices = layout.encode_vertices(&verts);
-        toc.meshes[0].layout = layout;
+    let everything = pack::vertex::Encoding {
+        normal: true,
+        uv: true,
+        tangent: true,
+        colour: true,
+        quantize: None,
+    };
+    write_in_layout(&e, Some(everything), |verts| {
+        verts[4].colour = [255, 240, 250, 0]
     });
     let o = cooker(&[&"diff", &a, &e]);
     assert_eq!(o.status.code(), Some(1), "{}", text(&o));
