@@ -1265,21 +1265,24 @@ fn settle_names(out: &mut Tagging, bases: &[String], uncut: &[bool]) {
     let class_of = |i: usize| classes[i];
     // Bare names first, so a suffixed one never takes a name a material has of its own.
     let mut taken: HashSet<String> = HashSet::new();
-    let mut bare: Vec<Option<usize>> = Vec::with_capacity(groups.len());
-    for (base, ids) in &groups {
-        let rank = |i: usize| {
-            let class = MaterialClass::ALL.iter().position(|&c| c == class_of(i));
-            (!uncut[i], class)
-        };
-        let keeper = ids.iter().copied().min_by_key(|&i| rank(i));
-        if let Some(k) = keeper {
+    let rank = |i: usize| {
+        let class = MaterialClass::ALL.iter().position(|&c| c == class_of(i));
+        (!uncut[i], class)
+    };
+    let keepers: Vec<usize> = groups
+        .iter()
+        .map(|(base, ids)| {
+            let keeper = *ids
+                .iter()
+                .min_by_key(|&&i| rank(i))
+                .expect("a group is never empty");
             taken.insert(base.to_string());
-            out.materials[k].material.name = base.to_string();
-        }
-        bare.push(keeper);
-    }
-    for ((base, ids), keeper) in groups.iter().zip(bare) {
-        let mut others: Vec<usize> = ids.iter().copied().filter(|&i| Some(i) != keeper).collect();
+            out.materials[keeper].material.name = base.to_string();
+            keeper
+        })
+        .collect();
+    for ((base, ids), keeper) in groups.iter().zip(keepers) {
+        let mut others: Vec<usize> = ids.iter().copied().filter(|&i| i != keeper).collect();
         others.sort_by_key(|&i| class_of(i).name());
         for i in others {
             let mut name = format!("{base}.{}", class_of(i).name());

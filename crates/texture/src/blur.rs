@@ -108,7 +108,7 @@ impl std::fmt::Display for Sigma2 {
 
 /// [`Sigma2`] checked, in f64.
 #[derive(Clone, Copy, Debug)]
-struct Sig {
+pub(crate) struct Sig {
     x: f64,
     y: f64,
 }
@@ -224,14 +224,14 @@ impl BlurMethod {
     }
 }
 
-pub(crate) fn check_sigma(sigma: f32) -> Result<f64, TextureError> {
+fn check_sigma(sigma: f32) -> Result<f64, TextureError> {
     if !(sigma.is_finite() && (0.0..=MAX_SIGMA).contains(&sigma)) {
         return Err(TextureError::InvalidSigma { sigma });
     }
     Ok(sigma as f64)
 }
 
-fn check_sigma2(sigma: Sigma2) -> Result<Sig, TextureError> {
+pub(crate) fn check_sigma2(sigma: Sigma2) -> Result<Sig, TextureError> {
     Ok(Sig {
         x: check_sigma(sigma.x)?,
         y: check_sigma(sigma.y)?,
@@ -1034,10 +1034,10 @@ impl Grid {
             (k, tau, to_f32(&g1))
         };
         let (kx, taux, g1x) = stage1(sigma.x);
-        let (k, tau, g1) = stage1(sigma.y);
-        let r1 = g1.len() / 2;
+        let (ky, tauy, g1y) = stage1(sigma.y);
+        let r1 = g1y.len() / 2;
         let ax = Axis::new(w, kx, taux, dec.radius_sigmas);
-        let ay = Axis::new(h, k, tau, dec.radius_sigmas);
+        let ay = Axis::new(h, ky, tauy, dec.radius_sigmas);
         let (mx, my) = (ax.count, ay.count);
         let fir = ax.stage1(&g1x);
 
@@ -1049,11 +1049,11 @@ impl Grid {
         // row sums the same terms in the same order as before, so the result does not depend on
         // the banding or the thread count.
         let mut b = vec![[0.0f32; 4]; mx * my];
-        let taps = g1.len();
+        let taps = g1y.len();
         let ring_rows = taps.min(h);
         let bands = (rayon::current_num_threads() * 2).clamp(1, my.max(1));
         let band_rows = my.div_ceil(bands).max(1);
-        let first_row = |m: usize| (m * k) as i64 - ay.rt as i64 - r1 as i64;
+        let first_row = |m: usize| (m * ky) as i64 - ay.rt as i64 - r1 as i64;
         b.par_chunks_mut(mx * band_rows).enumerate().for_each_init(
             || {
                 (
@@ -1077,7 +1077,7 @@ impl Grid {
                         fir.apply(row, phases, &mut ring[slot * mx..(slot + 1) * mx]);
                         next += 1;
                     }
-                    let terms: Vec<(f32, &[Px])> = g1
+                    let terms: Vec<(f32, &[Px])> = g1y
                         .iter()
                         .enumerate()
                         .filter_map(|(t, &g)| {

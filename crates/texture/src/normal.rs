@@ -77,13 +77,22 @@ fn decode_scaled_normals(
     green: GreenAxis,
     strength: f32,
 ) -> Vec<[f32; 4]> {
+    scaled_normals(to_unorm_rgb(img), encoding, green, strength)
+}
+
+/// [`decode_scaled_normals`] of texels already decoded to unorm RGB.
+fn scaled_normals(
+    rgb: Vec<[f32; 3]>,
+    encoding: NormalEncoding,
+    green: GreenAxis,
+    strength: f32,
+) -> Vec<[f32; 4]> {
     let flip = if green == GreenAxis::DirectX {
         -1.0
     } else {
         1.0
     };
-    to_unorm_rgb(img)
-        .into_par_iter()
+    rgb.into_par_iter()
         .map(|v| {
             let x = v[0] * 2.0 - 1.0;
             let y = (v[1] * 2.0 - 1.0) * flip;
@@ -116,8 +125,7 @@ pub enum SuppliedNormals {
 /// Whether an RGB normal map's blue is under 64 (z below −0.5) in at least 99 % of its texels:
 /// no tangent-space normal points that far into the surface, so it is x and y alone, as a
 /// two-channel map saved as RGB has them. Read as RGB its normals pointed backwards.
-fn blue_is_empty(img: &DynamicImage) -> bool {
-    let rgb = to_unorm_rgb(img);
+fn blue_is_empty(rgb: &[[f32; 3]]) -> bool {
     let low = rgb.par_iter().filter(|t| t[2] < 64.0 / 255.0).count();
     low as f64 >= 0.99 * rgb.len().max(1) as f64
 }
@@ -175,20 +183,21 @@ pub fn supplied_normal_mips(
     if encoding == NormalEncoding::Rg
         && matches!(img.color(), image::ColorType::La8 | image::ColorType::La16)
     {
-        let la = img.to_luma_alpha16();
-        let rg = DynamicImage::ImageRgb16(image::ImageBuffer::from_fn(w, h, |x, y| {
-            let [l, a] = la.get_pixel(x, y).0;
-            image::Rgb([l, a, 0])
-        }));
-        let normals = decode_scaled_normals(&rg, encoding, green, strength);
+        let unorm = |v: u16| v as f32 / 65535.0;
+        let rg = (img.to_luma_alpha16().pixels())
+            .map(|p| [unorm(p[0]), unorm(p[1]), 0.0])
+            .collect();
+        let normals = scaled_normals(rg, encoding, green, strength);
         return Ok((chain(normals, w, h), SuppliedNormals::Vectors));
     }
     if !is_height_map(img) {
-        if encoding == NormalEncoding::Rgb && blue_is_empty(img) {
-            let normals = decode_scaled_normals(img, NormalEncoding::Rg, green, strength);
+        // Decoded once, for the blue test and the normals both.
+        let rgb = to_unorm_rgb(img);
+        if encoding == NormalEncoding::Rgb && blue_is_empty(&rgb) {
+            let normals = scaled_normals(rgb, NormalEncoding::Rg, green, strength);
             return Ok((chain(normals, w, h), SuppliedNormals::RgInRgb));
         }
-        let normals = decode_scaled_normals(img, encoding, green, strength);
+        let normals = scaled_normals(rgb, encoding, green, strength);
         return Ok((chain(normals, w, h), SuppliedNormals::Vectors));
     }
     let depth = strength * w.max(h) as f32 * BUMP_DEPTH;

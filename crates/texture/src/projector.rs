@@ -5,7 +5,7 @@ use rayon::prelude::*;
 
 use crate::TextureError;
 use crate::blur::{
-    BlurMethod, RowBlur, Sigma2, blur_linear, blur_rgba8_framed_to_linear, check_sigma,
+    BlurMethod, RowBlur, Sigma2, blur_linear, blur_rgba8_framed_to_linear, check_sigma2,
 };
 use crate::mips::{MipChain, check_size, level_size};
 use crate::pixels::to_linear;
@@ -178,8 +178,7 @@ fn cook_projector(
 ) -> Result<(MipChain, Option<MipChain>, ProjectorReport), TextureError> {
     let (dw, dh) = (design.width(), design.height());
     check_size(dw, dh)?;
-    check_sigma(opts.sigma_texels.x)?;
-    check_sigma(opts.sigma_texels.y)?;
+    check_sigma2(opts.sigma_texels)?;
     if let Some(b) = opts.max_error_lsb
         && !(b.is_finite() && b >= 0.0)
     {
@@ -259,10 +258,21 @@ fn cook_projector(
         }
     };
     let (keep, halved, max_error) = choose_level(opts, w, h, n, error);
+    let report = |(width, height): (u32, u32), max_error_lsb| ProjectorReport {
+        sigma_texels: opts.sigma_texels,
+        method: opts.method.resolve_sized(opts.sigma_texels, w, h),
+        design_width: dw,
+        design_height: dh,
+        width,
+        height,
+        dropped_levels: keep as u32,
+        halved,
+        margin: m,
+        max_error_lsb,
+    };
     if halved != [0, 0] {
-        return halved_along_one_axis(
-            opts,
-            (dw, dh),
+        let (chain, unpadded, size, e) = halved_along_one_axis(
+            opts.block_pad,
             (w, h),
             levels,
             first,
@@ -270,20 +280,10 @@ fn cook_projector(
             keep,
             halved,
         );
+        return Ok((chain, unpadded, report(size, Some(e))));
     }
     let (sw, sh) = level_size(w, h, keep);
-    let report = ProjectorReport {
-        sigma_texels: opts.sigma_texels,
-        method: opts.method.resolve_sized(opts.sigma_texels, w, h),
-        design_width: dw,
-        design_height: dh,
-        width: sw,
-        height: sh,
-        dropped_levels: keep as u32,
-        halved: [0, 0],
-        margin: m,
-        max_error_lsb: max_error,
-    };
+    let report = report((sw, sh), max_error);
     let (pw, ph) = crate::bc::block_padded_size(sw, sh);
     let unpadded = MipChain {
         width: sw,
@@ -298,15 +298,7 @@ fn cook_projector(
         let kept = levels.swap_remove(keep - first);
         drop(levels);
         let padded = crate::pixels::pad_texels_owned(kept, sw, sh, pw, ph, Some([0.0; 4]));
-        let mut chain = MipChain {
-            width: pw,
-            height: ph,
-            levels: Vec::new(),
-        };
-        walk_chain(padded, pw, ph, next_premultiplied, |l| {
-            chain.levels.push(encode_premultiplied(&l))
-        });
-        Ok((chain, Some(unpadded), report))
+        Ok((encoded_chain(padded, pw, ph), Some(unpadded), report))
     } else {
         Ok((unpadded, None, report))
     }
@@ -316,46 +308,33 @@ fn cook_projector(
 /// `keep` (of `levels`, which start at level `first`; from `streamed`'s bands where that is not
 /// held) halved `halved[0]` more times across and `halved[1]` down, box-filtered as the mips
 /// are, and its chain below; with the chain unpadded when `block_pad` grew it, as
-/// [`projector_with_unpadded`]. Its error is measured against the full-resolution blur, as the
-/// cap's always is.
-#[allow(clippy::too_many_arguments)]
+/// [`projector_with_unpadded`]; the stored level's size; and its error against the
+/// full-resolution blur, as the cap's always is.
 fn halved_along_one_axis(
-    opts: &ProjectorOptions,
-    (dw, dh): (u32, u32),
+    block_pad: bool,
     (w, h): (u32, u32),
     levels: Vec<Vec<[f32; 4]>>,
     first: usize,
     streamed: Option<&Streamed>,
     keep: usize,
-    halved: [u32; 2],
-) -> Result<(MipChain, Option<MipChain>, ProjectorReport), TextureError> {
-    let post = |t: [f32; 4]| t.map(clamp01);
+    [mut hx, mut hy]: [u32; 2],
+) -> (MipChain, Option<MipChain>, (u32, u32), f64) {
     let (mut lw, mut lh) = level_size(w, h, keep);
-    let [mut hx, mut hy] = halved;
-    let mut level = if keep >= first {
-        levels[keep - first].clone()
-    } else {
-        // Level 0 is never held whole when streamed: its first halving, band by band.
-        let s = streamed.expect("levels below `first` are streamed");
-        let (nw, nh) = (
-            if hx > 0 { half(lw) } else { lw },
-            if hy > 0 { half(lh) } else { lh },
-        );
-        let l = s.reduced(nw, nh, post);
-        hx = hx.saturating_sub(1);
-        hy = hy.saturating_sub(1);
-        (lw, lh) = (nw, nh);
-        l
-    };
-    for _ in 0..hx.max(hy) {
+    let mut level = (keep >= first).then(|| levels[keep - first].clone());
+    while hx > 0 || hy > 0 {
         let nw = if hx > 0 { half(lw) } else { lw };
         let nh = if hy > 0 { half(lh) } else { lh };
-        level = reduce_to(&level, lw, lh, nw, nh, MipFilter::Box, |t| t);
-        level.iter_mut().for_each(|t| *t = post(*t));
+        level = Some(match (&level, streamed) {
+            (Some(l), _) => reduce_premultiplied(l, lw, lh, nw, nh),
+            // Level 0 is never held whole when streamed: its first halving, band by band.
+            (None, Some(s)) => s.reduced(nw, nh),
+            (None, None) => unreachable!("levels below `first` are streamed"),
+        });
         hx = hx.saturating_sub(1);
         hy = hy.saturating_sub(1);
         (lw, lh) = (nw, nh);
     }
+    let level = level.expect("halved at least once");
     let encoded0 = encode_premultiplied(&level);
     let max_error = match streamed {
         Some(s) => {
@@ -364,37 +343,29 @@ fn halved_along_one_axis(
         None => upsampled_error(&encoded0, lw, lh, &levels[0], w, h),
     };
     drop(levels);
-    let chain_of = |level: Vec<[f32; 4]>, cw: u32, ch: u32| {
-        let mut chain = MipChain {
-            width: cw,
-            height: ch,
-            levels: Vec::new(),
-        };
-        walk_chain(level, cw, ch, next_premultiplied, |l| {
-            chain.levels.push(encode_premultiplied(&l))
-        });
-        chain
-    };
-    let report = ProjectorReport {
-        sigma_texels: opts.sigma_texels,
-        method: opts.method.resolve_sized(opts.sigma_texels, w, h),
-        design_width: dw,
-        design_height: dh,
-        width: lw,
-        height: lh,
-        dropped_levels: keep as u32,
-        halved,
-        margin: opts.margin,
-        max_error_lsb: Some(max_error),
-    };
     let (pw, ph) = crate::bc::block_padded_size(lw, lh);
-    if opts.block_pad && (pw, ph) != (lw, lh) {
+    let (chain, unpadded) = if block_pad && (pw, ph) != (lw, lh) {
         let padded = crate::pixels::pad_texels(&level, lw, lh, pw, ph, Some([0.0; 4]));
-        let unpadded = chain_of(level, lw, lh);
-        Ok((chain_of(padded, pw, ph), Some(unpadded), report))
+        let unpadded = encoded_chain(level, lw, lh);
+        (encoded_chain(padded, pw, ph), Some(unpadded))
     } else {
-        Ok((chain_of(level, lw, lh), None, report))
-    }
+        (encoded_chain(level, lw, lh), None)
+    };
+    (chain, unpadded, (lw, lh), max_error)
+}
+
+/// The chain of `level` (`w x h`, premultiplied linear) down to 1x1, each level encoded as it
+/// is walked.
+fn encoded_chain(level: Vec<[f32; 4]>, w: u32, h: u32) -> MipChain {
+    let mut chain = MipChain {
+        width: w,
+        height: h,
+        levels: Vec::new(),
+    };
+    walk_chain(level, w, h, next_premultiplied, |l| {
+        chain.levels.push(encode_premultiplied(&l))
+    });
+    chain
 }
 
 /// Which level the stored chain starts at, how many more times it is halved along x or along y
@@ -488,23 +459,17 @@ impl Streamed<'_> {
         out
     }
 
-    /// The blur reduced to `nw x nh` (each its own size or half of it), box-filtered as the
-    /// mips are, from band after band (even-height bands halve on their own), through `post`.
-    fn reduced(
-        &self,
-        nw: u32,
-        nh: u32,
-        post: impl Fn([f32; 4]) -> [f32; 4] + Sync,
-    ) -> Vec<[f32; 4]> {
+    /// The blur reduced to `nw x nh` (each its own size or half of it) as
+    /// [`reduce_premultiplied`] reduces it, from band after band (even-height bands halve on
+    /// their own).
+    fn reduced(&self, nw: u32, nh: u32) -> Vec<[f32; 4]> {
         let (w, h) = self.0.size();
         let mut out = Vec::with_capacity((nw * nh) as usize);
         for (y0, y1) in self.bands() {
             let band = self.0.rows(y0..y1);
             let bh = y1 - y0;
             let bnh = if nh < h { half(bh) } else { bh };
-            let mut part = reduce_to(&band, w, bh, nw, bnh, MipFilter::Box, |t| t);
-            part.iter_mut().for_each(|t| *t = post(*t));
-            out.extend(part);
+            out.extend(reduce_premultiplied(&band, w, bh, nw, bnh));
         }
         out
     }
@@ -522,6 +487,14 @@ pub fn premultiplied_levels(level0: Vec<[f32; 4]>, w: u32, h: u32) -> Vec<Vec<[f
     let mut levels = Vec::new();
     walk_chain(level0, w, h, next_premultiplied, |l| levels.push(l));
     levels
+}
+
+/// A premultiplied level (`w x h`) box-filtered to `nw x nh`, each axis its own size or half of
+/// it, clamped as [`next_premultiplied`] clamps: the size cap's halving along one axis.
+fn reduce_premultiplied(level: &[[f32; 4]], w: u32, h: u32, nw: u32, nh: u32) -> Vec<[f32; 4]> {
+    let mut out = reduce_to(level, w, h, nw, nh, MipFilter::Box, |t| t);
+    out.iter_mut().for_each(|t| *t = t.map(clamp01));
+    out
 }
 
 /// One step of [`premultiplied_levels`].

@@ -635,22 +635,16 @@ pub fn run(args: Args) -> Outcome {
         // exports whose triangles are listed alike over vertices in another order (objects'
         // faces reversed) share the indices 0, 1, 2, … and nothing else. With a tolerance, a
         // vertex order that does not hold is compared as a set of triangles instead.
-        let same_order = ma.vertex_count == mb.vertex_count && ia == ib && {
+        // The largest move of a vertex, where the index buffers are equal.
+        let delta_in_order = (ma.vertex_count == mb.vertex_count && ia == ib).then(|| {
             let (pa, pb) = (positions(&a, ma), positions(&b, mb));
-            let moved = pa
-                .iter()
-                .zip(&pb)
-                .any(|(p, q)| corner_delta(p, q) > max_delta);
-            exact_geometry || !moved
-        };
-        if same_order {
-            // The same vertices in the same order: compare them one by one.
-            let (pa, pb) = (positions(&a, ma), positions(&b, mb));
-            let delta = pa
-                .iter()
+            pa.iter()
                 .zip(&pb)
                 .map(|(p, q)| corner_delta(p, q))
-                .fold(0.0, f64::max);
+                .fold(0.0, f64::max)
+        });
+        if let Some(delta) = delta_in_order.filter(|&d| exact_geometry || d <= max_delta) {
+            // The same vertices in the same order: compare them one by one.
             let (ka, kb) = (material_keys(&a, ma, &names), material_keys(&b, mb, &names));
             let changed = ka.iter().zip(&kb).filter(|(x, y)| x != y).count();
             if delta > max_delta {

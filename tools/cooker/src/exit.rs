@@ -3,8 +3,8 @@
 pub const OK: i32 = 0;
 pub const FOUND_PROBLEMS: i32 = 1;
 pub const USAGE: i32 = 2;
-pub const INVALID_INPUT: i32 = 3;
-pub const IO: i32 = 4;
+pub const INVALID_INPUT: i32 = cook::EXIT_INVALID_INPUT;
+pub const IO: i32 = cook::EXIT_IO;
 
 /// A subcommand's outcome: `Ok(code)` for a run that completed (0 or 1), `Err` for a failure.
 pub type Outcome = anyhow::Result<i32>;
@@ -28,20 +28,14 @@ pub fn code_for(e: &anyhow::Error) -> i32 {
         {
             return IO;
         }
-        if let Some(p) = cause.downcast_ref::<pack::PackError>() {
-            return if p.is_io() { IO } else { INVALID_INPUT };
+        if let Some(
+            cook::CookError::UnknownWindow { .. } | cook::CookError::UpAxisOfManifest { .. },
+        ) = cause.downcast_ref::<cook::CookError>()
+        {
+            return USAGE;
         }
-        if let Some(c) = cause.downcast_ref::<cook::CookError>() {
-            if matches!(
-                c,
-                cook::CookError::UnknownWindow { .. } | cook::CookError::UpAxisOfManifest { .. }
-            ) {
-                return USAGE;
-            }
-            return if c.is_io() { IO } else { INVALID_INPUT };
-        }
-        if cause.downcast_ref::<std::io::Error>().is_some() {
-            return IO;
+        if let Some(code) = cook::exit_code(cause) {
+            return code;
         }
     }
     INVALID_INPUT

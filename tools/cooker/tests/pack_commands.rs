@@ -139,6 +139,20 @@ fn info_exit_codes_for_bad_input_io_and_usage() {
     );
 }
 
+/// `diff --json` of two packs whose one mesh holds the same triangles in another vertex order:
+/// accepted at `--max-position-delta delta`, compared as sets, none left unmatched. The JSON.
+fn same_triangles_in_another_order(a: &Path, b: &Path, delta: &str) -> serde_json::Value {
+    let o = cooker(&[&"diff", &a, &b, &"--max-position-delta", &delta, &"--json"]);
+    assert_eq!(o.status.code(), Some(0), "{}", text(&o));
+    let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    assert_eq!(v["meshes"][0]["same_order"], false);
+    assert_eq!(
+        v["meshes"][0]["unmatched_triangles"],
+        serde_json::json!([0, 0])
+    );
+    v
+}
+
 /// The sample with its vertices decoded, edited and written back in the layout of `encoding`
 /// (the sample's own where `None`).
 fn write_in_layout(
@@ -242,14 +256,7 @@ fn diff_sees_changed_normals_tangents_and_texture_coordinates() {
         let (first, second) = v.split_at(3 * stride);
         data.meshes[0].vertices = [second, first].concat();
     });
-    let o = cooker(&[&"diff", &a, &e, &"--max-position-delta", &"1e-6", &"--json"]);
-    assert_eq!(o.status.code(), Some(0), "{}", text(&o));
-    let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
-    assert_eq!(v["meshes"][0]["same_order"], false);
-    assert_eq!(
-        v["meshes"][0]["unmatched_triangles"],
-        serde_json::json!([0, 0])
-    );
+    same_triangles_in_another_order(&a, &e, "1e-6");
     // A mesh that lost its texture coordinates is a difference whatever the thresholds.
     let d = dir.path().join("d.pack");
     let bare = pack::vertex::Encoding {
@@ -366,14 +373,7 @@ fn diff_identical_changed_texel_and_material() {
         "{}",
         text(&o)
     );
-    let o = cooker(&[&"diff", &a, &d, &"--max-position-delta", &"0", &"--json"]);
-    assert_eq!(o.status.code(), Some(0), "{}", text(&o));
-    let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
-    assert_eq!(v["meshes"][0]["same_order"], false);
-    assert_eq!(
-        v["meshes"][0]["unmatched_triangles"],
-        serde_json::json!([0, 0])
-    );
+    let v = same_triangles_in_another_order(&a, &d, "0");
     assert_eq!(v["meshes"][0]["material_corner_changes"], 0);
     // Reversed winding is another face: it faces the other way.
     let e = dir.path().join("e.pack");

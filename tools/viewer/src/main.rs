@@ -653,18 +653,9 @@ fn main() -> std::process::ExitCode {
 }
 
 fn exit_code(e: &anyhow::Error) -> u8 {
-    for cause in e.chain() {
-        if let Some(p) = cause.downcast_ref::<pack::PackError>() {
-            return if p.is_io() { 4 } else { 3 };
-        }
-        if let Some(c) = cause.downcast_ref::<cook::CookError>() {
-            return if c.is_io() { 4 } else { 3 };
-        }
-        if cause.downcast_ref::<std::io::Error>().is_some() {
-            return 4;
-        }
-    }
-    1
+    e.chain()
+        .find_map(cook::exit_code)
+        .map_or(1, |code| code as u8)
 }
 
 fn run() -> Result<()> {
