@@ -259,7 +259,7 @@ pub fn mesh_design(
 /// longer sides, `long_sides` (scene units), is a window's size in metres (up to 30), in
 /// centimetres (up to 1000: 3ds Max, or an inch model, whose designs then come out 2.5x
 /// coarser), or in millimetres (Revit, ArchiCAD; a window is 1–5 m, 100–500 cm, 1000–5000
-/// mm). Models carry no unit (OBJ) or one that exporters get wrong, and designs rasterized at
+/// mm), and under 0.03 in kilometres. Models carry no unit (OBJ) or one that exporters get wrong, and designs rasterized at
 /// 128 texels per *unit* of a centimetre model all hit the 1024-texel cap: the Šibenik
 /// stand-in written in centimetres cooked 5.6x slower into a 4.9x larger pack. `None` for
 /// metres (or no windows).
@@ -273,7 +273,11 @@ pub fn unit_from_windows(long_sides: impl IntoIterator<Item = f64>) -> Option<(f
     }
     sides.sort_by(f64::total_cmp);
     let median = sides[sides.len() / 2];
-    if median <= 30.0 {
+    if median < 0.03 {
+        // A window under 3 cm long is no window in metres: a model in kilometres (or a
+        // miniature), whose designs got the 8-texel floor and rendered as blurred smudges.
+        Some((1000.0, "kilometres"))
+    } else if median <= 30.0 {
         None
     } else if median <= 1000.0 {
         Some((0.01, "centimetres"))
@@ -304,6 +308,11 @@ mod unit_tests {
             "millimetres"
         );
         assert_eq!(unit_from_windows([f64::NAN, 0.0, -1.0, 2.0]), None);
+        assert_eq!(
+            unit_from_windows([0.0025, 0.0025, 0.013]).unwrap(),
+            (1000.0, "kilometres")
+        );
+        assert_eq!(unit_from_windows([0.03]), None);
     }
 }
 

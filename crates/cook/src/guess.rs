@@ -374,6 +374,45 @@ impl Occupancy {
     }
 }
 
+/// Where each of `views` (name, eye, target) sees its target: the eye as given, or, where
+/// the view is blocked near the eye, the first of three points nearer the target (at the same
+/// height) from which it is not. The footprint's margin can put an eye inside masonry (walls
+/// 1.2 m thick around recessed glass), whose view is the back of the wall: one grey frame
+/// where the lit floor should be. Blocked: the mean depth of the view's rays is under a third
+/// of the way to the target, where an open view reaches most of it.
+fn unblocked<'a>(
+    p: &Prepared,
+    classes: &[MaterialClass],
+    bounds: (DVec3, DVec3),
+    views: &[(&'a str, DVec3, DVec3)],
+) -> Vec<(&'a str, DVec3, DVec3)> {
+    const STEPS: [f64; 4] = [1.0, 0.7, 0.45, 0.25];
+    let tries = |&(_, eye, target): &(&str, DVec3, DVec3)| {
+        STEPS.map(|f| {
+            let mut q = target + (eye - target) * f;
+            q.y = eye.y;
+            (q, (target - q).normalize_or_zero(), (target - q).length())
+        })
+    };
+    let reach = views.iter().map(|v| tries(v)[0].2).fold(0.0, f64::max);
+    let rays: Vec<(DVec3, DVec3)> = views
+        .iter()
+        .flat_map(|v| tries(v).map(|(q, d, _)| (q, d)))
+        .collect();
+    let occupancy = Occupancy::new(p, classes, bounds, &rays, reach);
+    views
+        .iter()
+        .map(|v| {
+            let (name, _, target) = *v;
+            let open = tries(v)
+                .into_iter()
+                .find(|&(q, d, len)| len <= 0.0 || occupancy.view_depth(q, d, len) >= len / 3.0)
+                .map_or(v.1, |(q, _, _)| q);
+            (name, open, target)
+        })
+        .collect()
+}
+
 /// A convex polygon of at most seven corners: a triangle clipped by four axis-aligned planes.
 struct Polygon {
     q: [DVec3; 7],
@@ -1012,7 +1051,17 @@ pub fn guess(p: &Prepared) -> Guess {
         // The 0.01 floor keeps the near plane of a small model (a bunny in metres) where it
         // was; a tenth of the model's size caps it, so a model in large units (a statue
         // in kilometres) keeps its near plane in front of the far one.
-        near: (diag * 1e-4).max(0.01).min(diag * 0.1) as f32,
+        // A quarter of the eye's height above a floor caps it too: a nave 0.09 units long
+        // (a model in kilometres) put the near plane three times that height away, and the
+        // floor in front of the views was cut off.
+        near: (diag * 1e-4)
+            .max(0.01)
+            .min(diag * 0.1)
+            .min(if floor.is_some() {
+                (eye - floor_y) * 0.25
+            } else {
+                f64::INFINITY
+            }) as f32,
         far: (diag * 3.0) as f32,
     };
     let mut cameras = Vec::new();
@@ -1080,7 +1129,7 @@ pub fn guess(p: &Prepared) -> Guess {
         let back = (w.width().max(w.height()) * 1.5).max(inner_diag * 0.05);
         let mut pos = within(target + w.inside * back);
         pos.y = eye;
-        cameras.push(camera("windows", pos, target));
+        let mut views = vec![("windows", pos, target)];
         if let Some(fp) = &floor {
             // As the sun's score: a window the light leaves through lights the ground outside.
             let lit = by_area.iter().filter(|w| enters(w)).find_map(|w| {
@@ -1091,8 +1140,11 @@ pub fn guess(p: &Prepared) -> Guess {
                 let away = DVec3::new(d.x, 0.0, d.z).normalize_or_zero();
                 let mut pos = within(spot + away * (hi.y - floor_y).max(inner_diag * 0.05) * 0.8);
                 pos.y = eye;
-                cameras.push(camera("lit-floor", pos, spot));
+                views.push(("lit-floor", pos, spot));
             }
+        }
+        for (name, pos, target) in unblocked(p, &classes, (lo, hi), &views) {
+            cameras.push(camera(name, pos, target));
         }
     }
     // A model far from the origin for its size can put a view's eye and target on the same

@@ -349,6 +349,25 @@ pub fn plan(
             ));
         }
         let planar = !inst.has_uvs || entry.is_some_and(|e| e.uv == UvMode::Planar);
+        // `fit` places a design on planar UVs only; on the model's own it was ignored without
+        // a word, and a user who asked for `contain` saw the design cropped.
+        if let Some(e) = entry
+            && !planar
+            && e.fit != crate::manifest::Fit::Cover
+            && e.design.is_some()
+        {
+            report.warnings.push(Warning::new(
+                &manifest.path,
+                Some(e.line.0),
+                format!(
+                    "fit = \"{}\" has no effect on window {:?}: its glass has texture \
+                     coordinates, which place the design; set uv = \"planar\" to fit the design \
+                     to the window instead",
+                    e.fit.name(),
+                    inst.name
+                ),
+            ));
+        }
         if planar {
             instances::write_planar_uvs(&mut sources[inst.source], inst);
         }
@@ -561,9 +580,12 @@ pub fn plan(
         let material = &mut tagging.materials[p.material as usize];
         // The window pass shows the design times the material's diffuse colour. A design
         // drawn from the panes already holds their transmitted colours, and real glass is
-        // often `Kd 0 0 0` (its colour in `Tf`): times that, every window showed black.
+        // often `Kd 0 0 0` (its colour in `Tf`): times that, every window showed black. A
+        // design given in the manifest or with `--window` is the glass as it is: times a red
+        // `Kd`, its blue showed navy on the glass and in the god rays while the floor, lit by
+        // the projector (the design alone), showed blue.
         let diffuse = &mut material.material.diffuse;
-        if source == DesignSource::Mesh || diffuse.iter().all(|&c| c < 1.0 / 255.0) {
+        if source != DesignSource::Texture || diffuse.iter().all(|&c| c < 1.0 / 255.0) {
             *diffuse = [1.0; 3];
         }
         let plan = material.window.as_mut().expect("planned above");

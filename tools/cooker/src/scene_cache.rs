@@ -65,11 +65,15 @@ fn scene_dir(manifest: &Path) -> &Path {
 }
 
 /// `path` relative to the scene's folder where it lies within it (as the manifest names it),
-/// else as it is.
+/// else absolute. A path outside it is named from the working directory (a `--window` image):
+/// kept relative, it was later read against the scene's folder, so a bare cook of
+/// `t1/nave.obj --window W=design/x.png` hashed `t1/design/x.png` and reused a stale pack when
+/// the design changed.
 fn relative(manifest: &Path, path: &Path) -> PathBuf {
-    path.strip_prefix(scene_dir(manifest))
-        .map(Path::to_path_buf)
-        .unwrap_or_else(|_| path.to_path_buf())
+    match path.strip_prefix(scene_dir(manifest)) {
+        Ok(rel) => rel.to_path_buf(),
+        Err(_) => std::path::absolute(path).unwrap_or_else(|_| path.to_path_buf()),
+    }
 }
 
 /// Each input with the SHA-256 of its content now.

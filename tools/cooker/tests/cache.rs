@@ -630,3 +630,66 @@ fn a_file_found_in_another_case_gives_way_to_its_own_name_and_the_cache_sees_it(
         assert_eq!(std::fs::read(&out).unwrap(), before, "{model}");
     }
 }
+
+/// A `--window` image is named from the working directory, but the cache hashed it from the
+/// model's folder: with the model in a subfolder it warned that the image "cannot be read", and
+/// where a file of that name also lay beside the model, a changed design reused the stale pack.
+#[test]
+fn a_window_image_named_from_the_working_directory_is_the_one_the_cache_watches() {
+    let dir = tempfile::tempdir().unwrap();
+    for sub in ["t1/design", "design"] {
+        std::fs::create_dir_all(dir.path().join(sub)).unwrap();
+    }
+    std::fs::write(
+        dir.path().join("t1/chapel.obj"),
+        "mtllib chapel.mtl\nv -3 0 -6\nv -3 0 6\nv 3 0 6\nv 3 0 -6\nusemtl Boden\nf 1 2 3 4\n\
+         v -3 1 -1\nv -3 1 1\nv -3 2.5 1\nv -3 2.5 -1\nusemtl Fenster\nf 5 6 7 8\n",
+    )
+    .unwrap();
+    std::fs::write(
+        dir.path().join("t1/chapel.mtl"),
+        "newmtl Boden\nKd 0.5 0.5 0.5\nnewmtl Fenster\nKd 0.7 0.8 0.9\nd 0.3\n",
+    )
+    .unwrap();
+    let png = |path: &str, rgb: [u8; 3]| {
+        image::RgbaImage::from_pixel(16, 16, image::Rgba([rgb[0], rgb[1], rgb[2], 255]))
+            .save(dir.path().join(path))
+            .unwrap()
+    };
+    // The decoy beside the model, under the name the design is given by.
+    png("t1/design/x.png", [128, 128, 128]);
+    png("design/x.png", [255, 0, 255]);
+    let run = || {
+        let o = Command::new(env!("CARGO_BIN_EXE_cooker"))
+            .current_dir(dir.path())
+            .args([
+                "cook",
+                "-v",
+                "t1/chapel.obj",
+                "-o",
+                "out.pack",
+                "--cache-dir",
+                "cache",
+            ])
+            .args(["--window", "Fenster=design/x.png"])
+            .output()
+            .unwrap();
+        assert!(o.status.success(), "{}", stderr(&o));
+        (
+            said(&o),
+            std::fs::read(dir.path().join("out.pack")).unwrap(),
+        )
+    };
+    let (first, magenta) = run();
+    assert!(!first.contains("cannot be read"), "{first}");
+    let (again, same) = run();
+    assert!(again.contains("up to date"), "{again}");
+    assert_eq!(same, magenta);
+    png("design/x.png", [0, 255, 0]);
+    let (changed, green) = run();
+    assert!(
+        changed.contains("an input changed") && !changed.contains("up to date"),
+        "{changed}"
+    );
+    assert_ne!(green, magenta, "the changed design was not cooked in");
+}

@@ -12,7 +12,7 @@ use std::path::{Path, PathBuf};
 use std::sync::{Arc, mpsc};
 use std::time::{Duration, Instant};
 
-use anyhow::{Context, Result, bail};
+use anyhow::{Context, Result};
 use clap::Parser;
 use render::{
     FrameReport, GodRaySettings, Gpu, PassId, Renderer, Scene, Settings, TargetId, TimingMethod,
@@ -22,7 +22,11 @@ use render::{
 #[derive(Parser, Debug)]
 #[command(
     version,
-    about = "View a stained-glass pack or scene.toml (headless: PNGs and per-pass timings)"
+    about = "View a stained-glass pack or scene.toml (headless: PNGs and per-pass timings)",
+    after_help = "Exit codes: 0 success, 1 a failed render (no GPU adapter, a device lost), 2 bad \
+usage (an option, or a camera the pack does not have), 3 invalid input (a pack or model that \
+fails validation; the message names the file), 4 operating-system I/O error (reading the \
+input, writing a PNG)."
 )]
 struct Args {
     /// A cooked `.pack`, or a `scene.toml` or bare .obj/.gltf/.glb/.ply to cook first.
@@ -654,9 +658,31 @@ fn main() -> std::process::ExitCode {
 
 fn exit_code(e: &anyhow::Error) -> u8 {
     e.chain()
-        .find_map(cook::exit_code)
+        .find_map(|c| {
+            if c.is::<Usage>() {
+                return Some(2);
+            }
+            // A PNG that cannot be written is an I/O error however the encoder wraps it.
+            if let Some(image::ImageError::IoError(_)) = c.downcast_ref::<image::ImageError>() {
+                return Some(4);
+            }
+            cook::exit_code(c)
+        })
         .map_or(1, |code| code as u8)
 }
+
+/// Bad usage that shows only once the pack is read (a camera it does not have): exit 2, as
+/// clap's usage errors; it exited 1, the code of a failed render.
+#[derive(Debug)]
+struct Usage(String);
+
+impl std::fmt::Display for Usage {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(&self.0)
+    }
+}
+
+impl std::error::Error for Usage {}
 
 fn run() -> Result<()> {
     // Rust ignores SIGPIPE, so a closed stdout (`viewer p.pack --headless | head`) made the
@@ -767,12 +793,13 @@ fn run() -> Result<()> {
         let names: Vec<String> = views.iter().map(|(n, _)| n.clone()).collect();
         views.retain(|(n, _)| *n == args.camera);
         if views.is_empty() {
-            bail!(
+            return Err(Usage(format!(
                 "no camera named {:?} in {} (cameras: {})",
                 args.camera,
                 args.input.display(),
                 names.join(", ")
-            );
+            ))
+            .into());
         }
     }
     std::fs::create_dir_all(&args.out)
