@@ -295,6 +295,31 @@ impl Shape {
 /// gaps between 0.4 m lights) stay apart.
 const CAME_GAP: f64 = 0.15;
 
+/// Parallel sheets of glass that cover each other in the plane and lie at most this share of
+/// the narrower one's narrower side apart are the front and back of one pane: a slab modelled
+/// as two loose faces, without the edges that would join them into one piece.
+const SLAB_DEPTH: f64 = 0.1;
+
+/// Whether `a` and `b` (parallel within 5°, `off_plane` apart) are one pane's front and back
+/// ([`SLAB_DEPTH`]): wound to face opposite ways, each covering nine tenths of the
+/// other's bounds in the plane. Apart, each was a window of its own from 6 cm on, and the floor
+/// got the window's light twice. Two layers wound alike (a protective glazing outside the
+/// stained glass) stay two windows.
+fn front_and_back(a: &Shape, b: &Shape, off_plane: f64) -> bool {
+    if a.normal.dot(b.normal) >= 0.0 {
+        return false;
+    }
+    let area = |lo: DVec2, hi: DVec2| {
+        let d = (hi - lo).max(DVec2::ZERO);
+        d.x * d.y
+    };
+    let overlap = area(a.lo2.max(b.lo2), a.hi2.min(b.hi2));
+    let larger = area(a.lo2, a.hi2).max(area(b.lo2, b.hi2));
+    off_plane <= SLAB_DEPTH * a.sheets.narrow.min(b.sheets.narrow)
+        && larger > 0.0
+        && overlap >= 0.9 * larger
+}
+
 /// Joins planar pieces that lie in one plane a came's width apart (see [`CAME_GAP`]): groups
 /// of indices into `pieces`, ascending, ordered by their first piece.
 fn join_leaded(pieces: &[(Vec<u32>, Shape)]) -> Vec<Vec<usize>> {
@@ -330,7 +355,7 @@ fn join_leaded(pieces: &[(Vec<u32>, Shape)]) -> Vec<Vec<usize>> {
             let off_plane = (b.centroid - a.centroid).dot(a.normal).abs();
             let allowed = PLANAR_TOLERANCE * a.size.max(b.size)
                 + 0.5 * (a.sheets.thickness + b.sheets.thickness);
-            if off_plane > allowed {
+            if off_plane > allowed && !front_and_back(a, b, off_plane) {
                 continue;
             }
             // The gap between the bounds in the plane (a shared basis: the normals agree
@@ -1103,6 +1128,30 @@ mod tests {
         flipped.corners.set(5, b);
         let w = run(&flipped, &[W], None);
         assert!((w[0].area - 2.0).abs() < 1e-9, "{}", w[0].area);
+    }
+
+    #[test]
+    fn a_pane_s_front_and_back_as_loose_faces_are_one_window() {
+        // A 2 x 3 m pane whose two faces, wound opposite ways, are 8 cm apart with nothing
+        // joining them: one flat window of one pane's area (it was two from 6 cm on).
+        let front = ([0., 1., 0.], [0., 0., 2.], [0., 3., 0.], 0);
+        let back = ([0.08, 1., 0.], [0., 3., 0.], [0., 0., 2.], 0);
+        let w = run(&quads(&[front, back]), &[W], None);
+        assert_eq!(w.len(), 1, "{w:#?}");
+        assert!(w[0].planar, "{:#?}", w[0]);
+        assert!((w[0].area - 6.0).abs() < 1e-6, "{}", w[0].area);
+        // Wound alike (a protective glazing outside the stained glass), or only half
+        // covering each other, or as far apart as the pane's narrow side: two windows.
+        let outer = ([0.08, 1., 0.], [0., 0., 2.], [0., 3., 0.], 0);
+        let shifted = ([0.08, 1., 1.], [0., 3., 0.], [0., 0., 2.], 0);
+        let far = ([0.3, 1., 0.], [0., 3., 0.], [0., 0., 2.], 0);
+        for other in [outer, shifted, far] {
+            assert_eq!(
+                run(&quads(&[front, other]), &[W], None).len(),
+                2,
+                "{other:?}"
+            );
+        }
     }
 
     #[test]
