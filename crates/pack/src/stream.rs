@@ -64,7 +64,19 @@ impl From<Fail> for ReadFail {
 
 impl<R: Read> StreamReader<R> {
     /// Reads and validates the header and the section table.
-    pub fn new(path: impl AsRef<Path>, mut source: R) -> Result<Self, PackError> {
+    pub fn new(path: impl AsRef<Path>, source: R) -> Result<Self, PackError> {
+        Self::with_length(path, source, None)
+    }
+
+    /// [`StreamReader::new`] for a source whose length is known (a file, not a pipe): the
+    /// header's file length is checked against it first, as the mapping reader checks it, so a
+    /// pack cut short (or with data after its end) is said to be at once, not after a first
+    /// frame drawn from the sections before the cut.
+    pub fn with_length(
+        path: impl AsRef<Path>,
+        mut source: R,
+        length: Option<u64>,
+    ) -> Result<Self, PackError> {
         let path = path.as_ref().to_path_buf();
         let wrap = |e: ReadFail| match e {
             ReadFail::Io(source) => PackError::Io {
@@ -83,7 +95,7 @@ impl<R: Read> StreamReader<R> {
                 Err(e) => return Err(PackError::Io { path, source: e }),
             }
         }
-        let header = Header::decode(&head[..filled], None).map_err(|f| f.with_path(&path))?;
+        let header = Header::decode(&head[..filled], length).map_err(|f| f.with_path(&path))?;
         let mut table = vec![0u8; header.table_len() as usize];
         read_exact_or(&mut source, &mut table, "the section table").map_err(wrap)?;
         let sections = decode_table(&header, &table).map_err(|f| f.with_path(&path))?;

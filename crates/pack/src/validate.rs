@@ -31,9 +31,37 @@ pub fn encode_toc(toc: &Toc) -> Vec<u8> {
     bincode::serde::encode_to_vec(toc, toc_config()).expect("TOC encoding cannot fail")
 }
 
+/// What went wrong decoding the table of contents, in words: bincode's own `Display` is its
+/// `Debug` (`Utf8 { inner: Utf8Error { valid_up_to: 5, .. } }`).
+fn toc_decode_message(e: &bincode::error::DecodeError) -> String {
+    use bincode::error::DecodeError as D;
+    match e {
+        D::UnexpectedEnd { additional } => {
+            format!("it ends {additional} bytes or more before its last field")
+        }
+        D::LimitExceeded => format!(
+            "it would take more than {} bytes",
+            crate::format::MAX_TOC_BYTES
+        ),
+        D::Utf8 { inner } => format!("a name is not UTF-8 ({inner})"),
+        D::InvalidBooleanValue(v) => format!("a flag holds {v}, neither 0 nor 1"),
+        D::InvalidCharEncoding(b) => format!("a character is not valid ({b:?})"),
+        D::OutsideUsizeRange(v) => format!("a length of {v} is out of range"),
+        // Serde's messages: "invalid value: integer `21`, expected variant index 0 <= i < 3".
+        D::OtherString(s) => s.clone(),
+        D::Other(s) => (*s).to_string(),
+        other => format!("{other:?}"),
+    }
+}
+
 pub(crate) fn decode_toc(bytes: &[u8], offset: u64) -> Result<Toc, Fail> {
     let (toc, used): (Toc, usize) = bincode::serde::decode_from_slice(bytes, toc_config())
-        .map_err(|e| Fail::at(offset, crate::error::Problem::TocDecode(e.to_string())))?;
+        .map_err(|e| {
+            Fail::at(
+                offset,
+                crate::error::Problem::TocDecode(toc_decode_message(&e)),
+            )
+        })?;
     if used != bytes.len() {
         return Err(Fail::at(
             offset + used as u64,
@@ -503,5 +531,25 @@ pub(crate) fn decode_content(
                 .map_err(fail)?;
             Ok(Some(out))
         }
+    }
+}
+
+#[cfg(test)]
+mod decode_message_tests {
+    use super::toc_decode_message;
+    use bincode::error::DecodeError as D;
+
+    #[test]
+    fn toc_decode_errors_are_said_in_words_not_bincode_s_debug_text() {
+        // Built at run time: the compiler rejects a literal it can see is not UTF-8.
+        let bytes: Vec<u8> = "a".bytes().chain([0xFF]).collect();
+        let bad = std::str::from_utf8(&bytes).unwrap_err();
+        let said = toc_decode_message(&D::Utf8 { inner: bad });
+        assert!(said.starts_with("a name is not UTF-8 ("), "{said}");
+        assert!(!said.contains("Utf8Error"), "{said}");
+        let serde = "invalid value: integer `21`, expected variant index 0 <= i < 3";
+        assert_eq!(toc_decode_message(&D::OtherString(serde.into())), serde);
+        let said = toc_decode_message(&D::UnexpectedEnd { additional: 3 });
+        assert_eq!(said, "it ends 3 bytes or more before its last field");
     }
 }

@@ -160,7 +160,7 @@ enum Message {
 /// waited for them.
 fn stream(
     path: PathBuf,
-    source: Box<dyn Read + Send>,
+    (source, length): Source,
     caps: render::TextureCaps,
 ) -> mpsc::Receiver<Message> {
     let (tx, rx) = mpsc::sync_channel(16);
@@ -182,7 +182,7 @@ fn stream(
             Ok(true)
         };
         let result = (|| -> Result<(), pack::PackError> {
-            let mut reader = pack::StreamReader::new(&path, source)?;
+            let mut reader = pack::StreamReader::with_length(&path, source, length)?;
             let mut toc: Option<Arc<pack::Toc>> = None;
             let mut pending: VecDeque<Job> = VecDeque::new();
             loop {
@@ -286,7 +286,10 @@ fn is_pack(path: &Path) -> bool {
         .is_ok_and(|()| head == pack::format::MAGIC)
 }
 
-fn open_source(path: &Path) -> Result<Box<dyn Read + Send>> {
+/// A pack's bytes, and their length where it is known (a file).
+type Source = (Box<dyn Read + Send>, Option<u64>);
+
+fn open_source(path: &Path) -> Result<Source> {
     if !is_pack(path) {
         let start = Instant::now();
         let manifest =
@@ -314,11 +317,21 @@ fn open_source(path: &Path) -> Result<Box<dyn Read + Send>> {
             start.elapsed().as_secs_f64() * 1e3,
             bytes.len()
         );
-        Ok(Box::new(std::io::Cursor::new(bytes)))
+        let length = bytes.len() as u64;
+        Ok((Box::new(std::io::Cursor::new(bytes)), Some(length)))
     } else {
         let file =
             std::fs::File::open(path).with_context(|| format!("opening {}", path.display()))?;
-        Ok(Box::new(std::io::BufReader::with_capacity(1 << 20, file)))
+        // A pipe or a device has no length to hold the header to.
+        let length = file
+            .metadata()
+            .ok()
+            .filter(|m| m.is_file())
+            .map(|m| m.len());
+        Ok((
+            Box::new(std::io::BufReader::with_capacity(1 << 20, file)),
+            length,
+        ))
     }
 }
 
@@ -412,9 +425,8 @@ fn load(gpu: &Gpu, args: &Args, settings: Settings) -> Result<(Scene, Renderer)>
                 }
             }
             Message::Done => break,
-            Message::Failed(e) => {
-                return Err(e).with_context(|| format!("reading {}", args.input.display()));
-            }
+            // The pack's errors name the file already ("reading X: X: ..." before).
+            Message::Failed(e) => return Err(e.into()),
         }
     }
     let (mut s, mut r, view) = scene.context("empty pack")?;

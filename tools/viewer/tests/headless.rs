@@ -346,6 +346,29 @@ fn names_the_problem_on_bad_input() {
         err.contains("tiny.pack") && err.contains("checksum"),
         "{err}"
     );
+    // Named once ("reading tiny.pack: tiny.pack: ..." before).
+    assert_eq!(err.matches("tiny.pack").count(), 1, "{err}");
+    // A pack cut short is said to be at once, against its header's length, as `cooker info`
+    // says it (it was found at the first section past the cut, after a first frame).
+    let whole = tiny_pack();
+    std::fs::write(&pack_path, &whole[..whole.len() * 2 / 3]).unwrap();
+    let o = viewer(&[
+        pack_path.as_os_str(),
+        "--headless".as_ref(),
+        "--out".as_ref(),
+        out.as_os_str(),
+    ]);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(3), "{err}");
+    assert!(
+        err.contains(&format!(
+            "tiny.pack: at byte offset 24: file length is {} bytes but the header says {}",
+            whole.len() * 2 / 3,
+            whole.len()
+        )),
+        "{err}"
+    );
+    assert!(!String::from_utf8_lossy(&o.stdout).contains("first frame"));
     let missing = dir.join("missing.pack");
     let o = viewer(&[
         missing.as_os_str(),

@@ -116,7 +116,7 @@ struct Shown {
 
 enum Phase {
     /// Cooking a `scene.toml` (or opening the pack) on a thread.
-    Opening(mpsc::Receiver<Result<Box<dyn std::io::Read + Send>>>),
+    Opening(mpsc::Receiver<Result<crate::Source>>),
     Streaming(mpsc::Receiver<crate::Message>),
 }
 
