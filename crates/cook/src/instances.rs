@@ -1141,7 +1141,7 @@ mod tests {
         assert!(w[0].planar, "{:#?}", w[0]);
         assert!((w[0].area - 6.0).abs() < 1e-6, "{}", w[0].area);
         // Wound alike (a protective glazing outside the stained glass), or only half
-        // covering each other, or as far apart as the pane's narrow side: two windows.
+        // covering each other, or 0.3 m apart (over a tenth of its 2 m side): two windows.
         let outer = ([0.08, 1., 0.], [0., 0., 2.], [0., 3., 0.], 0);
         let shifted = ([0.08, 1., 1.], [0., 3., 0.], [0., 0., 2.], 0);
         let far = ([0.3, 1., 0.], [0., 3., 0.], [0., 0., 2.], 0);

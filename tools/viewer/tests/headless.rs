@@ -329,16 +329,19 @@ fn names_the_problem_on_bad_input() {
         "{err}"
     );
 
+    let headless = |pack: &std::path::Path| {
+        viewer(&[
+            pack.as_os_str(),
+            "--headless".as_ref(),
+            "--out".as_ref(),
+            out.as_os_str(),
+        ])
+    };
     let mut bytes = tiny_pack();
     let last = bytes.len() - 1;
     bytes[last] ^= 0x40;
     std::fs::write(&pack_path, &bytes).unwrap();
-    let o = viewer(&[
-        pack_path.as_os_str(),
-        "--headless".as_ref(),
-        "--out".as_ref(),
-        out.as_os_str(),
-    ]);
+    let o = headless(&pack_path);
     // Invalid input exits 3 and a file that cannot be read 4, as the cooker's do.
     let err = String::from_utf8_lossy(&o.stderr);
     assert_eq!(o.status.code(), Some(3), "{err}");
@@ -352,12 +355,7 @@ fn names_the_problem_on_bad_input() {
     // says it (it was found at the first section past the cut, after a first frame).
     let whole = tiny_pack();
     std::fs::write(&pack_path, &whole[..whole.len() * 2 / 3]).unwrap();
-    let o = viewer(&[
-        pack_path.as_os_str(),
-        "--headless".as_ref(),
-        "--out".as_ref(),
-        out.as_os_str(),
-    ]);
+    let o = headless(&pack_path);
     let err = String::from_utf8_lossy(&o.stderr);
     assert_eq!(o.status.code(), Some(3), "{err}");
     assert!(
@@ -370,12 +368,7 @@ fn names_the_problem_on_bad_input() {
     );
     assert!(!String::from_utf8_lossy(&o.stdout).contains("first frame"));
     let missing = dir.join("missing.pack");
-    let o = viewer(&[
-        missing.as_os_str(),
-        "--headless".as_ref(),
-        "--out".as_ref(),
-        out.as_os_str(),
-    ]);
+    let o = headless(&missing);
     let err = String::from_utf8_lossy(&o.stderr);
     assert_eq!(o.status.code(), Some(4), "{err}");
     assert!(err.contains("missing.pack"), "{err}");
