@@ -178,16 +178,24 @@ fn safe_normalize(v: vec3<f32>, fallback: vec3<f32>) -> vec3<f32> {
     return fallback;
 }
 
+// Set for the pipelines that draw materials with a texture padded to whole blocks (the
+// renderer makes them only for scenes that have one).
+override PADDED_TEXTURES: bool = false;
+
 // A material texture at `uv`. A block-compressed texture padded to whole blocks holds the
 // image in the `scale` share of it: wrap first, then scale, with the unwrapped derivatives so
-// the wrap seam picks no smaller mip. One sample call for both cases: lavapipe runs both
-// sides of a branch on a uniform under a lane mask (an early return and an if/else alike), so
-// unpadded textures paid for a second, gradient sample: one call took the default scene's
-// time to full quality at 1280x720 from about 1.7 to 1.0 s there.
+// the wrap seam picks no smaller mip. Unpadded textures take implicit derivatives: lavapipe's
+// anisotropic sampling with explicit gradients (Mesa 22.3) read a far smaller mip at some
+// pixels along triangle edges, which showed as dots of wrong colour down every window's
+// diagonal. The choice is a pipeline constant, not a branch: lavapipe runs both sides of a
+// branch on a uniform, and a second sample took the default scene's time to full quality at
+// 1280x720 from about 1.0 to 1.7 s there.
 fn sample_material(t: texture_2d<f32>, uv: vec2<f32>, scale: vec2<f32>) -> vec4<f32> {
-    let padded = any(scale != vec2<f32>(1.0));
-    let at = select(uv, fract(uv) * scale, padded);
-    return textureSampleGrad(t, material_sampler, at, dpdx(uv) * scale, dpdy(uv) * scale);
+    if (PADDED_TEXTURES) {
+        let at = select(uv, fract(uv) * scale, any(scale != vec2<f32>(1.0)));
+        return textureSampleGrad(t, material_sampler, at, dpdx(uv) * scale, dpdy(uv) * scale);
+    }
+    return textureSample(t, material_sampler, uv);
 }
 
 // The shading normal: the normal map (OpenGL convention, +Y up) in the tangent frame when the

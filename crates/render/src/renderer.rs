@@ -408,12 +408,13 @@ impl Renderer {
         // A GPU driver compiles each pipeline when it is created: one after another they took
         // 380 ms on a fresh H100 (no driver shader cache), where side by side they take about
         // the longest one's time. lavapipe compiles at the first draw instead.
+        let padded = scene.has_padded_textures();
         let (background, mask, normals, lit, rays, composite, shadow) = std::thread::scope(|s| {
             let layout = &layout;
-            let background = s.spawn(|| GeometryPass::background(device, layout));
-            let mask = s.spawn(|| GeometryPass::window_mask(device, layout));
-            let normals = s.spawn(|| GeometryPass::window_normals(device, layout));
-            let lit = s.spawn(|| GeometryPass::lit(device, layout));
+            let background = s.spawn(|| GeometryPass::background(device, layout, padded));
+            let mask = s.spawn(|| GeometryPass::window_mask(device, layout, padded));
+            let normals = s.spawn(|| GeometryPass::window_normals(device, layout, padded));
+            let lit = s.spawn(|| GeometryPass::lit(device, layout, padded));
             let rays = s.spawn(|| GodRayPass::new(device));
             let composite = s.spawn(|| CompositePass::new(device, output_format));
             let shadow = ShadowPass::new(device);

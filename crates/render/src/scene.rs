@@ -113,6 +113,9 @@ struct GpuMesh {
 
 pub(crate) struct GpuMaterial {
     pub class: MaterialClass,
+    /// A texture of it is padded to whole blocks: it is drawn with the pipelines that wrap
+    /// and scale its coordinates (`PADDED_TEXTURES` in `common.wgsl`).
+    pub padded: bool,
     buffer: wgpu::Buffer,
     pub bind_group: wgpu::BindGroup,
     diffuse: Option<u32>,
@@ -618,6 +621,7 @@ impl Scene {
                     scene.material_bind_group(device, &buffer, m.diffuse_texture, m.normal_texture);
                 GpuMaterial {
                     class: m.class,
+                    padded: u.uv_scale != [1.0; 4],
                     buffer,
                     bind_group,
                     diffuse: m.diffuse_texture,
@@ -1137,6 +1141,11 @@ impl Scene {
             }
         }
     }
+    /// Some material has a texture padded to whole blocks (see [`GpuMaterial::padded`]).
+    pub(crate) fn has_padded_textures(&self) -> bool {
+        self.materials.iter().any(|m| m.padded)
+    }
+
     pub(crate) fn generation(&self) -> u64 {
         self.generation
     }
@@ -1212,12 +1221,13 @@ impl Scene {
     }
 
     /// Records the draws a pass takes, each with the pipeline `pipeline_for` gives its
-    /// material's class (`None`: not drawn); group 1 is the material. The order is the scene's
-    /// whichever pipelines draw, so surfaces at equal depth resolve alike in every pass.
+    /// material's class and whether a texture of it is padded (`None`: not drawn); group 1 is
+    /// the material. The order is the scene's whichever pipelines draw, so surfaces at equal
+    /// depth resolve alike in every pass.
     pub(crate) fn draw<'p>(
         &self,
         pass: &mut wgpu::RenderPass<'_>,
-        pipeline_for: impl Fn(MaterialClass) -> Option<&'p wgpu::RenderPipeline>,
+        pipeline_for: impl Fn(MaterialClass, bool) -> Option<&'p wgpu::RenderPipeline>,
     ) {
         let mut current: Option<&wgpu::RenderPipeline> = None;
         for m in &self.meshes {
@@ -1227,7 +1237,7 @@ impl Scene {
             let mut bound = false;
             for r in &m.ranges {
                 let mat = &self.materials[r.material as usize];
-                let Some(pipeline) = pipeline_for(mat.class) else {
+                let Some(pipeline) = pipeline_for(mat.class, mat.padded) else {
                     continue;
                 };
                 if !current.is_some_and(|c| std::ptr::eq(c, pipeline)) {

@@ -12,17 +12,26 @@ pub struct GeometryPass {
     /// How many colour targets (all HDR) its shaders write.
     targets: usize,
     pipelines: Vec<wgpu::RenderPipeline>,
-    /// The index in `pipelines` a class is drawn with; `None`: not drawn in this pass.
+    /// The same fragment entries for materials with a texture padded to whole blocks
+    /// (`PADDED_TEXTURES` set); empty where the scene has none.
+    padded: Vec<wgpu::RenderPipeline>,
+    /// The index in `pipelines` (and `padded`) a class is drawn with; `None`: not drawn in this
+    /// pass.
     pick: fn(MaterialClass) -> Option<usize>,
 }
 
 impl GeometryPass {
     /// Pass 0: background-class geometry alone into its own target, unoccluded (refraction
     /// reads it).
-    pub(crate) fn background(device: &wgpu::Device, layout: &wgpu::PipelineLayout) -> Self {
+    pub(crate) fn background(
+        device: &wgpu::Device,
+        layout: &wgpu::PipelineLayout,
+        padded: bool,
+    ) -> Self {
         Self::new(
             device,
             layout,
+            padded,
             "pass0 background",
             "background.wgsl",
             1,
@@ -34,10 +43,15 @@ impl GeometryPass {
     /// Pass 1: window colour, everything else black; also lays down the depth passes 2–3
     /// reuse. Its second target is what the god rays blur: the colour times the share of the
     /// light each window passes.
-    pub(crate) fn window_mask(device: &wgpu::Device, layout: &wgpu::PipelineLayout) -> Self {
+    pub(crate) fn window_mask(
+        device: &wgpu::Device,
+        layout: &wgpu::PipelineLayout,
+        padded: bool,
+    ) -> Self {
         Self::new(
             device,
             layout,
+            padded,
             "pass1 window mask",
             "windows.wgsl",
             2,
@@ -48,10 +62,15 @@ impl GeometryPass {
 
     /// Pass 2: window normal-map perturbation in view space, everything else zero (the clear
     /// value: only windows are drawn, against pass 1's depth).
-    pub(crate) fn window_normals(device: &wgpu::Device, layout: &wgpu::PipelineLayout) -> Self {
+    pub(crate) fn window_normals(
+        device: &wgpu::Device,
+        layout: &wgpu::PipelineLayout,
+        padded: bool,
+    ) -> Self {
         Self::new(
             device,
             layout,
+            padded,
             "pass2 window normals",
             "normals.wgsl",
             1,
@@ -61,10 +80,11 @@ impl GeometryPass {
     }
 
     /// Pass 3: the lit scene, windows black, projectors through the windows.
-    pub(crate) fn lit(device: &wgpu::Device, layout: &wgpu::PipelineLayout) -> Self {
+    pub(crate) fn lit(device: &wgpu::Device, layout: &wgpu::PipelineLayout, padded: bool) -> Self {
         Self::new(
             device,
             layout,
+            padded,
             "pass3 lit",
             "lit.wgsl",
             1,
@@ -80,10 +100,12 @@ impl GeometryPass {
     }
 
     /// A pass whose pipelines share `shader`'s vertex stage (so every pass computes the same
-    /// depths) and differ in their fragment entry points.
+    /// depths) and differ in their fragment entry points; with `padded`, each entry twice.
+    #[allow(clippy::too_many_arguments)]
     fn new(
         device: &wgpu::Device,
         layout: &wgpu::PipelineLayout,
+        padded: bool,
         label: &'static str,
         shader: &'static str,
         targets: usize,
@@ -92,20 +114,26 @@ impl GeometryPass {
     ) -> Self {
         let module = shaders::module(device, shader);
         // Side by side, as the passes are (`Renderer::new`).
-        let pipelines = std::thread::scope(|s| {
+        let variants: &[bool] = if padded { &[false, true] } else { &[false] };
+        let mut pipelines: Vec<_> = std::thread::scope(|s| {
             let module = &module;
-            let handles: Vec<_> = fragments
+            let handles: Vec<_> = variants
                 .iter()
-                .map(|f| {
-                    s.spawn(move || geometry_pipeline(device, layout, shader, module, f, targets))
+                .flat_map(|&p| fragments.iter().map(move |f| (p, f)))
+                .map(|(p, f)| {
+                    s.spawn(move || {
+                        geometry_pipeline(device, layout, shader, module, f, targets, p)
+                    })
                 })
                 .collect();
             handles.into_iter().map(joined).collect()
         });
+        let padded = pipelines.split_off(fragments.len());
         Self {
             label,
             targets,
             pipelines,
+            padded,
             pick,
         }
     }
@@ -139,7 +167,14 @@ impl GeometryPass {
         debug_assert_eq!(targets.len(), self.targets, "{}", self.label);
         let mut rp = begin(encoder, self.label, targets, Some(depth), timestamps);
         rp.set_bind_group(0, frame, &[]);
-        scene.draw(&mut rp, |c| (self.pick)(c).map(|i| &self.pipelines[i]));
+        scene.draw(&mut rp, |class, padded| {
+            let set = if padded && !self.padded.is_empty() {
+                &self.padded
+            } else {
+                &self.pipelines
+            };
+            (self.pick)(class).map(|i| &set[i])
+        });
     }
 }
 
@@ -150,6 +185,7 @@ fn geometry_pipeline(
     module: &wgpu::ShaderModule,
     fragment: &str,
     targets: usize,
+    padded: bool,
 ) -> wgpu::RenderPipeline {
     let formats = vec![Some(wgpu::ColorTargetState::from(HDR)); targets];
     device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
@@ -180,7 +216,10 @@ fn geometry_pipeline(
         fragment: Some(wgpu::FragmentState {
             module,
             entry_point: Some(fragment),
-            compilation_options: Default::default(),
+            compilation_options: wgpu::PipelineCompilationOptions {
+                constants: &[("PADDED_TEXTURES", f64::from(u8::from(padded)))],
+                ..Default::default()
+            },
             targets: &formats,
         }),
         multiview_mask: None,
