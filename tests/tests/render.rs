@@ -1243,3 +1243,55 @@ fn a_window_looks_the_same_whichever_diagonal_cuts_its_quad() {
         at as u32 / W
     );
 }
+
+/// A window's design is not tiled: filtering at its top edge shows its top row, not a blend
+/// with its bottom row. An 8-texel design, blue above and red below, seen close up: with the
+/// repeating sampler every material had, the top rows of the glass came out purple (an
+/// outside tester's 16x12 sky-and-ground design: (165, 135, 192) where (120, 180, 255) was
+/// drawn). The floor beside it tiles (coordinates to 4 and 6) and still repeats: the reference
+/// images above would show it smeared otherwise.
+#[test]
+fn a_window_design_is_clamped_at_its_edges() {
+    let gpu = lavapipe();
+    let mut b = scene_builder(Some(LightSetup::Sun), true, false, Placement::ORIGIN);
+    let design = b.texture("two bands", TextureRole::Colour, 8, |_, v| {
+        if v < 0.5 {
+            [40, 80, 250, 255]
+        } else {
+            [250, 30, 30, 255]
+        }
+    });
+    let window = b.toc.windows[0].material as usize;
+    b.toc.materials[window].diffuse_texture = Some(design);
+    b.toc.cameras = vec![Camera {
+        name: "close".into(),
+        position: [0.0, 2.5, 3.0],
+        target: [0.0, 2.5, 0.0],
+        up: [0.0, 1.0, 0.0],
+        fov_y: 70.0,
+        near: 0.05,
+        far: 300.0,
+    }];
+    let scene = load(&gpu, &b.finish());
+    let (r, _) = render_camera(&gpu, &scene, 0, unjittered());
+    let (w, _, mask) = r.read_target(&gpu, TargetId::WindowMask).unwrap();
+    let rows: Vec<usize> = (0..mask.len() / w as usize)
+        .filter(|y| (0..w as usize).any(|x| mask[y * w as usize + x][3] > 0.5))
+        .collect();
+    assert!(rows.len() > 40, "the window covers {} rows", rows.len());
+    // The top and bottom few rows of the glass, where a repeating sampler blends the far edge.
+    let mask = &mask;
+    let edge = |ys: &[usize]| {
+        ys.iter()
+            .flat_map(|&y| (0..w as usize).map(move |x| mask[y * w as usize + x]))
+            .filter(|p| p[3] > 0.5)
+            .fold([0.0f32; 2], |m, p| [m[0].max(p[0]), m[1].max(p[2])])
+    };
+    let [top_red, _] = edge(&rows[..4]);
+    let [_, bottom_blue] = edge(&rows[rows.len() - 4..]);
+    assert!(
+        top_red < 0.05 && bottom_blue < 0.05,
+        "the glass's top rows hold red up to {top_red:.3} and its bottom rows blue up to \
+         {bottom_blue:.3} (linear): the design's far edge is blended in"
+    );
+}

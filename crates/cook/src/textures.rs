@@ -130,12 +130,14 @@ pub(crate) fn decode(image: &ImageRef) -> Result<image::DynamicImage, CookError>
 /// An 8-bit image without alpha, or grey, as RGBA8: the same texels to every reader (see
 /// `texture::pixels::rgba8_bytes`), and the byte view the projector's blur and a derived
 /// normal map's height field read borrows it rather than each making its own copy (4.2 MB
-/// each for the 1024² RGB rose, two of them at the default scene's cook peak).
+/// each for the 1024² RGB rose, two of them at the default scene's cook peak). Grey with
+/// alpha stays as it is: a normal map given as `rg` holds x in its grey and y in its alpha,
+/// which RGBA8 would make a grey height map.
 fn as_rgba8(img: image::DynamicImage) -> image::DynamicImage {
     match img {
-        image::DynamicImage::ImageRgb8(_)
-        | image::DynamicImage::ImageLuma8(_)
-        | image::DynamicImage::ImageLumaA8(_) => image::DynamicImage::ImageRgba8(img.to_rgba8()),
+        image::DynamicImage::ImageRgb8(_) | image::DynamicImage::ImageLuma8(_) => {
+            image::DynamicImage::ImageRgba8(img.to_rgba8())
+        }
         other => other,
     }
 }
@@ -1076,26 +1078,18 @@ pub fn cook_textures(
         .collect();
     let mut textures = Vec::with_capacity(jobs.len());
     let mut data = Vec::with_capacity(jobs.len());
-    let mut names: HashMap<String, usize> = HashMap::new();
-    for ((job, _), result) in jobs.iter().zip(results) {
+    let names = unique_names(jobs.iter().map(|(job, _)| job.base_name()).collect());
+    for (((job, _), result), name) in jobs.iter().zip(results).zip(names) {
         let (cooked, said, source) = result?;
         report
             .artifacts
             .push((job.image_name() + &job.base_name_suffix(), source));
         let (role, colour_space) = job.role();
-        let base = job.base_name();
-        // Named as `cooker info` lists the texture: a design's normal map and projector were
-        // said under the design's own name.
-        let about = |text: String| Warning::new(&manifest.path, None, format!("{base}: {text}"));
+        // Named as `cooker info` lists the texture, so two designs of one file name are told
+        // apart in the notes too.
+        let about = |text: String| Warning::new(&manifest.path, None, format!("{name}: {text}"));
         report.notes.extend(said.note.map(about));
         report.warnings.extend(said.warning.map(about));
-        let count = names.entry(base.clone()).or_insert(0);
-        *count += 1;
-        let name = if *count == 1 {
-            base
-        } else {
-            format!("{base}.{count}")
-        };
         textures.push(cooked.describe(name, role, colour_space));
         data.push(cooked.levels);
     }
@@ -1108,9 +1102,44 @@ pub fn cook_textures(
     Ok((textures, data, panorama))
 }
 
+/// Texture names from their base names: the first of each keeps it, later ones take the first
+/// `.2`, `.3`, ... that no texture has, so `x/t.png`, `y/t.png` and `t.2.png` become `t`,
+/// `t.3` and `t.2` (a pack's names must be unique).
+fn unique_names(bases: Vec<String>) -> Vec<String> {
+    let mut taken: std::collections::HashSet<String> = bases.iter().cloned().collect();
+    let mut first = std::collections::HashSet::new();
+    bases
+        .into_iter()
+        .map(|base| {
+            if first.insert(base.clone()) {
+                return base;
+            }
+            let name = (2..)
+                .map(|k| format!("{base}.{k}"))
+                .find(|n| !taken.contains(n))
+                .expect("a free suffix");
+            taken.insert(name.clone());
+            name
+        })
+        .collect()
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// `x/t.png`, `y/t.png` and `t.2.png` cooked together: the second `t` used to be named
+    /// `t.2` too, and the cook failed with an invalid table of contents (exit 3).
+    #[test]
+    fn texture_names_are_unique_whatever_the_file_names() {
+        let names = |b: &[&str]| unique_names(b.iter().map(|s| s.to_string()).collect());
+        assert_eq!(names(&["t", "t", "t.2"]), ["t", "t.3", "t.2"]);
+        assert_eq!(names(&["t.2", "t", "t", "t"]), ["t.2", "t", "t.3", "t.4"]);
+        assert_eq!(names(&["a", "b", "a"]), ["a", "b", "a.2"]);
+        let many = names(&["t", "t.2", "t", "t.3", "t", "t.2"]);
+        let set: std::collections::HashSet<_> = many.iter().collect();
+        assert_eq!(set.len(), many.len(), "{many:?}");
+    }
 
     /// The blur is the light's penumbra on the floor, measured in the design: a lamp a metres
     /// from a window casts a penumbra θ·b on a floor b beyond it, and the design reaches the

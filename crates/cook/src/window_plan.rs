@@ -175,7 +175,22 @@ pub fn plan(
     images: &crate::textures::DecodedImages,
     report: &mut Report,
 ) -> Result<Windows, CookError> {
-    let entries: Vec<&WindowDesign> = overrides.iter().chain(&manifest.windows).collect();
+    // `--window NAME=IMAGE` replaces the design of the manifest's entry for that window and
+    // keeps the rest of it (normal map, fit, colour space, blur...): one merged entry per pair,
+    // few enough to make them all.
+    let merged: Vec<Vec<WindowDesign>> = overrides
+        .iter()
+        .map(|o| {
+            manifest
+                .windows
+                .iter()
+                .map(|e| WindowDesign {
+                    design: o.design.clone(),
+                    ..e.clone()
+                })
+                .collect()
+        })
+        .collect();
     let classes: Vec<MaterialClass> = tagging.materials.iter().map(|m| m.material.class).collect();
     let names: Vec<String> = tagging
         .materials
@@ -186,10 +201,13 @@ pub fn plan(
         |mats: &[u16]| -> Vec<String> { mats.iter().map(|&m| names[m as usize].clone()).collect() };
     let entry_for = |name: &str, mats: &[u16]| -> Option<&WindowDesign> {
         let mn = material_names(mats);
-        entries
-            .iter()
-            .copied()
-            .find(|e| e.matches(name, mn.iter().map(String::as_str)))
+        let hit = |e: &WindowDesign| e.matches(name, mn.iter().map(String::as_str));
+        let entry = manifest.windows.iter().position(hit);
+        match (overrides.iter().position(hit), entry) {
+            (Some(o), Some(e)) => Some(&merged[o][e]),
+            (Some(o), None) => Some(&overrides[o]),
+            (None, e) => e.map(|e| &manifest.windows[e]),
+        }
     };
     let light = manifest.light.as_ref().map(|l| &l.kind);
     let found = instances::find(

@@ -127,7 +127,10 @@ fn assemble(mut toc: Toc, data: &PackData) -> Result<Vec<u8>, PackError> {
 }
 
 /// Writes `bytes` to `path` atomically: a temp file in the same directory, fsync, then rename.
-/// A failure at any point leaves whatever was at `path` untouched.
+/// A failure at any point leaves whatever was at `path` untouched. A symbolic link is
+/// followed (the file it names is replaced, the link kept); a device, FIFO or socket at
+/// `path` is written as it is (`-o /dev/null` must not replace the device with a file, and
+/// `/dev/full` must report its error); a directory is an error.
 pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<(), PackError> {
     atomic(path, bytes, None)
 }
@@ -153,6 +156,22 @@ fn atomic(path: &Path, bytes: &[u8], check: Option<Check<'_>>) -> Result<(), Pac
         path: path.to_path_buf(),
         source,
     };
+    let target = match destination(path).map_err(io)? {
+        Destination::File(target) => target,
+        Destination::Special => {
+            // No temp file can be renamed over a device: check first, then write.
+            if let Some(check) = check {
+                check()?;
+            }
+            let write = || -> std::io::Result<()> {
+                let mut f = std::fs::OpenOptions::new().write(true).open(path)?;
+                f.write_all(bytes)?;
+                f.flush()
+            };
+            return write().map_err(io);
+        }
+    };
+    let path = target.as_path();
     let dir = match path.parent() {
         Some(d) if !d.as_os_str().is_empty() => d,
         _ => Path::new("."),
@@ -201,6 +220,44 @@ fn atomic(path: &Path, bytes: &[u8], check: Option<Check<'_>>) -> Result<(), Pac
         let _ = std::fs::remove_file(&tmp);
     }
     result
+}
+
+/// What an output path names once symbolic links are followed.
+enum Destination {
+    /// A regular file, or nothing yet: written through a temp file and a rename.
+    File(std::path::PathBuf),
+    /// A device, FIFO or socket: written in place.
+    Special,
+}
+
+fn destination(path: &Path) -> std::io::Result<Destination> {
+    let mut at = path.to_path_buf();
+    // As the kernel's own limit on links followed in one lookup.
+    for _ in 0..40 {
+        let meta = match std::fs::symlink_metadata(&at) {
+            Ok(m) => m,
+            Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Ok(Destination::File(at)),
+            Err(e) => return Err(e),
+        };
+        let kind = meta.file_type();
+        if kind.is_symlink() {
+            let link = std::fs::read_link(&at)?;
+            at = match at.parent() {
+                Some(dir) if link.is_relative() => dir.join(link),
+                _ => link,
+            };
+        } else if kind.is_dir() {
+            return Err(std::io::Error::new(
+                std::io::ErrorKind::IsADirectory,
+                "is a directory, not a file to write",
+            ));
+        } else if kind.is_file() {
+            return Ok(Destination::File(at));
+        } else {
+            return Ok(Destination::Special);
+        }
+    }
+    Err(std::io::Error::other("too many levels of symbolic links"))
 }
 
 /// Encodes and writes a pack atomically, validating it with the reader's checks while the

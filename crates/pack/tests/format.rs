@@ -644,3 +644,67 @@ fn bad_projector_margins_are_rejected() {
     toc.materials[1].projector_margin = [MAX_PROJECTOR_MARGIN, 0.0];
     encode(toc, &data).expect("the largest margin is valid");
 }
+
+/// An output path that is a symbolic link replaces the file it names and keeps the link; a
+/// device is written as it is, never replaced by a file (`cooker cook -o /dev/null` as root
+/// used to turn the system's `/dev/null` into a regular file); a directory is an error.
+#[cfg(unix)]
+#[test]
+fn write_atomic_follows_links_and_writes_devices_in_place() {
+    use std::os::unix::fs::FileTypeExt;
+    let dir = tempfile::tempdir().unwrap();
+    let target = dir.path().join("real.pack");
+    std::fs::write(&target, b"old").unwrap();
+    let link = dir.path().join("link.pack");
+    std::os::unix::fs::symlink("real.pack", &link).unwrap();
+    pack::write_atomic(&link, b"new").unwrap();
+    assert!(
+        std::fs::symlink_metadata(&link)
+            .unwrap()
+            .file_type()
+            .is_symlink()
+    );
+    assert_eq!(std::fs::read(&target).unwrap(), b"new");
+    // A dangling link names the file to create.
+    let dangling = dir.path().join("dangling.pack");
+    std::os::unix::fs::symlink("made.pack", &dangling).unwrap();
+    pack::write_atomic(&dangling, b"made").unwrap();
+    assert_eq!(
+        std::fs::read(dir.path().join("made.pack")).unwrap(),
+        b"made"
+    );
+    let leftovers: Vec<_> = std::fs::read_dir(dir.path())
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .filter(|n| n.contains(".tmp-"))
+        .collect();
+    assert!(leftovers.is_empty(), "temp files left: {leftovers:?}");
+
+    let null = std::path::Path::new("/dev/null");
+    pack::write_atomic(null, b"nothing").unwrap();
+    assert!(
+        std::fs::metadata(null)
+            .unwrap()
+            .file_type()
+            .is_char_device()
+    );
+    let full = std::path::Path::new("/dev/full");
+    if full.exists() {
+        let e = pack::write_atomic(full, b"no room")
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("/dev/full"), "{e}");
+        assert!(
+            std::fs::metadata(full)
+                .unwrap()
+                .file_type()
+                .is_char_device()
+        );
+    }
+    let e = pack::write_atomic(dir.path(), b"x").unwrap_err();
+    let cause = std::error::Error::source(&e).map(|s| s.to_string());
+    assert!(
+        cause.as_deref().is_some_and(|c| c.contains("directory")),
+        "{e}: {cause:?}"
+    );
+}

@@ -116,6 +116,10 @@ pub(crate) struct GpuMaterial {
     /// A texture of it is padded to whole blocks: it is drawn with the pipelines that wrap
     /// and scale its coordinates (`PADDED_TEXTURES` in `common.wgsl`).
     pub padded: bool,
+    /// Some vertex of it has texture coordinates outside [0, 1] (with a little slack for
+    /// rounding): its textures repeat; else they are clamped to their edges. Known once the
+    /// geometry is in, which the first frame waits for.
+    tiles: bool,
     buffer: wgpu::Buffer,
     pub bind_group: wgpu::BindGroup,
     diffuse: Option<u32>,
@@ -139,7 +143,12 @@ pub struct Scene {
     pub(crate) materials: Vec<GpuMaterial>,
     pub(crate) material_layout: wgpu::BindGroupLayout,
     pub(crate) placeholders: Placeholders,
+    /// Repeats the texture: for materials whose texture coordinates leave [0, 1] (tiled
+    /// floors and walls).
     material_sampler: wgpu::Sampler,
+    /// Clamps to the edge texels: for materials whose coordinates stay in [0, 1] (a window's
+    /// design), so bilinear filtering at an edge does not blend in the opposite edge.
+    edge_sampler: wgpu::Sampler,
     projectors: Projectors,
     /// Every window's projector frame ([`crate::view::projector_frames`]): the TOC's windows
     /// and materials never change after load, and the occlusion analysis, the shadow layout
@@ -155,6 +164,9 @@ pub struct Scene {
     occluder_bounds: Option<(glam::DVec3, glam::DVec3)>,
     /// Per window, whether its light needs a shadow map (for the current light).
     window_shadows: Vec<WindowShadow>,
+    /// Per material: some vertex's texture coordinates leave [0, 1] (see
+    /// [`GpuMaterial::tiles`]), gathered as the vertex sections arrive.
+    uv_tiles: Vec<bool>,
     /// The windows whose glass sits on an uncut wall, once all geometry is in.
     backings: occlusion::Backings,
     /// Whether opaque geometry reaches beyond a window's plane ([`occlusion::beyond_windows`]).
@@ -494,16 +506,20 @@ impl Scene {
         let kept = kept_windows(toc, uniforms::MAX_WINDOWS.min(layers - 1));
         let toc = kept.as_ref().unwrap_or(toc);
         let material_layout = material_layout(device);
-        let material_sampler = device.create_sampler(&wgpu::SamplerDescriptor {
-            label: Some("material"),
-            address_mode_u: wgpu::AddressMode::Repeat,
-            address_mode_v: wgpu::AddressMode::Repeat,
-            mag_filter: wgpu::FilterMode::Linear,
-            min_filter: wgpu::FilterMode::Linear,
-            mipmap_filter: wgpu::MipmapFilterMode::Linear,
-            anisotropy_clamp: 4,
-            ..Default::default()
-        });
+        let sampler = |label, mode| {
+            device.create_sampler(&wgpu::SamplerDescriptor {
+                label: Some(label),
+                address_mode_u: mode,
+                address_mode_v: mode,
+                mag_filter: wgpu::FilterMode::Linear,
+                min_filter: wgpu::FilterMode::Linear,
+                mipmap_filter: wgpu::MipmapFilterMode::Linear,
+                anisotropy_clamp: 4,
+                ..Default::default()
+            })
+        };
+        let material_sampler = sampler("material", wgpu::AddressMode::Repeat);
+        let edge_sampler = sampler("material, clamped", wgpu::AddressMode::ClampToEdge);
         let placeholders = Placeholders::new(gpu);
         let meshes = toc
             .meshes
@@ -528,11 +544,13 @@ impl Scene {
             material_layout,
             placeholders,
             material_sampler,
+            edge_sampler,
             projectors: Projectors::new(gpu, toc)?,
             projector_frames: crate::view::projector_frames(toc),
             cpu: toc.meshes.iter().map(|_| CpuMesh::default()).collect(),
             occluder_bounds: None,
             window_shadows: vec![WindowShadow::NoLight; toc.windows.len()],
+            uv_tiles: vec![false; toc.materials.len()],
             backings: occlusion::Backings::default(),
             beyond_windows: false,
             window_passes: Vec::new(),
@@ -617,11 +635,17 @@ impl Scene {
                     mapped_at_creation: false,
                 });
                 gpu.queue.write_buffer(&buffer, 0, bytemuck::bytes_of(&u));
-                let bind_group =
-                    scene.material_bind_group(device, &buffer, m.diffuse_texture, m.normal_texture);
+                let bind_group = scene.material_bind_group(
+                    device,
+                    &buffer,
+                    m.diffuse_texture,
+                    m.normal_texture,
+                    true,
+                );
                 GpuMaterial {
                     class: m.class,
                     padded: u.uv_scale != [1.0; 4],
+                    tiles: true,
                     buffer,
                     bind_group,
                     diffuse: m.diffuse_texture,
@@ -656,7 +680,13 @@ impl Scene {
         buffer: &wgpu::Buffer,
         diffuse: Option<u32>,
         normal: Option<u32>,
+        tiles: bool,
     ) -> wgpu::BindGroup {
+        let sampler = if tiles {
+            &self.material_sampler
+        } else {
+            &self.edge_sampler
+        };
         device.create_bind_group(&wgpu::BindGroupDescriptor {
             label: Some("material"),
             layout: &self.material_layout,
@@ -675,7 +705,7 @@ impl Scene {
                 },
                 wgpu::BindGroupEntry {
                     binding: 3,
-                    resource: wgpu::BindingResource::Sampler(&self.material_sampler),
+                    resource: wgpu::BindingResource::Sampler(sampler),
                 },
             ],
         })
@@ -728,10 +758,20 @@ impl Scene {
                 // Converted straight into the buffer's mapping: a converted copy beside it was
                 // 26 MB of the 1M-triangle grid's viewer.
                 let keep = self.keeps_cpu_geometry();
+                let tiles = &mut self.uv_tiles;
                 let (buffer, positions) =
                     mapped_buffer(gpu, &m.name, size, wgpu::BufferUsages::VERTEX, |mapped| {
                         if standard {
                             copy_standard_vertices(bytes, mapped);
+                            let (uv, material) = (
+                                std::mem::offset_of!(StandardVertex, uv),
+                                std::mem::offset_of!(StandardVertex, material),
+                            );
+                            for v in bytes.chunks_exact(STANDARD_STRIDE) {
+                                let t: [f32; 2] = bytemuck::pod_read_unaligned(&v[uv..uv + 8]);
+                                let m = u16::from_le_bytes([v[material], v[material + 1]]);
+                                note_tiling(tiles, t, m);
+                            }
                             keep.then(|| {
                                 bytes
                                     .chunks_exact(STANDARD_STRIDE)
@@ -744,6 +784,7 @@ impl Scene {
                         } else {
                             let mut positions = keep.then(|| Vec::with_capacity(count));
                             convert_vertices(&m.layout, bytes, mapped, |v| {
+                                note_tiling(tiles, v.uv, v.material[0]);
                                 if let Some(p) = &mut positions {
                                     p.push(glam::Vec3::from(v.position));
                                 }
@@ -870,7 +911,7 @@ impl Scene {
         let groups: Vec<wgpu::BindGroup> = self
             .materials
             .iter()
-            .map(|m| self.material_bind_group(&gpu.device, &m.buffer, m.diffuse, m.normal))
+            .map(|m| self.material_bind_group(&gpu.device, &m.buffer, m.diffuse, m.normal, m.tiles))
             .collect();
         for (m, g) in self.materials.iter_mut().zip(groups) {
             m.bind_group = g;
@@ -912,6 +953,11 @@ impl Scene {
         if !self.geometry_complete() {
             return;
         }
+        // The samplers follow the coordinates: bind groups made again at the next refresh.
+        for (m, &tiles) in self.materials.iter_mut().zip(&self.uv_tiles) {
+            m.tiles = tiles;
+        }
+        self.dirty = true;
         self.occluder_bounds = crate::shadows::bounds(self.occluders().map(|(_, _, t)| t));
         self.backings =
             occlusion::Backings::find(&self.toc.windows, self.occluders().map(|(_, _, t)| t));
@@ -1322,6 +1368,18 @@ pub(crate) fn vertex_layout() -> wgpu::VertexBufferLayout<'static> {
 /// A buffer of `size` bytes (rounded up to a multiple of 4, as buffers must be, and at least 4,
 /// so a mesh without triangles needs no special case), its contents written once by `write`
 /// straight into its mapping, and what `write` returned.
+/// Marks `material` as tiling when `uv` leaves [0, 1] by more than rounding: exporters write
+/// a design's corners as 1.0000001 or -1e-7.
+fn note_tiling(tiles: &mut [bool], uv: [f32; 2], material: u16) {
+    const SLACK: f32 = 1e-3;
+    let inside = |x: f32| (-SLACK..=1.0 + SLACK).contains(&x);
+    if let Some(t) = tiles.get_mut(material as usize)
+        && !(inside(uv[0]) && inside(uv[1]))
+    {
+        *t = true;
+    }
+}
+
 fn mapped_buffer<R>(
     gpu: &Gpu,
     label: &str,

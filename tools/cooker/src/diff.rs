@@ -851,7 +851,10 @@ pub fn run(args: Args) -> Outcome {
                     "levels": levels.iter().map(|d| json!({
                         "level": d.level, "width": d.width, "height": d.height,
                         "max_error": d.max_error,
-                        "psnr": if d.psnr.is_finite() { json!(d.psnr) } else { json!("inf") },
+                        // JSON has no infinity: an equal level's PSNR is null, and `equal`
+                        // says why, so a reader's numbers stay numbers.
+                        "psnr": d.psnr.is_finite().then_some(d.psnr),
+                        "equal": d.max_error == 0,
                         "flip_mean": d.flip_mean,
                     })).collect::<Vec<_>>(),
                 })

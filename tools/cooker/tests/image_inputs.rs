@@ -660,6 +660,53 @@ fn grey_bump_maps_are_read_as_heights_scaled_by_bm() {
     );
 }
 
+/// A two-channel normal map saved as grey with alpha, declared `normal_encoding = "rg"`, holds
+/// x in its grey and y in its alpha. The cook turned it into RGBA8 first, so it was read as a
+/// grey height map and stored flat (128, 128, 255), said only in a note.
+#[test]
+fn a_grey_and_alpha_normal_map_declared_rg_keeps_its_vectors() {
+    let dir = tempfile::tempdir().unwrap();
+    let manifest = common::small_scene(dir.path());
+    let toml = std::fs::read_to_string(&manifest).unwrap().replace(
+        "design = \"lit.png\"",
+        "design = \"lit.png\"\nnormal_map = \"up.png\"\nnormal_encoding = \"rg\"",
+    );
+    std::fs::write(&manifest, toml).unwrap();
+    image::GrayAlphaImage::from_pixel(16, 16, image::LumaA([128, 191]))
+        .save(dir.path().join("up.png"))
+        .unwrap();
+    let pack = dir.path().join("s.pack");
+    let (_, err) = cook_obj(&manifest, &pack, &["--texture-format", "rgba8"]);
+    assert!(!err.contains("height (bump) map"), "{err}");
+    let normals = extract(&pack, "up.normal", 0, dir.path());
+    // x = 0.004, y = 0.498: z = 0.867, stored 239 (or 238 rounded the other way).
+    let p = normals.get_pixel(8, 8).0;
+    assert!(
+        p[0].abs_diff(128) <= 1 && p[1].abs_diff(191) <= 1 && p[2].abs_diff(238) <= 1,
+        "stored {p:?}, want about (128, 191, 238)"
+    );
+
+    // `--window` replaces the entry's design and keeps its normal map: the whole entry was
+    // dropped, and the window got a normal map derived from the new design.
+    common::design(&dir.path().join("other.png"), 30);
+    let other = dir.path().join("o.pack");
+    let arg = format!("lit={}", dir.path().join("other.png").display());
+    let o = cooker(&[
+        &"cook",
+        &manifest,
+        &"-o",
+        &other,
+        &"--no-cache",
+        &"--texture-format",
+        &"rgba8",
+        &"--window",
+        &arg,
+    ]);
+    assert_eq!(o.status.code(), Some(0), "{}", text(&o.stderr));
+    texture_info(&other, "other");
+    assert_eq!(extract(&other, "up.normal", 0, dir.path()), normals);
+}
+
 /// A vector normal map's strength (MTL `-bm`, glTF `normalTexture.scale`) scales x and y
 /// before renormalizing, as glTF defines it; both imports give the same texture. The map is
 /// the one the cooker derives from the grey Crytek bricks, so it has real slopes.

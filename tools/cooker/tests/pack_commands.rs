@@ -307,6 +307,12 @@ fn diff_identical_changed_texel_and_material() {
     assert_eq!(v["within_thresholds"], false);
     assert_eq!(v["textures"][0]["levels"][0]["max_error"], 2);
     assert_eq!(v["textures"][0]["levels"][1]["max_error"], 0);
+    // Numbers stay numbers: an equal level's infinite PSNR is null (it was the string "inf").
+    let levels = &v["textures"][0]["levels"];
+    assert!(levels[0]["psnr"].is_f64(), "{levels}");
+    assert_eq!(levels[0]["equal"], false);
+    assert!(levels[1]["psnr"].is_null(), "{levels}");
+    assert_eq!(levels[1]["equal"], true);
     let changed: Vec<_> = v["sections"]
         .as_array()
         .unwrap()
