@@ -1178,7 +1178,30 @@ fn a_scene_a_thousandth_the_size_renders_alike() {
 }
 
 // ---------------------------------------------------------------------------------------------
-// Sampling along triangle edges.
+// Sampling along triangle edges and at a design's borders.
+
+/// The width and the window-mask target of `b`'s scene seen from `position` toward `target`.
+fn window_mask_seen(
+    gpu: &Gpu,
+    mut b: Builder,
+    position: [f32; 3],
+    target: [f32; 3],
+    fov_y: f32,
+) -> (u32, Vec<[f32; 4]>) {
+    b.toc.cameras = vec![Camera {
+        name: "seen".into(),
+        position,
+        target,
+        up: [0.0, 1.0, 0.0],
+        fov_y,
+        near: 0.05,
+        far: 300.0,
+    }];
+    let scene = load(gpu, &b.finish());
+    let (r, _) = render_camera(gpu, &scene, 0, unjittered());
+    let (w, _, px) = r.read_target(gpu, TargetId::WindowMask).unwrap();
+    (w, px)
+}
 
 /// A window's colour does not depend on which diagonal cuts its quad into triangles.
 /// lavapipe's anisotropic sampling with explicit gradients read a far smaller mip at some
@@ -1211,18 +1234,7 @@ fn a_window_looks_the_same_whichever_diagonal_cuts_its_quad() {
             ]);
         }
         // Where lavapipe drew the dots (its inside camera's wider view drew none).
-        b.toc.cameras = vec![Camera {
-            name: "across".into(),
-            position: [0.5, 1.6, 9.0],
-            target: [0.0, 2.0, 0.0],
-            up: [0.0, 1.0, 0.0],
-            fov_y: 50.0,
-            near: 0.05,
-            far: 300.0,
-        }];
-        let scene = load(&gpu, &b.finish());
-        let (r, _) = render_camera(&gpu, &scene, 0, unjittered());
-        r.read_target(&gpu, TargetId::WindowMask).unwrap().2
+        window_mask_seen(&gpu, b, [0.5, 1.6, 9.0], [0.0, 2.0, 0.0], 50.0).1
     });
     let covered = masks[0].iter().filter(|p| p[3] > 0.5).count();
     assert!(covered > 2000, "the window covers only {covered} pixels");
@@ -1263,18 +1275,7 @@ fn a_window_design_is_clamped_at_its_edges() {
     });
     let window = b.toc.windows[0].material as usize;
     b.toc.materials[window].diffuse_texture = Some(design);
-    b.toc.cameras = vec![Camera {
-        name: "close".into(),
-        position: [0.0, 2.5, 3.0],
-        target: [0.0, 2.5, 0.0],
-        up: [0.0, 1.0, 0.0],
-        fov_y: 70.0,
-        near: 0.05,
-        far: 300.0,
-    }];
-    let scene = load(&gpu, &b.finish());
-    let (r, _) = render_camera(&gpu, &scene, 0, unjittered());
-    let (w, _, mask) = r.read_target(&gpu, TargetId::WindowMask).unwrap();
+    let (w, mask) = window_mask_seen(&gpu, b, [0.0, 2.5, 3.0], [0.0, 2.5, 0.0], 70.0);
     let rows: Vec<usize> = (0..mask.len() / w as usize)
         .filter(|y| (0..w as usize).any(|x| mask[y * w as usize + x][3] > 0.5))
         .collect();

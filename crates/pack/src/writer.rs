@@ -182,6 +182,7 @@ fn atomic(path: &Path, bytes: &[u8], check: Option<Check<'_>>) -> Result<(), Pac
             "output path has no file name",
         ))
     })?;
+    sweep_stale_temps(dir, &name.to_string_lossy());
     // Unique per process and call, so concurrent cooks into the same directory never share a
     // temp file.
     static COUNTER: std::sync::atomic::AtomicU64 = std::sync::atomic::AtomicU64::new(0);
@@ -220,6 +221,41 @@ fn atomic(path: &Path, bytes: &[u8], check: Option<Check<'_>>) -> Result<(), Pac
         let _ = std::fs::remove_file(&tmp);
     }
     result
+}
+
+/// Removes the temp files an earlier write of `name` in `dir` left when its process was killed
+/// (SIGKILL, a power cut: nothing of it ran to clean up), each as large as the output. A temp
+/// file is stale when the process its name holds is gone (`/proc` says), or, where there is no
+/// `/proc`, a day old; a live process's write is never touched. Best effort: errors are ignored.
+fn sweep_stale_temps(dir: &Path, name: &str) {
+    let prefix = format!(".{name}.tmp-");
+    let Ok(listing) = std::fs::read_dir(dir) else {
+        return;
+    };
+    let proc_fs = Path::new("/proc/self").exists();
+    for e in listing.flatten() {
+        let file = e.file_name();
+        let Some(rest) = file.to_str().and_then(|f| f.strip_prefix(&prefix)) else {
+            continue;
+        };
+        let Some(pid) = rest.split('-').next().and_then(|p| p.parse::<u32>().ok()) else {
+            continue;
+        };
+        let stale = if pid == std::process::id() {
+            false
+        } else if proc_fs {
+            !Path::new("/proc").join(pid.to_string()).exists()
+        } else {
+            e.metadata()
+                .and_then(|m| m.modified())
+                .ok()
+                .and_then(|t| t.elapsed().ok())
+                .is_some_and(|age| age > std::time::Duration::from_secs(24 * 3600))
+        };
+        if stale {
+            let _ = std::fs::remove_file(e.path());
+        }
+    }
 }
 
 /// What an output path names once symbolic links are followed.

@@ -708,3 +708,24 @@ fn write_atomic_follows_links_and_writes_devices_in_place() {
         "{e}: {cause:?}"
     );
 }
+
+/// A cook killed mid-write (SIGKILL) leaves its temp file, as large as the pack; the next write
+/// of that output removes it. A live process's temp file (this one's, here) stays.
+#[cfg(target_os = "linux")]
+#[test]
+fn write_atomic_removes_the_temp_files_of_dead_writers() {
+    let dir = tempfile::tempdir().unwrap();
+    // No process has a PID this large (the kernel's limit is 2^22).
+    let dead = dir.path().join(".out.pack.tmp-999999999-0");
+    let live = dir
+        .path()
+        .join(format!(".out.pack.tmp-{}-77", std::process::id()));
+    let other = dir.path().join(".other.pack.tmp-999999999-0");
+    for p in [&dead, &live, &other] {
+        std::fs::write(p, b"partial").unwrap();
+    }
+    pack::write_atomic(&dir.path().join("out.pack"), b"whole").unwrap();
+    assert!(!dead.exists(), "a dead writer's temp file was left");
+    assert!(live.exists(), "a live writer's temp file was removed");
+    assert!(other.exists(), "another output's temp file was removed");
+}
