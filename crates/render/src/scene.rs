@@ -116,10 +116,6 @@ pub(crate) struct GpuMaterial {
     /// A texture of it is padded to whole blocks: it is drawn with the pipelines that wrap
     /// and scale its coordinates (`PADDED_TEXTURES` in `common.wgsl`).
     pub padded: bool,
-    /// Some vertex of it has texture coordinates outside [0, 1] (with a little slack for
-    /// rounding): its textures repeat; else they are clamped to their edges. Known once the
-    /// geometry is in, which the first frame waits for.
-    tiles: bool,
     buffer: wgpu::Buffer,
     pub bind_group: wgpu::BindGroup,
     diffuse: Option<u32>,
@@ -164,8 +160,10 @@ pub struct Scene {
     occluder_bounds: Option<(glam::DVec3, glam::DVec3)>,
     /// Per window, whether its light needs a shadow map (for the current light).
     window_shadows: Vec<WindowShadow>,
-    /// Per material: some vertex's texture coordinates leave [0, 1] (see
-    /// [`GpuMaterial::tiles`]), gathered as the vertex sections arrive.
+    /// Per material: some vertex has texture coordinates outside [0, 1] (with a little slack
+    /// for rounding), gathered as the vertex sections arrive: its textures repeat, else they
+    /// are clamped to their edges. Complete once the geometry is in, which the first frame
+    /// waits for (and bind groups are made again then).
     uv_tiles: Vec<bool>,
     /// The windows whose glass sits on an uncut wall, once all geometry is in.
     backings: occlusion::Backings,
@@ -645,7 +643,6 @@ impl Scene {
                 GpuMaterial {
                     class: m.class,
                     padded: u.uv_scale != [1.0; 4],
-                    tiles: true,
                     buffer,
                     bind_group,
                     diffuse: m.diffuse_texture,
@@ -767,20 +764,18 @@ impl Scene {
                                 std::mem::offset_of!(StandardVertex, uv),
                                 std::mem::offset_of!(StandardVertex, material),
                             );
+                            // One pass over the vertices for the tiling and the positions.
+                            let mut positions = keep.then(|| Vec::with_capacity(count));
                             for v in bytes.chunks_exact(STANDARD_STRIDE) {
                                 let t: [f32; 2] = bytemuck::pod_read_unaligned(&v[uv..uv + 8]);
                                 let m = u16::from_le_bytes([v[material], v[material + 1]]);
                                 note_tiling(tiles, t, m);
+                                if let Some(p) = &mut positions {
+                                    let at: [f32; 3] = bytemuck::pod_read_unaligned(&v[..12]);
+                                    p.push(glam::Vec3::from(at));
+                                }
                             }
-                            keep.then(|| {
-                                bytes
-                                    .chunks_exact(STANDARD_STRIDE)
-                                    .map(|v| {
-                                        let p: [f32; 3] = bytemuck::pod_read_unaligned(&v[..12]);
-                                        glam::Vec3::from(p)
-                                    })
-                                    .collect()
-                            })
+                            positions
                         } else {
                             let mut positions = keep.then(|| Vec::with_capacity(count));
                             convert_vertices(&m.layout, bytes, mapped, |v| {
@@ -911,7 +906,11 @@ impl Scene {
         let groups: Vec<wgpu::BindGroup> = self
             .materials
             .iter()
-            .map(|m| self.material_bind_group(&gpu.device, &m.buffer, m.diffuse, m.normal, m.tiles))
+            .enumerate()
+            .map(|(i, m)| {
+                let tiles = self.uv_tiles.get(i).copied().unwrap_or(true);
+                self.material_bind_group(&gpu.device, &m.buffer, m.diffuse, m.normal, tiles)
+            })
             .collect();
         for (m, g) in self.materials.iter_mut().zip(groups) {
             m.bind_group = g;
@@ -953,10 +952,8 @@ impl Scene {
         if !self.geometry_complete() {
             return;
         }
-        // The samplers follow the coordinates: bind groups made again at the next refresh.
-        for (m, &tiles) in self.materials.iter_mut().zip(&self.uv_tiles) {
-            m.tiles = tiles;
-        }
+        // The samplers follow the coordinates (`uv_tiles`, now complete): bind groups made
+        // again at the next refresh.
         self.dirty = true;
         self.occluder_bounds = crate::shadows::bounds(self.occluders().map(|(_, _, t)| t));
         self.backings =
@@ -1365,9 +1362,6 @@ pub(crate) fn vertex_layout() -> wgpu::VertexBufferLayout<'static> {
     }
 }
 
-/// A buffer of `size` bytes (rounded up to a multiple of 4, as buffers must be, and at least 4,
-/// so a mesh without triangles needs no special case), its contents written once by `write`
-/// straight into its mapping, and what `write` returned.
 /// Marks `material` as tiling when `uv` leaves [0, 1] by more than rounding: exporters write
 /// a design's corners as 1.0000001 or -1e-7.
 fn note_tiling(tiles: &mut [bool], uv: [f32; 2], material: u16) {
@@ -1380,6 +1374,9 @@ fn note_tiling(tiles: &mut [bool], uv: [f32; 2], material: u16) {
     }
 }
 
+/// A buffer of `size` bytes (rounded up to a multiple of 4, as buffers must be, and at least 4,
+/// so a mesh without triangles needs no special case), its contents written once by `write`
+/// straight into its mapping, and what `write` returned.
 fn mapped_buffer<R>(
     gpu: &Gpu,
     label: &str,
