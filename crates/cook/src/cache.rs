@@ -228,10 +228,18 @@ impl Cache {
     /// Opens (creating if needed) a cache directory, capped at [`DEFAULT_MAX_SIZE`].
     pub fn open(dir: impl Into<PathBuf>) -> Result<Self, CookError> {
         let dir = dir.into();
-        std::fs::create_dir_all(&dir).map_err(|source| CookError::Io {
+        let io = |source| CookError::Io {
             path: dir.clone(),
             source,
-        })?;
+        };
+        // create_dir_all on a file says only "File exists".
+        if dir.exists() && !dir.is_dir() {
+            return Err(io(std::io::Error::new(
+                std::io::ErrorKind::NotADirectory,
+                "a file, not a directory",
+            )));
+        }
+        std::fs::create_dir_all(&dir).map_err(io)?;
         Ok(Self {
             dir,
             max_size: DEFAULT_MAX_SIZE,

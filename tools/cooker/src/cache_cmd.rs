@@ -64,11 +64,32 @@ fn in_ci() -> bool {
 impl CacheArgs {
     /// The local cache and, when a URL is set, the remote behind it; `None` with `--no-cache`.
     pub fn open(&self) -> anyhow::Result<Option<(Cache, Option<Arc<Remote>>)>> {
+        self.open_with(false)
+    }
+
+    /// [`CacheArgs::open`] for a cook, which a local cache it cannot open (a file in its
+    /// place, no permission) does not fail: the cache only saves time, so the cook goes on
+    /// without one and says so, as it does when a remote cannot be reached.
+    pub fn open_for_cook(&self) -> anyhow::Result<Option<(Cache, Option<Arc<Remote>>)>> {
+        self.open_with(true)
+    }
+
+    fn open_with(&self, lenient: bool) -> anyhow::Result<Option<(Cache, Option<Arc<Remote>>)>> {
         if self.no_cache {
             return Ok(None);
         }
-        let mut cache = Cache::open(self.cache_dir.clone().unwrap_or_else(Cache::default_dir))?
-            .with_max_size(self.cache_max_size);
+        let dir = self.cache_dir.clone().unwrap_or_else(Cache::default_dir);
+        let mut cache = match Cache::open(&dir) {
+            Ok(c) => c.with_max_size(self.cache_max_size),
+            Err(e) if lenient => {
+                eprintln!(
+                    "warning: cache directory {:#}; cooking without a cache",
+                    anyhow::Error::new(e)
+                );
+                return Ok(None);
+            }
+            Err(e) => return Err(anyhow::Error::new(e).context("opening the cache directory")),
+        };
         let remote = match self.cache_url.as_deref().filter(|u| !u.is_empty()) {
             Some(url) => {
                 if !(self.cache_timeout.is_finite() && self.cache_timeout > 0.0) {

@@ -176,6 +176,15 @@ fn ms(d: Duration) -> String {
 
 pub fn run(args: Args) -> Outcome {
     let start = Instant::now();
+    // Before the cook, which would otherwise run only to fail at the write with an I/O error.
+    if args.output.is_dir() {
+        return Err(crate::exit::UsageError(format!(
+            "-o {}: is a directory; name the pack file to write in it, e.g. -o {}",
+            args.output.display(),
+            args.output.join("scene.pack").display()
+        ))
+        .into());
+    }
     refuse_overwriting_an_input(&args.output, [args.input.as_path()])?;
     let manifest = Manifest::open(&args.input)?;
     let mut settings = args.settings.resolve(&manifest)?;
@@ -183,7 +192,7 @@ pub fn run(args: Args) -> Outcome {
     settings.mesh.analyze = args.verbose;
 
     // Reuse: the whole pack when no input changed, else each texture whose inputs did not.
-    let (cache, remote) = match args.cache.open()? {
+    let (cache, remote) = match args.cache.open_for_cook()? {
         Some((c, r)) => (Some(c), r),
         None => (None, None),
     };
@@ -319,7 +328,7 @@ pub fn run(args: Args) -> Outcome {
         .iter()
         .map(|m| m.index_count as u64 / 3)
         .sum();
-    transcript.stats = stats(&out, write_time);
+    transcript.stats = stats(&out, write_time, settings.mesh.analyze);
     if args.verbose {
         transcript.print_stats();
     }
@@ -388,7 +397,10 @@ fn replay(t: &Transcript, verbose: bool) {
     }
 }
 
-fn stats(out: &cook::CookOutput, write_time: Duration) -> Vec<String> {
+/// `analyzed`: whether the cook measured ACMR and overfetch (only with -v); a transcript kept
+/// in the cache without them said 0.000 when a later `-v` replayed it.
+fn stats(out: &cook::CookOutput, write_time: Duration, analyzed: bool) -> Vec<String> {
+    const NOT_MEASURED: &str = "not measured (the cook ran without -v)";
     let mut lines = Vec::new();
     let report = &out.report;
     let (mut tri_in, mut tri_out, mut acmr_in, mut acmr_out, mut bytes) =
@@ -433,14 +445,19 @@ fn stats(out: &cook::CookOutput, write_time: Duration) -> Vec<String> {
             ));
             tris = after;
         }
-        lines.push(format!(
-            "  acmr_in={:.3} acmr_out={:.3}",
-            s.acmr_in, s.acmr_out
-        ));
         let mesh_bytes = m.vertex_bytes + m.index_bytes;
+        let overfetch = if analyzed {
+            lines.push(format!(
+                "  acmr_in={:.3} acmr_out={:.3}",
+                s.acmr_in, s.acmr_out
+            ));
+            format!("overfetch={:.3}", s.overfetch)
+        } else {
+            lines.push(format!("  acmr {NOT_MEASURED}"));
+            "overfetch not measured".to_string()
+        };
         lines.push(format!(
-            "  overfetch={:.3} vertices={} bytes/triangle={:.2} (vertices {} B, indices {} B)",
-            s.overfetch,
+            "  {overfetch} vertices={} bytes/triangle={:.2} (vertices {} B, indices {} B)",
             s.vertices_out,
             mesh_bytes as f64 / s.triangles_out.max(1) as f64,
             m.vertex_bytes,
@@ -483,10 +500,13 @@ fn stats(out: &cook::CookOutput, write_time: Duration) -> Vec<String> {
         }
     }
     let n = tri_out.max(1) as f64;
+    let acmr = if analyzed {
+        format!("acmr_in={:.3} acmr_out={:.3}", acmr_in / n, acmr_out / n)
+    } else {
+        format!("acmr {NOT_MEASURED}")
+    };
     lines.push(format!(
-        "total: triangles {tri_in} -> {tri_out} acmr_in={:.3} acmr_out={:.3} bytes/triangle={:.2}",
-        acmr_in / n,
-        acmr_out / n,
+        "total: triangles {tri_in} -> {tri_out} {acmr} bytes/triangle={:.2}",
         bytes as f64 / n
     ));
     lines

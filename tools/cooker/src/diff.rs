@@ -487,22 +487,37 @@ impl Geometry<'_> {
         problems.extend(m.shading.problems(name, "corners"));
         shading_json(entry, &m.shading);
         let gap = ca.max_gap.max(cb.max_gap);
+        // The corner move is over matched triangles and the gap over unmatched ones on the
+        // other's surface; with none of either they said 0, next to triangles off by more.
+        let matched = (na as usize).saturating_sub(ua.len());
+        let on_surface = ua.len() + ub.len() - ca.off_surface - cb.off_surface;
         entry["same_order"] = json!(false);
-        entry["max_position_delta"] = json!(m.max_delta);
+        entry["max_position_delta"] = json!((matched > 0).then_some(m.max_delta));
         entry["unmatched_triangles"] = json!([ua.len(), ub.len()]);
         entry["off_surface_triangles"] = json!([ca.off_surface, cb.off_surface]);
-        entry["surface_gap"] = json!(gap);
+        entry["surface_gap"] = json!((on_surface > 0).then_some(gap));
         entry["material_corner_changes"] = json!(m.material_changes);
         entry["retriangulated_material_changes"] = json!(ca.material_changes + cb.material_changes);
+        let moved = if matched > 0 {
+            format!(
+                "largest corner move of the {matched} matched {:.3e}",
+                m.max_delta
+            )
+        } else {
+            "none matched".to_string()
+        };
+        let gap = if on_surface > 0 {
+            format!(", largest surface gap of the {on_surface} on it {gap:.3e}")
+        } else {
+            String::new()
+        };
         format!(
             "mesh {name:?}: triangles compared in any order: {} of a and {} of b unmatched, \
-             {} and {} of those off the other's surface; largest corner move {:.3e}, surface \
-             gap {gap:.3e}",
+             {} and {} of those off the other's surface; {moved}{gap}",
             ua.len(),
             ub.len(),
             ca.off_surface,
             cb.off_surface,
-            m.max_delta
         )
     }
 }

@@ -227,6 +227,66 @@ fn what_the_cook_said(o: &Output) -> (String, Vec<String>) {
 }
 
 #[test]
+fn a_verbose_hit_on_a_quiet_cook_says_acmr_was_not_measured() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = common::small_scene(&dir.path().join("a"));
+    let cache = dir.path().join("cache");
+    let out = dir.path().join("out.pack");
+    // ACMR is measured only with -v; a hit replaying a quiet cook's statistics said 0.000.
+    let quiet = Command::new(env!("CARGO_BIN_EXE_cooker"))
+        .arg("cook")
+        .arg(&scene)
+        .arg("-o")
+        .arg(&out)
+        .arg("--cache-dir")
+        .arg(&cache)
+        .output()
+        .unwrap();
+    assert!(quiet.status.success(), "{}", stderr(&quiet));
+    let hit = cook(&scene, &out, &cache);
+    let said = stdout(&hit);
+    assert!(said.contains("is up to date"), "{said}");
+    assert!(!said.contains("acmr_in="), "{said}");
+    assert!(
+        said.contains("acmr not measured (the cook ran without -v)"),
+        "{said}"
+    );
+}
+
+#[test]
+fn a_cache_directory_that_cannot_be_made_leaves_the_cook_uncached() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = common::small_scene(&dir.path().join("a"));
+    let file = dir.path().join("a-file");
+    std::fs::write(&file, "not a directory").unwrap();
+    let out = dir.path().join("out.pack");
+    let o = cook(&scene, &out, &file);
+    let err = stderr(&o);
+    assert!(
+        err.contains(&format!(
+            "warning: cache directory {}: a file, not a directory; cooking without a cache",
+            file.display()
+        )),
+        "{err}"
+    );
+    assert!(out.is_file());
+    assert_eq!(std::fs::read_to_string(&file).unwrap(), "not a directory");
+
+    // `cooker cache stats` is about the cache: there it is an error.
+    let o = Command::new(env!("CARGO_BIN_EXE_cooker"))
+        .args(["cache", "stats", "--cache-dir"])
+        .arg(&file)
+        .output()
+        .unwrap();
+    assert_eq!(o.status.code(), Some(4), "{}", stderr(&o));
+    assert!(
+        stderr(&o).contains("a file, not a directory"),
+        "{}",
+        stderr(&o)
+    );
+}
+
+#[test]
 fn a_hit_replays_what_the_cook_said_marked_as_reused() {
     let dir = tempfile::tempdir().unwrap();
     let scene = common::small_scene(&dir.path().join("a"));

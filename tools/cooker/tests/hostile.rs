@@ -309,6 +309,24 @@ fn hostile_manifests_and_outputs() {
             "{stderr}"
         );
     }
+
+    // A directory is bad usage, said before the cook runs (it cooked, then exited 4).
+    let o = cook(&scene, d);
+    assert_eq!(o.status.code(), Some(2), "{}", text(&o));
+    let stderr = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(
+        stderr.lines().last(),
+        Some(
+            format!(
+                "error: -o {}: is a directory; name the pack file to write in it, e.g. -o {}",
+                d.display(),
+                d.join("scene.pack").display()
+            )
+            .as_str()
+        ),
+        "{stderr}"
+    );
+    assert!(!stderr.contains("note:"), "cooked first: {stderr}");
 }
 
 #[test]

@@ -181,6 +181,74 @@ fn write_edited_vertices(path: &Path, edit: impl FnOnce(&mut Vec<pack::StandardV
     write_in_layout(path, None, edit);
 }
 
+/// The sample's quad with its triangles' corners listed from the second (so it compares as
+/// sets), moved by `dz` off its plane.
+fn write_rotated_corners(path: &Path, dz: f32) {
+    write_sample(path, |toc, data| {
+        let layout = toc.meshes[0].layout.clone();
+        let mut verts: Vec<pack::StandardVertex> = data.meshes[0]
+            .vertices
+            .chunks_exact(layout.stride as usize)
+            .map(|b| layout.decode(b))
+            .collect();
+        for v in &mut verts {
+            v.position[2] += dz;
+        }
+        data.meshes[0].vertices = layout.encode_vertices(&verts);
+        let rotated: [u16; 6] = [1, 2, 0, 4, 5, 3];
+        data.meshes[0].indices = rotated.iter().flat_map(|i| i.to_le_bytes()).collect();
+        toc.meshes[0].bounds_min[2] += dz;
+        toc.meshes[0].bounds_max[2] += dz;
+    });
+}
+
+/// Compared as sets, the summary said "largest corner move 0.000e0, surface gap …" beside
+/// triangles off the other's surface: the move is over matched triangles and the gap over
+/// those on the surface, and there were none of either.
+#[test]
+fn diff_as_sets_says_what_its_largest_move_and_gap_are_of() {
+    let dir = tempfile::tempdir().unwrap();
+    let a = dir.path().join("a.pack");
+    write_sample(&a, |_, _| {});
+    let diff = |b: &Path| {
+        let o = cooker(&[&"diff", &a, &b, &"--max-position-delta", &"0.001"]);
+        let json = cooker(&[
+            &"diff",
+            &a,
+            &b,
+            &"--max-position-delta",
+            &"0.001",
+            &"--json",
+        ]);
+        let v: serde_json::Value = serde_json::from_slice(&json.stdout).unwrap();
+        (o.status.code(), text(&o), v["meshes"][0].clone())
+    };
+    let moved = dir.path().join("moved.pack");
+    write_rotated_corners(&moved, 0.5);
+    let (code, said, m) = diff(&moved);
+    assert_eq!(code, Some(1), "{said}");
+    assert!(
+        said.contains("2 and 2 of those off the other's surface; none matched\n"),
+        "{said}"
+    );
+    assert!(!said.contains("largest"), "{said}");
+    assert_eq!(m["max_position_delta"], serde_json::Value::Null, "{m:#}");
+    assert_eq!(m["surface_gap"], serde_json::Value::Null, "{m:#}");
+
+    let same = dir.path().join("same.pack");
+    write_rotated_corners(&same, 0.0);
+    let (code, said, m) = diff(&same);
+    assert_eq!(code, Some(0), "{said}");
+    assert!(
+        said.contains(
+            "0 of a and 0 of b unmatched, 0 and 0 of those off the other's surface; \
+                       largest corner move of the 2 matched 0.000e0\n"
+        ),
+        "{said}"
+    );
+    assert_eq!(m["max_position_delta"], 0.0, "{m:#}");
+}
+
 /// A regression gate that accepts moved geometry must still see turned normals and moved
 /// texture coordinates: they change the shading and the texturing, not the positions. They
 /// were not compared at all, so `--max-position-delta` passed them with exit 0.

@@ -372,6 +372,13 @@ fn names_the_problem_on_bad_input() {
     let err = String::from_utf8_lossy(&o.stderr);
     assert_eq!(o.status.code(), Some(4), "{err}");
     assert!(err.contains("missing.pack"), "{err}");
+    // A missing model too, named once, and before the GPU is set up ("loading missing.obj:
+    // missing.obj: ..." after the adapter line).
+    let o = headless(&dir.join("missing.obj"));
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(4), "{err}");
+    assert_eq!(err.matches("missing.obj").count(), 1, "{err}");
+    assert!(!String::from_utf8_lossy(&o.stdout).contains("adapter"));
 
     let _ = std::fs::remove_dir_all(&dir);
 }

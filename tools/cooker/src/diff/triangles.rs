@@ -98,17 +98,25 @@ impl ShadingChanges {
     /// counted ("vertices" in the same order, "corners" of triangles matched in any).
     pub fn problems(&self, name: &str, unit: &str) -> Vec<String> {
         let mut out = Vec::new();
-        let deg = |r: f64| r.to_degrees();
+        // A turn too small for three decimals (a re-quantized normal) read "by up to 0.000".
+        let deg = |r: f64| {
+            let d = r.to_degrees();
+            if d >= 1e-3 || d == 0.0 {
+                format!("{d:.3}")
+            } else {
+                format!("{d:.1e}")
+            }
+        };
         if self.normals > 0 {
             out.push(format!(
-                "mesh {name:?}: {} {unit}' normals turned, by up to {:.3} degrees",
+                "mesh {name:?}: {} {unit}' normals turned, by up to {} degrees",
                 self.normals,
                 deg(self.max_normal_angle)
             ));
         }
         if self.tangents > 0 {
             out.push(format!(
-                "mesh {name:?}: {} {unit}' tangents turned or flipped, by up to {:.3} degrees",
+                "mesh {name:?}: {} {unit}' tangents turned or flipped, by up to {} degrees",
                 self.tangents,
                 deg(self.max_tangent_angle)
             ));
