@@ -28,6 +28,59 @@ pub struct MaterialRow {
     pub bounds_max: [f32; 3],
 }
 
+/// Every code a finding may carry, with what it means: `cooker validate --allow` takes these.
+pub const FINDING_CODES: &[(&str, &str)] = &[
+    (
+        "untagged",
+        "triangles tagged by heuristics: no rule of the scene matched them",
+    ),
+    ("ambiguous-name", "a name more than one rule matches"),
+    ("unused-rule", "a rule that matches no triangle"),
+    (
+        "unused-material",
+        "a material the model defines and no triangle uses",
+    ),
+    ("degenerate-triangles", "triangles of zero area"),
+    (
+        "duplicate-triangles",
+        "triangles with the same three corners as another",
+    ),
+    (
+        "window-not-window-class",
+        "a window entry whose glass is not tagged as a window",
+    ),
+    (
+        "window-unknown-material",
+        "a window entry naming no material of the model",
+    ),
+    (
+        "window-curved",
+        "glass that bends too much for one projector",
+    ),
+    (
+        "window-not-planar",
+        "glass whose triangles do not lie in one plane",
+    ),
+    ("window-no-area", "glass with no area"),
+    (
+        "window-no-design",
+        "a window with no design image and no texture to use",
+    ),
+    ("window-no-uvs", "glass without texture coordinates"),
+    (
+        "window-uv-range",
+        "glass whose texture coordinates leave [0, 1]",
+    ),
+    (
+        "unused-texture",
+        "a texture of a pack that no material uses",
+    ),
+    (
+        "material-mismatch",
+        "a pack whose vertices and draw ranges disagree on materials",
+    ),
+];
+
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct Validation {
     pub findings: Vec<Finding>,
@@ -39,16 +92,33 @@ impl Validation {
         self.findings.is_empty()
     }
 
+    /// No findings but those with a code in `allowed`.
+    pub fn is_clean_allowing(&self, allowed: &[String]) -> bool {
+        self.findings
+            .iter()
+            .all(|f| allowed.iter().any(|a| a == f.code))
+    }
+
     fn add(&mut self, code: &'static str, message: impl Into<String>) {
+        debug_assert!(
+            FINDING_CODES.iter().any(|(c, _)| *c == code),
+            "finding code {code:?} missing from FINDING_CODES"
+        );
         self.findings.push(Finding {
             code,
             message: message.into(),
         });
     }
 
-    pub fn to_json(&self) -> serde_json::Value {
+    /// `allowed`: codes that do not count as problems, marked as such.
+    pub fn to_json(&self, allowed: &[String]) -> serde_json::Value {
+        let is_allowed = |f: &Finding| allowed.iter().any(|a| a == f.code);
         json!({
-            "findings": self.findings.iter().map(|f| json!({"code": f.code, "message": f.message})).collect::<Vec<_>>(),
+            "findings": self.findings.iter().map(|f| json!({
+                "code": f.code,
+                "message": f.message,
+                "allowed": is_allowed(f),
+            })).collect::<Vec<_>>(),
             "materials": self.materials.iter().map(|m| json!({
                 "name": m.name,
                 "class": m.class.name(),
@@ -60,15 +130,20 @@ impl Validation {
         })
     }
 
-    /// Numbered findings, then the material table.
-    pub fn to_text(&self) -> String {
+    /// Numbered findings (those with a code in `allowed` marked so), then the material table.
+    pub fn to_text(&self, allowed: &[String]) -> String {
         use std::fmt::Write;
         let mut s = String::new();
         if self.findings.is_empty() {
             s.push_str("no findings\n");
         }
         for (i, f) in self.findings.iter().enumerate() {
-            let _ = writeln!(s, "{:>3}. [{}] {}", i + 1, f.code, f.message);
+            let mark = if allowed.iter().any(|a| a == f.code) {
+                " (allowed)"
+            } else {
+                ""
+            };
+            let _ = writeln!(s, "{:>3}. [{}]{mark} {}", i + 1, f.code, f.message);
         }
         let _ = writeln!(
             s,
@@ -576,4 +651,30 @@ pub fn check_geometry(
         }
     }
     v.materials = rows;
+}
+
+#[cfg(test)]
+mod tests {
+    use super::FINDING_CODES;
+
+    /// `cooker validate --allow` offers FINDING_CODES: every code this file adds is listed,
+    /// and every listed code is one it adds.
+    #[test]
+    fn finding_codes_are_the_codes_added() {
+        let source = include_str!("validate.rs");
+        let code = &source[..source.rfind("#[cfg(test)]").unwrap()];
+        let mut added: Vec<&str> = code
+            .split(".add(")
+            .skip(1)
+            .filter_map(|rest| {
+                let rest = rest.trim_start().strip_prefix('"')?;
+                rest.split('"').next()
+            })
+            .collect();
+        added.sort_unstable();
+        added.dedup();
+        let mut listed: Vec<&str> = FINDING_CODES.iter().map(|(c, _)| *c).collect();
+        listed.sort_unstable();
+        assert_eq!(added, listed);
+    }
 }

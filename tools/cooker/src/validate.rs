@@ -13,8 +13,21 @@ pub struct Args {
     /// Print one JSON object: `findings` ({code, message}) and `materials`.
     #[arg(long)]
     json: bool,
+    /// Findings with this code are still listed, marked "(allowed)", but do not make the exit
+    /// code 1: for a gate on models whose exporter leaves, say, unused materials behind.
+    /// Repeatable.
+    #[arg(long, value_name = "CODE", value_parser = finding_codes())]
+    allow: Vec<String>,
     #[command(flatten)]
     model: cook::cli::ModelArgs,
+}
+
+fn finding_codes() -> clap::builder::PossibleValuesParser {
+    cook::validate::FINDING_CODES
+        .iter()
+        .map(|&(code, help)| clap::builder::PossibleValue::new(code).help(help))
+        .collect::<Vec<_>>()
+        .into()
 }
 
 pub fn run(args: Args) -> Outcome {
@@ -46,11 +59,12 @@ pub fn run(args: Args) -> Outcome {
         cook::validate::validate_pack(&pack::Pack::open(&args.input)?)
     };
     if args.json {
-        println!("{}", serde_json::to_string_pretty(&validation.to_json())?);
+        let json = validation.to_json(&args.allow);
+        println!("{}", serde_json::to_string_pretty(&json)?);
     } else {
-        print!("{}", validation.to_text());
+        print!("{}", validation.to_text(&args.allow));
     }
-    Ok(if validation.is_clean() {
+    Ok(if validation.is_clean_allowing(&args.allow) {
         OK
     } else {
         FOUND_PROBLEMS

@@ -146,6 +146,43 @@ fn validate_json_lists_findings_and_materials() {
     );
 }
 
+/// A gate on third-party models can accept what their exporters leave behind: allowed findings
+/// are listed and marked, and only the others exit 1.
+#[test]
+fn validate_allow_accepts_findings_by_code() {
+    let obj = data("cornell_box/cornell_box.obj");
+    let o = cooker(&["validate", &obj, "--allow", "unused-material"]);
+    assert_eq!(o.status.code(), Some(1), "untagged is left");
+    assert!(
+        text(&o.stdout).contains("  2. [unused-material] (allowed) material \"blue\""),
+        "{}",
+        text(&o.stdout)
+    );
+    let o = cooker(&[
+        "validate",
+        &obj,
+        "--allow",
+        "unused-material",
+        "--allow",
+        "untagged",
+        "--json",
+    ]);
+    assert_eq!(o.status.code(), Some(0), "{}", text(&o.stderr));
+    let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    let findings = v["findings"].as_array().unwrap();
+    assert_eq!(findings.len(), 2, "{v:#}");
+    assert!(findings.iter().all(|f| f["allowed"] == true), "{v:#}");
+    // A code that does not exist is bad usage, and the message lists those that do.
+    let o = cooker(&["validate", &obj, "--allow", "unused-materials"]);
+    assert_eq!(o.status.code(), Some(2));
+    let err = text(&o.stderr);
+    assert!(
+        err.contains("invalid value 'unused-materials' for '--allow <CODE>'")
+            && err.contains("unused-material"),
+        "{err}"
+    );
+}
+
 #[test]
 fn bad_input_exits_3_with_file_and_line_and_keeps_the_old_pack() {
     let dir = scratch("bad");
