@@ -673,14 +673,24 @@ fn compress(
         "measured {:.3}{unit} over the chain, {:.3} on level 0, budget {budget}{unit}",
         c.error.mean, c.error.level0
     );
-    let note = format!("{} chosen by the error budget ({measured})", codec.name());
-    let mut said = Said::note(note);
-    if !fits {
-        said.warning = Some(format!(
-            "no block encoder setting fits the budget; {} is the most accurate ({measured})",
+    // Under `bc` with none fitting, the budget chose nothing: a note saying it had read as a
+    // contradiction of the warning beside it.
+    let said = if fits {
+        Said::note(format!(
+            "{} chosen by the error budget ({measured})",
             codec.name()
-        ));
-    }
+        ))
+    } else {
+        Said {
+            note: None,
+            warning: Some(format!(
+                "no block encoder setting fits the budget of {budget}{unit}; stored as {}, the \
+                 most accurate, as --texture-format bc asks ({})",
+                codec.name(),
+                misses.join("; ")
+            )),
+        }
+    };
     let cooked = CookedTexture {
         width,
         height,
@@ -691,12 +701,16 @@ fn compress(
     (cooked, said)
 }
 
+/// A note of the method the budget chose, or, where none fits it, the warning alone (it names
+/// the method used; a note beside it saying the budget chose it read as a contradiction).
 fn choice_note(what: &str, c: &crate::budget::Choice) -> Said {
     Said {
-        note: Some(format!(
-            "{what} method {} chosen by the error budget (measured max error {:.3} LSB)",
-            c.method, c.expected_error
-        )),
+        note: c.warning.is_none().then(|| {
+            format!(
+                "{what} method {} chosen by the error budget (measured max error {:.3} LSB)",
+                c.method, c.expected_error
+            )
+        }),
         warning: c.warning.as_ref().map(|w| format!("{what}: {w}")),
     }
 }

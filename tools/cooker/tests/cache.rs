@@ -188,7 +188,7 @@ fn error_budget_choice_is_reported_and_a_too_tight_budget_warns() {
     let err = String::from_utf8_lossy(&o.stderr);
     assert!(o.status.success(), "{err}");
     assert!(err.contains("chosen by the error budget"), "{err}");
-    // A budget no method reaches is a warning, beside the note of what was used.
+    // A budget no method reaches is a warning that names the method used (and no note).
     assert!(
         err.lines()
             .any(|l| l.starts_with("warning: ") && l.contains("tighter than any")),

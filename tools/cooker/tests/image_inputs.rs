@@ -162,6 +162,18 @@ fn block_compressed_textures_decode_within_the_budget() {
     let v: serde_json::Value =
         serde_json::from_slice(&cooker(&[&"info", &tight, &"--json"]).stdout).unwrap();
     assert_eq!(v["textures"][0]["format"], "rgba8");
+    // `bc` stores the most accurate setting and warns; no note says the budget chose it.
+    let (_, log) = cook(
+        "tight-bc.pack",
+        &["--max-error-lsb", "0.1", "--texture-format", "bc"],
+    );
+    assert!(
+        log.contains("warning: ")
+            && log.contains("no block encoder setting fits the budget of")
+            && log.contains("the most accurate, as --texture-format bc asks"),
+        "{log}"
+    );
+    assert!(!log.contains("chosen by the error budget"), "{log}");
 }
 
 /// zstd on top of the format (the default) is lossless: `--supercompression none` stores the
