@@ -12,7 +12,7 @@ pub enum TextureError {
     },
     // Not a `source`: image's errors print their own cause in their message and return it
     // again as their source, so a chain printer would repeat it.
-    #[error("{}: cannot decode image: {error}", path.display())]
+    #[error("{}: cannot decode image: {}", path.display(), decoder_message(error))]
     Decode {
         path: PathBuf,
         error: image::ImageError,
@@ -82,5 +82,49 @@ impl TextureError {
             | Self::TooLarge { path, .. } => Some(path),
             _ => None,
         }
+    }
+}
+
+/// The decoder's message, with what it prints for a programmer made readable: the png crate
+/// names a chunk by its `Debug` form, `ChunkType { type: IHDR, critical: true, … }`.
+fn decoder_message(e: &image::ImageError) -> String {
+    const CHUNK: &str = "ChunkType { type: ";
+    let s = e.to_string();
+    let mut out = String::with_capacity(s.len());
+    let mut rest = s.as_str();
+    while let Some(i) = rest.find(CHUNK) {
+        out.push_str(&rest[..i]);
+        let after = &rest[i + CHUNK.len()..];
+        let name = after.find([',', ' ', '}']).unwrap_or(after.len());
+        out.push_str(&after[..name]);
+        rest = after.find('}').map_or("", |j| &after[j + 1..]);
+    }
+    out.push_str(rest);
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_png_chunk_is_named_by_its_type() {
+        let png = std::fs::read(concat!(
+            env!("CARGO_MANIFEST_DIR"),
+            "/../../assets-src/windows/lancet.png"
+        ))
+        .unwrap();
+        let mut bad = png.clone();
+        // The IHDR chunk's CRC: 8 bytes of signature, 8 of length and type, 13 of data.
+        bad[29] ^= 0xff;
+        let error = image::load_from_memory(&bad).unwrap_err();
+        let e = TextureError::Decode {
+            path: "w.png".into(),
+            error,
+        };
+        let said = e.to_string();
+        assert!(said.starts_with("w.png: cannot decode image: "), "{said}");
+        assert!(said.ends_with("while decoding IHDR chunk."), "{said}");
+        assert!(!said.contains("ChunkType"), "{said}");
     }
 }
