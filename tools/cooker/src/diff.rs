@@ -522,6 +522,57 @@ impl Geometry<'_> {
     }
 }
 
+/// Each of a's textures' partner in b. First the texture the same materials use in the same
+/// slots, with the same role: a texture is named after its image's file, so a design file
+/// renamed, or a second file of the same stem added to the scene (which shifts the names to
+/// `t.2`), left the texture "missing from b" and "new in b", or compared it with another
+/// image. Then, for textures no material uses or whose materials changed, the same name.
+fn texture_partners(ta: &pack::Toc, tb: &pack::Toc) -> Vec<Option<usize>> {
+    // Material names are unique in a pack and a slot holds one texture, so a non-empty key
+    // names at most one texture of each pack.
+    fn uses(t: &pack::Toc, i: usize) -> Vec<(&str, &'static str)> {
+        let i = Some(i as u32);
+        let mut uses: Vec<_> = t
+            .materials
+            .iter()
+            .flat_map(|m| {
+                [
+                    ("colour", m.diffuse_texture),
+                    ("normal", m.normal_texture),
+                    ("projector", m.projector_texture),
+                ]
+                .into_iter()
+                .filter(move |&(_, x)| x == i)
+                .map(move |(slot, _)| (m.name.as_str(), slot))
+            })
+            .collect();
+        uses.sort_unstable();
+        uses
+    }
+    let keys_b: Vec<_> = (0..tb.textures.len()).map(|j| uses(tb, j)).collect();
+    let mut taken = vec![false; tb.textures.len()];
+    let mut partners: Vec<Option<usize>> = (0..ta.textures.len())
+        .map(|i| {
+            let key = uses(ta, i);
+            let role = ta.textures[i].role;
+            let j = (0..tb.textures.len())
+                .find(|&j| !key.is_empty() && keys_b[j] == key && tb.textures[j].role == role)?;
+            taken[j] = true;
+            Some(j)
+        })
+        .collect();
+    for (i, p) in partners.iter_mut().enumerate() {
+        if p.is_none() {
+            *p = (0..tb.textures.len())
+                .find(|&j| !taken[j] && tb.textures[j].name == ta.textures[i].name);
+            if let Some(j) = *p {
+                taken[j] = true;
+            }
+        }
+    }
+    partners
+}
+
 fn shading_json(entry: &mut Value, s: &ShadingChanges) {
     entry["normal_changes"] = json!(s.normals);
     entry["max_normal_delta_deg"] = json!(s.max_normal_angle.to_degrees());
@@ -763,14 +814,18 @@ pub fn run(args: Args) -> Outcome {
         }
     }
 
-    // Textures, by name, level by level.
+    // Textures, paired by the materials that use them, else by name; level by level.
     let tolerance = args.tolerance_lsb.unwrap_or(0.0);
+    let partners = texture_partners(ta, tb);
     let mut textures = Vec::new();
     for (i, t) in ta.textures.iter().enumerate() {
-        let Some((j, u)) = tb.texture_by_name(&t.name) else {
+        let Some((j, u)) = partners[i].map(|j| (j, &tb.textures[j])) else {
             problems.push(format!("texture {:?} is missing from b", t.name));
             continue;
         };
+        if u.name != t.name && args.tolerance_lsb.is_none() {
+            problems.push(format!("texture {:?} is named {:?} in b", t.name, u.name));
+        }
         // Where one chain is the other's from a level on, as a size cap leaves it
         // (`--max-texture-size`), the levels they share are compared.
         let shared = shared_levels(t, u);
@@ -818,10 +873,10 @@ pub fn run(args: Args) -> Outcome {
             }
             levels.push(d);
         }
-        textures.push((t.name.clone(), levels));
+        textures.push((t.name.clone(), u.name.clone(), levels));
     }
-    for t in &tb.textures {
-        if ta.texture_by_name(&t.name).is_none() {
+    for (j, t) in tb.textures.iter().enumerate() {
+        if !partners.contains(&Some(j)) {
             problems.push(format!("texture {:?} is new in b", t.name));
         }
     }
@@ -860,9 +915,10 @@ pub fn run(args: Args) -> Outcome {
     if args.json {
         let tex_json: Vec<Value> = textures
             .iter()
-            .map(|(name, levels)| {
+            .map(|(name, name_in_b, levels)| {
                 json!({
                     "name": name,
+                    "name_in_b": name_in_b,
                     "levels": levels.iter().map(|d| json!({
                         "level": d.level, "width": d.width, "height": d.height,
                         "max_error": d.max_error,
@@ -909,7 +965,7 @@ pub fn run(args: Args) -> Outcome {
         for line in &reordered {
             println!("  {line}");
         }
-        for (name, levels) in &textures {
+        for (name, _, levels) in &textures {
             for d in levels.iter().filter(|d| d.max_error > 0) {
                 let flip = d
                     .flip_mean

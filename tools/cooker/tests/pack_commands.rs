@@ -181,6 +181,66 @@ fn write_edited_vertices(path: &Path, edit: impl FnOnce(&mut Vec<pack::StandardV
     write_in_layout(path, None, edit);
 }
 
+/// Textures are named after their files: a renamed design file, or another of the same stem
+/// that shifts the names, must not turn a texture into "missing" and "new", or compare it with
+/// another image. They are paired by the materials that use them.
+#[test]
+fn diff_pairs_textures_by_the_materials_that_use_them() {
+    let dir = tempfile::tempdir().unwrap();
+    let a = dir.path().join("a.pack");
+    write_sample(&a, |_, _| {});
+    let renamed = dir.path().join("renamed.pack");
+    write_sample(&renamed, |toc, _| {
+        toc.textures[0].name = "rose-v2.colour".into();
+    });
+    let o = cooker(&[&"diff", &a, &renamed]);
+    let said = text(&o);
+    assert_eq!(o.status.code(), Some(1), "{said}");
+    assert!(
+        said.contains("texture \"rose.colour\" is named \"rose-v2.colour\" in b"),
+        "{said}"
+    );
+    assert!(
+        !said.contains("missing") && !said.contains("new in b"),
+        "{said}"
+    );
+    assert!(!said.contains("max error"), "{said}");
+    // With a tolerance the name is not a problem, as a mesh's is not with one.
+    let o = cooker(&[&"diff", &a, &renamed, &"--tolerance-lsb", &"0"]);
+    assert_eq!(o.status.code(), Some(0), "{}", text(&o));
+
+    // The two names swapped: by name, a colour texture was compared with a normal map.
+    let swapped = dir.path().join("swapped.pack");
+    write_sample(&swapped, |toc, _| {
+        let (x, y) = (toc.textures[0].name.clone(), toc.textures[1].name.clone());
+        toc.textures[0].name = y;
+        toc.textures[1].name = x;
+    });
+    let o = cooker(&[&"diff", &a, &swapped, &"--json"]);
+    let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    let pairs: Vec<(&str, &str)> = v["textures"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|t| {
+            (
+                t["name"].as_str().unwrap(),
+                t["name_in_b"].as_str().unwrap(),
+            )
+        })
+        .collect();
+    assert_eq!(
+        pairs,
+        [
+            ("rose.colour", "rose.normal"),
+            ("rose.normal", "rose.colour")
+        ],
+        "{v:#}"
+    );
+    let problems = v["problems"].as_array().unwrap();
+    assert_eq!(problems.len(), 2, "only the two names: {v:#}");
+}
+
 /// The sample's quad with its triangles' corners listed from the second (so it compares as
 /// sets), moved by `dz` off its plane.
 fn write_rotated_corners(path: &Path, dz: f32) {
