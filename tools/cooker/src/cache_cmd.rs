@@ -352,7 +352,27 @@ fn explain(
                     let result = scene_cache::result_key(&key, &hashed);
                     let where_ = level(&result);
                     println!("  with these {} inputs: result {}", hashed.len(), where_);
-                    reusable = where_ != "held nowhere";
+                    if where_ != "held nowhere" {
+                        // A result whose pack is gone is re-cooked, as the cook says.
+                        match scene_cache::pack_of(&cache, &result) {
+                            Ok(sha) => {
+                                let here = local.has_local_blob(&sha);
+                                let there = remote.as_ref().is_some_and(|r| r.has_blob(&sha));
+                                if here || there {
+                                    reusable = true;
+                                } else {
+                                    println!(
+                                        "a cook would cook it: the result's pack {} is gone \
+                                         (evicted, or removed as damaged by `cooker cache \
+                                         verify`)",
+                                        hex(&sha)
+                                    );
+                                    return Ok(OK);
+                                }
+                            }
+                            Err(why) => println!("  {why}"),
+                        }
+                    }
                 }
                 Err(why) => println!("  {why}"),
             }
@@ -392,6 +412,9 @@ fn explain(
             Err(_) => why.push(format!("{} cannot be read", path.display())),
         }
     }
+    // The manifest is among the inputs recorded too: one line per file.
+    let mut seen = std::collections::HashSet::new();
+    why.retain(|w| seen.insert(w.clone()));
     if why.is_empty() {
         println!(
             "a cook would cook it: nothing changed since the last cook recorded here, but its \

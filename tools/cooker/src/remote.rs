@@ -390,8 +390,8 @@ impl Remote {
         self.fetch_blob(&sha, Some(out.size))
     }
 
-    /// Whether a blob is there already (so it need not be sent again).
-    fn has_blob(&self, sha: &[u8; 32]) -> bool {
+    /// Whether a blob is there already (so it need not be sent again, or for `cache explain`).
+    pub fn has_blob(&self, sha: &[u8; 32]) -> bool {
         if self.off.load(Ordering::Relaxed) {
             return false;
         }

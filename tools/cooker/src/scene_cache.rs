@@ -48,6 +48,20 @@ struct SceneResult {
     transcript: Transcript,
 }
 
+/// The SHA-256 of the pack a scene result entry names, for `cooker cache explain`: the entry
+/// can outlive its pack (`cache verify` removes a damaged blob, trimming may take it).
+pub fn pack_of(cache: &Cache, result: &Key) -> Result<[u8; 32], String> {
+    let bytes = match cache.get(result) {
+        Lookup::Hit(b) => b,
+        Lookup::Miss => return Err("its scene entry is gone".into()),
+        Lookup::Corrupt(why) => return Err(format!("damaged cache entry: {why}")),
+    };
+    serde_json::from_slice::<SceneResult>(&bytes)
+        .ok()
+        .and_then(|r| parse_hex32(&r.pack_sha256))
+        .ok_or_else(|| "unreadable scene entry".to_string())
+}
+
 /// What a lookup found.
 pub enum Reuse {
     /// The output already holds the cached pack byte for byte: nothing to write.

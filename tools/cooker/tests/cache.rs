@@ -499,6 +499,44 @@ fn explain_names_the_setting_or_input_that_changed() {
     assert!(edited.contains("a cook would cook it"), "{edited}");
     assert!(edited.contains("lit.png changed"), "{edited}");
     assert!(!edited.contains("setting "), "{edited}");
+    // The manifest edited: one line for it (it is among the recorded inputs too).
+    let manifest = std::fs::read_to_string(&scene).unwrap();
+    std::fs::write(&scene, format!("{manifest}\n# edited\n")).unwrap();
+    let edited = explain(&[]);
+    assert_eq!(edited.matches("scene.toml changed").count(), 1, "{edited}");
+
+    // The result entry kept, its pack removed as damaged by `cache verify`: explain said a
+    // cook would reuse it while the cook said "cached pack was evicted".
+    std::fs::write(&scene, &manifest).unwrap();
+    cook(&scene, &out, &cache);
+    assert!(explain(&[]).contains("a cook would reuse the cached pack"));
+    for e in std::fs::read_dir(&cache).unwrap() {
+        let p = e.unwrap().path();
+        if p.extension().is_some_and(|x| x == "blob") {
+            let mut bytes = std::fs::read(&p).unwrap();
+            bytes.push(0);
+            std::fs::write(&p, bytes).unwrap();
+        }
+    }
+    let verify = Command::new(env!("CARGO_BIN_EXE_cooker"))
+        .args(["cache", "verify", "--cache-dir"])
+        .arg(&cache)
+        .output()
+        .unwrap();
+    assert_eq!(verify.status.code(), Some(1), "{}", said(&verify));
+    let gone = explain(&[]);
+    assert!(
+        gone.contains("a cook would cook it: the result's pack ")
+            && gone.contains(" is gone (evicted, or removed as damaged by `cooker cache verify`)"),
+        "{gone}"
+    );
+    assert!(!gone.contains("reuse"), "{gone}");
+    let again = cook(&scene, &out, &cache);
+    assert!(
+        stdout(&again).contains("cache: cooking because cached pack was evicted"),
+        "{}",
+        stdout(&again)
+    );
 }
 
 /// A command's stdout, then its stderr.
