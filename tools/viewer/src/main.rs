@@ -655,6 +655,17 @@ fn tune_allocator() {
     }
 }
 
+/// Writes an image as PNG through a temp file and a rename, so a failed write (a full disk, a
+/// killed run) leaves no cut-short PNG where a frame is expected.
+fn write_png(img: image::RgbaImage, path: &Path) -> Result<()> {
+    let mut png = Vec::new();
+    image::DynamicImage::ImageRgba8(img)
+        .write_to(&mut std::io::Cursor::new(&mut png), image::ImageFormat::Png)
+        .with_context(|| format!("encoding {}", path.display()))?;
+    pack::write_atomic(path, &png).with_context(|| format!("writing {}", path.display()))?;
+    Ok(())
+}
+
 /// Exit codes as the cooker's: 3 for invalid input (a pack or model that fails validation,
 /// the message naming it), 4 for an operating-system I/O error, 2 for bad usage (clap's); 1
 /// for anything else that failed (no GPU adapter, a device lost).
@@ -828,10 +839,7 @@ fn run() -> Result<()> {
         }
         let report = renderer.render(&gpu, &scene, view, TimingMethod::None)?;
         let path = args.out.join(format!("{stem}.png"));
-        renderer
-            .read_output(&gpu)?
-            .save(&path)
-            .with_context(|| format!("writing {}", path.display()))?;
+        write_png(renderer.read_output(&gpu)?, &path)?;
         println!("wrote {}", path.display());
         if args.passes {
             for id in TargetId::ALL {
@@ -849,9 +857,7 @@ fn run() -> Result<()> {
                 }
                 let (w, h, px) = renderer.read_target(&gpu, id)?;
                 let path = args.out.join(format!("{stem}-{}.png", id.file_stem()));
-                render::target_image(id, w, h, &px)
-                    .save(&path)
-                    .with_context(|| format!("writing {}", path.display()))?;
+                write_png(render::target_image(id, w, h, &px), &path)?;
                 println!("wrote {}", path.display());
             }
         }

@@ -763,14 +763,10 @@ impl App {
             &win.gpu.queue,
             win.display.display_texture(),
         )?;
-        let mut png = Vec::new();
-        image::DynamicImage::ImageRgba8(img)
-            .write_to(&mut std::io::Cursor::new(&mut png), image::ImageFormat::Png)
-            .context("encoding the screenshot")?;
         if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
             std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
         }
-        pack::write_atomic(path, &png).context("writing the screenshot")?;
+        crate::write_png(img, path).context("the screenshot")?;
         self.note(format!("wrote {}", path.display()));
         Ok(())
     }
