@@ -37,6 +37,14 @@ pub fn load_image(path: &Path) -> Result<DynamicImage, TextureError> {
     std::fs::File::open(path)
         .and_then(|f| f.take(KTX2_IDENTIFIER.len() as u64).read_to_end(&mut head))
         .map_err(io_error(path))?;
+    // An icon's header; cursors (type 2) are left out, since 00 00 02 00 also starts an
+    // uncompressed TGA.
+    if head.starts_with(&[0, 0, 1, 0]) {
+        let bytes = std::fs::read(path).map_err(io_error(path))?;
+        if let Some(png) = ico_png_entry(&bytes) {
+            return load_image_bytes(png, path);
+        }
+    }
     if is_ktx2(&head) || is_dds(&head) || is_jpeg(&head) {
         let bytes = std::fs::read(path).map_err(io_error(path))?;
         return load_image_bytes(&bytes, path);
@@ -104,6 +112,33 @@ fn jpeg_reaches_its_end(b: &[u8]) -> bool {
             }
         }
     }
+}
+
+/// The PNG stored as an ICO file's largest image, where that image is a PNG. image's ICO
+/// decoder takes only RGBA PNGs inside ("The PNG is not in RGBA format!"), and icon tools
+/// write RGB, grey and palette ones; decoded as PNGs they are read like any other. Other
+/// entries (BMP) are left to that decoder.
+fn ico_png_entry(b: &[u8]) -> Option<&[u8]> {
+    let u16_at = |i: usize| b.get(i..i + 2).map(|x| u16::from_le_bytes([x[0], x[1]]));
+    let u32_at = |i: usize| {
+        b.get(i..i + 4)
+            .map(|x| u32::from_le_bytes([x[0], x[1], x[2], x[3]]) as usize)
+    };
+    if u16_at(0)? != 0 || u16_at(2)? != 1 {
+        return None;
+    }
+    // Largest by the directory's sizes (0 means 256), then by bits per texel, as image picks.
+    let largest = (0..u16_at(4)? as usize)
+        .map(|k| 6 + 16 * k)
+        .filter_map(|e| {
+            let side = |v: u8| if v == 0 { 256 } else { v as u32 };
+            let (w, h) = (side(*b.get(e)?), side(*b.get(e + 1)?));
+            Some((w * h, u16_at(e + 6)?, u32_at(e + 8)?, u32_at(e + 12)?))
+        })
+        .max_by_key(|&(area, bpp, _, _)| (area, bpp))?;
+    let (_, _, size, offset) = largest;
+    let data = b.get(offset..offset.checked_add(size)?)?;
+    data.starts_with(b"\x89PNG\r\n\x1a\n").then_some(data)
 }
 
 /// [`load_image`] for an image held in memory (embedded in a glTF, say); `name` is what errors
@@ -185,6 +220,46 @@ fn limited<R: BufRead + Seek>(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// An ICO holding `png` as its one image.
+    fn ico(png: &[u8], side: u8) -> Vec<u8> {
+        let mut out = vec![0, 0, 1, 0, 1, 0, side, side, 0, 0, 1, 0, 24, 0];
+        out.extend((png.len() as u32).to_le_bytes());
+        out.extend(22u32.to_le_bytes());
+        out.extend(png);
+        out
+    }
+
+    /// Icon tools store RGB, grey and palette PNGs inside ICO files; image's ICO decoder
+    /// refused all but RGBA ones.
+    #[test]
+    fn an_ico_of_an_rgb_or_grey_png_is_read() {
+        let dir = tempfile::tempdir().unwrap();
+        let rgb = image::RgbImage::from_fn(32, 32, |x, y| image::Rgb([200, 8 * x as u8, y as u8]));
+        let grey = image::GrayImage::from_fn(32, 32, |x, _| image::Luma([8 * x as u8]));
+        for (img, what) in [
+            (DynamicImage::ImageRgb8(rgb), "rgb"),
+            (DynamicImage::ImageLuma8(grey), "grey"),
+        ] {
+            let mut png = Vec::new();
+            img.write_to(&mut Cursor::new(&mut png), image::ImageFormat::Png)
+                .unwrap();
+            let path = dir.path().join(format!("{what}.ico"));
+            std::fs::write(&path, ico(&png, 32)).unwrap();
+            let got = load_image(&path).unwrap();
+            assert_eq!(got.to_rgba8(), img.to_rgba8(), "{what}");
+        }
+        // An entry that points past the end is the ICO decoder's to refuse, with the file's name.
+        let mut cut = ico(b"\x89PNG\r\n\x1a\n", 32);
+        cut.truncate(cut.len() - 2);
+        let path = dir.path().join("cut.ico");
+        std::fs::write(&path, cut).unwrap();
+        let e = load_image(&path).unwrap_err();
+        assert!(
+            e.to_string().starts_with(&path.display().to_string()),
+            "{e}"
+        );
+    }
 
     /// A JPEG of `image`, with `exif` (a TIFF structure) in its APP1 segment.
     fn jpeg(image: &image::RgbImage, exif: Option<Vec<u8>>) -> Vec<u8> {
