@@ -71,13 +71,17 @@ impl CookError {
     }
 }
 
+/// Exit code of the tools for bad usage: an option that names nothing (`--window` matching no
+/// window), or one that does not apply to the input.
+pub const EXIT_USAGE: i32 = 2;
 /// Exit code of the tools for invalid input: a file that fails to parse or validate.
 pub const EXIT_INVALID_INPUT: i32 = 3;
 /// Exit code of the tools for an operating-system I/O error.
 pub const EXIT_IO: i32 = 4;
 
 /// The exit code the cooker and the viewer give one error of a chain when it is one of the
-/// libraries' (a pack's, a cook's) or the operating system's: [`EXIT_IO`] for I/O, else
+/// libraries' (a pack's, a cook's) or the operating system's: [`EXIT_IO`] for I/O,
+/// [`EXIT_USAGE`] for an option the input gives no meaning (both tools take them), else
 /// [`EXIT_INVALID_INPUT`]. `None` for any other error, which is the tool's to map.
 pub fn exit_code(cause: &(dyn std::error::Error + 'static)) -> Option<i32> {
     if let Some(p) = cause.downcast_ref::<pack::PackError>() {
@@ -88,10 +92,10 @@ pub fn exit_code(cause: &(dyn std::error::Error + 'static)) -> Option<i32> {
         });
     }
     if let Some(c) = cause.downcast_ref::<CookError>() {
-        return Some(if c.is_io() {
-            EXIT_IO
-        } else {
-            EXIT_INVALID_INPUT
+        return Some(match c {
+            CookError::UnknownWindow { .. } | CookError::UpAxisOfManifest { .. } => EXIT_USAGE,
+            c if c.is_io() => EXIT_IO,
+            _ => EXIT_INVALID_INPUT,
         });
     }
     cause.downcast_ref::<std::io::Error>().map(|_| EXIT_IO)

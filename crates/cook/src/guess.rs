@@ -913,9 +913,8 @@ pub fn guess(p: &Prepared) -> Guess {
             );
             let order = larger_window_first(windows);
             let w = windows.iter().min_by(|a, b| order(a, b));
-            Some(w.map_or(DVec3::new(-0.4, -0.8, 0.45), |w| {
-                (w.inside - DVec3::Y).normalize()
-            }))
+            let fallback = DVec3::new(-0.4, -0.8, 0.45).normalize();
+            Some(w.map_or(fallback, |w| down_through(w.inside).unwrap_or(fallback)))
         }
     };
     let light = match &lamp {
@@ -1181,6 +1180,14 @@ pub fn guess(p: &Prepared) -> Guess {
         sky,
         notes,
     }
+}
+
+/// A sun that falls into a window's inside: 45° down along the inside of upright glass,
+/// straight down through a skylight. `None` for glass whose inside is straight up (a pane lit
+/// from below, which no sun reaches): the sum was the zero vector there, and its NaN sun
+/// failed the cook with an invalid light.
+fn down_through(inside: DVec3) -> Option<DVec3> {
+    (inside - DVec3::Y).try_normalize()
 }
 
 /// Windows in order of area, largest first; windows as large as each other (to a millionth of

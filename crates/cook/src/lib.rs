@@ -28,7 +28,7 @@ pub mod validate;
 pub mod window_plan;
 pub mod windows;
 
-pub use error::{CookError, EXIT_INVALID_INPUT, EXIT_IO, exit_code};
+pub use error::{CookError, EXIT_INVALID_INPUT, EXIT_IO, EXIT_USAGE, exit_code};
 pub use import::Warning;
 pub use manifest::Manifest;
 pub use mesh::{CacheMode, MeshSettings, MeshStats};

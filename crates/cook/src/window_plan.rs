@@ -203,7 +203,9 @@ pub fn plan(
         let mn = material_names(mats);
         let hit = |e: &WindowDesign| e.matches(name, mn.iter().map(String::as_str));
         let entry = manifest.windows.iter().position(hit);
-        match (overrides.iter().position(hit), entry) {
+        // The last `--window` wins, as a later option does on a command line: with `'*=a.png'
+        // then 'rose=b.png'`, the rose gets b.png (the first won, and b.png was dropped).
+        match (overrides.iter().rposition(hit), entry) {
             (Some(o), Some(e)) => Some(&merged[o][e]),
             (Some(o), None) => Some(&overrides[o]),
             (None, e) => e.map(|e| &manifest.windows[e]),
@@ -230,6 +232,32 @@ pub fn plan(
                 pattern: o.name.clone().unwrap_or_default(),
                 known: found.iter().map(|i| i.name.clone()).collect(),
             });
+        }
+    }
+    // One that later ones override on every window it matches does nothing: say so.
+    let winner = |i: &instances::Instance| {
+        let mats: Vec<u16> = i.materials.iter().map(|m| m.0).collect();
+        let mn = material_names(&mats);
+        overrides
+            .iter()
+            .rposition(|o| o.matches(&i.name, mn.iter().map(String::as_str)))
+    };
+    let winners: Vec<Option<usize>> = found.iter().map(winner).collect();
+    for (k, o) in overrides.iter().enumerate() {
+        if !winners.contains(&Some(k)) {
+            report.warnings.push(Warning::new(
+                &manifest.path,
+                None,
+                format!(
+                    "--window {}={}: a later --window gives every window it matches another \
+                     design, so it is not used",
+                    o.name.as_deref().unwrap_or_default(),
+                    o.design
+                        .as_deref()
+                        .unwrap_or(std::path::Path::new(""))
+                        .display()
+                ),
+            ));
         }
     }
     for e in &manifest.windows {

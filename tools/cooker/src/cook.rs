@@ -70,8 +70,9 @@ pub struct SettingsArgs {
           value_parser = position_bits)]
     position_bits: cook::mesh::PositionBits,
     /// Use IMAGE as the design of the windows NAME matches: a window name (as `cooker info`
-    /// lists them), a material, or a glob over either. Repeatable; the manifest is not changed,
-    /// and its `[[window]]` entry for such a window keeps its normal map, fit and colour space.
+    /// lists them), a material, or a glob over either. Repeatable: where two match a window, the
+    /// later one wins. The manifest is not changed, and its `[[window]]` entry for such a
+    /// window keeps its normal map, fit and colour space.
     #[arg(long = "window", value_name = "NAME=IMAGE", value_parser = cook::manifest::WindowDesign::parse_override)]
     windows: Vec<(String, PathBuf)>,
     #[command(flatten)]

@@ -2,7 +2,7 @@
 
 pub const OK: i32 = 0;
 pub const FOUND_PROBLEMS: i32 = 1;
-pub const USAGE: i32 = 2;
+pub const USAGE: i32 = cook::EXIT_USAGE;
 pub const INVALID_INPUT: i32 = cook::EXIT_INVALID_INPUT;
 pub const IO: i32 = cook::EXIT_IO;
 
@@ -27,12 +27,6 @@ pub fn code_for(e: &anyhow::Error) -> i32 {
             .is_some()
         {
             return IO;
-        }
-        if let Some(
-            cook::CookError::UnknownWindow { .. } | cook::CookError::UpAxisOfManifest { .. },
-        ) = cause.downcast_ref::<cook::CookError>()
-        {
-            return USAGE;
         }
         if let Some(code) = cook::exit_code(cause) {
             return code;

@@ -47,7 +47,8 @@ pub fn run(args: Args) -> Outcome {
     let texture = &toc.textures[index];
     let Some(level) = texture.mips.get(args.mip) else {
         return Err(UsageError(format!(
-            "mip level {} of texture {:?} does not exist: it has {} level(s), 0 to {}",
+            "{}: mip level {} of texture {:?} does not exist: it has {} level(s), 0 to {}",
+            args.pack.display(),
             args.mip,
             texture.name,
             texture.mips.len(),

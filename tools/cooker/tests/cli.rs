@@ -394,3 +394,25 @@ fn an_output_over_an_input_is_refused() {
     assert_eq!(std::fs::read(&pack).unwrap(), pack_before);
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// A lone pane of glass facing up with nothing under it: the default sun through the largest
+/// window was the normalized sum of its inside (straight up) and down, NaN, and the cook failed
+/// "writing the pack: … light has invalid parameters", `init` with "a bug in cooker init".
+#[test]
+fn glass_lit_from_below_gets_a_valid_default_sun() {
+    let dir = scratch("up");
+    std::fs::write(dir.join("g.mtl"), "newmtl glass\nKd 0.2 0.4 0.8\nd 0.3\n").unwrap();
+    let obj = dir.join("up.obj");
+    std::fs::write(
+        &obj,
+        "mtllib g.mtl\nv 0 3 0\nv 0 3 2\nv 2 3 2\nv 2 3 0\nusemtl glass\nf 1 2 3\nf 1 3 4\n",
+    )
+    .unwrap();
+    let pack = dir.join("up.pack");
+    let o = cooker(&["cook", obj.to_str().unwrap(), "-o", pack.to_str().unwrap()]);
+    assert_eq!(o.status.code(), Some(0), "{}", text(&o.stderr));
+    let toml = dir.join("up.toml");
+    let o = cooker(&["init", obj.to_str().unwrap(), "-o", toml.to_str().unwrap()]);
+    assert_eq!(o.status.code(), Some(0), "{}", text(&o.stderr));
+    assert!(!std::fs::read_to_string(&toml).unwrap().contains("nan"));
+}

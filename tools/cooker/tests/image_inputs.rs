@@ -717,6 +717,36 @@ fn a_grey_and_alpha_normal_map_declared_rg_keeps_its_vectors() {
     assert_eq!(o.status.code(), Some(0), "{}", text(&o.stderr));
     texture_info(&other, "other");
     assert_eq!(extract(&other, "up.normal", 0, dir.path()), normals);
+
+    // Two for one window: the later wins (the first did, and the later was dropped without a
+    // word), and the one left with no window is named in a warning.
+    common::design(&dir.path().join("third.png"), 60);
+    let later = format!("l*={}", dir.path().join("third.png").display());
+    let twice = dir.path().join("t.pack");
+    let o = cooker(&[
+        &"cook",
+        &manifest,
+        &"-o",
+        &twice,
+        &"--no-cache",
+        &"--window",
+        &arg,
+        &"--window",
+        &later,
+    ]);
+    assert_eq!(o.status.code(), Some(0), "{}", text(&o.stderr));
+    texture_info(&twice, "third");
+    let info = text(&cooker(&[&"info", &twice]).stdout);
+    assert!(!info.contains("other"), "{info}");
+    let err = text(&o.stderr);
+    assert!(
+        err.contains(&format!(
+            "warning: {}: --window {arg}: a later --window gives every window it matches another \
+             design, so it is not used",
+            manifest.display()
+        )),
+        "{err}"
+    );
 }
 
 /// A vector normal map's strength (MTL `-bm`, glTF `normalTexture.scale`) scales x and y

@@ -720,7 +720,22 @@ fn run() -> Result<()> {
     let args = Args::parse();
     // Before the GPU is set up (a quarter of a second on lavapipe, more on a cold driver), so
     // a mistyped path fails at once.
-    std::fs::metadata(&args.input).with_context(|| args.input.display().to_string())?;
+    let input = std::fs::metadata(&args.input).with_context(|| args.input.display().to_string())?;
+    if input.is_dir() {
+        // It was read as a model of no known format: 'unsupported mesh format ""'.
+        return Err(anyhow::Error::new(std::io::Error::new(
+            std::io::ErrorKind::IsADirectory,
+            "is a directory, not a pack, scene.toml or model",
+        ))
+        .context(args.input.display().to_string()));
+    }
+    if args.out.exists() && !args.out.is_dir() {
+        return Err(Usage(format!(
+            "--out {}: is a file; the images go in a directory",
+            args.out.display()
+        ))
+        .into());
+    }
     // They change how a scene is cooked; a pack was cooked already, and they were dropped
     // without a word.
     if is_pack(&args.input)

@@ -54,14 +54,22 @@ pub struct ShadingChanges {
 }
 
 /// The angle between two directions, by the chord (accurate for tiny angles, where acos is
-/// not); zero vectors (a layout without the attribute) are the same direction.
+/// not). A zero vector is a vertex without that direction (the sky's normals, the tangents of
+/// a material without a normal map): the same as another zero vector, and as +Z, which is what
+/// an octahedral encoding, having no zero, stores for it (a quantized pack's sky normals were
+/// "turned by 180 degrees" against the same cook unquantized).
 fn angle(a: [f32; 3], b: [f32; 3]) -> f64 {
     let (a, b) = (
         DVec3::from(a.map(f64::from)).normalize_or_zero(),
         DVec3::from(b.map(f64::from)).normalize_or_zero(),
     );
     if a == DVec3::ZERO || b == DVec3::ZERO {
-        return if a == b { 0.0 } else { std::f64::consts::PI };
+        let other = a + b;
+        return if other == DVec3::ZERO || other.z > 1.0 - 1e-9 {
+            0.0
+        } else {
+            std::f64::consts::PI
+        };
     }
     2.0 * ((a - b).length() / 2.0).min(1.0).asin()
 }
@@ -76,7 +84,9 @@ impl ShadingChanges {
         self.max_normal_angle = self.max_normal_angle.max(n);
         let [tx, ty, tz, tw] = a.tangent;
         let [ux, uy, uz, uw] = b.tangent;
-        let t = if tw != uw {
+        // A vertex without a tangent has no handedness either.
+        let absent = [tx, ty, tz] == [0.0; 3] || [ux, uy, uz] == [0.0; 3];
+        let t = if tw != uw && !absent {
             std::f64::consts::PI
         } else {
             angle([tx, ty, tz], [ux, uy, uz])
@@ -356,6 +366,18 @@ pub(super) fn tri(c: [[f32; 3]; 3], m: u32) -> Triangle {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_missing_direction_matches_its_octahedral_encoding_only() {
+        let z = [0.0; 3];
+        assert_eq!(angle(z, z), 0.0);
+        assert_eq!(angle(z, [0.0, 0.0, 1.0]), 0.0);
+        assert_eq!(angle([0.0, 0.0, 1.0], z), 0.0);
+        assert_eq!(angle(z, [0.0, 1.0, 0.0]), std::f64::consts::PI);
+        assert!(
+            (angle([1.0, 0.0, 0.0], [0.0, 1.0, 0.0]) - std::f64::consts::FRAC_PI_2).abs() < 1e-12
+        );
+    }
 
     fn grid(n: usize) -> Vec<Triangle> {
         let mut out = Vec::new();
