@@ -79,6 +79,14 @@ impl CacheArgs {
             return Ok(None);
         }
         let dir = self.cache_dir.clone().unwrap_or_else(Cache::default_dir);
+        // `cooker cache stats --cache-dir typo` made the directory and said "0 entries".
+        if !lenient && self.cache_dir.is_some() && !dir.exists() {
+            return Err(crate::exit::UsageError(format!(
+                "--cache-dir {}: no such directory (nothing was cooked with it)",
+                dir.display()
+            ))
+            .into());
+        }
         let mut cache = match Cache::open(&dir) {
             Ok(c) => c.with_max_size(self.cache_max_size),
             Err(e) if lenient => {

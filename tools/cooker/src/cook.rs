@@ -151,6 +151,20 @@ pub fn refuse_overwriting_an_input<'a>(
     Ok(())
 }
 
+/// Refuses an `-o` that names a directory, as bad usage, before any work: `example` is the
+/// file name the message suggests in it. Every command that writes a file says this alike.
+pub fn refuse_a_directory(output: &Path, example: &str) -> anyhow::Result<()> {
+    if output.is_dir() {
+        return Err(crate::exit::UsageError(format!(
+            "-o {}: is a directory; name the file to write in it, e.g. -o {}",
+            output.display(),
+            output.join(example).display()
+        ))
+        .into());
+    }
+    Ok(())
+}
+
 /// Whether two paths name one existing file.
 pub fn same_file(a: &Path, b: &Path) -> bool {
     let (Ok(ma), Ok(mb)) = (std::fs::metadata(a), std::fs::metadata(b)) else {
@@ -178,14 +192,7 @@ fn ms(d: Duration) -> String {
 pub fn run(args: Args) -> Outcome {
     let start = Instant::now();
     // Before the cook, which would otherwise run only to fail at the write with an I/O error.
-    if args.output.is_dir() {
-        return Err(crate::exit::UsageError(format!(
-            "-o {}: is a directory; name the pack file to write in it, e.g. -o {}",
-            args.output.display(),
-            args.output.join("scene.pack").display()
-        ))
-        .into());
-    }
+    refuse_a_directory(&args.output, "scene.pack")?;
     refuse_overwriting_an_input(&args.output, [args.input.as_path()])?;
     let manifest = Manifest::open(&args.input)?;
     let mut settings = args.settings.resolve(&manifest)?;

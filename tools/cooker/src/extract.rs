@@ -27,6 +27,17 @@ pub struct Args {
 /// projector's colour is premultiplied by its coverage), the linear `n·0.5 + 0.5` encoding for
 /// `normal` textures (Z rebuilt for two-channel BC5).
 pub fn run(args: Args) -> Outcome {
+    crate::cook::refuse_a_directory(&args.output, &format!("{}.png", args.texture))?;
+    // PNG bytes in a `.jpg` were written without a word.
+    if let Some(ext) = args.output.extension()
+        && !ext.eq_ignore_ascii_case("png")
+    {
+        return Err(UsageError(format!(
+            "-o {}: extract writes PNG; name a .png file",
+            args.output.display()
+        ))
+        .into());
+    }
     crate::cook::refuse_overwriting_an_input(&args.output, [args.pack.as_path()])?;
     let pack = Pack::open(&args.pack)?;
     let toc = pack.toc();

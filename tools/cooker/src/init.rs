@@ -114,6 +114,10 @@ pub fn run(args: Args) -> Outcome {
         .output
         .clone()
         .unwrap_or_else(|| args.mesh.with_file_name("scene.toml"));
+    // The model first: `init scene.toml` said "exists; pass --force", and with --force that
+    // a manifest is no model.
+    let manifest = Manifest::from_mesh_file(&args.mesh)?;
+    crate::cook::refuse_a_directory(&output, "scene.toml")?;
     if output.exists() && !args.force {
         return Err(UsageError(format!(
             "{} exists; pass --force to replace it",
@@ -121,7 +125,6 @@ pub fn run(args: Args) -> Outcome {
         ))
         .into());
     }
-    let manifest = Manifest::from_mesh_file(&args.mesh)?;
     let mut report = cook::Report::default();
     let mut settings = cook::Settings::new(&manifest);
     args.model.apply(&mut settings);

@@ -10,7 +10,7 @@ use crate::exit::{FOUND_PROBLEMS, OK, Outcome};
 pub struct Args {
     /// A scene manifest, a bare mesh file (.obj/.gltf/.glb/.ply), or a cooked pack.
     input: PathBuf,
-    /// Print one JSON object: `findings` ({code, message}) and `materials`.
+    /// Print one JSON object: `findings` ({code, message, allowed}) and `materials`.
     #[arg(long)]
     json: bool,
     /// Findings with this code are still listed, marked "(allowed)", but do not make the exit

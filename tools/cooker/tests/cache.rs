@@ -272,7 +272,17 @@ fn a_cache_directory_that_cannot_be_made_leaves_the_cook_uncached() {
     assert!(out.is_file());
     assert_eq!(std::fs::read_to_string(&file).unwrap(), "not a directory");
 
-    // `cooker cache stats` is about the cache: there it is an error.
+    // `cooker cache stats` is about the cache: a typo is not made into an empty one.
+    let typo = dir.path().join("typo");
+    let o = Command::new(env!("CARGO_BIN_EXE_cooker"))
+        .args(["cache", "stats", "--cache-dir"])
+        .arg(&typo)
+        .output()
+        .unwrap();
+    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+    assert!(stderr(&o).contains("no such directory"), "{}", stderr(&o));
+    assert!(!typo.exists());
+    // And a file in its place is an error.
     let o = Command::new(env!("CARGO_BIN_EXE_cooker"))
         .args(["cache", "stats", "--cache-dir"])
         .arg(&file)

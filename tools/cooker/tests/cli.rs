@@ -416,3 +416,27 @@ fn glass_lit_from_below_gets_a_valid_default_sun() {
     assert_eq!(o.status.code(), Some(0), "{}", text(&o.stderr));
     assert!(!std::fs::read_to_string(&toml).unwrap().contains("nan"));
 }
+
+/// `init` names a manifest given as the model at once (it said "exists; pass --force", and with
+/// --force that a manifest is no model), and a directory as `-o` is bad usage.
+#[test]
+fn init_refuses_a_manifest_as_model_and_a_directory_as_output() {
+    let dir = scratch("init");
+    let toml = dir.join("scene.toml");
+    std::fs::write(&toml, "[[mesh]]\nsource = \"m.obj\"\n").unwrap();
+    let o = cooker(&["init", toml.to_str().unwrap()]);
+    assert_eq!(o.status.code(), Some(3), "{}", text(&o.stderr));
+    assert!(!text(&o.stderr).contains("--force"), "{}", text(&o.stderr));
+    let o = cooker(&[
+        "init",
+        &data("cornell_box/cornell_box.obj"),
+        "-o",
+        dir.to_str().unwrap(),
+    ]);
+    assert_eq!(o.status.code(), Some(2), "{}", text(&o.stderr));
+    assert!(
+        text(&o.stderr).contains("is a directory; name the file to write in it"),
+        "{}",
+        text(&o.stderr)
+    );
+}

@@ -84,10 +84,29 @@ fn bad_name_or_level_is_usage_and_writes_nothing() {
     assert_eq!(o.status.code(), Some(2));
     let err = String::from_utf8_lossy(&o.stderr);
     assert!(
-        err.contains("mip level 3 of texture \"design\" does not exist: it has 3 level(s), 0 to 2"),
+        err.contains(&format!(
+            "{}: mip level 3 of texture \"design\" does not exist: it has 3 level(s), 0 to 2",
+            pack.display()
+        )),
         "{err}"
     );
     assert!(!out.exists());
+    // A directory, or another format's name, is bad usage too (a .jpg got PNG bytes).
+    for (to, says) in [
+        (
+            dir.path().to_path_buf(),
+            "is a directory; name the file to write in it",
+        ),
+        (
+            dir.path().join("x.jpg"),
+            "extract writes PNG; name a .png file",
+        ),
+    ] {
+        let o = cooker(&[&"extract", &pack, &"design", &"-o", &to]);
+        assert_eq!(o.status.code(), Some(2));
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert!(err.contains(says), "{err}");
+    }
     assert_eq!(
         std::fs::read_dir(dir.path()).unwrap().count(),
         1,

@@ -318,7 +318,7 @@ fn hostile_manifests_and_outputs() {
         stderr.lines().last(),
         Some(
             format!(
-                "error: -o {}: is a directory; name the pack file to write in it, e.g. -o {}",
+                "error: -o {}: is a directory; name the file to write in it, e.g. -o {}",
                 d.display(),
                 d.join("scene.pack").display()
             )

@@ -698,22 +698,30 @@ pub fn import_with(
             message: "the file is empty (0 bytes)".into(),
         });
     }
+    let mut out = match mesh_format(path)? {
+        "obj" => obj::import(path, text_encoding),
+        "gltf" | "glb" => gltf::import(path),
+        _ => ply::import(path),
+    }?;
+    warn_far_positions(&mut out);
+    Ok(out)
+}
+
+/// A model file's format by its extension (lower case: "obj", "gltf", "glb" or "ply"), or the
+/// error naming the file for any other.
+pub fn mesh_format(path: &Path) -> Result<&'static str, CookError> {
     let ext = path
         .extension()
         .map(|e| e.to_string_lossy().to_ascii_lowercase())
         .unwrap_or_default();
-    let mut out = match ext.as_str() {
-        "obj" => obj::import(path, text_encoding),
-        "gltf" | "glb" => gltf::import(path),
-        "ply" => ply::import(path),
-        _ => Err(CookError::Source {
+    ["obj", "gltf", "glb", "ply"]
+        .into_iter()
+        .find(|f| *f == ext)
+        .ok_or_else(|| CookError::Source {
             path: path.to_path_buf(),
             line: None,
             message: format!("unsupported mesh format {ext:?}: expected .obj, .gltf, .glb or .ply"),
-        }),
-    }?;
-    warn_far_positions(&mut out);
-    Ok(out)
+        })
 }
 
 /// A model whose first vertex lies near the origin but whose others lie in survey coordinates

@@ -461,6 +461,7 @@ impl Manifest {
             path: path.to_path_buf(),
             source,
         })?;
+        crate::import::mesh_format(path)?;
         let name = path
             .file_stem()
             .map(|s| s.to_string_lossy().into_owned())
