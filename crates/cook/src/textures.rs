@@ -853,6 +853,11 @@ fn run(
             opts.max_size = Some(settings.max_size.map_or(pack::PROJECTOR_MAX_SIZE, |cap| {
                 cap.min(pack::PROJECTOR_MAX_SIZE)
             }));
+            // A cap the user sets holds for every texture, a projector's light margin included
+            // (a 256 cap stored a 269 projector); the format's own bounds the design's part.
+            opts.cap_whole_level = settings
+                .max_size
+                .is_some_and(|c| c <= pack::PROJECTOR_MAX_SIZE);
             opts.block_pad = pad;
             let choice = max_error.map_or_else(Said::default, |b| {
                 // The blur runs by its narrower σ (`texture::BlurMethod::resolve`).

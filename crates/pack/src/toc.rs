@@ -401,8 +401,9 @@ pub struct Mesh {
 }
 
 /// The longest side, in texels, at which renderers sample projector textures: cookers store no
-/// larger level (projectors are blurred, so this keeps their detail), and renderers resample
-/// any projector to at most this size.
+/// level whose design part is larger (projectors are blurred, so this keeps their detail; the
+/// light's margin around the design comes on top, so a stored level may be a little larger),
+/// and renderers resample any projector to at most this size.
 pub const PROJECTOR_MAX_SIZE: u32 = 512;
 
 /// The plane a window's design is mapped onto: `world = origin + u * u_axis + v * v_axis` for

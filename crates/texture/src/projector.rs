@@ -26,6 +26,9 @@ pub struct ProjectorOptions {
     /// texels on its longer side: the size a renderer samples projectors at
     /// (`pack::PROJECTOR_MAX_SIZE`), so larger levels would only be bytes never read.
     pub max_size: Option<u32>,
+    /// `max_size` bounds the whole stored level, margin included, rather than its design part:
+    /// for a cap a device sets (`cooker cook --max-texture-size`), which no texture may pass.
+    pub cap_whole_level: bool,
     pub method: BlurMethod,
     /// Grow the stored level 0 with transparent black (the blur's own zero border) to whole
     /// 4x4 blocks before the lower levels are made from it, for block storage
@@ -48,6 +51,7 @@ impl ProjectorOptions {
             sigma_texels: sigma_texels.into(),
             max_error_lsb: None,
             max_size: None,
+            cap_whole_level: false,
             method: BlurMethod::Auto,
             block_pad: false,
             margin: [0, 0],
@@ -404,7 +408,9 @@ fn choose_level(
         // part, the level less its margin of m / 2^k on each side, is within the cap.
         let halvings = |size: u32, m: u32| {
             let mut k = keep;
-            let part = |k: usize| (size >> k).max(1) as f64 - 2.0 * m as f64 / (1u64 << k) as f64;
+            let margin = if opts.cap_whole_level { 0 } else { m };
+            let part =
+                |k: usize| (size >> k).max(1) as f64 - 2.0 * margin as f64 / (1u64 << k) as f64;
             while (size >> k) > 1 && part(k) > cap as f64 {
                 k += 1;
             }

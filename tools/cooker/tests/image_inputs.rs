@@ -1005,3 +1005,24 @@ fn a_size_cap_stores_a_smaller_level_and_diff_compares_what_is_shared() {
     assert_eq!(o.status.code(), Some(2), "{}", text(&o.stderr));
     assert!(!dir.path().join("x.pack").exists());
 }
+
+/// The cap holds for every texture, a projector's light margin included: the default scene's
+/// rose projector was stored 269x269 under a cap of 256 (its design part within it).
+#[test]
+fn a_size_cap_bounds_projectors_with_their_margin() {
+    let dir = tempfile::tempdir().unwrap();
+    let pack = dir.path().join("capped.pack");
+    let scene = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../assets-src/scene.toml");
+    cook_obj(&scene, &pack, &["--max-texture-size", "256"]);
+    let o = cooker(&[&"info", &pack, &"--json"]);
+    let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    let textures = v["textures"].as_array().unwrap();
+    assert!(textures.iter().any(|t| t["role"] == "projector"), "{v:#}");
+    for t in textures {
+        let side = t["width"]
+            .as_u64()
+            .unwrap()
+            .max(t["height"].as_u64().unwrap());
+        assert!(side <= 256, "{}: {side}", t["name"]);
+    }
+}
