@@ -522,11 +522,12 @@ impl Geometry<'_> {
     }
 }
 
-/// Each of a's textures' partner in b. First the texture the same materials use in the same
-/// slots, with the same role: a texture is named after its image's file, so a design file
-/// renamed, or a second file of the same stem added to the scene (which shifts the names to
-/// `t.2`), left the texture "missing from b" and "new in b", or compared it with another
-/// image. Then, for textures no material uses or whose materials changed, the same name.
+/// Each of a's textures' partner in b. First the texture of the same role that most of the
+/// same materials use in the same slots (the same name breaking ties): a texture is named
+/// after its image's file, so a design file renamed, or a second file of the same stem added
+/// to the scene (which shifts the names to `t.2`), left the texture "missing from b" and "new
+/// in b", or compared it with another image. Then, for textures no material uses, the same
+/// name.
 fn texture_partners(ta: &pack::Toc, tb: &pack::Toc) -> Vec<Option<usize>> {
     // Material names are unique in a pack and a slot holds one texture, so a non-empty key
     // names at most one texture of each pack.
@@ -554,9 +555,11 @@ fn texture_partners(ta: &pack::Toc, tb: &pack::Toc) -> Vec<Option<usize>> {
     let mut partners: Vec<Option<usize>> = (0..ta.textures.len())
         .map(|i| {
             let key = uses(ta, i);
-            let role = ta.textures[i].role;
+            let t = &ta.textures[i];
+            let shared = |j: usize| keys_b[j].iter().filter(|u| key.contains(u)).count();
             let j = (0..tb.textures.len())
-                .find(|&j| !key.is_empty() && keys_b[j] == key && tb.textures[j].role == role)?;
+                .filter(|&j| !taken[j] && tb.textures[j].role == t.role && shared(j) > 0)
+                .max_by_key(|&j| (shared(j), tb.textures[j].name == t.name, usize::MAX - j))?;
             taken[j] = true;
             Some(j)
         })
@@ -767,7 +770,8 @@ pub fn run(args: Args) -> Outcome {
         }
     }
 
-    // Materials, by name.
+    // Materials, by name; textures paired first, so a material's textures can be followed.
+    let partners = texture_partners(ta, tb);
     let mut materials = Vec::new();
     let (tria, trib) = (ta.triangles_per_material(), tb.triangles_per_material());
     for (i, m) in ta.materials.iter().enumerate() {
@@ -800,10 +804,40 @@ pub fn run(args: Args) -> Outcome {
                         n.emissive
                     ));
                 }
+                // Which texture a slot names: a material given another image (a window's
+                // design switched to a new file) was only "texture … is new in b".
+                let mut textures_equal = true;
+                for (slot, x, y) in [
+                    ("colour", m.diffuse_texture, n.diffuse_texture),
+                    ("normal", m.normal_texture, n.normal_texture),
+                    ("projector", m.projector_texture, n.projector_texture),
+                ] {
+                    let same = match (x, y) {
+                        (None, None) => true,
+                        (Some(x), Some(y)) => partners[x as usize] == Some(y as usize),
+                        _ => false,
+                    };
+                    if !same {
+                        textures_equal = false;
+                        let name = |t: &pack::Toc, k: Option<u32>| {
+                            k.map_or("none".to_string(), |k| {
+                                format!("{:?}", t.textures[k as usize].name)
+                            })
+                        };
+                        problems.push(format!(
+                            "material {:?}: its {slot} texture is {} in a and {} in b, another \
+                             image",
+                            m.name,
+                            name(ta, x),
+                            name(tb, y)
+                        ));
+                    }
+                }
                 materials.push(json!({
                     "name": m.name, "class": [m.class.name(), n.class.name()],
                     "triangles": [tria[i], trib[j]],
                     "shading_equal": shading_equal,
+                    "textures_equal": textures_equal,
                 }));
             }
         }
@@ -816,7 +850,6 @@ pub fn run(args: Args) -> Outcome {
 
     // Textures, paired by the materials that use them, else by name; level by level.
     let tolerance = args.tolerance_lsb.unwrap_or(0.0);
-    let partners = texture_partners(ta, tb);
     let mut textures = Vec::new();
     for (i, t) in ta.textures.iter().enumerate() {
         let Some((j, u)) = partners[i].map(|j| (j, &tb.textures[j])) else {

@@ -241,6 +241,79 @@ fn diff_pairs_textures_by_the_materials_that_use_them() {
     assert_eq!(problems.len(), 2, "only the two names: {v:#}");
 }
 
+/// One window of three that share a design switched to a copy of another folder (same file
+/// stem, so the names shift): the design shared by the other two is still paired with itself,
+/// and the window whose material now names another image is named.
+#[test]
+fn diff_names_the_material_whose_design_changed() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = dir.path().join("scene");
+    common::copy_dir(
+        &Path::new(env!("CARGO_MANIFEST_DIR")).join("../../assets-src"),
+        &scene,
+    );
+    let cook = |name: &str| {
+        let out = dir.path().join(name);
+        let o = cooker(&[
+            &"cook",
+            &scene.join("scene.toml"),
+            &"-o",
+            &out,
+            &"--no-cache",
+        ]);
+        assert_eq!(o.status.code(), Some(0), "{}", text(&o));
+        out
+    };
+    let a = cook("a.pack");
+    let mosaic = image::open(scene.join("windows/mosaic.png")).unwrap();
+    std::fs::create_dir_all(scene.join("alt")).unwrap();
+    mosaic.fliph().save(scene.join("alt/mosaic.png")).unwrap();
+    let toml = std::fs::read_to_string(scene.join("scene.toml"))
+        .unwrap()
+        .replacen(
+            "material = \"window_lower_2\"\ndesign = \"windows/mosaic.png\"",
+            "material = \"window_lower_2\"\ndesign = \"alt/mosaic.png\"",
+            1,
+        );
+    assert!(toml.contains("alt/mosaic.png"));
+    std::fs::write(scene.join("scene.toml"), toml).unwrap();
+    let b = cook("b.pack");
+
+    let o = cooker(&[&"diff", &a, &b, &"--json"]);
+    assert_eq!(o.status.code(), Some(1));
+    let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    let problems: Vec<&str> = v["problems"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|p| p.as_str().unwrap())
+        .collect();
+    assert!(
+        problems.iter().any(|p| p
+            .starts_with("material \"window_lower_2\": its colour texture is \"mosaic\" in a and")
+            && p.ends_with("in b, another image")),
+        "{problems:#?}"
+    );
+    // The design the other windows keep is compared with itself: no texel differs.
+    assert!(
+        !problems
+            .iter()
+            .any(|p| p.starts_with("texture \"mosaic\" mip")),
+        "{problems:#?}"
+    );
+    let equal = |name: &str| {
+        v["materials"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .find(|m| m["name"] == name)
+            .unwrap()["textures_equal"]
+            .clone()
+    };
+    assert_eq!(equal("window_lower_2"), false);
+    assert_eq!(equal("window_lower_4"), true);
+}
+
 /// The sample's quad with its triangles' corners listed from the second (so it compares as
 /// sets), moved by `dz` off its plane.
 fn write_rotated_corners(path: &Path, dz: f32) {
