@@ -40,6 +40,7 @@ pub const FINDING_CODES: &[(&str, &str)] = &[
         "unused-material",
         "a material the model defines and no triangle uses",
     ),
+    ("no-triangles", "a model file with no faces (points or lines only)"),
     ("degenerate-triangles", "triangles of zero area"),
     (
         "duplicate-triangles",
@@ -300,6 +301,15 @@ pub fn validate_scene_with(
 
     // Degenerate and duplicate triangles as modelled (mesh processing drops degenerate ones).
     for src in &sources {
+        if src.triangle_count() == 0 {
+            v.add(
+                "no-triangles",
+                format!(
+                    "{}: no faces (points or lines only): nothing of it is cooked",
+                    src.path.display()
+                ),
+            );
+        }
         let tris = src
             .corners
             .positions()

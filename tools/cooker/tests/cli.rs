@@ -146,6 +146,23 @@ fn validate_json_lists_findings_and_materials() {
     );
 }
 
+/// A model of lines only validated clean ("no findings", exit 0) and cooked an empty pack.
+#[test]
+fn validate_finds_a_model_without_faces() {
+    let o = cooker(&["validate", &data("bad/obj/tobj/lines.obj"), "--json"]);
+    assert_eq!(o.status.code(), Some(1), "{}", text(&o.stderr));
+    let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    assert!(
+        v["findings"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .any(|f| f["code"] == "no-triangles"
+                && f["message"].as_str().unwrap().contains("lines.obj: no faces")),
+        "{v:#}"
+    );
+}
+
 /// A gate on third-party models can accept what their exporters leave behind: allowed findings
 /// are listed and marked, and only the others exit 1.
 #[test]
