@@ -40,7 +40,10 @@ pub const FINDING_CODES: &[(&str, &str)] = &[
         "unused-material",
         "a material the model defines and no triangle uses",
     ),
-    ("no-triangles", "a model file with no faces (points or lines only)"),
+    (
+        "no-triangles",
+        "a model file with no faces (points or lines only)",
+    ),
     ("degenerate-triangles", "triangles of zero area"),
     (
         "duplicate-triangles",

@@ -319,7 +319,22 @@ fn changed_leaves(prefix: &str, old: &serde_json::Value, new: &serde_json::Value
                 })
                 .collect()
         }
+        (Value::Array(a), Value::Array(b)) if a.len() == b.len() => a
+            .iter()
+            .zip(b)
+            .enumerate()
+            .flat_map(|(i, (x, y))| changed_leaves(&format!("{prefix}[{i}]"), x, y))
+            .collect(),
         (a, b) if a == b => Vec::new(),
+        // Settings hold f32s, recorded through f64 and read back: the last digit may differ,
+        // which said a setting changed that had not.
+        (Value::Number(a), Value::Number(b))
+            if a.as_f64()
+                .zip(b.as_f64())
+                .is_some_and(|(x, y)| x as f32 == y as f32) =>
+        {
+            Vec::new()
+        }
         (a, b) => vec![format!("{prefix}: {a} -> {b}")],
     }
 }
@@ -363,9 +378,21 @@ fn explain(
                     if where_ != "held nowhere" {
                         // A result whose pack is gone is re-cooked, as the cook says.
                         match scene_cache::pack_of(&cache, &result) {
-                            Ok(sha) => {
+                            Ok((sha, len, crc)) => {
                                 let here = local.has_local_blob(&sha);
                                 let there = remote.as_ref().is_some_and(|r| r.has_blob(&sha));
+                                // A damaged local pack is re-cooked, as the cook checks it.
+                                let damaged = here
+                                    && !matches!(local.fetch_blob(&sha).0, Lookup::Hit(p)
+                                        if p.len() as u64 == len && crc32fast::hash(&p) == crc);
+                                if damaged && !there {
+                                    println!(
+                                        "a cook would cook it: the result's pack {} is damaged \
+                                         (`cooker cache verify` removes it)",
+                                        hex(&sha)
+                                    );
+                                    return Ok(OK);
+                                }
                                 if here || there {
                                     reusable = true;
                                 } else {

@@ -48,9 +48,10 @@ struct SceneResult {
     transcript: Transcript,
 }
 
-/// The SHA-256 of the pack a scene result entry names, for `cooker cache explain`: the entry
-/// can outlive its pack (`cache verify` removes a damaged blob, trimming may take it).
-pub fn pack_of(cache: &Cache, result: &Key) -> Result<[u8; 32], String> {
+/// The SHA-256, length and CRC-32 of the pack a scene result entry names, for `cooker cache
+/// explain`: the entry can outlive its pack (`cache verify` removes a damaged blob, trimming
+/// may take it).
+pub fn pack_of(cache: &Cache, result: &Key) -> Result<([u8; 32], u64, u32), String> {
     let bytes = match cache.get(result) {
         Lookup::Hit(b) => b,
         Lookup::Miss => return Err("its scene entry is gone".into()),
@@ -58,7 +59,7 @@ pub fn pack_of(cache: &Cache, result: &Key) -> Result<[u8; 32], String> {
     };
     serde_json::from_slice::<SceneResult>(&bytes)
         .ok()
-        .and_then(|r| parse_hex32(&r.pack_sha256))
+        .and_then(|r| Some((parse_hex32(&r.pack_sha256)?, r.pack_len, r.pack_crc)))
         .ok_or_else(|| "unreadable scene entry".to_string())
 }
 

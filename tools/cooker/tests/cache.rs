@@ -509,6 +509,15 @@ fn explain_names_the_setting_or_input_that_changed() {
     assert!(edited.contains("a cook would cook it"), "{edited}");
     assert!(edited.contains("lit.png changed"), "{edited}");
     assert!(!edited.contains("setting "), "{edited}");
+    // A --window entry's settings hold f32s, recorded through JSON: read back, the last digit
+    // differed and explain listed "setting window_overrides" as changed.
+    common::design(&dir.path().join("a/ov.png"), 2);
+    let window = format!("lit={}", dir.path().join("a/ov.png").display());
+    cook_with(&scene, &out, &cache, &["--window", &window], "2");
+    common::design(&dir.path().join("a/ov.png"), 3);
+    let overridden = explain(&["--window", &window]);
+    assert!(overridden.contains("ov.png changed"), "{overridden}");
+    assert!(!overridden.contains("setting "), "{overridden}");
     // The manifest edited: one line for it (it is among the recorded inputs too).
     let manifest = std::fs::read_to_string(&scene).unwrap();
     std::fs::write(&scene, format!("{manifest}\n# edited\n")).unwrap();
@@ -528,6 +537,13 @@ fn explain_names_the_setting_or_input_that_changed() {
             std::fs::write(&p, bytes).unwrap();
         }
     }
+    // Damaged, before verify removes it: the cook re-cooks it, and explain says so.
+    let damaged = explain(&[]);
+    assert!(
+        damaged.contains("a cook would cook it: the result's pack ")
+            && damaged.contains(" is damaged (`cooker cache verify` removes it)"),
+        "{damaged}"
+    );
     let verify = Command::new(env!("CARGO_BIN_EXE_cooker"))
         .args(["cache", "verify", "--cache-dir"])
         .arg(&cache)

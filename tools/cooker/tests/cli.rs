@@ -158,7 +158,10 @@ fn validate_finds_a_model_without_faces() {
             .unwrap()
             .iter()
             .any(|f| f["code"] == "no-triangles"
-                && f["message"].as_str().unwrap().contains("lines.obj: no faces")),
+                && f["message"]
+                    .as_str()
+                    .unwrap()
+                    .contains("lines.obj: no faces")),
         "{v:#}"
     );
 }
