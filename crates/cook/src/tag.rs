@@ -1755,7 +1755,9 @@ mod tests {
 
     #[test]
     fn same_name_different_class_gets_distinct_materials() {
-        let m = Manifest::from_mesh_file(Path::new("Cargo.toml")).unwrap();
+        // Any model file will do: the manifest of a bare model only names it.
+        let model = tempfile::Builder::new().suffix(".obj").tempfile().unwrap();
+        let m = Manifest::from_mesh_file(model.path()).unwrap();
         let mut s = source(&[("white", Some("floor")), ("white", Some("back_wall"))]);
         s.parts[0].names.object = s.parts[0].names.group.take();
         let t = tag(&m, &mut [s]).unwrap();

@@ -208,21 +208,19 @@ impl DecodedImages {
     }
 }
 
-/// Deterministic per-design seed for the derived normal map's hammered-glass noise: the
-/// file name, or the name of a design made by the cook.
+/// Deterministic per-design seed for the derived normal map's hammered-glass noise, from the
+/// design's content: it was the file's name, so renaming a design file changed the glass
+/// (98 LSB in the derived normal map), which a regression test of the cook reads as a change.
+/// A file that cannot be read here is refused where it is decoded.
 fn seed(design: &ImageRef) -> u64 {
-    let name = match design {
-        ImageRef::File(path) => path
-            .file_name()
-            .map(|n| n.to_string_lossy().into_owned())
-            .unwrap_or_default(),
-        other => other.name(),
-    };
-    let mut h: u64 = 0xcbf2_9ce4_8422_2325;
-    for b in name.bytes() {
-        h = (h ^ b as u64).wrapping_mul(0x100_0000_01b3);
+    let of = |bytes: &[u8]| ((crc32fast::hash(bytes) as u64) << 32) ^ bytes.len() as u64;
+    match design {
+        ImageRef::File(path) => std::fs::read(path).map_or(0, |b| of(&b)),
+        ImageRef::Embedded { bytes, .. } => of(bytes),
+        ImageRef::Raster { image, .. } => {
+            of(image.as_raw()) ^ ((image.width() as u64) << 16 | image.height() as u64)
+        }
     }
-    h
 }
 
 impl Job {
@@ -1146,6 +1144,23 @@ fn unique_names(bases: Vec<String>) -> Vec<String> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// A design renamed, or copied elsewhere, keeps its glass: the noise's seed is its content.
+    #[test]
+    fn a_derived_normal_s_seed_follows_the_design_s_content_not_its_name() {
+        let dir = tempfile::tempdir().unwrap();
+        let (a, b, c) = (
+            dir.path().join("rose.png"),
+            dir.path().join("renamed.png"),
+            dir.path().join("other.png"),
+        );
+        std::fs::write(&a, b"the same bytes").unwrap();
+        std::fs::write(&b, b"the same bytes").unwrap();
+        std::fs::write(&c, b"other bytes").unwrap();
+        let s = |p: &std::path::Path| seed(&ImageRef::File(p.to_path_buf()));
+        assert_eq!(s(&a), s(&b));
+        assert_ne!(s(&a), s(&c));
+    }
 
     /// `x/t.png`, `y/t.png` and `t.2.png` cooked together: the second `t` used to be named
     /// `t.2` too, and the cook failed with an invalid table of contents (exit 3).

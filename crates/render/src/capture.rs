@@ -4,8 +4,9 @@
 
 use crate::{RenderError, TargetId};
 
-/// Image of an intermediate target for viewing: colour targets clamped and sRGB-encoded,
-/// normals mapped from [-1, 1] to [0, 1].
+/// Image of an intermediate target for viewing: radiance targets tone-mapped as the composite
+/// shows them at exposure 1 ([`crate::reference::tone_mapped`]), the window mask clamped and
+/// sRGB-encoded, normals mapped from [-1, 1] to [0, 1].
 pub fn target_image(id: TargetId, w: u32, h: u32, px: &[[f32; 4]]) -> image::RgbaImage {
     let enc = |v: f32| {
         let v = if v.is_finite() {
@@ -28,9 +29,15 @@ pub fn target_image(id: TargetId, w: u32, h: u32, px: &[[f32; 4]]) -> image::Rgb
         }) * 255.0
             + 0.5) as u8
     };
+    // Radiance (the sky, the lit scene, the god rays) runs past 1: clamped, the default
+    // scene's background pass was pure white. Shown as the composite shows it.
+    let hdr = matches!(id, TargetId::Background | TargetId::Lit | TargetId::GodRays);
     let mut img = image::RgbaImage::new(w, h);
     for (p, out) in px.iter().zip(img.pixels_mut()) {
-        *out = if id == TargetId::WindowNormals {
+        *out = if hdr {
+            let [r, g, b] = crate::reference::tone_map(*p);
+            image::Rgba([r, g, b, 255])
+        } else if id == TargetId::WindowNormals {
             image::Rgba([
                 lin(p[0] * 0.5 + 0.5),
                 lin(p[1] * 0.5 + 0.5),
@@ -127,4 +134,27 @@ pub fn read_texture(
         out.extend_from_slice(&data[y * padded as usize..y * padded as usize + row as usize]);
     }
     Ok(out)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The default scene's sky is radiance 1.5 to 4: clamped, its background pass was white.
+    #[test]
+    fn radiance_passes_are_tone_mapped_and_the_mask_is_not() {
+        let px = [[0.5, 2.0, 4.0, 1.0]];
+        let sky = target_image(TargetId::Background, 1, 1, &px)
+            .get_pixel(0, 0)
+            .0;
+        assert_eq!(&sky[..3], &crate::reference::tone_map(px[0])[..]);
+        assert!(sky[..3].iter().all(|&c| c < 255), "{sky:?}");
+        assert!(sky[0] < sky[1] && sky[1] < sky[2], "{sky:?}");
+        let lit = target_image(TargetId::Lit, 1, 1, &px).get_pixel(0, 0).0;
+        assert_eq!(lit, sky);
+        let mask = target_image(TargetId::WindowMask, 1, 1, &px)
+            .get_pixel(0, 0)
+            .0;
+        assert_eq!(&mask[1..3], &[255, 255]);
+    }
 }

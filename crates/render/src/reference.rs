@@ -629,8 +629,14 @@ impl Bvh {
 /// without glass or god rays: exposure 1, Narkowicz's ACES fit, sRGB, 8 bits. Tests and the
 /// bench compare the GPU and the reference through it.
 pub fn tone_mapped(w: u32, h: u32, px: &[[f32; 4]]) -> image::RgbImage {
+    image::RgbImage::from_fn(w, h, |x, y| image::Rgb(tone_map(px[(y * w + x) as usize])))
+}
+
+/// One linear HDR texel as [`tone_mapped`] shows it.
+pub(crate) fn tone_map(p: [f32; 4]) -> [u8; 3] {
     let aces = |x: f32| {
-        let x = x.max(0.0);
+        // NaN and infinities (an unlit texel's garbage) show black, not white.
+        let x = if x.is_finite() { x.max(0.0) } else { 0.0 };
         ((x * (2.51 * x + 0.03)) / (x * (2.43 * x + 0.59) + 0.14)).clamp(0.0, 1.0)
     };
     let srgb = |c: f32| {
@@ -641,8 +647,5 @@ pub fn tone_mapped(w: u32, h: u32, px: &[[f32; 4]]) -> image::RgbImage {
         };
         (s * 255.0).round().clamp(0.0, 255.0) as u8
     };
-    image::RgbImage::from_fn(w, h, |x, y| {
-        let p = px[(y * w + x) as usize];
-        image::Rgb([0, 1, 2].map(|c| srgb(aces(p[c]))))
-    })
+    [0, 1, 2].map(|c| srgb(aces(p[c])))
 }

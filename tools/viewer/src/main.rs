@@ -50,7 +50,8 @@ struct Args {
     #[arg(long, default_value = "all")]
     camera: String,
     /// Also write each intermediate pass (and the shadow map), and say which windows got a
-    /// shadow map and why.
+    /// shadow map and why. The background, lit and god-ray passes hold radiance past 1 and
+    /// are written tone-mapped, as the composite shows them at exposure 1.
     #[arg(long)]
     passes: bool,
     /// Say which windows got a shadow map and why (also printed with --passes), and where the
