@@ -1299,7 +1299,6 @@ fn settle_names(out: &mut Tagging, bases: &[String], uncut: &[bool]) {
 mod tests {
     use super::*;
     use crate::import::{Names, Part};
-    use std::path::Path;
 
     /// Fixed runs summed in order: the same bits on one thread as on two, within rounding of
     /// one sequential sum, for triangles whose parts interleave (a run holding many parts).
