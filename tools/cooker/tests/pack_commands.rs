@@ -155,6 +155,16 @@ fn same_triangles_in_another_order(a: &Path, b: &Path, delta: &str) -> serde_jso
 
 /// The sample with its vertices decoded, edited and written back in the layout of `encoding`
 /// (the sample's own where `None`).
+/// The first mesh's vertices, decoded from its own layout.
+fn sample_vertices(toc: &pack::Toc, data: &pack::PackData) -> Vec<pack::StandardVertex> {
+    let layout = &toc.meshes[0].layout;
+    data.meshes[0]
+        .vertices
+        .chunks_exact(layout.stride as usize)
+        .map(|b| layout.decode(b))
+        .collect()
+}
+
 fn write_in_layout(
     path: &Path,
     encoding: Option<pack::vertex::Encoding>,
@@ -162,11 +172,7 @@ fn write_in_layout(
 ) {
     write_sample(path, |toc, data| {
         let standard = toc.meshes[0].layout.clone();
-        let mut verts: Vec<pack::StandardVertex> = data.meshes[0]
-            .vertices
-            .chunks_exact(standard.stride as usize)
-            .map(|b| standard.decode(b))
-            .collect();
+        let mut verts = sample_vertices(toc, data);
         edit(&mut verts);
         let layout = encoding.map_or(standard, |e| {
             pack::vertex::layout(e, false, [0.0; 3], [1.0; 3])
@@ -319,11 +325,7 @@ fn diff_names_the_material_whose_design_changed() {
 fn write_rotated_corners(path: &Path, dz: f32) {
     write_sample(path, |toc, data| {
         let layout = toc.meshes[0].layout.clone();
-        let mut verts: Vec<pack::StandardVertex> = data.meshes[0]
-            .vertices
-            .chunks_exact(layout.stride as usize)
-            .map(|b| layout.decode(b))
-            .collect();
+        let mut verts = sample_vertices(toc, data);
         for v in &mut verts {
             v.position[2] += dz;
         }
