@@ -36,11 +36,11 @@ enum Job {
         /// `SourceMaterial::normal_scale`.
         strength: f32,
     },
+    /// Its hammered-glass noise is seeded by the design's content ([`seed`]), which the key
+    /// holds already.
     DerivedNormal {
         #[serde(skip)]
         design: ImageRef,
-        /// The hammered-glass noise's seed, from the design's name.
-        seed: u64,
     },
     Projector {
         #[serde(skip)]
@@ -211,7 +211,9 @@ impl DecodedImages {
 /// Deterministic per-design seed for the derived normal map's hammered-glass noise, from the
 /// design's content: it was the file's name, so renaming a design file changed the glass
 /// (98 LSB in the derived normal map), which a regression test of the cook reads as a change.
-/// A file that cannot be read here is refused where it is decoded.
+/// A file that cannot be read here is refused where it is decoded. Made when the job runs, once
+/// per design (a cache hit does not read it): made as jobs were planned, it read the design
+/// once per window using it.
 fn seed(design: &ImageRef) -> u64 {
     let of = |bytes: &[u8]| ((crc32fast::hash(bytes) as u64) << 32) ^ bytes.len() as u64;
     match design {
@@ -824,7 +826,7 @@ fn run(
             };
             Ok((chain, size, reduced.and(said), None))
         }
-        Job::DerivedNormal { design, seed } => {
+        Job::DerivedNormal { design } => {
             let srgb = texture::ColourOptions {
                 srgb: true,
                 filter: settings.mip_filter,
@@ -832,7 +834,7 @@ fn run(
             let (img, _) = fit(images.get(design)?, &srgb, design)?;
             let size = (img.width(), img.height());
             let (pw, ph) = storage(size);
-            let chain = texture::derive_normal_map_padded(&img, *seed, pw, ph)
+            let chain = texture::derive_normal_map_padded(&img, seed(design), pw, ph)
                 .map_err(|e| texture_error(Path::new(&design.name()), e))?;
             Ok((chain, size, Said::default(), None))
         }
@@ -1000,7 +1002,6 @@ pub fn cook_textures(
                         },
                         None => Job::DerivedNormal {
                             design: w.design.clone(),
-                            seed: seed(&w.design),
                         },
                     },
                     f,

@@ -18,6 +18,13 @@ pub struct Finding {
     pub message: String,
 }
 
+impl Finding {
+    /// Whether its code is one of `allowed` (`cooker validate --allow`).
+    pub fn is_allowed(&self, allowed: &[String]) -> bool {
+        allowed.iter().any(|a| a == self.code)
+    }
+}
+
 #[derive(Clone, Debug, PartialEq)]
 pub struct MaterialRow {
     pub name: String,
@@ -98,9 +105,7 @@ impl Validation {
 
     /// No findings but those with a code in `allowed`.
     pub fn is_clean_allowing(&self, allowed: &[String]) -> bool {
-        self.findings
-            .iter()
-            .all(|f| allowed.iter().any(|a| a == f.code))
+        self.findings.iter().all(|f| f.is_allowed(allowed))
     }
 
     fn add(&mut self, code: &'static str, message: impl Into<String>) {
@@ -116,12 +121,11 @@ impl Validation {
 
     /// `allowed`: codes that do not count as problems, marked as such.
     pub fn to_json(&self, allowed: &[String]) -> serde_json::Value {
-        let is_allowed = |f: &Finding| allowed.iter().any(|a| a == f.code);
         json!({
             "findings": self.findings.iter().map(|f| json!({
                 "code": f.code,
                 "message": f.message,
-                "allowed": is_allowed(f),
+                "allowed": f.is_allowed(allowed),
             })).collect::<Vec<_>>(),
             "materials": self.materials.iter().map(|m| json!({
                 "name": m.name,
@@ -142,7 +146,7 @@ impl Validation {
             s.push_str("no findings\n");
         }
         for (i, f) in self.findings.iter().enumerate() {
-            let mark = if allowed.iter().any(|a| a == f.code) {
+            let mark = if f.is_allowed(allowed) {
                 " (allowed)"
             } else {
                 ""

@@ -221,13 +221,20 @@ pub fn plan(
         &|name, mats| entry_for(name, mats).and_then(|e| e.inside),
     );
 
+    // Whether an entry or `--window` names window `k` found, by its name or its materials'.
+    let found_materials: Vec<Vec<String>> = found
+        .iter()
+        .map(|i| material_names(&i.materials.iter().map(|m| m.0).collect::<Vec<_>>()))
+        .collect();
+    let names_window = |e: &WindowDesign, k: usize| {
+        e.matches(
+            &found[k].name,
+            found_materials[k].iter().map(String::as_str),
+        )
+    };
     // `--window NAME=image` must name something: a typo would silently cook the old design.
     for o in overrides {
-        let hit = found.iter().any(|i| {
-            let mats: Vec<u16> = i.materials.iter().map(|m| m.0).collect();
-            o.matches(&i.name, material_names(&mats).iter().map(String::as_str))
-        });
-        if !hit {
+        if !(0..found.len()).any(|k| names_window(o, k)) {
             return Err(CookError::UnknownWindow {
                 pattern: o.name.clone().unwrap_or_default(),
                 known: found.iter().map(|i| i.name.clone()).collect(),
@@ -235,14 +242,9 @@ pub fn plan(
         }
     }
     // One that later ones override on every window it matches does nothing: say so.
-    let winner = |i: &instances::Instance| {
-        let mats: Vec<u16> = i.materials.iter().map(|m| m.0).collect();
-        let mn = material_names(&mats);
-        overrides
-            .iter()
-            .rposition(|o| o.matches(&i.name, mn.iter().map(String::as_str)))
-    };
-    let winners: Vec<Option<usize>> = found.iter().map(winner).collect();
+    let winners: Vec<Option<usize>> = (0..found.len())
+        .map(|k| overrides.iter().rposition(|o| names_window(o, k)))
+        .collect();
     for (k, o) in overrides.iter().enumerate() {
         if !winners.contains(&Some(k)) {
             report.warnings.push(Warning::new(
@@ -261,11 +263,7 @@ pub fn plan(
         }
     }
     for e in &manifest.windows {
-        let hit = found.iter().any(|i| {
-            let mats: Vec<u16> = i.materials.iter().map(|m| m.0).collect();
-            e.matches(&i.name, material_names(&mats).iter().map(String::as_str))
-        });
-        if !hit {
+        if !(0..found.len()).any(|k| names_window(e, k)) {
             report.warnings.push(Warning::new(
                 &manifest.path,
                 Some(e.line.0),

@@ -41,9 +41,7 @@ pub fn load_image(path: &Path) -> Result<DynamicImage, TextureError> {
     // uncompressed TGA.
     if head.starts_with(&[0, 0, 1, 0]) {
         let bytes = std::fs::read(path).map_err(io_error(path))?;
-        if let Some(png) = ico_png_entry(&bytes) {
-            return load_image_bytes(png, path);
-        }
+        return load_image_bytes(ico_png_entry(&bytes).unwrap_or(&bytes), path);
     }
     if is_ktx2(&head) || is_dds(&head) || is_jpeg(&head) {
         let bytes = std::fs::read(path).map_err(io_error(path))?;

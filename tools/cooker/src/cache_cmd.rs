@@ -378,13 +378,14 @@ fn explain(
                     if where_ != "held nowhere" {
                         // A result whose pack is gone is re-cooked, as the cook says.
                         match scene_cache::pack_of(&cache, &result) {
-                            Ok((sha, len, crc)) => {
+                            Ok(pack) => {
+                                let sha = pack.sha;
                                 let here = local.has_local_blob(&sha);
                                 let there = remote.as_ref().is_some_and(|r| r.has_blob(&sha));
                                 // A damaged local pack is re-cooked, as the cook checks it.
                                 let damaged = here
-                                    && !matches!(local.fetch_blob(&sha).0, Lookup::Hit(p)
-                                        if p.len() as u64 == len && crc32fast::hash(&p) == crc);
+                                    && !matches!(local.fetch_blob(&sha).0,
+                                        Lookup::Hit(p) if pack.holds(&p));
                                 if damaged && !there {
                                     println!(
                                         "a cook would cook it: the result's pack {} is damaged \

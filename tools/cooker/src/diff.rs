@@ -522,6 +522,15 @@ impl Geometry<'_> {
     }
 }
 
+/// A material's texture slots, by the name diff gives them, and the texture each holds.
+fn texture_slots(m: &pack::Material) -> [(&'static str, Option<u32>); 3] {
+    [
+        ("colour", m.diffuse_texture),
+        ("normal", m.normal_texture),
+        ("projector", m.projector_texture),
+    ]
+}
+
 /// Each of a's textures' partner in b. First the texture of the same role that most of the
 /// same materials use in the same slots (the same name breaking ties): a texture is named
 /// after its image's file, so a design file renamed, or a second file of the same stem added
@@ -537,14 +546,10 @@ fn texture_partners(ta: &pack::Toc, tb: &pack::Toc) -> Vec<Option<usize>> {
             .materials
             .iter()
             .flat_map(|m| {
-                [
-                    ("colour", m.diffuse_texture),
-                    ("normal", m.normal_texture),
-                    ("projector", m.projector_texture),
-                ]
-                .into_iter()
-                .filter(move |&(_, x)| x == i)
-                .map(move |(slot, _)| (m.name.as_str(), slot))
+                texture_slots(m)
+                    .into_iter()
+                    .filter(move |&(_, x)| x == i)
+                    .map(move |(slot, _)| (m.name.as_str(), slot))
             })
             .collect();
         uses.sort_unstable();
@@ -807,11 +812,7 @@ pub fn run(args: Args) -> Outcome {
                 // Which texture a slot names: a material given another image (a window's
                 // design switched to a new file) was only "texture … is new in b".
                 let mut textures_equal = true;
-                for (slot, x, y) in [
-                    ("colour", m.diffuse_texture, n.diffuse_texture),
-                    ("normal", m.normal_texture, n.normal_texture),
-                    ("projector", m.projector_texture, n.projector_texture),
-                ] {
+                for ((slot, x), (_, y)) in texture_slots(m).into_iter().zip(texture_slots(n)) {
                     let same = match (x, y) {
                         (None, None) => true,
                         (Some(x), Some(y)) => partners[x as usize] == Some(y as usize),

@@ -48,10 +48,32 @@ struct SceneResult {
     transcript: Transcript,
 }
 
-/// The SHA-256, length and CRC-32 of the pack a scene result entry names, for `cooker cache
-/// explain`: the entry can outlive its pack (`cache verify` removes a damaged blob, trimming
-/// may take it).
-pub fn pack_of(cache: &Cache, result: &Key) -> Result<([u8; 32], u64, u32), String> {
+/// The pack a scene result entry names: its SHA-256, and the length and CRC-32 that tie a
+/// local copy to this result.
+pub struct CachedPack {
+    pub sha: [u8; 32],
+    len: u64,
+    crc: u32,
+}
+
+impl CachedPack {
+    fn of(result: &SceneResult) -> Option<Self> {
+        Some(Self {
+            sha: parse_hex32(&result.pack_sha256)?,
+            len: result.pack_len,
+            crc: result.pack_crc,
+        })
+    }
+
+    /// Whether `bytes` are this pack.
+    pub fn holds(&self, bytes: &[u8]) -> bool {
+        bytes.len() as u64 == self.len && crc32fast::hash(bytes) == self.crc
+    }
+}
+
+/// The pack a scene result entry names, for `cooker cache explain`: the entry can outlive its
+/// pack (`cache verify` removes a damaged blob, trimming may take it).
+pub fn pack_of(cache: &Cache, result: &Key) -> Result<CachedPack, String> {
     let bytes = match cache.get(result) {
         Lookup::Hit(b) => b,
         Lookup::Miss => return Err("its scene entry is gone".into()),
@@ -59,7 +81,7 @@ pub fn pack_of(cache: &Cache, result: &Key) -> Result<([u8; 32], u64, u32), Stri
     };
     serde_json::from_slice::<SceneResult>(&bytes)
         .ok()
-        .and_then(|r| Some((parse_hex32(&r.pack_sha256)?, r.pack_len, r.pack_crc)))
+        .and_then(|r| CachedPack::of(&r))
         .ok_or_else(|| "unreadable scene entry".to_string())
 }
 
@@ -207,28 +229,26 @@ pub fn lookup(
     let Ok(result) = serde_json::from_slice::<SceneResult>(&result) else {
         return Reuse::Cook("unreadable scene entry".into());
     };
-    let Some(pack_sha) = parse_hex32(&result.pack_sha256) else {
+    let Some(pack) = CachedPack::of(&result) else {
         return Reuse::Cook("unreadable scene entry".into());
     };
     let transcript = result.transcript.localized(manifest);
     // What this checkout's pack is made of, for `cooker cache explain`, however it was had.
     let _ = write_record(cache, manifest, settings, &hashed);
     if let Ok(existing) = std::fs::read(output)
-        && existing.len() as u64 == result.pack_len
-        && crc32fast::hash(&existing) == result.pack_crc
-        && cache.has_local_blob(&pack_sha)
+        && pack.holds(&existing)
+        && cache.has_local_blob(&pack.sha)
     {
         return Reuse::UpToDate(transcript);
     }
-    let (found, from_remote) = cache.fetch_blob(&pack_sha);
+    let (found, from_remote) = cache.fetch_blob(&pack.sha);
     match found {
-        // A remote blob has just been checked against this very SHA-256; a local one by its
-        // entry's CRC, so this CRC is what ties it to this result.
-        Lookup::Hit(pack)
-            if pack.len() as u64 == result.pack_len
-                && (from_remote || crc32fast::hash(&pack) == result.pack_crc) =>
+        // A remote blob has just been checked against this very SHA-256 (its length is
+        // checked still); a local one by its entry's CRC, which is what ties it to this result.
+        Lookup::Hit(bytes)
+            if (from_remote && bytes.len() as u64 == result.pack_len) || pack.holds(&bytes) =>
         {
-            Reuse::Pack(pack, transcript, from_remote.then_some(pack_sha))
+            Reuse::Pack(bytes, transcript, from_remote.then_some(pack.sha))
         }
         Lookup::Hit(_) => Reuse::Cook("cached pack does not match its scene entry".into()),
         Lookup::Miss => Reuse::Cook("cached pack was evicted".into()),
