@@ -590,15 +590,62 @@ fn shading_json(entry: &mut Value, s: &ShadingChanges) {
     entry["max_uv_delta"] = json!(s.max_uv_delta);
 }
 
-fn role_key(pack: &Pack, role: SectionRole) -> String {
-    let toc = pack.toc();
+/// A section's key: what it holds, named as in pack a. `names` gives the names its meshes and
+/// textures go by (for b, those of the a meshes and textures they were paired with), so a
+/// renamed design's mips are compared with its partner's, not listed as only in a and only in b.
+fn role_key(role: SectionRole, names: &SectionNames) -> String {
     match role {
         SectionRole::Toc => "toc".into(),
-        SectionRole::Vertices { mesh } => format!("vertices/{}", toc.meshes[mesh as usize].name),
-        SectionRole::Indices { mesh } => format!("indices/{}", toc.meshes[mesh as usize].name),
+        SectionRole::Vertices { mesh } => format!("vertices/{}", names.meshes[mesh as usize]),
+        SectionRole::Indices { mesh } => format!("indices/{}", names.meshes[mesh as usize]),
         SectionRole::Mip { texture, level } => {
-            format!("mip/{}/{level}", toc.textures[texture as usize].name)
+            format!("mip/{}/{level}", names.textures[texture as usize])
         }
+    }
+}
+
+/// The names a pack's meshes and textures are keyed by in the section list.
+struct SectionNames {
+    meshes: Vec<String>,
+    textures: Vec<String>,
+}
+
+impl SectionNames {
+    fn own(t: &pack::Toc) -> Self {
+        SectionNames {
+            meshes: t.meshes.iter().map(|m| m.name.clone()).collect(),
+            textures: t.textures.iter().map(|x| x.name.clone()).collect(),
+        }
+    }
+
+    /// b's names: each paired mesh and texture goes by its partner's name in a; one left
+    /// unpaired whose name a gave to another is marked, so it is not taken for that one.
+    fn paired(
+        ta: &pack::Toc,
+        tb: &pack::Toc,
+        mesh_partners: &[Option<usize>],
+        texture_partners: &[Option<usize>],
+    ) -> Self {
+        fn rename(names: &mut [String], a_names: &[&str], partners: &[Option<usize>]) {
+            let mut paired = vec![false; names.len()];
+            for (i, j) in partners.iter().enumerate() {
+                if let Some(j) = *j {
+                    names[j] = a_names[i].to_string();
+                    paired[j] = true;
+                }
+            }
+            for (name, _) in names.iter_mut().zip(paired).filter(|(_, p)| !p) {
+                if a_names.contains(&name.as_str()) {
+                    name.push_str(" (another in b)");
+                }
+            }
+        }
+        let mut names = SectionNames::own(tb);
+        let a_meshes: Vec<&str> = ta.meshes.iter().map(|m| m.name.as_str()).collect();
+        let a_textures: Vec<&str> = ta.textures.iter().map(|t| t.name.as_str()).collect();
+        rename(&mut names.meshes, &a_meshes, mesh_partners);
+        rename(&mut names.textures, &a_textures, texture_partners);
+        names
     }
 }
 
@@ -620,9 +667,32 @@ pub fn run(args: Args) -> Outcome {
     let (ta, tb) = (a.toc(), b.toc());
     let mut problems: Vec<String> = Vec::new();
 
+    // A pack's mesh is named after its source file, so two exports of one model (`church.obj`
+    // and `church.glb`) name it differently: when one mesh in each pack is left unmatched by
+    // name, those two are compared.
+    let unmatched = |x: &pack::Toc, y: &pack::Toc| -> Vec<usize> {
+        (0..x.meshes.len())
+            .filter(|&i| !y.meshes.iter().any(|m| m.name == x.meshes[i].name))
+            .collect()
+    };
+    let renamed = match (&unmatched(ta, tb)[..], &unmatched(tb, ta)[..]) {
+        (&[i], &[j]) => Some((i, j)),
+        _ => None,
+    };
+    let mesh_partners: Vec<Option<usize>> = (0..ta.meshes.len())
+        .map(|i| match renamed {
+            Some((ri, rj)) if ri == i => Some(rj),
+            _ => tb.meshes.iter().position(|m| m.name == ta.meshes[i].name),
+        })
+        .collect();
+    let partner = |i: usize| mesh_partners[i].map(|j| &tb.meshes[j]);
+    // Textures paired by the material slots that hold them, so a material's textures can be
+    // followed through a rename.
+    let partners = texture_partners(ta, tb);
+
     // Sections, matched by what they hold rather than by index, and compared by content: a
     // supercompressed level by its decoded bytes.
-    let index = |p: &Pack| -> BTreeMap<String, u32> {
+    let index = |p: &Pack, names: &SectionNames| -> BTreeMap<String, u32> {
         p.roles()
             .iter()
             .zip(p.sections())
@@ -634,11 +704,12 @@ pub fn run(args: Args) -> Outcome {
                 } else {
                     pack::format::crc32(data)
                 };
-                (role_key(p, r), crc)
+                (role_key(r, names), crc)
             })
             .collect()
     };
-    let (sa, sb) = (index(&a), index(&b));
+    let sa = index(&a, &SectionNames::own(ta));
+    let sb = index(&b, &SectionNames::paired(ta, tb, &mesh_partners, &partners));
     let mut sections = Vec::new();
     for key in sa.keys().chain(sb.keys().filter(|k| !sa.contains_key(*k))) {
         let state = match (sa.get(key), sb.get(key)) {
@@ -670,24 +741,6 @@ pub fn run(args: Args) -> Outcome {
     }
     let mut meshes = Vec::new();
     let mut reordered = Vec::new();
-    // A pack's mesh is named after its source file, so two exports of one model (`church.obj`
-    // and `church.glb`) name it differently: when one mesh in each pack is left unmatched by
-    // name, those two are compared.
-    let unmatched = |x: &pack::Toc, y: &pack::Toc| -> Vec<usize> {
-        (0..x.meshes.len())
-            .filter(|&i| !y.meshes.iter().any(|m| m.name == x.meshes[i].name))
-            .collect()
-    };
-    let renamed = match (&unmatched(ta, tb)[..], &unmatched(tb, ta)[..]) {
-        (&[i], &[j]) => Some((i, j)),
-        _ => None,
-    };
-    let partner = |i: usize| -> Option<&pack::Mesh> {
-        match renamed {
-            Some((ri, rj)) if ri == i => Some(&tb.meshes[rj]),
-            _ => tb.meshes.iter().find(|m| m.name == ta.meshes[i].name),
-        }
-    };
     for (i, ma) in ta.meshes.iter().enumerate() {
         let Some(mb) = partner(i) else {
             problems.push(format!("mesh {:?} is missing from b", ma.name));
@@ -775,8 +828,7 @@ pub fn run(args: Args) -> Outcome {
         }
     }
 
-    // Materials, by name; textures paired first, so a material's textures can be followed.
-    let partners = texture_partners(ta, tb);
+    // Materials, by name.
     let mut materials = Vec::new();
     let (tria, trib) = (ta.triangles_per_material(), tb.triangles_per_material());
     for (i, m) in ta.materials.iter().enumerate() {

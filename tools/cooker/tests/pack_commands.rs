@@ -211,6 +211,26 @@ fn diff_pairs_textures_by_the_materials_that_use_them() {
         "{said}"
     );
     assert!(!said.contains("max error"), "{said}");
+    // The section list pairs them too: the renamed texture's mips are equal, not "only in a"
+    // and "only in b"; the TOC, which holds the name, is what differs.
+    let o = cooker(&[&"diff", &a, &renamed, &"--json"]);
+    let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    let states: Vec<(&str, &str)> = v["sections"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|s| (s["section"].as_str().unwrap(), s["state"].as_str().unwrap()))
+        .collect();
+    assert!(
+        states.iter().any(|&(k, _)| k.starts_with("mip/rose.colour/")),
+        "{states:?}"
+    );
+    assert!(
+        states
+            .iter()
+            .all(|&(k, state)| (k == "toc") == (state != "equal")),
+        "{states:?}"
+    );
     // With a tolerance the name is not a problem, as a mesh's is not with one.
     let o = cooker(&[&"diff", &a, &renamed, &"--tolerance-lsb", &"0"]);
     assert_eq!(o.status.code(), Some(0), "{}", text(&o));
@@ -245,6 +265,15 @@ fn diff_pairs_textures_by_the_materials_that_use_them() {
     );
     let problems = v["problems"].as_array().unwrap();
     assert_eq!(problems.len(), 2, "only the two names: {v:#}");
+    // Each texture's mips are keyed by its partner's name: the colour levels of a with the
+    // colour levels of b, equal, whatever b calls them.
+    let sections = v["sections"].as_array().unwrap();
+    assert!(
+        sections
+            .iter()
+            .all(|s| s["section"] == "toc" || s["state"] == "equal"),
+        "{sections:#?}"
+    );
 }
 
 /// One window of three that share a design switched to a copy of another folder (same file
