@@ -531,13 +531,15 @@ fn texture_slots(m: &pack::Material) -> [(&'static str, Option<u32>); 3] {
     ]
 }
 
-/// Each of a's textures' partner in b. First the texture of the same role that most of the
-/// same materials use in the same slots (the same name breaking ties): a texture is named
-/// after its image's file, so a design file renamed, or a second file of the same stem added
-/// to the scene (which shifts the names to `t.2`), left the texture "missing from b" and "new
-/// in b", or compared it with another image. Then, for textures no material uses, the same
-/// name.
-fn texture_partners(ta: &pack::Toc, tb: &pack::Toc) -> Vec<Option<usize>> {
+/// Each of a's textures' partner in b. First a texture of the same name and the same bits:
+/// a design that one window kept while the others that shared it were given another image is
+/// still itself. Then the texture of the same role that most of the same materials use in
+/// the same slots (the same name breaking ties): a texture is named after its image's file, so
+/// a design file renamed, or a second file of the same stem added to the scene (which shifts
+/// the names to `t.2`), left the texture "missing from b" and "new in b", or compared it with
+/// another image. Then, for textures no material uses, the same name.
+fn texture_partners(a: &Pack, b: &Pack) -> Vec<Option<usize>> {
+    let (ta, tb) = (a.toc(), b.toc());
     // Material names are unique in a pack and a slot holds one texture, so a non-empty key
     // names at most one texture of each pack.
     fn uses(t: &pack::Toc, i: usize) -> Vec<(&str, &'static str)> {
@@ -555,20 +557,36 @@ fn texture_partners(ta: &pack::Toc, tb: &pack::Toc) -> Vec<Option<usize>> {
         uses.sort_unstable();
         uses
     }
+    let same_bits = |i: usize, j: usize| {
+        let (t, u) = (&ta.textures[i], &tb.textures[j]);
+        t.name == u.name
+            && (t.role, t.format, t.width, t.height, t.mips.len())
+                == (u.role, u.format, u.width, u.height, u.mips.len())
+            && (0..t.mips.len()).all(|l| a.mip_bytes(i, l) == b.mip_bytes(j, l))
+    };
     let keys_b: Vec<_> = (0..tb.textures.len()).map(|j| uses(tb, j)).collect();
     let mut taken = vec![false; tb.textures.len()];
     let mut partners: Vec<Option<usize>> = (0..ta.textures.len())
         .map(|i| {
+            let j = (0..tb.textures.len()).find(|&j| !taken[j] && same_bits(i, j))?;
+            taken[j] = true;
+            Some(j)
+        })
+        .collect();
+    for (i, p) in partners.iter_mut().enumerate().filter(|(_, p)| p.is_none()) {
+        *p = {
             let key = uses(ta, i);
             let t = &ta.textures[i];
             let shared = |j: usize| keys_b[j].iter().filter(|u| key.contains(u)).count();
             let j = (0..tb.textures.len())
                 .filter(|&j| !taken[j] && tb.textures[j].role == t.role && shared(j) > 0)
-                .max_by_key(|&j| (shared(j), tb.textures[j].name == t.name, usize::MAX - j))?;
-            taken[j] = true;
-            Some(j)
-        })
-        .collect();
+                .max_by_key(|&j| (shared(j), tb.textures[j].name == t.name, usize::MAX - j));
+            if let Some(j) = j {
+                taken[j] = true;
+            }
+            j
+        };
+    }
     for (i, p) in partners.iter_mut().enumerate() {
         if p.is_none() {
             *p = (0..tb.textures.len())
@@ -688,7 +706,7 @@ pub fn run(args: Args) -> Outcome {
     let partner = |i: usize| mesh_partners[i].map(|j| &tb.meshes[j]);
     // Textures paired by the material slots that hold them, so a material's textures can be
     // followed through a rename.
-    let partners = texture_partners(ta, tb);
+    let partners = texture_partners(&a, &b);
 
     // Sections, matched by what they hold rather than by index, and compared by content: a
     // supercompressed level by its decoded bytes.

@@ -287,19 +287,58 @@ fn diff_names_the_material_whose_design_changed() {
         &Path::new(env!("CARGO_MANIFEST_DIR")).join("../../assets-src"),
         &scene,
     );
-    let cook = |name: &str| {
+    let scene_toml = scene.join("scene.toml");
+    let cook_with = |name: &str, extra: &[String]| {
         let out = dir.path().join(name);
-        let o = cooker(&[
-            &"cook",
-            &scene.join("scene.toml"),
-            &"-o",
-            &out,
-            &"--no-cache",
-        ]);
+        let mut args: Vec<&dyn AsRef<std::ffi::OsStr>> =
+            vec![&"cook", &scene_toml, &"-o", &out, &"--no-cache"];
+        args.extend(extra.iter().map(|e| e as &dyn AsRef<std::ffi::OsStr>));
+        let o = cooker(&args);
         assert_eq!(o.status.code(), Some(0), "{}", text(&o));
         out
     };
+    let cook = |name: &str| cook_with(name, &[]);
     let a = cook("a.pack");
+
+    // Every window that showed the lancet or the mosaic given the rose instead: the rose is
+    // still the rose (equal bits, the rose window's own material unchanged), the lancet and
+    // mosaic are gone, and each window given another image says so.
+    let rose = scene.join("windows/rose.png");
+    let roses = cook_with(
+        "roses.pack",
+        &["--window".into(), format!("window_lower_*={}", rose.display())],
+    );
+    let o = cooker(&[&"diff", &a, &roses, &"--json"]);
+    assert_eq!(o.status.code(), Some(1));
+    let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    let equal_in = |v: &serde_json::Value, name: &str| {
+        v["materials"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .find(|m| m["name"] == name)
+            .unwrap_or_else(|| panic!("no material {name}: {v:#}"))["textures_equal"]
+            .clone()
+    };
+    assert_eq!(equal_in(&v, "rose"), true, "{v:#}");
+    for k in 1..=5 {
+        assert_eq!(equal_in(&v, &format!("window_lower_{k}")), false, "{v:#}");
+    }
+    let problems: Vec<&str> = v["problems"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|p| p.as_str().unwrap())
+        .collect();
+    assert!(
+        problems.contains(&"texture \"lancet\" is missing from b"),
+        "{problems:#?}"
+    );
+    assert!(
+        !problems.iter().any(|p| p.contains("texture \"rose\"")
+            || p.contains("named \"rose\" in b")),
+        "{problems:#?}"
+    );
     let mosaic = image::open(scene.join("windows/mosaic.png")).unwrap();
     std::fs::create_dir_all(scene.join("alt")).unwrap();
     mosaic.fliph().save(scene.join("alt/mosaic.png")).unwrap();
