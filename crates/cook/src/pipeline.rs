@@ -34,6 +34,27 @@ pub fn cook(manifest: &Manifest, settings: &Settings) -> Result<CookOutput, Cook
     // 1–3. Import every source into a triangle soup (errors name file and line); tag source
     // names to pack materials with a class; find the windows in the geometry.
     let mut prepared = prepare(manifest, settings, &mut report)?;
+    // A pack of no triangles shows nothing: a gate on the cook's exit status must not pass it
+    // (`cooker validate` reports the same as its `no-triangles` finding).
+    if prepared.imported.iter().all(|s| s.triangle_count() == 0)
+        && let Some(first) = manifest.meshes.first()
+    {
+        return Err(CookError::Source {
+            path: first.source.clone(),
+            line: None,
+            message: format!(
+                "no faces{}: nothing to cook",
+                if manifest.meshes.len() > 1 {
+                    format!(
+                        " in this or any other of the scene's {} meshes",
+                        manifest.meshes.len()
+                    )
+                } else {
+                    " (points or lines only)".into()
+                }
+            ),
+        });
+    }
     // From here on the manifest's cameras and light are in the scene's shifted frame.
     let framed = manifest.shifted(prepared.shift);
     let manifest = &*framed;

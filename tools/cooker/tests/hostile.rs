@@ -153,6 +153,14 @@ fn hostile_meshes() {
     for name in ["empty.obj", "empty.gltf", "empty.glb"] {
         expect(&write(name, b""), 3, name, "the file is empty (0 bytes)");
     }
+    // Points and lines only: an empty pack would pass a gate on the exit status.
+    let points = write("points.obj", b"v 0 0 0\nv 1 0 0\nv 0 1 0\np 1 2 3\nl 1 2\n");
+    expect(
+        &points,
+        3,
+        "points.obj",
+        "no faces (points or lines only): nothing to cook",
+    );
     // NaN and infinite coordinates, with the line.
     expect(
         &write("nan.obj", b"v 0 0 0\nv 1 0 0\nv nan 1 0\nf 1 2 3\n"),

@@ -222,7 +222,9 @@ fn diff_pairs_textures_by_the_materials_that_use_them() {
         .map(|s| (s["section"].as_str().unwrap(), s["state"].as_str().unwrap()))
         .collect();
     assert!(
-        states.iter().any(|&(k, _)| k.starts_with("mip/rose.colour/")),
+        states
+            .iter()
+            .any(|&(k, _)| k.starts_with("mip/rose.colour/")),
         "{states:?}"
     );
     assert!(
@@ -306,7 +308,10 @@ fn diff_names_the_material_whose_design_changed() {
     let rose = scene.join("windows/rose.png");
     let roses = cook_with(
         "roses.pack",
-        &["--window".into(), format!("window_lower_*={}", rose.display())],
+        &[
+            "--window".into(),
+            format!("window_lower_*={}", rose.display()),
+        ],
     );
     let o = cooker(&[&"diff", &a, &roses, &"--json"]);
     assert_eq!(o.status.code(), Some(1));
@@ -335,8 +340,9 @@ fn diff_names_the_material_whose_design_changed() {
         "{problems:#?}"
     );
     assert!(
-        !problems.iter().any(|p| p.contains("texture \"rose\"")
-            || p.contains("named \"rose\" in b")),
+        !problems
+            .iter()
+            .any(|p| p.contains("texture \"rose\"") || p.contains("named \"rose\" in b")),
         "{problems:#?}"
     );
     let mosaic = image::open(scene.join("windows/mosaic.png")).unwrap();
