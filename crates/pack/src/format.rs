@@ -157,8 +157,10 @@ impl Header {
                 },
             ));
         }
-        if b[20..24].iter().chain(&b[44..60]).any(|&x| x != 0) {
-            return Err(Fail::at(20, Problem::NonZeroPadding));
+        // The offset of the first byte that is not zero, so a tool reading the message finds
+        // it (the flags are at 20, the reserved run at 44).
+        if let Some(at) = (20..24).chain(44..60).find(|&i| b[i] != 0) {
+            return Err(Fail::at(at as u64, Problem::NonZeroPadding));
         }
         let section_count = u32_at(b, 16);
         if section_count == 0 {

@@ -215,6 +215,20 @@ fn other_version_says_what_to_do() {
     }
 }
 
+/// A reserved header byte set (its CRC made right) is named at its own offset, not the
+/// first reserved field's.
+#[test]
+fn a_reserved_header_byte_is_named_at_its_offset() {
+    for at in [20usize, 23, 44, 48, 59] {
+        let mut bytes = sample_bytes();
+        bytes[at] = 1;
+        fix_header_crc(&mut bytes);
+        let e = Pack::from_bytes("p", &bytes).unwrap_err();
+        assert_eq!(e.problem(), Some(&Problem::NonZeroPadding), "{e}");
+        assert!(e.to_string().contains(&format!("offset {at}:")), "{at}: {e}");
+    }
+}
+
 #[test]
 fn unknown_section_kind_is_rejected() {
     let mut bytes = sample_bytes();
