@@ -85,6 +85,29 @@ pub fn rasterize(tris: &[UvTriangle], w: u32, h: u32) -> Vec<u16> {
     ids
 }
 
+/// Whether panes of different colours lie on one another in texture space: more than 2% of
+/// the covered texels of a 128² raster are covered by two panes (a centre on an edge shared
+/// by two panes counts for both, hence not any one texel). A design drawn in such coordinates
+/// shows only the pane drawn last.
+pub fn panes_overlap(tris: &[UvTriangle]) -> bool {
+    const SIDE: u32 = 128;
+    let mut ids = vec![0u16; (SIDE * SIDE) as usize];
+    let (mut covered, mut both) = (0usize, 0usize);
+    scan(tris, SIDE, SIDE, |t, x, y| {
+        let id = &mut ids[(y * SIDE + x) as usize];
+        let pane = tris[t].1 + 1;
+        if *id == 0 {
+            covered += 1;
+            *id = pane;
+        } else if *id != pane && *id != u16::MAX {
+            both += 1;
+            // Counted once, however many panes lie there.
+            *id = u16::MAX;
+        }
+    });
+    both * 50 > covered
+}
+
 /// `tint` at the centre of texel (`x`, `y`) of triangle `uv`, interpolated across it in
 /// texture space (a centre just outside, on an edge, takes the nearest blend).
 fn tint_at(uv: &[[f32; 2]; 3], tint: &Tint, x: u32, y: u32, w: u32, h: u32) -> [f32; 4] {
@@ -403,6 +426,29 @@ pub fn apply_mask(design: &mut RgbaImage, mask: &[bool]) {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Three panes each mapped to the whole square overlap; the same panes side by side, or
+    /// one pane drawn as two triangles sharing an edge, do not.
+    #[test]
+    fn panes_on_one_another_are_told_from_panes_side_by_side() {
+        let stacked: Vec<UvTriangle> = (0..3).flat_map(|p| quad(0.0, 0.0, 1.0, 1.0, p)).collect();
+        assert!(panes_overlap(&stacked));
+        let side_by_side: Vec<UvTriangle> = (0..3)
+            .flat_map(|p| quad(p as f32 / 3.0, 0.0, (p + 1) as f32 / 3.0, 1.0, p))
+            .collect();
+        assert!(!panes_overlap(&side_by_side));
+        // Edges on texel centres (1/4 of 128 texels is 32, centres at k + 0.5: not on them;
+        // 0.5 / 128 is): two panes meeting on a row of centres still do not overlap.
+        let at_centres = [
+            quad(0.0, 0.0, 1.0, 0.5 + 0.5 / 128.0, 0),
+            quad(0.0, 0.5 + 0.5 / 128.0, 1.0, 1.0, 1),
+        ]
+        .concat();
+        assert!(!panes_overlap(&at_centres));
+        // One pane partly over another, a third of it: overlap.
+        let partly = [quad(0.0, 0.0, 0.6, 1.0, 0), quad(0.4, 0.0, 1.0, 1.0, 1)].concat();
+        assert!(panes_overlap(&partly));
+    }
 
     /// Two quads over one texture, the second overlapping the first's right half: a texel
     /// takes the colour of the last quad covering it, once, in linear light (sRGB) or as it

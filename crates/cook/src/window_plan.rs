@@ -438,16 +438,52 @@ pub fn plan(
                 (t, DesignSource::Texture)
             }),
         };
-        let (tris, panes, tints) = uv_triangles(
+        let tinted = image
+            .as_ref()
+            .is_none_or(|(_, source)| *source == DesignSource::Texture);
+        let (mut tris, mut panes, mut tints) = uv_triangles(
             &sources[inst.source],
             inst,
             &tri_material[inst.source],
             tagging,
             inst.source,
-            image
-                .as_ref()
-                .is_none_or(|(_, source)| *source == DesignSource::Texture),
+            tinted,
         );
+        // A design drawn from the panes' colours is drawn where their texture coordinates put
+        // them. Exporters often map every pane to the whole square (per-face or reset UVs): in
+        // those coordinates the panes lie on one another and the last drawn covers the rest,
+        // so a blue, red and gold window came out all gold. No image is placed by them, so
+        // planar ones hold the same design, each pane where it is on the glass.
+        let uv_mode = entry.map_or(UvMode::Auto, |e| e.uv);
+        let mut planar = planar;
+        if !planar
+            && image.is_none()
+            && uv_mode == UvMode::Auto
+            && inst.planar
+            && panes.len() > 1
+            && design::panes_overlap(&tris)
+        {
+            planar = true;
+            instances::write_planar_uvs(&mut sources[inst.source], inst);
+            (tris, panes, tints) = uv_triangles(
+                &sources[inst.source],
+                inst,
+                &tri_material[inst.source],
+                tagging,
+                inst.source,
+                tinted,
+            );
+            report.notes.push(Warning::new(
+                &sources[inst.source].path,
+                None,
+                format!(
+                    "window {:?}: its panes' texture coordinates lie on one another, so the \
+                     design drawn from their colours is placed by planar coordinates \
+                     (uv = \"planar\" says so in a manifest)",
+                    inst.name
+                ),
+            ));
+        }
         // A design decoded here for its mask may reach the texture stage only as pixels; the
         // file is still an input of the cook (and of its cache entry).
         if let Some((ImageRef::File(p), _)) = &image {

@@ -225,7 +225,10 @@ fn a_reserved_header_byte_is_named_at_its_offset() {
         fix_header_crc(&mut bytes);
         let e = Pack::from_bytes("p", &bytes).unwrap_err();
         assert_eq!(e.problem(), Some(&Problem::NonZeroPadding), "{e}");
-        assert!(e.to_string().contains(&format!("offset {at}:")), "{at}: {e}");
+        assert!(
+            e.to_string().contains(&format!("offset {at}:")),
+            "{at}: {e}"
+        );
     }
 }
 

@@ -575,6 +575,63 @@ fn a_model_in_centimetres_or_millimetres_gets_the_designs_it_would_in_metres() {
     assert_eq!((lancet.1, lancet.2), (102, 640), "{said}");
 }
 
+/// Each quadrant of the rose's design holds its pane's Tf colour (sRGB), the light passing
+/// whole. Seen from inside (+z, where the sun goes), u runs with +x and v down from the top.
+fn assert_rose_quadrants(img: &image::RgbaImage) {
+    let (w, h) = (img.width() as f32, img.height() as f32);
+    let at = |u: f32, v: f32| *img.get_pixel((u * w) as u32, (v * h) as u32);
+    for ((name, tf, _), (u, v)) in ROSE
+        .iter()
+        .zip([(0.7, 0.3), (0.3, 0.3), (0.3, 0.7), (0.7, 0.7)])
+    {
+        let want = [srgb8(tf[0]), srgb8(tf[1]), srgb8(tf[2]), 255];
+        assert!(
+            close(at(u, v), want, 2),
+            "{name} at ({u}, {v}): {:?}, want {want:?}",
+            at(u, v)
+        );
+    }
+}
+
+/// Exporters often give every pane the whole texture square (per-face or reset UVs). Drawn in
+/// those coordinates the four panes of the rose lie on one another and the design was one
+/// colour; it is drawn in planar ones instead, and the cook says so.
+#[test]
+fn a_rose_whose_panes_share_one_uv_square_keeps_its_colours() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = sibenik_manifest(dir.path());
+    let obj = dir.path().join("sibenik.obj");
+    let mut out = String::from("vt 0 0\nvt 1 0\nvt 0 1\n");
+    let mut in_rose = false;
+    for line in std::fs::read_to_string(&obj).unwrap().lines() {
+        if let Some(m) = line.strip_prefix("usemtl ") {
+            in_rose = m.starts_with("staklo_");
+        }
+        match line.strip_prefix("f ") {
+            Some(f) if in_rose => {
+                let k: Vec<&str> = f.split(' ').collect();
+                assert_eq!(k.len(), 3, "{line}");
+                writeln!(out, "f {}/1 {}/2 {}/3", k[0], k[1], k[2]).unwrap();
+            }
+            _ => writeln!(out, "{line}").unwrap(),
+        }
+    }
+    std::fs::write(&obj, out).unwrap();
+    let pack = dir.path().join("scene.pack");
+    let said = cook(&scene, &pack, &[]);
+    assert!(
+        said.contains("texture coordinates lie on one another"),
+        "{said}"
+    );
+    let v = info(&pack);
+    let rose = classes(&v)
+        .into_keys()
+        .find(|n| n.starts_with("staklo_"))
+        .expect("the rose");
+    let design = texture_name(&v, &material(&v, &rose)["diffuse_texture"]).expect("a design");
+    assert_rose_quadrants(&extract(&pack, &design, dir.path()));
+}
+
 #[test]
 fn manifest_cook_rasterizes_the_rose_from_its_tf_colours_with_lead_and_a_projector() {
     let dir = tempfile::tempdir().unwrap();
@@ -631,19 +688,7 @@ fn manifest_cook_rasterizes_the_rose_from_its_tf_colours_with_lead_and_a_project
     assert_eq!(img.dimensions(), (300, 300));
     let (w, h) = (img.width() as f32, img.height() as f32);
     let at = |u: f32, v: f32| *img.get_pixel((u * w) as u32, (v * h) as u32);
-    // Each quadrant's pane in its Tf colour (sRGB), the light passing whole. Seen from inside
-    // (+z, where the sun goes), u runs with +x and v down from the top.
-    for ((name, tf, _), (u, v)) in ROSE
-        .iter()
-        .zip([(0.7, 0.3), (0.3, 0.3), (0.3, 0.7), (0.7, 0.7)])
-    {
-        let want = [srgb8(tf[0]), srgb8(tf[1]), srgb8(tf[2]), 255];
-        assert!(
-            close(at(u, v), want, 2),
-            "{name} at ({u}, {v}): {:?}, want {want:?}",
-            at(u, v)
-        );
-    }
+    assert_rose_quadrants(&img);
     // Dark, opaque lead on the seams between panes and along the outline.
     for (u, v) in [(0.5, 0.3), (0.5, 0.7), (0.3, 0.5), (0.7, 0.5), (0.5, 0.002)] {
         let p = at(u, v);
