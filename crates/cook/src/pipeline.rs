@@ -144,6 +144,21 @@ pub fn cook(manifest: &Manifest, settings: &Settings) -> Result<CookOutput, Cook
 
     // 5. Windows: frames from the geometry, and which of them light a receiving surface.
     let (window_frames, lit_windows) = frame_windows(&manifest, &tagging, &processed, &mut report);
+    let sky_geometry = (tagging.materials.iter())
+        .any(|m| m.material.class == pack::MaterialClass::Background);
+    if !window_frames.is_empty()
+        && !manifest.background.colour_given
+        && manifest.background.panorama.is_none()
+        && !sky_geometry
+    {
+        report.warnings.push(Warning::new(
+            &manifest.path,
+            None,
+            "the windows show black behind their glass: the manifest gives no [background] \
+             colour, nor a panorama, and no geometry is tagged background; `[background] \
+             colour = [0.5, 0.6, 0.75]` is a daylight sky (`cooker init` writes one)",
+        ));
+    }
     clock.lap(&mut report, "light reach");
 
     // 6. Textures: material maps, window designs, normal maps and projectors, background.
@@ -483,6 +498,7 @@ fn with_guesses<'a>(
     // A bare model's background is the default, black, and no panorama.
     if let Some(sky) = g.sky {
         m.background.colour = sky;
+        m.background.colour_given = true;
     }
     report.warnings.push(Warning::new(
         &manifest.path,

@@ -632,6 +632,25 @@ fn a_rose_whose_panes_share_one_uv_square_keeps_its_colours() {
     assert_rose_quadrants(&extract(&pack, &design, dir.path()));
 }
 
+/// A manifest without a `[background]` colour shows black behind every window: said, since
+/// the bare cook of the same model shows a daylight sky. Given, or with sky geometry, not.
+#[test]
+fn a_manifest_without_a_background_is_told_its_windows_show_black() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = sibenik_manifest(dir.path());
+    let pack = dir.path().join("scene.pack");
+    let black = "the windows show black behind their glass";
+    assert!(cook(&scene, &pack, &[]).contains(black));
+    let mut toml = std::fs::read_to_string(&scene).unwrap();
+    toml += "\n[background]\ncolour = [0.5, 0.6, 0.75]\n";
+    std::fs::write(&scene, toml).unwrap();
+    let said = cook(&scene, &pack, &[]);
+    assert!(!said.contains(black), "{said}");
+    // A bare cook guesses the sky.
+    let said = cook(&dir.path().join("sibenik.obj"), &pack, &[]);
+    assert!(!said.contains(black), "{said}");
+}
+
 #[test]
 fn manifest_cook_rasterizes_the_rose_from_its_tf_colours_with_lead_and_a_projector() {
     let dir = tempfile::tempdir().unwrap();

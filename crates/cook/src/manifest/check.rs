@@ -678,6 +678,7 @@ fn background(
             Background {
                 colour,
                 panorama: src.files(&b.panorama, "panorama")?,
+                colour_given: b.colour.is_some(),
             }
         }
         None => Background::default(),

@@ -401,8 +401,12 @@ pub type Camera = pack::Camera;
 
 #[derive(Clone, Debug, Default)]
 pub struct Background {
+    /// Black unless given.
     pub colour: [f32; 3],
     pub panorama: Option<PathBuf>,
+    /// Whether the colour was chosen: given in `[background]`, or a bare cook's guessed sky.
+    /// A window shows it behind its glass, so the black default drew windows black.
+    pub colour_given: bool,
 }
 
 impl Manifest {
