@@ -36,6 +36,7 @@ pub use pipeline::{
     CookOutput, Prepared, cook, import_sources, material_needs, prepare, window_geometry,
 };
 pub use report::{
-    ArtifactSource, HeuristicNote, MeshReport, QuantizationError, Report, Stage, peak_rss,
+    ArtifactSource, HeuristicNote, MeshReport, QuantizationError, Report, Stage, group_heuristics,
+    group_names, peak_rss,
 };
 pub use settings::{Settings, TextureSettings, UpAxis};

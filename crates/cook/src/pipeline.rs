@@ -144,8 +144,8 @@ pub fn cook(manifest: &Manifest, settings: &Settings) -> Result<CookOutput, Cook
 
     // 5. Windows: frames from the geometry, and which of them light a receiving surface.
     let (window_frames, lit_windows) = frame_windows(&manifest, &tagging, &processed, &mut report);
-    let sky_geometry = (tagging.materials.iter())
-        .any(|m| m.material.class == pack::MaterialClass::Background);
+    let sky_geometry =
+        (tagging.materials.iter()).any(|m| m.material.class == pack::MaterialClass::Background);
     if !window_frames.is_empty()
         && !manifest.background.colour_given
         && manifest.background.panorama.is_none()

@@ -1,7 +1,7 @@
 //! What a cook did, for the command line: per-mesh numbers, tagging guesses, what was
 //! skipped, reused or re-cooked, and stage times.
 
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::time::Duration;
 
 use crate::import::Warning;
@@ -78,6 +78,47 @@ impl HeuristicNote {
                     few_names(&names)
                 )
             }
+        }
+    }
+}
+
+/// Heuristic notes that say the same (the same source, tagged alike for the same reason) as
+/// one group each, in the order first met: a floor laid as 400 tiles, each its own object,
+/// is one line, not 400 equal ones.
+pub fn group_heuristics(notes: &[HeuristicNote]) -> Vec<Vec<&HeuristicNote>> {
+    let mut groups: Vec<Vec<&HeuristicNote>> = Vec::new();
+    let mut index: std::collections::HashMap<(&Path, String, &str), usize> = Default::default();
+    for n in notes {
+        let key = (n.source.as_path(), n.tagged(), n.reason.as_str());
+        match index.get(&key) {
+            Some(&g) => groups[g].push(n),
+            None => {
+                index.insert(key, groups.len());
+                groups.push(vec![n]);
+            }
+        }
+    }
+    groups
+}
+
+/// The parts of a group ([`group_heuristics`]): `material "Stone", object "pier"` for one,
+/// `216 parts (…; …; … and 213 more)` for many.
+pub fn group_names(group: &[&HeuristicNote]) -> String {
+    match group {
+        [one] => one.names.clone(),
+        many => {
+            let shown: Vec<&str> = many.iter().take(NAMED).map(|n| n.names.as_str()).collect();
+            let more = many.len().saturating_sub(NAMED);
+            format!(
+                "{} parts ({}{})",
+                many.len(),
+                shown.join("; "),
+                if more > 0 {
+                    format!(" and {more} more")
+                } else {
+                    String::new()
+                }
+            )
         }
     }
 }
@@ -182,6 +223,33 @@ pub enum ArtifactSource {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Tiles of one floor, each its own object, tagged alike for one reason, are one group;
+    /// another material, reason or source starts another, in the order first met.
+    #[test]
+    fn notes_that_say_the_same_are_one_group() {
+        let note = |src: &str, names: String, material: &str, reason: &str| HeuristicNote {
+            source: PathBuf::from(src),
+            names,
+            materials: vec![(material.into(), pack::MaterialClass::Floor)],
+            keyword: None,
+            reason: reason.into(),
+            triangles: 2,
+        };
+        let mut notes: Vec<HeuristicNote> = (0..400)
+            .map(|i| note("a.obj", format!("object \"tile_{i}\""), "Marble", "flat"))
+            .collect();
+        notes.insert(1, note("a.obj", "object \"porch\"".into(), "Marble", "low"));
+        notes.push(note("b.obj", "object \"tile_0\"".into(), "Marble", "flat"));
+        let groups = group_heuristics(&notes);
+        let sizes: Vec<usize> = groups.iter().map(|g| g.len()).collect();
+        assert_eq!(sizes, [400, 1, 1]);
+        assert_eq!(
+            group_names(&groups[0]),
+            "400 parts (object \"tile_0\"; object \"tile_1\"; object \"tile_2\" and 397 more)"
+        );
+        assert_eq!(group_names(&groups[1]), "object \"porch\"");
+    }
 
     /// The peak counts memory once it is touched, and never falls.
     #[cfg(any(target_os = "linux", target_os = "macos"))]

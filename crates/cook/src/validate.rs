@@ -236,16 +236,24 @@ pub fn validate_scene_with(
     // Tagging.
     let untagged = crate::pipeline::heuristic_notes(&sources, &tagging, &tri_material);
     let untagged_tris: usize = untagged.iter().map(|n| n.triangles).sum();
-    let untagged_names: Vec<String> = untagged
+    let untagged_names: Vec<String> = crate::report::group_heuristics(&untagged)
         .iter()
-        .map(|n| format!("{} ({} → {})", n.names, n.reason, n.classes()))
+        .map(|g| {
+            let n = g[0];
+            format!(
+                "{} ({} → {})",
+                crate::report::group_names(g),
+                n.reason,
+                n.classes()
+            )
+        })
         .collect();
     if untagged_tris > 0 {
         v.add(
             "untagged",
             format!(
                 "{untagged_tris} triangles in {} source name sets matched no rule: {}",
-                untagged_names.len(),
+                untagged.len(),
                 untagged_names
                     .iter()
                     .take(8)

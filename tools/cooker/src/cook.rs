@@ -277,14 +277,16 @@ pub fn run(args: Args) -> Outcome {
     for n in &report.notes {
         transcript.message(Stream::Err, format!("note: {n}"));
     }
-    for h in &report.heuristics {
+    for group in cook::group_heuristics(&report.heuristics) {
+        let h = group[0];
         transcript.message(
             Stream::Err,
             format!(
-                "note: {}: {} triangles with {} tagged {} ({})",
+                "note: {}: {} triangles {} {} tagged {} ({})",
                 h.source.display(),
-                h.triangles,
-                h.names,
+                group.iter().map(|n| n.triangles).sum::<usize>(),
+                if group.len() == 1 { "with" } else { "in" },
+                cook::group_names(&group),
                 h.tagged(),
                 h.reason
             ),
