@@ -757,6 +757,31 @@ fn run() -> Result<()> {
             )
             .exit();
     }
+    // Usage a pack can answer before the GPU is set up and the pack streamed (seconds on
+    // lavapipe for a large one): a camera it does not have, an --out that cannot be made.
+    // A scene.toml or model says its cameras only once cooked, below.
+    if args.headless && is_pack(&args.input) && args.camera != "all" {
+        let pack = pack::Pack::open(&args.input)?;
+        let names: Vec<&str> = pack.toc().cameras.iter().map(|c| c.name.as_str()).collect();
+        let known = if names.is_empty() {
+            &["default"][..]
+        } else {
+            &names[..]
+        };
+        if !known.contains(&args.camera.as_str()) {
+            return Err(Usage(format!(
+                "no camera named {:?} in {} (cameras: {})",
+                args.camera,
+                args.input.display(),
+                known.join(", ")
+            ))
+            .into());
+        }
+    }
+    if args.headless {
+        std::fs::create_dir_all(&args.out)
+            .with_context(|| format!("creating {}", args.out.display()))?;
+    }
     let no_display =
         std::env::var_os("DISPLAY").is_none() && std::env::var_os("WAYLAND_DISPLAY").is_none();
     if (args.headless || no_display)

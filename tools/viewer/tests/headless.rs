@@ -328,6 +328,12 @@ fn names_the_problem_on_bad_input() {
         err.contains("no camera named \"nope\"") && err.contains("near view"),
         "{err}"
     );
+    // Said from the pack's cameras, before the GPU was set up and the pack streamed.
+    let said = String::from_utf8_lossy(&o.stdout);
+    assert!(
+        !said.contains("adapter") && !said.contains("first frame"),
+        "{said}"
+    );
 
     let headless = |pack: &std::path::Path| {
         viewer(&[
