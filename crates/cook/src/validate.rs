@@ -65,6 +65,10 @@ pub const FINDING_CODES: &[(&str, &str)] = &[
         "a window entry naming no material of the model",
     ),
     (
+        "window-unknown-name",
+        "a window entry whose name matches no window the cook found",
+    ),
+    (
         "window-curved",
         "glass that bends too much for one projector",
     ),
@@ -385,8 +389,14 @@ pub fn validate_scene_with(
                     m.class
                 ),
             ),
+            // By its name the entry picks out a window the cook finds, not a material: a
+            // typo there is not the same finding (`--allow` one and not the other).
             _ => v.add(
-                "window-unknown-material",
+                if w.material.is_none() {
+                    "window-unknown-name"
+                } else {
+                    "window-unknown-material"
+                },
                 format!(
                     "[[window]] at manifest line {} names {}, which matches no window",
                     w.line.0,

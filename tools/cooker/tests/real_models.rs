@@ -827,6 +827,31 @@ fn validate_finds_no_missing_design_or_uvs_for_glass_without_texture_coordinates
     }
 }
 
+/// A `[[window]]` whose name matches no window the cook found is its own finding, not one of
+/// a material the model lacks: `--allow window-unknown-material` must not hide a typo.
+#[test]
+fn validate_tells_an_unknown_window_name_from_an_unknown_material() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = sibenik_manifest(dir.path());
+    let mut toml = std::fs::read_to_string(&scene).unwrap();
+    toml += "\n[[window]]\nname = \"Rosette*\"\n\n[[window]]\nmaterial = \"vitraj\"\n";
+    std::fs::write(&scene, toml).unwrap();
+    let o = cooker(&[&"validate", &scene, &"--json"]);
+    assert_eq!(o.status.code(), Some(1), "{}", text(&o.stderr));
+    let v: Value = serde_json::from_slice(&o.stdout).unwrap();
+    let code_of = |what: &str| -> Vec<&str> {
+        v["findings"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .filter(|f| f["message"].as_str().unwrap().contains(what))
+            .map(|f| f["code"].as_str().unwrap())
+            .collect()
+    };
+    assert_eq!(code_of("\"Rosette*\""), ["window-unknown-name"], "{v:#}");
+    assert_eq!(code_of("\"vitraj\""), ["window-unknown-material"], "{v:#}");
+}
+
 #[test]
 fn a_rectangular_design_on_a_pointed_lancet_throws_pointed_light() {
     let dir = tempfile::tempdir().unwrap();
