@@ -419,24 +419,51 @@ fn explain(
         println!("a cook would reuse the cached pack");
         return Ok(OK);
     }
-    let path = scene_cache::record_path(&cache, input);
-    let Ok(record) = std::fs::read(&path)
-        .map_err(|_| ())
-        .and_then(|b| serde_json::from_slice::<scene_cache::Record>(&b).map_err(|_| ()))
-    else {
-        println!(
-            "a cook would cook it: no earlier cook of {} is recorded in {}",
-            input.display(),
-            cache.dir().display()
-        );
-        return Ok(OK);
+    let read_record = |path: &std::path::Path| {
+        std::fs::read(path)
+            .ok()
+            .and_then(|b| serde_json::from_slice::<scene_cache::Record>(&b).ok())
+    };
+    let manifest_sha = hex(&cook::cache::digest_file(input)?);
+    let settings_json = serde_json::to_value(&settings)?;
+    // This checkout's record; else, since keys leave the scene's folder out, the latest
+    // record of the same manifest and settings from another checkout: its inputs say which
+    // file differs here (without it, a changed design in a second checkout was "no earlier
+    // cook recorded" under a line that said the scene was cooked before).
+    let own = read_record(&scene_cache::record_path(&cache, input));
+    let (record, elsewhere) = match own {
+        Some(r) => (r, false),
+        None => {
+            let other = std::fs::read_dir(cache.dir().join("scenes"))
+                .into_iter()
+                .flatten()
+                .flatten()
+                .filter_map(|e| {
+                    let r = read_record(&e.path())?;
+                    let when = e.metadata().and_then(|m| m.modified()).ok()?;
+                    (r.manifest_sha256 == manifest_sha
+                        && changed_leaves("", &r.settings, &settings_json).is_empty())
+                    .then_some((when, r))
+                })
+                .max_by_key(|(when, _)| *when);
+            match other {
+                Some((_, r)) => (r, true),
+                None => {
+                    println!(
+                        "a cook would cook it: no earlier cook of {} is recorded in {}",
+                        input.display(),
+                        cache.dir().display()
+                    );
+                    return Ok(OK);
+                }
+            }
+        }
     };
     let mut why = Vec::new();
-    let manifest_sha = hex(&cook::cache::digest_file(input)?);
     if manifest_sha != record.manifest_sha256 {
         why.push(format!("{} changed", input.display()));
     }
-    for c in changed_leaves("", &record.settings, &serde_json::to_value(&settings)?) {
+    for c in changed_leaves("", &record.settings, &settings_json) {
         why.push(format!("setting {c}"));
     }
     let dir = input.parent().unwrap_or(std::path::Path::new(""));
@@ -451,13 +478,18 @@ fn explain(
     // The manifest is among the inputs recorded too: one line per file.
     let mut seen = std::collections::HashSet::new();
     why.retain(|w| seen.insert(w.clone()));
+    let last = if elsewhere {
+        "the last cook of the same manifest and settings recorded here, in another checkout"
+    } else {
+        "the last cook recorded here"
+    };
     if why.is_empty() {
         println!(
-            "a cook would cook it: nothing changed since the last cook recorded here, but its \
-             entries are gone (evicted, or never stored)"
+            "a cook would cook it: nothing changed since {last}, but its entries are gone \
+             (evicted, or never stored)"
         );
     } else {
-        println!("a cook would cook it; since the last cook recorded here:");
+        println!("a cook would cook it; since {last}:");
         for w in why {
             println!("  {w}");
         }

@@ -469,6 +469,34 @@ fn the_local_cache_keeps_under_its_cap_evicting_the_least_recently_used() {
     assert!(temps.is_empty(), "{temps:?}");
 }
 
+/// Keys leave the scene's folder out, so a second checkout shares the first one's entries;
+/// a design changed there is named, from the first checkout's record.
+#[test]
+fn explain_in_a_second_checkout_names_the_input_that_changed() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = common::small_scene(&dir.path().join("a"));
+    let cache = dir.path().join("cache");
+    cook(&scene, &dir.path().join("out.pack"), &cache);
+    common::copy_dir(&dir.path().join("a"), &dir.path().join("b"));
+    common::design(&dir.path().join("b/lit.png"), 1);
+    let o = Command::new(env!("CARGO_BIN_EXE_cooker"))
+        .args(["cache", "explain"])
+        .arg(dir.path().join("b/scene.toml"))
+        .arg("--cache-dir")
+        .arg(&cache)
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", stderr(&o));
+    let said = stdout(&o);
+    assert!(
+        said.contains("a cook would cook it; since the last cook of the same manifest and \
+                       settings recorded here, in another checkout:")
+            && said.contains("b/lit.png changed"),
+        "{said}"
+    );
+    assert!(!said.contains("no earlier cook"), "{said}");
+}
+
 #[test]
 fn explain_names_the_setting_or_input_that_changed() {
     let dir = tempfile::tempdir().unwrap();
