@@ -506,7 +506,14 @@ impl Cache {
         let mut damaged = Vec::new();
         for (path, _) in &files {
             match read_entry(path) {
-                Lookup::Corrupt(why) => damaged.push((path.clone(), why)),
+                // The lookup's reason names the file already, for the cook's warning.
+                Lookup::Corrupt(why) => {
+                    let prefix = format!("{}: ", path.display());
+                    let why = why
+                        .strip_prefix(&prefix)
+                        .map_or(why.clone(), str::to_string);
+                    damaged.push((path.clone(), why))
+                }
                 Lookup::Hit(payload) if path.extension().is_some_and(|e| e == "blob") => {
                     let name = path.file_stem().unwrap_or_default().to_string_lossy();
                     if parse_hex32(&name) != Some(digest(&payload)) {

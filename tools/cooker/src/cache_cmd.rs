@@ -30,18 +30,18 @@ pub struct CacheArgs {
     #[arg(long, value_name = "URL", env = "STAINED_GLASS_CACHE_URL")]
     pub cache_url: Option<String>,
     /// The S3 endpoint (default: $AWS_ENDPOINT_URL_S3, $AWS_ENDPOINT_URL, else AWS).
-    #[arg(long, value_name = "URL")]
+    #[arg(long, requires = "cache_url", value_name = "URL")]
     pub cache_endpoint: Option<String>,
     /// Only read the remote cache. Without this or --cache-write, only CI writes (when $CI is
     /// set), so workstations never fill the shared cache with their local edits.
-    #[arg(long, conflicts_with = "cache_write")]
+    #[arg(long, requires = "cache_url", conflicts_with = "cache_write")]
     pub cache_read_only: bool,
     /// Write to the remote cache, even outside CI.
-    #[arg(long)]
+    #[arg(long, requires = "cache_url")]
     pub cache_write: bool,
     /// A remote failure (unreachable, refused, timed out) is an error instead of a miss: for CI
     /// jobs that must hit. Exit code 4.
-    #[arg(long)]
+    #[arg(long, requires = "cache_url")]
     pub cache_remote_required: bool,
     /// The longest wait for one remote request, in seconds.
     #[arg(long, value_name = "SECONDS", default_value = "60")]
@@ -83,6 +83,15 @@ impl CacheArgs {
         if !lenient && self.cache_dir.is_some() && !dir.exists() {
             return Err(crate::exit::UsageError(format!(
                 "--cache-dir {}: no such directory (nothing was cooked with it)",
+                dir.display()
+            ))
+            .into());
+        }
+        // A file given as the directory is the same mistake as a typo (it exited 4, an I/O
+        // error, where a missing directory exits 2).
+        if !lenient && self.cache_dir.is_some() && dir.exists() && !dir.is_dir() {
+            return Err(crate::exit::UsageError(format!(
+                "--cache-dir {}: is a file, not a cache directory",
                 dir.display()
             ))
             .into());
@@ -311,11 +320,14 @@ fn changed_leaves(prefix: &str, old: &serde_json::Value, new: &serde_json::Value
                     } else {
                         format!("{prefix}.{k}")
                     };
-                    changed_leaves(
-                        &path,
-                        a.get(k).unwrap_or(&Value::Null),
-                        b.get(k).unwrap_or(&Value::Null),
-                    )
+                    // A setting at its default is left out of the record (`--up y`): said
+                    // as the default, not as "null".
+                    match (a.get(k), b.get(k)) {
+                        (Some(x), Some(y)) => changed_leaves(&path, x, y),
+                        (None, Some(y)) => vec![format!("{path}: default -> {y}")],
+                        (Some(x), None) => vec![format!("{path}: {x} -> default")],
+                        (None, None) => Vec::new(),
+                    }
                 })
                 .collect()
         }
@@ -495,4 +507,26 @@ fn explain(
         }
     }
     Ok(OK)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::changed_leaves;
+    use serde_json::json;
+
+    /// A setting at its default is left out of the record: said as the default, not "null";
+    /// a recorded null stays null.
+    #[test]
+    fn a_setting_left_at_its_default_is_said_so() {
+        let old = json!({"mesh": {"cache": "Full"}, "textures": {"max_error_lsb": null}});
+        let new = json!({"mesh": {"cache": "Full"}, "textures": {"max_error_lsb": 2.0}, "up": "Z"});
+        assert_eq!(
+            changed_leaves("", &old, &new),
+            [
+                "textures.max_error_lsb: null -> 2.0",
+                "up: default -> \"Z\""
+            ]
+        );
+        assert_eq!(changed_leaves("", &new, &old)[1], "up: \"Z\" -> default");
+    }
 }

@@ -282,18 +282,27 @@ fn a_cache_directory_that_cannot_be_made_leaves_the_cook_uncached() {
     assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
     assert!(stderr(&o).contains("no such directory"), "{}", stderr(&o));
     assert!(!typo.exists());
-    // And a file in its place is an error.
+    // And a file in its place is the same mistake: bad usage, as the typo is.
     let o = Command::new(env!("CARGO_BIN_EXE_cooker"))
         .args(["cache", "stats", "--cache-dir"])
         .arg(&file)
         .output()
         .unwrap();
-    assert_eq!(o.status.code(), Some(4), "{}", stderr(&o));
+    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
     assert!(
-        stderr(&o).contains("a file, not a directory"),
+        stderr(&o).contains("is a file, not a cache directory"),
         "{}",
         stderr(&o)
     );
+    // Remote-cache options without a remote were taken without a word.
+    let o = Command::new(env!("CARGO_BIN_EXE_cooker"))
+        .args(["cache", "stats", "--cache-read-only", "--cache-dir"])
+        .arg(dir.path())
+        .env_remove("STAINED_GLASS_CACHE_URL")
+        .output()
+        .unwrap();
+    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+    assert!(stderr(&o).contains("--cache-url"), "{}", stderr(&o));
 }
 
 #[test]
@@ -489,9 +498,10 @@ fn explain_in_a_second_checkout_names_the_input_that_changed() {
     assert!(o.status.success(), "{}", stderr(&o));
     let said = stdout(&o);
     assert!(
-        said.contains("a cook would cook it; since the last cook of the same manifest and \
-                       settings recorded here, in another checkout:")
-            && said.contains("b/lit.png changed"),
+        said.contains(
+            "a cook would cook it; since the last cook of the same manifest and \
+                       settings recorded here, in another checkout:"
+        ) && said.contains("b/lit.png changed"),
         "{said}"
     );
     assert!(!said.contains("no earlier cook"), "{said}");
@@ -578,6 +588,11 @@ fn explain_names_the_setting_or_input_that_changed() {
         .output()
         .unwrap();
     assert_eq!(verify.status.code(), Some(1), "{}", said(&verify));
+    // Each damaged file named once (the reason named it again).
+    let verified = stdout(&verify);
+    for line in verified.lines().filter(|l| l.starts_with("damaged: ")) {
+        assert_eq!(line.matches(".blob").count(), 1, "{verified}");
+    }
     let gone = explain(&[]);
     assert!(
         gone.contains("a cook would cook it: the result's pack ")
