@@ -29,6 +29,9 @@ pub struct Guess {
     /// The background colour, linear RGB: a daylight sky where the model has windows.
     pub sky: Option<[f32; 3]>,
     pub notes: Vec<String>,
+    /// The model looks Z-up (its note is among `notes`): `cooker init` says it on the
+    /// terminal too, not only in the manifest's comments.
+    pub looks_z_up: bool,
 }
 
 /// What a window of a bare model shows behind its glass (the background's colour, linear
@@ -762,6 +765,7 @@ pub fn guess(p: &Prepared) -> Guess {
             cameras: Vec::new(),
             sky: None,
             notes: vec!["the model has no geometry to light".into()],
+            looks_z_up: false,
         };
     }
     let diag = (hi - lo).length().max(1e-6);
@@ -804,10 +808,26 @@ pub fn guess(p: &Prepared) -> Guess {
         .map(|w| w.area)
         .sum();
     let stands_on_z = |f: DVec3| f.z > 2.0 * f.y;
-    if stands_on_z(floor_sum.facing)
+    // Where no floor was found at all (a Z-up model's floor, unnamed, is tagged wall: it
+    // stands on its edge), the windows of the upright walls tell: lancets are tall, so in a
+    // Z-up model read Y-up they lie along z, longer than high.
+    let lying_lancets = floor_sum.area == 0.0 && {
+        let (mut along_z, mut upright) = (0.0, 0.0);
+        for w in windows.iter().filter(|w| w.inside.y.abs() < 0.1) {
+            let (wide, high) = (w.width(), w.height());
+            if w.right.normalize_or_zero().z.abs() > 0.9 && wide > 1.5 * high {
+                along_z += w.area;
+            } else if high > 1.5 * wide {
+                upright += w.area;
+            }
+        }
+        along_z > 0.25 * window_area && along_z > 2.0 * upright
+    };
+    let looks_z_up = stands_on_z(floor_sum.facing)
         || stands_on_z(named_floor_facing)
         || low_flat_glass > 0.25 * window_area
-    {
+        || lying_lancets;
+    if looks_z_up {
         notes.push(
             "the floor faces along z, not up (y): the model looks Z-up; `--up z` stands it \
              up (in a scene.toml, `rotate_deg = [-90.0, 0.0, 0.0]` on its [[mesh]])"
@@ -1179,6 +1199,7 @@ pub fn guess(p: &Prepared) -> Guess {
         cameras,
         sky,
         notes,
+        looks_z_up,
     }
 }
 
@@ -1707,6 +1728,72 @@ mod tests {
             }
             obj += "usemtl floor\nf 1 4 3 2\nusemtl wall\nf 5 6 7 8\nf 9 12 11 10\n";
             let model = dir.path().join(format!("room-{z_up}.obj"));
+            std::fs::write(&model, obj).unwrap();
+            bare_cook(&model).1
+        };
+        assert!(notes(true).contains("looks Z-up"), "{}", notes(true));
+        assert!(!notes(false).contains("Z-up"), "{}", notes(false));
+    }
+
+    /// A Z-up nave whose floor is named for its stone ("Marble"), not as a floor: read Y-up
+    /// it stands on its edge and is taken for a wall, so no floor is found; its lancets, tall
+    /// in the walls, then lie along z, and tell. The nave read the right way up is not said
+    /// to be Z-up.
+    #[test]
+    fn a_z_up_nave_with_an_unnamed_floor_is_pointed_out_by_its_lancets() {
+        let dir = tempfile::tempdir().unwrap();
+        std::fs::write(
+            dir.path().join("nave.mtl"),
+            "newmtl Marble\nKd 0.5 0.5 0.5\nnewmtl Stone\nKd 0.6 0.6 0.6\n\
+             newmtl Glass\nKd 0.2 0.2 0.2\nTf 0.2 0.4 0.9\nillum 4\n",
+        )
+        .unwrap();
+        let notes = |z_up: bool| {
+            let mut obj = String::from("mtllib nave.mtl\n");
+            let mut n = 0;
+            let mut quad = |obj: &mut String, m: &str, pts: [[f64; 3]; 4]| {
+                *obj += &format!("usemtl {m}\n");
+                for [x, y, z] in pts {
+                    *obj += &if z_up {
+                        format!("v {x} {} {y}\n", -z)
+                    } else {
+                        format!("v {x} {y} {z}\n")
+                    };
+                }
+                *obj += &format!("f {} {} {} {}\n", n + 1, n + 2, n + 3, n + 4);
+                n += 4;
+            };
+            quad(
+                &mut obj,
+                "Marble",
+                [
+                    [-5., 0., -10.],
+                    [-5., 0., 10.],
+                    [5., 0., 10.],
+                    [5., 0., -10.],
+                ],
+            );
+            for x in [-5.0, 5.0] {
+                quad(
+                    &mut obj,
+                    "Stone",
+                    [[x, 0., -10.], [x, 0., 10.], [x, 8., 10.], [x, 8., -10.]],
+                );
+                for z in [-6.0, -2.0, 2.0, 6.0] {
+                    let x = x * 0.99;
+                    quad(
+                        &mut obj,
+                        "Glass",
+                        [
+                            [x, 2., z - 0.5],
+                            [x, 2., z + 0.5],
+                            [x, 6., z + 0.5],
+                            [x, 6., z - 0.5],
+                        ],
+                    );
+                }
+            }
+            let model = dir.path().join(format!("nave-{z_up}.obj"));
             std::fs::write(&model, obj).unwrap();
             bare_cook(&model).1
         };

@@ -147,6 +147,13 @@ pub fn run(args: Args) -> Outcome {
     {
         eprintln!("warning: {w}");
     }
+    if guess.looks_z_up && args.model.up != cook::UpAxis::Z {
+        eprintln!(
+            "warning: {}: the model looks Z-up (its floor faces along z); `cooker init --up z` \
+             writes the turn that stands it up",
+            args.mesh.display()
+        );
+    }
 
     let dir = output
         .parent()

@@ -2080,11 +2080,23 @@ fn a_z_up_export_cooks_with_up_z_like_the_y_up_model() {
         tagged(&serde_json::from_slice(&o_y.stdout).unwrap())
     );
 
+    // `init` without `--up` says on the terminal that the model looks Z-up (it said so only
+    // in a comment of the manifest it wrote).
+    let plain_toml = z_dir.join("plain.toml");
+    let o = cooker(&[&"init", &z_obj, &"-o", &plain_toml]);
+    assert!(o.status.success(), "{}", text(&o.stderr));
+    assert!(
+        text(&o.stderr).contains("looks Z-up") && text(&o.stderr).contains("init --up z"),
+        "{}",
+        text(&o.stderr)
+    );
+
     // `init` on each, then a cook of each manifest: the same windows throw light.
     let from_init = |model: &Path, up: &str| {
         let scene = model.with_file_name("scene.toml");
         let o = cooker(&[&"init", &model, &"--up", &up, &"-o", &scene]);
         assert!(o.status.success(), "{}", text(&o.stderr));
+        assert!(!text(&o.stderr).contains("Z-up"), "{}", text(&o.stderr));
         let pack = model.with_file_name("scene.pack");
         cook(&scene, &pack, &[]);
         (std::fs::read_to_string(&scene).unwrap(), info(&pack))
