@@ -484,6 +484,26 @@ pub fn plan(
                 ),
             ));
         }
+        // Glass without texture coordinates whose one pane names a texture: the texture is
+        // fitted to the whole window, over the panes of other glass, whose colours are lost.
+        if image
+            .as_ref()
+            .is_some_and(|(_, source)| *source == DesignSource::Texture)
+            && !inst.has_uvs
+            && panes.len() > 1
+        {
+            report.notes.push(Warning::new(
+                &sources[inst.source].path,
+                None,
+                format!(
+                    "window {:?}: the colour texture of its glass covers the whole window, over \
+                     its {} other panes' own colours; a [[window]] entry with a design, or \
+                     texture coordinates on the glass, place it otherwise",
+                    inst.name,
+                    panes.len() - 1
+                ),
+            ));
+        }
         // A design decoded here for its mask may reach the texture stage only as pixels; the
         // file is still an input of the cook (and of its cache entry).
         if let Some((ImageRef::File(p), _)) = &image {
@@ -656,6 +676,8 @@ pub fn plan(
             ));
         }
     }
+    // Windows whose glass's diffuse colour was dropped, by that colour: one note each.
+    let mut kd_dropped: Vec<(String, Vec<String>)> = Vec::new();
     for (p, (design, source, size)) in pending.iter().zip(designs) {
         let material = &mut tagging.materials[p.material as usize];
         // The window pass shows the design times the material's diffuse colour. A design
@@ -664,14 +686,39 @@ pub fn plan(
         // design given in the manifest or with `--window` is the glass as it is: times a red
         // `Kd`, its blue showed navy on the glass and in the god rays while the floor, lit by
         // the projector (the design alone), showed blue.
+        // The glass's own texture likewise: the projector throws the texture alone, so times
+        // a dark `Kd` (3ds Max glass: `Kd 0.2`, its colour in `Tf`) the glass showed dark brown
+        // while the floor under it was lit bright orange. Kd is the light the glass reflects,
+        // not what it lets through.
         let diffuse = &mut material.material.diffuse;
-        if source != DesignSource::Texture || diffuse.iter().all(|&c| c < 1.0 / 255.0) {
-            *diffuse = [1.0; 3];
+        if source == DesignSource::Texture && diffuse.iter().any(|&c| c < 254.5 / 255.0) {
+            let kd = format!("[{:.2}, {:.2}, {:.2}]", diffuse[0], diffuse[1], diffuse[2]);
+            match kd_dropped.iter_mut().find(|(k, _)| *k == kd) {
+                Some((_, windows)) => windows.push(material.material.name.clone()),
+                None => kd_dropped.push((kd, vec![material.material.name.clone()])),
+            }
         }
+        *diffuse = [1.0; 3];
         let plan = material.window.as_mut().expect("planned above");
         plan.design_size = size;
         plan.design = design;
         plan.source = source;
+    }
+    for (kd, windows) in kd_dropped {
+        report.notes.push(Warning::new(
+            &manifest.path,
+            None,
+            format!(
+                "{} {}: the glass's texture is shown as the light it throws, not times the \
+                 glass's diffuse colour {kd} (the light it reflects)",
+                if windows.len() == 1 {
+                    "window"
+                } else {
+                    "windows"
+                },
+                crate::report::few_names(&windows)
+            ),
+        ));
     }
     out.instances = found;
     Ok(out)

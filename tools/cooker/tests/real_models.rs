@@ -651,6 +651,60 @@ fn a_manifest_without_a_background_is_told_its_windows_show_black() {
     assert!(!said.contains(black), "{said}");
 }
 
+/// Glass whose own texture is the design (no UVs: fitted to the window) is shown as the light
+/// it throws: a dark `Kd` (3ds Max glass) drew it dark on the wall while the floor under it
+/// was lit bright. A texture on one pane of a window of several covers the others: said.
+#[test]
+fn glass_with_its_own_texture_is_shown_as_the_light_it_throws() {
+    let dir = tempfile::tempdir().unwrap();
+    let obj = sibenik(dir.path());
+    image::RgbaImage::from_fn(64, 64, |x, y| {
+        image::Rgba([(x * 4) as u8, (y * 4) as u8, 160, 255])
+    })
+    .save(dir.path().join("photo.png"))
+    .unwrap();
+    let [r, g, b] = LANCET_KD;
+    // The pane with the most glass names the window and gives its texture.
+    let rose = ROSE[3].0;
+    let mtl = std::fs::read_to_string(dir.path().join("sibenik.mtl"))
+        .unwrap()
+        .replace(
+            &format!("newmtl glass\nKd {r} {g} {b}"),
+            "newmtl glass\nKd 0.2 0.2 0.2\nmap_Kd photo.png",
+        )
+        .replace(
+            &format!("newmtl {rose}\n"),
+            &format!("newmtl {rose}\nmap_Kd photo.png\n"),
+        );
+    assert!(mtl.contains("Kd 0.2 0.2 0.2\nmap_Kd") && mtl.matches("map_Kd").count() == 2);
+    std::fs::write(dir.path().join("sibenik.mtl"), mtl).unwrap();
+    let pack = dir.path().join("t.pack");
+    let said = cook(&obj, &pack, &[]);
+    assert!(
+        said.contains(
+            "windows \"glass#1\", \"glass#2\", \"glass#3\" and 27 more: the glass's texture is \
+             shown as the light it throws, not times the glass's diffuse colour [0.20, 0.20, \
+             0.20]"
+        ),
+        "{said}"
+    );
+    assert!(
+        said.contains("covers the whole window, over its 3 other panes' own colours"),
+        "{said}"
+    );
+    let v = info(&pack);
+    let lancets: Vec<&Value> = v["materials"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .filter(|m| m["name"].as_str().unwrap().starts_with("glass"))
+        .collect();
+    assert!(!lancets.is_empty(), "{v:#}");
+    for m in lancets {
+        assert_eq!(m["diffuse"], serde_json::json!([1.0, 1.0, 1.0]), "{m}");
+    }
+}
+
 #[test]
 fn manifest_cook_rasterizes_the_rose_from_its_tf_colours_with_lead_and_a_projector() {
     let dir = tempfile::tempdir().unwrap();
