@@ -461,8 +461,12 @@ impl Cache {
         if before <= self.max_size {
             return Ok(trim);
         }
-        // Oldest first; the path breaks ties so the order does not depend on the listing.
-        entries.sort();
+        // Files larger than the cap go first: they can never stay, and evicting everything
+        // older before reaching them (a 6 MB scene pack under a 3 MB cap) emptied the cache
+        // of the textures that fit. Then oldest first; the path breaks ties so the order does
+        // not depend on the listing.
+        let cap = self.max_size;
+        entries.sort_by(|a, b| (a.1 <= cap, a).cmp(&(b.1 <= cap, b)));
         for (_, len, path) in entries {
             if trim.after <= self.max_size {
                 break;
@@ -965,6 +969,28 @@ mod tests {
                 "prefix {len} accepted"
             );
         }
+    }
+
+    #[test]
+    fn trim_evicts_a_file_over_the_cap_before_older_ones_that_fit() {
+        let dir = tempfile::tempdir().unwrap();
+        let c = Cache::open(dir.path()).unwrap().with_max_size(3000);
+        let t0 = std::time::SystemTime::now() - std::time::Duration::from_secs(10_000);
+        for (i, name) in ["a", "b"].iter().enumerate() {
+            c.put(&key(name), &[i as u8; 1000]).unwrap();
+            std::fs::File::options()
+                .write(true)
+                .open(c.path(&key(name)))
+                .unwrap()
+                .set_modified(t0 + std::time::Duration::from_secs(i as u64))
+                .unwrap();
+        }
+        // The newest, a scene's pack larger than the whole cap.
+        let big = c.put_blob(&[7u8; 5000]).unwrap();
+        let t = c.trim().unwrap();
+        assert_eq!(t.evicted, 1, "{t:?}");
+        assert!(!c.blob_path(&big).exists());
+        assert!(c.path(&key("a")).exists() && c.path(&key("b")).exists());
     }
 
     #[test]
