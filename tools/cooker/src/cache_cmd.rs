@@ -306,6 +306,22 @@ fn verify(args: &CacheArgs) -> Outcome {
 }
 
 /// The leaves of a JSON value that differ between `old` and `new`, as `path: old -> new`.
+/// Settings that hold a file's path, recorded as its bytes (`manifest::WindowDesign`).
+const PATH_KEYS: &[&str] = &["design", "normal_map"];
+
+/// A path recorded as its bytes, as JSON text to show; anything else as it is.
+fn path_text(v: &serde_json::Value) -> serde_json::Value {
+    let bytes: Option<Vec<u8>> = v.as_array().and_then(|a| {
+        a.iter()
+            .map(|b| b.as_u64().and_then(|b| u8::try_from(b).ok()))
+            .collect()
+    });
+    match bytes {
+        Some(b) => serde_json::Value::String(String::from_utf8_lossy(&b).into_owned()),
+        None => v.clone(),
+    }
+}
+
 fn changed_leaves(prefix: &str, old: &serde_json::Value, new: &serde_json::Value) -> Vec<String> {
     use serde_json::Value;
     match (old, new) {
@@ -323,6 +339,16 @@ fn changed_leaves(prefix: &str, old: &serde_json::Value, new: &serde_json::Value
                     // A setting at its default is left out of the record (`--up y`): said
                     // as the default, not as "null".
                     match (a.get(k), b.get(k)) {
+                        // Paths are recorded as their bytes (a path need not be UTF-8):
+                        // compared and shown as text, not byte by byte.
+                        (Some(x), Some(y)) if PATH_KEYS.contains(&k.as_str()) => {
+                            let (x, y) = (path_text(x), path_text(y));
+                            if x == y {
+                                Vec::new()
+                            } else {
+                                vec![format!("{path}: {x} -> {y}")]
+                            }
+                        }
                         (Some(x), Some(y)) => changed_leaves(&path, x, y),
                         (None, Some(y)) => vec![format!("{path}: default -> {y}")],
                         (Some(x), None) => vec![format!("{path}: {x} -> default")],
@@ -528,5 +554,12 @@ mod tests {
             ]
         );
         assert_eq!(changed_leaves("", &new, &old)[1], "up: \"Z\" -> default");
+        // A design's path, recorded as bytes, is shown as its text.
+        let a = json!({"window_overrides": [{"design": b"a/x.png".to_vec()}]});
+        let b = json!({"window_overrides": [{"design": b"b/x.png".to_vec()}]});
+        assert_eq!(
+            changed_leaves("", &a, &b),
+            ["window_overrides[0].design: \"a/x.png\" -> \"b/x.png\""]
+        );
     }
 }
