@@ -441,14 +441,17 @@ pub fn plan(
         let tinted = image
             .as_ref()
             .is_none_or(|(_, source)| *source == DesignSource::Texture);
-        let (mut tris, mut panes, mut tints) = uv_triangles(
-            &sources[inst.source],
-            inst,
-            &tri_material[inst.source],
-            tagging,
-            inst.source,
-            tinted,
-        );
+        let triangles_of = |sources: &[Imported], tagging: &Tagging| {
+            uv_triangles(
+                &sources[inst.source],
+                inst,
+                &tri_material[inst.source],
+                tagging,
+                inst.source,
+                tinted,
+            )
+        };
+        let (mut tris, mut panes, mut tints) = triangles_of(sources, tagging);
         // A design drawn from the panes' colours is drawn where their texture coordinates put
         // them. Exporters often map every pane to the whole square (per-face or reset UVs): in
         // those coordinates the panes lie on one another and the last drawn covers the rest,
@@ -465,14 +468,7 @@ pub fn plan(
         {
             planar = true;
             instances::write_planar_uvs(&mut sources[inst.source], inst);
-            (tris, panes, tints) = uv_triangles(
-                &sources[inst.source],
-                inst,
-                &tri_material[inst.source],
-                tagging,
-                inst.source,
-                tinted,
-            );
+            (tris, panes, tints) = triangles_of(sources, tagging);
             report.notes.push(Warning::new(
                 &sources[inst.source].path,
                 None,

@@ -278,6 +278,16 @@ fn diff_pairs_textures_by_the_materials_that_use_them() {
     );
 }
 
+/// A diff's `--json` problems, as text.
+fn problems_of(v: &serde_json::Value) -> Vec<&str> {
+    v["problems"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|p| p.as_str().unwrap())
+        .collect()
+}
+
 /// One window of three that share a design switched to a copy of another folder (same file
 /// stem, so the names shift): the design shared by the other two is still paired with itself,
 /// and the window whose material now names another image is named.
@@ -329,12 +339,7 @@ fn diff_names_the_material_whose_design_changed() {
     for k in 1..=5 {
         assert_eq!(equal_in(&v, &format!("window_lower_{k}")), false, "{v:#}");
     }
-    let problems: Vec<&str> = v["problems"]
-        .as_array()
-        .unwrap()
-        .iter()
-        .map(|p| p.as_str().unwrap())
-        .collect();
+    let problems = problems_of(&v);
     assert!(
         problems.contains(&"texture \"lancet\" is missing from b"),
         "{problems:#?}"
@@ -362,12 +367,7 @@ fn diff_names_the_material_whose_design_changed() {
     let o = cooker(&[&"diff", &a, &b, &"--json"]);
     assert_eq!(o.status.code(), Some(1));
     let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
-    let problems: Vec<&str> = v["problems"]
-        .as_array()
-        .unwrap()
-        .iter()
-        .map(|p| p.as_str().unwrap())
-        .collect();
+    let problems = problems_of(&v);
     assert!(
         problems.iter().any(|p| p
             .starts_with("material \"window_lower_2\": its colour texture is \"mosaic\" in a and")
