@@ -88,6 +88,9 @@ struct WindowPlane {
     origin: vec4<f32>,
     // xyz: unit normal into the building.
     normal: vec4<f32>,
+    // xyz: the corners of the buildings whose windows lie in it: tested only within them.
+    lo: vec4<f32>,
+    hi: vec4<f32>,
 }
 
 struct Material {

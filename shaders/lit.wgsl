@@ -2,20 +2,28 @@
 // Pass 3: the lit scene with the windows black. Phong shading; inside the building light only
 // arrives through the windows, coloured by each window's pre-blurred projector texture.
 
-// True when `p` lies on the inner side of every window plane (or of the uncut wall a window's
-// glass sits on): such points see the light only through the windows.
+// True when `p` lies within some building with windows and on the inner side of every window
+// plane (or of the uncut wall a window's glass sits on) of the buildings it lies within: such
+// points see the light only through the windows. A plane bounds its own building's inside
+// only: another building of the scene lies outside it.
 fn is_inside(p: vec3<f32>) -> bool {
     if (frame.counts.y == 0u) {
         return false;
     }
+    let reach = 2.0 * frame.lengths.x + frame.lengths.y;
+    var within = false;
     // A plane per wall, not per window: windows along a wall share one.
     for (var i = 0u; i < frame.counts.w; i = i + 1u) {
         let plane = planes[i];
+        if (any(p < plane.lo.xyz - reach) || any(p > plane.hi.xyz + reach)) {
+            continue;
+        }
+        within = true;
         if (dot(p - plane.origin.xyz, plane.normal.xyz) < -frame.lengths.y - plane.origin.w) {
             return false;
         }
     }
-    return true;
+    return within;
 }
 
 // Taps of the blocker search, and of the filter (only in penumbrae: lit and fully shadowed

@@ -1631,3 +1631,61 @@ fn a_stretched_design_on_a_lancet_matches_the_reference() {
     eprintln!("stretched lancet: FLIP mean {flip:.4}");
     assert!(flip <= 0.05, "FLIP mean {flip}");
 }
+
+/// Two buildings cooked as two meshes of one scene: each lies outside the other's window
+/// planes, so the lit pass took each for "outside" and lit its floor with the unfiltered sun
+/// through the glass (white patches where the coloured ones belonged). A window's plane bounds
+/// only its own building's inside: the lancet hall's floor is lit as it is alone.
+#[test]
+fn a_second_building_beyond_a_windows_plane_leaves_the_first_lit_alike() {
+    let gpu = gpu();
+    let dir = tempfile::tempdir().unwrap();
+    let hall = Hall {
+        opening: Opening::Lancet,
+        light: Sun::Directional {
+            travel: Vec3::new(1.0, -0.6, 0.05),
+            angular_size_deg: 2.0,
+        },
+        boxes: Vec::new(),
+        offset: Vec3::ZERO,
+        cameras: vec![(
+            "patch",
+            Vec3::new(-2.4, 3.5, 0.0),
+            Vec3::new(-2.4, 0.0, 0.01),
+        )],
+    };
+    let alone = cook_hall(&hall, dir.path());
+    // The same hall again, 40 units along the lancet's inside normal (+x): the first hall lies
+    // beyond the second's lancet plane (x = 34).
+    let path = dir.path().join("hall.toml");
+    let manifest = std::fs::read_to_string(&path).unwrap().replacen(
+        "[[mesh]]\nsource = \"hall.obj\"\n",
+        "[[mesh]]\nsource = \"hall.obj\"\n\n[[mesh]]\nsource = \"hall.obj\"\nname = \"beside\"\n\
+         translate = [40.0, 0.0, 0.0]\n",
+        1,
+    );
+    assert!(manifest.contains("beside"));
+    std::fs::write(&path, manifest).unwrap();
+    let m = cook::Manifest::load(&path).unwrap();
+    let out = cook::cook(&m, &cook::Settings::new(&m)).unwrap();
+    let two = pack::encode(out.toc, &out.data).unwrap();
+
+    let size = (160, 90);
+    let (a, _, _) = lit(&gpu, &common::load(&gpu, &alone), 0, size, no_ambient());
+    let (b, _, _) = lit(&gpu, &common::load(&gpu, &two), 0, size, no_ambient());
+    let lit_px = a.iter().filter(|p| luminance(**p) > 0.05).count();
+    assert!(
+        lit_px > 200,
+        "the camera sees the patch: {lit_px} lit pixels"
+    );
+    let differ = a
+        .iter()
+        .zip(&b)
+        .filter(|(p, q)| (0..3).any(|k| (p[k] - q[k]).abs() > 0.02 * p[k].max(q[k]).max(0.05)))
+        .count();
+    assert!(
+        differ * 100 <= lit_px,
+        "{differ} of {} pixels differ with a second building beside ({lit_px} lit)",
+        a.len()
+    );
+}

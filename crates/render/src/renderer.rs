@@ -775,9 +775,18 @@ impl Renderer {
         // entry carries its own layers, so the order is the buffer's alone; a stable sort keeps
         // the sum over the lit ones in window order. Half a hall's windows face away from the
         // sun, and each lit fragment tested them all.
+        // Planes before the sort, while the entries are in window order.
+        let buildings: Vec<Option<[Vec3; 2]>> = (0..windows.items.len())
+            .map(|i| {
+                scene.window_building(i).map(|[lo, hi]| {
+                    let rel = |c: Vec3| (c.as_dvec3() - view.position.as_dvec3()).as_vec3();
+                    [rel(lo), rel(hi)]
+                })
+            })
+            .collect();
+        let planes = uniforms::WindowPlane::distinct(&windows.items, &buildings, frame.lengths[1]);
         windows.items.sort_by_key(|w| w.params[1] == 0);
         frame.counts[2] = windows.items.iter().filter(|w| w.params[1] != 0).count() as u32;
-        let planes = uniforms::WindowPlane::distinct(&windows.items, frame.lengths[1]);
         frame.counts[3] = planes.len() as u32;
         gpu.queue
             .write_buffer(&self.frame_buffer, 0, bytemuck::bytes_of(&frame));

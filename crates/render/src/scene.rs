@@ -165,6 +165,8 @@ pub struct Scene {
     /// are clamped to their edges. Complete once the geometry is in, which the first frame
     /// waits for (and bind groups are made again then).
     uv_tiles: Vec<bool>,
+    /// Per window, the bounds of the meshes that hold its glass ([`window_building`]).
+    window_buildings: Vec<Option<[glam::Vec3; 2]>>,
     /// The windows whose glass sits on an uncut wall, once all geometry is in.
     backings: occlusion::Backings,
     /// Whether opaque geometry reaches beyond a window's plane ([`occlusion::beyond_windows`]).
@@ -549,6 +551,11 @@ impl Scene {
             occluder_bounds: None,
             window_shadows: vec![WindowShadow::NoLight; toc.windows.len()],
             uv_tiles: vec![false; toc.materials.len()],
+            window_buildings: toc
+                .windows
+                .iter()
+                .map(|w| window_building(toc, w))
+                .collect(),
             backings: occlusion::Backings::default(),
             beyond_windows: false,
             window_passes: Vec::new(),
@@ -1100,6 +1107,12 @@ impl Scene {
     /// Whether the light comes in through window `i` (a spot's cone may miss it).
     pub(crate) fn window_passes_light(&self, i: usize) -> bool {
         self.window_passes.get(i).copied().unwrap_or(false)
+    }
+
+    /// The bounds (world space) of the meshes that hold window `i`'s glass: the building
+    /// whose inside its plane bounds. `None` where no mesh draws its material.
+    pub(crate) fn window_building(&self, i: usize) -> Option<[glam::Vec3; 2]> {
+        self.window_buildings.get(i).copied().flatten()
     }
 
     /// How far behind window `i`'s glass its uncut wall lies, if it sits on one.
@@ -1691,4 +1704,21 @@ mod tests {
             );
         }
     }
+}
+
+/// The union of the bounds of the meshes that draw window `w`'s material: the lit pass tests a
+/// window's plane only within them. Two churches cooked as two meshes of one scene each lay
+/// outside the other's window planes, so each was "outside" and lit by the unfiltered sun
+/// through its glass: white patches where the coloured ones belonged.
+fn window_building(toc: &Toc, w: &pack::Window) -> Option<[glam::Vec3; 2]> {
+    toc.meshes
+        .iter()
+        .filter(|m| m.ranges.iter().any(|r| r.material == w.material))
+        .map(|m| {
+            [
+                glam::Vec3::from(m.bounds_min),
+                glam::Vec3::from(m.bounds_max),
+            ]
+        })
+        .reduce(|a, b| [a[0].min(b[0]), a[1].max(b[1])])
 }

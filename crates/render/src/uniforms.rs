@@ -90,6 +90,12 @@ pub struct WindowPlane {
     pub origin: [f32; 4],
     /// xyz: unit normal into the building.
     pub normal: [f32; 4],
+    /// xyz: the low corner of the buildings whose windows lie in the plane (camera-relative):
+    /// the plane bounds their inside, and is not tested elsewhere (another building of the
+    /// scene lies outside it). The lowest f32 where unbounded.
+    pub lo: [f32; 4],
+    /// xyz: the high corner.
+    pub hi: [f32; 4],
 }
 
 impl WindowPlane {
@@ -98,10 +104,22 @@ impl WindowPlane {
     /// lit fragment tests each. Normals within 1e-6 and offsets within a tenth of the test's
     /// slack (`slack`, [`Frame::lengths`]'s y, 1e-3 units in most scenes) count as one plane:
     /// tested with the first window's, a point 100 units away moves by at most 2e-4.
-    pub fn distinct(windows: &[WindowProjector], slack: f32) -> Vec<WindowPlane> {
-        let mut seen = std::collections::HashSet::new();
-        let mut out = Vec::new();
-        for w in windows {
+    ///
+    /// `buildings[i]` bounds the building window `i` belongs to (camera-relative), `None` for
+    /// unbounded; a plane shared by several takes the union.
+    pub fn distinct(
+        windows: &[WindowProjector],
+        buildings: &[Option<[glam::Vec3; 2]>],
+        slack: f32,
+    ) -> Vec<WindowPlane> {
+        let mut seen = std::collections::HashMap::new();
+        let mut out: Vec<WindowPlane> = Vec::new();
+        for (i, w) in windows.iter().enumerate() {
+            let [lo, hi] = buildings
+                .get(i)
+                .copied()
+                .flatten()
+                .unwrap_or([glam::Vec3::splat(f32::MIN), glam::Vec3::splat(f32::MAX)]);
             let n = glam::Vec3::from_slice(&w.normal[..3]);
             let o = glam::Vec3::from_slice(&w.origin[..3]);
             let q = |x: f32, step: f32| (x as f64 / step as f64).round() as i64;
@@ -110,11 +128,23 @@ impl WindowPlane {
                 q(n.dot(o), slack * 0.1),
                 w.origin[3].to_bits(),
             );
-            if seen.insert(key) {
-                out.push(WindowPlane {
-                    origin: w.origin,
-                    normal: w.normal,
-                });
+            match seen.get(&key) {
+                Some(&k) => {
+                    let p: &mut WindowPlane = &mut out[k];
+                    for a in 0..3 {
+                        p.lo[a] = p.lo[a].min(lo[a]);
+                        p.hi[a] = p.hi[a].max(hi[a]);
+                    }
+                }
+                None => {
+                    seen.insert(key, out.len());
+                    out.push(WindowPlane {
+                        origin: w.origin,
+                        normal: w.normal,
+                        lo: lo.extend(0.0).to_array(),
+                        hi: hi.extend(0.0).to_array(),
+                    });
+                }
             }
         }
         out
@@ -341,7 +371,7 @@ mod tests {
             // A wall 1 mm in front of the first: a plane of its own.
             window([3.0, 2.0, 0.001], n, 0.0),
         ];
-        let planes = WindowPlane::distinct(&windows, Frame::lengths(100.0)[1]);
+        let planes = WindowPlane::distinct(&windows, &[], Frame::lengths(100.0)[1]);
         let origins: Vec<[f32; 4]> = planes.iter().map(|p| p.origin).collect();
         assert_eq!(
             origins,
@@ -353,7 +383,7 @@ mod tests {
                 windows[5].origin
             ]
         );
-        assert!(WindowPlane::distinct(&[], 1e-3).is_empty());
+        assert!(WindowPlane::distinct(&[], &[], 1e-3).is_empty());
         // In a scene a thousandth that size the step shrinks with the slack: a wall 1 µm in
         // front (the 1 mm above, scaled) is a plane of its own, one 0.03 µm in front is not.
         let tiny = [
@@ -363,6 +393,6 @@ mod tests {
         ];
         let slack = Frame::lengths(0.01)[1];
         assert_eq!(slack, 1e-6);
-        assert_eq!(WindowPlane::distinct(&tiny, slack).len(), 2);
+        assert_eq!(WindowPlane::distinct(&tiny, &[], slack).len(), 2);
     }
 }
