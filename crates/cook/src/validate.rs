@@ -391,12 +391,16 @@ pub fn validate_scene_with(
             ),
             // By its name the entry picks out a window the cook finds, not a material: a
             // typo there is not the same finding (`--allow` one and not the other).
+            _ if w.material.is_none() => v.add(
+                "window-unknown-name",
+                format!(
+                    "[[window]] at manifest line {} names {}, which matches no window",
+                    w.line.0,
+                    w.describe()
+                ),
+            ),
             _ => v.add(
-                if w.material.is_none() {
-                    "window-unknown-name"
-                } else {
-                    "window-unknown-material"
-                },
+                "window-unknown-material",
                 format!(
                     "[[window]] at manifest line {} names {}, which matches no window",
                     w.line.0,

@@ -200,7 +200,11 @@ pub fn plan(
     let material_names =
         |mats: &[u16]| -> Vec<String> { mats.iter().map(|&m| names[m as usize].clone()).collect() };
     let entry_for = |name: &str, mats: &[u16]| -> Option<&WindowDesign> {
-        let mn = material_names(mats);
+        // With the pack material the window's glass takes (see `found_materials`).
+        let mut mn = material_names(mats);
+        if !mn.iter().any(|m| m == name) {
+            mn.push(name.to_string());
+        }
         let hit = |e: &WindowDesign| e.matches(name, mn.iter().map(String::as_str));
         let entry = manifest.windows.iter().position(hit);
         // The last `--window` wins, as a later option does on a command line: with `'*=a.png'
@@ -222,9 +226,18 @@ pub fn plan(
     );
 
     // Whether an entry or `--window` names window `k` found, by its name or its materials'.
+    // A window's glass takes a pack material named after the window where it is not all of
+    // one material of its own (`Glass#3`); `material` globs over pack names too (as `cooker
+    // validate` and `cooker info` list them), so that name is among its materials.
     let found_materials: Vec<Vec<String>> = found
         .iter()
-        .map(|i| material_names(&i.materials.iter().map(|m| m.0).collect::<Vec<_>>()))
+        .map(|i| {
+            let mut names = material_names(&i.materials.iter().map(|m| m.0).collect::<Vec<_>>());
+            if !names.contains(&i.name) {
+                names.push(i.name.clone());
+            }
+            names
+        })
         .collect();
     let names_window = |e: &WindowDesign, k: usize| {
         e.matches(
@@ -268,8 +281,8 @@ pub fn plan(
                 &manifest.path,
                 Some(e.line.0),
                 format!(
-                    "[[window]] names {}, which matches no window (windows: {}); its design is \
-                     not cooked",
+                    "[[window]] names {}, which matches no window (windows: {}{}); its design \
+                     is not cooked",
                     e.describe(),
                     if found.is_empty() {
                         "none".to_string()
@@ -279,6 +292,18 @@ pub fn plan(
                             .map(|i| i.name.as_str())
                             .collect::<Vec<_>>()
                             .join(", ")
+                    },
+                    // An entry by material is told the materials it can match.
+                    if e.name.is_none() && !found.is_empty() {
+                        let mut all: Vec<&str> = Vec::new();
+                        for n in found_materials.iter().flatten() {
+                            if !all.contains(&n.as_str()) {
+                                all.push(n);
+                            }
+                        }
+                        format!("; their materials: {}", all.join(", "))
+                    } else {
+                        String::new()
                     }
                 ),
             ));

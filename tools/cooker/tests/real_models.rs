@@ -893,17 +893,46 @@ fn validate_tells_an_unknown_window_name_from_an_unknown_material() {
     let o = cooker(&[&"validate", &scene, &"--json"]);
     assert_eq!(o.status.code(), Some(1), "{}", text(&o.stderr));
     let v: Value = serde_json::from_slice(&o.stdout).unwrap();
-    let code_of = |what: &str| -> Vec<&str> {
-        v["findings"]
-            .as_array()
-            .unwrap()
-            .iter()
-            .filter(|f| f["message"].as_str().unwrap().contains(what))
-            .map(|f| f["code"].as_str().unwrap())
-            .collect()
-    };
-    assert_eq!(code_of("\"Rosette*\""), ["window-unknown-name"], "{v:#}");
-    assert_eq!(code_of("\"vitraj\""), ["window-unknown-material"], "{v:#}");
+    assert_eq!(
+        code_of_in(&v, "\"Rosette*\""),
+        ["window-unknown-name"],
+        "{v:#}"
+    );
+    assert_eq!(
+        code_of_in(&v, "\"vitraj\""),
+        ["window-unknown-material"],
+        "{v:#}"
+    );
+
+    // A lancet's own pack material (`glass#2`, as `info` and `validate` list it) is a material
+    // an entry may name: the cook said it matched no window while validate found it.
+    image::RgbaImage::from_pixel(8, 16, image::Rgba([200, 40, 40, 255]))
+        .save(dir.path().join("red.png"))
+        .unwrap();
+    let toml = std::fs::read_to_string(&scene).unwrap()
+        + "\n[[window]]\nmaterial = \"glass#2\"\ndesign = \"red.png\"\n";
+    std::fs::write(&scene, toml).unwrap();
+    let o = cooker(&[&"validate", &scene, &"--json"]);
+    let v: Value = serde_json::from_slice(&o.stdout).unwrap();
+    assert!(code_of_in(&v, "\"glass#2\"").is_empty(), "{v:#}");
+    let said = cook(&scene, &dir.path().join("red.pack"), &[]);
+    assert!(
+        !said.contains("material \"glass#2\", which matches no window"),
+        "{said}"
+    );
+    let info = info(&dir.path().join("red.pack"));
+    assert_eq!(window(&info, "glass#2")["design"], "red.fitted", "{info:#}");
+}
+
+/// The codes of `validate --json`'s findings whose message holds `what`.
+fn code_of_in<'a>(v: &'a Value, what: &str) -> Vec<&'a str> {
+    v["findings"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .filter(|f| f["message"].as_str().unwrap().contains(what))
+        .map(|f| f["code"].as_str().unwrap())
+        .collect()
 }
 
 #[test]
