@@ -611,13 +611,20 @@ fn shading_json(entry: &mut Value, s: &ShadingChanges) {
 /// A section's key: what it holds, named as in pack a. `names` gives the names its meshes and
 /// textures go by (for b, those of the a meshes and textures they were paired with), so a
 /// renamed design's mips are compared with its partner's, not listed as only in a and only in b.
-fn role_key(role: SectionRole, names: &SectionNames) -> String {
+fn role_key(toc: &pack::Toc, role: SectionRole, names: &SectionNames) -> String {
     match role {
         SectionRole::Toc => "toc".into(),
         SectionRole::Vertices { mesh } => format!("vertices/{}", names.meshes[mesh as usize]),
         SectionRole::Indices { mesh } => format!("indices/{}", names.meshes[mesh as usize]),
+        // A level by its size, not its index: a chain capped by `--max-texture-size` starts
+        // at another's level 1, and by index every level was "different" (identical bytes
+        // included) and the last "only in a".
         SectionRole::Mip { texture, level } => {
-            format!("mip/{}/{level}", names.textures[texture as usize])
+            let l = &toc.textures[texture as usize].mips[level as usize];
+            format!(
+                "mip/{}/{}x{}",
+                names.textures[texture as usize], l.width, l.height
+            )
         }
     }
 }
@@ -722,7 +729,7 @@ pub fn run(args: Args) -> Outcome {
                 } else {
                     pack::format::crc32(data)
                 };
-                (role_key(r, names), crc)
+                (role_key(p.toc(), r, names), crc)
             })
             .collect()
     };
