@@ -903,11 +903,15 @@ pub fn run(args: Args) -> Outcome {
                             })
                         };
                         problems.push(format!(
-                            "material {:?}: its {slot} texture is {} in a and {} in b, another \
-                             image",
+                            "material {:?}: its {slot} texture is {} in a and {} in b{}",
                             m.name,
                             name(ta, x),
-                            name(tb, y)
+                            name(tb, y),
+                            if x.is_some() && y.is_some() {
+                                ", another image"
+                            } else {
+                                ""
+                            }
                         ));
                     }
                 }
@@ -991,8 +995,10 @@ pub fn run(args: Args) -> Outcome {
             problems.push(format!("texture {:?} is new in b", t.name));
         }
     }
-    // Scene parameters outside geometry and textures.
-    if let Some(why) = light_differs(ta, tb, max_delta) {
+    // Scene parameters outside geometry and textures, each also a field of `--json`'s
+    // `scene`, so a script need not parse the problems' text.
+    let light = light_differs(ta, tb, max_delta);
+    if let Some(why) = &light {
         problems.push(format!(
             "the light differs{why}: {} in a, {} in b",
             describe_light(ta.light.as_ref()),
@@ -1001,15 +1007,39 @@ pub fn run(args: Args) -> Outcome {
     }
     // Cameras and window frames are placed from the geometry, so they move with it: with
     // --max-position-delta their points may move that far too, their directions by 1e-3.
-    if let Some(what) = cameras_differ(&ta.cameras, &tb.cameras, max_delta) {
+    let cameras = cameras_differ(&ta.cameras, &tb.cameras, max_delta);
+    if let Some(what) = &cameras {
         problems.push(format!("the camera presets differ: {what}"));
     }
-    if let Some(what) = windows_differ(ta, tb, max_delta) {
+    let frames = windows_differ(ta, tb, max_delta);
+    if let Some(what) = &frames {
         problems.push(format!("the window frames differ: {what}"));
     }
-    if ta.background != tb.background {
-        problems.push("the background differs".into());
+    let background_equal = ta.background == tb.background;
+    if !background_equal {
+        let show = |b: &pack::Background| {
+            let c = b.colour;
+            format!(
+                "colour [{:.3}, {:.3}, {:.3}]{}",
+                c[0],
+                c[1],
+                c[2],
+                b.panorama
+                    .map_or(String::new(), |t| format!(", panorama texture {t}"))
+            )
+        };
+        problems.push(format!(
+            "the background differs: {} in a, {} in b",
+            show(&ta.background),
+            show(&tb.background)
+        ));
     }
+    let scene = json!({
+        "light_equal": light.is_none(),
+        "cameras_equal": cameras.is_none(),
+        "window_frames_equal": frames.is_none(),
+        "background_equal": background_equal,
+    });
     // Identical by default: without thresholds any byte difference (even one no rule above
     // explains, such as reordered sections) is a difference.
     let strict = args.tolerance_lsb.is_none()
@@ -1052,6 +1082,7 @@ pub fn run(args: Args) -> Outcome {
                 "meshes": meshes,
                 "materials": materials,
                 "textures": tex_json,
+                "scene": scene,
                 "problems": problems,
             }))?
         );

@@ -794,3 +794,37 @@ fn diff_pairs_windows_listed_in_another_order() {
         "{said}"
     );
 }
+
+/// The scene's parameters are fields of `--json` (a script need not parse the problems'
+/// text), and the background's problem gives both sides.
+#[test]
+fn diff_json_says_which_scene_parameters_differ() {
+    let dir = tempfile::tempdir().unwrap();
+    let a = dir.path().join("a.pack");
+    write_sample(&a, |_, _| {});
+    let b = dir.path().join("b.pack");
+    write_sample(&b, |toc, _| {
+        toc.background.colour = [0.5, 0.6, 0.75];
+    });
+    let o = cooker(&[&"diff", &a, &b, &"--json"]);
+    assert_eq!(o.status.code(), Some(1), "{}", text(&o));
+    let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    assert_eq!(
+        v["scene"],
+        serde_json::json!({
+            "light_equal": true,
+            "cameras_equal": true,
+            "window_frames_equal": true,
+            "background_equal": false,
+        }),
+        "{v:#}"
+    );
+    let problems = problems_of(&v);
+    assert!(
+        problems
+            .iter()
+            .any(|p| p.starts_with("the background differs: colour [")
+                && p.ends_with("in a, colour [0.500, 0.600, 0.750] in b")),
+        "{problems:#?}"
+    );
+}
