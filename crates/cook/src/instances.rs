@@ -567,13 +567,13 @@ pub fn receivers(
     sources: &[Imported],
     tri_material: &[Vec<u16>],
     classes: &[MaterialClass],
-) -> Vec<(DVec3, f64, bool)> {
+) -> Vec<Receiver> {
     let (lo, hi) = bounds(sources);
     let cell = ((hi - lo).length() / 64.0).max(1e-9);
-    let mut cells: HashMap<([i64; 3], bool), (DVec3, f64)> = HashMap::new();
+    let mut cells: HashMap<(usize, [i64; 3], bool), (DVec3, f64)> = HashMap::new();
     let mut pieces = Vec::new();
     let mut cuts = 0usize;
-    for (src, mats) in sources.iter().zip(tri_material) {
+    for (si, (src, mats)) in sources.iter().zip(tri_material).enumerate() {
         for (t, &m) in mats.iter().enumerate() {
             let class = classes[m as usize];
             if class.is_window() || class == MaterialClass::Background {
@@ -609,7 +609,7 @@ pub fn receivers(
                 }
                 let centre = (a + b + c) / 3.0;
                 let key = ((centre - lo) / cell).floor().as_i64vec3().to_array();
-                let e = cells.entry((key, floor)).or_insert((DVec3::ZERO, 0.0));
+                let e = cells.entry((si, key, floor)).or_insert((DVec3::ZERO, 0.0));
                 e.0 += centre * area;
                 e.1 += area;
             }
@@ -619,8 +619,23 @@ pub fn receivers(
     let mut out: Vec<_> = cells.into_iter().collect();
     out.sort_by_key(|(k, _)| *k);
     out.into_iter()
-        .map(|((_, floor), (c, a))| (c / a, a, floor))
+        .map(|((source, _, floor), (c, a))| Receiver {
+            centre: c / a,
+            area: a,
+            floor,
+            source,
+        })
         .collect()
+}
+
+/// A cell's worth of receiving surface ([`receivers`]): its area-weighted centre, its area,
+/// whether it is floor, and the source (mesh) it belongs to.
+#[derive(Clone, Copy, Debug)]
+pub struct Receiver {
+    pub centre: DVec3,
+    pub area: f64,
+    pub floor: bool,
+    pub source: usize,
 }
 
 /// The most cuts [`receivers`] makes over a whole model: past it, a triangle counts whole at
@@ -666,7 +681,8 @@ pub fn decide_inside<'r>(
     size: f64,
     explicit: Option<[f32; 3]>,
     light: Option<&LightKind>,
-    receivers: &dyn Fn() -> &'r [(DVec3, f64, bool)],
+    source: usize,
+    receivers: &dyn Fn() -> &'r [Receiver],
 ) -> (DVec3, &'static str) {
     let orient = |d: DVec3| if normal.dot(d) < 0.0 { -normal } else { normal };
     // A direction (nearly) in the window's plane tells its sides apart by rounding noise: the
@@ -678,20 +694,30 @@ pub fn decide_inside<'r>(
     // cosine taken against the window's normal); surfaces lying about in the window's own
     // plane (its wall, a reveal just behind the glass) say nothing about the sides.
     // [score, total weight], without floors and with them.
-    let mut sums = [[0.0f64; 2]; 2];
-    for &(c, a, floor) in receivers() {
-        let d = c - centroid;
-        let side = d.dot(normal);
-        if side.abs() >= 0.05 * size {
-            let weight = a * side.abs() / d.length().powi(3);
-            for (k, sum) in sums.iter_mut().enumerate() {
-                if k == 1 || !floor {
-                    sum[0] += side.signum() * weight;
-                    sum[1] += weight;
+    //
+    // The window's own mesh is asked first: a scene of several buildings, each its own mesh,
+    // had a church's windows face its neighbour ten metres away, whose walls and floor
+    // outweighed the church's own. Glass modelled as a mesh of its own (no receivers) asks
+    // every mesh.
+    let sums_of = |own: bool| {
+        let mut sums = [[0.0f64; 2]; 2];
+        for r in receivers().iter().filter(|r| !own || r.source == source) {
+            let d = r.centre - centroid;
+            let side = d.dot(normal);
+            if side.abs() >= 0.05 * size {
+                let weight = r.area * side.abs() / d.length().powi(3);
+                for (k, sum) in sums.iter_mut().enumerate() {
+                    if k == 1 || !r.floor {
+                        sum[0] += side.signum() * weight;
+                        sum[1] += weight;
+                    }
                 }
             }
         }
-    }
+        sums
+    };
+    let own = sums_of(true);
+    let sums = if own[1][1] > 0.0 { own } else { sums_of(false) };
     let facing = |score: f64| if score < 0.0 { -normal } else { normal };
     for (k, [score, total]) in sums.into_iter().enumerate() {
         if total > 0.0 && score.abs() >= 0.5 * total {
@@ -846,6 +872,7 @@ pub fn find(
             size,
             inside(&i.name, &mats),
             light,
+            i.source,
             &receivers,
         );
         i.inside = n;
@@ -890,6 +917,27 @@ pub fn class_by_sill(sill: f64, floor: f64, wall_top: f64) -> MaterialClass {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// A church's window between its own far wall (+x, 10 m) and a neighbouring building,
+    /// another mesh of the scene, whose whole mass lies on the other side: the window's own
+    /// mesh decides, so it faces into its church. Without receivers of its own (glass as a
+    /// mesh apart), every mesh counts.
+    #[test]
+    fn the_windows_own_mesh_decides_its_inside() {
+        let at = |x: f64, area: f64, source: usize| Receiver {
+            centre: DVec3::new(x, 5.0, 0.0),
+            area,
+            floor: false,
+            source,
+        };
+        let scene = [at(10.0, 100.0, 0), at(-10.0, 150.0, 1), at(-20.0, 400.0, 1)];
+        let decide = |source: usize| {
+            decide_inside(DVec3::X, DVec3::ZERO, 3.0, None, None, source, &|| &scene[..])
+        };
+        assert_eq!(decide(0).0, DVec3::X);
+        // Glass in a mesh of its own: the neighbour's mass on −x outweighs the far wall.
+        assert_eq!(decide(2).0, DVec3::NEG_X);
+    }
     use crate::import::{Corner, Part};
 
     /// A quad: corner, right edge, up edge, material.
