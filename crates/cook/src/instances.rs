@@ -932,7 +932,15 @@ mod tests {
         };
         let scene = [at(10.0, 100.0, 0), at(-10.0, 150.0, 1), at(-20.0, 400.0, 1)];
         let decide = |source: usize| {
-            decide_inside(DVec3::X, DVec3::ZERO, 3.0, None, None, source, &|| &scene[..])
+            decide_inside(
+                DVec3::X,
+                DVec3::ZERO,
+                3.0,
+                None,
+                None,
+                source,
+                &|| &scene[..],
+            )
         };
         assert_eq!(decide(0).0, DVec3::X);
         // Glass in a mesh of its own: the neighbour's mass on −x outweighs the far wall.
