@@ -1444,6 +1444,23 @@ fn convert_vertices(
     }
 }
 
+/// The union of the bounds of the meshes that draw window `w`'s material: the lit pass tests a
+/// window's plane only within them. Two churches cooked as two meshes of one scene each lay
+/// outside the other's window planes, so each was "outside" and lit by the unfiltered sun
+/// through its glass: white patches where the coloured ones belonged.
+fn window_building(toc: &Toc, w: &pack::Window) -> Option<[glam::Vec3; 2]> {
+    toc.meshes
+        .iter()
+        .filter(|m| m.ranges.iter().any(|r| r.material == w.material))
+        .map(|m| {
+            [
+                glam::Vec3::from(m.bounds_min),
+                glam::Vec3::from(m.bounds_max),
+            ]
+        })
+        .reduce(|a, b| [a[0].min(b[0]), a[1].max(b[1])])
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -1704,21 +1721,4 @@ mod tests {
             );
         }
     }
-}
-
-/// The union of the bounds of the meshes that draw window `w`'s material: the lit pass tests a
-/// window's plane only within them. Two churches cooked as two meshes of one scene each lay
-/// outside the other's window planes, so each was "outside" and lit by the unfiltered sun
-/// through its glass: white patches where the coloured ones belonged.
-fn window_building(toc: &Toc, w: &pack::Window) -> Option<[glam::Vec3; 2]> {
-    toc.meshes
-        .iter()
-        .filter(|m| m.ranges.iter().any(|r| r.material == w.material))
-        .map(|m| {
-            [
-                glam::Vec3::from(m.bounds_min),
-                glam::Vec3::from(m.bounds_max),
-            ]
-        })
-        .reduce(|a, b| [a[0].min(b[0]), a[1].max(b[1])])
 }
