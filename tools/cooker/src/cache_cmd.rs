@@ -469,9 +469,12 @@ fn explain(
     // file differs here (without it, a changed design in a second checkout was "no earlier
     // cook recorded" under a line that said the scene was cooked before).
     let own = read_record(&scene_cache::record_path(&cache, input));
+    let dir = input.parent().unwrap_or(std::path::Path::new(""));
     let (record, elsewhere) = match own {
         Some(r) => (r, false),
         None => {
+            // The same manifest first; else, the manifest edited too, a record of the same
+            // settings whose every input is a file here (the same scene's layout), latest.
             let other = std::fs::read_dir(cache.dir().join("scenes"))
                 .into_iter()
                 .flatten()
@@ -479,11 +482,14 @@ fn explain(
                 .filter_map(|e| {
                     let r = read_record(&e.path())?;
                     let when = e.metadata().and_then(|m| m.modified()).ok()?;
-                    (r.manifest_sha256 == manifest_sha
-                        && changed_leaves("", &r.settings, &settings_json).is_empty())
-                    .then_some((when, r))
+                    let same_settings = changed_leaves("", &r.settings, &settings_json).is_empty();
+                    let same_manifest = r.manifest_sha256 == manifest_sha;
+                    let same_layout = !r.inputs.is_empty()
+                        && r.inputs.iter().all(|(rel, _)| dir.join(rel).is_file());
+                    (same_settings && (same_manifest || same_layout))
+                        .then_some(((same_manifest, when), r))
                 })
-                .max_by_key(|(when, _)| *when);
+                .max_by_key(|(rank, _)| *rank);
             match other {
                 Some((_, r)) => (r, true),
                 None => {
@@ -504,7 +510,6 @@ fn explain(
     for c in changed_leaves("", &record.settings, &settings_json) {
         why.push(format!("setting {c}"));
     }
-    let dir = input.parent().unwrap_or(std::path::Path::new(""));
     for (rel, sha) in &record.inputs {
         let path = dir.join(rel);
         match cook::cache::digest_file(&path) {

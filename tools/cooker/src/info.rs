@@ -194,7 +194,10 @@ pub fn describe(pack: &Pack) -> serde_json::Value {
             direction,
             angular_size,
         } => json!({
+            // Radians, as the pack stores them; the manifest's and text output's degrees
+            // beside them, named so.
             "type": "directional", "direction": direction, "angular_size": angular_size,
+            "angular_size_deg": angular_size.to_degrees(),
             "colour": l.colour, "intensity": l.intensity,
         }),
         pack::LightKind::Spot {
@@ -206,6 +209,7 @@ pub fn describe(pack: &Pack) -> serde_json::Value {
         } => json!({
             "type": "spot", "position": position, "radius": radius, "direction": direction,
             "inner_cone": inner, "outer_cone": outer,
+            "inner_cone_deg": inner.to_degrees(), "outer_cone_deg": outer.to_degrees(),
             "colour": l.colour, "intensity": l.intensity,
         }),
     });

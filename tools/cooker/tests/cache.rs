@@ -505,6 +505,23 @@ fn explain_in_a_second_checkout_names_the_input_that_changed() {
         "{said}"
     );
     assert!(!said.contains("no earlier cook"), "{said}");
+    // The manifest edited there too: the first checkout's record of the same scene, found by
+    // its files, says so.
+    let manifest = dir.path().join("b/scene.toml");
+    let text = std::fs::read_to_string(&manifest).unwrap();
+    std::fs::write(&manifest, format!("{text}\n# edited\n")).unwrap();
+    let o = Command::new(env!("CARGO_BIN_EXE_cooker"))
+        .args(["cache", "explain"])
+        .arg(&manifest)
+        .arg("--cache-dir")
+        .arg(&cache)
+        .output()
+        .unwrap();
+    let said = stdout(&o);
+    assert!(
+        said.contains("b/scene.toml changed") && said.contains("b/lit.png changed"),
+        "{said}"
+    );
 }
 
 #[test]

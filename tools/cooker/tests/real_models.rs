@@ -1993,6 +1993,14 @@ fn an_unedited_init_manifest_cooks_the_bare_cook_s_very_pack() {
                     && said.contains("its cone 11.459156 to 34.37747 degrees"),
                 "{said}"
             );
+            // `--json` gives the pack's radians and, named so, the degrees beside them.
+            let light = &info(&bare)["light"];
+            assert!(
+                (f(&light["inner_cone_deg"]) - 11.459).abs() < 1e-3
+                    && (f(&light["outer_cone_deg"]) - 34.377).abs() < 1e-3
+                    && (f(&light["outer_cone"]) - 0.6).abs() < 1e-6,
+                "{light}"
+            );
         }
         if *model == tiled {
             let toml = std::fs::read_to_string(&scene).unwrap();
