@@ -1599,15 +1599,9 @@ fn a_spot_light_lights_only_the_skylights_in_its_cone() {
     assert!(flip <= 0.05, "FLIP mean {flip}");
 }
 
-/// A square design stretched four times up a lancet: the projector's blur is the sun's penumbra
-/// on the glass along each axis, so the panes' edges on the floor are as soft as the reference
-/// traces them. While σ came from the texels across the lancet and was applied both ways, the
-/// edges between panes up the lancet were blurred four times too wide.
-#[test]
-fn a_stretched_design_on_a_lancet_matches_the_reference() {
-    let gpu = gpu();
-    let dir = tempfile::tempdir().unwrap();
-    let hall = Hall {
+/// The lancet hall in a low sun, seen from above the patch its lancet throws on the floor.
+fn lancet_hall() -> Hall {
+    Hall {
         opening: Opening::Lancet,
         light: Sun::Directional {
             travel: Vec3::new(1.0, -0.6, 0.05),
@@ -1620,7 +1614,18 @@ fn a_stretched_design_on_a_lancet_matches_the_reference() {
             Vec3::new(-2.4, 3.5, 0.0),
             Vec3::new(-2.4, 0.0, 0.01),
         )],
-    };
+    }
+}
+
+/// A square design stretched four times up a lancet: the projector's blur is the sun's penumbra
+/// on the glass along each axis, so the panes' edges on the floor are as soft as the reference
+/// traces them. While σ came from the texels across the lancet and was applied both ways, the
+/// edges between panes up the lancet were blurred four times too wide.
+#[test]
+fn a_stretched_design_on_a_lancet_matches_the_reference() {
+    let gpu = gpu();
+    let dir = tempfile::tempdir().unwrap();
+    let hall = lancet_hall();
     let bytes = cook_hall(&hall, dir.path());
     let scene = common::load(&gpu, &bytes);
     let size = (160, 90);
@@ -1640,20 +1645,7 @@ fn a_stretched_design_on_a_lancet_matches_the_reference() {
 fn a_second_building_beyond_a_windows_plane_leaves_the_first_lit_alike() {
     let gpu = gpu();
     let dir = tempfile::tempdir().unwrap();
-    let hall = Hall {
-        opening: Opening::Lancet,
-        light: Sun::Directional {
-            travel: Vec3::new(1.0, -0.6, 0.05),
-            angular_size_deg: 2.0,
-        },
-        boxes: Vec::new(),
-        offset: Vec3::ZERO,
-        cameras: vec![(
-            "patch",
-            Vec3::new(-2.4, 3.5, 0.0),
-            Vec3::new(-2.4, 0.0, 0.01),
-        )],
-    };
+    let hall = lancet_hall();
     let alone = cook_hall(&hall, dir.path());
     // The same hall again, 40 units along the lancet's inside normal (+x): the first hall lies
     // beyond the second's lancet plane (x = 34).
