@@ -199,12 +199,19 @@ pub fn plan(
         .collect();
     let material_names =
         |mats: &[u16]| -> Vec<String> { mats.iter().map(|&m| names[m as usize].clone()).collect() };
-    let entry_for = |name: &str, mats: &[u16]| -> Option<&WindowDesign> {
-        // With the pack material the window's glass takes (see `found_materials`).
+    // A window's materials as entries glob them: its glass's source or tagged materials, and
+    // the pack material named after the window that it takes where it is not all of one
+    // material of its own (`Glass#3`); `material` globs over pack names too (as `cooker
+    // validate` and `cooker info` list them).
+    let window_materials = |name: &str, mats: &[u16]| -> Vec<String> {
         let mut mn = material_names(mats);
         if !mn.iter().any(|m| m == name) {
             mn.push(name.to_string());
         }
+        mn
+    };
+    let entry_for = |name: &str, mats: &[u16]| -> Option<&WindowDesign> {
+        let mn = window_materials(name, mats);
         let hit = |e: &WindowDesign| e.matches(name, mn.iter().map(String::as_str));
         let entry = manifest.windows.iter().position(hit);
         // The last `--window` wins, as a later option does on a command line: with `'*=a.png'
@@ -226,17 +233,13 @@ pub fn plan(
     );
 
     // Whether an entry or `--window` names window `k` found, by its name or its materials'.
-    // A window's glass takes a pack material named after the window where it is not all of
-    // one material of its own (`Glass#3`); `material` globs over pack names too (as `cooker
-    // validate` and `cooker info` list them), so that name is among its materials.
     let found_materials: Vec<Vec<String>> = found
         .iter()
         .map(|i| {
-            let mut names = material_names(&i.materials.iter().map(|m| m.0).collect::<Vec<_>>());
-            if !names.contains(&i.name) {
-                names.push(i.name.clone());
-            }
-            names
+            window_materials(
+                &i.name,
+                &i.materials.iter().map(|m| m.0).collect::<Vec<_>>(),
+            )
         })
         .collect();
     let names_window = |e: &WindowDesign, k: usize| {

@@ -305,7 +305,6 @@ fn verify(args: &CacheArgs) -> Outcome {
     Ok(if bad == 0 { OK } else { FOUND_PROBLEMS })
 }
 
-/// The leaves of a JSON value that differ between `old` and `new`, as `path: old -> new`.
 /// Settings that hold a file's path, recorded as its bytes (`manifest::WindowDesign`).
 const PATH_KEYS: &[&str] = &["design", "normal_map"];
 
@@ -322,6 +321,7 @@ fn path_text(v: &serde_json::Value) -> serde_json::Value {
     }
 }
 
+/// The leaves of a JSON value that differ between `old` and `new`, as `path: old -> new`.
 fn changed_leaves(prefix: &str, old: &serde_json::Value, new: &serde_json::Value) -> Vec<String> {
     use serde_json::Value;
     match (old, new) {
