@@ -30,10 +30,18 @@ pub struct Pane {
 /// pane's colour and the fraction of light it passes.
 pub type Tint = [[f32; 4]; 3];
 
-/// Calls `f(triangle, x, y)` for every texel whose centre a triangle covers, triangles in
-/// order. Scanline: per row, the span between the triangle's edges, so the cost is the
-/// covered area, not each triangle's bounding box (a fan of long thin triangles has large
-/// boxes and little area).
+/// How far outside a triangle's edge, in texels, a texel centre still counts as covered.
+/// Texture coordinates computed from positions carry f32 rounding: two identical windows in
+/// different places put an edge that should pass through a row of centres a few millionths of
+/// a texel to either side of it, and their masks differed by that row, so the two copies were
+/// not one design. A centre nearer the edge than this is taken on both, far above the noise
+/// (about 1e-4 texels on a 1024-texel side) and far below anything drawn on purpose.
+const EDGE_SLACK: f64 = 1e-3;
+
+/// Calls `f(triangle, x, y)` for every texel whose centre a triangle covers (within
+/// [`EDGE_SLACK`] of its edges), triangles in order. Scanline: per row, the span between the
+/// triangle's edges, so the cost is the covered area, not each triangle's bounding box (a fan
+/// of long thin triangles has large boxes and little area).
 fn scan(tris: &[UvTriangle], w: u32, h: u32, mut f: impl FnMut(usize, u32, u32)) {
     let (wf, hf) = (w as f64, h as f64);
     for (i, (uv, _)) in tris.iter().enumerate() {
@@ -45,30 +53,34 @@ fn scan(tris: &[UvTriangle], w: u32, h: u32, mut f: impl FnMut(usize, u32, u32))
         }
         let y_min = p.iter().map(|q| q[1]).fold(f64::INFINITY, f64::min);
         let y_max = p.iter().map(|q| q[1]).fold(f64::NEG_INFINITY, f64::max);
-        let y0 = (y_min - 0.5).ceil().max(0.0) as u32;
-        let y1 = ((y_max - 0.5).floor() + 1.0).clamp(0.0, hf) as u32;
+        let y0 = (y_min - 0.5 - EDGE_SLACK).ceil().max(0.0) as u32;
+        let y1 = ((y_max - 0.5 + EDGE_SLACK).floor() + 1.0).clamp(0.0, hf) as u32;
         for y in y0..y1 {
             let cy = y as f64 + 0.5;
-            // Where the row crosses the edges; a centre on an edge counts as inside.
+            // Where the row crosses the edges, a row just past a corner taking the corner's
+            // end of the edge; a centre on an edge counts as inside.
             let (mut xl, mut xr) = (f64::INFINITY, f64::NEG_INFINITY);
             for k in 0..3 {
                 let (a, b) = (p[k], p[(k + 1) % 3]);
-                if (a[1] <= cy && cy <= b[1]) || (b[1] <= cy && cy <= a[1]) {
-                    if a[1] == b[1] {
-                        xl = xl.min(a[0].min(b[0]));
-                        xr = xr.max(a[0].max(b[0]));
-                    } else {
-                        let x = a[0] + (b[0] - a[0]) * (cy - a[1]) / (b[1] - a[1]);
-                        xl = xl.min(x);
-                        xr = xr.max(x);
-                    }
+                let (lo, hi) = (a[1].min(b[1]), a[1].max(b[1]));
+                if cy < lo - EDGE_SLACK || cy > hi + EDGE_SLACK {
+                    continue;
+                }
+                if hi - lo <= EDGE_SLACK {
+                    xl = xl.min(a[0].min(b[0]));
+                    xr = xr.max(a[0].max(b[0]));
+                } else {
+                    let t = ((cy - a[1]) / (b[1] - a[1])).clamp(0.0, 1.0);
+                    let x = a[0] + (b[0] - a[0]) * t;
+                    xl = xl.min(x);
+                    xr = xr.max(x);
                 }
             }
             if xl.partial_cmp(&xr).is_none_or(|o| o.is_gt()) {
                 continue;
             }
-            let x0 = (xl - 0.5).ceil().max(0.0) as u32;
-            let x1 = ((xr - 0.5).floor() + 1.0).clamp(0.0, wf) as u32;
+            let x0 = (xl - 0.5 - EDGE_SLACK).ceil().max(0.0) as u32;
+            let x1 = ((xr - 0.5 + EDGE_SLACK).floor() + 1.0).clamp(0.0, wf) as u32;
             for x in x0..x1 {
                 f(i, x, y);
             }
@@ -448,6 +460,35 @@ mod tests {
         // One pane partly over another, a third of it: overlap.
         let partly = [quad(0.0, 0.0, 0.6, 1.0, 0), quad(0.4, 0.0, 1.0, 1.0, 1)].concat();
         assert!(panes_overlap(&partly));
+    }
+
+    /// A window's outline whose edges pass through rows and columns of texel centres, moved by
+    /// the f32 rounding that coordinates computed from another copy's positions carry, covers
+    /// the same texels: two identical windows make one design.
+    #[test]
+    fn rounding_noise_on_an_edge_through_centres_changes_no_texel() {
+        let (w, h) = (64u32, 32u32);
+        let (u0, v0, u1, v1) = (8.5 / 64.0, 4.5 / 32.0, 40.5 / 64.0, 20.5 / 32.0);
+        let exact = rasterize(&quad(u0, v0, u1, v1, 0), w, h);
+        let covered = exact.iter().filter(|&&id| id != 0).count();
+        // Centres on the edges count: columns 8..=40, rows 4..=20.
+        assert_eq!(covered, 33 * 17);
+        for (du, dv) in [(1, 1), (-1, -1), (1, -1), (-1, 1), (3, -2)] {
+            let nudge = |x: f32, d: i32| f32::from_bits((x.to_bits() as i32 + d) as u32);
+            let noisy = quad(
+                nudge(u0, du),
+                nudge(v0, dv),
+                nudge(u1, -du),
+                nudge(v1, -dv),
+                0,
+            );
+            assert_eq!(rasterize(&noisy, w, h), exact, "nudged by ({du}, {dv}) ulps");
+        }
+        // A thousandth of a texel and more is drawn as it is: an edge a tenth of a texel
+        // past a column of centres leaves that column out.
+        let inset = quad(u0 + 0.1 / 64.0, v0, u1, v1, 0);
+        let fewer = rasterize(&inset, w, h).iter().filter(|&&id| id != 0).count();
+        assert_eq!(fewer, 32 * 17);
     }
 
     /// Two quads over one texture, the second overlapping the first's right half: a texel
