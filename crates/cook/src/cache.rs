@@ -266,7 +266,7 @@ impl Cache {
     /// The default location: `$STAINED_GLASS_CACHE`, else `$XDG_CACHE_HOME/stained-glass`, else
     /// `~/.cache/stained-glass`, else a folder in the system temp directory.
     pub fn default_dir() -> PathBuf {
-        if let Some(d) = std::env::var_os("STAINED_GLASS_CACHE") {
+        if let Some(d) = std::env::var_os("STAINED_GLASS_CACHE").filter(|d| !d.is_empty()) {
             return PathBuf::from(d);
         }
         if let Some(d) = std::env::var_os("XDG_CACHE_HOME").filter(|d| !d.is_empty()) {

@@ -79,22 +79,33 @@ impl CacheArgs {
             return Ok(None);
         }
         let dir = self.cache_dir.clone().unwrap_or_else(Cache::default_dir);
-        // `cooker cache stats --cache-dir typo` made the directory and said "0 entries".
-        if !lenient && self.cache_dir.is_some() && !dir.exists() {
-            return Err(crate::exit::UsageError(format!(
-                "--cache-dir {}: no such directory (nothing was cooked with it)",
-                dir.display()
-            ))
-            .into());
-        }
-        // A file given as the directory is the same mistake as a typo (it exited 4, an I/O
-        // error, where a missing directory exits 2).
-        if !lenient && self.cache_dir.is_some() && dir.exists() && !dir.is_dir() {
-            return Err(crate::exit::UsageError(format!(
-                "--cache-dir {}: is a file, not a cache directory",
-                dir.display()
-            ))
-            .into());
+        // A directory the user named, on the command line or in the environment, is checked;
+        // the default one may well not exist before the first cook.
+        let named = if self.cache_dir.is_some() {
+            Some("--cache-dir")
+        } else if std::env::var_os("STAINED_GLASS_CACHE").is_some_and(|d| !d.is_empty()) {
+            Some("$STAINED_GLASS_CACHE")
+        } else {
+            None
+        };
+        if let Some(named) = named.filter(|_| !lenient) {
+            // `cooker cache stats --cache-dir typo` made the directory and said "0 entries".
+            if !dir.exists() {
+                return Err(crate::exit::UsageError(format!(
+                    "{named} {}: no such directory (nothing was cooked with it)",
+                    dir.display()
+                ))
+                .into());
+            }
+            // A file given as the directory is the same mistake as a typo (it exited 4, an I/O
+            // error, where a missing directory exits 2).
+            if !dir.is_dir() {
+                return Err(crate::exit::UsageError(format!(
+                    "{named} {}: is a file, not a cache directory",
+                    dir.display()
+                ))
+                .into());
+            }
         }
         let mut cache = match Cache::open(&dir) {
             Ok(c) => c.with_max_size(self.cache_max_size),

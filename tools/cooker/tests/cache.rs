@@ -282,6 +282,22 @@ fn a_cache_directory_that_cannot_be_made_leaves_the_cook_uncached() {
     assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
     assert!(stderr(&o).contains("no such directory"), "{}", stderr(&o));
     assert!(!typo.exists());
+    // The same typo in $STAINED_GLASS_CACHE said "0 entries" and exited 0.
+    let o = Command::new(env!("CARGO_BIN_EXE_cooker"))
+        .args(["cache", "stats"])
+        .env("STAINED_GLASS_CACHE", &typo)
+        .output()
+        .unwrap();
+    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+    assert!(
+        stderr(&o).contains(&format!(
+            "$STAINED_GLASS_CACHE {}: no such directory",
+            typo.display()
+        )),
+        "{}",
+        stderr(&o)
+    );
+    assert!(!typo.exists());
     // And a file in its place is the same mistake: bad usage, as the typo is.
     let o = Command::new(env!("CARGO_BIN_EXE_cooker"))
         .args(["cache", "stats", "--cache-dir"])
