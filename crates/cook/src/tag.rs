@@ -531,8 +531,10 @@ pub struct PartGeometry {
     pub horizontal: f64,
     /// Area of triangles within about 15° of vertical.
     pub vertical: f64,
-    /// Area-weighted mean height.
-    pub mean_y: f64,
+    /// Area-weighted sum of heights ([`PartGeometry::mean_y`] divides it): kept a sum so that
+    /// geometry built triangle by triangle is never judged before it is divided (a building's
+    /// floor cut out of one material was judged by the sum, so it was a floor only at y = 0).
+    pub y_moment: f64,
     /// Lowest and highest point.
     pub y_range: [f64; 2],
     /// Where the part is shaped as a floor ([`floor_shaped`]): the floor-shaped parts of its
@@ -593,6 +595,15 @@ impl PartGeometry {
         }
     }
 
+    /// Area-weighted mean height (0 for a part without area).
+    pub fn mean_y(&self) -> f64 {
+        if self.area > 0.0 {
+            self.y_moment / self.area
+        } else {
+            0.0
+        }
+    }
+
     /// Adds one triangle, given its area and `up` (|cos| of its normal against +Y).
     fn add(&mut self, [a, b, c]: [glam::DVec3; 3], area: f64, up: f64) {
         self.area += area;
@@ -602,7 +613,7 @@ impl PartGeometry {
         if up < VERTICAL_UP {
             self.vertical += area;
         }
-        self.mean_y += area * (a.y + b.y + c.y) / 3.0;
+        self.y_moment += area * (a.y + b.y + c.y) / 3.0;
         let n = (b - a).cross(c - a) / (2.0 * area);
         self.facing[0] += area * n.x * n.x;
         self.facing[1] += area * n.z * n.z;
@@ -680,7 +691,7 @@ pub fn part_geometry(src: &Imported) -> (Vec<PartGeometry>, [f64; 2], f64) {
             g.area += s.area;
             g.horizontal += s.horizontal;
             g.vertical += s.vertical;
-            g.mean_y += s.mean_y;
+            g.y_moment += s.y_moment;
             for k in 0..3 {
                 g.facing[k] += s.facing[k];
             }
@@ -691,11 +702,6 @@ pub fn part_geometry(src: &Imported) -> (Vec<PartGeometry>, [f64; 2], f64) {
             range = [range[0].min(s.y_range[0]), range[1].max(s.y_range[1])];
         }
         total += run_total;
-    }
-    for g in &mut out {
-        if g.area > 0.0 {
-            g.mean_y /= g.area;
-        }
     }
     // Floor-shaped parts of one material are a floor together: a floor laid as tiles, boards
     // or one slab a bay, each its own object, had every piece under 2 % of the model and no
@@ -762,7 +768,7 @@ fn wall_shaped(g: &PartGeometry, height: [f64; 2]) -> bool {
 /// tenth of the model's height (`height`).
 fn floor_shaped(g: &PartGeometry, height: [f64; 2]) -> bool {
     let span = (height[1] - height[0]).max(1e-9);
-    g.area > 0.0 && g.horizontal / g.area >= 0.75 && (g.mean_y - height[0]) / span <= 0.1
+    g.area > 0.0 && g.horizontal / g.area >= 0.75 && (g.mean_y() - height[0]) / span <= 0.1
 }
 
 /// Whether a part's geometry makes it a floor: shaped as one ([`floor_shaped`]), and, alone or
@@ -809,7 +815,7 @@ pub fn geometry_heuristic(
         return None;
     }
     let span = (height[1] - height[0]).max(1e-9);
-    let rel = (g.mean_y - height[0]) / span;
+    let rel = (g.mean_y() - height[0]) / span;
     let share = |a: f64| a / g.area;
     if floor_like(g, height, total_area) {
         return Some((
@@ -1474,6 +1480,11 @@ mod tests {
 
     /// A 10 x 20 x 8 room of one part named `Material.001`: floor, four walls, ceiling.
     fn room() -> Imported {
+        room_at(0.0)
+    }
+
+    /// [`room`] with its floor at height `y0`.
+    fn room_at(y0: f32) -> Imported {
         let (w, l, h) = (10.0f32, 20.0, 8.0);
         let quads = [
             [[0., 0., 0.], [w, 0., 0.], [w, 0., l], [0., 0., l]],
@@ -1490,6 +1501,9 @@ mod tests {
             positions.extend(q);
             tris.extend([[b, b + 1, b + 2], [b, b + 2, b + 3]]);
         }
+        for p in &mut positions {
+            p[1] += y0;
+        }
         let mut s = crate::mesh::soup(positions, tris);
         s.parts = vec![Part {
             names: Names {
@@ -1502,22 +1516,27 @@ mod tests {
         s
     }
 
+    /// At any height: a scan's floor lies at its site's elevation (the cut floor was judged by
+    /// its area-weighted sum of heights, so only a room standing at y = 0 had a floor).
     #[test]
     fn a_room_in_one_material_is_cut_into_floor_walls_and_the_rest_unless_a_rule_says() {
-        let t = tag(&manifest(""), &mut [room()]).unwrap();
-        let tagged: Vec<(String, MaterialClass)> = t
-            .materials
-            .iter()
-            .map(|m| (m.material.name.clone(), m.material.class))
-            .collect();
-        assert_eq!(
-            tagged,
-            [
-                ("Material.001".into(), MaterialClass::Other),
-                ("Material.001.floor".into(), MaterialClass::Floor),
-                ("Material.001.wall".into(), MaterialClass::Wall),
-            ]
-        );
+        for y0 in [0.0, 1.0, 100.0, -35.5] {
+            let t = tag(&manifest(""), &mut [room_at(y0)]).unwrap();
+            let tagged: Vec<(String, MaterialClass)> = t
+                .materials
+                .iter()
+                .map(|m| (m.material.name.clone(), m.material.class))
+                .collect();
+            assert_eq!(
+                tagged,
+                [
+                    ("Material.001".into(), MaterialClass::Other),
+                    ("Material.001.floor".into(), MaterialClass::Floor),
+                    ("Material.001.wall".into(), MaterialClass::Wall),
+                ],
+                "floor at y = {y0}"
+            );
+        }
         let t = tag(
             &manifest("[[rule]]\nmatch = \"Material.*\"\nclass = \"wall\"\n"),
             &mut [room()],
