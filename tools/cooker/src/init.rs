@@ -371,7 +371,9 @@ pub fn run(args: Args) -> Outcome {
             t,
             "[[window]]\nname = {}\ninside = {}\n",
             quote(&literal_glob(&inst.name)),
-            vec3([n.x as f32, n.y as f32, n.z as f32])
+            // Only the side is read from it (the window keeps its own normal), so a −0.0 is
+            // written as the 0.0 it means.
+            vec3([n.x, n.y, n.z].map(|c| c as f32 + 0.0))
         );
     }
 

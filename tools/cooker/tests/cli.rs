@@ -415,6 +415,34 @@ fn an_output_over_an_input_is_refused() {
     let _ = std::fs::remove_dir_all(&dir);
 }
 
+/// A pane whose inside is against its normal, with a wall on that side: its inside was
+/// written `[-1.0, -0.0, -0.0]`, the negated normal's signed zeros.
+#[test]
+fn init_writes_an_inside_without_negative_zeros() {
+    let dir = scratch("negzero");
+    std::fs::write(
+        dir.join("g.mtl"),
+        "newmtl glass\nd 0.3\nnewmtl stone\nKd 0.5 0.5 0.5\n",
+    )
+    .unwrap();
+    let obj = dir.join("w.obj");
+    std::fs::write(
+        &obj,
+        "mtllib g.mtl\nv 0 0 0\nv 0 2 0\nv 0 2 2\nv 0 0 2\nv -3 -1 -1\nv -3 3 -1\nv -3 3 3\n\
+         v -3 -1 3\nusemtl glass\nf 1 2 3\nf 1 3 4\nusemtl stone\nf 5 6 7\nf 5 7 8\n",
+    )
+    .unwrap();
+    let toml = dir.join("w.toml");
+    let o = cooker(&["init", obj.to_str().unwrap(), "-o", toml.to_str().unwrap()]);
+    assert_eq!(o.status.code(), Some(0), "{}", text(&o.stderr));
+    let written = std::fs::read_to_string(&toml).unwrap();
+    assert!(
+        written.lines().any(|l| l == "inside = [-1.0, 0.0, 0.0]"),
+        "{written}"
+    );
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
 /// A lone pane of glass facing up with nothing under it: the default sun through the largest
 /// window was the normalized sum of its inside (straight up) and down, NaN, and the cook failed
 /// "writing the pack: … light has invalid parameters", `init` with "a bug in cooker init".

@@ -842,8 +842,8 @@ pub(crate) fn locate_noted(dir: &Path, name: &str, noted: &mut Vec<Absent>) -> O
 
 /// The file `name` (relative to `dir`, or absolute) means, as a file written on Windows means
 /// it too: with backslashes for separators, in any letter case (`Textures\glass.PNG` for
-/// `textures/Glass.png`), or given by an absolute path from the machine it was made on, whose
-/// end is then looked for under `dir`.
+/// `textures/Glass.png`), or given by an absolute path from the machine it was made on, or by
+/// a relative one whose folders are not there, whose end is then looked for under `dir`.
 ///
 /// A name escaped by [`text::escaped`] (not UTF-8) means the file of those bytes.
 pub(crate) fn locate(dir: &Path, name: &str) -> Option<PathBuf> {
@@ -866,13 +866,10 @@ pub(crate) fn locate(dir: &Path, name: &str) -> Option<PathBuf> {
     }
     // `C:/Users/me/kirche/Textures/glass.png`, `/home/me/...`: the model's folder was moved
     // with its files, so the path's end is under `dir`: `kirche/Textures/glass.png`,
-    // `Textures/glass.png`, then `glass.png`.
-    let absolute = slashed.starts_with('/') || slashed.as_bytes().get(1) == Some(&b':');
-    if absolute {
-        let parts: Vec<&str> = relative.split('/').filter(|c| !c.is_empty()).collect();
-        return (1..parts.len()).find_map(|start| any_case(dir, &parts[start..].join("/")));
-    }
-    None
+    // `Textures/glass.png`, then `glass.png`. A relative `textures\glass.png` whose folder
+    // is gone is the same: an archive that put every file beside the model.
+    let parts: Vec<&str> = relative.split('/').filter(|c| !c.is_empty()).collect();
+    (1..parts.len()).find_map(|start| any_case(dir, &parts[start..].join("/")))
 }
 
 /// `relative` under `dir`, each component matched without regard to letter case.

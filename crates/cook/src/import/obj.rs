@@ -2780,7 +2780,8 @@ mod tests {
     }
 
     /// Texture and library names as Windows exporters write them: backslashes, another
-    /// letter case, an absolute path from the machine they were made on.
+    /// letter case, an absolute path from the machine they were made on, a folder that the
+    /// archive did not keep.
     #[test]
     fn files_are_found_as_windows_exporters_name_them() {
         let dir = tempfile::tempdir().unwrap();
@@ -2809,7 +2810,17 @@ mod tests {
             super::super::locate(d, "/home/me/Textures/glass red.png"),
             Some(file.clone())
         );
+        // A relative folder that is not there, or does not hold the file: an archive that put
+        // every file beside the model (Sponza's `textures\\...` flattened).
+        for name in ["maps\\Beside.PNG", "textures\\beside.png", "a/b/beside.png"] {
+            assert_eq!(
+                super::super::locate(d, name),
+                Some(d.join("beside.png")),
+                "{name}"
+            );
+        }
         assert_eq!(super::super::locate(d, "missing.png"), None);
+        assert_eq!(super::super::locate(d, "maps\\missing.png"), None);
         assert_eq!(super::super::locate(d, "Textures"), None);
     }
 
