@@ -482,12 +482,19 @@ mod tests {
                 nudge(v1, -dv),
                 0,
             );
-            assert_eq!(rasterize(&noisy, w, h), exact, "nudged by ({du}, {dv}) ulps");
+            assert_eq!(
+                rasterize(&noisy, w, h),
+                exact,
+                "nudged by ({du}, {dv}) ulps"
+            );
         }
         // A thousandth of a texel and more is drawn as it is: an edge a tenth of a texel
         // past a column of centres leaves that column out.
         let inset = quad(u0 + 0.1 / 64.0, v0, u1, v1, 0);
-        let fewer = rasterize(&inset, w, h).iter().filter(|&&id| id != 0).count();
+        let fewer = rasterize(&inset, w, h)
+            .iter()
+            .filter(|&&id| id != 0)
+            .count();
         assert_eq!(fewer, 32 * 17);
     }
 

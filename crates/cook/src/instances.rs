@@ -675,6 +675,7 @@ pub fn lies_in_plane(inside: [f32; 3], normal: DVec3) -> bool {
 /// [`lies_in_plane`]'s bound: cos 84°.
 const INSIDE_MIN_COS: f64 = 0.1;
 
+#[allow(clippy::too_many_arguments)]
 pub fn decide_inside<'r>(
     normal: DVec3,
     centroid: DVec3,
@@ -683,12 +684,31 @@ pub fn decide_inside<'r>(
     light: Option<&LightKind>,
     source: usize,
     receivers: &dyn Fn() -> &'r [Receiver],
+    open: &dyn Fn() -> Option<[f64; 2]>,
 ) -> (DVec3, &'static str) {
     let orient = |d: DVec3| if normal.dot(d) < 0.0 { -normal } else { normal };
     // A direction (nearly) in the window's plane tells its sides apart by rounding noise: the
     // window is guessed as if none were given (and the plan warns).
     if let Some(v) = explicit.filter(|&v| !lies_in_plane(v, normal)) {
         return (orient(v3(v)), "the manifest's `inside`");
+    }
+    // A building is closed around its inside: what the window sees on that side is the model
+    // in every direction, on the outside there is sky. This sees past surfaces hidden behind
+    // others, which the weights below count as if in view: a church's window 1-5 m from a
+    // neighbour looked into the neighbour, whose near wall and whole inside outweighed the
+    // church's own hall.
+    if let Some([front, back]) = open() {
+        let (closed, opened) = (front.min(back), front.max(back));
+        // A hall is closed, and the sky shows on its outside however narrow the alley: 4 % of
+        // the view up a 1 m alley between halls 8 m high, a tenth up a 2 m one. A roofless
+        // hall is half open, its outside wholly.
+        if (opened >= 0.03 && closed <= opened / 4.0) || opened - closed >= 0.3 {
+            let side = if front < back { normal } else { -normal };
+            return (
+                side,
+                "the enclosed side (seen from it the model closes round the window)",
+            );
+        }
     }
     // Each surface counts by how large it looks from the window (area × |cos| / d², with the
     // cosine taken against the window's normal); surfaces lying about in the window's own
@@ -753,6 +773,90 @@ pub fn decide_inside<'r>(
     }
 }
 
+/// Rays traced from each side of a window against the model: which side it closes round.
+struct Enclosure {
+    /// Every triangle that is not sky (glass included: a hall's other windows close it too).
+    corners: Vec<[glam::Vec3; 3]>,
+    /// Per triangle: its source and its index there.
+    ids: Vec<(u32, u32)>,
+    bvh: geom::Bvh,
+}
+
+/// Rays per side: enough that a side 15 % open is told from a closed one several times over.
+const ENCLOSURE_RAYS: usize = 128;
+
+impl Enclosure {
+    fn new(sources: &[Imported], tri_material: &[Vec<u16>], classes: &[MaterialClass]) -> Self {
+        let (mut corners, mut ids) = (Vec::new(), Vec::new());
+        for (si, (src, mats)) in sources.iter().zip(tri_material).enumerate() {
+            for (t, &m) in mats.iter().enumerate() {
+                if classes[m as usize] == MaterialClass::Background {
+                    continue;
+                }
+                corners.push(triangle(src, t as u32).map(|p| p.as_vec3()));
+                ids.push((si as u32, t as u32));
+            }
+        }
+        let bvh = geom::Bvh::build(corners.len(), |i| corners[i as usize]);
+        Enclosure { corners, ids, bvh }
+    }
+
+    /// The share of rays that leave the model without meeting it, from just off the window's
+    /// centroid on the side `normal` points to and on the other; cosine-weighted (the window's
+    /// view, not the grazing directions along its own wall), on a fixed spiral so that the
+    /// answer is the same on every run. The window's own triangles (both faces of a slab) and
+    /// what lies near its plane do not stop a ray.
+    fn open(
+        &self,
+        source: usize,
+        own: &[u32],
+        centroid: DVec3,
+        normal: DVec3,
+        size: f64,
+    ) -> Option<[f64; 2]> {
+        if self.corners.is_empty() || size.is_nan() || size <= 0.0 {
+            return None;
+        }
+        let mut own: Vec<u32> = own.to_vec();
+        own.sort_unstable();
+        let (t, b) = normal.any_orthonormal_pair();
+        let golden = std::f64::consts::PI * (3.0 - 5f64.sqrt());
+        let mut sides = [0.0; 2];
+        for (side, sign) in sides.iter_mut().zip([1.0, -1.0]) {
+            let n = normal * sign;
+            let origin = (centroid + n * (1e-4 * size)).as_vec3();
+            let mut open = 0usize;
+            // What lies within this of the window's plane is its wall: the reveal of its
+            // opening, or an uncut wall just behind glass drawn on it, which closes nothing
+            // (the receivers' weights leave it out alike).
+            let near = 0.05 * size;
+            for k in 0..ENCLOSURE_RAYS {
+                let r = ((k as f64 + 0.5) / ENCLOSURE_RAYS as f64).sqrt();
+                let phi = k as f64 * golden;
+                let d = t * (r * phi.cos()) + b * (r * phi.sin()) + n * (1.0 - r * r).sqrt();
+                let blocked = self.bvh.visit(
+                    origin,
+                    d.as_vec3(),
+                    f32::INFINITY,
+                    |i| self.corners[i as usize],
+                    &mut |i, hit, _| {
+                        let (s, tri) = self.ids[i as usize];
+                        let own = s as usize == source && own.binary_search(&tri).is_ok();
+                        if own || (hit as f64) * d.dot(n) < near {
+                            f32::INFINITY
+                        } else {
+                            -1.0
+                        }
+                    },
+                );
+                open += usize::from(!blocked);
+            }
+            *side = open as f64 / ENCLOSURE_RAYS as f64;
+        }
+        Some(sides)
+    }
+}
+
 /// The manifest's `inside` override for a window name and its materials.
 pub type InsideOverride<'a> = &'a dyn Fn(&str, &[u16]) -> Option<[f32; 3]>;
 
@@ -779,6 +883,8 @@ pub fn find(
     let (lo, hi) = bounds(sources);
     let tolerance = ((hi - lo).length() * WELD).max(1e-9);
 
+    let all_enclosure = std::cell::OnceCell::new();
+    let enclosure = || all_enclosure.get_or_init(|| Enclosure::new(sources, tri_material, classes));
     let mut out: Vec<Instance> = Vec::new();
     for (si, (src, mats)) in sources.iter().zip(tri_material).enumerate() {
         let glass: Vec<u32> = (0..mats.len() as u32)
@@ -866,6 +972,7 @@ pub fn find(
     for i in &mut out {
         let mats: Vec<u16> = i.materials.iter().map(|m| m.0).collect();
         let size = size_of(&sources[i.source], &i.triangles);
+        let open = || enclosure().open(i.source, &i.triangles, i.centroid, i.inside, size);
         let (n, why) = decide_inside(
             i.inside,
             i.centroid,
@@ -874,6 +981,7 @@ pub fn find(
             light,
             i.source,
             &receivers,
+            &open,
         );
         i.inside = n;
         i.inside_reason = why;
@@ -940,6 +1048,7 @@ mod tests {
                 None,
                 source,
                 &|| &scene[..],
+                &|| None,
             )
         };
         assert_eq!(decide(0).0, DVec3::X);
@@ -1030,6 +1139,66 @@ mod tests {
         // Bottom left and top right seen from inside; v runs down the design.
         assert_eq!(w.planar_uv(DVec3::new(0.0, 2.0, 2.0)), [0.0, 1.0]);
         assert_eq!(w.planar_uv(DVec3::new(0.0, 4.0, 0.0)), [1.0, 0.0]);
+    }
+
+    /// A closed box of stone (material 1), x from `x0` to `x0 + 10`, 8 high and 30 long; with
+    /// `window`, its +x wall has a 6 x 4 opening glazed in material 0.
+    fn hall(x0: f32, window: bool) -> Vec<Quad> {
+        let (w, h, l) = (10.0, 8.0, 30.0);
+        let mut q = vec![
+            ([x0, 0., 0.], [w, 0., 0.], [0., 0., l], 1),
+            ([x0, h, 0.], [w, 0., 0.], [0., 0., l], 1),
+            ([x0, 0., 0.], [0., 0., l], [0., h, 0.], 1),
+            ([x0, 0., 0.], [w, 0., 0.], [0., h, 0.], 1),
+            ([x0, 0., l], [w, 0., 0.], [0., h, 0.], 1),
+        ];
+        let x1 = x0 + w;
+        if window {
+            q.extend([
+                ([x1, 0., 0.], [0., 0., l], [0., 2., 0.], 1),
+                ([x1, 6., 0.], [0., 0., l], [0., 2., 0.], 1),
+                ([x1, 2., 0.], [0., 0., 12.], [0., 4., 0.], 1),
+                ([x1, 2., 18.], [0., 0., 12.], [0., 4., 0.], 1),
+                ([x1, 2., 12.], [0., 0., 6.], [0., 4., 0.], 0),
+            ]);
+        } else {
+            q.push(([x1, 0., 0.], [0., 0., l], [0., h, 0.], 1));
+        }
+        q
+    }
+
+    /// A church's window in its side wall, a neighbouring hall across an alley: the window's
+    /// inside is its own hall, though the neighbour's near wall and whole inside (which the
+    /// window cannot see) lie on the other side. It faced the alley up to a 5 m gap. Without
+    /// a light, so nothing but the geometry decides.
+    #[test]
+    fn a_window_facing_a_neighbour_across_an_alley_looks_into_its_own_hall() {
+        const S: MaterialClass = MaterialClass::Wall;
+        for gap in [1.0, 1.5, 2.0, 3.0, 5.0, 10.0] {
+            let mut q = hall(-5.0, true);
+            q.extend(hall(5.0 + gap, false));
+            let w = run(&quads(&q), &[W, S], None);
+            assert_eq!(w.len(), 1, "{w:#?}");
+            assert_eq!(
+                w[0].inside,
+                DVec3::NEG_X,
+                "gap {gap}: {}",
+                w[0].inside_reason
+            );
+            assert!(
+                w[0].inside_reason.starts_with("the enclosed side"),
+                "{}",
+                w[0].inside_reason
+            );
+        }
+        // Alone, with no roof: still the hall's side (half its view is sky, all of the
+        // outside's).
+        let roofless: Vec<Quad> = hall(-5.0, true)
+            .into_iter()
+            .filter(|q| q.0[1] != 8.0)
+            .collect();
+        let w = run(&quads(&roofless), &[W, S], None);
+        assert_eq!(w[0].inside, DVec3::NEG_X, "{}", w[0].inside_reason);
     }
 
     #[test]

@@ -95,7 +95,7 @@ struct Hit {
 /// The scene as the tracer sees it.
 pub struct Reference {
     triangles: Vec<Triangle>,
-    bvh: Bvh,
+    bvh: geom::Bvh,
     materials: Vec<Material>,
     images: Vec<Option<Image>>,
     light: Option<pack::Light>,
@@ -234,7 +234,7 @@ impl Reference {
                 0
             };
         }
-        let bvh = Bvh::build(&triangles);
+        let bvh = geom::Bvh::build(triangles.len(), |i| triangles[i as usize].p);
         Self {
             triangles,
             bvh,
@@ -417,9 +417,12 @@ impl Reference {
         // Windows whose glass the ray crossed, and the walls it met that might let it through.
         let mut crossed = 0u64;
         let mut walls: Vec<u64> = Vec::new();
-        let blocked = self
-            .bvh
-            .visit(origin, dir, max_t, &self.triangles, &mut |tri, _, b| {
+        let blocked = self.bvh.visit(
+            origin,
+            dir,
+            max_t,
+            |i| self.triangles[i as usize].p,
+            &mut |tri, _, b| {
                 let tri = &self.triangles[tri as usize];
                 let mat = &self.materials[tri.material as usize];
                 if mat.class == MaterialClass::Background {
@@ -443,7 +446,8 @@ impl Reference {
                 };
                 light *= glass;
                 max_t
-            });
+            },
+        );
         if blocked || walls.iter().any(|&w| w & crossed == 0) {
             Vec3::ZERO
         } else {
@@ -457,7 +461,7 @@ impl Reference {
             origin,
             dir,
             f32::INFINITY,
-            &self.triangles,
+            |i| self.triangles[i as usize].p,
             &mut |tri, t, b| {
                 best = Some(Hit { t, tri, b });
                 t
@@ -477,152 +481,6 @@ fn hash(mut h: u32) -> f32 {
     h = h.wrapping_mul(0x85EB_CA6B) ^ (h >> 13);
     h = h.wrapping_mul(0xC2B2_AE35) ^ (h >> 16);
     (h >> 8) as f32 / 16_777_216.0
-}
-
-/// Möller–Trumbore, either side: the distance and the barycentrics of corners 1 and 2.
-fn intersect(t: &Triangle, o: Vec3, d: Vec3) -> Option<(f32, Vec2)> {
-    let (e1, e2) = (t.p[1] - t.p[0], t.p[2] - t.p[0]);
-    let p = d.cross(e2);
-    let det = e1.dot(p);
-    if det.abs() < 1e-20 {
-        return None;
-    }
-    let inv = 1.0 / det;
-    let s = o - t.p[0];
-    let u = s.dot(p) * inv;
-    if !(0.0..=1.0).contains(&u) {
-        return None;
-    }
-    let q = s.cross(e1);
-    let v = d.dot(q) * inv;
-    if v < 0.0 || u + v > 1.0 {
-        return None;
-    }
-    let dist = e2.dot(q) * inv;
-    (dist > 1e-5).then_some((dist, Vec2::new(u, v)))
-}
-
-/// A bounding-volume hierarchy over triangles: median splits on the widest axis of the
-/// centroids, leaves of up to four. Tens of thousands of triangles build in milliseconds.
-struct Bvh {
-    nodes: Vec<Node>,
-    order: Vec<u32>,
-}
-
-#[derive(Clone, Copy)]
-struct Node {
-    lo: Vec3,
-    hi: Vec3,
-    /// Leaf: first index into `order`; inner: the second child (the first follows the node).
-    start: u32,
-    /// Leaf: triangle count; inner: 0.
-    count: u32,
-}
-
-impl Bvh {
-    fn build(triangles: &[Triangle]) -> Self {
-        let mut order: Vec<u32> = (0..triangles.len() as u32).collect();
-        let mut nodes = Vec::with_capacity(triangles.len() * 2 / 3 + 1);
-        if !triangles.is_empty() {
-            Self::split(triangles, &mut order, 0, triangles.len(), &mut nodes);
-        }
-        Self { nodes, order }
-    }
-
-    fn split(
-        triangles: &[Triangle],
-        order: &mut [u32],
-        start: usize,
-        end: usize,
-        nodes: &mut Vec<Node>,
-    ) -> usize {
-        let (mut lo, mut hi) = (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY));
-        let (mut clo, mut chi) = (lo, hi);
-        for &i in &order[start..end] {
-            let t = &triangles[i as usize];
-            for p in t.p {
-                lo = lo.min(p);
-                hi = hi.max(p);
-            }
-            let c = (t.p[0] + t.p[1] + t.p[2]) / 3.0;
-            clo = clo.min(c);
-            chi = chi.max(c);
-        }
-        let index = nodes.len();
-        nodes.push(Node {
-            lo,
-            hi,
-            start: start as u32,
-            count: (end - start) as u32,
-        });
-        let extent = chi - clo;
-        if end - start <= 4 || extent.max_element() <= 0.0 {
-            return index;
-        }
-        let axis = if extent.x >= extent.y && extent.x >= extent.z {
-            0
-        } else if extent.y >= extent.z {
-            1
-        } else {
-            2
-        };
-        let mid = (start + end) / 2;
-        let key = |i: &u32| {
-            let t = &triangles[*i as usize];
-            (t.p[0] + t.p[1] + t.p[2])[axis]
-        };
-        order[start..end].select_nth_unstable_by(mid - start, |a, b| key(a).total_cmp(&key(b)));
-        Self::split(triangles, order, start, mid, nodes);
-        let second = Self::split(triangles, order, mid, end, nodes);
-        nodes[index].start = second as u32;
-        nodes[index].count = 0;
-        index
-    }
-
-    /// Calls `f(triangle, t, barycentrics)` for every hit along the ray closer than the
-    /// current limit (first `max_t`, in no particular order); `f` returns the new limit (the
-    /// hit's distance to keep only closer ones, a negative one to stop). True when stopped.
-    fn visit(
-        &self,
-        o: Vec3,
-        d: Vec3,
-        max_t: f32,
-        triangles: &[Triangle],
-        f: &mut impl FnMut(u32, f32, Vec2) -> f32,
-    ) -> bool {
-        if self.nodes.is_empty() {
-            return false;
-        }
-        let mut limit = max_t;
-        let inv = d.recip();
-        let mut stack = vec![0usize];
-        while let Some(i) = stack.pop() {
-            let n = self.nodes[i];
-            let t0 = (n.lo - o) * inv;
-            let t1 = (n.hi - o) * inv;
-            let near = t0.min(t1).max_element();
-            let far = t0.max(t1).min_element();
-            if near > far.min(limit) || far < 0.0 {
-                continue;
-            }
-            if n.count > 0 {
-                for &t in &self.order[n.start as usize..(n.start + n.count) as usize] {
-                    if let Some((dist, b)) = intersect(&triangles[t as usize], o, d)
-                        && dist <= limit
-                    {
-                        limit = f(t, dist, b);
-                        if limit < 0.0 {
-                            return true;
-                        }
-                    }
-                }
-            } else {
-                stack.push(n.start as usize);
-                stack.push(i + 1);
-            }
-        }
-        false
-    }
 }
 
 /// A linear HDR image (the lit target, or this reference) as the composite would show it
