@@ -788,6 +788,34 @@ colour = [0.35, 0.5, 0.8]
                 7,
                 "up: invalid type: string \"y\"",
             ),
+            // A fourth number was dropped without a word, as was a fifth of any type.
+            (
+                format!("{mesh}[[window]]\nname = \"w\"\ninside = [-1.0, 0.0, 0.0, 5.0]\n"),
+                5,
+                "inside: invalid length 4, expected an array of length 3",
+            ),
+            (
+                format!("{mesh}[background]\ncolour = [0.1, 0.2, 0.3, \"junk\", [1, 2]]\n"),
+                4,
+                "colour: invalid type: string \"junk\"",
+            ),
+            (
+                format!(
+                    "{mesh}[[camera]]\nname = \"c\"\nposition = [0.0, 0.0, 0.0, 1.0]\ntarget = [0.0, 0.0, 1.0]\n"
+                ),
+                5,
+                "position: invalid length 4, expected an array of length 3",
+            ),
+            (
+                format!("{mesh}[light]\ntype = \"directional\"\ndirection = [0.0, -1.0]\n"),
+                5,
+                "direction: invalid length 2, expected an array of length 3",
+            ),
+            (
+                format!("{mesh}scale = [1.0, 2.0, 3.0, 4.0]\n"),
+                3,
+                "scale: a number or [x, y, z]",
+            ),
             (
                 format!("{mesh}\n[[rule]]\nmatch = \"a\"\nclass = \"ceiling\"\n"),
                 6,

@@ -8,6 +8,35 @@ use toml::Spanned;
 
 use super::{Fit, NameKind, UvMode};
 
+/// Three numbers, exactly: serde's arrays read the first three of a longer list and drop the
+/// rest, so `inside = [-1, 0, 0, 5]` or a colour of four values cooked without a word.
+fn v3<'de, D: serde::Deserializer<'de>>(d: D) -> Result<[f32; 3], D::Error> {
+    let v = Vec::<f32>::deserialize(d)?;
+    <[f32; 3]>::try_from(v.as_slice())
+        .map_err(|_| serde::de::Error::invalid_length(v.len(), &"an array of length 3"))
+}
+
+struct V3([f32; 3]);
+
+impl<'de> Deserialize<'de> for V3 {
+    fn deserialize<D: serde::Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        v3(d).map(V3)
+    }
+}
+
+fn opt_v3<'de, D: serde::Deserializer<'de>>(d: D) -> Result<Option<[f32; 3]>, D::Error> {
+    Ok(Option::<V3>::deserialize(d)?.map(|v| v.0))
+}
+
+fn opt_spanned_v3<'de, D: serde::Deserializer<'de>>(
+    d: D,
+) -> Result<Option<Spanned<[f32; 3]>>, D::Error> {
+    Ok(Option::<Spanned<V3>>::deserialize(d)?.map(|v| {
+        let span = v.span();
+        Spanned::new(span, v.into_inner().0)
+    }))
+}
+
 #[derive(Deserialize)]
 #[serde(deny_unknown_fields)]
 pub(super) struct Manifest {
@@ -48,7 +77,7 @@ pub(super) struct Textures {
 #[serde(untagged, expecting = "a number or [x, y, z]")]
 pub(super) enum Scale {
     Uniform(f32),
-    Axes([f32; 3]),
+    Axes(#[serde(deserialize_with = "v3")] [f32; 3]),
 }
 
 #[derive(Deserialize)]
@@ -56,7 +85,9 @@ pub(super) enum Scale {
 pub(super) struct Mesh {
     pub source: Spanned<String>,
     pub name: Option<String>,
+    #[serde(default, deserialize_with = "opt_v3")]
     pub translate: Option<[f32; 3]>,
+    #[serde(default, deserialize_with = "opt_v3")]
     pub rotate_deg: Option<[f32; 3]>,
     pub scale: Option<Spanned<Scale>>,
 }
@@ -70,9 +101,12 @@ pub(super) struct Rule {
     /// A [`pack::MaterialClass`] name; the pack names its classes.
     pub class: Spanned<String>,
     pub material: Option<String>,
+    #[serde(default, deserialize_with = "opt_v3")]
     pub diffuse: Option<[f32; 3]>,
+    #[serde(default, deserialize_with = "opt_v3")]
     pub specular: Option<[f32; 3]>,
     pub shininess: Option<f32>,
+    #[serde(default, deserialize_with = "opt_v3")]
     pub emissive: Option<[f32; 3]>,
     pub texture: Option<Spanned<String>>,
     pub normal_map: Option<Spanned<String>>,
@@ -86,6 +120,7 @@ pub(super) struct Window {
     pub design: Option<Spanned<String>>,
     pub uv: Option<UvMode>,
     pub fit: Option<Fit>,
+    #[serde(default, deserialize_with = "opt_spanned_v3")]
     pub inside: Option<Spanned<[f32; 3]>>,
     pub came_width: Option<Spanned<f32>>,
     pub texels_per_metre: Option<Spanned<f32>>,
@@ -111,12 +146,15 @@ pub(super) enum LightType {
 pub(super) struct Light {
     #[serde(rename = "type")]
     pub kind: LightType,
+    #[serde(default, deserialize_with = "opt_spanned_v3")]
     pub direction: Option<Spanned<[f32; 3]>>,
     pub angular_size_deg: Option<Spanned<f32>>,
+    #[serde(default, deserialize_with = "opt_spanned_v3")]
     pub position: Option<Spanned<[f32; 3]>>,
     pub radius: Option<Spanned<f32>>,
     pub inner_cone_deg: Option<Spanned<f32>>,
     pub outer_cone_deg: Option<Spanned<f32>>,
+    #[serde(default, deserialize_with = "opt_v3")]
     pub colour: Option<[f32; 3]>,
     pub intensity: Option<Spanned<f32>>,
 }
@@ -125,8 +163,11 @@ pub(super) struct Light {
 #[serde(deny_unknown_fields)]
 pub(super) struct Camera {
     pub name: String,
+    #[serde(deserialize_with = "v3")]
     pub position: [f32; 3],
+    #[serde(deserialize_with = "v3")]
     pub target: [f32; 3],
+    #[serde(default, deserialize_with = "opt_v3")]
     pub up: Option<[f32; 3]>,
     pub fov_y_deg: Option<Spanned<f32>>,
     pub near: Option<Spanned<f32>>,
@@ -136,6 +177,7 @@ pub(super) struct Camera {
 #[derive(Deserialize)]
 #[serde(deny_unknown_fields)]
 pub(super) struct Background {
+    #[serde(default, deserialize_with = "opt_v3")]
     pub colour: Option<[f32; 3]>,
     pub panorama: Option<Spanned<String>>,
 }
