@@ -153,6 +153,14 @@ impl Pack {
                 "is a directory, not a pack file",
             )));
         }
+        if !meta.is_file() {
+            // A pipe or a device reports no length: `/dev/zero` was read to the end of memory
+            // before its magic was looked at, and a FIFO cannot be mapped.
+            return Err(io(std::io::Error::new(
+                std::io::ErrorKind::InvalidInput,
+                "is not a regular file (a pipe or a device); a pack is read in place, from a file",
+            )));
+        }
         let len = meta.len();
         if len < HEADER_SIZE {
             // Too short to be a pack; also avoids mapping an empty file, which fails on some

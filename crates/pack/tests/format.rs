@@ -726,6 +726,24 @@ fn write_atomic_follows_links_and_writes_devices_in_place() {
     );
 }
 
+/// A device or a pipe is not read as a pack: `/dev/zero` reports no length, and was read to the
+/// end of memory before its magic was looked at (`cooker info /dev/zero` took 6 GB in 5 s).
+#[cfg(target_os = "linux")]
+#[test]
+fn a_device_is_refused_before_it_is_read() {
+    let e = pack::Pack::open("/dev/zero").err().expect("not a pack");
+    let text = format!(
+        "{e}: {}",
+        std::error::Error::source(&e)
+            .map(|s| s.to_string())
+            .unwrap_or_default()
+    );
+    assert!(
+        text.contains("/dev/zero") && text.contains("not a regular file"),
+        "{text}"
+    );
+}
+
 /// A cook killed mid-write (SIGKILL) leaves its temp file, as large as the pack; the next write
 /// of that output removes it. A live process's temp file (this one's, here) stays.
 #[cfg(target_os = "linux")]

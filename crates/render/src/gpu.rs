@@ -75,6 +75,13 @@ impl Gpu {
     }
 
     fn on_adapter(instance: wgpu::Instance, adapter: wgpu::Adapter) -> Result<Self, RenderError> {
+        if adapter.get_info().backend == wgpu::Backend::Gl {
+            return Err(RenderError::NoAdapter(format!(
+                "{} is OpenGL, whose shaders cannot read depth textures as the shadow lookup \
+                 does; a Vulkan, Metal or DirectX 12 driver is needed",
+                adapter.get_info().name
+            )));
+        }
         let wanted = wgpu::Features::TIMESTAMP_QUERY | wgpu::Features::TEXTURE_COMPRESSION_BC;
         let features = adapter.features() & wanted;
         let (device, queue) = pollster::block_on(adapter.request_device(&wgpu::DeviceDescriptor {
@@ -146,5 +153,15 @@ impl Gpu {
 
 /// An instance for devices without a window, with the backends the environment allows.
 fn headless_instance() -> wgpu::Instance {
-    wgpu::Instance::new(wgpu::InstanceDescriptor::new_without_display_handle_from_env())
+    wgpu::Instance::new(supported_backends(
+        wgpu::InstanceDescriptor::new_without_display_handle_from_env(),
+    ))
+}
+
+/// `desc` without OpenGL: its shaders cannot load from depth textures, which the shadow
+/// lookup does, so a machine with OpenGL and no Vulkan driver fell back to it and panicked at
+/// the first pipeline. Without another backend there is no adapter, which is said plainly.
+pub fn supported_backends(mut desc: wgpu::InstanceDescriptor) -> wgpu::InstanceDescriptor {
+    desc.backends.remove(wgpu::Backends::GL);
+    desc
 }

@@ -36,7 +36,7 @@ pub(crate) fn side_within(size: u32, budget: u64, bytes: impl Fn(u32) -> u64) ->
 }
 
 pub use capture::{f16_to_f32, read_texture, target_image};
-pub use gpu::{Gpu, TextureCaps};
+pub use gpu::{Gpu, TextureCaps, supported_backends};
 pub use renderer::{
     FrameReport, PassId, PassTime, Renderer, Settings, ShadowSettings, TargetId, TimingMethod,
     god_ray_falloff,

@@ -222,16 +222,21 @@ impl Projectors {
             let Some((base, view, (w, h), scale)) = resident(t) else {
                 continue;
             };
-            let full = w.max(h);
             if self.copied[layer] == Some(base) {
                 continue;
             }
             for level in 0..self.levels {
-                // Source level of about this array level's size, relative to the view's base.
-                let lod =
-                    ((full as f32 / self.size as f32).log2() + level as f32 - base as f32).max(0.0);
+                // Source levels of about this array level's size across and down, relative to
+                // the view's base: a narrow design's projector (14 x 306) took the level of its
+                // longer side, whose few columns at the array's smaller levels mixed its
+                // colours to white on the floor seen from afar.
+                let lod = |side: u32| {
+                    (side as f32 / self.size as f32).log2() + level as f32 - base as f32
+                };
+                let texel = 1.0 / (self.size >> level).max(1) as f32;
                 let u = uniforms::Blit {
-                    lod: [lod, scale[0], scale[1], 0.0],
+                    lod: [lod(w), lod(h), texel, 0.0],
+                    scale: [scale[0], scale[1], 0.0, 0.0],
                 };
                 let buffer = gpu
                     .device

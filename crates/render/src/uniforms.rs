@@ -251,8 +251,11 @@ pub struct ShadowView {
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, Pod, Zeroable)]
 pub struct Blit {
-    /// x: the source level; yz: the source's `pack::Texture::uv_scale`.
+    /// x, y: the source level (relative to the view's base) whose texels are the size of one
+    /// array texel across and down; z: one array texel in texture coordinates.
     pub lod: [f32; 4],
+    /// xy: the source's `pack::Texture::uv_scale`.
+    pub scale: [f32; 4],
 }
 
 /// The class number the shaders compare against (`CLASS_*` in `common.wgsl`).

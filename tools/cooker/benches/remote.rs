@@ -127,7 +127,12 @@ fn main() {
         name: "file:// (a folder)",
         url: Box::new({
             let share = share.clone();
-            move |run| format!("file://{}/{run}", share.display())
+            // A share must exist before a cook uses it (one missing is a share not mounted).
+            move |run| {
+                let folder = share.join(format!("{run}"));
+                let _ = std::fs::create_dir_all(&folder);
+                format!("file://{}", folder.display())
+            }
         }),
         args: Vec::new(),
         env: Vec::new(),

@@ -140,10 +140,12 @@ impl CacheArgs {
                         cache = cache.with_remote(r.clone());
                         Some(r)
                     }
-                    Err(e)
-                        if self.cache_remote_required
-                            || e.downcast_ref::<crate::exit::UsageError>().is_some() =>
-                    {
+                    // A URL that is no URL is bad usage, whatever --cache-remote-required
+                    // says: it exited 4 and blamed that flag.
+                    Err(e) if e.downcast_ref::<crate::exit::UsageError>().is_some() => {
+                        return Err(e);
+                    }
+                    Err(e) if self.cache_remote_required => {
                         return Err(RemoteFailure {
                             url: remote::redact(url),
                             what: format!("{e:#}"),

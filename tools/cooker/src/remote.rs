@@ -496,7 +496,7 @@ impl cook::cache::Remote for Remote {
 fn build(url: &url::Url, options: &Options, secrets: &mut Vec<String>) -> anyhow::Result<Operator> {
     let shown = redact(url.as_str());
     match url.scheme() {
-        "file" => fs(url, &shown),
+        "file" => fs(url, &shown, options.read_only),
         "redis" | "rediss" => redis(url, &shown),
         "http" | "https" => webdav(url, &shown, secrets),
         "s3" => s3(url, options, &shown, secrets),
@@ -517,17 +517,27 @@ fn unsupported(shown: &str, feature: &str) -> anyhow::Error {
     .into()
 }
 
-fn fs(url: &url::Url, shown: &str) -> anyhow::Result<Operator> {
+/// A shared folder, which must exist: one that does not is most often a share that is not
+/// mounted, and was made and used as an empty cache (a read-only one too), so every machine
+/// missed in silence.
+fn fs(url: &url::Url, shown: &str, read_only: bool) -> anyhow::Result<Operator> {
     let dir = url
         .to_file_path()
         .map_err(|_| crate::exit::UsageError(format!("--cache-url {shown}: not a local path")))?;
-    let tmp = dir.join(".tmp");
-    std::fs::create_dir_all(&tmp)
-        .with_context(|| format!("creating the remote cache folder {}", tmp.display()))?;
-    let b = opendal::services::Fs::default()
-        .root(&dir.to_string_lossy())
+    if !dir.is_dir() {
+        anyhow::bail!(
+            "{} is not a folder (a share that is not mounted?); create it to start a shared cache",
+            dir.display()
+        );
+    }
+    let mut b = opendal::services::Fs::default().root(&dir.to_string_lossy());
+    if !read_only {
+        let tmp = dir.join(".tmp");
+        std::fs::create_dir_all(&tmp)
+            .with_context(|| format!("creating the remote cache folder {}", tmp.display()))?;
         // Each write lands in a temp file there and is renamed into place.
-        .atomic_write_dir(&tmp.to_string_lossy());
+        b = b.atomic_write_dir(&tmp.to_string_lossy());
+    }
     Ok(Operator::new(b)?)
 }
 

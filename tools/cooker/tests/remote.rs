@@ -251,8 +251,41 @@ fn file_share_machines_share_and_a_planted_blob_is_caught() {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
     let share = d.join("share");
-    let remote = Remote::plain(format!("file://{}", share.display()));
     let scene = small_scene(&d.join("s"));
+    // A share that is not there (not mounted) was made and used as an empty cache, read-only
+    // and required alike: now it is a remote failure, exit 4 where required, and not made.
+    let unmounted = Remote::plain(format!("file://{}", share.display()));
+    let o = cook(
+        &scene.b,
+        &d.join("u.pack"),
+        &d.join("cache-u"),
+        &unmounted,
+        &["--cache-read-only", "--cache-remote-required"],
+    );
+    let t = text(&o);
+    assert_eq!(o.status.code(), Some(4), "{t}");
+    assert!(
+        t.contains("is not a folder (a share that is not mounted?)"),
+        "{t}"
+    );
+    assert!(!share.exists());
+    // A URL of no known scheme is bad usage (it exited 4 and blamed --cache-remote-required).
+    let ftp = Remote::plain("ftp://host/cache".to_string());
+    let o = cook(
+        &scene.b,
+        &d.join("u.pack"),
+        &d.join("cache-u"),
+        &ftp,
+        &["--cache-remote-required"],
+    );
+    let t = text(&o);
+    assert_eq!(o.status.code(), Some(2), "{t}");
+    assert!(
+        t.contains("unknown scheme \"ftp\"") && !t.contains("(--cache-remote-required)"),
+        "{t}"
+    );
+    std::fs::create_dir(&share).unwrap();
+    let remote = Remote::plain(format!("file://{}", share.display()));
     machines_share(d, &scene, &remote, &[]);
 
     // Every blob on the share replaced by other bytes of the same length: each is caught,

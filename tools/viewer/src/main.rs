@@ -730,9 +730,18 @@ fn run() -> Result<()> {
         ))
         .context(args.input.display().to_string()));
     }
+    // A pipe or a device: opened once to look at its first bytes and again to read it, a FIFO
+    // waited forever for a second writer, and `/dev/stdin` was taken for a model.
+    if !input.is_file() {
+        return Err(anyhow::Error::new(std::io::Error::new(
+            std::io::ErrorKind::InvalidInput,
+            "is not a regular file (a pipe or a device); give a pack, scene.toml or model file",
+        ))
+        .context(args.input.display().to_string()));
+    }
     if args.out.exists() && !args.out.is_dir() {
         return Err(Usage(format!(
-            "--out {}: is a file; the images go in a directory",
+            "--out {}: is not a directory; the images go in a directory",
             args.out.display()
         ))
         .into());

@@ -452,6 +452,60 @@ fn zero_size_is_bad_usage() {
     let _ = std::fs::remove_dir_all(&dir);
 }
 
+/// A named pipe: the viewer opened it to look at its first bytes, then again to read it, and
+/// waited forever for a second writer. Now it is refused before anything is opened.
+#[cfg(unix)]
+#[test]
+fn a_pipe_is_refused_at_once() {
+    let dir = scratch("fifo");
+    let fifo = dir.join("scene.pack");
+    assert!(
+        Command::new("mkfifo")
+            .arg(&fifo)
+            .status()
+            .unwrap()
+            .success()
+    );
+    let o = viewer(&[
+        fifo.as_os_str(),
+        "--headless".as_ref(),
+        "--out".as_ref(),
+        dir.join("out").as_os_str(),
+    ]);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(4), "{err}");
+    assert!(err.contains("is not a regular file"), "{err}");
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// OpenGL alone (a machine without a Vulkan driver, or `WGPU_BACKEND=gl`): the viewer found
+/// llvmpipe's OpenGL and panicked at the shadow lookup's pipeline (exit 101). Now there is no
+/// adapter, said plainly, exit 1, whether the machine has OpenGL or not.
+#[test]
+fn opengl_alone_is_no_adapter_not_a_panic() {
+    let dir = scratch("gl");
+    let pack_path = dir.join("tiny.pack");
+    std::fs::write(&pack_path, tiny_pack()).unwrap();
+    let o = Command::new(env!("CARGO_BIN_EXE_viewer"))
+        .args([
+            pack_path.as_os_str(),
+            "--headless".as_ref(),
+            "--out".as_ref(),
+            dir.join("out").as_os_str(),
+            "--size".as_ref(),
+            "16x9".as_ref(),
+        ])
+        .env("WGPU_BACKEND", "gl")
+        .env_remove("XDG_RUNTIME_DIR")
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(1), "{err}");
+    assert!(err.contains("no GPU adapter found"), "{err}");
+    assert!(!err.contains("panicked"), "{err}");
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
 /// Runs the headless viewer on `pack` with the camera "far" at 64x36 and the god-ray pass
 /// written; returns (stdout, stderr, final image, god-ray image).
 fn render_far(

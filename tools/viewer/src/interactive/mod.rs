@@ -361,10 +361,11 @@ impl App {
                 return Ok(());
             }
         };
-        let instance =
-            wgpu::Instance::new(wgpu::InstanceDescriptor::new_with_display_handle_from_env(
-                Box::new(event_loop.owned_display_handle()),
-            ));
+        let instance = wgpu::Instance::new(render::supported_backends(
+            wgpu::InstanceDescriptor::new_with_display_handle_from_env(Box::new(
+                event_loop.owned_display_handle(),
+            )),
+        ));
         let surface = instance
             .create_surface(window.clone())
             .context("creating the window's surface")?;
