@@ -731,7 +731,9 @@ fn write_atomic_follows_links_and_writes_devices_in_place() {
 #[cfg(target_os = "linux")]
 #[test]
 fn a_device_is_refused_before_it_is_read() {
-    let e = pack::Pack::open("/dev/zero").err().expect("not a pack");
+    let Err(e) = pack::Pack::open("/dev/zero") else {
+        panic!("/dev/zero opened as a pack")
+    };
     let text = format!(
         "{e}: {}",
         std::error::Error::source(&e)
