@@ -129,7 +129,7 @@ fn main() {
             let share = share.clone();
             // A share must exist before a cook uses it (one missing is a share not mounted).
             move |run| {
-                let folder = share.join(run.to_string());
+                let folder = share.join(run);
                 let _ = std::fs::create_dir_all(&folder);
                 format!("file://{}", folder.display())
             }
