@@ -211,6 +211,14 @@ pub trait Remote: Send + Sync + std::fmt::Debug {
     fn get_blob(&self, digest: &[u8; 32]) -> Option<Vec<u8>>;
     /// Stores a blob under its SHA-256.
     fn put_blob(&self, digest: &[u8; 32], bytes: &[u8]);
+    /// Makes sure a writable remote holds an action's payload found locally, storing it where
+    /// it does not; whether it had to. A writer's local hits were never uploaded, so the
+    /// machines that read its remote missed what it had cooked before it had a remote.
+    fn publish(&self, _key: &Key, _payload: &[u8]) -> bool {
+        false
+    }
+    /// [`Remote::publish`] for a blob.
+    fn publish_blob(&self, _digest: &[u8; 32], _bytes: &[u8]) {}
 }
 
 /// The default local size cap: 5 GiB.
@@ -290,18 +298,31 @@ impl Cache {
         self.dir.join(format!("{}.blob", hex(digest)))
     }
 
-    /// An action's payload: the local entry, else the remote's (then kept locally).
+    /// An action's payload: the local entry (published to a writable remote that lacks it),
+    /// else the remote's (then kept locally).
     pub fn get(&self, key: &Key) -> Lookup {
+        self.get_published(key).0
+    }
+
+    /// [`Cache::get`], and whether the remote lacked a payload found locally (and was given it).
+    pub fn get_published(&self, key: &Key) -> (Lookup, bool) {
         match read_entry(&self.path(key)) {
             Lookup::Miss => {}
-            found => return found,
+            Lookup::Hit(payload) => {
+                let published = self
+                    .remote
+                    .as_ref()
+                    .is_some_and(|r| r.publish(key, &payload));
+                return (Lookup::Hit(payload), published);
+            }
+            found => return (found, false),
         }
         match self.remote.as_ref().and_then(|r| r.get(key)) {
             Some(payload) => {
                 let _ = self.put_local(&self.path(key), &payload);
-                Lookup::Hit(payload)
+                (Lookup::Hit(payload), false)
             }
-            None => Lookup::Miss,
+            None => (Lookup::Miss, false),
         }
     }
 
@@ -328,6 +349,12 @@ impl Cache {
     pub fn fetch_blob(&self, digest: &[u8; 32]) -> (Lookup, bool) {
         match read_entry(&self.blob_path(digest)) {
             Lookup::Miss => {}
+            Lookup::Hit(bytes) => {
+                if let Some(r) = &self.remote {
+                    r.publish_blob(digest, &bytes);
+                }
+                return (Lookup::Hit(bytes), false);
+            }
             found => return (found, false),
         }
         match self.remote.as_ref().and_then(|r| r.get_blob(digest)) {

@@ -490,6 +490,22 @@ impl cook::cache::Remote for Remote {
     fn put_blob(&self, sha: &[u8; 32], bytes: &[u8]) {
         self.store_blob(sha, bytes);
     }
+
+    fn publish(&self, key: &Key, payload: &[u8]) -> bool {
+        if !self.writable()
+            || self
+                .call(self.op.stat(&format!("ac/{}", key.hex())))
+                .is_ok()
+        {
+            return false;
+        }
+        self.put(key, payload);
+        true
+    }
+
+    fn publish_blob(&self, sha: &[u8; 32], bytes: &[u8]) {
+        self.store_blob(sha, bytes);
+    }
 }
 
 /// The operator for a URL: the scheme picks the service, the path is the root inside it.

@@ -217,12 +217,21 @@ pub fn lookup(
         return Reuse::Cook(format!("the output is the input {}", rel.display()));
     }
     let result_key = result_key(key, &hashed);
-    let result = match cache.get(&result_key) {
-        Lookup::Hit(b) => b,
-        Lookup::Miss => {
+    let result = match cache.get_published(&result_key) {
+        // A writer's remote that lacked this scene lacks its steps too (textures another
+        // design shares): the cook runs, from the local cache, so that each is shared.
+        (Lookup::Hit(_), true) => {
+            return Reuse::Cook(
+                "the remote cache lacks this scene: cooking from the local cache to share \
+                 its steps"
+                    .into(),
+            );
+        }
+        (Lookup::Hit(b), false) => b,
+        (Lookup::Miss, _) => {
             return Reuse::Cook("an input changed since the last cook with these settings".into());
         }
-        Lookup::Corrupt(why) => {
+        (Lookup::Corrupt(why), _) => {
             return Reuse::Cook(format!("damaged cache entry, re-cooking: {why}"));
         }
     };

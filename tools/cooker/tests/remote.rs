@@ -321,6 +321,62 @@ fn file_share_machines_share_and_a_planted_blob_is_caught() {
     assert!(vt.contains(&format!("{planted} damaged")), "{vt}");
 }
 
+/// A writer whose work is all in its local cache, cooked before it had a remote: its hits are
+/// uploaded, the scene and each step, so a machine with another design reuses the textures the
+/// two share. Before, the writer uploaded nothing ("0 B up"), and the other machine cooked all.
+#[test]
+fn a_writer_shares_what_its_local_cache_already_held() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let scene = small_scene(&d.join("s"));
+    let share = d.join("share");
+    std::fs::create_dir(&share).unwrap();
+    let remote = Remote::plain(format!("file://{}", share.display()));
+    let cache_a = d.join("cache-a");
+    let out_a = d.join("a.pack");
+    let o = common::command()
+        .args(["cook"])
+        .arg(&scene.a)
+        .arg("-o")
+        .arg(&out_a)
+        .arg("--cache-dir")
+        .arg(&cache_a)
+        .output()
+        .unwrap();
+    ok(&o);
+    let t = ok(&cook(
+        &scene.a,
+        &out_a,
+        &cache_a,
+        &remote,
+        &["--cache-write"],
+    ));
+    assert!(t.contains("the remote cache lacks this scene"), "{t}");
+    let listed = |sub: &str| std::fs::read_dir(share.join(sub)).map_or(0, |r| r.count());
+    assert!(listed("ac") > 2 && listed("cas") > 2, "{t}");
+    // A second time the remote holds it all: the scene is reused, nothing more is sent.
+    let t = ok(&cook(
+        &scene.a,
+        &out_a,
+        &cache_a,
+        &remote,
+        &["--cache-write"],
+    ));
+    assert!(!t.contains("the remote cache lacks this scene"), "{t}");
+    // B, another design: the steps the two scenes share come from the remote.
+    let design_b = scene.b.parent().unwrap().join(scene.design);
+    edit(&design_b, [1, 2, 3, 255]);
+    let out_b = d.join("b.pack");
+    let t = ok(&cook(&scene.b, &out_b, &d.join("cache-b"), &remote, &[]));
+    let (hits, _, errors) = remote_counts(&t);
+    assert!(hits > 0 && errors == 0, "{t}");
+    assert!(
+        t.contains("textures reused") && !t.contains(" 0 textures reused"),
+        "{t}"
+    );
+    assert!(std::fs::read(&out_b).unwrap() == reference(&scene.b, &d.join("fresh.pack")));
+}
+
 #[test]
 fn redis_machines_share_and_a_server_stopped_mid_cook_is_a_miss() {
     let dir = tempfile::tempdir().unwrap();
