@@ -29,8 +29,10 @@ pub struct Args {
     /// Print one JSON object instead of text.
     #[arg(long)]
     json: bool,
-    /// Largest texel difference accepted in any texture level, in 8-bit steps (LSB); default:
-    /// identical. `--max-error` is the old spelling.
+    /// Largest texel difference accepted in any texture level, in 8-bit steps (LSB). Without
+    /// any threshold the packs must be identical byte for byte; any threshold, 0 included,
+    /// compares what they hold (decoded texels, vertices), not how it is stored.
+    /// `--max-error` is the old spelling.
     #[arg(long = "tolerance-lsb", alias = "max-error", value_name = "LSB")]
     tolerance_lsb: Option<f64>,
     /// Largest vertex position change accepted (scene units, per axis); default: identical.

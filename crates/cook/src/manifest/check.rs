@@ -321,21 +321,22 @@ fn rules(src: &Source<'_>, raw: &[Spanned<model::Rule>]) -> Result<Vec<Rule>, Co
             (&r.specular, "specular"),
             (&r.emissive, "emissive"),
         ] {
+            // At the key's own line, not the [[rule]]'s.
             if let Some(c) = v
-                && (!finite3(*c) || c.iter().any(|&x| x < 0.0))
+                && (!finite3(*c.get_ref()) || c.get_ref().iter().any(|&x| x < 0.0))
             {
-                return Err(src.at_line(
-                    line,
-                    format!("{what} {c:?} must be finite and not negative"),
+                return Err(src.err_at(
+                    c,
+                    format!("{what} {:?} must be finite and not negative", c.get_ref()),
                 ));
             }
         }
-        if let Some(s) = r.shininess
-            && !(s.is_finite() && s >= 0.0)
+        if let Some(s) = &r.shininess
+            && !(s.get_ref().is_finite() && *s.get_ref() >= 0.0)
         {
-            return Err(src.at_line(
-                line,
-                format!("shininess {s} must be finite and not negative"),
+            return Err(src.err_at(
+                s,
+                format!("shininess {} must be finite and not negative", s.get_ref()),
             ));
         }
         rules.push(Rule {
@@ -344,10 +345,10 @@ fn rules(src: &Source<'_>, raw: &[Spanned<model::Rule>]) -> Result<Vec<Rule>, Co
             class,
             by_sill,
             material: r.material.clone(),
-            diffuse: r.diffuse,
-            specular: r.specular,
-            shininess: r.shininess,
-            emissive: r.emissive,
+            diffuse: r.diffuse.as_ref().map(|v| *v.get_ref()),
+            specular: r.specular.as_ref().map(|v| *v.get_ref()),
+            shininess: r.shininess.as_ref().map(|v| *v.get_ref()),
+            emissive: r.emissive.as_ref().map(|v| *v.get_ref()),
             texture: src.files(&r.texture, "texture")?,
             normal_map: src.files(&r.normal_map, "normal_map")?,
             line,
@@ -385,7 +386,7 @@ fn windows(
             return Err(src.at_line(
                 line,
                 format!(
-                    "window {} is already described at line {}",
+                    "{} is already described by the [[window]] at line {}",
                     prev.describe(),
                     prev.line.0
                 ),
@@ -666,12 +667,13 @@ fn background(
 ) -> Result<Background, CookError> {
     Ok(match raw {
         Some(b) => {
-            let line = src.line(b.span().start);
             let b = b.into_inner();
-            let colour = b.colour.unwrap_or([0.0; 3]);
-            if !finite3(colour) || colour.iter().any(|&c| c < 0.0) {
-                return Err(src.at_line(
-                    line,
+            let colour = b.colour.as_ref().map_or([0.0; 3], |c| *c.get_ref());
+            if let Some(c) = &b.colour
+                && (!finite3(colour) || colour.iter().any(|&c| c < 0.0))
+            {
+                return Err(src.err_at(
+                    c,
                     format!("background colour {colour:?} must be finite and not negative"),
                 ));
             }

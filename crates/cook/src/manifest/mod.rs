@@ -923,18 +923,28 @@ colour = [0.35, 0.5, 0.8]
                 format!(
                     "{mesh}\n[[rule]]\nmatch = \"a\"\nclass = \"wall\"\ndiffuse = [-3.0, 0.5, 0.5]\n"
                 ),
-                4,
+                7,
                 "diffuse [-3.0, 0.5, 0.5] must be finite and not negative",
             ),
             (
                 format!("{mesh}\n[[rule]]\nmatch = \"a\"\nclass = \"wall\"\nshininess = nan\n"),
+                7,
+                "shininess NaN must be finite and not negative",
+            ),
+            (
+                format!("{mesh}[background]\ncolour = [-1.0, 0.0, 0.0]\n"),
                 4,
+                "background colour [-1.0, 0.0, 0.0] must be finite and not negative",
+            ),
+            (
+                format!("{mesh}\n[[rule]]\nmatch = \"a\"\nclass = \"wall\"\nshininess = nan\n"),
+                7,
                 "shininess NaN must be finite and not negative",
             ),
             (
                 format!("{mesh}[[window]]\nname = \"w\"\n[[window]]\nname = \"w\"\n"),
                 5,
-                "window \"w\" is already described at line 3",
+                "window \"w\" is already described by the [[window]] at line 3",
             ),
             (
                 format!(
@@ -952,7 +962,7 @@ colour = [0.35, 0.5, 0.8]
             ),
             (
                 format!("{mesh}[background]\ncolour = [-1.0, 0.5, 1.0]\n"),
-                3,
+                4,
                 "background colour [-1.0, 0.5, 1.0] must be finite and not negative",
             ),
         ];

@@ -101,13 +101,13 @@ pub(super) struct Rule {
     /// A [`pack::MaterialClass`] name; the pack names its classes.
     pub class: Spanned<String>,
     pub material: Option<String>,
-    #[serde(default, deserialize_with = "opt_v3")]
-    pub diffuse: Option<[f32; 3]>,
-    #[serde(default, deserialize_with = "opt_v3")]
-    pub specular: Option<[f32; 3]>,
-    pub shininess: Option<f32>,
-    #[serde(default, deserialize_with = "opt_v3")]
-    pub emissive: Option<[f32; 3]>,
+    #[serde(default, deserialize_with = "opt_spanned_v3")]
+    pub diffuse: Option<Spanned<[f32; 3]>>,
+    #[serde(default, deserialize_with = "opt_spanned_v3")]
+    pub specular: Option<Spanned<[f32; 3]>>,
+    pub shininess: Option<Spanned<f32>>,
+    #[serde(default, deserialize_with = "opt_spanned_v3")]
+    pub emissive: Option<Spanned<[f32; 3]>>,
     pub texture: Option<Spanned<String>>,
     pub normal_map: Option<Spanned<String>>,
 }
@@ -177,7 +177,7 @@ pub(super) struct Camera {
 #[derive(Deserialize)]
 #[serde(deny_unknown_fields)]
 pub(super) struct Background {
-    #[serde(default, deserialize_with = "opt_v3")]
-    pub colour: Option<[f32; 3]>,
+    #[serde(default, deserialize_with = "opt_spanned_v3")]
+    pub colour: Option<Spanned<[f32; 3]>>,
     pub panorama: Option<Spanned<String>>,
 }
