@@ -38,7 +38,7 @@ pub enum TextureError {
         path.display()
     )]
     Truncated { path: PathBuf, what: &'static str },
-    #[error("blur sigma {sigma} texels is invalid: it must be finite and >= 0")]
+    #[error("blur sigma {sigma} texels is invalid: it must be from 0 to {max}", max = crate::MAX_SIGMA)]
     InvalidSigma { sigma: f32 },
     #[error("error budget {budget} LSB is invalid: it must be finite and >= 0")]
     InvalidBudget { budget: f32 },

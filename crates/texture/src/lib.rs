@@ -42,7 +42,7 @@ pub mod srgb;
 pub mod testing;
 
 pub use blur::{
-    BlurMethod, ErrorLsb, Sigma2, blur_linear, blur_srgb8, error_lsb, reference_blur,
+    BlurMethod, ErrorLsb, MAX_SIGMA, Sigma2, blur_linear, blur_srgb8, error_lsb, reference_blur,
     reference_blur_xy,
 };
 pub use error::TextureError;

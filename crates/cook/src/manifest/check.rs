@@ -434,13 +434,18 @@ fn windows(
                 .as_ref()
                 .map(|s| {
                     // 0 is a sharp projector, the design's own edges on the floor.
+                    // The blur's own bound, checked here so that `validate` finds it too.
                     let v = *s.get_ref();
-                    if v.is_finite() && v >= 0.0 {
+                    if v.is_finite() && (0.0..=texture::MAX_SIGMA).contains(&v) {
                         Ok(v)
                     } else {
                         Err(src.err_at(
                             s,
-                            format!("blur_sigma is {v} but must be a number >= 0 (0: no blur)"),
+                            format!(
+                                "blur_sigma is {v} but must be a number of texels from 0 (no \
+                                 blur) to {}",
+                                texture::MAX_SIGMA
+                            ),
                         ))
                     }
                 })

@@ -931,6 +931,12 @@ colour = [0.35, 0.5, 0.8]
                 7,
                 "shininess NaN must be finite and not negative",
             ),
+            // The blur's bound is the manifest's: `validate` passed it and the cook failed.
+            (
+                format!("{mesh}[[window]]\nname = \"w\"\nblur_sigma = 1e6\n"),
+                5,
+                "blur_sigma is 1000000 but must be a number of texels from 0 (no blur) to 100000",
+            ),
             (
                 format!("{mesh}[background]\ncolour = [-1.0, 0.0, 0.0]\n"),
                 4,
