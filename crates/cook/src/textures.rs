@@ -674,7 +674,8 @@ fn compress(
         c.error.mean, c.error.level0
     );
     // Under `bc` with none fitting, the budget chose nothing: a note saying it had read as a
-    // contradiction of the warning beside it.
+    // contradiction of the warning beside it. The format is named, not a flag: the manifest's
+    // `[textures] format` or a window's `texture_format` ask the same.
     let said = if fits {
         Said::note(format!(
             "{} chosen by the error budget ({measured})",
@@ -685,7 +686,7 @@ fn compress(
             note: None,
             warning: Some(format!(
                 "no block encoder setting fits the budget of {budget}{unit}; stored as {}, the \
-                 most accurate, as --texture-format bc asks ({})",
+                 most accurate, as texture format \"bc\" asks ({})",
                 codec.name(),
                 misses.join("; ")
             )),

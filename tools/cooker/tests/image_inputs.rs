@@ -170,7 +170,7 @@ fn block_compressed_textures_decode_within_the_budget() {
     assert!(
         log.contains("warning: ")
             && log.contains("no block encoder setting fits the budget of")
-            && log.contains("the most accurate, as --texture-format bc asks"),
+            && log.contains("the most accurate, as texture format \"bc\" asks"),
         "{log}"
     );
     assert!(!log.contains("chosen by the error budget"), "{log}");
