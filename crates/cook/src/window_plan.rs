@@ -313,6 +313,32 @@ pub fn plan(
         }
     }
 
+    // An entry every window of which an earlier entry takes (the first match wins) is never
+    // used: `name = "lancet_*"` before `name = "lancet_4"`. It was taken without a word.
+    let first_entry: Vec<Option<usize>> = (0..found.len())
+        .map(|k| manifest.windows.iter().position(|e| names_window(e, k)))
+        .collect();
+    for (i, e) in manifest.windows.iter().enumerate() {
+        let mut matched = (0..found.len()).filter(|&k| names_window(e, k)).peekable();
+        if matched.peek().is_some()
+            && let Some(earlier) = matched
+                .map(|k| first_entry[k])
+                .try_fold(None::<usize>, |_, f| f.filter(|&f| f < i).map(Some))
+                .flatten()
+        {
+            report.warnings.push(Warning::new(
+                &manifest.path,
+                Some(e.line.0),
+                format!(
+                    "[[window]] for {} is never used: every window it matches takes an earlier \
+                     [[window]] (the first that matches wins), such as the one at line {}",
+                    e.describe(),
+                    manifest.windows[earlier].line.0
+                ),
+            ));
+        }
+    }
+
     // Heights for upper/lower, a pass over every triangle that a model without windows skips.
     let (floor, wall_top) = if found.is_empty() {
         (f64::INFINITY, f64::NEG_INFINITY)

@@ -1786,6 +1786,39 @@ fn init_then_cook_keeps_the_bare_cooks_windows_and_sky() {
     );
 }
 
+/// A `[[window]]` every window of which an earlier entry's glob takes is never used, and said
+/// so at its line (the first match wins); it was taken without a word.
+#[test]
+fn a_window_entry_an_earlier_glob_hides_is_said_to_be_unused() {
+    let dir = tempfile::tempdir().unwrap();
+    hall_on_open_ground(dir.path());
+    let scene = dir.path().join("scene.toml");
+    std::fs::write(
+        &scene,
+        "[[mesh]]\nsource = \"hall.obj\"\n\n[[window]]\nname = \"glass*\"\n\n\
+         [[window]]\nname = \"glass#2\"\n",
+    )
+    .unwrap();
+    let said = cook(&scene, &dir.path().join("hall.pack"), &[]);
+    assert!(
+        said.contains(
+            "scene.toml:7: [[window]] for window \"glass#2\" is never used: every window it \
+             matches takes an earlier [[window]] (the first that matches wins), such as the one \
+             at line 4"
+        ),
+        "{said}"
+    );
+    // The other way round, each is used.
+    std::fs::write(
+        &scene,
+        "[[mesh]]\nsource = \"hall.obj\"\n\n[[window]]\nname = \"glass#2\"\n\n\
+         [[window]]\nname = \"glass*\"\n",
+    )
+    .unwrap();
+    let said = cook(&scene, &dir.path().join("hall.pack"), &[]);
+    assert!(!said.contains("is never used"), "{said}");
+}
+
 /// With a sun in the manifest, a window on the shaded side still faces into the building: the
 /// geometry decides where it is clear. The sun came first before: the hall's north window
 /// faced out, its design mirrored as seen from inside, and it threw light on the ground
