@@ -96,6 +96,25 @@ pub enum Problem {
     TocDecode(String),
     #[error("table of contents is invalid: {0}")]
     Toc(String),
+    /// A vertex or index section that contradicts the table of contents (they were said to be
+    /// the table's fault, at the geometry's offset).
+    #[error("geometry is invalid: {0}")]
+    Geometry(String),
+    #[error("{what} is {found} but must be from {min} to {max}")]
+    Range {
+        what: String,
+        found: u64,
+        min: u64,
+        max: u64,
+    },
+    #[error(
+        "the section table's {sections} entries end at byte {end}, past the file's end at {length}"
+    )]
+    TableTooLong {
+        sections: u64,
+        end: u64,
+        length: u64,
+    },
     #[error("{what} cannot be decompressed: {reason}")]
     Supercompression { what: String, reason: String },
     #[error("unexpected end of stream while reading {what}")]
@@ -120,6 +139,12 @@ impl Fail {
         Self {
             offset: None,
             problem: Problem::Toc(msg.into()),
+        }
+    }
+    pub fn geometry(msg: impl Into<String>) -> Self {
+        Self {
+            offset: None,
+            problem: Problem::Geometry(msg.into()),
         }
     }
     pub fn with_path(self, path: impl Into<PathBuf>) -> PackError {

@@ -163,22 +163,13 @@ impl Header {
             return Err(Fail::at(at as u64, Problem::NonZeroPadding));
         }
         let section_count = u32_at(b, 16);
-        if section_count == 0 {
+        if section_count == 0 || section_count as u64 > MAX_SECTIONS {
             return Err(Fail::at(
                 16,
-                Problem::Field {
-                    what: "section count".into(),
-                    found: 0,
-                    expected: 1,
-                },
-            ));
-        }
-        if section_count as u64 > MAX_SECTIONS {
-            return Err(Fail::at(
-                16,
-                Problem::Limit {
+                Problem::Range {
                     what: "section count".into(),
                     found: section_count as u64,
+                    min: 1,
                     max: MAX_SECTIONS,
                 },
             ));
@@ -224,9 +215,10 @@ impl Header {
         if table_end > file_length {
             return Err(Fail::at(
                 16,
-                Problem::Length {
-                    declared: file_length,
-                    actual: table_end,
+                Problem::TableTooLong {
+                    sections: section_count as u64,
+                    end: table_end,
+                    length: file_length,
                 },
             ));
         }

@@ -461,13 +461,13 @@ pub fn validate_vertices(toc: &Toc, mesh: u32, bytes: &[u8]) -> Result<(), Fail>
             .read(chunk, Semantic::MaterialId)
             .expect("validated layout");
         if id as usize >= nmat || zero != 0.0 {
-            return Err(Fail::toc(format!(
+            return Err(Fail::geometry(format!(
                 "mesh {mesh} vertex {v} has material ID {id}, but there are {nmat} materials"
             )));
         }
         let p = m.layout.position(chunk).expect("validated layout");
         if !finite(&p) {
-            return Err(Fail::toc(format!(
+            return Err(Fail::geometry(format!(
                 "mesh {mesh} vertex {v} has a non-finite position"
             )));
         }
@@ -492,7 +492,7 @@ pub fn validate_indices(toc: &Toc, mesh: u32, bytes: &[u8]) -> Result<(), Fail> 
             .find(|&(_, i)| i >= n),
     };
     if let Some((at, i)) = bad {
-        return Err(Fail::toc(format!(
+        return Err(Fail::geometry(format!(
             "mesh {mesh} index {at} is {i}, but the mesh has {n} vertices"
         )));
     }
@@ -551,5 +551,25 @@ mod decode_message_tests {
         assert_eq!(toc_decode_message(&D::OtherString(serde.into())), serde);
         let said = toc_decode_message(&D::UnexpectedEnd { additional: 3 });
         assert_eq!(said, "it ends 3 bytes or more before its last field");
+    }
+
+    /// An index past the mesh's vertices is the geometry's fault, not the table of contents'
+    /// (it was said "table of contents is invalid" at the index section's offset).
+    #[test]
+    fn a_bad_index_is_said_to_be_the_geometry_s() {
+        let (toc, _) = crate::testing::sample();
+        let n = toc.meshes[0].vertex_count;
+        let bytes: Vec<u8> = match toc.meshes[0].index_format {
+            crate::IndexFormat::U32 => [0, 1, n].iter().flat_map(|i| i.to_le_bytes()).collect(),
+            crate::IndexFormat::U16 => [0, 1, n as u16]
+                .iter()
+                .flat_map(|i| i.to_le_bytes())
+                .collect(),
+        };
+        let f = super::validate_indices(&toc, 0, &bytes).unwrap_err();
+        assert_eq!(
+            f.problem.to_string(),
+            format!("geometry is invalid: mesh 0 index 2 is {n}, but the mesh has {n} vertices")
+        );
     }
 }

@@ -215,6 +215,36 @@ fn other_version_says_what_to_do() {
     }
 }
 
+/// A section count out of range says the range (0 was said to "must be 1"); one whose table
+/// would run past the file's end says that, not that the file has the table's length.
+#[test]
+fn a_section_count_out_of_range_or_past_the_end_is_said_as_such() {
+    for count in [0u32, 65537] {
+        let mut bytes = sample_bytes();
+        bytes[16..20].copy_from_slice(&count.to_le_bytes());
+        fix_header_crc(&mut bytes);
+        let e = Pack::from_bytes("p", &bytes).unwrap_err().to_string();
+        assert!(
+            e.contains(&format!(
+                "offset 16: section count is {count} but must be from 1 to 65536"
+            )),
+            "{e}"
+        );
+    }
+    let mut bytes = sample_bytes();
+    let len = bytes.len();
+    bytes[16..20].copy_from_slice(&65536u32.to_le_bytes());
+    fix_header_crc(&mut bytes);
+    let e = Pack::from_bytes("p", &bytes).unwrap_err().to_string();
+    assert!(
+        e.contains(&format!(
+            "offset 16: the section table's 65536 entries end at byte {}, past the file's end at {len}",
+            64 + 65536 * 32
+        )),
+        "{e}"
+    );
+}
+
 /// A reserved header byte set (its CRC made right) is named at its own offset, not the
 /// first reserved field's.
 #[test]
