@@ -402,12 +402,16 @@ fn load(gpu: &Gpu, args: &Args, settings: Settings) -> Result<(Scene, Renderer)>
                     } else {
                         format!("{w}x{h} preview, ")
                     };
+                    // From the stream's start, as the bench reads it; and from the process's,
+                    // which the device's creation and a cook are part of (it was left unsaid).
                     println!(
-                        "first frame after {:.1} ms ({preview}geometry + {}/{} mips, {} bytes uploaded)",
+                        "first frame after {:.1} ms ({preview}geometry + {}/{} mips, {} bytes \
+                         uploaded; {:.1} ms since the viewer started)",
                         ms(start.elapsed()),
                         st.mips_loaded,
                         st.mips_total,
-                        st.bytes_uploaded
+                        st.bytes_uploaded,
+                        ms(started().elapsed())
                     );
                     if r.size() != args.size {
                         r.resize(gpu, args.size.0, args.size.1);
@@ -708,7 +712,14 @@ impl std::fmt::Display for Usage {
 
 impl std::error::Error for Usage {}
 
+/// When the process started (near enough: the first thing `run` does).
+fn started() -> Instant {
+    static STARTED: std::sync::OnceLock<Instant> = std::sync::OnceLock::new();
+    *STARTED.get_or_init(Instant::now)
+}
+
 fn run() -> Result<()> {
+    started();
     // Rust ignores SIGPIPE, so a closed stdout (`viewer p.pack --headless | head`) made the
     // next `println!` panic; like other Unix tools, stop quietly instead.
     // SAFETY: first thing in main, before any other thread exists; SIG_DFL is a valid
@@ -738,6 +749,20 @@ fn run() -> Result<()> {
             "is not a regular file (a pipe or a device); give a pack, scene.toml or model file",
         ))
         .context(args.input.display().to_string()));
+    }
+    // Window-only options: a script that gave --watch headless thought it was watching.
+    if args.headless {
+        let given: Vec<&str> = [("--watch", args.watch), ("--no-vsync", args.no_vsync)]
+            .into_iter()
+            .filter_map(|(flag, on)| on.then_some(flag))
+            .collect();
+        if !given.is_empty() {
+            eprintln!(
+                "warning: {} only {} to the interactive window; --headless renders once",
+                given.join(" and "),
+                if given.len() == 1 { "applies" } else { "apply" }
+            );
+        }
     }
     if args.out.exists() && !args.out.is_dir() {
         return Err(Usage(format!(
@@ -837,12 +862,10 @@ fn run() -> Result<()> {
     let mut gpu = Gpu::headless()?;
     cap_texture_side(&mut gpu, args.max_texture_size);
     println!("adapter: {}", gpu.describe());
-    if args.verbose {
-        println!(
-            "instance, adapter and device: {:.1} ms",
-            ms(gpu_start.elapsed())
-        );
-    }
+    println!(
+        "instance, adapter and device: {:.1} ms",
+        ms(gpu_start.elapsed())
+    );
     let (scene, mut renderer) = load(&gpu, &args, settings)?;
 
     let toc = scene.toc();
@@ -852,7 +875,10 @@ fn run() -> Result<()> {
             args.input.display()
         );
     }
-    if args.verbose || args.passes {
+    if args.no_occlusion && (args.verbose || args.passes) {
+        // Each window's reason for a map read as if maps were drawn.
+        println!("shadow maps: none (--no-occlusion: window light passes through everything)");
+    } else if args.verbose || args.passes {
         print_window_shadows(&scene);
     }
     let aspect = args.size.0 as f32 / args.size.1 as f32;

@@ -217,6 +217,12 @@ fn writes_every_camera_and_pass() {
         stdout.contains("first frame after") && stdout.contains("full quality after"),
         "{stdout}"
     );
+    // The device's time, and the first frame's since the process started, are said too.
+    assert!(
+        stdout.contains("instance, adapter and device: ")
+            && stdout.contains(" ms since the viewer started)"),
+        "{stdout}"
+    );
     let stderr = String::from_utf8_lossy(&o.stderr);
     assert!(!stderr.contains("XDG_RUNTIME_DIR"), "{stderr}");
     assert!(
@@ -227,6 +233,27 @@ fn writes_every_camera_and_pass() {
         stdout.contains(&format!("images are in {}", out.display())),
         "{stdout}"
     );
+    // Window-only options headless are said to do nothing (they were taken without a word).
+    let w = headless_64x36(
+        &pack_path,
+        &dir.join("watch"),
+        &["--watch", "--no-occlusion", "-v"],
+    );
+    let (w_out, w_err) = (
+        String::from_utf8_lossy(&w.stdout),
+        String::from_utf8_lossy(&w.stderr),
+    );
+    assert!(w.status.success(), "{w_err}");
+    assert!(
+        w_err.contains("warning: --watch only applies to the interactive window"),
+        "{w_err}"
+    );
+    // No window is said to get a map under --no-occlusion (each was, with its reason).
+    assert!(
+        w_out.contains("shadow maps: none (--no-occlusion"),
+        "{w_out}"
+    );
+    assert!(!w_out.contains("shadow map: "), "{w_out}");
     let _ = std::fs::remove_dir_all(&dir);
 }
 
