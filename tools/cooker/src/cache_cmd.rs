@@ -386,7 +386,33 @@ fn changed_leaves(prefix: &str, old: &serde_json::Value, new: &serde_json::Value
         {
             Vec::new()
         }
-        (a, b) => vec![format!("{prefix}: {a} -> {b}")],
+        (a, b) => vec![format!(
+            "{prefix}: {} -> {}",
+            paths_as_text(a),
+            paths_as_text(b)
+        )],
+    }
+}
+
+/// `v` with every path recorded as bytes ([`PATH_KEYS`]) written as text, however deep: a
+/// `--window` override's design was shown as `[109,111,115,...]`.
+fn paths_as_text(v: &serde_json::Value) -> serde_json::Value {
+    use serde_json::Value;
+    match v {
+        Value::Object(o) => Value::Object(
+            o.iter()
+                .map(|(k, x)| {
+                    let x = if PATH_KEYS.contains(&k.as_str()) {
+                        path_text(x)
+                    } else {
+                        paths_as_text(x)
+                    };
+                    (k.clone(), x)
+                })
+                .collect(),
+        ),
+        Value::Array(a) => Value::Array(a.iter().map(paths_as_text).collect()),
+        other => other.clone(),
     }
 }
 
@@ -578,6 +604,12 @@ mod tests {
         assert_eq!(
             changed_leaves("", &a, &b),
             ["window_overrides[0].design: \"a/x.png\" -> \"b/x.png\""]
+        );
+        // Also where a whole override is new (it was shown byte by byte).
+        let none = json!({"window_overrides": []});
+        assert_eq!(
+            changed_leaves("", &none, &b),
+            ["window_overrides: [] -> [{\"design\":\"b/x.png\"}]"]
         );
     }
 }
