@@ -48,9 +48,10 @@ pub struct CacheArgs {
     pub cache_timeout: f64,
 }
 
-/// The remote cache failed and `--cache-remote-required` was given.
+/// The remote cache failed where it had to answer: `--cache-remote-required` was given, or
+/// the command is about the cache (`stats`, `verify`). Exit 4.
 #[derive(Debug, thiserror::Error)]
-#[error("remote cache {url}: {what} (--cache-remote-required)")]
+#[error("remote cache {url}: {what}")]
 pub struct RemoteFailure {
     pub url: String,
     pub what: String,
@@ -148,6 +149,14 @@ impl CacheArgs {
                     Err(e) if self.cache_remote_required => {
                         return Err(RemoteFailure {
                             url: remote::redact(url),
+                            what: format!("{e:#} (--cache-remote-required)"),
+                        }
+                        .into());
+                    }
+                    // `cache stats|verify` are about the remote: it cannot be skipped.
+                    Err(e) if !lenient => {
+                        return Err(RemoteFailure {
+                            url: remote::redact(url),
                             what: format!("{e:#}"),
                         }
                         .into());
@@ -177,7 +186,7 @@ pub fn check_remote(remote: Option<&Remote>, args: &CacheArgs) -> anyhow::Result
             return Err(RemoteFailure {
                 url: r.shown().to_string(),
                 what: format!(
-                    "{} failed requests, the first: {}",
+                    "{} failed requests, the first: {} (--cache-remote-required)",
                     s.errors,
                     s.first_error.unwrap_or_default()
                 ),
@@ -274,7 +283,10 @@ fn stats(args: &CacheArgs) -> Outcome {
     );
     if let Some(r) = remote {
         for prefix in ["ac/", "cas/"] {
-            let objects = r.list(prefix)?;
+            let objects = r.list(prefix).map_err(|e| RemoteFailure {
+                url: r.shown().to_string(),
+                what: format!("{e:#}"),
+            })?;
             let bytes: u64 = objects.iter().map(|o| o.1).sum();
             println!(
                 "remote cache {}: {prefix}: {} objects, {}",
@@ -300,7 +312,10 @@ fn verify(args: &CacheArgs) -> Outcome {
     );
     let mut bad = damaged.len();
     if let Some(r) = remote {
-        let blobs = r.list("cas/")?;
+        let blobs = r.list("cas/").map_err(|e| RemoteFailure {
+            url: r.shown().to_string(),
+            what: format!("{e:#}"),
+        })?;
         let mut remote_bad = 0;
         for (path, _) in &blobs {
             if let Err(why) = r.verify_blob(path) {

@@ -282,6 +282,26 @@ fn a_cache_directory_that_cannot_be_made_leaves_the_cook_uncached() {
     assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
     assert!(stderr(&o).contains("no such directory"), "{}", stderr(&o));
     assert!(!typo.exists());
+    // A remote that cannot be reached is an I/O failure of `cache stats` (it exited 3).
+    let o = Command::new(env!("CARGO_BIN_EXE_cooker"))
+        .args([
+            "cache",
+            "stats",
+            "--cache-timeout",
+            "5",
+            "--cache-url",
+            "redis://127.0.0.1:1/0",
+            "--cache-dir",
+        ])
+        .arg(dir.path())
+        .output()
+        .unwrap();
+    assert_eq!(o.status.code(), Some(4), "{}", stderr(&o));
+    assert!(
+        stderr(&o).contains("error: remote cache redis://127.0.0.1:1/0"),
+        "{}",
+        stderr(&o)
+    );
     // The same typo in $STAINED_GLASS_CACHE said "0 entries" and exited 0.
     let o = Command::new(env!("CARGO_BIN_EXE_cooker"))
         .args(["cache", "stats"])
