@@ -460,14 +460,7 @@ impl cook::cache::Remote for Remote {
     }
 
     fn put(&self, key: &Key, payload: &[u8]) {
-        // A key another writer stored already keeps its payload: a scene's result records
-        // what its cook said, timings included, so each writer's bytes differed and every
-        // one of them was uploaded, the last in the way of the others.
-        if !self.writable()
-            || self
-                .call(self.op.stat(&format!("ac/{}", key.hex())))
-                .is_ok()
-        {
+        if !self.writable() {
             return;
         }
         let sha = digest(payload);
