@@ -1119,13 +1119,44 @@ pub fn guess(p: &Prepared) -> Guess {
             }
         }
     }
-    let occupancy = Occupancy::new(p, &classes, (lo, hi), &candidates, len);
+    // Around each eye, level views every eighth of a turn: one inside a building meets its
+    // walls every way, one in the alley between two buildings sees out along it. The alley
+    // ran farthest, and two churches a metre apart got a "nave" view between them.
+    const RING: usize = 8;
+    let ring = |a: DVec3| {
+        (0..RING).map(move |k| {
+            let t = k as f64 * std::f64::consts::TAU / RING as f64;
+            (a, DVec3::new(t.cos(), 0.0, t.sin()))
+        })
+    };
+    let mut views = candidates.clone();
+    views.extend(candidates.iter().flat_map(|&(a, _)| ring(a)));
+    let occupancy = Occupancy::new(p, &classes, (lo, hi), &views, len);
     let depths: Vec<f64> = candidates
         .iter()
         .map(|&(a, dir)| occupancy.view_depth(a, dir, len))
         .collect();
+    let open: Vec<usize> = candidates
+        .iter()
+        .map(|&(a, _)| {
+            ring(a)
+                .filter(|&(a, d)| occupancy.depth(a, d, len) >= len)
+                .count()
+        })
+        .collect();
+    // Among the eyes that see at least half as far as the best (not one inside a pier), the
+    // most enclosed.
+    let deepest = depths.iter().copied().fold(0.0, f64::max);
+    let fewest_open = (0..candidates.len())
+        .filter(|&i| depths[i] >= 0.5 * deepest)
+        .map(|i| open[i])
+        .min()
+        .unwrap_or(0);
     let mut best_view: Option<(f64, DVec3, DVec3)> = None;
-    for (&(a, dir), &depth) in candidates.iter().zip(&depths) {
+    for (i, (&(a, dir), &depth)) in candidates.iter().zip(&depths).enumerate() {
+        if depth < 0.5 * deepest || open[i] > fewest_open {
+            continue;
+        }
         // Near ties go to the earlier candidate: low, in the middle, from the low end.
         if best_view.is_none_or(|v| depth > v.0 * 1.1) {
             best_view = Some((depth, a, a + dir * len * 0.9));
@@ -1654,6 +1685,70 @@ mod tests {
         assert!(
             words.contains("lamps \"Laterne\" are not used: its sun \"Sonne\" lights the scene"),
             "{words}"
+        );
+    }
+
+    /// Two halls a metre apart along their length, each with windows in its +x wall (the
+    /// first's facing the second): the nave view is inside a hall. The alley between them ran farthest, and the
+    /// view stood there, outside both.
+    #[test]
+    fn the_nave_view_is_inside_a_hall_not_in_the_alley_between_two() {
+        use std::fmt::Write;
+        let dir = tempfile::tempdir().unwrap();
+        let mut obj = String::from("mtllib halls.mtl\n");
+        let mut n = 0;
+        let mut quad = |obj: &mut String, m: &str, o: [f64; 3], a: [f64; 3], b: [f64; 3]| {
+            let _ = writeln!(obj, "usemtl {m}");
+            for c in [[0., 0.], [1., 0.], [1., 1.], [0., 1.]] {
+                let p: Vec<f64> = (0..3).map(|k| o[k] + c[0] * a[k] + c[1] * b[k]).collect();
+                let _ = writeln!(obj, "v {} {} {}", p[0], p[1], p[2]);
+            }
+            let _ = writeln!(obj, "f {} {} {} {}", n + 1, n + 2, n + 3, n + 4);
+            n += 4;
+        };
+        for (x0, windows) in [(-5.0, true), (6.0, true)] {
+            let x1 = x0 + 10.0;
+            quad(
+                &mut obj,
+                "floor",
+                [x0, 0., 0.],
+                [10., 0., 0.],
+                [0., 0., 30.],
+            );
+            quad(&mut obj, "roof", [x0, 8., 0.], [10., 0., 0.], [0., 0., 30.]);
+            quad(&mut obj, "wall", [x0, 0., 0.], [0., 0., 30.], [0., 8., 0.]);
+            quad(&mut obj, "wall", [x0, 0., 0.], [10., 0., 0.], [0., 8., 0.]);
+            quad(&mut obj, "wall", [x0, 0., 30.], [10., 0., 0.], [0., 8., 0.]);
+            if windows {
+                quad(&mut obj, "wall", [x1, 0., 0.], [0., 0., 30.], [0., 2., 0.]);
+                quad(&mut obj, "wall", [x1, 6., 0.], [0., 0., 30.], [0., 2., 0.]);
+                for (z, l) in [(0., 4.), (6., 5.), (13., 5.), (20., 5.), (27., 3.)] {
+                    quad(&mut obj, "wall", [x1, 2., z], [0., 0., l], [0., 4., 0.]);
+                }
+                for z in [4., 11., 18., 25.] {
+                    quad(&mut obj, "glass", [x1, 2., z], [0., 0., 2.], [0., 4., 0.]);
+                }
+            } else {
+                quad(&mut obj, "wall", [x1, 0., 0.], [0., 0., 30.], [0., 8., 0.]);
+            }
+        }
+        let model = dir.path().join("halls.obj");
+        std::fs::write(&model, obj).unwrap();
+        std::fs::write(
+            dir.path().join("halls.mtl"),
+            "newmtl floor\nKd 0.5 0.5 0.5\nnewmtl roof\nKd 0.4 0.4 0.4\nnewmtl wall\nKd 0.8 0.8 0.8\n\
+             newmtl glass\nKd 0.2 0.4 0.8\nd 0.3\n",
+        )
+        .unwrap();
+        let cameras = guessed_cameras(&model);
+        let nave = cameras
+            .iter()
+            .find(|c| c.name == "nave")
+            .expect("a nave view");
+        let x = nave.position[0];
+        assert!(
+            !(5.0..=6.0).contains(&x),
+            "the nave view stands in the alley: {nave:?}"
         );
     }
 
