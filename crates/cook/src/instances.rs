@@ -821,15 +821,15 @@ impl Enclosure {
         own.sort_unstable();
         let (t, b) = normal.any_orthonormal_pair();
         let golden = std::f64::consts::PI * (3.0 - 5f64.sqrt());
+        // What lies within this of the window's plane is its wall: the reveal of its opening,
+        // or an uncut wall just behind glass drawn on it, which closes nothing (the
+        // receivers' weights leave it out alike).
+        let near = 0.05 * size;
         let mut sides = [0.0; 2];
         for (side, sign) in sides.iter_mut().zip([1.0, -1.0]) {
             let n = normal * sign;
             let origin = (centroid + n * (1e-4 * size)).as_vec3();
             let mut open = 0usize;
-            // What lies within this of the window's plane is its wall: the reveal of its
-            // opening, or an uncut wall just behind glass drawn on it, which closes nothing
-            // (the receivers' weights leave it out alike).
-            let near = 0.05 * size;
             for k in 0..ENCLOSURE_RAYS {
                 let r = ((k as f64 + 0.5) / ENCLOSURE_RAYS as f64).sqrt();
                 let phi = k as f64 * golden;

@@ -278,8 +278,17 @@ pub fn plan(
             ));
         }
     }
-    for e in &manifest.windows {
-        if !(0..found.len()).any(|k| names_window(e, k)) {
+    // The windows each entry names, and per window the entry that takes it (the first).
+    let named: Vec<Vec<usize>> = manifest
+        .windows
+        .iter()
+        .map(|e| (0..found.len()).filter(|&k| names_window(e, k)).collect())
+        .collect();
+    let first_entry: Vec<Option<usize>> = (0..found.len())
+        .map(|k| named.iter().position(|ks| ks.contains(&k)))
+        .collect();
+    for (e, ks) in manifest.windows.iter().zip(&named) {
+        if ks.is_empty() {
             report.warnings.push(Warning::new(
                 &manifest.path,
                 Some(e.line.0),
@@ -315,16 +324,10 @@ pub fn plan(
 
     // An entry every window of which an earlier entry takes (the first match wins) is never
     // used: `name = "lancet_*"` before `name = "lancet_4"`. It was taken without a word.
-    let first_entry: Vec<Option<usize>> = (0..found.len())
-        .map(|k| manifest.windows.iter().position(|e| names_window(e, k)))
-        .collect();
-    for (i, e) in manifest.windows.iter().enumerate() {
-        let mut matched = (0..found.len()).filter(|&k| names_window(e, k)).peekable();
-        if matched.peek().is_some()
-            && let Some(earlier) = matched
-                .map(|k| first_entry[k])
-                .try_fold(None::<usize>, |_, f| f.filter(|&f| f < i).map(Some))
-                .flatten()
+    for (i, (e, ks)) in manifest.windows.iter().zip(&named).enumerate() {
+        if let Some(&k) = ks.first()
+            && ks.iter().all(|&k| first_entry[k] != Some(i))
+            && let Some(earlier) = first_entry[k]
         {
             report.warnings.push(Warning::new(
                 &manifest.path,

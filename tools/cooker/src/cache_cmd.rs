@@ -176,6 +176,18 @@ impl CacheArgs {
     }
 }
 
+/// The remote's objects under `prefix`, for `cache stats|verify`: a remote that cannot be
+/// listed fails the command (exit 4), as one that cannot be reached does.
+fn listed(r: &Remote, prefix: &str) -> anyhow::Result<Vec<(String, u64)>> {
+    r.list(prefix).map_err(|e| {
+        RemoteFailure {
+            url: r.shown().to_string(),
+            what: format!("{e:#}"),
+        }
+        .into()
+    })
+}
+
 /// With `--cache-remote-required`, any remote error so far fails the command.
 pub fn check_remote(remote: Option<&Remote>, args: &CacheArgs) -> anyhow::Result<()> {
     if let Some(r) = remote
@@ -283,10 +295,7 @@ fn stats(args: &CacheArgs) -> Outcome {
     );
     if let Some(r) = remote {
         for prefix in ["ac/", "cas/"] {
-            let objects = r.list(prefix).map_err(|e| RemoteFailure {
-                url: r.shown().to_string(),
-                what: format!("{e:#}"),
-            })?;
+            let objects = listed(&r, prefix)?;
             let bytes: u64 = objects.iter().map(|o| o.1).sum();
             println!(
                 "remote cache {}: {prefix}: {} objects, {}",
@@ -312,10 +321,7 @@ fn verify(args: &CacheArgs) -> Outcome {
     );
     let mut bad = damaged.len();
     if let Some(r) = remote {
-        let blobs = r.list("cas/").map_err(|e| RemoteFailure {
-            url: r.shown().to_string(),
-            what: format!("{e:#}"),
-        })?;
+        let blobs = listed(&r, "cas/")?;
         let mut remote_bad = 0;
         for (path, _) in &blobs {
             if let Err(why) = r.verify_blob(path) {
