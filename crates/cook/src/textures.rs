@@ -820,6 +820,15 @@ fn run(
                      = \"rg\" to mean it"
                         .to_string(),
                 ),
+                texture::SuppliedNormals::Unlike { share } => Said {
+                    note: None,
+                    warning: Some(format!(
+                        "{:.0} % of its texels encode no unit vector (or one into the surface): \
+                         is it a colour image rather than a tangent-space normal map? Its \
+                         normals are cooked as they read, and shade as noise",
+                        share * 100.0
+                    )),
+                },
                 texture::SuppliedNormals::Heights { depth } => Said::note(format!(
                     "grey, so read as a height (bump) map: its range spans {depth:.2} texels of \
                      depth (1/256 of its longer side times the strength {strength})"

@@ -583,6 +583,9 @@ pub fn plan(
             size: design::design_size(inst.width(), inst.height(), texels),
             came_width: entry.map_or(crate::manifest::DEFAULT_CAME_WIDTH, |e| e.came_width),
             text_encoding: sources[inst.source].text_encoding,
+            entry: entry
+                .filter(|e| e.design.is_some() && e.line.0 > 0)
+                .map(|e| (manifest.path.clone(), e.line.0)),
         });
         let src_names: Vec<String> = {
             let src = &sources[inst.source];
@@ -858,6 +861,10 @@ struct Pending {
     came_width: f32,
     /// The encoding of the model's names, for an image named on disk in it.
     text_encoding: Option<crate::import::text::TextEncoding>,
+    /// The manifest and line of the `[[window]]` entry whose design this is, which an
+    /// image that fails to decode is reported at: the file's name alone left a user with
+    /// several entries naming similar files to search for the one at fault.
+    entry: Option<(std::path::PathBuf, usize)>,
 }
 
 impl Pending {
@@ -888,6 +895,18 @@ impl Pending {
 /// The design of one window: an image fitted and masked, or cut to the outline where it
 /// would let light through stone, or rasterized from the panes; with its size in texels.
 fn make_design(p: &Pending, images: &crate::textures::DecodedImages) -> Result<Design, CookError> {
+    // An image that fails to decode is reported at its entry; an I/O failure stays one (its
+    // exit status differs).
+    let get = |img: &ImageRef| {
+        images.get(img).map_err(|e| match &p.entry {
+            Some((path, line)) if !e.is_io() => CookError::Manifest {
+                path: path.clone(),
+                line: Some(*line),
+                message: format!("the design of this [[window]] cannot be used: {e}"),
+            },
+            _ => e,
+        })
+    };
     let Some((img, source)) = &p.image else {
         let (w, h) = p.size;
         let came = p.came_width * w.min(h) as f32;
@@ -913,7 +932,7 @@ fn make_design(p: &Pending, images: &crate::textures::DecodedImages) -> Result<D
         if p.tints.is_some() { ".tinted" } else { "" }
     );
     if p.planar {
-        let mut canvas = design::fit_design(&rgba(&*images.get(img)?), p.fit, p.aspect);
+        let mut canvas = design::fit_design(&rgba(&*get(img)?), p.fit, p.aspect);
         if let Some(tints) = &p.tints {
             design::tint_image(&mut canvas, &p.tris, tints, p.srgb);
         }
@@ -924,7 +943,7 @@ fn make_design(p: &Pending, images: &crate::textures::DecodedImages) -> Result<D
     }
     // With the model's own UVs the design is used as it is, unless it would let light
     // through where the window has no glass.
-    let decoded = images.get(img)?;
+    let decoded = get(img)?;
     let pixels = rgba(&decoded);
     let size = pixels.dimensions();
     let mask = design::coverage(&p.tris, size.0, size.1);

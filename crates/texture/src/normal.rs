@@ -120,6 +120,29 @@ pub enum SuppliedNormals {
     /// Given as RGB, but its blue is near zero throughout: a two-channel (`rg`) map saved as
     /// RGB, read as one (z rebuilt from x and y).
     RgInRgb,
+    /// Read as vectors, but `share` of its texels (over [`UNLIKE_SHARE`]) encode none of
+    /// about unit length, or one pointing into the surface: most likely a colour image named
+    /// as the normal map, whose cooked normals are noise.
+    Unlike { share: f64 },
+}
+
+/// The share of texels that are no tangent-space normal above which a map is said to be
+/// [`SuppliedNormals::Unlike`] one. Normal maps from baking tools, also after JPEG, stay well
+/// under it (their vectors' lengths within a few percent of 1, blue above 0.5).
+pub const UNLIKE_SHARE: f64 = 0.25;
+
+/// The share of RGB texels whose vector (2c − 1) is not of about unit length (0.75 to 1.25),
+/// or points into the surface (z < −0.1).
+fn not_normals_share(rgb: &[[f32; 3]]) -> f64 {
+    let off = rgb
+        .par_iter()
+        .filter(|t| {
+            let [x, y, z] = t.map(|c| c * 2.0 - 1.0);
+            let len2 = x * x + y * y + z * z;
+            !(0.5625..=1.5625).contains(&len2) || z < -0.1
+        })
+        .count();
+    off as f64 / rgb.len().max(1) as f64
 }
 
 /// Whether an RGB normal map's blue is under 64 (z below −0.5) in at least 99 % of its texels:
@@ -197,8 +220,15 @@ pub fn supplied_normal_mips(
             let normals = scaled_normals(rgb, NormalEncoding::Rg, green, strength);
             return Ok((chain(normals, w, h), SuppliedNormals::RgInRgb));
         }
+        let held = match encoding {
+            NormalEncoding::Rgb => match not_normals_share(&rgb) {
+                share if share > UNLIKE_SHARE => SuppliedNormals::Unlike { share },
+                _ => SuppliedNormals::Vectors,
+            },
+            NormalEncoding::Rg => SuppliedNormals::Vectors,
+        };
         let normals = scaled_normals(rgb, encoding, green, strength);
-        return Ok((chain(normals, w, h), SuppliedNormals::Vectors));
+        return Ok((chain(normals, w, h), held));
     }
     let depth = strength * w.max(h) as f32 * BUMP_DEPTH;
     let height: Vec<f32> = to_unorm_rgb(img)
@@ -583,7 +613,8 @@ mod tests {
         let img = DynamicImage::ImageRgba8(image::RgbaImage::from_raw(32, 32, bytes).unwrap());
         let (enc, green) = (NormalEncoding::Rgb, GreenAxis::OpenGl);
         let (one, held) = supplied_normal_mips(&img, enc, green, 1.0).unwrap();
-        assert_eq!(held, SuppliedNormals::Vectors);
+        // Random bytes are no normal map, and said to be unlike one, but read as vectors.
+        assert!(matches!(held, SuppliedNormals::Unlike { .. }), "{held:?}");
         assert_eq!(one.levels, normal_mips(&img, enc, green).unwrap().levels);
         let (flat, _) = supplied_normal_mips(&img, enc, green, 0.0).unwrap();
         assert!(flat.levels[0].chunks(4).all(|t| t[..3] == [128, 128, 255]));
@@ -661,6 +692,33 @@ mod tests {
         let (_, held) =
             supplied_normal_mips(&la, NormalEncoding::Rgb, GreenAxis::OpenGl, 1.0).unwrap();
         assert!(matches!(held, SuppliedNormals::Heights { .. }));
+    }
+
+    /// A colour image named as a normal map is said to be unlike one; a real normal map, also
+    /// with its vectors off unit length by 8-bit rounding and JPEG-like noise, is not.
+    #[test]
+    fn a_colour_image_is_told_from_a_normal_map() {
+        let mut rng = Rng(5);
+        let bumps = DynamicImage::ImageRgb8(image::ImageBuffer::from_fn(64, 64, |x, y| {
+            let (a, b) = ((x as f32 * 0.3).sin() * 0.4, (y as f32 * 0.2).cos() * 0.3);
+            let z = (1.0 - a * a - b * b).sqrt();
+            let mut noise = |v: f32| (v * 0.5 + 0.5) * 255.0 + (rng.byte() % 9) as f32 - 4.0;
+            image::Rgb([noise(a), noise(b), noise(z)].map(|c| c.round().clamp(0.0, 255.0) as u8))
+        }));
+        let (_, held) =
+            supplied_normal_mips(&bumps, NormalEncoding::Rgb, GreenAxis::OpenGl, 1.0).unwrap();
+        assert_eq!(held, SuppliedNormals::Vectors);
+        // Sandstone: warm browns and greys, light and dark.
+        let stone = DynamicImage::ImageRgb8(image::ImageBuffer::from_fn(64, 64, |x, y| {
+            let l = 60 + ((x * 7 + y * 3) % 140) as u8;
+            image::Rgb([l.saturating_add(40), l.saturating_add(20), l])
+        }));
+        let (_, held) =
+            supplied_normal_mips(&stone, NormalEncoding::Rgb, GreenAxis::OpenGl, 1.0).unwrap();
+        assert!(
+            matches!(held, SuppliedNormals::Unlike { share } if share > 0.5),
+            "{held:?}"
+        );
     }
 
     /// A two-channel map saved as RGB (blue 0) and given as `rgb` is read as `rg`: its normals

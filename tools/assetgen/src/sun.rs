@@ -32,29 +32,6 @@ pub struct WindowLight {
     pub landing: Vec3,
 }
 
-/// Möller–Trumbore; the distance along `dir` to the triangle, if hit from either side.
-pub fn ray_triangle(origin: Vec3, dir: Vec3, [a, b, c]: [Vec3; 3]) -> Option<f32> {
-    let (e1, e2) = (b - a, c - a);
-    let p = dir.cross(e2);
-    let det = e1.dot(p);
-    if det.abs() < 1e-9 {
-        return None;
-    }
-    let inv = 1.0 / det;
-    let s = origin - a;
-    let u = s.dot(p) * inv;
-    if !(0.0..=1.0).contains(&u) {
-        return None;
-    }
-    let q = s.cross(e1);
-    let v = dir.dot(q) * inv;
-    if v < 0.0 || u + v > 1.0 {
-        return None;
-    }
-    let t = e2.dot(q) * inv;
-    (t > 1e-5).then_some(t)
-}
-
 /// The first object (index) hit along the ray, ignoring `skip` and the background.
 pub fn first_hit(objects: &[Object], skip: usize, origin: Vec3, dir: Vec3) -> Option<(usize, f32)> {
     let mut best: Option<(usize, f32)> = None;
@@ -63,7 +40,7 @@ pub fn first_hit(objects: &[Object], skip: usize, origin: Vec3, dir: Vec3) -> Op
             continue;
         }
         for &t in &obj.triangles {
-            let hit = ray_triangle(origin, dir, obj.corners(t));
+            let hit = geom::intersect(obj.corners(t), origin, dir).map(|(d, _)| d);
             if let Some(d) = hit.filter(|&d| best.is_none_or(|(_, b)| d < b)) {
                 best = Some((k, d));
             }

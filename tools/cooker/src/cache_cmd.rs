@@ -281,18 +281,65 @@ fn open(args: &CacheArgs) -> anyhow::Result<(Cache, Option<Arc<Remote>>)> {
     })
 }
 
+/// The local cache of `args` when it is not there but a remote is set: on a machine that
+/// never cooked (a fresh CI runner), `cache stats|verify` report the remote alone. Without a
+/// remote, a missing directory stays an error (a typo, see [`CacheArgs::open`]).
+struct Local {
+    missing: Option<PathBuf>,
+    /// Holds the stand-in local cache the remote is opened behind, while it is in use.
+    _scratch: Option<tempfile::TempDir>,
+}
+
+fn open_maybe_remote_only(args: &CacheArgs) -> anyhow::Result<(Cache, Option<Arc<Remote>>, Local)> {
+    let missing = (!args.no_cache && args.cache_url.as_deref().is_some_and(|u| !u.is_empty()))
+        .then(|| args.cache_dir.clone().unwrap_or_else(Cache::default_dir))
+        .filter(|dir| !dir.exists());
+    let Some(dir) = missing else {
+        let (cache, remote) = open(args)?;
+        let local = Local {
+            missing: None,
+            _scratch: None,
+        };
+        return Ok((cache, remote, local));
+    };
+    let scratch = tempfile::tempdir().map_err(|e| anyhow::anyhow!("a temporary directory: {e}"))?;
+    let mut stand_in = args.clone();
+    stand_in.cache_dir = Some(scratch.path().to_path_buf());
+    let (cache, remote) = open(&stand_in)?;
+    let local = Local {
+        missing: Some(dir),
+        _scratch: Some(scratch),
+    };
+    Ok((cache, remote, local))
+}
+
+impl Local {
+    /// Says the local cache is not there; true if so.
+    fn said_missing(&self) -> bool {
+        if let Some(dir) = &self.missing {
+            println!(
+                "local cache {}: no such directory (nothing was cooked with it here)",
+                dir.display()
+            );
+        }
+        self.missing.is_some()
+    }
+}
+
 fn stats(args: &CacheArgs) -> Outcome {
-    let (cache, remote) = open(args)?;
-    let u = cache.usage()?;
-    println!(
-        "local cache {}: {} entries, {} blobs, {} of {} ({:.1}%)",
-        cache.dir().display(),
-        u.entries,
-        u.blobs,
-        human(u.bytes),
-        human(cache.max_size()),
-        100.0 * u.bytes as f64 / cache.max_size().max(1) as f64
-    );
+    let (cache, remote, local) = open_maybe_remote_only(args)?;
+    if !local.said_missing() {
+        let u = cache.usage()?;
+        println!(
+            "local cache {}: {} entries, {} blobs, {} of {} ({:.1}%)",
+            cache.dir().display(),
+            u.entries,
+            u.blobs,
+            human(u.bytes),
+            human(cache.max_size()),
+            100.0 * u.bytes as f64 / cache.max_size().max(1) as f64
+        );
+    }
     if let Some(r) = remote {
         for prefix in ["ac/", "cas/"] {
             let objects = listed(&r, prefix)?;
@@ -309,17 +356,20 @@ fn stats(args: &CacheArgs) -> Outcome {
 }
 
 fn verify(args: &CacheArgs) -> Outcome {
-    let (cache, remote) = open(args)?;
-    let (checked, damaged) = cache.verify()?;
-    for (path, why) in &damaged {
-        println!("damaged: {}: {why} (removed)", path.display());
+    let (cache, remote, local) = open_maybe_remote_only(args)?;
+    let mut bad = 0;
+    if !local.said_missing() {
+        let (checked, damaged) = cache.verify()?;
+        for (path, why) in &damaged {
+            println!("damaged: {}: {why} (removed)", path.display());
+        }
+        println!(
+            "local cache {}: {checked} checked, {} damaged",
+            cache.dir().display(),
+            damaged.len()
+        );
+        bad = damaged.len();
     }
-    println!(
-        "local cache {}: {checked} checked, {} damaged",
-        cache.dir().display(),
-        damaged.len()
-    );
-    let mut bad = damaged.len();
     if let Some(r) = remote {
         let blobs = listed(&r, "cas/")?;
         let mut remote_bad = 0;

@@ -62,7 +62,7 @@ pub struct SettingsArgs {
     #[arg(long, value_name = "N", value_parser = clap::value_parser!(u32).range(1..))]
     max_texture_size: Option<u32>,
     /// Quantize vertices (positions within the mesh's bounds, 16-bit UVs, octahedral
-    /// normals); reports the error.
+    /// normals); with `-v`, the largest error it made per mesh is reported.
     #[arg(long)]
     quantize: bool,
     /// Bits per axis of quantized positions: 16 (8 bytes), 10 or 8 (4 bytes each).

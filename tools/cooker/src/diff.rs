@@ -36,6 +36,8 @@ pub struct Args {
     #[arg(long = "tolerance-lsb", alias = "max-error", value_name = "LSB")]
     tolerance_lsb: Option<f64>,
     /// Largest vertex position change accepted (scene units, per axis); default: identical.
+    /// Triangulated another way, a surface is matched to within this or 4 f32 ulps of the
+    /// mesh's largest coordinate, whichever is larger.
     /// Given, the same triangles in another vertex or triangle order are accepted too, and
     /// cameras, window frames and the light the cook placed from the geometry may move with it.
     #[arg(long, value_name = "D")]
@@ -443,10 +445,15 @@ impl Geometry<'_> {
         );
         let m = triangles::compare(&ta, &tb, self.max_delta, self.shading);
         let [ua, ub] = &m.unmatched;
-        // Exact comparison still allows the rounding of a point on another triangulation.
-        let extent =
-            (glam::Vec3::from(ma.bounds_max) - glam::Vec3::from(ma.bounds_min)).length() as f64;
-        let reach = self.max_delta.max(1e-6 * extent);
+        // Exact comparison still allows the rounding of a point on another triangulation: a
+        // few ulps of the largest coordinate. It was a millionth of the mesh's diagonal, which
+        // on a 100 m floor let a vertex move 1.4e-4 past `--max-position-delta 0`.
+        let largest = ma
+            .bounds_min
+            .iter()
+            .chain(&ma.bounds_max)
+            .fold(0.0f64, |m, &c| m.max((c as f64).abs()));
+        let reach = self.max_delta.max(4.0 * f32::EPSILON as f64 * largest);
         let (ca, cb) = if ua.is_empty() && ub.is_empty() {
             Default::default()
         } else {

@@ -36,7 +36,7 @@ fn text(o: &Output) -> String {
 }
 
 /// Cooks `input`, expecting `code`; the message must name `names` (a file) and say `says`.
-fn expect(input: &Path, code: i32, names: &str, says: &str) {
+fn expect(input: &Path, code: i32, names: &str, says: &str) -> String {
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().join("out.pack");
     std::fs::write(&out, OLD_PACK).unwrap();
@@ -65,6 +65,7 @@ fn expect(input: &Path, code: i32, names: &str, says: &str) {
         let entries = std::fs::read_dir(dir.path()).unwrap().count();
         assert_eq!(entries, 1, "{}: temp files left behind", input.display());
     }
+    msg
 }
 
 const QUAD_OBJ: &str = "mtllib quad.mtl\nv 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nvt 0 0\nvt 1 0\nvt 1 1\nvt 0 1\nvn 0 0 1\nusemtl glass\nf 1/1/1 2/2/1 3/3/1 4/4/1\n";
@@ -129,7 +130,9 @@ fn hostile_images() {
         ("garbage.png", "Invalid PNG signature"),
     ] {
         let scene = window_scene(d, file);
-        expect(&scene, 3, file, says);
+        let msg = expect(&scene, 3, file, says);
+        // At the [[window]] entry that names it, not only the image's own path.
+        assert!(msg.contains("scene.toml:8: "), "{msg}");
     }
     let scene = window_scene(d, "missing.png");
     expect(

@@ -828,3 +828,36 @@ fn diff_json_says_which_scene_parameters_differ() {
         "{problems:#?}"
     );
 }
+
+/// A vertex moved off its plane by 1e-4 on a mesh whose floor is 100 units wide is a change
+/// at `--max-position-delta 0`: the allowance for rounding was a millionth of the mesh's
+/// diagonal (1.4e-4 here), so such a gate passed changed geometry.
+#[test]
+fn diff_at_a_position_delta_of_0_sees_a_small_move_on_a_large_mesh() {
+    let dir = tempfile::tempdir().unwrap();
+    let quads = |z: &str| {
+        format!(
+            "o floor\nv -50 0 -50\nv 50 0 -50\nv 50 0 50\nv -50 0 50\nf 1 4 3 2\n\
+             o box\nv 0 0 0\nv 1 0 0\nv 1 1 {z}\nv 0 1 0\nf 5 6 7 8\n"
+        )
+    };
+    let mut packs = Vec::new();
+    for (name, z) in [("a", "0"), ("b", "0.0001")] {
+        let obj = dir.path().join(format!("{name}.obj"));
+        std::fs::write(&obj, quads(z)).unwrap();
+        let out = dir.path().join(format!("{name}.pack"));
+        let o = cooker(&[&"cook", &obj, &"-o", &out, &"--no-cache"]);
+        assert!(o.status.success(), "{}", text(&o));
+        packs.push(out);
+    }
+    let o = cooker(&[&"diff", &packs[0], &packs[1], &"--max-position-delta", &"0"]);
+    assert_eq!(o.status.code(), Some(1), "{}", text(&o));
+    let o = cooker(&[
+        &"diff",
+        &packs[0],
+        &packs[1],
+        &"--max-position-delta",
+        &"0.001",
+    ]);
+    assert_eq!(o.status.code(), Some(0), "{}", text(&o));
+}

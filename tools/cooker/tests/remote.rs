@@ -319,6 +319,32 @@ fn file_share_machines_share_and_a_planted_blob_is_caught() {
     let vt = text(&v);
     assert_eq!(v.status.code(), Some(1), "{vt}");
     assert!(vt.contains(&format!("{planted} damaged")), "{vt}");
+    // A machine that never cooked (no local cache) reports the remote alone, and makes no
+    // local directory; without a remote, a missing directory is still refused.
+    let fresh = d.join("cache-never");
+    for command in ["verify", "stats"] {
+        let v = common::command()
+            .args(["cache", command, "--cache-dir"])
+            .arg(&fresh)
+            .args(["--cache-url", &remote.url])
+            .output()
+            .unwrap();
+        let vt = text(&v);
+        let (code, says) = match command {
+            "verify" => (1, format!("blobs checked, {planted} damaged")),
+            _ => (0, "cas/: ".to_string()),
+        };
+        assert_eq!(v.status.code(), Some(code), "{vt}");
+        assert!(vt.contains("cache-never: no such directory"), "{vt}");
+        assert!(vt.contains(&says), "{vt}");
+        assert!(!fresh.exists(), "{vt}");
+    }
+    let v = common::command()
+        .args(["cache", "stats", "--cache-dir"])
+        .arg(&fresh)
+        .output()
+        .unwrap();
+    assert_eq!(v.status.code(), Some(2), "{}", text(&v));
 }
 
 /// A writer whose work is all in its local cache, cooked before it had a remote: its hits are

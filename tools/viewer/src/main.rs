@@ -699,6 +699,31 @@ fn exit_code(e: &anyhow::Error) -> u8 {
         .map_or(1, |code| code as u8)
 }
 
+/// Makes the `--out` directory. A file where it or a folder above it should be is bad usage
+/// (exit 2), as `--out` naming a file is; only the system's refusal (permissions, a full
+/// disk) is an I/O error (exit 4). `--out notes.txt/frames` exited 4 and `--out notes.txt` 2.
+fn create_out(out: &Path) -> anyhow::Result<()> {
+    out_in_the_way(out)?;
+    std::fs::create_dir_all(out).with_context(|| format!("creating {}", out.display()))
+}
+
+/// A file where the `--out` directory or a folder above it should be: bad usage.
+fn out_in_the_way(out: &Path) -> anyhow::Result<()> {
+    if let Some(file) = out
+        .ancestors()
+        .filter(|a| !a.as_os_str().is_empty())
+        .find(|a| a.exists() && !a.is_dir())
+    {
+        return Err(Usage(format!(
+            "--out {}: {} is a file, not a directory; the images go in a directory",
+            out.display(),
+            file.display()
+        ))
+        .into());
+    }
+    Ok(())
+}
+
 /// Bad usage that shows only once the pack is read (a camera it does not have): exit 2, as
 /// clap's usage errors; it exited 1, the code of a failed render.
 #[derive(Debug)]
@@ -812,9 +837,10 @@ fn run() -> Result<()> {
             .into());
         }
     }
+    // Checked here, before the GPU is set up and the pack streamed; made once the scene is
+    // loaded, so that a refused input leaves no empty directory behind.
     if args.headless {
-        std::fs::create_dir_all(&args.out)
-            .with_context(|| format!("creating {}", args.out.display()))?;
+        out_in_the_way(&args.out)?;
     }
     let no_display =
         std::env::var_os("DISPLAY").is_none() && std::env::var_os("WAYLAND_DISPLAY").is_none();
@@ -891,9 +917,13 @@ fn run() -> Result<()> {
         let (lo, hi) = scene.framing_bounds();
         views.push(("default".into(), View::framing(lo, hi, aspect)));
     }
+    // Named among all the cameras, so that one camera is written to the same file whether it
+    // is drawn alone or with the rest (`a_b` was `a_b.png` alone, `a_b_2.png` beside `a b`).
+    let stems = file_names(views.iter().map(|(n, _)| n.as_str()));
+    let mut views: Vec<((String, View), String)> = views.into_iter().zip(stems).collect();
     if args.camera != "all" {
-        let names: Vec<String> = views.iter().map(|(n, _)| n.clone()).collect();
-        views.retain(|(n, _)| *n == args.camera);
+        let names: Vec<String> = views.iter().map(|((n, _), _)| n.clone()).collect();
+        views.retain(|((n, _), _)| *n == args.camera);
         if views.is_empty() {
             return Err(Usage(format!(
                 "no camera named {:?} in {} (cameras: {})",
@@ -904,10 +934,8 @@ fn run() -> Result<()> {
             .into());
         }
     }
-    std::fs::create_dir_all(&args.out)
-        .with_context(|| format!("creating {}", args.out.display()))?;
-    let stems = file_names(views.iter().map(|(n, _)| n.as_str()));
-    for ((name, view), stem) in views.iter().zip(&stems) {
+    create_out(&args.out)?;
+    for ((name, view), stem) in &views {
         if args.passes {
             // The shadow-map view is drawn with the maps: kept from a frame drawn at another
             // size (the preview), it was black.

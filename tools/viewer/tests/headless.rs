@@ -384,6 +384,8 @@ fn names_the_problem_on_bad_input() {
     );
     // Named once ("reading tiny.pack: tiny.pack: ..." before).
     assert_eq!(err.matches("tiny.pack").count(), 1, "{err}");
+    // A refused input leaves no empty --out directory behind.
+    assert!(!out.exists());
     // A pack cut short is said to be at once, against its header's length, as `cooker info`
     // says it (it was found at the first section past the cut, after a first frame).
     let whole = tiny_pack();
@@ -412,6 +414,28 @@ fn names_the_problem_on_bad_input() {
     assert_eq!(o.status.code(), Some(4), "{err}");
     assert_eq!(err.matches("missing.obj").count(), 1, "{err}");
     assert!(!String::from_utf8_lossy(&o.stdout).contains("adapter"));
+
+    // A file as --out, or above it, is bad usage alike (the second exited 4, an I/O error),
+    // said before the GPU is set up.
+    std::fs::write(&pack_path, tiny_pack()).unwrap();
+    let notes = dir.join("notes.txt");
+    std::fs::write(&notes, b"mine").unwrap();
+    for out in [notes.clone(), notes.join("frames")] {
+        let o = viewer(&[
+            pack_path.as_os_str(),
+            "--headless".as_ref(),
+            "--out".as_ref(),
+            out.as_os_str(),
+        ]);
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert_eq!(o.status.code(), Some(2), "{err}");
+        assert!(
+            err.contains("notes.txt") && err.contains("directory"),
+            "{err}"
+        );
+        assert!(!String::from_utf8_lossy(&o.stdout).contains("adapter"));
+    }
+    assert_eq!(std::fs::read(&notes).unwrap(), b"mine");
 
     let _ = std::fs::remove_dir_all(&dir);
 }

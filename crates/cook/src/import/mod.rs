@@ -851,6 +851,24 @@ pub(crate) fn locate(dir: &Path, name: &str) -> Option<PathBuf> {
     if exact.is_file() {
         return Some(exact);
     }
+    if let Some(p) = as_written_on_windows(dir, name) {
+        return Some(p);
+    }
+    let slashed = name.replace('\\', "/");
+    let relative = slashed.trim();
+    let relative = relative.strip_prefix("./").unwrap_or(relative);
+    // `C:/Users/me/kirche/Textures/glass.png`, `/home/me/...`: the model's folder was moved
+    // with its files, so the path's end is under `dir`: `kirche/Textures/glass.png`,
+    // `Textures/glass.png`, then `glass.png`. A relative `textures\glass.png` whose folder
+    // is gone is the same: an archive that put every file beside the model.
+    let parts: Vec<&str> = relative.split('/').filter(|c| !c.is_empty()).collect();
+    (1..parts.len()).find_map(|start| any_case(dir, &parts[start..].join("/")))
+}
+
+/// The file `name` under `dir` means where it was written on Windows: with backslashes for
+/// separators, or in another letter case than the file's. Unlike [`locate`], no shorter end of
+/// the path is looked for: a scene manifest's paths are the user's own, not a moved model's.
+pub(crate) fn as_written_on_windows(dir: &Path, name: &str) -> Option<PathBuf> {
     let slashed = name.replace('\\', "/");
     let slashed = slashed.trim();
     if slashed.is_empty() {
@@ -861,15 +879,7 @@ pub(crate) fn locate(dir: &Path, name: &str) -> Option<PathBuf> {
     if candidate.is_file() {
         return Some(candidate);
     }
-    if let Some(p) = any_case(dir, relative) {
-        return Some(p);
-    }
-    // `C:/Users/me/kirche/Textures/glass.png`, `/home/me/...`: the model's folder was moved
-    // with its files, so the path's end is under `dir`: `kirche/Textures/glass.png`,
-    // `Textures/glass.png`, then `glass.png`. A relative `textures\glass.png` whose folder
-    // is gone is the same: an archive that put every file beside the model.
-    let parts: Vec<&str> = relative.split('/').filter(|c| !c.is_empty()).collect();
-    (1..parts.len()).find_map(|start| any_case(dir, &parts[start..].join("/")))
+    any_case(dir, relative)
 }
 
 /// `relative` under `dir`, each component matched without regard to letter case.

@@ -83,6 +83,31 @@ impl Source<'_> {
             Some(key) => format!("{key}: {message}"),
             None => message.to_string(),
         };
+        // toml says "duplicate key" without the key, or the table a header opens twice.
+        let message = match e.span().and_then(|s| self.text.get(s)) {
+            Some(what) if message.starts_with("duplicate") && !message.contains('`') => {
+                format!("{message} `{}`", what.trim())
+            }
+            _ => message,
+        };
+        // `[window]` where `[[window]]` was meant: toml says only that a map is no sequence.
+        let header = e.span().and_then(|s| {
+            let line = self.text.get(..s.start)?.rsplit('\n').next()?.to_string()
+                + self.text.get(s.start..)?.split('\n').next()?;
+            let name = line.trim().strip_prefix('[')?.strip_suffix(']')?.trim();
+            (!name.starts_with('[')).then(|| name.to_string())
+        });
+        let message = match header {
+            Some(name) if message.contains("expected a sequence") => format!(
+                "{message}: [{name}] opens one table, but {name} is a list; write [[{name}]] \
+                 for each entry"
+            ),
+            _ => message,
+        };
+        let message = match did_you_mean(&message) {
+            Some(near) => format!("{message}; did you mean `{near}`?"),
+            None => message,
+        };
         CookError::Manifest {
             path: self.path.to_path_buf(),
             line: e.span().map(|s| self.line(s.start).0),
@@ -139,14 +164,19 @@ impl Source<'_> {
         match std::fs::metadata(&path) {
             Ok(m) if m.is_file() => Ok(path),
             Ok(_) => Err(self.err_at(value, format!("{what} {:?} is not a file", value.get_ref()))),
-            Err(e) => Err(self.err_at(
-                value,
-                format!(
-                    "{what} {:?} cannot be read ({}): {e}",
-                    value.get_ref(),
-                    path.display()
-                ),
-            )),
+            // A manifest written on Windows (`textures\Rose.PNG`) cooks here too, as a
+            // model's own texture paths do.
+            Err(e) => match crate::import::as_written_on_windows(dir, value.get_ref()) {
+                Some(found) => Ok(found),
+                None => Err(self.err_at(
+                    value,
+                    format!(
+                        "{what} {:?} cannot be read ({}): {e}",
+                        value.get_ref(),
+                        path.display()
+                    ),
+                )),
+            },
         }
     }
 
@@ -206,6 +236,24 @@ impl Source<'_> {
                 )
             })
     }
+}
+
+/// For serde's "unknown field `desing`, expected one of `name`, `design`, ..." (and the same
+/// of variants), the expected name nearest the unknown one, where it is near enough to be a
+/// typo: the list alone left the user to spot `design` among a dozen.
+fn did_you_mean(message: &str) -> Option<&str> {
+    let (_, rest) = message.split_once("unknown ")?;
+    let (_, rest) = rest.split_once('`')?;
+    let (unknown, rest) = rest.split_once('`')?;
+    let (_, expected) = rest.split_once("expected ")?;
+    expected
+        .split('`')
+        .skip(1)
+        .step_by(2)
+        .map(|name| (strsim::damerau_levenshtein(unknown, name), name))
+        .filter(|&(d, name)| d == 1 || (d == 2 && name.len() >= 6))
+        .min_by_key(|&(d, _)| d)
+        .map(|(_, name)| name)
 }
 
 fn finite3(v: [f32; 3]) -> bool {
@@ -587,10 +635,14 @@ fn light(src: &Source<'_>, l: &Spanned<model::Light>) -> Result<Light, CookError
             }
         }
     };
-    let colour = raw.colour.unwrap_or([1.0; 3]);
+    let colour = raw.colour.as_ref().map_or([1.0; 3], |c| *c.get_ref());
     if !finite3(colour) || colour.iter().any(|&c| c < 0.0) {
-        return Err(src.err_at(
-            l,
+        let at = raw
+            .colour
+            .as_ref()
+            .map_or(l.span().start, |c| c.span().start);
+        return Err(src.error(
+            at,
             format!("light colour {colour:?} must be finite and non-negative"),
         ));
     }

@@ -352,6 +352,8 @@ impl WindowDesign {
     pub fn parse_override(s: &str) -> Result<(String, PathBuf), String> {
         match s.split_once('=') {
             Some((name, image)) if !name.is_empty() && !image.is_empty() => {
+                // Checked here as the manifest's globs are, rather than matching only itself.
+                globset::Glob::new(name).map_err(|e| format!("invalid glob {name:?}: {e}"))?;
                 Ok((name.to_string(), PathBuf::from(image)))
             }
             _ => Err(format!("{s:?} is not NAME=IMAGE")),
@@ -436,21 +438,33 @@ impl Manifest {
 
     /// Reads and checks a `scene.toml`.
     pub fn load(path: &Path) -> Result<Manifest, CookError> {
-        let text = std::fs::read_to_string(path).map_err(|source| {
-            if source.kind() == std::io::ErrorKind::InvalidData {
-                CookError::Manifest {
-                    path: path.to_path_buf(),
-                    line: None,
-                    message: "not UTF-8 text".into(),
-                }
-            } else {
-                CookError::Io {
-                    path: path.to_path_buf(),
-                    source,
-                }
+        let bytes = std::fs::read(path).map_err(|source| CookError::Io {
+            path: path.to_path_buf(),
+            source,
+        })?;
+        // Where the text stops being UTF-8: a manifest saved in a legacy code page goes wrong
+        // at its first accented name, which the user must find.
+        let text = std::str::from_utf8(&bytes).map_err(|e| {
+            let at = e.valid_up_to();
+            let line = bytes[..at].iter().filter(|&&b| b == b'\n').count() + 1;
+            let start = bytes[..at]
+                .iter()
+                .rposition(|&b| b == b'\n')
+                .map_or(0, |i| i + 1);
+            // In characters: the bytes before `at` are UTF-8.
+            let column = String::from_utf8_lossy(&bytes[start..at]).chars().count();
+            CookError::Manifest {
+                path: path.to_path_buf(),
+                line: Some(line),
+                message: format!(
+                    "not UTF-8 text: byte 0x{:02x} at column {} (byte offset {at}); save the \
+                     manifest as UTF-8",
+                    bytes[at],
+                    column + 1
+                ),
             }
         })?;
-        Self::parse(path, &text)
+        Self::parse(path, text)
     }
 
     /// Parses manifest text; `path` resolves relative paths and names the manifest in errors.
@@ -530,6 +544,59 @@ mod tests {
             CookError::Manifest { line, message, .. } => (line, message),
             other => panic!("not a manifest error: {other}"),
         }
+    }
+
+    /// Paths written on Windows, with backslashes and in another letter case than the files',
+    /// name the files; a path that names no file in any case is still an error at its line.
+    #[test]
+    fn windows_paths_name_the_files() {
+        let d = dir();
+        std::fs::create_dir(d.path().join("Designs")).unwrap();
+        std::fs::write(d.path().join("Designs/Rose.png"), b"").unwrap();
+        let m = parse(
+            &d,
+            "[[mesh]]\nsource = 'CORRIDOR.OBJ'\n\n[[window]]\nname = 'a'\ndesign = 'designs\\rose.PNG'\n",
+        )
+        .unwrap();
+        assert_eq!(m.meshes[0].source, d.path().join("corridor.obj"));
+        assert_eq!(m.windows[0].design, Some(d.path().join("Designs/Rose.png")));
+        let (line, message) = line_of(
+            parse(
+                &d,
+                "[[mesh]]\nsource = 'corridor.obj'\n\n[[window]]\nname = 'a'\ndesign = 'designs\\lily.png'\n",
+            )
+            .unwrap_err(),
+        );
+        assert_eq!(line, Some(6), "{message}");
+        assert!(message.contains("cannot be read"), "{message}");
+    }
+
+    /// A manifest that is not UTF-8 is refused at the line and column of its first bad byte.
+    #[test]
+    fn non_utf8_manifests_name_the_line() {
+        let d = dir();
+        let path = d.path().join("scene.toml");
+        std::fs::write(&path, b"[scene]\nname = \"K\xc3\xb6ln \xe9glise\"\n").unwrap();
+        let (line, message) = line_of(Manifest::load(&path).unwrap_err());
+        assert_eq!(line, Some(2), "{message}");
+        assert!(
+            message.contains("byte 0xe9 at column 14 (byte offset 22)"),
+            "{message}"
+        );
+    }
+
+    /// `--window NAME=IMAGE` checks NAME as a glob, as the manifest does its patterns: an
+    /// invalid one is a usage error, not a name that then matches no window.
+    #[test]
+    fn window_overrides_check_their_glob() {
+        assert_eq!(
+            WindowDesign::parse_override("nave-*=rose.png"),
+            Ok(("nave-*".to_string(), PathBuf::from("rose.png")))
+        );
+        let e = WindowDesign::parse_override("nave-[1=rose.png").unwrap_err();
+        assert!(e.contains("invalid glob \"nave-[1\""), "{e}");
+        let e = WindowDesign::parse_override("rose.png").unwrap_err();
+        assert!(e.contains("is not NAME=IMAGE"), "{e}");
     }
 
     /// Quarter turns are exact and agree with the quaternion route; `[-90, 0, 0]` is the
@@ -762,6 +829,38 @@ colour = [0.35, 0.5, 0.8]
         let cases = [
             (format!("{mesh}bogus = 1\n"), 3, "unknown field"),
             (
+                format!(
+                    "{mesh}[light]\ntype = \"directional\"\ndirection = [0.0, -1.0, 0.0]\ncolour = [-1.0, 0.5, 2.0]\n"
+                ),
+                6,
+                "light colour [-1.0, 0.5, 2.0] must be finite and non-negative",
+            ),
+            (
+                format!("{mesh}[[camera]]\nname = \"c\"\nfov = 60.0\n"),
+                5,
+                "expected one of",
+            ),
+            (
+                format!("{mesh}[window]\nname = \"w\"\n"),
+                3,
+                "[window] opens one table, but window is a list; write [[window]] for each entry",
+            ),
+            (
+                format!("{mesh}[textures]\nformat = \"bc\"\nformat = \"rgba8\"\n"),
+                5,
+                "duplicate key `format`",
+            ),
+            (
+                format!("{mesh}[[window]]\nname = \"w\"\ndesing = \"lancet.png\"\n"),
+                5,
+                "; did you mean `design`?",
+            ),
+            (
+                format!("{mesh}[[window]]\nname = \"w\"\nuv = \"planer\"\n"),
+                5,
+                "expected `source` or `planar`; did you mean `planar`?",
+            ),
+            (
                 format!("[scene]\ntext_encoding = \"cp-1251\"\n{mesh}"),
                 2,
                 "text_encoding: unknown text encoding \"cp-1251\"",
@@ -977,6 +1076,10 @@ colour = [0.35, 0.5, 0.8]
             assert_eq!(l, Some(line), "{text}\n→ {msg}");
             assert!(msg.contains(word), "{text}\n→ {msg}");
         }
+        // Two letters off a three-letter key is no typo (`fov` was "did you mean `far`?").
+        let fov = format!("{mesh}[[camera]]\nname = \"c\"\nfov = 60.0\n");
+        let (_, msg) = line_of(parse(&d, &fov).unwrap_err());
+        assert!(!msg.contains("did you mean"), "{msg}");
         let (l, msg) = line_of(parse(&d, "[scene]\nname = \"x\"\n").unwrap_err());
         assert_eq!(l, None);
         assert!(msg.contains("[[mesh]]"));

@@ -154,8 +154,8 @@ pub(super) struct Light {
     pub radius: Option<Spanned<f32>>,
     pub inner_cone_deg: Option<Spanned<f32>>,
     pub outer_cone_deg: Option<Spanned<f32>>,
-    #[serde(default, deserialize_with = "opt_v3")]
-    pub colour: Option<[f32; 3]>,
+    #[serde(default, deserialize_with = "opt_spanned_v3")]
+    pub colour: Option<Spanned<[f32; 3]>>,
     pub intensity: Option<Spanned<f32>>,
 }
 
