@@ -375,6 +375,21 @@ impl Occupancy {
             .sum::<f64>()
             / Self::RAYS as f64
     }
+
+    /// As [`Self::view_depth`], each ray also stopped by the first of `near` (triangles about
+    /// the eye, the eye at the origin) it meets.
+    fn view_depth_near(&self, eye: DVec3, dir: DVec3, max: f64, near: &[[glam::Vec3; 3]]) -> f64 {
+        Self::rays(dir)
+            .map(|r| {
+                let d = r.as_vec3();
+                near.iter()
+                    .filter_map(|&t| geom::intersect(t, glam::Vec3::ZERO, d))
+                    .map(|(t, _)| t as f64)
+                    .fold(self.depth(eye, r, max), f64::min)
+            })
+            .sum::<f64>()
+            / Self::RAYS as f64
+    }
 }
 
 /// Where each of `views` (name, eye, target) sees its target: the eye as given, or, where
@@ -403,17 +418,60 @@ fn unblocked<'a>(
         .flat_map(|v| tries(v).map(|(q, d, _)| (q, d)))
         .collect();
     let occupancy = Occupancy::new(p, classes, bounds, &rays, reach);
+    // The grid skips the cell an eye is in (else the floor or a wall beside it would stop
+    // every ray at once), so an eye a few centimetres behind a wall's inner face saw through
+    // the wall: a 0.6 m wall, the eye 4 cm into it, one grey frame. Within a cell's diagonal
+    // of each eye the rays meet the triangles themselves.
+    let near = occupancy.cell.length();
+    let eyes: Vec<DVec3> = views
+        .iter()
+        .flat_map(|v| tries(v).map(|(q, _, _)| q))
+        .collect();
+    let close = surfaces_near(p, classes, &eyes, near);
     views
         .iter()
-        .map(|v| {
+        .enumerate()
+        .map(|(i, v)| {
             let (name, _, target) = *v;
             let open = tries(v)
                 .into_iter()
-                .find(|&(q, d, len)| len <= 0.0 || occupancy.view_depth(q, d, len) >= len / 3.0)
-                .map_or(v.1, |(q, _, _)| q);
+                .zip(&close[i * STEPS.len()..])
+                .find(|&((q, d, len), tris)| {
+                    len <= 0.0 || occupancy.view_depth_near(q, d, len, tris) >= len / 3.0
+                })
+                .map_or(v.1, |((q, _, _), _)| q);
             (name, open, target)
         })
         .collect()
+}
+
+/// For each of `eyes`, the surfaces (not glass, not the backdrop) whose bounds come within
+/// `reach` of it, moved so the eye is at the origin: in f32, a model far from the origin
+/// keeps its precision near the eye.
+fn surfaces_near(
+    p: &Prepared,
+    classes: &[MaterialClass],
+    eyes: &[DVec3],
+    reach: f64,
+) -> Vec<Vec<[glam::Vec3; 3]>> {
+    let mut near = vec![Vec::new(); eyes.len()];
+    for (src, mats) in p.imported.iter().zip(&p.tri_material) {
+        for (t, &m) in mats.iter().enumerate() {
+            let c = classes[m as usize];
+            if c.is_window() || c == MaterialClass::Background {
+                continue;
+            }
+            let tri = triangle(src, t as u32);
+            let lo = tri[0].min(tri[1]).min(tri[2]) - reach;
+            let hi = tri[0].max(tri[1]).max(tri[2]) + reach;
+            for (e, list) in eyes.iter().zip(&mut near) {
+                if e.cmpge(lo).all() && e.cmple(hi).all() {
+                    list.push(tri.map(|q| (q - *e).as_vec3()));
+                }
+            }
+        }
+    }
+    near
 }
 
 /// A convex polygon of at most seven corners: a triangle clipped by four axis-aligned planes.
@@ -702,6 +760,10 @@ fn best_lamp<'a>(
     (best.map(|(_, l)| l), out_of_range)
 }
 
+/// What a cook's notes and `cooker validate` say of a model that looks Z-up.
+pub(crate) const Z_UP_NOTE: &str = "the floor faces along z, not up (y): the model looks Z-up; \
+     `--up z` stands it up (in a scene.toml, `rotate_deg = [-90.0, 0.0, 0.0]` on its [[mesh]])";
+
 /// The guessed cameras' vertical field of view.
 const FOV_Y_DEG: f64 = 60.0;
 
@@ -828,11 +890,7 @@ pub fn guess(p: &Prepared) -> Guess {
         || low_flat_glass > 0.25 * window_area
         || lying_lancets;
     if looks_z_up {
-        notes.push(
-            "the floor faces along z, not up (y): the model looks Z-up; `--up z` stands it \
-             up (in a scene.toml, `rotate_deg = [-90.0, 0.0, 0.0]` on its [[mesh]])"
-                .into(),
-        );
+        notes.push(Z_UP_NOTE.into());
     }
 
     // The light: the file's own sun (an artist's sun through the rose window), else a lamp of

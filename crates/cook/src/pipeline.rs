@@ -27,8 +27,13 @@ impl CookOutput {
     }
 }
 
-/// The whole pipeline: sources in, a pack's TOC and data out.
+/// The whole pipeline: sources in, a pack's TOC and data out. A file the manifest names that
+/// cannot be used is reported at its line.
 pub fn cook(manifest: &Manifest, settings: &Settings) -> Result<CookOutput, CookError> {
+    cook_steps(manifest, settings).map_err(|e| manifest.at_its_line(e))
+}
+
+fn cook_steps(manifest: &Manifest, settings: &Settings) -> Result<CookOutput, CookError> {
     let mut report = Report::default();
 
     // 1–3. Import every source into a triangle soup (errors name file and line); tag source
@@ -411,8 +416,16 @@ pub struct Prepared {
     pub shift: [f64; 3],
 }
 
-/// Runs import → tag → windows; see [`Prepared`].
+/// Runs import → tag → windows; see [`Prepared`]. Errors as [`cook`]'s.
 pub fn prepare(
+    manifest: &Manifest,
+    settings: &Settings,
+    report: &mut Report,
+) -> Result<Prepared, CookError> {
+    prepare_steps(manifest, settings, report).map_err(|e| manifest.at_its_line(e))
+}
+
+fn prepare_steps(
     manifest: &Manifest,
     settings: &Settings,
     report: &mut Report,
@@ -477,7 +490,7 @@ fn tri_materials(src: &import::Imported, part_material: &[u16]) -> Vec<u16> {
 }
 
 /// A bare model says nothing of light or cameras: it gets the guesses `cooker init` writes.
-fn needs_guess(manifest: &Manifest) -> bool {
+pub(crate) fn needs_guess(manifest: &Manifest) -> bool {
     manifest.bare && manifest.light.is_none()
 }
 

@@ -1002,15 +1002,24 @@ pub fn cook_textures(
                     },
                     f,
                 ));
+                // The [[window]]'s own normal map, else the glass's (a rule's `normal_map`,
+                // or the source material's), else one derived from the design: a rule's map
+                // on window glass was read, checked, and then never used.
                 r.1 = Some(add(
-                    match &w.normal {
-                        Some((image, encoding, green)) => Job::Normal {
+                    match (&w.normal, &plan.normal_texture) {
+                        (Some((image, encoding, green)), _) => Job::Normal {
                             image: image.clone(),
                             encoding: *encoding,
                             green: *green,
                             strength: 1.0,
                         },
-                        None => Job::DerivedNormal {
+                        (None, Some(image)) => Job::Normal {
+                            image: image.clone(),
+                            encoding: NormalEncoding::Rgb,
+                            green: GreenAxis::OpenGl,
+                            strength: plan.normal_scale,
+                        },
+                        (None, None) => Job::DerivedNormal {
                             design: w.design.clone(),
                         },
                     },

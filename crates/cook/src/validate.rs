@@ -69,6 +69,10 @@ pub const FINDING_CODES: &[(&str, &str)] = &[
         "a window entry whose name matches no window the cook found",
     ),
     (
+        "z-up",
+        "a bare model that looks Z-up read Y-up: its floor stands on its edge",
+    ),
+    (
         "window-curved",
         "glass that bends too much for one projector",
     ),
@@ -226,6 +230,25 @@ pub fn validate_scene_with(
 ) -> Result<Validation, CookError> {
     let mut v = Validation::default();
     let mut report = crate::Report::default();
+    let prepared = crate::prepare(manifest, settings, &mut report)?;
+    // The images the manifest names decode as the cook decodes them: a panorama or a normal
+    // map that could not be read validated clean, and the cook then failed.
+    {
+        use rayon::prelude::*;
+        manifest
+            .named_files
+            .par_iter()
+            .filter(|n| n.is_image())
+            .try_for_each(|n| {
+                crate::textures::decode(&crate::import::ImageRef::File(n.path.clone())).map(drop)
+            })
+            .map_err(|e| manifest.at_its_line(e))?;
+    }
+    // A bare model's cook says so in its notes; `validate` is where a user looks first, and
+    // a Z-up cathedral read Y-up validated clean while its floor caught no sun.
+    if crate::pipeline::needs_guess(manifest) && crate::guess::guess(&prepared).looks_z_up {
+        v.add("z-up", crate::guess::Z_UP_NOTE.to_string());
+    }
     let crate::Prepared {
         imported: sources,
         tagging,
@@ -233,7 +256,7 @@ pub fn validate_scene_with(
         windows: found,
         shift,
         ..
-    } = crate::prepare(manifest, settings, &mut report)?;
+    } = prepared;
     let framed = manifest.shifted(shift);
     let manifest = &*framed;
 

@@ -378,6 +378,9 @@ pub fn plan(
     // (texture, fit, window) where a material's texture is fitted to a window without
     // coordinates.
     let mut fitted_textures: Vec<(String, Fit, String)> = Vec::new();
+    // Per [[window]] line: the keys set there that no window it matches could use.
+    let mut idle_keys: std::collections::BTreeMap<usize, (Vec<&str>, DesignSource, Vec<String>)> =
+        std::collections::BTreeMap::new();
     for inst in &found {
         let dominant = inst.materials[0].0;
         let sill = inst
@@ -495,6 +498,27 @@ pub fn plan(
                 (t, DesignSource::Texture)
             }),
         };
+        // `came_width` and `texels_per_metre` shape a design drawn from the panes; over an
+        // image they did nothing, without a word (`uv = "planar"` on glass with a `map_Kd`).
+        if let (Some(e), Some((_, source))) = (entry, &image) {
+            let keys: Vec<&'static str> = [
+                (
+                    e.came_width != crate::manifest::DEFAULT_CAME_WIDTH,
+                    "came_width",
+                ),
+                (e.texels_per_metre.is_some(), "texels_per_metre"),
+            ]
+            .into_iter()
+            .filter_map(|(set, key)| set.then_some(key))
+            .collect();
+            if !keys.is_empty() {
+                idle_keys
+                    .entry(e.line.0)
+                    .or_insert_with(|| (keys, *source, Vec::new()))
+                    .2
+                    .push(format!("{:?}", inst.name));
+            }
+        }
         let tinted = image
             .as_ref()
             .is_none_or(|(_, source)| *source == DesignSource::Texture);
@@ -583,9 +607,6 @@ pub fn plan(
             size: design::design_size(inst.width(), inst.height(), texels),
             came_width: entry.map_or(crate::manifest::DEFAULT_CAME_WIDTH, |e| e.came_width),
             text_encoding: sources[inst.source].text_encoding,
-            entry: entry
-                .filter(|e| e.design.is_some() && e.line.0 > 0)
-                .map(|e| (manifest.path.clone(), e.line.0)),
         });
         let src_names: Vec<String> = {
             let src = &sources[inst.source];
@@ -645,6 +666,32 @@ pub fn plan(
                 ),
             ));
         }
+    }
+    for (line, (keys, source, windows)) in idle_keys {
+        let shown = if windows.len() > 3 {
+            format!("{} and {} more", windows[..3].join(", "), windows.len() - 3)
+        } else {
+            windows.join(", ")
+        };
+        let from = match source {
+            DesignSource::Image => "the entry's design image",
+            _ => "its glass's colour texture",
+        };
+        report.warnings.push(Warning::new(
+            &manifest.path,
+            Some(line),
+            format!(
+                "{} shape{} only a design drawn from the panes' colours; the design of {shown} \
+                 is {from}, so {} no effect",
+                keys.join(" and "),
+                if keys.len() == 1 { "s" } else { "" },
+                if keys.len() == 1 {
+                    "it has"
+                } else {
+                    "they have"
+                }
+            ),
+        ));
     }
     fitted_textures.sort_by(|a, b| (&a.0, a.1.name(), &a.2).cmp(&(&b.0, b.1.name(), &b.2)));
     for group in fitted_textures.chunk_by(|a, b| (&a.0, a.1) == (&b.0, b.1)) {
@@ -861,10 +908,6 @@ struct Pending {
     came_width: f32,
     /// The encoding of the model's names, for an image named on disk in it.
     text_encoding: Option<crate::import::text::TextEncoding>,
-    /// The manifest and line of the `[[window]]` entry whose design this is, which an
-    /// image that fails to decode is reported at: the file's name alone left a user with
-    /// several entries naming similar files to search for the one at fault.
-    entry: Option<(std::path::PathBuf, usize)>,
 }
 
 impl Pending {
@@ -895,18 +938,7 @@ impl Pending {
 /// The design of one window: an image fitted and masked, or cut to the outline where it
 /// would let light through stone, or rasterized from the panes; with its size in texels.
 fn make_design(p: &Pending, images: &crate::textures::DecodedImages) -> Result<Design, CookError> {
-    // An image that fails to decode is reported at its entry; an I/O failure stays one (its
-    // exit status differs).
-    let get = |img: &ImageRef| {
-        images.get(img).map_err(|e| match &p.entry {
-            Some((path, line)) if !e.is_io() => CookError::Manifest {
-                path: path.clone(),
-                line: Some(*line),
-                message: format!("the design of this [[window]] cannot be used: {e}"),
-            },
-            _ => e,
-        })
-    };
+    let get = |img: &ImageRef| images.get(img);
     let Some((img, source)) = &p.image else {
         let (w, h) = p.size;
         let came = p.came_width * w.min(h) as f32;

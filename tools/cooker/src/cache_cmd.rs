@@ -245,8 +245,10 @@ enum Command {
         #[command(flatten)]
         cache: CacheArgs,
     },
-    /// Check every entry: local ones against their checksums (damaged ones are removed),
-    /// remote blobs against their SHA-256 names. Exit 1 when any is damaged.
+    /// Check every entry: local ones against their checksums, remote blobs against their
+    /// SHA-256 names and remote action manifests as JSON. Damaged ones are removed: local
+    /// ones always, remote ones where writes are on (`--cache-write`, or in CI). Exit 1 when
+    /// any is damaged.
     Verify {
         #[command(flatten)]
         cache: CacheArgs,
@@ -324,6 +326,12 @@ impl Local {
         }
         self.missing.is_some()
     }
+
+    /// The local cache's directory as the user named it (not the scratch standing in for a
+    /// missing one).
+    fn shown<'a>(&'a self, cache: &'a Cache) -> &'a std::path::Path {
+        self.missing.as_deref().unwrap_or(cache.dir())
+    }
 }
 
 fn stats(args: &CacheArgs) -> Outcome {
@@ -371,18 +379,33 @@ fn verify(args: &CacheArgs) -> Outcome {
         bad = damaged.len();
     }
     if let Some(r) = remote {
-        let blobs = listed(&r, "cas/")?;
+        // Damaged objects are removed, as local entries are, so the next cook that makes one
+        // stores it again; a read-only remote keeps them and says so.
         let mut remote_bad = 0;
-        for (path, _) in &blobs {
-            if let Err(why) = r.verify_blob(path) {
-                println!("damaged: {} {path}: {why}", r.shown());
-                remote_bad += 1;
+        let mut checked = 0;
+        for (prefix, check) in [
+            (
+                "cas/",
+                remote::Remote::verify_blob as fn(&remote::Remote, &str) -> _,
+            ),
+            ("ac/", remote::Remote::verify_action),
+        ] {
+            let objects = listed(&r, prefix)?;
+            checked += objects.len();
+            for (path, _) in &objects {
+                if let Err(why) = check(&r, path) {
+                    let fate = match r.remove(path) {
+                        Ok(()) => "removed".to_string(),
+                        Err(e) => format!("not removed: {e}"),
+                    };
+                    println!("damaged: {} {path}: {why} ({fate})", r.shown());
+                    remote_bad += 1;
+                }
             }
         }
         println!(
-            "remote cache {}: {} blobs checked, {remote_bad} damaged",
+            "remote cache {}: {checked} objects checked, {remote_bad} damaged",
             r.shown(),
-            blobs.len()
         );
         bad += remote_bad;
     }
@@ -494,7 +517,10 @@ fn explain(
 ) -> Outcome {
     let manifest = Manifest::open(input)?;
     let settings = settings.resolve(&manifest)?;
-    let (cache, remote) = open(args)?;
+    // On a machine that never cooked, with a remote: what the remote holds (a missing local
+    // directory was a usage error, exit 2).
+    let (cache, remote, missing) = open_maybe_remote_only(args)?;
+    missing.said_missing();
     let local = Cache::open(cache.dir())?;
     let key = scene_key(input, &settings)?;
     println!("scene {}: key {}", input.display(), key.hex());
@@ -606,7 +632,7 @@ fn explain(
                     println!(
                         "a cook would cook it: no earlier cook of {} is recorded in {}",
                         input.display(),
-                        cache.dir().display()
+                        missing.shown(&cache).display()
                     );
                     return Ok(OK);
                 }

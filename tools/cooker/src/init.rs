@@ -297,7 +297,8 @@ pub fn run(args: Args) -> Outcome {
             entry.0.insert(class);
             entry.0.extend(others.into_iter().flatten());
             entry.1 |= prepared.tagging.cut[si][pi] != Cut::None;
-            if !rules.iter().any(|r| r.0 == kind && r.1 == name) {
+            // An empty name (`usemtl` alone) cannot be matched: the manifest refuses `match = ""`.
+            if !name.is_empty() && !rules.iter().any(|r| r.0 == kind && r.1 == name) {
                 rules.push((kind, name, class, why.replace('\n', " ")));
             }
         }

@@ -94,6 +94,9 @@ pub struct Remote {
     /// The server's host and port, for probes.
     address: Option<(String, u16)>,
     corrupt: Mutex<Vec<String>>,
+    /// Blobs read damaged this run: a writer replaces them rather than skip a name that is
+    /// there (a damaged blob was never repaired: every writer saw its name and went on).
+    damaged: Mutex<std::collections::HashSet<[u8; 32]>>,
     first_error: Mutex<Option<String>>,
     if_not_exists: bool,
 }
@@ -161,6 +164,7 @@ impl Remote {
             switched_off: tokio::sync::Notify::new(),
             address: server_address(&url, options),
             corrupt: Mutex::new(Vec::new()),
+            damaged: Mutex::new(Default::default()),
             first_error: Mutex::new(None),
             if_not_exists,
         };
@@ -357,6 +361,7 @@ impl Remote {
                 self.shown
             );
             self.corrupt.lock().unwrap().push(entry);
+            self.damaged.lock().unwrap().insert(*sha);
             return None;
         }
         Some(bytes)
@@ -400,10 +405,41 @@ impl Remote {
     }
 
     fn store_blob(&self, sha: &[u8; 32], bytes: &[u8]) {
-        if !self.writable() || self.has_blob(sha) {
+        if !self.writable() {
             return;
         }
-        self.write(&format!("cas/{}", hex(sha)), bytes, true);
+        let repair = self.damaged.lock().unwrap().contains(sha);
+        if !repair && self.has_blob(sha) {
+            return;
+        }
+        self.write(&format!("cas/{}", hex(sha)), bytes, !repair);
+        if repair && self.writable() {
+            self.damaged.lock().unwrap().remove(sha);
+            eprintln!(
+                "note: remote cache {}: damaged blob cas/{} replaced",
+                self.shown,
+                hex(sha)
+            );
+        }
+    }
+
+    /// Deletes one object, for `cooker cache verify`: whether it is gone.
+    pub fn remove(&self, path: &str) -> Result<(), String> {
+        if !self.writable() {
+            return Err("the remote is read-only here".into());
+        }
+        self.call(self.op.delete(path))
+            .map_err(|e| self.scrub(&e.to_string()))
+    }
+
+    /// Reads one action manifest and checks it parses, for `cooker cache verify`.
+    pub fn verify_action(&self, path: &str) -> Result<(), String> {
+        let bytes = self
+            .call(self.op.read(path))
+            .map_err(|e| self.scrub(&e.to_string()))?;
+        serde_json::from_slice::<ActionManifest>(&bytes.to_vec())
+            .map(drop)
+            .map_err(|e| format!("not an action manifest ({e})"))
     }
 
     /// Lists objects under `prefix` (`ac/`, `cas/`) with their sizes.

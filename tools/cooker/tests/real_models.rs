@@ -1123,13 +1123,12 @@ fn a_design_given_for_coloured_glass_is_shown_as_it_is() {
     assert!(u16::from(p[0]) > u16::from(p[1].max(p[2])) + 60, "{p:?}");
 }
 
-/// A nave (x from -5 to 5, z from -15 to 15, 8 high) whose long walls are 1.2 thick, with four
+/// A nave (x from -5 to 5, z from -15 to 15, 8 high) whose long walls are `thick` metres thick, with four
 /// openings a side (y 3 to 6, 2 wide) lined by sills, heads and jambs, and coloured glass set
-/// 0.9 into them: walls as real churches have them.
-fn thick_walled_nave(dir: &Path) -> PathBuf {
+/// three quarters of the way into them: walls as real churches have them.
+fn thick_walled_nave(dir: &Path, thick: f32) -> PathBuf {
     const W: f32 = 5.0;
-    const T: f32 = 1.2;
-    const DEPTH: f32 = 0.9;
+    let depth: f32 = thick * 0.75;
     const Y0: f32 = 3.0;
     const Y1: f32 = 6.0;
     const H: f32 = 8.0;
@@ -1166,9 +1165,9 @@ fn thick_walled_nave(dir: &Path) -> PathBuf {
     };
     wall(&mut obj, -W, false);
     wall(&mut obj, W, true);
-    wall(&mut obj, -W - T, true);
-    wall(&mut obj, W + T, false);
-    for (x0, x1) in [(-W - T, -W), (W, W + T)] {
+    wall(&mut obj, -W - thick, true);
+    wall(&mut obj, W + thick, false);
+    for (x0, x1) in [(-W - thick, -W), (W, W + thick)] {
         for zc in WINDOWS {
             let (z0, z1) = (zc - 1.0, zc + 1.0);
             obj.poly(&[[x0, Y0, z0], [x0, Y0, z1], [x1, Y0, z1], [x1, Y0, z0]])
@@ -1190,7 +1189,7 @@ fn thick_walled_nave(dir: &Path) -> PathBuf {
         [0.1, 0.8, 0.2],
         [0.95, 0.8, 0.1],
     ];
-    for (side, x) in [(0, -W - DEPTH), (1, W + DEPTH)] {
+    for (side, x) in [(0, -W - depth), (1, W + depth)] {
         for (k, zc) in WINDOWS.into_iter().enumerate() {
             let m = format!("Fenster_{side}_{k}");
             let [r, g, b] = colours[k];
@@ -1216,22 +1215,28 @@ fn thick_walled_nave(dir: &Path) -> PathBuf {
 
 /// The guessed views stand inside the walls' inner faces: kept within the footprint's margin
 /// only, the lit-floor view of a nave with 1.2 m walls stood inside the masonry (x = 5.58)
-/// and showed one grey frame.
+/// and showed one grey frame. With 0.6 m walls the eye stood 4 cm behind the inner face, in
+/// the same cell of the guess's grid, and the view was taken for open.
 #[test]
 fn guessed_views_of_a_thick_walled_nave_stand_in_the_nave() {
-    let dir = tempfile::tempdir().unwrap();
-    let obj = thick_walled_nave(dir.path());
-    let pack = dir.path().join("nave.pack");
-    cook(&obj, &pack, &[]);
-    let v = info(&pack);
-    let views = v["views"].as_array().unwrap();
-    for name in ["nave", "windows", "lit-floor"] {
-        let c = views
-            .iter()
-            .find(|c| c["name"] == name)
-            .unwrap_or_else(|| panic!("no {name} view: {views:?}"));
-        let x = f(&c["position"][0]);
-        assert!(x.abs() < 5.0, "{name} stands in the wall: {c}");
+    for thickness in [1.2, 0.6] {
+        let dir = tempfile::tempdir().unwrap();
+        let obj = thick_walled_nave(dir.path(), thickness);
+        let pack = dir.path().join("nave.pack");
+        cook(&obj, &pack, &[]);
+        let v = info(&pack);
+        let views = v["views"].as_array().unwrap();
+        for name in ["nave", "windows", "lit-floor"] {
+            let c = views
+                .iter()
+                .find(|c| c["name"] == name)
+                .unwrap_or_else(|| panic!("no {name} view: {views:?}"));
+            let x = f(&c["position"][0]);
+            assert!(
+                x.abs() < 5.0,
+                "{name} stands in the {thickness} m wall: {c}"
+            );
+        }
     }
 }
 
@@ -1293,6 +1298,23 @@ fn fit_on_glass_with_its_own_texture_coordinates_is_said_to_do_nothing() {
     let v = info(&pack);
     let name = texture_name(&v, &material(&v, "Fenster")["diffuse_texture"]).unwrap();
     assert_eq!(name, "photo.fitted");
+    // Lead and resolution of a design drawn from the panes do nothing to a photo: said at the
+    // entry's line; without them nothing is said.
+    std::fs::write(
+        &scene,
+        manifest("uv = \"planar\"\ncame_width = 0.05\ntexels_per_metre = 300.0\n"),
+    )
+    .unwrap();
+    let said = cook(&scene, &pack, &[]);
+    assert!(
+        said.contains("scene.toml:4")
+            && said.contains(
+                "came_width and texels_per_metre shape only a design drawn from the panes' \
+                 colours; the design of \"Fenster\" is the entry's design image, so they have no \
+                 effect"
+            ),
+        "{said}"
+    );
 }
 
 #[test]
@@ -2203,6 +2225,21 @@ fn a_z_up_export_cooks_with_up_z_like_the_y_up_model() {
         tagged(&v),
         tagged(&serde_json::from_slice(&o_y.stdout).unwrap())
     );
+    let codes = |v: &Value| -> Vec<String> {
+        v["findings"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|f| f["code"].as_str().unwrap().to_string())
+            .collect()
+    };
+    assert!(!codes(&v).contains(&"z-up".to_string()), "{v}");
+    // Without `--up`, validate says what the bare cook says (it validated clean).
+    let o = cooker(&[&"validate", &z_obj, &"--json"]);
+    let v: Value = serde_json::from_slice(&o.stdout).unwrap();
+    assert_eq!(o.status.code(), Some(1), "{v}");
+    assert!(codes(&v).contains(&"z-up".to_string()), "{v}");
+    assert!(v.to_string().contains("--up z"), "{v}");
 
     // `init` without `--up` says on the terminal that the model looks Z-up (it said so only
     // in a comment of the manifest it wrote).

@@ -289,49 +289,92 @@ fn file_share_machines_share_and_a_planted_blob_is_caught() {
     machines_share(d, &scene, &remote, &[]);
 
     // Every blob on the share replaced by other bytes of the same length: each is caught,
-    // reported, and the cook goes on locally to the same pack.
-    let mut planted = 0;
-    for e in std::fs::read_dir(share.join("cas")).unwrap() {
-        let p = e.unwrap().path();
-        let mut b = std::fs::read(&p).unwrap();
-        let n = b.len();
-        b[n / 2] ^= 0xff;
-        std::fs::write(&p, b).unwrap();
-        planted += 1;
-    }
+    // reported, and the cook goes on locally to the same pack, storing what it made over the
+    // damaged blobs (every writer used to skip a name that was there, so nothing repaired one).
+    let damage = || {
+        let mut planted = 0;
+        for e in std::fs::read_dir(share.join("cas")).unwrap() {
+            let p = e.unwrap().path();
+            let mut b = std::fs::read(&p).unwrap();
+            let n = b.len();
+            b[n / 2] ^= 0xff;
+            std::fs::write(&p, b).unwrap();
+            planted += 1;
+        }
+        planted
+    };
+    let verify = |dir: &Path| {
+        let v = common::command()
+            .args(["cache", "verify", "--cache-write", "--cache-dir"])
+            .arg(dir)
+            .args(["--cache-url", &remote.url])
+            .env_remove("CI")
+            .output()
+            .unwrap();
+        (v.status.code(), text(&v))
+    };
+    let planted = damage();
     let out = d.join("c.pack");
-    let o = cook(&scene.b, &out, &d.join("cache-c"), &remote, &[]);
+    let o = cook(
+        &scene.b,
+        &out,
+        &d.join("cache-c"),
+        &remote,
+        &["--cache-write"],
+    );
     let t = ok(&o);
-    assert!(t.contains("damaged blob cas/"), "{t}");
     assert!(t.contains("content hashes to"), "{t}");
     assert!(t.contains("damaged blobs not used"), "{t}");
+    let read_damaged = t.matches("damaged blob cas/").count() - t.matches(" replaced").count();
+    let replaced = t.matches("damaged blob cas/").count() - read_damaged;
+    assert!(replaced > 0 && replaced == read_damaged, "{t}");
     assert!(
         std::fs::read(&out).unwrap() == reference(&scene.b, &d.join("fresh.pack")),
         "a damaged blob reached the pack"
     );
-    // `cache verify` finds every one of them (exit 1).
+    // The blobs this cook did not need stay damaged until `cache verify` removes them.
+    let (code, vt) = verify(&d.join("cache-c"));
+    assert_eq!(code, Some(1), "{vt}");
+    assert!(
+        vt.contains(&format!(", {} damaged", planted - replaced)),
+        "{replaced} of {planted} replaced: {vt}"
+    );
+    let (code, vt) = verify(&d.join("cache-c"));
+    assert_eq!(code, Some(0), "verify left damaged blobs: {vt}");
+    assert!(vt.contains(", 0 damaged"), "{vt}");
+    // `explain` on a machine that never cooked says what the remote holds.
+    let fresh = d.join("cache-never");
     let v = common::command()
-        .args(["cache", "verify", "--cache-dir"])
-        .arg(d.join("cache-c"))
+        .args(["cache", "explain"])
+        .arg(&scene.b)
+        .arg("--cache-dir")
+        .arg(&fresh)
         .args(["--cache-url", &remote.url])
         .output()
         .unwrap();
     let vt = text(&v);
-    assert_eq!(v.status.code(), Some(1), "{vt}");
-    assert!(vt.contains(&format!("{planted} damaged")), "{vt}");
-    // A machine that never cooked (no local cache) reports the remote alone, and makes no
-    // local directory; without a remote, a missing directory is still refused.
-    let fresh = d.join("cache-never");
-    for command in ["verify", "stats"] {
+    assert_eq!(v.status.code(), Some(0), "{vt}");
+    assert!(vt.contains("cache-never: no such directory"), "{vt}");
+    assert!(vt.contains("held remotely"), "{vt}");
+    assert!(!fresh.exists(), "{vt}");
+    // `cache verify` finds every damaged blob (exit 1) and removes it; a garbage action
+    // manifest too. A machine that never cooked (no local cache) reports the remote alone,
+    // and makes no local directory; without a remote, a missing directory is still refused.
+    let planted = damage();
+    assert!(planted > 0);
+    let garbage = share.join("ac").join("0".repeat(64));
+    std::fs::write(&garbage, b"not json").unwrap();
+    for command in ["stats", "verify"] {
         let v = common::command()
-            .args(["cache", command, "--cache-dir"])
+            .args(["cache", command, "--cache-write", "--cache-dir"])
             .arg(&fresh)
             .args(["--cache-url", &remote.url])
+            .env_remove("CI")
             .output()
             .unwrap();
         let vt = text(&v);
         let (code, says) = match command {
-            "verify" => (1, format!("blobs checked, {planted} damaged")),
+            "verify" => (1, format!("objects checked, {} damaged", planted + 1)),
             _ => (0, "cas/: ".to_string()),
         };
         assert_eq!(v.status.code(), Some(code), "{vt}");
@@ -339,6 +382,9 @@ fn file_share_machines_share_and_a_planted_blob_is_caught() {
         assert!(vt.contains(&says), "{vt}");
         assert!(!fresh.exists(), "{vt}");
     }
+    assert!(!garbage.exists());
+    let (code, vt) = verify(&fresh);
+    assert_eq!(code, Some(0), "verify left damaged objects: {vt}");
     let v = common::command()
         .args(["cache", "stats", "--cache-dir"])
         .arg(&fresh)

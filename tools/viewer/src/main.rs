@@ -46,9 +46,10 @@ struct Args {
     /// Image size, WxH.
     #[arg(long, default_value = "1280x720", value_parser = parse_size)]
     size: (u32, u32),
-    /// A camera name from the pack, or `all`.
-    #[arg(long, default_value = "all")]
-    camera: String,
+    /// A camera name from the pack; every camera when absent, or `all` (unless the pack has
+    /// a camera named so, which `all` then picks).
+    #[arg(long)]
+    camera: Option<String>,
     /// Also write each intermediate pass (and the shadow map), and say which windows got a
     /// shadow map and why. The background, lit and god-ray passes hold radiance past 1 and
     /// are written tone-mapped, as the composite shows them at exposure 1.
@@ -274,6 +275,14 @@ pub fn cooked_from(manifest: &Path) -> Vec<PathBuf> {
 
 /// Whether `path` is a cooked pack: by its extension, or by its first bytes (a pack renamed
 /// without `.pack` was taken for a model of no known format).
+/// The one camera `--camera` asks for, or `None` for every camera: absent, or `all` where no
+/// camera of `names` is called so (one called `all` could not be drawn alone).
+fn one_camera<'a>(camera: &'a Option<String>, names: &[&str]) -> Option<&'a str> {
+    camera
+        .as_deref()
+        .filter(|&c| c != "all" || names.contains(&"all"))
+}
+
 fn is_pack(path: &Path) -> bool {
     if path
         .extension()
@@ -819,7 +828,10 @@ fn run() -> Result<()> {
     // Usage a pack can answer before the GPU is set up and the pack streamed (seconds on
     // lavapipe for a large one): a camera it does not have, an --out that cannot be made.
     // A scene.toml or model says its cameras only once cooked, below.
-    if args.headless && is_pack(&args.input) && args.camera != "all" {
+    if args.headless
+        && is_pack(&args.input)
+        && let Some(camera) = &args.camera
+    {
         let pack = pack::Pack::open(&args.input)?;
         let names: Vec<&str> = pack.toc().cameras.iter().map(|c| c.name.as_str()).collect();
         let known = if names.is_empty() {
@@ -827,10 +839,10 @@ fn run() -> Result<()> {
         } else {
             &names[..]
         };
-        if !known.contains(&args.camera.as_str()) {
+        if one_camera(&args.camera, known).is_some() && !known.contains(&camera.as_str()) {
             return Err(Usage(format!(
                 "no camera named {:?} in {} (cameras: {})",
-                args.camera,
+                camera,
                 args.input.display(),
                 known.join(", ")
             ))
@@ -871,7 +883,7 @@ fn run() -> Result<()> {
             input: args.input.clone(),
             out: args.out.clone(),
             size: args.size,
-            camera: (args.camera != "all").then(|| args.camera.clone()),
+            camera: args.camera.clone(),
             settings,
             watch: args.watch,
             vsync: !args.no_vsync,
@@ -921,13 +933,14 @@ fn run() -> Result<()> {
     // is drawn alone or with the rest (`a_b` was `a_b.png` alone, `a_b_2.png` beside `a b`).
     let stems = file_names(views.iter().map(|(n, _)| n.as_str()));
     let mut views: Vec<((String, View), String)> = views.into_iter().zip(stems).collect();
-    if args.camera != "all" {
-        let names: Vec<String> = views.iter().map(|((n, _), _)| n.clone()).collect();
-        views.retain(|((n, _), _)| *n == args.camera);
+    let names: Vec<String> = views.iter().map(|((n, _), _)| n.clone()).collect();
+    let known: Vec<&str> = names.iter().map(String::as_str).collect();
+    if let Some(camera) = one_camera(&args.camera, &known) {
+        views.retain(|((n, _), _)| n == camera);
         if views.is_empty() {
             return Err(Usage(format!(
                 "no camera named {:?} in {} (cameras: {})",
-                args.camera,
+                camera,
                 args.input.display(),
                 names.join(", ")
             ))

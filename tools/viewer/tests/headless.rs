@@ -332,6 +332,45 @@ fn max_texture_size_loads_a_smaller_level_and_says_so() {
     let _ = std::fs::remove_dir_all(&dir);
 }
 
+/// `--camera all` draws every camera, but a camera called `all` (a name like any other) is
+/// drawn alone by it; it could not be drawn alone before.
+#[test]
+fn a_camera_called_all_can_be_drawn_alone() {
+    let dir = scratch("all");
+    let pack_path = dir.join("tiny.pack");
+    let run = |toc: &Toc, data: &PackData, camera: &[&str]| {
+        std::fs::write(&pack_path, pack::encode(toc.clone(), data).unwrap()).unwrap();
+        let out = dir.join("out");
+        let _ = std::fs::remove_dir_all(&out);
+        let mut args = vec![
+            pack_path.as_os_str(),
+            "--headless".as_ref(),
+            "--out".as_ref(),
+            out.as_os_str(),
+            "--size".as_ref(),
+            "32x18".as_ref(),
+        ];
+        args.extend(camera.iter().map(std::ffi::OsStr::new));
+        let o = viewer(&args);
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        let mut files: Vec<String> = std::fs::read_dir(&out)
+            .unwrap()
+            .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+            .collect();
+        files.sort();
+        files
+    };
+    let (mut toc, data) = tiny_scene();
+    assert_eq!(
+        run(&toc, &data, &["--camera", "all"]),
+        ["far.png", "near_view.png"]
+    );
+    toc.cameras[0].name = "all".into();
+    assert_eq!(run(&toc, &data, &["--camera", "all"]), ["all.png"]);
+    assert_eq!(run(&toc, &data, &[]), ["all.png", "far.png"]);
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
 #[test]
 fn names_the_problem_on_bad_input() {
     let dir = scratch("bad");

@@ -7,14 +7,18 @@ use toml::Spanned;
 
 use super::model;
 use super::{
-    Background, DEFAULT_CAME_WIDTH, Fit, Light, Line, Manifest, MeshSource, NameKind, Rule,
-    SceneInfo, Textures, UvMode, WINDOW_BY_SILL, WindowDesign,
+    Background, DEFAULT_CAME_WIDTH, Fit, Light, Line, Manifest, MeshSource, NameKind, NamedFile,
+    Rule, SceneInfo, Textures, UvMode, WINDOW_BY_SILL, WindowDesign,
 };
 use crate::CookError;
 
 /// Reads manifest text into the TOML shape, then checks it.
 pub(super) fn parse(path: &Path, text: &str) -> Result<Manifest, CookError> {
-    let src = Source { path, text };
+    let src = Source {
+        path,
+        text,
+        named: Default::default(),
+    };
     let raw: model::Manifest = toml::from_str(text).map_err(|e| src.toml_error(&e))?;
     Ok(Manifest {
         path: path.to_path_buf(),
@@ -54,6 +58,7 @@ pub(super) fn parse(path: &Path, text: &str) -> Result<Manifest, CookError> {
         cameras: cameras(&src, raw.camera)?,
         background: background(&src, raw.background)?,
         bare: false,
+        named_files: src.named.take(),
     })
 }
 
@@ -61,6 +66,8 @@ pub(super) fn parse(path: &Path, text: &str) -> Result<Manifest, CookError> {
 struct Source<'a> {
     path: &'a Path,
     text: &'a str,
+    /// Every file the manifest names, in the order checked.
+    named: std::cell::RefCell<Vec<NamedFile>>,
 }
 
 impl Source<'_> {
@@ -158,9 +165,26 @@ impl Source<'_> {
     }
 
     /// A path relative to the manifest that must name an existing file.
-    fn file(&self, value: &Spanned<String>, what: &str) -> Result<PathBuf, CookError> {
+    fn file(&self, value: &Spanned<String>, what: &'static str) -> Result<PathBuf, CookError> {
+        let path = self.find_file(value, what)?;
+        self.named.borrow_mut().push(NamedFile {
+            path: path.clone(),
+            line: self.line(value.span().start),
+            what,
+            written: value.get_ref().clone(),
+        });
+        Ok(path)
+    }
+
+    fn find_file(&self, value: &Spanned<String>, what: &str) -> Result<PathBuf, CookError> {
         let dir = self.path.parent().unwrap_or(Path::new(""));
-        let path = dir.join(value.get_ref());
+        // One spelling per file (`./windows/x.png`, `windows//x.png`): a design written two
+        // ways was decoded and stored twice.
+        let path: PathBuf = dir
+            .join(value.get_ref())
+            .components()
+            .filter(|c| *c != std::path::Component::CurDir)
+            .collect();
         match std::fs::metadata(&path) {
             Ok(m) if m.is_file() => Ok(path),
             Ok(_) => Err(self.err_at(value, format!("{what} {:?} is not a file", value.get_ref()))),
@@ -183,7 +207,7 @@ impl Source<'_> {
     fn files(
         &self,
         value: &Option<Spanned<String>>,
-        what: &str,
+        what: &'static str,
     ) -> Result<Option<PathBuf>, CookError> {
         value.as_ref().map(|v| self.file(v, what)).transpose()
     }
@@ -229,9 +253,10 @@ impl Source<'_> {
                 self.err_at(
                     value,
                     format!(
-                        "{what} is {:?} but must be one of {}",
+                        "{what} is {:?} but must be one of {}{}",
                         value.get_ref(),
-                        names.join(", ")
+                        names.join(", "),
+                        suggestion(value.get_ref(), all.iter().map(|&v| name(v)))
                     ),
                 )
             })
@@ -246,14 +271,32 @@ fn did_you_mean(message: &str) -> Option<&str> {
     let (_, rest) = rest.split_once('`')?;
     let (unknown, rest) = rest.split_once('`')?;
     let (_, expected) = rest.split_once("expected ")?;
-    expected
-        .split('`')
-        .skip(1)
-        .step_by(2)
-        .map(|name| (strsim::damerau_levenshtein(unknown, name), name))
-        .filter(|&(d, name)| d == 1 || (d == 2 && name.len() >= 6))
+    nearest(unknown, expected.split('`').skip(1).step_by(2))
+}
+
+/// The one of `names` nearest `unknown`, where it is near enough to be a slip. Letter case
+/// aside (`sRGB`, `BC7`): keys and values are lower case. A key with a unit or a word more
+/// or less (`max_error_lsb`, `rotate`) is the one it starts or ends.
+fn nearest<'n>(unknown: &str, names: impl Iterator<Item = &'n str>) -> Option<&'n str> {
+    let unknown = unknown.to_lowercase();
+    names
+        .filter_map(|name| {
+            let d = strsim::damerau_levenshtein(&unknown, name);
+            let (short, long) = if name.len() < unknown.len() {
+                (name, unknown.as_str())
+            } else {
+                (unknown.as_str(), name)
+            };
+            let part = short.len() >= 4 && (long.starts_with(short) || long.ends_with(short));
+            (d <= 1 || (d == 2 && name.len() >= 6) || part).then_some((d, name))
+        })
         .min_by_key(|&(d, _)| d)
         .map(|(_, name)| name)
+}
+
+/// `; did you mean `x`?` where one of `names` is near `unknown`, else nothing.
+fn suggestion<'n>(unknown: &str, names: impl Iterator<Item = &'n str>) -> String {
+    nearest(unknown, names).map_or_else(String::new, |n| format!("; did you mean `{n}`?"))
 }
 
 fn finite3(v: [f32; 3]) -> bool {
@@ -285,7 +328,7 @@ fn meshes(src: &Source<'_>, raw: &[Spanned<model::Mesh>]) -> Result<Vec<MeshSour
     for m in raw {
         let line = src.line(m.span().start);
         let m = m.get_ref();
-        let source = src.file(&m.source, "mesh source")?;
+        let source = src.file(&m.source, super::MESH_SOURCE)?;
         let scale = match &m.scale {
             None => [1.0; 3],
             Some(s) => match s.get_ref() {
@@ -332,6 +375,14 @@ fn rules(src: &Source<'_>, raw: &[Spanned<model::Rule>]) -> Result<Vec<Rule>, Co
     for r in raw {
         let line = src.line(r.span().start);
         let r = r.get_ref();
+        // An empty glob matches only an empty name: a rule that tags nothing, said only by
+        // `validate` (as an unused rule).
+        if r.pattern.get_ref().trim().is_empty() {
+            return Err(src.err_at(
+                &r.pattern,
+                "match is empty: give a glob over names (`*` matches every name)",
+            ));
+        }
         if let Err(e) = globset::GlobBuilder::new(r.pattern.get_ref()).build() {
             return Err(src.err_at(&r.pattern, format!("invalid glob: {e}")));
         }
@@ -342,18 +393,20 @@ fn rules(src: &Source<'_>, raw: &[Spanned<model::Rule>]) -> Result<Vec<Rule>, Co
             pack::MaterialClass::from_name(r.class.get_ref())
         };
         let class = class.ok_or_else(|| {
-            let names: Vec<_> = pack::MaterialClass::ALL
-                .iter()
-                .map(|c| c.name())
-                .chain([WINDOW_BY_SILL])
-                .map(|c| format!("{c:?}"))
-                .collect();
+            let names = || {
+                pack::MaterialClass::ALL
+                    .iter()
+                    .map(|c| c.name())
+                    .chain([WINDOW_BY_SILL])
+            };
+            let quoted: Vec<_> = names().map(|c| format!("{c:?}")).collect();
             src.err_at(
                 &r.class,
                 format!(
-                    "class is {:?} but must be one of {}",
+                    "class is {:?} but must be one of {}{}",
                     r.class.get_ref(),
-                    names.join(", ")
+                    quoted.join(", "),
+                    suggestion(r.class.get_ref(), names())
                 ),
             )
         })?;
@@ -662,6 +715,12 @@ fn cameras(
         let line = src.line(c.span().start);
         let c = c.into_inner();
         // The viewer picks a camera by name (`--camera`), and writes a frame per name.
+        if c.name.trim().is_empty() {
+            return Err(src.at_line(
+                line,
+                "camera name is empty: the viewer picks a camera and names its frame by it",
+            ));
+        }
         if let Some((_, first)) = cameras.iter().find(|(k, _)| k.name == c.name) {
             return Err(src.at_line(
                 line,

@@ -29,6 +29,30 @@ pub struct Manifest {
     pub background: Background,
     /// True for a bare mesh cooked without a manifest: heuristics only.
     pub bare: bool,
+    /// The files the manifest names, where: an image or mesh that cannot be used is reported
+    /// at its line ([`Manifest::at_its_line`]).
+    pub named_files: Vec<NamedFile>,
+}
+
+/// A file a manifest names: a mesh source, a design, a texture, a normal map, a panorama.
+#[derive(Clone, Debug)]
+pub struct NamedFile {
+    /// As found (relative to the manifest's directory).
+    pub path: PathBuf,
+    pub line: Line,
+    /// The key, as an error says it (`window design`, `panorama`).
+    pub what: &'static str,
+    /// As the manifest writes it.
+    pub written: String,
+}
+
+/// [`NamedFile::what`] of a `[[mesh]] source`, the one kind of file named that is no image.
+pub(crate) const MESH_SOURCE: &str = "mesh source";
+
+impl NamedFile {
+    pub fn is_image(&self) -> bool {
+        self.what != MESH_SOURCE
+    }
 }
 
 #[derive(Clone, Debug, Default)]
@@ -412,6 +436,33 @@ pub struct Background {
 }
 
 impl Manifest {
+    /// `e`, when it is about a file this manifest names and gives no line of its own (an
+    /// image that does not decode, a mesh source in no format the cook reads), as an error at
+    /// the manifest line that names the file: the file's name alone left a user with several
+    /// entries naming similar files to search for the one at fault. I/O failures stay what
+    /// they are (their exit status differs).
+    pub fn at_its_line(&self, e: CookError) -> CookError {
+        if e.is_io()
+            || matches!(
+                e,
+                CookError::Manifest { .. } | CookError::Source { line: Some(_), .. }
+            )
+        {
+            return e;
+        }
+        let Some(n) = e
+            .path()
+            .and_then(|p| self.named_files.iter().find(|n| n.path == p))
+        else {
+            return e;
+        };
+        CookError::Manifest {
+            path: self.path.clone(),
+            line: Some(n.line.0),
+            message: format!("{} {:?} cannot be used: {e}", n.what, n.written),
+        }
+    }
+
     /// This manifest in a scene moved by `-shift` (a model in survey coordinates, see
     /// `pipeline::import_sources`): its cameras and point light, which it places in the
     /// model's coordinates, moved with it (in f64). Itself, borrowed, where nothing moves.
@@ -506,6 +557,7 @@ impl Manifest {
             cameras: Vec::new(),
             background: Background::default(),
             bare: true,
+            named_files: Vec::new(),
         })
     }
 
@@ -569,6 +621,33 @@ mod tests {
         );
         assert_eq!(line, Some(6), "{message}");
         assert!(message.contains("cannot be read"), "{message}");
+    }
+
+    /// One file however the manifest spells its path: a design written `./x.png` in one entry
+    /// and `x.png` in another was decoded and stored twice. Each named file is listed at the
+    /// line that names it.
+    #[test]
+    fn one_file_is_one_path_however_it_is_spelt() {
+        let d = dir();
+        std::fs::create_dir(d.path().join("designs")).unwrap();
+        std::fs::write(d.path().join("designs/rose.png"), b"").unwrap();
+        let m = parse(
+            &d,
+            "[[mesh]]\nsource = 'corridor.obj'\n\n[[window]]\nname = 'a'\ndesign = \
+             'designs/rose.png'\n\n[[window]]\nname = 'b'\ndesign = './designs//./rose.png'\n",
+        )
+        .unwrap();
+        assert_eq!(m.windows[0].design, Some(d.path().join("designs/rose.png")));
+        assert_eq!(m.windows[1].design, m.windows[0].design);
+        let named: Vec<(usize, &str)> = m.named_files.iter().map(|n| (n.line.0, n.what)).collect();
+        assert_eq!(
+            named,
+            [
+                (2, MESH_SOURCE),
+                (6, "window design"),
+                (10, "window design")
+            ]
+        );
     }
 
     /// A manifest that is not UTF-8 is refused at the line and column of its first bad byte.
@@ -860,6 +939,27 @@ colour = [0.35, 0.5, 0.8]
                 5,
                 "expected `source` or `planar`; did you mean `planar`?",
             ),
+            // Letter case, and a key with a word more or less.
+            (
+                format!("{mesh}[[window]]\nname = \"w\"\ncolour_space = \"sRGB\"\n"),
+                5,
+                "; did you mean `srgb`?",
+            ),
+            (
+                format!("{mesh}[textures]\nformat = \"BC7\"\n"),
+                4,
+                "; did you mean `bc`?",
+            ),
+            (
+                format!("[scene]\nmax_error_lsb = 0.5\n{mesh}"),
+                2,
+                "; did you mean `max_error`?",
+            ),
+            (
+                format!("{mesh}rotate = [0.0, 90.0, 0.0]\n"),
+                3,
+                "; did you mean `rotate_deg`?",
+            ),
             (
                 format!("[scene]\ntext_encoding = \"cp-1251\"\n{mesh}"),
                 2,
@@ -919,6 +1019,11 @@ colour = [0.35, 0.5, 0.8]
                 format!("{mesh}\n[[rule]]\nmatch = \"a\"\nclass = \"ceiling\"\n"),
                 6,
                 "ceiling",
+            ),
+            (
+                format!("{mesh}\n[[rule]]\nmatch = \"a\"\nclass = \"Floor\"\n"),
+                6,
+                "; did you mean `floor`?",
             ),
             (
                 format!("{mesh}\n[[rule]]\nmatch = \"a[\"\nclass = \"wall\"\n"),
@@ -1045,6 +1150,18 @@ colour = [0.35, 0.5, 0.8]
                 format!("{mesh}\n[[rule]]\nmatch = \"a\"\nclass = \"wall\"\nshininess = nan\n"),
                 7,
                 "shininess NaN must be finite and not negative",
+            ),
+            (
+                format!("{mesh}[[rule]]\nmatch = \"\"\nclass = \"floor\"\n"),
+                4,
+                "match is empty",
+            ),
+            (
+                format!(
+                    "{mesh}[[camera]]\nname = \" \"\nposition = [0.0, 0.0, 0.0]\ntarget = [0.0, 0.0, 1.0]\n"
+                ),
+                3,
+                "camera name is empty",
             ),
             (
                 format!("{mesh}[[window]]\nname = \"w\"\n[[window]]\nname = \"w\"\n"),

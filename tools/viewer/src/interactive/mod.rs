@@ -596,6 +596,10 @@ impl App {
             if self.camera.is_none() {
                 let toc = shown.scene.toc();
                 let preset = match &self.options.camera {
+                    // `all` is every camera headless; here, where one is shown, the first.
+                    Some(name) if name == "all" && toc.cameras.iter().all(|c| c.name != "all") => {
+                        toc.cameras.first()
+                    }
                     Some(name) => {
                         let found = toc.cameras.iter().find(|c| &c.name == name);
                         if found.is_none() {
