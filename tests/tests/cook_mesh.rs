@@ -1209,7 +1209,11 @@ fn a_transparent_design_is_said() {
         out.report
             .warnings
             .iter()
-            .any(|w| w.to_string().contains("transparent in every texel"))
+            // At the line naming the design.
+            .any(|w| {
+                let w = w.to_string();
+                w.contains("scene.toml:10: design ") && w.contains("transparent in every texel")
+            })
     };
     assert!(said(0));
     assert!(!said(1));

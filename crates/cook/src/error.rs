@@ -27,6 +27,15 @@ pub enum CookError {
     /// `--window NAME=…` names no window of the scene.
     #[error("--window {pattern:?} matches no window; the scene's windows are: {}", if known.is_empty() { "(none)".to_string() } else { known.join(", ") })]
     UnknownWindow { pattern: String, known: Vec<String> },
+    /// An image given with `--window NAME=IMAGE` that cannot be used: said as the option, since
+    /// the scene names no such file.
+    #[error("--window {pattern}={}", path.display())]
+    WindowImage {
+        pattern: String,
+        path: PathBuf,
+        #[source]
+        source: Box<CookError>,
+    },
     /// `--up` with a scene manifest, which turns its meshes itself.
     #[error(
         "--up turns a bare model; {} is a scene manifest: give its [[mesh]] \
@@ -51,6 +60,7 @@ impl CookError {
             CookError::Io { .. } => true,
             CookError::Pack(p) => p.is_io(),
             CookError::Texture(t) => t.is_io(),
+            CookError::WindowImage { source, .. } => source.is_io(),
             CookError::Manifest { .. }
             | CookError::Source { .. }
             | CookError::UnknownWindow { .. }
@@ -64,7 +74,8 @@ impl CookError {
             CookError::Io { path, .. }
             | CookError::Manifest { path, .. }
             | CookError::Source { path, .. }
-            | CookError::UpAxisOfManifest { path } => Some(path),
+            | CookError::UpAxisOfManifest { path }
+            | CookError::WindowImage { path, .. } => Some(path),
             CookError::Texture(t) => t.path(),
             CookError::Pack(_) | CookError::UnknownWindow { .. } => None,
         }

@@ -1124,7 +1124,14 @@ pub fn cook_textures(
         let (role, colour_space) = job.role();
         // Named as `cooker info` lists the texture, so two designs of one file name are told
         // apart in the notes too.
-        let about = |text: String| Warning::new(&manifest.path, None, format!("{name}: {text}"));
+        // At the line naming its file, where a manifest names it (a colour photo given as a
+        // normal map is found at its key, not by searching the manifest for the name).
+        let what = matches!(job, Job::Normal { .. }).then_some("normal_map");
+        let line = job
+            .file()
+            .and_then(|p| manifest.naming(p, what))
+            .map(|n| n.line.0);
+        let about = |text: String| Warning::new(&manifest.path, line, format!("{name}: {text}"));
         report.notes.extend(said.note.map(about));
         report.warnings.extend(said.warning.map(about));
         textures.push(cooked.describe(name, role, colour_space));

@@ -767,9 +767,13 @@ pub fn plan(
             };
         if transparent {
             said_dark.push(design.name());
+            let line = match design {
+                ImageRef::File(p) => manifest.naming(p, Some("window design")).map(|n| n.line.0),
+                _ => None,
+            };
             report.warnings.push(Warning::new(
                 &manifest.path,
-                None,
+                line,
                 format!(
                     "design {} is transparent in every texel: a design's alpha is how much of \
                      it is glass, so its window is black and throws no light (clear glass is \

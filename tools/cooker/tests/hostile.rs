@@ -208,6 +208,31 @@ fn files_named_anywhere_in_a_manifest_are_reported_at_their_line() {
         assert_eq!(o.status.code(), Some(3), "{}", text(&o));
         assert!(text(&o).contains(&line), "{}", text(&o));
     }
+    // A colour image given as a normal map is warned of at the line that gives it.
+    let window_map_only: Vec<String> = lines
+        .iter()
+        .enumerate()
+        .map(|(i, (l, _))| match i {
+            6 => "# no normal map of the rule's".to_string(),
+            _ => l.to_string(),
+        })
+        .collect();
+    std::fs::write(&scene, window_map_only.join("\n")).unwrap();
+    let out = d.join("good.pack");
+    let o = cooker(&[
+        "cook".as_ref(),
+        scene.as_os_str(),
+        "-o".as_ref(),
+        out.as_os_str(),
+        "--no-cache".as_ref(),
+    ]);
+    let t = text(&o);
+    assert_eq!(o.status.code(), Some(0), "{t}");
+    assert!(
+        t.lines()
+            .any(|l| l.contains("scene.toml:10: ") && l.contains("is it a colour image")),
+        "{t}"
+    );
     std::fs::write(&scene, text_of_mesh(&lines)).unwrap();
     let msg = expect(
         &scene,

@@ -747,6 +747,28 @@ fn a_grey_and_alpha_normal_map_declared_rg_keeps_its_vectors() {
         )),
         "{err}"
     );
+
+    // An image that cannot be decoded is said as the option that gave it: the scene names
+    // no such file, and a bare path left the user to guess which argument it was.
+    let bytes = std::fs::read(dir.path().join("third.png")).unwrap();
+    let cut = dir.path().join("cut.png");
+    std::fs::write(&cut, &bytes[..bytes.len() / 2]).unwrap();
+    let arg = format!("lit={}", cut.display());
+    let o = cooker(&[
+        &"cook",
+        &manifest,
+        &"-o",
+        &twice,
+        &"--no-cache",
+        &"--window",
+        &arg,
+    ]);
+    let err = text(&o.stderr);
+    assert_eq!(o.status.code(), Some(3), "{err}");
+    assert!(
+        err.contains(&format!("error: --window {arg}: {}: ", cut.display())),
+        "{err}"
+    );
 }
 
 /// A vector normal map's strength (MTL `-bm`, glTF `normalTexture.scale`) scales x and y

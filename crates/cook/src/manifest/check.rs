@@ -355,14 +355,32 @@ fn meshes(src: &Source<'_>, raw: &[Spanned<model::Mesh>]) -> Result<Vec<MeshSour
                 .map(|s| s.to_string_lossy().into_owned())
                 .unwrap_or_default()
         });
-        meshes.push(MeshSource {
+        let placed = MeshSource {
             source,
             name,
             translate: m.translate.unwrap_or([0.0; 3]),
             rotate_deg: m.rotate_deg.unwrap_or([0.0; 3]),
             scale,
             line,
-        });
+        };
+        // A second entry placing the same file in the same place (a copied entry left as it
+        // was) doubled every triangle: coplanar twins that flicker, and twice the work.
+        if let Some(twin) = meshes.iter().find(|e: &&MeshSource| {
+            e.source == placed.source
+                && e.translate == placed.translate
+                && e.rotate_deg == placed.rotate_deg
+                && e.scale == placed.scale
+        }) {
+            return Err(src.at_line(
+                line,
+                format!(
+                    "this [[mesh]] places {:?} exactly where the one at line {} does: every                      triangle would be doubled; remove one, or move it (translate, rotate_deg,                      scale)",
+                    m.source.get_ref(),
+                    twin.line.0
+                ),
+            ));
+        }
+        meshes.push(placed);
     }
     if meshes.is_empty() {
         return Err(src.whole("no [[mesh]] entries: a scene needs at least one mesh source"));

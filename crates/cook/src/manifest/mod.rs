@@ -390,7 +390,11 @@ impl WindowDesign {
         windows
             .iter()
             .map(|(name, image)| {
-                texture::load_image(image)?;
+                texture::load_image(image).map_err(|e| CookError::WindowImage {
+                    pattern: name.clone(),
+                    path: image.clone(),
+                    source: Box::new(e.into()),
+                })?;
                 Ok(Self::from_override(name, image.clone()))
             })
             .collect()
@@ -445,15 +449,14 @@ impl Manifest {
         if e.is_io()
             || matches!(
                 e,
-                CookError::Manifest { .. } | CookError::Source { line: Some(_), .. }
+                CookError::Manifest { .. }
+                    | CookError::Source { line: Some(_), .. }
+                    | CookError::WindowImage { .. }
             )
         {
             return e;
         }
-        let Some(n) = e
-            .path()
-            .and_then(|p| self.named_files.iter().find(|n| n.path == p))
-        else {
+        let Some(n) = e.path().and_then(|p| self.naming(p, None)) else {
             return e;
         };
         CookError::Manifest {
@@ -461,6 +464,17 @@ impl Manifest {
             line: Some(n.line.0),
             message: format!("{} {:?} cannot be used: {e}", n.what, n.written),
         }
+    }
+
+    /// The first entry that names `path` as `what` (a [`NamedFile::what`]), else the first
+    /// that names it at all, for errors and warnings about the file: one image can be a
+    /// rule's texture and a window's normal map.
+    pub fn naming(&self, path: &Path, what: Option<&str>) -> Option<&NamedFile> {
+        let mut named = self.named_files.iter().filter(|n| n.path == path);
+        named
+            .clone()
+            .find(|n| Some(n.what) == what)
+            .or_else(|| named.next())
     }
 
     /// This manifest in a scene moved by `-shift` (a model in survey coordinates, see
@@ -1186,6 +1200,11 @@ colour = [0.35, 0.5, 0.8]
                 format!("{mesh}[background]\ncolour = [-1.0, 0.5, 1.0]\n"),
                 4,
                 "background colour [-1.0, 0.5, 1.0] must be finite and not negative",
+            ), // The same file placed twice in one place, however its path is spelt.
+            (
+                format!("{mesh}[[mesh]]\nsource = \"./corridor.obj\"\nscale = 1.0\n"),
+                3,
+                "places \"./corridor.obj\" exactly where the one at line 1 does",
             ),
         ];
         for (text, line, word) in cases {
@@ -1193,6 +1212,10 @@ colour = [0.35, 0.5, 0.8]
             assert_eq!(l, Some(line), "{text}\n→ {msg}");
             assert!(msg.contains(word), "{text}\n→ {msg}");
         }
+        // Moved, it is a second copy.
+        let moved =
+            format!("{mesh}[[mesh]]\nsource = \"corridor.obj\"\ntranslate = [4.0, 0.0, 0.0]\n");
+        assert_eq!(parse(&d, &moved).unwrap().meshes.len(), 2);
         // Two letters off a three-letter key is no typo (`fov` was "did you mean `far`?").
         let fov = format!("{mesh}[[camera]]\nname = \"c\"\nfov = 60.0\n");
         let (_, msg) = line_of(parse(&d, &fov).unwrap_err());
