@@ -75,6 +75,17 @@ impl CacheArgs {
         self.open_with(true)
     }
 
+    /// How the user named the local cache's directory, where they did: `None` for the default.
+    fn named_dir(&self) -> Option<&'static str> {
+        if self.cache_dir.is_some() {
+            Some("--cache-dir")
+        } else if std::env::var_os("STAINED_GLASS_CACHE").is_some_and(|d| !d.is_empty()) {
+            Some("$STAINED_GLASS_CACHE")
+        } else {
+            None
+        }
+    }
+
     fn open_with(&self, lenient: bool) -> anyhow::Result<Option<(Cache, Option<Arc<Remote>>)>> {
         if self.no_cache {
             return Ok(None);
@@ -82,14 +93,7 @@ impl CacheArgs {
         let dir = self.cache_dir.clone().unwrap_or_else(Cache::default_dir);
         // A directory the user named, on the command line or in the environment, is checked;
         // the default one may well not exist before the first cook.
-        let named = if self.cache_dir.is_some() {
-            Some("--cache-dir")
-        } else if std::env::var_os("STAINED_GLASS_CACHE").is_some_and(|d| !d.is_empty()) {
-            Some("$STAINED_GLASS_CACHE")
-        } else {
-            None
-        };
-        if let Some(named) = named.filter(|_| !lenient) {
+        if let Some(named) = self.named_dir().filter(|_| !lenient) {
             // `cooker cache stats --cache-dir typo` made the directory and said "0 entries".
             if !dir.exists() {
                 return Err(crate::exit::UsageError(format!(
@@ -283,9 +287,11 @@ fn open(args: &CacheArgs) -> anyhow::Result<(Cache, Option<Arc<Remote>>)> {
     })
 }
 
-/// The local cache of `args` when it is not there but a remote is set: on a machine that
-/// never cooked (a fresh CI runner), `cache stats|verify` report the remote alone. Without a
-/// remote, a missing directory stays an error (a typo, see [`CacheArgs::open`]).
+/// The local cache of `args` when it is not there but a remote is set, or it is the default
+/// one: on a machine that never cooked (a fresh CI runner), `cache stats|verify|explain`
+/// report the remote alone, and a query never makes the default directory (`cache stats`
+/// made it, empty). A missing directory the user named is still an error without a remote
+/// (a typo, see [`CacheArgs::open`]).
 struct Local {
     missing: Option<PathBuf>,
     /// Holds the stand-in local cache the remote is opened behind, while it is in use.
@@ -293,7 +299,8 @@ struct Local {
 }
 
 fn open_maybe_remote_only(args: &CacheArgs) -> anyhow::Result<(Cache, Option<Arc<Remote>>, Local)> {
-    let missing = (!args.no_cache && args.cache_url.as_deref().is_some_and(|u| !u.is_empty()))
+    let remote = args.cache_url.as_deref().is_some_and(|u| !u.is_empty());
+    let missing = (!args.no_cache && (remote || args.named_dir().is_none()))
         .then(|| args.cache_dir.clone().unwrap_or_else(Cache::default_dir))
         .filter(|dir| !dir.exists());
     let Some(dir) = missing else {

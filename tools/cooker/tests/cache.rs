@@ -913,3 +913,49 @@ fn a_window_image_named_from_the_working_directory_is_the_one_the_cache_watches(
     );
     assert_ne!(green, magenta, "the changed design was not cooked in");
 }
+
+/// A query about the default cache on a machine that never cooked says there is none and
+/// makes nothing (`cache stats` made the directory, empty); a cook then makes it.
+#[test]
+fn a_query_does_not_make_the_default_cache() {
+    let dir = tempfile::tempdir().unwrap();
+    let home = dir.path().join("home");
+    std::fs::create_dir(&home).unwrap();
+    let default = home.join(".cache/stained-glass");
+    let run = |args: &[&dyn AsRef<std::ffi::OsStr>]| {
+        let mut c = common::command();
+        for a in args {
+            c.arg(a);
+        }
+        c.env("HOME", &home)
+            .env_remove("XDG_CACHE_HOME")
+            .env_remove("STAINED_GLASS_CACHE")
+            .env_remove("STAINED_GLASS_CACHE_URL")
+            .output()
+            .unwrap()
+    };
+    let scene_dir = dir.path().join("scene");
+    common::copy_dir(&root().join("assets-src"), &scene_dir);
+    let scene = scene_dir.join("scene.toml");
+    for args in [
+        vec![&"cache" as &dyn AsRef<std::ffi::OsStr>, &"stats"],
+        vec![&"cache", &"verify"],
+        vec![&"cache", &"explain", &scene],
+    ] {
+        let o = run(&args);
+        let t = format!("{}{}", stdout(&o), stderr(&o));
+        assert_eq!(o.status.code(), Some(0), "{t}");
+        assert!(
+            t.contains(&format!(
+                "local cache {}: no such directory",
+                default.display()
+            )),
+            "{t}"
+        );
+        assert!(!default.exists(), "{t}");
+    }
+    let out = dir.path().join("out.pack");
+    let o = run(&[&"cook", &scene, &"-o", &out, &"--texture-format", &"rgba8"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(default.is_dir());
+}
