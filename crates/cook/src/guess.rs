@@ -1849,7 +1849,11 @@ mod tests {
         }
         let point = dir.path().join("point.obj");
         std::fs::write(&point, "v 1 2 3\nv 1 2 3\nv 1 2 3\nf 1 2 3\n").unwrap();
-        assert!(guessed_cameras(&point).is_empty());
+        // The guess runs on it (beside the mesh stage) without a panic; the cook then refuses
+        // a model with nothing of non-zero area.
+        let manifest = crate::manifest::Manifest::from_mesh_file(&point).unwrap();
+        let e = crate::pipeline::cook(&manifest, &crate::Settings::new(&manifest)).unwrap_err();
+        assert!(e.to_string().contains("zero area"), "{e}");
     }
 
     /// A room whose floor faces z is said to look Z-up; the same room y-up is not.

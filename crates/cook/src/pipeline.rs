@@ -146,6 +146,24 @@ fn cook_steps(manifest: &Manifest, settings: &Settings) -> Result<CookOutput, Co
     prune::unused_source_materials(&imported, &tagging, &mut report);
     let needs = material_needs(&tagging);
     clock.lap(&mut report, "mesh");
+    // Faces that all had zero area (a collinear triangle, a mesh scaled by 1e-30) left an
+    // empty pack and exit 0, as the check above once let points and lines through.
+    if processed.iter().all(|p| p.indices.is_empty())
+        && let Some(first) = manifest.meshes.first()
+    {
+        return Err(CookError::Source {
+            path: first.source.clone(),
+            line: None,
+            message: format!(
+                "every face{} has zero area (as placed): nothing to cook",
+                if manifest.meshes.len() > 1 {
+                    format!(" of the scene's {} meshes", manifest.meshes.len())
+                } else {
+                    String::new()
+                }
+            ),
+        });
+    }
 
     // 5. Windows: frames from the geometry, and which of them light a receiving surface.
     let (window_frames, lit_windows) = frame_windows(&manifest, &tagging, &processed, &mut report);

@@ -49,7 +49,7 @@ pub const FINDING_CODES: &[(&str, &str)] = &[
     ),
     (
         "no-triangles",
-        "a model file with no faces (points or lines only)",
+        "a model file with no faces (points or lines only), or none of non-zero area",
     ),
     ("degenerate-triangles", "triangles of zero area"),
     (
@@ -358,6 +358,15 @@ pub fn validate_scene_with(
             .chunks_exact(3)
             .map(|c| [c[0], c[1], c[2]].map(|p| src.positions[p as usize]));
         let (degenerate, duplicate) = degenerate_and_duplicates(tris);
+        if degenerate > 0 && degenerate == src.triangle_count() {
+            v.add(
+                "no-triangles",
+                format!(
+                    "{}: every face has zero area (as placed): nothing of it is cooked",
+                    src.path.display()
+                ),
+            );
+        }
         if degenerate > 0 {
             v.add(
                 "degenerate-triangles",

@@ -241,6 +241,19 @@ fn files_named_anywhere_in_a_manifest_are_reported_at_their_line() {
         "mesh source \"mesh.png\" cannot be used",
     );
     assert!(msg.contains("scene.toml:2: "), "{msg}");
+    // The mesh named as an image too: the image's error is at the line naming it as one.
+    let mesh_as_panorama: Vec<String> = lines
+        .iter()
+        .map(|(l, _)| l.replace("panorama = \"good.png\"", "panorama = \"quad.obj\""))
+        .collect();
+    std::fs::write(&scene, mesh_as_panorama.join("\n")).unwrap();
+    let msg = expect(
+        &scene,
+        3,
+        "quad.obj",
+        "panorama \"quad.obj\" cannot be used",
+    );
+    assert!(msg.contains("scene.toml:12: "), "{msg}");
 
     fn text_of_mesh(lines: &[(&str, &str)]) -> String {
         lines
@@ -271,6 +284,37 @@ fn hostile_meshes() {
         3,
         "points.obj",
         "no faces (points or lines only): nothing to cook",
+    );
+    // Faces of zero area only, as written or as placed (an empty pack, exit 0).
+    let flat = write("flat.obj", b"v 0 0 0\nv 1 0 0\nv 2 0 0\nf 1 2 3\n");
+    expect(
+        &flat,
+        3,
+        "flat.obj",
+        "every face has zero area (as placed): nothing to cook",
+    );
+    std::fs::write(d.join("quad.obj"), QUAD_OBJ).unwrap();
+    std::fs::write(d.join("quad.mtl"), "newmtl glass\nKd 1 1 1\n").unwrap();
+    let tiny = write(
+        "tiny.toml",
+        b"[[mesh]]\nsource = \"quad.obj\"\nscale = 1e-30\n\n[[mesh]]\nsource = \"flat.obj\"\n",
+    );
+    expect(
+        &tiny,
+        3,
+        "quad.obj",
+        "every face of the scene's 2 meshes has zero area",
+    );
+    let v = Command::new(env!("CARGO_BIN_EXE_cooker"))
+        .arg("validate")
+        .arg(&flat)
+        .output()
+        .unwrap();
+    let t = text(&v);
+    assert_eq!(v.status.code(), Some(1), "{t}");
+    assert!(
+        t.contains("no-triangles") && t.contains("every face has zero area"),
+        "{t}"
     );
     // NaN and infinite coordinates, with the line.
     expect(

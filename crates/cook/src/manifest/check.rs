@@ -344,10 +344,16 @@ fn meshes(src: &Source<'_>, raw: &[Spanned<model::Mesh>]) -> Result<Vec<MeshSour
         // A NaN here cooked to an empty pack with exit 0, every triangle dropped as degenerate.
         for (v, what) in [(&m.translate, "translate"), (&m.rotate_deg, "rotate_deg")] {
             if let Some(v) = v
-                && !finite3(*v)
+                && !finite3(*v.get_ref())
             {
-                return Err(src.at_line(line, format!("{what} {v:?} must be finite")));
+                return Err(src.err_at(v, format!("{what} {:?} must be finite", v.get_ref())));
             }
+        }
+        if m.name.as_ref().is_some_and(|n| n.trim().is_empty()) {
+            return Err(src.at_line(
+                line,
+                "the mesh's name is empty: leave `name` out for the file's stem",
+            ));
         }
         let name = m.name.clone().unwrap_or_else(|| {
             source
@@ -358,8 +364,8 @@ fn meshes(src: &Source<'_>, raw: &[Spanned<model::Mesh>]) -> Result<Vec<MeshSour
         let placed = MeshSource {
             source,
             name,
-            translate: m.translate.unwrap_or([0.0; 3]),
-            rotate_deg: m.rotate_deg.unwrap_or([0.0; 3]),
+            translate: m.translate.as_ref().map_or([0.0; 3], |v| *v.get_ref()),
+            rotate_deg: m.rotate_deg.as_ref().map_or([0.0; 3], |v| *v.get_ref()),
             scale,
             line,
         };
@@ -374,7 +380,9 @@ fn meshes(src: &Source<'_>, raw: &[Spanned<model::Mesh>]) -> Result<Vec<MeshSour
             return Err(src.at_line(
                 line,
                 format!(
-                    "this [[mesh]] places {:?} exactly where the one at line {} does: every                      triangle would be doubled; remove one, or move it (translate, rotate_deg,                      scale)",
+                    "this [[mesh]] places {:?} exactly where the one at line {} does: every \
+                     triangle would be doubled; remove one, or move it (translate, rotate_deg, \
+                     scale)",
                     m.source.get_ref(),
                     twin.line.0
                 ),
@@ -463,7 +471,18 @@ fn rules(src: &Source<'_>, raw: &[Spanned<model::Rule>]) -> Result<Vec<Rule>, Co
             on,
             class,
             by_sill,
-            material: r.material.clone(),
+            material: match &r.material {
+                // `material = ""` made a pack material of no name, which `cooker info` shows
+                // as a blank row and no [[window]] `material` glob can name.
+                Some(m) if m.trim().is_empty() => {
+                    return Err(src.at_line(
+                        line,
+                        "the rule's material name is empty: leave `material` out to keep the \
+                         source's names",
+                    ));
+                }
+                m => m.clone(),
+            },
             diffuse: r.diffuse.as_ref().map(|v| *v.get_ref()),
             specular: r.specular.as_ref().map(|v| *v.get_ref()),
             shininess: r.shininess.as_ref().map(|v| *v.get_ref()),
@@ -658,6 +677,17 @@ fn light(src: &Source<'_>, l: &Spanned<model::Light>) -> Result<Light, CookError
     let kind = match raw.kind {
         model::LightType::Directional => {
             let size = src.positive_or(&raw.angular_size_deg, "angular_size_deg", 0.53)?;
+            // The penumbra grows as tan(size / 2): 500° blurred a projector by σ = 592 texels
+            // without a word, and at 180° the tangent is infinite.
+            if let Some(v) = raw.angular_size_deg.as_ref().filter(|_| size > 90.0) {
+                return Err(src.err_at(
+                    v,
+                    format!(
+                        "angular_size_deg is {size} but a sun's disc is at most 90° across (the \
+                         sun's own is 0.53°)"
+                    ),
+                ));
+            }
             pack::LightKind::Directional {
                 direction: direction()?,
                 angular_size: size.to_radians(),
@@ -778,6 +808,27 @@ fn cameras(
                     c.name
                 ),
             ));
+        }
+        // An `up` given as zero or along the view leaves the roll to chance (the viewer
+        // picks an axis); left out, a camera looking straight down or up is rolled to +z.
+        if c.up.is_some() {
+            let view = glam::Vec3::from(c.target) - glam::Vec3::from(c.position);
+            let u = glam::Vec3::from(up);
+            if view.normalize().cross(u.normalize_or_zero()).length() < 1e-3 {
+                return Err(src.at_line(
+                    line,
+                    format!(
+                        "camera {:?}: up {up:?} is {} the view direction, so it sets no roll; \
+                         give an up across the view, or leave it out",
+                        c.name,
+                        if u == glam::Vec3::ZERO {
+                            "zero, not across"
+                        } else {
+                            "along"
+                        }
+                    ),
+                ));
+            }
         }
         cameras.push((
             pack::Camera {

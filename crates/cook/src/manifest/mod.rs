@@ -456,7 +456,16 @@ impl Manifest {
         {
             return e;
         }
-        let Some(n) = e.path().and_then(|p| self.naming(p, None)) else {
+        // A file named both as a mesh and as an image (`design = "room.obj"`): an image's
+        // error is about the entry naming it as one.
+        let image = matches!(e, CookError::Texture(_));
+        let Some(n) = e.path().and_then(|p| {
+            let mut named = self.named_files.iter().filter(|n| n.path == p);
+            named
+                .clone()
+                .find(|n| n.is_image() == image)
+                .or_else(|| named.next())
+        }) else {
             return e;
         };
         CookError::Manifest {
@@ -1129,12 +1138,12 @@ colour = [0.35, 0.5, 0.8]
             // the writer refused without the manifest's line (a NaN shininess).
             (
                 format!("{mesh}translate = [nan, 0.0, 0.0]\n"),
-                1,
+                3,
                 "translate [NaN, 0.0, 0.0] must be finite",
             ),
             (
                 format!("{mesh}rotate_deg = [inf, 0.0, 0.0]\n"),
-                1,
+                3,
                 "rotate_deg [inf, 0.0, 0.0] must be finite",
             ),
             (
@@ -1200,7 +1209,39 @@ colour = [0.35, 0.5, 0.8]
                 format!("{mesh}[background]\ncolour = [-1.0, 0.5, 1.0]\n"),
                 4,
                 "background colour [-1.0, 0.5, 1.0] must be finite and not negative",
-            ), // The same file placed twice in one place, however its path is spelt.
+            ),
+            (
+                format!(
+                    "{mesh}[[camera]]\nname = \"c\"\nposition = [0.0, 2.0, 5.0]\ntarget = [0.0, 5.0, 5.0]\nup = [0.0, -3.0, 0.0]\n"
+                ),
+                3,
+                "camera \"c\": up [0.0, -3.0, 0.0] is along the view direction",
+            ),
+            (
+                format!(
+                    "{mesh}[[camera]]\nname = \"c\"\nposition = [0.0, 2.0, 5.0]\ntarget = [0.0, 2.0, 0.0]\nup = [0.0, 0.0, 0.0]\n"
+                ),
+                3,
+                "is zero, not across the view direction",
+            ),
+            (
+                format!(
+                    "{mesh}[light]\ntype = \"directional\"\ndirection = [0.0, -1.0, 0.0]\nangular_size_deg = 500.0\n"
+                ),
+                6,
+                "angular_size_deg is 500 but a sun's disc is at most 90° across",
+            ),
+            (
+                "[[mesh]]\nsource = \"corridor.obj\"\nname = \" \"\n".to_string(),
+                1,
+                "the mesh's name is empty",
+            ),
+            (
+                format!("{mesh}\n[[rule]]\nmatch = \"a\"\nclass = \"wall\"\nmaterial = \"\"\n"),
+                4,
+                "the rule's material name is empty",
+            ),
+            // The same file placed twice in one place, however its path is spelt.
             (
                 format!("{mesh}[[mesh]]\nsource = \"./corridor.obj\"\nscale = 1.0\n"),
                 3,
@@ -1211,7 +1252,13 @@ colour = [0.35, 0.5, 0.8]
             let (l, msg) = line_of(parse(&d, &text).unwrap_err());
             assert_eq!(l, Some(line), "{text}\n→ {msg}");
             assert!(msg.contains(word), "{text}\n→ {msg}");
+            assert!(!msg.contains("  "), "{text}\n→ {msg}");
         }
+        // Straight down with the default up is a plan view (rolled to +z), not a mistake.
+        let down = format!(
+            "{mesh}[[camera]]\nname = \"c\"\nposition = [0.0, 5.0, 0.0]\ntarget = [0.0, 0.0, 0.0]\n"
+        );
+        assert_eq!(parse(&d, &down).unwrap().cameras.len(), 1);
         // Moved, it is a second copy.
         let moved =
             format!("{mesh}[[mesh]]\nsource = \"corridor.obj\"\ntranslate = [4.0, 0.0, 0.0]\n");

@@ -85,10 +85,10 @@ pub(super) enum Scale {
 pub(super) struct Mesh {
     pub source: Spanned<String>,
     pub name: Option<String>,
-    #[serde(default, deserialize_with = "opt_v3")]
-    pub translate: Option<[f32; 3]>,
-    #[serde(default, deserialize_with = "opt_v3")]
-    pub rotate_deg: Option<[f32; 3]>,
+    #[serde(default, deserialize_with = "opt_spanned_v3")]
+    pub translate: Option<Spanned<[f32; 3]>>,
+    #[serde(default, deserialize_with = "opt_spanned_v3")]
+    pub rotate_deg: Option<Spanned<[f32; 3]>>,
     pub scale: Option<Spanned<Scale>>,
 }
 
