@@ -42,48 +42,77 @@ const EDGE_SLACK: f64 = 1e-3;
 /// [`EDGE_SLACK`] of its edges), triangles in order. Scanline: per row, the span between the
 /// triangle's edges, so the cost is the covered area, not each triangle's bounding box (a fan
 /// of long thin triangles has large boxes and little area).
-fn scan(tris: &[UvTriangle], w: u32, h: u32, mut f: impl FnMut(usize, u32, u32)) {
-    let (wf, hf) = (w as f64, h as f64);
+fn scan(tris: &[UvTriangle], w: u32, h: u32, mut f: impl FnMut(usize, u32, u32, [f64; 2])) {
     for (i, (uv, _)) in tris.iter().enumerate() {
-        let p = uv.map(|c| [c[0] as f64 * wf, c[1] as f64 * hf]);
-        let area =
-            (p[1][0] - p[0][0]) * (p[2][1] - p[0][1]) - (p[2][0] - p[0][0]) * (p[1][1] - p[0][1]);
-        if area == 0.0 || !area.is_finite() {
-            continue;
-        }
-        let y_min = p.iter().map(|q| q[1]).fold(f64::INFINITY, f64::min);
-        let y_max = p.iter().map(|q| q[1]).fold(f64::NEG_INFINITY, f64::max);
-        let y0 = (y_min - 0.5 - EDGE_SLACK).ceil().max(0.0) as u32;
-        let y1 = ((y_max - 0.5 + EDGE_SLACK).floor() + 1.0).clamp(0.0, hf) as u32;
-        for y in y0..y1 {
-            let cy = y as f64 + 0.5;
-            // Where the row crosses the edges, a row just past a corner taking the corner's
-            // end of the edge; a centre on an edge counts as inside.
-            let (mut xl, mut xr) = (f64::INFINITY, f64::NEG_INFINITY);
-            for k in 0..3 {
-                let (a, b) = (p[k], p[(k + 1) % 3]);
-                let (lo, hi) = (a[1].min(b[1]), a[1].max(b[1]));
-                if cy < lo - EDGE_SLACK || cy > hi + EDGE_SLACK {
-                    continue;
-                }
-                if hi - lo <= EDGE_SLACK {
-                    xl = xl.min(a[0].min(b[0]));
-                    xr = xr.max(a[0].max(b[0]));
-                } else {
-                    let t = ((cy - a[1]) / (b[1] - a[1])).clamp(0.0, 1.0);
-                    let x = a[0] + (b[0] - a[0]) * t;
-                    xl = xl.min(x);
-                    xr = xr.max(x);
-                }
+        // The texture repeats: a triangle reaching past [0, 1] covers the texels its other
+        // tiles land on too (`map_Kd -o 0.5 0.5` put the glass at 0.5–1.5, and three quarters
+        // of a design it showed whole were masked away).
+        let tiles = |k: usize| {
+            let lo = uv.iter().map(|c| c[k] as f64).fold(f64::INFINITY, f64::min);
+            let hi = uv
+                .iter()
+                .map(|c| c[k] as f64)
+                .fold(f64::NEG_INFINITY, f64::max);
+            if !(lo.is_finite() && hi.is_finite()) {
+                return 0..0;
             }
-            if xl.partial_cmp(&xr).is_none_or(|o| o.is_gt()) {
+            // Capped: a triangle over more tiles than this is a degenerate mapping.
+            let first = lo.floor().max(-1e6) as i64;
+            first..(hi.ceil() as i64).clamp(first + 1, first + MAX_TILES)
+        };
+        for tv in tiles(1) {
+            for tu in tiles(0) {
+                let shifted = uv.map(|c| [c[0] as f64 - tu as f64, c[1] as f64 - tv as f64]);
+                scan_one(shifted, w, h, |x, y| f(i, x, y, [tu as f64, tv as f64]));
+            }
+        }
+    }
+}
+
+/// Tiles of the texture one triangle is looked for in, along each axis.
+const MAX_TILES: i64 = 64;
+
+/// [`scan`] of one triangle in texture coordinates, clipped to the image.
+fn scan_one(uv: [[f64; 2]; 3], w: u32, h: u32, mut f: impl FnMut(u32, u32)) {
+    let (wf, hf) = (w as f64, h as f64);
+    let p = uv.map(|c| [c[0] * wf, c[1] * hf]);
+    let area =
+        (p[1][0] - p[0][0]) * (p[2][1] - p[0][1]) - (p[2][0] - p[0][0]) * (p[1][1] - p[0][1]);
+    if area == 0.0 || !area.is_finite() {
+        return;
+    }
+    let y_min = p.iter().map(|q| q[1]).fold(f64::INFINITY, f64::min);
+    let y_max = p.iter().map(|q| q[1]).fold(f64::NEG_INFINITY, f64::max);
+    let y0 = (y_min - 0.5 - EDGE_SLACK).ceil().max(0.0) as u32;
+    let y1 = ((y_max - 0.5 + EDGE_SLACK).floor() + 1.0).clamp(0.0, hf) as u32;
+    for y in y0..y1 {
+        let cy = y as f64 + 0.5;
+        // Where the row crosses the edges, a row just past a corner taking the corner's
+        // end of the edge; a centre on an edge counts as inside.
+        let (mut xl, mut xr) = (f64::INFINITY, f64::NEG_INFINITY);
+        for k in 0..3 {
+            let (a, b) = (p[k], p[(k + 1) % 3]);
+            let (lo, hi) = (a[1].min(b[1]), a[1].max(b[1]));
+            if cy < lo - EDGE_SLACK || cy > hi + EDGE_SLACK {
                 continue;
             }
-            let x0 = (xl - 0.5 - EDGE_SLACK).ceil().max(0.0) as u32;
-            let x1 = ((xr - 0.5 + EDGE_SLACK).floor() + 1.0).clamp(0.0, wf) as u32;
-            for x in x0..x1 {
-                f(i, x, y);
+            if hi - lo <= EDGE_SLACK {
+                xl = xl.min(a[0].min(b[0]));
+                xr = xr.max(a[0].max(b[0]));
+            } else {
+                let t = ((cy - a[1]) / (b[1] - a[1])).clamp(0.0, 1.0);
+                let x = a[0] + (b[0] - a[0]) * t;
+                xl = xl.min(x);
+                xr = xr.max(x);
             }
+        }
+        if xl.partial_cmp(&xr).is_none_or(|o| o.is_gt()) {
+            continue;
+        }
+        let x0 = (xl - 0.5 - EDGE_SLACK).ceil().max(0.0) as u32;
+        let x1 = ((xr - 0.5 + EDGE_SLACK).floor() + 1.0).clamp(0.0, wf) as u32;
+        for x in x0..x1 {
+            f(x, y);
         }
     }
 }
@@ -91,7 +120,7 @@ fn scan(tris: &[UvTriangle], w: u32, h: u32, mut f: impl FnMut(usize, u32, u32))
 /// Pane index + 1 per texel (0 where no triangle covers the texel's centre).
 pub fn rasterize(tris: &[UvTriangle], w: u32, h: u32) -> Vec<u16> {
     let mut ids = vec![0u16; (w * h) as usize];
-    scan(tris, w, h, |t, x, y| {
+    scan(tris, w, h, |t, x, y, _| {
         ids[(y * w + x) as usize] = tris[t].1 + 1
     });
     ids
@@ -105,7 +134,7 @@ pub fn panes_overlap(tris: &[UvTriangle]) -> bool {
     const SIDE: u32 = 128;
     let mut ids = vec![0u16; (SIDE * SIDE) as usize];
     let (mut covered, mut both) = (0usize, 0usize);
-    scan(tris, SIDE, SIDE, |t, x, y| {
+    scan(tris, SIDE, SIDE, |t, x, y, _| {
         let id = &mut ids[(y * SIDE + x) as usize];
         let pane = tris[t].1 + 1;
         if *id == 0 {
@@ -120,10 +149,24 @@ pub fn panes_overlap(tris: &[UvTriangle]) -> bool {
     both * 50 > covered
 }
 
-/// `tint` at the centre of texel (`x`, `y`) of triangle `uv`, interpolated across it in
-/// texture space (a centre just outside, on an edge, takes the nearest blend).
-fn tint_at(uv: &[[f32; 2]; 3], tint: &Tint, x: u32, y: u32, w: u32, h: u32) -> [f32; 4] {
-    let p = uv.map(|c| [c[0] as f64 * w as f64, c[1] as f64 * h as f64]);
+/// `tint` at the centre of texel (`x`, `y`) of triangle `uv` moved back by `tile` (whole
+/// repeats of the texture), interpolated across it in texture space (a centre just outside,
+/// on an edge, takes the nearest blend).
+fn tint_at(
+    uv: &[[f32; 2]; 3],
+    tile: [f64; 2],
+    tint: &Tint,
+    x: u32,
+    y: u32,
+    w: u32,
+    h: u32,
+) -> [f32; 4] {
+    let p = uv.map(|c| {
+        [
+            (c[0] as f64 - tile[0]) * w as f64,
+            (c[1] as f64 - tile[1]) * h as f64,
+        ]
+    });
     let (cx, cy) = (x as f64 + 0.5, y as f64 + 0.5);
     let cross = |a: [f64; 2], b: [f64; 2], c: [f64; 2]| {
         (b[0] - a[0]) * (c[1] - a[1]) - (c[0] - a[0]) * (b[1] - a[1])
@@ -157,14 +200,14 @@ pub fn tint_image(image: &mut RgbaImage, tris: &[UvTriangle], tints: &[Tint], sr
     // Last wins: the triangles are scanned in reverse, and a texel is taken once.
     let reversed: Vec<UvTriangle> = tris.iter().rev().copied().collect();
     let mut taken = vec![0u64; (w as usize * h as usize).div_ceil(64)];
-    scan(&reversed, w, h, |r, x, y| {
+    scan(&reversed, w, h, |r, x, y, tile| {
         let i = y as usize * w as usize + x as usize;
         if taken[i / 64] >> (i % 64) & 1 == 1 {
             return;
         }
         taken[i / 64] |= 1 << (i % 64);
         let t = tris.len() - 1 - r;
-        let tint = tint_at(&tris[t].0, &tints[t], x, y, w, h);
+        let tint = tint_at(&tris[t].0, tile, &tints[t], x, y, w, h);
         let texel = image.get_pixel_mut(x, y);
         for k in 0..3 {
             texel[k] = if srgb {
@@ -262,7 +305,7 @@ pub fn mesh_design(
     // Which triangle covers each texel, where the tints need it.
     let mut ids = vec![0u16; (w * h) as usize];
     let mut tri_of = tints.map(|_| vec![0u32; (w * h) as usize]);
-    scan(tris, w, h, |t, x, y| {
+    scan(tris, w, h, |t, x, y, _| {
         let i = (y * w + x) as usize;
         ids[i] = tris[t].1 + 1;
         if let Some(tri_of) = &mut tri_of {
@@ -281,7 +324,8 @@ pub fn mesh_design(
             id => match (tints, &tri_of) {
                 (Some(tints), Some(tri_of)) => {
                     let t = tri_of[i] as usize;
-                    let tint = tint_at(&tris[t].0, &tints[t], x, y, w, h);
+                    // A design drawn from the panes lays them out in [0, 1]: no tile but the first.
+                    let tint = tint_at(&tris[t].0, [0.0; 2], &tints[t], x, y, w, h);
                     texel(panes[id as usize - 1], tint)
                 }
                 _ => flat[id as usize - 1],
@@ -537,6 +581,23 @@ mod tests {
             ([[u0, v0], [u1, v0], [u1, v1]], pane),
             ([[u0, v0], [u1, v1], [u0, v1]], pane),
         ]
+    }
+
+    /// The texture repeats: glass at 0.5–1.5 (an MTL `-o 0.5 0.5`) covers every texel, as
+    /// glass at 0–1 does; glass at 0.25–0.75 covers its middle only. Tints follow the tile.
+    #[test]
+    fn coverage_wraps_as_the_texture_repeats() {
+        let all = |t: &[UvTriangle]| coverage(t, 8, 8).iter().filter(|&&c| c).count();
+        assert_eq!(all(&quad(0.0, 0.0, 1.0, 1.0, 0)), 64);
+        assert_eq!(all(&quad(0.5, 0.5, 1.5, 1.5, 0)), 64);
+        assert_eq!(all(&quad(-3.5, 2.5, -2.5, 3.5, 0)), 64);
+        assert_eq!(all(&quad(0.25, 0.25, 0.75, 0.75, 0)), 16);
+        assert_eq!(all(&quad(1.25, 0.25, 1.75, 0.75, 0)), 16);
+        let tris = quad(0.5, 0.5, 1.5, 1.5, 0);
+        let half = [[0.5f32, 0.5, 0.5, 1.0]; 3];
+        let mut image = RgbaImage::from_pixel(8, 8, Rgba([200, 200, 200, 255]));
+        tint_image(&mut image, &tris, &[half, half], false);
+        assert!(image.pixels().all(|p| p.0 == [100, 100, 100, 255]), "{image:?}");
     }
 
     #[test]
