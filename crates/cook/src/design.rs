@@ -597,7 +597,10 @@ mod tests {
         let half = [[0.5f32, 0.5, 0.5, 1.0]; 3];
         let mut image = RgbaImage::from_pixel(8, 8, Rgba([200, 200, 200, 255]));
         tint_image(&mut image, &tris, &[half, half], false);
-        assert!(image.pixels().all(|p| p.0 == [100, 100, 100, 255]), "{image:?}");
+        assert!(
+            image.pixels().all(|p| p.0 == [100, 100, 100, 255]),
+            "{image:?}"
+        );
     }
 
     #[test]

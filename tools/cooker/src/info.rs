@@ -30,6 +30,24 @@ fn role_name(pack: &Pack, role: SectionRole) -> String {
     }
 }
 
+/// Where a window's design came from, by the name the cook gave it (see [`windows`]).
+fn design_source(design: Option<&str>) -> &'static str {
+    // Without the `.2` that tells apart two textures of one name: the design drawn from the
+    // panes for the windows of the opposite wall (`Glas_rot.design.2`) was called "image".
+    let base = design.map(|d| {
+        d.rsplit_once('.')
+            .filter(|(_, n)| !n.is_empty() && n.bytes().all(|b| b.is_ascii_digit()))
+            .map_or(d, |(b, _)| b)
+    });
+    match base {
+        None => "none",
+        Some(d) if d.ends_with(".design") => "mesh colours",
+        Some(d) if d.ends_with(".fitted") => "image, fitted to the window",
+        Some(d) if d.ends_with(".masked") => "image, cut to the window's outline",
+        Some(_) => "image",
+    }
+}
+
 /// Each window: its material, size and placement in the scene's units (a pack does not
 /// record them: metres for the default scene, whatever a bare model was drawn in), and its
 /// textures. A design made by the cook is named `<window>.design` (rasterized from the mesh's
@@ -44,13 +62,7 @@ fn windows(toc: &pack::Toc, tris: &[u64]) -> Vec<serde_json::Value> {
             let v = |a: [f32; 3]| glam::Vec3::from(a);
             let centre = v(w.origin) + 0.5 * (v(w.u_axis) + v(w.v_axis));
             let design = tex(m.diffuse_texture);
-            let source = match design.as_deref() {
-                None => "none",
-                Some(d) if d.ends_with(".design") => "mesh colours",
-                Some(d) if d.ends_with(".fitted") => "image, fitted to the window",
-                Some(d) if d.ends_with(".masked") => "image, cut to the window's outline",
-                Some(_) => "image",
-            };
+            let source = design_source(design.as_deref());
             json!({
                 "name": m.name,
                 "material": w.material,
@@ -373,6 +385,26 @@ fn size(x: f32) -> String {
 
 #[cfg(test)]
 mod tests {
+    /// A design drawn from the panes for a second set of windows (`.design.2`) is still
+    /// "mesh colours", not "image".
+    #[test]
+    fn a_numbered_design_keeps_its_source() {
+        use super::design_source;
+        assert_eq!(design_source(Some("Glas_rot.design")), "mesh colours");
+        assert_eq!(design_source(Some("Glas_rot.design.2")), "mesh colours");
+        assert_eq!(
+            design_source(Some("mosaic.fitted.12")),
+            "image, fitted to the window"
+        );
+        assert_eq!(
+            design_source(Some("rose.masked.3")),
+            "image, cut to the window's outline"
+        );
+        assert_eq!(design_source(Some("v1.2")), "image");
+        assert_eq!(design_source(Some("lancet")), "image");
+        assert_eq!(design_source(None), "none");
+    }
+
     #[test]
     fn names_pad_by_their_width_on_screen_and_small_sizes_keep_digits() {
         assert_eq!(super::padded("Glass", 8), "Glass   ");
