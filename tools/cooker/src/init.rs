@@ -118,6 +118,8 @@ pub fn run(args: Args) -> Outcome {
     // a manifest is no model.
     let manifest = Manifest::from_mesh_file(&args.mesh)?;
     crate::cook::refuse_a_directory(&output, "scene.toml")?;
+    // Before "exists; pass --force", which --force would then refuse.
+    crate::cook::refuse_overwriting_an_input(&output, [args.mesh.as_path()])?;
     if output.exists() && !args.force {
         return Err(UsageError(format!(
             "{} exists; pass --force to replace it",
