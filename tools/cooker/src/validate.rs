@@ -56,6 +56,19 @@ pub fn run(args: Args) -> Outcome {
             ))
             .into());
         }
+        // A model of a format the cooker does not read (`model.stl`) was "bad magic [ef, bb,
+        // bf, …]: not a stained-glass pack", where `cook` names the formats it reads.
+        let mut head = [0u8; 8];
+        let is_pack = std::fs::File::open(&args.input)
+            .and_then(|mut f| std::io::Read::read_exact(&mut f, &mut head))
+            .map_or(true, |()| head == pack::format::MAGIC);
+        if !is_pack && !matches!(ext.as_str(), "" | "pack") {
+            anyhow::bail!(
+                "{}: not a stained-glass pack, and .{ext} is no format the cooker reads: \
+                 validate takes a pack, a scene.toml or a model (.obj, .gltf, .glb, .ply)",
+                args.input.display()
+            );
+        }
         cook::validate::validate_pack(&pack::Pack::open(&args.input)?)
     };
     if args.json {

@@ -491,6 +491,10 @@ fn init_refuses_a_manifest_as_model_and_a_directory_as_output() {
     let model = data("cornell_box/cornell_box.obj");
     let o = cooker(&["init", &model, "-o", &model]);
     assert_eq!(o.status.code(), Some(2), "{}", text(&o.stderr));
-    assert!(text(&o.stderr).contains("an input of this command"), "{}", text(&o.stderr));
+    assert!(
+        text(&o.stderr).contains("an input of this command"),
+        "{}",
+        text(&o.stderr)
+    );
     assert!(!text(&o.stderr).contains("--force"), "{}", text(&o.stderr));
 }

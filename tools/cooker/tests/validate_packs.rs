@@ -111,3 +111,24 @@ fn text_output_numbers_the_finding_with_its_code() {
         "{out}"
     );
 }
+
+/// A model of a format the cooker does not read is said to be one, not "bad magic"; a pack
+/// under another name is still validated as a pack.
+#[test]
+fn a_model_of_another_format_is_named_as_such() {
+    let dir = tempfile::tempdir().unwrap();
+    let stl = dir.path().join("model.stl");
+    std::fs::write(&stl, b"solid model\nendsolid model\n").unwrap();
+    let o = validate(&stl);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(3), "{err}");
+    assert!(
+        err.contains("model.stl: not a stained-glass pack, and .stl is no format the cooker reads"),
+        "{err}"
+    );
+    assert!(!err.contains("bad magic"), "{err}");
+    let (toc, data) = sample();
+    let renamed = dir.path().join("scene.bin");
+    pack::write_pack(&renamed, toc, &data).unwrap();
+    assert_eq!(validate(&renamed).status.code(), Some(0));
+}
