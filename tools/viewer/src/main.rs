@@ -443,7 +443,13 @@ fn load(gpu: &Gpu, args: &Args, settings: Settings) -> Result<(Scene, Renderer)>
             Message::Failed(e) => return Err(e.into()),
         }
     }
-    let (mut s, mut r, view) = scene.context("empty pack")?;
+    let (mut s, mut r, mut view) = scene.context("empty pack")?;
+    // A pack of no sections (no mesh, no texture) drew no first frame, so the renderer was
+    // still the preview's: its frames were written at half the size asked for.
+    if r.size() != args.size {
+        r.resize(gpu, args.size.0, args.size.1);
+        view = first_view(&s, &r);
+    }
     let last_frame = Instant::now();
     s.refresh(gpu);
     r.render(gpu, &s, &view, TimingMethod::None)?;

@@ -371,6 +371,40 @@ fn a_camera_called_all_can_be_drawn_alone() {
     let _ = std::fs::remove_dir_all(&dir);
 }
 
+/// A pack with nothing to stream (no mesh, no texture: a camera and a light) is drawn at the
+/// size asked for; it was left at the half-size preview's.
+#[test]
+fn a_pack_of_nothing_to_stream_is_drawn_at_full_size() {
+    let dir = scratch("nothing");
+    let pack_path = dir.join("empty.pack");
+    let (full, _) = tiny_scene();
+    let toc = Toc {
+        cameras: full.cameras,
+        light: full.light,
+        ..Toc::default()
+    };
+    let data = PackData {
+        meshes: Vec::new(),
+        textures: Vec::new(),
+    };
+    std::fs::write(&pack_path, pack::encode(toc, &data).unwrap()).unwrap();
+    let out = dir.join("out");
+    let o = viewer(&[
+        pack_path.as_os_str(),
+        "--headless".as_ref(),
+        "--out".as_ref(),
+        out.as_os_str(),
+        "--size".as_ref(),
+        "64x36".as_ref(),
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    for cam in ["near_view", "far"] {
+        let img = image::open(out.join(format!("{cam}.png"))).unwrap();
+        assert_eq!((img.width(), img.height()), (64, 36), "{cam}");
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
 #[test]
 fn names_the_problem_on_bad_input() {
     let dir = scratch("bad");
