@@ -937,7 +937,12 @@ pub fn find(
                     None => by_material.push((m, ar)),
                 }
             }
-            by_material.sort_by(|a, b| b.1.total_cmp(&a.1).then(a.0.cmp(&b.0)));
+            // Areas equal but for rounding (two red and two blue panes of one size) are
+            // equal: the first material wins, at any scale of the model (at 0.01 the rounding
+            // named three of six like windows after the blue glass).
+            let step = by_material.iter().map(|e| e.1).sum::<f64>() * 1e-6;
+            let rank = |a: f64| if step > 0.0 { (a / step).round() } else { a };
+            by_material.sort_by(|a, b| rank(b.1).total_cmp(&rank(a.1)).then(a.0.cmp(&b.0)));
             out.push(Instance {
                 name: names[by_material[0].0 as usize].clone(),
                 source: si,

@@ -107,8 +107,12 @@ pub fn group_names(group: &[&HeuristicNote]) -> String {
     match group {
         [one] => one.names.clone(),
         many => {
-            let shown: Vec<&str> = many.iter().take(NAMED).map(|n| n.names.as_str()).collect();
-            let more = many.len().saturating_sub(NAMED);
+            let shown: Vec<&str> = many
+                .iter()
+                .take(shown_of(many.len()))
+                .map(|n| n.names.as_str())
+                .collect();
+            let more = many.len() - shown.len();
             format!(
                 "{} parts ({}{})",
                 many.len(),
@@ -131,12 +135,26 @@ pub(crate) const NAMED: usize = 3;
 /// `names` for such a line, each quoted: all of them up to [`NAMED`], else the first few
 /// and how many more.
 pub(crate) fn few_names(names: &[impl std::fmt::Debug]) -> String {
-    let shown: Vec<String> = names.iter().take(NAMED).map(|n| format!("{n:?}")).collect();
-    if names.len() <= NAMED {
+    let shown: Vec<String> = names
+        .iter()
+        .take(shown_of(names.len()))
+        .map(|n| format!("{n:?}"))
+        .collect();
+    if shown.len() == names.len() {
         shown.join(", ")
     } else {
-        format!("{} and {} more", shown.join(", "), names.len() - NAMED)
+        format!(
+            "{} and {} more",
+            shown.join(", "),
+            names.len() - shown.len()
+        )
     }
+}
+
+/// How many of `n` things a line names: all where one more than [`NAMED`] (its name is no
+/// longer than "and 1 more", and a rose of four panes hid one of them), else [`NAMED`].
+pub(crate) fn shown_of(n: usize) -> usize {
+    if n <= NAMED + 1 { n } else { NAMED }
 }
 
 /// What happened while cooking, for the CLI.

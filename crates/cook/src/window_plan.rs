@@ -668,7 +668,7 @@ pub fn plan(
         }
     }
     for (line, (keys, source, windows)) in idle_keys {
-        let shown = if windows.len() > 3 {
+        let shown = if windows.len() > crate::report::shown_of(windows.len()) {
             format!("{} and {} more", windows[..3].join(", "), windows.len() - 3)
         } else {
             windows.join(", ")
@@ -696,7 +696,7 @@ pub fn plan(
     fitted_textures.sort_by(|a, b| (&a.0, a.1.name(), &a.2).cmp(&(&b.0, b.1.name(), &b.2)));
     for group in fitted_textures.chunk_by(|a, b| (&a.0, a.1) == (&b.0, b.1)) {
         let windows: Vec<&str> = group.iter().map(|(_, _, w)| w.as_str()).collect();
-        let shown = if windows.len() > 3 {
+        let shown = if windows.len() > crate::report::shown_of(windows.len()) {
             format!("{} and {} more", windows[..3].join(", "), windows.len() - 3)
         } else {
             windows.join(", ")

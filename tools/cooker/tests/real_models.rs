@@ -664,8 +664,9 @@ fn glass_with_its_own_texture_is_shown_as_the_light_it_throws() {
     .save(dir.path().join("photo.png"))
     .unwrap();
     let [r, g, b] = LANCET_KD;
-    // The pane with the most glass names the window and gives its texture.
-    let rose = ROSE[3].0;
+    // The pane with the most glass names the window and gives its texture; the rose's four
+    // are equal, and the first in the library wins (float noise in their areas chose).
+    let rose = ROSE[0].0;
     let mtl = std::fs::read_to_string(dir.path().join("sibenik.mtl"))
         .unwrap()
         .replace(
@@ -3778,4 +3779,96 @@ fn guessed_views_do_not_depend_on_object_order() {
         .find(|v| v["name"] == "windows")
         .expect("a windows view");
     assert!(windows["target"][2].as_f64().unwrap() < -5.0, "{windows}");
+}
+
+/// Windows of two glasses in equal shares are named after the glass the library lists first
+/// at any scale: at a hundredth, the rounding of their areas named some after the other glass
+/// (and `[[window]] name` entries written for one scale missed at another).
+#[test]
+fn windows_of_equal_shares_are_named_alike_at_any_scale() {
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::write(
+        dir.path().join("kirche.mtl"),
+        "newmtl Boden\nKd 0.5 0.45 0.4\nnewmtl Wand\nKd 0.7 0.7 0.65\n\
+         newmtl Glas_rot\nKd 1 1 1\nTf 0.9 0.1 0.1\nillum 4\n\
+         newmtl Glas_blau\nKd 1 1 1\nTf 0.1 0.2 0.9\nillum 4\n",
+    )
+    .unwrap();
+    for scale in [0.01, 1.0, 100.0] {
+        let mut obj = String::from("mtllib kirche.mtl\n");
+        let mut n = 0;
+        let mut quad = |obj: &mut String, material: &str, c: [[f64; 3]; 4]| {
+            obj.push_str(&format!("usemtl {material}\n"));
+            for p in c {
+                let p = p.map(|x| x * scale);
+                // Six decimals, as exporters write them: at a hundredth, not exact in binary.
+                obj.push_str(&format!("v {:.6} {:.6} {:.6}\n", p[0], p[1], p[2]));
+            }
+            obj.push_str(&format!("f {} {} {} {}\n", n + 1, n + 2, n + 3, n + 4));
+            n += 4;
+        };
+        let (x, y, z) = (5.0, 6.0, 12.0);
+        quad(
+            &mut obj,
+            "Boden",
+            [[-x, 0.0, -z], [-x, 0.0, z], [x, 0.0, z], [x, 0.0, -z]],
+        );
+        quad(
+            &mut obj,
+            "Wand",
+            [[-x, 0.0, -z], [-x, y, -z], [-x, y, z], [-x, 0.0, z]],
+        );
+        quad(
+            &mut obj,
+            "Wand",
+            [[x, 0.0, -z], [x, 0.0, z], [x, y, z], [x, y, -z]],
+        );
+        quad(
+            &mut obj,
+            "Wand",
+            [[-x, 0.0, -z], [x, 0.0, -z], [x, y, -z], [-x, y, -z]],
+        );
+        quad(
+            &mut obj,
+            "Wand",
+            [[-x, 0.0, z], [-x, y, z], [x, y, z], [x, 0.0, z]],
+        );
+        // Six windows, three a side, each four panes of 1 x 1.5 in a chequer.
+        for side in [-1.0, 1.0] {
+            for k in 0..3 {
+                let zc = -8.0 + 8.0 * k as f64;
+                let wx = side * x;
+                for (c, r) in [(0, 0), (0, 1), (1, 0), (1, 1)] {
+                    let (y0, z0) = (3.0 + 1.5 * r as f64, zc + c as f64);
+                    let glass = if (r + c) % 2 == 0 {
+                        "Glas_rot"
+                    } else {
+                        "Glas_blau"
+                    };
+                    quad(
+                        &mut obj,
+                        glass,
+                        [
+                            [wx, y0, z0],
+                            [wx, y0, z0 + 1.0],
+                            [wx, y0 + 1.5, z0 + 1.0],
+                            [wx, y0 + 1.5, z0],
+                        ],
+                    );
+                }
+            }
+        }
+        let model = dir.path().join(format!("kirche-{scale}.obj"));
+        std::fs::write(&model, obj).unwrap();
+        let pack = dir.path().join(format!("kirche-{scale}.pack"));
+        let log = cook(&model, &pack, &[]);
+        let info = info(&pack);
+        assert_eq!(window_count(&info), 6, "scale {scale}: {log}");
+        for w in windows(&info) {
+            assert!(
+                w["name"].as_str().unwrap().starts_with("Glas_rot#"),
+                "scale {scale}: {w}"
+            );
+        }
+    }
 }
