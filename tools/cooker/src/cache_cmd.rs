@@ -517,6 +517,14 @@ fn paths_as_text(v: &serde_json::Value) -> serde_json::Value {
     }
 }
 
+/// Whose record `cache explain` compares a scene with.
+#[derive(Clone, Copy)]
+enum Whose {
+    Own,
+    SameManifest,
+    SameFiles,
+}
+
 fn explain(
     input: &std::path::Path,
     settings: &crate::cook::SettingsArgs,
@@ -613,8 +621,10 @@ fn explain(
     // cook recorded" under a line that said the scene was cooked before).
     let own = read_record(&scene_cache::record_path(&cache, input));
     let dir = input.parent().unwrap_or(std::path::Path::new(""));
-    let (record, elsewhere) = match own {
-        Some(r) => (r, false),
+    // Whose record: this manifest's (`Own`), the same manifest's elsewhere, or a record of
+    // the same files under another manifest (a bare cook of the model `init` described).
+    let (record, whose) = match own {
+        Some(r) => (r, Whose::Own),
         None => {
             // The same manifest first; else, the manifest edited too, a record of the same
             // settings whose every input is a file here (the same scene's layout), latest.
@@ -634,7 +644,16 @@ fn explain(
                 })
                 .max_by_key(|(rank, _)| *rank);
             match other {
-                Some((_, r)) => (r, true),
+                Some(((true, _), r)) => (r, Whose::SameManifest),
+                // A record naming a manifest of this one's name is this scene, edited.
+                Some(((false, _), r))
+                    if r.inputs
+                        .iter()
+                        .any(|(rel, _)| Some(rel.as_os_str()) == input.file_name()) =>
+                {
+                    (r, Whose::SameManifest)
+                }
+                Some(((false, _), r)) => (r, Whose::SameFiles),
                 None => {
                     println!(
                         "a cook would cook it: no earlier cook of {} is recorded in {}",
@@ -648,7 +667,10 @@ fn explain(
     };
     let mut why = Vec::new();
     if manifest_sha != record.manifest_sha256 {
-        why.push(format!("{} changed", input.display()));
+        why.push(match whose {
+            Whose::SameFiles => format!("{} is not that cook's manifest", input.display()),
+            _ => format!("{} changed", input.display()),
+        });
     }
     for c in changed_leaves("", &record.settings, &settings_json) {
         why.push(format!("setting {c}"));
@@ -664,10 +686,17 @@ fn explain(
     // The manifest is among the inputs recorded too: one line per file.
     let mut seen = std::collections::HashSet::new();
     why.retain(|w| seen.insert(w.clone()));
-    let last = if elsewhere {
-        "the last cook of the same manifest and settings recorded here, in another checkout"
-    } else {
-        "the last cook recorded here"
+    let last = match whose {
+        Whose::Own => "the last cook recorded here",
+        Whose::SameManifest => {
+            "the last cook of the same manifest and settings recorded here, in another checkout"
+        }
+        // It was "of the same manifest, in another checkout" after `cooker cook model.obj`
+        // and `cooker cache explain scene.toml` in one folder.
+        Whose::SameFiles => {
+            "the last cook of these files with the same settings recorded here, under another \
+             manifest or as a bare model"
+        }
     };
     if why.is_empty() {
         println!(

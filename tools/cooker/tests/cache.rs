@@ -959,3 +959,44 @@ fn a_query_does_not_make_the_default_cache() {
     assert!(o.status.success(), "{}", stderr(&o));
     assert!(default.is_dir());
 }
+
+/// After a bare cook of a model, `explain` of the manifest `init` wrote for it compares it
+/// with that cook as what it is (the same files under another manifest), not as "the same
+/// manifest, in another checkout" where "scene.toml changed".
+#[test]
+fn explain_after_a_bare_cook_says_the_manifest_is_another() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    std::fs::copy(
+        root().join("tests/data/third_party/cornell_box/cornell_box.obj"),
+        d.join("box.obj"),
+    )
+    .unwrap();
+    std::fs::copy(
+        root().join("tests/data/third_party/cornell_box/cornell_box.mtl"),
+        d.join("cornell_box.mtl"),
+    )
+    .unwrap();
+    let cache = d.join("cache");
+    cook(&d.join("box.obj"), &d.join("box.pack"), &cache);
+    let o = common::cooker(&[&"init", &d.join("box.obj")]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let o = Command::new(env!("CARGO_BIN_EXE_cooker"))
+        .args(["cache", "explain"])
+        .arg(d.join("scene.toml"))
+        .arg("--cache-dir")
+        .arg(&cache)
+        .output()
+        .unwrap();
+    let said = stdout(&o);
+    assert!(o.status.success(), "{said}{}", stderr(&o));
+    assert!(
+        said.contains("under another manifest or as a bare model"),
+        "{said}"
+    );
+    assert!(
+        said.contains("scene.toml is not that cook's manifest"),
+        "{said}"
+    );
+    assert!(!said.contains("in another checkout"), "{said}");
+}
