@@ -15,6 +15,7 @@ pub mod import;
 pub mod instances;
 pub mod manifest;
 pub mod mesh;
+pub mod path_serde;
 mod pipeline;
 mod prune;
 mod report;

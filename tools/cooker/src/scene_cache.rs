@@ -22,6 +22,7 @@ use crate::transcript::Transcript;
 #[derive(Serialize, Deserialize)]
 pub struct SceneInputs {
     /// The files it read, relative to the manifest's folder.
+    #[serde(with = "cook::path_serde::list")]
     pub inputs: Vec<PathBuf>,
     /// The files its sources named that it did not find (a texture an MTL names, a
     /// material library), or found under another spelling (another letter case): the pack is
@@ -157,6 +158,7 @@ pub fn inputs_of(cache: &Cache, key: &Key) -> Result<SceneInputs, String> {
 pub struct Record {
     pub manifest_sha256: String,
     pub settings: serde_json::Value,
+    #[serde(with = "cook::path_serde::with_text")]
     pub inputs: Vec<(PathBuf, String)>,
 }
 

@@ -1000,3 +1000,30 @@ fn explain_after_a_bare_cook_says_the_manifest_is_another() {
     );
     assert!(!said.contains("in another checkout"), "{said}");
 }
+
+/// A model whose file name is not UTF-8 (unpacked from a Windows archive) is reused as any
+/// other: its cache entries failed to serialize ("cache not updated"), and every cook missed.
+#[cfg(unix)]
+#[test]
+fn a_model_named_in_another_encoding_is_reused() {
+    use std::os::unix::ffi::OsStrExt;
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let model = d.join(std::ffi::OsStr::from_bytes(b"\xf5\xf0\xe0\xec.obj"));
+    std::fs::copy(
+        root().join("tests/data/third_party/cornell_box/cornell_box.obj"),
+        &model,
+    )
+    .unwrap();
+    std::fs::copy(
+        root().join("tests/data/third_party/cornell_box/cornell_box.mtl"),
+        d.join("cornell_box.mtl"),
+    )
+    .unwrap();
+    let cache = d.join("cache");
+    let out = d.join("out.pack");
+    let first = cook(&model, &out, &cache);
+    assert!(!stderr(&first).contains("cache not updated"), "{}", stderr(&first));
+    let second = cook(&model, &out, &cache);
+    assert!(stdout(&second).contains("is up to date"), "{}", stdout(&second));
+}

@@ -763,9 +763,14 @@ fn warn_far_positions(out: &mut Imported) {
     Clone, Debug, PartialEq, Eq, PartialOrd, Ord, Hash, serde::Serialize, serde::Deserialize,
 )]
 pub struct Absent {
+    #[serde(with = "crate::path_serde::one")]
     pub dir: PathBuf,
     pub name: String,
-    #[serde(default, skip_serializing_if = "Option::is_none")]
+    #[serde(
+        default,
+        skip_serializing_if = "Option::is_none",
+        with = "crate::path_serde::option"
+    )]
     pub found: Option<PathBuf>,
 }
 
