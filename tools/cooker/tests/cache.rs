@@ -1023,7 +1023,15 @@ fn a_model_named_in_another_encoding_is_reused() {
     let cache = d.join("cache");
     let out = d.join("out.pack");
     let first = cook(&model, &out, &cache);
-    assert!(!stderr(&first).contains("cache not updated"), "{}", stderr(&first));
+    assert!(
+        !stderr(&first).contains("cache not updated"),
+        "{}",
+        stderr(&first)
+    );
     let second = cook(&model, &out, &cache);
-    assert!(stdout(&second).contains("is up to date"), "{}", stdout(&second));
+    assert!(
+        stdout(&second).contains("is up to date"),
+        "{}",
+        stdout(&second)
+    );
 }

@@ -1988,8 +1988,21 @@ fn find_file(
         if !text::is_escaped(&escaped) {
             return None;
         }
-        let (encoding, _) = text::choose(given, [name]);
-        super::locate_noted(dir, &text::decode_escaped(&escaped, encoding), noted)
+        let (encoding, guessed) = text::choose(given, [name]);
+        if let Some(p) = super::locate_noted(dir, &text::decode_escaped(&escaped, encoding), noted)
+        {
+            return Some(p);
+        }
+        // A few letters are too little to guess from: `mtllib храм.mtl` in windows-1251 was
+        // read as another encoding, not found, and the library beside the OBJ taken with a
+        // warning. Each common encoding is tried; the file on disk tells which it was.
+        if !guessed {
+            return None;
+        }
+        text::COMMON
+            .iter()
+            .filter(|&&e| e != encoding)
+            .find_map(|&e| super::locate_noted(dir, &text::decode_escaped(&escaped, e), noted))
     };
     if let Some(p) = locate(rest) {
         return (vec![p], Vec::new());
@@ -2656,6 +2669,29 @@ mod tests {
                 .any(|w| w.contains("groups without faces: Пустая_группа")),
             "{warnings:?}"
         );
+    }
+
+    /// `mtllib храм.mtl` written in windows-1251, the library on disk under its Unicode name
+    /// (a few letters are too little to guess an encoding from): found by its name, not
+    /// replaced by the library beside the OBJ with a warning.
+    #[test]
+    fn a_library_named_in_a_code_page_is_found_by_its_letters() {
+        let dir = tempfile::tempdir().unwrap();
+        let obj = "mtllib храм.mtl\nv 0 0 0\nv 1 0 0\nv 0 1 0\nusemtl Стекло\nf 1 2 3\n";
+        let bytes = encoding_rs::WINDOWS_1251.encode(obj).0;
+        std::fs::write(dir.path().join("model.obj"), &bytes).unwrap();
+        std::fs::write(
+            dir.path().join("храм.mtl"),
+            "newmtl Стекло\nKd 0.2 0.4 0.8\n",
+        )
+        .unwrap();
+        let m = import(&dir.path().join("model.obj"), None).unwrap();
+        let warnings: Vec<String> = m.warnings.iter().map(|w| w.to_string()).collect();
+        assert!(
+            !warnings.iter().any(|w| w.contains("not found")),
+            "{warnings:?}"
+        );
+        assert_eq!(m.materials[0].diffuse, [0.2, 0.4, 0.8]);
     }
 
     /// MTL forms real files use: one-value colours (tobj panicked on them), CIE XYZ and

@@ -122,6 +122,23 @@ pub(crate) fn choose<'a>(
     (detector.guess(None, chardetng::Utf8Detection::Deny), true)
 }
 
+/// Encodings file names written on Windows are commonly in, for a name too short to guess
+/// its encoding from (`храм.mtl` in windows-1251 is four letters).
+pub(crate) const COMMON: [&Encoding; 12] = [
+    encoding_rs::WINDOWS_1252,
+    encoding_rs::WINDOWS_1251,
+    encoding_rs::WINDOWS_1250,
+    encoding_rs::WINDOWS_1253,
+    encoding_rs::WINDOWS_1254,
+    encoding_rs::WINDOWS_1257,
+    encoding_rs::KOI8_R,
+    encoding_rs::IBM866,
+    encoding_rs::SHIFT_JIS,
+    encoding_rs::GBK,
+    encoding_rs::BIG5,
+    encoding_rs::EUC_KR,
+];
+
 /// The text of a whole file: itself where it is UTF-8, else decoded as `given` says or as
 /// chardetng guesses from its bytes.
 pub(crate) fn decode_file(bytes: &[u8], given: Option<TextEncoding>) -> (Cow<'_, str>, Decoded) {
