@@ -45,7 +45,11 @@ impl Decision {
                 keyword,
                 kind,
                 name,
-            } => Some(format!("{} name {name:?} has {keyword:?}", kind.name())),
+            } => Some(format!(
+                "{} name {name:?} has {:?}",
+                kind.name(),
+                written_greek(keyword)
+            )),
             Decision::Glass { reason } => Some(format!("material: {reason}")),
             Decision::Geometry { reason } => Some(reason.clone()),
             Decision::Unmatched => {
@@ -437,6 +441,21 @@ fn word_matches(word: &str, keyword: &str) -> bool {
 /// Whether `keyword` may sit inside a word, rather than be one.
 fn matches_inside(keyword: &str) -> bool {
     keyword.chars().any(unspaced) || keyword.chars().count() > 4
+}
+
+/// A keyword as Greek writes it: a word's last `σ` as `ς` (keywords are kept folded, see
+/// [`fold_greek`], and a reason said `"Τοίχος" has "τοιχοσ"`).
+fn written_greek(keyword: &str) -> String {
+    let chars: Vec<char> = keyword.chars().collect();
+    chars
+        .iter()
+        .enumerate()
+        .map(|(i, &c)| {
+            let last = chars.get(i + 1).is_none_or(|n| !n.is_alphabetic());
+            let alone = i == 0 || !chars[i - 1].is_alphabetic();
+            if c == 'σ' && last && !alone { 'ς' } else { c }
+        })
+        .collect()
 }
 
 /// Greek as names often write it: accents dropped (capitals are written without them) and
@@ -1741,6 +1760,21 @@ mod tests {
         assert_eq!(t.ambiguities.len(), 1);
         assert_eq!(t.ambiguities[0].name, "Boden_1");
         assert_eq!(t.ambiguities[0].rule_lines, vec![3, 10]);
+    }
+
+    /// A Greek keyword is said as Greek writes it, its last sigma final.
+    #[test]
+    fn a_greek_keyword_is_said_with_its_final_sigma() {
+        let d = Decision::Heuristic {
+            keyword: "τοιχοσ",
+            kind: NameKind::Material,
+            name: "Τοίχος".into(),
+        };
+        assert_eq!(
+            d.reason().unwrap(),
+            "material name \"Τοίχος\" has \"τοιχος\""
+        );
+        assert_eq!(written_greek("σοσ σ"), "σος σ");
     }
 
     #[test]
