@@ -36,6 +36,16 @@ pub enum CookError {
         #[source]
         source: Box<CookError>,
     },
+    /// An image a model's material names that cannot be used: said with the material and
+    /// the model, as the manifest's files are at their line (it named the image alone).
+    #[error("{}: {what} of material {material:?}", model.display())]
+    MaterialImage {
+        model: PathBuf,
+        material: String,
+        what: &'static str,
+        #[source]
+        source: Box<CookError>,
+    },
     /// `--up` with a scene manifest, which turns its meshes itself.
     #[error(
         "--up turns a bare model; {} is a scene manifest: give its [[mesh]] \
@@ -60,7 +70,9 @@ impl CookError {
             CookError::Io { .. } => true,
             CookError::Pack(p) => p.is_io(),
             CookError::Texture(t) => t.is_io(),
-            CookError::WindowImage { source, .. } => source.is_io(),
+            CookError::WindowImage { source, .. } | CookError::MaterialImage { source, .. } => {
+                source.is_io()
+            }
             CookError::Manifest { .. }
             | CookError::Source { .. }
             | CookError::UnknownWindow { .. }
@@ -76,6 +88,7 @@ impl CookError {
             | CookError::Source { path, .. }
             | CookError::UpAxisOfManifest { path }
             | CookError::WindowImage { path, .. } => Some(path),
+            CookError::MaterialImage { source, .. } => source.path(),
             CookError::Texture(t) => t.path(),
             CookError::Pack(_) | CookError::UnknownWindow { .. } => None,
         }

@@ -195,7 +195,8 @@ fn cook_steps(manifest: &Manifest, settings: &Settings) -> Result<CookOutput, Co
         settings,
         &images,
         &mut report,
-    )?;
+    )
+    .map_err(|e| at_its_material(&imported, e))?;
     drop(images);
     report.inputs.sort();
     report.inputs.dedup();
@@ -487,7 +488,8 @@ fn prepare_steps(
         &mut tri_material,
         &images,
         report,
-    )?;
+    )
+    .map_err(|e| at_its_material(&imported, e))?;
     report.stage("windows", found.elapsed());
     Ok(Prepared {
         imported,
@@ -498,6 +500,40 @@ fn prepare_steps(
         images,
         shift,
     })
+}
+
+/// An image a model's material names that cannot be used, said with the material and model
+/// (`bad.png: cannot decode image` left the user to search the MTL files for it).
+fn at_its_material(sources: &[import::Imported], e: CookError) -> CookError {
+    if e.is_io() || !matches!(e, CookError::Texture(_)) {
+        return e;
+    }
+    let Some(path) = e.path().map(Path::to_path_buf) else {
+        return e;
+    };
+    let is =
+        |t: &Option<import::ImageRef>| matches!(t, Some(import::ImageRef::File(f)) if *f == path);
+    let named = sources.iter().find_map(|src| {
+        src.materials.iter().find_map(|m| {
+            let what = if is(&m.diffuse_texture) {
+                "diffuse texture"
+            } else if is(&m.normal_texture) {
+                "normal map"
+            } else {
+                return None;
+            };
+            Some((src.path.clone(), m.name.clone(), what))
+        })
+    });
+    match named {
+        Some((model, material, what)) => CookError::MaterialImage {
+            model,
+            material,
+            what,
+            source: Box::new(e),
+        },
+        None => e,
+    }
 }
 
 fn tri_materials(src: &import::Imported, part_material: &[u16]) -> Vec<u16> {

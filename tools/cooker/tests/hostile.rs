@@ -316,6 +316,23 @@ fn hostile_meshes() {
         t.contains("no-triangles") && t.contains("every face has zero area"),
         "{t}"
     );
+    // A texture a material names that cannot be decoded: said with the material and model.
+    std::fs::write(d.join("garbled.png"), b"this is not an image at all").unwrap();
+    std::fs::write(
+        d.join("tex.mtl"),
+        "newmtl stone\nKd 1 1 1\nmap_Kd garbled.png\n",
+    )
+    .unwrap();
+    let tex = write(
+        "tex.obj",
+        b"mtllib tex.mtl\nv 0 0 0\nv 1 0 0\nv 0 1 0\nvt 0 0\nvt 1 0\nvt 0 1\nusemtl stone\nf 1/1 2/2 3/3\n",
+    );
+    expect(
+        &tex,
+        3,
+        "tex.obj",
+        "tex.obj: diffuse texture of material \"stone\": ",
+    );
     // NaN and infinite coordinates, with the line.
     expect(
         &write("nan.obj", b"v 0 0 0\nv 1 0 0\nv nan 1 0\nf 1 2 3\n"),

@@ -452,6 +452,7 @@ impl Manifest {
                 CookError::Manifest { .. }
                     | CookError::Source { line: Some(_), .. }
                     | CookError::WindowImage { .. }
+                    | CookError::MaterialImage { .. }
             )
         {
             return e;
