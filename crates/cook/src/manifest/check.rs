@@ -299,6 +299,16 @@ fn suggestion<'n>(unknown: &str, names: impl Iterator<Item = &'n str>) -> String
     nearest(unknown, names).map_or_else(String::new, |n| format!("; did you mean `{n}`?"))
 }
 
+/// Why a value written finite reads as `inf`: the manifest's numbers are 32-bit floats
+/// (`translate = [1e300, 0, 0]` was "[inf, 0.0, 0.0] must be finite", with no reason).
+fn beyond_f32(v: &[f32]) -> &'static str {
+    if v.iter().any(|x| x.is_infinite()) {
+        " (a number beyond ±3.4e38 does not fit the 32-bit floats a manifest holds)"
+    } else {
+        ""
+    }
+}
+
 fn finite3(v: [f32; 3]) -> bool {
     v.iter().all(|x| x.is_finite())
 }
@@ -339,14 +349,27 @@ fn meshes(src: &Source<'_>, raw: &[Spanned<model::Mesh>]) -> Result<Vec<MeshSour
         if let Some(s) = &m.scale
             && (!finite3(scale) || scale.contains(&0.0))
         {
-            return Err(src.err_at(s, format!("scale {scale:?} must be finite and non-zero")));
+            return Err(src.err_at(
+                s,
+                format!(
+                    "scale {scale:?} must be finite and non-zero{}",
+                    beyond_f32(&scale)
+                ),
+            ));
         }
         // A NaN here cooked to an empty pack with exit 0, every triangle dropped as degenerate.
         for (v, what) in [(&m.translate, "translate"), (&m.rotate_deg, "rotate_deg")] {
             if let Some(v) = v
                 && !finite3(*v.get_ref())
             {
-                return Err(src.err_at(v, format!("{what} {:?} must be finite", v.get_ref())));
+                return Err(src.err_at(
+                    v,
+                    format!(
+                        "{what} {:?} must be finite{}",
+                        v.get_ref(),
+                        beyond_f32(v.get_ref())
+                    ),
+                ));
             }
         }
         if m.name.as_ref().is_some_and(|n| n.trim().is_empty()) {
@@ -454,7 +477,11 @@ fn rules(src: &Source<'_>, raw: &[Spanned<model::Rule>]) -> Result<Vec<Rule>, Co
             {
                 return Err(src.err_at(
                     c,
-                    format!("{what} {:?} must be finite and not negative", c.get_ref()),
+                    format!(
+                        "{what} {:?} must be finite and not negative{}",
+                        c.get_ref(),
+                        beyond_f32(c.get_ref())
+                    ),
                 ));
             }
         }
@@ -463,7 +490,11 @@ fn rules(src: &Source<'_>, raw: &[Spanned<model::Rule>]) -> Result<Vec<Rule>, Co
         {
             return Err(src.err_at(
                 s,
-                format!("shininess {} must be finite and not negative", s.get_ref()),
+                format!(
+                    "shininess {} must be finite and not negative{}",
+                    s.get_ref(),
+                    beyond_f32(&[*s.get_ref()])
+                ),
             ));
         }
         rules.push(Rule {
@@ -744,7 +775,10 @@ fn light(src: &Source<'_>, l: &Spanned<model::Light>) -> Result<Light, CookError
             .map_or(l.span().start, |c| c.span().start);
         return Err(src.error(
             at,
-            format!("light colour {colour:?} must be finite and non-negative"),
+            format!(
+                "light colour {colour:?} must be finite and non-negative{}",
+                beyond_f32(&colour)
+            ),
         ));
     }
     Ok(Light {
@@ -859,7 +893,10 @@ fn background(
             {
                 return Err(src.err_at(
                     c,
-                    format!("background colour {colour:?} must be finite and not negative"),
+                    format!(
+                        "background colour {colour:?} must be finite and not negative{}",
+                        beyond_f32(&colour)
+                    ),
                 ));
             }
             Background {

@@ -1242,6 +1242,11 @@ colour = [0.35, 0.5, 0.8]
                 4,
                 "the rule's material name is empty",
             ),
+            (
+                format!("{mesh}translate = [1e300, 0.0, 0.0]\n"),
+                3,
+                "translate [inf, 0.0, 0.0] must be finite (a number beyond ±3.4e38",
+            ),
             // The same file placed twice in one place, however its path is spelt.
             (
                 format!("{mesh}[[mesh]]\nsource = \"./corridor.obj\"\nscale = 1.0\n"),
