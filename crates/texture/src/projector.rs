@@ -93,10 +93,21 @@ impl std::fmt::Display for ProjectorReport {
             self.width,
             self.height
         )?;
+        // The margin is in the design's texels: under a size cap, 8 and 25 "texels" round a
+        // 10x16 level read as larger than the texture.
+        let unit = if [self.width, self.height]
+            == [
+                self.design_width + 2 * self.margin[0],
+                self.design_height + 2 * self.margin[1],
+            ] {
+            "texels"
+        } else {
+            "design texels"
+        };
         match self.margin {
             [0, 0] => {}
-            [x, y] if x == y => write!(f, " with a margin of {x} texels")?,
-            [x, y] => write!(f, " with margins of {x} and {y} texels")?,
+            [x, y] if x == y => write!(f, " with a margin of {x} {unit}")?,
+            [x, y] => write!(f, " with margins of {x} and {y} {unit}")?,
         }
         if self.dropped_levels > 0 {
             write!(
@@ -112,7 +123,7 @@ impl std::fmt::Display for ProjectorReport {
             [x, y] => write!(f, " (halved {x} more time(s) across and {y} down)")?,
         }
         if let Some(e) = self.max_error_lsb {
-            write!(f, ", max error {e:.3} LSB")?;
+            write!(f, ", max error {e:.3} LSB against the full-size blur")?;
         }
         Ok(())
     }
@@ -627,6 +638,35 @@ fn upsampled_error_rows(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The margin is said in the design's texels where the stored level is smaller than the
+    /// design with its margins (a size cap), and the error against what.
+    #[test]
+    fn the_report_says_what_its_numbers_are_in() {
+        let mut r = ProjectorReport {
+            sigma_texels: 2.0.into(),
+            method: BlurMethod::Direct,
+            design_width: 100,
+            design_height: 200,
+            width: 116,
+            height: 216,
+            dropped_levels: 0,
+            halved: [0, 0],
+            margin: [8, 8],
+            max_error_lsb: Some(0.5),
+        };
+        assert_eq!(
+            r.to_string(),
+            "sigma 2.00 texels (direct), 116x216 with a margin of 8 texels, max error 0.500 LSB \
+             against the full-size blur"
+        );
+        (r.width, r.height) = (29, 54);
+        assert!(
+            r.to_string()
+                .contains("29x54 with a margin of 8 design texels"),
+            "{r}"
+        );
+    }
 
     /// Every texel and channel through the exact encode: what `upsampled_error` must equal.
     fn exhaustive(bytes: &[u8], lw: u32, lh: u32, reference: &[[f32; 4]], w: u32) -> f64 {
