@@ -41,24 +41,11 @@ fn cook_steps(manifest: &Manifest, settings: &Settings) -> Result<CookOutput, Co
     let mut prepared = prepare(manifest, settings, &mut report)?;
     // A pack of no triangles shows nothing: a gate on the cook's exit status must not pass it
     // (`cooker validate` reports the same as its `no-triangles` finding).
-    if prepared.imported.iter().all(|s| s.triangle_count() == 0)
-        && let Some(first) = manifest.meshes.first()
-    {
-        return Err(CookError::Source {
-            path: first.source.clone(),
-            line: None,
-            message: format!(
-                "no faces{}: nothing to cook",
-                if manifest.meshes.len() > 1 {
-                    format!(
-                        " in this or any other of the scene's {} meshes",
-                        manifest.meshes.len()
-                    )
-                } else {
-                    " (points or lines only)".into()
-                }
-            ),
-        });
+    if prepared.imported.iter().all(|s| s.triangle_count() == 0) {
+        return Err(nothing_to_cook(manifest, |n| match n {
+            1 => "no faces (points or lines only)".into(),
+            n => format!("no faces in this or any other of the scene's {n} meshes"),
+        }));
     }
     // From here on the manifest's cameras and light are in the scene's shifted frame.
     let framed = manifest.shifted(prepared.shift);
@@ -148,21 +135,11 @@ fn cook_steps(manifest: &Manifest, settings: &Settings) -> Result<CookOutput, Co
     clock.lap(&mut report, "mesh");
     // Faces that all had zero area (a collinear triangle, a mesh scaled by 1e-30) left an
     // empty pack and exit 0, as the check above once let points and lines through.
-    if processed.iter().all(|p| p.indices.is_empty())
-        && let Some(first) = manifest.meshes.first()
-    {
-        return Err(CookError::Source {
-            path: first.source.clone(),
-            line: None,
-            message: format!(
-                "every face{} has zero area (as placed): nothing to cook",
-                if manifest.meshes.len() > 1 {
-                    format!(" of the scene's {} meshes", manifest.meshes.len())
-                } else {
-                    String::new()
-                }
-            ),
-        });
+    if processed.iter().all(|p| p.indices.is_empty()) {
+        return Err(nothing_to_cook(&manifest, |n| match n {
+            1 => "every face has zero area (as placed)".into(),
+            n => format!("every face of the scene's {n} meshes has zero area (as placed)"),
+        }));
     }
 
     // 5. Windows: frames from the geometry, and which of them light a receiving surface.
@@ -500,6 +477,19 @@ fn prepare_steps(
         images,
         shift,
     })
+}
+
+/// A scene that would cook to a pack of no triangles, said of its first mesh: `why` of its
+/// number of meshes. An empty pack would pass a gate on the cook's exit status.
+fn nothing_to_cook(manifest: &Manifest, why: impl Fn(usize) -> String) -> CookError {
+    CookError::Source {
+        path: manifest
+            .meshes
+            .first()
+            .map_or_else(|| manifest.path.clone(), |m| m.source.clone()),
+        line: None,
+        message: format!("{}: nothing to cook", why(manifest.meshes.len())),
+    }
 }
 
 /// An image a model's material names that cannot be used, said with the material and model
