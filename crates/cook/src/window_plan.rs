@@ -516,7 +516,7 @@ pub fn plan(
                     .entry(e.line.0)
                     .or_insert_with(|| (keys, *source, Vec::new()))
                     .2
-                    .push(format!("{:?}", inst.name));
+                    .push(inst.name.clone());
             }
         }
         let tinted = image
@@ -668,11 +668,7 @@ pub fn plan(
         }
     }
     for (line, (keys, source, windows)) in idle_keys {
-        let shown = if windows.len() > crate::report::shown_of(windows.len()) {
-            format!("{} and {} more", windows[..3].join(", "), windows.len() - 3)
-        } else {
-            windows.join(", ")
-        };
+        let shown = crate::report::few_names(&windows);
         let from = match source {
             DesignSource::Image => "the entry's design image",
             _ => "its glass's colour texture",
