@@ -7,7 +7,7 @@ use std::time::{Duration, Instant};
 
 use rayon::prelude::*;
 
-use crate::manifest::Manifest;
+use crate::manifest::{Manifest, WindowDesign};
 use crate::report::{HeuristicNote, MeshReport, Report};
 use crate::{CookError, Settings, Warning, guess, import, mesh, prune, tag, textures};
 use crate::{window_plan, windows};
@@ -30,7 +30,7 @@ impl CookOutput {
 /// The whole pipeline: sources in, a pack's TOC and data out. A file the manifest names that
 /// cannot be used is reported at its line.
 pub fn cook(manifest: &Manifest, settings: &Settings) -> Result<CookOutput, CookError> {
-    cook_steps(manifest, settings).map_err(|e| manifest.at_its_line(e))
+    cook_steps(manifest, settings).map_err(|e| at_its_source(manifest, settings, e))
 }
 
 fn cook_steps(manifest: &Manifest, settings: &Settings) -> Result<CookOutput, CookError> {
@@ -418,7 +418,7 @@ pub fn prepare(
     settings: &Settings,
     report: &mut Report,
 ) -> Result<Prepared, CookError> {
-    prepare_steps(manifest, settings, report).map_err(|e| manifest.at_its_line(e))
+    prepare_steps(manifest, settings, report).map_err(|e| at_its_source(manifest, settings, e))
 }
 
 fn prepare_steps(
@@ -477,6 +477,11 @@ fn prepare_steps(
         images,
         shift,
     })
+}
+
+/// `e` said where its file was named: a `--window` option, else the manifest's line.
+fn at_its_source(manifest: &Manifest, settings: &Settings, e: CookError) -> CookError {
+    manifest.at_its_line(WindowDesign::at_its_option(&settings.window_overrides, e))
 }
 
 /// A scene that would cook to a pack of no triangles, said of its first mesh: `why` of its

@@ -46,7 +46,7 @@ pub use blur::{
     reference_blur_xy,
 };
 pub use error::TextureError;
-pub use load::{MAX_DECODE_BYTES, MAX_SIDE, load_image, load_image_bytes};
+pub use load::{MAX_DECODE_BYTES, MAX_SIDE, load_image, load_image_bytes, probe_image};
 pub use mips::{
     ColourOptions, MipChain, colour_mips, colour_mips_reference, first_level_within, level_count,
     level_size,

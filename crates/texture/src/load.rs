@@ -50,6 +50,40 @@ pub fn load_image(path: &Path) -> Result<DynamicImage, TextureError> {
     limited(|| reader(path), path)
 }
 
+/// What [`load_image`] checks before it decodes, without decoding: the file opens, its format
+/// is one we read, its header parses and its size is within [`MAX_SIDE`]; a JPEG also runs to
+/// its end. Returns the size. For checking an image named on a command line before any work
+/// (a cook that then hits its cache never decodes it: a 4096² design is 64 MiB decoded).
+/// Corrupt data past the header is found when the image is decoded.
+pub fn probe_image(path: &Path) -> Result<(u32, u32), TextureError> {
+    let mut head = Vec::with_capacity(KTX2_IDENTIFIER.len());
+    std::fs::File::open(path)
+        .and_then(|f| f.take(KTX2_IDENTIFIER.len() as u64).read_to_end(&mut head))
+        .map_err(io_error(path))?;
+    // Icons, KTX2 and DDS have their own readers of the whole file; rare as designs.
+    if head.starts_with(&[0, 0, 1, 0]) || is_ktx2(&head) || is_dds(&head) {
+        let image = load_image(path)?;
+        return Ok((image.width(), image.height()));
+    }
+    if is_jpeg(&head) {
+        let bytes = std::fs::read(path).map_err(io_error(path))?;
+        if !jpeg_reaches_its_end(&bytes) {
+            return Err(TextureError::Truncated {
+                path: path.to_path_buf(),
+                what: "JPEG",
+            });
+        }
+    }
+    let (width, height) = reader(path)?
+        .into_dimensions()
+        .map_err(|error| TextureError::Decode {
+            path: path.to_path_buf(),
+            error,
+        })?;
+    check_claimed_size(path, width, height)?;
+    Ok((width, height))
+}
+
 fn is_jpeg(head: &[u8]) -> bool {
     head.starts_with(&[0xFF, 0xD8, 0xFF])
 }
@@ -340,6 +374,74 @@ mod tests {
             load_image(&path),
             Err(TextureError::Truncated { .. })
         ));
+    }
+
+    /// The probe of a command line's image agrees with the decode where it can judge without
+    /// decoding: the size of a whole PNG and JPEG, a JPEG cut short, a file that is no image,
+    /// a header claiming more than [`MAX_SIDE`]; a PNG whose data is cut but whose header is
+    /// whole passes (its decode says so).
+    #[test]
+    fn the_probe_says_what_the_header_tells() {
+        let dir = tempfile::tempdir().unwrap();
+        let at = |name: &str, bytes: &[u8]| {
+            let p = dir.path().join(name);
+            std::fs::write(&p, bytes).unwrap();
+            p
+        };
+        let noise = image::RgbImage::from_fn(48, 20, |x, y| {
+            image::Rgb([(x * 37 + y * 11) as u8, (x * y) as u8, (x ^ y) as u8 * 4])
+        });
+        let mut png = Vec::new();
+        noise
+            .write_to(&mut Cursor::new(&mut png), image::ImageFormat::Png)
+            .unwrap();
+        assert_eq!(probe_image(&at("a.png", &png)).unwrap(), (48, 20));
+        let cut = at("cut.png", &png[..png.len() / 2]);
+        assert_eq!(probe_image(&cut).unwrap(), (48, 20));
+        assert!(load_image(&cut).is_err());
+        let photo = jpeg(&noise, None);
+        assert_eq!(probe_image(&at("a.jpg", &photo)).unwrap(), (48, 20));
+        assert!(matches!(
+            probe_image(&at("half.jpg", &photo[..photo.len() / 2])),
+            Err(TextureError::Truncated { .. })
+        ));
+        let text = at("notes.png", b"not an image at all");
+        let e = probe_image(&text).unwrap_err();
+        assert!(e.to_string().starts_with(&text.display().to_string()), "{e}");
+        // IHDR claiming 20000 x 1, with a correct CRC so only the size is wrong.
+        let mut ihdr = b"IHDR".to_vec();
+        ihdr.extend(20000u32.to_be_bytes());
+        ihdr.extend(1u32.to_be_bytes());
+        ihdr.extend([8, 2, 0, 0, 0]);
+        let mut wide = b"\x89PNG\r\n\x1a\n".to_vec();
+        wide.extend(13u32.to_be_bytes());
+        wide.extend(&ihdr);
+        wide.extend(crc32(&ihdr).to_be_bytes());
+        for chunk in [&b"IDAT"[..], b"IEND"] {
+            wide.extend(0u32.to_be_bytes());
+            wide.extend(chunk);
+            wide.extend(crc32(chunk).to_be_bytes());
+        }
+        let e = probe_image(&at("wide.png", &wide));
+        assert!(
+            matches!(e, Err(TextureError::TooLarge { width: 20000, .. })),
+            "{e:?}"
+        );
+        assert!(matches!(
+            probe_image(&dir.path().join("missing.png")),
+            Err(TextureError::Io { .. })
+        ));
+    }
+
+    fn crc32(bytes: &[u8]) -> u32 {
+        let mut c = !0u32;
+        for &b in bytes {
+            c ^= b as u32;
+            for _ in 0..8 {
+                c = if c & 1 == 1 { 0xEDB8_8320 ^ (c >> 1) } else { c >> 1 };
+            }
+        }
+        !c
     }
 
     /// 3000 damaged copies of each real KTX2 and DDS file (bits flipped, bytes set, tails

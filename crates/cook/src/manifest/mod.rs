@@ -384,13 +384,17 @@ impl WindowDesign {
         }
     }
 
-    /// Design entries for `--window NAME=IMAGE` arguments; each image must decode, so a bad
-    /// one fails before any cooking, naming the file.
+    /// Design entries for `--window NAME=IMAGE` arguments. Each image's header must be one
+    /// the cook reads, so a missing file, a file that is no image or one too large fails
+    /// before any cooking, naming the option. Its texels are decoded by the cook that needs
+    /// them (one that hits its cache never does; decoding here too held a 4096² design's
+    /// 64 MiB on every re-cook); corrupt data past the header is said as the option then
+    /// ([`WindowDesign::at_its_option`]).
     pub fn overrides(windows: &[(String, PathBuf)]) -> Result<Vec<WindowDesign>, CookError> {
         windows
             .iter()
             .map(|(name, image)| {
-                texture::load_image(image).map_err(|e| CookError::WindowImage {
+                texture::probe_image(image).map_err(|e| CookError::WindowImage {
                     pattern: name.clone(),
                     path: image.clone(),
                     source: Box::new(e.into()),
@@ -398,6 +402,29 @@ impl WindowDesign {
                 Ok(Self::from_override(name, image.clone()))
             })
             .collect()
+    }
+
+    /// `e`, when it is about the image of a `--window NAME=IMAGE` override, as that option's
+    /// error (the scene names no such file, so its path alone read like one of the scene's).
+    pub fn at_its_option(overrides: &[WindowDesign], e: CookError) -> CookError {
+        if e.is_io() || matches!(e, CookError::WindowImage { .. }) {
+            return e;
+        }
+        let Some(path) = e.path().map(Path::to_path_buf) else {
+            return e;
+        };
+        match overrides
+            .iter()
+            .rev()
+            .find(|o| o.design.as_deref() == Some(path.as_path()))
+        {
+            Some(o) => CookError::WindowImage {
+                pattern: o.name.clone().unwrap_or_default(),
+                path,
+                source: Box::new(e),
+            },
+            None => e,
+        }
     }
 
     /// Whether this entry describes the window `name` made of `materials`.
