@@ -438,6 +438,76 @@ pub fn fit_design(design: &RgbaImage, fit: Fit, aspect: f64) -> RgbaImage {
     })
 }
 
+/// How far past the texture's square `[0, 1]²` texture coordinates may reach and still place
+/// the design as they are: a projector covers that square, and exporters write 1.0001 for 1.
+pub const UV_SLACK: f32 = 0.01;
+
+/// The bounds `[u_min, v_min, u_max, v_max]` of triangles' texture coordinates where they
+/// reach past the texture's square by more than [`UV_SLACK`] (tiled glass, or coordinates in
+/// metres as SketchUp writes them), else `None`.
+pub fn beyond_unit_square(tris: &[UvTriangle]) -> Option<[f32; 4]> {
+    let mut b = [f32::INFINITY, f32::INFINITY, f32::NEG_INFINITY, f32::NEG_INFINITY];
+    for c in tris.iter().flat_map(|(uv, _)| uv) {
+        b = [b[0].min(c[0]), b[1].min(c[1]), b[2].max(c[0]), b[3].max(c[1])];
+    }
+    let finite = b.iter().all(|v| v.is_finite());
+    (finite && (b[0].min(b[1]) < -UV_SLACK || b[2].max(b[3]) > 1.0 + UV_SLACK)).then_some(b)
+}
+
+/// `design` as the glass shows it, drawn on the window's planar coordinates: every texel a
+/// triangle of `planar` covers takes the design where the same triangle of `source` (its own
+/// texture coordinates, in the same order) puts that point, the texture repeating as a
+/// renderer repeats it, filtered bilinearly. Texels no glass covers are transparent.
+pub fn bake(
+    planar: &[UvTriangle],
+    source: &[UvTriangle],
+    design: &RgbaImage,
+    w: u32,
+    h: u32,
+) -> RgbaImage {
+    let mut out = RgbaImage::new(w, h);
+    let (dw, dh) = (design.width() as i64, design.height() as i64);
+    if dw == 0 || dh == 0 {
+        return out;
+    }
+    let texel = |x: i64, y: i64| design.get_pixel(x.rem_euclid(dw) as u32, y.rem_euclid(dh) as u32);
+    scan(planar, w, h, |t, x, y, tile| {
+        let p = planar[t].0.map(|c| [(c[0] as f64 - tile[0]) * w as f64, (c[1] as f64 - tile[1]) * h as f64]);
+        let (cx, cy) = (x as f64 + 0.5, y as f64 + 0.5);
+        let det = (p[1][0] - p[0][0]) * (p[2][1] - p[0][1]) - (p[2][0] - p[0][0]) * (p[1][1] - p[0][1]);
+        if det == 0.0 || !det.is_finite() {
+            return;
+        }
+        let b1 = ((cx - p[0][0]) * (p[2][1] - p[0][1]) - (p[2][0] - p[0][0]) * (cy - p[0][1])) / det;
+        let b2 = ((p[1][0] - p[0][0]) * (cy - p[0][1]) - (cx - p[0][0]) * (p[1][1] - p[0][1])) / det;
+        let b0 = 1.0 - b1 - b2;
+        let uv = source[t].0;
+        let at = |k: usize| b0 * uv[0][k] as f64 + b1 * uv[1][k] as f64 + b2 * uv[2][k] as f64;
+        // Texel centres sit at half-integers, as the renderer samples them.
+        let (sx, sy) = (at(0) * dw as f64 - 0.5, at(1) * dh as f64 - 0.5);
+        if !(sx.is_finite() && sy.is_finite()) || sx.abs().max(sy.abs()) > 1e9 {
+            return;
+        }
+        let (x0, y0) = (sx.floor(), sy.floor());
+        let (fx, fy) = (sx - x0, sy - y0);
+        let (x0, y0) = (x0 as i64, y0 as i64);
+        let mut c = [0.0f64; 4];
+        for (dx, dy, wgt) in [
+            (0, 0, (1.0 - fx) * (1.0 - fy)),
+            (1, 0, fx * (1.0 - fy)),
+            (0, 1, (1.0 - fx) * fy),
+            (1, 1, fx * fy),
+        ] {
+            let q = texel(x0 + dx, y0 + dy);
+            for k in 0..4 {
+                c[k] += wgt * q[k] as f64;
+            }
+        }
+        out.put_pixel(x, y, Rgba(c.map(|v| v.round().clamp(0.0, 255.0) as u8)));
+    });
+    out
+}
+
 /// The window's coverage in texture space at the image's size.
 pub fn coverage(tris: &[UvTriangle], w: u32, h: u32) -> Vec<bool> {
     rasterize(tris, w, h).into_iter().map(|i| i != 0).collect()

@@ -452,7 +452,27 @@ pub fn plan(
                 ),
             ));
         }
-        let planar = !inst.has_uvs || entry.is_some_and(|e| e.uv == UvMode::Planar);
+        let mut planar = !inst.has_uvs || entry.is_some_and(|e| e.uv == UvMode::Planar);
+        // Texture coordinates past the texture's square (tiled glass, or metres as SketchUp
+        // writes them) place the design on the glass, but a projector covers that square
+        // only: the light fell on a quarter of a 2 x 2 tiling's patch, or came from a phantom
+        // window in the wall where the square lay. The design is drawn as the glass shows
+        // it onto planar coordinates, and glass and light both use that.
+        let mut baked_from = None;
+        if !planar && inst.planar {
+            let (own, _, _) = uv_triangles(
+                &sources[inst.source],
+                inst,
+                &tri_material[inst.source],
+                tagging,
+                inst.source,
+                false,
+            );
+            if let Some(b) = design::beyond_unit_square(&own) {
+                planar = true;
+                baked_from = Some((own, b));
+            }
+        }
         // `fit` places a design on planar UVs only; on the model's own it was ignored without
         // a word, and a user who asked for `contain` saw the design cropped.
         if let Some(e) = entry
@@ -519,6 +539,29 @@ pub fn plan(
                     .push(inst.name.clone());
             }
         }
+        if let Some((_, b)) = &baked_from {
+            report.notes.push(Warning::new(
+                &sources[inst.source].path,
+                None,
+                format!(
+                    "window {:?}: its glass's texture coordinates span [{:.3}, {:.3}] x \
+                     [{:.3}, {:.3}], past the texture's square (a tiled design, or coordinates \
+                     in metres), where a projector covers that square only; {}",
+                    inst.name,
+                    b[0],
+                    b[2],
+                    b[1],
+                    b[3],
+                    if image.is_some() {
+                        "its design is drawn as the glass shows it onto planar coordinates \
+                         (uv = \"planar\" fits it to the window once instead)"
+                    } else {
+                        "its design is placed by planar coordinates"
+                    }
+                ),
+            ));
+        }
+        let baked_from = baked_from.filter(|_| image.is_some()).map(|(own, _)| own);
         let tinted = image
             .as_ref()
             .is_none_or(|(_, source)| *source == DesignSource::Texture);
@@ -602,6 +645,8 @@ pub fn plan(
             tints,
             srgb: entry.is_none_or(|e| e.colour_space == pack::ColourSpace::Srgb),
             planar,
+            baked_from,
+            extent: (inst.width(), inst.height()),
             fit: entry.map_or(Fit::Cover, |e| e.fit),
             aspect: inst.width() / inst.height().max(1e-12),
             size: design::design_size(inst.width(), inst.height(), texels),
@@ -902,6 +947,11 @@ struct Pending {
     /// The design's texels are sRGB (else linear), for tinting them.
     srgb: bool,
     planar: bool,
+    /// The glass's own texture coordinates (in the order of `tris`, which are planar) where
+    /// they reach past the texture's square: the design is baked through them.
+    baked_from: Option<Vec<UvTriangle>>,
+    /// The window's width and height in scene units.
+    extent: (f64, f64),
     fit: Fit,
     aspect: f64,
     size: (u32, u32),
@@ -935,6 +985,34 @@ impl Pending {
     }
 }
 
+/// The size of a design baked through the glass's own texture coordinates `own`: the design's
+/// texels as dense as the glass shows them (its texels times the coordinates' span, per scene
+/// unit, the denser axis), at least `least` (the size a design drawn for the window gets, so
+/// the outline is resolved where a small design is tiled), at most [`design::MAX_SIDE`].
+fn baked_size(
+    own: &[UvTriangle],
+    design: &image::RgbaImage,
+    (width, height): (f64, f64),
+    least: (u32, u32),
+) -> (u32, u32) {
+    let Some(b) = design::beyond_unit_square(own) else {
+        return least;
+    };
+    let (su, sv) = ((b[2] - b[0]) as f64, (b[3] - b[1]) as f64);
+    let density = (design.width() as f64 * su / width.max(1e-12))
+        .max(design.height() as f64 * sv / height.max(1e-12));
+    let (mut w, mut h) = (width * density, height * density);
+    let long = w.max(h);
+    if long > design::MAX_SIDE as f64 {
+        (w, h) = (w * design::MAX_SIDE as f64 / long, h * design::MAX_SIDE as f64 / long);
+    }
+    let (w, h) = (w.round() as u32, h.round() as u32);
+    if w < least.0 || h < least.1 {
+        return least;
+    }
+    (w.clamp(1, design::MAX_SIDE), h.clamp(1, design::MAX_SIDE))
+}
+
 /// The design of one window: an image fitted and masked, or cut to the outline where it
 /// would let light through stone, or rasterized from the panes; with its size in texels.
 fn make_design(p: &Pending, images: &crate::textures::DecodedImages) -> Result<Design, CookError> {
@@ -960,9 +1038,23 @@ fn make_design(p: &Pending, images: &crate::textures::DecodedImages) -> Result<D
     };
     let name = format!(
         "{stem}.{}{}",
-        if p.planar { "fitted" } else { "masked" },
+        match (&p.baked_from, p.planar) {
+            (Some(_), _) => "tiled",
+            (None, true) => "fitted",
+            (None, false) => "masked",
+        },
         if p.tints.is_some() { ".tinted" } else { "" }
     );
+    if let Some(own) = &p.baked_from {
+        let decoded = get(img)?;
+        let pixels = rgba(&decoded);
+        let (w, h) = baked_size(own, &pixels, p.extent, p.size);
+        let mut canvas = design::bake(&p.tris, own, &pixels, w, h);
+        if let Some(tints) = &p.tints {
+            design::tint_image(&mut canvas, &p.tris, tints, p.srgb);
+        }
+        return Ok((raster(name, canvas), *source, (w, h)));
+    }
     if p.planar {
         let mut canvas = design::fit_design(&rgba(&*get(img)?), p.fit, p.aspect);
         if let Some(tints) = &p.tints {

@@ -1048,3 +1048,91 @@ fn a_size_cap_bounds_projectors_with_their_margin() {
         assert!(side <= 256, "{}: {side}", t["name"]);
     }
 }
+
+/// Glass whose texture coordinates reach past the texture's square, tiled 2 x 2 or given in
+/// metres as SketchUp writes them: its design is drawn as the glass shows it onto planar
+/// coordinates, so the light falls where the glass is. A projector covers the square only:
+/// the light fell on a quarter of the tiled window's patch, and the metre-mapped window's
+/// came from a phantom window in the wall where the square lay, with `info` giving sizes of
+/// 1 x 1.5 and 1 x 1 for a 2 x 3 window.
+#[test]
+fn glass_mapped_past_the_texture_square_throws_its_design_where_it_is() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    // Left half red, right half blue: two tiles across the glass are four bands.
+    image::RgbaImage::from_fn(8, 8, |x, _| {
+        if x < 4 {
+            image::Rgba([220, 30, 30, 255])
+        } else {
+            image::Rgba([30, 30, 220, 255])
+        }
+    })
+    .save(d.join("halves.png"))
+    .unwrap();
+    std::fs::write(
+        d.join("w.mtl"),
+        "newmtl floor\nKd 0.6 0.6 0.6\nnewmtl Glass\nKd 1 1 1\nd 0.5\nmap_Kd halves.png\n",
+    )
+    .unwrap();
+    // A 2 x 3 m pane in the plane z = 0, over a floor in front of it; `u0` and `v0` shift its
+    // coordinates by whole tiles.
+    let scene = |name: &str, u0: f32, v0: f32| {
+        let obj = format!(
+            "mtllib w.mtl\nv -4 0 -6\nv 6 0 -6\nv 6 0 6\nv -4 0 6\nv 0 1 0\nv 2 1 0\nv 2 4 0\n\
+             v 0 4 0\nvt {} {}\nvt {} {}\nvt {} {}\nvt {} {}\nusemtl floor\nf 1 4 3 2\n\
+             usemtl Glass\nf 5/1 6/2 7/3 8/4\n",
+            u0,
+            v0,
+            u0 + 2.0,
+            v0,
+            u0 + 2.0,
+            v0 + 3.0,
+            u0,
+            v0 + 3.0
+        );
+        let path = d.join(format!("{name}.obj"));
+        std::fs::write(&path, obj).unwrap();
+        path
+    };
+    let mut bands = Vec::new();
+    for (name, u0, v0) in [("tiled", 0.0, 0.0), ("metres", 5.0, 1.5)] {
+        let obj = scene(name, u0, v0);
+        let pack = d.join(format!("{name}.pack"));
+        let (_, said) = cook_obj(&obj, &pack, &["--texture-format", "rgba8"]);
+        assert!(
+            said.contains("past the texture's square") && said.contains("window \"Glass\""),
+            "{said}"
+        );
+        let o = cooker(&[&"info", &pack, &"--json"]);
+        let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+        let w = &v["windows"][0];
+        assert_eq!((w["width"].as_f64(), w["height"].as_f64()), (Some(2.0), Some(3.0)), "{w}");
+        assert_eq!(w["design"], "halves.tiled", "{w}");
+        let (tw, th, _) = texture_info(&pack, "halves.tiled");
+        assert!(tw * 3 == th * 2 || (tw * 3).abs_diff(th * 2) <= 3, "{tw}x{th}");
+        let img = extract(&pack, "halves.tiled", 0, d);
+        // Across the middle row: red, blue, red, blue, a quarter of the width each.
+        let y = img.height() / 2;
+        let seen: Vec<char> = (0..4)
+            .map(|q| {
+                let p = img.get_pixel((2 * q + 1) * img.width() / 8, y);
+                assert_eq!(p[3], 255, "{p:?}");
+                if p[0] > 150 && p[2] < 80 {
+                    'r'
+                } else if p[2] > 150 && p[0] < 80 {
+                    'b'
+                } else {
+                    '?'
+                }
+            })
+            .collect();
+        bands.push(seen);
+    }
+    // Two tiles across, whichever way the planar coordinates run; metres 5..7 are two whole
+    // tiles too, starting on a tile's edge: the same design.
+    assert!(
+        bands[0] == ['r', 'b', 'r', 'b'] || bands[0] == ['b', 'r', 'b', 'r'],
+        "{bands:?}"
+    );
+    assert_eq!(bands[1], bands[0]);
+}
