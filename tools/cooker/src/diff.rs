@@ -67,6 +67,53 @@ struct LevelDiff {
     flip_mean: Option<f32>,
 }
 
+/// One texture of a, or of b alone, as the diff compared it: its name in each, the state
+/// (`compared`, `compared from a level on` where a size cap left one chain the other's tail,
+/// `sizes differ`, `only in a`, `only in b`), each pack's `[width, height, mips]` (null for
+/// the pack without it) and the levels compared.
+struct TextureDiff {
+    name: String,
+    name_in_b: Option<String>,
+    state: &'static str,
+    size_a: Option<[u32; 3]>,
+    size_b: Option<[u32; 3]>,
+    levels: Vec<LevelDiff>,
+}
+
+impl TextureDiff {
+    fn size(t: &pack::Texture) -> Option<[u32; 3]> {
+        Some([t.width, t.height, t.mips.len() as u32])
+    }
+
+    fn of(a: &pack::Texture, b: &pack::Texture, state: &'static str, levels: Vec<LevelDiff>) -> Self {
+        TextureDiff {
+            name: a.name.clone(),
+            name_in_b: Some(b.name.clone()),
+            state,
+            size_a: Self::size(a),
+            size_b: Self::size(b),
+            levels,
+        }
+    }
+
+    fn only(t: &pack::Texture, state: &'static str) -> Self {
+        let a = state == "only in a";
+        TextureDiff {
+            name: t.name.clone(),
+            name_in_b: (!a).then(|| t.name.clone()),
+            state,
+            size_a: if a { Self::size(t) } else { None },
+            size_b: if a { None } else { Self::size(t) },
+            levels: Vec::new(),
+        }
+    }
+
+    /// Both packs hold it at one size with every level's texels equal.
+    fn texels_equal(&self) -> bool {
+        self.state == "compared" && self.levels.iter().all(|d| d.max_error == 0)
+    }
+}
+
 fn level_diff(role: TextureRole, level: usize, w: u32, h: u32, a: &[u8], b: &[u8]) -> LevelDiff {
     // A projector's alpha is never sampled (the light is its colour), and its block-compressed
     // copy is encoded opaque: an RGBA8 pack and a BC one differed by 255 there, always.
@@ -864,6 +911,9 @@ pub fn run(args: Args) -> Outcome {
 
     // Materials, by name.
     let mut materials = Vec::new();
+    // Per material compared: its entry in `materials` and the textures its slots name in a,
+    // so `textures_equal` can say whether their texels are equal too.
+    let mut material_textures = Vec::new();
     let (tria, trib) = (ta.triangles_per_material(), tb.triangles_per_material());
     for (i, m) in ta.materials.iter().enumerate() {
         match tb.materials.iter().position(|n| n.name == m.name) {
@@ -924,6 +974,7 @@ pub fn run(args: Args) -> Outcome {
                         ));
                     }
                 }
+                material_textures.push((materials.len(), texture_slots(m)));
                 materials.push(json!({
                     "name": m.name, "class": [m.class.name(), n.class.name()],
                     "triangles": [tria[i], trib[j]],
@@ -945,6 +996,7 @@ pub fn run(args: Args) -> Outcome {
     for (i, t) in ta.textures.iter().enumerate() {
         let Some((j, u)) = partners[i].map(|j| (j, &tb.textures[j])) else {
             problems.push(format!("texture {:?} is missing from b", t.name));
+            textures.push(TextureDiff::only(t, "only in a"));
             continue;
         };
         if u.name != t.name && args.tolerance_lsb.is_none() {
@@ -975,6 +1027,7 @@ pub fn run(args: Args) -> Outcome {
             ));
         }
         let Some((from_a, from_b)) = shared else {
+            textures.push(TextureDiff::of(t, u, "sizes differ", Vec::new()));
             continue;
         };
         let mut levels = Vec::new();
@@ -997,11 +1050,31 @@ pub fn run(args: Args) -> Outcome {
             }
             levels.push(d);
         }
-        textures.push((t.name.clone(), u.name.clone(), levels));
+        let state = if shared == Some((0, 0)) {
+            "compared"
+        } else {
+            "compared from a level on"
+        };
+        textures.push(TextureDiff::of(t, u, state, levels));
     }
     for (j, t) in tb.textures.iter().enumerate() {
         if !partners.contains(&Some(j)) {
             problems.push(format!("texture {:?} is new in b", t.name));
+            textures.push(TextureDiff::only(t, "only in b"));
+        }
+    }
+    // A material whose slots name the partner textures still differs where their texels do
+    // (a window's design file edited in place keeps every name).
+    for (k, slots) in material_textures {
+        let texels_equal = slots.iter().filter_map(|(_, x)| *x).all(|x| {
+            let name = &ta.textures[x as usize].name;
+            textures
+                .iter()
+                .find(|d| d.state != "only in b" && d.name == *name)
+                .is_some_and(TextureDiff::texels_equal)
+        });
+        if !texels_equal {
+            materials[k]["textures_equal"] = json!(false);
         }
     }
     // Scene parameters outside geometry and textures, each also a field of `--json`'s
@@ -1065,11 +1138,13 @@ pub fn run(args: Args) -> Outcome {
     if args.json {
         let tex_json: Vec<Value> = textures
             .iter()
-            .map(|(name, name_in_b, levels)| {
+            .map(|t| {
                 json!({
-                    "name": name,
-                    "name_in_b": name_in_b,
-                    "levels": levels.iter().map(|d| json!({
+                    "name": t.name,
+                    "name_in_b": t.name_in_b,
+                    "state": t.state,
+                    "size": [t.size_a, t.size_b],
+                    "levels": t.levels.iter().map(|d| json!({
                         "level": d.level, "width": d.width, "height": d.height,
                         "max_error": d.max_error,
                         // JSON has no infinity: an equal level's PSNR is null, and `equal`
@@ -1116,7 +1191,7 @@ pub fn run(args: Args) -> Outcome {
         for line in &reordered {
             println!("  {line}");
         }
-        for (name, _, levels) in &textures {
+        for TextureDiff { name, levels, .. } in &textures {
             for d in levels.iter().filter(|d| d.max_error > 0) {
                 let flip = d
                     .flip_mean

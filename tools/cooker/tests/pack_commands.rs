@@ -403,6 +403,48 @@ fn diff_names_the_material_whose_design_changed() {
     };
     assert_eq!(equal("window_lower_2"), false);
     assert_eq!(equal("window_lower_4"), true);
+
+    // The design file edited in place, to another size: every name stays, yet the windows
+    // that show it differ, and its textures are listed as such (they were left out of
+    // `textures`, and the materials said `textures_equal: true`).
+    mosaic
+        .resize_exact(300, 700, image::imageops::FilterType::Triangle)
+        .save(scene.join("windows/mosaic.png"))
+        .unwrap();
+    let c = cook("c.pack");
+    let o = cooker(&[&"diff", &b, &c, &"--json"]);
+    assert_eq!(o.status.code(), Some(1));
+    let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    let equal = |name: &str| {
+        v["materials"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .find(|m| m["name"] == name)
+            .unwrap()["textures_equal"]
+            .clone()
+    };
+    assert_eq!(equal("window_lower_4"), false, "{v:#}");
+    assert_eq!(equal("window_lower_2"), true, "{v:#}");
+    assert_eq!(equal("rose"), true, "{v:#}");
+    let textures = v["textures"].as_array().unwrap();
+    // The design and its projector and normal map: 329 x 1024 in b, 300 x 700 in c.
+    let resized: Vec<&serde_json::Value> = textures
+        .iter()
+        .filter(|t| t["state"] == "sizes differ")
+        .collect();
+    assert!(resized.len() >= 2, "{v:#}");
+    assert!(
+        resized
+            .iter()
+            .any(|t| t["size"][0] == serde_json::json!([329, 1024, 11])
+                && t["size"][1] == serde_json::json!([300, 700, 10])),
+        "{v:#}"
+    );
+    assert!(
+        textures.iter().filter(|t| t["state"] == "compared").count() >= 10,
+        "{v:#}"
+    );
 }
 
 /// The sample's quad with its triangles' corners listed from the second (so it compares as
