@@ -508,6 +508,32 @@ pub fn bake(
     out
 }
 
+/// The shorter side below which a design cannot draw a window's outline: [`outline_resolved`]
+/// filters such a design up before it is masked.
+pub const OUTLINE_SIDE: u32 = 32;
+
+/// `design` filtered up by a whole factor until its shorter side reaches [`OUTLINE_SIDE`]
+/// (bilinear, edges clamped: as a renderer samples the small image), when it is shorter;
+/// else `None`. Its longer side stays within [`MAX_SIDE`].
+pub fn outline_resolved(design: &RgbaImage) -> Option<RgbaImage> {
+    let (w, h) = design.dimensions();
+    let short = w.min(h);
+    if short == 0 || short >= OUTLINE_SIDE {
+        return None;
+    }
+    let factor = OUTLINE_SIDE
+        .div_ceil(short)
+        .min((MAX_SIDE / w.max(h)).max(1));
+    (factor > 1).then(|| {
+        image::imageops::resize(
+            design,
+            w * factor,
+            h * factor,
+            image::imageops::FilterType::Triangle,
+        )
+    })
+}
+
 /// The window's coverage in texture space at the image's size.
 pub fn coverage(tris: &[UvTriangle], w: u32, h: u32) -> Vec<bool> {
     rasterize(tris, w, h).into_iter().map(|i| i != 0).collect()

@@ -1056,7 +1056,8 @@ fn make_design(p: &Pending, images: &crate::textures::DecodedImages) -> Result<D
         return Ok((raster(name, canvas), *source, (w, h)));
     }
     if p.planar {
-        let mut canvas = design::fit_design(&rgba(&*get(img)?), p.fit, p.aspect);
+        let canvas = design::fit_design(&rgba(&*get(img)?), p.fit, p.aspect);
+        let mut canvas = design::outline_resolved(&canvas).unwrap_or(canvas);
         if let Some(tints) = &p.tints {
             design::tint_image(&mut canvas, &p.tris, tints, p.srgb);
         }
@@ -1069,6 +1070,15 @@ fn make_design(p: &Pending, images: &crate::textures::DecodedImages) -> Result<D
     // through where the window has no glass.
     let decoded = get(img)?;
     let pixels = rgba(&decoded);
+    // A design of a few texels (one colour for the whole window) resolves no outline at its
+    // size: a 1x1 design's one texel is covered, so the light kept the square's corners
+    // beyond a pointed lancet. Filtered up as the renderer samples it, then masked.
+    let pixels = match design::outline_resolved(&pixels) {
+        Some(up) if design::light_outside(&up, &design::coverage(&p.tris, up.width(), up.height())) => {
+            std::borrow::Cow::Owned(up)
+        }
+        _ => pixels,
+    };
     let size = pixels.dimensions();
     let mask = design::coverage(&p.tris, size.0, size.1);
     let pixels = match &p.tints {

@@ -1136,3 +1136,43 @@ fn glass_mapped_past_the_texture_square_throws_its_design_where_it_is() {
     );
     assert_eq!(bands[1], bands[0]);
 }
+
+/// A design of a single texel (one colour for the whole window) on a triangular pane, its
+/// texture coordinates half the square: the light keeps to the triangle. At its own size the
+/// one texel was covered, so nothing was masked and the square's other half threw light
+/// through stone.
+#[test]
+fn a_one_texel_design_is_masked_to_its_window() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    image::RgbaImage::from_pixel(1, 1, image::Rgba([200, 150, 40, 255]))
+        .save(d.join("one.png"))
+        .unwrap();
+    std::fs::write(
+        d.join("w.mtl"),
+        "newmtl floor\nKd 0.6 0.6 0.6\nnewmtl Glass\nKd 1 1 1\nd 0.5\nmap_Kd one.png\n",
+    )
+    .unwrap();
+    let obj = d.join("w.obj");
+    std::fs::write(
+        &obj,
+        "mtllib w.mtl\nv -4 0 -6\nv 6 0 -6\nv 6 0 6\nv -4 0 6\nv 0 1 0\nv 2 1 0\nv 0 4 0\n\
+         vt 0 0\nvt 1 0\nvt 0 1\nusemtl floor\nf 1 4 3 2\nusemtl Glass\nf 5/1 6/2 7/3\n",
+    )
+    .unwrap();
+    let pack = d.join("one.pack");
+    cook_obj(&obj, &pack, &["--texture-format", "rgba8"]);
+    let (w, h, _) = texture_info(&pack, "one.masked");
+    assert!(w >= 32 && h >= 32, "{w}x{h}");
+    let img = extract(&pack, "one.masked", 0, d);
+    let (w, h) = img.dimensions();
+    // The covered corner keeps the colour; the far corner of the square is cleared (v runs
+    // down the image, so the pane's corner at vt 0 1 is a bottom corner).
+    let lit = img
+        .pixels()
+        .filter(|p| p[3] == 255 && p[0] == 200 && p[1] == 150)
+        .count();
+    let clear = img.pixels().filter(|p| p[3] == 0).count();
+    let n = (w * h) as usize;
+    assert!(lit * 10 > n * 4 && clear * 10 > n * 4, "{lit} lit, {clear} clear of {n}");
+}
