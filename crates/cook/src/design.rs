@@ -424,7 +424,25 @@ pub fn fit_design(design: &RgbaImage, fit: Fit, aspect: f64) -> RgbaImage {
         (Fit::Cover, true) | (Fit::Contain, false) => ((ih * aspect).round(), ih),
         _ => (iw, (iw / aspect).round()),
     };
+    // `contain` of a design far from the window's shape is mostly clear glass: a 4000 x 3
+    // strip on a lancet made a 4000 x 12464 canvas (266 MB, 15 s of cooking, 815 MB in the
+    // viewer). The canvas is kept within four times the design's texels (or MAX_SIDE²), the
+    // design reduced with it.
+    let limit = (4.0 * iw * ih).max((MAX_SIDE as f64).powi(2));
+    if cw * ch > limit {
+        let s = (limit / (cw * ch)).sqrt();
+        let (w, h) = (((iw * s).round() as u32).max(1), ((ih * s).round() as u32).max(1));
+        let smaller = image::imageops::resize(design, w, h, image::imageops::FilterType::Triangle);
+        let (cw, ch) = (((cw * s).round() as u32).max(1), ((ch * s).round() as u32).max(1));
+        return centred(&smaller, cw, ch);
+    }
     let (cw, ch) = (cw.max(1.0) as u32, ch.max(1.0) as u32);
+    centred(design, cw, ch)
+}
+
+/// `design` centred in a `cw x ch` canvas of clear glass, cropped where it is larger.
+fn centred(design: &RgbaImage, cw: u32, ch: u32) -> RgbaImage {
+    let (iw, ih) = (design.width() as f64, design.height() as f64);
     // The design's centre goes to the canvas centre; both are sampled on the same texel grid.
     let dx = (iw as i64 - cw as i64) / 2;
     let dy = (ih as i64 - ch as i64) / 2;
@@ -774,6 +792,25 @@ mod tests {
         assert_eq!(*c.get_pixel(100, 10), CLEAR);
         assert_eq!(c.get_pixel(150, 100)[0], 255);
         assert_eq!(fit_design(&d, Fit::Stretch, 1.0).dimensions(), (200, 100));
+    }
+
+    /// `contain` of a strip on a lancet: the canvas stays within four times the design's
+    /// texels or MAX_SIDE², of the window's shape, the strip reduced and centred in it; a
+    /// square design on a 1:3 lancet is kept whole at its size.
+    #[test]
+    fn contain_keeps_a_strip_s_canvas_bounded() {
+        let strip = RgbaImage::from_pixel(4000, 3, Rgba([200, 30, 30, 255]));
+        let c = fit_design(&strip, Fit::Contain, 0.321);
+        let (w, h) = c.dimensions();
+        assert!((w * h) as f64 <= (MAX_SIDE as f64).powi(2) * 1.01, "{w}x{h}");
+        assert!(((w as f64 / h as f64) - 0.321).abs() < 0.01, "{w}x{h}");
+        assert_eq!(c.get_pixel(w / 2, h / 2)[0], 200);
+        assert_eq!(*c.get_pixel(w / 2, 0), CLEAR);
+        let square = RgbaImage::from_pixel(1024, 1024, Rgba([30, 30, 200, 255]));
+        assert_eq!(
+            fit_design(&square, Fit::Contain, 1.0 / 3.0).dimensions(),
+            (1024, 3072)
+        );
     }
 
     #[test]
