@@ -431,9 +431,15 @@ pub fn fit_design(design: &RgbaImage, fit: Fit, aspect: f64) -> RgbaImage {
     let limit = (4.0 * iw * ih).max((MAX_SIDE as f64).powi(2));
     if cw * ch > limit {
         let s = (limit / (cw * ch)).sqrt();
-        let (w, h) = (((iw * s).round() as u32).max(1), ((ih * s).round() as u32).max(1));
+        let (w, h) = (
+            ((iw * s).round() as u32).max(1),
+            ((ih * s).round() as u32).max(1),
+        );
         let smaller = image::imageops::resize(design, w, h, image::imageops::FilterType::Triangle);
-        let (cw, ch) = (((cw * s).round() as u32).max(1), ((ch * s).round() as u32).max(1));
+        let (cw, ch) = (
+            ((cw * s).round() as u32).max(1),
+            ((ch * s).round() as u32).max(1),
+        );
         return centred(&smaller, cw, ch);
     }
     let (cw, ch) = (cw.max(1.0) as u32, ch.max(1.0) as u32);
@@ -464,9 +470,19 @@ pub const UV_SLACK: f32 = 0.01;
 /// reach past the texture's square by more than [`UV_SLACK`] (tiled glass, or coordinates in
 /// metres as SketchUp writes them), else `None`.
 pub fn beyond_unit_square(tris: &[UvTriangle]) -> Option<[f32; 4]> {
-    let mut b = [f32::INFINITY, f32::INFINITY, f32::NEG_INFINITY, f32::NEG_INFINITY];
+    let mut b = [
+        f32::INFINITY,
+        f32::INFINITY,
+        f32::NEG_INFINITY,
+        f32::NEG_INFINITY,
+    ];
     for c in tris.iter().flat_map(|(uv, _)| uv) {
-        b = [b[0].min(c[0]), b[1].min(c[1]), b[2].max(c[0]), b[3].max(c[1])];
+        b = [
+            b[0].min(c[0]),
+            b[1].min(c[1]),
+            b[2].max(c[0]),
+            b[3].max(c[1]),
+        ];
     }
     let finite = b.iter().all(|v| v.is_finite());
     (finite && (b[0].min(b[1]) < -UV_SLACK || b[2].max(b[3]) > 1.0 + UV_SLACK)).then_some(b)
@@ -490,14 +506,22 @@ pub fn bake(
     }
     let texel = |x: i64, y: i64| design.get_pixel(x.rem_euclid(dw) as u32, y.rem_euclid(dh) as u32);
     scan(planar, w, h, |t, x, y, tile| {
-        let p = planar[t].0.map(|c| [(c[0] as f64 - tile[0]) * w as f64, (c[1] as f64 - tile[1]) * h as f64]);
+        let p = planar[t].0.map(|c| {
+            [
+                (c[0] as f64 - tile[0]) * w as f64,
+                (c[1] as f64 - tile[1]) * h as f64,
+            ]
+        });
         let (cx, cy) = (x as f64 + 0.5, y as f64 + 0.5);
-        let det = (p[1][0] - p[0][0]) * (p[2][1] - p[0][1]) - (p[2][0] - p[0][0]) * (p[1][1] - p[0][1]);
+        let det =
+            (p[1][0] - p[0][0]) * (p[2][1] - p[0][1]) - (p[2][0] - p[0][0]) * (p[1][1] - p[0][1]);
         if det == 0.0 || !det.is_finite() {
             return;
         }
-        let b1 = ((cx - p[0][0]) * (p[2][1] - p[0][1]) - (p[2][0] - p[0][0]) * (cy - p[0][1])) / det;
-        let b2 = ((p[1][0] - p[0][0]) * (cy - p[0][1]) - (cx - p[0][0]) * (p[1][1] - p[0][1])) / det;
+        let b1 =
+            ((cx - p[0][0]) * (p[2][1] - p[0][1]) - (p[2][0] - p[0][0]) * (cy - p[0][1])) / det;
+        let b2 =
+            ((p[1][0] - p[0][0]) * (cy - p[0][1]) - (cx - p[0][0]) * (p[1][1] - p[0][1])) / det;
         let b0 = 1.0 - b1 - b2;
         let uv = source[t].0;
         let at = |k: usize| b0 * uv[0][k] as f64 + b1 * uv[1][k] as f64 + b2 * uv[2][k] as f64;
@@ -802,7 +826,10 @@ mod tests {
         let strip = RgbaImage::from_pixel(4000, 3, Rgba([200, 30, 30, 255]));
         let c = fit_design(&strip, Fit::Contain, 0.321);
         let (w, h) = c.dimensions();
-        assert!((w * h) as f64 <= (MAX_SIDE as f64).powi(2) * 1.01, "{w}x{h}");
+        assert!(
+            (w * h) as f64 <= (MAX_SIDE as f64).powi(2) * 1.01,
+            "{w}x{h}"
+        );
         assert!(((w as f64 / h as f64) - 0.321).abs() < 0.01, "{w}x{h}");
         assert_eq!(c.get_pixel(w / 2, h / 2)[0], 200);
         assert_eq!(*c.get_pixel(w / 2, 0), CLEAR);

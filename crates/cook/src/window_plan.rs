@@ -1004,7 +1004,10 @@ fn baked_size(
     let (mut w, mut h) = (width * density, height * density);
     let long = w.max(h);
     if long > design::MAX_SIDE as f64 {
-        (w, h) = (w * design::MAX_SIDE as f64 / long, h * design::MAX_SIDE as f64 / long);
+        (w, h) = (
+            w * design::MAX_SIDE as f64 / long,
+            h * design::MAX_SIDE as f64 / long,
+        );
     }
     let (w, h) = (w.round() as u32, h.round() as u32);
     if w < least.0 || h < least.1 {
@@ -1074,7 +1077,9 @@ fn make_design(p: &Pending, images: &crate::textures::DecodedImages) -> Result<D
     // size: a 1x1 design's one texel is covered, so the light kept the square's corners
     // beyond a pointed lancet. Filtered up as the renderer samples it, then masked.
     let pixels = match design::outline_resolved(&pixels) {
-        Some(up) if design::light_outside(&up, &design::coverage(&p.tris, up.width(), up.height())) => {
+        Some(up)
+            if design::light_outside(&up, &design::coverage(&p.tris, up.width(), up.height())) =>
+        {
             std::borrow::Cow::Owned(up)
         }
         _ => pixels,

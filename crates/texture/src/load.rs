@@ -74,12 +74,13 @@ pub fn probe_image(path: &Path) -> Result<(u32, u32), TextureError> {
             });
         }
     }
-    let (width, height) = reader(path)?
-        .into_dimensions()
-        .map_err(|error| TextureError::Decode {
-            path: path.to_path_buf(),
-            error,
-        })?;
+    let (width, height) =
+        reader(path)?
+            .into_dimensions()
+            .map_err(|error| TextureError::Decode {
+                path: path.to_path_buf(),
+                error,
+            })?;
     check_claimed_size(path, width, height)?;
     Ok((width, height))
 }
@@ -407,7 +408,10 @@ mod tests {
         ));
         let text = at("notes.png", b"not an image at all");
         let e = probe_image(&text).unwrap_err();
-        assert!(e.to_string().starts_with(&text.display().to_string()), "{e}");
+        assert!(
+            e.to_string().starts_with(&text.display().to_string()),
+            "{e}"
+        );
         // IHDR claiming 20000 x 1, with a correct CRC so only the size is wrong.
         let mut ihdr = b"IHDR".to_vec();
         ihdr.extend(20000u32.to_be_bytes());
@@ -438,7 +442,11 @@ mod tests {
         for &b in bytes {
             c ^= b as u32;
             for _ in 0..8 {
-                c = if c & 1 == 1 { 0xEDB8_8320 ^ (c >> 1) } else { c >> 1 };
+                c = if c & 1 == 1 {
+                    0xEDB8_8320 ^ (c >> 1)
+                } else {
+                    c >> 1
+                };
             }
         }
         !c

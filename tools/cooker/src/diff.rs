@@ -85,7 +85,12 @@ impl TextureDiff {
         Some([t.width, t.height, t.mips.len() as u32])
     }
 
-    fn of(a: &pack::Texture, b: &pack::Texture, state: &'static str, levels: Vec<LevelDiff>) -> Self {
+    fn of(
+        a: &pack::Texture,
+        b: &pack::Texture,
+        state: &'static str,
+        levels: Vec<LevelDiff>,
+    ) -> Self {
         TextureDiff {
             name: a.name.clone(),
             name_in_b: Some(b.name.clone()),

@@ -104,9 +104,18 @@ fn exact1(v: f32, min: usize, back: impl Fn(f32) -> f32, want: f32) -> String {
 fn relative(mesh: &Path, dir: &Path) -> String {
     let abs = |p: &Path| std::fs::canonicalize(p).unwrap_or_else(|_| p.to_path_buf());
     let (m, d) = (abs(mesh), abs(dir));
-    m.strip_prefix(&d)
-        .map(|r| r.to_string_lossy().replace('\\', "/"))
-        .unwrap_or_else(|_| m.to_string_lossy().into_owned())
+    let path = m.strip_prefix(&d).unwrap_or(&m);
+    // A name that is not UTF-8 (an archive made on Windows unpacks `часовня.obj` as its
+    // windows-1251 bytes) is written escaped, as the cook reads such names back: lossy, it
+    // named no file and the starter manifest did not parse.
+    let text: Vec<String> = path
+        .components()
+        .map(|c| match c {
+            std::path::Component::RootDir => String::new(),
+            other => cook::import::text::file_name_text(other.as_os_str()).into_owned(),
+        })
+        .collect();
+    text.join("/")
 }
 
 pub fn run(args: Args) -> Outcome {
@@ -161,10 +170,11 @@ pub fn run(args: Args) -> Outcome {
         .parent()
         .filter(|p| !p.as_os_str().is_empty())
         .unwrap_or(Path::new("."));
+    let encoding = prepared.imported.iter().find_map(|i| i.text_encoding);
     let stem = args
         .mesh
         .file_stem()
-        .map(|s| s.to_string_lossy().into_owned())
+        .map(|s| cook::import::text::file_name_for_display(s, encoding))
         .unwrap_or_default();
     let mut t = String::new();
     let _ = writeln!(
@@ -189,11 +199,20 @@ pub fn run(args: Args) -> Outcome {
         );
     }
     t.push('\n');
-    let _ = writeln!(
-        t,
-        "[[mesh]]\nsource = {}",
-        quote(&relative(&args.mesh, dir))
-    );
+    let source = relative(&args.mesh, dir);
+    let _ = writeln!(t, "[[mesh]]\nsource = {}", quote(&source));
+    if let Some(name) = args
+        .mesh
+        .file_name()
+        .filter(|_| source.chars().any(|c| c >= '\u{10FF00}'))
+    {
+        let _ = writeln!(
+            t,
+            "# the file's name is not UTF-8 ({}): each byte of it that is not is written as \
+             the character U+10FF00 + byte",
+            cook::import::text::file_name_for_display(name, encoding)
+        );
+    }
     if args.model.up == cook::UpAxis::Z {
         let _ = writeln!(
             t,

@@ -1106,10 +1106,17 @@ fn glass_mapped_past_the_texture_square_throws_its_design_where_it_is() {
         let o = cooker(&[&"info", &pack, &"--json"]);
         let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
         let w = &v["windows"][0];
-        assert_eq!((w["width"].as_f64(), w["height"].as_f64()), (Some(2.0), Some(3.0)), "{w}");
+        assert_eq!(
+            (w["width"].as_f64(), w["height"].as_f64()),
+            (Some(2.0), Some(3.0)),
+            "{w}"
+        );
         assert_eq!(w["design"], "halves.tiled", "{w}");
         let (tw, th, _) = texture_info(&pack, "halves.tiled");
-        assert!(tw * 3 == th * 2 || (tw * 3).abs_diff(th * 2) <= 3, "{tw}x{th}");
+        assert!(
+            tw * 3 == th * 2 || (tw * 3).abs_diff(th * 2) <= 3,
+            "{tw}x{th}"
+        );
         let img = extract(&pack, "halves.tiled", 0, d);
         // Across the middle row: red, blue, red, blue, a quarter of the width each.
         let y = img.height() / 2;
@@ -1174,5 +1181,8 @@ fn a_one_texel_design_is_masked_to_its_window() {
         .count();
     let clear = img.pixels().filter(|p| p[3] == 0).count();
     let n = (w * h) as usize;
-    assert!(lit * 10 > n * 4 && clear * 10 > n * 4, "{lit} lit, {clear} clear of {n}");
+    assert!(
+        lit * 10 > n * 4 && clear * 10 > n * 4,
+        "{lit} lit, {clear} clear of {n}"
+    );
 }

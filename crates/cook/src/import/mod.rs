@@ -905,10 +905,21 @@ fn any_case(dir: &Path, relative: &str) -> Option<PathBuf> {
             })
             .ok()?;
             let lower = part.to_lowercase();
+            // A name on disk that is not UTF-8 (`узор.png` in windows-1251 bytes) is compared
+            // as the common encodings read it: the model names it in its own letters
+            // (`Узор.PNG`), and its escaped bytes have no letter case.
+            let same = |n: &std::ffi::OsStr| {
+                let t = text::file_name_text(n);
+                t.to_lowercase() == lower
+                    || (text::is_escaped(&t)
+                        && text::COMMON
+                            .iter()
+                            .any(|&e| text::decode_escaped(&t, e).to_lowercase() == lower))
+            };
             let found = entries
                 .filter_map(Result::ok)
                 .map(|e| e.file_name())
-                .filter(|n| text::file_name_text(n).to_lowercase() == lower)
+                .filter(|n| same(n))
                 .min()?;
             at.join(found)
         };

@@ -249,7 +249,7 @@ pub fn file_name_for_display(name: &std::ffi::OsStr, encoding: Option<TextEncodi
 }
 
 /// A file name found on disk in the form names take here: escaped where it is not UTF-8.
-pub(crate) fn file_name_text(name: &std::ffi::OsStr) -> Cow<'_, str> {
+pub fn file_name_text(name: &std::ffi::OsStr) -> Cow<'_, str> {
     #[cfg(unix)]
     {
         use std::os::unix::ffi::OsStrExt;
