@@ -85,7 +85,22 @@ impl Source<'_> {
     /// A syntax or type error from toml. One about a value (a wrong type, a name that is no
     /// variant) says which key it is about, since toml's own message does not.
     fn toml_error(&self, e: &toml::de::Error) -> CookError {
-        let message = e.message().trim();
+        // Rust's type names are no manifest's words: `intensity = "bright"` said "expected
+        // f32".
+        let mut message = e.message().trim().to_string();
+        for (rust, said) in [
+            ("expected f32", "expected a number"),
+            ("expected f64", "expected a number"),
+            ("expected u32", "expected a whole number"),
+            ("expected u16", "expected a whole number"),
+            ("expected u8", "expected a whole number"),
+            ("expected usize", "expected a whole number"),
+            ("expected a boolean", "expected true or false"),
+        ] {
+            if let Some(rest) = message.strip_suffix(rust) {
+                message = format!("{rest}{said}");
+            }
+        }
         let message = match e.span().and_then(|s| self.key_before(s.start)) {
             Some(key) => format!("{key}: {message}"),
             None => message.to_string(),
@@ -195,9 +210,14 @@ impl Source<'_> {
                 None => Err(self.err_at(
                     value,
                     format!(
-                        "{what} {:?} cannot be read ({}): {e}",
+                        "{what} {:?} cannot be read ({}): {e}{}",
                         value.get_ref(),
-                        path.display()
+                        path.display(),
+                        if e.kind() == std::io::ErrorKind::NotFound {
+                            file_suggestion(&path, value.get_ref())
+                        } else {
+                            String::new()
+                        }
                     ),
                 )),
             },
@@ -297,6 +317,34 @@ fn nearest<'n>(unknown: &str, names: impl Iterator<Item = &'n str>) -> Option<&'
 /// `; did you mean `x`?` where one of `names` is near `unknown`, else nothing.
 fn suggestion<'n>(unknown: &str, names: impl Iterator<Item = &'n str>) -> String {
     nearest(unknown, names).map_or_else(String::new, |n| format!("; did you mean `{n}`?"))
+}
+
+/// `; did you mean `windows/rose.png`?` where the folder `path` names holds a file whose name
+/// is near the missing one's (`rosee.png`), written as `written` writes its folders.
+fn file_suggestion(path: &Path, written: &str) -> String {
+    let (Some(dir), Some(name)) = (path.parent(), path.file_name().and_then(|n| n.to_str())) else {
+        return String::new();
+    };
+    let Ok(entries) = std::fs::read_dir(if dir.as_os_str().is_empty() {
+        Path::new(".")
+    } else {
+        dir
+    }) else {
+        return String::new();
+    };
+    let mut names: Vec<String> = entries
+        .filter_map(Result::ok)
+        .filter(|e| e.file_type().is_ok_and(|t| t.is_file()))
+        .filter_map(|e| e.file_name().into_string().ok())
+        .collect();
+    names.sort();
+    let Some(near) = nearest(name, names.iter().map(String::as_str)) else {
+        return String::new();
+    };
+    let folder = written
+        .rfind(['/', '\\'])
+        .map_or("", |i| &written[..=i]);
+    format!("; did you mean `{folder}{near}`?")
 }
 
 /// Why a value written finite reads as `inf`: the manifest's numbers are 32-bit floats

@@ -1091,6 +1091,18 @@ colour = [0.35, 0.5, 0.8]
                 2,
                 "missing.obj",
             ),
+            // A file name one letter off: the file beside it is named.
+            (
+                "[[mesh]]\nsource = \"./corridoor.obj\"\n".to_string(),
+                2,
+                "; did you mean `./corridor.obj`?",
+            ),
+            // The manifest's words for a value's type, not Rust's.
+            (
+                format!("{mesh}[light]\ntype = \"directional\"\nintensity = \"bright\"\n"),
+                5,
+                "intensity: invalid type: string \"bright\", expected a number",
+            ),
             (
                 format!("{mesh}[[window]]\nmaterial = \"w\"\ndesign = \"nope.png\"\n"),
                 5,
