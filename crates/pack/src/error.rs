@@ -47,7 +47,10 @@ impl PackError {
 pub enum Problem {
     #[error("file is {len} bytes, shorter than the {need}-byte header: truncated or not a pack")]
     TooShort { len: u64, need: u64 },
-    #[error("bad magic {found:02x?}: not a stained-glass pack")]
+    #[error(
+        "bad magic {found:02x?}: not a stained-glass pack{}",
+        source_hint(found)
+    )]
     BadMagic { found: [u8; 8] },
     #[error(
         "pack format version {found}, but this build reads version {expected}: {}",
@@ -162,5 +165,48 @@ impl From<Problem> for Fail {
             offset: None,
             problem,
         }
+    }
+}
+
+/// What a file that is no pack looks like it is, where its first bytes say: a model or scene
+/// given where a pack was wanted (`cooker info chapel.obj`) is one `cooker cook` away.
+fn source_hint(found: &[u8; 8]) -> &'static str {
+    let text = String::from_utf8_lossy(found);
+    let first = text.trim_start().split_whitespace().next().unwrap_or("");
+    if found.starts_with(b"glTF") {
+        " (it is a GLB model: `cooker cook` makes a pack of it)"
+    } else if found.starts_with(b"ply") {
+        " (it is a PLY model: `cooker cook` makes a pack of it)"
+    } else if matches!(
+        first,
+        "v" | "vn" | "vt" | "f" | "o" | "g" | "mtllib" | "usemtl" | "#"
+    ) {
+        " (it reads as text, an OBJ model or a scene: `cooker cook` makes a pack of one)"
+    } else if first.starts_with('{') {
+        " (it reads as JSON, a glTF model perhaps: `cooker cook` makes a pack of one)"
+    } else if first.starts_with('[') {
+        " (it reads as a scene manifest: `cooker cook` makes a pack of it)"
+    } else {
+        ""
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A model or scene given where a pack was wanted says what it looks like; other bytes
+    /// say only that they are no pack.
+    #[test]
+    fn a_model_given_for_a_pack_is_said_to_be_one() {
+        let said = |b: &[u8; 8]| Problem::BadMagic { found: *b }.to_string();
+        assert!(said(b"mtllib c").ends_with(
+            "(it reads as text, an OBJ model or a scene: `cooker cook` makes a pack of one)"
+        ));
+        assert!(said(b"glTF\x02\0\0\0").contains("it is a GLB model"));
+        assert!(said(b"ply\nform").contains("it is a PLY model"));
+        assert!(said(b"{\"asset\"").contains("glTF model perhaps"));
+        assert!(said(b"[[mesh]]").contains("scene manifest"));
+        assert!(said(b"\x89PNG\r\n\x1a\n").ends_with("not a stained-glass pack"));
     }
 }

@@ -341,9 +341,7 @@ fn file_suggestion(path: &Path, written: &str) -> String {
     let Some(near) = nearest(name, names.iter().map(String::as_str)) else {
         return String::new();
     };
-    let folder = written
-        .rfind(['/', '\\'])
-        .map_or("", |i| &written[..=i]);
+    let folder = written.rfind(['/', '\\']).map_or("", |i| &written[..=i]);
     format!("; did you mean `{folder}{near}`?")
 }
 
