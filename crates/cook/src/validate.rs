@@ -91,6 +91,10 @@ pub const FINDING_CODES: &[(&str, &str)] = &[
         "glass whose texture coordinates leave [0, 1]",
     ),
     (
+        "no-light",
+        "a scene with windows and no light, so no window throws any",
+    ),
+    (
         "unused-texture",
         "a texture of a pack that no material uses",
     ),
@@ -497,6 +501,11 @@ pub fn validate_scene_with(
         .iter()
         .map(|m| m.window.is_some())
         .collect();
+    // A bare model gets a guessed sun; a manifest without [light] cooks every window dark.
+    let windows = has_design.iter().filter(|&&d| d).count();
+    if manifest.light.is_none() && !crate::pipeline::needs_guess(manifest) && windows > 0 {
+        v.add("no-light", no_light(windows));
+    }
     check_geometry(
         &views,
         &materials,
@@ -506,6 +515,15 @@ pub fn validate_scene_with(
         &mut v,
     );
     Ok(v)
+}
+
+fn no_light(windows: usize) -> String {
+    format!(
+        "the scene has no light, so its {windows} window{} throw{} none onto the floor and no \
+         god rays (a [light] section gives one)",
+        if windows == 1 { "" } else { "s" },
+        if windows == 1 { "s" } else { "" }
+    )
 }
 
 /// Checks a cooked pack.
@@ -518,6 +536,10 @@ pub fn validate_pack(pack: &pack::Pack) -> Validation {
         .iter()
         .map(|m| m.projector_texture.is_some() || m.diffuse_texture.is_some())
         .collect();
+    let windows = toc.materials.iter().filter(|m| m.class.is_window()).count();
+    if toc.light.is_none() && windows > 0 {
+        v.add("no-light", no_light(windows));
+    }
     check_geometry(
         &views,
         &toc.materials,

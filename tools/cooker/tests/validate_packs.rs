@@ -2,6 +2,8 @@
 //! a phrase of its message, and exit 1. The unedited sample must be clean, so a finding can
 //! only come from the defect.
 
+mod common;
+
 use std::path::Path;
 use std::process::{Command, Output};
 
@@ -86,6 +88,50 @@ fn a_texture_nothing_references_is_unused() {
         "{}",
         list[0].1
     );
+}
+
+/// A pack with windows and no light cooks every window dark: validate says so (it said
+/// nothing, while the cook listed each projector as skipped). The sample has a light and a
+/// window, so the one finding comes from the light removed.
+#[test]
+fn windows_without_a_light_are_a_finding() {
+    let (code, list) = findings(|toc, _| toc.light = None);
+    assert_eq!(code, Some(1), "{list:#?}");
+    let codes: Vec<&str> = list.iter().map(|(c, _)| c.as_str()).collect();
+    assert_eq!(codes, ["no-light"], "{list:#?}");
+    assert!(list[0].1.contains("throw"), "{}", list[0].1);
+}
+
+/// The same of a scene: the default scene without its `[light]` has the finding, as it is
+/// clean with it.
+#[test]
+fn a_scene_without_a_light_is_a_finding() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = dir.path().join("scene");
+    common::copy_dir(
+        &Path::new(env!("CARGO_MANIFEST_DIR")).join("../../assets-src"),
+        &scene,
+    );
+    let toml = std::fs::read_to_string(scene.join("scene.toml")).unwrap();
+    let start = toml.find("\n[light]\n").unwrap();
+    let end = start + 1 + toml[start + 1..].find("\n\n").unwrap();
+    std::fs::write(
+        scene.join("dark.toml"),
+        format!("{}{}", &toml[..start], &toml[end..]),
+    )
+    .unwrap();
+    let codes = |name: &str| {
+        let o = validate(&scene.join(name));
+        let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+        v["findings"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|f| f["code"].as_str().unwrap().to_string())
+            .collect::<Vec<_>>()
+    };
+    assert!(codes("dark.toml").contains(&"no-light".to_string()));
+    assert!(!codes("scene.toml").contains(&"no-light".to_string()));
 }
 
 /// The whole finding line for exit 1, as `validate` prints it without `--json`.
