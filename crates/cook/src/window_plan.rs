@@ -582,7 +582,6 @@ pub fn plan(
         // so a blue, red and gold window came out all gold. No image is placed by them, so
         // planar ones hold the same design, each pane where it is on the glass.
         let uv_mode = entry.map_or(UvMode::Auto, |e| e.uv);
-        let mut planar = planar;
         if !planar
             && image.is_none()
             && uv_mode == UvMode::Auto

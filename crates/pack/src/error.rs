@@ -172,7 +172,7 @@ impl From<Problem> for Fail {
 /// given where a pack was wanted (`cooker info chapel.obj`) is one `cooker cook` away.
 fn source_hint(found: &[u8; 8]) -> &'static str {
     let text = String::from_utf8_lossy(found);
-    let first = text.trim_start().split_whitespace().next().unwrap_or("");
+    let first = text.split_whitespace().next().unwrap_or("");
     if found.starts_with(b"glTF") {
         " (it is a GLB model: `cooker cook` makes a pack of it)"
     } else if found.starts_with(b"ply") {

@@ -392,17 +392,8 @@ fn diff_names_the_material_whose_design_changed() {
             .any(|p| p.starts_with("texture \"mosaic\" mip")),
         "{problems:#?}"
     );
-    let equal = |name: &str| {
-        v["materials"]
-            .as_array()
-            .unwrap()
-            .iter()
-            .find(|m| m["name"] == name)
-            .unwrap()["textures_equal"]
-            .clone()
-    };
-    assert_eq!(equal("window_lower_2"), false);
-    assert_eq!(equal("window_lower_4"), true);
+    assert_eq!(equal_in(&v, "window_lower_2"), false);
+    assert_eq!(equal_in(&v, "window_lower_4"), true);
 
     // The design file edited in place, to another size: every name stays, yet the windows
     // that show it differ, and its textures are listed as such (they were left out of
@@ -415,18 +406,9 @@ fn diff_names_the_material_whose_design_changed() {
     let o = cooker(&[&"diff", &b, &c, &"--json"]);
     assert_eq!(o.status.code(), Some(1));
     let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
-    let equal = |name: &str| {
-        v["materials"]
-            .as_array()
-            .unwrap()
-            .iter()
-            .find(|m| m["name"] == name)
-            .unwrap()["textures_equal"]
-            .clone()
-    };
-    assert_eq!(equal("window_lower_4"), false, "{v:#}");
-    assert_eq!(equal("window_lower_2"), true, "{v:#}");
-    assert_eq!(equal("rose"), true, "{v:#}");
+    assert_eq!(equal_in(&v, "window_lower_4"), false, "{v:#}");
+    assert_eq!(equal_in(&v, "window_lower_2"), true, "{v:#}");
+    assert_eq!(equal_in(&v, "rose"), true, "{v:#}");
     let textures = v["textures"].as_array().unwrap();
     // The design and its projector and normal map: 329 x 1024 in b, 300 x 700 in c.
     let resized: Vec<&serde_json::Value> = textures
