@@ -561,7 +561,7 @@ pub fn plan(
                 ),
             ));
         }
-        let baked_from = baked_from.filter(|_| image.is_some()).map(|(own, _)| own);
+        let baked_from = baked_from.filter(|_| image.is_some());
         let tinted = image
             .as_ref()
             .is_none_or(|(_, source)| *source == DesignSource::Texture);
@@ -947,8 +947,9 @@ struct Pending {
     srgb: bool,
     planar: bool,
     /// The glass's own texture coordinates (in the order of `tris`, which are planar) where
-    /// they reach past the texture's square: the design is baked through them.
-    baked_from: Option<Vec<UvTriangle>>,
+    /// they reach past the texture's square, and their bounds: the design is baked through
+    /// them.
+    baked_from: Option<(Vec<UvTriangle>, [f32; 4])>,
     /// The window's width and height in scene units.
     extent: (f64, f64),
     fit: Fit,
@@ -984,19 +985,17 @@ impl Pending {
     }
 }
 
-/// The size of a design baked through the glass's own texture coordinates `own`: the design's
-/// texels as dense as the glass shows them (its texels times the coordinates' span, per scene
-/// unit, the denser axis), at least `least` (the size a design drawn for the window gets, so
-/// the outline is resolved where a small design is tiled), at most [`design::MAX_SIDE`].
+/// The size of a design baked through the glass's own texture coordinates, whose bounds are
+/// `b` (`[u_min, v_min, u_max, v_max]`): the design's texels as dense as the glass shows them
+/// (its texels times the coordinates' span, per scene unit, the denser axis), at least `least`
+/// (the size a design drawn for the window gets, so the outline is resolved where a small
+/// design is tiled), at most [`design::MAX_SIDE`].
 fn baked_size(
-    own: &[UvTriangle],
+    b: [f32; 4],
     design: &image::RgbaImage,
     (width, height): (f64, f64),
     least: (u32, u32),
 ) -> (u32, u32) {
-    let Some(b) = design::beyond_unit_square(own) else {
-        return least;
-    };
     let (su, sv) = ((b[2] - b[0]) as f64, (b[3] - b[1]) as f64);
     let density = (design.width() as f64 * su / width.max(1e-12))
         .max(design.height() as f64 * sv / height.max(1e-12));
@@ -1047,10 +1046,10 @@ fn make_design(p: &Pending, images: &crate::textures::DecodedImages) -> Result<D
         },
         if p.tints.is_some() { ".tinted" } else { "" }
     );
-    if let Some(own) = &p.baked_from {
+    if let Some((own, bounds)) = &p.baked_from {
         let decoded = get(img)?;
         let pixels = rgba(&decoded);
-        let (w, h) = baked_size(own, &pixels, p.extent, p.size);
+        let (w, h) = baked_size(*bounds, &pixels, p.extent, p.size);
         let mut canvas = design::bake(&p.tris, own, &pixels, w, h);
         if let Some(tints) = &p.tints {
             design::tint_image(&mut canvas, &p.tris, tints, p.srgb);
@@ -1075,16 +1074,20 @@ fn make_design(p: &Pending, images: &crate::textures::DecodedImages) -> Result<D
     // A design of a few texels (one colour for the whole window) resolves no outline at its
     // size: a 1x1 design's one texel is covered, so the light kept the square's corners
     // beyond a pointed lancet. Filtered up as the renderer samples it, then masked.
-    let pixels = match design::outline_resolved(&pixels) {
-        Some(up)
-            if design::light_outside(&up, &design::coverage(&p.tris, up.width(), up.height())) =>
-        {
-            std::borrow::Cow::Owned(up)
+    let resolved = design::outline_resolved(&pixels)
+        .map(|up| {
+            let mask = design::coverage(&p.tris, up.width(), up.height());
+            (up, mask)
+        })
+        .filter(|(up, mask)| design::light_outside(up, mask));
+    let (pixels, mask) = match resolved {
+        Some((up, mask)) => (std::borrow::Cow::Owned(up), mask),
+        None => {
+            let (w, h) = pixels.dimensions();
+            (pixels, design::coverage(&p.tris, w, h))
         }
-        _ => pixels,
     };
     let size = pixels.dimensions();
-    let mask = design::coverage(&p.tris, size.0, size.1);
     let pixels = match &p.tints {
         Some(tints) => {
             let mut tinted = pixels.into_owned();

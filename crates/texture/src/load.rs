@@ -28,15 +28,21 @@ fn reader(path: &Path) -> Result<ImageReader<std::io::BufReader<std::fs::File>>,
         .map_err(io_error(path))
 }
 
+/// The first bytes of a file, as many as the longest signature told apart before decoding.
+fn head(path: &Path) -> Result<Vec<u8>, TextureError> {
+    let mut head = Vec::with_capacity(KTX2_IDENTIFIER.len());
+    std::fs::File::open(path)
+        .and_then(|f| f.take(KTX2_IDENTIFIER.len() as u64).read_to_end(&mut head))
+        .map_err(io_error(path))?;
+    Ok(head)
+}
+
 /// Decodes an image file (PNG, JPEG, TGA, BMP, GIF, TIFF, WebP, PNM, QOI, ICO, HDR: 8 or 16
 /// bits, grey, RGB, RGBA or palette; KTX2 with a Basis Universal payload; DDS). The header's size
 /// is checked against [`MAX_SIDE`] before anything is allocated; truncated or corrupt data is
 /// an error naming the file.
 pub fn load_image(path: &Path) -> Result<DynamicImage, TextureError> {
-    let mut head = Vec::with_capacity(KTX2_IDENTIFIER.len());
-    std::fs::File::open(path)
-        .and_then(|f| f.take(KTX2_IDENTIFIER.len() as u64).read_to_end(&mut head))
-        .map_err(io_error(path))?;
+    let head = head(path)?;
     // An icon's header; cursors (type 2) are left out, since 00 00 02 00 also starts an
     // uncompressed TGA.
     if head.starts_with(&[0, 0, 1, 0]) {
@@ -56,10 +62,7 @@ pub fn load_image(path: &Path) -> Result<DynamicImage, TextureError> {
 /// (a cook that then hits its cache never decodes it: a 4096² design is 64 MiB decoded).
 /// Corrupt data past the header is found when the image is decoded.
 pub fn probe_image(path: &Path) -> Result<(u32, u32), TextureError> {
-    let mut head = Vec::with_capacity(KTX2_IDENTIFIER.len());
-    std::fs::File::open(path)
-        .and_then(|f| f.take(KTX2_IDENTIFIER.len() as u64).read_to_end(&mut head))
-        .map_err(io_error(path))?;
+    let head = head(path)?;
     // Icons, KTX2 and DDS have their own readers of the whole file; rare as designs.
     if head.starts_with(&[0, 0, 1, 0]) || is_ktx2(&head) || is_dds(&head) {
         let image = load_image(path)?;

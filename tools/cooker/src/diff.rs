@@ -81,8 +81,8 @@ struct TextureDiff {
 }
 
 impl TextureDiff {
-    fn size(t: &pack::Texture) -> Option<[u32; 3]> {
-        Some([t.width, t.height, t.mips.len() as u32])
+    fn size(t: &pack::Texture) -> [u32; 3] {
+        [t.width, t.height, t.mips.len() as u32]
     }
 
     fn of(
@@ -95,20 +95,20 @@ impl TextureDiff {
             name: a.name.clone(),
             name_in_b: Some(b.name.clone()),
             state,
-            size_a: Self::size(a),
-            size_b: Self::size(b),
+            size_a: Some(Self::size(a)),
+            size_b: Some(Self::size(b)),
             levels,
         }
     }
 
-    fn only(t: &pack::Texture, state: &'static str) -> Self {
-        let a = state == "only in a";
+    /// A texture only one pack holds: a's where `in_a`, else b's.
+    fn only(t: &pack::Texture, in_a: bool) -> Self {
         TextureDiff {
             name: t.name.clone(),
-            name_in_b: (!a).then(|| t.name.clone()),
-            state,
-            size_a: if a { Self::size(t) } else { None },
-            size_b: if a { None } else { Self::size(t) },
+            name_in_b: (!in_a).then(|| t.name.clone()),
+            state: if in_a { "only in a" } else { "only in b" },
+            size_a: in_a.then(|| Self::size(t)),
+            size_b: (!in_a).then(|| Self::size(t)),
             levels: Vec::new(),
         }
     }
@@ -1001,7 +1001,7 @@ pub fn run(args: Args) -> Outcome {
     for (i, t) in ta.textures.iter().enumerate() {
         let Some((j, u)) = partners[i].map(|j| (j, &tb.textures[j])) else {
             problems.push(format!("texture {:?} is missing from b", t.name));
-            textures.push(TextureDiff::only(t, "only in a"));
+            textures.push(TextureDiff::only(t, true));
             continue;
         };
         if u.name != t.name && args.tolerance_lsb.is_none() {
@@ -1065,19 +1065,17 @@ pub fn run(args: Args) -> Outcome {
     for (j, t) in tb.textures.iter().enumerate() {
         if !partners.contains(&Some(j)) {
             problems.push(format!("texture {:?} is new in b", t.name));
-            textures.push(TextureDiff::only(t, "only in b"));
+            textures.push(TextureDiff::only(t, false));
         }
     }
     // A material whose slots name the partner textures still differs where their texels do
-    // (a window's design file edited in place keeps every name).
+    // (a window's design file edited in place keeps every name). `textures` holds one entry
+    // per texture of a, in a's order, before those only in b.
     for (k, slots) in material_textures {
-        let texels_equal = slots.iter().filter_map(|(_, x)| *x).all(|x| {
-            let name = &ta.textures[x as usize].name;
-            textures
-                .iter()
-                .find(|d| d.state != "only in b" && d.name == *name)
-                .is_some_and(TextureDiff::texels_equal)
-        });
+        let texels_equal = slots
+            .iter()
+            .filter_map(|(_, x)| *x)
+            .all(|x| textures[x as usize].texels_equal());
         if !texels_equal {
             materials[k]["textures_equal"] = json!(false);
         }

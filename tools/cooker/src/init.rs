@@ -186,7 +186,7 @@ pub fn run(args: Args) -> Outcome {
     let _ = writeln!(t, "[scene]\nname = {}", quote(&stem));
     // Names that are not UTF-8 were read in this encoding (given or guessed): pinned here, so
     // every cook of the manifest reads them alike, and a wrong guess is one edit away.
-    if let Some(e) = prepared.imported.iter().find_map(|i| i.text_encoding) {
+    if let Some(e) = encoding {
         let _ = writeln!(
             t,
             "text_encoding = {}  # the names are not UTF-8; {}",
@@ -204,7 +204,7 @@ pub fn run(args: Args) -> Outcome {
     if let Some(name) = args
         .mesh
         .file_name()
-        .filter(|_| source.chars().any(|c| c >= '\u{10FF00}'))
+        .filter(|_| cook::import::text::is_escaped(&source))
     {
         let _ = writeln!(
             t,

@@ -176,7 +176,7 @@ fn escape_byte(c: char) -> Option<u8> {
 }
 
 /// Whether `s` holds escaped bytes (see [`escaped`]).
-pub(crate) fn is_escaped(s: &str) -> bool {
+pub fn is_escaped(s: &str) -> bool {
     s.chars().any(|c| escape_byte(c).is_some())
 }
 
