@@ -76,6 +76,11 @@ pub struct ProjectorReport {
     /// Further halvings of the stored level along x and along y alone, where one axis was
     /// over the size cap and the other was not.
     pub halved: [u32; 2],
+    /// Under a cap on the whole level (`cap_whole_level`), the size of the level that was
+    /// resampled down to the cap rather than halved, where that came nearer the blur: a 256²
+    /// design with its light margin at σ 2.2 is 274², 12.6 LSB off halved to 137², 5.0
+    /// resampled to 256².
+    pub resampled_from: Option<(u32, u32)>,
     /// The margin on each side, in design texels ([`ProjectorOptions::margin`]).
     pub margin: [u32; 2],
     /// With a budget: max error (LSB) of the stored texture, sampled bilinearly at the design's
@@ -121,6 +126,9 @@ impl std::fmt::Display for ProjectorReport {
             [x, 0] => write!(f, " (halved {x} more time(s) across only, to the size cap)")?,
             [0, y] => write!(f, " (halved {y} more time(s) down only, to the size cap)")?,
             [x, y] => write!(f, " (halved {x} more time(s) across and {y} down)")?,
+        }
+        if let Some((w, h)) = self.resampled_from {
+            write!(f, " (resampled from {w}x{h} to the size cap)")?;
         }
         if let Some(e) = self.max_error_lsb {
             write!(f, ", max error {e:.3} LSB against the full-size blur")?;
@@ -223,7 +231,8 @@ fn cook_projector(
         Some(b)
             if stream
                 && h.is_multiple_of(2)
-                && opts.max_size.is_some_and(|cap| dw.max(dh) > cap) =>
+                && opts.max_size.is_some_and(|cap| dw.max(dh) > cap)
+                && !resamples_level0(opts, w, h) =>
         {
             RowBlur::new(b, dw, dh, m, opts.sigma_texels, opts.method)?.map(Streamed)
         }
@@ -272,21 +281,30 @@ fn cook_projector(
             None => upsampled_error(&encoded[k], lw, lh, &levels[0], w, h),
         }
     };
-    let (keep, halved, max_error) = choose_level(opts, w, h, n, error);
-    let report = |(width, height): (u32, u32), max_error_lsb| ProjectorReport {
+    let Kept {
+        level: keep,
+        halved,
+        fit,
+        max_error,
+    } = choose_level(opts, w, h, n, error);
+    let report = |(width, height): (u32, u32),
+                  max_error_lsb,
+                  resampled_from,
+                  (dropped_levels, halved): (usize, [u32; 2])| ProjectorReport {
         sigma_texels: opts.sigma_texels,
         method: opts.method.resolve_sized(opts.sigma_texels, w, h),
         design_width: dw,
         design_height: dh,
         width,
         height,
-        dropped_levels: keep as u32,
+        dropped_levels: dropped_levels as u32,
         halved,
+        resampled_from,
         margin: m,
         max_error_lsb,
     };
-    if halved != [0, 0] {
-        let (chain, unpadded, size, e) = halved_along_one_axis(
+    if halved != [0, 0] || fit.is_some() {
+        let c = reduced_to_cap(
             opts.block_pad,
             (w, h),
             levels,
@@ -294,11 +312,18 @@ fn cook_projector(
             streamed.as_ref(),
             keep,
             halved,
+            fit,
         );
-        return Ok((chain, unpadded, report(size, Some(e))));
+        // Halvings along both axes are a level dropped.
+        let more = c.halvings;
+        let both = more[0].min(more[1]);
+        let halved = [halved[0] + more[0] - both, halved[1] + more[1] - both];
+        let dropped = (keep + both as usize, halved);
+        let report = report(c.size, Some(c.max_error), c.resampled_from, dropped);
+        return Ok((c.chain, c.unpadded, report));
     }
     let (sw, sh) = level_size(w, h, keep);
-    let report = report((sw, sh), max_error);
+    let report = report((sw, sh), max_error, None, (keep, halved));
     let (pw, ph) = crate::bc::block_padded_size(sw, sh);
     let unpadded = MipChain {
         width: sw,
@@ -319,13 +344,16 @@ fn cook_projector(
     }
 }
 
-/// The stored chain of a blur whose kept level is over the size cap along one axis only: level
-/// `keep` (of `levels`, which start at level `first`; from `streamed`'s bands where that is not
-/// held) halved `halved[0]` more times across and `halved[1]` down, box-filtered as the mips
-/// are, and its chain below; with the chain unpadded when `block_pad` grew it, as
-/// [`projector_with_unpadded`]; the stored level's size; and its error against the
-/// full-resolution blur, as the cap's always is.
-fn halved_along_one_axis(
+/// The stored chain of a blur whose kept level is over the size cap along one axis only, or
+/// over a cap on the whole level: level `keep` (of `levels`, which start at level `first`;
+/// from `streamed`'s bands where that is not held) halved `halved[0]` more times across and
+/// `halved[1]` down, then resampled to `fit`, box-filtered as the mips are, and its chain
+/// below; with the chain unpadded when `block_pad` grew it, as [`projector_with_unpadded`];
+/// the stored level's size; its error against the full-resolution blur, as the cap's always
+/// is; the size `fit` resampled from; and the halvings made instead of it, along x and y,
+/// where they came nearer the blur.
+#[allow(clippy::too_many_arguments)]
+fn reduced_to_cap(
     block_pad: bool,
     (w, h): (u32, u32),
     levels: Vec<Vec<[f32; 4]>>,
@@ -333,7 +361,8 @@ fn halved_along_one_axis(
     streamed: Option<&Streamed>,
     keep: usize,
     [mut hx, mut hy]: [u32; 2],
-) -> (MipChain, Option<MipChain>, (u32, u32), f64) {
+    fit: Option<(u32, u32)>,
+) -> Capped {
     let (mut lw, mut lh) = level_size(w, h, keep);
     let mut level = (keep >= first).then(|| levels[keep - first].clone());
     while hx > 0 || hy > 0 {
@@ -349,13 +378,45 @@ fn halved_along_one_axis(
         hy = hy.saturating_sub(1);
         (lw, lh) = (nw, nh);
     }
-    let level = level.expect("halved at least once");
-    let encoded0 = encode_premultiplied(&level);
-    let max_error = match streamed {
-        Some(s) => {
-            s.max_over_bands(|band, y0, _| upsampled_error_rows(&encoded0, lw, lh, band, y0, w, h))
+    let measure = |level: &[[f32; 4]], lw: u32, lh: u32| {
+        let encoded = encode_premultiplied(level);
+        match streamed {
+            Some(s) => s.max_over_bands(|band, y0, _| {
+                upsampled_error_rows(&encoded, lw, lh, band, y0, w, h)
+            }),
+            None => upsampled_error(&encoded, lw, lh, &levels[0], w, h),
         }
-        None => upsampled_error(&encoded0, lw, lh, &levels[0], w, h),
+    };
+    // `cook_projector` holds level 0 whole where a resample starts from it.
+    let mut level = level.expect("halved, or held to be resampled");
+    let mut halvings = [0, 0];
+    let mut from = None;
+    let max_error = match fit {
+        None => measure(&level, lw, lh),
+        Some((tw, th)) => {
+            // Resampled to the cap (Lanczos: 5.0 LSB where a box gave 7.2, 256² from 274² at
+            // σ 2.2), or the axes over it halved once more, whichever is nearer the blur: the
+            // resample keeps more of it, except near 2:1 at a small σ, where the halving's
+            // whole 2x2 boxes win (σ 0.5: 99 against 70 LSB).
+            let resampled = reduce_premultiplied_with(&level, lw, lh, tw, th, MipFilter::Lanczos3);
+            let by_resample = measure(&resampled, tw, th);
+            halvings = [(tw < lw) as u32, (th < lh) as u32];
+            let (nw, nh) = (
+                if tw < lw { half(lw) } else { lw },
+                if th < lh { half(lh) } else { lh },
+            );
+            let halved = reduce_premultiplied(&level, lw, lh, nw, nh);
+            let by_halving = measure(&halved, nw, nh);
+            if by_resample < by_halving {
+                from = Some((lw, lh));
+                halvings = [0, 0];
+                (level, lw, lh) = (resampled, tw, th);
+                by_resample
+            } else {
+                (level, lw, lh) = (halved, nw, nh);
+                by_halving
+            }
+        }
     };
     drop(levels);
     let (pw, ph) = crate::bc::block_padded_size(lw, lh);
@@ -366,7 +427,24 @@ fn halved_along_one_axis(
     } else {
         (encoded_chain(level, lw, lh), None)
     };
-    (chain, unpadded, (lw, lh), max_error)
+    Capped {
+        chain,
+        unpadded,
+        size: (lw, lh),
+        max_error,
+        resampled_from: from,
+        halvings,
+    }
+}
+
+/// What [`reduced_to_cap`] stored.
+struct Capped {
+    chain: MipChain,
+    unpadded: Option<MipChain>,
+    size: (u32, u32),
+    max_error: f64,
+    resampled_from: Option<(u32, u32)>,
+    halvings: [u32; 2],
 }
 
 /// The chain of `level` (`w x h`, premultiplied linear) down to 1x1, each level encoded as it
@@ -384,18 +462,19 @@ fn encoded_chain(level: Vec<[f32; 4]>, w: u32, h: u32) -> MipChain {
 }
 
 /// Which level the stored chain starts at, how many more times it is halved along x or along y
-/// alone, and its error: the lowest level whose error stays within the budget, among those σ
+/// alone, the size it is then resampled to (a cap on the whole level only), and its error: the lowest level whose error stays within the budget, among those σ
 /// leaves detail for, then lower still to fit the size cap. The cap halves an axis only while
 /// that axis is over it: a lancet's design 32 texels across and 1024 up was halved both ways,
 /// and its stripes across were lost (78 LSB). `error(k)` measures level `k` against the
-/// full-resolution blur; with halvings along one axis the error is left to the caller.
+/// full-resolution blur; with halvings along one axis or a resample the error is left to the
+/// caller.
 fn choose_level(
     opts: &ProjectorOptions,
     w: u32,
     h: u32,
     n: usize,
     mut error: impl FnMut(usize) -> f64,
-) -> (usize, [u32; 2], Option<f64>) {
+) -> Kept {
     let mut keep = 0;
     let mut max_error = None;
     if let Some(budget) = opts.max_error_lsb {
@@ -427,21 +506,73 @@ fn choose_level(
             }
             k
         };
-        let (hx, hy) = (halvings(w, opts.margin[0]), halvings(h, opts.margin[1]));
+        let (mut hx, mut hy) = (halvings(w, opts.margin[0]), halvings(h, opts.margin[1]));
+        let mut fit = None;
+        if opts.cap_whole_level {
+            // An axis's level before its last halving is over the cap by less than twice:
+            // resampled to the cap it keeps more of the blur than halved. Block storage pads
+            // to whole blocks, which must stay within the cap too.
+            let target = if opts.block_pad && cap >= 4 {
+                cap / 4 * 4
+            } else {
+                cap
+            };
+            let back = |k: usize, size: u32| match k.checked_sub(1) {
+                Some(j) if k > first && (size >> j) > target => (j, target),
+                _ => (k, (size >> k).max(1)),
+            };
+            let ((sx, tx), (sy, ty)) = (back(hx, w), back(hy, h));
+            if (sx, sy) != (hx, hy) {
+                (hx, hy) = (sx, sy);
+                fit = Some((tx, ty));
+            }
+        }
         keep = hx.min(hy).min(n - 1);
         let extra = [(hx - keep) as u32, (hy - keep) as u32];
-        if extra != [0, 0] {
-            return (keep, extra, None);
+        if extra != [0, 0] || fit.is_some() {
+            return Kept {
+                level: keep,
+                halved: extra,
+                fit,
+                max_error: None,
+            };
         }
         if keep > first {
             // Against the full-resolution blur, like the budget's levels: what the cap costs.
-            return (keep, extra, Some(error(keep)));
+            return Kept {
+                level: keep,
+                halved: extra,
+                fit: None,
+                max_error: Some(error(keep)),
+            };
         }
     }
     if opts.max_error_lsb.is_some() && max_error.is_none() {
         max_error = Some(error(0));
     }
-    (keep, [0, 0], max_error)
+    Kept {
+        level: keep,
+        halved: [0, 0],
+        fit: None,
+        max_error,
+    }
+}
+
+/// What [`choose_level`] chose.
+struct Kept {
+    level: usize,
+    halved: [u32; 2],
+    fit: Option<(u32, u32)>,
+    max_error: Option<f64>,
+}
+
+/// Whether a cap on the whole level may resample level 0 itself ([`choose_level`]): an axis
+/// over the cap whose half is within it. Such a level must be held whole, not streamed.
+fn resamples_level0(opts: &ProjectorOptions, w: u32, h: u32) -> bool {
+    opts.cap_whole_level
+        && opts
+            .max_size
+            .is_some_and(|cap| [w, h].iter().any(|&s| s > cap && s / 2 <= cap))
 }
 
 /// The blur of an 8-bit design, a band of rows at a time.
@@ -506,10 +637,22 @@ pub fn premultiplied_levels(level0: Vec<[f32; 4]>, w: u32, h: u32) -> Vec<Vec<[f
     levels
 }
 
-/// A premultiplied level (`w x h`) box-filtered to `nw x nh`, each axis its own size or half of
-/// it, clamped as [`next_premultiplied`] clamps: the size cap's halving along one axis.
+/// A premultiplied level (`w x h`) box-filtered to `nw x nh`, no larger, clamped as
+/// [`next_premultiplied`] clamps: the size cap's halving along one axis, or its resample.
 fn reduce_premultiplied(level: &[[f32; 4]], w: u32, h: u32, nw: u32, nh: u32) -> Vec<[f32; 4]> {
-    let mut out = reduce_to(level, w, h, nw, nh, MipFilter::Box, |t| t);
+    reduce_premultiplied_with(level, w, h, nw, nh, MipFilter::Box)
+}
+
+/// [`reduce_premultiplied`] through `filter`.
+fn reduce_premultiplied_with(
+    level: &[[f32; 4]],
+    w: u32,
+    h: u32,
+    nw: u32,
+    nh: u32,
+    filter: MipFilter,
+) -> Vec<[f32; 4]> {
+    let mut out = reduce_to(level, w, h, nw, nh, filter, |t| t);
     out.iter_mut().for_each(|t| *t = t.map(clamp01));
     out
 }
@@ -652,6 +795,7 @@ mod tests {
             height: 216,
             dropped_levels: 0,
             halved: [0, 0],
+            resampled_from: None,
             margin: [8, 8],
             max_error_lsb: Some(0.5),
         };
@@ -764,15 +908,19 @@ mod tests {
                 )
                 .unwrap(),
             );
-            for (budget, cap, pad) in [
-                (Some(1.0), Some(128), true),
-                (Some(0.2), Some(256), false),
-                (None, Some(100), true),
-                (Some(8.0), Some(32), false),
+            for (budget, cap, pad, whole) in [
+                (Some(1.0), Some(128), true, false),
+                (Some(0.2), Some(256), false, false),
+                (None, Some(100), true, false),
+                (Some(8.0), Some(32), false, false),
+                // A cap on the whole level: resampled from level 1, or from level 0 (held).
+                (None, Some(150), true, true),
+                (Some(1.0), Some(270), false, true),
             ] {
                 let opts = ProjectorOptions {
                     max_error_lsb: budget,
                     max_size: cap,
+                    cap_whole_level: whole,
                     block_pad: pad,
                     margin: if pad {
                         projector_margin(sigma, w, h)
@@ -912,6 +1060,96 @@ mod tests {
                 .to_string()
                 .contains("halved 1 more time(s) down only"),
             "{report}"
+        );
+    }
+
+    /// A cap on the whole level that the design fits but its light margin does not resamples
+    /// the level down to the cap: a 256² design with σ 2.2 is 274² with its margin, and at a
+    /// cap of 256 it was halved to 137² (12.6 LSB); resampled it stays 256² (5.0 LSB). Where
+    /// halving comes nearer (close to 2:1 at a small σ) it is halved. Block storage keeps the
+    /// padded level within the cap.
+    #[test]
+    fn a_margin_over_a_whole_level_cap_is_resampled_not_halved() {
+        let panes = crate::testing::Panes {
+            width: 8,
+            height: 8,
+            lead: 2,
+        };
+        let (w, h, sigma) = (256u32, 256u32, 2.2f32);
+        let bytes = crate::testing::design(w as usize, h as usize, 3, panes);
+        let design = DynamicImage::ImageRgba8(image::RgbaImage::from_raw(w, h, bytes).unwrap());
+        let m = projector_margin(sigma, w, h);
+        let at = |cap: u32, pad: bool| {
+            let opts = ProjectorOptions {
+                max_size: Some(cap),
+                cap_whole_level: true,
+                block_pad: pad,
+                margin: m,
+                ..ProjectorOptions::new(sigma)
+            };
+            projector(&design, &opts).unwrap()
+        };
+        let (chain, report) = at(256, false);
+        assert_eq!((chain.width, chain.height), (256, 256), "{report}");
+        assert_eq!(report.resampled_from, Some((274, 274)), "{report}");
+        assert_eq!((report.dropped_levels, report.halved), (0, [0, 0]));
+        let fitted = report.max_error_lsb.unwrap();
+        assert!(fitted < 6.0, "{report}");
+        assert!(
+            report
+                .to_string()
+                .contains("resampled from 274x274 to the size cap"),
+            "{report}"
+        );
+        // What halving gave: the same level halved, measured the same way.
+        let halved = {
+            let opts = ProjectorOptions {
+                margin: m,
+                ..ProjectorOptions::new(sigma)
+            };
+            let (full, _) = projector(&design, &opts).unwrap();
+            let reference = premultiplied_levels(
+                blur_rgba8_framed_to_linear(
+                    design.as_rgba8().unwrap().as_raw(),
+                    w,
+                    h,
+                    m,
+                    sigma,
+                    BlurMethod::Auto,
+                )
+                .unwrap(),
+                274,
+                274,
+            )
+            .swap_remove(0);
+            upsampled_error(&full.levels[1], 137, 137, &reference, 274, 274)
+        };
+        assert!(fitted * 2.0 < halved, "resampled {fitted}, halved {halved}");
+        // A cap that is not whole blocks: the padded level stays within it.
+        let (chain, report) = at(255, true);
+        assert_eq!((chain.width, chain.height), (252, 252), "{report}");
+        // Two levels over: halved once, then resampled; one axis over: that axis alone.
+        let (chain, report) = at(130, false);
+        assert_eq!((chain.width, chain.height), (130, 130), "{report}");
+        assert_eq!(
+            (report.dropped_levels, report.resampled_from),
+            (1, Some((137, 137)))
+        );
+        let (chain, report) = at(300, false);
+        assert_eq!((chain.width, chain.height), (274, 274), "{report}");
+        assert_eq!(report.resampled_from, None);
+        // σ 0.5 (260² with its margin) at a cap of 131: resampled 99 LSB off, halved 70.
+        let opts = ProjectorOptions {
+            max_size: Some(131),
+            cap_whole_level: true,
+            margin: projector_margin(0.5, w, h),
+            ..ProjectorOptions::new(0.5)
+        };
+        let (chain, report) = projector(&design, &opts).unwrap();
+        assert_eq!((chain.width, chain.height), (130, 130), "{report}");
+        assert_eq!(
+            (report.dropped_levels, report.halved, report.resampled_from),
+            (1, [0, 0], None)
         );
     }
 
