@@ -532,31 +532,37 @@ impl Cache {
 
     /// Checks every local entry and blob (blobs also against their SHA-256 name), removing the
     /// damaged ones; returns them with what was wrong, and how many were checked.
-    pub fn verify(&self) -> Result<(usize, Vec<(PathBuf, String)>), CookError> {
+    pub fn verify(&self) -> Result<(usize, Vec<Damaged>), CookError> {
         let files = self.local_files()?;
         let mut damaged = Vec::new();
         for (path, _) in &files {
-            match read_entry(path) {
+            let why = match read_entry(path) {
                 // The lookup's reason names the file already, for the cook's warning.
                 Lookup::Corrupt(why) => {
                     let prefix = format!("{}: ", path.display());
-                    let why = why
-                        .strip_prefix(&prefix)
-                        .map_or(why.clone(), str::to_string);
-                    damaged.push((path.clone(), why))
+                    why.strip_prefix(&prefix)
+                        .map_or(why.clone(), str::to_string)
                 }
                 Lookup::Hit(payload) if path.extension().is_some_and(|e| e == "blob") => {
                     let name = path.file_stem().unwrap_or_default().to_string_lossy();
-                    if parse_hex32(&name) != Some(digest(&payload)) {
-                        let _ = std::fs::remove_file(path);
-                        damaged.push((
-                            path.clone(),
-                            "content does not match its SHA-256 name".into(),
-                        ));
+                    if parse_hex32(&name) == Some(digest(&payload)) {
+                        continue;
                     }
+                    "content does not match its SHA-256 name".into()
                 }
-                _ => {}
-            }
+                _ => continue,
+            };
+            // The lookup removed it where it could; a read-only cache keeps it, and says so
+            // rather than "removed" on every run.
+            let kept = match std::fs::remove_file(path) {
+                Err(e) if e.kind() != std::io::ErrorKind::NotFound => Some(e.to_string()),
+                _ => None,
+            };
+            damaged.push(Damaged {
+                path: path.clone(),
+                why,
+                kept,
+            });
         }
         Ok((files.len(), damaged))
     }
@@ -574,8 +580,10 @@ impl Cache {
             if name.starts_with('.') || !(name.ends_with(".entry") || name.ends_with(".blob")) {
                 continue;
             }
+            // Not only regular files: a FIFO in an entry's place is damage for `verify` to
+            // report (a cook that read it blocked for ever).
             if let Ok(m) = e.metadata()
-                && m.is_file()
+                && !m.is_dir()
             {
                 out.push((e.path(), m.len()));
             }
@@ -583,6 +591,15 @@ impl Cache {
         out.sort();
         Ok(out)
     }
+}
+
+/// A damaged entry [`Cache::verify`] found.
+#[derive(Debug)]
+pub struct Damaged {
+    pub path: PathBuf,
+    pub why: String,
+    /// Why it could not be removed (a read-only cache), where it was not.
+    pub kept: Option<String>,
 }
 
 /// Marks an entry as just used, for least-recently-used eviction. Access times are unreliable
@@ -594,6 +611,18 @@ fn touch(path: &Path) {
 }
 
 fn read_entry(path: &Path) -> Lookup {
+    // Reading a FIFO blocks until something writes to it: only regular files are read.
+    match std::fs::metadata(path) {
+        Ok(m) if !m.is_file() => {
+            let _ = std::fs::remove_file(path);
+            return Lookup::Corrupt(format!(
+                "{}: not a regular file (a FIFO, socket or device)",
+                path.display()
+            ));
+        }
+        Ok(_) => {}
+        Err(_) => return Lookup::Miss,
+    }
     let bytes = match std::fs::read(path) {
         Ok(b) => b,
         // Missing, unreadable, evicted or vanished under a concurrent writer: cook it again.
@@ -996,6 +1025,34 @@ mod tests {
                 "prefix {len} accepted"
             );
         }
+    }
+
+    /// A FIFO in an entry's place is damage, found by a lookup and by `verify`, not read:
+    /// reading it blocked the cook for ever.
+    #[cfg(unix)]
+    #[test]
+    fn a_fifo_in_an_entrys_place_is_damage_not_a_wait() {
+        let dir = tempfile::tempdir().unwrap();
+        let c = Cache::open(dir.path()).unwrap();
+        let path = c.path(&key("a"));
+        let fifo = |p: &Path| {
+            let made = std::process::Command::new("mkfifo")
+                .arg(p)
+                .status()
+                .unwrap();
+            assert!(made.success());
+        };
+        fifo(&path);
+        assert!(
+            matches!(c.get(&key("a")), Lookup::Corrupt(ref why) if why.contains("not a regular file"))
+        );
+        assert!(!path.exists(), "removed");
+        fifo(&path);
+        let (checked, damaged) = c.verify().unwrap();
+        assert_eq!((checked, damaged.len()), (1, 1), "{damaged:?}");
+        assert!(damaged[0].why.contains("not a regular file"), "{damaged:?}");
+        assert_eq!(damaged[0].kept, None);
+        assert!(!path.exists());
     }
 
     #[test]

@@ -34,7 +34,7 @@ pub use import::Warning;
 pub use manifest::Manifest;
 pub use mesh::{CacheMode, MeshSettings, MeshStats};
 pub use pipeline::{
-    CookOutput, Prepared, cook, import_sources, material_needs, prepare, window_geometry,
+    CookOutput, Prepared, cook, import_sources, material_needs, no_faces, prepare, window_geometry,
 };
 pub use report::{
     ArtifactSource, HeuristicNote, MeshReport, QuantizationError, Report, Stage, group_heuristics,

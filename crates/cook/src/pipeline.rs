@@ -41,11 +41,8 @@ fn cook_steps(manifest: &Manifest, settings: &Settings) -> Result<CookOutput, Co
     let mut prepared = prepare(manifest, settings, &mut report)?;
     // A pack of no triangles shows nothing: a gate on the cook's exit status must not pass it
     // (`cooker validate` reports the same as its `no-triangles` finding).
-    if prepared.imported.iter().all(|s| s.triangle_count() == 0) {
-        return Err(nothing_to_cook(manifest, |n| match n {
-            1 => "no faces (points or lines only)".into(),
-            n => format!("no faces in this or any other of the scene's {n} meshes"),
-        }));
+    if let Some(e) = no_faces(manifest, &prepared) {
+        return Err(e);
     }
     // From here on the manifest's cameras and light are in the scene's shifted frame.
     let framed = manifest.shifted(prepared.shift);
@@ -482,6 +479,37 @@ fn prepare_steps(
 /// `e` said where its file was named: a `--window` option, else the manifest's line.
 fn at_its_source(manifest: &Manifest, settings: &Settings, e: CookError) -> CookError {
     manifest.at_its_line(WindowDesign::at_its_option(&settings.window_overrides, e))
+}
+
+/// The error of a scene whose models hold no face, if it is one: said of its first mesh, at
+/// the line of the first statement its import skipped (faces of fewer than three corners,
+/// lines, points), with what the import said of them, which a failed cook does not print.
+pub fn no_faces(manifest: &Manifest, prepared: &Prepared) -> Option<CookError> {
+    if !prepared.imported.iter().all(|s| s.triangle_count() == 0) {
+        return None;
+    }
+    let first = prepared.imported.first();
+    let skipped: Vec<&Warning> = first
+        .into_iter()
+        .flat_map(|s| &s.warnings)
+        .filter(|w| w.line.is_some())
+        .collect();
+    let mut e = nothing_to_cook(manifest, |n| match (n, skipped.as_slice()) {
+        (1, []) => "no faces (the model holds no geometry, or only vertices)".into(),
+        (1, [one]) => format!("no faces ({})", one.message),
+        (1, said) => format!(
+            "no faces ({})",
+            said.iter()
+                .map(|w| format!("line {}: {}", w.line.unwrap_or(0), w.message))
+                .collect::<Vec<_>>()
+                .join("; ")
+        ),
+        (n, _) => format!("no faces in this or any other of the scene's {n} meshes"),
+    });
+    if let (CookError::Source { line, .. }, Some(w)) = (&mut e, skipped.first()) {
+        *line = w.line;
+    }
+    Some(e)
 }
 
 /// A scene that would cook to a pack of no triangles, said of its first mesh: `why` of its

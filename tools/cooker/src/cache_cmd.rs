@@ -375,8 +375,12 @@ fn verify(args: &CacheArgs) -> Outcome {
     let mut bad = 0;
     if !local.said_missing() {
         let (checked, damaged) = cache.verify()?;
-        for (path, why) in &damaged {
-            println!("damaged: {}: {why} (removed)", path.display());
+        for d in &damaged {
+            let fate = d
+                .kept
+                .as_ref()
+                .map_or("removed".to_string(), |e| format!("not removed: {e}"));
+            println!("damaged: {}: {} ({fate})", d.path.display(), d.why);
         }
         println!(
             "local cache {}: {checked} checked, {} damaged",

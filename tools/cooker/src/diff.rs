@@ -33,22 +33,27 @@ pub struct Args {
     /// any threshold the packs must be identical byte for byte; any threshold, 0 included,
     /// compares what they hold (decoded texels, vertices), not how it is stored.
     /// `--max-error` is the old spelling.
-    #[arg(long = "tolerance-lsb", alias = "max-error", value_name = "LSB")]
+    #[arg(
+        long = "tolerance-lsb",
+        alias = "max-error",
+        value_name = "LSB",
+        allow_negative_numbers = true
+    )]
     tolerance_lsb: Option<f64>,
     /// Largest vertex position change accepted (scene units, per axis); default: identical.
     /// Triangulated another way, a surface is matched to within this or 4 f32 ulps of the
     /// mesh's largest coordinate, whichever is larger.
     /// Given, the same triangles in another vertex or triangle order are accepted too, and
     /// cameras, window frames and the light the cook placed from the geometry may move with it.
-    #[arg(long, value_name = "D")]
+    #[arg(long, value_name = "D", allow_negative_numbers = true)]
     max_position_delta: Option<f64>,
     /// Largest turn of a vertex normal or tangent accepted, in degrees; default: 0.1 with
     /// `--max-position-delta` (a 16-bit octahedral normal is within 0.01), identical without.
-    #[arg(long, value_name = "DEG")]
+    #[arg(long, value_name = "DEG", allow_negative_numbers = true)]
     max_normal_delta_deg: Option<f64>,
     /// Largest change of a texture coordinate accepted (per axis); default: 1e-4 with
     /// `--max-position-delta` (under half a texel of an 8192 texture), identical without.
-    #[arg(long, value_name = "D")]
+    #[arg(long, value_name = "D", allow_negative_numbers = true)]
     max_uv_delta: Option<f64>,
 }
 
@@ -742,6 +747,8 @@ pub fn run(args: Args) -> Outcome {
         ("--max-normal-delta-deg", args.max_normal_delta_deg),
         ("--max-uv-delta", args.max_uv_delta),
     ] {
+        // Negatives are parsed (not taken for a flag, "unexpected argument '-0'") to be
+        // refused here with the rest.
         if let Some(v) = v
             && !(v.is_finite() && v >= 0.0)
         {
@@ -903,7 +910,24 @@ pub fn run(args: Args) -> Outcome {
                 exact: exact_geometry,
                 shading: shading_tolerance,
             };
-            reordered.push(geometry.compare_as_sets((&a, ma), (&b, mb), &mut problems, &mut entry));
+            let said = geometry.compare_as_sets((&a, ma), (&b, mb), &mut problems, &mut entry);
+            // The same index buffer and triangles that do not all match as sets: not another
+            // order but vertices that moved, as far as they moved. Measured on the surface
+            // alone, a floor vertex slid 0.5 along the floor passed `--max-position-delta
+            // 0.001` while its texture stretched.
+            let unmatched = entry["unmatched_triangles"] != json!([0, 0]);
+            match delta_in_order {
+                Some(delta) if unmatched => {
+                    problems.push(format!(
+                        "mesh {:?}: a vertex moved by {delta:.3e} (the vertices in the same \
+                         order)",
+                        ma.name
+                    ));
+                    entry["same_order"] = json!(true);
+                    entry["max_position_delta"] = json!(delta);
+                }
+                _ => reordered.push(said),
+            }
         }
         meshes.push(entry);
     }

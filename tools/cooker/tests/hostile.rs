@@ -8,7 +8,7 @@ mod common;
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 
-use common::assert_said_once;
+use common::{assert_said_once, cooker};
 
 const OLD_PACK: &[u8] = b"an old pack that must survive a failed cook";
 
@@ -282,9 +282,32 @@ fn hostile_meshes() {
     expect(
         &points,
         3,
-        "points.obj",
-        "no faces (points or lines only): nothing to cook",
+        "points.obj:4",
+        "no faces (1 line and 1 point elements ignored: only faces are cooked): nothing to cook",
     );
+    // Faces of fewer than three corners: said at the first, not as points or lines.
+    let short = write(
+        "short.obj",
+        b"v 0 0 0
+v 1 0 0
+v 0 1 0
+
+f 1
+f 2 3
+",
+    );
+    expect(
+        &short,
+        3,
+        "short.obj:5",
+        "no faces (2 faces with fewer than 3 vertices ignored): nothing to cook",
+    );
+    // `init` refuses such a model too, and writes no manifest that could only fail to cook.
+    let manifest = d.join("short.toml");
+    let o = cooker(&[&"init", &short, &"-o", &manifest]);
+    assert_eq!(o.status.code(), Some(3), "{}", text(&o));
+    assert!(text(&o).contains("short.obj:5: no faces"), "{}", text(&o));
+    assert!(!manifest.exists());
     // Faces of zero area only, as written or as placed (an empty pack, exit 0).
     let flat = write("flat.obj", b"v 0 0 0\nv 1 0 0\nv 2 0 0\nf 1 2 3\n");
     expect(

@@ -753,7 +753,7 @@ fn diff_identical_changed_texel_and_material() {
     let o = cooker(&[&"diff", &a, &b, &"--max-error", &"-1"]);
     assert_eq!(o.status.code(), Some(2), "{}", text(&o));
     assert!(
-        text(&o).contains("unexpected argument '-1'"),
+        text(&o).contains("--tolerance-lsb must be a finite number >= 0, got -1"),
         "{}",
         text(&o)
     );
@@ -884,4 +884,81 @@ fn diff_at_a_position_delta_of_0_sees_a_small_move_on_a_large_mesh() {
         &"0.001",
     ]);
     assert_eq!(o.status.code(), Some(0), "{}", text(&o));
+}
+
+/// A vertex slid along its own plane leaves the surface where it was but moves the texture
+/// with it: with the vertices in the same order it is a move as far as the vertex went, over
+/// `--max-position-delta`, where comparing the triangles as sets found every one on the
+/// other's surface and passed.
+#[test]
+fn diff_sees_a_vertex_slid_along_its_plane_past_the_position_delta() {
+    let dir = tempfile::tempdir().unwrap();
+    // A floor of four quads round a centre vertex, which slides 0.5 along the floor in b.
+    let floor = |centre: &str| {
+        format!(
+            "o floor\nv -2 0 -2\nv 0 0 -2\nv 2 0 -2\nv -2 0 0\nv {centre}\nv 2 0 0\nv -2 0 2\n\
+             v 0 0 2\nv 2 0 2\nvt 0 0\nvt 0.5 0\nvt 1 0\nvt 0 0.5\nvt 0.5 0.5\nvt 1 0.5\n\
+             vt 0 1\nvt 0.5 1\nvt 1 1\nf 1/1 4/4 5/5 2/2\nf 2/2 5/5 6/6 3/3\n\
+             f 4/4 7/7 8/8 5/5\nf 5/5 8/8 9/9 6/6\n"
+        )
+    };
+    let mut packs = Vec::new();
+    for (name, centre) in [("a", "0 0 0"), ("b", "0.5 0 -0.5")] {
+        let obj = dir.path().join(format!("{name}.obj"));
+        std::fs::write(&obj, floor(centre)).unwrap();
+        let out = dir.path().join(format!("{name}.pack"));
+        let o = cooker(&[&"cook", &obj, &"-o", &out, &"--no-cache"]);
+        assert!(o.status.success(), "{}", text(&o));
+        packs.push(out);
+    }
+    let o = cooker(&[
+        &"diff",
+        &packs[0],
+        &packs[1],
+        &"--max-position-delta",
+        &"0.001",
+        &"--json",
+    ]);
+    assert_eq!(o.status.code(), Some(1), "{}", text(&o));
+    let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    let m = &v["meshes"][0];
+    assert_eq!(m["same_order"], true, "{m:#}");
+    let delta = m["max_position_delta"].as_f64().unwrap();
+    // Per axis, as the option is.
+    assert!((delta - 0.5).abs() < 1e-6, "{m:#}");
+    assert!(
+        problems_of(&v)
+            .iter()
+            .any(|p| p.contains("a vertex moved by 5.000e-1")),
+        "{v:#}"
+    );
+    // Within a tolerance that covers the slide, it passes.
+    let o = cooker(&[
+        &"diff",
+        &packs[0],
+        &packs[1],
+        &"--max-position-delta",
+        &"0.8",
+    ]);
+    assert_eq!(o.status.code(), Some(0), "{}", text(&o));
+}
+
+/// A negative threshold is refused as NaN is, with the option and the value, not taken for a
+/// flag ("unexpected argument '-0' found").
+#[test]
+fn diff_refuses_a_negative_threshold_by_name() {
+    for option in [
+        "--max-position-delta",
+        "--tolerance-lsb",
+        "--max-normal-delta-deg",
+        "--max-uv-delta",
+    ] {
+        let o = cooker(&[&"diff", &"a.pack", &"b.pack", &option, &"-0.5"]);
+        assert_eq!(o.status.code(), Some(2), "{}", text(&o));
+        assert!(
+            text(&o).contains(&format!("{option} must be a finite number >= 0, got -0.5")),
+            "{}",
+            text(&o)
+        );
+    }
 }
