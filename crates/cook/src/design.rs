@@ -395,11 +395,25 @@ mod unit_tests {
     }
 }
 
+/// The least short side of a design drawn from a window's panes: a lead came of the default
+/// 1.5 % is a texel wide there. Windows of 1.2 x 3 cm got 8 x 8 designs, square, with came
+/// lines an eighth of the window wide.
+pub const MIN_SHORT_SIDE: u32 = 64;
+
 /// Texture size for a design of a `width` × `height` window at `texels_per_metre`, at most
-/// [`MAX_SIDE`] on the long side and at least 8.
+/// [`MAX_SIDE`] on the long side and at least [`MIN_SHORT_SIDE`] on the short one (where the
+/// long side allows; 8 at the least), in the window's proportions.
 pub fn design_size(width: f64, height: f64, texels_per_metre: f32) -> (u32, u32) {
     let tpm = texels_per_metre as f64;
     let (mut w, mut h) = (width * tpm, height * tpm);
+    if !(w.is_finite() && h.is_finite() && w > 0.0 && h > 0.0) {
+        return (MIN_SHORT_SIDE, MIN_SHORT_SIDE);
+    }
+    let short = w.min(h);
+    if short < MIN_SHORT_SIDE as f64 {
+        w *= MIN_SHORT_SIDE as f64 / short;
+        h *= MIN_SHORT_SIDE as f64 / short;
+    }
     let long = w.max(h);
     if long > MAX_SIDE as f64 {
         w *= MAX_SIDE as f64 / long;
@@ -844,6 +858,13 @@ mod tests {
     fn design_size_follows_the_window_and_is_capped() {
         assert_eq!(design_size(2.0, 6.0, 100.0), (200, 600));
         assert_eq!(design_size(2.0, 6.0, 1000.0), (341, 1024));
-        assert_eq!(design_size(0.01, 0.01, 100.0), (8, 8));
+        // Small windows keep their proportions, their short side 64 texels.
+        assert_eq!(design_size(0.01, 0.01, 100.0), (64, 64));
+        assert_eq!(design_size(0.012, 0.03, 128.0), (64, 160));
+        assert_eq!(design_size(0.3, 1.0, 128.0), (64, 213));
+        // Very thin ones as far as the long side's cap allows, and 8 texels at least.
+        assert_eq!(design_size(0.01, 1.0, 128.0), (10, 1024));
+        assert_eq!(design_size(0.001, 1.0, 128.0), (8, 1024));
+        assert_eq!(design_size(0.0, 1.0, 128.0), (64, 64));
     }
 }

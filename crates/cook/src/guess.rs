@@ -392,6 +392,47 @@ impl Occupancy {
     }
 }
 
+/// Whether `eye` is inside a closed object: the nearest surface along each of three axes is
+/// met from behind, as the wound faces of a closed mesh are from within. A building whose
+/// walls face in is not one (nor, where its faces point out, is it told from an object: its
+/// views are then the overview's alone). A pass over the triangles, on models without a
+/// floor only: 1–2 ms on the bunny.
+fn inside_an_object(p: &Prepared, classes: &[MaterialClass], eye: DVec3) -> bool {
+    use rayon::prelude::*;
+    let rays = [DVec3::X, DVec3::Y, DVec3::Z];
+    let o = eye.as_vec3();
+    // Per ray: the nearest hit's distance and whether its face points along the ray.
+    let nearest = p
+        .imported
+        .par_iter()
+        .zip(&p.tri_material)
+        .map(|(src, mats)| {
+            let mut best = [(f32::INFINITY, false); 3];
+            for (t, &m) in mats.iter().enumerate() {
+                let c = classes[m as usize];
+                if c.is_window() || c == MaterialClass::Background {
+                    continue;
+                }
+                let tri = triangle(src, t as u32).map(|q| q.as_vec3());
+                let n = (tri[1] - tri[0]).cross(tri[2] - tri[0]);
+                for (b, d) in best.iter_mut().zip(rays) {
+                    if let Some((dist, _)) = geom::intersect(tri, o, d.as_vec3())
+                        && dist > 0.0
+                        && dist < b.0
+                    {
+                        *b = (dist, n.dot(d.as_vec3()) > 0.0);
+                    }
+                }
+            }
+            best
+        })
+        .reduce(
+            || [(f32::INFINITY, false); 3],
+            |a, b| std::array::from_fn(|i| if b[i].0 < a[i].0 { b[i] } else { a[i] }),
+        );
+    nearest.iter().all(|&(d, behind)| d.is_finite() && behind)
+}
+
 /// Where each of `views` (name, eye, target) sees its target: the eye as given, or, where
 /// the view is blocked near the eye, the first of three points nearer the target (at the same
 /// height) from which it is not. The footprint's margin can put an eye inside masonry (walls
@@ -1220,7 +1261,11 @@ pub fn guess(p: &Prepared) -> Guess {
             best_view = Some((depth, a, a + dir * len * 0.9));
         }
     }
-    if let Some((_, a, b)) = best_view {
+    if let Some((_, a, b)) = best_view
+        // Without a floor the model may be an object, and the eye inside it: the bunny's
+        // "nave" view was of its inside.
+        && (floor.is_some() || !inside_an_object(p, &classes, a))
+    {
         cameras.push(camera("nave", a, b));
     }
     let mut by_area: Vec<&crate::instances::Instance> = windows.iter().collect();
@@ -1342,7 +1387,9 @@ mod tests {
             .join("../../tests/data/third_party/classic/spot.obj");
         let cameras = guessed_cameras(&spot);
         assert_eq!(cameras[0].name, "overview", "{cameras:?}");
-        assert!(cameras.iter().any(|c| c.name == "nave"));
+        // The view "inside its bounds" for a building with an unrecognised floor stood inside
+        // the cow and saw its inside: a closed object gets none.
+        assert!(cameras.iter().all(|c| c.name != "nave"), "{cameras:?}");
         let c = &cameras[0];
         let src = crate::import::import(&spot).unwrap();
         let (mut lo, mut hi) = (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY));

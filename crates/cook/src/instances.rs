@@ -380,7 +380,8 @@ fn join_leaded(pieces: &[(Vec<u32>, Shape)]) -> Vec<Vec<usize>> {
 }
 
 /// Splits a non-planar patch into the planes it is made of (a bay window), each piece
-/// connected; `None` when it would take more than [`MAX_SPLIT`] planes (curved glass).
+/// connected; `None` when it would take more than [`MAX_SPLIT`] planes, or two of them turn
+/// less than 15° from each other (curved glass).
 fn split_planes(src: &Imported, weld: &[u32], tris: &[u32], size: f64) -> Option<Vec<Vec<u32>>> {
     let mut order: Vec<(u32, DVec3, DVec3, f64)> = tris
         .iter()
@@ -405,6 +406,18 @@ fn split_planes(src: &Imported, weld: &[u32], tris: &[u32], size: f64) -> Option
                 }
                 planes.push((n, c, vec![t]));
             }
+        }
+    }
+    // Planes facing nearly the same way (under 15° apart, not parallel) are the facets of a
+    // curve, not a bay's faces, which meet at 30° and more: a shallow arc of twelve facets was
+    // six windows, each with a lead outline on the glass and the floor.
+    let (parallel, bent) = (0.5f64.to_radians().cos(), 15f64.to_radians().cos());
+    for (i, (a, _, _)) in planes.iter().enumerate() {
+        if planes[i + 1..].iter().any(|(b, _, _)| {
+            let d = a.dot(*b);
+            d < parallel && d > bent
+        }) {
+            return None;
         }
     }
     let mut pieces = Vec::new();
@@ -1262,6 +1275,46 @@ mod tests {
         assert_eq!(w.len(), 1);
         assert!(!w[0].planar);
         assert!(w[0].max_deviation > 0.1);
+    }
+
+    /// Glass wound one way that turns through 180° lies in the plane of its opening: its far
+    /// facets were turned towards an end facet, and the plane came out 67° off it.
+    #[test]
+    fn a_half_cylinder_bay_lies_in_the_plane_of_its_opening() {
+        for n in [12, 16] {
+            let mut q = Vec::new();
+            for i in 0..n {
+                let a0 = i as f32 / n as f32 * std::f32::consts::PI;
+                let a1 = (i + 1) as f32 / n as f32 * std::f32::consts::PI;
+                let p0 = [a0.cos(), 0., a0.sin()];
+                let p1 = [a1.cos(), 0., a1.sin()];
+                q.push((p0, [p1[0] - p0[0], 0., p1[2] - p0[2]], [0., 2., 0.], 0));
+            }
+            let w = run(&quads(&q), &[W], None);
+            assert_eq!(w.len(), 1, "{w:#?}");
+            assert!(w[0].inside.z.abs() > 0.9999, "{n}: {:?}", w[0].inside);
+            assert!((w[0].width() - 2.0).abs() < 1e-3, "{n}: {:?}", w[0]);
+            assert!((w[0].height() - 2.0).abs() < 1e-3, "{n}: {:?}", w[0]);
+        }
+    }
+
+    /// A shallow arc, twelve facets 3.75° apart over a 3 m chord, is one curved window, not
+    /// six two-facet "bay" planes with lead outlines between them.
+    #[test]
+    fn a_shallow_arc_is_one_curved_window_not_a_bay() {
+        let (r, half) = (3.9f32, 22.5f32.to_radians());
+        let mut q = Vec::new();
+        for i in 0..12 {
+            let a0 = -half + i as f32 / 12.0 * 2.0 * half;
+            let a1 = -half + (i + 1) as f32 / 12.0 * 2.0 * half;
+            let p0 = [r * a0.sin(), 0., r * a0.cos()];
+            let p1 = [r * a1.sin(), 0., r * a1.cos()];
+            q.push((p0, [p1[0] - p0[0], 0., p1[2] - p0[2]], [0., 3., 0.], 0));
+        }
+        let w = run(&quads(&q), &[W], None);
+        assert_eq!(w.len(), 1, "{w:#?}");
+        assert!(!w[0].planar);
+        assert!(w[0].inside.z.abs() > 0.9999, "{:?}", w[0].inside);
     }
 
     #[test]

@@ -1010,8 +1010,9 @@ fn split_mixed_parts(
         piece.0[k].add(corners, area, up);
         piece.1[k].push(t as u32);
     }
-    // A part is cut only into a floor and walls both, each passing the heuristic and lying
-    // mostly in large planes: a building, not a sculpture (the Stanford bunny's base and
+    // A part is cut into a floor and walls, each passing the heuristic and lying mostly in
+    // large planes (one of them alone where the model has the other elsewhere): a building,
+    // not a sculpture (the Stanford bunny's base and
     // steep flanks pass the heuristic, but its flanks are no planes). In part order, so ids
     // are deterministic.
     let mut pieces: Vec<(u32, Pieces)> = pieces.into_iter().collect();
@@ -1025,21 +1026,27 @@ fn split_mixed_parts(
         }
         (hi - lo).length()
     };
+    // Where another part is a floor (its own material, walls and vault sharing one), the
+    // walls alone are cut; where another part holds the walls, the floor alone. Both were
+    // required, and a hall whose stone was its walls and ceiling had no walls at all.
+    let kinds = [MaterialClass::Floor, MaterialClass::Wall];
+    let elsewhere = kinds.map(|want| {
+        parts.iter().zip(&split).any(|(g, &cut)| {
+            !cut && geometry_heuristic(g, height, total, base).map(|c| c.1) == Some(want)
+        })
+    });
     for (part, (g, tris)) in pieces {
-        let classed = [MaterialClass::Floor, MaterialClass::Wall]
-            .iter()
-            .zip(&g)
-            .all(|(want, g)| {
-                geometry_heuristic(g, height, total, base).map(|c| c.1) == Some(*want)
-            });
-        if !classed
-            || !tris
-                .iter()
-                .all(|t| in_large_planes(src, t, size, total) >= 0.75)
-        {
-            continue;
-        }
-        for piece in tris {
+        let passes: [bool; 2] = std::array::from_fn(|k| {
+            geometry_heuristic(&g[k], height, total, base).map(|c| c.1) == Some(kinds[k])
+                && in_large_planes(src, &tris[k], size, total) >= 0.75
+        });
+        let keep: [bool; 2] = match passes {
+            [true, true] => [true, true],
+            [true, false] if elsewhere[1] => [true, false],
+            [false, true] if elsewhere[0] => [false, true],
+            _ => continue,
+        };
+        for (piece, _) in tris.into_iter().zip(keep).filter(|(_, k)| *k) {
             src.parts.push(src.parts[part as usize].clone());
             cut.push(Cut::Piece);
             let id = (src.parts.len() - 1) as u32;
@@ -1651,6 +1658,43 @@ mod tests {
             pi,
             t.materials[t.part_material[0][pi] as usize].material.class,
         )
+    }
+
+    /// A hall whose floor is its own material and whose walls and ceiling share one ("stone",
+    /// 69 % vertical): the walls are cut out of the stone, as they are where the floor shares
+    /// it too (they stayed `other` with the ceiling, and the windows were classed by the
+    /// model's height, not the walls' top).
+    #[test]
+    fn walls_sharing_a_material_with_the_ceiling_alone_are_cut_out() {
+        let obj = "mtllib m.mtl\n\
+            v 0 0 0\nv 8 0 0\nv 8 0 16\nv 0 0 16\n\
+            v 0 6 0\nv 8 6 0\nv 8 6 16\nv 0 6 16\n\
+            v 7.99 1.5 7\nv 7.99 1.5 9\nv 7.99 4.5 9\nv 7.99 4.5 7\n\
+            o Floor\nusemtl floor\nf 1 2 3 4\n\
+            o Hall\nusemtl stone\nf 1 5 6 2\nf 2 6 7 3\nf 3 7 8 4\nf 4 8 5 1\nf 5 8 7 6\n\
+            o Windows\nusemtl glass\nf 9 10 11 12\n";
+        let mtl = "newmtl floor\nKd 0.5 0.5 0.5\nnewmtl stone\nKd 0.6 0.6 0.6\n\
+                   newmtl glass\nKd 1 1 1\nd 0.3\n";
+        let (src, t) = tagged_obj(obj, ("m.mtl", mtl));
+        let classes: Vec<(MaterialClass, usize)> = src
+            .parts
+            .iter()
+            .enumerate()
+            .filter(|(_, p)| p.names.object.as_deref() == Some("Hall"))
+            .map(|(i, _)| {
+                let triangles = src.tri_part.iter().filter(|&&p| p as usize == i).count();
+                (
+                    t.materials[t.part_material[0][i] as usize].material.class,
+                    triangles,
+                )
+            })
+            .collect();
+        // The four walls (8 triangles) cut out; the ceiling (2) stays the rest.
+        assert!(
+            classes.contains(&(MaterialClass::Wall, 8))
+                && classes.contains(&(MaterialClass::Other, 2)),
+            "{classes:?}"
+        );
     }
 
     /// A nave of generic names whose walls are built a bay at a time, 32 panels each its own

@@ -175,17 +175,29 @@ pub(crate) fn oriented_plane(
     let reference =
         reference.or_else(|| faces.iter().max_by(|x, y| x.2.total_cmp(&y.2)).map(|f| f.1))?;
     let mut sum = glam::DVec3::ZERO;
+    let mut as_wound = glam::DVec3::ZERO;
     let mut centroid = glam::DVec3::ZERO;
     let mut area = 0.0;
     for (c, n, a) in &faces {
         sum += if n.dot(reference) < 0.0 { -*n } else { *n };
+        as_wound += *n;
         centroid += *c * *a;
         area += a;
     }
     if area.is_nan() || area <= 0.0 || sum.length() == 0.0 {
         return None;
     }
-    Some((centroid / area, sum.normalize(), area))
+    // Glass wound one way that turns through more than 90° (a half-cylinder bay) had its far
+    // faces turned towards the reference face, an end facet, and the plane came out 67° off
+    // the opening's. Where the faces as wound sum to at least half their area, they are one
+    // sheet and their sum is the plane's normal; two-sided and thick glass sum to about none.
+    let normal = if as_wound.length() >= area {
+        let n = as_wound.normalize();
+        if n.dot(reference) < 0.0 { -n } else { n }
+    } else {
+        sum.normalize()
+    };
+    Some((centroid / area, normal, area))
 }
 
 /// Fits `world = origin + u * u_axis + v * v_axis` to the window's vertices and orients the

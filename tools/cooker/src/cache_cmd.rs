@@ -226,8 +226,14 @@ pub fn finish_remote(remote: Option<&Remote>, args: &CacheArgs) -> anyhow::Resul
         human(s.bytes_down),
         human(s.bytes_up)
     );
-    if !s.corrupt.is_empty() {
-        line.push_str(&format!(", {} damaged blobs not used", s.corrupt.len()));
+    // Action manifests (`ac/`) apart from blobs: sixteen damaged manifests were "16 damaged
+    // blobs".
+    let manifests = s.corrupt.iter().filter(|e| e.starts_with("ac/")).count();
+    let blobs = s.corrupt.len() - manifests;
+    for (n, what) in [(blobs, "blobs"), (manifests, "action manifests")] {
+        if n > 0 {
+            line.push_str(&format!(", {n} damaged {what} not used"));
+        }
     }
     if args.cache_read_only || !(args.cache_write || in_ci()) {
         line.push_str(" (read-only)");
@@ -370,11 +376,47 @@ fn stats(args: &CacheArgs) -> Outcome {
     Ok(OK)
 }
 
+/// The records of last cooks (`scenes/*.json`, for `explain`) checked as `verify` checks
+/// entries: how many there are, and the unreadable ones, removed where they can be (a garbled
+/// record made `explain` say that no earlier cook was recorded).
+fn verify_records(cache: &Cache) -> (usize, Vec<cook::cache::Damaged>) {
+    let mut checked = 0;
+    let mut damaged = Vec::new();
+    let Ok(dir) = std::fs::read_dir(cache.dir().join("scenes")) else {
+        return (0, damaged);
+    };
+    let mut paths: Vec<std::path::PathBuf> = dir
+        .flatten()
+        .map(|e| e.path())
+        .filter(|p| p.extension().is_some_and(|e| e == "json"))
+        .collect();
+    paths.sort();
+    for path in paths {
+        checked += 1;
+        let why = match std::fs::metadata(&path) {
+            Ok(m) if !m.is_file() => "not a regular file".to_string(),
+            _ => match std::fs::read(&path) {
+                Ok(b) => match serde_json::from_slice::<scene_cache::Record>(&b) {
+                    Ok(_) => continue,
+                    Err(e) => format!("not a record of a cook: {e}"),
+                },
+                Err(e) => format!("unreadable: {e}"),
+            },
+        };
+        let kept = std::fs::remove_file(&path).err().map(|e| e.to_string());
+        damaged.push(cook::cache::Damaged { path, why, kept });
+    }
+    (checked, damaged)
+}
+
 fn verify(args: &CacheArgs) -> Outcome {
     let (cache, remote, local) = open_maybe_remote_only(args)?;
     let mut bad = 0;
     if !local.said_missing() {
-        let (checked, damaged) = cache.verify()?;
+        let (mut checked, mut damaged) = cache.verify()?;
+        let (records, damaged_records) = verify_records(&cache);
+        checked += records;
+        damaged.extend(damaged_records);
         for d in &damaged {
             let fate = d
                 .kept
@@ -623,7 +665,18 @@ fn explain(
     // record of the same manifest and settings from another checkout: its inputs say which
     // file differs here (without it, a changed design in a second checkout was "no earlier
     // cook recorded" under a line that said the scene was cooked before).
-    let own = read_record(&scene_cache::record_path(&cache, input));
+    let own_path = scene_cache::record_path(&cache, input);
+    let own = read_record(&own_path);
+    // A record that is there but unreadable is not "no earlier cook".
+    if own.is_none() && own_path.is_file() {
+        println!(
+            "a cook would cook it: the record of the last cook of {}, {}, is damaged (`cooker \
+             cache verify` removes it)",
+            input.display(),
+            own_path.display()
+        );
+        return Ok(OK);
+    }
     let dir = input.parent().unwrap_or(std::path::Path::new(""));
     // Whose record: this manifest's (`Own`), the same manifest's elsewhere, or a record of
     // the same files under another manifest (a bare cook of the model `init` described).

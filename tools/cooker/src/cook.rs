@@ -253,6 +253,7 @@ pub fn run(args: Args) -> Outcome {
                     println!("cache: cooking because {why}");
                 }
             }
+            scene_cache::Reuse::Damaged(why) => eprintln!("warning: cache: {why}"),
         }
     }
     settings.cache = cache.clone();
@@ -390,7 +391,8 @@ fn trim(cache: &cook::cache::Cache, verbose: bool) {
             cache.max_size()
         ),
         Ok(_) => {}
-        Err(e) => eprintln!("warning: cache not trimmed: {e}"),
+        // With its cause: the path alone ("cache not trimmed: rocache") said nothing of why.
+        Err(e) => eprintln!("warning: cache not trimmed: {:#}", anyhow::Error::new(e)),
     }
 }
 

@@ -95,6 +95,9 @@ pub enum Reuse {
     Pack(Vec<u8>, Transcript, Option<[u8; 32]>),
     /// Cook it; the string says why (for `-v`).
     Cook(String),
+    /// Cook it: what the cache held was damaged, which is said without `-v` too, as a damaged
+    /// texture entry is.
+    Damaged(String),
 }
 
 /// The folder a manifest's relative paths start from.
@@ -234,7 +237,7 @@ pub fn lookup(
             return Reuse::Cook("an input changed since the last cook with these settings".into());
         }
         (Lookup::Corrupt(why), _) => {
-            return Reuse::Cook(format!("damaged cache entry, re-cooking: {why}"));
+            return Reuse::Damaged(format!("damaged cache entry, re-cooking: {why}"));
         }
     };
     let Ok(result) = serde_json::from_slice::<SceneResult>(&result) else {
@@ -263,7 +266,7 @@ pub fn lookup(
         }
         Lookup::Hit(_) => Reuse::Cook("cached pack does not match its scene entry".into()),
         Lookup::Miss => Reuse::Cook("cached pack was evicted".into()),
-        Lookup::Corrupt(why) => Reuse::Cook(format!("damaged cached pack, re-cooking: {why}")),
+        Lookup::Corrupt(why) => Reuse::Damaged(format!("damaged cached pack, re-cooking: {why}")),
     }
 }
 

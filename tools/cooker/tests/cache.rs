@@ -100,6 +100,29 @@ fn unchanged_scene_reused_changed_design_recooked_alone_damage_detected() {
     let changed = std::fs::read(&out).unwrap();
     assert!(changed != clean);
 
+    // The cached pack alone damaged: a warning, as for a damaged texture entry (it was said
+    // only under -v), and the pack re-cooked as it was.
+    let mut blobs = 0;
+    for e in std::fs::read_dir(&cache).unwrap() {
+        let p = e.unwrap().path();
+        if p.extension().is_some_and(|x| x == "blob") {
+            let mut b = std::fs::read(&p).unwrap();
+            let n = b.len();
+            b[n - 1] ^= 0x01;
+            std::fs::write(&p, b).unwrap();
+            blobs += 1;
+        }
+    }
+    assert!(blobs > 0, "no cached pack in {}", cache.display());
+    std::fs::remove_file(&out).unwrap();
+    let o = cook(&scene, &out, &cache);
+    assert!(
+        stderr(&o).contains("warning: cache: damaged cached pack, re-cooking: "),
+        "{}",
+        stderr(&o)
+    );
+    assert!(std::fs::read(&out).unwrap() == changed);
+
     // Every cache entry damaged: all are detected, re-cooked, and the pack comes out identical
     // to a cook without a cache.
     let mut damaged = 0;
@@ -659,6 +682,40 @@ fn explain_names_the_setting_or_input_that_changed() {
         "{}",
         stdout(&again)
     );
+
+    // A garbled record of the last cook is damage, not "no earlier cook is recorded": explain
+    // says so, and verify finds and removes it.
+    std::fs::write(&scene, format!("{manifest}\n# edited again\n")).unwrap();
+    let mut records = 0;
+    for e in std::fs::read_dir(cache.join("scenes")).unwrap() {
+        std::fs::write(e.unwrap().path(), b"{ not a record").unwrap();
+        records += 1;
+    }
+    assert!(records > 0);
+    let garbled = explain(&[]);
+    assert!(
+        garbled.contains("a cook would cook it: the record of the last cook of ")
+            && garbled.contains("is damaged (`cooker cache verify` removes it)"),
+        "{garbled}"
+    );
+    let verify = Command::new(env!("CARGO_BIN_EXE_cooker"))
+        .args(["cache", "verify", "--cache-dir"])
+        .arg(&cache)
+        .output()
+        .unwrap();
+    assert_eq!(verify.status.code(), Some(1), "{}", said(&verify));
+    let verified = stdout(&verify);
+    assert_eq!(
+        verified
+            .lines()
+            .filter(|l| l.starts_with("damaged: ")
+                && l.contains(".json: not a record of a cook: ")
+                && l.ends_with("(removed)"))
+            .count(),
+        records,
+        "{verified}"
+    );
+    assert_eq!(std::fs::read_dir(cache.join("scenes")).unwrap().count(), 0);
 }
 
 /// A command's stdout, then its stderr.

@@ -525,7 +525,7 @@ fn a_model_in_centimetres_or_millimetres_gets_the_designs_it_would_in_metres() {
     assert!(
         expected
             .iter()
-            .any(|(n, w, h)| n == "glass.design" && (*w, *h) == (51, 320)),
+            .any(|(n, w, h)| n == "glass.design" && (*w, *h) == (64, 400)),
         "{expected:?}"
     );
     for (scale, unit) in [
@@ -840,9 +840,11 @@ fn manifest_cook_rasterizes_the_rose_from_its_tf_colours_with_lead_and_a_project
     let tpm = cook::manifest::DEFAULT_TEXELS_PER_METRE as f64;
     assert_eq!(
         (lw, lh),
-        ((0.4 * tpm).round() as u32, (2.5 * tpm).round() as u32),
+        cook::design::design_size(0.4, 2.5, tpm as f32),
         "0.4 m x 2.5 m at the default texels per metre"
     );
+    // 51 x 320 at 128 texels per metre, grown to the least short side in its proportions.
+    assert_eq!((lw, lh), (64, 400));
     let kd = LANCET_KD.map(srgb8);
     assert!(close(
         *lancet.get_pixel(lw / 2, lh / 2),
