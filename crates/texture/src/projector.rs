@@ -462,8 +462,9 @@ fn encoded_chain(level: Vec<[f32; 4]>, w: u32, h: u32) -> MipChain {
 }
 
 /// Which level the stored chain starts at, how many more times it is halved along x or along y
-/// alone, the size it is then resampled to (a cap on the whole level only), and its error: the lowest level whose error stays within the budget, among those σ
-/// leaves detail for, then lower still to fit the size cap. The cap halves an axis only while
+/// alone, the size it is then resampled to (a cap on the whole level only), and its error:
+/// the lowest level whose error stays within the budget, among those σ leaves detail for,
+/// then lower still to fit the size cap. The cap halves an axis only while
 /// that axis is over it: a lancet's design 32 texels across and 1024 up was halved both ways,
 /// and its stripes across were lost (78 LSB). `error(k)` measures level `k` against the
 /// full-resolution blur; with halvings along one axis or a resample the error is left to the

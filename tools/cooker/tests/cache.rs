@@ -658,11 +658,7 @@ fn explain_names_the_setting_or_input_that_changed() {
             && damaged.contains(" is damaged (`cooker cache verify` removes it)"),
         "{damaged}"
     );
-    let verify = Command::new(env!("CARGO_BIN_EXE_cooker"))
-        .args(["cache", "verify", "--cache-dir"])
-        .arg(&cache)
-        .output()
-        .unwrap();
+    let verify = cache_verify(&cache);
     assert_eq!(verify.status.code(), Some(1), "{}", said(&verify));
     // Each damaged file named once (the reason named it again).
     let verified = stdout(&verify);
@@ -698,11 +694,7 @@ fn explain_names_the_setting_or_input_that_changed() {
             && garbled.contains("is damaged (`cooker cache verify` removes it)"),
         "{garbled}"
     );
-    let verify = Command::new(env!("CARGO_BIN_EXE_cooker"))
-        .args(["cache", "verify", "--cache-dir"])
-        .arg(&cache)
-        .output()
-        .unwrap();
+    let verify = cache_verify(&cache);
     assert_eq!(verify.status.code(), Some(1), "{}", said(&verify));
     let verified = stdout(&verify);
     assert_eq!(
@@ -716,6 +708,15 @@ fn explain_names_the_setting_or_input_that_changed() {
         "{verified}"
     );
     assert_eq!(std::fs::read_dir(cache.join("scenes")).unwrap().count(), 0);
+}
+
+/// `cooker cache verify` of the local cache `cache`.
+fn cache_verify(cache: &Path) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_cooker"))
+        .args(["cache", "verify", "--cache-dir"])
+        .arg(cache)
+        .output()
+        .unwrap()
 }
 
 /// A command's stdout, then its stderr.
