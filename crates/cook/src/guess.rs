@@ -1235,11 +1235,14 @@ pub fn guess(p: &Prepared) -> Guess {
         .iter()
         .map(|&(a, dir)| occupancy.view_depth(a, dir, len))
         .collect();
+    // Counted ahead of the eye only, where the picture is: the Cornell box, open at one end,
+    // was seen from its back wall looking out of the opening, since an eye by the opening
+    // had open sky behind it.
     let open: Vec<usize> = candidates
         .iter()
-        .map(|&(a, _)| {
+        .map(|&(a, dir)| {
             ring(a)
-                .filter(|&(a, d)| occupancy.depth(a, d, len) >= len)
+                .filter(|&(a, d)| d.dot(dir) > 1e-9 && occupancy.depth(a, d, len) >= len)
                 .count()
         })
         .collect();
@@ -1866,6 +1869,21 @@ mod tests {
         let cameras = guessed_cameras(&grid);
         assert_eq!(cameras[0].name, "nave", "{cameras:?}");
         assert!(cameras.iter().all(|c| c.name != "overview"));
+    }
+
+    /// The Cornell box is open at z = 0: its first view stands by the opening and looks in at
+    /// the blocks and the back wall, not from the back wall out into the void.
+    #[test]
+    fn a_box_open_at_one_end_is_seen_into_from_the_opening() {
+        let model = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+            .join("../../tests/data/third_party/cornell_box/cornell_box.obj");
+        let cameras = guessed_cameras(&model);
+        let nave = &cameras[0];
+        assert_eq!(nave.name, "nave", "{cameras:?}");
+        assert!(
+            nave.target[2] > nave.position[2] && nave.position[2] < 559.2 * 0.5,
+            "{nave:?}"
+        );
     }
 
     /// Cameras the pack accepts, whatever the model's unit: the Cornell box (550 units across)

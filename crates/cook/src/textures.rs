@@ -249,6 +249,23 @@ impl Job {
         }
     }
 
+    /// The texture settings this job's output can depend on, for its key. A projector builds
+    /// its own chain and never reads the mip filter; a normal map reads it only to bring an
+    /// image over the size cap down to the cap. With the filter in their keys, changing it
+    /// re-cooked both for nothing.
+    fn settings_read(&self, s: &TextureSettings) -> TextureSettings {
+        let filter_read = match self {
+            Job::Colour { .. } => true,
+            Job::Normal { .. } | Job::DerivedNormal { .. } => s.max_size.is_some(),
+            Job::Projector { .. } => false,
+        };
+        let mut s = s.clone();
+        if !filter_read {
+            s.mip_filter = texture::MipFilter::default();
+        }
+        s
+    }
+
     fn base_name_suffix(&self) -> String {
         match self {
             Job::Colour { .. } => " (colour)".into(),
@@ -261,7 +278,7 @@ impl Job {
     /// The cache key: the texture settings, the storage choice, the job's parameters and the
     /// image's content. The chosen format and encoder setting follow from these and the texels.
     fn cache_key(&self, p: &Params) -> Result<cache::Key, CookError> {
-        let mut k = cache::texture_key(&p.textures);
+        let mut k = cache::texture_key(&self.settings_read(&p.textures));
         k.serialized(
             "storage",
             &(
@@ -1187,6 +1204,62 @@ mod tests {
         let s = |p: &std::path::Path| seed(&ImageRef::File(p.to_path_buf()));
         assert_eq!(s(&a), s(&b));
         assert_ne!(s(&a), s(&c));
+    }
+
+    /// Changing the mip filter re-cooks what reads it: colour chains, and normal maps only
+    /// where a size cap may bring their image down with it; never a projector.
+    #[test]
+    fn only_jobs_that_read_the_mip_filter_have_it_in_their_keys() {
+        let image = ImageRef::Raster {
+            name: "w".into(),
+            image: Arc::new(image::RgbaImage::new(4, 4)),
+        };
+        let jobs = [
+            Job::Colour {
+                image: image.clone(),
+                srgb: true,
+                design: true,
+            },
+            Job::DerivedNormal {
+                design: image.clone(),
+            },
+            Job::Projector {
+                design: image,
+                sigma: 2.0.into(),
+                margin: [8, 8],
+                srgb: true,
+            },
+        ];
+        let images = DecodedImages::default();
+        let params = |filter, max_size| Params {
+            images: &images,
+            textures: TextureSettings {
+                mip_filter: filter,
+                max_error_lsb: None,
+                format: None,
+                supercompression: None,
+                max_size,
+            },
+            format: TextureFormatChoice::default(),
+            normal_budget: 1.0,
+            design_budget: None,
+            supercompression: pack::Supercompression::default(),
+        };
+        let changed = |max_size| -> Vec<bool> {
+            jobs.iter()
+                .map(|j| {
+                    let a = j
+                        .cache_key(&params(texture::MipFilter::Box, max_size))
+                        .unwrap();
+                    let b = j
+                        .cache_key(&params(texture::MipFilter::Kaiser, max_size))
+                        .unwrap();
+                    a != b
+                })
+                .collect()
+        };
+        assert_eq!(changed(None), [true, false, false]);
+        assert_eq!(changed(Some(1024)), [true, true, false]);
     }
 
     /// `x/t.png`, `y/t.png` and `t.2.png` cooked together: the second `t` used to be named

@@ -515,8 +515,8 @@ impl Geometry<'_> {
             Default::default()
         } else {
             (
-                surface::cover(&ta, ua, &surface::Bvh::new(&tb), reach),
-                surface::cover(&tb, ub, &surface::Bvh::new(&ta), reach),
+                surface::cover(&ta, ua, &surface::Bvh::new(&tb), reach, self.shading.uv),
+                surface::cover(&tb, ub, &surface::Bvh::new(&ta), reach, self.shading.uv),
             )
         };
         let name = &ma.name;
@@ -552,6 +552,16 @@ impl Geometry<'_> {
         }
         problems.extend(m.shading.problems(name, "corners"));
         shading_json(entry, &m.shading);
+        let uv_changes = ca.uv_changes + cb.uv_changes;
+        if uv_changes > 0 {
+            problems.push(format!(
+                "mesh {name:?}: {uv_changes} retriangulated triangles' texture coordinates \
+                 differ from the other's on the same surface, by up to {:.3e}",
+                ca.max_uv_delta.max(cb.max_uv_delta)
+            ));
+        }
+        entry["retriangulated_uv_changes"] = json!(uv_changes);
+        entry["max_retriangulated_uv_delta"] = json!(ca.max_uv_delta.max(cb.max_uv_delta));
         let gap = ca.max_gap.max(cb.max_gap);
         // The corner move is over matched triangles and the gap over unmatched ones on the
         // other's surface; with none of either they said 0, next to triangles off by more.

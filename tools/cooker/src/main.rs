@@ -62,6 +62,45 @@ enum Command {
     Cache(cache_cmd::Args),
 }
 
+/// Options that clap may fill from the environment, with the variable each reads.
+const FROM_ENV: [(&str, &str); 1] = [("--cache-max-size", "STAINED_GLASS_CACHE_MAX_SIZE")];
+
+/// Clap reports a bad value read from an environment variable as if the flag had been given
+/// ("invalid value 'abc' for '--cache-max-size <SIZE>'"), which sends the user looking at a
+/// command line that does not have it. Where the flag is absent, name the variable instead.
+fn blame_environment(
+    e: &clap::Error,
+    args: impl Iterator<Item = std::ffi::OsString>,
+) -> Option<String> {
+    use clap::error::{ContextKind, ContextValue, ErrorKind};
+    if !matches!(
+        e.kind(),
+        ErrorKind::ValueValidation | ErrorKind::InvalidValue
+    ) {
+        return None;
+    }
+    let Some(ContextValue::String(arg)) = e.get(ContextKind::InvalidArg) else {
+        return None;
+    };
+    let (flag, var) = FROM_ENV
+        .iter()
+        .find(|(f, _)| arg.split(' ').next() == Some(*f))?;
+    let args: Vec<_> = args.collect();
+    let given = args.iter().any(|a| {
+        let a = a.to_string_lossy();
+        a == *flag || a.starts_with(&format!("{flag}="))
+    });
+    if given {
+        return None;
+    }
+    let value = std::env::var_os(var)?;
+    let why = std::error::Error::source(e).map_or_else(String::new, |s| format!(": {s}"));
+    Some(format!(
+        "error: invalid value '{}' in ${var} (read as {flag}){why}",
+        value.to_string_lossy()
+    ))
+}
+
 /// Rust ignores SIGPIPE, so a closed stdout (`cooker info p.pack | head`) made the next
 /// `println!` panic; like other Unix tools, stop quietly instead.
 fn default_sigpipe() {
@@ -84,6 +123,10 @@ fn main() {
             } else {
                 exit::OK
             };
+            if let Some(msg) = blame_environment(&e, std::env::args_os().skip(1)) {
+                eprintln!("{msg}");
+                std::process::exit(code);
+            }
             let _ = e.print();
             std::process::exit(code);
         }

@@ -589,8 +589,33 @@ fn fs(url: &url::Url, shown: &str, read_only: bool) -> anyhow::Result<Operator> 
             .with_context(|| format!("creating the remote cache folder {}", tmp.display()))?;
         // Each write lands in a temp file there and is renamed into place.
         b = b.atomic_write_dir(&tmp.to_string_lossy());
+        sweep_stale_temp_files(&tmp);
     }
     Ok(Operator::new(b)?)
+}
+
+/// A write that failed half way (a share that filled up, a cook killed mid-upload) leaves its
+/// temp file behind, and nothing else ever removes it. A writer opening the share removes
+/// those older than an hour, far longer than any one entry's write takes, so a write in
+/// flight on another machine is never cut short. Best effort: a share that refuses is left.
+fn sweep_stale_temp_files(tmp: &std::path::Path) {
+    const STALE: Duration = Duration::from_secs(3600);
+    let Ok(entries) = std::fs::read_dir(tmp) else {
+        return;
+    };
+    let now = std::time::SystemTime::now();
+    for e in entries.flatten() {
+        let stale = e.metadata().is_ok_and(|m| {
+            m.is_file()
+                && m.modified()
+                    .ok()
+                    .and_then(|t| now.duration_since(t).ok())
+                    .is_some_and(|age| age > STALE)
+        });
+        if stale {
+            let _ = std::fs::remove_file(e.path());
+        }
+    }
 }
 
 #[cfg(feature = "remote-redis")]

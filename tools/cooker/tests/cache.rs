@@ -1093,3 +1093,34 @@ fn a_model_named_in_another_encoding_is_reused() {
         stdout(&second)
     );
 }
+
+#[test]
+fn a_bad_size_in_the_environment_is_blamed_on_the_variable() {
+    let dir = tempfile::tempdir().unwrap();
+    let run = |args: &[&str]| {
+        Command::new(env!("CARGO_BIN_EXE_cooker"))
+            .args(["cook", "scene.toml", "-o", "x.pack"])
+            .args(args)
+            .current_dir(dir.path())
+            .env("STAINED_GLASS_CACHE_MAX_SIZE", "abc")
+            .output()
+            .unwrap()
+    };
+    let from_env = run(&[]);
+    assert_eq!(from_env.status.code(), Some(2), "{}", stderr(&from_env));
+    let e = stderr(&from_env);
+    assert!(
+        e.contains(
+            "invalid value 'abc' in $STAINED_GLASS_CACHE_MAX_SIZE (read as --cache-max-size)"
+        ),
+        "{e}"
+    );
+    // The flag, where given, is what clap blames, and it is the flag's value that is shown.
+    for args in [&["--cache-max-size", "xyz"][..], &["--cache-max-size=xyz"]] {
+        let flagged = run(args);
+        assert_eq!(flagged.status.code(), Some(2));
+        let e = stderr(&flagged);
+        assert!(e.contains("'xyz'") && !e.contains("$STAINED_GLASS"), "{e}");
+    }
+    assert!(!dir.path().join("x.pack").exists());
+}

@@ -416,6 +416,20 @@ fn a_writer_shares_what_its_local_cache_already_held() {
         .output()
         .unwrap();
     ok(&o);
+    // What writes that failed half way left in the share's temp folder: one from two hours
+    // ago is swept by the next writer, one from now may be another machine's write in flight.
+    let tmp = share.join(".tmp");
+    std::fs::create_dir(&tmp).unwrap();
+    let stale = tmp.join("stale.partial");
+    std::fs::write(&stale, b"half a blob").unwrap();
+    std::fs::File::options()
+        .write(true)
+        .open(&stale)
+        .unwrap()
+        .set_modified(std::time::SystemTime::now() - std::time::Duration::from_secs(7200))
+        .unwrap();
+    let in_flight = tmp.join("in-flight.partial");
+    std::fs::write(&in_flight, b"a blob being written").unwrap();
     let t = ok(&cook(
         &scene.a,
         &out_a,
@@ -424,6 +438,7 @@ fn a_writer_shares_what_its_local_cache_already_held() {
         &["--cache-write"],
     ));
     assert!(t.contains("the remote cache lacks this scene"), "{t}");
+    assert!(!stale.exists() && in_flight.exists(), "{t}");
     let listed = |sub: &str| std::fs::read_dir(share.join(sub)).map_or(0, |r| r.count());
     assert!(listed("ac") > 2 && listed("cas") > 2, "{t}");
     // A second time the remote holds it all: the scene is reused, nothing more is sent.

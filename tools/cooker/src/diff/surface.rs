@@ -183,10 +183,42 @@ pub struct Cover {
     pub max_gap: f64,
     /// Triangles of `from` whose centroid's nearest triangle of `to` has another material there.
     pub material_changes: usize,
+    /// Triangles of `from` whose texture coordinates at the centroid differ from those of
+    /// `to` at the same point of the surface by more than the tolerance (per axis), and the
+    /// largest difference. A vertex slid along its plane in a reordered export keeps the
+    /// surface but stretches the texture over it.
+    pub uv_changes: usize,
+    pub max_uv_delta: f64,
+}
+
+/// The texture coordinates of triangle `t` at `q`, a point on it, by barycentric weights;
+/// `None` for a triangle with no area.
+fn uv_at(t: &Triangle, q: DVec3) -> Option<[f64; 2]> {
+    let [a, b, c] = t.points();
+    let n = (b - a).cross(c - a);
+    let area = n.length_squared();
+    if area <= 0.0 {
+        return None;
+    }
+    let wb = (q - a).cross(c - a).dot(n) / area;
+    let wc = (b - a).cross(q - a).dot(n) / area;
+    let wa = 1.0 - wb - wc;
+    let uv = |k: usize| {
+        wa * t.shading[0].uv[k] as f64
+            + wb * t.shading[1].uv[k] as f64
+            + wc * t.shading[2].uv[k] as f64
+    };
+    Some([uv(0), uv(1)])
 }
 
 /// Measures the triangles `which` of `from` against the surface of all of `to`.
-pub fn cover(from: &[Triangle], which: &[usize], to: &Bvh, tolerance: f64) -> Cover {
+pub fn cover(
+    from: &[Triangle],
+    which: &[usize],
+    to: &Bvh,
+    tolerance: f64,
+    uv_tolerance: f64,
+) -> Cover {
     let mut out = Cover::default();
     for &i in which {
         let t = &from[i];
@@ -218,8 +250,18 @@ pub fn cover(from: &[Triangle], which: &[usize], to: &Bvh, tolerance: f64) -> Co
                 // The material at the centroid: the corner material the nearest triangle
                 // shares most, its first corner's on a tie.
                 let material = |m: [u32; 3]| if m[1] == m[2] { m[1] } else { m[0] };
-                if material(t.materials) != material(to.triangles[j as usize].materials) {
+                let other = &to.triangles[j as usize];
+                if material(t.materials) != material(other.materials) {
                     out.material_changes += 1;
+                }
+                let [ta, tb, tc] = t.shading.map(|s| s.uv.map(f64::from));
+                let here = [0, 1].map(|k| (ta[k] + tb[k] + tc[k]) / 3.0);
+                if let Some(there) = uv_at(other, closest_point(centroid, other.points())) {
+                    let d = (here[0] - there[0]).abs().max((here[1] - there[1]).abs());
+                    if d > uv_tolerance {
+                        out.uv_changes += 1;
+                    }
+                    out.max_uv_delta = out.max_uv_delta.max(d);
                 }
             }
             None => out.off_surface += 1,
@@ -288,7 +330,7 @@ mod tests {
         let a = [tri([p, q, r], 1), tri([p, r, s], 1)];
         let b = [tri([p, q, s], 1), tri([q, r, s], 1)];
         let bvh = Bvh::new(&b);
-        let c = cover(&a, &[0, 1], &bvh, 1e-6);
+        let c = cover(&a, &[0, 1], &bvh, 1e-6, 1e-6);
         assert_eq!((c.off_surface, c.material_changes), (0, 0));
         assert!(c.max_gap < 1e-12, "{c:?}");
         // Bent along its diagonal, the other split is another surface.
@@ -296,15 +338,45 @@ mod tests {
             tri([p, q, [0.0, 1.0, 0.5]], 1),
             tri([q, r, [0.0, 1.0, 0.5]], 1),
         ];
-        let c = cover(&a, &[0, 1], &Bvh::new(&bent), 0.1);
+        let c = cover(&a, &[0, 1], &Bvh::new(&bent), 0.1, 1e-6);
         assert_eq!(c.off_surface, 2);
         // Same surface, another material.
         let recoloured = [tri([p, q, s], 2), tri([q, r, s], 2)];
-        let c = cover(&a, &[0, 1], &Bvh::new(&recoloured), 1e-6);
+        let c = cover(&a, &[0, 1], &Bvh::new(&recoloured), 1e-6, 1e-6);
         assert_eq!((c.off_surface, c.material_changes), (0, 2));
         // Same surface, facing the other way.
         let flipped = [tri([p, s, q], 1), tri([q, s, r], 1)];
-        let c = cover(&a, &[0, 1], &Bvh::new(&flipped), 1e-6);
+        let c = cover(&a, &[0, 1], &Bvh::new(&flipped), 1e-6, 1e-6);
         assert_eq!(c.off_surface, 2);
+    }
+
+    /// Texture coordinates that follow the surface (here u, v = x, y) agree however it is
+    /// cut; a vertex slid along the plane with its coordinates kept stretches the texture.
+    #[test]
+    fn a_vertex_slid_in_its_plane_with_its_uv_kept_is_a_uv_change() {
+        let planar = |t: Triangle| {
+            let mut t = t;
+            for (s, c) in t.shading.iter_mut().zip(t.corners) {
+                s.uv = [c[0], c[1]];
+            }
+            t
+        };
+        let (p, q, r, s) = ([0.0; 3], [2.0, 0.0, 0.0], [2.0, 1.0, 0.0], [0.0, 1.0, 0.0]);
+        let a = [planar(tri([p, q, r], 1)), planar(tri([p, r, s], 1))];
+        let b = [planar(tri([p, q, s], 1)), planar(tri([q, r, s], 1))];
+        let c = cover(&a, &[0, 1], &Bvh::new(&b), 1e-6, 1e-6);
+        assert_eq!(c.uv_changes, 0, "{c:?}");
+        assert!(c.max_uv_delta < 1e-9, "{c:?}");
+        // r slid to (1.5, 1): on the same plane, its uv still (2, 1).
+        let slid = [1.5, 1.0, 0.0];
+        let mut moved = [tri([p, q, slid], 1), tri([p, slid, s], 1)];
+        for t in &mut moved {
+            for (sh, c) in t.shading.iter_mut().zip(t.corners) {
+                sh.uv = if c == slid { [2.0, 1.0] } else { [c[0], c[1]] };
+            }
+        }
+        let c = cover(&moved, &[0, 1], &Bvh::new(&a), 1e-6, 1e-3);
+        assert_eq!((c.off_surface, c.uv_changes), (0, 2), "{c:?}");
+        assert!(c.max_uv_delta > 0.1, "{c:?}");
     }
 }
