@@ -395,8 +395,8 @@ impl Occupancy {
 /// Whether `eye` is inside a closed object: the nearest surface along each of three axes is
 /// met from behind, as the wound faces of a closed mesh are from within. A building whose
 /// walls face in is not one (nor, where its faces point out, is it told from an object: its
-/// views are then the overview's alone). One pass over the triangles, three rays each, and
-/// on models without a floor only (a BVH would cost more to build than three rays save).
+/// views are then the overview's alone). One pass over the triangles, three rays each (a BVH
+/// would cost more to build than three rays save).
 fn inside_an_object(p: &Prepared, classes: &[MaterialClass], eye: DVec3) -> bool {
     use rayon::prelude::*;
     let rays = [DVec3::X, DVec3::Y, DVec3::Z];
@@ -1187,13 +1187,16 @@ pub fn guess(p: &Prepared) -> Guess {
     // a bunny): first a view of all of it from outside, from above on its sunlit side, at the
     // distance where its bounding sphere fills the height of the view. The view inside its
     // bounds follows, for a building whose floor was not recognised.
-    if floor.is_none() {
+    let overview = || {
         let toward_sun =
             travel((lo + hi) * 0.5).map_or(DVec3::ZERO, |d| DVec3::new(-d.x, 0.0, -d.z));
         let dir = (toward_sun.normalize_or(DVec3::Z) + DVec3::Y * 0.6).normalize();
         let middle = (lo + hi) * 0.5;
         let distance = diag * 0.5 / (FOV_Y_DEG.to_radians() * 0.5).sin();
-        cameras.push(camera("overview", middle + dir * distance, middle));
+        camera("overview", middle + dir * distance, middle)
+    };
+    if floor.is_none() {
+        cameras.push(overview());
     }
     // Along the longer horizontal axis, from near one end towards the other, placed where
     // the view runs farthest before it meets geometry: down the middle of a nave, but beside
@@ -1264,12 +1267,20 @@ pub fn guess(p: &Prepared) -> Guess {
             best_view = Some((depth, a, a + dir * len * 0.9));
         }
     }
-    if let Some((_, a, b)) = best_view
-        // Without a floor the model may be an object, and the eye inside it: the bunny's
-        // "nave" view was of its inside.
-        && (floor.is_some() || !inside_an_object(p, &classes, a))
-    {
-        cameras.push(camera("nave", a, b));
+    // The model may be an object, and the eye inside it: the bunny's "nave" view was of its
+    // inside; a closed box's bottom is a floor (floors are taken facing up or down, as
+    // exporters flip them), and Box.glb was seen only from within. Such a model is first
+    // seen from outside, floor or not. A flat model (one triangle, a sheet) has no inside:
+    // its "nave" eye stood in its plane and saw nothing.
+    let flat = (hi - lo).min_element() < 1e-3 * (hi - lo).max_element();
+    if let Some((_, a, b)) = best_view {
+        if flat || inside_an_object(p, &classes, a) {
+            if floor.is_some() {
+                cameras.insert(0, overview());
+            }
+        } else {
+            cameras.push(camera("nave", a, b));
+        }
     }
     let mut by_area: Vec<&crate::instances::Instance> = windows.iter().collect();
     let order = larger_window_first(windows);
@@ -1869,6 +1880,29 @@ mod tests {
         let cameras = guessed_cameras(&grid);
         assert_eq!(cameras[0].name, "nave", "{cameras:?}");
         assert!(cameras.iter().all(|c| c.name != "overview"));
+    }
+
+    /// A closed box whose bottom reads as a floor (Box.glb) and a lone triangle are objects
+    /// seen from outside: the box got only a view from within it, the triangle one standing in
+    /// its plane.
+    #[test]
+    fn a_closed_box_and_a_flat_sheet_are_seen_from_outside() {
+        let sample = |rel: &str| {
+            std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+                .join("../../tests/data/third_party/gltf")
+                .join(rel)
+        };
+        for model in [
+            "Box/Box.glb",
+            "TriangleWithoutIndices/TriangleWithoutIndices.gltf",
+        ] {
+            let cameras = guessed_cameras(&sample(model));
+            assert_eq!(cameras[0].name, "overview", "{model}: {cameras:?}");
+            assert!(
+                cameras.iter().all(|c| c.name != "nave"),
+                "{model}: {cameras:?}"
+            );
+        }
     }
 
     /// The Cornell box is open at z = 0: its first view stands by the opening and looks in at

@@ -151,6 +151,18 @@ pub(crate) fn few_names(names: &[impl std::fmt::Debug]) -> String {
     }
 }
 
+/// A length for messages: two decimals, or three significant digits where those say less. A
+/// model in metres scaled to millimetres had windows "0.00 x 0.00", and a nave scaled to a
+/// fraction of a millimetre windows "0–0 units long".
+pub fn length(x: f64) -> String {
+    let digits = if x.abs() > 0.0 && x.is_finite() {
+        (2 - x.abs().log10().floor() as i64).clamp(2, 15) as usize
+    } else {
+        2
+    };
+    format!("{x:.digits$}")
+}
+
 /// How many of `n` things a line names: all where one more than [`NAMED`] (its name is no
 /// longer than "and 1 more", and a rose of four panes hid one of them), else [`NAMED`].
 pub(crate) fn shown_of(n: usize) -> usize {
@@ -241,6 +253,24 @@ pub enum ArtifactSource {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_length_keeps_three_significant_digits() {
+        let said = [1.2, 12.5, 0.03, 0.0012, 0.0, 1234.5, 5.5e-5, 1.578].map(length);
+        assert_eq!(
+            said,
+            [
+                "1.20",
+                "12.50",
+                "0.0300",
+                "0.00120",
+                "0.00",
+                "1234.50",
+                "0.0000550",
+                "1.58"
+            ]
+        );
+    }
 
     /// Tiles of one floor, each its own object, tagged alike for one reason, are one group;
     /// another material, reason or source starts another, in the order first met.

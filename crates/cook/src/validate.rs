@@ -57,6 +57,10 @@ pub const FINDING_CODES: &[(&str, &str)] = &[
         "triangles with the same three corners as another",
     ),
     (
+        "window-entry-shadowed",
+        "a window entry every window of which an earlier entry describes: never used",
+    ),
+    (
         "window-not-window-class",
         "a window entry whose glass is not tagged as a window",
     ),
@@ -398,18 +402,42 @@ pub fn validate_scene_with(
         .iter()
         .map(|m| m.material.clone())
         .collect();
-    for w in &manifest.windows {
-        let hit = found.instances.iter().zip(&found.material).any(|(i, &m)| {
-            let plan = tagging.materials[m as usize].window.as_deref();
-            let mats = plan.map(|p| p.materials.clone()).unwrap_or_default();
-            w.matches(
-                &i.name,
-                mats.iter()
-                    .map(String::as_str)
-                    .chain([materials[m as usize].name.as_str()]),
-            )
-        });
-        if hit {
+    let entry_matches = |w: &crate::manifest::WindowDesign, k: usize| {
+        let (i, m) = (&found.instances[k], found.material[k] as usize);
+        let plan = tagging.materials[m].window.as_deref();
+        let mats = plan.map(|p| p.materials.clone()).unwrap_or_default();
+        w.matches(
+            &i.name,
+            mats.iter()
+                .map(String::as_str)
+                .chain([materials[m].name.as_str()]),
+        )
+    };
+    // Per window, the entry that describes it: the first that matches.
+    let first_entry: Vec<Option<usize>> = (0..found.instances.len())
+        .map(|k| manifest.windows.iter().position(|w| entry_matches(w, k)))
+        .collect();
+    for (wi, w) in manifest.windows.iter().enumerate() {
+        let matched: Vec<usize> = (0..found.instances.len())
+            .filter(|&k| entry_matches(w, k))
+            .collect();
+        if let Some(&k) = matched.first() {
+            // Every window it matches taken by an earlier entry: never used, as the cook
+            // warns (validate said nothing).
+            if matched.iter().all(|&k| first_entry[k] != Some(wi))
+                && let Some(earlier) = first_entry[k]
+            {
+                v.add(
+                    "window-entry-shadowed",
+                    format!(
+                        "[[window]] at manifest line {} names {}, but every window it matches \
+                         takes the earlier [[window]] at line {} (the first that matches wins)",
+                        w.line.0,
+                        w.describe(),
+                        manifest.windows[earlier].line.0
+                    ),
+                );
+            }
             continue;
         }
         match materials

@@ -540,8 +540,19 @@ pub fn plan(
             }
         }
         if let Some((_, b)) = &baked_from {
+            let path = &sources[inst.source].path;
+            // As the file writes them: an OBJ's v runs up, and is held flipped (images' rows
+            // run down); the note said [-9, -6] of `vt` lines reading 7 to 10.
+            let obj = path
+                .extension()
+                .is_some_and(|e| e.eq_ignore_ascii_case("obj"));
+            let (v0, v1) = if obj {
+                (1.0 - b[3], 1.0 - b[1])
+            } else {
+                (b[1], b[3])
+            };
             report.notes.push(Warning::new(
-                &sources[inst.source].path,
+                path,
                 None,
                 format!(
                     "window {:?}: its glass's texture coordinates span [{:.3}, {:.3}] x \
@@ -550,8 +561,8 @@ pub fn plan(
                     inst.name,
                     b[0],
                     b[2],
-                    b[1],
-                    b[3],
+                    v0,
+                    v1,
                     if image.is_some() {
                         "its design is drawn as the glass shows it onto planar coordinates \
                          (uv = \"planar\" fits it to the window once instead)"
@@ -761,9 +772,9 @@ pub fn plan(
                 "the windows are {}–{} units long (median {}): taken as {name}, so designs \
                  drawn from the mesh get {default_texels} texels per unit ({} per metre); set \
                  texels_per_metre on a [[window]] to choose",
-                round3(sides[0]),
-                round3(sides[sides.len() - 1]),
-                round3(sides[sides.len() / 2]),
+                crate::report::length(sides[0]),
+                crate::report::length(sides[sides.len() - 1]),
+                crate::report::length(sides[sides.len() / 2]),
                 crate::manifest::DEFAULT_TEXELS_PER_METRE,
             ),
         ));
@@ -1107,11 +1118,6 @@ fn make_design(p: &Pending, images: &crate::textures::DecodedImages) -> Result<D
         // too, and was taken for a tinted one (named `.masked` with nothing masked).
         Ok((img.clone(), *source, size))
     }
-}
-
-/// Rounded to 3 decimals, for messages (250 rather than 250.0000).
-fn round3(x: f64) -> f64 {
-    (x * 1000.0).round() / 1000.0
 }
 
 /// The inside normal of a window material, if the window stage planned it.

@@ -76,8 +76,8 @@ pub struct ProjectorReport {
     /// Further halvings of the stored level along x and along y alone, where one axis was
     /// over the size cap and the other was not.
     pub halved: [u32; 2],
-    /// Under a cap on the whole level (`cap_whole_level`), the size of the level that was
-    /// resampled down to the cap rather than halved, where that came nearer the blur: a 256²
+    /// Under the size cap, the size of the level that was resampled down to the cap rather
+    /// than halved, where that came nearer the blur: a 256²
     /// design with its light margin at σ 2.2 is 274², 12.6 LSB off halved to 137², 5.0
     /// resampled to 256².
     pub resampled_from: Option<(u32, u32)>,
@@ -462,7 +462,7 @@ fn encoded_chain(level: Vec<[f32; 4]>, w: u32, h: u32) -> MipChain {
 }
 
 /// Which level the stored chain starts at, how many more times it is halved along x or along y
-/// alone, the size it is then resampled to (a cap on the whole level only), and its error:
+/// alone, the size it is then resampled to (where a halving would undershoot the cap), and its error:
 /// the lowest level whose error stays within the budget, among those σ leaves detail for,
 /// then lower still to fit the size cap. The cap halves an axis only while
 /// that axis is over it: a lancet's design 32 texels across and 1024 up was halved both ways,
@@ -509,24 +509,39 @@ fn choose_level(
         };
         let (mut hx, mut hy) = (halvings(w, opts.margin[0]), halvings(h, opts.margin[1]));
         let mut fit = None;
-        if opts.cap_whole_level {
-            // An axis's level before its last halving is over the cap by less than twice:
-            // resampled to the cap it keeps more of the blur than halved. Block storage pads
-            // to whole blocks, which must stay within the cap too.
-            let target = if opts.block_pad && cap >= 4 {
-                cap / 4 * 4
+        // An axis's level before its last halving is over the cap by less than twice:
+        // resampled to the cap it keeps more of the blur than halved. Under a cap on the
+        // whole level, block storage pads to whole blocks, which must stay within it too;
+        // under the format's cap on the design part, the size whose design part is the cap.
+        // Without it, a 300x600 design (616 texels down with its margin) was halved to 308
+        // and stored 31 LSB off the blur the renderer samples at 512.
+        let target = |size: u32, m: u32, j: usize| -> u32 {
+            if opts.cap_whole_level {
+                if opts.block_pad && cap >= 4 {
+                    cap / 4 * 4
+                } else {
+                    cap
+                }
             } else {
-                cap
-            };
-            let back = |k: usize, size: u32| match k.checked_sub(1) {
-                Some(j) if k > first && (size >> j) > target => (j, target),
-                _ => (k, (size >> k).max(1)),
-            };
-            let ((sx, tx), (sy, ty)) = (back(hx, w), back(hy, h));
-            if (sx, sy) != (hx, hy) {
-                (hx, hy) = (sx, sy);
-                fit = Some((tx, ty));
+                let s = (size >> j).max(1) as f64;
+                let part = s - 2.0 * m as f64 / (1u64 << j) as f64;
+                (s * cap as f64 / part).floor() as u32
             }
+        };
+        let back = |k: usize, size: u32, m: u32| match k.checked_sub(1) {
+            Some(j)
+                if k > first
+                    && (size >> j) > target(size, m, j)
+                    && (size >> k).max(1) < target(size, m, j) =>
+            {
+                (j, target(size, m, j))
+            }
+            _ => (k, (size >> k).max(1)),
+        };
+        let ((sx, tx), (sy, ty)) = (back(hx, w, opts.margin[0]), back(hy, h, opts.margin[1]));
+        if (sx, sy) != (hx, hy) {
+            (hx, hy) = (sx, sy);
+            fit = Some((tx, ty));
         }
         keep = hx.min(hy).min(n - 1);
         let extra = [(hx - keep) as u32, (hy - keep) as u32];
@@ -567,13 +582,20 @@ struct Kept {
     max_error: Option<f64>,
 }
 
-/// Whether a cap on the whole level may resample level 0 itself ([`choose_level`]): an axis
-/// over the cap whose half is within it. Such a level must be held whole, not streamed.
+/// Whether the size cap may resample level 0 itself ([`choose_level`]): an axis over the cap
+/// whose half is within it (the design part of it, unless the cap is on the whole level). Such
+/// a level must be held whole, not streamed.
 fn resamples_level0(opts: &ProjectorOptions, w: u32, h: u32) -> bool {
-    opts.cap_whole_level
-        && opts
-            .max_size
-            .is_some_and(|cap| [w, h].iter().any(|&s| s > cap && s / 2 <= cap))
+    let Some(cap) = opts.max_size else {
+        return false;
+    };
+    [(w, opts.margin[0]), (h, opts.margin[1])]
+        .iter()
+        .any(|&(s, m)| {
+            let m = if opts.cap_whole_level { 0 } else { m } as f64;
+            let cap = cap as f64;
+            s as f64 - 2.0 * m > cap && (s / 2) as f64 - m <= cap
+        })
 }
 
 /// The blur of an 8-bit design, a band of rows at a time.
@@ -1004,12 +1026,15 @@ mod tests {
                 ..ProjectorOptions::new(sigma)
             };
             let report = projector(&img8, &opts).unwrap().1;
-            (report.dropped_levels, report.halved)
+            let resampled = report.resampled_from.is_some();
+            (report.dropped_levels, report.halved, resampled)
         };
-        // 69 is over the cap across only: halved across alone; 35 is over it both ways.
+        // 69 is over the cap across only, by a texel: resampled to it rather than halved.
+        // 35 is over it both ways: halved across, where the half is the cap, and down (44)
+        // resampled to it, nearer the blur than a halving to 22.
         assert_eq!(
             (capped(70), capped(69), capped(35)),
-            ((0, [0, 0]), (0, [1, 0]), (1, [0, 0]))
+            ((0, [0, 0], false), (0, [0, 0], true), (0, [1, 0], true))
         );
         let wide = ProjectorOptions {
             margin: [9, 71],
@@ -1019,6 +1044,41 @@ mod tests {
             projector(&img8, &wide),
             Err(TextureError::MarginTooWide { margin: 71, .. })
         ));
+    }
+
+    /// A design a little over the format's cap on the design part (300 x 600 under 512) is
+    /// resampled to the cap, its margin kept on top, rather than halved to 300 down: the
+    /// renderer samples it at 512, and the halving stored it 31 LSB off the blur.
+    #[test]
+    fn a_design_a_little_over_the_format_s_cap_is_resampled_to_it() {
+        let design = DynamicImage::ImageRgba8(image::RgbaImage::from_fn(300, 600, |x, y| {
+            let band = (y / 6 + x / 50) % 3;
+            image::Rgba([[230, 40, 40, 255], [40, 200, 60, 255], [30, 60, 220, 255]][band as usize])
+        }));
+        let sigma = Sigma2::from(2.2);
+        let opts = ProjectorOptions {
+            max_size: Some(512),
+            margin: projector_margin(sigma, 300, 600),
+            ..ProjectorOptions::new(sigma)
+        };
+        let m = opts.margin;
+        let (chain, report) = projector(&design, &opts).unwrap();
+        assert_eq!(
+            report.resampled_from,
+            Some((300 + 2 * m[0], 600 + 2 * m[1])),
+            "{report}"
+        );
+        // Its design part is the cap, within a texel of rounding.
+        let part = chain.height as f64 * 600.0 / (600 + 2 * m[1]) as f64;
+        assert!((part - 512.0).abs() < 1.0, "{report}: {part}");
+        assert_eq!(chain.width, 300 + 2 * m[0]);
+        let halved = {
+            let mut h = opts;
+            h.max_size = Some(300);
+            projector(&design, &h).unwrap().1.max_error_lsb.unwrap()
+        };
+        let e = report.max_error_lsb.unwrap();
+        assert!(e < halved * 0.5, "{report}: halving gave {halved}");
     }
 
     /// A design over the size cap along one axis only is halved along that axis alone: a

@@ -98,24 +98,28 @@ fn a_size_cap_stores_the_first_level_that_fits_it_and_says_what_it_costs() {
     let (full, _) = projector(&img, &opts).unwrap();
     opts.max_size = Some(30);
     let (capped, report) = projector(&img, &opts).unwrap();
-    // Across 100 -> 50 -> 25, down 40 -> 20, which fits: one level dropped, then halved
-    // across alone.
-    assert_eq!((capped.width, capped.height), (25, 20));
+    // Across 100 -> 50, then 25 would undershoot the cap, as 20 down would: 50x40 resampled
+    // to 30x30, which keeps more of the blur than halving to 25x20.
+    assert_eq!((capped.width, capped.height), (30, 30), "{report}");
     assert_eq!(
-        (report.dropped_levels, report.halved),
-        (1, [1, 0]),
+        (report.dropped_levels, report.halved, report.resampled_from),
+        (0, [1, 0], Some((50, 40))),
         "{report}"
     );
     assert!(report.max_error_lsb.is_some_and(|e| e > 0.5), "{report}");
-    // Over the cap both ways by as many halvings: the chain from that level, unchanged.
+    let halved_error = {
+        let mut o = opts;
+        o.max_size = Some(25);
+        projector(&img, &o).unwrap().1.max_error_lsb.unwrap()
+    };
+    assert!(report.max_error_lsb.unwrap() < halved_error, "{report}");
     opts.max_size = Some(16);
     let (capped, report) = projector(&img, &opts).unwrap();
     assert_eq!(
-        (report.dropped_levels, report.halved),
-        (2, [1, 0]),
+        (capped.width, capped.height, report.resampled_from),
+        (16, 16, Some((25, 20))),
         "{report}"
     );
-    assert_eq!((capped.width, capped.height), (12, 10));
     let square = rgba_image(64, 64, design(64, 64, 6));
     let (square_full, _) = projector(&square, &ProjectorOptions::new(3.0)).unwrap();
     let (capped, report) = projector(&square, &opts).unwrap();
@@ -171,31 +175,32 @@ fn blur_error_on_a_512_design() {
 
 #[test]
 fn block_padded_projector_keeps_the_image_and_mips_the_padded_level() {
-    // 61x43 with one level dropped: stored 30x21, padded to 32x24 with the blur's zero border.
+    // 61x43 under a cap of 30: stored 30x30 (halved across, resampled down), padded to 32x32
+    // with the blur's zero border.
     let (w, h) = (61, 43);
     let img = rgba_image(w, h, design(w, h, 8));
     let mut opts = ProjectorOptions::new(3.0);
-    opts.max_size = Some(32);
+    opts.max_size = Some(30);
     let (plain, report) = projector(&img, &opts).unwrap();
     opts.block_pad = true;
     let (padded, padded_report) = projector(&img, &opts).unwrap();
     assert_eq!(report, padded_report);
-    assert_eq!((report.width, report.height), (30, 21));
-    assert_eq!((padded.width, padded.height), (32, 24));
-    for y in 0..24usize {
+    assert_eq!((report.width, report.height), (30, 30));
+    assert_eq!((padded.width, padded.height), (32, 32));
+    for y in 0..32usize {
         for x in 0..32usize {
             let p = &padded.levels[0][(y * 32 + x) * 4..][..4];
-            if x < 30 && y < 21 {
+            if x < 30 && y < 30 {
                 assert_eq!(p, &plain.levels[0][(y * 30 + x) * 4..][..4], "({x}, {y})");
             } else {
                 assert_eq!(p, [0; 4], "padding at ({x}, {y})");
             }
         }
     }
-    // Level 1 is the padded level 0 halved: 16x12, each texel the box of its four.
-    assert_eq!(padded.level_size(1), (16, 12));
-    assert_eq!(padded.levels[1].len(), 16 * 12 * 4);
-    let corner = &padded.levels[1][(11 * 16 + 15) * 4..][..4];
+    // Level 1 is the padded level 0 halved: 16x16, each texel the box of its four.
+    assert_eq!(padded.level_size(1), (16, 16));
+    assert_eq!(padded.levels[1].len(), 16 * 16 * 4);
+    let corner = &padded.levels[1][(15 * 16 + 15) * 4..][..4];
     assert_eq!(corner, [0; 4], "all four source texels are padding");
 }
 

@@ -567,6 +567,9 @@ fn paths_as_text(v: &serde_json::Value) -> serde_json::Value {
 #[derive(Clone, Copy)]
 enum Whose {
     Own,
+    /// An earlier cook here of the manifest and settings as they are now, where the last
+    /// cook was of others.
+    OwnEarlier,
     SameManifest,
     SameFiles,
 }
@@ -583,7 +586,7 @@ fn explain(
     let (cache, remote, missing) = open_maybe_remote_only(args)?;
     missing.said_missing();
     let local = Cache::open(cache.dir())?;
-    let key = scene_key(input, &settings)?;
+    let key = scene_key(input, &scene_cache::keyed(input, &settings))?;
     println!("scene {}: key {}", input.display(), key.hex());
     let level = |k: &cook::cache::Key| {
         let here = matches!(local.get(k), Lookup::Hit(_));
@@ -660,7 +663,7 @@ fn explain(
             .and_then(|b| serde_json::from_slice::<scene_cache::Record>(&b).ok())
     };
     let manifest_sha = hex(&cook::cache::digest_file(input)?);
-    let settings_json = serde_json::to_value(&settings)?;
+    let settings_json = serde_json::to_value(scene_cache::keyed(input, &settings))?;
     // This checkout's record; else, since keys leave the scene's folder out, the latest
     // record of the same manifest and settings from another checkout: its inputs say which
     // file differs here (without it, a changed design in a second checkout was "no earlier
@@ -681,7 +684,10 @@ fn explain(
     // Whose record: this manifest's (`Own`), the same manifest's elsewhere, or a record of
     // the same files under another manifest (a bare cook of the model `init` described).
     let (record, whose) = match own {
-        Some(r) => (r, Whose::Own),
+        Some(r) => match r.of(&manifest_sha, &settings_json) {
+            Some(same) if !std::ptr::eq(same, &r) => (same.clone(), Whose::OwnEarlier),
+            _ => (r, Whose::Own),
+        },
         None => {
             // The same manifest first; else, the manifest edited too, a record of the same
             // settings whose every input is a file here (the same scene's layout), latest.
@@ -745,6 +751,10 @@ fn explain(
     why.retain(|w| seen.insert(w.clone()));
     let last = match whose {
         Whose::Own => "the last cook recorded here",
+        Whose::OwnEarlier => {
+            "the last cook of this manifest and these settings recorded here (the cooks since \
+             were of other versions of it)"
+        }
         Whose::SameManifest => {
             "the last cook of the same manifest and settings recorded here, in another checkout"
         }

@@ -206,7 +206,10 @@ pub fn run(args: Args) -> Outcome {
     };
     let remote = remote.as_deref();
     let scene_key = match &cache {
-        Some(_) => Some(cook::cache::scene_key(&args.input, &settings)?),
+        Some(_) => Some(cook::cache::scene_key(
+            &args.input,
+            &scene_cache::keyed(&args.input, &settings),
+        )?),
         None => None,
     };
     if let (Some(cache), Some(key)) = (&cache, &scene_key) {

@@ -354,8 +354,8 @@ pub fn run(args: Args) -> Outcome {
             "  {} {:<12} {:>6} x {:<6} units  glass: {}",
             padded(&m.name, 32),
             m.class.name(),
-            size(len(w.u_axis)),
-            size(len(w.v_axis)),
+            cook::length(len(w.u_axis) as f64),
+            cook::length(len(w.v_axis) as f64),
             w.source_materials.join(", ")
         );
     }
@@ -371,16 +371,6 @@ pub fn run(args: Args) -> Outcome {
 fn padded(s: &str, width: usize) -> String {
     let shown = unicode_width::UnicodeWidthStr::width(s);
     format!("{s}{}", " ".repeat(width.saturating_sub(shown)))
-}
-
-/// A window's side: two decimals, or two significant digits below 0.1 (a model in kilometres
-/// or at 1:1000 printed every window as 0.00 x 0.00).
-fn size(x: f32) -> String {
-    if !(x > 0.0 && x < 0.1) {
-        return format!("{x:.2}");
-    }
-    let decimals = (1.0 - x.log10().floor()).clamp(2.0, 12.0) as usize;
-    format!("{x:.decimals$}")
 }
 
 #[cfg(test)]
@@ -406,15 +396,10 @@ mod tests {
     }
 
     #[test]
-    fn names_pad_by_their_width_on_screen_and_small_sizes_keep_digits() {
+    fn names_pad_by_their_width_on_screen() {
         assert_eq!(super::padded("Glass", 8), "Glass   ");
         assert_eq!(super::padded("红色玻璃", 10), "红色玻璃  ");
         assert_eq!(super::padded("Γυαλί", 6), "Γυαλί ");
         assert_eq!(super::padded("a long name", 4), "a long name");
-        assert_eq!(super::size(1.578), "1.58");
-        assert_eq!(super::size(13.0), "13.00");
-        assert_eq!(super::size(0.0), "0.00");
-        assert_eq!(super::size(0.0016), "0.0016");
-        assert_eq!(super::size(0.0348), "0.035");
     }
 }

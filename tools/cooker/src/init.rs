@@ -55,17 +55,6 @@ fn literal_glob(s: &str) -> String {
     out
 }
 
-/// A window's width or height for a comment: two decimals, or three significant digits where
-/// those say less (a model in metres scaled to millimetres had windows "0.00 x 0.00").
-fn extent(x: f64) -> String {
-    let digits = if x.abs() > 0.0 && x.is_finite() {
-        (2 - x.abs().log10().floor() as i64).clamp(2, 12) as usize
-    } else {
-        2
-    };
-    format!("{x:.digits$}")
-}
-
 /// `v` as the manifest writes a vector read as written: each component exact on its own.
 fn vec3(v: [f32; 3]) -> String {
     format!("[{}]", v.map(|x| exact1(x, 1, |r| r, x)).join(", "))
@@ -393,8 +382,8 @@ pub fn run(args: Args) -> Outcome {
         let _ = writeln!(
             t,
             "# {} x {}, centre {}, {} triangles of {}; inside: {}",
-            extent(inst.width()),
-            extent(inst.height()),
+            cook::length(inst.width()),
+            cook::length(inst.height()),
             vec3([c.x as f32, c.y as f32, c.z as f32]),
             inst.triangles.len(),
             plan.map(|p| p.materials.join(", ")).unwrap_or_default(),
@@ -514,18 +503,4 @@ pub fn run(args: Args) -> Outcome {
         guess.cameras.len()
     );
     Ok(OK)
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn a_window_extent_keeps_three_significant_digits() {
-        let said = [1.2, 12.5, 0.03, 0.0012, 0.0, 1234.5].map(extent);
-        assert_eq!(
-            said,
-            ["1.20", "12.50", "0.0300", "0.00120", "0.00", "1234.50"]
-        );
-    }
 }

@@ -117,6 +117,30 @@ fn relative(manifest: &Path, path: &Path) -> PathBuf {
     }
 }
 
+/// `settings` as the scene's key and the record of its cook hold them: a `--window` image
+/// named as from the manifest's folder where it lies inside it. As typed, `A/mine.png` from
+/// one folder and `mine.png` from another, or a second checkout's `B/mine.png`, were other
+/// settings, and the scene was never reused across them (the file's content is among the
+/// inputs of the result either way).
+pub fn keyed(manifest: &Path, settings: &cook::Settings) -> cook::Settings {
+    let mut s = settings.clone();
+    let dir = match scene_dir(manifest) {
+        d if d.as_os_str().is_empty() => std::path::absolute("."),
+        d => std::path::absolute(d),
+    }
+    .ok();
+    for o in &mut s.window_overrides {
+        for p in [&mut o.design, &mut o.normal_map].into_iter().flatten() {
+            if let (Some(dir), Ok(abs)) = (&dir, std::path::absolute(&*p))
+                && let Ok(rel) = abs.strip_prefix(dir)
+            {
+                *p = rel.to_path_buf();
+            }
+        }
+    }
+    s
+}
+
 /// Each input with the SHA-256 of its content now.
 pub fn hash_inputs(
     manifest: &Path,
@@ -157,12 +181,33 @@ pub fn inputs_of(cache: &Cache, key: &Key) -> Result<SceneInputs, String> {
 }
 
 /// What the last cook of a scene on this machine was made from, for `cooker cache explain`.
-#[derive(Serialize, Deserialize)]
+#[derive(Clone, Serialize, Deserialize)]
 pub struct Record {
     pub manifest_sha256: String,
     pub settings: serde_json::Value,
     #[serde(with = "cook::path_serde::with_text")]
     pub inputs: Vec<(PathBuf, String)>,
+    /// The cooks before it of other manifests or settings, latest first
+    /// ([`Record::EARLIER`] at most): after an edit that was reverted, explain compares with
+    /// the cook of the manifest as it is now, not with the edited one (which named a file the
+    /// manifest no longer does, "cannot be read").
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub earlier: Vec<Record>,
+}
+
+impl Record {
+    const EARLIER: usize = 7;
+
+    fn same_cook(&self, other: &Record) -> bool {
+        self.manifest_sha256 == other.manifest_sha256 && self.settings == other.settings
+    }
+
+    /// The latest cook of this manifest and these settings: this one or an earlier one.
+    pub fn of(&self, manifest_sha256: &str, settings: &serde_json::Value) -> Option<&Record> {
+        std::iter::once(self)
+            .chain(&self.earlier)
+            .find(|r| r.manifest_sha256 == manifest_sha256 && r.settings == *settings)
+    }
 }
 
 /// Where the record of the scene at `manifest` is kept (by its canonical path: the record is
@@ -185,12 +230,24 @@ fn write_record(
         Some((_, sha)) => *sha,
         None => digest_file(manifest)?,
     };
-    let record = Record {
+    let mut record = Record {
         manifest_sha256: hex(&manifest_sha),
-        settings: serde_json::to_value(settings)?,
+        settings: serde_json::to_value(keyed(manifest, settings))?,
         inputs: hashed.iter().map(|(p, h)| (p.clone(), hex(h))).collect(),
+        earlier: Vec::new(),
     };
     let path = record_path(cache, manifest);
+    if let Some(mut last) = std::fs::read(&path)
+        .ok()
+        .and_then(|b| serde_json::from_slice::<Record>(&b).ok())
+    {
+        let before = std::mem::take(&mut last.earlier);
+        record.earlier = std::iter::once(last)
+            .chain(before)
+            .filter(|r| !r.same_cook(&record))
+            .take(Record::EARLIER)
+            .collect();
+    }
     std::fs::create_dir_all(path.parent().expect("in the scenes folder"))?;
     pack::write_atomic(&path, &serde_json::to_vec_pretty(&record)?)?;
     Ok(())
@@ -249,7 +306,12 @@ pub fn lookup(
     let transcript = result.transcript.localized(manifest);
     // What this checkout's pack is made of, for `cooker cache explain`, however it was had.
     let _ = write_record(cache, manifest, settings, &hashed);
-    if let Ok(existing) = std::fs::read(output)
+    // Only a regular file of the pack's length can hold it: read unbounded, `-o /dev/zero`
+    // (or /dev/full, or a FIFO) filled memory until the cook was killed.
+    let same_length =
+        std::fs::metadata(output).is_ok_and(|m| m.is_file() && m.len() == result.pack_len);
+    if same_length
+        && let Ok(existing) = std::fs::read(output)
         && pack.holds(&existing)
         && cache.has_local_blob(&pack.sha)
     {

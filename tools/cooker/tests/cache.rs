@@ -83,10 +83,12 @@ fn unchanged_scene_reused_changed_design_recooked_alone_damage_detected() {
         "{fifo}"
     );
 
-    // One design changes: only the textures made from it are cooked again.
+    // One design changes: only the textures made from it are cooked again. Mid-window: a
+    // texel beyond the lancet's outline is masked away, and changes nothing cooked.
     let design = scene_dir.join("windows/lancet.png");
     let mut img = image::open(&design).unwrap().to_rgba8();
-    img.get_pixel_mut(10, 10).0 = [255, 0, 255, 255];
+    let (w, h) = img.dimensions();
+    img.get_pixel_mut(w / 2, h / 2).0 = [255, 0, 255, 255];
     img.save(&design).unwrap();
     let fourth = stdout(&cook(&scene, &out, &cache));
     let cooked = lines_starting(&fourth, "cooked ");
@@ -710,6 +712,80 @@ fn explain_names_the_setting_or_input_that_changed() {
     assert_eq!(std::fs::read_dir(cache.join("scenes")).unwrap().count(), 0);
 }
 
+/// An edit cooked, then reverted with another file changed: explain compares with the cook
+/// of the manifest as it is now, not with the edited one, which named a design the manifest
+/// no longer does ("scene.toml changed", "lit2.png cannot be read").
+#[test]
+fn explain_after_a_reverted_edit_compares_with_the_cook_of_the_manifest_as_it_is() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = common::small_scene(&dir.path().join("a"));
+    let folder = dir.path().join("a");
+    let cache = dir.path().join("cache");
+    let out = dir.path().join("out.pack");
+    cook(&scene, &out, &cache);
+    let manifest = std::fs::read_to_string(&scene).unwrap();
+    std::fs::rename(folder.join("lit.png"), folder.join("lit2.png")).unwrap();
+    std::fs::write(&scene, manifest.replace("lit.png", "lit2.png")).unwrap();
+    cook(&scene, &out, &cache);
+    std::fs::rename(folder.join("lit2.png"), folder.join("lit.png")).unwrap();
+    std::fs::write(&scene, &manifest).unwrap();
+    common::design(&folder.join("dark.png"), 91);
+    let o = Command::new(env!("CARGO_BIN_EXE_cooker"))
+        .args(["cache", "explain"])
+        .arg(&scene)
+        .arg("--cache-dir")
+        .arg(&cache)
+        .output()
+        .unwrap();
+    let said = stdout(&o);
+    assert!(o.status.success(), "{said}");
+    assert!(
+        said.contains("since the last cook of this manifest and these settings")
+            && said.contains("dark.png changed"),
+        "{said}"
+    );
+    assert!(
+        !said.contains("scene.toml changed") && !said.contains("cannot be read"),
+        "{said}"
+    );
+}
+
+/// A `--window` image in the scene's folder is the same setting however it is named: from
+/// the folder above (`a/mine.png`), from the scene's own (`mine.png`), or in a second checkout
+/// (`b/mine.png`). As typed, each was another key, and the pack was assembled again.
+#[test]
+fn a_window_image_in_the_scene_s_folder_is_one_setting_however_it_is_named() {
+    let dir = tempfile::tempdir().unwrap();
+    let (a, b) = (dir.path().join("a"), dir.path().join("b"));
+    let (scene_a, scene_b) = (common::small_scene(&a), common::small_scene(&b));
+    common::design(&a.join("mine.png"), 17);
+    common::design(&b.join("mine.png"), 17);
+    let cache = dir.path().join("cache");
+    let run = |cwd: &Path, scene: &Path, image: &str| {
+        let o = Command::new(env!("CARGO_BIN_EXE_cooker"))
+            .args(["cook", "-v"])
+            .arg(scene)
+            .arg("-o")
+            .arg(dir.path().join("out.pack"))
+            .arg("--cache-dir")
+            .arg(&cache)
+            .args(["--window", &format!("lit={image}")])
+            .current_dir(cwd)
+            .output()
+            .unwrap();
+        assert!(o.status.success(), "{}", stderr(&o));
+        stdout(&o)
+    };
+    let first = run(dir.path(), &scene_a, "a/mine.png");
+    assert!(!first.contains("reused the cached pack"), "{first}");
+    std::fs::remove_file(dir.path().join("out.pack")).unwrap();
+    let inside = run(&a, Path::new("scene.toml"), "mine.png");
+    assert!(inside.contains("reused the cached pack"), "{inside}");
+    std::fs::remove_file(dir.path().join("out.pack")).unwrap();
+    let checkout = run(dir.path(), &scene_b, "b/mine.png");
+    assert!(checkout.contains("reused the cached pack"), "{checkout}");
+}
+
 /// `cooker cache verify` of the local cache `cache`.
 fn cache_verify(cache: &Path) -> Output {
     Command::new(env!("CARGO_BIN_EXE_cooker"))
@@ -1123,4 +1199,30 @@ fn a_bad_size_in_the_environment_is_blamed_on_the_variable() {
         assert!(e.contains("'xyz'") && !e.contains("$STAINED_GLASS"), "{e}");
     }
     assert!(!dir.path().join("x.pack").exists());
+}
+
+/// A cached scene cooked to a device: whether the output already holds the pack was asked of
+/// `/dev/zero` by reading it whole, and the cook grew until it was killed (24 GB). Under a
+/// 4 GB address-space limit that was a failed allocation; now it is a write, as uncached.
+#[cfg(target_os = "linux")]
+#[test]
+fn a_cache_hit_written_to_a_device_reads_no_more_of_it_than_a_pack() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = common::small_scene(&dir.path().join("a"));
+    let cache = dir.path().join("cache");
+    cook(&scene, &dir.path().join("out.pack"), &cache);
+    let o = Command::new("sh")
+        .arg("-c")
+        .arg("ulimit -v 4000000 && exec \"$0\" cook \"$1\" -o /dev/zero --cache-dir \"$2\"")
+        .arg(env!("CARGO_BIN_EXE_cooker"))
+        .arg(&scene)
+        .arg(&cache)
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(
+        stdout(&o).contains("reused the cached pack"),
+        "{}",
+        stdout(&o)
+    );
 }

@@ -1103,6 +1103,13 @@ fn glass_mapped_past_the_texture_square_throws_its_design_where_it_is() {
             said.contains("past the texture's square") && said.contains("window \"Glass\""),
             "{said}"
         );
+        // The span as the `vt` lines write it (v runs up in an OBJ; it is held flipped).
+        let span = format!(
+            "span [{u0:.3}, {:.3}] x [{v0:.3}, {:.3}]",
+            u0 + 2.0,
+            v0 + 3.0
+        );
+        assert!(said.contains(&span), "{span}: {said}");
         let o = cooker(&[&"info", &pack, &"--json"]);
         let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
         let w = &v["windows"][0];

@@ -1833,6 +1833,13 @@ fn a_window_entry_an_earlier_glob_hides_is_said_to_be_unused() {
         ),
         "{said}"
     );
+    // `validate` finds it too (it said nothing).
+    let shadowed = |scene: &Path| {
+        let o = cooker(&[&"validate", &scene, &"--json"]);
+        let v: Value = serde_json::from_slice(&o.stdout).unwrap();
+        code_of_in(&v, "\"glass#2\"").contains(&"window-entry-shadowed")
+    };
+    assert!(shadowed(&scene));
     // The other way round, each is used.
     std::fs::write(
         &scene,
@@ -1842,6 +1849,7 @@ fn a_window_entry_an_earlier_glob_hides_is_said_to_be_unused() {
     .unwrap();
     let said = cook(&scene, &dir.path().join("hall.pack"), &[]);
     assert!(!said.contains("is never used"), "{said}");
+    assert!(!shadowed(&scene));
 }
 
 /// With a sun in the manifest, a window on the shaded side still faces into the building: the

@@ -92,11 +92,21 @@ fn default_scene_is_deterministic_and_matches_golden() {
     for (names, want) in [
         (&["floor", "wall", "sky"][..], "bc7+zstd"),
         (
-            &["hammered.normal", "reeded.normal", "mosaic.derived-normal"],
+            &[
+                "hammered.normal",
+                "reeded.normal",
+                "mosaic.masked.derived-normal",
+            ],
             "bc5+zstd",
         ),
         (
-            &["lancet", "border", "mosaic", "rose", "rose.projector"],
+            &[
+                "lancet.masked",
+                "border.masked",
+                "mosaic.masked",
+                "rose.masked",
+                "rose.masked.projector",
+            ],
             "rgba8+zstd",
         ),
     ] {

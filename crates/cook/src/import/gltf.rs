@@ -1942,10 +1942,18 @@ fn convert_material(
         ),
         None => {
             let metallic = pbr.metallic_factor().clamp(0.0, 1.0);
+            let rough = pbr.roughness_factor().clamp(0.02, 1.0);
+            // The viewer lights with lamps and an even ambient, with no surroundings for a
+            // metal to reflect: glTF's defaults (metallic 1, roughness 1, which a file that
+            // gives only a base colour gets) made it black but for a highlight, its texture
+            // unseen. A rough metal spreads its reflection as widely as a diffuse surface
+            // does: that part (roughness² of it, all of it at roughness 1) is kept as diffuse
+            // in the base colour, the rest stays specular.
+            let scattered = metallic * rough * rough;
             (
-                [0, 1, 2].map(|k| base[k] * (1.0 - metallic)),
-                [0, 1, 2].map(|k| 0.04 * (1.0 - metallic) + base[k] * metallic),
-                pbr.roughness_factor().clamp(0.02, 1.0),
+                [0, 1, 2].map(|k| base[k] * (1.0 - metallic + scattered)),
+                [0, 1, 2].map(|k| 0.04 * (1.0 - metallic) + base[k] * (metallic - scattered)),
+                rough,
             )
         }
     };
@@ -2714,6 +2722,57 @@ mod tests {
         let path = dir.join("m.gltf");
         std::fs::write(&path, json).unwrap();
         path
+    }
+
+    /// glTF's defaults make a material that gives only a base colour a rough metal (metallic
+    /// 1, roughness 1). The viewer has no surroundings for a metal to reflect, and such a
+    /// material was cooked black (diffuse 0) with its texture unseen. A rough metal keeps its
+    /// base colour as diffuse; a polished one is mostly specular; a dielectric is as it was.
+    #[test]
+    fn a_rough_metal_keeps_its_base_colour_and_a_polished_one_reflects_it() {
+        let dir = tempfile::tempdir().unwrap();
+        let tri = triangle_bytes();
+        std::fs::write(dir.path().join("b.bin"), &tri).unwrap();
+        let json = r#"{"asset": {"version": "2.0"},
+            "scene": 0, "scenes": [{"nodes": [0]}], "nodes": [{"mesh": 0}],
+            "meshes": [{"primitives": [
+                {"attributes": {"POSITION": 0}, "material": 0},
+                {"attributes": {"POSITION": 0}, "material": 1},
+                {"attributes": {"POSITION": 0}, "material": 2}]}],
+            "materials": [
+                {"name": "defaults", "pbrMetallicRoughness": {"baseColorFactor": [0.8, 0.4, 0.2, 1]}},
+                {"name": "plastic", "pbrMetallicRoughness": {"baseColorFactor": [0.8, 0.4, 0.2, 1],
+                    "metallicFactor": 0}},
+                {"name": "brass", "pbrMetallicRoughness": {"baseColorFactor": [0.8, 0.4, 0.2, 1],
+                    "roughnessFactor": 0.2}}],
+            "accessors": [{"bufferView": 0, "componentType": 5126, "count": 3,
+                "type": "VEC3", "min": [0, 0, 0], "max": [1, 1, 0]}],
+            "bufferViews": [{"buffer": 0, "byteLength": 36}],
+            "buffers": [{"byteLength": 36, "uri": "b.bin"}]}"#;
+        let path = dir.path().join("m.gltf");
+        std::fs::write(&path, json).unwrap();
+        let m = import(&path).unwrap();
+        let get = |name: &str| m.materials.iter().find(|x| x.name == name).unwrap();
+        let near = |a: [f32; 3], b: [f32; 3]| a.iter().zip(b).all(|(x, y)| (x - y).abs() < 1e-5);
+        let base = [0.8, 0.4, 0.2];
+        assert!(
+            near(get("defaults").diffuse, base),
+            "{:?}",
+            get("defaults").diffuse
+        );
+        assert!(near(get("plastic").diffuse, base));
+        assert!(near(get("plastic").specular, [0.04; 3]));
+        let brass = get("brass");
+        assert!(
+            near(brass.diffuse, base.map(|c| c * 0.04)),
+            "{:?}",
+            brass.diffuse
+        );
+        assert!(
+            near(brass.specular, base.map(|c| c * 0.96)),
+            "{:?}",
+            brass.specular
+        );
     }
 
     #[test]
