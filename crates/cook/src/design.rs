@@ -570,21 +570,34 @@ pub const OUTLINE_SIDE: u32 = 32;
 
 /// `design` filtered up by a whole factor until its shorter side reaches [`OUTLINE_SIDE`]
 /// (bilinear, edges clamped: as a renderer samples the small image), when it is shorter;
-/// else `None`. Its longer side stays within [`MAX_SIDE`].
+/// else `None`. Its longer side stays within [`MAX_SIDE`]: where one factor would take it
+/// past, the short side alone is filtered up (the design is stretched onto its window either
+/// way). A 3 x 1000 design was left as it was, and its mask three texels across lost the
+/// lancet's point.
 pub fn outline_resolved(design: &RgbaImage) -> Option<RgbaImage> {
     let (w, h) = design.dimensions();
     let short = w.min(h);
     if short == 0 || short >= OUTLINE_SIDE {
         return None;
     }
-    let factor = OUTLINE_SIDE
-        .div_ceil(short)
-        .min((MAX_SIDE / w.max(h)).max(1));
-    (factor > 1).then(|| {
+    let uniform = OUTLINE_SIDE.div_ceil(short);
+    let (fx, fy) = if w.max(h) * uniform <= MAX_SIDE {
+        (uniform, uniform)
+    } else {
+        let up = |s: u32| {
+            if s < OUTLINE_SIDE {
+                OUTLINE_SIDE.div_ceil(s).min((MAX_SIDE / s).max(1))
+            } else {
+                1
+            }
+        };
+        (up(w), up(h))
+    };
+    (fx > 1 || fy > 1).then(|| {
         image::imageops::resize(
             design,
-            w * factor,
-            h * factor,
+            w * fx,
+            h * fy,
             image::imageops::FilterType::Triangle,
         )
     })
@@ -841,6 +854,17 @@ mod tests {
             }
         });
         assert!(!light_outside(&edged, &mask));
+    }
+
+    /// A design too small to draw an outline is filtered up by one factor; a thin and long
+    /// one, whose long side that factor would take past the cap, across alone.
+    #[test]
+    fn small_and_thin_designs_are_filtered_up_to_draw_an_outline() {
+        let size = |w, h| outline_resolved(&RgbaImage::new(w, h)).map(|i| i.dimensions());
+        assert_eq!(size(20, 100), Some((40, 200)));
+        assert_eq!(size(3, 1000), Some((33, 1000)));
+        assert_eq!(size(1000, 8), Some((1000, 32)));
+        assert_eq!(size(40, 40), None);
     }
 
     #[test]

@@ -1133,7 +1133,18 @@ pub fn cook_textures(
     let mut textures = Vec::with_capacity(jobs.len());
     let mut data = Vec::with_capacity(jobs.len());
     let names = unique_names(jobs.iter().map(|(job, _)| job.base_name()).collect());
-    for (((job, _), result), name) in jobs.iter().zip(results).zip(names) {
+    // Where a window's textures are said to come from where the manifest does not name their
+    // file: its `[[window]]` entry (a design cut to the outline is the cook's own image), or
+    // the `--window` image (it was said to be the manifest's, at no line).
+    let mut said_at: HashMap<usize, (PathBuf, Option<usize>)> = HashMap::new();
+    for (plan, r) in tagging.materials.iter().zip(&refs) {
+        if let Some(at) = plan.window.as_deref().and_then(|w| w.said_at.as_ref()) {
+            for k in [r.0, r.1, r.2].into_iter().flatten() {
+                said_at.entry(k as usize).or_insert_with(|| at.clone());
+            }
+        }
+    }
+    for (i, (((job, _), result), name)) in jobs.iter().zip(results).zip(names).enumerate() {
         let (cooked, said, source) = result?;
         report
             .artifacts
@@ -1148,7 +1159,11 @@ pub fn cook_textures(
             .file()
             .and_then(|p| manifest.naming(p, what))
             .map(|n| n.line.0);
-        let about = |text: String| Warning::new(&manifest.path, line, format!("{name}: {text}"));
+        let (path, line) = match (line, said_at.get(&i)) {
+            (None, Some((path, line))) => (path.as_path(), *line),
+            _ => (manifest.path.as_path(), line),
+        };
+        let about = |text: String| Warning::new(path, line, format!("{name}: {text}"));
         report.notes.extend(said.note.map(about));
         report.warnings.extend(said.warning.map(about));
         textures.push(cooked.describe(name, role, colour_space));

@@ -3,6 +3,7 @@
 //! each window's design (an image, the material's own texture, or one rasterized from the
 //! panes' colours), masked by the window's outline.
 
+use std::path::PathBuf;
 use std::sync::Arc;
 
 use glam::DVec3;
@@ -45,6 +46,10 @@ pub struct WindowPlan {
     pub inside: [f32; 3],
     /// The source materials of the window's glass.
     pub materials: Vec<String>,
+    /// Where the texture stage's notes on this window's textures point: the manifest's
+    /// `[[window]]` entry and its line, or for a `--window` image the image itself. A design
+    /// cut to its window's outline is made by the cook, and its notes lost the line.
+    pub said_at: Option<(PathBuf, Option<usize>)>,
 }
 
 /// What the window stage found, for `validate`, `info` and reports.
@@ -706,6 +711,19 @@ pub fn plan(
                 inst.inside.z as f32,
             ],
             materials: src_names,
+            // A design a `--window` gave (merged into the manifest's entry, it has that
+            // entry's line) is said of as that image, which the manifest does not name.
+            said_at: entry.and_then(|e| {
+                let given = e
+                    .design
+                    .as_ref()
+                    .filter(|d| overrides.iter().any(|o| o.design.as_ref() == Some(*d)));
+                match (given, e.line.0) {
+                    (Some(design), _) => Some((design.clone(), None)),
+                    (None, 0) => None,
+                    (None, line) => Some((manifest.path.clone(), Some(line))),
+                }
+            }),
         }));
         out.material.push(material);
         if !inst.planar {

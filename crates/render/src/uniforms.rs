@@ -38,13 +38,20 @@ pub struct Frame {
 
 impl Frame {
     /// [`Self::lengths`] for a scene whose bounding box has diagonal `diag`: 0.01 and 0.001
-    /// units for any scene 10 units across or more (a building in metres, centimetres or
-    /// millimetres), shrunk with a smaller one. Fixed at those values, a church 8 mm across
-    /// (a model in metres at 1:1000, or in kilometres) stepped every inner wall outside the
-    /// building, where the sun lit it whole.
+    /// units for a scene 10 to 100 units across (a building in metres), shrunk with a smaller
+    /// one and grown with a larger one, where f32 positions are coarser than that (1e-4 and
+    /// 1e-5 of the diagonal). Fixed at those values, a church 8 mm across (a model in metres
+    /// at 1:1000, or in kilometres) stepped every inner wall outside the building, where the
+    /// sun lit it whole; a nave 240 000 units long (a cathedral in millimetres) put walls in
+    /// a window's plane in and out of the building from texel to texel, in white streaks.
     pub fn lengths(diag: f32) -> [f32; 4] {
         let k = (diag / 10.0).clamp(1e-6, 1.0);
-        [0.01 * k, 1e-3 * k, 0.0, 0.0]
+        [
+            (0.01 * k).max(1e-4 * diag),
+            (1e-3 * k).max(1e-5 * diag),
+            0.0,
+            0.0,
+        ]
     }
 
     /// `spot` for a light: xyz the unit axis over the ramp's width in cosine, w the outer

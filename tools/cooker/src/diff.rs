@@ -598,6 +598,64 @@ impl Geometry<'_> {
     }
 }
 
+/// Per material of `a`, its counterpart in `b`: the one of the same name; else, where `b` has
+/// no material of that name, the one material of `b` whose name `a` lacks and which is the
+/// same in all but its name (class, shading, triangles, textures by `textures`' pairing): a
+/// material renamed. A rename was "53 vertices changed material", one missing and one new.
+fn material_partners(
+    a: &pack::Toc,
+    b: &pack::Toc,
+    textures: &[Option<usize>],
+) -> Vec<Option<usize>> {
+    let (tria, trib) = (a.triangles_per_material(), b.triangles_per_material());
+    let unnamed_in_a: Vec<usize> = (0..b.materials.len())
+        .filter(|&j| !a.materials.iter().any(|m| m.name == b.materials[j].name))
+        .collect();
+    let alike = |i: usize, j: usize| {
+        let (m, n) = (&a.materials[i], &b.materials[j]);
+        let same_textures =
+            texture_slots(m)
+                .into_iter()
+                .zip(texture_slots(n))
+                .all(|((_, x), (_, y))| match (x, y) {
+                    (None, None) => true,
+                    (Some(x), Some(y)) => textures[x as usize] == Some(y as usize),
+                    _ => false,
+                });
+        m.class == n.class
+            && tria[i] == trib[j]
+            && m.diffuse == n.diffuse
+            && m.specular == n.specular
+            && m.shininess == n.shininess
+            && m.emissive == n.emissive
+            && same_textures
+    };
+    let mut taken = vec![false; b.materials.len()];
+    (0..a.materials.len())
+        .map(|i| {
+            if let Some(j) = b
+                .materials
+                .iter()
+                .position(|n| n.name == a.materials[i].name)
+            {
+                return Some(j);
+            }
+            let candidates: Vec<usize> = unnamed_in_a
+                .iter()
+                .copied()
+                .filter(|&j| !taken[j] && alike(i, j))
+                .collect();
+            match candidates[..] {
+                [j] => {
+                    taken[j] = true;
+                    Some(j)
+                }
+                _ => None,
+            }
+        })
+        .collect()
+}
+
 /// A material's texture slots, by the name diff gives them, and the texture each holds.
 fn texture_slots(m: &pack::Material) -> [(&'static str, Option<u32>); 3] {
     [
@@ -837,8 +895,20 @@ pub fn run(args: Args) -> Outcome {
             .to_radians(),
         uv: args.max_uv_delta.unwrap_or(loose(DEFAULT_UV_DELTA)),
     };
+    let material_partner = material_partners(ta, tb, &partners);
+    // A renamed material keeps its key, so its vertices are not "changed material".
     let mut names = MaterialNames::new();
-    for m in ta.materials.iter().chain(&tb.materials) {
+    for m in &ta.materials {
+        let next = names.len() as u32;
+        names.entry(m.name.as_str()).or_insert(next);
+    }
+    for (i, j) in material_partner.iter().enumerate() {
+        if let Some(j) = *j {
+            let key = names[ta.materials[i].name.as_str()];
+            names.entry(tb.materials[j].name.as_str()).or_insert(key);
+        }
+    }
+    for m in &tb.materials {
         let next = names.len() as u32;
         names.entry(m.name.as_str()).or_insert(next);
     }
@@ -955,10 +1025,13 @@ pub fn run(args: Args) -> Outcome {
     let mut material_textures = Vec::new();
     let (tria, trib) = (ta.triangles_per_material(), tb.triangles_per_material());
     for (i, m) in ta.materials.iter().enumerate() {
-        match tb.materials.iter().position(|n| n.name == m.name) {
+        match material_partner[i] {
             None => problems.push(format!("material {:?} is missing from b", m.name)),
             Some(j) => {
                 let n = &tb.materials[j];
+                if n.name != m.name {
+                    problems.push(format!("material {:?} is named {:?} in b", m.name, n.name));
+                }
                 if n.class != m.class || tria[i] != trib[j] {
                     problems.push(format!(
                         "material {:?}: {} with {} triangles in a, {} with {} in b",
@@ -1015,7 +1088,8 @@ pub fn run(args: Args) -> Outcome {
                 }
                 material_textures.push((materials.len(), texture_slots(m)));
                 materials.push(json!({
-                    "name": m.name, "class": [m.class.name(), n.class.name()],
+                    "name": m.name, "name_in_b": n.name,
+                    "class": [m.class.name(), n.class.name()],
                     "triangles": [tria[i], trib[j]],
                     "shading_equal": shading_equal,
                     "textures_equal": textures_equal,
@@ -1023,8 +1097,8 @@ pub fn run(args: Args) -> Outcome {
             }
         }
     }
-    for m in &tb.materials {
-        if !ta.materials.iter().any(|n| n.name == m.name) {
+    for (j, m) in tb.materials.iter().enumerate() {
+        if !material_partner.contains(&Some(j)) {
             problems.push(format!("material {:?} is new in b", m.name));
         }
     }

@@ -350,8 +350,12 @@ pub fn run(args: Args) -> Outcome {
     for w in &toc.windows {
         let m = &toc.materials[w.material as usize];
         let len = |a: [f32; 3]| glam::Vec3::from(a).length();
+        // Which design each window shows: windows that share one share its texture.
+        let design = m.diffuse_texture.map_or(String::new(), |t| {
+            format!("  design: {}", toc.textures[t as usize].name)
+        });
         println!(
-            "  {} {:<12} {:>6} x {:<6} units  glass: {}",
+            "  {} {:<12} {:>6} x {:<6} units  glass: {}{design}",
             padded(&m.name, 32),
             m.class.name(),
             cook::length(len(w.u_axis) as f64),

@@ -54,7 +54,8 @@ enum Command {
     /// Compare two packs: per section, geometry, and per texture level error.
     #[command(after_help = EXIT_CODES)]
     Diff(diff::Args),
-    /// Write one cooked texture level as an 8-bit PNG (the stored bytes).
+    /// Write one cooked texture level as an 8-bit PNG (its texels as stored; a block-compressed
+    /// level decoded).
     #[command(after_help = EXIT_CODES)]
     Extract(extract::Args),
     /// Inspect the cook cache: stats, verify, explain why a scene would be cooked.

@@ -1193,3 +1193,66 @@ fn a_one_texel_design_is_masked_to_its_window() {
         "{lit} lit, {clear} clear of {n}"
     );
 }
+
+/// A design cut to its window's outline is an image the cook makes, not the file the manifest
+/// names: its notes lost the manifest's line. They point at the window's `[[window]]` entry;
+/// a `--window` image's notes at the image, not at the manifest, which does not name it.
+#[test]
+fn notes_on_a_cut_design_point_at_its_window_entry_or_its_image() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = dir.path().join("scene");
+    common::copy_dir(
+        &Path::new(env!("CARGO_MANIFEST_DIR")).join("../../assets-src"),
+        &scene,
+    );
+    let manifest = scene.join("scene.toml");
+    let lines: Vec<String> = std::fs::read_to_string(&manifest)
+        .unwrap()
+        .lines()
+        .map(str::to_string)
+        .collect();
+    let o = cooker(&[
+        &"cook",
+        &manifest,
+        &"-o",
+        &dir.path().join("a.pack"),
+        &"--no-cache",
+        &"-v",
+    ]);
+    assert!(o.status.success(), "{}", text(&o.stderr));
+    let said = text(&o.stderr);
+    let at = format!("note: {}:", manifest.display());
+    let note = said
+        .lines()
+        .find(|l| l.contains(": lancet.masked.projector: "))
+        .unwrap_or_else(|| panic!("{said}"));
+    let line: usize = note
+        .strip_prefix(&at)
+        .and_then(|rest| rest.split(':').next())
+        .and_then(|n| n.parse().ok())
+        .unwrap_or_else(|| panic!("no manifest line: {note}"));
+    assert!(
+        lines[line - 1..(line + 2).min(lines.len())]
+            .iter()
+            .any(|l| l.contains("windows/lancet.png")),
+        "line {line} is not the lancet's entry: {note}"
+    );
+    let image = scene.join("windows/rose.png");
+    let o = cooker(&[
+        &"cook",
+        &manifest,
+        &"-o",
+        &dir.path().join("b.pack"),
+        &"--no-cache",
+        &"-v",
+        &"--window",
+        &format!("window_lower_1={}", image.display()),
+    ]);
+    assert!(o.status.success(), "{}", text(&o.stderr));
+    let said = text(&o.stderr);
+    assert!(
+        said.lines()
+            .any(|l| l.starts_with(&format!("note: {}: rose.masked", image.display()))),
+        "{said}"
+    );
+}

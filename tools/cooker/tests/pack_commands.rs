@@ -1015,3 +1015,36 @@ fn diff_refuses_a_negative_threshold_by_name() {
         );
     }
 }
+
+/// A material renamed and nothing else: one line that says so. It was every vertex "changed
+/// material", the material missing from b and another new in b, though no vertex changed.
+#[test]
+fn diff_says_a_renamed_material_is_renamed() {
+    let dir = tempfile::tempdir().unwrap();
+    // The same model in two folders, its floor's material renamed in the second.
+    let room = |folder: &str, floor: &str| {
+        let at = dir.path().join(folder);
+        std::fs::create_dir_all(&at).unwrap();
+        std::fs::write(
+            at.join("room.mtl"),
+            format!("newmtl {floor}\nKd 0.6 0.5 0.4\nnewmtl wall\nKd 0.8 0.8 0.8\n"),
+        )
+        .unwrap();
+        let obj = format!(
+            "mtllib room.mtl\nv -4 0 -4\nv 4 0 -4\nv 4 0 4\nv -4 0 4\nv -4 3 -4\nv 4 3 -4\n\
+             usemtl {floor}\nf 1 4 3 2\nusemtl wall\nf 1 2 6 5\n"
+        );
+        cook_obj(&at, "room", &obj)
+    };
+    let a = room("a", "floor_stone");
+    let b = room("b", "floor_slab");
+    let o = cooker(&[&"diff", &a, &b, &"--json"]);
+    assert_eq!(o.status.code(), Some(1), "{}", text(&o));
+    let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    assert_eq!(
+        problems_of(&v),
+        ["material \"floor_stone\" is named \"floor_slab\" in b"],
+        "{v:#}"
+    );
+    assert_eq!(v["meshes"][0]["material_id_changes"], 0, "{v:#}");
+}
