@@ -613,22 +613,11 @@ fn material_partners(
         .collect();
     let alike = |i: usize, j: usize| {
         let (m, n) = (&a.materials[i], &b.materials[j]);
-        let same_textures =
-            texture_slots(m)
-                .into_iter()
-                .zip(texture_slots(n))
-                .all(|((_, x), (_, y))| match (x, y) {
-                    (None, None) => true,
-                    (Some(x), Some(y)) => textures[x as usize] == Some(y as usize),
-                    _ => false,
-                });
-        m.class == n.class
-            && tria[i] == trib[j]
-            && m.diffuse == n.diffuse
-            && m.specular == n.specular
-            && m.shininess == n.shininess
-            && m.emissive == n.emissive
-            && same_textures
+        let same_textures = texture_slots(m)
+            .into_iter()
+            .zip(texture_slots(n))
+            .all(|((_, x), (_, y))| same_texture(textures, x, y));
+        m.class == n.class && tria[i] == trib[j] && same_shading(m, n) && same_textures
     };
     let mut taken = vec![false; b.materials.len()];
     (0..a.materials.len())
@@ -654,6 +643,24 @@ fn material_partners(
             }
         })
         .collect()
+}
+
+/// Whether two materials shade alike: diffuse, specular, shininess and emissive.
+fn same_shading(m: &pack::Material, n: &pack::Material) -> bool {
+    m.diffuse == n.diffuse
+        && m.specular == n.specular
+        && m.shininess == n.shininess
+        && m.emissive == n.emissive
+}
+
+/// Whether a slot holding texture `x` in a and `y` in b holds the same texture, by the textures'
+/// pairing (`partners`, a's index to b's): both empty, or paired.
+fn same_texture(partners: &[Option<usize>], x: Option<u32>, y: Option<u32>) -> bool {
+    match (x, y) {
+        (None, None) => true,
+        (Some(x), Some(y)) => partners[x as usize] == Some(y as usize),
+        _ => false,
+    }
 }
 
 /// A material's texture slots, by the name diff gives them, and the texture each holds.
@@ -1038,10 +1045,7 @@ pub fn run(args: Args) -> Outcome {
                         m.name, m.class, tria[i], n.class, trib[j]
                     ));
                 }
-                let shading_equal = m.diffuse == n.diffuse
-                    && m.specular == n.specular
-                    && m.shininess == n.shininess
-                    && m.emissive == n.emissive;
+                let shading_equal = same_shading(m, n);
                 if !shading_equal {
                     problems.push(format!(
                         "material {:?}: shading differs: diffuse {:?}, specular {:?}, \
@@ -1061,12 +1065,7 @@ pub fn run(args: Args) -> Outcome {
                 // design switched to a new file) was only "texture … is new in b".
                 let mut textures_equal = true;
                 for ((slot, x), (_, y)) in texture_slots(m).into_iter().zip(texture_slots(n)) {
-                    let same = match (x, y) {
-                        (None, None) => true,
-                        (Some(x), Some(y)) => partners[x as usize] == Some(y as usize),
-                        _ => false,
-                    };
-                    if !same {
+                    if !same_texture(&partners, x, y) {
                         textures_equal = false;
                         let name = |t: &pack::Toc, k: Option<u32>| {
                             k.map_or("none".to_string(), |k| {
