@@ -232,11 +232,17 @@ impl Occupancy {
         wanted
     }
 
+    /// The grid starts a fraction of a cell before the bounds, so the round fractions of
+    /// them that eyes stand at (the middle, quarters) and walls on the bounds lie inside
+    /// cells, not on their faces: a ray along a face walked one column of cells or the next
+    /// by a millionth of a unit, and a church exported to OBJ and to glTF (positions 3e-6
+    /// apart) got views 4 m apart.
     fn empty(lo: DVec3, hi: DVec3) -> Self {
-        let cell =
-            ((hi - lo) / OCC as f64).max(DVec3::splat((hi - lo).max_element() * 1e-3 + 1e-9));
+        const SHIFT: f64 = 0.382;
+        let cell = ((hi - lo) / (OCC as f64 - 1.0))
+            .max(DVec3::splat((hi - lo).max_element() * 1e-3 + 1e-9));
         Self {
-            lo,
+            lo: lo - cell * SHIFT,
             cell,
             full: Cells::new(),
         }
@@ -1200,27 +1206,35 @@ pub fn guess(p: &Prepared) -> Guess {
     }
     // Along the longer horizontal axis, from near one end towards the other, placed where
     // the view runs farthest before it meets geometry: down the middle of a nave, but beside
-    // a block or a pier standing in the middle rather than up against it.
-    let long_x = inner_hi.x - inner_lo.x >= inner_hi.z - inner_lo.z;
-    let (along, across) = if long_x {
-        (DVec3::X, DVec3::Z)
-    } else {
-        (DVec3::Z, DVec3::X)
-    };
+    // a block or a pier standing in the middle rather than up against it. A footprint within
+    // a quarter of square tries both axes, x first: the longer one alone turned a square
+    // room's view a quarter turn for a vertex moved 1 cm (4 x 4.01 m), and `cooker diff`
+    // of a regression test saw the camera move 2 m.
     let span = inner_hi - inner_lo;
-    let (len, wide) = (span.dot(along), span.dot(across));
+    let axes: &[(DVec3, DVec3)] = if span.x.max(span.z) < 1.25 * span.x.min(span.z) {
+        &[(DVec3::X, DVec3::Z), (DVec3::Z, DVec3::X)]
+    } else if span.x >= span.z {
+        &[(DVec3::X, DVec3::Z)]
+    } else {
+        &[(DVec3::Z, DVec3::X)]
+    };
+    // Each candidate: eye, direction and how far it looks (its axis's length).
     let mut candidates = Vec::new();
-    for height in [0.12, 0.3, 0.5] {
-        for from_hi in [false, true] {
-            for side in [0.0, -0.25, 0.25] {
-                let mut a = inner_lo + along * (len * if from_hi { 0.9 } else { 0.1 });
-                a += across * ((centre - inner_lo).dot(across) + side * wide);
-                a.y = floor_y + ((hi.y - floor_y) * height).max(inner_diag * 0.002);
-                let dir = if from_hi { -along } else { along };
-                candidates.push((a, dir));
+    for &(along, across) in axes {
+        let (len, wide) = (span.dot(along), span.dot(across));
+        for height in [0.12, 0.3, 0.5] {
+            for from_hi in [false, true] {
+                for side in [0.0, -0.25, 0.25] {
+                    let mut a = inner_lo + along * (len * if from_hi { 0.9 } else { 0.1 });
+                    a += across * ((centre - inner_lo).dot(across) + side * wide);
+                    a.y = floor_y + ((hi.y - floor_y) * height).max(inner_diag * 0.002);
+                    let dir = if from_hi { -along } else { along };
+                    candidates.push((a, dir, len));
+                }
             }
         }
     }
+    let len = span.x.max(span.z);
     // Around each eye, level views every eighth of a turn: one inside a building meets its
     // walls every way, one in the alley between two buildings sees out along it. The alley
     // ran farthest, and two churches a metre apart got a "nave" view between them.
@@ -1231,19 +1245,19 @@ pub fn guess(p: &Prepared) -> Guess {
             (a, DVec3::new(t.cos(), 0.0, t.sin()))
         })
     };
-    let mut views = candidates.clone();
-    views.extend(candidates.iter().flat_map(|&(a, _)| ring(a)));
+    let mut views: Vec<(DVec3, DVec3)> = candidates.iter().map(|&(a, d, _)| (a, d)).collect();
+    views.extend(candidates.iter().flat_map(|&(a, _, _)| ring(a)));
     let occupancy = Occupancy::new(p, &classes, (lo, hi), &views, len);
     let depths: Vec<f64> = candidates
         .iter()
-        .map(|&(a, dir)| occupancy.view_depth(a, dir, len))
+        .map(|&(a, dir, len)| occupancy.view_depth(a, dir, len))
         .collect();
     // Counted ahead of the eye only, where the picture is: the Cornell box, open at one end,
     // was seen from its back wall looking out of the opening, since an eye by the opening
     // had open sky behind it.
     let open: Vec<usize> = candidates
         .iter()
-        .map(|&(a, dir)| {
+        .map(|&(a, dir, len)| {
             ring(a)
                 .filter(|&(a, d)| d.dot(dir) > 1e-9 && occupancy.depth(a, d, len) >= len)
                 .count()
@@ -1258,7 +1272,7 @@ pub fn guess(p: &Prepared) -> Guess {
         .min()
         .unwrap_or(0);
     let mut best_view: Option<(f64, DVec3, DVec3)> = None;
-    for (i, (&(a, dir), &depth)) in candidates.iter().zip(&depths).enumerate() {
+    for (i, (&(a, dir, len), &depth)) in candidates.iter().zip(&depths).enumerate() {
         if depth < 0.5 * deepest || open[i] > fewest_open {
             continue;
         }
@@ -1366,12 +1380,18 @@ fn down_through(inside: DVec3) -> Option<DVec3> {
 fn larger_window_first(
     windows: &[crate::instances::Instance],
 ) -> impl Fn(&crate::instances::Instance, &crate::instances::Instance) -> std::cmp::Ordering {
+    // Sizes and places in steps (a thousandth of the largest), so windows drawn alike tie
+    // and are taken in order of place whatever an export's rounding: by a millionth, a
+    // church's five equal windows on one wall were ordered by the noise in their x, and its
+    // OBJ and glTF exports looked at windows 18 m apart.
     let largest = windows.iter().map(|w| w.area).fold(0.0f64, f64::max);
-    let step = (largest * 1e-6).max(f64::MIN_POSITIVE);
+    let step = (largest * 1e-3).max(f64::MIN_POSITIVE);
+    let at = (largest.sqrt() * 1e-3).max(f64::MIN_POSITIVE);
     move |a, b| {
         let size = |w: &crate::instances::Instance| (w.area / step).round();
+        let place = |w: &crate::instances::Instance| (w.centre() / at).round();
         size(b).total_cmp(&size(a)).then_with(|| {
-            let (p, q) = (a.centre(), b.centre());
+            let (p, q) = (place(a), place(b));
             p.x.total_cmp(&q.x)
                 .then(p.y.total_cmp(&q.y))
                 .then(p.z.total_cmp(&q.z))
@@ -1902,6 +1922,86 @@ mod tests {
                 cameras.iter().all(|c| c.name != "nave"),
                 "{model}: {cameras:?}"
             );
+        }
+    }
+
+    /// A square room's view does not turn when a corner of its floor moves a centimetre (a
+    /// regression test's edit): it looked along z at 4 x 4.01 m and along x at 4 x 4.
+    #[test]
+    fn a_square_room_s_view_stays_put_under_a_small_edit() {
+        let dir = tempfile::tempdir().unwrap();
+        std::fs::write(
+            dir.path().join("room.mtl"),
+            "newmtl floor\nKd 0.5 0.5 0.5\nnewmtl wall\nKd 0.7 0.7 0.7\n\
+             newmtl glass\nKd 0.2 0.4 0.8\nd 0.3\n",
+        )
+        .unwrap();
+        let nave = |z: f64| {
+            let obj = format!(
+                "mtllib room.mtl\nv 0 0 0\nv 4 0 0\nv 4 0 {z}\nv 0 0 4\n\
+                 v 0 3 0\nv 0 3 4\nv 0 1 1.5\nv 0 2 1.5\nv 0 2 2.5\nv 0 1 2.5\n\
+                 usemtl floor\nf 1 4 3\nf 1 3 2\nusemtl wall\nf 1 4 6\nf 1 6 5\n\
+                 usemtl glass\nf 7 10 9\nf 7 9 8\n"
+            );
+            let model = dir.path().join(format!("room-{z}.obj"));
+            std::fs::write(&model, obj).unwrap();
+            let cameras = guessed_cameras(&model);
+            let c = cameras.iter().find(|c| c.name == "nave").cloned();
+            c.unwrap_or_else(|| panic!("no nave view at {z}: {cameras:?}"))
+        };
+        let square = nave(4.0);
+        for z in [3.99, 4.01, 4.2] {
+            let edited = nave(z);
+            let moved = (DVec3::from(edited.position.map(f64::from))
+                - DVec3::from(square.position.map(f64::from)))
+            .length();
+            let turned = (DVec3::from(edited.target.map(f64::from))
+                - DVec3::from(edited.position.map(f64::from)))
+            .normalize()
+            .dot(
+                (DVec3::from(square.target.map(f64::from))
+                    - DVec3::from(square.position.map(f64::from)))
+                .normalize(),
+            );
+            assert!(
+                moved < 0.3 && turned > 0.99,
+                "at {z}: {edited:?} against {square:?}"
+            );
+        }
+    }
+
+    /// The same church with its coordinates rounded another way (an OBJ and a glTF export,
+    /// 3e-6 apart) gets the same views: the nave's eye stood 1.2 or 5 m high and the window
+    /// views looked at windows 18 m apart, as rays along cell faces and the order of equal
+    /// windows followed the noise.
+    #[test]
+    fn an_export_s_rounding_does_not_move_the_views() {
+        let dir = tempfile::tempdir().unwrap();
+        let views = |noise| {
+            let (obj, mtl) = crate::testing::nave_of_equal_windows(noise);
+            std::fs::write(dir.path().join("m.mtl"), mtl).unwrap();
+            let model = dir
+                .path()
+                .join(format!("nave-{}.obj", noise.map_or(0, |n| n.1)));
+            std::fs::write(&model, obj).unwrap();
+            guessed_cameras(&model)
+        };
+        let exact = views(None);
+        assert!(exact.len() >= 3, "{exact:?}");
+        for seed in 1..=4 {
+            let rounded = views(Some((3e-6, seed)));
+            assert_eq!(rounded.len(), exact.len(), "{rounded:?} against {exact:?}");
+            for (r, e) in rounded.iter().zip(&exact) {
+                let far = |a: [f32; 3], b: [f32; 3]| {
+                    (DVec3::from(a.map(f64::from)) - DVec3::from(b.map(f64::from))).length()
+                };
+                assert!(
+                    r.name == e.name
+                        && far(r.position, e.position) < 1e-3
+                        && far(r.target, e.target) < 1e-3,
+                    "seed {seed}: {r:?} against {e:?}"
+                );
+            }
         }
     }
 

@@ -373,3 +373,69 @@ pub fn nave_in_bays(painted: bool) -> (String, String) {
     }
     (q.obj, mtl)
 }
+
+/// A nave 12 x 32 and 10 high, as OBJ text naming `m.mtl` and that MTL: floor, four walls and
+/// a roof in stone, five equal windows of 3 x 4 (`Glass.0` … in `Glass`, `Tf`) 1 cm inside the
+/// east wall, and five square pillars between them and the nave's middle. With `noise`, every
+/// coordinate is moved by up to that much, the same way for the same seed: an export's
+/// rounding.
+pub fn nave_of_equal_windows(noise: Option<(f64, u64)>) -> (String, String) {
+    let mut q = ObjQuads::new();
+    let stone = "Stone";
+    q.quad(
+        "Floor",
+        "Floor",
+        [[-6., 0., -16.], [0., 0., 32.], [12., 0., 0.]],
+    );
+    let walls = [
+        [[-6., 0., -16.], [0., 10., 0.], [0., 0., 32.]],
+        [[6., 0., -16.], [0., 0., 32.], [0., 10., 0.]],
+        [[-6., 0., -16.], [12., 0., 0.], [0., 10., 0.]],
+        [[-6., 0., 16.], [0., 10., 0.], [12., 0., 0.]],
+        [[-6., 10., -16.], [0., 0., 32.], [12., 0., 0.]],
+    ];
+    for (k, w) in walls.into_iter().enumerate() {
+        q.quad(&format!("Wall.{k}"), stone, w);
+    }
+    for k in 0..5 {
+        let z = -13.5 + 6.0 * k as f64;
+        q.quad(
+            &format!("Glass.{k}"),
+            "Glass",
+            [[5.99, 3., z], [0., 4., 0.], [0., 0., 3.]],
+        );
+        let (x, z, up) = (3.0, z + 1.0, [0., 10., 0.]);
+        let name = format!("Pillar.{k}");
+        q.quad(&name, stone, [[x, 0., z], [1., 0., 0.], up]);
+        q.quad(&name, stone, [[x, 0., z + 1.], up, [1., 0., 0.]]);
+        q.quad(&name, stone, [[x, 0., z], up, [0., 0., 1.]]);
+        q.quad(&name, stone, [[x + 1., 0., z], [0., 0., 1.], up]);
+    }
+    let obj = match noise {
+        None => q.obj,
+        Some((amount, seed)) => {
+            let mut rng = texture::testing::Rng(seed.max(1));
+            q.obj
+                .lines()
+                .map(|l| match l.strip_prefix("v ") {
+                    Some(v) => {
+                        let c: Vec<f64> = v
+                            .split_whitespace()
+                            .map(|x| x.parse::<f64>().expect("a vertex line of numbers"))
+                            .map(|x| {
+                                let unit = (rng.next_u64() >> 11) as f64 / (1u64 << 53) as f64;
+                                x + amount * (2.0 * unit - 1.0)
+                            })
+                            .collect();
+                        format!("v {} {} {}\n", c[0], c[1], c[2])
+                    }
+                    None => format!("{l}\n"),
+                })
+                .collect()
+        }
+    };
+    let mtl = "newmtl Floor\nKd 0.5 0.5 0.5\nnewmtl Stone\nKd 0.8 0.8 0.8\n\
+               newmtl Glass\nKd 0.2 0.4 0.8\nTf 0.2 0.4 0.8\nd 0.3\n"
+        .to_string();
+    (obj, mtl)
+}

@@ -91,6 +91,17 @@ pub enum Problem {
         min: u64,
         max: u64,
     },
+    #[error(
+        "section {index} starts at byte {start}, but sections lie back to back: it must start \
+         at {expected}, {after}, so either that length or this offset is wrong"
+    )]
+    SectionPlace {
+        index: u32,
+        start: u64,
+        expected: u64,
+        /// Where the expected start comes from, in words: the section before, or the table.
+        after: String,
+    },
     #[error("section {index} at offset {offset} is not aligned to {align}")]
     Alignment { index: u32, offset: u64, align: u64 },
     #[error("non-zero padding or reserved byte")]

@@ -273,7 +273,7 @@ pub fn decode_table(header: &Header, table: &[u8]) -> Result<Vec<SectionEntry>, 
             },
         ));
     }
-    let mut entries = Vec::with_capacity(header.section_count as usize);
+    let mut entries: Vec<SectionEntry> = Vec::with_capacity(header.section_count as usize);
     let mut cursor = header.data_start();
     for (i, chunk) in table.chunks_exact(SECTION_ENTRY_SIZE as usize).enumerate() {
         let index = i as u32;
@@ -327,7 +327,30 @@ pub fn decode_table(header: &Header, table: &[u8]) -> Result<Vec<SectionEntry>, 
         }
         let expected_offset = align_up(cursor, align);
         let end = offset.saturating_add(length);
-        if offset != expected_offset || end > header.file_length {
+        // A section not where the one before ends is told apart from one running past the
+        // file: a shortened length in one entry was blamed on the next section.
+        if offset != expected_offset {
+            let after = match entries.last() {
+                Some(prev) => format!(
+                    "where section {} ({}..{}, {} bytes long) ends, aligned to {align}",
+                    index - 1,
+                    prev.offset,
+                    prev.offset + prev.length,
+                    prev.length
+                ),
+                None => format!("after the header and the section table, aligned to {align}"),
+            };
+            return Err(Fail::at(
+                at + 8,
+                Problem::SectionPlace {
+                    index,
+                    start: offset,
+                    expected: expected_offset,
+                    after,
+                },
+            ));
+        }
+        if end > header.file_length {
             return Err(Fail::at(
                 at + 8,
                 Problem::SectionBounds {

@@ -279,6 +279,30 @@ fn unknown_section_kind_is_rejected() {
     );
 }
 
+/// A section's length shortened (its checksums made to agree) is blamed on where the next
+/// section must then start, naming the section before and its length: the message named the
+/// next section's span alone, as if it were the one edited.
+#[test]
+fn a_shortened_section_length_names_the_section_before() {
+    let mut bytes = sample_bytes();
+    let count = u32::from_le_bytes(bytes[16..20].try_into().unwrap()) as usize;
+    assert!(count >= 3);
+    let entry = 64 + 32;
+    let length = u64::from_le_bytes(bytes[entry + 16..entry + 24].try_into().unwrap());
+    bytes[entry + 16..entry + 24].copy_from_slice(&(length - 16).to_le_bytes());
+    let table_crc = crc32fast::hash(&bytes[64..64 + 32 * count]);
+    bytes[40..44].copy_from_slice(&table_crc.to_le_bytes());
+    fix_header_crc(&mut bytes);
+    let e = Pack::from_bytes("p", &bytes).unwrap_err();
+    let said = e.to_string();
+    assert!(
+        matches!(e.problem(), Some(Problem::SectionPlace { index: 2, .. }))
+            && said.contains("where section 1 (")
+            && said.contains(&format!("{} bytes long", length - 16)),
+        "{said}"
+    );
+}
+
 #[test]
 fn writer_refuses_out_of_range_indices_and_material_ids() {
     let (toc, mut data) = sample();

@@ -15,6 +15,11 @@ use crate::{Gpu, RenderError, TextureCaps};
 struct CpuMesh {
     positions: Option<Vec<glam::Vec3>>,
     indices: Option<Vec<u32>>,
+    /// The vertices' material IDs, from their section's arrival to their indices': each
+    /// triangle's must be its draw range's (the pack's own checks see one section at a time).
+    materials: Option<Vec<u16>>,
+    /// A mesh's index bytes where they arrived before its vertices.
+    indices_bytes: Option<Vec<u8>>,
     /// Opaque triangles (by their first index) that are part of a backed window's uncut wall
     /// ([`occlusion::Backings`]), ascending: they cast no shadow.
     backing: Vec<u32>,
@@ -763,6 +768,7 @@ impl Scene {
                 // 26 MB of the 1M-triangle grid's viewer.
                 let keep = self.keeps_cpu_geometry();
                 let tiles = &mut self.uv_tiles;
+                let mut materials = Vec::with_capacity(count);
                 let (buffer, positions) =
                     mapped_buffer(gpu, &m.name, size, wgpu::BufferUsages::VERTEX, |mapped| {
                         if standard {
@@ -771,12 +777,14 @@ impl Scene {
                                 std::mem::offset_of!(StandardVertex, uv),
                                 std::mem::offset_of!(StandardVertex, material),
                             );
-                            // One pass over the vertices for the tiling and the positions.
+                            // One pass over the vertices for the tiling, the positions and
+                            // the materials.
                             let mut positions = keep.then(|| Vec::with_capacity(count));
                             for v in bytes.chunks_exact(STANDARD_STRIDE) {
                                 let t: [f32; 2] = bytemuck::pod_read_unaligned(&v[uv..uv + 8]);
                                 let m = u16::from_le_bytes([v[material], v[material + 1]]);
                                 note_tiling(tiles, t, m);
+                                materials.push(m);
                                 if let Some(p) = &mut positions {
                                     let at: [f32; 3] = bytemuck::pod_read_unaligned(&v[..12]);
                                     p.push(glam::Vec3::from(at));
@@ -787,6 +795,7 @@ impl Scene {
                             let mut positions = keep.then(|| Vec::with_capacity(count));
                             convert_vertices(&m.layout, bytes, mapped, |v| {
                                 note_tiling(tiles, v.uv, v.material[0]);
+                                materials.push(v.material[0]);
                                 if let Some(p) = &mut positions {
                                     p.push(glam::Vec3::from(v.position));
                                 }
@@ -795,12 +804,22 @@ impl Scene {
                         }
                     });
                 self.cpu[mesh as usize].positions = positions;
+                match self.cpu[mesh as usize].indices_bytes.take() {
+                    Some(indices) => check_draw_materials(m, &materials, &indices)?,
+                    None => self.cpu[mesh as usize].materials = Some(materials),
+                }
                 self.meshes[mesh as usize].vertices = Some(buffer);
                 self.status.geometry_sections += 1;
                 self.geometry_arrived(gpu);
             }
             SectionRole::Indices { mesh } => {
                 let m = &self.toc.meshes[mesh as usize];
+                // A pack's vertices come before their indices; in any other order the indices
+                // wait for them.
+                match self.cpu[mesh as usize].materials.take() {
+                    Some(materials) => check_draw_materials(m, &materials, bytes)?,
+                    None => self.cpu[mesh as usize].indices_bytes = Some(bytes.to_vec()),
+                }
                 let indices = self.keeps_cpu_geometry().then(|| match m.index_format {
                     pack::IndexFormat::U16 => bytes
                         .chunks_exact(2)
@@ -1415,6 +1434,51 @@ fn mapped_buffer<R>(
 }
 
 /// Whether `bytes` hold `count` vertices of `layout`.
+/// Whether every triangle's vertices carry its draw range's material. The passes shade by the
+/// ranges, but which textures repeat is read from the vertices' IDs, as are the cooker's
+/// `validate` and `diff`: a pack where they disagree (its checksums made to agree) is damaged,
+/// and was drawn without a word. The pack's own checks see one section at a time.
+fn check_draw_materials(
+    m: &pack::Mesh,
+    materials: &[u16],
+    indices: &[u8],
+) -> Result<(), RenderError> {
+    let index = |i: usize| -> usize {
+        match m.index_format {
+            pack::IndexFormat::U16 => {
+                u16::from_le_bytes([indices[2 * i], indices[2 * i + 1]]) as usize
+            }
+            pack::IndexFormat::U32 => {
+                u32::from_le_bytes(indices[4 * i..4 * i + 4].try_into().expect("four bytes"))
+                    as usize
+            }
+        }
+    };
+    let mut wrong = 0usize;
+    let mut example = None;
+    for r in &m.ranges {
+        for t in (r.first_index as usize..(r.first_index + r.index_count) as usize).step_by(3) {
+            let ids = [0, 1, 2].map(|k| materials.get(index(t + k)).copied());
+            if ids.iter().any(|&id| id != Some(r.material)) {
+                wrong += 1;
+                example.get_or_insert((t / 3, r.material, ids));
+            }
+        }
+    }
+    match example {
+        None => Ok(()),
+        Some((t, want, ids)) => Err(RenderError::VertexLayout {
+            mesh: m.name.clone(),
+            reason: format!(
+                "{wrong} triangles have vertices whose material IDs disagree with their draw \
+                 range's (triangle {t}: range material {want}, vertices {:?}); the pack is \
+                 damaged or was not written by the cooker (`cooker validate` lists them)",
+                ids.map(|id| id.map_or(-1, i64::from))
+            ),
+        }),
+    }
+}
+
 fn check_vertex_bytes(layout: &VertexLayout, bytes: &[u8], count: usize) -> Result<(), String> {
     let stride = layout.stride as usize;
     if stride == 0 || bytes.len() < stride * count {

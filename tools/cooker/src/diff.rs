@@ -271,30 +271,51 @@ const CLIP_PER_DELTA: f64 = 6.0 * SQRT_3;
 
 const SQRT_3: f64 = 1.732_050_807_568_877_2;
 
-fn cameras_differ(a: &[pack::Camera], b: &[pack::Camera], max_delta: f64) -> Option<String> {
+/// Whether the camera presets differ by more than geometry moved `max_delta` explains: what
+/// differs, with the names of the presets that moved (every one: a re-export that moves
+/// three views is not one change).
+fn cameras_differ(
+    a: &[pack::Camera],
+    b: &[pack::Camera],
+    max_delta: f64,
+) -> Option<(String, Vec<String>)> {
     let names = |c: &[pack::Camera]| c.iter().map(|c| c.name.clone()).collect::<Vec<_>>();
     if names(a) != names(b) {
-        return Some(format!("{:?} in a, {:?} in b", names(a), names(b)));
+        let mut all = names(a);
+        all.extend(names(b).into_iter().filter(|n| !names(a).contains(n)));
+        return Some((format!("{:?} in a, {:?} in b", names(a), names(b)), all));
     }
-    for (x, y) in a.iter().zip(b) {
-        let points = corner_delta(&x.position, &y.position).max(corner_delta(&x.target, &y.target));
-        let clip = (x.near as f64 - y.near as f64)
-            .abs()
-            .max((x.far as f64 - y.far as f64).abs());
-        let up = corner_delta(&x.up, &y.up);
-        if points > max_delta
-            || clip > CLIP_PER_DELTA * max_delta
-            || up > direction_tolerance(max_delta)
-            || x.fov_y != y.fov_y
-        {
-            return Some(format!(
-                "{:?}: position or target moved by {points:.3e}, clip planes by {clip:.3e}, up \
-                 by {up:.3e}, field of view {} and {} degrees",
-                x.name, x.fov_y, y.fov_y
-            ));
-        }
+    let moved: Vec<(String, String)> = a
+        .iter()
+        .zip(b)
+        .filter_map(|(x, y)| {
+            let points =
+                corner_delta(&x.position, &y.position).max(corner_delta(&x.target, &y.target));
+            let clip = (x.near as f64 - y.near as f64)
+                .abs()
+                .max((x.far as f64 - y.far as f64).abs());
+            let up = corner_delta(&x.up, &y.up);
+            (points > max_delta
+                || clip > CLIP_PER_DELTA * max_delta
+                || up > direction_tolerance(max_delta)
+                || x.fov_y != y.fov_y)
+                .then(|| {
+                    (
+                        x.name.clone(),
+                        format!(
+                            "{:?}: position or target moved by {points:.3e}, clip planes by \
+                             {clip:.3e}, up by {up:.3e}, field of view {} and {} degrees",
+                            x.name, x.fov_y, y.fov_y
+                        ),
+                    )
+                })
+        })
+        .collect();
+    if moved.is_empty() {
+        return None;
     }
-    None
+    let (names, what): (Vec<String>, Vec<String>) = moved.into_iter().unzip();
+    Some((what.join("; "), names))
 }
 
 /// How far a guessed sun's intensity may move with its direction: it is `0.85 / (albedo *
@@ -1200,7 +1221,7 @@ pub fn run(args: Args) -> Outcome {
     // Cameras and window frames are placed from the geometry, so they move with it: with
     // --max-position-delta their points may move that far too, their directions by 1e-3.
     let cameras = cameras_differ(&ta.cameras, &tb.cameras, max_delta);
-    if let Some(what) = &cameras {
+    if let Some((what, _)) = &cameras {
         problems.push(format!("the camera presets differ: {what}"));
     }
     let frames = windows_differ(ta, tb, max_delta);
@@ -1229,6 +1250,7 @@ pub fn run(args: Args) -> Outcome {
     let scene = json!({
         "light_equal": light.is_none(),
         "cameras_equal": cameras.is_none(),
+        "cameras_differing": cameras.as_ref().map_or(Vec::new(), |c| c.1.clone()),
         "window_frames_equal": frames.is_none(),
         "background_equal": background_equal,
     });

@@ -845,6 +845,53 @@ fn diff_pairs_windows_listed_in_another_order() {
     );
 }
 
+/// Every camera preset that moved is named, in the text and in `--json`: a re-export that
+/// moved three views reported the first alone.
+#[test]
+fn diff_names_every_camera_that_moved() {
+    let dir = tempfile::tempdir().unwrap();
+    let three = |toc: &mut pack::Toc| {
+        let first = toc.cameras[0].clone();
+        for name in ["windows", "lit-floor"] {
+            let mut c = first.clone();
+            c.name = name.into();
+            toc.cameras.push(c);
+        }
+    };
+    let a = dir.path().join("a.pack");
+    write_sample(&a, |toc, _| three(toc));
+    let b = dir.path().join("b.pack");
+    write_sample(&b, |toc, _| {
+        three(toc);
+        toc.cameras[0].position[0] += 2.0;
+        toc.cameras[2].target[1] += 0.5;
+    });
+    let o = cooker(&[&"diff", &a, &b, &"--json"]);
+    assert_eq!(o.status.code(), Some(1), "{}", text(&o));
+    let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    let first = v["scene"]["cameras_differing"][0]
+        .as_str()
+        .unwrap()
+        .to_string();
+    assert_eq!(
+        v["scene"]["cameras_differing"],
+        serde_json::json!([first, "lit-floor"]),
+        "{v:#}"
+    );
+    let problems = problems_of(&v);
+    let cameras: Vec<&&str> = problems
+        .iter()
+        .filter(|p| p.starts_with("the camera presets differ"))
+        .collect();
+    assert!(
+        cameras.len() == 1
+            && cameras[0].contains(&format!("{first:?}: position or target moved by 2.000e0"))
+            && cameras[0].contains("\"lit-floor\": position or target moved by 5.000e-1")
+            && !cameras[0].contains("\"windows\""),
+        "{problems:#?}"
+    );
+}
+
 /// The scene's parameters are fields of `--json` (a script need not parse the problems'
 /// text), and the background's problem gives both sides.
 #[test]
@@ -864,6 +911,7 @@ fn diff_json_says_which_scene_parameters_differ() {
         serde_json::json!({
             "light_equal": true,
             "cameras_equal": true,
+            "cameras_differing": [],
             "window_frames_equal": true,
             "background_equal": false,
         }),

@@ -392,7 +392,8 @@ fn load(gpu: &Gpu, args: &Args, settings: Settings) -> Result<(Scene, Renderer)>
             Message::Section(section) => {
                 let (s, r, view) = scene.as_mut().context("section before the TOC")?;
                 let upload = Instant::now();
-                s.upload_section(gpu, &section)?;
+                s.upload_section(gpu, &section)
+                    .with_context(|| args.input.display().to_string())?;
                 if !first_frame {
                     uploads += upload.elapsed();
                 } else {
@@ -704,6 +705,10 @@ fn exit_code(e: &anyhow::Error) -> u8 {
         .find_map(|c| {
             if c.is::<Usage>() {
                 return Some(2);
+            }
+            // A pack whose geometry disagrees with its table of contents is invalid input.
+            if let Some(render::RenderError::VertexLayout { .. }) = c.downcast_ref() {
+                return Some(3);
             }
             // A PNG that cannot be written is an I/O error however the encoder wraps it.
             if let Some(image::ImageError::IoError(_)) = c.downcast_ref::<image::ImageError>() {

@@ -513,6 +513,38 @@ fn names_the_problem_on_bad_input() {
     let _ = std::fs::remove_dir_all(&dir);
 }
 
+/// A pack whose vertices' material IDs disagree with their draw range (checksums agreeing)
+/// is refused as invalid input, naming the pack: it was drawn without a word, though
+/// `cooker validate` reported it.
+#[test]
+fn a_vertex_material_against_its_draw_range_is_refused() {
+    let dir = scratch("mismatch");
+    let pack_path = dir.join("tiny.pack");
+    let (toc, mut data) = tiny_scene();
+    // The window's first corner, drawn in range 1 (material 1), says material 0: its ID is
+    // the u16 after position, normal, uv and tangent (48 bytes into its 52).
+    data.meshes[0].vertices[4 * 52 + 48..4 * 52 + 50].copy_from_slice(&0u16.to_le_bytes());
+    std::fs::write(&pack_path, pack::encode(toc, &data).unwrap()).unwrap();
+    let out = dir.join("out");
+    let o = viewer(&[
+        pack_path.as_os_str(),
+        "--headless".as_ref(),
+        "--out".as_ref(),
+        out.as_os_str(),
+        "--size".as_ref(),
+        "32x18".as_ref(),
+    ]);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(3), "{err}");
+    assert!(
+        err.contains("tiny.pack")
+            && err.contains("2 triangles have vertices whose material IDs disagree")
+            && err.contains("range material 1, vertices [0, 1, 1]"),
+        "{err}"
+    );
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
 /// A cooked pack is cooked: the options that change a cook are refused for it (they were
 /// dropped without a word), and a pack named without `.pack` is still read as one.
 #[test]
