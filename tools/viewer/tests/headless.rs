@@ -389,14 +389,7 @@ fn a_pack_of_nothing_to_stream_is_drawn_at_full_size() {
     };
     std::fs::write(&pack_path, pack::encode(toc, &data).unwrap()).unwrap();
     let out = dir.join("out");
-    let o = viewer(&[
-        pack_path.as_os_str(),
-        "--headless".as_ref(),
-        "--out".as_ref(),
-        out.as_os_str(),
-        "--size".as_ref(),
-        "64x36".as_ref(),
-    ]);
+    let o = headless_64x36(&pack_path, &out, &[]);
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     for cam in ["near_view", "far"] {
         let img = image::open(out.join(format!("{cam}.png"))).unwrap();
@@ -525,15 +518,7 @@ fn a_vertex_material_against_its_draw_range_is_refused() {
     // the u16 after position, normal, uv and tangent (48 bytes into its 52).
     data.meshes[0].vertices[4 * 52 + 48..4 * 52 + 50].copy_from_slice(&0u16.to_le_bytes());
     std::fs::write(&pack_path, pack::encode(toc, &data).unwrap()).unwrap();
-    let out = dir.join("out");
-    let o = viewer(&[
-        pack_path.as_os_str(),
-        "--headless".as_ref(),
-        "--out".as_ref(),
-        out.as_os_str(),
-        "--size".as_ref(),
-        "32x18".as_ref(),
-    ]);
+    let o = headless_64x36(&pack_path, &dir.join("out"), &[]);
     let err = String::from_utf8_lossy(&o.stderr);
     assert_eq!(o.status.code(), Some(3), "{err}");
     assert!(
