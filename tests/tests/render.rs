@@ -1301,3 +1301,150 @@ fn a_window_design_is_clamped_at_its_edges() {
          {bottom_blue:.3} (linear): the design's far edge is blended in"
     );
 }
+
+/// The background's panorama is seen where nothing covers the view, the right way round: an
+/// equirectangular image of four colours around the horizon (centred on -z, +x, +z and -x, at
+/// u 0.5, 0.75, 0 and 0.25) and white above is seen in each direction, scaled by the
+/// background colour, and from inside it +x is on the right. It was cooked into the pack but
+/// never drawn: behind windows and around the building the flat colour showed.
+#[test]
+fn the_panorama_is_seen_around_the_view_the_right_way_round() {
+    let gpu = lavapipe();
+    let (w, h) = (64u32, 32u32);
+    // sRGB bytes: red, green, blue and yellow around the horizon, white in the top quarter.
+    let around: [[u8; 3]; 4] = [[200, 30, 30], [30, 200, 30], [30, 30, 200], [200, 200, 30]];
+    let level0: Vec<u8> = (0..w * h)
+        .flat_map(|i| {
+            let (x, y) = (i % w, i / w);
+            let c = if y < h / 4 {
+                [255, 255, 255]
+            } else {
+                // Stripe k is centred on u = k/4: -z (k = 2) faces the image's middle.
+                let u = (x as f32 + 0.5) / w as f32;
+                around[((u * 4.0 + 0.5).floor() as usize) % 4]
+            };
+            [c[0], c[1], c[2], 255]
+        })
+        .collect();
+    let (mips, levels) = mip_chain(w, h, level0);
+    let mut toc = Toc::default();
+    let mut data = PackData::default();
+    toc.textures.push(Texture {
+        name: "sky".into(),
+        role: TextureRole::Colour,
+        colour_space: ColourSpace::Srgb,
+        format: TextureFormat::Rgba8,
+        supercompression: pack::Supercompression::None,
+        width: w,
+        height: h,
+        mips,
+    });
+    data.textures.push(levels);
+    toc.materials.push(Material {
+        name: "floor".into(),
+        class: MaterialClass::Floor,
+        diffuse: [0.5; 3],
+        specular: [0.0; 3],
+        shininess: 1.0,
+        emissive: [0.0; 3],
+        diffuse_texture: None,
+        normal_texture: None,
+        projector_texture: None,
+        projector_margin: [0.0; 2],
+    });
+    toc.background = Background {
+        colour: [0.5, 0.5, 0.5],
+        panorama: Some(0),
+    };
+    let look = |name: &str, d: Vec3| Camera {
+        name: name.into(),
+        position: [0.0, 0.0, 0.0],
+        target: d.to_array(),
+        up: if d.y.abs() > 0.5 {
+            [0.0, 0.0, -1.0]
+        } else {
+            [0.0, 1.0, 0.0]
+        },
+        fov_y: 20.0,
+        near: 0.05,
+        far: 100.0,
+    };
+    toc.cameras = vec![
+        look("-z", Vec3::NEG_Z),
+        look("+x", Vec3::X),
+        look("+z", Vec3::Z),
+        look("-x", Vec3::NEG_X),
+        look("up", Vec3::Y),
+        Camera {
+            fov_y: 90.0,
+            ..look("wide -z", Vec3::NEG_Z)
+        },
+    ];
+    // A small floor far below every view: the pack's one mesh.
+    let v = |x: f32, z: f32| StandardVertex {
+        position: [x, -50.0, z],
+        normal: [0.0, 1.0, 0.0],
+        uv: [0.0; 2],
+        tangent: [1.0, 0.0, 0.0, 1.0],
+        material: [0, 0],
+        colour: pack::vertex::WHITE,
+    };
+    let bytes = common::encode_scene(
+        toc,
+        data,
+        &[v(-1.0, -1.0), v(1.0, -1.0), v(1.0, 1.0), v(-1.0, 1.0)],
+        &[0, 1, 2, 0, 2, 3],
+        vec![DrawRange {
+            material: 0,
+            first_index: 0,
+            index_count: 6,
+        }],
+    );
+    let scene = load(&gpu, &bytes);
+    // The background colour scales the panorama's linear texels.
+    let expect = |c: [u8; 3]| {
+        c.map(|b| {
+            let l = if b as f32 / 255.0 <= 0.04045 {
+                b as f32 / 255.0 / 12.92
+            } else {
+                ((b as f32 / 255.0 + 0.055) / 1.055).powf(2.4)
+            };
+            0.5 * l
+        })
+    };
+    for (camera, want) in [
+        (0, around[2]),
+        (1, around[3]),
+        (2, around[0]),
+        (3, around[1]),
+        (4, [255, 255, 255]),
+    ] {
+        let (r, _) = render_camera(&gpu, &scene, camera, Settings::default());
+        let (tw, th, px) = r.read_target(&gpu, TargetId::Lit).unwrap();
+        let centre = px[(th / 2 * tw + tw / 2) as usize];
+        let want = expect(want);
+        assert!(
+            (0..3).all(|k| (centre[k] - want[k]).abs() < 0.01),
+            "camera {:?}: {centre:?}, want {want:?}",
+            scene.toc().cameras[camera].name
+        );
+    }
+    // A view along -z 90° high (121° wide at 16:9): its edges look 60° to each side, at u
+    // 0.33 and 0.67, inside the stripes centred on -x and +x.
+    let (r, _) = render_camera(&gpu, &scene, 5, Settings::default());
+    let (tw, th, px) = r.read_target(&gpu, TargetId::Lit).unwrap();
+    let row = th / 2;
+    let (left, right) = (
+        px[(row * tw + 2) as usize],
+        px[(row * tw + tw - 3) as usize],
+    );
+    // Seen from inside, the stripe centred on -x (green) lies left of -z, +x's (yellow) right.
+    assert!(
+        left[1] > 2.0 * left[2] && left[1] > 2.0 * left[0],
+        "left {left:?}"
+    );
+    assert!(
+        right[0] > 2.0 * right[2] && right[1] > 2.0 * right[2],
+        "right {right:?}"
+    );
+}

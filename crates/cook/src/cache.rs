@@ -29,10 +29,11 @@ const MAGIC: &[u8; 8] = b"SGCACHE\x01";
 /// are mipped from a padded level 0, and cooks' notes are no longer warnings. 4: packs stream
 /// mips by texel count, and a texture kept RGBA8 notes what each encoder setting reached.
 /// 5: draw ranges of over 400k triangles are ordered for the vertex cache in pieces of at most
-/// 200k (other meshes' packs are unchanged, but a shared cache must not mix the two). Since
+/// 200k (other meshes' packs are unchanged, but a shared cache must not mix the two).
+/// 7: a texture's payload holds a third text, the error budget's choices (`-v`). Since
 /// keys carry the source's fingerprint, a change of code needs no bump; a change of what keys
 /// hold still does.
-pub const CACHE_VERSION: u32 = 6;
+pub const CACHE_VERSION: u32 = 7;
 const HEADER: usize = 8 + 8 + 4 + 4;
 
 /// A cache key: SHA-256 over an artifact's inputs.

@@ -201,7 +201,12 @@ fn cook_steps(manifest: &Manifest, settings: &Settings) -> Result<CookOutput, Co
         }),
         cameras: manifest.cameras.clone(),
         background: pack::Background {
-            colour: manifest.background.colour,
+            // A panorama's texels are multiplied by the colour: white unless one is given.
+            colour: if panorama.is_some() && !manifest.background.colour_given {
+                [1.0; 3]
+            } else {
+                manifest.background.colour
+            },
             panorama,
         },
         meshes,

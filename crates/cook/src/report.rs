@@ -180,9 +180,12 @@ pub struct Report {
     /// Per cooked artifact (texture), whether it was cooked or reused from the cache.
     pub artifacts: Vec<(String, ArtifactSource)>,
     pub warnings: Vec<Warning>,
-    /// What the cook chose and why (blur, mip and encoder choices per texture): information,
-    /// not a problem, so not among the warnings.
+    /// What a user should know about how the cook read the scene: information, not a problem,
+    /// so not among the warnings.
     pub notes: Vec<Warning>,
+    /// The choices the error budget made per texture (blur, mips, encoder, with their measured
+    /// errors): what `-v` shows.
+    pub details: Vec<Warning>,
     pub meshes: Vec<MeshReport>,
     pub heuristics: Vec<HeuristicNote>,
     /// What the scene defines but nothing uses, so it was not cooked: one line each.

@@ -389,19 +389,29 @@ impl CookedTexture {
     }
 }
 
-/// What a texture job says about itself: its choices (a note) and where it fell short of the
-/// budget (a warning), each `; `-joined.
+/// What a texture job says about itself: what a user should know (a note), where it fell short
+/// of the budget (a warning), and the choices the budget made, with their measured errors (a
+/// detail, shown with `-v`: three a window drowned the warnings of a cathedral's cook), each
+/// `; `-joined.
 #[derive(Clone, Debug, Default, PartialEq)]
 struct Said {
     note: Option<String>,
     warning: Option<String>,
+    detail: Option<String>,
 }
 
 impl Said {
     fn note(note: impl Into<String>) -> Self {
         Self {
             note: Some(note.into()),
-            warning: None,
+            ..Self::default()
+        }
+    }
+
+    fn detail(detail: impl Into<String>) -> Self {
+        Self {
+            detail: Some(detail.into()),
+            ..Self::default()
         }
     }
 
@@ -414,6 +424,7 @@ impl Said {
         Said {
             note: join(self.note, other.note),
             warning: join(self.warning, other.warning),
+            detail: join(self.detail, other.detail),
         }
     }
 }
@@ -437,7 +448,7 @@ fn encode_cooked(c: &CookedTexture, said: &Said) -> Vec<u8> {
         out.extend_from_slice(&(l.len() as u64).to_le_bytes());
         out.extend_from_slice(l);
     }
-    for text in [&said.note, &said.warning] {
+    for text in [&said.note, &said.warning, &said.detail] {
         let text = text.as_deref().unwrap_or("");
         out.extend_from_slice(&(text.len() as u64).to_le_bytes());
         out.extend_from_slice(text.as_bytes());
@@ -492,6 +503,7 @@ fn decode_cooked(bytes: &[u8]) -> Option<(CookedTexture, Said)> {
     let said = Said {
         note: text()?,
         warning: text()?,
+        detail: text()?,
     };
     if at != bytes.len() {
         return None;
@@ -681,7 +693,7 @@ fn compress(
             "kept RGBA8: no block encoder setting fits the budget of {budget}{unit} ({})",
             misses.join("; ")
         );
-        return (rgba8(chain), Said::note(note));
+        return (rgba8(chain), Said::detail(note));
     }
     let Some((codec, c)) = best else {
         return (rgba8(chain), Said::default());
@@ -694,19 +706,19 @@ fn compress(
     // contradiction of the warning beside it. The format is named, not a flag: the manifest's
     // `[textures] format` or a window's `texture_format` ask the same.
     let said = if fits {
-        Said::note(format!(
+        Said::detail(format!(
             "{} chosen by the error budget ({measured})",
             codec.name()
         ))
     } else {
         Said {
-            note: None,
             warning: Some(format!(
                 "no block encoder setting fits the budget of {budget}{unit}; stored as {}, the \
                  most accurate, as texture format \"bc\" asks ({})",
                 codec.name(),
                 misses.join("; ")
             )),
+            ..Said::default()
         }
     };
     let cooked = CookedTexture {
@@ -719,11 +731,12 @@ fn compress(
     (cooked, said)
 }
 
-/// A note of the method the budget chose, or, where none fits it, the warning alone (it names
-/// the method used; a note beside it saying the budget chose it read as a contradiction).
+/// A detail of the method the budget chose, or, where none fits it, the warning alone (it
+/// names the method used; a note beside it saying the budget chose it read as a contradiction).
 fn choice_note(what: &str, c: &crate::budget::Choice) -> Said {
     Said {
-        note: c.warning.is_none().then(|| {
+        note: None,
+        detail: c.warning.is_none().then(|| {
             format!(
                 "{what} method {} chosen by the error budget (measured max error {:.3} LSB)",
                 c.method, c.expected_error
@@ -838,13 +851,13 @@ fn run(
                         .to_string(),
                 ),
                 texture::SuppliedNormals::Unlike { share } => Said {
-                    note: None,
                     warning: Some(format!(
                         "{:.0} % of its texels encode no unit vector (or one into the surface): \
                          is it a colour image rather than a tangent-space normal map? Its \
                          normals are cooked as they read, and shade as noise",
                         share * 100.0
                     )),
+                    ..Said::default()
                 },
                 texture::SuppliedNormals::Heights { depth } => Said::note(format!(
                     "grey, so read as a height (bump) map: its range spans {depth:.2} texels of \
@@ -894,7 +907,7 @@ fn run(
             });
             let (chain, unpadded, report) = texture::projector_with_unpadded(&img, &opts)
                 .map_err(|e| texture_error(Path::new(&design.name()), e))?;
-            let said = Said::note(report.to_string()).and(choice);
+            let said = Said::detail(report.to_string()).and(choice);
             Ok((chain, (report.width, report.height), said, unpadded))
         }
     }
@@ -1165,6 +1178,7 @@ pub fn cook_textures(
         };
         let about = |text: String| Warning::new(path, line, format!("{name}: {text}"));
         report.notes.extend(said.note.map(about));
+        report.details.extend(said.detail.map(about));
         report.warnings.extend(said.warning.map(about));
         textures.push(cooked.describe(name, role, colour_space));
         data.push(cooked.levels);
@@ -1427,13 +1441,15 @@ mod tests {
             Said::default(),
             Said::note("bc7 very-fast chosen"),
             Said {
-                note: None,
                 warning: Some("tighter than any".into()),
+                ..Said::default()
             },
             Said::note("a").and(Said {
                 note: Some("b".into()),
                 warning: Some("c".into()),
+                detail: Some("d".into()),
             }),
+            Said::detail("sigma 2.2"),
         ]
         .into_iter()
         .flat_map(|said| [(bc7.clone(), said.clone()), (zstd.clone(), said)])

@@ -93,45 +93,67 @@ pub(crate) fn read_buffer(
 
 /// Copies a whole 2D texture (`bytes_per_texel` bytes each) back to the CPU, rows tightly
 /// packed: the headless frames, the pass images and the viewer's screenshots all read back
-/// through here.
+/// through here. In bands of rows, each within the device's largest buffer and 64 MiB: an
+/// 8192x4608 pass image (8 bytes a texel, 302 MB) asked for one buffer over wgpu's 256 MiB
+/// and the viewer panicked after the render.
 pub fn read_texture(
     device: &wgpu::Device,
     queue: &wgpu::Queue,
     texture: &wgpu::Texture,
     bytes_per_texel: u32,
 ) -> Result<Vec<u8>, RenderError> {
+    read_texture_in_bands(device, queue, texture, bytes_per_texel, 64 << 20)
+}
+
+fn read_texture_in_bands(
+    device: &wgpu::Device,
+    queue: &wgpu::Queue,
+    texture: &wgpu::Texture,
+    bytes_per_texel: u32,
+    band_bytes: u64,
+) -> Result<Vec<u8>, RenderError> {
     let (w, h) = (texture.width(), texture.height());
     let row = w * bytes_per_texel;
     let padded =
         row.div_ceil(wgpu::COPY_BYTES_PER_ROW_ALIGNMENT) * wgpu::COPY_BYTES_PER_ROW_ALIGNMENT;
+    let most = device.limits().max_buffer_size.min(band_bytes);
+    let band = ((most / padded as u64).max(1) as u32).min(h);
     let buffer = device.create_buffer(&wgpu::BufferDescriptor {
         label: Some("readback"),
-        size: padded as u64 * h as u64,
+        size: padded as u64 * band as u64,
         usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
         mapped_at_creation: false,
     });
-    let mut encoder = device.create_command_encoder(&Default::default());
-    encoder.copy_texture_to_buffer(
-        texture.as_image_copy(),
-        wgpu::TexelCopyBufferInfo {
-            buffer: &buffer,
-            layout: wgpu::TexelCopyBufferLayout {
-                offset: 0,
-                bytes_per_row: Some(padded),
-                rows_per_image: Some(h),
+    let mut out = Vec::with_capacity(row as usize * h as usize);
+    for y0 in (0..h).step_by(band as usize) {
+        let rows = band.min(h - y0);
+        let mut encoder = device.create_command_encoder(&Default::default());
+        encoder.copy_texture_to_buffer(
+            wgpu::TexelCopyTextureInfo {
+                texture,
+                mip_level: 0,
+                origin: wgpu::Origin3d { x: 0, y: y0, z: 0 },
+                aspect: wgpu::TextureAspect::All,
             },
-        },
-        wgpu::Extent3d {
-            width: w,
-            height: h,
-            depth_or_array_layers: 1,
-        },
-    );
-    queue.submit([encoder.finish()]);
-    let data = read_buffer(device, &buffer)?;
-    let mut out = Vec::with_capacity((row * h) as usize);
-    for y in 0..h as usize {
-        out.extend_from_slice(&data[y * padded as usize..y * padded as usize + row as usize]);
+            wgpu::TexelCopyBufferInfo {
+                buffer: &buffer,
+                layout: wgpu::TexelCopyBufferLayout {
+                    offset: 0,
+                    bytes_per_row: Some(padded),
+                    rows_per_image: Some(rows),
+                },
+            },
+            wgpu::Extent3d {
+                width: w,
+                height: rows,
+                depth_or_array_layers: 1,
+            },
+        );
+        queue.submit([encoder.finish()]);
+        let data = read_buffer(device, &buffer)?;
+        for y in 0..rows as usize {
+            out.extend_from_slice(&data[y * padded as usize..y * padded as usize + row as usize]);
+        }
     }
     Ok(out)
 }
@@ -139,6 +161,44 @@ pub fn read_texture(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// A texture read back in bands of a few rows (the last one short) is the texture: its
+    /// rows in order, none twice. Fails without a GPU adapter, as every GPU test does.
+    #[test]
+    fn bands_of_rows_read_back_the_whole_texture() {
+        let gpu = crate::Gpu::headless().expect("a GPU adapter (lavapipe in CI)");
+        let (w, h) = (37u32, 23u32);
+        let texels: Vec<u8> = (0..w * h * 4).map(|i| (i * 7 % 251) as u8).collect();
+        let texture = gpu.device.create_texture(&wgpu::TextureDescriptor {
+            label: Some("bands"),
+            size: wgpu::Extent3d {
+                width: w,
+                height: h,
+                depth_or_array_layers: 1,
+            },
+            mip_level_count: 1,
+            sample_count: 1,
+            dimension: wgpu::TextureDimension::D2,
+            format: wgpu::TextureFormat::Rgba8Unorm,
+            usage: wgpu::TextureUsages::COPY_SRC | wgpu::TextureUsages::COPY_DST,
+            view_formats: &[],
+        });
+        gpu.queue.write_texture(
+            texture.as_image_copy(),
+            &texels,
+            wgpu::TexelCopyBufferLayout {
+                offset: 0,
+                bytes_per_row: Some(w * 4),
+                rows_per_image: Some(h),
+            },
+            texture.size(),
+        );
+        // 256 bytes a padded row: bands of 5 rows, the last of 3.
+        for band in [5 * 256, 256, 1 << 20] {
+            let back = read_texture_in_bands(&gpu.device, &gpu.queue, &texture, 4, band).unwrap();
+            assert!(back == texels, "bands of {band} bytes");
+        }
+    }
 
     /// The default scene's sky is radiance 1.5 to 4: clamped, its background pass was white.
     #[test]

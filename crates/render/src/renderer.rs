@@ -5,7 +5,7 @@ use glam::Vec3;
 use crate::capture::{f16_to_f32, read_buffer, read_texture};
 use crate::passes::{
     Colour, CompositeInputs, CompositePass, DEPTH, GeometryPass, GodRayPass, HDR, SHADOW_VIEW_SIZE,
-    ShadowPass, frame_layout, geometry_layout, joined, uniform_buffer,
+    ShadowPass, SkyPass, frame_layout, geometry_layout, joined, uniform_buffer,
 };
 use crate::shadows::ShadowLayout;
 use crate::uniforms;
@@ -335,6 +335,8 @@ pub struct Renderer {
     rays: GodRayPass,
     composite: CompositePass,
     shadow: ShadowPass,
+    /// Made with the first scene that has a panorama.
+    sky: Option<SkyPass>,
     shadow_layout: ShadowLayout,
     /// What the maps hold: (scene id, the scene's shadow generation, settings) when drawn.
     shadows_drawn: Option<(u64, u64, ShadowSettings)>,
@@ -458,6 +460,7 @@ impl Renderer {
             rays,
             composite,
             shadow,
+            sky: None,
             shadow_layout: ShadowLayout::default(),
             shadows_drawn: None,
             timestamps,
@@ -670,6 +673,16 @@ impl Renderer {
         // vertex), so nothing uploaded here carries a large translation that f32 products
         // would have to cancel: far from the origin that loses ~0.01 units.
         let geometry = light.map(|l| LightGeometry::from_light(l).relative_to(view.position));
+        if let Some(b) = scene.panorama() {
+            let sky = self.sky.get_or_insert_with(|| SkyPass::new(&gpu.device));
+            sky.write_uniforms(
+                &gpu.queue,
+                &uniforms::Sky {
+                    clip_to_ray: view.view_proj_relative().inverse().to_cols_array_2d(),
+                    scale: [b[0], b[1], b[2], 0.0],
+                },
+            );
+        }
         let mut frame = uniforms::Frame {
             view_proj: view.view_proj_relative().to_cols_array_2d(),
             view: view.rotation().to_cols_array_2d(),
@@ -869,6 +882,20 @@ impl Renderer {
         }
     }
 
+    /// The panorama where the pass left the far plane, once the scene has one with a level in.
+    fn record_sky(
+        &self,
+        encoder: &mut wgpu::CommandEncoder,
+        gpu: &Gpu,
+        scene: &Scene,
+        target: &wgpu::TextureView,
+        depth: &wgpu::TextureView,
+    ) {
+        if let (Some(sky), Some(panorama)) = (&self.sky, scene.panorama_view()) {
+            sky.record(encoder, &gpu.device, panorama, target, depth);
+        }
+    }
+
     fn timestamp_writes(&self, pass: PassId) -> Option<wgpu::RenderPassTimestampWrites<'_>> {
         let i = PassId::ALL.iter().position(|&p| p == pass).unwrap_or(0) as u32;
         self.timestamps
@@ -922,7 +949,8 @@ impl Renderer {
             PassId::Background => {
                 let target = into(&t.background, background);
                 self.background
-                    .record(encoder, &[target], depth, true, frame, scene, ts)
+                    .record(encoder, &[target], depth, true, frame, scene, ts);
+                self.record_sky(encoder, gpu, scene, &t.background.view, depth);
             }
             PassId::WindowMask => {
                 let targets = [into(&t.mask, clear), into(&t.rays_source, clear)];
@@ -939,7 +967,8 @@ impl Renderer {
             PassId::Lit => {
                 let target = into(&t.lit, background);
                 self.lit
-                    .record(encoder, &[target], depth, !plan.windows, frame, scene, ts)
+                    .record(encoder, &[target], depth, !plan.windows, frame, scene, ts);
+                self.record_sky(encoder, gpu, scene, &t.lit.view, depth);
             }
             PassId::GodRays => self.rays.record(
                 encoder,

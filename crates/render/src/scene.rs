@@ -675,6 +675,18 @@ impl Scene {
         Ok(scene)
     }
 
+    /// The background's panorama scale (its colour), where the scene has a panorama.
+    pub fn panorama(&self) -> Option<[f32; 3]> {
+        let b = &self.toc.background;
+        b.panorama.map(|_| b.colour)
+    }
+
+    /// The panorama's levels in so far, once one is.
+    pub(crate) fn panorama_view(&self) -> Option<&wgpu::TextureView> {
+        let i = self.toc.background.panorama?;
+        self.textures.get(i as usize)?.view.as_ref()
+    }
+
     fn texture_view(&self, index: Option<u32>, normal: bool) -> &wgpu::TextureView {
         match index.and_then(|i| self.textures[i as usize].view.as_ref()) {
             Some(v) => v,

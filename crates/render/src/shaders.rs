@@ -33,6 +33,7 @@ pub const FILES: &[(&str, &str)] = &[
         include_str!("../../../shaders/composite.wgsl"),
     ),
     ("blit.wgsl", include_str!("../../../shaders/blit.wgsl")),
+    ("sky.wgsl", include_str!("../../../shaders/sky.wgsl")),
     ("shadow.wgsl", include_str!("../../../shaders/shadow.wgsl")),
     (
         "shadow_view.wgsl",
@@ -49,6 +50,7 @@ pub const PASSES: &[&str] = &[
     "godrays.wgsl",
     "composite.wgsl",
     "blit.wgsl",
+    "sky.wgsl",
     "shadow.wgsl",
     "shadow_view.wgsl",
 ];

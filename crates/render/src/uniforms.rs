@@ -204,6 +204,16 @@ pub struct Material {
     pub uv_scale: [f32; 4],
 }
 
+/// The panorama's pass (`sky.wgsl`).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, Pod, Zeroable)]
+pub struct Sky {
+    /// Clip space to a camera-relative point on the pixel's ray.
+    pub clip_to_ray: [[f32; 4]; 4],
+    /// rgb: the panorama's scale, the background colour.
+    pub scale: [f32; 4],
+}
+
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, Pod, Zeroable)]
 pub struct GodRays {
@@ -292,6 +302,7 @@ pub const LAYOUTS: &[(&str, &str, usize)] = &[
     ),
     ("Material", "Material", std::mem::size_of::<Material>()),
     ("GodRays", "GodRays", std::mem::size_of::<GodRays>()),
+    ("Sky", "Sky", std::mem::size_of::<Sky>()),
     ("Composite", "Composite", std::mem::size_of::<Composite>()),
     ("Blit", "Blit", std::mem::size_of::<Blit>()),
     (

@@ -275,11 +275,15 @@ pub fn run(args: Args) -> Outcome {
     let report = &out.report;
     refuse_overwriting_an_input(&args.output, report.inputs.iter().map(|p| p.as_path()))?;
     let mut transcript = Transcript::default();
+    let verbose = args.verbose;
     for w in &report.warnings {
-        transcript.message(Stream::Err, format!("warning: {w}"));
+        transcript.message(Stream::Err, format!("warning: {w}"), verbose);
     }
     for n in &report.notes {
-        transcript.message(Stream::Err, format!("note: {n}"));
+        transcript.message(Stream::Err, format!("note: {n}"), verbose);
+    }
+    for d in &report.details {
+        transcript.message(Stream::Detail, format!("note: {d}"), verbose);
     }
     for group in cook::group_heuristics(&report.heuristics) {
         let h = group[0];
@@ -294,11 +298,13 @@ pub fn run(args: Args) -> Outcome {
                 h.tagged(),
                 h.reason
             ),
+            verbose,
         );
     }
     for s in &report.skipped {
-        transcript.message(Stream::Out, format!("skipped: {s}"));
+        transcript.message(Stream::Out, format!("skipped: {s}"), verbose);
     }
+    transcript.print_details_left_out(verbose);
 
     // A remote that must answer and did not fails the cook before it touches the output.
     crate::cache_cmd::check_remote(remote, &args.cache)?;
@@ -401,7 +407,7 @@ fn trim(cache: &cook::cache::Cache, verbose: bool) {
 
 /// Says again what the cook of a reused pack said, and that every texture was reused.
 fn replay(t: &Transcript, verbose: bool) {
-    t.print_messages();
+    t.print_messages(verbose);
     println!("cache: {} textures reused, 0 cooked", t.textures.len());
     if verbose {
         for name in &t.textures {

@@ -20,6 +20,10 @@ const SCENE_DIR: &str = "\u{0}scene-dir\u{0}";
 pub enum Stream {
     Out,
     Err,
+    /// To stderr with `-v` only: the error budget's choice for a texture (encoder, blur, mips,
+    /// with their measured errors). Three lines a window drowned a cathedral's warnings; a
+    /// run without `-v` says in one line how many there are.
+    Detail,
 }
 
 #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
@@ -35,21 +39,33 @@ pub struct Transcript {
 }
 
 impl Transcript {
-    pub fn message(&mut self, stream: Stream, text: String) {
-        match stream {
-            Stream::Out => println!("{text}"),
-            Stream::Err => eprintln!("{text}"),
-        }
+    /// Prints a message (a detail only if `verbose`) and keeps it, whatever `verbose`, for a
+    /// replay with or without `-v`.
+    pub fn message(&mut self, stream: Stream, text: String, verbose: bool) {
+        print(stream, &text, verbose);
         self.messages.push((stream, text));
     }
 
-    /// Prints the messages (for a replay).
-    pub fn print_messages(&self) {
+    /// Prints the messages (for a replay), then, without `-v`, how many details it left out.
+    pub fn print_messages(&self, verbose: bool) {
         for (stream, text) in &self.messages {
-            match stream {
-                Stream::Out => println!("{text}"),
-                Stream::Err => eprintln!("{text}"),
-            }
+            print(*stream, text, verbose);
+        }
+        self.print_details_left_out(verbose);
+    }
+
+    /// Without `-v`, one line saying how many details were not printed.
+    pub fn print_details_left_out(&self, verbose: bool) {
+        let n = self
+            .messages
+            .iter()
+            .filter(|(s, _)| *s == Stream::Detail)
+            .count();
+        if !verbose && n > 0 {
+            eprintln!(
+                "note: the error budget chose the encoding, blur and mips of the textures \
+                 ({n} lines with their measured errors: -v prints them)"
+            );
         }
     }
 
@@ -81,6 +97,15 @@ impl Transcript {
             summary: self.summary.clone(),
             textures: self.textures.iter().map(|t| f(t)).collect(),
         }
+    }
+}
+
+fn print(stream: Stream, text: &str, verbose: bool) {
+    match stream {
+        Stream::Out => println!("{text}"),
+        Stream::Err => eprintln!("{text}"),
+        Stream::Detail if verbose => eprintln!("{text}"),
+        Stream::Detail => {}
     }
 }
 

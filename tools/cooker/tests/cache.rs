@@ -207,7 +207,7 @@ fn error_budget_choice_is_reported_and_a_too_tight_budget_warns() {
         .arg(root().join("assets-src/scene.toml"))
         .arg("-o")
         .arg(&out)
-        .args(["--no-cache", "--max-error-lsb", "0.1"])
+        .args(["--no-cache", "--max-error-lsb", "0.1", "-v"])
         .output()
         .unwrap();
     let err = String::from_utf8_lossy(&o.stderr);
@@ -227,6 +227,32 @@ fn error_budget_choice_is_reported_and_a_too_tight_budget_warns() {
         assert!(line.starts_with("note: "), "{line}");
     }
     pack::Pack::open(&out).unwrap();
+    // Without -v the choices (three lines a window) are one line saying how many; the
+    // warning stays. A cache hit replays it alike.
+    let cache = dir.path().join("cache");
+    for run in ["cooked", "reused"] {
+        let o = Command::new(env!("CARGO_BIN_EXE_cooker"))
+            .arg("cook")
+            .arg(root().join("assets-src/scene.toml"))
+            .arg("-o")
+            .arg(&out)
+            .args(["--max-error-lsb", "0.1", "--cache-dir"])
+            .arg(&cache)
+            .output()
+            .unwrap();
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert!(o.status.success(), "{run}: {err}");
+        assert!(!err.contains("chosen by the error budget"), "{run}: {err}");
+        assert!(err.contains("tighter than any"), "{run}: {err}");
+        let summary: Vec<&str> = err
+            .lines()
+            .filter(|l| l.contains("-v prints them"))
+            .collect();
+        assert!(
+            summary.len() == 1 && summary[0].starts_with("note: the error budget chose"),
+            "{run}: {err}"
+        );
+    }
 }
 
 fn stderr(o: &Output) -> String {
@@ -417,7 +443,21 @@ fn a_hit_replays_what_the_cook_said_marked_as_reused() {
         .unwrap();
     assert!(quiet.status.success());
     assert!(!stdout(&quiet).contains("acmr_out"), "{}", stdout(&quiet));
-    assert_eq!(stderr(&quiet), err);
+    // The same warnings and notes, in order, less the budget's choices (`-v` details), which
+    // one line counts.
+    let quiet_err = stderr(&quiet);
+    let (summary, rest): (Vec<&str>, Vec<&str>) = quiet_err
+        .lines()
+        .partition(|l| l.contains("-v prints them"));
+    assert_eq!(summary.len(), 1, "{quiet_err}");
+    let mut left_out = err.lines().filter(|l| !rest.contains(l));
+    assert!(left_out.all(|l| l.starts_with("note: ")), "{quiet_err}");
+    let kept: Vec<&str> = err.lines().filter(|l| rest.contains(l)).collect();
+    assert_eq!(kept, rest, "{quiet_err}");
+    assert!(
+        rest.iter().any(|l| l.starts_with("warning: ")),
+        "{quiet_err}"
+    );
 
     // Another checkout of the scene, named from another folder, reuses the same entries and
     // its messages name its own files.

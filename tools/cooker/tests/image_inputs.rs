@@ -89,8 +89,9 @@ fn extract(pack: &Path, name: &str, mip: u32, dir: &Path) -> image::RgbaImage {
 
 /// `cooker cook obj -o pack --no-cache extra…`, which must succeed; the pack and its stderr.
 fn cook_obj(obj: &Path, pack: &Path, extra: &[&str]) -> (PathBuf, String) {
+    // `-v`: the tests read the budget's choices, which only `-v` prints.
     let mut args: Vec<&dyn AsRef<std::ffi::OsStr>> =
-        vec![&"cook", &obj, &"-o", &pack, &"--no-cache"];
+        vec![&"cook", &obj, &"-o", &pack, &"--no-cache", &"-v"];
     for e in extra {
         args.push(e);
     }

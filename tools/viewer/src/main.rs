@@ -316,7 +316,7 @@ fn open_source(path: &Path) -> Result<Source> {
             eprintln!("warning: {w}");
         }
         if VERBOSE.load(std::sync::atomic::Ordering::Relaxed) {
-            for n in &out.report.notes {
+            for n in out.report.notes.iter().chain(&out.report.details) {
                 eprintln!("note: {n}");
             }
         }

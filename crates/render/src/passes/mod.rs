@@ -9,12 +9,14 @@ mod composite;
 mod geometry;
 mod god_rays;
 mod shadow;
+mod sky;
 
 pub use composite::{CompositeInputs, CompositePass};
 pub use geometry::GeometryPass;
 pub use god_rays::GodRayPass;
 pub(crate) use shadow::casts_shadow;
 pub use shadow::{SHADOW_VIEW_SIZE, ShadowPass};
+pub use sky::SkyPass;
 
 use crate::shaders;
 
