@@ -584,6 +584,55 @@ fn lancet_room(dir: &Path) {
     .unwrap();
 }
 
+/// A normal map derived from a design over 1024 texels a side is made from the design's
+/// first level within 1024: its invented relief gains nothing from more texels (a 4096²
+/// design's derived map was 8.1 MB of an 8.3 MB pack), while the design keeps its own size.
+#[test]
+fn a_large_design_s_derived_normal_map_is_made_at_1024() {
+    let dir = tempfile::tempdir().unwrap();
+    lancet_room(dir.path());
+    image::RgbaImage::from_fn(2048, 64, |x, y| {
+        let lead = x % 128 < 4 || y % 32 < 2;
+        image::Rgba(if lead {
+            [20, 20, 20, 255]
+        } else {
+            [200, (x / 8) as u8, 90, 255]
+        })
+    })
+    .save(dir.path().join("design.png"))
+    .unwrap();
+    let m = scene(
+        dir.path(),
+        r#"
+[[mesh]]
+source = "room.obj"
+
+[[rule]]
+match = "stone"
+class = "floor"
+
+[[rule]]
+match = "glass_*"
+on = ["material"]
+class = "window-upper"
+
+[[window]]
+material = "glass_1"
+design = "design.png"
+texture_format = "rgba8"
+"#,
+    );
+    let (_, pack) = cook_to_pack(&m);
+    let toc = pack.toc();
+    let glass = toc.materials.iter().find(|m| m.name == "glass_1").unwrap();
+    let size = |t: Option<u32>| {
+        let t = &toc.textures[t.expect("texture set") as usize];
+        (t.width, t.height)
+    };
+    assert_eq!(size(glass.diffuse_texture), (2048, 64));
+    assert_eq!(size(glass.normal_texture), (1024, 32));
+}
+
 #[test]
 fn window_scene_cooks_design_normal_map_and_projector() {
     let dir = tempfile::tempdir().unwrap();

@@ -568,39 +568,66 @@ pub fn bake(
 /// filters such a design up before it is masked.
 pub const OUTLINE_SIDE: u32 = 32;
 
-/// `design` filtered up by a whole factor until its shorter side reaches [`OUTLINE_SIDE`]
-/// (bilinear, edges clamped: as a renderer samples the small image), when it is shorter;
-/// else `None`. Its longer side stays within [`MAX_SIDE`]: where one factor would take it
-/// past, the short side alone is filtered up (the design is stretched onto its window either
-/// way). A 3 x 1000 design was left as it was, and its mask three texels across lost the
-/// lancet's point.
-pub fn outline_resolved(design: &RgbaImage) -> Option<RgbaImage> {
+/// `design` filtered up, by a whole factor per axis, until its texels are no longer on the
+/// window than a [`OUTLINE_SIDE`]th of the window's shorter side (`extent`: the window's
+/// width and height, the design stretched onto them), when they are longer; else `None`.
+/// Each side stays within [`MAX_SIDE`]. Filtered as a renderer samples the small image:
+/// bilinear in linear light, edges clamped. A 3 x 1000 design was left as it was, and its
+/// mask three texels across lost the lancet's point; a 2048 x 8 one on a lancet 4 m high was
+/// filtered up to 32 rows, each 12 cm of the window, and the floor's patch had a stepped
+/// point; a 2 x 2 design's panes were blended in sRGB bytes, darker between than the
+/// renderer's own filtering of them.
+pub fn outline_resolved(design: &RgbaImage, extent: (f64, f64)) -> Option<RgbaImage> {
     let (w, h) = design.dimensions();
-    let short = w.min(h);
-    if short == 0 || short >= OUTLINE_SIDE {
+    if w == 0 || h == 0 {
         return None;
     }
-    let uniform = OUTLINE_SIDE.div_ceil(short);
-    let (fx, fy) = if w.max(h) * uniform <= MAX_SIDE {
-        (uniform, uniform)
-    } else {
-        let up = |s: u32| {
-            if s < OUTLINE_SIDE {
-                OUTLINE_SIDE.div_ceil(s).min((MAX_SIDE / s).max(1))
-            } else {
-                1
-            }
+    let (ew, eh) = extent;
+    let short = ew.min(eh);
+    // Texels each axis needs: OUTLINE_SIDE across the shorter side, about as many per metre
+    // along the other (a tenth longer passes: a square photo stretched onto a lancet 6.26
+    // times its width, 200 texels up it, is fine as it is). A degenerate extent counts as
+    // square.
+    let need = |along: f64| -> u32 {
+        let ratio = if short > 0.0 && along.is_finite() && short.is_finite() {
+            (along / short / 1.1).clamp(1.0, MAX_SIDE as f64 / OUTLINE_SIDE as f64)
+        } else {
+            1.0
         };
-        (up(w), up(h))
+        (OUTLINE_SIDE as f64 * ratio).ceil() as u32
     };
-    (fx > 1 || fy > 1).then(|| {
-        image::imageops::resize(
-            design,
-            w * fx,
-            h * fy,
-            image::imageops::FilterType::Triangle,
-        )
-    })
+    let factor = |s: u32, need: u32| {
+        if s < need {
+            need.div_ceil(s).min((MAX_SIDE / s).max(1))
+        } else {
+            1
+        }
+    };
+    let (fx, fy) = (factor(w, need(ew)), factor(h, need(eh)));
+    if fx == 1 && fy == 1 {
+        return None;
+    }
+    let decode = texture::srgb::decode8();
+    let linear = image::Rgba32FImage::from_fn(w, h, |x, y| {
+        let p = design.get_pixel(x, y).0;
+        image::Rgba([
+            decode[p[0] as usize],
+            decode[p[1] as usize],
+            decode[p[2] as usize],
+            p[3] as f32 / 255.0,
+        ])
+    });
+    let up = image::imageops::resize(
+        &linear,
+        w * fx,
+        h * fy,
+        image::imageops::FilterType::Triangle,
+    );
+    let encoder = texture::srgb::encoder();
+    let texels: Vec<[f32; 4]> = up.pixels().map(|p| p.0).collect();
+    let mut bytes = vec![0u8; texels.len() * 4];
+    encoder.encode_rgba(&texels, &mut bytes);
+    RgbaImage::from_raw(w * fx, h * fy, bytes)
 }
 
 /// The window's coverage in texture space at the image's size.
@@ -856,15 +883,46 @@ mod tests {
         assert!(!light_outside(&edged, &mask));
     }
 
-    /// A design too small to draw an outline is filtered up by one factor; a thin and long
-    /// one, whose long side that factor would take past the cap, across alone.
+    /// A design too small to draw an outline is filtered up until its texels are a 32nd of
+    /// the window's shorter side, per axis, within the cap: a thin and long one across alone,
+    /// one on a tall lancet (1.2 x 4 m) up its height too.
     #[test]
     fn small_and_thin_designs_are_filtered_up_to_draw_an_outline() {
-        let size = |w, h| outline_resolved(&RgbaImage::new(w, h)).map(|i| i.dimensions());
-        assert_eq!(size(20, 100), Some((40, 200)));
-        assert_eq!(size(3, 1000), Some((33, 1000)));
-        assert_eq!(size(1000, 8), Some((1000, 32)));
-        assert_eq!(size(40, 40), None);
+        let size =
+            |w, h, extent| outline_resolved(&RgbaImage::new(w, h), extent).map(|i| i.dimensions());
+        let square = (1.0, 1.0);
+        assert_eq!(size(20, 100, square), Some((40, 100)));
+        assert_eq!(size(3, 1000, square), Some((33, 1000)));
+        assert_eq!(size(1000, 8, square), Some((1000, 32)));
+        assert_eq!(size(40, 40, square), None);
+        // 1.2 x 4.04 m: 32 texels across, 98 up (a tenth longer than a 32nd of the width).
+        assert_eq!(size(2048, 8, (1.2, 4.04)), Some((2048, 104)));
+        assert_eq!(size(2, 2, (1.2, 4.04)), Some((32, 98)));
+        assert_eq!(size(64, 200, (1.2, 4.04)), None);
+        // A window ever so long stays within the cap.
+        assert_eq!(size(4, 4, (1.0, 1e9)), Some((32, 1024)));
+    }
+
+    /// Filtered up in linear light, as the renderer filters the small design: between a red
+    /// and a green texel the upscaled design is (188, 188, 0), not the sRGB bytes' (128,
+    /// 128, 0).
+    #[test]
+    fn a_small_design_is_filtered_up_in_linear_light() {
+        let d = RgbaImage::from_fn(2, 1, |x, _| {
+            Rgba(if x == 0 {
+                [255, 0, 0, 255]
+            } else {
+                [0, 255, 0, 255]
+            })
+        });
+        let up = outline_resolved(&d, (2.0, 1.0)).unwrap();
+        let (w, h) = up.dimensions();
+        let mid = up.get_pixel(w / 2, h / 2).0;
+        let mid2 = up.get_pixel(w / 2 - 1, h / 2).0;
+        // The two texels either side of the middle straddle the 50 % mix.
+        let g = (mid[0] as u32 + mid2[0] as u32) / 2;
+        assert!((180..=196).contains(&g), "{mid:?} {mid2:?}");
+        assert_eq!(mid[3], 255);
     }
 
     #[test]

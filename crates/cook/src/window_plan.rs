@@ -1087,7 +1087,7 @@ fn make_design(p: &Pending, images: &crate::textures::DecodedImages) -> Result<D
     }
     if p.planar {
         let canvas = design::fit_design(&rgba(&*get(img)?), p.fit, p.aspect);
-        let mut canvas = design::outline_resolved(&canvas).unwrap_or(canvas);
+        let mut canvas = design::outline_resolved(&canvas, p.extent).unwrap_or(canvas);
         if let Some(tints) = &p.tints {
             design::tint_image(&mut canvas, &p.tris, tints, p.srgb);
         }
@@ -1103,7 +1103,7 @@ fn make_design(p: &Pending, images: &crate::textures::DecodedImages) -> Result<D
     // A design of a few texels (one colour for the whole window) resolves no outline at its
     // size: a 1x1 design's one texel is covered, so the light kept the square's corners
     // beyond a pointed lancet. Filtered up as the renderer samples it, then masked.
-    let resolved = design::outline_resolved(&pixels)
+    let resolved = design::outline_resolved(&pixels, p.extent)
         .map(|up| {
             let mask = design::coverage(&p.tris, up.width(), up.height());
             (up, mask)
