@@ -375,6 +375,15 @@ impl IndexFormat {
             Self::U32 => 4,
         }
     }
+
+    /// The indices `bytes` hold in this format (little endian), widened to u32.
+    pub fn decode(self, bytes: &[u8]) -> impl Iterator<Item = u32> + '_ {
+        bytes.chunks_exact(self.size() as usize).map(|c| match *c {
+            [a, b] => u16::from_le_bytes([a, b]) as u32,
+            [a, b, c, d] => u32::from_le_bytes([a, b, c, d]),
+            _ => unreachable!("chunks of the format's size"),
+        })
+    }
 }
 
 /// A contiguous run of indices drawn with one material.

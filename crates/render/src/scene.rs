@@ -832,16 +832,9 @@ impl Scene {
                     Some(materials) => check_draw_materials(m, &materials, bytes)?,
                     None => self.cpu[mesh as usize].indices_bytes = Some(bytes.to_vec()),
                 }
-                let indices = self.keeps_cpu_geometry().then(|| match m.index_format {
-                    pack::IndexFormat::U16 => bytes
-                        .chunks_exact(2)
-                        .map(|c| u16::from_le_bytes([c[0], c[1]]) as u32)
-                        .collect(),
-                    pack::IndexFormat::U32 => bytes
-                        .chunks_exact(4)
-                        .map(|c| u32::from_le_bytes([c[0], c[1], c[2], c[3]]))
-                        .collect(),
-                });
+                let indices = self
+                    .keeps_cpu_geometry()
+                    .then(|| m.index_format.decode(bytes).collect());
                 self.cpu[mesh as usize].indices = indices;
                 // An odd count of u16 indices leaves padding (see `mapped_buffer`).
                 let (buffer, ()) = mapped_buffer(
@@ -1445,7 +1438,6 @@ fn mapped_buffer<R>(
     (buffer, written)
 }
 
-/// Whether `bytes` hold `count` vertices of `layout`.
 /// Whether every triangle's vertices carry its draw range's material. The passes shade by the
 /// ranges, but which textures repeat is read from the vertices' IDs, as are the cooker's
 /// `validate` and `diff`: a pack where they disagree (its checksums made to agree) is damaged,
@@ -1455,26 +1447,23 @@ fn check_draw_materials(
     materials: &[u16],
     indices: &[u8],
 ) -> Result<(), RenderError> {
-    let index = |i: usize| -> usize {
-        match m.index_format {
-            pack::IndexFormat::U16 => {
-                u16::from_le_bytes([indices[2 * i], indices[2 * i + 1]]) as usize
-            }
-            pack::IndexFormat::U32 => {
-                u32::from_le_bytes(indices[4 * i..4 * i + 4].try_into().expect("four bytes"))
-                    as usize
-            }
-        }
-    };
+    // The ranges tile the indices in order (the pack's checks hold it).
+    let mut index = m.index_format.decode(indices);
     let mut wrong = 0usize;
     let mut example = None;
+    let mut t = 0usize;
     for r in &m.ranges {
-        for t in (r.first_index as usize..(r.first_index + r.index_count) as usize).step_by(3) {
-            let ids = [0, 1, 2].map(|k| materials.get(index(t + k)).copied());
+        for _ in 0..r.index_count / 3 {
+            let ids = [(); 3].map(|()| {
+                index
+                    .next()
+                    .and_then(|i| materials.get(i as usize).copied())
+            });
             if ids.iter().any(|&id| id != Some(r.material)) {
                 wrong += 1;
-                example.get_or_insert((t / 3, r.material, ids));
+                example.get_or_insert((t, r.material, ids));
             }
+            t += 1;
         }
     }
     match example {
@@ -1491,6 +1480,7 @@ fn check_draw_materials(
     }
 }
 
+/// Whether `bytes` hold `count` vertices of `layout`.
 fn check_vertex_bytes(layout: &VertexLayout, bytes: &[u8], count: usize) -> Result<(), String> {
     let stride = layout.stride as usize;
     if stride == 0 || bytes.len() < stride * count {
