@@ -2,7 +2,7 @@
 //! runs its front (import → tag → windows), which `cooker validate` and `cooker init` share.
 
 use std::borrow::Cow;
-use std::path::Path;
+use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
 
 use rayon::prelude::*;
@@ -457,7 +457,8 @@ fn prepare_steps(
         .collect();
     let found = Instant::now();
     report.stage("tag", found - tagged);
-    let images = textures::DecodedImages::default();
+    let images =
+        textures::DecodedImages::with_colour_managed(colour_managed(manifest, settings, report));
     let framed = manifest.shifted(shift);
     let windows = window_plan::plan(
         &framed,
@@ -479,6 +480,67 @@ fn prepare_steps(
         images,
         shift,
     })
+}
+
+/// The image files the user named as colour: window designs (the manifest's and `--window`'s),
+/// rules' textures and the background's panorama. Their embedded colour profiles are applied
+/// (`texture::profile`), wherever the scene uses the file (one file is one set of colours);
+/// what each does is said here, on every cook, cache hit or not. A design declared
+/// `colour_space = "linear"` holds data in linear light, which a profile does not describe:
+/// it is read as declared, and a profile it carries is said to be left out. A file that cannot
+/// be read is left to its decode, which names it.
+fn colour_managed(manifest: &Manifest, settings: &Settings, report: &mut Report) -> Vec<PathBuf> {
+    let linear = |w: &WindowDesign| w.colour_space == pack::ColourSpace::Linear;
+    let designs = manifest.windows.iter().chain(&settings.window_overrides);
+    let mut files: Vec<PathBuf> = (designs.clone())
+        .filter(|w| !linear(w))
+        .filter_map(|w| w.design.clone())
+        .chain(manifest.rules.iter().filter_map(|r| r.texture.clone()))
+        .chain(manifest.background.panorama.clone())
+        .collect();
+    files.sort();
+    files.dedup();
+    for f in &files {
+        match texture::profile_use(f) {
+            Ok(used @ texture::ProfileUse::Converted { .. }) => {
+                let said = used.said().unwrap_or_default();
+                report.notes.push(Warning::new(f, None, said));
+            }
+            Ok(used @ texture::ProfileUse::Ignored { .. }) => {
+                let said = used.said().unwrap_or_default();
+                report.warnings.push(Warning::new(f, None, said));
+            }
+            Ok(texture::ProfileUse::Srgb) | Err(_) => {}
+        }
+    }
+    let mut linear_designs: Vec<&PathBuf> = designs
+        .filter(|w| linear(w))
+        .filter_map(|w| w.design.as_ref())
+        .filter(|d| !files.contains(d))
+        .collect();
+    linear_designs.sort();
+    linear_designs.dedup();
+    for f in linear_designs {
+        if let Ok(
+            texture::ProfileUse::Converted { name } | texture::ProfileUse::Ignored { name, .. },
+        ) = texture::profile_use(f)
+        {
+            let name = if name.is_empty() {
+                String::new()
+            } else {
+                format!(" \"{name}\"")
+            };
+            report.warnings.push(Warning::new(
+                f,
+                None,
+                format!(
+                    "its ICC profile{name} is not applied: the design is declared \
+                     colour_space = \"linear\", so its texels are read as linear light"
+                ),
+            ));
+        }
+    }
+    files
 }
 
 /// `e` said where its file was named: a `--window` option, else the manifest's line.

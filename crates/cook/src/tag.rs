@@ -1266,6 +1266,9 @@ pub fn tag(manifest: &Manifest, sources: &mut [Imported]) -> Result<Tagging, Coo
                             plan.normal_texture = Some(ImageRef::File(t.clone()));
                             plan.normal_scale = 1.0;
                         }
+                        if let Some(s) = r.normal_strength {
+                            plan.normal_scale = s;
+                        }
                     }
                     let id = out.materials.len() as u16;
                     out.materials.push(plan);

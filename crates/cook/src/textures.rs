@@ -41,6 +41,8 @@ enum Job {
     DerivedNormal {
         #[serde(skip)]
         design: ImageRef,
+        /// The relief's height scaled (`[[window]] normal_strength`).
+        strength: f32,
     },
     Projector {
         #[serde(skip)]
@@ -149,6 +151,10 @@ fn as_rgba8(img: image::DynamicImage) -> image::DynamicImage {
 #[derive(Default)]
 pub struct DecodedImages {
     files: Mutex<HashMap<PathBuf, DecodeSlot>>,
+    /// Files the user named as colour (designs, a rule's texture, the panorama), whose
+    /// embedded ICC profile is applied (`texture::profile`); a model's own textures are read
+    /// as sRGB whatever they embed, as glTF requires.
+    colour_managed: std::collections::HashSet<PathBuf>,
     /// Uses still to come, per file, where the texture stage has said: a file is let go after
     /// its last job, not held to the end of the stage (a 4096² design is 48 MiB decoded).
     uses: Mutex<HashMap<PathBuf, usize>>,
@@ -165,6 +171,18 @@ impl std::fmt::Debug for DecodedImages {
 }
 
 impl DecodedImages {
+    /// Decodes the `colour_managed` files into sRGB by their embedded profiles.
+    pub(crate) fn with_colour_managed(colour_managed: impl IntoIterator<Item = PathBuf>) -> Self {
+        Self {
+            colour_managed: colour_managed.into_iter().collect(),
+            ..Self::default()
+        }
+    }
+
+    fn is_colour_managed(&self, image: &ImageRef) -> bool {
+        matches!(image, ImageRef::File(p) if self.colour_managed.contains(p))
+    }
+
     /// The image, decoded by the first caller; callers wanting the same file meanwhile wait for
     /// that decode rather than repeat it. A file that fails to decode is not remembered, so
     /// every caller reports the error as it would have.
@@ -180,7 +198,14 @@ impl DecodedImages {
         if let Some(img) = &*slot {
             return Ok(Arc::clone(img));
         }
-        let img = Arc::new(as_rgba8(decode(image)?));
+        let decoded = if self.colour_managed.contains(path) {
+            texture::load_image_in_srgb(path)
+                .map(|(img, _)| img)
+                .map_err(|e| texture_error(path, e))?
+        } else {
+            decode(image)?
+        };
+        let img = Arc::new(as_rgba8(decoded));
         *slot = Some(Arc::clone(&img));
         Ok(img)
     }
@@ -297,6 +322,10 @@ impl Job {
             Job::DerivedNormal { design, .. } | Job::Projector { design, .. } => design,
         };
         key_image(&mut k, image)?;
+        if p.images.is_colour_managed(image) {
+            // The conversion is the colour library's: another version may round otherwise.
+            k.str("colour profile", "applied, moxcms 0.8");
+        }
         Ok(k.finish())
     }
 }
@@ -874,7 +903,7 @@ fn run(
             };
             Ok((chain, size, reduced.and(said), None))
         }
-        Job::DerivedNormal { design } => {
+        Job::DerivedNormal { design, strength } => {
             // From the design's first level within [`DERIVED_NORMAL_MAX_SIDE`] (and the size
             // cap), box-filtered in linear light whatever the mip filter.
             let srgb = texture::ColourOptions {
@@ -893,7 +922,7 @@ fn run(
             };
             let size = (img.width(), img.height());
             let (pw, ph) = storage(size);
-            let chain = texture::derive_normal_map_padded(&img, seed(design), pw, ph)
+            let chain = texture::derive_normal_map_padded(&img, seed(design), *strength, pw, ph)
                 .map_err(|e| texture_error(Path::new(&design.name()), e))?;
             Ok((chain, size, Said::default(), None))
         }
@@ -1060,16 +1089,17 @@ pub fn cook_textures(
                             image: image.clone(),
                             encoding: *encoding,
                             green: *green,
-                            strength: 1.0,
+                            strength: w.normal_strength.unwrap_or(1.0),
                         },
                         (None, Some(image)) => Job::Normal {
                             image: image.clone(),
                             encoding: NormalEncoding::Rgb,
                             green: GreenAxis::OpenGl,
-                            strength: plan.normal_scale,
+                            strength: w.normal_strength.unwrap_or(plan.normal_scale),
                         },
                         (None, None) => Job::DerivedNormal {
                             design: w.design.clone(),
+                            strength: w.normal_strength.unwrap_or(1.0),
                         },
                     },
                     f,
@@ -1271,6 +1301,7 @@ mod tests {
             },
             Job::DerivedNormal {
                 design: image.clone(),
+                strength: 1.0,
             },
             Job::Projector {
                 design: image,

@@ -37,6 +37,8 @@ pub struct WindowPlan {
     pub colour_space: pack::ColourSpace,
     /// A given normal map; `None` derives one from the design.
     pub normal: Option<(ImageRef, NormalEncoding, GreenAxis)>,
+    /// The `[[window]]`'s `normal_strength`, over the glass's own.
+    pub normal_strength: Option<f32>,
     pub blur_sigma: Option<f32>,
     /// The window's `texture_format`, overriding `[textures] format`.
     pub texture_format: Option<crate::manifest::TextureFormatChoice>,
@@ -702,6 +704,7 @@ pub fn plan(
                     .clone()
                     .map(|n| (ImageRef::File(n), e.normal_encoding, e.green))
             }),
+            normal_strength: entry.and_then(|e| e.normal_strength),
             blur_sigma: entry.and_then(|e| e.blur_sigma),
             texture_format: entry.and_then(|e| e.texture_format),
             design_size: (0, 0),
@@ -943,12 +946,21 @@ fn share_identical(mut designs: Vec<Design>) -> Vec<Design> {
             let w = window(n);
             w.rsplit_once('#').map_or(w.clone(), |(p, _)| p.to_string())
         };
-        let first = prefix(&name);
-        let all_same = g.iter().all(|&i| prefix(&designs[i].0.name()) == first);
-        let name = if all_same {
-            format!("{first}.design")
-        } else {
-            name
+        // Named after every window it serves, not the first alone: `Glass_blue#1` listing
+        // `design: Glass_red#1.design` read as a mistake.
+        let mut stems: Vec<String> = Vec::new();
+        for &i in &g {
+            let p = prefix(&designs[i].0.name());
+            if !stems.contains(&p) {
+                stems.push(p);
+            }
+        }
+        let name = match stems.as_slice() {
+            [one] => format!("{one}.design"),
+            [a, b] => format!("{a}+{b}.design"),
+            [a, b, c] => format!("{a}+{b}+{c}.design"),
+            [a, b, rest @ ..] => format!("{a}+{b}+{}-more.design", rest.len()),
+            [] => name,
         };
         for &i in &g {
             designs[i].0 = ImageRef::Raster {

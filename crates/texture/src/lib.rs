@@ -34,6 +34,7 @@ mod load;
 pub mod mips;
 pub mod normal;
 pub mod pixels;
+pub mod profile;
 pub mod projector;
 mod real;
 pub mod resample;
@@ -55,6 +56,7 @@ pub use normal::{
     BUMP_DEPTH, FALLBACK_NORMAL, GreenAxis, NormalEncoding, SuppliedNormals, derive_normal_map,
     derive_normal_map_padded, is_height_map, normal_mips, supplied_normal_mips,
 };
+pub use profile::{ProfileUse, load_image_in_srgb, profile_use};
 pub use projector::{
     MARGIN_SIGMAS, ProjectorOptions, ProjectorReport, projector, projector_margin,
     projector_with_unpadded, sigma_from_light,

@@ -42,18 +42,193 @@ fn head(path: &Path) -> Result<Vec<u8>, TextureError> {
 /// is checked against [`MAX_SIDE`] before anything is allocated; truncated or corrupt data is
 /// an error naming the file.
 pub fn load_image(path: &Path) -> Result<DynamicImage, TextureError> {
+    load_with_profile(path).map(|(image, _)| image)
+}
+
+/// The most bytes an embedded colour profile may take: real ones are a few kilobytes (a
+/// lookup-table profile some hundreds), and a PNG's `iCCP` of one megabyte of deflate
+/// inflated to a gigabyte.
+pub const MAX_PROFILE_BYTES: usize = 4 << 20;
+
+/// A file's embedded colour profile (ICC).
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub(crate) enum Icc {
+    None,
+    Bytes(Vec<u8>),
+    /// The file has one that could not be read out of it, and why.
+    Unreadable(String),
+}
+
+const PNG_SIGNATURE: [u8; 8] = [0x89, b'P', b'N', b'G', b'\r', b'\n', 0x1A, b'\n'];
+
+/// [`load_image`], with the colour profile the file embeds.
+pub(crate) fn load_with_profile(path: &Path) -> Result<(DynamicImage, Icc), TextureError> {
     let head = head(path)?;
     // An icon's header; cursors (type 2) are left out, since 00 00 02 00 also starts an
     // uncompressed TGA.
     if head.starts_with(&[0, 0, 1, 0]) {
         let bytes = std::fs::read(path).map_err(io_error(path))?;
-        return load_image_bytes(ico_png_entry(&bytes).unwrap_or(&bytes), path);
+        return bytes_with_profile(ico_png_entry(&bytes).unwrap_or(&bytes), path);
     }
     if is_ktx2(&head) || is_dds(&head) || is_jpeg(&head) {
         let bytes = std::fs::read(path).map_err(io_error(path))?;
-        return load_image_bytes(&bytes, path);
+        return bytes_with_profile(&bytes, path);
+    }
+    if head.starts_with(&PNG_SIGNATURE) && png_icc_chunk(path)?.is_some() {
+        let bytes = std::fs::read(path).map_err(io_error(path))?;
+        return bytes_with_profile(&bytes, path);
     }
     limited(|| reader(path), path)
+}
+
+/// Where a PNG's `iCCP` chunk lies (length, type, data and CRC), if it has one before its
+/// first `IDAT`; read chunk header by chunk header, without the texels.
+fn png_icc_chunk(path: &Path) -> Result<Option<std::ops::Range<u64>>, TextureError> {
+    let mut f = std::io::BufReader::new(std::fs::File::open(path).map_err(io_error(path))?);
+    let mut at = PNG_SIGNATURE.len() as u64;
+    f.seek(std::io::SeekFrom::Start(at))
+        .map_err(io_error(path))?;
+    let mut header = [0u8; 8];
+    while f.read_exact(&mut header).is_ok() {
+        let len = u32::from_be_bytes([header[0], header[1], header[2], header[3]]) as u64;
+        let end = at + 12 + len;
+        match &header[4..] {
+            b"iCCP" => return Ok(Some(at..end)),
+            b"IDAT" | b"IEND" => break,
+            _ => {}
+        }
+        f.seek_relative(len as i64 + 4).map_err(io_error(path))?;
+        at = end;
+    }
+    Ok(None)
+}
+
+/// The profile of a PNG's `iCCP` chunk (`chunk`: the whole chunk), inflated by us with a
+/// bound, which the PNG decoder has none of but the image's.
+fn png_icc(chunk: &[u8]) -> Icc {
+    let data = &chunk[8..chunk.len().saturating_sub(4).max(8)];
+    // A name of 1-79 bytes, its NUL, then the compression method (0: deflate).
+    let Some(nul) = data.iter().position(|&b| b == 0) else {
+        return Icc::Unreadable("its iCCP chunk has no profile name".into());
+    };
+    match data.get(nul + 1..) {
+        Some([0, zlib @ ..]) if zlib.len() > 2 => {
+            match fdeflate::decompress_to_vec_bounded(zlib, MAX_PROFILE_BYTES) {
+                Ok(icc) => Icc::Bytes(icc),
+                Err(fdeflate::BoundedDecompressionError::OutputTooLarge { .. }) => {
+                    Icc::Unreadable(format!(
+                        "it inflates past {} MB, more than any colour profile takes",
+                        MAX_PROFILE_BYTES >> 20
+                    ))
+                }
+                Err(_) => Icc::Unreadable("its iCCP chunk's deflate stream is damaged".into()),
+            }
+        }
+        _ => Icc::Unreadable("its iCCP chunk is not deflate-compressed".into()),
+    }
+}
+
+/// The colour profile a file embeds and the texels' type, read from its header without
+/// decoding its texels; none for formats that carry none (KTX2, DDS, icons).
+pub(crate) fn embedded_profile(path: &Path) -> Result<(image::ColorType, Icc), TextureError> {
+    let head = head(path)?;
+    if head.starts_with(&[0, 0, 1, 0]) || is_ktx2(&head) || is_dds(&head) {
+        return Ok((image::ColorType::Rgba8, Icc::None));
+    }
+    let decode = |error| TextureError::Decode {
+        path: path.to_path_buf(),
+        error,
+    };
+    if head.starts_with(&PNG_SIGNATURE) {
+        let icc = match png_icc_chunk(path)? {
+            Some(range) => {
+                let mut f = std::fs::File::open(path).map_err(io_error(path))?;
+                f.seek(std::io::SeekFrom::Start(range.start))
+                    .map_err(io_error(path))?;
+                let mut chunk = Vec::new();
+                f.take(range.end - range.start)
+                    .read_to_end(&mut chunk)
+                    .map_err(io_error(path))?;
+                png_icc(&chunk)
+            }
+            None => Icc::None,
+        };
+        return Ok((png_colour(path)?, icc));
+    }
+    let mut decoder = reader(path)?.into_decoder().map_err(decode)?;
+    let colour = image::ImageDecoder::color_type(&decoder);
+    let icc = match image::ImageDecoder::icc_profile(&mut decoder) {
+        Ok(Some(icc)) => Icc::Bytes(icc),
+        Ok(None) if is_jpeg(&head) => {
+            let bytes = std::fs::read(path).map_err(io_error(path))?;
+            jpeg_icc_lost(&bytes)
+        }
+        Ok(None) => Icc::None,
+        Err(e) => Icc::Unreadable(e.to_string()),
+    };
+    Ok((colour, icc))
+}
+
+/// The texel type a PNG's header (`IHDR`) declares, as the decoder gives it: a palette is
+/// expanded to RGB (RGBA where it has transparency, which does not matter here).
+fn png_colour(path: &Path) -> Result<image::ColorType, TextureError> {
+    use image::ColorType as C;
+    let mut ihdr = [0u8; 26];
+    std::fs::File::open(path)
+        .and_then(|mut f| f.read_exact(&mut ihdr))
+        .map_err(io_error(path))?;
+    let wide = ihdr[24] == 16;
+    Ok(match (ihdr[25], wide) {
+        (0, false) => C::L8,
+        (0, true) => C::L16,
+        (4, false) => C::La8,
+        (4, true) => C::La16,
+        (6, false) => C::Rgba8,
+        (6, true) => C::Rgba16,
+        (2, true) => C::Rgb16,
+        _ => C::Rgb8,
+    })
+}
+
+fn png_icc_range(bytes: &[u8]) -> Option<std::ops::Range<usize>> {
+    let mut at = PNG_SIGNATURE.len();
+    while let Some(h) = bytes.get(at..at + 8) {
+        let len = u32::from_be_bytes([h[0], h[1], h[2], h[3]]) as usize;
+        let end = at.checked_add(12)?.checked_add(len)?;
+        match &h[4..] {
+            b"iCCP" => return Some(at..end.min(bytes.len())),
+            b"IDAT" | b"IEND" => return None,
+            _ => at = end,
+        }
+    }
+    None
+}
+
+/// Why a JPEG's ICC profile was lost when it has APP2 `ICC_PROFILE` segments but the decoder
+/// gave none (a segment missing or numbered out of its count); `Icc::None` without them.
+fn jpeg_icc_lost(b: &[u8]) -> Icc {
+    let mut at = 2;
+    let mut segments = 0;
+    while at + 4 <= b.len() && b[at] == 0xFF {
+        let marker = b[at + 1];
+        if marker == 0xDA || marker == 0xD9 {
+            break;
+        }
+        let len = u16::from_be_bytes([b[at + 2], b[at + 3]]) as usize;
+        if marker == 0xE2 && b.get(at + 4..at + 16) == Some(b"ICC_PROFILE\0") {
+            segments += 1;
+        }
+        at += 2 + len;
+    }
+    if segments == 0 {
+        Icc::None
+    } else {
+        Icc::Unreadable(if segments == 1 {
+            "its one ICC_PROFILE segment does not make a whole profile".into()
+        } else {
+            format!("its {segments} ICC_PROFILE segments do not make a whole profile")
+        })
+    }
 }
 
 /// What [`load_image`] checks before it decodes, without decoding: the file opens, its format
@@ -180,11 +355,33 @@ fn ico_png_entry(b: &[u8]) -> Option<&[u8]> {
 /// [`load_image`] for an image held in memory (embedded in a glTF, say); `name` is what errors
 /// call it.
 pub fn load_image_bytes(bytes: &[u8], name: &Path) -> Result<DynamicImage, TextureError> {
+    bytes_with_profile(bytes, name).map(|(image, _)| image)
+}
+
+fn bytes_with_profile(bytes: &[u8], name: &Path) -> Result<(DynamicImage, Icc), TextureError> {
     if is_ktx2(bytes) {
-        return decode_ktx2(bytes, name);
+        return decode_ktx2(bytes, name).map(|i| (i, Icc::None));
     }
     if is_dds(bytes) {
-        return decode_dds(bytes, name);
+        return decode_dds(bytes, name).map(|i| (i, Icc::None));
+    }
+    // The PNG decoder inflates an `iCCP` chunk with no bound of its own and drops one it
+    // cannot inflate without a word: the chunk is read here and left out of what it decodes.
+    if bytes.starts_with(&PNG_SIGNATURE)
+        && let Some(r) = png_icc_range(bytes)
+    {
+        let icc = png_icc(&bytes[r.clone()]);
+        let mut rest = bytes[..r.start].to_vec();
+        rest.extend_from_slice(&bytes[r.end..]);
+        let (image, _) = limited(
+            || {
+                ImageReader::new(Cursor::new(rest.as_slice()))
+                    .with_guessed_format()
+                    .map_err(io_error(name))
+            },
+            name,
+        )?;
+        return Ok((image, icc));
     }
     if is_jpeg(bytes) && !jpeg_reaches_its_end(bytes) {
         return Err(TextureError::Truncated {
@@ -192,14 +389,19 @@ pub fn load_image_bytes(bytes: &[u8], name: &Path) -> Result<DynamicImage, Textu
             what: "JPEG",
         });
     }
-    limited(
+    let (image, icc) = limited(
         || {
             ImageReader::new(Cursor::new(bytes))
                 .with_guessed_format()
                 .map_err(io_error(name))
         },
         name,
-    )
+    )?;
+    let icc = match icc {
+        Icc::None if is_jpeg(bytes) => jpeg_icc_lost(bytes),
+        other => other,
+    };
+    Ok((image, icc))
 }
 
 /// Refuses the size a file's header claims when it is over [`MAX_SIDE`] or empty, before any
@@ -224,7 +426,7 @@ pub(crate) fn check_claimed_size(path: &Path, width: u32, height: u32) -> Result
 fn limited<R: BufRead + Seek>(
     open: impl Fn() -> Result<ImageReader<R>, TextureError>,
     path: &Path,
-) -> Result<DynamicImage, TextureError> {
+) -> Result<(DynamicImage, Icc), TextureError> {
     let decode = |error| TextureError::Decode {
         path: path.to_path_buf(),
         error,
@@ -248,9 +450,16 @@ fn limited<R: BufRead + Seek>(
     // shown: the design is the photo as the user sees it.
     let orientation = image::ImageDecoder::orientation(&mut decoder)
         .unwrap_or(image::metadata::Orientation::NoTransforms);
+    // A profile that cannot be read is no reason to refuse the texels: it is reported where
+    // it would be applied (`crate::profile`).
+    let icc = match image::ImageDecoder::icc_profile(&mut decoder) {
+        Ok(Some(icc)) => Icc::Bytes(icc),
+        Ok(None) => Icc::None,
+        Err(e) => Icc::Unreadable(e.to_string()),
+    };
     let mut image = DynamicImage::from_decoder(decoder).map_err(decode)?;
     image.apply_orientation(orientation);
-    Ok(image)
+    Ok((image, icc))
 }
 
 #[cfg(test)]

@@ -522,19 +522,24 @@ const NORMAL_BAND_ROWS: usize = 64;
 /// seeded value noise. Deterministic for a given image and seed, on any number of threads.
 /// Stored like [`normal_mips`].
 pub fn derive_normal_map(design: &DynamicImage, seed: u64) -> Result<MipChain, TextureError> {
-    derive_normal_map_padded(design, seed, design.width(), design.height())
+    derive_normal_map_padded(design, seed, 1.0, design.width(), design.height())
 }
 
-/// As [`derive_normal_map`], with level 0 grown to `pw x ph` by repeating its last column and
-/// row before the lower levels are made from it (`crate::bc::block_padded_size`).
+/// As [`derive_normal_map`], its relief's height times `strength` (a negative one sinks the
+/// came), with level 0 grown to `pw x ph` by repeating its last column and row before the
+/// lower levels are made from it (`crate::bc::block_padded_size`).
 pub fn derive_normal_map_padded(
     design: &DynamicImage,
     seed: u64,
+    strength: f32,
     pw: u32,
     ph: u32,
 ) -> Result<MipChain, TextureError> {
     let (w, h) = (design.width(), design.height());
-    let height = design_height(design, seed)?;
+    let mut height = design_height(design, seed)?;
+    if strength != 1.0 {
+        height.par_iter_mut().for_each(|v| *v *= strength);
+    }
     let (pw, ph) = (pw.max(w), ph.max(h));
     if !(pw.is_multiple_of(2) && ph.is_multiple_of(2)) {
         let level0 = height_to_normals_padded(&height, w, h, pw, ph);
@@ -636,7 +641,7 @@ mod tests {
                 image::Rgba([rng.byte(), rng.byte(), rng.byte(), rng.byte()])
             });
             let design = DynamicImage::ImageRgba8(img);
-            let banded = derive_normal_map_padded(&design, 7, pw, ph).unwrap();
+            let banded = derive_normal_map_padded(&design, 7, 1.0, pw, ph).unwrap();
             let height = design_height(&design, 7).unwrap();
             let whole = chain(height_to_normals_padded(&height, w, h, pw, ph), pw, ph);
             assert_eq!((banded.width, banded.height), (whole.width, whole.height));

@@ -149,7 +149,7 @@ fn padded_derived_normal_map_repeats_its_edge_and_keeps_level_zero() {
     let (w, h) = (37, 22);
     let img = common::rgba_image(w, h, common::design(w, h, 6));
     let plain = texture::derive_normal_map(&img, 7).unwrap();
-    let padded = texture::derive_normal_map_padded(&img, 7, 40, 24).unwrap();
+    let padded = texture::derive_normal_map_padded(&img, 7, 1.0, 40, 24).unwrap();
     assert_eq!((padded.width, padded.height), (40, 24));
     assert_eq!(padded.levels.len(), texture::level_count(40, 24));
     let at = |c: &texture::MipChain, x: usize, y: usize| {

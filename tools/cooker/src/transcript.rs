@@ -62,9 +62,10 @@ impl Transcript {
             .filter(|(s, _)| *s == Stream::Detail)
             .count();
         if !verbose && n > 0 {
+            let lines = if n == 1 { "line" } else { "lines" };
             eprintln!(
                 "note: the error budget chose the encoding, blur and mips of the textures \
-                 ({n} lines with their measured errors: -v prints them)"
+                 ({n} {lines} with their measured errors: -v prints them)"
             );
         }
     }

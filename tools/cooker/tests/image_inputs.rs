@@ -1257,3 +1257,208 @@ fn notes_on_a_cut_design_point_at_its_window_entry_or_its_image() {
         "{said}"
     );
 }
+
+/// `normal_strength` in a manifest: on a `[[rule]]` it replaces the source's `-bm` (the grey
+/// bricks under `-bm 8`, given 2, cook as `-bm 2` does); on a `[[window]]` it scales the relief
+/// derived from the design: 0 is flat glass, -1 mirrors the tilt of 1.
+#[test]
+fn a_manifest_s_normal_strength_replaces_bm_and_scales_a_window_s_relief() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let bricks = image::open(data(TGA)).unwrap();
+    bricks.to_luma8().save(d.join("bump.png")).unwrap();
+    bricks.to_rgba8().save(d.join("design.png")).unwrap();
+    let obj = d.join("w.obj");
+    std::fs::write(
+        &obj,
+        "mtllib w.mtl\nv -4 0 -6\nv 6 0 -6\nv 6 0 6\nv -4 0 6\nv 0 1 0\nv 2 1 0\nv 2 3 0\n\
+         v 0 3 0\nvt 0 0\nvt 1 0\nvt 1 1\nvt 0 1\nvn 0 1 0\nusemtl floor\n\
+         f 1/1/1 4/4/1 3/3/1 2/2/1\nusemtl Glass\nf 5/1 6/2 7/3 8/4\n",
+    )
+    .unwrap();
+    let mtl = |bm: &str| {
+        std::fs::write(
+            d.join("w.mtl"),
+            format!(
+                "newmtl floor\nKd 0.6 0.6 0.6\nmap_Bump -bm {bm} bump.png\nnewmtl Glass\nKd 1 1 1\n\
+                 d 0.5\nmap_Kd design.png\n"
+            ),
+        )
+        .unwrap();
+    };
+    let derived = |pack: &Path| -> image::RgbaImage {
+        let o = cooker(&[&"info", &pack, &"--json"]);
+        let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+        let name = v["textures"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|t| t["name"].as_str().unwrap().to_string())
+            .find(|n| n.ends_with(".derived-normal"))
+            .unwrap_or_else(|| panic!("no derived normal map in {v}"));
+        extract(pack, &name, 0, d)
+    };
+
+    mtl("2");
+    let by_bm = cook_obj(&obj, &d.join("bm.pack"), &["--texture-format", "rgba8"]).0;
+    let one = derived(&by_bm);
+    mtl("8");
+    let cook_with = |strength: &str, pack: &str| {
+        std::fs::write(
+            d.join("scene.toml"),
+            format!(
+                "[[mesh]]\nsource = \"w.obj\"\n\n[[rule]]\nmatch = \"floor\"\nclass = \"floor\"\n\
+                 normal_strength = 2\n\n[[window]]\nmaterial = \"Glass\"\n\
+                 normal_strength = {strength}\n"
+            ),
+        )
+        .unwrap();
+        cook_obj(
+            &d.join("scene.toml"),
+            &d.join(pack),
+            &["--texture-format", "rgba8"],
+        )
+        .0
+    };
+    let flat = cook_with("0", "flat.pack");
+    assert!(
+        extract(&flat, "bump.normal", 0, d) == extract(&by_bm, "bump.normal", 0, d),
+        "the rule's normal_strength 2 over -bm 8 differs from -bm 2"
+    );
+    let zero = derived(&flat);
+    assert!(
+        zero.pixels().all(|p| p[0] == zero.get_pixel(0, 0)[0]
+            && p[1] == zero.get_pixel(0, 0)[1]
+            && p[2] == 255),
+        "strength 0 is not flat glass"
+    );
+    assert!(cook_with("1", "one.pack").exists());
+    assert!(
+        derived(&d.join("one.pack")) == one,
+        "strength 1 is not the default"
+    );
+    let minus = derived(&cook_with("-1", "minus.pack"));
+    let mut worst = 0i32;
+    let mut tilted = 0;
+    for (a, b) in one.pixels().zip(minus.pixels()) {
+        for c in 0..2 {
+            worst = worst.max((a[c] as i32 + b[c] as i32 - 255).abs());
+        }
+        worst = worst.max((a[2] as i32 - b[2] as i32).abs());
+        tilted += usize::from(a[2] < 250);
+    }
+    assert!(
+        worst <= 1,
+        "strength -1 is not the mirror of 1: off by {worst}"
+    );
+    assert!(
+        tilted > 100,
+        "the derived relief is nearly flat: {tilted} texels tilted"
+    );
+}
+
+/// A design that embeds a colour profile is converted to sRGB, as an image viewer shows it, and
+/// the cook says so on every cook, cached or not; the same file as a model's own texture keeps
+/// its bytes (glTF requires profiles to be ignored; an MTL's maps are read alike). The profile
+/// is Apple's "Generic RGB Profile" (gamma 1.8), taken from Cesium's logo in
+/// glTF-Sample-Models, on a mid grey: 128 there is 147 in sRGB.
+#[test]
+fn a_design_s_colour_profile_is_applied_and_a_model_s_texture_s_is_not() {
+    use image::ImageDecoder;
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let logo = std::fs::File::open(data("gltf/BoxTextured/CesiumLogoFlat.png")).unwrap();
+    let mut decoder = image::codecs::png::PngDecoder::new(std::io::BufReader::new(logo)).unwrap();
+    let icc = decoder.icc_profile().unwrap().expect("the logo's profile");
+    let grey = image::RgbImage::from_pixel(64, 64, image::Rgb([128; 3]));
+    let mut bytes = Vec::new();
+    let mut enc = image::codecs::png::PngEncoder::new(&mut bytes);
+    image::ImageEncoder::set_icc_profile(&mut enc, icc).unwrap();
+    image::ImageEncoder::write_image(enc, grey.as_raw(), 64, 64, image::ExtendedColorType::Rgb8)
+        .unwrap();
+    std::fs::write(d.join("design.png"), bytes).unwrap();
+    std::fs::write(
+        d.join("w.mtl"),
+        "newmtl floor\nKd 0.6 0.6 0.6\nnewmtl Glass\nKd 1 1 1\nd 0.5\nmap_Kd design.png\n",
+    )
+    .unwrap();
+    std::fs::write(
+        d.join("w.obj"),
+        "mtllib w.mtl\nv -4 0 -6\nv 6 0 -6\nv 6 0 6\nv -4 0 6\nv 0 1 0\nv 2 1 0\nv 2 3 0\n\
+         v 0 3 0\nvt 0 0\nvt 1 0\nvt 1 1\nvt 0 1\nusemtl floor\nf 1 4 3 2\nusemtl Glass\n\
+         f 5/1 6/2 7/3 8/4\n",
+    )
+    .unwrap();
+    let centre = |pack: &Path| {
+        let o = cooker(&[&"info", &pack, &"--json"]);
+        let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+        let name = v["textures"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .find(|t| t["role"] == "colour")
+            .map(|t| t["name"].as_str().unwrap().to_string())
+            .unwrap_or_else(|| panic!("no colour texture in {v}"));
+        let img = extract(pack, &name, 0, d);
+        img.get_pixel(img.width() / 2, img.height() / 2).0
+    };
+    // The glass's own map: the model's texture, read as sRGB bytes.
+    let (pack, err) = cook_obj(
+        &d.join("w.obj"),
+        &d.join("own.pack"),
+        &["--texture-format", "rgba8"],
+    );
+    assert!(!err.contains("ICC profile"), "{err}");
+    assert_eq!(centre(&pack)[..3], [128; 3]);
+    // Named as the window's design: converted.
+    std::fs::write(
+        d.join("scene.toml"),
+        "[[mesh]]\nsource = \"w.obj\"\n\n[[window]]\nmaterial = \"Glass\"\ndesign = \"design.png\"\n",
+    )
+    .unwrap();
+    for (cache, pack) in [("c1", "a.pack"), ("c1", "b.pack")] {
+        let o = cooker(&[
+            &"cook",
+            &d.join("scene.toml"),
+            &"-o",
+            &d.join(pack),
+            &"--cache-dir",
+            &d.join(cache),
+            &"--texture-format",
+            &"rgba8",
+        ]);
+        let err = text(&o.stderr);
+        assert_eq!(o.status.code(), Some(0), "{err}");
+        assert!(
+            err.contains("design.png")
+                && err.contains("converted from its ICC profile \"Generic RGB Profile\" to sRGB"),
+            "{pack}: {err}"
+        );
+        let c = centre(&d.join(pack));
+        assert!(
+            c[..3].iter().all(|v| (146..=148).contains(v)),
+            "{pack}: {c:?}"
+        );
+    }
+    // Declared linear, the texels are data in linear light: read as they are, the profile
+    // named as left out.
+    std::fs::write(
+        d.join("scene.toml"),
+        "[[mesh]]\nsource = \"w.obj\"\n\n[[window]]\nmaterial = \"Glass\"\ndesign = \"design.png\"\n\
+         colour_space = \"linear\"\n",
+    )
+    .unwrap();
+    let (pack, err) = cook_obj(
+        &d.join("scene.toml"),
+        &d.join("lin.pack"),
+        &["--texture-format", "rgba8"],
+    );
+    assert!(
+        err.contains("design.png")
+            && err.contains("its ICC profile \"Generic RGB Profile\" is not applied")
+            && err.contains("colour_space = \"linear\"")
+            && !err.contains("converted"),
+        "{err}"
+    );
+    assert_eq!(centre(&pack)[..3], [128; 3]);
+}

@@ -3926,3 +3926,36 @@ fn windows_of_equal_shares_are_named_alike_at_any_scale() {
         }
     }
 }
+
+/// Windows of differently named glass whose designs come out the same (the same colour and
+/// shape) share one texture, named after all of them: it was named after the first, so a
+/// Greek window listed a Russian one's design.
+#[test]
+fn a_design_shared_by_differently_named_windows_is_named_after_them_all() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    std::fs::write(
+        d.join("c.mtl"),
+        "newmtl floor\nKd 0.5 0.5 0.5\nnewmtl Витраж\nKd 0.8 0.2 0.2\nd 0.5\n\
+         newmtl Γυαλί\nKd 0.8 0.2 0.2\nd 0.5\n",
+    )
+    .unwrap();
+    std::fs::write(
+        d.join("c.obj"),
+        "mtllib c.mtl\nv -5 0 -5\nv 5 0 -5\nv 5 0 5\nv -5 0 5\n\
+         v -5 2 -1\nv -5 2 1\nv -5 5 1\nv -5 5 -1\nv 5 2 1\nv 5 2 -1\nv 5 5 -1\nv 5 5 1\n\
+         usemtl floor\nf 1 4 3 2\nusemtl Витраж\nf 5 6 7 8\nusemtl Γυαλί\nf 9 10 11 12\n",
+    )
+    .unwrap();
+    let pack = d.join("c.pack");
+    cook(&d.join("c.obj"), &pack, &[&"--texture-format", &"rgba8"]);
+    let v = info(&pack);
+    for m in ["Витраж", "Γυαλί"] {
+        let m = material(&v, m);
+        assert_eq!(
+            texture_name(&v, &m["diffuse_texture"]).as_deref(),
+            Some("Витраж+Γυαλί.design"),
+            "{m}"
+        );
+    }
+}

@@ -153,6 +153,15 @@ fn window_renders_frames_takes_screenshots_and_closes_cleanly() {
         "no god-ray choice in:\n{}",
         run.log
     );
+    // Full quality is a frame drawn with every mip at the window's size, so it never comes
+    // before the first frame (the small pack's last mip arrives before the window opens).
+    let first = run.log.find("first frame after");
+    let full = run.log.find("full quality after");
+    assert!(
+        matches!((first, full), (Some(a), Some(b)) if a < b),
+        "expected 'first frame' then 'full quality' in:\n{}",
+        run.log
+    );
 
     let img = load(&final_png, &run.log);
     assert_eq!(img.dimensions(), (320, 180), "{}", run.log);

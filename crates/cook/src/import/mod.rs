@@ -409,17 +409,20 @@ impl Transmission {
         if let Some(i @ (4 | 6 | 7)) = self.illum {
             return Some(format!("MTL illum {i} (transparency)"));
         }
+        // `Tr 0.6` is an opacity of 1 - 0.6, which f32 prints as 0.39999998.
+        let tidy = |v: f32| (v as f64 * 1e4).round() / 1e4;
         if let Some(f) = self.factor.filter(|&f| f > 0.0) {
-            return Some(format!("glTF transmission {f}"));
+            return Some(format!("glTF transmission {}", tidy(f)));
         }
         if self.blend {
             return Some("glTF alpha mode BLEND".into());
         }
         if let Some(d) = self.opacity.filter(|&d| d < 0.999) {
-            return Some(format!("opacity {d} (MTL d / Tr)"));
+            return Some(format!("opacity {} (MTL d / Tr)", tidy(d)));
         }
         if let Some(f) = self.filter.filter(|f| f.iter().any(|&c| c < 0.999)) {
-            return Some(format!("transmission filter Tf {} {} {}", f[0], f[1], f[2]));
+            let [r, g, b] = f.map(tidy);
+            return Some(format!("transmission filter Tf {r} {g} {b}"));
         }
         None
     }

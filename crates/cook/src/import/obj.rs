@@ -2281,9 +2281,19 @@ impl<'a> TextureStatement<'a> {
             // Options and how many words follow them (-o, -s, -t: up to three numbers).
             let arity = match word {
                 "-blendu" | "-blendv" | "-bm" | "-boost" | "-cc" | "-clamp" | "-imfchan"
-                | "-texres" | "-type" => 1,
+                | "-texres" | "-type" | "-colorspace" => 1,
                 "-mm" => 2,
                 "-o" | "-s" | "-t" => 3,
+                // An option we do not know (tools add their own), taken to have one value so
+                // the options after it are still read: it ended the options, and `-o` after
+                // it was lost with it. A name that starts with '-' and ends the line is the file.
+                w if w.len() > 1
+                    && w.starts_with('-')
+                    && w.parse::<f32>().is_err()
+                    && !after.trim().is_empty() =>
+                {
+                    1
+                }
                 _ => {
                     st.file = trimmed.trim_end();
                     return st;
@@ -2291,6 +2301,7 @@ impl<'a> TextureStatement<'a> {
             };
             let mut after = after;
             let mut values = Vec::new();
+            let mut first_arg = None;
             for _ in 0..arity {
                 let t = after.trim_start();
                 let (arg, next) = t.split_once(char::is_whitespace).unwrap_or((t, ""));
@@ -2301,6 +2312,7 @@ impl<'a> TextureStatement<'a> {
                     break;
                 }
                 values.push(number);
+                first_arg = first_arg.or(Some(arg));
                 after = next;
             }
             match (word, values.as_slice()) {
@@ -2312,6 +2324,9 @@ impl<'a> TextureStatement<'a> {
                 }
                 ("-bm", [Some(m)]) => st.bump_multiplier = Some(*m),
                 ("-blendu" | "-blendv", _) => {}
+                // What a colour texture is read as already.
+                ("-colorspace", [_])
+                    if first_arg.is_some_and(|a| a.eq_ignore_ascii_case("srgb")) => {}
                 _ => st.ignored.push(word),
             }
             at = after;
@@ -2888,6 +2903,24 @@ mod tests {
         );
         assert_eq!(TextureStatement::parse("-o design.png").file, "design.png");
         assert_eq!(TextureStatement::parse("-s 2 design.png").scale, [2.0, 1.0]);
+        // `-colorspace` (tinyobjloader's, and its `colorspace-issue-184.mtl`) and options no
+        // one here knows take one value, and the options after them still count; sRGB is
+        // what a colour map is read as, so only another space is named as not applied.
+        let st = TextureStatement::parse("-colorspace sRGB -o 0.5 0.25 d.png");
+        assert_eq!(
+            (st.file, st.offset, st.ignored.len()),
+            ("d.png", [0.5, 0.25], 0)
+        );
+        let st = TextureStatement::parse("-colorspace linear -bm 3 bumpmap.jpg");
+        assert_eq!(
+            (st.file, st.bump_multiplier, st.ignored),
+            ("bumpmap.jpg", Some(3.0), vec!["-colorspace"])
+        );
+        let st = TextureStatement::parse("-frobnicate 3 -s 2 2 1 my d.png");
+        assert_eq!(
+            (st.file, st.scale, st.ignored),
+            ("my d.png", [2.0, 2.0], vec!["-frobnicate"])
+        );
     }
 
     /// `map_Kd -o/-s` place the texture on the material's triangles; a coordinate shared

@@ -566,10 +566,32 @@ fn rules(src: &Source<'_>, raw: &[Spanned<model::Rule>]) -> Result<Vec<Rule>, Co
             emissive: r.emissive.as_ref().map(|v| *v.get_ref()),
             texture: src.files(&r.texture, "texture")?,
             normal_map: src.files(&r.normal_map, "normal_map")?,
+            normal_strength: normal_strength(src, &r.normal_strength)?,
             line,
         });
     }
     Ok(rules)
+}
+
+/// The most a normal map may be scaled by: 64 tilts a 1° bump to 48°, far past any relief.
+const MAX_NORMAL_STRENGTH: f32 = 64.0;
+
+/// `normal_strength`: x and y of a map's vectors, or a height map's depth, scaled by it; a
+/// negative one turns bumps into dents (a height map painted the other way up).
+fn normal_strength(src: &Source<'_>, v: &Option<Spanned<f32>>) -> Result<Option<f32>, CookError> {
+    match v {
+        Some(s) if !(s.get_ref().is_finite() && s.get_ref().abs() <= MAX_NORMAL_STRENGTH) => {
+            Err(src.err_at(
+                s,
+                format!(
+                    "normal_strength is {} but must be a number from -{MAX_NORMAL_STRENGTH} to \
+                     {MAX_NORMAL_STRENGTH} (1: as the map is; 0: flat; negative: dents for bumps)",
+                    s.get_ref()
+                ),
+            ))
+        }
+        v => Ok(v.as_ref().map(|s| *s.get_ref())),
+    }
 }
 
 fn windows(
@@ -644,6 +666,7 @@ fn windows(
             normal_map: src.files(&w.normal_map, "normal_map")?,
             normal_encoding: w.normal_encoding.unwrap_or_default(),
             green: w.green.unwrap_or_default(),
+            normal_strength: normal_strength(src, &w.normal_strength)?,
             blur_sigma: w
                 .blur_sigma
                 .as_ref()

@@ -241,6 +241,8 @@ pub struct Rule {
     pub emissive: Option<[f32; 3]>,
     pub texture: Option<PathBuf>,
     pub normal_map: Option<PathBuf>,
+    /// Replaces the source's strength (`-bm`, glTF's `scale`) of the material's normal map.
+    pub normal_strength: Option<f32>,
     pub line: Line,
 }
 
@@ -301,6 +303,8 @@ pub struct WindowDesign {
     pub normal_map: Option<PathBuf>,
     pub normal_encoding: texture::NormalEncoding,
     pub green: texture::GreenAxis,
+    /// Scales the window's normal map, given or derived (default 1, or the glass's own).
+    pub normal_strength: Option<f32>,
     pub blur_sigma: Option<f32>,
     /// Overrides `[textures] format` for this window's design, normal map and projector.
     pub texture_format: Option<TextureFormatChoice>,
@@ -361,6 +365,7 @@ impl WindowDesign {
             normal_map: None,
             normal_encoding: texture::NormalEncoding::Rgb,
             green: texture::GreenAxis::OpenGl,
+            normal_strength: None,
             blur_sigma: None,
             texture_format: None,
             uv: UvMode::Auto,
@@ -889,6 +894,32 @@ colour = [0.35, 0.5, 0.8]
         for bad in ["-1", "nan", "inf"] {
             let e = window(bad).unwrap_err().to_string();
             assert!(e.contains(":6") && e.contains("blur_sigma"), "{bad}: {e}");
+        }
+        // A normal map's strength, on a window or a rule: negative is dents, not a number or
+        // past 64 is an error at its line.
+        let strength = |table: &str, s: &str| {
+            let head = match table {
+                "window" => "[[window]]\nmaterial = \"g\"",
+                _ => "[[rule]]\nmatch = \"g\"\nclass = \"wall\"",
+            };
+            parse(&d, &format!("{mesh}\n{head}\nnormal_strength = {s}\n"))
+        };
+        assert_eq!(
+            strength("window", "-0.5").unwrap().windows[0].normal_strength,
+            Some(-0.5)
+        );
+        assert_eq!(
+            strength("rule", "2").unwrap().rules[0].normal_strength,
+            Some(2.0)
+        );
+        for (table, at) in [("window", ":6"), ("rule", ":7")] {
+            for bad in ["65", "-100", "nan", "inf"] {
+                let e = strength(table, bad).unwrap_err().to_string();
+                assert!(
+                    e.contains(at) && e.contains("normal_strength"),
+                    "{bad}: {e}"
+                );
+            }
         }
         assert_eq!(m.textures.max_normal_error_deg, Some(0.5));
         assert_eq!(

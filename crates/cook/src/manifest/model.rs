@@ -110,6 +110,7 @@ pub(super) struct Rule {
     pub emissive: Option<Spanned<[f32; 3]>>,
     pub texture: Option<Spanned<String>>,
     pub normal_map: Option<Spanned<String>>,
+    pub normal_strength: Option<Spanned<f32>>,
 }
 
 #[derive(Deserialize)]
@@ -129,6 +130,7 @@ pub(super) struct Window {
     pub normal_map: Option<Spanned<String>>,
     pub normal_encoding: Option<texture::NormalEncoding>,
     pub green: Option<texture::GreenAxis>,
+    pub normal_strength: Option<Spanned<f32>>,
     pub blur_sigma: Option<Spanned<f32>>,
     pub texture_format: Option<super::TextureFormatChoice>,
 }
