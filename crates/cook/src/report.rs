@@ -151,6 +151,14 @@ pub(crate) fn few_names(names: &[impl std::fmt::Debug]) -> String {
     }
 }
 
+/// `s` padded with spaces to `width` columns as a terminal shows it: a CJK character takes
+/// two, so names in Chinese pushed the columns after them out of line (`cooker info`, then
+/// `cooker validate`'s material table, which padded by characters).
+pub fn padded(s: &str, width: usize) -> String {
+    let shown = unicode_width::UnicodeWidthStr::width(s);
+    format!("{s}{}", " ".repeat(width.saturating_sub(shown)))
+}
+
 /// A length for messages: two decimals, or three significant digits where those say less. A
 /// model in metres scaled to millimetres had windows "0.00 x 0.00", and a nave scaled to a
 /// fraction of a millimetre windows "0–0 units long".
@@ -256,6 +264,15 @@ pub enum ArtifactSource {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Names pad by the columns a terminal gives them: a CJK character takes two.
+    #[test]
+    fn names_pad_by_their_width_on_screen() {
+        assert_eq!(padded("Glass", 8), "Glass   ");
+        assert_eq!(padded("红色玻璃", 10), "红色玻璃  ");
+        assert_eq!(padded("Γυαλί", 6), "Γυαλί ");
+        assert_eq!(padded("a long name", 4), "a long name");
+    }
 
     #[test]
     fn a_length_keeps_three_significant_digits() {

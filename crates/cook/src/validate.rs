@@ -178,8 +178,8 @@ impl Validation {
             let f = |v: [f32; 3]| format!("({:.3}, {:.3}, {:.3})", v[0], v[1], v[2]);
             let _ = writeln!(
                 s,
-                "{:<24} {:<13} {:>10} {:>12.4}  {} .. {}",
-                m.name,
+                "{} {:<13} {:>10} {:>12.4}  {} .. {}",
+                crate::padded(&m.name, 24),
                 m.class.name(),
                 m.triangles,
                 m.area,

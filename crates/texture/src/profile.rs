@@ -1,8 +1,9 @@
 //! Embedded colour profiles (ICC): an image the user names as colour (a window design, say) is
 //! shown as an image viewer shows it, so a photo taken in Display P3 or a design saved in
-//! Adobe RGB is converted to sRGB, the space the pack stores. Read as sRGB bytes, a P3 red
-//! lost a fifth of its saturation. Images a model references are not converted: glTF requires
-//! that their profiles be ignored, and engines read material textures so.
+//! Adobe RGB is converted to sRGB, the space the pack stores. Read as sRGB bytes, a P3 photo's
+//! colours came out duller than on the phone that took it (P3 (200, 100, 50) is sRGB
+//! (215, 93, 31)). Images a model references are not converted: glTF requires that their
+//! profiles be ignored, and engines read material textures so.
 
 use std::path::Path;
 use std::sync::Arc;
@@ -17,7 +18,7 @@ use crate::load::{Icc, MAX_PROFILE_BYTES, embedded_profile, load_with_profile};
 /// What a file's embedded profile does to its colours.
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub enum ProfileUse {
-    /// No profile, or one that maps every 8-bit value to itself in sRGB (an sRGB profile).
+    /// No profile, or one that keeps every colour within two 8-bit steps (an sRGB profile).
     Srgb,
     /// Converted to sRGB; `name` is the profile's description.
     Converted { name: String },

@@ -600,6 +600,11 @@ impl Geometry<'_> {
                 "largest corner move of the {matched} matched {:.3e}",
                 m.max_delta
             )
+        } else if ca.off_surface + cb.off_surface == 0 {
+            // Quads split along the other diagonal: nothing pairs up, nothing moved.
+            "none matched one to one, all on the other's surface: the same surface cut into \
+             other triangles"
+                .to_string()
         } else {
             "none matched".to_string()
         };

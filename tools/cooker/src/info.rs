@@ -288,7 +288,7 @@ pub fn run(args: Args) -> Outcome {
         let colours = m.layout.attribute(pack::Semantic::Colour).is_some();
         println!(
             "  {} {:>9} vertices {:>9} triangles  stride {:>3}  {} ranges{}",
-            padded(&m.name, 24),
+            cook::padded(&m.name, 24),
             m.vertex_count,
             m.index_count / 3,
             m.layout.stride,
@@ -311,7 +311,7 @@ pub fn run(args: Args) -> Outcome {
     for (m, t) in toc.materials.iter().zip(&tris) {
         println!(
             "    {} {:<13} {t:>10} triangles",
-            padded(&m.name, 28),
+            cook::padded(&m.name, 28),
             m.class.name()
         );
     }
@@ -324,7 +324,7 @@ pub fn run(args: Args) -> Outcome {
         all_rgba8 += b.rgba8;
         println!(
             "  {} {:<9} {:<6} {:<10} {:>5}x{:<5} {:>2} mips {:>10} bytes ({:>10} in {}, {:>10} as RGBA8)",
-            padded(&t.name, 32),
+            cook::padded(&t.name, 32),
             t.role.name(),
             t.colour_space.name(),
             storage_name(t),
@@ -356,7 +356,7 @@ pub fn run(args: Args) -> Outcome {
         });
         println!(
             "  {} {:<12} {:>6} x {:<6} units  glass: {}{design}",
-            padded(&m.name, 32),
+            cook::padded(&m.name, 32),
             m.class.name(),
             cook::length(len(w.u_axis) as f64),
             cook::length(len(w.v_axis) as f64),
@@ -368,13 +368,6 @@ pub fn run(args: Args) -> Outcome {
     let panorama = panorama_name(toc).map_or(String::new(), |name| format!(", panorama {name}"));
     println!("background: colour [{r:.3}, {g:.3}, {b:.3}] (linear){panorama}");
     Ok(OK)
-}
-
-/// `s` padded with spaces to `width` columns as a terminal shows it: a CJK character takes
-/// two, so names in Chinese pushed the columns after them out of line.
-fn padded(s: &str, width: usize) -> String {
-    let shown = unicode_width::UnicodeWidthStr::width(s);
-    format!("{s}{}", " ".repeat(width.saturating_sub(shown)))
 }
 
 #[cfg(test)]
@@ -397,13 +390,5 @@ mod tests {
         assert_eq!(design_source(Some("v1.2")), "image");
         assert_eq!(design_source(Some("lancet")), "image");
         assert_eq!(design_source(None), "none");
-    }
-
-    #[test]
-    fn names_pad_by_their_width_on_screen() {
-        assert_eq!(super::padded("Glass", 8), "Glass   ");
-        assert_eq!(super::padded("红色玻璃", 10), "红色玻璃  ");
-        assert_eq!(super::padded("Γυαλί", 6), "Γυαλί ");
-        assert_eq!(super::padded("a long name", 4), "a long name");
     }
 }

@@ -432,7 +432,12 @@ impl Transmission {
     /// coloured `Kd`, as exporters that keep the glass colour in `Kd` write it.
     pub fn transmitted(&self, diffuse: [f32; 3]) -> ([f32; 3], f32) {
         let amount = match (self.filter, self.opacity) {
-            (Some(_), _) => 1.0,
+            // glTF's transmission factor is the share of light that passes (the rest is
+            // diffused): at 0.9 the pane passed all of it, where MTL `d 0.1` passed 0.9.
+            (Some(_), _) => self
+                .factor
+                .filter(|&f| f > 0.0)
+                .map_or(1.0, |f| f.clamp(0.05, 1.0)),
             (None, Some(d)) if d < 0.999 => (1.0 - d).clamp(0.05, 1.0),
             _ => 1.0,
         };
@@ -940,6 +945,38 @@ fn any_case(dir: &Path, relative: &str) -> Option<PathBuf> {
 mod tests {
     use super::*;
     use proptest::prelude::*;
+
+    /// How much light a pane passes: MTL `d 0.1` and glTF transmission 0.9 alike pass 0.9;
+    /// a `Tf` filter passes its colour whole; a glTF transmission of 1 all of it. The
+    /// glass reason prints the numbers as written (`Tr 0.6`: opacity 0.4).
+    #[test]
+    fn mtl_opacity_and_gltf_transmission_pass_the_same_share() {
+        let mtl = Transmission {
+            opacity: Some(0.1),
+            ..Transmission::default()
+        };
+        let gltf = |f: f32| Transmission {
+            filter: Some([0.2, 0.4, 0.9]),
+            factor: Some(f),
+            ..Transmission::default()
+        };
+        assert!((mtl.transmitted([0.2, 0.4, 0.9]).1 - 0.9).abs() < 1e-6);
+        assert_eq!(gltf(0.9).transmitted([1.0; 3]), ([0.2, 0.4, 0.9], 0.9));
+        assert_eq!(gltf(1.0).transmitted([1.0; 3]).1, 1.0);
+        let tf = Transmission {
+            filter: Some([0.8, 0.1, 0.1]),
+            ..Transmission::default()
+        };
+        assert_eq!(tf.transmitted([0.0; 3]).1, 1.0);
+        let tr = Transmission {
+            opacity: Some(1.0 - 0.6f32),
+            ..Transmission::default()
+        };
+        assert_eq!(
+            tr.glass_reason().as_deref(),
+            Some("opacity 0.4 (MTL d / Tr)")
+        );
+    }
 
     /// Far positions behind a first vertex near the origin are not moved, and said so.
     #[test]
