@@ -427,6 +427,18 @@ fn malformed_data_uris_exit_3_naming_the_file() {
 }
 
 /// The pack's only texture: its name, after checking the material samples it.
+/// The name of the first texture of `pack` (in `info --json`) that `pick` accepts.
+fn texture_where(pack: &Path, pick: impl Fn(&serde_json::Value) -> bool) -> String {
+    let o = cooker(&[&"info", &pack, &"--json"]);
+    assert_eq!(o.status.code(), Some(0), "{}", text(&o.stderr));
+    let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    let found = v["textures"].as_array().unwrap().iter().find(|t| pick(t));
+    match found {
+        Some(t) => t["name"].as_str().unwrap().to_string(),
+        None => panic!("no such texture in {v}"),
+    }
+}
+
 fn only_texture(pack: &Path) -> String {
     let info = cooker(&[&"info", &pack, &"--json"]);
     assert_eq!(info.status.code(), Some(0), "{}", text(&info.stderr));
@@ -1287,15 +1299,9 @@ fn a_manifest_s_normal_strength_replaces_bm_and_scales_a_window_s_relief() {
         .unwrap();
     };
     let derived = |pack: &Path| -> image::RgbaImage {
-        let o = cooker(&[&"info", &pack, &"--json"]);
-        let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
-        let name = v["textures"]
-            .as_array()
-            .unwrap()
-            .iter()
-            .map(|t| t["name"].as_str().unwrap().to_string())
-            .find(|n| n.ends_with(".derived-normal"))
-            .unwrap_or_else(|| panic!("no derived normal map in {v}"));
+        let name = texture_where(pack, |t| {
+            t["name"].as_str().unwrap().ends_with(".derived-normal")
+        });
         extract(pack, &name, 0, d)
     };
 
@@ -1390,15 +1396,7 @@ fn a_design_s_colour_profile_is_applied_and_a_model_s_texture_s_is_not() {
     )
     .unwrap();
     let centre = |pack: &Path| {
-        let o = cooker(&[&"info", &pack, &"--json"]);
-        let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
-        let name = v["textures"]
-            .as_array()
-            .unwrap()
-            .iter()
-            .find(|t| t["role"] == "colour")
-            .map(|t| t["name"].as_str().unwrap().to_string())
-            .unwrap_or_else(|| panic!("no colour texture in {v}"));
+        let name = texture_where(pack, |t| t["role"] == "colour");
         let img = extract(pack, &name, 0, d);
         img.get_pixel(img.width() / 2, img.height() / 2).0
     };
