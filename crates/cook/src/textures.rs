@@ -233,21 +233,14 @@ impl DecodedImages {
     }
 }
 
-/// Deterministic per-design seed for the derived normal map's hammered-glass noise, from the
-/// design's content: it was the file's name, so renaming a design file changed the glass
-/// (98 LSB in the derived normal map), which a regression test of the cook reads as a change.
-/// A file that cannot be read here is refused where it is decoded. Made when the job runs, once
-/// per design (a cache hit does not read it): made as jobs were planned, it read the design
-/// once per window using it.
-fn seed(design: &ImageRef) -> u64 {
-    let of = |bytes: &[u8]| ((crc32fast::hash(bytes) as u64) << 32) ^ bytes.len() as u64;
-    match design {
-        ImageRef::File(path) => std::fs::read(path).map_or(0, |b| of(&b)),
-        ImageRef::Embedded { bytes, .. } => of(bytes),
-        ImageRef::Raster { image, .. } => {
-            of(image.as_raw()) ^ ((image.width() as u64) << 16 | image.height() as u64)
-        }
-    }
+/// Seed of a derived normal map's hammered-glass noise: the size of the image it is derived
+/// from, nothing else, so the noise is where it was after an edit and a change stays where it
+/// was made. Seeded by the design's content, one pixel changed in the default scene's mosaic
+/// moved 309,261 of its 336,896 normals (up to 102 LSB, 400 texels away), and a regression diff
+/// could not say where the edit was; seeded by its file's name, a renamed design changed its
+/// glass (98 LSB). Designs of one size share their hammering; their cames differ.
+fn seed((w, h): (u32, u32)) -> u64 {
+    (u64::from(w) << 32 | u64::from(h)) ^ 0x9E37_79B9_7F4A_7C15
 }
 
 impl Job {
@@ -922,7 +915,7 @@ fn run(
             };
             let size = (img.width(), img.height());
             let (pw, ph) = storage(size);
-            let chain = texture::derive_normal_map_padded(&img, seed(design), *strength, pw, ph)
+            let chain = texture::derive_normal_map_padded(&img, seed(size), *strength, pw, ph)
                 .map_err(|e| texture_error(Path::new(&design.name()), e))?;
             Ok((chain, size, Said::default(), None))
         }
@@ -1267,21 +1260,13 @@ fn unique_names(bases: Vec<String>) -> Vec<String> {
 mod tests {
     use super::*;
 
-    /// A design renamed, or copied elsewhere, keeps its glass: the noise's seed is its content.
+    /// A design renamed, copied elsewhere or edited keeps its hammered glass: the noise's seed is
+    /// the size of what it is derived from.
     #[test]
-    fn a_derived_normal_s_seed_follows_the_design_s_content_not_its_name() {
-        let dir = tempfile::tempdir().unwrap();
-        let (a, b, c) = (
-            dir.path().join("rose.png"),
-            dir.path().join("renamed.png"),
-            dir.path().join("other.png"),
-        );
-        std::fs::write(&a, b"the same bytes").unwrap();
-        std::fs::write(&b, b"the same bytes").unwrap();
-        std::fs::write(&c, b"other bytes").unwrap();
-        let s = |p: &std::path::Path| seed(&ImageRef::File(p.to_path_buf()));
-        assert_eq!(s(&a), s(&b));
-        assert_ne!(s(&a), s(&c));
+    fn a_derived_normal_s_seed_is_its_size_alone() {
+        assert_eq!(seed((64, 32)), seed((64, 32)));
+        assert_ne!(seed((64, 32)), seed((32, 64)));
+        assert_ne!(seed((64, 32)), seed((64, 33)));
     }
 
     /// Changing the mip filter re-cooks what reads it: colour chains, and given normal maps

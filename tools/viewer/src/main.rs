@@ -744,6 +744,21 @@ fn out_in_the_way(out: &Path) -> anyhow::Result<()> {
     Ok(())
 }
 
+/// Whether images can be written under `out`, asked before the render: a probe folder made and
+/// removed where `out` is or would be made, so a refused input still leaves nothing behind.
+/// `--out /proc/x` failed with exit 4 after the whole render (minutes, at a large size).
+fn out_writable(out: &Path) -> anyhow::Result<()> {
+    let base = out
+        .ancestors()
+        .find(|a| a.as_os_str().is_empty() || a.is_dir())
+        .filter(|a| !a.as_os_str().is_empty())
+        .unwrap_or(Path::new("."));
+    let probe = base.join(format!(".viewer-probe-{}", std::process::id()));
+    std::fs::create_dir(&probe).with_context(|| format!("creating {}", out.display()))?;
+    let _ = std::fs::remove_dir(&probe);
+    Ok(())
+}
+
 /// Bad usage that shows only once the pack is read (a camera it does not have): exit 2, as
 /// clap's usage errors; it exited 1, the code of a failed render.
 #[derive(Debug)]
@@ -864,6 +879,7 @@ fn run() -> Result<()> {
     // loaded, so that a refused input leaves no empty directory behind.
     if args.headless {
         out_in_the_way(&args.out)?;
+        out_writable(&args.out)?;
     }
     let no_display =
         std::env::var_os("DISPLAY").is_none() && std::env::var_os("WAYLAND_DISPLAY").is_none();

@@ -428,6 +428,26 @@ fn names_the_problem_on_bad_input() {
         "{said}"
     );
 
+    // An --out the system will not let us make is said before the render (it came after the
+    // whole frame): exit 4, as any I/O refusal, and no adapter set up.
+    let o = headless_64x36(
+        &pack_path,
+        std::path::Path::new("/proc/no-such-frames"),
+        &[],
+    );
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(4), "{err}");
+    assert!(err.contains("creating /proc/no-such-frames"), "{err}");
+    assert!(
+        !String::from_utf8_lossy(&o.stdout).contains("adapter"),
+        "{err}"
+    );
+    assert!(
+        !out.exists(),
+        "a refused input left {} behind",
+        out.display()
+    );
+
     let headless = |pack: &std::path::Path| {
         viewer(&[
             pack.as_os_str(),
