@@ -955,12 +955,10 @@ fn share_identical(mut designs: Vec<Design>) -> Vec<Design> {
                 stems.push(p);
             }
         }
-        let name = match stems.as_slice() {
-            [one] => format!("{one}.design"),
-            [a, b] => format!("{a}+{b}.design"),
-            [a, b, c] => format!("{a}+{b}+{c}.design"),
-            [a, b, rest @ ..] => format!("{a}+{b}+{}-more.design", rest.len()),
-            [] => name,
+        let name = match stems.len() {
+            0 => name,
+            1..=3 => format!("{}.design", stems.join("+")),
+            n => format!("{}+{}+{}-more.design", stems[0], stems[1], n - 2),
         };
         for &i in &g {
             designs[i].0 = ImageRef::Raster {

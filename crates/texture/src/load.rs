@@ -82,14 +82,13 @@ pub(crate) fn load_with_profile(path: &Path) -> Result<(DynamicImage, Icc), Text
 }
 
 /// Where a PNG's `iCCP` chunk lies (length, type, data and CRC), if it has one before its
-/// first `IDAT`; read chunk header by chunk header, without the texels.
-fn png_icc_chunk(path: &Path) -> Result<Option<std::ops::Range<u64>>, TextureError> {
-    let mut f = std::io::BufReader::new(std::fs::File::open(path).map_err(io_error(path))?);
+/// first `IDAT`; read chunk header by chunk header, without the texels. Its end may lie past
+/// the end of a cut file.
+fn png_icc_span<R: Read + Seek>(r: &mut R) -> std::io::Result<Option<std::ops::Range<u64>>> {
     let mut at = PNG_SIGNATURE.len() as u64;
-    f.seek(std::io::SeekFrom::Start(at))
-        .map_err(io_error(path))?;
+    r.seek(std::io::SeekFrom::Start(at))?;
     let mut header = [0u8; 8];
-    while f.read_exact(&mut header).is_ok() {
+    while r.read_exact(&mut header).is_ok() {
         let len = u32::from_be_bytes([header[0], header[1], header[2], header[3]]) as u64;
         let end = at + 12 + len;
         match &header[4..] {
@@ -97,10 +96,16 @@ fn png_icc_chunk(path: &Path) -> Result<Option<std::ops::Range<u64>>, TextureErr
             b"IDAT" | b"IEND" => break,
             _ => {}
         }
-        f.seek_relative(len as i64 + 4).map_err(io_error(path))?;
+        r.seek_relative(len as i64 + 4)?;
         at = end;
     }
     Ok(None)
+}
+
+/// [`png_icc_span`] of a file.
+fn png_icc_chunk(path: &Path) -> Result<Option<std::ops::Range<u64>>, TextureError> {
+    let file = std::fs::File::open(path).map_err(io_error(path))?;
+    png_icc_span(&mut std::io::BufReader::new(file)).map_err(io_error(path))
 }
 
 /// The profile of a PNG's `iCCP` chunk (`chunk`: the whole chunk), inflated by us with a
@@ -140,20 +145,23 @@ pub(crate) fn embedded_profile(path: &Path) -> Result<(image::ColorType, Icc), T
         error,
     };
     if head.starts_with(&PNG_SIGNATURE) {
-        let icc = match png_icc_chunk(path)? {
-            Some(range) => {
-                let mut f = std::fs::File::open(path).map_err(io_error(path))?;
-                f.seek(std::io::SeekFrom::Start(range.start))
-                    .map_err(io_error(path))?;
-                let mut chunk = Vec::new();
-                f.take(range.end - range.start)
-                    .read_to_end(&mut chunk)
+        let file = std::fs::File::open(path).map_err(io_error(path))?;
+        let mut r = std::io::BufReader::new(file);
+        let mut chunk = Vec::new();
+        let icc = match png_icc_span(&mut r).map_err(io_error(path))? {
+            Some(span) => {
+                r.seek(std::io::SeekFrom::Start(span.start))
+                    .and_then(|_| (&mut r).take(span.end - span.start).read_to_end(&mut chunk))
                     .map_err(io_error(path))?;
                 png_icc(&chunk)
             }
             None => Icc::None,
         };
-        return Ok((png_colour(path)?, icc));
+        let mut ihdr = [0u8; 26];
+        r.seek(std::io::SeekFrom::Start(0))
+            .and_then(|_| r.read_exact(&mut ihdr))
+            .map_err(io_error(path))?;
+        return Ok((png_colour(&ihdr), icc));
     }
     let mut decoder = reader(path)?.into_decoder().map_err(decode)?;
     let colour = image::ImageDecoder::color_type(&decoder);
@@ -169,16 +177,13 @@ pub(crate) fn embedded_profile(path: &Path) -> Result<(image::ColorType, Icc), T
     Ok((colour, icc))
 }
 
-/// The texel type a PNG's header (`IHDR`) declares, as the decoder gives it: a palette is
-/// expanded to RGB (RGBA where it has transparency, which does not matter here).
-fn png_colour(path: &Path) -> Result<image::ColorType, TextureError> {
+/// The texel type a PNG's header (its first 26 bytes: signature and `IHDR`) declares, as the
+/// decoder gives it: a palette is expanded to RGB (RGBA where it has transparency, which does
+/// not matter here).
+fn png_colour(ihdr: &[u8; 26]) -> image::ColorType {
     use image::ColorType as C;
-    let mut ihdr = [0u8; 26];
-    std::fs::File::open(path)
-        .and_then(|mut f| f.read_exact(&mut ihdr))
-        .map_err(io_error(path))?;
     let wide = ihdr[24] == 16;
-    Ok(match (ihdr[25], wide) {
+    match (ihdr[25], wide) {
         (0, false) => C::L8,
         (0, true) => C::L16,
         (4, false) => C::La8,
@@ -187,21 +192,7 @@ fn png_colour(path: &Path) -> Result<image::ColorType, TextureError> {
         (6, true) => C::Rgba16,
         (2, true) => C::Rgb16,
         _ => C::Rgb8,
-    })
-}
-
-fn png_icc_range(bytes: &[u8]) -> Option<std::ops::Range<usize>> {
-    let mut at = PNG_SIGNATURE.len();
-    while let Some(h) = bytes.get(at..at + 8) {
-        let len = u32::from_be_bytes([h[0], h[1], h[2], h[3]]) as usize;
-        let end = at.checked_add(12)?.checked_add(len)?;
-        match &h[4..] {
-            b"iCCP" => return Some(at..end.min(bytes.len())),
-            b"IDAT" | b"IEND" => return None,
-            _ => at = end,
-        }
     }
-    None
 }
 
 /// Why a JPEG's ICC profile was lost when it has APP2 `ICC_PROFILE` segments but the decoder
@@ -368,8 +359,9 @@ fn bytes_with_profile(bytes: &[u8], name: &Path) -> Result<(DynamicImage, Icc), 
     // The PNG decoder inflates an `iCCP` chunk with no bound of its own and drops one it
     // cannot inflate without a word: the chunk is read here and left out of what it decodes.
     if bytes.starts_with(&PNG_SIGNATURE)
-        && let Some(r) = png_icc_range(bytes)
+        && let Ok(Some(span)) = png_icc_span(&mut Cursor::new(bytes))
     {
+        let r = span.start as usize..(span.end as usize).min(bytes.len());
         let icc = png_icc(&bytes[r.clone()]);
         let mut rest = bytes[..r.start].to_vec();
         rest.extend_from_slice(&bytes[r.end..]);

@@ -173,7 +173,7 @@ fn plan(icc: &[u8], colour: image::ColorType) -> (ProfileUse, Option<Transform>)
     }
     let profile = match ColorProfile::new_from_slice(icc) {
         Ok(p) => p,
-        Err(e) => return ignored("", format!("it cannot be read: {e}")),
+        Err(e) => return (unreadable(e.to_string()), None),
     };
     let name = printable(&profile.description.as_ref().map(text).unwrap_or_default());
     if profile.color_space != DataColorSpace::Rgb {
