@@ -1269,3 +1269,54 @@ fn a_transparent_design_is_said() {
     assert!(said(0));
     assert!(!said(1));
 }
+
+/// `validate` holds a window to the cook's flatness limit: glass a little off its plane (0.5%
+/// of its size) is one pane to both, and curved glass is said to be curved once, not also
+/// "not planar".
+#[test]
+fn validate_and_cook_agree_on_what_is_flat() {
+    let dir = tempfile::tempdir().unwrap();
+    // A strip of glass 2 wide and 2 high in `n` facets, bent out of x = x0 by `bend` at its
+    // middle.
+    let strip = |x0: f64, bend: f64, n: usize, first: usize| {
+        let mut s = String::new();
+        for i in 0..=n {
+            let t = i as f64 / n as f64;
+            let x = x0 + bend * (std::f64::consts::PI * t).sin();
+            let z = -1.0 + 2.0 * t;
+            s += &format!("v {x} 1 {z}\nv {x} 3 {z}\nvt {t} 0\nvt {t} 1\n");
+        }
+        for i in 0..n {
+            let a = first + 2 * i;
+            let (b, c, d) = (a + 1, a + 3, a + 2);
+            s += &format!("f {a}/{a} {d}/{d} {c}/{c}\nf {a}/{a} {c}/{c} {b}/{b}\n");
+        }
+        s
+    };
+    let mut obj = String::from("mtllib w.mtl\nusemtl glass_slight\n");
+    // 0.014 off at the middle of a 2.83 diagonal: 0.5%.
+    obj += &strip(5.0, 0.014, 8, 1);
+    // Bent by 30% in 64 facets: too many planes to split it into.
+    obj += "usemtl glass_curved\n";
+    obj += &strip(-5.0, 0.6, 64, 19);
+    obj += "usemtl floor\nv -5 0 -5\nv 5 0 -5\nv 5 0 5\nv -5 0 5\nf 149 151 150\nf 149 152 151\n";
+    std::fs::write(dir.path().join("w.obj"), obj).unwrap();
+    std::fs::write(
+        dir.path().join("w.mtl"),
+        "newmtl floor\nKd 0.5 0.5 0.5\nnewmtl glass_slight\nd 0.3\nnewmtl glass_curved\nd 0.3\n",
+    )
+    .unwrap();
+    let m = Manifest::open(&dir.path().join("w.obj")).unwrap();
+    let v = cook::validate::validate_scene(&m, cook::UpAxis::Y).unwrap();
+    let of = |code: &str| -> Vec<&str> {
+        v.findings
+            .iter()
+            .filter(|f| f.code == code)
+            .map(|f| f.message.as_str())
+            .collect()
+    };
+    assert!(of("window-not-planar").is_empty(), "{:#?}", v.findings);
+    let curved = of("window-curved");
+    assert_eq!(curved.len(), 1, "{:#?}", v.findings);
+    assert!(curved[0].contains("glass_curved"), "{curved:?}");
+}

@@ -473,7 +473,16 @@ pub fn validate_scene_with(
             ),
         }
     }
-    for i in found.instances.iter().filter(|i| !i.planar) {
+    // Materials of curved glass: said here, with what the cook does about it, so not again
+    // as not planar below.
+    let mut curved: Vec<usize> = Vec::new();
+    for (k, i) in found
+        .instances
+        .iter()
+        .enumerate()
+        .filter(|(_, i)| !i.planar)
+    {
+        curved.push(found.material[k] as usize);
         v.add(
             "window-curved",
             format!(
@@ -540,6 +549,7 @@ pub fn validate_scene_with(
         &has_design,
         manifest.light.as_ref().map(|l| &l.kind),
         false,
+        &curved,
         &mut v,
     );
     Ok(v)
@@ -574,6 +584,7 @@ pub fn validate_pack(pack: &pack::Pack) -> Validation {
         &has_design,
         toc.light.as_ref().map(|l| &l.kind),
         true,
+        &[],
         &mut v,
     );
     let mut used = vec![false; toc.textures.len()];
@@ -626,13 +637,15 @@ fn decode(pack: &pack::Pack, m: &pack::Mesh) -> MeshView {
 }
 
 /// Checks shared by scenes and packs: material agreement, windows, the material table (and, for
-/// packs, degenerate and duplicate triangles, which a scene reports at the source).
+/// packs, degenerate and duplicate triangles, which a scene reports at the source). `curved`:
+/// the materials whose glass a scene's check already said is curved.
 pub fn check_geometry(
     views: &[MeshView],
     materials: &[pack::Material],
     has_design: &[bool],
     light: Option<&pack::LightKind>,
     check_triangles: bool,
+    curved: &[usize],
     v: &mut Validation,
 ) {
     let mut rows: Vec<MaterialRow> = materials
@@ -743,7 +756,7 @@ pub fn check_geometry(
                 format!("window material {:?} has no area", m.name),
             ),
             Some(a) => {
-                if a.max_plane_distance > a.plane_tolerance {
+                if a.max_plane_distance > a.plane_tolerance && !curved.contains(&mi) {
                     v.add(
                         "window-not-planar",
                         format!(

@@ -282,7 +282,9 @@ pub fn analyze(
         normal = -normal;
     }
     let diag = (hi - lo).length();
-    let plane_tolerance = (diag * 1e-3).max(1e-5);
+    // The cook's own limit for one pane (window instances): validate said a 559-unit window
+    // 1.07 off its plane was not planar against 0.56 while the cook kept it whole.
+    let plane_tolerance = (diag * crate::instances::PLANAR_TOLERANCE).max(1e-5);
     // A slab's two sheets each lie in a plane; how far apart they are is its thickness.
     let max_d = if sheets.thickness > 0.0 && sheets.flat(plane_tolerance) {
         sheets.deviation
