@@ -56,13 +56,6 @@ enum Job {
 }
 
 impl Job {
-    fn image_name(&self) -> String {
-        match self {
-            Job::Colour { image, .. } | Job::Normal { image, .. } => image.name(),
-            Job::DerivedNormal { design, .. } | Job::Projector { design, .. } => design.name(),
-        }
-    }
-
     fn role(&self) -> (pack::TextureRole, pack::ColourSpace) {
         match self {
             Job::Colour { srgb, .. } => (
@@ -286,12 +279,12 @@ impl Job {
         s
     }
 
+    /// What the `cooked`/`reused` lines add to the texture's name, which says the other roles.
     fn base_name_suffix(&self) -> String {
         match self {
             Job::Colour { .. } => " (colour)".into(),
-            Job::Normal { .. } => " (normal)".into(),
-            Job::DerivedNormal { .. } => " (derived normal)".into(),
-            Job::Projector { sigma, .. } => format!(" (projector, sigma {sigma})"),
+            Job::Normal { .. } | Job::DerivedNormal { .. } => String::new(),
+            Job::Projector { sigma, .. } => format!(" (sigma {sigma})"),
         }
     }
 
@@ -1201,9 +1194,11 @@ pub fn cook_textures(
     }
     for (i, (((job, _), result), name)) in jobs.iter().zip(results).zip(names).enumerate() {
         let (cooked, said, source) = result?;
+        // As `cooker info` names it: a file's path said nothing of which of two textures
+        // made from one design (`lancet.masked`, `lancet.masked.2`) was cooked.
         report
             .artifacts
-            .push((job.image_name() + &job.base_name_suffix(), source));
+            .push((format!("{name}{}", job.base_name_suffix()), source));
         let (role, colour_space) = job.role();
         // Named as `cooker info` lists the texture, so two designs of one file name are told
         // apart in the notes too.
