@@ -6,7 +6,7 @@
 
 use std::collections::{HashMap, HashSet};
 
-use globset::{GlobBuilder, GlobMatcher};
+use globset::{GlobBuilder, GlobMatcher, GlobSet, GlobSetBuilder};
 use pack::MaterialClass;
 
 use crate::CookError;
@@ -900,30 +900,94 @@ struct CompiledRule<'a> {
     glob: GlobMatcher,
 }
 
-fn compile(manifest: &Manifest) -> Result<Vec<CompiledRule<'_>>, CookError> {
-    manifest
+/// The manifest's rules, compiled. Per kind of name, the rules that look at it are also one
+/// [`GlobSet`], which finds every rule a name matches at once (a literal pattern, as `cooker
+/// init` writes one per material, is a hash lookup): matching each part against each rule in
+/// turn took 161 s for the 10,000 rules `init` wrote for a model of 10,000 materials.
+struct CompiledRules<'a> {
+    rules: Vec<CompiledRule<'a>>,
+    /// Per [`NameKind::ALL`] entry: the set and the rule index of each of its globs; `None`
+    /// where the set could not be built (a regex over its size limit), and the rules are
+    /// tried one by one.
+    sets: Vec<Option<(GlobSet, Vec<usize>)>>,
+}
+
+fn compile(manifest: &Manifest) -> Result<CompiledRules<'_>, CookError> {
+    let rules: Vec<CompiledRule<'_>> = manifest
         .rules
         .iter()
         .map(|rule| {
-            let glob = GlobBuilder::new(&rule.pattern)
-                .build()
-                .map_err(|e| CookError::Manifest {
-                    path: manifest.path.clone(),
-                    line: Some(rule.line.0),
-                    message: format!("invalid glob {:?}: {e}", rule.pattern),
-                })?
-                .compile_matcher();
-            Ok(CompiledRule { rule, glob })
+            let glob =
+                GlobBuilder::new(&rule.pattern)
+                    .build()
+                    .map_err(|e| CookError::Manifest {
+                        path: manifest.path.clone(),
+                        line: Some(rule.line.0),
+                        message: format!("invalid glob {:?}: {e}", rule.pattern),
+                    })?;
+            Ok((rule, glob))
         })
-        .collect()
+        .collect::<Result<Vec<_>, CookError>>()?
+        .into_iter()
+        .map(|(rule, glob)| CompiledRule {
+            rule,
+            glob: glob.compile_matcher(),
+        })
+        .collect();
+    let sets = NameKind::ALL
+        .iter()
+        .map(|&kind| {
+            let mut builder = GlobSetBuilder::new();
+            let mut index = Vec::new();
+            for (i, r) in rules.iter().enumerate() {
+                if r.rule.on.contains(&kind) {
+                    builder.add(r.glob.glob().clone());
+                    index.push(i);
+                }
+            }
+            builder.build().ok().map(|set| (set, index))
+        })
+        .collect();
+    Ok(CompiledRules { rules, sets })
 }
 
-impl CompiledRule<'_> {
-    fn matches(&self, names: &crate::import::Names) -> bool {
-        self.rule
-            .on
+impl<'a> std::ops::Index<usize> for CompiledRules<'a> {
+    type Output = CompiledRule<'a>;
+    fn index(&self, i: usize) -> &CompiledRule<'a> {
+        &self.rules[i]
+    }
+}
+
+impl CompiledRules<'_> {
+    /// The rules that look at names of `kind` and match `name`, in manifest order.
+    fn matching(&self, kind: NameKind, name: &str) -> Vec<usize> {
+        let k = NameKind::ALL.iter().position(|&a| a == kind).unwrap_or(0);
+        match &self.sets[k] {
+            Some((set, index)) => {
+                let mut found: Vec<usize> =
+                    set.matches(name).into_iter().map(|i| index[i]).collect();
+                found.sort_unstable();
+                found
+            }
+            None => (0..self.rules.len())
+                .filter(|&i| {
+                    let r = &self.rules[i];
+                    r.rule.on.contains(&kind) && r.glob.is_match(name)
+                })
+                .collect(),
+        }
+    }
+
+    /// The first rule matching any of the names it looks at: the rule that tags the part.
+    fn first(&self, names: &crate::import::Names) -> Option<usize> {
+        NameKind::ALL
             .iter()
-            .any(|&k| names.get(k).is_some_and(|n| self.glob.is_match(n)))
+            .filter_map(|&kind| {
+                names
+                    .get(kind)
+                    .and_then(|n| self.matching(kind, n).first().copied())
+            })
+            .min()
     }
 }
 
@@ -937,9 +1001,9 @@ struct Evidence {
 }
 
 impl Evidence {
-    fn of(src: &Imported, part: &crate::import::Part, rules: &[CompiledRule<'_>]) -> Self {
+    fn of(src: &Imported, part: &crate::import::Part, rules: &CompiledRules<'_>) -> Self {
         Self {
-            rule: rules.iter().position(|r| r.matches(&part.names)),
+            rule: rules.first(&part.names),
             glass: part
                 .material
                 .and_then(|m| src.materials.get(m as usize))
@@ -965,7 +1029,7 @@ impl Evidence {
 /// ([`Cut::Rest`]) or a piece cut from one ([`Cut::Piece`]).
 fn split_mixed_parts(
     src: &mut Imported,
-    rules: &[CompiledRule<'_>],
+    rules: &CompiledRules<'_>,
 ) -> ((Vec<PartGeometry>, [f64; 2], f64), Vec<Cut>) {
     let geometry = part_geometry(src);
     let (parts, height, total) = (&geometry.0, geometry.1, geometry.2);
@@ -1144,9 +1208,9 @@ pub fn tag(manifest: &Manifest, sources: &mut [Imported]) -> Result<Tagging, Coo
                     && seen_names.insert((kind, n.to_string()), ()).is_none()
                 {
                     let lines: Vec<usize> = rules
-                        .iter()
-                        .filter(|r| r.rule.on.contains(&kind) && r.glob.is_match(n))
-                        .map(|r| r.rule.line.0)
+                        .matching(kind, n)
+                        .into_iter()
+                        .map(|r| rules[r].rule.line.0)
                         .collect();
                     if lines.len() > 1 {
                         out.ambiguities.push(Ambiguity {

@@ -18,6 +18,7 @@ pub(super) fn parse(path: &Path, text: &str) -> Result<Manifest, CookError> {
         path,
         text,
         named: Default::default(),
+        breaks: memchr::memchr_iter(b'\n', text.as_bytes()).collect(),
     };
     let raw: model::Manifest = toml::from_str(text).map_err(|e| src.toml_error(&e))?;
     Ok(Manifest {
@@ -68,18 +69,15 @@ struct Source<'a> {
     text: &'a str,
     /// Every file the manifest names, in the order checked.
     named: std::cell::RefCell<Vec<NamedFile>>,
+    /// Offsets of the text's line breaks: counting them from the start for every entry made
+    /// reading the 10,000 rules `cooker init` wrote for a large model take 1.6 s.
+    breaks: Vec<usize>,
 }
 
 impl Source<'_> {
     fn line(&self, offset: usize) -> Line {
         let end = offset.min(self.text.len());
-        Line(
-            self.text.as_bytes()[..end]
-                .iter()
-                .filter(|&&b| b == b'\n')
-                .count()
-                + 1,
-        )
+        Line(self.breaks.partition_point(|&b| b < end) + 1)
     }
 
     /// A syntax or type error from toml. One about a value (a wrong type, a name that is no
