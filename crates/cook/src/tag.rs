@@ -917,23 +917,17 @@ fn compile(manifest: &Manifest) -> Result<CompiledRules<'_>, CookError> {
         .rules
         .iter()
         .map(|rule| {
-            let glob =
-                GlobBuilder::new(&rule.pattern)
-                    .build()
-                    .map_err(|e| CookError::Manifest {
-                        path: manifest.path.clone(),
-                        line: Some(rule.line.0),
-                        message: format!("invalid glob {:?}: {e}", rule.pattern),
-                    })?;
-            Ok((rule, glob))
+            let glob = GlobBuilder::new(&rule.pattern)
+                .build()
+                .map_err(|e| CookError::Manifest {
+                    path: manifest.path.clone(),
+                    line: Some(rule.line.0),
+                    message: format!("invalid glob {:?}: {e}", rule.pattern),
+                })?
+                .compile_matcher();
+            Ok(CompiledRule { rule, glob })
         })
-        .collect::<Result<Vec<_>, CookError>>()?
-        .into_iter()
-        .map(|(rule, glob)| CompiledRule {
-            rule,
-            glob: glob.compile_matcher(),
-        })
-        .collect();
+        .collect::<Result<_, CookError>>()?;
     let sets = NameKind::ALL
         .iter()
         .map(|&kind| {
