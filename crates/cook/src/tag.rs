@@ -6,12 +6,11 @@
 
 use std::collections::{HashMap, HashSet};
 
-use globset::{GlobBuilder, GlobMatcher, GlobSet, GlobSetBuilder};
 use pack::MaterialClass;
 
 use crate::CookError;
 use crate::import::{ImageRef, Imported, SourceMaterial};
-use crate::manifest::{Manifest, NameKind, Rule};
+use crate::manifest::{Manifest, NameGlob, NameKind, NameSet, Rule};
 
 /// How a part got its material.
 #[derive(Clone, Debug, PartialEq)]
@@ -897,19 +896,17 @@ pub fn geometry_heuristic(
 
 struct CompiledRule<'a> {
     rule: &'a Rule,
-    glob: GlobMatcher,
+    glob: NameGlob,
 }
 
 /// The manifest's rules, compiled. Per kind of name, the rules that look at it are also one
-/// [`GlobSet`], which finds every rule a name matches at once (a literal pattern, as `cooker
+/// [`NameSet`], which finds every rule a name matches at once (a literal pattern, as `cooker
 /// init` writes one per material, is a hash lookup): matching each part against each rule in
 /// turn took 161 s for the 10,000 rules `init` wrote for a model of 10,000 materials.
 struct CompiledRules<'a> {
     rules: Vec<CompiledRule<'a>>,
-    /// Per [`NameKind::ALL`] entry: the set and the rule index of each of its globs; `None`
-    /// where the set could not be built (a regex over its size limit), and the rules are
-    /// tried one by one.
-    sets: Vec<Option<(GlobSet, Vec<usize>)>>,
+    /// Per [`NameKind::ALL`] entry: the rules that look at that kind of name, by index.
+    sets: Vec<NameSet>,
 }
 
 fn compile(manifest: &Manifest) -> Result<CompiledRules<'_>, CookError> {
@@ -917,29 +914,24 @@ fn compile(manifest: &Manifest) -> Result<CompiledRules<'_>, CookError> {
         .rules
         .iter()
         .map(|rule| {
-            let glob = GlobBuilder::new(&rule.pattern)
-                .build()
-                .map_err(|e| CookError::Manifest {
-                    path: manifest.path.clone(),
-                    line: Some(rule.line.0),
-                    message: format!("invalid glob {:?}: {e}", rule.pattern),
-                })?
-                .compile_matcher();
+            let glob = NameGlob::checked(&rule.pattern).map_err(|e| CookError::Manifest {
+                path: manifest.path.clone(),
+                line: Some(rule.line.0),
+                message: format!("invalid glob {:?}: {e}", rule.pattern),
+            })?;
             Ok(CompiledRule { rule, glob })
         })
         .collect::<Result<_, CookError>>()?;
     let sets = NameKind::ALL
         .iter()
         .map(|&kind| {
-            let mut builder = GlobSetBuilder::new();
-            let mut index = Vec::new();
-            for (i, r) in rules.iter().enumerate() {
-                if r.rule.on.contains(&kind) {
-                    builder.add(r.glob.glob().clone());
-                    index.push(i);
-                }
-            }
-            builder.build().ok().map(|set| (set, index))
+            NameSet::new(
+                rules
+                    .iter()
+                    .enumerate()
+                    .filter(|(_, r)| r.rule.on.contains(&kind))
+                    .map(|(i, r)| (i, &r.glob)),
+            )
         })
         .collect();
     Ok(CompiledRules { rules, sets })
@@ -956,20 +948,7 @@ impl CompiledRules<'_> {
     /// The rules that look at names of `kind` and match `name`, in manifest order.
     fn matching(&self, kind: NameKind, name: &str) -> Vec<usize> {
         let k = NameKind::ALL.iter().position(|&a| a == kind).unwrap_or(0);
-        match &self.sets[k] {
-            Some((set, index)) => {
-                let mut found: Vec<usize> =
-                    set.matches(name).into_iter().map(|i| index[i]).collect();
-                found.sort_unstable();
-                found
-            }
-            None => (0..self.rules.len())
-                .filter(|&i| {
-                    let r = &self.rules[i];
-                    r.rule.on.contains(&kind) && r.glob.is_match(name)
-                })
-                .collect(),
-        }
+        self.sets[k].matching(name)
     }
 
     /// The first rule matching any of the names it looks at: the rule that tags the part.

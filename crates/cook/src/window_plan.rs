@@ -259,7 +259,7 @@ pub fn plan(
     for o in overrides {
         if !(0..found.len()).any(|k| names_window(o, k)) {
             return Err(CookError::UnknownWindow {
-                pattern: o.name.clone().unwrap_or_default(),
+                pattern: o.name.as_ref().map(|n| n.to_string()).unwrap_or_default(),
                 known: found.iter().map(|i| i.name.clone()).collect(),
             });
         }
@@ -276,7 +276,7 @@ pub fn plan(
                 format!(
                     "--window {}={}: a later --window gives every window it matches another \
                      design, so it is not used",
-                    o.name.as_deref().unwrap_or_default(),
+                    o.name.as_ref().map_or("", |n| n.as_str()),
                     o.design
                         .as_deref()
                         .unwrap_or(std::path::Path::new(""))

@@ -5,6 +5,7 @@ use std::path::{Path, PathBuf};
 
 use toml::Spanned;
 
+use super::NameGlob;
 use super::model;
 use super::{
     Background, DEFAULT_CAME_WIDTH, Fit, Light, Line, Manifest, MeshSource, NameKind, NamedFile,
@@ -600,8 +601,8 @@ fn windows(
     for w in raw {
         let line = src.line(w.span().start);
         let w = w.get_ref();
-        let name = w.name.as_ref().map(|n| n.get_ref().clone());
-        let material = w.material.as_ref().map(|n| n.get_ref().clone());
+        let name = w.name.as_ref().map(|n| NameGlob::new(n.get_ref()));
+        let material = w.material.as_ref().map(|n| NameGlob::new(n.get_ref()));
         if name.is_none() && material.is_none() {
             return Err(src.at_line(
                 line,

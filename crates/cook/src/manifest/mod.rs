@@ -6,7 +6,10 @@
 //! the first kind, [`toml::Spanned`] values the second.
 
 mod check;
+mod glob;
 mod model;
+
+pub use glob::{NameGlob, NameSet};
 
 use std::path::{Path, PathBuf};
 
@@ -292,9 +295,9 @@ pub const DEFAULT_TEXELS_PER_METRE: f32 = 128.0;
 #[derive(Clone, Debug, Serialize)]
 pub struct WindowDesign {
     /// Glob over window names (`cooker info` lists them).
-    pub name: Option<String>,
+    pub name: Option<NameGlob>,
     /// Glob over the materials of a window's triangles (source or pack names).
-    pub material: Option<String>,
+    pub material: Option<NameGlob>,
     /// The design image; `None` rasterizes one from the panes' colours.
     #[serde(serialize_with = "path_bytes")]
     pub design: Option<PathBuf>,
@@ -335,14 +338,6 @@ fn path_bytes<S: serde::Serializer>(path: &Option<PathBuf>, s: S) -> Result<S::O
         .serialize(s)
 }
 
-/// A glob as the manifest writes them; a pattern that does not compile matches only itself.
-pub fn glob_matches(pattern: &str, name: &str) -> bool {
-    match globset::Glob::new(pattern) {
-        Ok(g) => g.compile_matcher().is_match(name),
-        Err(_) => pattern == name,
-    }
-}
-
 /// The unit direction a manifest's light `direction` stands for. One already of unit length
 /// (within f32 rounding) is kept as written: normalizing it again can move it by an ulp, so
 /// the exact direction `cooker init` writes out would not come back as written.
@@ -358,8 +353,8 @@ impl WindowDesign {
     /// A design entry for `--window NAME=IMAGE`: NAME matches window names and materials.
     pub fn from_override(pattern: &str, design: PathBuf) -> Self {
         Self {
-            name: Some(pattern.to_string()),
-            material: Some(pattern.to_string()),
+            name: Some(NameGlob::new(pattern)),
+            material: Some(NameGlob::new(pattern)),
             design: Some(design),
             colour_space: pack::ColourSpace::Srgb,
             normal_map: None,
@@ -382,7 +377,7 @@ impl WindowDesign {
         match s.split_once('=') {
             Some((name, image)) if !name.is_empty() && !image.is_empty() => {
                 // Checked here as the manifest's globs are, rather than matching only itself.
-                globset::Glob::new(name).map_err(|e| format!("invalid glob {name:?}: {e}"))?;
+                NameGlob::checked(name).map_err(|e| format!("invalid glob {name:?}: {e}"))?;
                 Ok((name.to_string(), PathBuf::from(image)))
             }
             _ => Err(format!("{s:?} is not NAME=IMAGE")),
@@ -424,7 +419,7 @@ impl WindowDesign {
             .find(|o| o.design.as_deref() == Some(path.as_path()))
         {
             Some(o) => CookError::WindowImage {
-                pattern: o.name.clone().unwrap_or_default(),
+                pattern: o.name.as_ref().map(|n| n.to_string()).unwrap_or_default(),
                 path,
                 source: Box::new(e),
             },
@@ -434,11 +429,11 @@ impl WindowDesign {
 
     /// Whether this entry describes the window `name` made of `materials`.
     pub fn matches<'a>(&self, name: &str, mut materials: impl Iterator<Item = &'a str>) -> bool {
-        self.name.as_deref().is_some_and(|p| glob_matches(p, name))
+        self.name.as_ref().is_some_and(|p| p.is_match(name))
             || self
                 .material
-                .as_deref()
-                .is_some_and(|p| materials.any(|m| glob_matches(p, m)))
+                .as_ref()
+                .is_some_and(|p| materials.any(|m| p.is_match(m)))
     }
 
     /// What the entry names, for messages.
