@@ -467,6 +467,7 @@ fn prepare_steps(
         &mut tagging,
         &mut tri_material,
         &images,
+        &settings.textures,
         report,
     )
     .map_err(|e| at_its_material(&imported, e))?;

@@ -99,7 +99,7 @@ impl Job {
     }
 }
 
-fn texture_error(path: &Path, e: texture::TextureError) -> CookError {
+pub(crate) fn texture_error(path: &Path, e: texture::TextureError) -> CookError {
     if e.path().is_some() {
         CookError::Texture(e)
     } else {

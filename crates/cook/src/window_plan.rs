@@ -3,7 +3,7 @@
 //! each window's design (an image, the material's own texture, or one rasterized from the
 //! panes' colours), masked by the window's outline.
 
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
 use glam::DVec3;
@@ -180,6 +180,7 @@ pub fn plan(
     tagging: &mut Tagging,
     tri_material: &mut [Vec<u16>],
     images: &crate::textures::DecodedImages,
+    textures: &crate::settings::TextureSettings,
     report: &mut Report,
 ) -> Result<Windows, CookError> {
     // `--window NAME=IMAGE` replaces the design of the manifest's entry for that window and
@@ -810,11 +811,23 @@ pub fn plan(
             None => i,
         })
         .collect();
+    let capped = CappedDesigns::new(&pending, images, textures)?;
+    for (image, note) in &capped.notes {
+        report.notes.push(Warning::new(
+            &manifest.path,
+            match image {
+                ImageRef::File(p) => manifest.naming(p, Some("window design")).map(|n| n.line.0),
+                _ => None,
+            },
+            format!("{}: {note}", image.name()),
+        ));
+    }
     let made: Vec<Option<Result<Design, CookError>>> = pending
         .par_iter()
         .enumerate()
-        .map(|(i, p)| (same_as[i] == i).then(|| make_design(p, images)))
+        .map(|(i, p)| (same_as[i] == i).then(|| make_design(p, images, &capped)))
         .collect();
+    drop(capped);
     let mut designs: Vec<Option<Design>> = Vec::with_capacity(made.len());
     for (i, d) in made.into_iter().enumerate() {
         designs.push(match d {
@@ -1055,8 +1068,88 @@ fn baked_size(
 
 /// The design of one window: an image fitted and masked, or cut to the outline where it
 /// would let light through stone, or rasterized from the panes; with its size in texels.
-fn make_design(p: &Pending, images: &crate::textures::DecodedImages) -> Result<Design, CookError> {
-    let get = |img: &ImageRef| images.get(img);
+/// Design images over the size cap (`[textures] max_size`), each replaced by its first mip
+/// level within the cap before it is fitted, masked or baked, as the texture stage would
+/// replace the image given: masking the whole of an 8000x6000 photo for each of five windows
+/// and reducing each result took 3.2 GB and 18 s where the cap kept 2000x1500 of it. Reduced
+/// once per image, with the mip filter in the design's colour space.
+struct CappedDesigns {
+    reduced: Vec<(ImageRef, Arc<image::DynamicImage>)>,
+    /// Per reduced image, what the cook says of it.
+    notes: Vec<(ImageRef, String)>,
+}
+
+impl CappedDesigns {
+    fn new(
+        pending: &[Pending],
+        images: &crate::textures::DecodedImages,
+        textures: &crate::settings::TextureSettings,
+    ) -> Result<Self, CookError> {
+        let mut capped = Self {
+            reduced: Vec::new(),
+            notes: Vec::new(),
+        };
+        let Some(cap) = textures.max_size else {
+            return Ok(capped);
+        };
+        let mut distinct: Vec<(&ImageRef, bool)> = Vec::new();
+        for p in pending {
+            if let Some((img, _)) = &p.image
+                && !distinct.iter().any(|(d, _)| *d == img)
+            {
+                distinct.push((img, p.srgb));
+            }
+        }
+        let made: Vec<Result<Option<(usize, image::DynamicImage, (u32, u32))>, CookError>> =
+            distinct
+                .par_iter()
+                .map(|&(img, srgb)| {
+                    let decoded = images.get(img)?;
+                    let opts = texture::ColourOptions {
+                        srgb,
+                        filter: textures.mip_filter,
+                    };
+                    let level = texture::first_level_within(&decoded, cap, &opts)
+                        .map_err(|e| crate::textures::texture_error(Path::new(&img.name()), e))?;
+                    Ok(level.map(|(k, l)| (k, l, (decoded.width(), decoded.height()))))
+                })
+                .collect();
+        for ((img, _), level) in distinct.into_iter().zip(made) {
+            if let Some((k, level, (w, h))) = level? {
+                capped.notes.push((
+                    img.clone(),
+                    format!(
+                        "{w}x{h} is over the size cap of {cap}: its windows' designs are made \
+                         from its mip level {k}, {}x{}",
+                        level.width(),
+                        level.height()
+                    ),
+                ));
+                capped.reduced.push((img.clone(), Arc::new(level)));
+            }
+        }
+        Ok(capped)
+    }
+
+    /// `img` decoded, or its level within the cap.
+    fn get(
+        &self,
+        img: &ImageRef,
+        images: &crate::textures::DecodedImages,
+    ) -> Result<Arc<image::DynamicImage>, CookError> {
+        match self.reduced.iter().find(|(r, _)| r == img) {
+            Some((_, level)) => Ok(Arc::clone(level)),
+            None => images.get(img),
+        }
+    }
+}
+
+fn make_design(
+    p: &Pending,
+    images: &crate::textures::DecodedImages,
+    capped: &CappedDesigns,
+) -> Result<Design, CookError> {
+    let get = |img: &ImageRef| capped.get(img, images);
     let Some((img, source)) = &p.image else {
         let (w, h) = p.size;
         let came = p.came_width * w.min(h) as f32;

@@ -1062,6 +1062,78 @@ fn a_size_cap_bounds_projectors_with_their_margin() {
     }
 }
 
+/// A design over the cap is reduced to its level within the cap before it is masked to its
+/// windows, once for all of them: the pack is the one cooked from that level given as the
+/// design, every texture made from it the same texels, and the cook says so once. (Masking
+/// the whole of an 8000x6000 photo for each window took 3.2 GB where the cap kept 2000x1500.)
+#[test]
+fn a_design_over_the_cap_is_masked_from_its_level_within_the_cap() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let big = image::RgbaImage::from_fn(600, 400, |x, y| {
+        image::Rgba([
+            (x * 255 / 599) as u8,
+            (y * 255 / 399) as u8,
+            if (x / 7 + y / 5) % 2 == 0 { 40 } else { 220 },
+            255,
+        ])
+    });
+    big.save(d.join("big.png")).unwrap();
+    let opts = texture::ColourOptions {
+        srgb: true,
+        filter: texture::MipFilter::Box,
+    };
+    let (k, level) = texture::first_level_within(&image::DynamicImage::ImageRgba8(big), 128, &opts)
+        .unwrap()
+        .unwrap();
+    assert_eq!((k, level.width(), level.height()), (3, 75, 50));
+    level.save(d.join("small.png")).unwrap();
+
+    let scene = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../assets-src/scene.toml");
+    let cook = |design: &str| {
+        let window = format!("*={}", d.join(design).display());
+        cook_obj(
+            &scene,
+            &d.join(design).with_extension("pack"),
+            &[
+                "--max-texture-size",
+                "128",
+                "--texture-format",
+                "rgba8",
+                "--window",
+                &window,
+            ],
+        )
+    };
+    let (from_big, log) = cook("big.png");
+    let (from_small, _) = cook("small.png");
+    let said = "600x400 is over the size cap of 128: its windows' designs are made from its mip \
+                level 3, 75x50";
+    assert_eq!(log.matches(said).count(), 1, "{log}");
+
+    let names = |pack: &Path, stem: &str| -> Vec<String> {
+        let o = cooker(&[&"info", &pack, &"--json"]);
+        let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+        v["textures"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .filter_map(|t| t["name"].as_str())
+            .filter_map(|n| n.strip_prefix(stem).map(str::to_string))
+            .collect()
+    };
+    let made = names(&from_big, "big.");
+    assert!(made.iter().any(|n| n.starts_with("masked")), "{made:?}");
+    assert_eq!(made, names(&from_small, "small."));
+    for n in &made {
+        assert_eq!(
+            extract(&from_big, &format!("big.{n}"), 0, d),
+            extract(&from_small, &format!("small.{n}"), 0, d),
+            "{n}"
+        );
+    }
+}
+
 /// Glass whose texture coordinates reach past the texture's square, tiled 2 x 2 or given in
 /// metres as SketchUp writes them: its design is drawn as the glass shows it onto planar
 /// coordinates, so the light falls where the glass is. A projector covers the square only:
