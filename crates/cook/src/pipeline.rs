@@ -462,12 +462,11 @@ fn prepare_steps(
     let framed = manifest.shifted(shift);
     let windows = window_plan::plan(
         &framed,
-        &settings.window_overrides,
+        settings,
         &mut imported,
         &mut tagging,
         &mut tri_material,
         &images,
-        &settings.textures,
         report,
     )
     .map_err(|e| at_its_material(&imported, e))?;

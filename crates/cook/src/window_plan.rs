@@ -175,14 +175,14 @@ fn floor_and_wall_top(
 /// the per-window materials.
 pub fn plan(
     manifest: &Manifest,
-    overrides: &[WindowDesign],
+    settings: &crate::settings::Settings,
     sources: &mut [Imported],
     tagging: &mut Tagging,
     tri_material: &mut [Vec<u16>],
     images: &crate::textures::DecodedImages,
-    textures: &crate::settings::TextureSettings,
     report: &mut Report,
 ) -> Result<Windows, CookError> {
+    let overrides = &settings.window_overrides[..];
     // `--window NAME=IMAGE` replaces the design of the manifest's entry for that window and
     // keeps the rest of it (normal map, fit, colour space, blur...): one merged entry per pair,
     // few enough to make them all.
@@ -811,7 +811,7 @@ pub fn plan(
             None => i,
         })
         .collect();
-    let capped = CappedDesigns::new(&pending, images, textures)?;
+    let capped = CappedDesigns::new(&pending, images, &settings.textures)?;
     for (image, note) in &capped.notes {
         report.notes.push(Warning::new(
             &manifest.path,
@@ -1100,20 +1100,21 @@ impl CappedDesigns {
                 distinct.push((img, p.srgb));
             }
         }
-        let made: Vec<Result<Option<(usize, image::DynamicImage, (u32, u32))>, CookError>> =
-            distinct
-                .par_iter()
-                .map(|&(img, srgb)| {
-                    let decoded = images.get(img)?;
-                    let opts = texture::ColourOptions {
-                        srgb,
-                        filter: textures.mip_filter,
-                    };
-                    let level = texture::first_level_within(&decoded, cap, &opts)
-                        .map_err(|e| crate::textures::texture_error(Path::new(&img.name()), e))?;
-                    Ok(level.map(|(k, l)| (k, l, (decoded.width(), decoded.height()))))
-                })
-                .collect();
+        // Per image: its level within the cap, the level's number and the image's size.
+        type Level = Option<(usize, image::DynamicImage, (u32, u32))>;
+        let made: Vec<Result<Level, CookError>> = distinct
+            .par_iter()
+            .map(|&(img, srgb)| {
+                let decoded = images.get(img)?;
+                let opts = texture::ColourOptions {
+                    srgb,
+                    filter: textures.mip_filter,
+                };
+                let level = texture::first_level_within(&decoded, cap, &opts)
+                    .map_err(|e| crate::textures::texture_error(Path::new(&img.name()), e))?;
+                Ok(level.map(|(k, l)| (k, l, (decoded.width(), decoded.height()))))
+            })
+            .collect();
         for ((img, _), level) in distinct.into_iter().zip(made) {
             if let Some((k, level, (w, h))) = level? {
                 capped.notes.push((

@@ -135,6 +135,14 @@ impl PartialEq for NameGlob {
     }
 }
 
+/// The pattern as written.
+impl std::ops::Deref for NameGlob {
+    type Target = str;
+    fn deref(&self) -> &str {
+        &self.text
+    }
+}
+
 /// As the quoted pattern, as messages name it.
 impl std::fmt::Debug for NameGlob {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
