@@ -553,14 +553,27 @@ pub fn import(path: &Path) -> Result<Imported, CookError> {
     let mut budget = MAX_INSTANCED;
     let draco = super::gltf_draco::Cache::default();
     let mut views = Views::default();
+    // Validation does not reject cycles in the node graph. A path from a root longer than
+    // there are nodes repeats one: a cycle, found without a fixed bound on depth (one of 256
+    // refused 2,000-level chains that gltfpack reads). The walk is bounded too, for graphs
+    // that share children many times over without a cycle.
+    let node_count = document.nodes().len();
     while let Some((node, parent, depth)) = stack.pop() {
         visits += 1;
-        // Validation does not reject cycles in the node graph; bound the walk instead of
-        // overflowing the stack.
-        if depth > 256 || visits > 1_000_000 {
+        if depth >= node_count {
             return Err(bad(
                 path,
-                "node hierarchy is cyclic or deeper than 256 levels",
+                format!(
+                    "node hierarchy is cyclic: node {} lies {depth} levels deep, deeper than \
+                     the {node_count} nodes could reach without one repeating",
+                    node.index()
+                ),
+            ));
+        }
+        if visits > 1_000_000 {
+            return Err(bad(
+                path,
+                "node hierarchy visits over 1,000,000 nodes (children shared by many parents)",
             ));
         }
         let local = glam::Mat4::from_cols_array_2d(&node.transform().matrix());
@@ -2160,6 +2173,51 @@ mod tests {
     }
 
     /// The least and greatest corner of the positions' box.
+    /// A chain of 2,000 nodes, each moving the next by 1/1000 along x, places the leaf's
+    /// triangle 2 units along (256 levels were refused, and gltfpack reads this). A chain that
+    /// closes on itself is still refused, by the path outgrowing the nodes.
+    #[test]
+    fn deep_node_chains_import_and_cycles_do_not() {
+        let dir = tempfile::tempdir().unwrap();
+        let pos: [[f32; 3]; 3] = [[0., 0., 0.], [1., 0., 0.], [0., 1., 0.]];
+        let bin: Vec<u8> = pos.iter().flatten().flat_map(|f| f.to_le_bytes()).collect();
+        std::fs::write(dir.path().join("t.bin"), &bin).unwrap();
+        let chain = |n: usize, close: bool| {
+            let nodes: Vec<String> = (0..n)
+                .map(|i| match (i + 1 < n, close) {
+                    (true, _) => format!(
+                        r#"{{"translation": [0.001, 0, 0], "children": [{}]}}"#,
+                        i + 1
+                    ),
+                    (false, false) => r#"{"translation": [0.001, 0, 0], "mesh": 0}"#.into(),
+                    (false, true) => r#"{"mesh": 0, "children": [0]}"#.into(),
+                })
+                .collect();
+            format!(
+                r#"{{"asset": {{"version": "2.0"}}, "scene": 0, "scenes": [{{"nodes": [0]}}],
+                "nodes": [{}],
+                "meshes": [{{"primitives": [{{"attributes": {{"POSITION": 0}}}}]}}],
+                "accessors": [{{"bufferView": 0, "componentType": 5126, "count": 3,
+                    "type": "VEC3", "min": [0, 0, 0], "max": [1, 1, 0]}}],
+                "bufferViews": [{{"buffer": 0, "byteLength": 36}}],
+                "buffers": [{{"byteLength": 36, "uri": "t.bin"}}]}}"#,
+                nodes.join(",")
+            )
+        };
+        let deep = dir.path().join("deep.gltf");
+        std::fs::write(&deep, chain(2000, false)).unwrap();
+        let m = import(&deep).unwrap();
+        let (lo, hi) = bounds(&m);
+        assert!(
+            (lo.x - 2.0).abs() < 1e-3 && (hi.x - 3.0).abs() < 1e-3,
+            "{lo} {hi}"
+        );
+        let cyclic = dir.path().join("cyclic.gltf");
+        std::fs::write(&cyclic, chain(300, true)).unwrap();
+        let e = import(&cyclic).unwrap_err().to_string();
+        assert!(e.contains("node hierarchy is cyclic"), "{e}");
+    }
+
     fn bounds(m: &Imported) -> (glam::Vec3, glam::Vec3) {
         m.positions.iter().fold(
             (glam::Vec3::INFINITY, glam::Vec3::NEG_INFINITY),
