@@ -801,12 +801,14 @@ pub fn plan(
             ),
         ));
     }
-    // Windows rasterized from the very same inputs (repeated lancets) are made once.
+    // Windows made from the very same inputs (repeated lancets, one image on windows of one
+    // shape) are made once: an 8000x6000 photo masked for each of 13 windows held 13 copies.
     let mut first_of: std::collections::HashMap<Vec<u32>, usize> = Default::default();
+    let mut image_ids: Vec<&ImageRef> = Vec::new();
     let same_as: Vec<usize> = pending
         .iter()
         .enumerate()
-        .map(|(i, p)| match p.mesh_inputs() {
+        .map(|(i, p)| match p.inputs(&mut image_ids) {
             Some(key) => *first_of.entry(key).or_insert(i),
             None => i,
         })
@@ -1038,12 +1040,50 @@ struct Pending {
 }
 
 impl Pending {
-    /// Everything a design rasterized from the mesh depends on, exactly (as bits); `None` for
-    /// a design made from an image.
-    fn mesh_inputs(&self) -> Option<Vec<u32>> {
-        if self.image.is_some() {
+    /// Everything [`make_design`] reads to make this design, exactly (as bits): two windows
+    /// with equal inputs get equal designs. An image is keyed by its index in `image_ids`
+    /// (images seen so far, compared by value). `None` for an image drawn through the glass's
+    /// own coordinates, whose design is not only the image's.
+    fn inputs<'a>(&'a self, image_ids: &mut Vec<&'a ImageRef>) -> Option<Vec<u32>> {
+        let Some((img, source)) = &self.image else {
+            return self.mesh_inputs();
+        };
+        if self.baked_from.is_some() {
             return None;
         }
+        let id = match image_ids.iter().position(|&r| r == img) {
+            Some(id) => id,
+            None => {
+                image_ids.push(img);
+                image_ids.len() - 1
+            }
+        };
+        let mut key = vec![
+            u32::MAX - 1,
+            id as u32,
+            *source as u32,
+            self.srgb as u32,
+            self.planar as u32,
+            self.fit as u32,
+        ];
+        for e in [self.aspect, self.extent.0, self.extent.1] {
+            let b = e.to_bits();
+            key.extend([b as u32, (b >> 32) as u32]);
+        }
+        key.extend([self.size.0, self.size.1]);
+        for (uv, pane) in &self.tris {
+            key.extend(uv.iter().flat_map(|c| c.map(f32::to_bits)));
+            key.push(*pane as u32);
+        }
+        if let Some(tints) = &self.tints {
+            key.push(u32::MAX);
+            key.extend(tints.iter().flatten().flatten().map(|c| c.to_bits()));
+        }
+        Some(key)
+    }
+
+    /// Everything a design rasterized from the mesh depends on, exactly (as bits).
+    fn mesh_inputs(&self) -> Option<Vec<u32>> {
         let mut key = vec![self.size.0, self.size.1, self.came_width.to_bits()];
         for p in &self.panes {
             key.extend(p.colour.map(f32::to_bits));
@@ -1275,4 +1315,59 @@ pub fn inside_of(tagging: &Tagging, material: u16) -> Option<DVec3> {
         w.inside[1] as f64,
         w.inside[2] as f64,
     ))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn pending(image: &str, tris: Vec<UvTriangle>) -> Pending {
+        Pending {
+            material: 0,
+            name: "w".into(),
+            image: Some((ImageRef::File(image.into()), DesignSource::Image)),
+            tris,
+            panes: Vec::new(),
+            tints: None,
+            srgb: true,
+            planar: false,
+            baked_from: None,
+            extent: (1.0, 3.0),
+            fit: Fit::Cover,
+            aspect: 1.0,
+            size: (64, 192),
+            came_width: 0.015,
+            text_encoding: None,
+        }
+    }
+
+    /// Windows given one image with the same outline are made once (an 8000x6000 photo masked
+    /// for 13 windows held 13 copies); another image, another outline or another name for
+    /// the window's material are other designs, as is one baked through the glass's own
+    /// coordinates.
+    #[test]
+    fn one_image_on_windows_of_one_outline_is_one_design() {
+        let tri = |x: f32| vec![([[x, 0.0], [1.0, 0.0], [0.5, 1.0]], 0)];
+        let a = pending("a.png", tri(0.0));
+        let mut renamed = pending("a.png", tri(0.0));
+        renamed.name = "other".into();
+        renamed.material = 3;
+        let mut contain = pending("a.png", tri(0.0));
+        contain.fit = Fit::Contain;
+        let others = [
+            pending("b.png", tri(0.0)),
+            pending("a.png", tri(0.1)),
+            contain,
+        ];
+        let mut baked = pending("a.png", tri(0.0));
+        baked.baked_from = Some((tri(0.0), [0.0, 0.0, 2.0, 2.0]));
+        let mut ids = Vec::new();
+        assert_eq!(a.inputs(&mut ids), renamed.inputs(&mut ids));
+        assert!(a.inputs(&mut ids).is_some());
+        for other in &others {
+            assert_ne!(a.inputs(&mut ids), other.inputs(&mut ids));
+        }
+        assert_eq!(baked.inputs(&mut ids), None);
+        assert_eq!(ids.len(), 2, "images keyed once each");
+    }
 }
