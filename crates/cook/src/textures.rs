@@ -782,6 +782,28 @@ type Chain = (
 /// 9 of a cook's 17 s, for noise no view resolves beside its design.
 pub const DERIVED_NORMAL_MAX_SIDE: u32 = 1024;
 
+/// How a colour image's chain is made: the mip filter, and in linear light where the image is
+/// sRGB, unless the error budget chose otherwise (its choice is returned to be reported). The
+/// window stage reduces a design over the size cap with these too, as this stage would.
+pub(crate) fn colour_options(
+    srgb: bool,
+    settings: &TextureSettings,
+) -> (texture::ColourOptions, Option<crate::budget::Choice>) {
+    let mut opts = texture::ColourOptions {
+        srgb,
+        filter: settings.mip_filter,
+    };
+    // The error budget picks from the committed table of measured errors, never from
+    // timings taken now, so the pack stays deterministic.
+    let choice = settings.max_error_lsb.map(|b| {
+        let c = crate::budget::choose_mip(b, Some(opts.filter.name()));
+        opts.filter = c.mip_filter().unwrap_or(opts.filter);
+        opts.srgb = srgb && c.linear_light;
+        c
+    });
+    (opts, choice)
+}
+
 /// Cooks a job's RGBA8 chain. With `pad`, level 0 is grown to whole 4x4 blocks before the
 /// lower levels are made from it.
 fn run(
@@ -841,18 +863,8 @@ fn run(
     };
     match job {
         Job::Colour { image, srgb, .. } => {
-            let mut opts = texture::ColourOptions {
-                srgb: *srgb,
-                filter: settings.mip_filter,
-            };
-            // The error budget picks from the committed table of measured errors, never from
-            // timings taken now, so the pack stays deterministic.
-            let said = max_error.map_or_else(Said::default, |b| {
-                let c = crate::budget::choose_mip(b, Some(opts.filter.name()));
-                opts.filter = c.mip_filter().unwrap_or(opts.filter);
-                opts.srgb = *srgb && c.linear_light;
-                choice_note("mips", &c)
-            });
+            let (opts, choice) = colour_options(*srgb, settings);
+            let said = choice.map_or_else(Said::default, |c| choice_note("mips", &c));
             let (img, reduced) = fit(images.get(image)?, &opts, image)?;
             let (img, size) = padded(img);
             let chain = texture::colour_mips(&img, &opts)

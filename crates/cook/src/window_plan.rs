@@ -814,21 +814,32 @@ pub fn plan(
         })
         .collect();
     let capped = CappedDesigns::new(&pending, images, &settings.textures)?;
-    for (image, note) in &capped.notes {
-        report.notes.push(Warning::new(
-            &manifest.path,
-            match image {
-                ImageRef::File(p) => manifest.naming(p, Some("window design")).map(|n| n.line.0),
-                _ => None,
-            },
-            format!("{}: {note}", image.name()),
-        ));
-    }
     let made: Vec<Option<Result<Design, CookError>>> = pending
         .par_iter()
         .enumerate()
         .map(|(i, p)| (same_as[i] == i).then(|| make_design(p, images, &capped)))
         .collect();
+    // Said of an image where some window's design was made from its level within the cap;
+    // one used as it is is reduced by the texture stage, which says so itself.
+    for ((image, srgb), note) in &capped.notes {
+        let used = pending.iter().zip(&made).any(|(p, d)| {
+            p.image.as_ref().is_some_and(|(i, _)| i == image)
+                && p.srgb == *srgb
+                && matches!(d, Some(Ok((ImageRef::Raster { .. }, _, _))))
+        });
+        if used {
+            report.notes.push(Warning::new(
+                &manifest.path,
+                match image {
+                    ImageRef::File(p) => {
+                        manifest.naming(p, Some("window design")).map(|n| n.line.0)
+                    }
+                    _ => None,
+                },
+                format!("{}: {note}", image.name()),
+            ));
+        }
+    }
     drop(capped);
     let mut designs: Vec<Option<Design>> = Vec::with_capacity(made.len());
     for (i, d) in made.into_iter().enumerate() {
@@ -1071,6 +1082,10 @@ impl Pending {
             key.extend([b as u32, (b >> 32) as u32]);
         }
         key.extend([self.size.0, self.size.1]);
+        // The design's name, from the file's, reads its bytes in this encoding.
+        let encoding = self.text_encoding.map_or("", |e| e.name());
+        key.push(encoding.len() as u32);
+        key.extend(encoding.bytes().map(u32::from));
         for (uv, pane) in &self.tris {
             key.extend(uv.iter().flat_map(|c| c.map(f32::to_bits)));
             key.push(*pane as u32);
@@ -1139,10 +1154,15 @@ fn baked_size(
 /// and reducing each result took 3.2 GB and 18 s where the cap kept 2000x1500 of it. Reduced
 /// once per image, with the mip filter in the design's colour space.
 struct CappedDesigns {
-    reduced: Vec<(ImageRef, Arc<image::DynamicImage>)>,
-    /// Per reduced image, what the cook says of it.
-    notes: Vec<(ImageRef, String)>,
+    /// Per image and colour space (sRGB or not) over the cap: its level within the cap, and
+    /// the image's own size.
+    reduced: Vec<(DesignKey, Arc<image::DynamicImage>, (u32, u32))>,
+    /// Per reduced image, what the cook says of it where a design was made from the level.
+    notes: Vec<(DesignKey, String)>,
 }
+
+/// A design image and whether it is read as sRGB.
+type DesignKey = (ImageRef, bool);
 
 impl CappedDesigns {
     fn new(
@@ -1160,7 +1180,7 @@ impl CappedDesigns {
         let mut distinct: Vec<(&ImageRef, bool)> = Vec::new();
         for p in pending {
             if let Some((img, _)) = &p.image
-                && !distinct.iter().any(|(d, _)| *d == img)
+                && !distinct.iter().any(|&(d, s)| d == img && s == p.srgb)
             {
                 distinct.push((img, p.srgb));
             }
@@ -1171,19 +1191,16 @@ impl CappedDesigns {
             .par_iter()
             .map(|&(img, srgb)| {
                 let decoded = images.get(img)?;
-                let opts = texture::ColourOptions {
-                    srgb,
-                    filter: textures.mip_filter,
-                };
+                let (opts, _) = crate::textures::colour_options(srgb, textures);
                 let level = texture::first_level_within(&decoded, cap, &opts)
                     .map_err(|e| crate::textures::texture_error(Path::new(&img.name()), e))?;
                 Ok(level.map(|(k, l)| (k, l, (decoded.width(), decoded.height()))))
             })
             .collect();
-        for ((img, _), level) in distinct.into_iter().zip(made) {
+        for ((img, srgb), level) in distinct.into_iter().zip(made) {
             if let Some((k, level, (w, h))) = level? {
                 capped.notes.push((
-                    img.clone(),
+                    (img.clone(), srgb),
                     format!(
                         "{w}x{h} is over the size cap of {cap}: its windows' designs are made \
                          from its mip level {k}, {}x{}",
@@ -1191,22 +1208,33 @@ impl CappedDesigns {
                         level.height()
                     ),
                 ));
-                capped.reduced.push((img.clone(), Arc::new(level)));
+                capped
+                    .reduced
+                    .push(((img.clone(), srgb), Arc::new(level), (w, h)));
             }
         }
         Ok(capped)
     }
 
-    /// `img` decoded, or its level within the cap.
+    /// `img` decoded, or its level within the cap, in the colour space `srgb` says.
     fn get(
         &self,
         img: &ImageRef,
+        srgb: bool,
         images: &crate::textures::DecodedImages,
     ) -> Result<Arc<image::DynamicImage>, CookError> {
-        match self.reduced.iter().find(|(r, _)| r == img) {
-            Some((_, level)) => Ok(Arc::clone(level)),
+        match self.find(img, srgb) {
+            Some((level, _)) => Ok(Arc::clone(level)),
             None => images.get(img),
         }
+    }
+
+    /// `img`'s level within the cap, and the image's own size; `None` where it fits.
+    fn find(&self, img: &ImageRef, srgb: bool) -> Option<(&Arc<image::DynamicImage>, (u32, u32))> {
+        self.reduced
+            .iter()
+            .find(|((r, s), _, _)| r == img && *s == srgb)
+            .map(|(_, level, size)| (level, *size))
     }
 }
 
@@ -1215,7 +1243,7 @@ fn make_design(
     images: &crate::textures::DecodedImages,
     capped: &CappedDesigns,
 ) -> Result<Design, CookError> {
-    let get = |img: &ImageRef| capped.get(img, images);
+    let get = |img: &ImageRef| capped.get(img, p.srgb, images);
     let Some((img, source)) = &p.image else {
         let (w, h) = p.size;
         let came = p.came_width * w.min(h) as f32;
@@ -1302,7 +1330,10 @@ fn make_design(
         Ok((raster(name, pixels.into_owned()), *source, size))
     } else {
         // The image as it is, under its own name: a 16-bit design's 8-bit copy above is owned
-        // too, and was taken for a tinted one (named `.masked` with nothing masked).
+        // too, and was taken for a tinted one (named `.masked` with nothing masked). Its own
+        // size, not its level's within the size cap: the texture stage reads the image, and
+        // sizes the projector's blur by it.
+        let size = capped.find(img, p.srgb).map_or(size, |(_, own)| own);
         Ok((img.clone(), *source, size))
     }
 }
@@ -1341,9 +1372,9 @@ mod tests {
         }
     }
 
-    /// Windows given one image with the same outline are made once (an 8000x6000 photo masked
-    /// for 13 windows held 13 copies); another image, another outline or another name for
-    /// the window's material are other designs, as is one baked through the glass's own
+    /// Windows given one image with the same outline are made once, whatever their names
+    /// (an 8000x6000 photo masked for 13 windows held 13 copies); another image, another
+    /// outline or another fit are other designs, as is one baked through the glass's own
     /// coordinates.
     #[test]
     fn one_image_on_windows_of_one_outline_is_one_design() {

@@ -1134,6 +1134,40 @@ fn a_design_over_the_cap_is_masked_from_its_level_within_the_cap() {
     }
 }
 
+/// A design that covers its window's glass whole is used as it is, not masked: under a cap
+/// the texture stage reduces it (and says so), and its projector's blur is sized by the
+/// image it reads. The window stage had handed on its level's size with the image itself,
+/// and the blur came out 16 times too narrow at a cap of 128.
+#[test]
+fn an_unmasked_design_over_the_cap_keeps_its_projector_blur() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = common::small_scene(dir.path());
+    image::RgbaImage::from_fn(600, 400, |x, y| {
+        image::Rgba([(x % 256) as u8, (y % 256) as u8, ((x ^ y) % 256) as u8, 255])
+    })
+    .save(dir.path().join("lit.png"))
+    .unwrap();
+    let sigma = |log: &str| {
+        let at = log
+            .find("lit.projector: sigma ")
+            .unwrap_or_else(|| panic!("no projector note in {log}"));
+        log[at..].split(" texels").next().unwrap().to_string()
+    };
+    let (_, whole) = cook_obj(&scene, &dir.path().join("whole.pack"), &[]);
+    let (capped, log) = cook_obj(
+        &scene,
+        &dir.path().join("capped.pack"),
+        &["--max-texture-size", "128"],
+    );
+    assert_eq!(sigma(&log), sigma(&whole));
+    assert!(
+        log.contains("lit: 600x400 is over the size cap of 128: cooked from its mip level 3"),
+        "{log}"
+    );
+    assert!(!log.contains("its windows' designs are made"), "{log}");
+    assert_eq!(texture_info(&capped, "lit"), (75, 50, 7));
+}
+
 /// Glass whose texture coordinates reach past the texture's square, tiled 2 x 2 or given in
 /// metres as SketchUp writes them: its design is drawn as the glass shows it onto planar
 /// coordinates, so the light falls where the glass is. A projector covers the square only:

@@ -2172,7 +2172,6 @@ mod tests {
         worst
     }
 
-    /// The least and greatest corner of the positions' box.
     /// A chain of 2,000 nodes, each moving the next by 1/1000 along x, places the leaf's
     /// triangle 2 units along (256 levels were refused, and gltfpack reads this). A chain that
     /// closes on itself is still refused, by the path outgrowing the nodes.
@@ -2218,6 +2217,7 @@ mod tests {
         assert!(e.contains("node hierarchy is cyclic"), "{e}");
     }
 
+    /// The least and greatest corner of the positions' box.
     fn bounds(m: &Imported) -> (glam::Vec3, glam::Vec3) {
         m.positions.iter().fold(
             (glam::Vec3::INFINITY, glam::Vec3::NEG_INFINITY),
