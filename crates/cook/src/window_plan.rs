@@ -1086,6 +1086,12 @@ impl Pending {
         let encoding = self.text_encoding.map_or("", |e| e.name());
         key.push(encoding.len() as u32);
         key.extend(encoding.bytes().map(u32::from));
+        self.push_outline(&mut key);
+        Some(key)
+    }
+
+    /// The triangles in texture space and their tints, as bits, onto `key`.
+    fn push_outline(&self, key: &mut Vec<u32>) {
         for (uv, pane) in &self.tris {
             key.extend(uv.iter().flat_map(|c| c.map(f32::to_bits)));
             key.push(*pane as u32);
@@ -1094,7 +1100,6 @@ impl Pending {
             key.push(u32::MAX);
             key.extend(tints.iter().flatten().flatten().map(|c| c.to_bits()));
         }
-        Some(key)
     }
 
     /// Everything a design rasterized from the mesh depends on, exactly (as bits).
@@ -1105,14 +1110,7 @@ impl Pending {
             key.push(p.amount.to_bits());
         }
         key.push(u32::MAX);
-        for (uv, pane) in &self.tris {
-            key.extend(uv.iter().flat_map(|c| c.map(f32::to_bits)));
-            key.push(*pane as u32);
-        }
-        if let Some(tints) = &self.tints {
-            key.push(u32::MAX);
-            key.extend(tints.iter().flatten().flatten().map(|c| c.to_bits()));
-        }
+        self.push_outline(&mut key);
         Some(key)
     }
 }
