@@ -153,30 +153,39 @@ fn box2_srgb8(src: &[u8], w: usize) -> Vec<Texel> {
     out
 }
 
-/// Level 1 of an odd-width, even-height sRGB RGBA8 image, the colour chain's box reduction of
-/// [`to_linear`]'s texels (the same bits), from bands of rows decoded one at a time: with an
-/// even height every output row is a pair of input rows, so a band's rows are its own, and
-/// a band is all the f32 held (a 687x1024 design's whole copy was 11 MB).
-fn reduce_srgb8_rows(src: &[u8], w: u32, h: u32) -> Vec<Texel> {
-    const BAND: usize = 64;
-    let row_bytes = w as usize * 4;
-    let mut out = Vec::with_capacity((w / 2 * h / 2) as usize);
-    for band in src.chunks(BAND * row_bytes) {
-        let texels: Vec<Texel> = band
-            .par_chunks_exact(4)
-            .map(|b| crate::pixels::texel8([b[0], b[1], b[2], b[3]]))
-            .collect();
-        let rows = (band.len() / row_bytes) as u32;
-        out.extend(next_level(
-            &texels,
+/// An 8-bit sRGB image's bytes and the level 1 of its colour chain made straight from them:
+/// the texels [`to_linear`] would give, so the same bits, without a full-size f32 copy of
+/// level 0 (a 4097² design's was 269 MB). An even-sized box reduction is one pass
+/// ([`box2_srgb8`]); any other size or filter decodes only the rows a band of output rows
+/// reaches. `None` for an image not held as 8-bit sRGB, or of one texel.
+fn level1_from_bytes<'a>(
+    img: &'a DynamicImage,
+    opts: &ColourOptions,
+) -> Option<(std::borrow::Cow<'a, [u8]>, Vec<Texel>)> {
+    let (w, h) = (img.width(), img.height());
+    if !opts.srgb || w.max(h) < 2 {
+        return None;
+    }
+    let bytes = crate::pixels::rgba8_bytes(img)?;
+    let level1 = if opts.filter == MipFilter::Box && w % 2 == 0 && h % 2 == 0 {
+        box2_srgb8(&bytes, w as usize)
+    } else {
+        let row = w as usize * 4;
+        crate::resample::next_level_by_rows(
             w,
-            rows,
-            MipFilter::Box,
+            h,
+            opts.filter,
+            |rows| {
+                bytes[rows.start * row..rows.end * row]
+                    .par_chunks_exact(4)
+                    .map(|b| crate::pixels::texel8([b[0], b[1], b[2], b[3]]))
+                    .collect()
+            },
             weighted,
             unweighted,
-        ));
-    }
-    out
+        )
+    };
+    Some((bytes, level1))
 }
 
 /// Encodes straight linear RGBA to RGBA8 (sRGB or plain unorm colour, unorm alpha).
@@ -209,20 +218,10 @@ pub fn colour_mips(img: &DynamicImage, opts: &ColourOptions) -> Result<MipChain,
     let mut levels = Vec::new();
     // Each level is encoded as soon as the next is filtered from it, and its f32 copy dropped:
     // the f32 chain of a 4096² image was 341 MiB held whole.
-    let from_bytes = opts.srgb && opts.filter == MipFilter::Box && h.is_multiple_of(2);
-    match from_bytes
-        .then(|| crate::pixels::rgba8_bytes(img))
-        .flatten()
-    {
+    match level1_from_bytes(img, opts) {
         // Level 0 is the source's bytes: decoding then re-encoding 8-bit sRGB gives back every
-        // code (a unit test checks the tables). Level 1 comes from them directly, without a
-        // full-size f32 copy of level 0.
-        Some(bytes) => {
-            let level1 = if w.is_multiple_of(2) {
-                box2_srgb8(&bytes, w as usize)
-            } else {
-                reduce_srgb8_rows(&bytes, w, h)
-            };
+        // code (a unit test checks the tables).
+        Some((bytes, level1)) => {
             levels.push(bytes.into_owned());
             each_level(level1, 1, w, h, opts.filter, |l| {
                 levels.push(encode_level(&l, opts.srgb))
@@ -263,13 +262,8 @@ pub fn first_level_within(
             lw.max(lh) <= max_side.max(1)
         })
         .unwrap_or(level_count(w, h) - 1);
-    let from_bytes = opts.srgb && opts.filter == MipFilter::Box && h.is_multiple_of(2);
-    let (mut level, mut at) = match from_bytes
-        .then(|| crate::pixels::rgba8_bytes(img))
-        .flatten()
-    {
-        Some(bytes) if w.is_multiple_of(2) => (box2_srgb8(&bytes, w as usize), 1),
-        Some(bytes) => (reduce_srgb8_rows(&bytes, w, h), 1),
+    let (mut level, mut at) = match level1_from_bytes(img, opts) {
+        Some((_, level1)) => (level1, 1),
         None => (to_linear(img, opts.srgb), 0),
     };
     while at < target {
@@ -352,22 +346,40 @@ mod tests {
             height: 5,
             lead: 1,
         };
-        for (w, h) in [
-            (37u32, 130u32),
-            (129, 200),
-            (5, 2),
-            (1, 256),
-            (64, 66),
-            (3, 129),
-        ] {
-            let bytes = crate::testing::design(w as usize, h as usize, 9, panes);
-            let img = DynamicImage::ImageRgba8(image::RgbaImage::from_raw(w, h, bytes).unwrap());
-            let chain = colour_mips(&img, &ColourOptions::default()).unwrap();
-            let mut expect = Vec::new();
-            each_level(to_linear(&img, true), 0, w, h, MipFilter::Box, |l| {
-                expect.push(encode_level(&l, true))
-            });
-            assert_eq!(chain.levels, expect, "{w}x{h}");
+        // Odd heights and other filters too: banded from the bytes, a 4097² design's level 0
+        // is never held in f32 (269 MB).
+        for filter in [MipFilter::Box, MipFilter::Kaiser, MipFilter::Lanczos3] {
+            for (w, h) in [
+                (37u32, 130u32),
+                (129, 200),
+                (5, 2),
+                (1, 256),
+                (64, 66),
+                (3, 129),
+                (65, 97),
+                (130, 1),
+                (1, 1),
+            ] {
+                let bytes = crate::testing::design(w as usize, h as usize, 9, panes);
+                let img =
+                    DynamicImage::ImageRgba8(image::RgbaImage::from_raw(w, h, bytes).unwrap());
+                let opts = ColourOptions { srgb: true, filter };
+                let chain = colour_mips(&img, &opts).unwrap();
+                let mut expect = Vec::new();
+                each_level(to_linear(&img, true), 0, w, h, filter, |l| {
+                    expect.push(encode_level(&l, true))
+                });
+                assert_eq!(chain.levels, expect, "{filter:?} {w}x{h}");
+                // The first level within a cap is that level of the chain, as bytes.
+                if chain.levels.len() > 2 {
+                    let (lw, lh) = level_size(w, h, 2);
+                    let (k, level) = first_level_within(&img, lw.max(lh), &opts)
+                        .unwrap()
+                        .unwrap();
+                    assert_eq!(k, 2);
+                    assert_eq!(level.as_bytes(), &chain.levels[2][..], "{filter:?} {w}x{h}");
+                }
+            }
         }
     }
 }

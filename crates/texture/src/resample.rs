@@ -270,9 +270,20 @@ pub fn reduce_to<T: Real>(
     let (w2, h2) = (w2 as usize, h2 as usize);
     let tx = FlatTaps::<T>::new(&taps(w, w2, filter));
     let ty = FlatTaps::<T>::new(&taps(h, h2, filter));
+    let mid = horizontal(src, w, w2, &tx, &pre);
+    vertical(&mid, w2, &ty, 0..h2, 0)
+}
+
+/// [`reduce`]'s horizontal pass over every row of `src` (`w` texels a row) to `w2` texels.
+fn horizontal<T: Real>(
+    src: &[[T; 4]],
+    w: usize,
+    w2: usize,
+    tx: &FlatTaps<T>,
+    pre: &(impl Fn([T; 4]) -> [T; 4] + Sync),
+) -> Vec<[T; 4]> {
     let zero = [T::default(); 4];
-    // Horizontal pass over every source row.
-    let mut mid = vec![zero; w2 * h];
+    let mut mid = vec![zero; w2 * (src.len() / w.max(1))];
     mid.par_chunks_mut(w2)
         .zip(src.par_chunks(w))
         .for_each(|(out, row)| {
@@ -288,12 +299,25 @@ pub fn reduce_to<T: Real>(
                 *o = acc;
             }
         });
-    // Vertical pass as whole-row multiply-adds, which stream through memory.
-    let mut out = vec![zero; w2 * h2];
-    out.par_chunks_mut(w2).enumerate().for_each(|(y, orow)| {
-        let (start, ws) = ty.get(y);
+    mid
+}
+
+/// [`reduce`]'s vertical pass, for output rows `rows`, from `mid`'s rows (`w2` texels each),
+/// the first of which is source row `first`. As whole-row multiply-adds, which stream
+/// through memory.
+fn vertical<T: Real>(
+    mid: &[[T; 4]],
+    w2: usize,
+    ty: &FlatTaps<T>,
+    rows: std::ops::Range<usize>,
+    first: usize,
+) -> Vec<[T; 4]> {
+    let zero = [T::default(); 4];
+    let mut out = vec![zero; w2 * rows.len()];
+    out.par_chunks_mut(w2).enumerate().for_each(|(i, orow)| {
+        let (start, ws) = ty.get(rows.start + i);
         for (k, &wt) in ws.iter().enumerate() {
-            let r = &mid[(start + k) * w2..(start + k + 1) * w2];
+            let r = &mid[(start + k - first) * w2..(start + k - first + 1) * w2];
             for (o, v) in orow.iter_mut().zip(r) {
                 for c in 0..4 {
                     o[c] = o[c] + wt * v[c];
@@ -301,6 +325,41 @@ pub fn reduce_to<T: Real>(
             }
         }
     });
+    out
+}
+
+/// [`next_level`] of a level given by rows: `rows(a..b)` gives source rows `a` to `b` (`w`
+/// texels each). Made a band of output rows at a time from the source rows the band's taps
+/// reach, so no more of the source is held at once (a 4097² design's whole level 0 in f32
+/// was 269 MB). The same bits as `next_level` (for the values filtering meets: see
+/// [`box2`]).
+pub(crate) fn next_level_by_rows<T: Real>(
+    w: u32,
+    h: u32,
+    filter: MipFilter,
+    rows: impl Fn(std::ops::Range<usize>) -> Vec<[T; 4]>,
+    pre: impl Fn([T; 4]) -> [T; 4] + Sync,
+    post: impl Fn([T; 4]) -> [T; 4] + Sync,
+) -> Vec<[T; 4]> {
+    const BAND: usize = 32;
+    let (w, h) = (w as usize, h as usize);
+    let (w2, h2) = (half(w as u32) as usize, half(h as u32) as usize);
+    let tx = FlatTaps::<T>::new(&taps(w, w2, filter));
+    let ty = FlatTaps::<T>::new(&taps(h, h2, filter));
+    let mut out = Vec::with_capacity(w2 * h2);
+    for y0 in (0..h2).step_by(BAND) {
+        let band = y0..(y0 + BAND).min(h2);
+        let reach = |y: usize| {
+            let (start, ws) = ty.get(y);
+            (start, start + ws.len())
+        };
+        let first = band.clone().map(|y| reach(y).0).min().unwrap_or(0);
+        let last = band.clone().map(|y| reach(y).1).max().unwrap_or(0);
+        let mid = horizontal(&rows(first..last), w, w2, &tx, &pre);
+        let mut next = vertical(&mid, w2, &ty, band, first);
+        next.par_iter_mut().for_each(|t| *t = post(*t));
+        out.extend(next);
+    }
     out
 }
 
