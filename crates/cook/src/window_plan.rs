@@ -820,14 +820,20 @@ pub fn plan(
         .map(|(i, p)| (same_as[i] == i).then(|| make_design(p, images, &capped)))
         .collect();
     // Said of an image where some window's design was made from its level within the cap;
-    // one used as it is is reduced by the texture stage, which says so itself.
+    // one used as it is is reduced by the texture stage, which says so itself. Once per
+    // image, read as sRGB or not (the note is the same).
+    let mut noted: Vec<&ImageRef> = Vec::new();
     for ((image, srgb), note) in &capped.notes {
+        if noted.contains(&image) {
+            continue;
+        }
         let used = pending.iter().zip(&made).any(|(p, d)| {
             p.image.as_ref().is_some_and(|(i, _)| i == image)
                 && p.srgb == *srgb
                 && matches!(d, Some(Ok((ImageRef::Raster { .. }, _, _))))
         });
         if used {
+            noted.push(image);
             report.notes.push(Warning::new(
                 &manifest.path,
                 match image {

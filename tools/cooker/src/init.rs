@@ -39,12 +39,14 @@ fn quote(s: &str) -> String {
     toml::Value::String(s.to_string()).to_string()
 }
 
-/// A glob that matches exactly `s`: each metacharacter in a class of its own.
+/// A glob that matches exactly `s`: each metacharacter in a class of its own. Not `!`,
+/// which is literal outside a class, and as `[!]` opens a negated one: a material named
+/// `!start` gave a starter manifest that did not parse.
 fn literal_glob(s: &str) -> String {
     let mut out = String::with_capacity(s.len());
     for c in s.chars() {
         match c {
-            '*' | '?' | '[' | ']' | '{' | '}' | '!' | '\\' | ',' => {
+            '*' | '?' | '[' | ']' | '{' | '}' | '\\' | ',' => {
                 out.push('[');
                 out.push(c);
                 out.push(']');
@@ -503,4 +505,34 @@ pub fn run(args: Args) -> Outcome {
         guess.cameras.len()
     );
     Ok(OK)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Every name comes back from its glob as the one name it matches, whatever glob syntax
+    /// it holds: `!start` was written `[!]start`, a negated class that did not parse, and
+    /// `x[!y]` one that matched nothing.
+    #[test]
+    fn literal_globs_match_their_name_only() {
+        for name in [
+            "!start",
+            "end!",
+            "x[!y]",
+            "a*b?",
+            "{x,y}",
+            "back\\slash",
+            "[]",
+            "a,b",
+        ] {
+            let g = literal_glob(name);
+            let m = cook::manifest::NameGlob::checked(&g)
+                .unwrap_or_else(|e| panic!("{name:?} as {g:?}: {e}"));
+            assert!(m.is_match(name), "{name:?} as {g:?}");
+            for other in ["start", "xy", "x!y", "aXb?", "x", "back/slash", "ab", "a"] {
+                assert!(other == name || !m.is_match(other), "{g:?} on {other:?}");
+            }
+        }
+    }
 }

@@ -529,6 +529,7 @@ pub fn import(path: &Path) -> Result<Imported, CookError> {
     let mut skipped_modes: Vec<String> = Vec::new();
 
     // Roots of the default scene, else of the first scene, else every node nobody parents.
+    let sceneless = document.scenes().len() == 0;
     let roots: Vec<gltf::Node> = match document
         .default_scene()
         .or_else(|| document.scenes().next())
@@ -558,18 +559,21 @@ pub fn import(path: &Path) -> Result<Imported, CookError> {
     // refused 2,000-level chains that gltfpack reads). The walk is bounded too, for graphs
     // that share children many times over without a cycle.
     let node_count = document.nodes().len();
+    let mut reached = vec![false; node_count];
     while let Some((node, parent, depth)) = stack.pop() {
         visits += 1;
         if depth >= node_count {
             return Err(bad(
                 path,
                 format!(
-                    "node hierarchy is cyclic: node {} lies {depth} levels deep, deeper than \
-                     the {node_count} nodes could reach without one repeating",
-                    node.index()
+                    "node hierarchy is cyclic: node {} is reached down a path of {} nodes, \
+                     but the file has {node_count}, so some node on it is its own ancestor",
+                    node.index(),
+                    depth + 1
                 ),
             ));
         }
+        reached[node.index()] = true;
         if visits > 1_000_000 {
             return Err(bad(
                 path,
@@ -678,6 +682,18 @@ pub fn import(path: &Path) -> Result<Imported, CookError> {
         for c in node.children().collect::<Vec<_>>().into_iter().rev() {
             stack.push((c, world, depth + 1));
         }
+    }
+    // Without a scene every node nobody parents is a root, so one left unreached has a parent
+    // at every step up: a loop. Its meshes were dropped without a word.
+    if sceneless && let Some(n) = reached.iter().position(|&r| !r) {
+        return Err(bad(
+            path,
+            format!(
+                "node hierarchy is cyclic: node {n} has no root above it (the file has no \
+                 scene, and every node above it has a parent), so some node is its own \
+                 ancestor"
+            ),
+        ));
     }
     if !skipped_modes.is_empty() {
         out.warnings.push(Warning::new(
@@ -2215,6 +2231,12 @@ mod tests {
         std::fs::write(&cyclic, chain(300, true)).unwrap();
         let e = import(&cyclic).unwrap_err().to_string();
         assert!(e.contains("node hierarchy is cyclic"), "{e}");
+        // Without a scene, a loop has no root to be found from: refused, not dropped.
+        let sceneless = chain(3, true).replace(r#""scene": 0, "scenes": [{"nodes": [0]}],"#, "");
+        assert!(!sceneless.contains("scenes"));
+        std::fs::write(&cyclic, sceneless).unwrap();
+        let e = import(&cyclic).unwrap_err().to_string();
+        assert!(e.contains("node 0 has no root above it"), "{e}");
     }
 
     /// The least and greatest corner of the positions' box.

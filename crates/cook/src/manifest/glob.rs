@@ -9,8 +9,10 @@ use serde::{Serialize, Serializer};
 /// A glob over names. Compiling one is a regex build, so it happens once, on first use, and
 /// not at all for a pattern without glob syntax (as `cooker init` writes one per material),
 /// which is compared as a string: compiling a 4,000-character window name for every window ×
-/// entry pair kept a cook of 2,000 such windows busy for over 14 minutes. A pattern that is
-/// no valid glob matches only itself.
+/// entry pair kept a cook of 2,000 such windows busy for over 14 minutes. A pattern also
+/// matches the name it spells: `--window 'brack[1]=…'` names the window `cooker info` lists
+/// as `brack[1]` (as a glob it means `brack1`, and was refused as naming no window). A
+/// pattern that is no valid glob matches only itself.
 #[derive(Clone)]
 pub struct NameGlob {
     text: String,
@@ -57,13 +59,12 @@ impl NameGlob {
     }
 
     pub fn is_match(&self, name: &str) -> bool {
-        match &self.glob {
-            None => self.text == name,
-            Some(g) => self
-                .matcher
-                .get_or_init(|| g.compile_matcher())
-                .is_match(name),
-        }
+        self.text == name
+            || self.glob.as_ref().is_some_and(|g| {
+                self.matcher
+                    .get_or_init(|| g.compile_matcher())
+                    .is_match(name)
+            })
     }
 }
 
@@ -88,13 +89,11 @@ impl NameSet {
         let mut ids = Vec::new();
         let mut globs = Vec::new();
         for (id, p) in patterns {
-            match &p.glob {
-                None => set.literals.entry(p.text.clone()).or_default().push(id),
-                Some(g) => {
-                    builder.add(g.clone());
-                    ids.push(id);
-                    globs.push((id, p.clone()));
-                }
+            set.literals.entry(p.text.clone()).or_default().push(id);
+            if let Some(g) = &p.glob {
+                builder.add(g.clone());
+                ids.push(id);
+                globs.push((id, p.clone()));
             }
         }
         if !ids.is_empty() {
@@ -200,9 +199,18 @@ mod tests {
             let g = NameGlob::checked(p).unwrap();
             let reference = Glob::new(p).unwrap().compile_matcher();
             for n in names {
-                assert_eq!(g.is_match(n), reference.is_match(n), "{p:?} on {n:?}");
+                let spelled = p == n;
+                assert_eq!(
+                    g.is_match(n),
+                    spelled || reference.is_match(n),
+                    "{p:?} on {n:?}"
+                );
             }
         }
+        // The name a pattern spells, whatever the glob means.
+        let brack = NameGlob::checked("brack[1]").unwrap();
+        assert!(brack.is_match("brack[1]") && brack.is_match("brack1"));
+        assert_eq!(NameSet::new([(0, &brack)]).matching("brack[1]"), [0]);
         assert!(NameGlob::checked("rose").unwrap().is_literal());
         assert!(!NameGlob::checked("ro*").unwrap().is_literal());
     }
@@ -218,14 +226,14 @@ mod tests {
 
     #[test]
     fn a_set_finds_what_each_pattern_finds_in_order() {
-        let patterns: Vec<NameGlob> = ["lancet*", "rose", "*", "rose", "r?se", "x"]
+        let patterns: Vec<NameGlob> = ["lancet*", "rose", "*", "rose", "r?se", "x", "x*"]
             .into_iter()
             .map(NameGlob::new)
             .collect();
         // Ids as a caller gives them: not the positions, and not in order.
-        let ids = [10, 4, 7, 2, 30, 5];
+        let ids = [10, 4, 7, 2, 30, 5, 6];
         let set = NameSet::new(ids.iter().copied().zip(&patterns));
-        for name in ["rose", "lancet.3", "x", "nothing", ""] {
+        for name in ["rose", "lancet.3", "x", "x*", "nothing", ""] {
             let mut expected: Vec<usize> = ids
                 .iter()
                 .zip(&patterns)
