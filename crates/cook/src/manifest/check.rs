@@ -46,9 +46,16 @@ pub(super) fn parse(path: &Path, text: &str) -> Result<Manifest, CookError> {
                 max_size: t
                     .max_size
                     .as_ref()
-                    .map(|m| match *m.get_ref() {
-                        0 => Err(src.err_at(m, "max_size is 0 but must be at least 1")),
-                        v => Ok(v),
+                    .map(|m| match u32::try_from(*m.get_ref()) {
+                        Ok(v) if v >= 1 => Ok(v),
+                        _ => Err(src.err_at(
+                            m,
+                            format!(
+                                "max_size is {} but must be from 1 to {}",
+                                m.get_ref(),
+                                u32::MAX
+                            ),
+                        )),
                     })
                     .transpose()?,
             },

@@ -874,9 +874,13 @@ colour = [0.35, 0.5, 0.8]
             "max_design_error_lsb = -1",
             "max_size = 0",
             "max_size = -4",
+            "max_size = 100000000000",
         ] {
             let e = parse(&d, &format!("[textures]\n{bad}\n{mesh}")).unwrap_err();
             assert!(e.to_string().contains(":2"), "{bad}: {e}");
+            if bad.starts_with("max_size") {
+                assert!(e.to_string().contains("must be from 1 to"), "{bad}: {e}");
+            }
         }
         // A window's blur: 0 is no blur; below 0 or not a number is an error at its line.
         let window = |sigma: &str| {

@@ -70,7 +70,9 @@ pub(super) struct Textures {
     pub max_normal_error_deg: Option<Spanned<f32>>,
     pub max_design_error_lsb: Option<Spanned<f32>>,
     pub supercompression: Option<pack::Supercompression>,
-    pub max_size: Option<Spanned<u32>>,
+    /// Checked into a u32 by `check`, so an out-of-range value is named as such rather than
+    /// as no whole number.
+    pub max_size: Option<Spanned<i64>>,
 }
 
 #[derive(Deserialize)]
