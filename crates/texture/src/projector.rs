@@ -11,7 +11,7 @@ use crate::blur::{
 use crate::mips::{MipChain, check_size, level_count, level_size};
 use crate::pixels::to_linear;
 use crate::real::clamp01;
-use crate::resample::{MipFilter, half, next_level, reduce_to, walk_chain};
+use crate::resample::{MipFilter, half, next_level, reduce_to, reduce_to_by_rows, walk_chain};
 use crate::srgb::{decode8, encoder, linear_to_srgb_lsb, linear_to_srgb_lsb_slope};
 
 /// How a projector texture is cooked.
@@ -227,11 +227,11 @@ fn cook_projector(
     // A design larger than the cap never has its level 0 stored, so its full-size blur is
     // needed only as the reference the stored levels are measured against: stream it in bands
     // (once for the levels, again for each level measured) rather than hold it whole, 17 MB of
-    // f32 for a 1024² design. Even heights only, where each band's half-size rows are its own.
+    // f32 for a 1024² design. Any height: an odd one's halving reads a row past each band
+    // (it was held whole, 297 MB for a 4097² design).
     let streamed = match &bytes {
         Some(b)
             if stream
-                && h.is_multiple_of(2)
                 && opts.max_size.is_some_and(|cap| dw.max(dh) > cap)
                 && !resamples_level0(opts, w, h) =>
         {
@@ -241,7 +241,7 @@ fn cook_projector(
     };
     // Levels `first..` of the blur's chain, in f32 and encoded.
     let (first, levels) = match &streamed {
-        Some(s) => (1, premultiplied_levels(s.half(), half(w), h / 2)),
+        Some(s) => (1, premultiplied_levels(s.half(), half(w), half(h))),
         None => {
             let blurred = match &bytes {
                 // 8-bit designs (nearly all) are decoded inside the passes: no f32 copy.
@@ -618,34 +618,26 @@ impl Streamed<'_> {
     /// The blur's level 1, [`premultiplied_levels`]' bits, from band after band.
     fn half(&self) -> Vec<[f32; 4]> {
         let (w, h) = self.0.size();
-        let mut out = Vec::with_capacity((half(w) * half(h)) as usize);
-        for (y0, y1) in self.bands() {
-            let band = self.0.rows(y0..y1);
-            out.extend(next_level(
-                &band,
-                w,
-                y1 - y0,
-                MipFilter::Box,
-                |t| t,
-                |t| t.map(clamp01),
-            ));
-        }
-        out
+        self.reduced(half(w), half(h))
     }
 
     /// The blur reduced to `nw x nh` (each its own size or half of it) as
-    /// [`reduce_premultiplied`] reduces it, from band after band (even-height bands halve on
-    /// their own).
+    /// [`reduce_premultiplied`] reduces it, from band after band.
     fn reduced(&self, nw: u32, nh: u32) -> Vec<[f32; 4]> {
         let (w, h) = self.0.size();
-        let mut out = Vec::with_capacity((nw * nh) as usize);
-        for (y0, y1) in self.bands() {
-            let band = self.0.rows(y0..y1);
-            let bh = y1 - y0;
-            let bnh = if nh < h { half(bh) } else { bh };
-            out.extend(reduce_premultiplied(&band, w, bh, nw, bnh));
-        }
-        out
+        // Output rows per band: a band's source rows, `BAND` of them, as before.
+        let band = if nh < h { Self::BAND / 2 } else { Self::BAND } as usize;
+        reduce_to_by_rows(
+            w,
+            h,
+            nw,
+            nh,
+            MipFilter::Box,
+            band,
+            |r| self.0.rows(r.start as u32..r.end as u32),
+            |t| t,
+            |t| t.map(clamp01),
+        )
     }
 
     /// The largest of `f(band, y0, y1)` over the bands of rows `y0..y1`.
@@ -934,7 +926,7 @@ mod tests {
             height: 5,
             lead: 2,
         };
-        // Direct and decimated blurs, odd widths, and an odd height (not streamed).
+        // Direct and decimated blurs, odd widths, and an odd height.
         let cases = [
             (300u32, 260u32, 2.2f32),
             (258, 40, 0.7),

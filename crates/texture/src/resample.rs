@@ -341,14 +341,30 @@ pub(crate) fn next_level_by_rows<T: Real>(
     pre: impl Fn([T; 4]) -> [T; 4] + Sync,
     post: impl Fn([T; 4]) -> [T; 4] + Sync,
 ) -> Vec<[T; 4]> {
-    const BAND: usize = 32;
+    reduce_to_by_rows(w, h, half(w), half(h), filter, 32, rows, pre, post)
+}
+
+/// [`reduce_to`] of a level given by rows, `band` output rows at a time, each through
+/// `post`: see [`next_level_by_rows`].
+#[allow(clippy::too_many_arguments)]
+pub(crate) fn reduce_to_by_rows<T: Real>(
+    w: u32,
+    h: u32,
+    w2: u32,
+    h2: u32,
+    filter: MipFilter,
+    band: usize,
+    rows: impl Fn(std::ops::Range<usize>) -> Vec<[T; 4]>,
+    pre: impl Fn([T; 4]) -> [T; 4] + Sync,
+    post: impl Fn([T; 4]) -> [T; 4] + Sync,
+) -> Vec<[T; 4]> {
     let (w, h) = (w as usize, h as usize);
-    let (w2, h2) = (half(w as u32) as usize, half(h as u32) as usize);
+    let (w2, h2) = (w2 as usize, h2 as usize);
     let tx = FlatTaps::<T>::new(&taps(w, w2, filter));
     let ty = FlatTaps::<T>::new(&taps(h, h2, filter));
     let mut out = Vec::with_capacity(w2 * h2);
-    for y0 in (0..h2).step_by(BAND) {
-        let band = y0..(y0 + BAND).min(h2);
+    for y0 in (0..h2).step_by(band.max(1)) {
+        let band = y0..(y0 + band.max(1)).min(h2);
         let reach = |y: usize| {
             let (start, ws) = ty.get(y);
             (start, start + ws.len())
