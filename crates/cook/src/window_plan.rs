@@ -260,7 +260,7 @@ pub fn plan(
     for o in overrides {
         if !(0..found.len()).any(|k| names_window(o, k)) {
             return Err(CookError::UnknownWindow {
-                pattern: o.name.as_ref().map(|n| n.to_string()).unwrap_or_default(),
+                pattern: o.name.as_deref().unwrap_or_default().to_string(),
                 known: found.iter().map(|i| i.name.clone()).collect(),
             });
         }
@@ -277,7 +277,7 @@ pub fn plan(
                 format!(
                     "--window {}={}: a later --window gives every window it matches another \
                      design, so it is not used",
-                    o.name.as_ref().map_or("", |n| n.as_str()),
+                    o.name.as_deref().unwrap_or_default(),
                     o.design
                         .as_deref()
                         .unwrap_or(std::path::Path::new(""))
@@ -823,7 +823,8 @@ pub fn plan(
     // one used as it is is reduced by the texture stage, which says so itself. Once per
     // image, read as sRGB or not (the note is the same).
     let mut noted: Vec<&ImageRef> = Vec::new();
-    for ((image, srgb), note) in &capped.notes {
+    for r in &capped.reduced {
+        let (image, srgb) = (&r.image, &r.srgb);
         if noted.contains(&image) {
             continue;
         }
@@ -842,7 +843,7 @@ pub fn plan(
                     }
                     _ => None,
                 },
-                format!("{}: {note}", image.name()),
+                format!("{}: {}", image.name(), capped.note(r)),
             ));
         }
     }
@@ -935,23 +936,27 @@ pub fn plan(
     Ok(out)
 }
 
+/// A raster's size and a hash of its texels: designs to compare texel by texel.
+fn pixels_key(image: &image::RgbaImage) -> (u32, u32, u64) {
+    use std::hash::{Hash, Hasher};
+    let mut h = std::collections::hash_map::DefaultHasher::new();
+    image.as_raw().hash(&mut h);
+    (image.width(), image.height(), h.finish())
+}
+
 /// Designs an image makes alike for several windows (one design masked to windows of one
 /// shape) share one copy of their pixels. The texture stage cooks one texture of them (jobs
 /// compare names and pixels), but each window's copy was held to its end: 24 MB of the
 /// default scene's 64 MB heap peak, four textures' worth held as eleven.
 fn one_copy_each(mut designs: Vec<Design>) -> Vec<Design> {
-    use std::hash::{Hash, Hasher};
     let mut firsts: std::collections::HashMap<(String, u32, u32, u64), Vec<Arc<image::RgbaImage>>> =
         Default::default();
     for (design, _, _) in &mut designs {
         let ImageRef::Raster { name, image } = design else {
             continue;
         };
-        let mut h = std::collections::hash_map::DefaultHasher::new();
-        image.as_raw().hash(&mut h);
-        let seen = firsts
-            .entry((name.clone(), image.width(), image.height(), h.finish()))
-            .or_default();
+        let (w, h, hash) = pixels_key(image);
+        let seen = firsts.entry((name.clone(), w, h, hash)).or_default();
         match seen.iter().find(|f| f.as_raw() == image.as_raw()) {
             Some(first) => *image = Arc::clone(first),
             None => seen.push(Arc::clone(image)),
@@ -965,7 +970,6 @@ fn one_copy_each(mut designs: Vec<Design>) -> Vec<Design> {
 /// the windows' `#k` numbers when they all share the prefix.
 fn share_identical(mut designs: Vec<Design>) -> Vec<Design> {
     use std::collections::HashMap;
-    use std::hash::{Hash, Hasher};
     let mut groups: HashMap<(u32, u32, u64), Vec<Vec<usize>>> = HashMap::new();
     for (i, (design, source, _)) in designs.iter().enumerate() {
         let ImageRef::Raster { image, .. } = design else {
@@ -974,11 +978,7 @@ fn share_identical(mut designs: Vec<Design>) -> Vec<Design> {
         if *source != DesignSource::Mesh {
             continue;
         }
-        let mut h = std::collections::hash_map::DefaultHasher::new();
-        image.as_raw().hash(&mut h);
-        let buckets = groups
-            .entry((image.width(), image.height(), h.finish()))
-            .or_default();
+        let buckets = groups.entry(pixels_key(image)).or_default();
         let same = |g: &Vec<usize>| match &designs[g[0]].0 {
             ImageRef::Raster { image: first, .. } => first.as_raw() == image.as_raw(),
             _ => false,
@@ -1150,23 +1150,26 @@ fn baked_size(
     (w.clamp(1, design::MAX_SIDE), h.clamp(1, design::MAX_SIDE))
 }
 
-/// The design of one window: an image fitted and masked, or cut to the outline where it
-/// would let light through stone, or rasterized from the panes; with its size in texels.
 /// Design images over the size cap (`[textures] max_size`), each replaced by its first mip
 /// level within the cap before it is fitted, masked or baked, as the texture stage would
 /// replace the image given: masking the whole of an 8000x6000 photo for each of five windows
 /// and reducing each result took 3.2 GB and 18 s where the cap kept 2000x1500 of it. Reduced
 /// once per image, with the mip filter in the design's colour space.
 struct CappedDesigns {
-    /// Per image and colour space (sRGB or not) over the cap: its level within the cap, and
-    /// the image's own size.
-    reduced: Vec<(DesignKey, Arc<image::DynamicImage>, (u32, u32))>,
-    /// Per reduced image, what the cook says of it where a design was made from the level.
-    notes: Vec<(DesignKey, String)>,
+    cap: u32,
+    reduced: Vec<Reduced>,
 }
 
-/// A design image and whether it is read as sRGB.
-type DesignKey = (ImageRef, bool);
+/// A design image over the cap, in one colour space: its level within the cap.
+struct Reduced {
+    image: ImageRef,
+    srgb: bool,
+    level: Arc<image::DynamicImage>,
+    /// The level's number.
+    k: usize,
+    /// The image's own size.
+    size: (u32, u32),
+}
 
 impl CappedDesigns {
     fn new(
@@ -1174,12 +1177,11 @@ impl CappedDesigns {
         images: &crate::textures::DecodedImages,
         textures: &crate::settings::TextureSettings,
     ) -> Result<Self, CookError> {
-        let mut capped = Self {
-            reduced: Vec::new(),
-            notes: Vec::new(),
-        };
         let Some(cap) = textures.max_size else {
-            return Ok(capped);
+            return Ok(Self {
+                cap: 0,
+                reduced: Vec::new(),
+            });
         };
         let mut distinct: Vec<(&ImageRef, bool)> = Vec::new();
         for p in pending {
@@ -1201,23 +1203,32 @@ impl CappedDesigns {
                 Ok(level.map(|(k, l)| (k, l, (decoded.width(), decoded.height()))))
             })
             .collect();
+        let mut reduced = Vec::new();
         for ((img, srgb), level) in distinct.into_iter().zip(made) {
-            if let Some((k, level, (w, h))) = level? {
-                capped.notes.push((
-                    (img.clone(), srgb),
-                    format!(
-                        "{w}x{h} is over the size cap of {cap}: its windows' designs are made \
-                         from its mip level {k}, {}x{}",
-                        level.width(),
-                        level.height()
-                    ),
-                ));
-                capped
-                    .reduced
-                    .push(((img.clone(), srgb), Arc::new(level), (w, h)));
+            if let Some((k, level, size)) = level? {
+                reduced.push(Reduced {
+                    image: img.clone(),
+                    srgb,
+                    level: Arc::new(level),
+                    k,
+                    size,
+                });
             }
         }
-        Ok(capped)
+        Ok(Self { cap, reduced })
+    }
+
+    /// What the cook says of a reduced image.
+    fn note(&self, r: &Reduced) -> String {
+        let (w, h) = r.size;
+        format!(
+            "{w}x{h} is over the size cap of {}: its windows' designs are made from its mip \
+             level {}, {}x{}",
+            self.cap,
+            r.k,
+            r.level.width(),
+            r.level.height()
+        )
     }
 
     /// `img` decoded, or its level within the cap, in the colour space `srgb` says.
@@ -1237,11 +1248,13 @@ impl CappedDesigns {
     fn find(&self, img: &ImageRef, srgb: bool) -> Option<(&Arc<image::DynamicImage>, (u32, u32))> {
         self.reduced
             .iter()
-            .find(|((r, s), _, _)| r == img && *s == srgb)
-            .map(|(_, level, size)| (level, *size))
+            .find(|r| r.image == *img && r.srgb == srgb)
+            .map(|r| (&r.level, r.size))
     }
 }
 
+/// The design of one window: an image fitted and masked, or cut to the outline where it
+/// would let light through stone, or rasterized from the panes; with its size in texels.
 fn make_design(
     p: &Pending,
     images: &crate::textures::DecodedImages,

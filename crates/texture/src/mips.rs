@@ -171,10 +171,13 @@ fn level1_from_bytes<'a>(
         box2_srgb8(&bytes, w as usize)
     } else {
         let row = w as usize * 4;
-        crate::resample::next_level_by_rows(
+        crate::resample::reduce_to_by_rows(
             w,
             h,
+            half(w),
+            half(h),
             opts.filter,
+            32,
             |rows| {
                 bytes[rows.start * row..rows.end * row]
                     .par_chunks_exact(4)

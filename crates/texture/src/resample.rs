@@ -328,24 +328,11 @@ fn vertical<T: Real>(
     out
 }
 
-/// [`next_level`] of a level given by rows: `rows(a..b)` gives source rows `a` to `b` (`w`
-/// texels each). Made a band of output rows at a time from the source rows the band's taps
-/// reach, so no more of the source is held at once (a 4097² design's whole level 0 in f32
-/// was 269 MB). The same bits as `next_level` (for the values filtering meets: see
-/// [`box2`]).
-pub(crate) fn next_level_by_rows<T: Real>(
-    w: u32,
-    h: u32,
-    filter: MipFilter,
-    rows: impl Fn(std::ops::Range<usize>) -> Vec<[T; 4]>,
-    pre: impl Fn([T; 4]) -> [T; 4] + Sync,
-    post: impl Fn([T; 4]) -> [T; 4] + Sync,
-) -> Vec<[T; 4]> {
-    reduce_to_by_rows(w, h, half(w), half(h), filter, 32, rows, pre, post)
-}
-
-/// [`reduce_to`] of a level given by rows, `band` output rows at a time, each through
-/// `post`: see [`next_level_by_rows`].
+/// [`reduce_to`] of a level given by rows, each output texel through `post`: `rows(a..b)`
+/// gives source rows `a` to `b` (`w` texels each). Made `band` output rows at a time from
+/// the source rows the band's taps reach, so no more of the source is held at once (a 4097²
+/// design's whole level 0 in f32 was 269 MB). With half sizes, the same bits as
+/// [`next_level`] (for the values filtering meets: see [`box2`]).
 #[allow(clippy::too_many_arguments)]
 pub(crate) fn reduce_to_by_rows<T: Real>(
     w: u32,

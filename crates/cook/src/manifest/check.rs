@@ -608,20 +608,23 @@ fn windows(
     for w in raw {
         let line = src.line(w.span().start);
         let w = w.get_ref();
-        let name = w.name.as_ref().map(|n| NameGlob::new(n.get_ref()));
-        let material = w.material.as_ref().map(|n| NameGlob::new(n.get_ref()));
-        if name.is_none() && material.is_none() {
+        if w.name.is_none() && w.material.is_none() {
             return Err(src.at_line(
                 line,
                 "a [[window]] needs `name` (a window name or glob) or `material` (a material \
                  name or glob)",
             ));
         }
-        for p in [&w.name, &w.material].into_iter().flatten() {
-            if let Err(e) = globset::Glob::new(p.get_ref()) {
-                return Err(src.err_at(p, format!("invalid glob: {e}")));
-            }
-        }
+        let glob = |p: &Option<Spanned<String>>| {
+            p.as_ref()
+                .map(|p| {
+                    NameGlob::checked(p.get_ref())
+                        .map_err(|e| src.err_at(p, format!("invalid glob: {e}")))
+                })
+                .transpose()
+        };
+        let name = glob(&w.name)?;
+        let material = glob(&w.material)?;
         if let Some(prev) = windows
             .iter()
             .find(|p| p.material == material && p.name == name)

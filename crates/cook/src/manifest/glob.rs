@@ -50,10 +50,6 @@ impl NameGlob {
         })
     }
 
-    pub fn as_str(&self) -> &str {
-        &self.text
-    }
-
     pub fn is_literal(&self) -> bool {
         self.glob.is_none()
     }

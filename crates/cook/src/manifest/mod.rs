@@ -419,7 +419,7 @@ impl WindowDesign {
             .find(|o| o.design.as_deref() == Some(path.as_path()))
         {
             Some(o) => CookError::WindowImage {
-                pattern: o.name.as_ref().map(|n| n.to_string()).unwrap_or_default(),
+                pattern: o.name.as_deref().unwrap_or_default().to_string(),
                 path,
                 source: Box::new(e),
             },
