@@ -538,7 +538,36 @@ pub fn import(path: &Path) -> Result<Imported, CookError> {
         .default_scene()
         .or_else(|| document.scenes().next())
     {
-        Some(scene) => scene.nodes().collect(),
+        Some(scene) => {
+            // glTF lists a scene's roots once each; a root listed twice was cooked twice,
+            // one copy over the other.
+            let mut listed = vec![0usize; document.nodes().len()];
+            let roots: Vec<gltf::Node> = scene
+                .nodes()
+                .filter(|n| {
+                    listed[n.index()] += 1;
+                    listed[n.index()] == 1
+                })
+                .collect();
+            if let Some((n, times)) = listed.iter().enumerate().find(|(_, t)| **t > 1) {
+                let more = listed.iter().filter(|t| **t > 1).count() - 1;
+                out.warnings.push(Warning::new(
+                    path,
+                    None,
+                    format!(
+                        "scene {} lists node {n} {times} times{}: each is cooked once (a \
+                         scene's nodes are unique in glTF)",
+                        scene.index(),
+                        if more > 0 {
+                            format!(" (and {more} more nodes more than once)")
+                        } else {
+                            String::new()
+                        }
+                    ),
+                ));
+            }
+            roots
+        }
         None => {
             let mut child = vec![false; document.nodes().len()];
             for n in document.nodes() {
@@ -699,6 +728,21 @@ pub fn import(path: &Path) -> Result<Imported, CookError> {
             ),
         ));
     }
+    // A loop the scene does not reach draws nothing either way, but says the file is not what
+    // its tool meant to write.
+    if !sceneless
+        && reached.contains(&false)
+        && let Some(n) = node_in_cycle(&document)
+    {
+        out.warnings.push(Warning::new(
+            path,
+            None,
+            format!(
+                "node hierarchy is cyclic at node {n}, which the scene does not reach: those \
+                 nodes are ignored"
+            ),
+        ));
+    }
     if !skipped_modes.is_empty() {
         out.warnings.push(Warning::new(
             path,
@@ -718,6 +762,47 @@ pub fn import(path: &Path) -> Result<Imported, CookError> {
         ));
     }
     Ok(out)
+}
+
+/// A node that is its own ancestor, if any: a depth-first walk of every node's children,
+/// iterative (a hierarchy can be deeper than the stack), each node entered once.
+fn node_in_cycle(document: &gltf::Document) -> Option<usize> {
+    const NEW: u8 = 0;
+    const OPEN: u8 = 1;
+    const DONE: u8 = 2;
+    let children: Vec<Vec<usize>> = document
+        .nodes()
+        .map(|n| n.children().map(|c| c.index()).collect())
+        .collect();
+    let mut state = vec![NEW; children.len()];
+    for start in 0..children.len() {
+        if state[start] != NEW {
+            continue;
+        }
+        // (node, index of the next child to enter)
+        let mut path: Vec<(usize, usize)> = vec![(start, 0)];
+        state[start] = OPEN;
+        while let Some(&mut (n, ref mut next)) = path.last_mut() {
+            match children[n].get(*next) {
+                Some(&c) => {
+                    *next += 1;
+                    match state[c] {
+                        OPEN => return Some(c),
+                        NEW => {
+                            state[c] = OPEN;
+                            path.push((c, 0));
+                        }
+                        _ => {}
+                    }
+                }
+                None => {
+                    state[n] = DONE;
+                    path.pop();
+                }
+            }
+        }
+    }
+    None
 }
 
 /// gltf's validation, less one rule the glTF specification does not make: an accessor with
@@ -2241,6 +2326,59 @@ mod tests {
         std::fs::write(&cyclic, sceneless).unwrap();
         let e = import(&cyclic).unwrap_err().to_string();
         assert!(e.contains("node 0 has no root above it"), "{e}");
+        // A loop the scene does not reach: the scene cooks, with a warning.
+        let aside = chain(3, true)
+            .replace(
+                r#""scenes": [{"nodes": [0]}]"#,
+                r#""scenes": [{"nodes": [3]}]"#,
+            )
+            .replace(
+                r#"{"mesh": 0, "children": [0]}"#,
+                r#"{"mesh": 0, "children": [0]}, {"mesh": 0}"#,
+            );
+        std::fs::write(&cyclic, aside).unwrap();
+        let m = import(&cyclic).unwrap();
+        assert_eq!(m.tri_part.len(), 1);
+        let w: Vec<String> = m.warnings.iter().map(|w| w.to_string()).collect();
+        assert!(
+            w.iter()
+                .any(|w| w.contains("cyclic at node 0, which the scene does not reach")),
+            "{w:?}"
+        );
+    }
+
+    /// A root the scene lists twice is cooked once, with a warning; a chain is not a cycle.
+    #[test]
+    fn a_root_listed_twice_is_cooked_once() {
+        let dir = tempfile::tempdir().unwrap();
+        let pos: [[f32; 3]; 3] = [[0., 0., 0.], [1., 0., 0.], [0., 1., 0.]];
+        let bin: Vec<u8> = pos.iter().flatten().flat_map(|f| f.to_le_bytes()).collect();
+        std::fs::write(dir.path().join("t.bin"), &bin).unwrap();
+        let file = |roots: &str| {
+            format!(
+                r#"{{"asset": {{"version": "2.0"}}, "scene": 0, "scenes": [{{"nodes": {roots}}}],
+                "nodes": [{{"mesh": 0, "children": [1]}}, {{"mesh": 0, "translation": [2, 0, 0]}}],
+                "meshes": [{{"primitives": [{{"attributes": {{"POSITION": 0}}}}]}}],
+                "accessors": [{{"bufferView": 0, "componentType": 5126, "count": 3,
+                    "type": "VEC3", "min": [0, 0, 0], "max": [1, 1, 0]}}],
+                "bufferViews": [{{"buffer": 0, "byteLength": 36}}],
+                "buffers": [{{"byteLength": 36, "uri": "t.bin"}}]}}"#
+            )
+        };
+        let path = dir.path().join("twice.gltf");
+        for (roots, triangles, warned) in [("[0]", 2, false), ("[0, 0, 0]", 2, true)] {
+            std::fs::write(&path, file(roots)).unwrap();
+            let m = import(&path).unwrap();
+            assert_eq!(m.tri_part.len(), triangles, "{roots}");
+            let w: Vec<String> = m.warnings.iter().map(|w| w.to_string()).collect();
+            assert_eq!(
+                w.iter()
+                    .any(|w| w.contains("scene 0 lists node 0 3 times: each is cooked once")),
+                warned,
+                "{roots}: {w:?}"
+            );
+            assert!(!w.iter().any(|w| w.contains("cyclic")), "{w:?}");
+        }
     }
 
     /// The least and greatest corner of the positions' box.
