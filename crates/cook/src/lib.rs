@@ -38,6 +38,6 @@ pub use pipeline::{
 };
 pub use report::{
     ArtifactSource, HeuristicNote, MeshReport, QuantizationError, Report, Stage, group_heuristics,
-    group_names, length, padded, peak_rss,
+    group_names, length, padded, peak_rss, shown,
 };
 pub use settings::{Settings, TextureSettings, UpAxis};

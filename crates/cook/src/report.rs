@@ -155,8 +155,28 @@ pub(crate) fn few_names(names: &[impl std::fmt::Debug]) -> String {
 /// two, so names in Chinese pushed the columns after them out of line (`cooker info`, then
 /// `cooker validate`'s material table, which padded by characters).
 pub fn padded(s: &str, width: usize) -> String {
-    let shown = unicode_width::UnicodeWidthStr::width(s);
-    format!("{s}{}", " ".repeat(width.saturating_sub(shown)))
+    let s = shown(s);
+    let w = unicode_width::UnicodeWidthStr::width(&*s);
+    format!("{s}{}", " ".repeat(width.saturating_sub(w)))
+}
+
+/// A name read from a file, safe to print unquoted: control characters as their escapes
+/// (`\u{1b}`), all else as it is. A pack's names are whatever the model's tool wrote, and
+/// `info` printed an escape sequence in a material's name to the terminal, which ran it.
+pub fn shown(s: &str) -> std::borrow::Cow<'_, str> {
+    if !s.chars().any(char::is_control) {
+        return s.into();
+    }
+    s.chars()
+        .map(|c| {
+            if c.is_control() {
+                c.escape_debug().to_string()
+            } else {
+                c.to_string()
+            }
+        })
+        .collect::<String>()
+        .into()
 }
 
 /// A length for messages: two decimals, or three significant digits where those say less. A
@@ -272,6 +292,15 @@ mod tests {
         assert_eq!(padded("红色玻璃", 10), "红色玻璃  ");
         assert_eq!(padded("Γυαλί", 6), "Γυαλί ");
         assert_eq!(padded("a long name", 4), "a long name");
+        // A control character pads by its escape, which is what is shown.
+        assert_eq!(padded("a\x1bb", 10), "a\\u{1b}b  ");
+    }
+
+    #[test]
+    fn shown_escapes_control_characters_only() {
+        assert_eq!(shown("back\\slash \"q\" 红"), "back\\slash \"q\" 红");
+        assert_eq!(shown("a\x1b[31mb\tc\u{9b}d"), "a\\u{1b}[31mb\\tc\\u{9b}d");
+        assert!(matches!(shown("plain"), std::borrow::Cow::Borrowed(_)));
     }
 
     #[test]

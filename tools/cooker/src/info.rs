@@ -343,7 +343,7 @@ pub fn run(args: Args) -> Outcome {
         toc.windows.len(),
         toc.cameras
             .iter()
-            .map(|c| c.name.as_str())
+            .map(|c| cook::shown(&c.name))
             .collect::<Vec<_>>()
             .join(", ")
     );
@@ -352,7 +352,7 @@ pub fn run(args: Args) -> Outcome {
         let len = |a: [f32; 3]| glam::Vec3::from(a).length();
         // Which design each window shows: windows that share one share its texture.
         let design = m.diffuse_texture.map_or(String::new(), |t| {
-            format!("  design: {}", toc.textures[t as usize].name)
+            format!("  design: {}", cook::shown(&toc.textures[t as usize].name))
         });
         println!(
             "  {} {:<12} {:>6} x {:<6} units  glass: {}{design}",
@@ -360,12 +360,14 @@ pub fn run(args: Args) -> Outcome {
             m.class.name(),
             cook::length(len(w.u_axis) as f64),
             cook::length(len(w.v_axis) as f64),
-            w.source_materials.join(", ")
+            cook::shown(&w.source_materials.join(", "))
         );
     }
     println!("light: {}", crate::diff::describe_light(toc.light.as_ref()));
     let [r, g, b] = toc.background.colour;
-    let panorama = panorama_name(toc).map_or(String::new(), |name| format!(", panorama {name}"));
+    let panorama = panorama_name(toc).map_or(String::new(), |name| {
+        format!(", panorama {}", cook::shown(name))
+    });
     println!("background: colour [{r:.3}, {g:.3}, {b:.3}] (linear){panorama}");
     Ok(OK)
 }

@@ -338,6 +338,31 @@ fn oddities_cook_with_warnings_and_exit_0() {
     let _ = std::fs::remove_dir_all(&dir);
 }
 
+/// A model's names are printed with their control characters escaped: `info` ran the escape
+/// sequences in a material's and an object's names on the terminal.
+#[test]
+fn info_prints_names_with_control_characters_escaped() {
+    let dir = scratch("escapes");
+    let obj = dir.join("e.obj");
+    std::fs::write(dir.join("e.mtl"), "newmtl red\x1b[31mglass\nKd 1 0 0\n").unwrap();
+    std::fs::write(
+        &obj,
+        "mtllib e.mtl\no title\x1b]0;owned\x07\nusemtl red\x1b[31mglass\n\
+         v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n",
+    )
+    .unwrap();
+    let out = dir.join("e.pack");
+    let o = cooker(&["cook", obj.to_str().unwrap(), "-o", out.to_str().unwrap()]);
+    assert_eq!(o.status.code(), Some(0), "{}", text(&o.stderr));
+    assert!(!text(&o.stderr).contains('\x1b'), "{}", text(&o.stderr));
+    let o = cooker(&["info", out.to_str().unwrap()]);
+    assert_eq!(o.status.code(), Some(0), "{}", text(&o.stderr));
+    let said = text(&o.stdout);
+    assert!(!said.contains('\x1b'), "{said:?}");
+    assert!(said.contains("red\\u{1b}[31mglass"), "{said}");
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
 #[test]
 fn missing_input_is_an_io_error() {
     let o = cooker(&[

@@ -623,7 +623,7 @@ fn print_window_shadows(scene: &Scene) {
         } else {
             ""
         };
-        println!("  window {i} ({name}): {}{wall}", d.describe());
+        println!("  window {i} ({}): {}{wall}", cook::shown(name), d.describe());
     }
 }
 
