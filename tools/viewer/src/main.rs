@@ -623,7 +623,11 @@ fn print_window_shadows(scene: &Scene) {
         } else {
             ""
         };
-        println!("  window {i} ({}): {}{wall}", cook::shown(name), d.describe());
+        println!(
+            "  window {i} ({}): {}{wall}",
+            cook::shown(name),
+            d.describe()
+        );
     }
 }
 
