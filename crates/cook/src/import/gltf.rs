@@ -62,13 +62,62 @@ fn check_glb_header(path: &Path, bytes: &[u8]) -> Result<(), CookError> {
     Ok(())
 }
 
+/// Refuses a file of another major version than 2, or one that needs a later 2.x reader
+/// (`minVersion`): read as 2.0, a glTF 1.0 file said only that it held no faces.
+fn check_version(path: &Path, asset: &gltf::json::Asset) -> Result<(), CookError> {
+    let parse = |v: &str| -> Option<(u32, u32)> {
+        let (major, minor) = v.trim().split_once('.')?;
+        Some((major.parse().ok()?, minor.parse().ok()?))
+    };
+    let Some((major, _)) = parse(&asset.version) else {
+        return Err(bad(
+            path,
+            format!(
+                "asset.version {:?} is no glTF version (\"2.0\" for glTF 2.0)",
+                asset.version
+            ),
+        ));
+    };
+    if major != 2 {
+        return Err(bad(
+            path,
+            format!(
+                "asset.version is {:?}: only glTF 2.0 files are read{}",
+                asset.version,
+                if major == 1 {
+                    " (convert it to 2.0 with a tool such as Blender or gltf-pipeline)"
+                } else {
+                    ""
+                }
+            ),
+        ));
+    }
+    if let Some(min) = &asset.min_version {
+        match parse(min) {
+            Some(v) if v <= (2, 0) => {}
+            _ => {
+                return Err(bad(
+                    path,
+                    format!(
+                        "asset.minVersion is {min:?}: the file needs a reader of that glTF \
+                         version or later, and this one reads 2.0"
+                    ),
+                ));
+            }
+        }
+    }
+    Ok(())
+}
+
 /// The document, and a GLB's binary chunk in the file's own buffer: gltf's parser copies the
 /// chunk out of the file, and both were held through the import (a 20 MB GLB's import peaked
 /// at 100 MB of heap).
 fn parse(mut bytes: Vec<u8>) -> Result<Parsed, gltf::Error> {
     if !bytes.starts_with(b"glTF") {
-        let json = gltf::json::deserialize::from_slice(&bytes)?;
-        let exact = exact_locals(&bytes, &json);
+        // The specification lets a reader skip a byte-order mark, which some editors write.
+        let text = bytes.strip_prefix("\u{feff}".as_bytes()).unwrap_or(&bytes);
+        let json = gltf::json::deserialize::from_slice(text)?;
+        let exact = exact_locals(text, &json);
         return Ok((
             gltf::Document::from_json_without_validation(json),
             None,
@@ -76,8 +125,16 @@ fn parse(mut bytes: Vec<u8>) -> Result<Parsed, gltf::Error> {
         ));
     }
     let glb = gltf::binary::Glb::from_slice(&bytes)?;
-    let json = gltf::json::deserialize::from_slice(&glb.json)?;
-    let exact = exact_locals(&glb.json, &json);
+    // The JSON chunk is padded with spaces; some writers pad it with zero bytes, which JSON
+    // does not allow after the value.
+    let end = glb
+        .json
+        .iter()
+        .rposition(|&b| b != 0 && !b.is_ascii_whitespace())
+        .map_or(0, |i| i + 1);
+    let text = &glb.json[..end];
+    let json = gltf::json::deserialize::from_slice(text)?;
+    let exact = exact_locals(text, &json);
     // Where the chunk lies in the file: `Glb::from_slice` borrows it from there.
     let within = |b: &[u8]| {
         let start = (b.as_ptr() as usize).checked_sub(bytes.as_ptr() as usize)?;
@@ -480,6 +537,7 @@ pub fn import(path: &Path) -> Result<Imported, CookError> {
     // gltf-json's validation indexes the POSITION accessor before checking it exists (an
     // out-of-bounds panic found by fuzzing): check every attribute index first.
     let mut json = document.into_json();
+    check_version(path, &json.asset)?;
     let warnings = required_extensions(path, std::mem::take(&mut json.extensions_required))?;
     for (mi, mesh) in json.meshes.iter().enumerate() {
         for (pi, prim) in mesh.primitives.iter().enumerate() {
@@ -842,6 +900,7 @@ const READ_EXTENSIONS: &[&str] = &[
     "KHR_texture_transform",
     "KHR_materials_transmission",
     "KHR_materials_volume",
+    "KHR_materials_emissive_strength",
     "EXT_meshopt_compression",
     "KHR_meshopt_compression",
     "KHR_draco_mesh_compression",
@@ -1782,20 +1841,23 @@ fn external_file(
     uri: &str,
     noted: &mut Vec<super::Absent>,
 ) -> Option<std::path::PathBuf> {
-    // A name with `%` in it, written as is (not percent-encoded as URIs should be).
-    if file_uri_path(uri).is_none() {
+    // The percent-decoded name, as a URI means it, then as Windows exporters mean it; an
+    // absolute `file:///C:/...` from the exporting machine has its end looked for beside the
+    // glTF.
+    if let Some(found) = super::locate_noted(base, &uri_name(uri), noted) {
+        return Some(found);
+    }
+    // A name with `%` in it written as is, not percent-encoded as URIs should be: only where
+    // the decoded name is not there, since a file of the encoded name (a pack cooked to
+    // `-o my%20tex.png`, say) must not hide the one the URI means.
+    if file_uri_path(uri).is_none() && uri.contains('%') {
         let as_written = base.join(uri);
         if as_written.is_file() {
             return Some(as_written);
         }
-        // Without a `%`, the decoded name below is the same name.
-        if uri.contains('%') {
-            noted.push(super::Absent::new(base, uri));
-        }
+        noted.push(super::Absent::new(base, uri));
     }
-    // The percent-decoded name as written, then as Windows exporters mean it; an absolute
-    // `file:///C:/...` from the exporting machine has its end looked for beside the glTF.
-    super::locate_noted(base, &uri_name(uri), noted)
+    None
 }
 
 fn percent_decode(s: &str) -> String {
@@ -2085,7 +2147,10 @@ fn convert_material(
         diffuse,
         specular,
         shininess,
-        emissive: m.emissive_factor(),
+        // Blender writes a strength above 1 as this extension, the factor kept within 0..1.
+        emissive: m
+            .emissive_factor()
+            .map(|c| c * m.emissive_strength().unwrap_or(1.0)),
         diffuse_texture: match colour_texture(m) {
             Some(t) => texture_ref(ctx, &t.texture(), warnings, absent)?,
             None => None,
@@ -2101,6 +2166,17 @@ fn convert_material(
             .unwrap_or(1.0),
         transmission: gltf_transmission(m),
     };
+    if m.emissive_strength().is_some_and(|s| !(s >= 0.0)) {
+        return Err(bad(
+            ctx.path,
+            format!(
+                "material {:?}: KHR_materials_emissive_strength's emissiveStrength is {}, \
+                 not zero or more",
+                sm.name,
+                m.emissive_strength().unwrap_or_default()
+            ),
+        ));
+    }
     if !sm
         .diffuse
         .iter()
@@ -3029,6 +3105,99 @@ mod tests {
         );
     }
 
+    /// A byte-order mark before a .gltf's JSON and zero bytes padding a GLB's JSON chunk (both
+    /// written in the wild) are read past; a version other than 2.x, or one that needs a
+    /// later reader, is refused by name (a glTF 1.0 file said only that it had no faces).
+    #[test]
+    fn marks_padding_and_versions() {
+        let dir = tempfile::tempdir().unwrap();
+        let tri = triangle_bytes();
+        let view = r#"{"buffer": 0, "byteLength": 36}"#;
+        let path = write_gltf(dir.path(), &tri, view, "");
+        let json = std::fs::read(&path).unwrap();
+        let bom = dir.path().join("bom.gltf");
+        std::fs::write(&bom, [&[0xef, 0xbb, 0xbf][..], &json].concat()).unwrap();
+        assert_eq!(import(&bom).unwrap().tri_part.len(), 1);
+        // The GLB of the same JSON, its buffer 0 as the binary chunk, the JSON padded by NULs.
+        let text = String::from_utf8(json.clone()).unwrap().replace(
+            r#"{"byteLength": 36, "uri": "b.bin"}"#,
+            r#"{"byteLength": 36}"#,
+        );
+        let mut chunk = text.into_bytes();
+        chunk.resize(chunk.len().next_multiple_of(4) + 4, 0);
+        let total = 12 + 8 + chunk.len() + 8 + tri.len();
+        let mut glb = b"glTF".to_vec();
+        for v in [2, total as u32, chunk.len() as u32] {
+            glb.extend(v.to_le_bytes());
+        }
+        glb.extend(b"JSON");
+        glb.extend(&chunk);
+        glb.extend((tri.len() as u32).to_le_bytes());
+        glb.extend(b"BIN\0");
+        glb.extend(&tri);
+        let padded = dir.path().join("nul.glb");
+        std::fs::write(&padded, glb).unwrap();
+        assert_eq!(import(&padded).unwrap().tri_part.len(), 1);
+        for (asset, said) in [
+            (
+                r#""version": "1.0""#,
+                "only glTF 2.0 files are read (convert",
+            ),
+            (r#""version": "3.0""#, r#"asset.version is "3.0""#),
+            (r#""version": "two""#, "is no glTF version"),
+            (
+                r#""version": "2.0", "minVersion": "2.1""#,
+                "needs a reader of that",
+            ),
+        ] {
+            let text = String::from_utf8(json.clone())
+                .unwrap()
+                .replace(r#""version": "2.0""#, asset);
+            std::fs::write(&path, text).unwrap();
+            let e = import(&path).unwrap_err().to_string();
+            assert!(e.contains("m.gltf") && e.contains(said), "{asset}: {e}");
+        }
+    }
+
+    /// `KHR_materials_emissive_strength` scales the emissive factor (Blender writes a strength
+    /// over 1 so); a negative one is refused.
+    #[test]
+    fn emissive_strength_scales_the_emissive_factor() {
+        let dir = tempfile::tempdir().unwrap();
+        let tri = triangle_bytes();
+        let view = r#"{"buffer": 0, "byteLength": 36}"#;
+        let path = write_gltf(dir.path(), &tri, view, "");
+        let json = String::from_utf8(std::fs::read(&path).unwrap()).unwrap();
+        let with = |material: &str| {
+            let text = json
+                .replace(
+                    r#""attributes": {"POSITION": 0}"#,
+                    r#""attributes": {"POSITION": 0}, "material": 0"#,
+                )
+                .replace(
+                    r#""scene": 0,"#,
+                    &format!(r#""materials": [{material}], "scene": 0,"#),
+                );
+            std::fs::write(&path, text).unwrap();
+            import(&path)
+        };
+        let plain = with(r#"{"emissiveFactor": [1, 0.5, 0]}"#).unwrap();
+        assert_eq!(plain.materials[0].emissive, [1.0, 0.5, 0.0]);
+        let strong = with(
+            r#"{"emissiveFactor": [1, 0.5, 0],
+                "extensions": {"KHR_materials_emissive_strength": {"emissiveStrength": 5}}}"#,
+        )
+        .unwrap();
+        assert_eq!(strong.materials[0].emissive, [5.0, 2.5, 0.0]);
+        let e = with(
+            r#"{"emissiveFactor": [1, 0.5, 0],
+                "extensions": {"KHR_materials_emissive_strength": {"emissiveStrength": -2}}}"#,
+        )
+        .unwrap_err()
+        .to_string();
+        assert!(e.contains("emissiveStrength is -2"), "{e}");
+    }
+
     /// Compressed views that lie or do not decode are errors naming the view, never a panic
     /// or a read past the data.
     #[test]
@@ -3171,7 +3340,7 @@ mod tests {
         )
     }
 
-    /// Images are found as buffers are: as written, percent-decoded, or by a `file:` uri.
+    /// Images are found as buffers are: percent-decoded, as written, or by a `file:` uri.
     #[test]
     fn image_uris_resolve_like_buffer_uris() {
         let dir = tempfile::tempdir().unwrap();
@@ -3202,6 +3371,21 @@ mod tests {
         assert_eq!(
             import(&path).unwrap().materials[0].diffuse_texture,
             Some(ImageRef::File(dir.path().join("Beside.webp")))
+        );
+        // A file of the encoded name beside the decoded one does not hide it; alone, it is
+        // read (a name with `%` written as is).
+        let encoded = dir.path().join("my%20textures");
+        std::fs::create_dir(&encoded).unwrap();
+        std::fs::write(encoded.join("design.webp"), b"not the design").unwrap();
+        let path = webp_triangle(dir.path(), "my%20textures/design.webp");
+        assert_eq!(
+            import(&path).unwrap().materials[0].diffuse_texture,
+            Some(ImageRef::File(file.clone()))
+        );
+        std::fs::rename(&file, dir.path().join("moved.webp")).unwrap();
+        assert_eq!(
+            import(&path).unwrap().materials[0].diffuse_texture,
+            Some(ImageRef::File(encoded.join("design.webp")))
         );
     }
 
