@@ -2166,7 +2166,7 @@ fn convert_material(
             .unwrap_or(1.0),
         transmission: gltf_transmission(m),
     };
-    if m.emissive_strength().is_some_and(|s| !(s >= 0.0)) {
+    if m.emissive_strength().is_some_and(|s| s.is_nan() || s < 0.0) {
         return Err(bad(
             ctx.path,
             format!(
