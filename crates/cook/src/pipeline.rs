@@ -559,7 +559,7 @@ pub fn no_faces(manifest: &Manifest, prepared: &Prepared) -> Option<CookError> {
     let skipped: Vec<&Warning> = first
         .into_iter()
         .flat_map(|s| &s.warnings)
-        .filter(|w| w.line.is_some())
+        .filter(|w| w.line.is_some() || w.skipped_geometry)
         .collect();
     let mut e = nothing_to_cook(manifest, |n| match (n, skipped.as_slice()) {
         (1, []) => "no faces (the model holds no geometry, or only vertices)".into(),
@@ -567,7 +567,10 @@ pub fn no_faces(manifest: &Manifest, prepared: &Prepared) -> Option<CookError> {
         (1, said) => format!(
             "no faces ({})",
             said.iter()
-                .map(|w| format!("line {}: {}", w.line.unwrap_or(0), w.message))
+                .map(|w| match w.line {
+                    Some(l) => format!("line {l}: {}", w.message),
+                    None => w.message.clone(),
+                })
                 .collect::<Vec<_>>()
                 .join("; ")
         ),

@@ -285,6 +285,23 @@ fn hostile_meshes() {
         "points.obj:4",
         "no faces (1 line and 1 point elements ignored: only faces are cooked): nothing to cook",
     );
+    // A glTF of lines only says so too (it said the model held "no geometry, or only
+    // vertices").
+    let lines = write(
+        "lines.gltf",
+        br#"{"asset": {"version": "2.0"}, "scene": 0, "scenes": [{"nodes": [0]}],
+        "nodes": [{"mesh": 0}], "meshes": [{"primitives": [{"attributes": {"POSITION": 0},
+        "mode": 1}]}], "accessors": [{"bufferView": 0, "componentType": 5126, "count": 2,
+        "type": "VEC3", "min": [0, 0, 0], "max": [1, 0, 0]}],
+        "bufferViews": [{"buffer": 0, "byteLength": 24}], "buffers": [{"byteLength": 24,
+        "uri": "data:application/octet-stream;base64,AAAAAAAAAAAAAAAAAACAPwAAAAAAAAAA"}]}"#,
+    );
+    expect(
+        &lines,
+        3,
+        "lines.gltf",
+        "no faces (primitives of mode Lines ignored: only triangles are cooked): nothing to cook",
+    );
     // Faces of fewer than three corners: said at the first, not as points or lines.
     let short = write(
         "short.obj",

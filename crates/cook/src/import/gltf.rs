@@ -538,7 +538,7 @@ pub fn import(path: &Path) -> Result<Imported, CookError> {
     // out-of-bounds panic found by fuzzing): check every attribute index first.
     let mut json = document.into_json();
     check_version(path, &json.asset)?;
-    let warnings = required_extensions(path, std::mem::take(&mut json.extensions_required))?;
+    let mut warnings = required_extensions(path, std::mem::take(&mut json.extensions_required))?;
     for (mi, mesh) in json.meshes.iter().enumerate() {
         for (pi, prim) in mesh.primitives.iter().enumerate() {
             let indices = prim.attributes.values().chain(prim.indices.as_ref());
@@ -573,7 +573,19 @@ pub fn import(path: &Path) -> Result<Imported, CookError> {
     // Read here rather than through gltf's `Camera::projection`, which unwraps the projection
     // the type names and validation does not require.
     let camera_json = json.cameras.clone();
-    let document = validate(json).map_err(convert)?;
+    let mut unbounded = 0;
+    let document = validate(json, &mut unbounded).map_err(convert)?;
+    if unbounded > 0 {
+        warnings.push(Warning::new(
+            path,
+            None,
+            format!(
+                "{} primitive(s) whose POSITION accessor lacks the min and max glTF requires: \
+                 read without them",
+                unbounded.div_ceil(2)
+            ),
+        ));
+    }
     let base = path.parent().unwrap_or(Path::new(""));
     let mut absent = Vec::new();
     let (buffers, decoded, files) = load_buffers(path, &document, base, blob, &mut absent)?;
@@ -802,7 +814,7 @@ pub fn import(path: &Path) -> Result<Imported, CookError> {
         ));
     }
     if !skipped_modes.is_empty() {
-        out.warnings.push(Warning::new(
+        out.warnings.push(Warning::skipped_geometry(
             path,
             None,
             format!(
@@ -867,7 +879,11 @@ fn node_in_cycle(document: &gltf::Document) -> Option<usize> {
 /// neither a buffer view nor sparse data is allowed ("extensions may override the zeros"), and
 /// every Draco-compressed primitive's accessors are such. Those of Draco primitives pass; any
 /// other still fails, as before, when it is read.
-fn validate(json: gltf::json::Root) -> Result<gltf::Document, gltf::Error> {
+///
+/// Less one it makes, too: a POSITION accessor without `min` and `max`, which exporters leave
+/// out and the import never reads (it finds the bounds itself), passes; how many are counted
+/// in `unbounded`, for a warning.
+fn validate(json: gltf::json::Root, unbounded: &mut usize) -> Result<gltf::Document, gltf::Error> {
     use gltf::json::validation::{Error, Validate};
     let mut draco = std::collections::HashSet::new();
     for prim in json.meshes.iter().flat_map(|m| &m.primitives) {
@@ -883,7 +899,11 @@ fn validate(json: gltf::json::Root) -> Result<gltf::Document, gltf::Error> {
     let mut errors = Vec::new();
     json.validate(&json, gltf::json::Path::new, &mut |path, error| {
         let path = path();
-        if !(matches!(error, Error::Missing) && draco.contains(path.as_str())) {
+        let bound = path.as_str().ends_with(r#"["POSITION"].min"#)
+            || path.as_str().ends_with(r#"["POSITION"].max"#);
+        if matches!(error, Error::Missing) && bound {
+            *unbounded += 1;
+        } else if !(matches!(error, Error::Missing) && draco.contains(path.as_str())) {
             errors.push((path, error));
         }
     });
@@ -1508,13 +1528,19 @@ fn add_primitive(
             if n.len() != vcount {
                 return Err(bad(
                     path,
-                    format!("NORMAL has {} elements but POSITION has {vcount}", n.len()),
+                    format!(
+                        "{label}: NORMAL has {} elements but POSITION has {vcount}",
+                        n.len()
+                    ),
                 ));
             }
             if n.iter().any(|v| !v.iter().all(|c| c.is_finite())) {
                 return Err(bad(
                     path,
-                    format!("NORMAL accessor {} has non-finite values", a.index()),
+                    format!(
+                        "{label}: NORMAL accessor {} has non-finite values",
+                        a.index()
+                    ),
                 ));
             }
             Some(n)
@@ -1537,7 +1563,10 @@ fn add_primitive(
             if t.iter().any(|v| !v.iter().all(|c| c.is_finite())) {
                 return Err(bad(
                     path,
-                    format!("TEXCOORD accessor {} has non-finite values", a.index()),
+                    format!(
+                        "{label}: TEXCOORD accessor {} has non-finite values",
+                        a.index()
+                    ),
                 ));
             }
             let mut t = t;
@@ -1575,13 +1604,19 @@ fn add_primitive(
             if c.len() != vcount {
                 return Err(bad(
                     path,
-                    format!("COLOR_0 has {} elements but POSITION has {vcount}", c.len()),
+                    format!(
+                        "{label}: COLOR_0 has {} elements but POSITION has {vcount}",
+                        c.len()
+                    ),
                 ));
             }
             if let Some(v) = c.iter().find(|v| !v.iter().all(|x| x.is_finite())) {
                 return Err(bad(
                     path,
-                    format!("COLOR_0 accessor {} holds {v:?}: not finite", a.index()),
+                    format!(
+                        "{label}: COLOR_0 accessor {} holds {v:?}: not finite",
+                        a.index()
+                    ),
                 ));
             }
             Some(c)
@@ -1611,7 +1646,7 @@ fn add_primitive(
     {
         return Err(bad(
             path,
-            format!("index {k} is {i}, out of range for a primitive of {vcount} vertices"),
+            format!("{label}: index {k} is {i}, out of range for a primitive of {vcount} vertices"),
         ));
     }
     // Each triangle's corners, three indices a triangle: a list's own indices, strips and
@@ -1640,8 +1675,13 @@ fn add_primitive(
                     path,
                     None,
                     format!(
-                        "{} indices is not a multiple of 3; the last {} ignored",
+                        "{label}: {} {} is not a multiple of 3; the last {} ignored",
                         indices.len(),
+                        if prim.indices().is_some() {
+                            "indices"
+                        } else {
+                            "vertices (no indices)"
+                        },
                         indices.len() % 3
                     ),
                 ));
@@ -3157,6 +3197,30 @@ mod tests {
             let e = import(&path).unwrap_err().to_string();
             assert!(e.contains("m.gltf") && e.contains(said), "{asset}: {e}");
         }
+    }
+
+    /// A POSITION accessor without `min` and `max` (exporters leave them out) is read, with a
+    /// warning; it was refused, two errors per primitive.
+    #[test]
+    fn positions_without_bounds_are_read() {
+        let dir = tempfile::tempdir().unwrap();
+        let tri = triangle_bytes();
+        let view = r#"{"buffer": 0, "byteLength": 36}"#;
+        let path = write_gltf(dir.path(), &tri, view, "");
+        let text = String::from_utf8(std::fs::read(&path).unwrap())
+            .unwrap()
+            .replace(r#", "min": [0, 0, 0], "max": [1, 1, 0]"#, "");
+        assert!(!text.contains("min"));
+        std::fs::write(&path, text).unwrap();
+        let m = import(&path).unwrap();
+        assert_eq!(m.tri_part.len(), 1);
+        assert!(
+            m.warnings.iter().any(|w| w
+                .message
+                .contains("1 primitive(s) whose POSITION accessor lacks the min and max")),
+            "{:?}",
+            m.warnings
+        );
     }
 
     /// `KHR_materials_emissive_strength` scales the emissive factor (Blender writes a strength

@@ -476,6 +476,9 @@ pub struct Warning {
     pub path: PathBuf,
     pub line: Option<usize>,
     pub message: String,
+    /// Says geometry other than faces was left out (lines, points): what a model with no
+    /// faces is told it holds instead.
+    pub skipped_geometry: bool,
 }
 
 impl Warning {
@@ -484,6 +487,15 @@ impl Warning {
             path: path.to_path_buf(),
             line,
             message: message.into(),
+            skipped_geometry: false,
+        }
+    }
+
+    /// A warning that geometry other than faces was left out.
+    pub fn skipped_geometry(path: &Path, line: Option<usize>, message: impl Into<String>) -> Self {
+        Self {
+            skipped_geometry: true,
+            ..Self::new(path, line, message)
         }
     }
 }

@@ -951,7 +951,7 @@ impl Statements {
         }
         let skipped = self.skipped_lines;
         if skipped.0 + skipped.1 > 0 {
-            out.warnings.push(Warning::new(
+            out.warnings.push(Warning::skipped_geometry(
                 path,
                 Some(skipped.2),
                 format!(
