@@ -779,7 +779,14 @@ pub fn import(path: &Path) -> Result<Imported, CookError> {
                         })
                     })
                     .collect();
-                add_primitive(&ctx, &mesh, &prim, &worlds, &parts, &mut out, &mut budget)?;
+                // The rest pose: the node's morph weights, else the mesh's (zero without).
+                let weights = node.weights().or(mesh.weights()).unwrap_or(&[]);
+                let placed = Placed {
+                    worlds: &worlds,
+                    parts: &parts,
+                    weights,
+                };
+                add_primitive(&ctx, &mesh, &prim, placed, &mut out, &mut budget)?;
             }
         }
         for c in node.children().collect::<Vec<_>>().into_iter().rev() {
@@ -1468,18 +1475,82 @@ fn instances(
         .collect()
 }
 
+/// Poses a primitive as its morph `weights` say: each target's position (and normal)
+/// displacements, times its weight, added to the base. glTF shows a mesh with weights so at
+/// rest; a file that set them (a pillar raised by its target) was cooked unmorphed, silently.
+/// Normals are made unit length again where the mesh stage reads them.
+fn morph(
+    ctx: &Ctx,
+    label: &str,
+    prim: &gltf::Primitive,
+    weights: &[f32],
+    positions: &mut [[f32; 3]],
+    mut normals: Option<&mut (Vec<[f32; 3]>, usize)>,
+) -> Result<(), CookError> {
+    for (k, target) in prim.morph_targets().enumerate() {
+        let w = weights.get(k).copied().unwrap_or(0.0);
+        if !w.is_finite() {
+            return Err(bad(
+                ctx.path,
+                format!("{label}: morph target {k}'s weight is {w}"),
+            ));
+        }
+        if w == 0.0 {
+            continue;
+        }
+        let add = |acc: gltf::Accessor, what: &str, base: &mut [[f32; 3]]| {
+            let what = format!("morph target {k} {what}");
+            let d = ctx.attribute::<3>(None, label, &acc, &what)?;
+            if d.len() != base.len() {
+                return Err(bad(
+                    ctx.path,
+                    format!(
+                        "{label}: {what} has {} elements but POSITION has {}",
+                        d.len(),
+                        base.len()
+                    ),
+                ));
+            }
+            for (b, d) in base.iter_mut().zip(d) {
+                for c in 0..3 {
+                    b[c] += w * d[c];
+                }
+            }
+            Ok(())
+        };
+        if let Some(a) = target.positions() {
+            add(a, "POSITION", positions)?;
+        }
+        if let (Some(a), Some((n, _))) = (target.normals(), normals.as_deref_mut()) {
+            add(a, "NORMAL", n)?;
+        }
+    }
+    Ok(())
+}
+
 /// Instances of one node that get a part each; more share one.
 const MAX_INSTANCE_PARTS: usize = 4096;
+
+/// Where a primitive goes: its node's instances, each one's part, and the morph weights.
+struct Placed<'a> {
+    worlds: &'a [World],
+    parts: &'a [u32],
+    weights: &'a [f32],
+}
 
 fn add_primitive(
     ctx: &Ctx,
     mesh: &gltf::Mesh,
     prim: &gltf::Primitive,
-    worlds: &[World],
-    parts: &[u32],
+    placed: Placed,
     out: &mut Imported,
     budget: &mut usize,
 ) -> Result<(), CookError> {
+    let Placed {
+        worlds,
+        parts,
+        weights,
+    } = placed;
     let path = ctx.path;
     let pos_acc = prim
         .get(&gltf::Semantic::Positions)
@@ -1507,7 +1578,15 @@ fn add_primitive(
     // An attribute the Draco stream holds comes from it (the accessor has no data of its own,
     // or a copy the extension says to ignore); any other from its accessor.
     let label = format!("mesh {} primitive {}", mesh.index(), prim.index());
-    let positions = ctx.attribute::<3>(draco.as_deref(), &label, &pos_acc, "POSITION")?;
+    let mut positions = ctx.attribute::<3>(draco.as_deref(), &label, &pos_acc, "POSITION")?;
+    let mut normals = match prim.get(&gltf::Semantic::Normals) {
+        Some(a) => Some((
+            ctx.attribute::<3>(draco.as_deref(), &label, &a, "NORMAL")?,
+            a.index(),
+        )),
+        None => None,
+    };
+    morph(ctx, &label, prim, weights, &mut positions, normals.as_mut())?;
     if let Some(i) = positions
         .iter()
         .position(|p| !p.iter().all(|c| c.is_finite()))
@@ -1522,9 +1601,8 @@ fn add_primitive(
         ));
     }
     let vcount = positions.len();
-    let normals = match prim.get(&gltf::Semantic::Normals) {
-        Some(a) => {
-            let n = ctx.attribute::<3>(draco.as_deref(), &label, &a, "NORMAL")?;
+    let normals = match normals {
+        Some((n, index)) => {
             if n.len() != vcount {
                 return Err(bad(
                     path,
@@ -1537,10 +1615,7 @@ fn add_primitive(
             if n.iter().any(|v| !v.iter().all(|c| c.is_finite())) {
                 return Err(bad(
                     path,
-                    format!(
-                        "{label}: NORMAL accessor {} has non-finite values",
-                        a.index()
-                    ),
+                    format!("{label}: NORMAL accessor {index} has non-finite values"),
                 ));
             }
             Some(n)
@@ -3197,6 +3272,59 @@ mod tests {
             let e = import(&path).unwrap_err().to_string();
             assert!(e.contains("m.gltf") && e.contains(said), "{asset}: {e}");
         }
+    }
+
+    /// A mesh is posed by its morph weights, a node's overriding its mesh's, as glTF shows it
+    /// at rest; it was cooked unmorphed.
+    #[test]
+    fn morph_weights_pose_the_mesh() {
+        let dir = tempfile::tempdir().unwrap();
+        let mut bin = triangle_bytes();
+        // Target 0 raises the third corner by 2 along z; target 1 moves all along x by 7.
+        for d in [[0f32, 0., 0.], [0., 0., 0.], [0., 0., 2.]] {
+            bin.extend(d.iter().flat_map(|f| f.to_le_bytes()));
+        }
+        for _ in 0..3 {
+            bin.extend([7f32, 0., 0.].iter().flat_map(|f| f.to_le_bytes()));
+        }
+        std::fs::write(dir.path().join("b.bin"), &bin).unwrap();
+        let file = |mesh_weights: &str, node_weights: &str| {
+            format!(
+                r#"{{"asset": {{"version": "2.0"}}, "scene": 0, "scenes": [{{"nodes": [0]}}],
+                "nodes": [{{"mesh": 0 {node_weights}}}],
+                "meshes": [{{"primitives": [{{"attributes": {{"POSITION": 0}},
+                    "targets": [{{"POSITION": 1}}, {{"POSITION": 2}}]}}] {mesh_weights}}}],
+                "accessors": [
+                    {{"bufferView": 0, "componentType": 5126, "count": 3, "type": "VEC3",
+                      "min": [0, 0, 0], "max": [1, 1, 0]}},
+                    {{"bufferView": 0, "byteOffset": 36, "componentType": 5126, "count": 3,
+                      "type": "VEC3", "min": [0, 0, 0], "max": [0, 0, 2]}},
+                    {{"bufferView": 0, "byteOffset": 72, "componentType": 5126, "count": 3,
+                      "type": "VEC3", "min": [7, 0, 0], "max": [7, 0, 0]}}],
+                "bufferViews": [{{"buffer": 0, "byteLength": 108}}],
+                "buffers": [{{"byteLength": 108, "uri": "b.bin"}}]}}"#
+            )
+        };
+        let path = dir.path().join("morph.gltf");
+        for (mesh_w, node_w, top_z, shift_x) in [
+            ("", "", 0.0, 0.0),
+            (r#", "weights": [0.5, 0]"#, "", 1.0, 0.0),
+            (
+                r#", "weights": [0.5, 0]"#,
+                r#", "weights": [1, 0.25]"#,
+                2.0,
+                1.75,
+            ),
+        ] {
+            std::fs::write(&path, file(mesh_w, node_w)).unwrap();
+            let m = import(&path).unwrap();
+            let (lo, hi) = bounds(&m);
+            assert_eq!(hi.z, top_z, "{mesh_w} {node_w}");
+            assert_eq!(lo.x, shift_x, "{mesh_w} {node_w}");
+        }
+        std::fs::write(&path, file(r#", "weights": [1e39, 0]"#, "")).unwrap();
+        let e = import(&path).unwrap_err().to_string();
+        assert!(e.contains("morph target 0's weight is inf"), "{e}");
     }
 
     /// A POSITION accessor without `min` and `max` (exporters leave them out) is read, with a
