@@ -663,6 +663,8 @@ pub fn import(path: &Path) -> Result<Imported, CookError> {
     // that share children many times over without a cycle.
     let node_count = document.nodes().len();
     let mut reached = vec![false; node_count];
+    // Each node's parent, made at the first skin.
+    let mut parents: Option<Vec<Option<usize>>> = None;
     while let Some((node, parent, depth)) = stack.pop() {
         visits += 1;
         if depth >= node_count {
@@ -705,7 +707,19 @@ pub fn import(path: &Path) -> Result<Imported, CookError> {
                 decoded: &decoded,
                 draco: &draco,
             };
-            let worlds = instances(&ctx, &document, &node, world)?;
+            // A skinned mesh is placed by its joints, not by its node (glTF ignores the
+            // node's transform): posed as the joints stand, as viewers show it at rest.
+            let joints = match node.skin() {
+                Some(skin) => {
+                    let parents = parents.get_or_insert_with(|| parent_of(&document));
+                    Some(joint_matrices(&ctx, &skin, &exact, parents)?)
+                }
+                None => None,
+            };
+            let worlds = match joints {
+                Some(_) => vec![World::IDENTITY],
+                None => instances(&ctx, &document, &node, world)?,
+            };
             for prim in mesh.primitives() {
                 let mode = prim.mode();
                 if !matches!(
@@ -785,6 +799,7 @@ pub fn import(path: &Path) -> Result<Imported, CookError> {
                     worlds: &worlds,
                     parts: &parts,
                     weights,
+                    joints: joints.as_deref(),
                 };
                 add_primitive(&ctx, &mesh, &prim, placed, &mut out, &mut budget)?;
             }
@@ -1528,6 +1543,162 @@ fn morph(
     Ok(())
 }
 
+/// Each joint's matrix for a skin at rest: the joint node's world transform times its inverse
+/// bind matrix (identity where the skin gives none). Joint worlds are chained up the node
+/// tree from the joint, in f64 as the walk chains them.
+fn joint_matrices(
+    ctx: &Ctx,
+    skin: &gltf::Skin,
+    exact: &[Option<glam::DMat4>],
+    parent: &[Option<usize>],
+) -> Result<Vec<glam::DMat4>, CookError> {
+    let fail = |m: String| bad(ctx.path, format!("skin {}: {m}", skin.index()));
+    let nodes: Vec<gltf::Node> = ctx.document.nodes().collect();
+    let local = |i: usize| {
+        exact.get(i).copied().flatten().unwrap_or_else(|| {
+            glam::Mat4::from_cols_array_2d(&nodes[i].transform().matrix()).as_dmat4()
+        })
+    };
+    let inverse_bind: Vec<glam::DMat4> = match skin.inverse_bind_matrices() {
+        Some(a) => ctx
+            .floats::<16>(&a, "inverseBindMatrices")?
+            .into_iter()
+            .map(|m| glam::Mat4::from_cols_array(&m).as_dmat4())
+            .collect(),
+        None => Vec::new(),
+    };
+    let joints: Vec<gltf::Node> = skin.joints().collect();
+    if !inverse_bind.is_empty() && inverse_bind.len() < joints.len() {
+        return Err(fail(format!(
+            "{} inverse bind matrices for {} joints",
+            inverse_bind.len(),
+            joints.len()
+        )));
+    }
+    joints
+        .iter()
+        .enumerate()
+        .map(|(j, joint)| {
+            let mut world = local(joint.index());
+            let mut at = joint.index();
+            // Up to the root; a loop above a joint is cut where it has gone round once.
+            for _ in 0..nodes.len() {
+                let Some(p) = parent[at] else { break };
+                world = local(p) * world;
+                at = p;
+            }
+            let m = world
+                * inverse_bind
+                    .get(j)
+                    .copied()
+                    .unwrap_or(glam::DMat4::IDENTITY);
+            if m.is_finite() {
+                Ok(m)
+            } else {
+                Err(fail(format!("joint {j}'s matrix is not finite")))
+            }
+        })
+        .collect()
+}
+
+/// Each node's parent (the first, where a file shares a node).
+fn parent_of(document: &gltf::Document) -> Vec<Option<usize>> {
+    let mut parent = vec![None; document.nodes().len()];
+    for n in document.nodes() {
+        for c in n.children() {
+            parent[c.index()].get_or_insert(n.index());
+        }
+    }
+    parent
+}
+
+/// Poses a skinned primitive at rest: each vertex by its joints' matrices, blended by its
+/// weights (`JOINTS_n`/`WEIGHTS_n`, every set), its normal by the blend's inverse transpose.
+/// Weights that do not sum to one are scaled to; a vertex bound to no joint stays where it is.
+fn skin(
+    ctx: &Ctx,
+    label: &str,
+    prim: &gltf::Primitive,
+    joints: &[glam::DMat4],
+    positions: &mut [[f32; 3]],
+    mut normals: Option<&mut (Vec<[f32; 3]>, usize)>,
+) -> Result<(), CookError> {
+    let fail = |m: String| bad(ctx.path, format!("{label}: {m}"));
+    let mut sets = Vec::new();
+    for set in 0.. {
+        match (
+            prim.get(&gltf::Semantic::Joints(set)),
+            prim.get(&gltf::Semantic::Weights(set)),
+        ) {
+            (Some(j), Some(w)) => {
+                let j = ctx.floats::<4>(&j, &format!("JOINTS_{set}"))?;
+                let w = ctx.floats::<4>(&w, &format!("WEIGHTS_{set}"))?;
+                if j.len() != positions.len() || w.len() != positions.len() {
+                    return Err(fail(format!(
+                        "JOINTS_{set} and WEIGHTS_{set} have {} and {} elements but POSITION \
+                         has {}",
+                        j.len(),
+                        w.len(),
+                        positions.len()
+                    )));
+                }
+                sets.push((j, w));
+            }
+            (None, None) => break,
+            _ => {
+                return Err(fail(format!(
+                    "JOINTS_{set} and WEIGHTS_{set} come in pairs, and one is missing"
+                )));
+            }
+        }
+    }
+    for (v, p) in positions.iter_mut().enumerate() {
+        let mut m = glam::DMat4::ZERO;
+        let mut sum = 0.0;
+        for (js, ws) in &sets {
+            for k in 0..4 {
+                let w = ws[v][k] as f64;
+                if w == 0.0 {
+                    continue;
+                }
+                let j = js[v][k];
+                let joint = (j >= 0.0 && j.fract() == 0.0)
+                    .then(|| joints.get(j as usize))
+                    .flatten()
+                    .ok_or_else(|| {
+                        fail(format!(
+                            "vertex {v} is bound to joint {j}, but the skin has {}",
+                            joints.len()
+                        ))
+                    })?;
+                if !w.is_finite() || w < 0.0 {
+                    return Err(fail(format!("vertex {v} has joint weight {w}")));
+                }
+                m += *joint * w;
+                sum += w;
+            }
+        }
+        if sum == 0.0 {
+            continue;
+        }
+        let m = m * (1.0 / sum);
+        let at = m.transform_point3(glam::Vec3::from(*p).as_dvec3());
+        *p = at.as_vec3().to_array();
+        let m3 = glam::DMat3::from_mat4(m);
+        if let Some((n, _)) = normals.as_deref_mut()
+            && let Some(n) = n.get_mut(v)
+            && m3.determinant() != 0.0
+        {
+            let turned = m3
+                .inverse()
+                .transpose()
+                .mul_vec3(glam::Vec3::from(*n).as_dvec3());
+            *n = turned.as_vec3().to_array();
+        }
+    }
+    Ok(())
+}
+
 /// Instances of one node that get a part each; more share one.
 const MAX_INSTANCE_PARTS: usize = 4096;
 
@@ -1536,6 +1707,8 @@ struct Placed<'a> {
     worlds: &'a [World],
     parts: &'a [u32],
     weights: &'a [f32],
+    /// A skinned mesh's joint matrices ([`joint_matrices`]).
+    joints: Option<&'a [glam::DMat4]>,
 }
 
 fn add_primitive(
@@ -1550,6 +1723,7 @@ fn add_primitive(
         worlds,
         parts,
         weights,
+        joints,
     } = placed;
     let path = ctx.path;
     let pos_acc = prim
@@ -1587,6 +1761,9 @@ fn add_primitive(
         None => None,
     };
     morph(ctx, &label, prim, weights, &mut positions, normals.as_mut())?;
+    if let Some(joints) = joints {
+        skin(ctx, &label, prim, joints, &mut positions, normals.as_mut())?;
+    }
     if let Some(i) = positions
         .iter()
         .position(|p| !p.iter().all(|c| c.is_finite()))
@@ -3325,6 +3502,65 @@ mod tests {
         std::fs::write(&path, file(r#", "weights": [1e39, 0]"#, "")).unwrap();
         let e = import(&path).unwrap_err().to_string();
         assert!(e.contains("morph target 0's weight is inf"), "{e}");
+    }
+
+    /// A skinned mesh is posed by its joints at rest (the node's own transform is ignored, as
+    /// glTF says): it was cooked where the node put it, unskinned, without a word.
+    #[test]
+    fn a_skinned_mesh_is_posed_by_its_joints() {
+        let dir = tempfile::tempdir().unwrap();
+        let mut bin = triangle_bytes();
+        // JOINTS_0 as u8 (joint 0 and 1 for every vertex), WEIGHTS_0 as floats.
+        for _ in 0..3 {
+            bin.extend([0u8, 1, 0, 0]);
+        }
+        let weights_at = bin.len();
+        for _ in 0..3 {
+            bin.extend([0.25f32, 0.75, 0., 0.].iter().flat_map(|f| f.to_le_bytes()));
+        }
+        // Inverse bind matrices: joint 0's undoes its x + 2; joint 1's is the identity.
+        let ibm_at = bin.len();
+        let shifted = glam::Mat4::from_translation(glam::vec3(-2., 0., 0.)).to_cols_array();
+        for m in [shifted, glam::Mat4::IDENTITY.to_cols_array()] {
+            bin.extend(m.iter().flat_map(|f| f.to_le_bytes()));
+        }
+        std::fs::write(dir.path().join("b.bin"), &bin).unwrap();
+        let file = |ibm: &str| {
+            format!(
+                r#"{{"asset": {{"version": "2.0"}}, "scene": 0, "scenes": [{{"nodes": [0, 1]}}],
+                "nodes": [{{"mesh": 0, "skin": 0, "translation": [100, 0, 0]}},
+                          {{"translation": [0, 0, 5], "children": [2, 3]}},
+                          {{"translation": [2, 0, 0]}}, {{"translation": [4, 0, 0]}}],
+                "skins": [{{"joints": [2, 3] {ibm}}}],
+                "meshes": [{{"primitives": [{{"attributes": {{"POSITION": 0,
+                    "JOINTS_0": 1, "WEIGHTS_0": 2}}}}]}}],
+                "accessors": [
+                    {{"bufferView": 0, "componentType": 5126, "count": 3, "type": "VEC3",
+                      "min": [0, 0, 0], "max": [1, 1, 0]}},
+                    {{"bufferView": 0, "byteOffset": 36, "componentType": 5121, "count": 3,
+                      "type": "VEC4"}},
+                    {{"bufferView": 0, "byteOffset": {weights_at}, "componentType": 5126,
+                      "count": 3, "type": "VEC4"}},
+                    {{"bufferView": 0, "byteOffset": {ibm_at}, "componentType": 5126,
+                      "count": 2, "type": "MAT4"}}],
+                "bufferViews": [{{"buffer": 0, "byteLength": {len}}}],
+                "buffers": [{{"byteLength": {len}, "uri": "b.bin"}}]}}"#,
+                len = bin.len()
+            )
+        };
+        let path = dir.path().join("skin.gltf");
+        // Without inverse bind matrices: 0.25 of x + 2 and 0.75 of x + 4, all up z by 5.
+        // With them, joint 0 stands where it was bound: 0.75 of x + 4.
+        for (ibm, x) in [("", 3.5), (r#", "inverseBindMatrices": 3"#, 3.0)] {
+            std::fs::write(&path, file(ibm)).unwrap();
+            let m = import(&path).unwrap();
+            let (lo, hi) = bounds(&m);
+            assert_eq!((lo.x, lo.z, hi.z), (x, 5.0, 5.0), "{ibm}");
+        }
+        let bad_joint = file("").replace(r#""joints": [2, 3]"#, r#""joints": [2]"#);
+        std::fs::write(&path, bad_joint).unwrap();
+        let e = import(&path).unwrap_err().to_string();
+        assert!(e.contains("bound to joint 1, but the skin has 1"), "{e}");
     }
 
     /// A POSITION accessor without `min` and `max` (exporters leave them out) is read, with a
