@@ -892,6 +892,24 @@ fn diff_names_every_camera_that_moved() {
     );
 }
 
+/// A guessed view stands up to the model's diagonal from it, so with `--max-position-delta`
+/// a camera may move (1 + 2√3) times the delta: a gltfpack-quantized export failed on its
+/// cameras alone.
+#[test]
+fn diff_lets_cameras_move_as_far_as_the_delta_moves_a_guessed_view() {
+    let dir = tempfile::tempdir().unwrap();
+    let a = dir.path().join("a.pack");
+    write_sample(&a, |_, _| {});
+    for (moved, differ) in [(0.3, false), (0.5, true)] {
+        let b = dir.path().join("b.pack");
+        write_sample(&b, |toc, _| toc.cameras[0].position[0] += moved);
+        let o = cooker(&[&"diff", &a, &b, &"--json", &"--max-position-delta", &"0.1"]);
+        let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+        let named = v["scene"]["cameras_differing"].as_array().unwrap().len();
+        assert_eq!(named > 0, differ, "{moved}: {v:#}");
+    }
+}
+
 /// The scene's parameters are fields of `--json` (a script need not parse the problems'
 /// text), and the background's problem gives both sides.
 #[test]
