@@ -835,6 +835,40 @@ pub fn import(path: &Path) -> Result<Imported, CookError> {
             ),
         ));
     }
+    // Scans and Sketchfab exports mark their materials unlit, their lighting baked into the
+    // texture: lit again by the scene, they come out darker and shaded twice.
+    let mut unlit: Vec<(usize, String)> = document
+        .materials()
+        .filter(|m| m.index().is_some_and(|i| material_ids.contains_key(&i)))
+        .filter(|m| m.extension_value("KHR_materials_unlit").is_some())
+        .map(|m| {
+            let i = m.index().unwrap_or(0);
+            (
+                i,
+                m.name()
+                    .map_or_else(|| format!("material{i}"), str::to_string),
+            )
+        })
+        .collect();
+    if !unlit.is_empty() {
+        unlit.sort();
+        let count = unlit.len();
+        let named: Vec<String> = unlit
+            .into_iter()
+            .take(crate::report::NAMED)
+            .map(|(_, n)| format!("{n:?}"))
+            .collect();
+        out.warnings.push(Warning::new(
+            path,
+            None,
+            format!(
+                "{count} material(s) marked unlit (KHR_materials_unlit: {}{}) are cooked as \
+                 lit surfaces, so light baked into their textures is lit again",
+                named.join(", "),
+                if count > named.len() { ", ..." } else { "" }
+            ),
+        ));
+    }
     if !skipped_modes.is_empty() {
         out.warnings.push(Warning::skipped_geometry(
             path,
@@ -3624,6 +3658,16 @@ mod tests {
         .unwrap_err()
         .to_string();
         assert!(e.contains("emissiveStrength is -2"), "{e}");
+        // An unlit material (a scan's) is named in a warning: it is lit as any other.
+        let scan = with(r#"{"name": "scan", "extensions": {"KHR_materials_unlit": {}}}"#).unwrap();
+        assert!(
+            scan.warnings.iter().any(|w| w
+                .message
+                .contains(r#"1 material(s) marked unlit (KHR_materials_unlit: "scan")"#)),
+            "{:?}",
+            scan.warnings
+        );
+        assert!(!plain.warnings.iter().any(|w| w.message.contains("unlit")));
     }
 
     /// Compressed views that lie or do not decode are errors naming the view, never a panic
