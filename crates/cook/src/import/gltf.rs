@@ -1649,6 +1649,7 @@ fn parent_of(document: &gltf::Document) -> Vec<Option<usize>> {
 /// Poses a skinned primitive at rest: each vertex by its joints' matrices, blended by its
 /// weights (`JOINTS_n`/`WEIGHTS_n`, every set), its normal by the blend's inverse transpose.
 /// Weights that do not sum to one are scaled to; a vertex bound to no joint stays where it is.
+/// Returns, per vertex, whether its blend mirrors (empty where none does).
 fn skin(
     ctx: &Ctx,
     label: &str,
@@ -1656,7 +1657,9 @@ fn skin(
     joints: &[glam::DMat4],
     positions: &mut [[f32; 3]],
     mut normals: Option<&mut (Vec<[f32; 3]>, usize)>,
-) -> Result<(), CookError> {
+) -> Result<Vec<bool>, CookError> {
+    let mut mirrored = Vec::new();
+    let count = positions.len();
     let fail = |m: String| bad(ctx.path, format!("{label}: {m}"));
     let mut sets = Vec::new();
     for set in 0.. {
@@ -1719,6 +1722,10 @@ fn skin(
         let at = m.transform_point3(glam::Vec3::from(*p).as_dvec3());
         *p = at.as_vec3().to_array();
         let m3 = glam::DMat3::from_mat4(m);
+        if m3.determinant() < 0.0 {
+            mirrored.resize(count, false);
+            mirrored[v] = true;
+        }
         if let Some((n, _)) = normals.as_deref_mut()
             && let Some(n) = n.get_mut(v)
             && m3.determinant() != 0.0
@@ -1730,7 +1737,7 @@ fn skin(
             *n = turned.as_vec3().to_array();
         }
     }
-    Ok(())
+    Ok(mirrored)
 }
 
 /// Instances of one node that get a part each; more share one.
@@ -1795,9 +1802,10 @@ fn add_primitive(
         None => None,
     };
     morph(ctx, &label, prim, weights, &mut positions, normals.as_mut())?;
-    if let Some(joints) = joints {
-        skin(ctx, &label, prim, joints, &mut positions, normals.as_mut())?;
-    }
+    let mirrored = match joints {
+        Some(joints) => skin(ctx, &label, prim, joints, &mut positions, normals.as_mut())?,
+        None => Vec::new(),
+    };
     if let Some(i) = positions
         .iter()
         .position(|p| !p.iter().all(|c| c.is_finite()))
@@ -1942,7 +1950,7 @@ fn add_primitive(
     } else {
         prim.mode()
     };
-    let corners: Vec<u32> = match mode {
+    let mut corners: Vec<u32> = match mode {
         Mode::TriangleStrip => (2..indices.len())
             .flat_map(|i| {
                 if i % 2 == 0 {
@@ -1978,6 +1986,15 @@ fn add_primitive(
         }
     };
 
+    // A triangle a mirroring joint blend turns inside out keeps facing out, as one under a
+    // mirroring node does: by the most of its corners.
+    if !mirrored.is_empty() {
+        for t in corners.as_chunks_mut::<3>().0 {
+            if t.iter().filter(|&&v| mirrored[v as usize]).count() >= 2 {
+                t.swap(1, 2);
+            }
+        }
+    }
     let total = vcount.saturating_mul(worlds.len());
     if worlds.len() > 1 {
         let need = (vcount + corners.len()).saturating_mul(worlds.len());
