@@ -164,12 +164,19 @@ pub fn padded(s: &str, width: usize) -> String {
 /// (`\u{1b}`), all else as it is. A pack's names are whatever the model's tool wrote, and
 /// `info` printed an escape sequence in a material's name to the terminal, which ran it.
 pub fn shown(s: &str) -> std::borrow::Cow<'_, str> {
-    if !s.chars().any(char::is_control) {
+    // Control characters, and the invisible ones that reorder or hide text (bidirectional
+    // overrides and isolates, zero-width marks), which can make a name read as another.
+    let hidden = |c: char| {
+        c.is_control()
+            || matches!(c, '\u{200b}'..='\u{200f}' | '\u{202a}'..='\u{202e}'
+                | '\u{2060}'..='\u{2064}' | '\u{2066}'..='\u{2069}' | '\u{061c}' | '\u{feff}')
+    };
+    if !s.chars().any(hidden) {
         return s.into();
     }
     s.chars()
         .map(|c| {
-            if c.is_control() {
+            if hidden(c) {
                 c.escape_debug().to_string()
             } else {
                 c.to_string()
@@ -300,6 +307,7 @@ mod tests {
     fn shown_escapes_control_characters_only() {
         assert_eq!(shown("back\\slash \"q\" 红"), "back\\slash \"q\" 红");
         assert_eq!(shown("a\x1b[31mb\tc\u{9b}d"), "a\\u{1b}[31mb\\tc\\u{9b}d");
+        assert_eq!(shown("glass\u{202e}txt.exe"), "glass\\u{202e}txt.exe");
         assert!(matches!(shown("plain"), std::borrow::Cow::Borrowed(_)));
     }
 

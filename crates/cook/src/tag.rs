@@ -848,7 +848,8 @@ pub fn geometry_heuristic(
     let span = (height[1] - height[0]).max(1e-9);
     let rel = (g.mean_y() - height[0]) / span;
     let share = |a: f64| a / g.area;
-    if class == MaterialClass::Floor {
+    if class != MaterialClass::Wall {
+        debug_assert_eq!(class, MaterialClass::Floor);
         return Some((
             format!(
                 "geometry: {:.0}% horizontal, {:.0}% of the model's area{}, at {:.0}% of its \

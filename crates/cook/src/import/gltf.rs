@@ -65,25 +65,29 @@ fn check_glb_header(path: &Path, bytes: &[u8]) -> Result<(), CookError> {
 /// Refuses a file of another major version than 2, or one that needs a later 2.x reader
 /// (`minVersion`): read as 2.0, a glTF 1.0 file said only that it held no faces.
 fn check_version(path: &Path, asset: &gltf::json::Asset) -> Result<(), CookError> {
-    let parse = |v: &str| -> Option<(u32, u32)> {
-        let (major, minor) = v.trim().split_once('.')?;
-        Some((major.parse().ok()?, minor.parse().ok()?))
-    };
-    let Some((major, _)) = parse(&asset.version) else {
+    check_version_text(path, &asset.version, asset.min_version.as_deref())
+}
+
+/// A version's major and minor number ("2.0" is (2, 0); "1.0.3" (1, 0)).
+fn version_numbers(v: &str) -> Option<(u32, u32)> {
+    let mut parts = v.trim().split('.');
+    let major = parts.next()?.parse().ok()?;
+    let minor = parts.next()?.parse().ok()?;
+    Some((major, minor))
+}
+
+fn check_version_text(path: &Path, version: &str, min: Option<&str>) -> Result<(), CookError> {
+    let Some((major, _)) = version_numbers(version) else {
         return Err(bad(
             path,
-            format!(
-                "asset.version {:?} is no glTF version (\"2.0\" for glTF 2.0)",
-                asset.version
-            ),
+            format!("asset.version {version:?} is no glTF version (\"2.0\" for glTF 2.0)"),
         ));
     };
     if major != 2 {
         return Err(bad(
             path,
             format!(
-                "asset.version is {:?}: only glTF 2.0 files are read{}",
-                asset.version,
+                "asset.version is {version:?}: only glTF 2.0 files are read{}",
                 if major == 1 {
                     " (convert it to 2.0 with a tool such as Blender or gltf-pipeline)"
                 } else {
@@ -92,8 +96,8 @@ fn check_version(path: &Path, asset: &gltf::json::Asset) -> Result<(), CookError
             ),
         ));
     }
-    if let Some(min) = &asset.min_version {
-        match parse(min) {
+    if let Some(min) = min {
+        match version_numbers(min) {
             Some(v) if v <= (2, 0) => {}
             _ => {
                 return Err(bad(
@@ -109,14 +113,31 @@ fn check_version(path: &Path, asset: &gltf::json::Asset) -> Result<(), CookError
     Ok(())
 }
 
+/// The version a glTF's JSON says it is, read alone: a glTF 1.0 file is not valid 2.0 JSON
+/// (its meshes and accessors are objects keyed by name), so its version is read past that.
+fn sniff_version(text: &[u8]) -> Option<String> {
+    #[derive(serde::Deserialize)]
+    struct Root {
+        asset: Asset,
+    }
+    #[derive(serde::Deserialize)]
+    struct Asset {
+        version: String,
+    }
+    serde_json::from_slice::<Root>(text)
+        .ok()
+        .map(|r| r.asset.version)
+}
+
 /// The document, and a GLB's binary chunk in the file's own buffer: gltf's parser copies the
 /// chunk out of the file, and both were held through the import (a 20 MB GLB's import peaked
 /// at 100 MB of heap).
-fn parse(mut bytes: Vec<u8>) -> Result<Parsed, gltf::Error> {
+fn parse(mut bytes: Vec<u8>) -> Result<Parsed, (gltf::Error, Option<String>)> {
     if !bytes.starts_with(b"glTF") {
         // The specification lets a reader skip a byte-order mark, which some editors write.
         let text = bytes.strip_prefix("\u{feff}".as_bytes()).unwrap_or(&bytes);
-        let json = gltf::json::deserialize::from_slice(text)?;
+        let json = gltf::json::deserialize::from_slice(text)
+            .map_err(|e| (gltf::Error::from(e), sniff_version(text)))?;
         let exact = exact_locals(text, &json);
         return Ok((
             gltf::Document::from_json_without_validation(json),
@@ -124,7 +145,7 @@ fn parse(mut bytes: Vec<u8>) -> Result<Parsed, gltf::Error> {
             exact,
         ));
     }
-    let glb = gltf::binary::Glb::from_slice(&bytes)?;
+    let glb = gltf::binary::Glb::from_slice(&bytes).map_err(|e| (e, None))?;
     // The JSON chunk is padded with spaces; some writers pad it with zero bytes, which JSON
     // does not allow after the value.
     let end = glb
@@ -133,7 +154,8 @@ fn parse(mut bytes: Vec<u8>) -> Result<Parsed, gltf::Error> {
         .rposition(|&b| b != 0 && !b.is_ascii_whitespace())
         .map_or(0, |i| i + 1);
     let text = &glb.json[..end];
-    let json = gltf::json::deserialize::from_slice(text)?;
+    let json = gltf::json::deserialize::from_slice(text)
+        .map_err(|e| (gltf::Error::from(e), sniff_version(text)))?;
     let exact = exact_locals(text, &json);
     // Where the chunk lies in the file: `Glb::from_slice` borrows it from there.
     let within = |b: &[u8]| {
@@ -533,7 +555,13 @@ pub fn import(path: &Path) -> Result<Imported, CookError> {
         e @ gltf::Error::Validation(_) => bad(path, e.to_string()),
         other => bad(path, format!("invalid glTF: {other}")),
     };
-    let (document, blob, exact) = parse(bytes).map_err(convert)?;
+    let (document, blob, exact) = parse(bytes).map_err(|(e, version)| {
+        // A file of another version is said to be one, not a list of what 2.0 misses in it.
+        match version.map(|v| check_version_text(path, &v, None)) {
+            Some(Err(said)) => said,
+            _ => convert(e),
+        }
+    })?;
     // gltf-json's validation indexes the POSITION accessor before checking it exists (an
     // out-of-bounds panic found by fuzzing): check every attribute index first.
     let mut json = document.into_json();
@@ -573,16 +601,16 @@ pub fn import(path: &Path) -> Result<Imported, CookError> {
     // Read here rather than through gltf's `Camera::projection`, which unwraps the projection
     // the type names and validation does not require.
     let camera_json = json.cameras.clone();
-    let mut unbounded = 0;
+    let mut unbounded = std::collections::HashSet::new();
     let document = validate(json, &mut unbounded).map_err(convert)?;
-    if unbounded > 0 {
+    if !unbounded.is_empty() {
         warnings.push(Warning::new(
             path,
             None,
             format!(
                 "{} primitive(s) whose POSITION accessor lacks the min and max glTF requires: \
                  read without them",
-                unbounded.div_ceil(2)
+                unbounded.len()
             ),
         ));
     }
@@ -663,8 +691,12 @@ pub fn import(path: &Path) -> Result<Imported, CookError> {
     // that share children many times over without a cycle.
     let node_count = document.nodes().len();
     let mut reached = vec![false; node_count];
-    // Each node's parent, made at the first skin.
-    let mut parents: Option<Vec<Option<usize>>> = None;
+    // Every node's world, made at the first skin; each skin's joint matrices; the skinned
+    // nodes cooked.
+    let mut node_worlds: Option<Vec<glam::DMat4>> = None;
+    let mut skins: HashMap<usize, std::rc::Rc<Vec<glam::DMat4>>> = HashMap::new();
+    let mut skinned_once: std::collections::HashSet<usize> = std::collections::HashSet::new();
+    let mut unskinned: Vec<usize> = Vec::new();
     while let Some((node, parent, depth)) = stack.pop() {
         visits += 1;
         if depth >= node_count {
@@ -699,7 +731,12 @@ pub fn import(path: &Path) -> Result<Imported, CookError> {
             ));
         }
         views.visit(&document, &camera_json, &node, world.exact);
-        if let Some(mesh) = node.mesh() {
+        // A skinned mesh stands where its joints put it, whichever path reached its node:
+        // cooked once.
+        let again = node.skin().is_some() && !skinned_once.insert(node.index());
+        if let Some(mesh) = node.mesh()
+            && !again
+        {
             let ctx = Ctx {
                 path,
                 document: &document,
@@ -711,15 +748,20 @@ pub fn import(path: &Path) -> Result<Imported, CookError> {
             // node's transform): posed as the joints stand, as viewers show it at rest.
             let joints = match node.skin() {
                 Some(skin) => {
-                    let parents = parents.get_or_insert_with(|| parent_of(&document));
-                    Some(joint_matrices(&ctx, &skin, &exact, parents)?)
+                    let worlds = node_worlds.get_or_insert_with(|| all_worlds(&document, &exact));
+                    let key = skin.index();
+                    let matrices = match skins.entry(key) {
+                        std::collections::hash_map::Entry::Occupied(e) => e.get().clone(),
+                        std::collections::hash_map::Entry::Vacant(e) => {
+                            e.insert(joint_matrices(&ctx, &skin, worlds)?).clone()
+                        }
+                    };
+                    Some(matrices)
                 }
                 None => None,
             };
-            let worlds = match joints {
-                Some(_) => vec![World::IDENTITY],
-                None => instances(&ctx, &document, &node, world)?,
-            };
+            let node_worlds_here = instances(&ctx, &document, &node, world)?;
+            let skinned_worlds = [World::IDENTITY];
             for prim in mesh.primitives() {
                 let mode = prim.mode();
                 if !matches!(
@@ -732,6 +774,17 @@ pub fn import(path: &Path) -> Result<Imported, CookError> {
                     }
                     continue;
                 }
+                // A primitive of a skinned node without joints (glTF requires them) stays
+                // where its node puts it, with a warning.
+                let skinned = joints.is_some() && prim.get(&gltf::Semantic::Joints(0)).is_some();
+                if joints.is_some() && !skinned && !unskinned.contains(&mesh.index()) {
+                    unskinned.push(mesh.index());
+                }
+                let worlds: &[World] = if skinned {
+                    &skinned_worlds
+                } else {
+                    &node_worlds_here
+                };
                 let material = prim.material();
                 let mat_id = match material.index() {
                     Some(i) => Some(match material_ids.get(&i) {
@@ -796,10 +849,10 @@ pub fn import(path: &Path) -> Result<Imported, CookError> {
                 // The rest pose: the node's morph weights, else the mesh's (zero without).
                 let weights = node.weights().or(mesh.weights()).unwrap_or(&[]);
                 let placed = Placed {
-                    worlds: &worlds,
+                    worlds,
                     parts: &parts,
                     weights,
-                    joints: joints.as_deref(),
+                    joints: joints.as_deref().map(Vec::as_slice).filter(|_| skinned),
                 };
                 add_primitive(&ctx, &mesh, &prim, placed, &mut out, &mut budget)?;
             }
@@ -817,6 +870,21 @@ pub fn import(path: &Path) -> Result<Imported, CookError> {
                 "node hierarchy is cyclic: node {n} has no root above it (the file has no \
                  scene, and every node above it has a parent), so some node is its own \
                  ancestor"
+            ),
+        ));
+    }
+    if !unskinned.is_empty() {
+        out.warnings.push(Warning::new(
+            path,
+            None,
+            format!(
+                "mesh(es) {} of skinned nodes have primitives without JOINTS_0 and WEIGHTS_0, \
+                 which glTF requires: placed by their nodes, unskinned",
+                unskinned
+                    .iter()
+                    .map(usize::to_string)
+                    .collect::<Vec<_>>()
+                    .join(", ")
             ),
         ));
     }
@@ -937,9 +1005,12 @@ fn node_in_cycle(document: &gltf::Document) -> Option<usize> {
 /// other still fails, as before, when it is read.
 ///
 /// Less one it makes, too: a POSITION accessor without `min` and `max`, which exporters leave
-/// out and the import never reads (it finds the bounds itself), passes; how many are counted
-/// in `unbounded`, for a warning.
-fn validate(json: gltf::json::Root, unbounded: &mut usize) -> Result<gltf::Document, gltf::Error> {
+/// out and the import never reads (it finds the bounds itself), passes; the primitives that
+/// have one are listed in `unbounded`, for a warning.
+fn validate(
+    json: gltf::json::Root,
+    unbounded: &mut std::collections::HashSet<String>,
+) -> Result<gltf::Document, gltf::Error> {
     use gltf::json::validation::{Error, Validate};
     let mut draco = std::collections::HashSet::new();
     for prim in json.meshes.iter().flat_map(|m| &m.primitives) {
@@ -958,7 +1029,11 @@ fn validate(json: gltf::json::Root, unbounded: &mut usize) -> Result<gltf::Docum
         let bound = path.as_str().ends_with(r#"["POSITION"].min"#)
             || path.as_str().ends_with(r#"["POSITION"].max"#);
         if matches!(error, Error::Missing) && bound {
-            *unbounded += 1;
+            let primitive = path
+                .as_str()
+                .trim_end_matches(".min")
+                .trim_end_matches(".max");
+            unbounded.insert(primitive.to_string());
         } else if !(matches!(error, Error::Missing) && draco.contains(path.as_str())) {
             errors.push((path, error));
         }
@@ -1549,6 +1624,17 @@ fn morph(
         }
         let add = |acc: gltf::Accessor, what: &str, base: &mut [[f32; 3]]| {
             let what = format!("morph target {k} {what}");
+            // Counted before it is read: a sparse accessor of no bytes may claim 2^28.
+            if acc.count() != base.len() {
+                return Err(bad(
+                    ctx.path,
+                    format!(
+                        "{label}: {what} has {} elements but POSITION has {}",
+                        acc.count(),
+                        base.len()
+                    ),
+                ));
+            }
             let d = ctx.attribute::<3>(None, label, &acc, &what)?;
             if d.len() != base.len() {
                 return Err(bad(
@@ -1577,23 +1663,24 @@ fn morph(
     Ok(())
 }
 
-/// Each joint's matrix for a skin at rest: the joint node's world transform times its inverse
-/// bind matrix (identity where the skin gives none). Joint worlds are chained up the node
-/// tree from the joint, in f64 as the walk chains them.
+/// Each joint's matrix for a skin at rest: the joint node's world transform ([`all_worlds`])
+/// times its inverse bind matrix (identity where the skin gives none).
 fn joint_matrices(
     ctx: &Ctx,
     skin: &gltf::Skin,
-    exact: &[Option<glam::DMat4>],
-    parent: &[Option<usize>],
-) -> Result<Vec<glam::DMat4>, CookError> {
+    worlds: &[glam::DMat4],
+) -> Result<std::rc::Rc<Vec<glam::DMat4>>, CookError> {
     let fail = |m: String| bad(ctx.path, format!("skin {}: {m}", skin.index()));
-    let nodes: Vec<gltf::Node> = ctx.document.nodes().collect();
-    let local = |i: usize| {
-        exact.get(i).copied().flatten().unwrap_or_else(|| {
-            glam::Mat4::from_cols_array_2d(&nodes[i].transform().matrix()).as_dmat4()
-        })
-    };
+    let joints: Vec<usize> = skin.joints().map(|j| j.index()).collect();
     let inverse_bind: Vec<glam::DMat4> = match skin.inverse_bind_matrices() {
+        // Counted before it is read: a sparse accessor of no bytes may claim 2^28 matrices.
+        Some(a) if a.count() != joints.len() => {
+            return Err(fail(format!(
+                "{} inverse bind matrices for {} joints",
+                a.count(),
+                joints.len()
+            )));
+        }
         Some(a) => ctx
             .floats::<16>(&a, "inverseBindMatrices")?
             .into_iter()
@@ -1601,49 +1688,68 @@ fn joint_matrices(
             .collect(),
         None => Vec::new(),
     };
-    let joints: Vec<gltf::Node> = skin.joints().collect();
-    if !inverse_bind.is_empty() && inverse_bind.len() < joints.len() {
-        return Err(fail(format!(
-            "{} inverse bind matrices for {} joints",
-            inverse_bind.len(),
-            joints.len()
-        )));
-    }
     joints
         .iter()
         .enumerate()
-        .map(|(j, joint)| {
-            let mut world = local(joint.index());
-            let mut at = joint.index();
-            // Up to the root; a loop above a joint is cut where it has gone round once.
-            for _ in 0..nodes.len() {
-                let Some(p) = parent[at] else { break };
-                world = local(p) * world;
-                at = p;
-            }
-            let m = world
-                * inverse_bind
-                    .get(j)
-                    .copied()
-                    .unwrap_or(glam::DMat4::IDENTITY);
+        .map(|(j, &node)| {
+            let bind = inverse_bind
+                .get(j)
+                .copied()
+                .unwrap_or(glam::DMat4::IDENTITY);
+            let m = worlds[node] * bind;
             if m.is_finite() {
                 Ok(m)
             } else {
                 Err(fail(format!("joint {j}'s matrix is not finite")))
             }
         })
-        .collect()
+        .collect::<Result<Vec<_>, _>>()
+        .map(std::rc::Rc::new)
 }
 
-/// Each node's parent (the first, where a file shares a node).
-fn parent_of(document: &gltf::Document) -> Vec<Option<usize>> {
-    let mut parent = vec![None; document.nodes().len()];
-    for n in document.nodes() {
+/// Every node's world transform, chained in f64 down from its root (a node's first parent,
+/// where a file shares one; a loop is cut where it closes), each node's once.
+fn all_worlds(document: &gltf::Document, exact: &[Option<glam::DMat4>]) -> Vec<glam::DMat4> {
+    let nodes: Vec<gltf::Node> = document.nodes().collect();
+    let mut parent = vec![None; nodes.len()];
+    for n in &nodes {
         for c in n.children() {
-            parent[c.index()].get_or_insert(n.index());
+            if c.index() != n.index() {
+                parent[c.index()].get_or_insert(n.index());
+            }
         }
     }
-    parent
+    let local = |i: usize| {
+        exact.get(i).copied().flatten().unwrap_or_else(|| {
+            glam::Mat4::from_cols_array_2d(&nodes[i].transform().matrix()).as_dmat4()
+        })
+    };
+    let mut world: Vec<Option<glam::DMat4>> = vec![None; nodes.len()];
+    let mut on_path = vec![false; nodes.len()];
+    let mut path = Vec::new();
+    for start in 0..nodes.len() {
+        // Up to the first node whose world is known (or a root, or a node already on the
+        // path: a loop), then down again.
+        let mut at = Some(start);
+        while let Some(n) = at {
+            if world[n].is_some() || on_path[n] {
+                break;
+            }
+            on_path[n] = true;
+            path.push(n);
+            at = parent[n];
+        }
+        let mut above = at.and_then(|n| world[n]).unwrap_or(glam::DMat4::IDENTITY);
+        for n in path.drain(..).rev() {
+            above *= local(n);
+            world[n] = Some(above);
+            on_path[n] = false;
+        }
+    }
+    world
+        .into_iter()
+        .map(|w| w.unwrap_or(glam::DMat4::IDENTITY))
+        .collect()
 }
 
 /// Poses a skinned primitive at rest: each vertex by its joints' matrices, blended by its
@@ -1654,6 +1760,7 @@ fn skin(
     ctx: &Ctx,
     label: &str,
     prim: &gltf::Primitive,
+    draco: Option<&super::gltf_draco::Decoded>,
     joints: &[glam::DMat4],
     positions: &mut [[f32; 3]],
     mut normals: Option<&mut (Vec<[f32; 3]>, usize)>,
@@ -1668,18 +1775,26 @@ fn skin(
             prim.get(&gltf::Semantic::Weights(set)),
         ) {
             (Some(j), Some(w)) => {
-                let j = ctx.floats::<4>(&j, &format!("JOINTS_{set}"))?;
-                let w = ctx.floats::<4>(&w, &format!("WEIGHTS_{set}"))?;
-                if j.len() != positions.len() || w.len() != positions.len() {
-                    return Err(fail(format!(
-                        "JOINTS_{set} and WEIGHTS_{set} have {} and {} elements but POSITION \
-                         has {}",
-                        j.len(),
-                        w.len(),
-                        positions.len()
-                    )));
-                }
-                sets.push((j, w));
+                // Counted before they are read (a sparse accessor of no bytes may claim 2^28
+                // elements); a Draco stream holds them where it holds the mesh.
+                let (jn, wn) = (format!("JOINTS_{set}"), format!("WEIGHTS_{set}"));
+                let read = |a: &gltf::Accessor, name: &str| {
+                    if draco.is_none() && a.count() != count {
+                        return Err(fail(format!(
+                            "{name} has {} elements but POSITION has {count}",
+                            a.count()
+                        )));
+                    }
+                    let v = ctx.attribute::<4>(draco, label, a, name)?;
+                    if v.len() != count {
+                        return Err(fail(format!(
+                            "{name} has {} elements but POSITION has {count}",
+                            v.len()
+                        )));
+                    }
+                    Ok(v)
+                };
+                sets.push((read(&j, &jn)?, read(&w, &wn)?));
             }
             (None, None) => break,
             _ => {
@@ -1803,7 +1918,15 @@ fn add_primitive(
     };
     morph(ctx, &label, prim, weights, &mut positions, normals.as_mut())?;
     let mirrored = match joints {
-        Some(joints) => skin(ctx, &label, prim, joints, &mut positions, normals.as_mut())?,
+        Some(joints) => skin(
+            ctx,
+            &label,
+            prim,
+            draco.as_deref(),
+            joints,
+            &mut positions,
+            normals.as_mut(),
+        )?,
         None => Vec::new(),
     };
     if let Some(i) = positions
@@ -2184,23 +2307,26 @@ fn external_file(
     uri: &str,
     noted: &mut Vec<super::Absent>,
 ) -> Option<std::path::PathBuf> {
-    // The percent-decoded name, as a URI means it, then as Windows exporters mean it; an
-    // absolute `file:///C:/...` from the exporting machine has its end looked for beside the
-    // glTF.
-    if let Some(found) = super::locate_noted(base, &uri_name(uri), noted) {
-        return Some(found);
-    }
-    // A name with `%` in it written as is, not percent-encoded as URIs should be: only where
-    // the decoded name is not there, since a file of the encoded name (a pack cooked to
-    // `-o my%20tex.png`, say) must not hide the one the URI means.
-    if file_uri_path(uri).is_none() && uri.contains('%') {
+    let decoded = uri_name(uri);
+    // A name with `%` in it written as is, not percent-encoded as URIs should be: read where
+    // no file has the decoded name exactly, before any looser match of it (another case, a
+    // path's end), since the file the uri spells is there. A file of the literal name beside
+    // the decoded one (a pack cooked to `-o my%20tex.png`, say) does not hide it.
+    if file_uri_path(uri).is_none()
+        && uri.contains('%')
+        && !base.join(super::text::path_of(&decoded)).is_file()
+    {
         let as_written = base.join(uri);
         if as_written.is_file() {
+            noted.push(super::Absent::new(base, &decoded));
             return Some(as_written);
         }
         noted.push(super::Absent::new(base, uri));
     }
-    None
+    // The percent-decoded name, as a URI means it, then as Windows exporters mean it; an
+    // absolute `file:///C:/...` from the exporting machine has its end looked for beside the
+    // glTF.
+    super::locate_noted(base, &decoded, noted)
 }
 
 fn percent_decode(s: &str) -> String {
@@ -3481,6 +3607,20 @@ mod tests {
         let padded = dir.path().join("nul.glb");
         std::fs::write(&padded, glb).unwrap();
         assert_eq!(import(&padded).unwrap().tri_part.len(), 1);
+        // A glTF 1.0 file as one is written (objects keyed by name): said to be 1.0, not a
+        // list of what 2.0 misses in it.
+        let old = dir.path().join("old.gltf");
+        std::fs::write(
+            &old,
+            r#"{"asset": {"version": "1.0.3"}, "meshes": {"m": {"primitives": []}},
+                "accessors": {"a": {"bufferView": "v"}}}"#,
+        )
+        .unwrap();
+        let e = import(&old).unwrap_err().to_string();
+        assert!(
+            e.contains(r#"asset.version is "1.0.3": only glTF 2.0"#),
+            "{e}"
+        );
         for (asset, said) in [
             (
                 r#""version": "1.0""#,
@@ -3609,9 +3749,44 @@ mod tests {
             assert_eq!((lo.x, lo.z, hi.z), (x, 5.0, 5.0), "{ibm}");
         }
         let bad_joint = file("").replace(r#""joints": [2, 3]"#, r#""joints": [2]"#);
-        std::fs::write(&path, bad_joint).unwrap();
+        std::fs::write(&path, &bad_joint).unwrap();
         let e = import(&path).unwrap_err().to_string();
         assert!(e.contains("bound to joint 1, but the skin has 1"), "{e}");
+        // Inverse bind matrices are counted before they are read.
+        let short = bad_joint.replace(
+            r#""joints": [2]"#,
+            r#""joints": [2], "inverseBindMatrices": 3"#,
+        );
+        std::fs::write(&path, short).unwrap();
+        let e = import(&path).unwrap_err().to_string();
+        assert!(
+            e.contains("skin 0: 2 inverse bind matrices for 1 joints"),
+            "{e}"
+        );
+        // A skinned node reached down two paths is cooked once, where its joints put it.
+        let twice = file("")
+            .replace(r#""nodes": [0, 1]}]"#, r#""nodes": [0, 1, 4]}]"#)
+            .replace(
+                r#"{"translation": [4, 0, 0]}],"#,
+                r#"{"translation": [4, 0, 0]}, {"translation": [9, 9, 9], "children": [0]}],"#,
+            );
+        assert!(twice.contains("[0, 1, 4]") && twice.contains("[9, 9, 9]"));
+        std::fs::write(&path, twice).unwrap();
+        let m = import(&path).unwrap();
+        assert_eq!(m.tri_part.len(), 1);
+        assert_eq!(bounds(&m).0.x, 3.5);
+        // A primitive without joints on a skinned node stays where the node puts it.
+        let bare = file("").replace(r#""JOINTS_0": 1, "WEIGHTS_0": 2"#, r#""NORMAL": 0"#);
+        std::fs::write(&path, bare).unwrap();
+        let m = import(&path).unwrap();
+        assert_eq!(bounds(&m).0.x, 100.0);
+        assert!(
+            m.warnings
+                .iter()
+                .any(|w| w.message.contains("without JOINTS_0 and WEIGHTS_0")),
+            "{:?}",
+            m.warnings
+        );
     }
 
     /// A POSITION accessor without `min` and `max` (exporters leave them out) is read, with a
@@ -3871,7 +4046,9 @@ mod tests {
             import(&path).unwrap().materials[0].diffuse_texture,
             Some(ImageRef::File(file.clone()))
         );
-        std::fs::rename(&file, dir.path().join("moved.webp")).unwrap();
+        // Without the decoded name exactly, the literal one wins over a looser match of the
+        // decoded (a file of its last component beside the glTF).
+        std::fs::rename(&file, dir.path().join("design.webp")).unwrap();
         assert_eq!(
             import(&path).unwrap().materials[0].diffuse_texture,
             Some(ImageRef::File(encoded.join("design.webp")))

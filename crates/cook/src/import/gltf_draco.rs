@@ -95,10 +95,12 @@ impl Cache {
             let id = id
                 .as_u64()
                 .ok_or_else(|| format!("{what}: attribute {semantic} has id {id}, not a number"))?;
-            // Only what the cooker reads: joints, weights and colours would be converted for
-            // nothing.
-            let read = ["POSITION", "NORMAL"].contains(&semantic.as_str())
-                || semantic.starts_with("TEXCOORD_");
+            // Only what the cooker reads: tangents and custom attributes would be converted
+            // for nothing.
+            let read = ["POSITION", "NORMAL", "COLOR_0"].contains(&semantic.as_str())
+                || ["TEXCOORD_", "JOINTS_", "WEIGHTS_"]
+                    .iter()
+                    .any(|p| semantic.starts_with(p));
             if read {
                 wanted.push((semantic.clone(), id));
             }

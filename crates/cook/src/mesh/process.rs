@@ -587,11 +587,11 @@ fn dedupe_by_key(
     // through a flat array replaces a hash map: no hashing, and the probe is one cache line.
     // It measured more than twice as fast as an FxHash map on the bunny.
     let mut head = vec![END; welded];
-    // Every used position has at least one vertex and few have more: sized once, these grow
-    // without reallocating (each doubling touched fresh pages, which the kernel zeroes).
-    // Sized for one vertex per corner instead (flat-shaded boxes have three a position, and
-    // doubled twice), the 1M-triangle grid's peak rose from 64 to 82 MB: the untouched
-    // capacity is a hole in the heap that later blocks fill with fresh pages.
+    // Every used position has at least one vertex, and in a smooth mesh few have more: sized
+    // so, these do not reallocate there (each doubling touched fresh pages, which the kernel
+    // zeroes). Flat-shaded boxes (three vertices a position) double twice, a cost taken on
+    // purpose: sized for one vertex per corner, the 1M-triangle grid's peak rose from 64 to
+    // 82 MB, the untouched capacity a hole in the heap that later blocks fill with fresh pages.
     let expected = welded + welded / 16;
     let mut next: Vec<u32> = Vec::with_capacity(expected);
     let mut refs: Vec<VertexRef> = Vec::with_capacity(expected);
