@@ -1320,3 +1320,41 @@ fn validate_and_cook_agree_on_what_is_flat() {
     assert_eq!(curved.len(), 1, "{:#?}", v.findings);
     assert!(curved[0].contains("glass_curved"), "{curved:?}");
 }
+
+/// A normal map's +y (green, up its image, the OpenGL convention bakers and glTF use) tilts
+/// the glass up the window: each window vertex's bitangent, `cross(n, t) · w` as the viewer
+/// and the reference renderer build it, runs up the design (against the frame's `v_axis`,
+/// which runs down it) and its tangent along `u_axis`. Unflipped from MikkTSpace's (whose v
+/// runs up where the pack's runs down), every window's relief was lit and refracted upside
+/// down.
+#[test]
+fn window_bitangents_run_up_the_design() {
+    let manifest =
+        Manifest::open(&Path::new(env!("CARGO_MANIFEST_DIR")).join("../assets-src/scene.toml"))
+            .unwrap();
+    let (_, pack) = cook_to_pack(&manifest);
+    let toc = pack.toc();
+    let m = &toc.meshes[0];
+    assert!(m.layout.attribute(pack::Semantic::Tangent).is_some());
+    let verts: Vec<_> = pack
+        .vertex_bytes(m)
+        .chunks_exact(m.layout.stride as usize)
+        .map(|v| m.layout.decode(v))
+        .collect();
+    assert!(!toc.windows.is_empty());
+    for w in &toc.windows {
+        let (u, v) = (glam::Vec3::from(w.u_axis), glam::Vec3::from(w.v_axis));
+        let mine: Vec<_> = verts
+            .iter()
+            .filter(|d| d.material[0] == w.material)
+            .collect();
+        assert!(!mine.is_empty(), "window material {}", w.material);
+        for d in mine {
+            let n = glam::Vec3::from(d.normal);
+            let t = glam::Vec3::from_slice(&d.tangent[..3]);
+            let b = n.cross(t) * d.tangent[3];
+            assert!(t.dot(u) > 0.0, "tangent {t} against u {u}");
+            assert!(b.dot(v) < 0.0, "bitangent {b} against v {v}");
+        }
+    }
+}

@@ -758,8 +758,13 @@ fn dedupe_with_tangents(
         let tangents = super::tangents::generate(&view);
         for (c, t) in tangents.into_iter().enumerate() {
             let v = &mut corners[tangent_faces[c / 3] as usize * 3 + c % 3];
+            // The pack's v runs down the image (row 0 at v = 0), a baker's and MikkTSpace's
+            // up (OpenGL): the bitangent a normal map's +y (green, up the image) follows is
+            // the reference's for (u, -v), whose tangent has the same bits and the opposite
+            // sign. Unflipped, every normal map's y (the default scene's derived ones
+            // included) tilted the glass the wrong way up.
             v.tangent = if t.iter().all(|x| x.is_finite()) {
-                t.map(plus_zero)
+                [t[0], t[1], t[2], -t[3]].map(plus_zero)
             } else {
                 [1.0, 0.0, 0.0, 1.0]
             };
