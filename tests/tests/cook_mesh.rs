@@ -1358,3 +1358,50 @@ fn window_bitangents_run_up_the_design() {
         }
     }
 }
+
+/// The colour under a design's fully transparent texels (lead) never reaches the pack: the
+/// viewer filters a design as stored before weighing it by alpha, so what an image editor
+/// left there (white, often) showed as halos around the panes. Two designs that differ only
+/// there cook to the same textures.
+#[test]
+fn the_colour_under_transparent_lead_does_not_reach_the_pack() {
+    let dir = tempfile::tempdir().unwrap();
+    let design = |under: u8| {
+        let img = image::RgbaImage::from_fn(16, 16, |x, y| {
+            if x % 4 == 3 || y % 4 == 3 {
+                image::Rgba([under, under, under, 0])
+            } else if (x / 4 + y / 4) % 2 == 0 {
+                image::Rgba([200, 20, 20, 255])
+            } else {
+                image::Rgba([20, 160, 40, 255])
+            }
+        });
+        let path = dir.path().join(format!("lead{under}.png"));
+        img.save(&path).unwrap();
+        path
+    };
+    let manifest =
+        Manifest::open(&Path::new(env!("CARGO_MANIFEST_DIR")).join("../assets-src/scene.toml"))
+            .unwrap();
+    let cook_with = |path: PathBuf| {
+        let mut settings = Settings::new(&manifest);
+        settings.window_overrides = vec![cook::manifest::WindowDesign::from_override("*", path)];
+        let out = cook::cook(&manifest, &settings).expect("cooks");
+        let bytes = pack::encode(out.toc.clone(), &out.data).expect("encodes");
+        Pack::from_bytes("memory.pack", &bytes).expect("reads back")
+    };
+    let (black, white) = (cook_with(design(0)), cook_with(design(255)));
+    let colour = |p: &Pack| -> Vec<Vec<u8>> {
+        let toc = p.toc();
+        (toc.textures.iter().enumerate())
+            .filter(|(_, t)| t.role == pack::TextureRole::Colour && t.name.starts_with("lead"))
+            .flat_map(|(i, t)| (0..t.mips.len()).map(move |l| (i, l)))
+            .map(|(i, l)| p.mip_bytes(i, l).to_vec())
+            .collect()
+    };
+    assert!(!colour(&black).is_empty());
+    assert!(
+        colour(&black) == colour(&white),
+        "the hidden colour reached the design"
+    );
+}

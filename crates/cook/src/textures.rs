@@ -862,10 +862,21 @@ fn run(
         (img, size)
     };
     match job {
-        Job::Colour { image, srgb, .. } => {
+        Job::Colour {
+            image,
+            srgb,
+            design,
+        } => {
             let (opts, choice) = colour_options(*srgb, settings);
             let said = choice.map_or_else(Said::default, |c| choice_note("mips", &c));
             let (img, reduced) = fit(images.get(image)?, &opts, image)?;
+            // A design is filtered as stored before it is weighed by its alpha: the colour
+            // under its fully transparent texels (lead) must be its panes', not whatever the
+            // image editor left there.
+            let img = match design.then(|| texture::pixels::bleed_under_transparent(&img)) {
+                Some(Some(bled)) => Arc::new(bled),
+                _ => img,
+            };
             let (img, size) = padded(img);
             let chain = texture::colour_mips(&img, &opts)
                 .map_err(|e| texture_error(Path::new(&image.name()), e))?;

@@ -1158,6 +1158,11 @@ fn baked_size(
 struct CappedDesigns {
     cap: u32,
     reduced: Vec<Reduced>,
+    /// Each design as windows read it, the colour under its fully transparent texels bled
+    /// from its panes (`texture::pixels::bleed_under_transparent`), made once per image and
+    /// colour space: fitting and outlining filter it as stored, so what an image editor left
+    /// under the lead (white, often) haloed the panes.
+    bled: std::sync::Mutex<Vec<(ImageRef, bool, Arc<image::DynamicImage>)>>,
 }
 
 /// A design image over the cap, in one colour space: its level within the cap.
@@ -1181,6 +1186,7 @@ impl CappedDesigns {
             return Ok(Self {
                 cap: 0,
                 reduced: Vec::new(),
+                bled: Default::default(),
             });
         };
         let mut distinct: Vec<(&ImageRef, bool)> = Vec::new();
@@ -1215,7 +1221,11 @@ impl CappedDesigns {
                 });
             }
         }
-        Ok(Self { cap, reduced })
+        Ok(Self {
+            cap,
+            reduced,
+            bled: Default::default(),
+        })
     }
 
     /// What the cook says of a reduced image.
@@ -1231,17 +1241,34 @@ impl CappedDesigns {
         )
     }
 
-    /// `img` decoded, or its level within the cap, in the colour space `srgb` says.
+    /// `img` decoded, or its level within the cap, in the colour space `srgb` says; bled
+    /// under its transparent texels (see `bled`).
     fn get(
         &self,
         img: &ImageRef,
         srgb: bool,
         images: &crate::textures::DecodedImages,
     ) -> Result<Arc<image::DynamicImage>, CookError> {
-        match self.find(img, srgb) {
-            Some((level, _)) => Ok(Arc::clone(level)),
-            None => images.get(img),
+        let lock = || self.bled.lock().unwrap_or_else(|e| e.into_inner());
+        if let Some((_, _, d)) = lock().iter().find(|(i, s, _)| i == img && *s == srgb) {
+            return Ok(Arc::clone(d));
         }
+        let decoded = match self.find(img, srgb) {
+            Some((level, _)) => Arc::clone(level),
+            None => images.get(img)?,
+        };
+        let design = match texture::pixels::bleed_under_transparent(&decoded) {
+            Some(bled) => Arc::new(bled),
+            None => decoded,
+        };
+        let mut bled = lock();
+        // Another window may have made it meanwhile: the first one made is kept, so every
+        // window reads the same.
+        if let Some((_, _, d)) = bled.iter().find(|(i, s, _)| i == img && *s == srgb) {
+            return Ok(Arc::clone(d));
+        }
+        bled.push((img.clone(), srgb, Arc::clone(&design)));
+        Ok(design)
     }
 
     /// `img`'s level within the cap, and the image's own size; `None` where it fits.

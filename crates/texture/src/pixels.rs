@@ -229,3 +229,179 @@ mod tests {
         }
     }
 }
+
+/// A channel value of an image buffer, for [`bleed_under_transparent`].
+trait Channel: Copy {
+    fn to_f64(self) -> f64;
+    fn from_f64(v: f64) -> Self;
+    fn is_zero(self) -> bool;
+}
+
+impl Channel for u8 {
+    fn to_f64(self) -> f64 {
+        self as f64
+    }
+    fn from_f64(v: f64) -> Self {
+        v.round().clamp(0.0, 255.0) as u8
+    }
+    fn is_zero(self) -> bool {
+        self == 0
+    }
+}
+
+impl Channel for u16 {
+    fn to_f64(self) -> f64 {
+        self as f64
+    }
+    fn from_f64(v: f64) -> Self {
+        v.round().clamp(0.0, 65535.0) as u16
+    }
+    fn is_zero(self) -> bool {
+        self == 0
+    }
+}
+
+impl Channel for f32 {
+    fn to_f64(self) -> f64 {
+        self as f64
+    }
+    fn from_f64(v: f64) -> Self {
+        v as f32
+    }
+    fn is_zero(self) -> bool {
+        // A negative or NaN alpha shows nothing either.
+        !(self > 0.0)
+    }
+}
+
+/// `img` with the colour of every fully transparent texel replaced by the mean colour of its
+/// nearest texels that show (grown outward a ring at a time, each texel the mean of its
+/// already coloured 8-neighbours, as stored), or `None` where no texel is fully transparent
+/// or none shows. For a window design, whose colour the viewer filters as stored (straight
+/// alpha) before it weighs it by alpha: the colour an image editor leaves under alpha 0
+/// (often white) bled into the panes' edges as halos, and two designs that differ only
+/// there rendered differently.
+pub fn bleed_under_transparent(img: &DynamicImage) -> Option<DynamicImage> {
+    let (w, h) = (img.width() as usize, img.height() as usize);
+    let mut out = img.clone();
+    let changed = match &mut out {
+        DynamicImage::ImageRgba8(i) => bleed(i, w, h, 4),
+        DynamicImage::ImageLumaA8(i) => bleed(i, w, h, 2),
+        DynamicImage::ImageRgba16(i) => bleed(i, w, h, 4),
+        DynamicImage::ImageLumaA16(i) => bleed(i, w, h, 2),
+        DynamicImage::ImageRgba32F(i) => bleed(i, w, h, 4),
+        _ => false,
+    };
+    changed.then_some(out)
+}
+
+/// [`bleed_under_transparent`] on `w x h` texels of `ch` channels, alpha last; whether any
+/// texel changed.
+fn bleed<C: Channel>(data: &mut [C], w: usize, h: usize, ch: usize) -> bool {
+    const HIDDEN: u8 = 0;
+    const SHOWN: u8 = 1;
+    const QUEUED: u8 = 2;
+    let n = w * h;
+    if n == 0 || data.len() < n * ch {
+        return false;
+    }
+    let mut state: Vec<u8> = (0..n)
+        .map(|i| {
+            if data[i * ch + ch - 1].is_zero() {
+                HIDDEN
+            } else {
+                SHOWN
+            }
+        })
+        .collect();
+    let hidden = state.iter().filter(|&&s| s == HIDDEN).count();
+    if hidden == 0 || hidden == n {
+        return false;
+    }
+    let neighbours = |i: usize| {
+        let (x, y) = ((i % w) as isize, (i / w) as isize);
+        (-1isize..=1)
+            .flat_map(move |dy| (-1isize..=1).map(move |dx| (x + dx, y + dy)))
+            .filter(move |&(nx, ny)| {
+                (nx, ny) != (x, y) && nx >= 0 && ny >= 0 && nx < w as isize && ny < h as isize
+            })
+            .map(move |(nx, ny)| ny as usize * w + nx as usize)
+    };
+    let mut ring: Vec<usize> = (0..n)
+        .filter(|&i| state[i] == HIDDEN && neighbours(i).any(|j| state[j] == SHOWN))
+        .collect();
+    for &i in &ring {
+        state[i] = QUEUED;
+    }
+    let colours = ch - 1;
+    let mut mean = Vec::new();
+    while !ring.is_empty() {
+        // Every texel of the ring from the rings before it only, so the order within a ring
+        // does not matter.
+        mean.clear();
+        for &i in &ring {
+            let mut sum = [0.0f64; 3];
+            let mut count = 0.0;
+            for j in neighbours(i).filter(|&j| state[j] == SHOWN) {
+                for c in 0..colours {
+                    sum[c] += data[j * ch + c].to_f64();
+                }
+                count += 1.0;
+            }
+            mean.push(sum.map(|s| s / count));
+        }
+        for (&i, m) in ring.iter().zip(&mean) {
+            for c in 0..colours {
+                data[i * ch + c] = C::from_f64(m[c]);
+            }
+        }
+        for &i in &ring {
+            state[i] = SHOWN;
+        }
+        let mut next = Vec::new();
+        for &i in &ring {
+            for j in neighbours(i) {
+                if state[j] == HIDDEN {
+                    state[j] = QUEUED;
+                    next.push(j);
+                }
+            }
+        }
+        ring = next;
+    }
+    true
+}
+
+#[cfg(test)]
+mod bleed_tests {
+    use super::*;
+
+    /// A lone opaque texel colours everything hidden around it; what shows is untouched;
+    /// an image with nothing hidden, or nothing shown, is left as it is.
+    #[test]
+    fn hidden_texels_take_the_colour_of_the_nearest_shown() {
+        let mut img = image::RgbaImage::from_pixel(5, 4, image::Rgba([255, 255, 255, 0]));
+        img.put_pixel(2, 1, image::Rgba([200, 10, 30, 128]));
+        let bled = bleed_under_transparent(&DynamicImage::ImageRgba8(img))
+            .unwrap()
+            .to_rgba8();
+        for (x, y, p) in bled.enumerate_pixels() {
+            let alpha = if (x, y) == (2, 1) { 128 } else { 0 };
+            assert_eq!(*p, image::Rgba([200, 10, 30, alpha]), "{x},{y}");
+        }
+        // Between two panes, a hidden texel takes the mean of both; further out, of its ring.
+        let mut two = image::RgbaImage::from_pixel(3, 1, image::Rgba([9, 9, 9, 0]));
+        two.put_pixel(0, 0, image::Rgba([100, 0, 0, 255]));
+        two.put_pixel(2, 0, image::Rgba([0, 200, 0, 255]));
+        let bled = bleed_under_transparent(&DynamicImage::ImageRgba8(two))
+            .unwrap()
+            .to_rgba8();
+        assert_eq!(*bled.get_pixel(1, 0), image::Rgba([50, 100, 0, 0]));
+        let opaque = image::RgbaImage::from_pixel(2, 2, image::Rgba([1, 2, 3, 255]));
+        assert!(bleed_under_transparent(&DynamicImage::ImageRgba8(opaque)).is_none());
+        let clear = image::RgbaImage::from_pixel(2, 2, image::Rgba([1, 2, 3, 0]));
+        assert!(bleed_under_transparent(&DynamicImage::ImageRgba8(clear)).is_none());
+        let rgb = image::RgbImage::from_pixel(2, 2, image::Rgb([1, 2, 3]));
+        assert!(bleed_under_transparent(&DynamicImage::ImageRgb8(rgb)).is_none());
+    }
+}
