@@ -270,7 +270,7 @@ impl Channel for f32 {
     }
     fn is_zero(self) -> bool {
         // A negative or NaN alpha shows nothing either.
-        !(self > 0.0)
+        self.is_nan() || self <= 0.0
     }
 }
 
