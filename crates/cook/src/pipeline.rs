@@ -457,8 +457,7 @@ fn prepare_steps(
         .collect();
     let found = Instant::now();
     report.stage("tag", found - tagged);
-    let images =
-        textures::DecodedImages::with_colour_managed(colour_managed(manifest, settings, report));
+    let images = textures::DecodedImages::with_colour_managed(colour_managed(manifest, report));
     let framed = manifest.shifted(shift);
     let windows = window_plan::plan(
         &framed,
@@ -489,9 +488,12 @@ fn prepare_steps(
 /// `colour_space = "linear"` holds data in linear light, which a profile does not describe:
 /// it is read as declared, and a profile it carries is said to be left out. A file that cannot
 /// be read is left to its decode, which names it.
-fn colour_managed(manifest: &Manifest, settings: &Settings, report: &mut Report) -> Vec<PathBuf> {
+///
+/// A `--window` design takes the colour space of the entry it merges with, which only the
+/// window stage knows: it is settled there ([`say_profile`]).
+fn colour_managed(manifest: &Manifest, report: &mut Report) -> Vec<PathBuf> {
     let linear = |w: &WindowDesign| w.colour_space == pack::ColourSpace::Linear;
-    let designs = manifest.windows.iter().chain(&settings.window_overrides);
+    let designs = manifest.windows.iter();
     let mut files: Vec<PathBuf> = (designs.clone())
         .filter(|w| !linear(w))
         .filter_map(|w| w.design.clone())
@@ -501,17 +503,7 @@ fn colour_managed(manifest: &Manifest, settings: &Settings, report: &mut Report)
     files.sort();
     files.dedup();
     for f in &files {
-        match texture::profile_use(f) {
-            Ok(used @ texture::ProfileUse::Converted { .. }) => {
-                let said = used.said().unwrap_or_default();
-                report.notes.push(Warning::new(f, None, said));
-            }
-            Ok(used @ texture::ProfileUse::Ignored { .. }) => {
-                let said = used.said().unwrap_or_default();
-                report.warnings.push(Warning::new(f, None, said));
-            }
-            Ok(texture::ProfileUse::Srgb) | Err(_) => {}
-        }
+        say_profile(f, false, report);
     }
     let mut linear_designs: Vec<&PathBuf> = designs
         .filter(|w| linear(w))
@@ -521,10 +513,24 @@ fn colour_managed(manifest: &Manifest, settings: &Settings, report: &mut Report)
     linear_designs.sort();
     linear_designs.dedup();
     for f in linear_designs {
-        if let Ok(
-            texture::ProfileUse::Converted { name } | texture::ProfileUse::Ignored { name, .. },
-        ) = texture::profile_use(f)
-        {
+        say_profile(f, true, report);
+    }
+    files
+}
+
+/// Says what becomes of `f`'s embedded colour profile: applied (a note), not applicable (a
+/// warning), or, where the file is read as linear light (`linear`), not applied.
+pub(crate) fn say_profile(f: &Path, linear: bool, report: &mut Report) {
+    match texture::profile_use(f) {
+        Ok(used @ texture::ProfileUse::Converted { .. }) if !linear => {
+            let said = used.said().unwrap_or_default();
+            report.notes.push(Warning::new(f, None, said));
+        }
+        Ok(used @ texture::ProfileUse::Ignored { .. }) if !linear => {
+            let said = used.said().unwrap_or_default();
+            report.warnings.push(Warning::new(f, None, said));
+        }
+        Ok(texture::ProfileUse::Converted { name } | texture::ProfileUse::Ignored { name, .. }) => {
             let name = if name.is_empty() {
                 String::new()
             } else {
@@ -539,8 +545,8 @@ fn colour_managed(manifest: &Manifest, settings: &Settings, report: &mut Report)
                 ),
             ));
         }
+        Ok(texture::ProfileUse::Srgb) | Err(_) => {}
     }
-    files
 }
 
 /// `e` said where its file was named: a `--window` option, else the manifest's line.

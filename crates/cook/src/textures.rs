@@ -147,7 +147,9 @@ pub struct DecodedImages {
     /// Files the user named as colour (designs, a rule's texture, the panorama), whose
     /// embedded ICC profile is applied (`texture::profile`); a model's own textures are read
     /// as sRGB whatever they embed, as glTF requires.
-    colour_managed: std::collections::HashSet<PathBuf>,
+    /// Settled before any of them is decoded: a `--window` design's by the window stage,
+    /// which knows the colour space each window reads it in.
+    colour_managed: Mutex<std::collections::HashSet<PathBuf>>,
     /// Uses still to come, per file, where the texture stage has said: a file is let go after
     /// its last job, not held to the end of the stage (a 4096² design is 48 MiB decoded).
     uses: Mutex<HashMap<PathBuf, usize>>,
@@ -167,13 +169,27 @@ impl DecodedImages {
     /// Decodes the `colour_managed` files into sRGB by their embedded profiles.
     pub(crate) fn with_colour_managed(colour_managed: impl IntoIterator<Item = PathBuf>) -> Self {
         Self {
-            colour_managed: colour_managed.into_iter().collect(),
+            colour_managed: Mutex::new(colour_managed.into_iter().collect()),
             ..Self::default()
         }
     }
 
     fn is_colour_managed(&self, image: &ImageRef) -> bool {
-        matches!(image, ImageRef::File(p) if self.colour_managed.contains(p))
+        let managed = self
+            .colour_managed
+            .lock()
+            .unwrap_or_else(|e| e.into_inner());
+        matches!(image, ImageRef::File(p) if managed.contains(p))
+    }
+
+    /// Decodes `path` into sRGB by its embedded profile from now on; called before it is
+    /// first decoded.
+    pub(crate) fn manage_colour(&self, path: &Path) {
+        let mut managed = self
+            .colour_managed
+            .lock()
+            .unwrap_or_else(|e| e.into_inner());
+        managed.insert(path.to_path_buf());
     }
 
     /// The image, decoded by the first caller; callers wanting the same file meanwhile wait for
@@ -191,7 +207,7 @@ impl DecodedImages {
         if let Some(img) = &*slot {
             return Ok(Arc::clone(img));
         }
-        let decoded = if self.colour_managed.contains(path) {
+        let decoded = if self.is_colour_managed(image) {
             texture::load_image_in_srgb(path)
                 .map(|(img, _)| img)
                 .map_err(|e| texture_error(path, e))?

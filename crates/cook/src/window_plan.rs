@@ -813,6 +813,25 @@ pub fn plan(
             None => i,
         })
         .collect();
+    // A `--window` design in the colour space of the entries it merged with: its profile
+    // applied where a window reads it as sRGB (declared linear, it was converted anyway).
+    let mut settled: Vec<&Path> = Vec::new();
+    for path in overrides.iter().filter_map(|o| o.design.as_deref()) {
+        let named = |w: &WindowDesign| w.design.as_deref() == Some(path);
+        if settled.contains(&path) || manifest.windows.iter().any(named) {
+            continue;
+        }
+        settled.push(path);
+        let uses: Vec<bool> = (pending.iter())
+            .filter(|p| matches!(&p.image, Some((ImageRef::File(f), _)) if f == path))
+            .map(|p| p.srgb)
+            .collect();
+        let srgb = uses.is_empty() || uses.contains(&true);
+        if srgb {
+            images.manage_colour(path);
+        }
+        crate::pipeline::say_profile(path, !srgb, report);
+    }
     let capped = CappedDesigns::new(&pending, images, &settings.textures)?;
     let made: Vec<Option<Result<Design, CookError>>> = pending
         .par_iter()

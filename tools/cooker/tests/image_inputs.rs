@@ -1565,4 +1565,39 @@ fn a_design_s_colour_profile_is_applied_and_a_model_s_texture_s_is_not() {
         "{err}"
     );
     assert_eq!(centre(&pack)[..3], [128; 3]);
+    // The same file given with `--window` takes the colour space of the entry it replaces the
+    // design of: read as linear there (it was converted whatever the entry said), converted
+    // where the entry is sRGB.
+    std::fs::copy(d.join("design.png"), d.join("given.png")).unwrap();
+    let given = d.join("given.png");
+    let window = format!("Glass={}", given.display());
+    for (entry, converted) in [("colour_space = \"linear\"\n", false), ("", true)] {
+        std::fs::write(
+            d.join("scene.toml"),
+            format!(
+                "[[mesh]]\nsource = \"w.obj\"\n\n[[window]]\nmaterial = \"Glass\"\n\
+                 design = \"design.png\"\n{entry}"
+            ),
+        )
+        .unwrap();
+        let (pack, err) = cook_obj(
+            &d.join("scene.toml"),
+            &d.join("given.pack"),
+            &["--texture-format", "rgba8", "--window", &window],
+        );
+        let c = centre(&pack);
+        if converted {
+            assert!(
+                err.contains("given.png") && err.contains("converted"),
+                "{err}"
+            );
+            assert!(c[..3].iter().all(|v| (146..=148).contains(v)), "{c:?}");
+        } else {
+            assert!(
+                err.contains("given.png") && err.contains("is not applied"),
+                "{err}"
+            );
+            assert_eq!(c[..3], [128; 3]);
+        }
+    }
 }
