@@ -762,6 +762,17 @@ pub fn import(path: &Path) -> Result<Imported, CookError> {
             };
             let node_worlds_here = instances(&ctx, &document, &node, world)?;
             let skinned_worlds = [World::IDENTITY];
+            if joints.is_some() && node_worlds_here.len() > 1 {
+                out.warnings.push(Warning::new(
+                    path,
+                    None,
+                    format!(
+                        "node {} is skinned and instanced (EXT_mesh_gpu_instancing): its skinned \
+                         primitives are cooked once, where the joints put them",
+                        node.index()
+                    ),
+                ));
+            }
             for prim in mesh.primitives() {
                 let mode = prim.mode();
                 if !matches!(
@@ -3775,6 +3786,30 @@ mod tests {
         let m = import(&path).unwrap();
         assert_eq!(m.tri_part.len(), 1);
         assert_eq!(bounds(&m).0.x, 3.5);
+        // Instanced too: cooked once, said.
+        let instanced = file("")
+            .replace(
+                r#""skin": 0, "translation": [100, 0, 0]"#,
+                r#""skin": 0, "translation": [100, 0, 0], "extensions": {"EXT_mesh_gpu_instancing": {"attributes": {"TRANSLATION": 4}}}"#,
+            )
+            .replace(
+                r#""count": 2, "type": "MAT4"}"#,
+                r#""count": 2, "type": "MAT4"}, {"bufferView": 0, "componentType": 5126, "count": 2, "type": "VEC3"}"#,
+            );
+        assert!(
+            instanced.contains("TRANSLATION")
+                && instanced.contains(r#""count": 2, "type": "VEC3""#)
+        );
+        std::fs::write(&path, instanced).unwrap();
+        let m = import(&path).unwrap();
+        assert_eq!(m.tri_part.len(), 1);
+        assert!(
+            m.warnings
+                .iter()
+                .any(|w| w.message.contains("is skinned and instanced")),
+            "{:?}",
+            m.warnings
+        );
         // A primitive without joints on a skinned node stays where the node puts it.
         let bare = file("").replace(r#""JOINTS_0": 1, "WEIGHTS_0": 2"#, r#""NORMAL": 0"#);
         std::fs::write(&path, bare).unwrap();
