@@ -1100,11 +1100,6 @@ fn split_mixed_parts(
         }
         g
     };
-    // A part is cut into a floor and walls, each passing the heuristic and lying mostly in
-    // large planes (one of them alone where the model has the other elsewhere): a building,
-    // not a sculpture (the Stanford bunny's base and
-    // steep flanks pass the heuristic, but its flanks are no planes). In part order, so ids
-    // are deterministic.
     let size = {
         let (mut lo, mut hi) = (glam::DVec3::INFINITY, glam::DVec3::NEG_INFINITY);
         for p in &src.positions {
@@ -1124,6 +1119,10 @@ fn split_mixed_parts(
             .zip(&split)
             .any(|(g, &cut)| !cut && geometry_class(g, height, total, base) == Some(want))
     });
+    // A part is cut into a floor and walls, each passing the heuristic and lying mostly in
+    // large planes (one of them alone where the model has the other elsewhere): a building,
+    // not a sculpture (the Stanford bunny's base and steep flanks pass the heuristic, but its
+    // flanks are no planes). In part order, so ids are deterministic.
     for part in 0..split.len() {
         let s = slot[part] as usize;
         if s == u32::MAX as usize {

@@ -237,29 +237,24 @@ trait Channel: Copy {
     fn is_zero(self) -> bool;
 }
 
-impl Channel for u8 {
-    fn to_f64(self) -> f64 {
-        self as f64
-    }
-    fn from_f64(v: f64) -> Self {
-        v.round().clamp(0.0, 255.0) as u8
-    }
-    fn is_zero(self) -> bool {
-        self == 0
-    }
+macro_rules! unorm_channel {
+    ($t:ty) => {
+        impl Channel for $t {
+            fn to_f64(self) -> f64 {
+                self as f64
+            }
+            fn from_f64(v: f64) -> Self {
+                v.round().clamp(0.0, <$t>::MAX as f64) as $t
+            }
+            fn is_zero(self) -> bool {
+                self == 0
+            }
+        }
+    };
 }
 
-impl Channel for u16 {
-    fn to_f64(self) -> f64 {
-        self as f64
-    }
-    fn from_f64(v: f64) -> Self {
-        v.round().clamp(0.0, 65535.0) as u16
-    }
-    fn is_zero(self) -> bool {
-        self == 0
-    }
-}
+unorm_channel!(u8);
+unorm_channel!(u16);
 
 impl Channel for f32 {
     fn to_f64(self) -> f64 {

@@ -62,12 +62,6 @@ fn check_glb_header(path: &Path, bytes: &[u8]) -> Result<(), CookError> {
     Ok(())
 }
 
-/// Refuses a file of another major version than 2, or one that needs a later 2.x reader
-/// (`minVersion`): read as 2.0, a glTF 1.0 file said only that it held no faces.
-fn check_version(path: &Path, asset: &gltf::json::Asset) -> Result<(), CookError> {
-    check_version_text(path, &asset.version, asset.min_version.as_deref())
-}
-
 /// A version's major and minor number ("2.0" is (2, 0); "1.0.3" (1, 0)).
 fn version_numbers(v: &str) -> Option<(u32, u32)> {
     let mut parts = v.trim().split('.');
@@ -76,7 +70,9 @@ fn version_numbers(v: &str) -> Option<(u32, u32)> {
     Some((major, minor))
 }
 
-fn check_version_text(path: &Path, version: &str, min: Option<&str>) -> Result<(), CookError> {
+/// Refuses a file of another major version than 2, or one that needs a later 2.x reader
+/// (`minVersion`): read as 2.0, a glTF 1.0 file said only that it held no faces.
+fn check_version(path: &Path, version: &str, min: Option<&str>) -> Result<(), CookError> {
     let Some((major, _)) = version_numbers(version) else {
         return Err(bad(
             path,
@@ -557,7 +553,7 @@ pub fn import(path: &Path) -> Result<Imported, CookError> {
     };
     let (document, blob, exact) = parse(bytes).map_err(|(e, version)| {
         // A file of another version is said to be one, not a list of what 2.0 misses in it.
-        match version.map(|v| check_version_text(path, &v, None)) {
+        match version.map(|v| check_version(path, &v, None)) {
             Some(Err(said)) => said,
             _ => convert(e),
         }
@@ -565,7 +561,7 @@ pub fn import(path: &Path) -> Result<Imported, CookError> {
     // gltf-json's validation indexes the POSITION accessor before checking it exists (an
     // out-of-bounds panic found by fuzzing): check every attribute index first.
     let mut json = document.into_json();
-    check_version(path, &json.asset)?;
+    check_version(path, &json.asset.version, json.asset.min_version.as_deref())?;
     let mut warnings = required_extensions(path, std::mem::take(&mut json.extensions_required))?;
     for (mi, mesh) in json.meshes.iter().enumerate() {
         for (pi, prim) in mesh.primitives.iter().enumerate() {
@@ -717,13 +713,7 @@ pub fn import(path: &Path) -> Result<Imported, CookError> {
                 "node hierarchy visits over 1,000,000 nodes (children shared by many parents)",
             ));
         }
-        let local = glam::Mat4::from_cols_array_2d(&node.transform().matrix());
-        let exact_local = exact
-            .get(node.index())
-            .copied()
-            .flatten()
-            .unwrap_or_else(|| local.as_dmat4());
-        let world = parent.then(exact_local);
+        let world = parent.then(local_transform(&node, &exact));
         if !world.m.is_finite() {
             return Err(bad(
                 path,
@@ -816,12 +806,7 @@ pub fn import(path: &Path) -> Result<Imported, CookError> {
                     None => None,
                 };
                 let names = Names {
-                    material: material.index().map(|i| {
-                        material
-                            .name()
-                            .map(str::to_string)
-                            .unwrap_or_else(|| format!("material{i}"))
-                    }),
+                    material: material.index().map(|_| material_name(&material)),
                     group: None,
                     object: None,
                     mesh: Some(
@@ -920,14 +905,7 @@ pub fn import(path: &Path) -> Result<Imported, CookError> {
         .materials()
         .filter(|m| m.index().is_some_and(|i| material_ids.contains_key(&i)))
         .filter(|m| m.extension_value("KHR_materials_unlit").is_some())
-        .map(|m| {
-            let i = m.index().unwrap_or(0);
-            (
-                i,
-                m.name()
-                    .map_or_else(|| format!("material{i}"), str::to_string),
-            )
-        })
+        .map(|m| (m.index().unwrap_or(0), material_name(&m)))
         .collect();
     if !unlit.is_empty() {
         unlit.sort();
@@ -1718,6 +1696,24 @@ fn joint_matrices(
         .map(std::rc::Rc::new)
 }
 
+/// A node's transform relative to its parent: [`exact_locals`]'s f64 reading where it has
+/// one, else gltf's f32 one.
+fn local_transform(node: &gltf::Node, exact: &[Option<glam::DMat4>]) -> glam::DMat4 {
+    exact
+        .get(node.index())
+        .copied()
+        .flatten()
+        .unwrap_or_else(|| glam::Mat4::from_cols_array_2d(&node.transform().matrix()).as_dmat4())
+}
+
+/// A material's name, or `material<index>` for one without (`material0` for the default).
+fn material_name(m: &gltf::Material) -> String {
+    m.name().map_or_else(
+        || format!("material{}", m.index().unwrap_or(0)),
+        str::to_string,
+    )
+}
+
 /// Every node's world transform, chained in f64 down from its root (a node's first parent,
 /// where a file shares one; a loop is cut where it closes), each node's once.
 fn all_worlds(document: &gltf::Document, exact: &[Option<glam::DMat4>]) -> Vec<glam::DMat4> {
@@ -1730,11 +1726,6 @@ fn all_worlds(document: &gltf::Document, exact: &[Option<glam::DMat4>]) -> Vec<g
             }
         }
     }
-    let local = |i: usize| {
-        exact.get(i).copied().flatten().unwrap_or_else(|| {
-            glam::Mat4::from_cols_array_2d(&nodes[i].transform().matrix()).as_dmat4()
-        })
-    };
     let mut world: Vec<Option<glam::DMat4>> = vec![None; nodes.len()];
     let mut on_path = vec![false; nodes.len()];
     let mut path = Vec::new();
@@ -1752,7 +1743,7 @@ fn all_worlds(document: &gltf::Document, exact: &[Option<glam::DMat4>]) -> Vec<g
         }
         let mut above = at.and_then(|n| world[n]).unwrap_or(glam::DMat4::IDENTITY);
         for n in path.drain(..).rev() {
-            above *= local(n);
+            above *= local_transform(&nodes[n], exact);
             world[n] = Some(above);
             on_path[n] = false;
         }
@@ -1848,13 +1839,14 @@ fn skin(
         let at = m.transform_point3(glam::Vec3::from(*p).as_dvec3());
         *p = at.as_vec3().to_array();
         let m3 = glam::DMat3::from_mat4(m);
-        if m3.determinant() < 0.0 {
+        let det = m3.determinant();
+        if det < 0.0 {
             mirrored.resize(count, false);
             mirrored[v] = true;
         }
         if let Some((n, _)) = normals.as_deref_mut()
             && let Some(n) = n.get_mut(v)
-            && m3.determinant() != 0.0
+            && det != 0.0
         {
             let turned = m3
                 .inverse()
@@ -2620,10 +2612,7 @@ fn convert_material(
     let a = rough * rough;
     let shininess = (2.0 / (a * a) - 2.0).clamp(1.0, 2048.0);
     let sm = SourceMaterial {
-        name: m
-            .name()
-            .map(str::to_string)
-            .unwrap_or_else(|| format!("material{}", m.index().unwrap_or(0))),
+        name: material_name(m),
         diffuse,
         specular,
         shininess,
