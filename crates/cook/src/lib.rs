@@ -4,6 +4,7 @@
 //! mesh → window frames → textures → TOC. Each stage is a plain function over plain data, so
 //! `cooker validate` can run the first stages ([`prepare`]) and inspect what they produced.
 
+mod buckets;
 pub mod budget;
 pub mod cache;
 #[cfg(feature = "cli")]

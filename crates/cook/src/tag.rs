@@ -9,6 +9,7 @@ use std::collections::{HashMap, HashSet};
 use pack::MaterialClass;
 
 use crate::CookError;
+use crate::buckets::Counts;
 use crate::import::{ImageRef, Imported, SourceMaterial};
 use crate::manifest::{Manifest, NameGlob, NameKind, NameSet, Rule};
 
@@ -1074,20 +1075,16 @@ fn split_mixed_parts(
             }
         })
         .collect();
-    let mut start = vec![0usize; 2 * cutting as usize + 1];
+    let mut counts = Counts::new(2 * cutting as usize);
     for &k in keys.iter().filter(|&&k| k != u32::MAX) {
-        start[k as usize + 1] += 1;
+        counts.add(k as usize);
     }
-    for i in 1..start.len() {
-        start[i] += start[i - 1];
-    }
-    let mut piece_tris = vec![0u32; start[start.len() - 1]];
-    let mut next = start.clone();
+    let mut placing = counts.placing(0u32);
     for (t, &k) in keys.iter().enumerate().filter(|(_, k)| **k != u32::MAX) {
-        piece_tris[next[k as usize]] = t as u32;
-        next[k as usize] += 1;
+        placing.put(k as usize, t as u32);
     }
-    drop((keys, next));
+    drop(keys);
+    let pieces = placing.finish();
     let piece_geometry = |src: &Imported, tris: &[u32]| {
         let mut g = PartGeometry::empty();
         for &t in tris {
@@ -1128,8 +1125,7 @@ fn split_mixed_parts(
         if s == u32::MAX as usize {
             continue;
         }
-        let tris: [&[u32]; 2] =
-            std::array::from_fn(|k| &piece_tris[start[2 * s + k]..start[2 * s + k + 1]]);
+        let tris: [&[u32]; 2] = std::array::from_fn(|k| pieces.group(2 * s + k));
         if tris.iter().all(|t| t.is_empty()) {
             continue;
         }

@@ -10,6 +10,7 @@ use rayon::prelude::*;
 
 use super::weld::{plus_zero, weld};
 use super::{CacheMode, MaterialNeeds, MeshSettings, MeshStats, Processed, VertexArrays};
+use crate::buckets::{Counts, Grouped};
 use crate::import::{Imported, Indices, NONE};
 
 /// `v` scaled to unit length, or zero when it has none. Divides by the length where glam's
@@ -335,24 +336,23 @@ fn corner_normals(
         }
     }
     let wants = |ids: &[u32], k: usize| ids.get(k).is_none_or(|&id| id == NONE);
-    let mut start = vec![0u32; welded + 1];
+    let mut counts = Counts::new(welded);
     each_corner(src, keep, canon, |k, c| {
         if wants(&ids, k) {
-            start[c + 1] += 1;
+            counts.add(c);
         }
     });
-    for i in 0..welded {
-        start[i + 1] += start[i];
-    }
-    let mut fill = start.clone();
-    let mut adj = vec![0u32; missing];
+    let mut placing = counts.placing(0u32);
     each_corner(src, keep, canon, |k, c| {
         if wants(&ids, k) {
-            adj[fill[c] as usize] = k as u32;
-            fill[c] += 1;
+            placing.put(c, k as u32);
         }
     });
-    drop(fill);
+    let Grouped {
+        start,
+        items: mut adj,
+    } = placing.finish();
+    debug_assert_eq!(adj.len(), missing);
     // Per position: cluster its corners, sum each cluster. Positions are independent, so runs
     // of them are clustered in parallel, each into its own table, and each corner's slot in
     // its run's table overwrites the corner's own entry in `adj` (a run owns its positions'

@@ -27,6 +27,7 @@ use glam::Vec3;
 use rayon::prelude::*;
 
 use super::weld::plus_zero;
+use crate::buckets::{Counts, Grouped};
 
 const NONE: u32 = u32::MAX;
 /// The triangle's texture-space area is zero: it joins any group and adds nothing to it.
@@ -282,28 +283,23 @@ fn shared_vertices<C: Corners>(corners: &C, corner_count: usize) -> (Vec<u32>, u
         .collect();
     let parts = 1usize << PART_BITS;
     let part = |h: u64| (h >> (64 - PART_BITS)) as usize;
-    let mut start = vec![0usize; parts + 1];
+    let mut counts = Counts::new(parts);
     for &h in &hashes {
-        start[part(h) + 1] += 1;
-    }
-    for i in 0..parts {
-        start[i + 1] += start[i];
+        counts.add(part(h));
     }
     // Each partition's corners, hashes and values side by side (corners ascending), so that
     // welding one touches only its own memory.
-    let mut members = vec![(0u32, 0u64, [0u32; 8]); corner_count];
-    let mut fill = start.clone();
+    let mut placing = counts.placing((0u32, 0u64, [0u32; 8]));
     for (c, &h) in hashes.iter().enumerate() {
-        members[fill[part(h)]] = (c as u32, h, key(c));
-        fill[part(h)] += 1;
+        placing.put(part(h), (c as u32, h, key(c)));
     }
-    drop(fill);
     drop(hashes);
+    let members = placing.finish();
     // For each member, the first corner (the smallest) with its value.
     let firsts: Vec<Vec<u32>> = (0..parts)
         .into_par_iter()
         .map(|p| {
-            let list = &members[start[p]..start[p + 1]];
+            let list = members.group(p);
             let size = (list.len() * 2).next_power_of_two().max(16);
             let mask = size - 1;
             let mut table = vec![u32::MAX; size];
@@ -334,7 +330,7 @@ fn shared_vertices<C: Corners>(corners: &C, corner_count: usize) -> (Vec<u32>, u
         .collect();
     let mut first = vec![0u32; corner_count];
     for (p, f) in firsts.iter().enumerate() {
-        for (&(c, _, _), &r) in members[start[p]..start[p + 1]].iter().zip(f) {
+        for (&(c, _, _), &r) in members.group(p).iter().zip(f) {
             first[c as usize] = r;
         }
     }
@@ -358,27 +354,24 @@ fn shared_vertices<C: Corners>(corners: &C, corner_count: usize) -> (Vec<u32>, u
 /// each still unpaired edge takes the first later unpaired edge of the opposite direction.
 fn build_neighbors(tv: &[[u32; 3]], vertex_count: usize) -> Vec<[u32; 3]> {
     let n = tv.len();
-    let mut start = vec![0u32; vertex_count + 1];
+    let mut counts = Counts::new(vertex_count);
     for v in tv {
         for k in 0..3 {
-            start[v[k].min(v[(k + 1) % 3]) as usize + 1] += 1;
+            counts.add(v[k].min(v[(k + 1) % 3]) as usize);
         }
     }
-    for i in 0..vertex_count {
-        start[i + 1] += start[i];
-    }
     // (larger vertex, edge slot 3t+k), in triangle order within each smaller vertex.
-    let mut edges = vec![(0u32, 0u32); 3 * n];
-    let mut fill = start.clone();
+    let mut placing = counts.placing((0u32, 0u32));
     for (t, v) in tv.iter().enumerate() {
         for k in 0..3 {
             let (a, b) = (v[k], v[(k + 1) % 3]);
-            let lo = a.min(b) as usize;
-            edges[fill[lo] as usize] = (a.max(b), (3 * t + k) as u32);
-            fill[lo] += 1;
+            placing.put(a.min(b) as usize, (a.max(b), (3 * t + k) as u32));
         }
     }
-    drop(fill);
+    let Grouped {
+        start,
+        items: mut edges,
+    } = placing.finish();
     let mut neighbors = vec![[NONE; 3]; n];
     let directed = |slot: u32| {
         let (t, k) = (slot as usize / 3, slot as usize % 3);
