@@ -330,12 +330,17 @@ const HEURISTICS: &[(&str, MaterialClass)] = &[
     ("आसमान", MaterialClass::Background),
 ];
 
-/// Words that make a window keyword in the same name mean the stone or wood around the glass
+/// Words that make a window keyword in the same name, or in a less specific one (a material
+/// `Frame_Wood` in a group `Window1`), mean the stone or wood around the glass
 /// ("window_frame", "prozor_okvir"), not the glass.
 const NOT_GLASS: &[&str] = &[
     "frame",
     "sill",
     "mullion",
+    "transom",
+    "muntin",
+    "jamb",
+    "sash",
     "tracery",
     "okvir",
     "rahmen",
@@ -527,6 +532,9 @@ fn keyword_hits(words: &[String]) -> Vec<usize> {
 pub fn heuristic(
     names: &crate::import::Names,
 ) -> Option<(&'static str, NameKind, String, MaterialClass)> {
+    // A frame word in a name also holds for the less specific names after it: a material
+    // `Frame_Wood` in a group `Window1` is the window's frame, not its glass.
+    let mut framed = false;
     for kind in NameKind::ALL {
         let Some(name) = names.get(kind) else {
             continue;
@@ -541,9 +549,10 @@ pub fn heuristic(
                 .iter()
                 .any(|w| list.iter().any(|k| word_matches(w, k)))
         };
+        framed |= has(NOT_GLASS);
         for i in keyword_hits(&words) {
             let (keyword, class) = HEURISTICS[i];
-            if class.is_window() && has(NOT_GLASS) {
+            if class.is_window() && framed {
                 continue;
             }
             let class = if class.is_window() && has(LOWER) {
@@ -1915,6 +1924,33 @@ mod tests {
             "material name \"Τοίχος\" has \"τοιχος\""
         );
         assert_eq!(written_greek("σοσ σ"), "σος σ");
+    }
+
+    /// A window's frame modelled in the window's group (as SketchUp and Rhino export a
+    /// window assembly) is stone or wood, not glass: a frame word in a more specific name
+    /// outweighs the window word of a less specific one, never the other way round.
+    #[test]
+    fn a_frame_in_a_window_group_is_not_glass() {
+        use MaterialClass::{Other, WindowUpper};
+        let class = |material: &str, group: &str| {
+            let names = Names {
+                material: Some(material.into()),
+                group: Some(group.into()),
+                ..Default::default()
+            };
+            heuristic(&names).map_or(Other, |h| h.3)
+        };
+        for (material, group, want) in [
+            ("Frame_Wood", "Window1", Other),
+            ("Window_Frame", "Window1", Other),
+            ("Fensterrahmen", "Fenster_2", Other),
+            ("Dark Oak Frame", "Window2", Other),
+            ("Transom", "Window_lower", Other),
+            ("Stone", "Window3", WindowUpper),
+            ("Glass", "Window_Frame_3", WindowUpper),
+        ] {
+            assert_eq!(class(material, group), want, "{material:?} in {group:?}");
+        }
     }
 
     #[test]

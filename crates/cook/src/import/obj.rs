@@ -340,10 +340,22 @@ fn vertex(rest: &[u8], origin: Option<[f64; 3]>) -> Result<([f32; 3], &[u8]), St
             Some(_) => std::str::from_utf8(t).ok().and_then(|s| s.parse().ok()),
         }
         .ok_or_else(|| format!("vertex coordinate {:?} is not a number", text(t)))?;
-        if !x.is_finite() {
-            return Err(format!("vertex coordinate {:?} is not finite", text(t)));
+        let f = x - origin.map_or(0.0, |o| o[k]);
+        if !x.is_finite() || (f as f32).is_infinite() {
+            let wide = std::str::from_utf8(t)
+                .ok()
+                .and_then(|s| s.parse::<f64>().ok());
+            return Err(if wide.is_some_and(f64::is_finite) {
+                format!(
+                    "vertex coordinate {:?} is out of range (a position holds at most ±{:e})",
+                    text(t),
+                    f32::MAX
+                )
+            } else {
+                format!("vertex coordinate {:?} is not finite", text(t))
+            });
         }
-        *v = (x - origin.map_or(0.0, |o| o[k])) as f32;
+        *v = f as f32;
     }
     Ok((p, trim(&rest[after..])))
 }
@@ -513,9 +525,11 @@ fn continued(text: &[u8]) -> bool {
     memchr::memchr_iter(b'\\', text).any(|i| continues(text, i + 1))
 }
 
-/// Whether a backslash before `text[at..]` continues its line: a line end follows it.
+/// Whether a backslash before `text[at..]` continues its line: a line end follows it, or the
+/// end of the file (a continuation onto nothing, as a wrapped face written last leaves it).
+/// Blocks and chunks are cut at line ends, so the end of `text` is the end of the file.
 fn continues(text: &[u8], at: usize) -> bool {
-    matches!(text.get(at..), Some([b'\n', ..] | [b'\r', b'\n', ..]))
+    matches!(text.get(at..), Some([] | [b'\n', ..] | [b'\r', b'\n', ..]))
 }
 
 /// The last line end in `text[from..]` that ends a line not continued on the next.
@@ -583,8 +597,11 @@ fn join_continued_lines(text: &mut [u8]) {
         if b == b'\\' && !verbatim && continues(text, read + 1) {
             text[write] = b' ';
             write += 1;
-            read += if text[read + 1] == b'\n' { 2 } else { 3 };
-            joined += 1;
+            match text.get(read + 1) {
+                None => read += 1,
+                Some(b'\n') => (read, joined) = (read + 2, joined + 1),
+                Some(_) => (read, joined) = (read + 3, joined + 1),
+            }
             continue;
         }
         if b == b'\n' {
@@ -2033,6 +2050,9 @@ fn xyz_to_linear_srgb(c: [f32; 3]) -> [f32; 3] {
     m.map(|r| r[0] * c[0] + r[1] * c[1] + r[2] * c[2])
 }
 
+/// A `Tf` no channel of which is above this is black.
+const BLACK_FILTER: f32 = 1e-3;
+
 /// `Tf`, `d`/`Tr` and `illum` of an MTL entry; unparsable values count as absent.
 fn mtl_transmission(m: &tobj::Material) -> super::Transmission {
     let parse = |text: &str| -> Option<Vec<f32>> {
@@ -2071,7 +2091,11 @@ fn mtl_transmission(m: &tobj::Material) -> super::Transmission {
         })
         .map(|d| d.clamp(0.0, 1.0));
     super::Transmission {
-        filter: filter.map(|f| f.map(|c| c.clamp(0.0, 1.0))),
+        // A black filter passes no light: Rhino writes `Tf 0 0 0` on every opaque material
+        // (as 3ds Max writes a white one), and on glass it says nothing `d` does not.
+        filter: filter
+            .map(|f| f.map(|c| c.clamp(0.0, 1.0)))
+            .filter(|f| f.iter().any(|&c| c > BLACK_FILTER)),
         opacity,
         illum: m.illumination_model,
         factor: None,
@@ -2129,11 +2153,15 @@ fn clean_mtl(
         };
         let cleaned = match key {
             "Ka" | "Kd" | "Ks" | "Ke" | "Tf" => {
-                let (space, values) = match rest.split_once(char::is_whitespace) {
-                    Some(("xyz", v)) => ("xyz", v),
-                    Some(("spectral", _)) => ("spectral", ""),
-                    _ if rest == "spectral" => ("spectral", ""),
-                    _ => ("rgb", rest),
+                let (first, tail) = rest
+                    .split_once(char::is_whitespace)
+                    .map_or((rest, ""), |(f, t)| (f, t.trim_start()));
+                let (space, values) = if first.eq_ignore_ascii_case("xyz") {
+                    ("xyz", tail)
+                } else if first.eq_ignore_ascii_case("spectral") {
+                    ("spectral", "")
+                } else {
+                    ("rgb", rest)
                 };
                 if space == "spectral" {
                     warnings.push(Warning::new(
@@ -2148,6 +2176,18 @@ fn clean_mtl(
                     let v = numbers(values).filter(|v| !v.is_empty()).ok_or_else(|| {
                         fail(n, format!("{key} wants 1 or 3 numbers, got {rest:?}"))
                     })?;
+                    if v.len() > 3 {
+                        // Some exporters append an alpha; nothing reads it.
+                        warnings.push(Warning::new(
+                            path,
+                            Some(n),
+                            format!(
+                                "{key} takes 1 or 3 numbers, got {}; the ones after the third \
+                                 are ignored",
+                                v.len()
+                            ),
+                        ));
+                    }
                     // One value is a grey; a missing component repeats the one before.
                     let c = [v[0], v[v.len().min(2) - 1], v[v.len().min(3) - 1]];
                     let c = if space == "xyz" {
@@ -2170,6 +2210,13 @@ fn clean_mtl(
                     .and_then(|t| t.parse::<f32>().ok())
                     .filter(|v| v.is_finite())
                     .ok_or_else(|| fail(n, format!("{key} wants a number, got {rest:?}")))?;
+                if matches!(key, "d" | "Tr") && !(0.0..=1.0).contains(&v) {
+                    warnings.push(Warning::new(
+                        path,
+                        Some(n),
+                        format!("{key} {v} is outside 0–1; read as {}", v.clamp(0.0, 1.0)),
+                    ));
+                }
                 format!("{key} {v}")
             }
             "illum" => {
@@ -2295,7 +2342,13 @@ impl<'a> TextureStatement<'a> {
                     1
                 }
                 _ => {
-                    st.file = trimmed.trim_end();
+                    let file = trimmed.trim_end();
+                    // Some exporters quote a name with spaces; no file is named so.
+                    st.file = file
+                        .strip_prefix('"')
+                        .and_then(|f| f.strip_suffix('"'))
+                        .filter(|f| !f.is_empty())
+                        .unwrap_or(file);
                     return st;
                 }
             };
@@ -2643,6 +2696,44 @@ mod tests {
         );
     }
 
+    /// Rhino writes `Tf 0 0 0` on every opaque material and 3ds Max `Tf 1 1 1`: neither says
+    /// glass. A coloured `Tf` does; on glass marked by `d`, a black `Tf` leaves the colour to
+    /// `Kd`.
+    #[test]
+    fn black_and_white_transmission_filters_are_not_glass() {
+        let dir = tempfile::tempdir().unwrap();
+        let mtl = "newmtl rhino_wall\nKd 0.8 0.8 0.8\nTf 0.0000 0.0000 0.0000\nd 1.0000\n\
+                   newmtl max_wall\nKd 0.8 0.8 0.8\nTf 1.0000 1.0000 1.0000\nd 1.0\n\
+                   newmtl rhino_glass\nKd 0.9 0.1 0.1\nTf 0 0 0\nd 0.3\n\
+                   newmtl tinted\nKd 1 1 1\nTf 0.9 0.1 0.1\nd 1\n";
+        std::fs::write(dir.path().join("m.mtl"), mtl).unwrap();
+        let mut obj = String::from("mtllib m.mtl\nv 0 0 0\nv 1 0 0\nv 0 1 0\n");
+        for m in ["rhino_wall", "max_wall", "rhino_glass", "tinted"] {
+            obj += &format!("usemtl {m}\nf 1 2 3\n");
+        }
+        std::fs::write(dir.path().join("m.obj"), obj).unwrap();
+        let m = import(&dir.path().join("m.obj"), None).unwrap();
+        let of = |name: &str| {
+            let mat = m.materials.iter().find(|x| x.name == name).unwrap();
+            (
+                mat.transmission.glass_reason(),
+                mat.transmission.transmitted(mat.diffuse),
+            )
+        };
+        assert_eq!(of("rhino_wall").0, None);
+        assert_eq!(of("max_wall").0, None);
+        let (reason, (colour, amount)) = of("rhino_glass");
+        assert_eq!(reason.as_deref(), Some("opacity 0.3 (MTL d / Tr)"));
+        assert_eq!(colour, [0.9, 0.1, 0.1]);
+        assert!((amount - 0.7).abs() < 1e-6);
+        let (reason, (colour, _)) = of("tinted");
+        assert_eq!(
+            reason.as_deref(),
+            Some("transmission filter Tf 0.9 0.1 0.1")
+        );
+        assert_eq!(colour, [0.9, 0.1, 0.1]);
+    }
+
     /// An OBJ in windows-1251 beside its library saved again as UTF-8: the names are decoded
     /// (guessed from the OBJ's own), and `usemtl` finds its material by the decoded name.
     #[test]
@@ -2747,6 +2838,23 @@ mod tests {
             "{tf_warnings:?}"
         );
         assert_eq!(tf_warnings.len(), 1);
+        // Keywords in any case; extra colour values and opacities outside 0–1 are said.
+        let mut odd = Vec::new();
+        let text = "newmtl h\nTF XYZ 0.5\nKd 0.8 0.8 0.8 1.0\nd 1.7\nTr -0.5\nKs Spectral x.rfl\n";
+        let (cleaned, _) = clean_mtl(path, text, &mut odd).unwrap();
+        assert_eq!(
+            cleaned,
+            "newmtl h\nTf 0.5 0.5 0.5\nKd 0.8 0.8 0.8\nd 1.7\nTr -0.5\n\n"
+        );
+        assert_eq!(
+            odd.iter().map(|w| w.to_string()).collect::<Vec<_>>(),
+            [
+                "m.mtl:3: Kd takes 1 or 3 numbers, got 4; the ones after the third are ignored",
+                "m.mtl:4: d 1.7 is outside 0–1; read as 1",
+                "m.mtl:5: Tr -0.5 is outside 0–1; read as 0",
+                "m.mtl:6: Ks spectral (a reflectance curve) is not read; Ks left unset",
+            ]
+        );
         // A material defined twice in one library: the later one is read, and said.
         let mut twice = Vec::new();
         clean_mtl(
@@ -2895,6 +3003,12 @@ mod tests {
             ("design.png", [2.0, 1.0], 0)
         );
         assert_eq!(TextureStatement::parse("plain.png").file, "plain.png");
+        // A quoted name is the name inside the quotes.
+        assert_eq!(
+            TextureStatement::parse("-s 2 2 1 \"My Rose.png\"").file,
+            "My Rose.png"
+        );
+        assert_eq!(TextureStatement::parse("\"\"").file, "\"\"");
         assert_eq!(TextureStatement::parse("-frob.png").file, "-frob.png");
         // An option missing its value does not take the file name.
         assert_eq!(
@@ -3309,6 +3423,10 @@ mod tests {
         assert!(e.contains("test.obj:8"), "{e}");
         let m = parse_str("v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nf 1 2 \\\r\n3 \\\n 4\n").unwrap();
         assert_eq!(m.tri_part.len(), 2);
+        // A continuation onto the end of a file without a last line end continues onto nothing.
+        assert_eq!(join("f 1 2 3 \\"), "f 1 2 3  ");
+        let m = parse_str("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3 \\").unwrap();
+        assert_eq!(m.tri_part.len(), 1);
     }
 
     proptest! {
@@ -3527,6 +3645,12 @@ mod tests {
         assert!(e.to_string().starts_with("test.obj:2:"), "{e}");
         let e = parse_str("v 0 0 inf\n").unwrap_err();
         assert!(e.to_string().contains("not finite"), "{e}");
+        let e = parse_str("v 0 0 0\nv 1e39 0 0\n").unwrap_err();
+        assert_eq!(
+            e.to_string(),
+            "test.obj:2: vertex coordinate \"1e39\" is out of range (a position holds at most \
+             ±3.4028235e38)"
+        );
         let e = parse_str("v 0 0 0\nf 0 1 1\n").unwrap_err();
         assert!(
             e.to_string().starts_with("test.obj:2: vertex index 0"),
