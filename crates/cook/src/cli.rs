@@ -31,3 +31,26 @@ impl ModelArgs {
         }
     }
 }
+
+/// Makes a failed write to stdout or stderr (`> /dev/full`, a full disk behind a redirect) end
+/// the process with [`crate::EXIT_IO`] and one line saying so, where `println!` and
+/// `eprintln!` panic with a backtrace. The tools print with those macros throughout; whatever
+/// file they wrote before (a pack, a PNG) is already whole, renamed into place.
+pub fn exit_on_failed_output() {
+    let default = std::panic::take_hook();
+    std::panic::set_hook(Box::new(move |info| {
+        let payload = info.payload();
+        let message = payload
+            .downcast_ref::<String>()
+            .map(String::as_str)
+            .or_else(|| payload.downcast_ref::<&str>().copied())
+            .unwrap_or("");
+        if message.starts_with("failed printing to std") {
+            use std::io::Write;
+            // stderr may be the stream that failed: nothing more to do about it then.
+            let _ = writeln!(std::io::stderr(), "error: {message}");
+            std::process::exit(crate::EXIT_IO);
+        }
+        default(info);
+    }));
+}

@@ -42,7 +42,8 @@ pub struct Args {
     tolerance_lsb: Option<f64>,
     /// Largest vertex position change accepted (scene units, per axis); default: identical.
     /// Triangulated another way, a surface is matched to within this or 4 f32 ulps of the
-    /// mesh's largest coordinate, whichever is larger.
+    /// mesh's largest coordinate, whichever is larger; a window frame to within this or 4 ulps
+    /// of its own.
     /// Given, the same triangles in another vertex or triangle order are accepted too, and
     /// cameras, window frames and the light the cook placed from the geometry may move with it.
     #[arg(long, value_name = "D", allow_negative_numbers = true)]
@@ -279,49 +280,56 @@ const CAMERA_PER_DELTA: f64 = 1.0 + 2.0 * SQRT_3;
 const SQRT_3: f64 = 1.732_050_807_568_877_2;
 
 /// Whether the camera presets differ by more than geometry moved `max_delta` explains: what
-/// differs, with the names of the presets that moved (every one: a re-export that moves
-/// three views is not one change).
+/// differs, with the names of the presets that moved, were renamed, added or dropped (every
+/// one: a re-export that moves three views is not one change). Presets are matched by name,
+/// so one renamed preset does not make every other one differ and hide one that moved; the
+/// same presets in another order (the viewer's keys 1–9) differ with no name.
 fn cameras_differ(
     a: &[pack::Camera],
     b: &[pack::Camera],
     max_delta: f64,
 ) -> Option<(String, Vec<String>)> {
-    let names = |c: &[pack::Camera]| c.iter().map(|c| c.name.clone()).collect::<Vec<_>>();
-    if names(a) != names(b) {
-        let mut all = names(a);
-        all.extend(names(b).into_iter().filter(|n| !names(a).contains(n)));
-        return Some((format!("{:?} in a, {:?} in b", names(a), names(b)), all));
+    let mut found: Vec<(String, String)> = Vec::new();
+    let named = |list: &[pack::Camera], name: &str| list.iter().position(|c| c.name == name);
+    for (list, other, side) in [(a, b, "a"), (b, a, "b")] {
+        for c in list.iter().filter(|c| named(other, &c.name).is_none()) {
+            found.push((c.name.clone(), format!("{:?} only in {side}", c.name)));
+        }
     }
-    let moved: Vec<(String, String)> = a
-        .iter()
-        .zip(b)
-        .filter_map(|(x, y)| {
-            let points =
-                corner_delta(&x.position, &y.position).max(corner_delta(&x.target, &y.target));
-            let clip = (x.near as f64 - y.near as f64)
-                .abs()
-                .max((x.far as f64 - y.far as f64).abs());
-            let up = corner_delta(&x.up, &y.up);
-            (points > CAMERA_PER_DELTA * max_delta
-                || clip > CLIP_PER_DELTA * max_delta
-                || up > direction_tolerance(max_delta)
-                || x.fov_y != y.fov_y)
-                .then(|| {
-                    (
-                        x.name.clone(),
-                        format!(
-                            "{:?}: position or target moved by {points:.3e}, clip planes by \
-                             {clip:.3e}, up by {up:.3e}, field of view {} and {} degrees",
-                            x.name, x.fov_y, y.fov_y
-                        ),
-                    )
-                })
-        })
-        .collect();
-    if moved.is_empty() {
+    for (x, y) in a.iter().filter_map(|x| Some((x, &b[named(b, &x.name)?]))) {
+        let points = corner_delta(&x.position, &y.position).max(corner_delta(&x.target, &y.target));
+        let clip = (x.near as f64 - y.near as f64)
+            .abs()
+            .max((x.far as f64 - y.far as f64).abs());
+        let up = corner_delta(&x.up, &y.up);
+        if points > CAMERA_PER_DELTA * max_delta
+            || clip > CLIP_PER_DELTA * max_delta
+            || up > direction_tolerance(max_delta)
+            || x.fov_y != y.fov_y
+        {
+            found.push((
+                x.name.clone(),
+                format!(
+                    "{:?}: position or target moved by {points:.3e}, clip planes by \
+                     {clip:.3e}, up by {up:.3e}, field of view {} and {} degrees",
+                    x.name, x.fov_y, y.fov_y
+                ),
+            ));
+        }
+    }
+    let names = |c: &[pack::Camera]| c.iter().map(|c| c.name.clone()).collect::<Vec<_>>();
+    if found.is_empty() && names(a) != names(b) {
+        let order = format!(
+            "the same presets in another order: {:?} in a, {:?} in b",
+            names(a),
+            names(b)
+        );
+        return Some((order, Vec::new()));
+    }
+    if found.is_empty() {
         return None;
     }
-    let (names, what): (Vec<String>, Vec<String>) = moved.into_iter().unzip();
+    let (names, what): (Vec<String>, Vec<String>) = found.into_iter().unzip();
     Some((what.join("; "), names))
 }
 
@@ -475,8 +483,16 @@ fn windows_differ(ta: &pack::Toc, tb: &pack::Toc, max_delta: f64) -> Option<Stri
         let y = &b[j];
         let points = moved(x, y);
         let normal = corner_delta(&x.normal, &y.normal);
-        if points > max_delta
-            || normal > direction_tolerance(max_delta)
+        // The frame is fitted to the glass's triangles in their order: another order (the
+        // FIFO cache optimizer's) rounds it a few ulps away, as a surface triangulated another
+        // way does.
+        let largest = [x.origin, x.u_axis, x.v_axis]
+            .iter()
+            .flatten()
+            .fold(0.0f64, |m, &c| m.max((c as f64).abs()));
+        let ulps = 4.0 * f32::EPSILON as f64;
+        if points > max_delta.max(ulps * largest)
+            || normal > direction_tolerance(max_delta).max(ulps)
             || material(ta, x) != material(tb, y)
             || x.source_materials != y.source_materials
         {
@@ -1409,4 +1425,49 @@ pub(crate) fn describe_light(light: Option<&pack::Light>) -> String {
         ),
     };
     format!("{kind}, colour {:?}, intensity {}", l.colour, l.intensity)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn camera(name: &str, x: f32) -> pack::Camera {
+        pack::Camera {
+            name: name.into(),
+            position: [x, 1.0, 2.0],
+            target: [0.0; 3],
+            up: [0.0, 1.0, 0.0],
+            fov_y: 60.0,
+            near: 0.1,
+            far: 100.0,
+        }
+    }
+
+    /// One preset renamed is that preset, not every one; a preset that moved beside it is
+    /// still named as moved.
+    #[test]
+    fn presets_are_matched_by_name() {
+        let a = [
+            camera("nave", 0.0),
+            camera("rose", 1.0),
+            camera("glass", 2.0),
+        ];
+        let b = [
+            camera("nave", 0.0),
+            camera("rose", 1.5),
+            camera("glass2", 2.0),
+        ];
+        let (what, names) = cameras_differ(&a, &b, 0.0).unwrap();
+        assert_eq!(names, ["glass", "glass2", "rose"]);
+        assert!(what.contains("\"glass\" only in a; \"glass2\" only in b; \"rose\": position or target moved by 5.000e-1"), "{what}");
+        assert_eq!(cameras_differ(&a, &a, 0.0), None);
+        let mut swapped = a.clone();
+        swapped.swap(0, 1);
+        let (what, names) = cameras_differ(&a, &swapped, 0.0).unwrap();
+        assert!(
+            what.starts_with("the same presets in another order"),
+            "{what}"
+        );
+        assert!(names.is_empty());
+    }
 }

@@ -39,7 +39,9 @@ pub fn report(result: Outcome) -> i32 {
     match result {
         Ok(code) => code,
         Err(e) => {
-            eprintln!("error: {e:#}");
+            use std::io::Write;
+            // The failure's own code, even where stderr cannot take its message.
+            let _ = writeln!(std::io::stderr(), "error: {e:#}");
             code_for(&e)
         }
     }

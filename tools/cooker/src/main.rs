@@ -116,6 +116,7 @@ fn default_sigpipe() {
 fn main() {
     alloc::tune();
     default_sigpipe();
+    ::cook::cli::exit_on_failed_output();
     let cli = match Cli::try_parse() {
         Ok(cli) => cli,
         Err(e) => {
@@ -128,8 +129,9 @@ fn main() {
                 eprintln!("{msg}");
                 std::process::exit(code);
             }
-            let _ = e.print();
-            std::process::exit(code);
+            // `--help` into a full disk did not print what was asked.
+            let printed = e.print().is_ok();
+            std::process::exit(if printed { code } else { exit::IO });
         }
     };
     let result = match cli.command {

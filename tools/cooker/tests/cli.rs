@@ -523,3 +523,56 @@ fn init_refuses_a_manifest_as_model_and_a_directory_as_output() {
     );
     assert!(!text(&o.stderr).contains("--force"), "{}", text(&o.stderr));
 }
+
+/// Output that cannot be written (`> /dev/full`) is an I/O error, exit 4, said in one line:
+/// `println!` panicked with a backtrace (exit 101) after the pack was already in place. An
+/// error whose message cannot be written keeps its own exit code.
+#[cfg(target_os = "linux")]
+#[test]
+fn unwritable_output_is_an_io_error_not_a_panic() {
+    let dir = scratch("devfull");
+    let out = dir.join("box.pack");
+    let full = || {
+        std::fs::File::options()
+            .write(true)
+            .open("/dev/full")
+            .unwrap()
+    };
+    let o = common::command()
+        .args([
+            "cook",
+            &data("gltf/Box/Box.gltf"),
+            "-o",
+            out.to_str().unwrap(),
+            "--no-cache",
+        ])
+        .stdout(full())
+        .output()
+        .unwrap();
+    let stderr = text(&o.stderr);
+    assert_eq!(o.status.code(), Some(4), "{stderr}");
+    assert!(
+        stderr.contains("error: failed printing to stdout"),
+        "{stderr}"
+    );
+    assert!(!stderr.contains("panicked"), "{stderr}");
+    assert_eq!(
+        cooker(&["info", out.to_str().unwrap()]).status.code(),
+        Some(0)
+    );
+    let o = common::command()
+        .args(["info", out.to_str().unwrap()])
+        .stdout(full())
+        .output()
+        .unwrap();
+    assert_eq!(o.status.code(), Some(4), "{}", text(&o.stderr));
+    // A bad pack is still exit 3 when its error cannot be printed.
+    let bad = dir.join("bad.pack");
+    std::fs::write(&bad, b"not a pack").unwrap();
+    let o = common::command()
+        .args(["info", bad.to_str().unwrap()])
+        .stderr(full())
+        .output()
+        .unwrap();
+    assert_eq!(o.status.code(), Some(3));
+}

@@ -695,10 +695,13 @@ fn write_png(img: image::RgbaImage, path: &Path) -> Result<()> {
 /// the message naming it), 4 for an operating-system I/O error, 2 for bad usage (clap's); 1
 /// for anything else that failed (no GPU adapter, a device lost).
 fn main() -> std::process::ExitCode {
+    cook::cli::exit_on_failed_output();
     match run() {
         Ok(()) => std::process::ExitCode::SUCCESS,
         Err(e) => {
-            eprintln!("error: {e:#}");
+            use std::io::Write;
+            // The failure's own code, even where stderr cannot take its message.
+            let _ = writeln!(std::io::stderr(), "error: {e:#}");
             std::process::ExitCode::from(exit_code(&e))
         }
     }
