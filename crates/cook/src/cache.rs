@@ -616,10 +616,12 @@ fn read_entry(path: &Path) -> Lookup {
     match std::fs::metadata(path) {
         Ok(m) if !m.is_file() => {
             let _ = std::fs::remove_file(path);
-            return Lookup::Corrupt(format!(
-                "{}: not a regular file (a FIFO, socket or device)",
-                path.display()
-            ));
+            let what = if m.is_dir() {
+                "a folder"
+            } else {
+                "a FIFO, socket or device"
+            };
+            return Lookup::Corrupt(format!("{}: not a regular file ({what})", path.display()));
         }
         Ok(_) => {}
         Err(_) => return Lookup::Miss,

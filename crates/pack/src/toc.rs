@@ -584,6 +584,15 @@ fn cross3(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
 }
 
 impl LightKind {
+    /// What the light is, in words: "point", "directional" or "spot".
+    pub fn name(&self) -> &'static str {
+        match self {
+            Self::Point { .. } => "point",
+            Self::Directional { .. } => "directional",
+            Self::Spot { .. } => "spot",
+        }
+    }
+
     /// A lamp's position and radius (point and spot lights); `None` for the sun.
     pub fn lamp(&self) -> Option<([f32; 3], f32)> {
         match *self {

@@ -14,6 +14,9 @@ pub enum SectionRole {
     Mip { texture: u32, level: u32 },
 }
 
+/// The widest range of depth a camera may hold.
+const MAX_FAR_OVER_NEAR: f64 = 1e9;
+
 fn finite(v: &[f32]) -> bool {
     v.iter().all(|x| x.is_finite())
 }
@@ -357,62 +360,97 @@ pub fn validate_toc(toc: &Toc, table: &[SectionEntry]) -> Result<Vec<SectionRole
         }
     }
     if let Some(light) = &toc.light {
-        let ok = finite(&light.colour)
-            && light.intensity.is_finite()
-            && light.intensity >= 0.0
-            && match &light.kind {
-                crate::toc::LightKind::Point { position, radius } => {
-                    finite(position) && radius.is_finite() && *radius > 0.0
-                }
-                crate::toc::LightKind::Directional {
-                    direction,
-                    angular_size,
-                } => {
-                    finite(direction)
-                        && direction.iter().any(|&d| d != 0.0)
-                        && angular_size.is_finite()
-                        && *angular_size >= 0.0
-                }
-                crate::toc::LightKind::Spot {
-                    position,
-                    radius,
-                    direction,
-                    inner,
-                    outer,
-                } => {
-                    // Written as positive tests so NaN fails them.
-                    finite(position)
-                        && radius.is_finite()
-                        && *radius > 0.0
-                        && finite(direction)
-                        && direction.iter().any(|&d| d != 0.0)
-                        && *inner >= 0.0
+        use crate::toc::LightKind;
+        // Written as positive tests so NaN fails them; each failure names its parameter.
+        let mut bad: Vec<&str> = Vec::new();
+        let mut need = |ok: bool, what: &'static str| {
+            if !ok {
+                bad.push(what)
+            }
+        };
+        need(finite(&light.colour), "colour not finite");
+        need(
+            light.intensity.is_finite() && light.intensity >= 0.0,
+            "intensity not finite and 0 or more",
+        );
+        let direction_ok = |d: &[f32; 3]| finite(d) && d.iter().any(|&c| c != 0.0);
+        match &light.kind {
+            LightKind::Point { position, radius } => {
+                need(finite(position), "position not finite");
+                need(
+                    radius.is_finite() && *radius > 0.0,
+                    "radius not finite and above 0",
+                );
+            }
+            LightKind::Directional {
+                direction,
+                angular_size,
+            } => {
+                need(direction_ok(direction), "direction zero or not finite");
+                need(
+                    angular_size.is_finite() && *angular_size >= 0.0,
+                    "angular size not finite and 0 or more",
+                );
+            }
+            LightKind::Spot {
+                position,
+                radius,
+                direction,
+                inner,
+                outer,
+            } => {
+                need(finite(position), "position not finite");
+                need(
+                    radius.is_finite() && *radius > 0.0,
+                    "radius not finite and above 0",
+                );
+                need(direction_ok(direction), "direction zero or not finite");
+                need(
+                    *inner >= 0.0
                         && inner <= outer
                         && *outer > 0.0
-                        && *outer <= std::f32::consts::FRAC_PI_2
-                }
-            };
-        if !ok {
+                        && *outer <= std::f32::consts::FRAC_PI_2,
+                    "cone angles not 0 <= inner <= outer <= 90 degrees with outer above 0",
+                );
+            }
+        }
+        if !bad.is_empty() {
             return Err(Fail::toc(format!(
-                "light has invalid parameters: {light:?}"
+                "the {} light has invalid parameters: {}",
+                light.kind.name(),
+                bad.join(", ")
             )));
         }
     }
     for c in &toc.cameras {
-        // Written as positive tests so NaN fails them.
-        let fov_ok = c.fov_y > 0.0 && c.fov_y < 180.0;
-        let depth_ok = c.near > 0.0 && c.far > c.near && c.far.is_finite();
-        let looks = c.position != c.target;
-        if !finite(&c.position)
-            || !finite(&c.target)
-            || !finite(&c.up)
-            || !fov_ok
-            || !depth_ok
-            || !looks
-        {
+        // Written as positive tests so NaN fails them; each failure names its parameter.
+        let checks = [
+            (
+                finite(&c.position) && finite(&c.target) && finite(&c.up),
+                "position, target or up not finite",
+            ),
+            (c.position != c.target, "position equal to target"),
+            (
+                c.fov_y > 0.0 && c.fov_y < 180.0,
+                "vertical field of view not between 0 and 180 degrees",
+            ),
+            (
+                c.near > 0.0 && c.far > c.near && c.far.is_finite(),
+                "clip planes not 0 < near < far, finite",
+            ),
+            // f32 depth holds no scene over so wide a range; the cook writes ratios of 1e4 or
+            // so, glTF cameras rarely beyond 1e7.
+            (
+                c.far as f64 <= MAX_FAR_OVER_NEAR * c.near as f64,
+                "far plane over 1e9 times the near one",
+            ),
+        ];
+        let bad: Vec<&str> = checks.iter().filter(|c| !c.0).map(|c| c.1).collect();
+        if !bad.is_empty() {
             return Err(Fail::toc(format!(
-                "camera {:?} has invalid parameters",
-                c.name
+                "camera {:?} has invalid parameters: {}",
+                c.name,
+                bad.join(", ")
             )));
         }
     }
@@ -450,11 +488,24 @@ pub fn validate_toc(toc: &Toc, table: &[SectionEntry]) -> Result<Vec<SectionRole
     Ok(roles.into_iter().map(|r| r.unwrap()).collect())
 }
 
-/// Checks a vertex section: material IDs within the material table, positions finite.
+/// Checks a vertex section: material IDs within the material table, positions finite and
+/// within the mesh's bounds (what the viewer fits its views and shadow maps to).
 pub fn validate_vertices(toc: &Toc, mesh: u32, bytes: &[u8]) -> Result<(), Fail> {
     let m = &toc.meshes[mesh as usize];
     let stride = m.layout.stride as usize;
     let nmat = toc.materials.len();
+    // Quantized positions decode a rounding away from the corners they were fitted to.
+    let largest = m
+        .bounds_min
+        .iter()
+        .chain(&m.bounds_max)
+        .fold(0.0f32, |a, &c| a.max(c.abs()));
+    let slack: [f32; 3] = std::array::from_fn(|k| {
+        1e-4 * (m.bounds_max[k] - m.bounds_min[k]) + 8.0 * f32::EPSILON * largest
+    });
+    let inside = |p: &[f32; 3]| {
+        (0..3).all(|k| p[k] >= m.bounds_min[k] - slack[k] && p[k] <= m.bounds_max[k] + slack[k])
+    };
     for (v, chunk) in bytes.chunks_exact(stride).enumerate() {
         let [id, zero, ..] = m
             .layout
@@ -469,6 +520,12 @@ pub fn validate_vertices(toc: &Toc, mesh: u32, bytes: &[u8]) -> Result<(), Fail>
         if !finite(&p) {
             return Err(Fail::geometry(format!(
                 "mesh {mesh} vertex {v} has a non-finite position"
+            )));
+        }
+        if !inside(&p) {
+            return Err(Fail::geometry(format!(
+                "mesh {mesh} vertex {v} at {p:?} lies outside the mesh's bounds {:?}..{:?}",
+                m.bounds_min, m.bounds_max
             )));
         }
     }

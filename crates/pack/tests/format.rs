@@ -315,6 +315,17 @@ fn writer_refuses_out_of_range_indices_and_material_ids() {
     data.meshes[0].vertices[stride * 2 + 48] = 7;
     let e = encode(toc, &data).unwrap_err();
     assert!(e.to_string().contains("material ID 7"), "{e}");
+
+    // A vertex far outside the bounds the mesh states (the views and shadow maps are fitted
+    // to them) is as corrupt as a non-finite one.
+    let (toc, mut data) = sample();
+    data.meshes[0].vertices[stride..stride + 4].copy_from_slice(&1e30f32.to_le_bytes());
+    let e = encode(toc, &data).unwrap_err();
+    assert!(
+        e.to_string().contains("vertex 1 at [1e30,")
+            && e.to_string().contains("outside the mesh's bounds"),
+        "{e}"
+    );
 }
 
 /// Vertex colours travel as 8-bit sRGB beside the other attributes; a colour in any other
@@ -367,19 +378,25 @@ fn vertex_colours_round_trip_as_unorm8x4_only() {
 
 #[test]
 fn writer_refuses_cameras_that_cannot_view() {
-    let broken: [fn(&mut Camera); 4] = [
-        |c| c.far = c.near,
-        |c| c.near = 0.0,
-        |c| c.target = c.position,
-        |c| c.fov_y = f32::NAN,
+    type Break = (fn(&mut Camera), &'static str);
+    // An up along the line of sight is not among them: the viewer picks a roll for it, as
+    // for the guessed view straight up through a skylight.
+    let broken: [Break; 5] = [
+        (|c| c.far = c.near, "clip planes"),
+        (|c| c.near = 0.0, "clip planes"),
+        (|c| c.target = c.position, "position equal to target"),
+        (|c| c.fov_y = f32::NAN, "vertical field of view"),
+        (
+            |c| (c.near, c.far) = (1e-30, 1e30),
+            "far plane over 1e9 times the near one",
+        ),
     ];
-    for (i, breaks) in broken.iter().enumerate() {
+    for (i, (breaks, says)) in broken.iter().enumerate() {
         let (mut toc, data) = sample();
         breaks(&mut toc.cameras[0]);
-        let e = encode(toc, &data).unwrap_err();
+        let e = encode(toc, &data).unwrap_err().to_string();
         assert!(
-            e.to_string()
-                .contains("camera \"nave\" has invalid parameters"),
+            e.contains("camera \"nave\" has invalid parameters: ") && e.contains(says),
             "{i}: {e}"
         );
     }
@@ -423,9 +440,17 @@ fn writer_keeps_spot_lights_and_refuses_broken_cones() {
         let mut kind = spot();
         breaks(&mut kind);
         toc.light.as_mut().unwrap().kind = kind;
-        let e = encode(toc, &data).unwrap_err();
+        let e = encode(toc, &data).unwrap_err().to_string();
+        let says = [
+            "cone angles",
+            "cone angles",
+            "cone angles",
+            "cone angles",
+            "direction",
+            "radius",
+        ];
         assert!(
-            e.to_string().contains("light has invalid parameters"),
+            e.contains("the spot light has invalid parameters: ") && e.contains(says[i]),
             "{i}: {e}"
         );
     }

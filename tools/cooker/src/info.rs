@@ -338,14 +338,19 @@ pub fn run(args: Args) -> Outcome {
         );
     }
     println!("  texture bytes: {all_stored} stored, {all_format} on the GPU, {all_rgba8} as RGBA8");
+    let cameras: Vec<String> = toc
+        .cameras
+        .iter()
+        .map(|c| cook::shown(&c.name).into_owned())
+        .collect();
     println!(
         "windows: {}, cameras: {}",
         toc.windows.len(),
-        toc.cameras
-            .iter()
-            .map(|c| cook::shown(&c.name))
-            .collect::<Vec<_>>()
-            .join(", ")
+        if cameras.is_empty() {
+            "none (the viewer makes a default view)".to_string()
+        } else {
+            cameras.join(", ")
+        }
     );
     for w in &toc.windows {
         let m = &toc.materials[w.material as usize];

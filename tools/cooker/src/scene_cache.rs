@@ -12,6 +12,7 @@
 
 use std::path::{Path, PathBuf};
 
+use anyhow::Context;
 use cook::cache::{Cache, Key, KeyBuilder, Lookup, digest, digest_file, hex, parse_hex32};
 use cook::import::Absent;
 use serde::{Deserialize, Serialize};
@@ -248,8 +249,10 @@ fn write_record(
             .take(Record::EARLIER)
             .collect();
     }
-    std::fs::create_dir_all(path.parent().expect("in the scenes folder"))?;
-    pack::write_atomic(&path, &serde_json::to_vec_pretty(&record)?)?;
+    let folder = path.parent().expect("in the scenes folder");
+    std::fs::create_dir_all(folder).with_context(|| folder.display().to_string())?;
+    pack::write_atomic(&path, &serde_json::to_vec_pretty(&record)?)
+        .with_context(|| path.display().to_string())?;
     Ok(())
 }
 

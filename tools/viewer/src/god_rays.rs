@@ -46,8 +46,9 @@ pub fn describe(g: &GodRaySettings) -> String {
         s => format!("resolution scale {s}"),
     };
     format!(
-        "{} samples, {scale}, {}",
+        "{} sample{}, {scale}, {}",
         g.samples,
+        if g.samples == 1 { "" } else { "s" },
         if g.jitter { "jitter" } else { "no jitter" }
     )
 }

@@ -1001,6 +1001,14 @@ colour = [0.35, 0.5, 0.8]
                 "expected one of",
             ),
             (
+                format!(
+                    "{mesh}[[camera]]\nname = \"c\"\nposition = [0.0, 1.0, 5.0]\n\
+                     target = [0.0, 1.0, 0.0]\nnear = 1e-9\nfar = 1e3\n"
+                ),
+                7,
+                "camera \"c\": far 1000 is over 1e9 times near 0.000000001",
+            ),
+            (
                 format!("{mesh}[window]\nname = \"w\"\n"),
                 3,
                 "[window] opens one table, but window is a list; write [[window]] for each entry",
