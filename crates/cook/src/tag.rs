@@ -528,6 +528,11 @@ fn keyword_hits(words: &[String]) -> Vec<usize> {
     hits
 }
 
+/// Whether any tagging keyword (of any class) occurs in `name`.
+pub(crate) fn has_keyword(name: &str) -> bool {
+    !keyword_hits(&name_words(name)).is_empty()
+}
+
 /// The class the name keywords give `names`, if any keyword occurs.
 pub fn heuristic(
     names: &crate::import::Names,

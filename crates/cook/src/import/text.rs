@@ -112,14 +112,47 @@ pub(crate) fn choose<'a>(
     if let Some(TextEncoding(encoding)) = given {
         return (encoding, false);
     }
+    let samples: Vec<&[u8]> = samples.into_iter().collect();
     let mut detector = chardetng::EncodingDetector::new(chardetng::Iso2022JpDetection::Deny);
-    for s in samples {
+    for s in &samples {
         detector.feed(s, false);
         // Names are separate words, not one run of text.
         detector.feed(b"\n", false);
     }
     detector.feed(b"", true);
-    (detector.guess(None, chardetng::Utf8Detection::Deny), true)
+    let guess = detector.guess(None, chardetng::Utf8Detection::Deny);
+    (best_named(guess, &samples), true)
+}
+
+/// Lines (names) that are not ASCII, at most this many, decide [`best_named`].
+const NAMED_LINES: usize = 4096;
+
+/// chardetng misreads a few short names (a model whose one non-ASCII name is its glass, `Окно`
+/// in windows-1251, read as windows-1252 `Îêíî`: the window lost). The names are read in the
+/// common encoding that makes the most of them into names with a tagging keyword (`окно`,
+/// `窓`, `fenêtre`: real words, which a wrong code page does not spell), `guess` where none
+/// makes more than it does.
+fn best_named(guess: &'static Encoding, samples: &[&[u8]]) -> &'static Encoding {
+    let lines: Vec<&[u8]> = samples
+        .iter()
+        .flat_map(|s| s.split(|&b| b == b'\n'))
+        .filter(|l| !l.is_ascii())
+        .take(NAMED_LINES)
+        .collect();
+    let named = |e: &'static Encoding| {
+        lines
+            .iter()
+            .filter(|l| crate::tag::has_keyword(&e.decode_without_bom_handling(l).0))
+            .count()
+    };
+    let mut best = (named(guess), guess);
+    for e in COMMON.into_iter().filter(|&e| e != guess) {
+        let n = named(e);
+        if n > best.0 {
+            best = (n, e);
+        }
+    }
+    best.1
 }
 
 /// Encodings file names written on Windows are commonly in, for a name too short to guess
@@ -313,6 +346,28 @@ mod tests {
         assert_eq!(
             guess(&encoding_rs::WINDOWS_1252.encode(de).0),
             "windows-1252"
+        );
+    }
+
+    /// One short name is too little for chardetng; a name that is a tagging keyword in one
+    /// common encoding and gibberish in the others says which it is.
+    #[test]
+    fn a_single_short_window_name_finds_its_encoding() {
+        let guess = |names: &[&[u8]]| choose(None, names.iter().copied()).0.name();
+        let okno = cp1251("Окно");
+        assert_eq!(guess(&[&okno, b"Part1", b"Part2"]), "windows-1251");
+        let mado = encoding_rs::SHIFT_JIS.encode("窓").0;
+        assert_eq!(guess(&[&mado]), "Shift_JIS");
+        let fenetre = encoding_rs::WINDOWS_1252.encode("Fenêtre_1").0;
+        assert_eq!(guess(&[&fenetre]), "windows-1252");
+        // Names no encoding makes a keyword of keep chardetng's guess, whatever it was.
+        let plain = cp1251("Камень_серый\nДерево");
+        for e in [encoding_rs::KOI8_R, encoding_rs::WINDOWS_1250] {
+            assert_eq!(best_named(e, &[&plain]), e);
+        }
+        assert_eq!(
+            best_named(encoding_rs::KOI8_R, &[&okno]),
+            encoding_rs::WINDOWS_1251
         );
     }
 
