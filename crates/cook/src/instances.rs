@@ -685,6 +685,11 @@ pub fn lies_in_plane(inside: [f32; 3], normal: DVec3) -> bool {
     v.dot(normal).abs() < INSIDE_MIN_COS
 }
 
+/// Why a window faces the way the manifest's `inside` says, where the model closes round the
+/// window on the other side: the plan warns.
+pub const INSIDE_AGAINST_ENCLOSURE: &str =
+    "the manifest's `inside`, though the model closes round the window on its other side";
+
 /// [`lies_in_plane`]'s bound: cos 84°.
 const INSIDE_MIN_COS: f64 = 0.1;
 
@@ -703,7 +708,17 @@ pub fn decide_inside<'r>(
     // A direction (nearly) in the window's plane tells its sides apart by rounding noise: the
     // window is guessed as if none were given (and the plan warns).
     if let Some(v) = explicit.filter(|&v| !lies_in_plane(v, normal)) {
-        return (orient(v3(v)), "the manifest's `inside`");
+        let side = orient(v3(v));
+        // Followed, but said: the lit pass takes what lies beyond a window's inner side for
+        // the outdoors, and a whole nave in direct sun turned every floor patch white.
+        if let Some([front, back]) = open() {
+            let enclosed = if front < back { normal } else { -normal };
+            let (closed, opened) = (front.min(back), front.max(back));
+            if opened >= 0.03 && closed <= opened / 4.0 && enclosed.dot(side) < 0.0 {
+                return (side, INSIDE_AGAINST_ENCLOSURE);
+            }
+        }
+        return (side, "the manifest's `inside`");
     }
     // A building is closed around its inside: what the window sees on that side is the model
     // in every direction, on the outside there is sky. This sees past surfaces hidden behind

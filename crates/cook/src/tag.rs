@@ -337,10 +337,8 @@ const NOT_GLASS: &[&str] = &[
     "frame",
     "sill",
     "mullion",
-    "transom",
     "muntin",
     "jamb",
-    "sash",
     "tracery",
     "okvir",
     "rahmen",
@@ -528,9 +526,17 @@ fn keyword_hits(words: &[String]) -> Vec<usize> {
     hits
 }
 
-/// Whether any tagging keyword (of any class) occurs in `name`.
-pub(crate) fn has_keyword(name: &str) -> bool {
-    !keyword_hits(&name_words(name)).is_empty()
+/// Whether a word of `name` is or holds a tagging keyword (of any class), a keyword of one
+/// character (`窓`, `墙`) counting only as a whole word: a text read in the wrong code page
+/// spells one inside a run of other ideographs often enough (windows-1251 `нн` is EUC-KR
+/// `牆`), a whole word of it or a longer keyword hardly ever.
+pub(crate) fn spells_keyword(name: &str) -> bool {
+    name_words(name).iter().any(|w| {
+        keyword_hits(std::slice::from_ref(w)).into_iter().any(|i| {
+            let k = HEURISTICS[i].0;
+            k.chars().nth(1).is_some() || *w == k
+        })
+    })
 }
 
 /// The class the name keywords give `names`, if any keyword occurs.
@@ -1950,7 +1956,10 @@ mod tests {
             ("Window_Frame", "Window1", Other),
             ("Fensterrahmen", "Fenster_2", Other),
             ("Dark Oak Frame", "Window2", Other),
-            ("Transom", "Window_lower", Other),
+            ("Muntin_Bar", "Window_lower", Other),
+            // A transom and a sash are glazed windows themselves.
+            ("Transom_Glass", "Window4", WindowUpper),
+            ("Stone", "Sash_Window_01", WindowUpper),
             ("Stone", "Window3", WindowUpper),
             ("Glass", "Window_Frame_3", WindowUpper),
         ] {

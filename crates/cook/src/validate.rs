@@ -406,11 +406,19 @@ pub fn validate_scene_with(
         let (i, m) = (&found.instances[k], found.material[k] as usize);
         let plan = tagging.materials[m].window.as_deref();
         let mats = plan.map(|p| p.materials.clone()).unwrap_or_default();
+        // And the names the cook matches entries with: the glass's tagged materials (a rule's
+        // `material` renames them), before the window took a material of its own.
+        let tagged = i
+            .materials
+            .iter()
+            .filter_map(|&(id, ..)| tagging.materials.get(id as usize))
+            .map(|t| t.material.name.as_str());
         w.matches(
             &i.name,
             mats.iter()
                 .map(String::as_str)
-                .chain([materials[m].name.as_str()]),
+                .chain([materials[m].name.as_str()])
+                .chain(tagged),
         )
     };
     // Per window, the entry that describes it: the first that matches.

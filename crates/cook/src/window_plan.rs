@@ -460,6 +460,22 @@ pub fn plan(
                 ),
             ));
         }
+        if let Some(e) = entry
+            && let Some(v) = e.inside
+            && inst.inside_reason == instances::INSIDE_AGAINST_ENCLOSURE
+        {
+            report.warnings.push(Warning::new(
+                &manifest.path,
+                Some(e.line.0),
+                format!(
+                    "inside = {v:?} of window {:?} points out of the model: seen from that \
+                     side there is sky, from the other the model closes round the window. \
+                     Followed; but whatever lies on its outer side is lit as outdoors (direct \
+                     sun through every opening), so check it",
+                    inst.name,
+                ),
+            ));
+        }
         let mut planar = !inst.has_uvs || entry.is_some_and(|e| e.uv == UvMode::Planar);
         // Texture coordinates past the texture's square (tiled glass, or metres as SketchUp
         // writes them) place the design on the glass, but a projector covers that square

@@ -409,6 +409,11 @@ pub struct Mesh {
     pub ranges: Vec<DrawRange>,
 }
 
+/// The widest range of depth a cooker gives a camera, far plane over near: f32 depth holds no
+/// scene over a wider one. Not checked when a pack is read (packs written before this was
+/// held may exceed it, and still draw).
+pub const MAX_FAR_OVER_NEAR: f64 = 1e9;
+
 /// The longest side, in texels, at which renderers sample projector textures: cookers store no
 /// level whose design part is larger (projectors are blurred, so this keeps their detail; the
 /// light's margin around the design comes on top, so a stored level may be a little larger),

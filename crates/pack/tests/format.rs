@@ -381,15 +381,11 @@ fn writer_refuses_cameras_that_cannot_view() {
     type Break = (fn(&mut Camera), &'static str);
     // An up along the line of sight is not among them: the viewer picks a roll for it, as
     // for the guessed view straight up through a skylight.
-    let broken: [Break; 5] = [
+    let broken: [Break; 4] = [
         (|c| c.far = c.near, "clip planes"),
         (|c| c.near = 0.0, "clip planes"),
         (|c| c.target = c.position, "position equal to target"),
         (|c| c.fov_y = f32::NAN, "vertical field of view"),
-        (
-            |c| (c.near, c.far) = (1e-30, 1e30),
-            "far plane over 1e9 times the near one",
-        ),
     ];
     for (i, (breaks, says)) in broken.iter().enumerate() {
         let (mut toc, data) = sample();

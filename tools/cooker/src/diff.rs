@@ -283,20 +283,31 @@ const SQRT_3: f64 = 1.732_050_807_568_877_2;
 /// differs, with the names of the presets that moved, were renamed, added or dropped (every
 /// one: a re-export that moves three views is not one change). Presets are matched by name,
 /// so one renamed preset does not make every other one differ and hide one that moved; the
-/// same presets in another order (the viewer's keys 1–9) differ with no name.
+/// same presets in another order (the viewer's keys 1–9) differ, every name listed.
 fn cameras_differ(
     a: &[pack::Camera],
     b: &[pack::Camera],
     max_delta: f64,
 ) -> Option<(String, Vec<String>)> {
     let mut found: Vec<(String, String)> = Vec::new();
-    let named = |list: &[pack::Camera], name: &str| list.iter().position(|c| c.name == name);
+    // A name's k-th preset pairs with the other's k-th of that name (names may repeat).
+    fn partner<'a>(
+        list: &[pack::Camera],
+        i: usize,
+        other: &'a [pack::Camera],
+    ) -> Option<&'a pack::Camera> {
+        let name = &list[i].name;
+        let k = list[..i].iter().filter(|c| c.name == *name).count();
+        other.iter().filter(|c| c.name == *name).nth(k)
+    }
     for (list, other, side) in [(a, b, "a"), (b, a, "b")] {
-        for c in list.iter().filter(|c| named(other, &c.name).is_none()) {
-            found.push((c.name.clone(), format!("{:?} only in {side}", c.name)));
+        for (i, c) in list.iter().enumerate() {
+            if partner(list, i, other).is_none() {
+                found.push((c.name.clone(), format!("{:?} only in {side}", c.name)));
+            }
         }
     }
-    for (x, y) in a.iter().filter_map(|x| Some((x, &b[named(b, &x.name)?]))) {
+    for (x, y) in (0..a.len()).filter_map(|i| Some((&a[i], partner(a, i, b)?))) {
         let points = corner_delta(&x.position, &y.position).max(corner_delta(&x.target, &y.target));
         let clip = (x.near as f64 - y.near as f64)
             .abs()
@@ -324,7 +335,7 @@ fn cameras_differ(
             names(a),
             names(b)
         );
-        return Some((order, Vec::new()));
+        return Some((order, names(a)));
     }
     if found.is_empty() {
         return None;
@@ -453,7 +464,7 @@ fn distance_to_window(p: &[f32; 3], w: &pack::Window) -> f64 {
 /// taken (glass of the same source materials first): a model exported with its objects in
 /// another order lists its windows in another order, and compared by index every frame had
 /// moved. Returns what differs, the first few pairs named.
-fn windows_differ(ta: &pack::Toc, tb: &pack::Toc, max_delta: f64) -> Option<String> {
+fn windows_differ(ta: &pack::Toc, tb: &pack::Toc, max_delta: f64, exact: bool) -> Option<String> {
     let (a, b) = (&ta.windows, &tb.windows);
     // Material tables may be ordered differently: compare names.
     let material = |t: &pack::Toc, w: &pack::Window| {
@@ -485,12 +496,16 @@ fn windows_differ(ta: &pack::Toc, tb: &pack::Toc, max_delta: f64) -> Option<Stri
         let normal = corner_delta(&x.normal, &y.normal);
         // The frame is fitted to the glass's triangles in their order: another order (the
         // FIFO cache optimizer's) rounds it a few ulps away, as a surface triangulated another
-        // way does.
+        // way does. Without --max-position-delta, as there, any move counts.
         let largest = [x.origin, x.u_axis, x.v_axis]
             .iter()
             .flatten()
             .fold(0.0f64, |m, &c| m.max((c as f64).abs()));
-        let ulps = 4.0 * f32::EPSILON as f64;
+        let ulps = if exact {
+            0.0
+        } else {
+            4.0 * f32::EPSILON as f64
+        };
         if points > max_delta.max(ulps * largest)
             || normal > direction_tolerance(max_delta).max(ulps)
             || material(ta, x) != material(tb, y)
@@ -1252,7 +1267,7 @@ pub fn run(args: Args) -> Outcome {
     if let Some((what, _)) = &cameras {
         problems.push(format!("the camera presets differ: {what}"));
     }
-    let frames = windows_differ(ta, tb, max_delta);
+    let frames = windows_differ(ta, tb, max_delta, exact_geometry);
     if let Some(what) = &frames {
         problems.push(format!("the window frames differ: {what}"));
     }
@@ -1468,6 +1483,14 @@ mod tests {
             what.starts_with("the same presets in another order"),
             "{what}"
         );
-        assert!(names.is_empty());
+        assert_eq!(names, ["nave", "rose", "glass"]);
+        // A repeated name pairs occurrence by occurrence.
+        let twice = [camera("c", 0.0), camera("c", 1.0)];
+        let moved = [camera("c", 0.0), camera("c", 2.0)];
+        let (what, names) = cameras_differ(&twice, &moved, 0.0).unwrap();
+        assert_eq!(names, ["c"]);
+        assert!(what.contains("moved by 1.000e0"), "{what}");
+        let (what, _) = cameras_differ(&twice[..1], &twice, 0.0).unwrap();
+        assert_eq!(what, "\"c\" only in b");
     }
 }

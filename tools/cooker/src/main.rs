@@ -126,12 +126,18 @@ fn main() {
                 exit::OK
             };
             if let Some(msg) = blame_environment(&e, std::env::args_os().skip(1)) {
-                eprintln!("{msg}");
+                use std::io::Write;
+                let _ = writeln!(std::io::stderr(), "{msg}");
                 std::process::exit(code);
             }
-            // `--help` into a full disk did not print what was asked.
+            // `--help` into a full disk did not print what was asked; a usage error keeps its
+            // code whether or not its message could be printed.
             let printed = e.print().is_ok();
-            std::process::exit(if printed { code } else { exit::IO });
+            std::process::exit(if printed || e.use_stderr() {
+                code
+            } else {
+                exit::IO
+            });
         }
     };
     let result = match cli.command {

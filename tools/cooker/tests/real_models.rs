@@ -925,6 +925,19 @@ fn validate_tells_an_unknown_window_name_from_an_unknown_material() {
     );
     let info = info(&dir.path().join("red.pack"));
     assert_eq!(window(&info, "glass#2")["design"], "red.fitted", "{info:#}");
+
+    // A rule's `material` renames the glass, and an entry naming the new name is the cook's
+    // match: validate said it matched no window.
+    let renamed = sibenik_manifest(dir.path());
+    let toml = std::fs::read_to_string(&renamed).unwrap()
+        + "\n[[rule]]\nmatch = \"glass\"\nclass = \"window\"\nmaterial = \"Kirchenglas\"\n\
+           \n[[window]]\nmaterial = \"Kirchenglas\"\ndesign = \"red.png\"\n";
+    std::fs::write(&renamed, toml).unwrap();
+    let o = cooker(&[&"validate", &renamed, &"--json"]);
+    let v: Value = serde_json::from_slice(&o.stdout).unwrap();
+    assert!(code_of_in(&v, "\"Kirchenglas\"").is_empty(), "{v:#}");
+    let said = cook(&renamed, &dir.path().join("renamed.pack"), &[]);
+    assert!(!said.contains("which matches no window"), "{said}");
 }
 
 /// The codes of `validate --json`'s findings whose message holds `what`.
@@ -1418,6 +1431,59 @@ fn french_chapel_names_and_a_bay_window_in_two_planes() {
     assert!(!out.contains("window-no-uvs"), "{out}");
 }
 
+/// A closed hall (floor, roof, four walls) with one window in a side wall: an `inside` that
+/// points out of it is followed but said, since the lit pass takes what lies beyond a window's
+/// inner side for the outdoors (a tester's flipped rose turned every floor patch white).
+#[test]
+fn an_inside_pointing_out_of_a_closed_hall_is_said() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut obj = Obj::new("hall.mtl");
+    obj.usemtl("Boden")
+        .quad([-3., 0., -6.], [0., 0., 12.], [6., 0., 0.]);
+    obj.usemtl("Wand")
+        .quad([-3., 5., -6.], [6., 0., 0.], [0., 0., 12.])
+        .quad([-3., 0., -6.], [6., 0., 0.], [0., 5., 0.])
+        .quad([-3., 0., 6.], [0., 5., 0.], [6., 0., 0.])
+        .quad([-3., 0., -6.], [0., 5., 0.], [0., 0., 12.])
+        .quad([3., 0., -6.], [0., 0., 5.], [0., 5., 0.])
+        .quad([3., 0., 1.], [0., 0., 5.], [0., 5., 0.])
+        .quad([3., 0., -1.], [0., 0., 2.], [0., 2., 0.])
+        .quad([3., 4., -1.], [0., 0., 2.], [0., 1., 0.]);
+    obj.usemtl("Fenster")
+        .quad([3., 2., -1.], [0., 2., 0.], [0., 0., 2.]);
+    obj.write(&dir.path().join("hall.obj"));
+    std::fs::write(
+        dir.path().join("hall.mtl"),
+        "newmtl Boden\nKd 0.5 0.45 0.4\n\nnewmtl Wand\nKd 0.9 0.9 0.85\n\n\
+         newmtl Fenster\nKd 0.7 0.8 0.9\nd 0.5\n",
+    )
+    .unwrap();
+    let (scene, pack) = (dir.path().join("scene.toml"), dir.path().join("hall.pack"));
+    for (inside, warned) in [("[1.0, 0.0, 0.0]", true), ("[-1.0, 0.0, 0.0]", false)] {
+        std::fs::write(
+            &scene,
+            format!(
+                "[[mesh]]\nsource = \"hall.obj\"\n\n[[window]]\nname = \"Fenster\"\n\
+                 inside = {inside}\n"
+            ),
+        )
+        .unwrap();
+        let said = cook(&scene, &pack, &[]);
+        assert_eq!(
+            said.contains("scene.toml:4") && said.contains("points out of the model"),
+            warned,
+            "{inside}: {said}"
+        );
+        let n = vec3(&window(&info(&pack), "Fenster")["normal"]);
+        let want = if warned {
+            [1.0, 0.0, 0.0]
+        } else {
+            [-1.0, 0.0, 0.0]
+        };
+        assert!(near3(n, want), "{n:?}");
+    }
+}
+
 #[test]
 fn german_chapel_names_frames_and_sill_heights() {
     let dir = tempfile::tempdir().unwrap();
@@ -1451,7 +1517,9 @@ fn german_chapel_names_frames_and_sill_heights() {
         "[[mesh]]\nsource = \"kapelle.obj\"\n\n[[window]]\nname = \"Fenster\"\ninside = [-1.0, 0.2, 0.0]\n",
     )
     .unwrap();
-    cook(&scene, &pack, &[]);
+    // A roofless chapel is open on both sides of its walls: nothing to say against it.
+    let said = cook(&scene, &pack, &[]);
+    assert!(!said.contains("points out of the model"), "{said}");
     let v = info(&pack);
     assert!(near3(
         vec3(&window(&v, "Fenster")["normal"]),

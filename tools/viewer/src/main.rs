@@ -72,7 +72,7 @@ struct Args {
     #[arg(long)]
     no_occlusion: bool,
     /// Cook a scene without the local texture cache `cooker cook` fills and reads
-    /// (`$STAINED_GLASS_CACHE`, else `~/.cache/stained-glass`).
+    /// (`$STAINED_GLASS_CACHE`, else `$XDG_CACHE_HOME/stained-glass` or `~/.cache/stained-glass`).
     #[arg(long)]
     no_cache: bool,
     /// Render N frames per camera and print the median time of each pass.
@@ -246,7 +246,7 @@ struct CookOptions {
     windows: Vec<cook::manifest::WindowDesign>,
     model: cook::cli::ModelArgs,
     /// Textures from `cooker cook`'s local cache, and into it: a scene cooked before shows in
-    /// a fraction of the cook (the default scene's textures are most of its 0.45 s).
+    /// a fraction of the cook (the default scene: 658 → 87 ms on this project's VM).
     cache: bool,
 }
 
@@ -318,12 +318,21 @@ fn open_source(path: &Path) -> Result<Source> {
             if o.cache {
                 match cook::cache::Cache::open(cook::cache::Cache::default_dir()) {
                     Ok(c) => settings.cache = Some(c),
-                    Err(e) => eprintln!("warning: cache directory {e}; cooking without a cache"),
+                    Err(e) => eprintln!(
+                        "warning: cache directory {:#}; cooking without a cache",
+                        anyhow::Error::new(e)
+                    ),
                 }
             }
         }
         let out = cook::cook(&manifest, &settings)
             .with_context(|| format!("cooking {}", path.display()))?;
+        // As after `cooker cook`: the least recently used entries past the default cap go.
+        if let Some(cache) = &settings.cache
+            && let Err(e) = cache.trim()
+        {
+            eprintln!("warning: cache not trimmed: {:#}", anyhow::Error::new(e));
+        }
         record_cooked_from(path, &out.report);
         for w in &out.report.warnings {
             eprintln!("warning: {w}");

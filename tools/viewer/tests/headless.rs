@@ -140,6 +140,10 @@ fn bytemuck_bytes(v: &[StandardVertex]) -> Vec<u8> {
     out
 }
 
+fn test_cache() -> std::path::PathBuf {
+    std::env::temp_dir().join(format!("viewer-tests-cache-{}", std::process::id()))
+}
+
 fn viewer(args: &[&std::ffi::OsStr]) -> std::process::Output {
     // As on a server or in CI: no session, so no runtime directory. Mesa's device-select layer
     // then made libwayland print "error: XDG_RUNTIME_DIR is invalid" (tested below).
@@ -147,6 +151,8 @@ fn viewer(args: &[&std::ffi::OsStr]) -> std::process::Output {
         .args(args)
         .env_remove("XDG_RUNTIME_DIR")
         .env_remove("NODEVICE_SELECT")
+        // Cooks go through the texture cache: a folder of the tests', not the user's.
+        .env("STAINED_GLASS_CACHE", test_cache())
         .output()
         .unwrap()
 }

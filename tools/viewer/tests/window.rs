@@ -59,7 +59,10 @@ fn viewer(args: &[&std::ffi::OsStr], display: bool, dir: &Path) -> Run {
             .env_remove("NODEVICE_SELECT");
         c
     };
-    cmd.args(args).env_remove("WAYLAND_DISPLAY");
+    // Cooks go through the texture cache: the test's own folder, not the user's.
+    cmd.args(args)
+        .env_remove("WAYLAND_DISPLAY")
+        .env("STAINED_GLASS_CACHE", dir.join("cache"));
     if let Some(icd) = lavapipe_icd() {
         cmd.env("VK_DRIVER_FILES", icd);
     }

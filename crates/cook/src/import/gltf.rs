@@ -438,13 +438,25 @@ impl Views {
                 ));
                 continue;
             }
+            // Depth over a wider range has no precision left (the manifest refuses it).
+            let near = znear.max(far / pack::MAX_FAR_OVER_NEAR as f32);
+            if near != znear {
+                out.warnings.push(Warning::new(
+                    path,
+                    None,
+                    format!(
+                        "camera {name:?}: near plane {znear} is over 1e9 times nearer than its \
+                         far plane {far}; moved out to {near}"
+                    ),
+                ));
+            }
             out.views.push(pack::Camera {
                 name,
                 position: eye.as_vec3().to_array(),
                 target: (eye + forward * depth).as_vec3().to_array(),
                 up: up.as_vec3().to_array(),
                 fov_y: fov,
-                near: znear,
+                near,
                 far,
             });
         }

@@ -139,11 +139,16 @@ fn best_named(guess: &'static Encoding, samples: &[&[u8]]) -> &'static Encoding 
         .filter(|l| !l.is_ascii())
         .take(NAMED_LINES)
         .collect();
+    // A code page that cannot read every line is not the file's.
     let named = |e: &'static Encoding| {
-        lines
-            .iter()
-            .filter(|l| crate::tag::has_keyword(&e.decode_without_bom_handling(l).0))
-            .count()
+        let mut n = 0;
+        for l in &lines {
+            match e.decode_without_bom_handling_and_without_replacement(l) {
+                Some(text) => n += usize::from(crate::tag::spells_keyword(&text)),
+                None => return 0,
+            }
+        }
+        n
     };
     let mut best = (named(guess), guess);
     for e in COMMON.into_iter().filter(|&e| e != guess) {
@@ -367,6 +372,18 @@ mod tests {
         }
         assert_eq!(
             best_named(encoding_rs::KOI8_R, &[&okno]),
+            encoding_rs::WINDOWS_1251
+        );
+        // windows-1251 `нн` (-нный, the commonest Russian adjective ending) is EUC-KR `牆`, a
+        // wall: inside a run of other ideographs it spells no keyword.
+        let russian = cp1251(
+            "newmtl Окно\nnewmtl Дверь_деревянная\nnewmtl Колонна\nnewmtl Камень_серый\n\
+             newmtl Латунный_крест\n",
+        );
+        assert_eq!(guess(&[&russian]), "windows-1251");
+        let adjectives = cp1251("Деревянный\nКаменный");
+        assert_eq!(
+            best_named(encoding_rs::WINDOWS_1251, &[&adjectives]),
             encoding_rs::WINDOWS_1251
         );
     }

@@ -910,17 +910,18 @@ fn cameras(
                 format!("camera {:?}: far {far} must exceed near {near}", c.name),
             ));
         }
-        // What a pack holds (pack::validate): depth over a wider range has no precision.
-        if far as f64 > 1e9 * near as f64 {
-            let at = c.near.as_ref().map(|s| s.span().start).unwrap_or(0);
-            return Err(src.error(
-                at,
-                format!(
-                    "camera {:?}: far {far} is over 1e9 times near {near}; depth has no \
-                     precision over such a range",
-                    c.name
-                ),
-            ));
+        // Depth over a wider range has no precision (pack::MAX_FAR_OVER_NEAR).
+        if far as f64 > pack::MAX_FAR_OVER_NEAR * near as f64 {
+            let at = c.far.as_ref().or(c.near.as_ref()).map(|s| s.span().start);
+            let message = format!(
+                "camera {:?}: far {far} is over 1e9 times near {near}; depth has no \
+                 precision over such a range",
+                c.name
+            );
+            return Err(match at {
+                Some(at) => src.error(at, message),
+                None => src.at_line(line, message),
+            });
         }
         let up = c.up.unwrap_or([0.0, 1.0, 0.0]);
         if !finite3(c.position) || !finite3(c.target) || !finite3(up) || c.position == c.target {

@@ -1005,7 +1005,7 @@ colour = [0.35, 0.5, 0.8]
                     "{mesh}[[camera]]\nname = \"c\"\nposition = [0.0, 1.0, 5.0]\n\
                      target = [0.0, 1.0, 0.0]\nnear = 1e-9\nfar = 1e3\n"
                 ),
-                7,
+                8,
                 "camera \"c\": far 1000 is over 1e9 times near 0.000000001",
             ),
             (
