@@ -690,6 +690,16 @@ pub fn lies_in_plane(inside: [f32; 3], normal: DVec3) -> bool {
 pub const INSIDE_AGAINST_ENCLOSURE: &str =
     "the manifest's `inside`, though the model closes round the window on its other side";
 
+/// The side of a window (`normal` or its opposite) round which the model closes, from the
+/// shares of open view in `front` of it (along `normal`) and `back`: a hall is closed, and
+/// the sky shows on its outside however narrow the alley (4 % of the view up a 1 m alley
+/// between halls 8 m high, a tenth up a 2 m one).
+fn closed_round(front: f64, back: f64, normal: DVec3) -> Option<DVec3> {
+    let (closed, opened) = (front.min(back), front.max(back));
+    let side = if front < back { normal } else { -normal };
+    (opened >= 0.03 && closed <= opened / 4.0).then_some(side)
+}
+
 /// [`lies_in_plane`]'s bound: cos 84°.
 const INSIDE_MIN_COS: f64 = 0.1;
 
@@ -710,15 +720,17 @@ pub fn decide_inside<'r>(
     if let Some(v) = explicit.filter(|&v| !lies_in_plane(v, normal)) {
         let side = orient(v3(v));
         // Followed, but said: the lit pass takes what lies beyond a window's inner side for
-        // the outdoors, and a whole nave in direct sun turned every floor patch white.
-        if let Some([front, back]) = open() {
-            let enclosed = if front < back { normal } else { -normal };
-            let (closed, opened) = (front.min(back), front.max(back));
-            if opened >= 0.03 && closed <= opened / 4.0 && enclosed.dot(side) < 0.0 {
-                return (side, INSIDE_AGAINST_ENCLOSURE);
-            }
-        }
-        return (side, "the manifest's `inside`");
+        // the outdoors, and a whole nave in direct sun turned every floor patch white. Only
+        // where the model is closed round the other side; a roofless hall is not evidence.
+        let against = open()
+            .and_then(|[front, back]| closed_round(front, back, normal))
+            .is_some_and(|enclosed| enclosed.dot(side) < 0.0);
+        let why = if against {
+            INSIDE_AGAINST_ENCLOSURE
+        } else {
+            "the manifest's `inside`"
+        };
+        return (side, why);
     }
     // A building is closed around its inside: what the window sees on that side is the model
     // in every direction, on the outside there is sky. This sees past surfaces hidden behind
@@ -726,12 +738,10 @@ pub fn decide_inside<'r>(
     // neighbour looked into the neighbour, whose near wall and whole inside outweighed the
     // church's own hall.
     if let Some([front, back]) = open() {
-        let (closed, opened) = (front.min(back), front.max(back));
-        // A hall is closed, and the sky shows on its outside however narrow the alley: 4 % of
-        // the view up a 1 m alley between halls 8 m high, a tenth up a 2 m one. A roofless
-        // hall is half open, its outside wholly.
-        if (opened >= 0.03 && closed <= opened / 4.0) || opened - closed >= 0.3 {
-            let side = if front < back { normal } else { -normal };
+        // A roofless hall is half open, its outside wholly.
+        let half_open = (front - back).abs() >= 0.3;
+        let side = if front < back { normal } else { -normal };
+        if let Some(side) = closed_round(front, back, normal).or(half_open.then_some(side)) {
             return (
                 side,
                 "the enclosed side (seen from it the model closes round the window)",

@@ -370,15 +370,16 @@ pub fn validate_toc(toc: &Toc, table: &[SectionEntry]) -> Result<Vec<SectionRole
             light.intensity.is_finite() && light.intensity >= 0.0,
             "intensity not finite and 0 or more",
         );
+        if let Some((position, radius)) = light.kind.lamp() {
+            need(finite(&position), "position not finite");
+            need(
+                radius.is_finite() && radius > 0.0,
+                "radius not finite and above 0",
+            );
+        }
         let direction_ok = |d: &[f32; 3]| finite(d) && d.iter().any(|&c| c != 0.0);
         match &light.kind {
-            LightKind::Point { position, radius } => {
-                need(finite(position), "position not finite");
-                need(
-                    radius.is_finite() && *radius > 0.0,
-                    "radius not finite and above 0",
-                );
-            }
+            LightKind::Point { .. } => {}
             LightKind::Directional {
                 direction,
                 angular_size,
@@ -390,17 +391,11 @@ pub fn validate_toc(toc: &Toc, table: &[SectionEntry]) -> Result<Vec<SectionRole
                 );
             }
             LightKind::Spot {
-                position,
-                radius,
                 direction,
                 inner,
                 outer,
+                ..
             } => {
-                need(finite(position), "position not finite");
-                need(
-                    radius.is_finite() && *radius > 0.0,
-                    "radius not finite and above 0",
-                );
                 need(direction_ok(direction), "direction zero or not finite");
                 need(
                     *inner >= 0.0

@@ -279,6 +279,18 @@ const CAMERA_PER_DELTA: f64 = 1.0 + 2.0 * SQRT_3;
 
 const SQRT_3: f64 = 1.732_050_807_568_877_2;
 
+/// How far rounding alone may move a coordinate, relative to the largest one it is computed
+/// with: 4 f32 ulps.
+const ROUNDING_ULPS: f64 = 4.0 * f32::EPSILON as f64;
+
+/// [`ROUNDING_ULPS`] of the largest magnitude among `coords`.
+fn rounding_of<'a>(coords: impl IntoIterator<Item = &'a f32>) -> f64 {
+    ROUNDING_ULPS
+        * coords
+            .into_iter()
+            .fold(0.0f64, |m, &c| m.max((c as f64).abs()))
+}
+
 /// Whether the camera presets differ by more than geometry moved `max_delta` explains: what
 /// differs, with the names of the presets that moved, were renamed, added or dropped (every
 /// one: a re-export that moves three views is not one change). Presets are matched by name,
@@ -497,17 +509,17 @@ fn windows_differ(ta: &pack::Toc, tb: &pack::Toc, max_delta: f64, exact: bool) -
         // The frame is fitted to the glass's triangles in their order: another order (the
         // FIFO cache optimizer's) rounds it a few ulps away, as a surface triangulated another
         // way does. Without --max-position-delta, as there, any move counts.
-        let largest = [x.origin, x.u_axis, x.v_axis]
-            .iter()
-            .flatten()
-            .fold(0.0f64, |m, &c| m.max((c as f64).abs()));
-        let ulps = if exact {
-            0.0
+        let (reach, turn) = if exact {
+            (max_delta, direction_tolerance(max_delta))
         } else {
-            4.0 * f32::EPSILON as f64
+            let frame = [x.origin, x.u_axis, x.v_axis];
+            (
+                max_delta.max(rounding_of(frame.iter().flatten())),
+                direction_tolerance(max_delta).max(ROUNDING_ULPS),
+            )
         };
-        if points > max_delta.max(ulps * largest)
-            || normal > direction_tolerance(max_delta).max(ulps)
+        if points > reach
+            || normal > turn
             || material(ta, x) != material(tb, y)
             || x.source_materials != y.source_materials
         {
@@ -564,12 +576,9 @@ impl Geometry<'_> {
         // Exact comparison still allows the rounding of a point on another triangulation: a
         // few ulps of the largest coordinate. It was a millionth of the mesh's diagonal, which
         // on a 100 m floor let a vertex move 1.4e-4 past `--max-position-delta 0`.
-        let largest = ma
-            .bounds_min
-            .iter()
-            .chain(&ma.bounds_max)
-            .fold(0.0f64, |m, &c| m.max((c as f64).abs()));
-        let reach = self.max_delta.max(4.0 * f32::EPSILON as f64 * largest);
+        let reach = self
+            .max_delta
+            .max(rounding_of(ma.bounds_min.iter().chain(&ma.bounds_max)));
         let (ca, cb) = if ua.is_empty() && ub.is_empty() {
             Default::default()
         } else {
